@@ -1,0 +1,53 @@
+/* SPDX-License-Identifier: MIT */
+/* Symplectic (semi-implicit) Euler: v' = v + h M^-1 f(x, v), then x' = x + h v'. Built in. */
+#include "defsim/backend.h"
+
+typedef struct se_state {
+    double *f;
+} se_state;
+
+static defsim_status se_init(const defsim_host *host, defsim_system *sys, void *state)
+{
+    se_state *s = state;
+    s->f = host->alloc((size_t)host->dof_count(sys) * sizeof(double));
+    return s->f ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+static defsim_status se_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+{
+    se_state *s = state;
+    double *x = host->positions(sys), *v = host->velocities(sys);
+    const double *m = host->mass(sys);
+    const int64_t n = host->dof_count(sys);
+    defsim_status st = host->forces(sys, x, v, DEFSIM_FORCE_ALL, s->f);
+    if (st != DEFSIM_OK) {
+        host->set_error(sys, "symplectic_euler: non-finite forces");
+        return st;
+    }
+    /* Pinned DOFs have zero force and zero velocity, so they stay put. */
+    for (int64_t i = 0; i < n; ++i) {
+        v[i] += h * s->f[i] / m[i];
+        x[i] += h * v[i];
+    }
+    return DEFSIM_OK;
+}
+
+static void se_fini(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)sys;
+    se_state *s = state;
+    host->release(s->f);
+    s->f = 0;
+}
+
+const defsim_backend defsim__symplectic_euler_backend = {
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
+    .struct_size = sizeof(defsim_backend),
+    .name = "symplectic_euler",
+    .flags = 0,
+    .state_size = sizeof(se_state),
+    .init = se_init,
+    .step = se_step,
+    .fini = se_fini,
+    .reset = 0,
+};

@@ -1,0 +1,176 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim backend ABI: the only header a backend (integrator / solver) includes.
+ *
+ * A backend owns time: it advances positions and velocities by h using only the services in
+ * defsim_host, which evaluate the world's physics (the "system"). A backend never sees meshes or
+ * materials. Built-in backends, host-registered backends and loadable modules use the same table.
+ *
+ * A module is a shared object named defsim_<name>.so that exports one symbol,
+ * DEFSIM_MODULE_ENTRY ("defsim_module_init"), of type defsim_module_init_fn. It must not link
+ * libdefsim: everything it needs from the core comes through the defsim_host table.
+ *
+ * Both tables are versioned: fields are only ever appended, never reordered. A backend checks
+ * host->abi_version and host->size before using a field appended after version 1.
+ */
+#ifndef DEFSIM_BACKEND_H
+#define DEFSIM_BACKEND_H
+
+#include "defsim/defsim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/// ABI version of the tables below. Bumped when fields are appended.
+#define DEFSIM_BACKEND_ABI_VERSION 1u
+
+/// Name of the one symbol a module exports.
+#define DEFSIM_MODULE_ENTRY "defsim_module_init"
+
+/// The world's physics as a backend sees it. Opaque; valid from init to fini.
+typedef struct defsim_system defsim_system;
+
+/// Which parts of the force to evaluate (bits for defsim_host.forces).
+enum {
+    DEFSIM_FORCE_ELASTIC = 1u << 0,  ///< -dE/dx of springs and tets.
+    DEFSIM_FORCE_GRAVITY = 1u << 1,  ///< M g.
+    DEFSIM_FORCE_DAMPING = 1u << 2,  ///< -(alpha M + beta K(x)) v (Rayleigh).
+    DEFSIM_FORCE_ALL = 7u
+};
+
+/// Which triangle of the symmetric stiffness pattern to store.
+typedef enum defsim_triangle {
+    DEFSIM_TRIANGLE_FULL = 0,   ///< Both triangles (KLU, general solvers).
+    DEFSIM_TRIANGLE_UPPER = 1   ///< Upper triangle and diagonal only (CHOLMOD stype = 1).
+} defsim_triangle;
+
+/// Compressed sparse column pattern over the free DOFs (pinned DOFs removed), 64-bit indices.
+/// Row indices are sorted within each column. Borrowed from the system: valid until fini.
+typedef struct defsim_csc {
+    int64_t n;                 ///< Rows = columns = number of free DOFs.
+    int64_t nnz;               ///< Stored entries.
+    const int64_t *col_ptr;    ///< n + 1 entries.
+    const int64_t *row_idx;    ///< nnz entries.
+} defsim_csc;
+
+/// Coefficients of a linear combination of the world's matrices:
+///   A = k K(x) + kd B(x) + m M + md C
+/// where K is the elastic stiffness d2E/dx2 (element Hessians projected as the world's
+/// defsim_projection says), B = sum_e beta_e K_e the stiffness-damping matrix, M the lumped
+/// (diagonal) mass matrix and C = diag(alpha_i m_i) the mass-damping matrix.
+typedef struct defsim_matrix_coeffs {
+    double k, kd, m, md;
+} defsim_matrix_coeffs;
+
+/// Host services handed to every backend op. Owned by the core; valid for the process.
+typedef struct defsim_host {
+    uint32_t abi_version;      ///< DEFSIM_BACKEND_ABI_VERSION of the core.
+    uint32_t size;             ///< sizeof(defsim_host) of the core.
+
+    /// Number of DOFs (3 * vertex count) and of free DOFs (not pinned).
+    int64_t (*dof_count)(const defsim_system *sys);
+    int64_t (*free_dof_count)(const defsim_system *sys);
+    /// free index -> DOF (free_dof_count entries), and DOF -> free index or -1 (dof_count).
+    const int64_t *(*free_dofs)(const defsim_system *sys);
+    const int64_t *(*dof_to_free)(const defsim_system *sys);
+
+    /// The world's state, writable: the backend leaves the new positions and velocities here.
+    /// The core keeps a copy and restores it if the step fails. Pinned DOFs must stay unchanged.
+    double *(*positions)(defsim_system *sys);
+    double *(*velocities)(defsim_system *sys);
+    /// Simulated time at the start of this step (s).
+    double (*time)(const defsim_system *sys);
+    /// Lumped mass per DOF (3 * vertex count, kg) and mass-damping alpha per DOF (1/s).
+    const double *(*mass)(const defsim_system *sys);
+    const double *(*mass_damping)(const defsim_system *sys);
+    /// True if any element has stiffness damping (beta > 0).
+    int (*has_stiffness_damping)(const defsim_system *sys);
+
+    /// Forces (N) at positions x and velocities v (v may be NULL without DEFSIM_FORCE_DAMPING),
+    /// the parts selected by `which` (DEFSIM_FORCE_* bits), into f (dof_count doubles). Pinned
+    /// DOFs receive 0. Deterministic for a fixed thread count. Returns DEFSIM_OK, or
+    /// DEFSIM_ERR_UNSTABLE if a non-finite value was produced.
+    defsim_status (*forces)(defsim_system *sys, const double *x, const double *v,
+                            uint32_t which, double *f);
+    /// Potential energy (J) at x: elastic (relative to rest) plus gravitational. Returns +inf where
+    /// the energy is undefined (an inverted neo-Hookean element), so line searches back off.
+    double (*potential_energy)(defsim_system *sys, const double *x);
+
+    /// Builds (once; later calls return the cached pattern) the sparsity pattern of the matrices
+    /// over the free DOFs. Returns DEFSIM_ERR_OUT_OF_MEMORY on failure.
+    defsim_status (*matrix_pattern)(defsim_system *sys, defsim_triangle triangle,
+                                    defsim_csc *out);
+    /// Assembles A (see defsim_matrix_coeffs) at positions x into values (pattern's nnz doubles,
+    /// in the order of the pattern built with the same triangle).
+    defsim_status (*matrix_values)(defsim_system *sys, const double *x,
+                                   const defsim_matrix_coeffs *c, defsim_triangle triangle,
+                                   double *values);
+    /// out = A(x) dx over all DOFs (dof_count doubles; pinned rows and columns are zero).
+    /// Unprojected element Hessians are used only if the world's projection is NONE.
+    defsim_status (*matrix_product)(defsim_system *sys, const double *x,
+                                    const defsim_matrix_coeffs *c, const double *dx, double *out);
+
+    /// The world's creation options (tolerance, max_iterations, rtol, atol, projection, ...).
+    const defsim_world_def *(*options)(const defsim_system *sys);
+    /// Threads for assembly (>= 1).
+    int32_t (*num_threads)(const defsim_system *sys);
+    /// Diagonal of the bounding box of the rest positions (m): a length scale for tolerances.
+    double (*length_scale)(const defsim_system *sys);
+
+    /// Statistics to update (newton_iterations, time_factor, ...). Never NULL.
+    defsim_stats *(*stats)(defsim_system *sys);
+    /// Monotonic wall clock in seconds.
+    double (*wall_time)(void);
+    /// Sends a message to the world's log (level as defsim_log_fn).
+    void (*log)(defsim_system *sys, int level, const char *message);
+    /// Sets the detail that defsim_world_last_error returns after a failed step.
+    void (*set_error)(defsim_system *sys, const char *message);
+    /// Allocation that the core's allocator owns (NULL on failure); free with `release`.
+    void *(*alloc)(size_t bytes);
+    void (*release)(void *ptr);
+} defsim_host;
+
+/// Capability flags of a backend.
+enum {
+    DEFSIM_BACKEND_NEEDS_MATRIX = 1u << 0,  ///< Uses matrix_pattern / matrix_values.
+    DEFSIM_BACKEND_ADAPTIVE = 1u << 1,      ///< Takes internal steps under an error tolerance.
+    DEFSIM_BACKEND_IMPLICIT = 1u << 2,      ///< Stable at any step size for dissipative scenes.
+    DEFSIM_BACKEND_DISSIPATIVE = 1u << 3    ///< Total energy never grows without external work.
+};
+
+/// A backend: a const table. The host allocates `state_size` zeroed bytes per world and passes
+/// them to every op, so snapshots and resets stay generic.
+typedef struct defsim_backend {
+    uint32_t abi_version;     ///< DEFSIM_BACKEND_ABI_VERSION the backend was built against.
+    uint32_t struct_size;     ///< sizeof(defsim_backend) the backend was built against.
+    const char *name;         ///< Unique name, [a-z0-9_]+; static storage.
+    uint32_t flags;           ///< DEFSIM_BACKEND_* bits.
+    size_t state_size;        ///< Bytes of per-world state (may be 0).
+    /// Called at the first step after the world's bodies or pins changed (after fini of the
+    /// previous set-up). Allocates what the backend needs; the state's bytes start zeroed.
+    defsim_status (*init)(const defsim_host *host, defsim_system *sys, void *state);
+    /// Advances the state by h > 0. On an error the core restores the state; the backend must
+    /// still leave `state` usable for the next step.
+    defsim_status (*step)(const defsim_host *host, defsim_system *sys, void *state, double h);
+    /// Releases what init allocated. Must accept a state whose init failed part-way.
+    void (*fini)(const defsim_host *host, defsim_system *sys, void *state);
+    /// Optional (NULL: nothing to do): the host set the state between steps (history to drop).
+    defsim_status (*reset)(const defsim_host *host, defsim_system *sys, void *state);
+} defsim_backend;
+
+/// Registers a backend for all worlds created after the call. The table must stay valid for the
+/// life of the process. Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad name, ABI
+/// version, struct size, or missing init/step/fini), DEFSIM_ERR_CONFLICT (name taken).
+DEFSIM_API defsim_status defsim_register_backend(const defsim_backend *backend);
+
+/// Entry point of a module: sets *out to the module's backend (static storage).
+/// `host` is the core's service table, valid for the life of the process.
+typedef defsim_status (*defsim_module_init_fn)(const defsim_host *host,
+                                               const defsim_backend **out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* DEFSIM_BACKEND_H */

@@ -1,0 +1,362 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim: deformable-body simulation (mass-spring networks and tetrahedral FEM).
+ *
+ * This is the only header a host application includes. It is plain C11, compiles as C++,
+ * and parses with cffi: no inline functions, no macros are needed to call the API.
+ *
+ * Conventions that hold for every function below unless its comment says otherwise:
+ *  - Units are SI (m, kg, s, Pa, N/m).
+ *  - Arrays of positions, velocities and forces are flat: x0 y0 z0 x1 y1 z1 ..., 3 doubles per
+ *    vertex, in the order in which vertices were added to the world (body by body).
+ *  - Input arrays are copied; the caller keeps ownership. Outputs are written into buffers that
+ *    the caller owns, unless a comment says that a pointer is borrowed.
+ *  - Fallible calls return a defsim_status: DEFSIM_OK (0) or a negative error code. A call that
+ *    fails leaves the world exactly as it was, and defsim_world_last_error() describes why.
+ *  - A world is not thread-safe: call it from one thread at a time. Different worlds may be used
+ *    from different threads concurrently. Registration of backends is thread-safe.
+ */
+#ifndef DEFSIM_DEFSIM_H
+#define DEFSIM_DEFSIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "defsim/version.h"
+
+#if defined(_WIN32) && !defined(DEFSIM_STATIC)
+#  ifdef DEFSIM_BUILDING
+#    define DEFSIM_API __declspec(dllexport)
+#  else
+#    define DEFSIM_API __declspec(dllimport)
+#  endif
+#elif defined(__GNUC__)
+#  define DEFSIM_API __attribute__((visibility("default")))
+#else
+#  define DEFSIM_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------------------------------ */
+/* Status codes                                                                               */
+
+/// Result of every fallible call: 0 on success, a negative code on failure.
+typedef enum defsim_status {
+    DEFSIM_OK = 0,                        ///< Success.
+    DEFSIM_ERR_INVALID_ARGUMENT = -1,     ///< A NULL pointer, size, count or option out of range.
+    DEFSIM_ERR_INVALID_MESH = -2,         ///< Bad indices, non-finite or degenerate geometry.
+    DEFSIM_ERR_INVALID_MATERIAL = -3,     ///< Non-physical material parameters.
+    DEFSIM_ERR_BACKEND_UNAVAILABLE = -4,  ///< No backend of that name, or its module failed to load.
+    DEFSIM_ERR_NOT_CONVERGED = -5,        ///< A nonlinear or adaptive solve failed; state unchanged.
+    DEFSIM_ERR_UNSTABLE = -6,             ///< The step produced a non-finite state; state unchanged.
+    DEFSIM_ERR_OUT_OF_MEMORY = -7,        ///< An allocation failed; state unchanged.
+    DEFSIM_ERR_IO = -8,                   ///< A file could not be read or written, or is malformed.
+    DEFSIM_ERR_STALE_ID = -9,             ///< A body id that is null, removed, or from another world.
+    DEFSIM_ERR_LOCKED = -10,              ///< The world is inside a callback and cannot be changed.
+    DEFSIM_ERR_CONFLICT = -11             ///< A backend of that name is already registered.
+} defsim_status;
+
+/// Static English text for a status code ("invalid argument", ...). Never NULL; the string is
+/// owned by the library and valid for the life of the process. Unknown codes give "unknown status".
+DEFSIM_API const char *defsim_status_string(defsim_status status);
+
+/// Detail of the last failure on this thread of a call that has no world to report to
+/// (defsim_world_create, defsim_register_backend, defsim_mesh_*). Empty string if none.
+/// Borrowed: valid until the next defsim call on this thread.
+DEFSIM_API const char *defsim_last_error(void);
+
+/// Version of the library that is linked, as DEFSIM_VERSION_NUMBER encodes it
+/// (major * 10000 + minor * 100 + patch). Bindings compare it with the header they were made for.
+DEFSIM_API int32_t defsim_version_number(void);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Materials                                                                                  */
+
+/// Constitutive model of a body.
+typedef enum defsim_model {
+    DEFSIM_MODEL_SPRING = 1,            ///< Hooke springs only: E = k/2 (l - l0)^2 per spring.
+    DEFSIM_MODEL_STVK = 2,              ///< Saint Venant-Kirchhoff.
+    DEFSIM_MODEL_COROTATED = 3,         ///< Co-rotated linear, R from the signed (inversion-safe) SVD.
+    DEFSIM_MODEL_NEOHOOKEAN = 4,        ///< Compressible neo-Hookean with log J (undefined for J <= 0).
+    DEFSIM_MODEL_STABLE_NEOHOOKEAN = 5  ///< Smith, de Goes, Kim 2018; inversion-safe.
+} defsim_model;
+
+/// Material parameters of a body. Fill with defsim_material_init, then change what you need.
+typedef struct defsim_material {
+    uint32_t size;              ///< sizeof(defsim_material), set by defsim_material_init.
+    defsim_model model;
+    double youngs_modulus;      ///< E in Pa (tet models). Default 1e6.
+    double poisson_ratio;       ///< nu in [0, 0.5) (tet models). Default 0.3.
+    double density;             ///< rho in kg/m^3, gives lumped tet masses. Default 1000.
+    double stiffness;           ///< Spring stiffness k in N/m for every spring of the body. Default 1e3.
+    double vertex_mass;         ///< kg added to every vertex of the body (springs). Default 0.01
+                                ///< for DEFSIM_MODEL_SPRING, 0 for tet models.
+    double mass_damping;        ///< Rayleigh alpha in 1/s: damping force -alpha M v. Default 0.
+    double stiffness_damping;   ///< Rayleigh beta in s: damping force -beta K(x) v. Default 0.
+} defsim_material;
+
+/// Fills *material with the defaults of the given model. `size` must be sizeof *material.
+/// Does nothing if material is NULL or size is smaller than the first two fields.
+DEFSIM_API void defsim_material_init(defsim_material *material, size_t size, defsim_model model);
+
+/// Evaluates a tet material at one deformation gradient F (row-major, F[3*i+j] = F_ij):
+/// the energy density psi (J/m^3), the first Piola-Kirchhoff stress P (row-major), and its
+/// derivative dPdF with dPdF[9*(3*i+j) + (3*k+l)] = dP_ij / dF_kl. Any output may be NULL.
+/// The stable neo-Hookean energy is not zero at F = I: psi(I) = lambda'/2 (1 - alpha)^2 -
+/// mu'/2 log 4, a constant (see README "Materials"); world energies subtract it so that a body at
+/// rest has zero elastic energy, defsim_material_eval does not.
+/// Returns DEFSIM_ERR_INVALID_ARGUMENT for NULL material or F, a spring model, or non-finite F;
+/// DEFSIM_ERR_INVALID_MATERIAL for bad parameters; DEFSIM_ERR_UNSTABLE for the neo-Hookean model
+/// at det F <= 0, where it is undefined. Thread-safe.
+DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
+                                              double *psi, double P[9], double dPdF[81]);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Worlds                                                                                     */
+
+typedef struct defsim_world defsim_world;
+
+/// How implicit backends make element Hessians positive semi-definite before assembly.
+typedef enum defsim_projection {
+    DEFSIM_PROJECTION_NONE = 0,     ///< Exact Hessians (may be indefinite).
+    DEFSIM_PROJECTION_CLAMP = 1,    ///< Negative eigenvalues of each element Hessian set to 0.
+    DEFSIM_PROJECTION_ABS = 2       ///< Negative eigenvalues replaced by their absolute value.
+} defsim_projection;
+
+/// Log callback: level 0 error, 1 warning, 2 info, 3 debug. `message` is borrowed for the call.
+typedef void (*defsim_log_fn)(void *user, int level, const char *message);
+
+/// Creation parameters of a world. Fill with defsim_world_def_init, then change what you need.
+typedef struct defsim_world_def {
+    uint32_t size;             ///< sizeof(defsim_world_def), set by defsim_world_def_init.
+    const char *backend;       ///< Integrator: "explicit_euler", "symplectic_euler" (built in),
+                               ///< "newton_cholmod", "sundials_ida", "sundials_kinsol" (modules), or
+                               ///< a registered one. Copied. Default "symplectic_euler".
+    double gravity[3];         ///< m/s^2. Default (0, -9.81, 0).
+    int32_t num_threads;       ///< Threads for force and Hessian assembly; 0: OpenMP's default.
+    double tolerance;          ///< Nonlinear solves: relative tolerance (see backend READMEs). 1e-6.
+    int32_t max_iterations;    ///< Nonlinear solves: iteration limit per step. Default 50.
+    double rtol, atol;         ///< Adaptive integrators: relative tolerance and absolute (m, m/s).
+                               ///< Defaults 1e-4 and 1e-6.
+    defsim_log_fn log;         ///< Optional log sink; NULL: silent.
+    void *log_user;            ///< Passed to log.
+    defsim_projection projection;  ///< Implicit backends. Default DEFSIM_PROJECTION_CLAMP.
+    int32_t max_order;         ///< Adaptive BDF: maximum order 1..5. Default 5.
+    int32_t max_internal_steps;///< Adaptive integrators: internal steps per call. Default 100000.
+} defsim_world_def;
+
+/// Fills *def with defaults. `size` must be sizeof *def. Does nothing if def is NULL.
+DEFSIM_API void defsim_world_def_init(defsim_world_def *def, size_t size);
+
+/// Creates an empty world. On success *out receives a world the caller owns and must release
+/// with defsim_world_destroy. Loads the backend's module now if it is not built in.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, def->size 0 or too small, bad option values),
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE (unknown name or module failed), DEFSIM_ERR_OUT_OF_MEMORY.
+/// On failure *out is set to NULL and defsim_last_error() says why.
+DEFSIM_API defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **out);
+
+/// Destroys a world and everything it owns. NULL is ignored.
+DEFSIM_API void defsim_world_destroy(defsim_world *world);
+
+/// Detail of the last failed call on this world ("tet 17 is degenerate (volume 1e-30)"), or ""
+/// if none failed. Borrowed: valid until the next call on this world. NULL world gives "".
+DEFSIM_API const char *defsim_world_last_error(const defsim_world *world);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Bodies                                                                                     */
+
+/// A body handle: a small value, not a pointer. {0, 0} is the null id. Ids of removed bodies
+/// become stale and are rejected with DEFSIM_ERR_STALE_ID.
+typedef struct defsim_body_id {
+    uint32_t index;
+    uint32_t generation;
+} defsim_body_id;
+
+/// Creation parameters of a body. All arrays are copied by defsim_world_add_body.
+typedef struct defsim_body_def {
+    uint32_t size;                      ///< sizeof(defsim_body_def), set by defsim_body_def_init.
+    const double *rest_positions;       ///< 3 * vertex_count doubles, m. Required.
+    int32_t vertex_count;               ///< >= 1.
+    const int32_t *tets;                ///< 4 vertex indices per tet (0-based, body-local), or NULL.
+    int32_t tet_count;
+    const int32_t *springs;             ///< 2 vertex indices per spring, or NULL.
+    int32_t spring_count;
+    const double *spring_stiffness;     ///< Optional: one k (N/m) per spring; NULL: material.stiffness.
+    const double *vertex_mass;          ///< Optional: kg per vertex; NULL: lumped from density plus
+                                        ///< material.vertex_mass. Every vertex needs a positive mass.
+    const double *initial_positions;    ///< Optional, 3 * vertex_count; NULL: rest positions.
+    const double *initial_velocities;   ///< Optional, 3 * vertex_count; NULL: zero.
+    defsim_material material;           ///< Default: stable neo-Hookean defaults.
+} defsim_body_def;
+
+/// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
+DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
+
+/// Adds a body; its vertices follow those of the bodies added before it. Rest tets with negative
+/// orientation are reordered (counted in defsim_stats.reordered_tets). On success *out (may be
+/// NULL) receives the id. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, counts),
+/// DEFSIM_ERR_INVALID_MESH (index out of range, non-finite coordinate, degenerate tet or spring
+/// of zero rest length, repeated vertex, vertex without mass; the message names the element),
+/// DEFSIM_ERR_INVALID_MATERIAL (E <= 0, nu outside [0, 0.5), negative density, stiffness, mass or
+/// damping, tets with a spring model), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_world_add_body(defsim_world *world, const defsim_body_def *def,
+                                               defsim_body_id *out);
+
+/// Removes a body; the vertices of later bodies move down. The id becomes stale.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_world_remove_body(defsim_world *world, defsim_body_id body);
+
+/// Number of vertices of a live body (>= 1), or a negative status for a stale id / NULL world.
+DEFSIM_API int32_t defsim_body_vertex_count(const defsim_world *world, defsim_body_id body);
+
+/// Index of the body's first vertex in the world's arrays, or a negative status.
+DEFSIM_API int32_t defsim_body_vertex_offset(const defsim_world *world, defsim_body_id body);
+
+/// Pins vertices (body-local indices) where they are now: their velocity becomes zero and they do
+/// not move until unpinned. Pinning a pinned vertex is allowed. verts may be NULL when n == 0.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 0, index out of range), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_body_pin(defsim_world *world, defsim_body_id body,
+                                         const int32_t *verts, int32_t n);
+
+/// Unpins vertices (body-local indices); unpinning a free vertex is allowed. Same errors as pin.
+DEFSIM_API defsim_status defsim_body_unpin(defsim_world *world, defsim_body_id body,
+                                           const int32_t *verts, int32_t n);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Simulation                                                                                 */
+
+/// Total vertex count of the world (all live bodies).
+DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
+
+/// Advances the world by h seconds with its backend. On any error the positions, velocities and
+/// time are exactly as before the call and the world stays usable.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (h not finite or <= 0, NULL world),
+/// DEFSIM_ERR_UNSTABLE (the result was not finite), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
+/// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made).
+DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
+
+/// Simulated time in seconds: the sum of the h of all successful steps.
+DEFSIM_API double defsim_world_time(const defsim_world *world);
+
+/// Copies positions (m) into out, which holds 3 * n doubles; n must equal the world's vertex count.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
+DEFSIM_API defsim_status defsim_world_get_positions(const defsim_world *world, double *out,
+                                                    int32_t n);
+
+/// Copies velocities (m/s) into out, 3 * n doubles. Same rules as defsim_world_get_positions.
+DEFSIM_API defsim_status defsim_world_get_velocities(const defsim_world *world, double *out,
+                                                     int32_t n);
+
+/// Copies the lumped vertex masses (kg) into out, n doubles (one per vertex).
+DEFSIM_API defsim_status defsim_world_get_masses(const defsim_world *world, double *out, int32_t n);
+
+/// Sets positions and velocities, each 3 * vertex_count doubles (either may be NULL: unchanged).
+/// Pinned vertices take the given positions as their new targets and zero velocity. Backends
+/// with internal history (adaptive BDF) restart from this state.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, non-finite value).
+DEFSIM_API defsim_status defsim_world_set_state(defsim_world *world, const double *x,
+                                                const double *v);
+
+/// Energies of the current state, in joules.
+typedef struct defsim_energy {
+    double kinetic;        ///< 1/2 v^T M v.
+    double elastic;        ///< Springs plus tets, relative to the rest state (see README).
+    double gravitational;  ///< -sum m g . x (zero at the origin).
+    double total;          ///< kinetic + elastic + gravitational.
+} defsim_energy;
+
+/// Computes the energies of the current state.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL).
+DEFSIM_API defsim_status defsim_world_energy(const defsim_world *world, defsim_energy *out);
+
+/// Elastic forces -dE/dx (N) at positions x (3 * vertex_count doubles; NULL: current positions),
+/// written to f_out (3 * vertex_count). No gravity, damping or pinning is applied.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out).
+DEFSIM_API defsim_status defsim_world_forces(defsim_world *world, const double *x, double *f_out);
+
+/// Passes the world ran in its last step (bits of defsim_stats.passes).
+enum {
+    DEFSIM_PASS_SPRINGS = 1u << 0,          ///< Spring forces.
+    DEFSIM_PASS_STVK = 1u << 1,             ///< One bit per tet material kernel...
+    DEFSIM_PASS_COROTATED = 1u << 2,
+    DEFSIM_PASS_NEOHOOKEAN = 1u << 3,
+    DEFSIM_PASS_STABLE_NEOHOOKEAN = 1u << 4,
+    DEFSIM_PASS_GRAVITY = 1u << 5,          ///< Gravity forces (skipped when g = 0).
+    DEFSIM_PASS_MASS_DAMPING = 1u << 6,     ///< -alpha M v (skipped when every alpha = 0).
+    DEFSIM_PASS_STIFFNESS_DAMPING = 1u << 7,///< -beta K v (skipped when every beta = 0).
+    DEFSIM_PASS_PINS = 1u << 8,             ///< Pinned-vertex handling (skipped without pins).
+    DEFSIM_PASS_HESSIAN = 1u << 9,          ///< Stiffness matrix assembly (implicit backends only).
+    DEFSIM_PASS_ENERGY = 1u << 10           ///< Energy evaluation inside the step (line searches).
+};
+
+/// Counters and timings, cumulative since creation (or since defsim_world_reset_stats).
+/// Times are wall-clock seconds. Fields are only ever appended.
+typedef struct defsim_stats {
+    uint32_t size;                 ///< Set by the caller to sizeof(defsim_stats) before the call.
+    uint32_t passes;               ///< DEFSIM_PASS_* bits of the last step.
+    int64_t steps;                 ///< Successful calls of defsim_world_step.
+    int64_t failed_steps;          ///< Calls that returned an error (state rolled back).
+    int32_t threads;               ///< Threads used for assembly.
+    int32_t reordered_tets;        ///< Rest tets with negative orientation that were reordered.
+    double time_step;              ///< Total time inside defsim_world_step.
+    double time_forces;            ///< Force evaluation (elastic, gravity, damping).
+    double time_hessian;           ///< Stiffness matrix assembly.
+    double time_factor;            ///< Sparse factorisation (implicit backends).
+    double time_solve;             ///< Triangular solves / linear solves.
+    int64_t force_evals;           ///< Force evaluations.
+    int64_t hessian_evals;         ///< Stiffness matrix assemblies.
+    int64_t energy_evals;          ///< Potential energy evaluations.
+    int64_t newton_iterations;     ///< Nonlinear iterations (implicit backends).
+    int64_t line_search_backtracks;///< Step halvings in line searches.
+    int64_t linear_solves;         ///< Linear systems solved.
+    int64_t internal_steps;        ///< Adaptive integrators: internal steps taken.
+    int64_t residual_evals;        ///< Adaptive integrators: residual evaluations.
+    int64_t jacobian_evals;        ///< Adaptive integrators: Jacobian evaluations.
+    int64_t error_test_failures;   ///< Adaptive integrators: local error test failures.
+    int64_t convergence_failures;  ///< Nonlinear convergence failures (recovered or not).
+    int32_t last_order;            ///< Adaptive BDF: order used in the last internal step.
+} defsim_stats;
+
+/// Copies the world's statistics into *out; set out->size = sizeof *out first (a smaller size
+/// from an older header receives the fields it knows). Errors: DEFSIM_ERR_INVALID_ARGUMENT.
+DEFSIM_API defsim_status defsim_world_stats(const defsim_world *world, defsim_stats *out);
+
+/// Zeroes the counters and timings (not reordered_tets, threads, passes).
+DEFSIM_API void defsim_world_reset_stats(defsim_world *world);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Meshes                                                                                     */
+
+/// A mesh made or loaded by the library. Arrays are owned by the library: release them with
+/// defsim_mesh_free. Counts are 0 and pointers NULL for what the mesh does not have.
+typedef struct defsim_mesh {
+    uint32_t size;           ///< Set by the caller to sizeof(defsim_mesh) before the call.
+    double *positions;       ///< 3 * vertex_count, m.
+    int32_t vertex_count;
+    int32_t *tets;           ///< 4 per tet, positively oriented.
+    int32_t tet_count;
+    int32_t *triangles;      ///< 3 per triangle: cloth faces, or the boundary of the tets.
+    int32_t triangle_count;
+    int32_t *springs;        ///< 2 per spring (edges of cloth, rope links).
+    int32_t spring_count;
+} defsim_mesh;
+
+/// Makes a box of nx * ny * nz hexahedra on [lo, hi], each split into 6 positively oriented tets
+/// (Kuhn split along the cell diagonal; conforming), vertex index i + (nx+1)(j + (ny+1) k).
+/// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 1, empty box), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx,
+                                         int32_t ny, int32_t nz, defsim_mesh *mesh);
+
+/// Frees the arrays of a mesh made by the library and sets its pointers to NULL and counts to 0.
+/// NULL is ignored.
+DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* DEFSIM_DEFSIM_H */

@@ -1,0 +1,135 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Small dense linear algebra for the material kernels.
+ *
+ * 3x3 matrices are row-major double[9]: A[3*i+j] = A_ij. The inline helpers write their result
+ * through a temporary, so an output may alias an input. Larger symmetric matrices (element
+ * Hessians, n <= 12) are row-major double[n*n].
+ */
+#ifndef DEFSIM_MAT3_H
+#define DEFSIM_MAT3_H
+
+#include <string.h>
+
+/* Largest n accepted by defsim__project_psd (a tet's 12 x 12 Hessian). */
+#define DEFSIM__EIG_MAX_N 12
+
+static inline void defsim__m3_identity(double A[9])
+{
+    static const double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    memcpy(A, I, sizeof I);
+}
+
+static inline double defsim__m3_det(const double A[9])
+{
+    return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
+           A[2] * (A[3] * A[7] - A[4] * A[6]);
+}
+
+/* Cofactor matrix C = dJ/dA with J = det A (C = det(A) A^-T when A is invertible). */
+static inline void defsim__m3_cofactor(const double A[9], double C[9])
+{
+    double c[9];
+    c[0] = A[4] * A[8] - A[5] * A[7];
+    c[1] = A[5] * A[6] - A[3] * A[8];
+    c[2] = A[3] * A[7] - A[4] * A[6];
+    c[3] = A[2] * A[7] - A[1] * A[8];
+    c[4] = A[0] * A[8] - A[2] * A[6];
+    c[5] = A[1] * A[6] - A[0] * A[7];
+    c[6] = A[1] * A[5] - A[2] * A[4];
+    c[7] = A[2] * A[3] - A[0] * A[5];
+    c[8] = A[0] * A[4] - A[1] * A[3];
+    memcpy(C, c, sizeof c);
+}
+
+/* Ainv = A^-1; returns det A. When det A == 0, Ainv is set to zero. */
+static inline double defsim__m3_inverse(const double A[9], double Ainv[9])
+{
+    double C[9];
+    defsim__m3_cofactor(A, C);
+    double det = A[0] * C[0] + A[1] * C[1] + A[2] * C[2];
+    if (det == 0.0) {
+        memset(Ainv, 0, 9 * sizeof(double));
+        return det;
+    }
+    double r = 1.0 / det;
+    double inv[9] = {C[0] * r, C[3] * r, C[6] * r, C[1] * r, C[4] * r,
+                     C[7] * r, C[2] * r, C[5] * r, C[8] * r};
+    memcpy(Ainv, inv, sizeof inv);
+    return det;
+}
+
+static inline void defsim__m3_transpose(const double A[9], double At[9])
+{
+    double t[9] = {A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]};
+    memcpy(At, t, sizeof t);
+}
+
+static inline double defsim__m3_trace(const double A[9])
+{
+    return A[0] + A[4] + A[8];
+}
+
+/* A : B = tr(A^T B) = sum_ij A_ij B_ij. */
+static inline double defsim__m3_ddot(const double A[9], const double B[9])
+{
+    double s = 0.0;
+    for (int i = 0; i < 9; ++i) s += A[i] * B[i];
+    return s;
+}
+
+/* C = A B */
+static inline void defsim__m3_mul(const double A[9], const double B[9], double C[9])
+{
+    double c[9];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            c[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+    memcpy(C, c, sizeof c);
+}
+
+/* C = A^T B */
+static inline void defsim__m3_mul_tn(const double A[9], const double B[9], double C[9])
+{
+    double c[9];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            c[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
+    memcpy(C, c, sizeof c);
+}
+
+/* C = A B^T */
+static inline void defsim__m3_mul_nt(const double A[9], const double B[9], double C[9])
+{
+    double c[9];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            c[3 * i + j] = A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] +
+                           A[3 * i + 2] * B[3 * j + 2];
+    memcpy(C, c, sizeof c);
+}
+
+/*
+ * Signed SVD: F = U diag(sigma) V^T with U and V proper rotations (det +1). sigma is sorted by
+ * decreasing magnitude; sigma[0] >= sigma[1] >= 0, and sigma[2] < 0 exactly when det F < 0.
+ * Robust for any finite F (zero, rank-deficient, repeated singular values, inverted): never
+ * produces NaN. One-sided Jacobi, so small singular values keep their relative accuracy.
+ */
+void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9]);
+
+/*
+ * Jacobi eigen-decomposition of the symmetric n x n row-major matrix A (1 <= n <= 12; only the
+ * upper triangle is read). A is destroyed. evals[k] is the k-th eigenvalue (in no particular
+ * order) and column k of evecs (evecs[i*n+k]) its unit eigenvector.
+ */
+void defsim__sym_eig(int n, double *A, double *evals, double *evecs);
+
+/*
+ * Makes the symmetric n x n matrix A (1 <= n <= DEFSIM__EIG_MAX_N) positive semi-definite:
+ * mode 1 (clamp) replaces it by V max(Lambda, 0) V^T, mode 2 (abs) by V |Lambda| V^T; mode 0 and
+ * other modes or sizes do nothing. Returns 1 if A was changed (it had a negative eigenvalue),
+ * else 0, in which case A is left bit-for-bit as it was.
+ */
+int defsim__project_psd(int n, double *A, int mode);
+
+#endif /* DEFSIM_MAT3_H */

@@ -1,0 +1,13 @@
+/* SPDX-License-Identifier: MIT */
+/* Private mesh helpers shared by the generators and the loaders. */
+#ifndef DEFSIM_MESH_H
+#define DEFSIM_MESH_H
+
+#include "defsim/defsim.h"
+
+/* Outward-oriented boundary triangles of a tet mesh (faces used by exactly one tet).
+ * *tris_out is malloc'd (3 * *ntris_out indices). */
+defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,
+                                   int32_t **tris_out, int32_t *ntris_out);
+
+#endif

@@ -1,0 +1,717 @@
+/* SPDX-License-Identifier: MIT */
+/* Worlds, bodies, pins, state, stepping: the public API over the system. */
+#include "world.h"
+
+#include "mat3.h"
+#include "material.h"
+#include "status.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+/* A tet whose |det Dm| is below this fraction of its longest edge cubed is degenerate. */
+#define DEFSIM__DEGENERATE_REL 1e-12
+
+double defsim__now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void defsim__world_error(defsim_world *w, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(w->error, sizeof w->error, fmt, ap);
+    va_end(ap);
+    if (w->def.log) w->def.log(w->def.log_user, 0, w->error);
+}
+
+void defsim__world_log(defsim_world *w, int level, const char *fmt, ...)
+{
+    if (!w->def.log) return;
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    w->def.log(w->def.log_user, level, msg);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Creation */
+
+void defsim_world_def_init(defsim_world_def *def, size_t size)
+{
+    if (!def || size < sizeof(uint32_t)) return;
+    defsim_world_def d;
+    memset(&d, 0, sizeof d);
+    d.size = (uint32_t)sizeof d;
+    d.backend = "symplectic_euler";
+    d.gravity[1] = -9.81;
+    d.tolerance = 1e-6;
+    d.max_iterations = 50;
+    d.rtol = 1e-4;
+    d.atol = 1e-6;
+    d.projection = DEFSIM_PROJECTION_CLAMP;
+    d.max_order = 5;
+    d.max_internal_steps = 100000;
+    if (size > sizeof d) size = sizeof d;
+    memcpy(def, &d, size);
+    def->size = (uint32_t)size;
+}
+
+static defsim_status check_world_def(const defsim_world_def *d)
+{
+    if (!d->backend || !d->backend[0]) {
+        defsim__set_last_error("world def: backend name is NULL or empty");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (strlen(d->backend) >= 64) {
+        defsim__set_last_error("world def: backend name longer than 63 characters");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    for (int i = 0; i < 3; ++i)
+        if (!isfinite(d->gravity[i])) {
+            defsim__set_last_error("world def: gravity[%d] is not finite", i);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+    if (d->num_threads < 0) {
+        defsim__set_last_error("world def: num_threads %d < 0", (int)d->num_threads);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!(d->tolerance > 0.0) || !isfinite(d->tolerance) || d->max_iterations < 1) {
+        defsim__set_last_error("world def: tolerance %g must be > 0 and max_iterations %d >= 1",
+                               d->tolerance, (int)d->max_iterations);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!(d->rtol > 0.0) || !(d->atol > 0.0) || !isfinite(d->rtol) || !isfinite(d->atol)) {
+        defsim__set_last_error("world def: rtol %g and atol %g must be finite and > 0", d->rtol,
+                               d->atol);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if ((int)d->projection < 0 || (int)d->projection > 2) {
+        defsim__set_last_error("world def: unknown projection %d", (int)d->projection);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (d->max_order < 1 || d->max_order > 5 || d->max_internal_steps < 1) {
+        defsim__set_last_error("world def: max_order %d must be in 1..5, max_internal_steps %d >= 1",
+                               (int)d->max_order, (int)d->max_internal_steps);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **out)
+{
+    if (out) *out = NULL;
+    if (!def || !out) {
+        defsim__set_last_error("defsim_world_create: def and out must not be NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (def->size < offsetof(defsim_world_def, log)) {
+        defsim__set_last_error("defsim_world_create: def->size %u is too small (use "
+                               "defsim_world_def_init)", (unsigned)def->size);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
+    d.size = sizeof d;
+    defsim_status st = check_world_def(&d);
+    if (st != DEFSIM_OK) return st;
+    const defsim_backend *b = NULL;
+    st = defsim__find_backend(d.backend, &b);
+    if (st != DEFSIM_OK) return st;
+
+    defsim_world *w = calloc(1, sizeof *w);
+    if (!w) {
+        defsim__set_last_error("out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    w->def = d;
+    snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
+    w->def.backend = w->backend_name;
+    w->backend = b;
+    if (b->state_size > 0) {
+        w->bstate = calloc(1, b->state_size);
+        if (!w->bstate) {
+            free(w);
+            defsim__set_last_error("out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+#ifdef _OPENMP
+    w->nthreads = d.num_threads > 0 ? d.num_threads : omp_get_max_threads();
+#else
+    w->nthreads = 1;
+#endif
+    if (w->nthreads < 1) w->nthreads = 1;
+    w->stats.size = sizeof w->stats;
+    w->stats.threads = w->nthreads;
+    *out = w;
+    return DEFSIM_OK;
+}
+
+static void backend_fini(defsim_world *w)
+{
+    if (w->backend_ready) {
+        w->backend->fini(&defsim__host, (defsim_system *)w, w->bstate);
+        w->backend_ready = 0;
+    }
+    if (w->bstate) memset(w->bstate, 0, w->backend->state_size);
+}
+
+static void body_free(defsim__body *b)
+{
+    free(b->rest); free(b->mass); free(b->tets); free(b->springs); free(b->k); free(b->pinned);
+    b->rest = b->mass = b->k = NULL;
+    b->tets = b->springs = NULL;
+    b->pinned = NULL;
+}
+
+void defsim_world_destroy(defsim_world *w)
+{
+    if (!w) return;
+    backend_fini(w);
+    defsim__unplan(w);
+    for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
+    free(w->bodies);
+    free(w->x); free(w->v); free(w->mass); free(w->pinned);
+    free(w->bstate);
+    free(w);
+}
+
+const char *defsim_world_last_error(const defsim_world *w) { return w ? w->error : ""; }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Bodies */
+
+void defsim_body_def_init(defsim_body_def *def, size_t size)
+{
+    if (!def || size < sizeof(uint32_t)) return;
+    defsim_body_def d;
+    memset(&d, 0, sizeof d);
+    d.size = (uint32_t)sizeof d;
+    defsim_material_init(&d.material, sizeof d.material, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    if (size > sizeof d) size = sizeof d;
+    memcpy(def, &d, size);
+    def->size = (uint32_t)size;
+}
+
+/* Rebuilds the per-vertex world arrays from the live bodies, carrying their state over. On
+ * failure nothing changes. `old_offset[b]` is body b's offset before the change (-1: new). */
+static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset,
+                                      const double *new_x, const double *new_v)
+{
+    int32_t nv = 0;
+    for (int32_t b = 0; b < w->nbodies; ++b)
+        if (w->bodies[b].generation & 1u) nv += w->bodies[b].nv;
+    size_t n = (size_t)(nv > 0 ? nv : 1);
+    double *x = malloc(3 * n * sizeof *x), *v = malloc(3 * n * sizeof *v);
+    double *mass = malloc(n * sizeof *mass);
+    uint8_t *pinned = malloc(n);
+    if (!x || !v || !mass || !pinned) {
+        free(x); free(v); free(mass); free(pinned);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    int32_t off = 0;
+    for (int32_t b = 0; b < w->nbodies; ++b) {
+        defsim__body *bd = &w->bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        size_t bytes = 3 * (size_t)bd->nv * sizeof(double);
+        if (old_offset[b] >= 0) {
+            memcpy(x + 3 * (int64_t)off, w->x + 3 * (int64_t)old_offset[b], bytes);
+            memcpy(v + 3 * (int64_t)off, w->v + 3 * (int64_t)old_offset[b], bytes);
+        } else {
+            memcpy(x + 3 * (int64_t)off, new_x, bytes);
+            if (new_v) memcpy(v + 3 * (int64_t)off, new_v, bytes);
+            else memset(v + 3 * (int64_t)off, 0, bytes);
+        }
+        memcpy(mass + off, bd->mass, (size_t)bd->nv * sizeof *mass);
+        memcpy(pinned + off, bd->pinned, (size_t)bd->nv);
+        bd->offset = off;
+        off += bd->nv;
+    }
+    free(w->x); free(w->v); free(w->mass); free(w->pinned);
+    w->x = x; w->v = v; w->mass = mass; w->pinned = pinned;
+    w->nv = nv;
+    backend_fini(w);
+    defsim__unplan(w);
+    return DEFSIM_OK;
+}
+
+static defsim_status validate_array(defsim_world *w, const double *a, int64_t n, const char *what)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if (!isfinite(a[i])) {
+            defsim__world_error(w, "%s: vertex %lld coordinate %d is not finite", what,
+                                (long long)(i / 3), (int)(i % 3));
+            return DEFSIM_ERR_INVALID_MESH;
+        }
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
+                                    defsim_body_id *out)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!def || def->size < offsetof(defsim_body_def, material) + sizeof(uint32_t)) {
+        defsim__world_error(w, "add_body: def is NULL or def->size is too small "
+                               "(use defsim_body_def_init)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_body_def d;
+    defsim_body_def_init(&d, sizeof d);
+    memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
+    if (d.material.size < sizeof d.material) {
+        /* An older material struct: keep the defaults for fields it lacks. */
+        defsim_material m;
+        defsim_material_init(&m, sizeof m, d.material.model);
+        memcpy(&m, &def->material, d.material.size >= sizeof(uint32_t) ? d.material.size : 0);
+        m.size = sizeof m;
+        d.material = m;
+    }
+    if (!d.rest_positions || d.vertex_count < 1 || d.tet_count < 0 || d.spring_count < 0 ||
+        (d.tet_count > 0 && !d.tets) || (d.spring_count > 0 && !d.springs)) {
+        defsim__world_error(w, "add_body: needs rest_positions, vertex_count >= 1, and arrays "
+                               "for non-zero tet_count / spring_count");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (d.vertex_count > (INT32_MAX - w->nv) / 3 || d.tet_count > INT32_MAX / 16 ||
+        d.spring_count > INT32_MAX / 4) {
+        defsim__world_error(w, "add_body: counts too large");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    char msg[256];
+    defsim_status st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0,
+                                              msg, sizeof msg);
+    if (st != DEFSIM_OK) {
+        defsim__world_error(w, "add_body: %s", msg);
+        return st;
+    }
+    const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
+    st = validate_array(w, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
+    if (st == DEFSIM_OK && d.initial_positions)
+        st = validate_array(w, d.initial_positions, 3 * (int64_t)nv, "initial_positions");
+    if (st == DEFSIM_OK && d.initial_velocities)
+        st = validate_array(w, d.initial_velocities, 3 * (int64_t)nv, "initial_velocities");
+    if (st != DEFSIM_OK) return st;
+
+    defsim__body b;
+    memset(&b, 0, sizeof b);
+    b.nv = nv; b.nt = nt; b.ns = ns;
+    b.mat = d.material;
+    b.rest = malloc(3 * (size_t)nv * sizeof *b.rest);
+    b.mass = calloc((size_t)nv, sizeof *b.mass);
+    b.pinned = calloc((size_t)nv, 1);
+    b.tets = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *b.tets);
+    b.springs = malloc((size_t)(ns > 0 ? ns : 1) * 2 * sizeof *b.springs);
+    b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
+    if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k) {
+        body_free(&b);
+        defsim__world_error(w, "out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    memcpy(b.rest, d.rest_positions, 3 * (size_t)nv * sizeof *b.rest);
+    if (nt > 0) {
+        memcpy(b.tets, d.tets, 4 * (size_t)nt * sizeof *b.tets);
+        defsim__lame(b.mat.youngs_modulus, b.mat.poisson_ratio, &b.mu, &b.lambda);
+    }
+    if (ns > 0) memcpy(b.springs, d.springs, 2 * (size_t)ns * sizeof *b.springs);
+
+    int32_t reordered = 0;
+    st = DEFSIM_ERR_INVALID_MESH;
+    for (int32_t t = 0; t < nt; ++t) {
+        int32_t *tt = b.tets + 4 * (int64_t)t;
+        for (int a = 0; a < 4; ++a) {
+            if (tt[a] < 0 || tt[a] >= nv) {
+                defsim__world_error(w, "add_body: tet %d vertex %d index %d out of range [0, %d)",
+                                    (int)t, a, (int)tt[a], (int)nv);
+                goto fail;
+            }
+            for (int c = 0; c < a; ++c)
+                if (tt[c] == tt[a]) {
+                    defsim__world_error(w, "add_body: tet %d repeats vertex %d", (int)t, (int)tt[a]);
+                    goto fail;
+                }
+        }
+        double dm[9], lmax = 0.0;
+        const double *p3 = b.rest + 3 * (int64_t)tt[3];
+        for (int a = 0; a < 3; ++a)
+            for (int i = 0; i < 3; ++i) dm[3 * i + a] = b.rest[3 * (int64_t)tt[a] + i] - p3[i];
+        for (int a = 0; a < 4; ++a)
+            for (int c = a + 1; c < 4; ++c) {
+                const double *pa = b.rest + 3 * (int64_t)tt[a], *pc = b.rest + 3 * (int64_t)tt[c];
+                double l2 = (pa[0] - pc[0]) * (pa[0] - pc[0]) + (pa[1] - pc[1]) * (pa[1] - pc[1]) +
+                            (pa[2] - pc[2]) * (pa[2] - pc[2]);
+                if (l2 > lmax) lmax = l2;
+            }
+        lmax = sqrt(lmax);
+        double det = defsim__m3_det(dm);
+        if (!(fabs(det) > DEFSIM__DEGENERATE_REL * lmax * lmax * lmax)) {
+            defsim__world_error(w, "add_body: tet %d is degenerate (volume %g, longest edge %g)",
+                                (int)t, det / 6.0, lmax);
+            goto fail;
+        }
+        if (det < 0.0) {
+            int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
+            ++reordered;
+        }
+        const double m4 = b.mat.density * fabs(det) / 24.0;
+        for (int a = 0; a < 4; ++a) b.mass[tt[a]] += m4;
+    }
+    for (int32_t s = 0; s < ns; ++s) {
+        const int32_t a = b.springs[2 * (int64_t)s], c = b.springs[2 * (int64_t)s + 1];
+        if (a < 0 || a >= nv || c < 0 || c >= nv) {
+            defsim__world_error(w, "add_body: spring %d index out of range [0, %d)", (int)s, (int)nv);
+            goto fail;
+        }
+        const double *pa = b.rest + 3 * (int64_t)a, *pc = b.rest + 3 * (int64_t)c;
+        double l = sqrt((pa[0] - pc[0]) * (pa[0] - pc[0]) + (pa[1] - pc[1]) * (pa[1] - pc[1]) +
+                        (pa[2] - pc[2]) * (pa[2] - pc[2]));
+        if (a == c || !(l > 0.0)) {
+            defsim__world_error(w, "add_body: spring %d has zero rest length", (int)s);
+            goto fail;
+        }
+        double k = d.spring_stiffness ? d.spring_stiffness[s] : b.mat.stiffness;
+        if (!isfinite(k) || k < 0.0) {
+            defsim__world_error(w, "add_body: spring %d stiffness %g must be finite and >= 0",
+                                (int)s, k);
+            st = DEFSIM_ERR_INVALID_MATERIAL;
+            goto fail;
+        }
+        b.k[s] = k;
+    }
+    for (int32_t i = 0; i < nv; ++i) {
+        double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
+        if (!isfinite(m) || !(m > 0.0)) {
+            defsim__world_error(w, "add_body: vertex %d has mass %g (needs a positive mass: "
+                                   "give vertex_mass, or put it in a tet with density > 0)",
+                                (int)i, m);
+            st = d.vertex_mass ? DEFSIM_ERR_INVALID_MATERIAL : DEFSIM_ERR_INVALID_MESH;
+            goto fail;
+        }
+        b.mass[i] = m;
+    }
+
+    if (w->nbodies == w->cap_bodies) {
+        int32_t cap = w->cap_bodies ? 2 * w->cap_bodies : 8;
+        defsim__body *nb = realloc(w->bodies, (size_t)cap * sizeof *nb);
+        if (!nb) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__world_error(w, "out of memory"); goto fail; }
+        w->bodies = nb;
+        w->cap_bodies = cap;
+    }
+    int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
+    if (!old) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__world_error(w, "out of memory"); goto fail; }
+    for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
+    old[w->nbodies] = -1;
+    b.generation = 1;
+    w->bodies[w->nbodies++] = b;
+    st = rebuild_vertices(w, old, d.initial_positions ? d.initial_positions : d.rest_positions,
+                          d.initial_velocities);
+    free(old);
+    if (st != DEFSIM_OK) {
+        w->nbodies--;
+        defsim__world_error(w, "out of memory");
+        goto fail;
+    }
+    w->stats.reordered_tets += reordered;
+    w->body_count_alive++;
+    if (out) {
+        out->index = (uint32_t)w->nbodies;
+        out->generation = 1;
+    }
+    return DEFSIM_OK;
+fail:
+    body_free(&b);
+    return st;
+}
+
+static defsim__body *lookup(const defsim_world *w, defsim_body_id id)
+{
+    if (id.index == 0 || id.index > (uint32_t)w->nbodies) return NULL;
+    defsim__body *b = &w->bodies[id.index - 1];
+    if (b->generation != id.generation || !(b->generation & 1u)) return NULL;
+    return b;
+}
+
+static defsim__body *lookup_or_error(defsim_world *w, defsim_body_id id)
+{
+    defsim__body *b = lookup(w, id);
+    if (!b)
+        defsim__world_error(w, "body id {%u, %u} is null, removed or not of this world",
+                            (unsigned)id.index, (unsigned)id.generation);
+    return b;
+}
+
+defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim__body *b = lookup_or_error(w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
+    if (!old) { defsim__world_error(w, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
+    b->generation++;
+    defsim_status st = rebuild_vertices(w, old, NULL, NULL);
+    free(old);
+    if (st != DEFSIM_OK) {
+        b->generation--;
+        defsim__world_error(w, "out of memory");
+        return st;
+    }
+    body_free(b);
+    w->body_count_alive--;
+    return DEFSIM_OK;
+}
+
+int32_t defsim_body_vertex_count(const defsim_world *w, defsim_body_id id)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__body *b = lookup(w, id);
+    return b ? b->nv : DEFSIM_ERR_STALE_ID;
+}
+
+int32_t defsim_body_vertex_offset(const defsim_world *w, defsim_body_id id)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__body *b = lookup(w, id);
+    return b ? b->offset : DEFSIM_ERR_STALE_ID;
+}
+
+static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t *verts,
+                              int32_t n, uint8_t value)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim__body *b = lookup_or_error(w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (n < 0 || (n > 0 && !verts)) {
+        defsim__world_error(w, "pin: n %d < 0 or verts NULL", (int)n);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    for (int32_t i = 0; i < n; ++i)
+        if (verts[i] < 0 || verts[i] >= b->nv) {
+            defsim__world_error(w, "pin: vertex %d (entry %d) out of range [0, %d)",
+                                (int)verts[i], (int)i, (int)b->nv);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+    int changed = 0;
+    for (int32_t i = 0; i < n; ++i) {
+        const int32_t v = verts[i];
+        if (b->pinned[v] != value) changed = 1;
+        b->pinned[v] = value;
+        w->pinned[b->offset + v] = value;
+        if (value) {
+            double *vv = w->v + 3 * ((int64_t)b->offset + v);
+            vv[0] = vv[1] = vv[2] = 0.0;
+        }
+    }
+    if (changed) {
+        backend_fini(w);
+        defsim__unplan(w);
+    }
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_body_pin(defsim_world *w, defsim_body_id id, const int32_t *verts, int32_t n)
+{
+    return set_pins(w, id, verts, n, 1);
+}
+
+defsim_status defsim_body_unpin(defsim_world *w, defsim_body_id id, const int32_t *verts,
+                                int32_t n)
+{
+    return set_pins(w, id, verts, n, 0);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* State */
+
+int32_t defsim_world_vertex_count(const defsim_world *w) { return w ? w->nv : 0; }
+double defsim_world_time(const defsim_world *w) { return w ? w->t : 0.0; }
+
+static defsim_status copy_out(const defsim_world *w, const double *src, int width, double *out,
+                              int32_t n)
+{
+    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (n != w->nv) {
+        defsim__world_error((defsim_world *)w, "n = %d but the world has %d vertices", (int)n,
+                            (int)w->nv);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (n > 0) memcpy(out, src, (size_t)width * (size_t)n * sizeof *out);
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_get_positions(const defsim_world *w, double *out, int32_t n)
+{
+    return copy_out(w, w ? w->x : NULL, 3, out, n);
+}
+
+defsim_status defsim_world_get_velocities(const defsim_world *w, double *out, int32_t n)
+{
+    return copy_out(w, w ? w->v : NULL, 3, out, n);
+}
+
+defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_t n)
+{
+    return copy_out(w, w ? w->mass : NULL, 1, out, n);
+}
+
+defsim_status defsim_world_set_state(defsim_world *w, const double *x, const double *v)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const int64_t ndof = 3 * (int64_t)w->nv;
+    for (int64_t i = 0; i < ndof; ++i)
+        if ((x && !isfinite(x[i])) || (v && !isfinite(v[i]))) {
+            defsim__world_error(w, "set_state: DOF %lld is not finite", (long long)i);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+    if (x) memcpy(w->x, x, (size_t)ndof * sizeof *x);
+    if (v) memcpy(w->v, v, (size_t)ndof * sizeof *v);
+    for (int32_t i = 0; i < w->nv; ++i)
+        if (w->pinned[i]) w->v[3 * (int64_t)i] = w->v[3 * (int64_t)i + 1] = w->v[3 * (int64_t)i + 2] = 0.0;
+    if (w->backend_ready && w->backend->reset) {
+        defsim_status st = w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate);
+        if (st != DEFSIM_OK) backend_fini(w);   /* re-initialised at the next step */
+    }
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Evaluation */
+
+static defsim_status ensure_planned(defsim_world *w)
+{
+    defsim_status st = defsim__plan(w);
+    if (st != DEFSIM_OK) defsim__world_error(w, "out of memory while planning the world");
+    return st;
+}
+
+defsim_status defsim_world_energy(const defsim_world *cw, defsim_energy *out)
+{
+    if (!cw || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_world *w = (defsim_world *)cw;   /* planning is a cache, not a change of state */
+    defsim_status st = ensure_planned(w);
+    if (st != DEFSIM_OK) return st;
+    double ke = 0.0, ge = 0.0;
+    const double *g = w->def.gravity;
+    for (int32_t i = 0; i < w->nv; ++i) {
+        const double *v = w->v + 3 * (int64_t)i, *x = w->x + 3 * (int64_t)i;
+        ke += 0.5 * w->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        ge -= w->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
+    }
+    out->kinetic = ke;
+    out->elastic = defsim__elastic_energy(w, w->x);
+    out->gravitational = ge;
+    out->total = ke + out->elastic + ge;
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_out)
+{
+    if (!w || !f_out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = ensure_planned(w);
+    if (st != DEFSIM_OK) return st;
+    uint32_t keep = w->step_passes;
+    (void)defsim__forces(w, x ? x : w->x, NULL, DEFSIM_FORCE_ELASTIC | DEFSIM__FORCE_KEEP_PINNED, f_out);
+    w->step_passes = keep;
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_stats(const defsim_world *w, defsim_stats *out)
+{
+    if (!w || !out || out->size < sizeof(uint32_t)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    size_t n = out->size < sizeof w->stats ? out->size : sizeof w->stats;
+    uint32_t size = out->size;
+    memcpy(out, &w->stats, n);
+    out->size = size;
+    return DEFSIM_OK;
+}
+
+void defsim_world_reset_stats(defsim_world *w)
+{
+    if (!w) return;
+    defsim_stats s;
+    memset(&s, 0, sizeof s);
+    s.size = sizeof s;
+    s.passes = w->stats.passes;
+    s.threads = w->stats.threads;
+    s.reordered_tets = w->stats.reordered_tets;
+    w->stats = s;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Stepping */
+
+defsim_status defsim_world_step(defsim_world *w, double h)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!isfinite(h) || !(h > 0.0)) {
+        defsim__world_error(w, "step: h = %g must be finite and > 0", h);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    double t0 = defsim__now();
+    defsim_status st = ensure_planned(w);
+    if (st != DEFSIM_OK) return st;
+    if (w->nv == 0) {
+        w->t += h;
+        w->stats.steps++;
+        return DEFSIM_OK;
+    }
+    if (!w->backend_ready) {
+        st = w->backend->init(&defsim__host, (defsim_system *)w, w->bstate);
+        if (st != DEFSIM_OK) {
+            w->backend->fini(&defsim__host, (defsim_system *)w, w->bstate);
+            memset(w->bstate, 0, w->backend->state_size);
+            if (!w->error[0]) defsim__world_error(w, "backend %s failed to initialise", w->backend->name);
+            w->stats.failed_steps++;
+            return st;
+        }
+        w->backend_ready = 1;
+    }
+    const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
+    memcpy(w->x_save, w->x, bytes);
+    memcpy(w->v_save, w->v, bytes);
+    w->step_passes = 0;
+    w->error[0] = '\0';
+    st = w->backend->step(&defsim__host, (defsim_system *)w, w->bstate, h);
+    if (st == DEFSIM_OK) {
+        const int64_t ndof = 3 * (int64_t)w->nv;
+        int ok = 1;
+        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(w->x[i]) & isfinite(w->v[i]);
+        if (!ok) {
+            st = DEFSIM_ERR_UNSTABLE;
+            defsim__world_error(w, "step: the state became non-finite (h = %g at t = %g); "
+                                   "state restored", h, w->t);
+        }
+    }
+    if (st != DEFSIM_OK) {
+        memcpy(w->x, w->x_save, bytes);
+        memcpy(w->v, w->v_save, bytes);
+        if (!w->error[0])
+            defsim__world_error(w, "step: backend %s failed: %s", w->backend->name,
+                                defsim_status_string(st));
+        if (w->backend->reset &&
+            w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate) != DEFSIM_OK)
+            backend_fini(w);
+        w->stats.failed_steps++;
+        w->stats.time_step += defsim__now() - t0;
+        return st;
+    }
+    w->t += h;
+    w->stats.steps++;
+    w->stats.passes = w->step_passes;
+    w->stats.time_step += defsim__now() - t0;
+    return DEFSIM_OK;
+}

@@ -1,0 +1,172 @@
+/* SPDX-License-Identifier: MIT */
+/* Backend registry: built-ins, host registration, and modules loaded on demand with dlopen. */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <defsim/backend.h>
+
+static int mapped(const char *needle)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    if (!f) return -1;
+    char line[1024];
+    int found = 0;
+    while (fgets(line, sizeof line, f))
+        if (strstr(line, needle)) found = 1;
+    fclose(f);
+    return found;
+}
+
+static double *run(const char *backend, int steps)
+{
+    defsim_world *w = tu_world(backend, -9.81, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {2, 1, 1};
+    defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 4, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    tu_pin_below(w, b, 0, 0.0);
+    for (int i = 0; i < steps; ++i) TU_OK(defsim_world_step(w, 1e-3));
+    double *x = tu_positions(w);
+    defsim_world_destroy(w);
+    return x;
+}
+
+/* Worlds with built-in backends load no module (this test runs first). */
+static void test_builtins_load_nothing(void **state)
+{
+    (void)state;
+    free(run("explicit_euler", 3));
+    free(run("symplectic_euler", 3));
+    assert_int_equal(mapped("defsim_testmod.so"), 0);
+    assert_int_equal(mapped("defsim_newton_cholmod.so"), 0);
+    assert_int_equal(mapped("defsim_sundials"), 0);
+}
+
+/* The module is found through DEFSIM_BACKEND_PATH, loaded on first use, and computes exactly
+ * what the built-in symplectic Euler computes. */
+static void test_module_loads_and_matches(void **state)
+{
+    (void)state;
+    double *a = run("testmod", 50), *b = run("symplectic_euler", 50);
+    assert_int_equal(mapped("defsim_testmod.so"), 1);
+    assert_memory_equal(a, b, 3 * 5 * 3 * 3 * sizeof(double));
+    free(a);
+    free(b);
+    /* reset is called when the host sets the state. */
+    defsim_world *w = tu_world("testmod", 0.0, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box(w, DEFSIM_MODEL_STVK, 1, 1, 1, lo, hi, 1e5, 0.3, 1000);
+    TU_OK(defsim_world_step(w, 1e-3));
+    double *x = tu_positions(w);
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    TU_OK(defsim_world_step(w, 1e-3));
+    defsim_stats s = {.size = sizeof s};
+    TU_OK(defsim_world_stats(w, &s));
+    assert_int_equal(s.internal_steps, 2);
+    free(x);
+    defsim_world_destroy(w);
+}
+
+static void test_missing_module(void **state)
+{
+    (void)state;
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = "no_such_module";
+    defsim_world *w = NULL;
+    assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_BACKEND_UNAVAILABLE);
+    assert_null(w);
+    assert_non_null(strstr(defsim_last_error(), "no_such_module"));
+}
+
+static int host_steps;
+static defsim_status my_init(const defsim_host *h, defsim_system *s, void *st)
+{
+    (void)h; (void)s; (void)st;
+    return DEFSIM_OK;
+}
+static defsim_status my_step(const defsim_host *h, defsim_system *s, void *st, double dt)
+{
+    (void)st;
+    /* Drift: x += dt v, a valid (if physics-free) integrator. */
+    double *x = h->positions(s), *v = h->velocities(s);
+    for (int64_t i = 0; i < h->dof_count(s); ++i) x[i] += dt * v[i];
+    host_steps++;
+    return DEFSIM_OK;
+}
+static void my_fini(const defsim_host *h, defsim_system *s, void *st) { (void)h; (void)s; (void)st; }
+
+/* A backend table from an older, shorter ABI (no reset field). */
+typedef struct old_backend {
+    uint32_t abi_version, struct_size;
+    const char *name;
+    uint32_t flags;
+    size_t state_size;
+    void *init, *step, *fini;
+} old_backend;
+
+static void test_register(void **state)
+{
+    (void)state;
+    defsim_backend b = {DEFSIM_BACKEND_ABI_VERSION, sizeof(defsim_backend), "drift", 0, 16,
+                        my_init, my_step, my_fini, NULL};
+    static defsim_backend keep;
+    keep = b;
+    TU_OK(defsim_register_backend(&keep));
+    assert_int_equal(defsim_register_backend(&keep), DEFSIM_ERR_CONFLICT);
+    defsim_backend clash = keep;
+    clash.name = "symplectic_euler";
+    assert_int_equal(defsim_register_backend(&clash), DEFSIM_ERR_CONFLICT);
+    assert_int_equal(defsim_register_backend(NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    defsim_backend bad = keep;
+    bad.name = "Bad Name";
+    assert_int_equal(defsim_register_backend(&bad), DEFSIM_ERR_INVALID_ARGUMENT);
+    bad = keep;
+    bad.name = "newer";
+    bad.abi_version = DEFSIM_BACKEND_ABI_VERSION + 1;
+    assert_int_equal(defsim_register_backend(&bad), DEFSIM_ERR_INVALID_ARGUMENT);
+    bad = keep;
+    bad.name = "nostep";
+    bad.step = NULL;
+    assert_int_equal(defsim_register_backend(&bad), DEFSIM_ERR_INVALID_ARGUMENT);
+
+    static old_backend old;
+    old.abi_version = 1;
+    old.struct_size = sizeof old;
+    old.name = "old_drift";
+    old.state_size = 0;
+    *(defsim_status (**)(const defsim_host *, defsim_system *, void *))&old.init = my_init;
+    *(defsim_status (**)(const defsim_host *, defsim_system *, void *, double))&old.step = my_step;
+    *(void (**)(const defsim_host *, defsim_system *, void *))&old.fini = my_fini;
+    TU_OK(defsim_register_backend((const defsim_backend *)&old));
+
+    const char *names[2] = {"drift", "old_drift"};
+    for (int k = 0; k < 2; ++k) {
+        host_steps = 0;
+        defsim_world *w = tu_world(names[k], -9.81, 1);
+        const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+        tu_add_box(w, DEFSIM_MODEL_STVK, 1, 1, 1, lo, hi, 1e5, 0.3, 1000);
+        double v[3 * 8];
+        for (int i = 0; i < 24; ++i) v[i] = i % 3 == 0 ? 2.0 : 0.0;
+        TU_OK(defsim_world_set_state(w, NULL, v));   /* old table: reset reads as NULL */
+        TU_OK(defsim_world_step(w, 0.5));
+        double *x = tu_positions(w);
+        assert_true(fabs(x[0] - 1.0) < 1e-15);   /* vertex 0 at x = 0 drifted by 0.5 * 2 */
+        assert_int_equal(host_steps, 1);
+        free(x);
+        defsim_world_destroy(w);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_builtins_load_nothing),
+        cmocka_unit_test(test_module_loads_and_matches),
+        cmocka_unit_test(test_missing_module),
+        cmocka_unit_test(test_register),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

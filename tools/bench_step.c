@@ -1,0 +1,104 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim-bench-step: explicit-step throughput on the box beam of the peer benchmarks
+ * (3n x n x n cells on [0,3] x [0,1] x [0,1] m, 6 tets per cell; n = 18 gives 104976 tets),
+ * E = 1 MPa, nu = 0.3, rho = 1000, gravity, x = 0 clamped. Prints the median over repeats.
+ *
+ *   defsim-bench-step [--model snh|nh|corotated|stvk] [--n N] [--threads T] [--steps S]
+ *                     [--repeats R] [--backend NAME]
+ */
+#include <defsim/defsim.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+int main(int argc, char **argv)
+{
+    const char *model_name = "snh", *backend = "symplectic_euler";
+    int n = 18, threads = 1, steps = 20, repeats = 5;
+    for (int i = 1; i + 1 < argc; i += 2) {
+        if (!strcmp(argv[i], "--model")) model_name = argv[i + 1];
+        else if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--repeats")) repeats = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--backend")) backend = argv[i + 1];
+        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
+    }
+    defsim_model model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
+    if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
+    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
+    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
+    else if (strcmp(model_name, "snh")) { fprintf(stderr, "unknown model %s\n", model_name); return 2; }
+    if (n < 1 || steps < 1 || repeats < 1 || repeats > 100 || threads < 0) return 2;
+
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    wd.backend = backend;
+    wd.num_threads = threads;
+    defsim_world *w;
+    if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
+        fprintf(stderr, "%s\n", defsim_last_error());
+        return 1;
+    }
+    defsim_mesh m = {.size = sizeof m};
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    if (defsim_mesh_box(lo, hi, 3 * n, n, n, &m) != DEFSIM_OK) return 1;
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m.positions;
+    bd.vertex_count = m.vertex_count;
+    bd.tets = m.tets;
+    bd.tet_count = m.tet_count;
+    defsim_material_init(&bd.material, sizeof bd.material, model);
+    defsim_body_id b;
+    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
+        fprintf(stderr, "%s\n", defsim_world_last_error(w));
+        return 1;
+    }
+    int32_t *pins = malloc((size_t)m.vertex_count * sizeof *pins);
+    int np = 0;
+    for (int i = 0; i < m.vertex_count; ++i)
+        if (m.positions[3 * i] == 0.0) pins[np++] = i;
+    defsim_body_pin(w, b, pins, np);
+    free(pins);
+    const double h = 1e-5;   /* well under the stable step: timing does not depend on it */
+    for (int i = 0; i < 2; ++i) defsim_world_step(w, h);   /* plan, init, warm caches */
+    double t[100];
+    for (int r = 0; r < repeats; ++r) {
+        double t0 = now();
+        for (int i = 0; i < steps; ++i)
+            if (defsim_world_step(w, h) != DEFSIM_OK) {
+                fprintf(stderr, "step failed: %s\n", defsim_world_last_error(w));
+                return 1;
+            }
+        t[r] = (now() - t0) / steps;
+    }
+    qsort(t, (size_t)repeats, sizeof *t, cmp);
+    double med = t[repeats / 2];
+    defsim_stats s = {.size = sizeof s};
+    defsim_world_stats(w, &s);
+    printf("RESULT {\"lib\": \"defsim\", \"backend\": \"%s\", \"model\": \"%s\", \"tets\": %d, "
+           "\"threads\": %d, \"s_per_step\": %.6g, \"tet_steps_per_s\": %.4g, "
+           "\"min_s\": %.6g, \"max_s\": %.6g}\n",
+           backend, model_name, m.tet_count, s.threads, med, m.tet_count / med, t[0],
+           t[repeats - 1]);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
+    return 0;
+}

@@ -592,43 +592,142 @@ defsim_status defsim__matrix_values(defsim_world *w, const double *x,
     return DEFSIM_OK;
 }
 
-defsim_status defsim__matrix_product(defsim_world *w, const double *x,
-                                     const defsim_matrix_coeffs *c, const double *dx,
-                                     double *out)
+/* out += A dx for one element without forming its matrix: for tets dF = sum_a dx_a g_a^T,
+ * dP = (k D + kd beta Dclamped) : dF, out_a += vol dP g_a. */
+static void element_apply(const defsim__group *g, const double *x, int32_t e,
+                          const defsim_matrix_coeffs *c, int proj, const uint8_t *pinned,
+                          const double *dx, double *out)
 {
-    if (!x || !c || !dx || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const double sk = c->k, sd = c->kd * g->beta[e];
+    if (sk == 0.0 && sd == 0.0) return;
+    if (g->nodes == 2) {
+        const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
+        const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)b;
+        double Kb[9], Kd[9], d[3];
+        spring_block(xa, xb, g->k[e], g->l0[e], proj, Kb);
+        if (sd != 0.0) spring_block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
+        for (int i = 0; i < 3; ++i) {
+            double ua = pinned[a] ? 0.0 : dx[3 * (int64_t)a + i];
+            double ub = pinned[b] ? 0.0 : dx[3 * (int64_t)b + i];
+            d[i] = ua - ub;
+        }
+        for (int i = 0; i < 3; ++i) {
+            double s = 0.0;
+            for (int j = 0; j < 3; ++j)
+                s += (sk * Kb[3 * i + j] + (sd != 0.0 ? sd * Kd[3 * i + j] : 0.0)) * d[j];
+            if (!pinned[a]) out[3 * (int64_t)a + i] += s;
+            if (!pinned[b]) out[3 * (int64_t)b + i] -= s;
+        }
+        return;
+    }
+    const int32_t *id = g->idx + 4 * (int64_t)e;
+    const double *dm = g->dminv + 9 * (int64_t)e;
+    double F[9], D[81], dF[9], dP[9], gr[4][3];
+    tet_deformation(x, id, dm, F);
+    group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        memcpy(Dd, D, sizeof Dd);
+        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+    tet_gradients(dm, gr);
+    memset(dF, 0, sizeof dF);
+    for (int a = 0; a < 4; ++a) {
+        if (pinned[id[a]]) continue;
+        const double *u = dx + 3 * (int64_t)id[a];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) dF[3 * i + j] += u[i] * gr[a][j];
+    }
+    apply_dpdf(D, dF, dP);
+    const double vol = g->vol[e];
+    for (int a = 0; a < 4; ++a) {
+        if (pinned[id[a]]) continue;
+        double *o = out + 3 * (int64_t)id[a];
+        for (int i = 0; i < 3; ++i)
+            o[i] += vol * (dP[3 * i] * gr[a][0] + dP[3 * i + 1] * gr[a][1] + dP[3 * i + 2] * gr[a][2]);
+    }
+}
+
+static void matrix_apply(defsim_world *w, const double *x, const defsim_matrix_coeffs *c, int proj,
+                         const double *dx, double *out)
+{
     const int64_t ndof = 3 * (int64_t)w->nv;
     memset(out, 0, (size_t)ndof * sizeof *out);
     if (c->k != 0.0 || c->kd != 0.0) {
         for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
             const defsim__group *g = &w->groups[m];
-            const int nn = g->nodes, nd = 3 * nn;
             for (int32_t col = 0; col < g->ncolors; ++col) {
                 const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
-#pragma omp parallel for schedule(static) num_threads(w->nthreads) if (e1 - e0 > 64)
-                for (int32_t e = e0; e < e1; ++e) {
-                    double K[144], u[12];
-                    if (!element_matrix(w, g, x, e, c, K)) continue;
-                    const int32_t *id = g->idx + (int64_t)nn * e;
-                    for (int a = 0; a < nn; ++a)
-                        for (int i = 0; i < 3; ++i)
-                            u[3 * a + i] = w->pinned[id[a]] ? 0.0 : dx[3 * (int64_t)id[a] + i];
-                    for (int a = 0; a < nn; ++a) {
-                        if (w->pinned[id[a]]) continue;
-                        for (int i = 0; i < 3; ++i) {
-                            double s = 0.0;
-                            for (int r = 0; r < nd; ++r) s += K[(3 * a + i) * nd + r] * u[r];
-                            out[3 * (int64_t)id[a] + i] += s;
-                        }
-                    }
-                }
+#pragma omp parallel for schedule(static) num_threads(w->nthreads) if (e1 - e0 > 256)
+                for (int32_t e = e0; e < e1; ++e) element_apply(g, x, e, c, proj, w->pinned, dx, out);
             }
         }
     }
     if (c->m != 0.0 || c->md != 0.0)
         for (int64_t i = 0; i < ndof; ++i)
             if (!w->pinned[i / 3]) out[i] += (c->m + c->md * w->alpha3[i]) * w->mass3[i] * dx[i];
+}
+
+defsim_status defsim__matrix_product(defsim_world *w, const double *x,
+                                     const defsim_matrix_coeffs *c, const double *dx,
+                                     double *out)
+{
+    if (!x || !c || !dx || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    matrix_apply(w, x, c, w->def.projection, dx, out);
     return DEFSIM_OK;
+}
+
+/* Largest eigenvalue of M^-1/2 K(x) M^-1/2 over the free DOFs (exact Hessians) by power
+ * iteration from a fixed start, to 1e-4 relative in the Rayleigh quotient. If the dominant
+ * eigenvalue is negative (a strongly compressed, unstable configuration), the iteration is
+ * repeated with that shift to find the largest positive one. */
+defsim_status defsim__omega_max(defsim_world *w, const double *x, double *omega)
+{
+    const int64_t ndof = 3 * (int64_t)w->nv;
+    double *z = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *z);
+    double *y = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *y);
+    double *u = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *u);
+    if (!z || !y || !u) { free(z); free(y); free(u); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    const defsim_matrix_coeffs ck = {1.0, 0.0, 0.0, 0.0};
+    double shift = 0.0, lambda = 0.0;
+    for (int pass = 0; pass < 2; ++pass) {
+        unsigned long long seed = 0x9E3779B97F4A7C15ULL;
+        double nrm = 0.0;
+        for (int64_t i = 0; i < ndof; ++i) {
+            seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+            z[i] = w->pinned[i / 3] ? 0.0 : (double)(seed >> 11) / 9007199254740992.0 + 0.5;
+            nrm += z[i] * z[i];
+        }
+        if (!(nrm > 0.0)) break;
+        for (int64_t i = 0; i < ndof; ++i) z[i] /= sqrt(nrm);
+        double prev = 0.0;
+        for (int it = 0; it < 300; ++it) {
+            for (int64_t i = 0; i < ndof; ++i) u[i] = z[i] / sqrt(w->mass3[i]);
+            matrix_apply(w, x, &ck, DEFSIM_PROJECTION_NONE, u, y);
+            double q = 0.0, yn = 0.0;
+            for (int64_t i = 0; i < ndof; ++i) {
+                y[i] = y[i] / sqrt(w->mass3[i]) + shift * z[i];
+                q += z[i] * y[i];
+                yn += y[i] * y[i];
+            }
+            lambda = q;
+            if (!(yn > 0.0)) break;
+            for (int64_t i = 0; i < ndof; ++i) z[i] = y[i] / sqrt(yn);
+            if (it > 5 && fabs(lambda - prev) <= 1e-4 * fabs(lambda)) break;
+            prev = lambda;
+        }
+        lambda -= shift;
+        if (lambda >= 0.0 || pass == 1) break;
+        shift = -lambda;   /* dominant eigenvalue negative: shift the spectrum up */
+    }
+    free(z); free(y); free(u);
+    *omega = lambda > 0.0 ? sqrt(lambda) : 0.0;
+    return isfinite(*omega) ? DEFSIM_OK : DEFSIM_ERR_UNSTABLE;
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -65,6 +65,7 @@ void defsim_world_def_init(defsim_world_def *def, size_t size)
     d.projection = DEFSIM_PROJECTION_CLAMP;
     d.max_order = 5;
     d.max_internal_steps = 100000;
+    d.substep_safety = 0.8;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -101,6 +102,14 @@ static defsim_status check_world_def(const defsim_world_def *d)
     }
     if ((int)d->projection < 0 || (int)d->projection > 2) {
         defsim__set_last_error("world def: unknown projection %d", (int)d->projection);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (d->auto_substep != 0 && d->auto_substep != 1) {
+        defsim__set_last_error("world def: auto_substep %d must be 0 or 1", (int)d->auto_substep);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!(d->substep_safety > 0.0 && d->substep_safety <= 1.0)) {
+        defsim__set_last_error("world def: substep_safety %g must be in (0, 1]", d->substep_safety);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (d->max_order < 1 || d->max_order > 5 || d->max_internal_steps < 1) {
@@ -579,6 +588,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
         }
     if (x) memcpy(w->x, x, (size_t)ndof * sizeof *x);
     if (v) memcpy(w->v, v, (size_t)ndof * sizeof *v);
+    w->h_stable = 0.0;
     for (int32_t i = 0; i < w->nv; ++i)
         if (w->pinned[i]) w->v[3 * (int64_t)i] = w->v[3 * (int64_t)i + 1] = w->v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend_ready && w->backend->reset) {
@@ -593,6 +603,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
 
 static defsim_status ensure_planned(defsim_world *w)
 {
+    if (!w->planned) w->h_stable = 0.0;
     defsim_status st = defsim__plan(w);
     if (st != DEFSIM_OK) defsim__world_error(w, "out of memory while planning the world");
     return st;
@@ -652,6 +663,43 @@ void defsim_world_reset_stats(defsim_world *w)
 }
 
 /* ------------------------------------------------------------------------------------------ */
+/* Stability */
+
+static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
+{
+    double om = 0.0;
+    defsim_status st = defsim__omega_max(w, w->x, &om);
+    if (st != DEFSIM_OK) {
+        defsim__world_error(w, st == DEFSIM_ERR_OUT_OF_MEMORY ? "out of memory"
+                                                              : "stable step: non-finite stiffness");
+        return st;
+    }
+    double alpha = 0.0, beta = 0.0;
+    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i)
+        if (!w->pinned[i / 3] && w->alpha3[i] > alpha) alpha = w->alpha3[i];
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
+        for (int32_t e = 0; e < w->groups[m].n; ++e)
+            if (w->groups[m].beta[e] > beta) beta = w->groups[m].beta[e];
+    const double c = alpha + beta * om * om;
+    *h = w->backend->stable_step ? w->backend->stable_step(om, c) : INFINITY;
+    if (omega) *omega = om;
+    w->stats.stable_step = *h;
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *omega_out)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = ensure_planned(w);
+    if (st != DEFSIM_OK) return st;
+    double h = INFINITY, om = 0.0;
+    if (w->nv > 0 && (st = estimate_stable_step(w, &h, &om)) != DEFSIM_OK) return st;
+    if (h_out) *h_out = h;
+    if (omega_out) *omega_out = om;
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
 /* Stepping */
 
 defsim_status defsim_world_step(defsim_world *w, double h)
@@ -685,7 +733,37 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     memcpy(w->v_save, w->v, bytes);
     w->step_passes = 0;
     w->error[0] = '\0';
-    st = w->backend->step(&defsim__host, (defsim_system *)w, w->bstate, h);
+    const int substep = w->def.auto_substep && w->backend->stable_step;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        int64_t n = 1;
+        if (substep) {
+            /* Re-estimate every 64 steps, after any change, and after a failed attempt. */
+            if (w->h_stable <= 0.0 || w->steps_since_estimate >= 64 || attempt > 0) {
+                double hs;
+                if ((st = estimate_stable_step(w, &hs, NULL)) != DEFSIM_OK) break;
+                w->h_stable = attempt > 0 ? 0.5 * hs : hs;
+                w->steps_since_estimate = 0;
+            }
+            double k = ceil(h / (w->def.substep_safety * w->h_stable));
+            if (!(k <= 1e7)) {
+                st = DEFSIM_ERR_UNSTABLE;
+                defsim__world_error(w, "step: auto_substep would need %g substeps (stable step %g s)",
+                                    k, w->h_stable);
+                break;
+            }
+            n = k < 1.0 ? 1 : (int64_t)k;
+        }
+        st = DEFSIM_OK;
+        for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i)
+            st = w->backend->step(&defsim__host, (defsim_system *)w, w->bstate, h / (double)n);
+        if (substep) w->stats.substeps += n;
+        if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
+        /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
+        memcpy(w->x, w->x_save, bytes);
+        memcpy(w->v, w->v_save, bytes);
+        if (w->backend->reset) w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate);
+    }
+    if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) {
         const int64_t ndof = 3 * (int64_t)w->nv;
         int ok = 1;

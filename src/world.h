@@ -94,6 +94,8 @@ struct defsim_world {
     int32_t npartial;
 
     int32_t nthreads;
+    double h_stable;          /* auto_substep: cached estimate, 0 when stale */
+    int32_t steps_since_estimate;
     defsim_stats stats;
     uint32_t step_passes;
 };
@@ -117,6 +119,9 @@ defsim_status defsim__matrix_values(defsim_world *w, const double *x,
 defsim_status defsim__matrix_product(defsim_world *w, const double *x,
                                      const defsim_matrix_coeffs *c, const double *dx,
                                      double *out);
+
+/* omega_max = sqrt(largest eigenvalue of M^-1 K(x)) over the free DOFs (system.c). */
+defsim_status defsim__omega_max(defsim_world *w, const double *x, double *omega);
 
 /* The host service table handed to backends. */
 extern const defsim_host defsim__host;

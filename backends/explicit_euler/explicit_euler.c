@@ -2,6 +2,8 @@
 /* Explicit (forward) Euler: x' = x + h v, v' = v + h M^-1 f(x, v). Built in. */
 #include "defsim/backend.h"
 
+#include <math.h>
+
 typedef struct ee_state {
     double *f;
 } ee_state;
@@ -40,6 +42,16 @@ static void ee_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->f = 0;
 }
 
+/* Amplification |1 + h lambda| <= 1 for lambda = -c/2 +- i sqrt(omega^2 - c^2/4) gives
+ * h <= c / omega^2 (underdamped); overdamped modes need h <= 2 / |lambda_max|. */
+static double ee_stable_step(double omega, double c)
+{
+    if (!(omega > 0.0)) return c > 0.0 ? 2.0 / c : 1e300;
+    if (c < 2.0 * omega) return c / (omega * omega);
+    double lam = 0.5 * (c + sqrt(c * c - 4.0 * omega * omega));
+    return 2.0 / lam;
+}
+
 const defsim_backend defsim__explicit_euler_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
@@ -50,4 +62,5 @@ const defsim_backend defsim__explicit_euler_backend = {
     .step = ee_step,
     .fini = ee_fini,
     .reset = 0,
+    .stable_step = ee_stable_step,
 };

@@ -2,6 +2,8 @@
 /* Symplectic (semi-implicit) Euler: v' = v + h M^-1 f(x, v), then x' = x + h v'. Built in. */
 #include "defsim/backend.h"
 
+#include <math.h>
+
 typedef struct se_state {
     double *f;
 } se_state;
@@ -40,6 +42,16 @@ static void se_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->f = 0;
 }
 
+/* For x'' = -omega^2 x - c x' the step matrix has determinant 1 - h c and trace
+ * 2 - h c - h^2 omega^2; both roots lie in the unit disc iff h c <= 2 and
+ * h^2 omega^2 + 2 h c <= 4. */
+static double se_stable_step(double omega, double c)
+{
+    if (!(omega > 0.0)) return c > 0.0 ? 2.0 / c : 1e300;
+    double h = (-c + sqrt(c * c + 4.0 * omega * omega)) / (omega * omega);
+    return c > 0.0 && 2.0 / c < h ? 2.0 / c : h;
+}
+
 const defsim_backend defsim__symplectic_euler_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
@@ -50,4 +62,5 @@ const defsim_backend defsim__symplectic_euler_backend = {
     .step = se_step,
     .fini = se_fini,
     .reset = 0,
+    .stable_step = se_stable_step,
 };

@@ -157,6 +157,10 @@ typedef struct defsim_backend {
     void (*fini)(const defsim_host *host, defsim_system *sys, void *state);
     /// Optional (NULL: nothing to do): the host set the state between steps (history to drop).
     defsim_status (*reset)(const defsim_host *host, defsim_system *sys, void *state);
+    /// Optional (NULL: no step-size limit, as for implicit backends): the largest stable step
+    /// for a linear oscillator of angular frequency omega (rad/s) with damping rate c (1/s),
+    /// i.e. x'' = -omega^2 x - c x'. Returns 0 if no step is stable.
+    double (*stable_step)(double omega, double c);
 } defsim_backend;
 
 /// Registers a backend for all worlds created after the call. The table must stay valid for the

@@ -111,7 +111,7 @@ static void test_register(void **state)
 {
     (void)state;
     defsim_backend b = {DEFSIM_BACKEND_ABI_VERSION, sizeof(defsim_backend), "drift", 0, 16,
-                        my_init, my_step, my_fini, NULL};
+                        my_init, my_step, my_fini, NULL, NULL};
     static defsim_backend keep;
     keep = b;
     TU_OK(defsim_register_backend(&keep));

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+#
+# One entry point for a fresh Debian/Ubuntu machine:
+#   tools/dev.sh demo    install what is missing, build, run the demo scene
+#   tools/dev.sh test    install what is missing, build, run every test
+#   tools/dev.sh deps    only install (as root) or print the apt-get line (otherwise)
+#   tools/dev.sh build   only configure and build
+#
+# Environment: DEFSIM_BUILD_DIR (default ./build), DEFSIM_JOBS (default nproc),
+# DEFSIM_CMAKE_ARGS (extra cmake arguments).
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${DEFSIM_BUILD_DIR:-$root/build}
+jobs=${DEFSIM_JOBS:-$(nproc)}
+packages="cmake ninja-build gcc g++ make pkg-config binutils libsundials-dev libsuitesparse-dev
+  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip"
+
+deps() {
+    local missing=""
+    for p in $packages; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
+    done
+    [ -z "$missing" ] && return 0
+    if [ "$(id -u)" = 0 ]; then
+        echo "== installing:$missing"
+        apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing
+    else
+        echo "Missing packages. Run as root, or install them with:" >&2
+        echo "  sudo apt-get install -y$missing" >&2
+        exit 1
+    fi
+}
+
+# A virtual environment with what the Python binding's tests need (numpy, cffi, pytest).
+# Without network access the Python tests are left out (CMake says so) and the rest runs.
+pyenv() {
+    local venv=$build/pyenv
+    if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import numpy, cffi, pytest" 2>/dev/null; then
+        mkdir -p "$build"
+        python3 -m venv "$venv" && "$venv/bin/python" -m pip install -q --disable-pip-version-check \
+            numpy cffi pytest || { echo "== no Python test environment (pip failed)"; return 0; }
+    fi
+    python_arg="-DDEFSIM_PYTHON=$venv/bin/python"
+}
+
+configure_and_build() {
+    cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release ${python_arg:-} \
+        ${DEFSIM_CMAKE_ARGS:-}
+    cmake --build "$build" -j "$jobs"
+}
+
+python_arg=""
+case "${1:-}" in
+deps) deps ;;
+build) deps; configure_and_build ;;
+test)
+    deps
+    pyenv
+    configure_and_build
+    ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 900
+    ;;
+demo)
+    deps
+    configure_and_build
+    cd "$build" && ./bin/defsim-demo --frames 60
+    ;;
+*)
+    sed -n '3,12p' "${BASH_SOURCE[0]}"
+    exit 2
+    ;;
+esac

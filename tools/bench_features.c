@@ -1,0 +1,166 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim-bench-features: what an unused feature costs. The same box beam (default 36x12x12
+ * cells, 31104 tets, stable neo-Hookean, x = 0 clamped) is stepped with symplectic Euler in
+ * variants that differ in one feature, interleaved round-robin so that machine noise hits all
+ * alike; the median time per step of each is compared with the baseline. "zero" variants have
+ * the feature present in the scene but with no effect (a damping coefficient of 0, an empty
+ * pin list, an extra body of another material without elements): the planner must skip them,
+ * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
+ * when used.
+ *
+ *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
+ */
+#include <defsim/defsim.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+typedef struct variant {
+    const char *name;
+    double gravity;          /* m/s^2 along -y */
+    double alpha, beta;      /* Rayleigh damping of the beam */
+    int pins;                /* 0: none, 1: clamp x = 0, 2: pin then unpin (empty set) */
+    int extra_body;          /* a one-vertex body of another material, no elements */
+    int springs;             /* a spring body beside the beam: -1 none, 0 with zero springs... */
+} variant;
+
+static const variant variants[] = {
+    {"baseline: gravity, clamp", 9.81, 0, 0, 1, 0, 0},
+    {"mass damping zero", 9.81, 0.0, 0, 1, 0, 0},
+    {"mass damping on (alpha 1)", 9.81, 1.0, 0, 1, 0, 0},
+    {"stiffness damping zero", 9.81, 0, 0.0, 1, 0, 0},
+    {"stiffness damping on (beta 1e-3)", 9.81, 0, 1e-3, 1, 0, 0},
+    {"gravity zero", 0.0, 0, 0, 1, 0, 0},
+    {"pins: none", 9.81, 0, 0, 0, 0, 0},
+    {"pins: pinned then unpinned", 9.81, 0, 0, 2, 0, 0},
+    {"other material present, no tets", 9.81, 0, 0, 1, 1, 0},
+    {"spring body beside (1 spring)", 9.81, 0, 0, 1, 0, 1},
+};
+enum { NV = sizeof variants / sizeof variants[0] };
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
+{
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    wd.backend = "symplectic_euler";
+    wd.gravity[1] = -v->gravity;
+    wd.num_threads = threads;
+    defsim_world *w;
+    if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m->positions;
+    bd.vertex_count = m->vertex_count;
+    bd.tets = m->tets;
+    bd.tet_count = m->tet_count;
+    bd.material.mass_damping = v->alpha;
+    bd.material.stiffness_damping = v->beta;
+    defsim_body_id b;
+    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) return NULL;
+    int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins);
+    int np = 0;
+    for (int i = 0; i < m->vertex_count; ++i)
+        if (m->positions[3 * i] == 0.0) pins[np++] = i;
+    if (v->pins >= 1) defsim_body_pin(w, b, pins, np);
+    if (v->pins == 2) defsim_body_unpin(w, b, pins, np);
+    free(pins);
+    if (v->extra_body) {
+        defsim_body_def eb;
+        defsim_body_def_init(&eb, sizeof eb);
+        double p[3] = {10, 0, 0}, mass = 1.0;
+        eb.rest_positions = p;
+        eb.vertex_count = 1;
+        eb.vertex_mass = &mass;
+        defsim_material_init(&eb.material, sizeof eb.material, DEFSIM_MODEL_COROTATED);
+        if (defsim_world_add_body(w, &eb, NULL) != DEFSIM_OK) return NULL;
+    }
+    if (v->springs) {
+        defsim_body_def sb;
+        defsim_body_def_init(&sb, sizeof sb);
+        double p[6] = {10, 0, 0, 11, 0, 0};
+        int32_t s[2] = {0, 1};
+        sb.rest_positions = p;
+        sb.vertex_count = 2;
+        sb.springs = s;
+        sb.spring_count = 1;
+        defsim_material_init(&sb.material, sizeof sb.material, DEFSIM_MODEL_SPRING);
+        if (defsim_world_add_body(w, &sb, NULL) != DEFSIM_OK) return NULL;
+    }
+    return w;
+}
+
+static void passes(uint32_t p, char *out, size_t n)
+{
+    static const char *names[] = {"springs", "stvk", "corotated", "neohookean", "snh", "gravity",
+                                  "mass_damping", "stiffness_damping", "pins", "hessian", "energy"};
+    out[0] = '\0';
+    for (int i = 0; i < 11; ++i)
+        if (p & (1u << i)) {
+            strncat(out, names[i], n - strlen(out) - 1);
+            strncat(out, " ", n - strlen(out) - 1);
+        }
+}
+
+int main(int argc, char **argv)
+{
+    int n = 12, steps = 20, rounds = 7, threads = 1;
+    for (int i = 1; i + 1 < argc; i += 2) {
+        if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
+        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
+    }
+    if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0) return 2;
+    defsim_mesh m = {.size = sizeof m};
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    if (defsim_mesh_box(lo, hi, 3 * n, n, n, &m) != DEFSIM_OK) return 1;
+    defsim_world *w[NV];
+    for (int v = 0; v < NV; ++v)
+        if (!(w[v] = make(&variants[v], &m, threads))) {
+            fprintf(stderr, "variant %s: %s\n", variants[v].name, defsim_last_error());
+            return 1;
+        }
+    double t[NV][100];
+    const double h = 1e-5;
+    for (int v = 0; v < NV; ++v) defsim_world_step(w[v], h);   /* plan and warm up */
+    for (int r = 0; r < rounds; ++r)
+        for (int v = 0; v < NV; ++v) {
+            double t0 = now();
+            for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
+            t[v][r] = (now() - t0) / steps;
+        }
+    printf("%d tets, %d threads, median of %d rounds x %d steps, variants interleaved\n\n",
+           m.tet_count, threads, rounds, steps);
+    printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
+    double base = 0;
+    for (int v = 0; v < NV; ++v) {
+        qsort(t[v], (size_t)rounds, sizeof(double), cmp);
+        double med = t[v][rounds / 2];
+        if (v == 0) base = med;
+        defsim_stats s = {.size = sizeof s};
+        defsim_world_stats(w[v], &s);
+        char p[256];
+        passes(s.passes, p, sizeof p);
+        printf("| %s | %.3f | %.3f | %s|\n", variants[v].name, 1e3 * med, med / base, p);
+        defsim_world_destroy(w[v]);
+    }
+    defsim_mesh_free(&m);
+    return 0;
+}

@@ -282,11 +282,16 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     defsim_body_def d;
     defsim_body_def_init(&d, sizeof d);
     memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
+    if (d.material.size < offsetof(defsim_material, youngs_modulus)) {
+        defsim__world_error(w, "add_body: material.size %u is too small (use "
+                               "defsim_material_init)", (unsigned)d.material.size);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     if (d.material.size < sizeof d.material) {
         /* An older material struct: keep the defaults for fields it lacks. */
         defsim_material m;
         defsim_material_init(&m, sizeof m, d.material.model);
-        memcpy(&m, &def->material, d.material.size >= sizeof(uint32_t) ? d.material.size : 0);
+        memcpy(&m, &def->material, d.material.size);
         m.size = sizeof m;
         d.material = m;
     }

@@ -181,6 +181,9 @@ static void test_bad_bodies(void **state)
     z.material.model = (defsim_model)42;
     assert_int_equal(defsim_world_add_body(w, &z, &id), DEFSIM_ERR_INVALID_MATERIAL);
     z = bd;
+    z.material.size = 0;
+    assert_int_equal(defsim_world_add_body(w, &z, &id), DEFSIM_ERR_INVALID_ARGUMENT);
+    z = bd;
     z.material.density = 0.0;   /* vertices without mass */
     assert_int_equal(defsim_world_add_body(w, &z, &id), DEFSIM_ERR_INVALID_MESH);
 

@@ -38,12 +38,12 @@ enum {
 /* ------------------------------------------------------------------------------------------ */
 /* Shared batch machinery: gather, F = Ds Dm^-1, forces h_a = -vol P g_a, scatter.             */
 
-/* Component comp of the lanes' vertices id[0 .. VW-1]. */
-DEFSIM_SIMD_INLINE vd gather(const double *x, const int32_t *id, int comp)
+/* The three coordinates of the lanes' vertices id[0 .. VW-1], lane by lane: on Zen 4 this
+ * measured faster than the hardware gathers (vgatherdpd). */
+DEFSIM_SIMD_INLINE void gather3(const double *x, const int32_t *id, vd p[3])
 {
-    vd r;
-    for (int l = 0; l < DEFSIM_VW; ++l) r[l] = x[3 * (int64_t)id[l] + comp];
-    return r;
+    for (int c = 0; c < 3; ++c)
+        for (int l = 0; l < DEFSIM_VW; ++l) p[c][l] = x[3 * (int64_t)id[l] + c];
 }
 
 /* F = Ds Dm^-1 with Ds = [x0 - x3, x1 - x3, x2 - x3] for the lanes of sub-batch s. */
@@ -51,13 +51,10 @@ DEFSIM_SIMD_INLINE void batch_deformation(const double *x, const int32_t *id, co
                                           int s, vd dm[9], vd F[9])
 {
     for (int r = 0; r < 9; ++r) dm[r] = v_load(ROW(d, DEFSIM__ROW_DMINV + r, s));
-    const int32_t *i3 = id + 3 * DEFSIM__BATCH + s * DEFSIM_VW;
-    vd ds[9];
-    for (int i = 0; i < 3; ++i) {
-        const vd p3 = gather(x, i3, i);
-        for (int a = 0; a < 3; ++a)
-            ds[3 * i + a] = gather(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, i) - p3;
-    }
+    vd p[4][3], ds[9];
+    for (int a = 0; a < 4; ++a) gather3(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, p[a]);
+    for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) ds[3 * i + a] = p[a][i] - p[3][i];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
             F[3 * i + j] = ds[3 * i + 0] * dm[0 + j] + ds[3 * i + 1] * dm[3 + j] +

@@ -110,4 +110,102 @@ DEFSIM_SIMD_INLINE vd v_log(vd x)
     return r;
 }
 
+/*
+ * Rows of three doubles (a vertex's x, y, z) to and from lane vectors. With AVX2 each row is
+ * one masked 3-double load (the mask keeps it inside the array), and 4 x 4 transposes turn
+ * rows into lanes; the generic version goes lane by lane.
+ */
+#if defined(__AVX2__)
+DEFSIM_SIMD_INLINE __m256d row3_load(const double *p)
+{
+#if defined(__AVX512VL__)
+    return _mm256_maskz_loadu_pd(0x7, p);
+#else
+    return _mm256_maskload_pd(p, _mm256_setr_epi64x(-1, -1, -1, 0));
+#endif
+}
+
+DEFSIM_SIMD_INLINE void row3_store(double *p, __m256d a)
+{
+#if defined(__AVX512VL__)
+    _mm256_mask_storeu_pd(p, 0x7, a);
+#else
+    _mm256_maskstore_pd(p, _mm256_setr_epi64x(-1, -1, -1, 0), a);
+#endif
+}
+
+/* Four rows [x y z *] to lanes X, Y, Z. */
+DEFSIM_SIMD_INLINE void rows4_to_lanes(__m256d r0, __m256d r1, __m256d r2, __m256d r3,
+                                       __m256d *X, __m256d *Y, __m256d *Z)
+{
+    const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+    const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+    *X = _mm256_permute2f128_pd(t0, t2, 0x20);
+    *Y = _mm256_permute2f128_pd(t1, t3, 0x20);
+    *Z = _mm256_permute2f128_pd(t0, t2, 0x31);
+}
+
+/* Lanes X, Y, Z to four rows [x y z z]. */
+DEFSIM_SIMD_INLINE void lanes_to_rows4(__m256d X, __m256d Y, __m256d Z, __m256d r[4])
+{
+    const __m256d t0 = _mm256_unpacklo_pd(X, Y), t1 = _mm256_unpackhi_pd(X, Y);
+    const __m256d t2 = _mm256_unpacklo_pd(Z, Z), t3 = _mm256_unpackhi_pd(Z, Z);
+    r[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    r[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    r[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+#endif
+
+/* p[c] lane l = rows[l][c]. */
+DEFSIM_SIMD_INLINE void v_gather_rows3(const double *const rows[DEFSIM_VW], vd p[3])
+{
+#if defined(__AVX2__)
+    for (int h = 0; h < DEFSIM_VW / 4; ++h) {
+        __m256d X, Y, Z;
+        rows4_to_lanes(row3_load(rows[4 * h]), row3_load(rows[4 * h + 1]),
+                       row3_load(rows[4 * h + 2]), row3_load(rows[4 * h + 3]), &X, &Y, &Z);
+#if DEFSIM_VW == 8
+        if (h == 0) {
+            p[0] = (vd)_mm512_castpd256_pd512(X);
+            p[1] = (vd)_mm512_castpd256_pd512(Y);
+            p[2] = (vd)_mm512_castpd256_pd512(Z);
+        } else {
+            p[0] = (vd)_mm512_insertf64x4((__m512d)p[0], X, 1);
+            p[1] = (vd)_mm512_insertf64x4((__m512d)p[1], Y, 1);
+            p[2] = (vd)_mm512_insertf64x4((__m512d)p[2], Z, 1);
+        }
+#else
+        p[0] = (vd)X; p[1] = (vd)Y; p[2] = (vd)Z;
+#endif
+    }
+#else
+    for (int c = 0; c < 3; ++c)
+        for (int l = 0; l < DEFSIM_VW; ++l) p[c][l] = rows[l][c];
+#endif
+}
+
+/* rows[l][c] += h[c] lane l, for the first nl lanes. */
+DEFSIM_SIMD_INLINE void v_scatter_add_rows3(double *const rows[DEFSIM_VW], const vd h[3], int nl)
+{
+#if defined(__AVX2__)
+    for (int q = 0; q < DEFSIM_VW / 4; ++q) {
+        __m256d X, Y, Z, r[4];
+#if DEFSIM_VW == 8
+        X = q ? _mm512_extractf64x4_pd((__m512d)h[0], 1) : _mm512_castpd512_pd256((__m512d)h[0]);
+        Y = q ? _mm512_extractf64x4_pd((__m512d)h[1], 1) : _mm512_castpd512_pd256((__m512d)h[1]);
+        Z = q ? _mm512_extractf64x4_pd((__m512d)h[2], 1) : _mm512_castpd512_pd256((__m512d)h[2]);
+#else
+        X = (__m256d)h[0]; Y = (__m256d)h[1]; Z = (__m256d)h[2];
+#endif
+        lanes_to_rows4(X, Y, Z, r);
+        for (int l = 0; l < 4 && 4 * q + l < nl; ++l)
+            row3_store(rows[4 * q + l], _mm256_add_pd(row3_load(rows[4 * q + l]), r[l]));
+    }
+#else
+    for (int l = 0; l < nl && l < DEFSIM_VW; ++l)
+        for (int c = 0; c < 3; ++c) rows[l][c] += h[c][l];
+#endif
+}
+
 #endif /* DEFSIM_SIMD_H */

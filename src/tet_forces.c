@@ -38,12 +38,13 @@ enum {
 /* ------------------------------------------------------------------------------------------ */
 /* Shared batch machinery: gather, F = Ds Dm^-1, forces h_a = -vol P g_a, scatter.             */
 
-/* The three coordinates of the lanes' vertices id[0 .. VW-1], lane by lane: on Zen 4 this
- * measured faster than the hardware gathers (vgatherdpd). */
+/* The three coordinates of the lanes' vertices id[0 .. VW-1] (on Zen 4, row loads and
+ * transposes measured faster than hardware gathers). */
 DEFSIM_SIMD_INLINE void gather3(const double *x, const int32_t *id, vd p[3])
 {
-    for (int c = 0; c < 3; ++c)
-        for (int l = 0; l < DEFSIM_VW; ++l) p[c][l] = x[3 * (int64_t)id[l] + c];
+    const double *rows[DEFSIM_VW];
+    for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = x + 3 * (int64_t)id[l];
+    v_gather_rows3(rows, p);
 }
 
 /* F = Ds Dm^-1 with Ds = [x0 - x3, x1 - x3, x2 - x3] for the lanes of sub-batch s. */
@@ -61,30 +62,22 @@ DEFSIM_SIMD_INLINE void batch_deformation(const double *x, const int32_t *id, co
                            ds[3 * i + 2] * dm[6 + j];
 }
 
-/* h_a[i] = -vol sum_j P_ij Dminv[a][j] (rows 3a+i of hs), h_3 = -(h_0 + h_1 + h_2) (rows 9+i). */
-DEFSIM_SIMD_INLINE void batch_forces(const vd P[9], const vd dm[9], vd nvol, double *hs, int s)
+/* h_a[i] = -vol sum_j P_ij Dminv[a][j], h_3 = -(h_0 + h_1 + h_2), added to the forces of the
+ * first nl lanes. Elements of a colour share no vertex, so neither do lanes. */
+DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9],
+                                      const vd dm[9], vd nvol, int nl)
 {
-    vd h[3][3];
+    vd h[4][3];
     for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i) {
+        for (int i = 0; i < 3; ++i)
             h[a][i] = nvol * (P[3 * i + 0] * dm[3 * a + 0] + P[3 * i + 1] * dm[3 * a + 1] +
                               P[3 * i + 2] * dm[3 * a + 2]);
-            v_store(hs + (3 * a + i) * DEFSIM__BATCH + s * DEFSIM_VW, h[a][i]);
-        }
-    for (int i = 0; i < 3; ++i)
-        v_store(hs + (9 + i) * DEFSIM__BATCH + s * DEFSIM_VW, -(h[0][i] + h[1][i] + h[2][i]));
-}
-
-/* Adds the real lanes' forces. Elements of a colour share no vertex, so neither do lanes. */
-DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const double *hs, int nl)
-{
-    for (int l = 0; l < nl; ++l)
-        for (int a = 0; a < 4; ++a) {
-            double *fa = f + 3 * (int64_t)id[a * DEFSIM__BATCH + l];
-            fa[0] += hs[(3 * a + 0) * DEFSIM__BATCH + l];
-            fa[1] += hs[(3 * a + 1) * DEFSIM__BATCH + l];
-            fa[2] += hs[(3 * a + 2) * DEFSIM__BATCH + l];
-        }
+    for (int i = 0; i < 3; ++i) h[3][i] = -(h[0][i] + h[1][i] + h[2][i]);
+    for (int a = 0; a < 4; ++a) {
+        double *rows[DEFSIM_VW];
+        for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = f + 3 * (int64_t)id[a * DEFSIM__BATCH + l];
+        v_scatter_add_rows3(rows, h[a], nl);
+    }
 }
 
 /* One kernel per model: LAW(d, s, F, P) computes P for the lanes of sub-batch s. */
@@ -98,14 +91,14 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const double
             for (int32_t b = b0; b < b1; ++b) {                                               \
                 const int32_t *id = g->bidx + 4 * DEFSIM__BATCH * (int64_t)b;                 \
                 const double *d = g->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b; \
-                _Alignas(64) double hs[12 * DEFSIM__BATCH];                                   \
-                for (int s = 0; s < NSUB; ++s) {                                              \
+                for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {              \
                     vd dm[9], F[9], P[9];                                                     \
                     batch_deformation(x, id, d, s, dm, F);                                    \
                     LAW(d, s, F, P);                                                          \
-                    batch_forces(P, dm, v_load(ROW(d, DEFSIM__ROW_NVOL, s)), hs, s);          \
+                    batch_scatter(f, id + s * DEFSIM_VW, P, dm,                               \
+                                  v_load(ROW(d, DEFSIM__ROW_NVOL, s)),                        \
+                                  g->blanes[b] - s * DEFSIM_VW);                              \
                 }                                                                             \
-                batch_scatter(f, id, hs, g->blanes[b]);                                       \
             }                                                                                 \
         }                                                                                     \
     }

@@ -10,6 +10,7 @@
 
 #include "mat3.h"
 #include "material_models.h"
+#include "tet_forces.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -122,6 +123,43 @@ typedef void (*tet_force_fn)(const defsim__group *, const double *, double *, in
 static const tet_force_fn tet_force_kernels[DEFSIM__TET_MODELS] = {
     forces_stvk, forces_corotated, forces_neohookean, forces_snh};
 
+/* The batched kernels (tet_forces.c) come in one variant per instruction set; the scalar
+ * kernels above remain the reference (DEFSIM_SIMD=scalar). */
+const defsim__tet_kernels *defsim__tet_kernels_find(const char *name)
+{
+    if (!name) return NULL;
+    if (!strcmp(name, "generic")) return &defsim__tet_kernels_generic;
+#if defined(DEFSIM_HAVE_X86_KERNELS)
+    __builtin_cpu_init();
+    if (!strcmp(name, "avx2") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+        return &defsim__tet_kernels_avx2;
+    if (!strcmp(name, "avx512") && __builtin_cpu_supports("avx512f") &&
+        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
+        return &defsim__tet_kernels_avx512;
+#endif
+    return NULL;
+}
+
+const defsim__tet_kernels *defsim__tet_kernels_best(void)
+{
+    static const char *const order[] = {"avx512", "avx2", "generic"};
+    for (int i = 0; i < 3; ++i) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(order[i]);
+        if (k) return k;
+    }
+    return &defsim__tet_kernels_generic;
+}
+
+/* The environment may force a variant (DEFSIM_SIMD=scalar|generic|avx2|avx512), for
+ * benchmarks and cross-checks; an unknown or unsupported name falls back to the best. */
+static const defsim__tet_kernels *select_tet_kernels(void)
+{
+    const char *env = getenv("DEFSIM_SIMD");
+    if (env && !strcmp(env, "scalar")) return NULL;
+    const defsim__tet_kernels *k = defsim__tet_kernels_find(env);
+    return k ? k : defsim__tet_kernels_best();
+}
+
 /* Spring direction, length and the 3x3 block Kb = k (n n^T + s (I - n n^T)), s = 1 - l0/l,
  * with s projected as the element's Hessian would be (its eigenvalues are k and k s). */
 static inline void spring_block(const double *xa, const double *xb, double k, double l0,
@@ -230,7 +268,8 @@ defsim_status defsim__forces(defsim_world *w, const double *x, const double *v, 
     if (which & DEFSIM_FORCE_ELASTIC) {
         for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
             if (w->groups[m].n == 0) continue;
-            tet_force_kernels[m](&w->groups[m], x, f, nt);
+            if (w->tet_kernels) w->tet_kernels->forces[m](&w->groups[m], x, f, nt);
+            else tet_force_kernels[m](&w->groups[m], x, f, nt);
             w->step_passes |= w->groups[m].pass;
         }
         defsim__group *sg = &w->groups[DEFSIM__TET_MODELS];
@@ -741,6 +780,7 @@ static void group_free(defsim__group *g)
 {
     free(g->idx); free(g->dminv); free(g->vol); free(g->mu); free(g->lambda);
     free(g->k); free(g->l0); free(g->beta); free(g->color_ptr); free(g->blk);
+    free(g->bcolor_ptr); free(g->bidx); free(g->bdata); free(g->blanes);
     memset(g, 0, sizeof *g);
 }
 
@@ -826,6 +866,50 @@ static defsim_status color_group(defsim__group *g, int32_t nv)
     return DEFSIM_OK;
 }
 
+/* Cuts each colour of a tet group into batches of DEFSIM__BATCH elements in the SIMD layout
+ * (tet_forces.h). A colour's last batch is padded with copies of its first element: they are
+ * computed with valid data but never scattered. */
+static defsim_status pack_batches(defsim__group *g)
+{
+    const int B = DEFSIM__BATCH, rows = DEFSIM__BATCH_ROWS;
+    g->bcolor_ptr = malloc(((size_t)g->ncolors + 1) * sizeof *g->bcolor_ptr);
+    if (!g->bcolor_ptr) return DEFSIM_ERR_OUT_OF_MEMORY;
+    int32_t nb = 0;
+    for (int32_t c = 0; c < g->ncolors; ++c) {
+        g->bcolor_ptr[c] = nb;
+        nb += (g->color_ptr[c + 1] - g->color_ptr[c] + B - 1) / B;
+    }
+    g->bcolor_ptr[g->ncolors] = nb;
+    g->nbatch = nb;
+    const size_t nbs = (size_t)(nb > 0 ? nb : 1);
+    g->bidx = malloc(nbs * 4 * B * sizeof *g->bidx);
+    g->bdata = aligned_alloc(64, nbs * rows * B * sizeof *g->bdata);   /* rows * 64 bytes */
+    g->blanes = malloc(nbs);
+    if (!g->bidx || !g->bdata || !g->blanes) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t c = 0; c < g->ncolors; ++c)
+        for (int32_t b = g->bcolor_ptr[c]; b < g->bcolor_ptr[c + 1]; ++b) {
+            const int32_t first = g->color_ptr[c] + (b - g->bcolor_ptr[c]) * B;
+            const int32_t left = g->color_ptr[c + 1] - first;
+            g->blanes[b] = (uint8_t)(left < B ? left : B);
+            for (int l = 0; l < B; ++l) {
+                const int64_t e = l < g->blanes[b] ? first + l : first;
+                double *d = g->bdata + (int64_t)rows * B * b + l;
+                for (int a = 0; a < 4; ++a) g->bidx[(4 * (int64_t)b + a) * B + l] = g->idx[4 * e + a];
+                for (int r = 0; r < 9; ++r) d[(DEFSIM__ROW_DMINV + r) * B] = g->dminv[9 * e + r];
+                d[DEFSIM__ROW_NVOL * B] = -g->vol[e];
+                if (g->model == DEFSIM_MODEL_STABLE_NEOHOOKEAN) {
+                    defsim__snh_params(g->mu[e], g->lambda[e], &d[DEFSIM__ROW_P0 * B],
+                                       &d[DEFSIM__ROW_P1 * B], &d[DEFSIM__ROW_P2 * B]);
+                } else {
+                    d[DEFSIM__ROW_P0 * B] = g->mu[e];
+                    d[DEFSIM__ROW_P1 * B] = g->lambda[e];
+                    d[DEFSIM__ROW_P2 * B] = 0.0;
+                }
+            }
+        }
+    return DEFSIM_OK;
+}
+
 static const int tet_models[DEFSIM__TET_MODELS] = {
     DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED, DEFSIM_MODEL_NEOHOOKEAN,
     DEFSIM_MODEL_STABLE_NEOHOOKEAN};
@@ -902,8 +986,10 @@ static defsim_status plan_groups(defsim_world *w)
     }
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
         defsim_status st = color_group(&w->groups[m], w->nv);
+        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&w->groups[m]);
         if (st != DEFSIM_OK) return st;
     }
+    w->tet_kernels = select_tet_kernels();
     return DEFSIM_OK;
 }
 

@@ -45,6 +45,13 @@ typedef struct defsim__group {
     int32_t *blk;             /* nodes^2 n: rank of row vertex in column vertex's list */
     uint32_t pass;            /* DEFSIM_PASS_* bit */
     int model;                /* defsim_model */
+    /* SIMD batches of a tet group (tet_forces.h): colour c is batches bcolor_ptr[c] ..
+     * bcolor_ptr[c + 1] - 1; blanes[b] of a batch's lanes are real elements. */
+    int32_t nbatch;
+    int32_t *bcolor_ptr;      /* ncolors + 1 */
+    int32_t *bidx;            /* 4 DEFSIM__BATCH per batch: bidx[(4 b + a) BATCH + lane] */
+    double *bdata;            /* DEFSIM__BATCH_ROWS DEFSIM__BATCH per batch, 64-byte aligned */
+    uint8_t *blanes;          /* nbatch */
 } defsim__group;
 
 struct defsim_world {
@@ -98,6 +105,7 @@ struct defsim_world {
     int32_t steps_since_estimate;
     defsim_stats stats;
     uint32_t step_passes;
+    const struct defsim__tet_kernels *tet_kernels;   /* batched force kernels; NULL: scalar */
 };
 
 /* Internal force flag: leave pinned DOFs their force (defsim_world_forces). */

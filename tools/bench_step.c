@@ -5,7 +5,15 @@
  * E = 1 MPa, nu = 0.3, rho = 1000, gravity, x = 0 clamped. Prints the median over repeats.
  *
  *   defsim-bench-step [--model snh|nh|corotated|stvk] [--n N] [--threads T] [--steps S]
- *                     [--repeats R] [--backend NAME]
+ *                     [--repeats R] [--backend NAME] [--simd scalar|generic|avx2|avx512]
+ *                     [--stream-gbs B]
+ *
+ * After the RESULT line, a ROOFLINE line estimates the memory traffic of a step: element data
+ * streamed by the batched force kernel (vertex ids 16 B, Dm^-1 72 B, -vol 8 B, 2 or 3 model
+ * parameters), plus every per-vertex pass of a symplectic step counted once as if it came from
+ * memory (x gather, f clear and scatter, gravity, pins, finite check, the update, the saved
+ * state), against B GB/s (default 18: STREAM triad, one thread, on the reference machine).
+ * `forces_tet_steps_per_s` is the force evaluation alone (defsim_stats.time_forces).
  */
 #include <defsim/defsim.h>
 
@@ -30,7 +38,9 @@ static int cmp(const void *a, const void *b)
 int main(int argc, char **argv)
 {
     const char *model_name = "snh", *backend = "symplectic_euler";
+    const char *simd = NULL;
     int n = 18, threads = 1, steps = 20, repeats = 5;
+    double stream_gbs = 18.0;
     for (int i = 1; i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--model")) model_name = argv[i + 1];
         else if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
@@ -38,6 +48,8 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--repeats")) repeats = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--backend")) backend = argv[i + 1];
+        else if (!strcmp(argv[i], "--simd")) simd = argv[i + 1];
+        else if (!strcmp(argv[i], "--stream-gbs")) stream_gbs = atof(argv[i + 1]);
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
     defsim_model model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
@@ -47,6 +59,8 @@ int main(int argc, char **argv)
     else if (strcmp(model_name, "snh")) { fprintf(stderr, "unknown model %s\n", model_name); return 2; }
     if (n < 1 || steps < 1 || repeats < 1 || repeats > 100 || threads < 0) return 2;
 
+    /* The batched kernel variant is chosen when the world plans (DEFSIM_SIMD overrides it). */
+    if (simd) setenv("DEFSIM_SIMD", simd, 1);
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
@@ -79,6 +93,7 @@ int main(int argc, char **argv)
     free(pins);
     const double h = 1e-5;   /* well under the stable step: timing does not depend on it */
     for (int i = 0; i < 2; ++i) defsim_world_step(w, h);   /* plan, init, warm caches */
+    defsim_world_reset_stats(w);
     double t[100];
     for (int r = 0; r < repeats; ++r) {
         double t0 = now();
@@ -98,6 +113,19 @@ int main(int argc, char **argv)
            "\"min_s\": %.6g, \"max_s\": %.6g}\n",
            backend, model_name, m.tet_count, s.threads, med, m.tet_count / med, t[0],
            t[repeats - 1]);
+    /* Element rows read: the stable neo-Hookean kernel reads mu', lambda', alpha; the others
+     * mu, lambda. Per-vertex passes, bytes per vertex: x gather 24, f clear 24, f scatter 48,
+     * gravity 56, pins 1, finite check 24, update 168 (f, m, v, x read; v, x written),
+     * saved state 96. */
+    const double elem = 16.0 + 8.0 * (10 + (model == DEFSIM_MODEL_STABLE_NEOHOOKEAN ? 3 : 2));
+    const double vert = 441.0 * m.vertex_count / m.tet_count;
+    const double rate = m.tet_count / med;
+    const double fk = s.time_forces > 0.0 ? (double)m.tet_count * s.force_evals / s.time_forces : 0.0;
+    printf("ROOFLINE {\"element_bytes\": %.0f, \"vertex_bytes\": %.1f, \"bytes_per_tet_step\": %.1f, "
+           "\"gb_per_s\": %.3g, \"stream_gb_per_s\": %.3g, \"fraction_of_stream\": %.3f, "
+           "\"forces_tet_steps_per_s\": %.4g, \"simd\": \"%s\"}\n",
+           elem, vert, elem + vert, (elem + vert) * rate * 1e-9, stream_gbs,
+           (elem + vert) * rate * 1e-9 / stream_gbs, fk, simd ? simd : "auto");
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
     return 0;

@@ -1,0 +1,55 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Batched (SIMD) elastic force kernels for the four tet models, compiled once per instruction
+ * set and chosen once at plan time (system.c). The batch layout is shared by all variants:
+ * each colour of a tet group is cut into batches of DEFSIM__BATCH elements, the last one padded
+ * with copies of its first element that are computed but never scattered.
+ */
+#ifndef DEFSIM_TET_FORCES_H
+#define DEFSIM_TET_FORCES_H
+
+#include "world.h"
+
+#include <stdint.h>
+
+/* Lanes per batch (the widest vector, AVX-512, has 8 doubles; narrower ISAs do sub-batches). */
+#define DEFSIM__BATCH 8
+
+/* Rows of a batch's data block, each DEFSIM__BATCH doubles (64-byte aligned): Dm^-1 row-major,
+ * -volume, then the model's parameters (mu, lambda; stable neo-Hookean: mu', lambda', alpha). */
+enum {
+    DEFSIM__ROW_DMINV = 0,
+    DEFSIM__ROW_NVOL = 9,
+    DEFSIM__ROW_P0 = 10,
+    DEFSIM__ROW_P1 = 11,
+    DEFSIM__ROW_P2 = 12,
+    DEFSIM__BATCH_ROWS = 13
+};
+
+typedef void (*defsim__tet_force_fn)(const defsim__group *g, const double *x, double *f,
+                                     int nthreads);
+
+typedef struct defsim__tet_kernels {
+    const char *name;       /* "generic", "avx2", "avx512" */
+    int lanes;              /* doubles per vector */
+    /* Adds the elastic forces of group g at positions x into f, by model (STVK, COROTATED,
+     * NEOHOOKEAN, STABLE_NEOHOOKEAN). */
+    defsim__tet_force_fn forces[DEFSIM__TET_MODELS];
+    /* R[9 e ..] = the rotation of SO(3) closest to F[9 e ..] (maximising tr(R^T F)), for n
+     * row-major matrices: the co-rotated kernel's polar decomposition, exposed for tests. */
+    void (*rotation)(int32_t n, const double *F, double *R);
+} defsim__tet_kernels;
+
+extern const defsim__tet_kernels defsim__tet_kernels_generic;
+#if defined(DEFSIM_HAVE_X86_KERNELS)
+extern const defsim__tet_kernels defsim__tet_kernels_avx2;
+extern const defsim__tet_kernels defsim__tet_kernels_avx512;
+#endif
+
+/* The fastest variant this CPU runs. */
+const defsim__tet_kernels *defsim__tet_kernels_best(void);
+
+/* The variant of that name if it is built and this CPU runs it, else NULL. */
+const defsim__tet_kernels *defsim__tet_kernels_find(const char *name);
+
+#endif /* DEFSIM_TET_FORCES_H */

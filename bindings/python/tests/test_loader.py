@@ -3,6 +3,7 @@
 with a changed environment and reports the outcome by exit code."""
 from __future__ import annotations
 
+import ctypes.util
 import os
 import re
 import shutil
@@ -24,14 +25,14 @@ sys.exit(0)
 """
 
 
-def _import_rc(env_changes: dict) -> int:
+def _import_rc(env_changes: dict, probe: str = PROBE) -> int:
     env = dict(os.environ)
     for k, v in env_changes.items():
         if v is None:
             env.pop(k, None)
         else:
             env[k] = v
-    return subprocess.run([sys.executable, "-c", PROBE], env=env, timeout=60).returncode
+    return subprocess.run([sys.executable, "-c", probe], env=env, timeout=60).returncode
 
 
 def _header_dirs():
@@ -80,6 +81,25 @@ def test_version_check(tmp_path, delta: int, ok: bool) -> None:
                      "DEFSIM_LIBRARY": os.path.abspath(_native.library_path)
                      if os.path.sep in _native.library_path else _native.library_path})
     assert rc == (0 if ok else 3)
+
+
+def test_library_from_the_loader_search_path() -> None:
+    # Without DEFSIM_LIBRARY and without a bundled copy, the package asks the dynamic loader
+    # for the SONAME, libdefsim.so.<major>, which LD_LIBRARY_PATH can point at.
+    lib = os.environ.get("DEFSIM_LIBRARY", "")
+    soname = f"libdefsim.so.{defsim.header_version()[0]}"
+    if (_native._bundled_library() or not sys.platform.startswith("linux")
+            or not os.path.isfile(os.path.join(os.path.dirname(lib), soname))):
+        pytest.skip("needs a build tree's library named by DEFSIM_LIBRARY, and no bundled one")
+    probe = f"import sys, defsim; sys.exit(0 if defsim.library_path == {soname!r} else 4)"
+    headers = _header_dirs()
+    inc = os.pathsep.join(os.path.dirname(os.path.dirname(h)) for h in headers.values())
+    assert _import_rc({"DEFSIM_LIBRARY": None, "DEFSIM_INCLUDE_PATH": inc,
+                       "LD_LIBRARY_PATH": os.path.dirname(os.path.abspath(lib))}, probe) == 0
+    # And with nothing to find, the import fails cleanly (unless one is installed system-wide).
+    if ctypes.util.find_library("defsim") is None:
+        assert _import_rc({"DEFSIM_LIBRARY": None, "DEFSIM_INCLUDE_PATH": inc,
+                           "LD_LIBRARY_PATH": None}) == 3
 
 
 def test_bundled_modules_are_added_to_the_backend_path(tmp_path, monkeypatch) -> None:

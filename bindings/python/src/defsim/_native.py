@@ -8,14 +8,14 @@ lazily, so a function that the header declares but the library lacks fails only 
 Where the library comes from, first match wins:
   1. ``DEFSIM_LIBRARY``: a path to the shared library (an error if it cannot be opened);
   2. the library bundled in the package (``defsim/libdefsim.so``, put there by pip install);
-  3. the system's search paths (``ctypes.util.find_library("defsim")``).
+  3. the dynamic loader's search path (LD_LIBRARY_PATH, its cache, the default directories),
+     as ``libdefsim.so.<major>`` (the SONAME), then ``libdefsim.so``.
 Where the header comes from: the directories in ``DEFSIM_INCLUDE_PATH`` (``os.pathsep``-separated),
 then the package's bundled ``defsim/include``, then ``include`` and ``../include`` beside the
 library, then /usr/local/include and /usr/include. ``defsim/version.h`` is found the same way.
 """
 from __future__ import annotations
 
-import ctypes.util
 import os
 import sys
 from typing import Any, List, Optional, Tuple
@@ -27,18 +27,20 @@ from ._cheader import HeaderError, eval_int, preprocess
 _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
 
 
-def _library_candidates() -> Tuple[List[str], bool]:
-    """Returns the paths or names to try and whether the first one was asked for explicitly."""
-    env = os.environ.get("DEFSIM_LIBRARY")
-    if env:
-        return [env], True
-    names = {"darwin": ["libdefsim.dylib"], "win32": ["defsim.dll"]}.get(
-        sys.platform, ["libdefsim.so"])
-    found = [os.path.join(_PKG_DIR, n) for n in names if os.path.isfile(os.path.join(_PKG_DIR, n))]
-    system = ctypes.util.find_library("defsim")
-    if system:
-        found.append(system)
-    return found, False
+def _bundled_library() -> Optional[str]:
+    name = {"darwin": "libdefsim.dylib", "win32": "defsim.dll"}.get(sys.platform, "libdefsim.so")
+    path = os.path.join(_PKG_DIR, name)
+    return path if os.path.isfile(path) else None
+
+
+def _system_names(major: int) -> List[str]:
+    """Names for the dynamic loader, which searches LD_LIBRARY_PATH, its cache and the default
+    directories: the SONAME of this major version first."""
+    if sys.platform == "darwin":
+        return [f"libdefsim.{major}.dylib", "libdefsim.dylib"]
+    if sys.platform == "win32":
+        return ["defsim.dll"]
+    return [f"libdefsim.so.{major}", "libdefsim.so"]
 
 
 def _include_path(library: Optional[str]) -> List[str]:
@@ -52,14 +54,11 @@ def _include_path(library: Optional[str]) -> List[str]:
 
 
 def _open() -> Tuple[cffi.FFI, Any, str, str, int, str]:
-    candidates, explicit = _library_candidates()
-    if not candidates:
-        raise ImportError(
-            "defsim: libdefsim not found: not bundled with the package, not in the system's "
-            "library paths, and DEFSIM_LIBRARY is not set")
-    # The header that matches the library: search beside the first candidate that is a path.
-    library_hint = next((c for c in candidates if os.path.sep in c), None)
-    include = _include_path(library_hint)
+    explicit = os.environ.get("DEFSIM_LIBRARY") or None
+    first = explicit or _bundled_library()
+    # The header that matches the library is searched beside it first (a build tree or an
+    # install prefix), after DEFSIM_INCLUDE_PATH and the bundled copy.
+    include = _include_path(first)
     try:
         decls, macros = preprocess(os.path.join("defsim", "defsim.h"), include)
         header_version = eval_int(macros["DEFSIM_VERSION_NUMBER"])
@@ -67,6 +66,8 @@ def _open() -> Tuple[cffi.FFI, Any, str, str, int, str]:
     except (HeaderError, KeyError, OSError) as exc:
         raise ImportError(f"defsim: cannot read the public header defsim/defsim.h "
                           f"(searched {include}): {exc}") from exc
+    candidates = [explicit] if explicit else (
+        ([first] if first else []) + _system_names(header_version // 10000))
     ffi = cffi.FFI()
     try:
         ffi.cdef(decls)
@@ -83,7 +84,8 @@ def _open() -> Tuple[cffi.FFI, Any, str, str, int, str]:
             continue
         break
     else:
-        raise ImportError("defsim: no usable libdefsim: " + "; ".join(errors))
+        raise ImportError("defsim: libdefsim not found (not bundled with the package, not in "
+                          "the loader's search path, DEFSIM_LIBRARY not set): " + "; ".join(errors))
     try:
         lib_version = int(lib.defsim_version_number())
     except AttributeError as exc:

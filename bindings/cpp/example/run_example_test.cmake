@@ -1,0 +1,21 @@
+# SPDX-License-Identifier: MIT
+# Installs the build into WORK_DIR/prefix, builds the embedding example (EXAMPLE_DIR) against
+# it with find_package(defsim) (so it uses the installed defsim.hpp, defsim.h and libdefsim),
+# and runs it.
+file(REMOVE_RECURSE ${WORK_DIR})
+set(prefix ${WORK_DIR}/prefix)
+macro(run)
+  execute_process(COMMAND ${ARGV} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "failed (${rc}): ${ARGV}\n${out}\n${err}")
+  endif()
+endmacro()
+run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+if(NOT EXISTS ${prefix}/include/defsim/defsim.hpp)
+  message(FATAL_ERROR "defsim.hpp was not installed")
+endif()
+run(${CMAKE_COMMAND} -S ${EXAMPLE_DIR} -B ${WORK_DIR}/build -DCMAKE_PREFIX_PATH=${prefix}
+    -DCMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+run(${WORK_DIR}/build/defsim-embed 120)
+message(STATUS "${out}")

@@ -1,0 +1,691 @@
+// SPDX-License-Identifier: MIT
+//
+// defsim.hpp: a header-only C++17 wrapper over the C API in defsim/defsim.h.
+//
+// It adds no ABI of its own: every call goes to a defsim_* function of libdefsim, so a host
+// links libdefsim exactly as a C host does. What it adds:
+//  - RAII ownership: World and Mesh free what they own; both are move-only.
+//  - Exceptions: a failed call throws defsim::Error, which carries the status code and the
+//    library's detail message. World::try_step is the non-throwing way to step (a game loop
+//    that treats DEFSIM_ERR_UNSTABLE as a signal to shrink its step, for instance).
+//  - Checked array sizes: arrays are passed as defsim::Span (pointer and size; std::vector,
+//    std::array, C arrays and std::span convert implicitly), and sizes are checked against the
+//    world's vertex count before the C call, which cannot check them itself.
+//  - Builders: Material, WorldDef and BodyDef start from the library's defaults
+//    (defsim_*_init) and set fields with chained calls.
+//
+// Thread safety is that of the C API: a World is used from one thread at a time.
+#ifndef DEFSIM_DEFSIM_HPP
+#define DEFSIM_DEFSIM_HPP
+
+#include <defsim/defsim.h>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace defsim {
+
+/// The exception thrown by every wrapper call that fails. what() is "<status text>: <detail>".
+class Error : public std::runtime_error {
+public:
+    /// Makes an error for status code `status` with the library's (or the wrapper's) detail.
+    Error(defsim_status status, const std::string &message)
+        : std::runtime_error(std::string(defsim_status_string(status)) +
+                             (message.empty() ? "" : ": " + message)),
+          status_(status), message_(message)
+    {
+    }
+    /// The status code (a negative DEFSIM_ERR_* value).
+    defsim_status status() const noexcept { return status_; }
+    /// The detail message alone (defsim_world_last_error / defsim_last_error at the time).
+    const std::string &message() const noexcept { return message_; }
+
+private:
+    defsim_status status_;
+    std::string message_;
+};
+
+namespace detail {
+
+/// Throws for a failed call that has no world (defsim_last_error holds the detail).
+inline void check(defsim_status status)
+{
+    if (status < 0) throw Error(status, defsim_last_error());
+}
+
+/// Throws for a failed call on `world`.
+inline void check(defsim_status status, const defsim_world *world)
+{
+    if (status < 0) throw Error(status, defsim_world_last_error(world));
+}
+
+/// Throws DEFSIM_ERR_INVALID_ARGUMENT with a message of the wrapper's own.
+[[noreturn]] inline void invalid(const std::string &message)
+{
+    throw Error(DEFSIM_ERR_INVALID_ARGUMENT, message);
+}
+
+/// A size as the int32_t counts of the C API, or an error.
+inline int32_t count(std::size_t n, const char *what)
+{
+    if (n > static_cast<std::size_t>(std::numeric_limits<int32_t>::max()))
+        invalid(std::string(what) + ": too many elements for the C API");
+    return static_cast<int32_t>(n);
+}
+
+template <class C, class T, class = void>
+struct is_container_of : std::false_type {};
+template <class C, class T>
+struct is_container_of<C, T,
+    std::void_t<decltype(std::declval<C &>().data()), decltype(std::declval<C &>().size())>>
+    : std::is_convertible<decltype(std::declval<C &>().data()), T *> {};
+
+}  // namespace detail
+
+/// A non-owning view of contiguous elements: a pointer and a count, like C++20's std::span
+/// (which converts to it). Valid while what it views is alive and unchanged in size.
+template <class T>
+class Span {
+public:
+    using element_type = T;
+    using value_type = std::remove_cv_t<T>;
+    using size_type = std::size_t;
+    using iterator = T *;
+
+    /// An empty view.
+    constexpr Span() noexcept = default;
+    /// A view of `size` elements at `data`.
+    constexpr Span(T *data, std::size_t size) noexcept : data_(data), size_(size) {}
+    /// A view of a C array.
+    template <std::size_t N>
+    constexpr Span(T (&array)[N]) noexcept : data_(array), size_(N) {}
+    /// A view of a container with data() and size() (std::vector, std::array, std::span).
+    template <class C, std::enable_if_t<detail::is_container_of<C, T>::value &&
+                                        !std::is_same<std::decay_t<C>, Span>::value, int> = 0>
+    constexpr Span(C &container) noexcept : data_(container.data()), size_(container.size()) {}
+    /// A read-only view of a const container (also a temporary: only for the call it is passed to).
+    template <class C, std::enable_if_t<std::is_const<T>::value &&
+                                        detail::is_container_of<const C, T>::value &&
+                                        !std::is_same<std::decay_t<C>, Span>::value, int> = 0>
+    constexpr Span(const C &container) noexcept : data_(container.data()), size_(container.size()) {}
+    /// A read-only view of a writable view.
+    template <class U, std::enable_if_t<std::is_convertible<U *, T *>::value &&
+                                        !std::is_same<U, T>::value, int> = 0>
+    constexpr Span(Span<U> other) noexcept : data_(other.data()), size_(other.size()) {}
+
+    constexpr T *data() const noexcept { return data_; }
+    constexpr std::size_t size() const noexcept { return size_; }
+    constexpr bool empty() const noexcept { return size_ == 0; }
+    constexpr T &operator[](std::size_t i) const noexcept { return data_[i]; }
+    constexpr T *begin() const noexcept { return data_; }
+    constexpr T *end() const noexcept { return data_ + size_; }
+
+private:
+    T *data_ = nullptr;
+    std::size_t size_ = 0;
+};
+
+/// Constitutive models (defsim_model).
+enum class Model : int {
+    spring = DEFSIM_MODEL_SPRING,
+    stvk = DEFSIM_MODEL_STVK,
+    corotated = DEFSIM_MODEL_COROTATED,
+    neohookean = DEFSIM_MODEL_NEOHOOKEAN,
+    stable_neohookean = DEFSIM_MODEL_STABLE_NEOHOOKEAN
+};
+
+/// Hessian projection of implicit backends (defsim_projection).
+enum class Projection : int {
+    none = DEFSIM_PROJECTION_NONE,
+    clamp = DEFSIM_PROJECTION_CLAMP,
+    abs = DEFSIM_PROJECTION_ABS
+};
+
+/// The library's version number (major * 10000 + minor * 100 + patch).
+inline int32_t library_version() noexcept { return defsim_version_number(); }
+
+/// True if the linked library can serve this header: same major version, at least as new.
+inline bool library_compatible() noexcept
+{
+    const int32_t v = defsim_version_number();
+    return v / 10000 == DEFSIM_VERSION_NUMBER / 10000 && v >= DEFSIM_VERSION_NUMBER;
+}
+
+/// Material parameters (defsim_material), SI units, starting from the model's defaults.
+/// Setters return *this; the library checks the values when the material is used.
+class Material {
+public:
+    /// The defaults of `model` (defsim_material_init).
+    explicit Material(Model model = Model::stable_neohookean) noexcept
+    {
+        defsim_material_init(&m_, sizeof m_, static_cast<defsim_model>(model));
+    }
+    /// Wraps a C material (its size must be set, e.g. by defsim_material_init).
+    explicit Material(const defsim_material &m) noexcept : m_(m) {}
+
+    Model model() const noexcept { return static_cast<Model>(m_.model); }
+    /// Young's modulus E in Pa (tet models).
+    Material &youngs_modulus(double E) noexcept { m_.youngs_modulus = E; return *this; }
+    /// Poisson ratio nu in [0, 0.5) (tet models).
+    Material &poisson_ratio(double nu) noexcept { m_.poisson_ratio = nu; return *this; }
+    /// Density in kg/m^3 (lumped tet masses).
+    Material &density(double rho) noexcept { m_.density = rho; return *this; }
+    /// Spring stiffness k in N/m for every spring of the body.
+    Material &stiffness(double k) noexcept { m_.stiffness = k; return *this; }
+    /// Mass in kg added to every vertex of the body.
+    Material &vertex_mass(double m) noexcept { m_.vertex_mass = m; return *this; }
+    /// Rayleigh alpha in 1/s (damping force -alpha M v).
+    Material &mass_damping(double alpha) noexcept { m_.mass_damping = alpha; return *this; }
+    /// Rayleigh beta in s (damping force -beta K(x) v).
+    Material &stiffness_damping(double beta) noexcept { m_.stiffness_damping = beta; return *this; }
+
+    double youngs_modulus() const noexcept { return m_.youngs_modulus; }
+    double poisson_ratio() const noexcept { return m_.poisson_ratio; }
+    double density() const noexcept { return m_.density; }
+    double stiffness() const noexcept { return m_.stiffness; }
+    double vertex_mass() const noexcept { return m_.vertex_mass; }
+    double mass_damping() const noexcept { return m_.mass_damping; }
+    double stiffness_damping() const noexcept { return m_.stiffness_damping; }
+
+    /// The C struct.
+    const defsim_material &c_struct() const noexcept { return m_; }
+
+private:
+    defsim_material m_;
+};
+
+/// Result of material_eval: energy density (J/m^3), first Piola-Kirchhoff stress (row-major,
+/// Pa) and its derivative, dPdF[9 * (3 i + j) + (3 k + l)] = dP_ij / dF_kl.
+struct MaterialEval {
+    double psi = 0.0;
+    std::array<double, 9> P{};
+    std::array<double, 81> dPdF{};
+};
+
+/// Evaluates a tet material at a deformation gradient F (row-major) with defsim_material_eval.
+/// Throws Error: DEFSIM_ERR_INVALID_ARGUMENT (spring model, non-finite F),
+/// DEFSIM_ERR_INVALID_MATERIAL, DEFSIM_ERR_UNSTABLE (neo-Hookean at det F <= 0).
+inline MaterialEval material_eval(const Material &material, const std::array<double, 9> &F)
+{
+    MaterialEval r;
+    detail::check(defsim_material_eval(&material.c_struct(), F.data(), &r.psi, r.P.data(),
+                                       r.dPdF.data()));
+    return r;
+}
+
+/// A mesh whose arrays the library allocated (defsim_mesh); freed by the destructor. Move-only.
+class Mesh {
+public:
+    /// An empty mesh.
+    Mesh() noexcept { clear(); }
+    ~Mesh() { defsim_mesh_free(&m_); }
+    Mesh(const Mesh &) = delete;
+    Mesh &operator=(const Mesh &) = delete;
+    Mesh(Mesh &&other) noexcept : m_(other.m_) { other.clear(); }
+    Mesh &operator=(Mesh &&other) noexcept
+    {
+        if (this != &other) {
+            defsim_mesh_free(&m_);
+            m_ = other.m_;
+            other.clear();
+        }
+        return *this;
+    }
+
+    /// Takes ownership of a mesh filled by a defsim_mesh_* function (the argument is left empty).
+    static Mesh adopt(defsim_mesh &mesh) noexcept
+    {
+        Mesh r;
+        r.m_ = mesh;
+        r.m_.size = sizeof r.m_;
+        std::memset(&mesh, 0, sizeof mesh);
+        mesh.size = sizeof mesh;
+        return r;
+    }
+
+    /// A box of nx * ny * nz cells on [lo, hi], 6 tets per cell, with its boundary triangles
+    /// (defsim_mesh_box). Throws Error (DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_OUT_OF_MEMORY).
+    static Mesh box(const std::array<double, 3> &lo, const std::array<double, 3> &hi, int32_t nx,
+                    int32_t ny, int32_t nz)
+    {
+        Mesh r;
+        detail::check(defsim_mesh_box(lo.data(), hi.data(), nx, ny, nz, &r.m_));
+        return r;
+    }
+
+    int32_t vertex_count() const noexcept { return m_.vertex_count; }
+    int32_t tet_count() const noexcept { return m_.tet_count; }
+    int32_t triangle_count() const noexcept { return m_.triangle_count; }
+    int32_t spring_count() const noexcept { return m_.spring_count; }
+    /// 3 * vertex_count() coordinates (m).
+    Span<const double> positions() const noexcept
+    {
+        return {m_.positions, 3 * static_cast<std::size_t>(m_.vertex_count)};
+    }
+    /// 4 vertex indices per tet.
+    Span<const int32_t> tets() const noexcept
+    {
+        return {m_.tets, 4 * static_cast<std::size_t>(m_.tet_count)};
+    }
+    /// 3 vertex indices per triangle (outward boundary of the tets, or cloth faces).
+    Span<const int32_t> triangles() const noexcept
+    {
+        return {m_.triangles, 3 * static_cast<std::size_t>(m_.triangle_count)};
+    }
+    /// 2 vertex indices per spring.
+    Span<const int32_t> springs() const noexcept
+    {
+        return {m_.springs, 2 * static_cast<std::size_t>(m_.spring_count)};
+    }
+    /// The C struct (still owned by this Mesh).
+    const defsim_mesh &c_struct() const noexcept { return m_; }
+
+private:
+    void clear() noexcept
+    {
+        std::memset(&m_, 0, sizeof m_);
+        m_.size = sizeof m_;
+    }
+    defsim_mesh m_;
+};
+
+/// A body handle (defsim_body_id): a small value, not a pointer. The default is the null id.
+class Body {
+public:
+    constexpr Body() noexcept = default;
+    constexpr explicit Body(defsim_body_id id) noexcept : id_(id) {}
+    constexpr defsim_body_id id() const noexcept { return id_; }
+    constexpr uint32_t index() const noexcept { return id_.index; }
+    constexpr uint32_t generation() const noexcept { return id_.generation; }
+    constexpr bool is_null() const noexcept { return id_.index == 0 && id_.generation == 0; }
+    friend constexpr bool operator==(Body a, Body b) noexcept
+    {
+        return a.id_.index == b.id_.index && a.id_.generation == b.id_.generation;
+    }
+    friend constexpr bool operator!=(Body a, Body b) noexcept { return !(a == b); }
+
+private:
+    defsim_body_id id_{0, 0};
+};
+
+/// Creation parameters of a body (defsim_body_def). The arrays are NOT copied here: they must
+/// stay alive until World::add_body returns (which copies them). Setters return *this.
+class BodyDef {
+public:
+    /// No geometry, stable neo-Hookean defaults (defsim_body_def_init).
+    BodyDef() noexcept { defsim_body_def_init(&d_, sizeof d_); }
+    /// The positions, tets and springs of a mesh (which must outlive add_body).
+    explicit BodyDef(const Mesh &mesh) : BodyDef()
+    {
+        rest_positions(mesh.positions());
+        tets(mesh.tets());
+        springs(mesh.springs());
+    }
+
+    /// Rest positions, 3 per vertex (m). Sets the vertex count.
+    BodyDef &rest_positions(Span<const double> xyz)
+    {
+        if (xyz.size() % 3 != 0) detail::invalid("rest_positions: size is not a multiple of 3");
+        d_.rest_positions = xyz.data();
+        d_.vertex_count = detail::count(xyz.size() / 3, "rest_positions");
+        return *this;
+    }
+    /// Tets, 4 body-local vertex indices each.
+    BodyDef &tets(Span<const int32_t> idx)
+    {
+        if (idx.size() % 4 != 0) detail::invalid("tets: size is not a multiple of 4");
+        d_.tets = idx.empty() ? nullptr : idx.data();
+        d_.tet_count = detail::count(idx.size() / 4, "tets");
+        return *this;
+    }
+    /// Springs, 2 body-local vertex indices each.
+    BodyDef &springs(Span<const int32_t> idx)
+    {
+        if (idx.size() % 2 != 0) detail::invalid("springs: size is not a multiple of 2");
+        d_.springs = idx.empty() ? nullptr : idx.data();
+        d_.spring_count = detail::count(idx.size() / 2, "springs");
+        return *this;
+    }
+    /// One stiffness (N/m) per spring; empty: material.stiffness for all.
+    BodyDef &spring_stiffness(Span<const double> k) noexcept
+    {
+        d_.spring_stiffness = k.empty() ? nullptr : k.data();
+        n_k_ = k.size();
+        return *this;
+    }
+    /// One mass (kg) per vertex; empty: lumped from density plus material.vertex_mass.
+    BodyDef &vertex_mass(Span<const double> m) noexcept
+    {
+        d_.vertex_mass = m.empty() ? nullptr : m.data();
+        n_m_ = m.size();
+        return *this;
+    }
+    /// Initial positions, 3 per vertex; empty: the rest positions.
+    BodyDef &initial_positions(Span<const double> x) noexcept
+    {
+        d_.initial_positions = x.empty() ? nullptr : x.data();
+        n_x_ = x.size();
+        return *this;
+    }
+    /// Initial velocities, 3 per vertex (m/s); empty: zero.
+    BodyDef &initial_velocities(Span<const double> v) noexcept
+    {
+        d_.initial_velocities = v.empty() ? nullptr : v.data();
+        n_v_ = v.size();
+        return *this;
+    }
+    /// The body's material.
+    BodyDef &material(const Material &m) noexcept
+    {
+        d_.material = m.c_struct();
+        return *this;
+    }
+
+    /// Throws DEFSIM_ERR_INVALID_ARGUMENT if an optional array's size does not match the counts.
+    void check_sizes() const
+    {
+        const std::size_t nv = static_cast<std::size_t>(d_.vertex_count);
+        if (d_.spring_stiffness && n_k_ != static_cast<std::size_t>(d_.spring_count))
+            detail::invalid("spring_stiffness: needs one value per spring");
+        if (d_.vertex_mass && n_m_ != nv) detail::invalid("vertex_mass: needs one value per vertex");
+        if (d_.initial_positions && n_x_ != 3 * nv)
+            detail::invalid("initial_positions: needs 3 values per vertex");
+        if (d_.initial_velocities && n_v_ != 3 * nv)
+            detail::invalid("initial_velocities: needs 3 values per vertex");
+    }
+    /// The C struct (pointing into the caller's arrays).
+    const defsim_body_def &c_struct() const noexcept { return d_; }
+
+private:
+    defsim_body_def d_;
+    std::size_t n_k_ = 0, n_m_ = 0, n_x_ = 0, n_v_ = 0;
+};
+
+/// A log sink: level 0 error, 1 warning, 2 info, 3 debug; the message is borrowed for the call.
+/// It must not throw (an exception it throws is swallowed: it cannot cross the C library).
+using LogFunction = std::function<void(int level, const char *message)>;
+
+/// Creation parameters of a world (defsim_world_def), starting from the library's defaults.
+class WorldDef {
+public:
+    WorldDef()
+    {
+        defsim_world_def_init(&d_, sizeof d_);
+        backend_ = d_.backend ? d_.backend : "";
+    }
+    /// Backend name ("explicit_euler", "symplectic_euler", "newton_cholmod", ...).
+    WorldDef &backend(std::string name)
+    {
+        backend_ = std::move(name);
+        return *this;
+    }
+    /// Gravity in m/s^2.
+    WorldDef &gravity(double x, double y, double z) noexcept
+    {
+        d_.gravity[0] = x;
+        d_.gravity[1] = y;
+        d_.gravity[2] = z;
+        return *this;
+    }
+    /// Threads for assembly; 0: OpenMP's default.
+    WorldDef &num_threads(int32_t n) noexcept { d_.num_threads = n; return *this; }
+    /// Relative tolerance of nonlinear solves.
+    WorldDef &tolerance(double tol) noexcept { d_.tolerance = tol; return *this; }
+    /// Nonlinear iterations per step.
+    WorldDef &max_iterations(int32_t n) noexcept { d_.max_iterations = n; return *this; }
+    /// Adaptive integrators: relative tolerance.
+    WorldDef &rtol(double r) noexcept { d_.rtol = r; return *this; }
+    /// Adaptive integrators: absolute tolerance (m, m/s).
+    WorldDef &atol(double a) noexcept { d_.atol = a; return *this; }
+    /// Hessian projection of implicit backends.
+    WorldDef &projection(Projection p) noexcept
+    {
+        d_.projection = static_cast<defsim_projection>(p);
+        return *this;
+    }
+    /// Adaptive BDF: maximum order 1..5.
+    WorldDef &max_order(int32_t n) noexcept { d_.max_order = n; return *this; }
+    /// Adaptive integrators: internal steps per call.
+    WorldDef &max_internal_steps(int32_t n) noexcept { d_.max_internal_steps = n; return *this; }
+    /// A log sink (see LogFunction); empty: silent.
+    WorldDef &log(LogFunction fn)
+    {
+        log_ = std::move(fn);
+        return *this;
+    }
+
+    const std::string &backend() const noexcept { return backend_; }
+    const LogFunction &log() const noexcept { return log_; }
+    /// The C struct, without the log sink; its backend pointer is valid while *this lives.
+    defsim_world_def c_struct() const noexcept
+    {
+        defsim_world_def d = d_;
+        d.backend = backend_.c_str();
+        d.log = nullptr;
+        d.log_user = nullptr;
+        return d;
+    }
+
+private:
+    defsim_world_def d_;
+    std::string backend_;
+    LogFunction log_;
+};
+
+/// An owning world handle (defsim_world). Move-only; a moved-from World is empty, and calls on
+/// it throw DEFSIM_ERR_INVALID_ARGUMENT.
+class World {
+public:
+    /// Creates a world (defsim_world_create). Throws Error: DEFSIM_ERR_BACKEND_UNAVAILABLE,
+    /// DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_OUT_OF_MEMORY.
+    explicit World(const WorldDef &def = WorldDef())
+    {
+        defsim_world_def d = def.c_struct();
+        if (def.log()) {
+            // The sink lives on the heap so that its address survives moves of the World.
+            log_ = std::make_unique<LogFunction>(def.log());
+            d.log = &World::log_trampoline;
+            d.log_user = log_.get();
+        }
+        detail::check(defsim_world_create(&d, &w_));
+    }
+    /// Takes ownership of a world made with the C API.
+    explicit World(defsim_world *adopt) noexcept : w_(adopt) {}
+    ~World() { defsim_world_destroy(w_); }
+    World(const World &) = delete;
+    World &operator=(const World &) = delete;
+    World(World &&other) noexcept : w_(other.w_), log_(std::move(other.log_)) { other.w_ = nullptr; }
+    World &operator=(World &&other) noexcept
+    {
+        if (this != &other) {
+            defsim_world_destroy(w_);
+            w_ = other.w_;
+            log_ = std::move(other.log_);
+            other.w_ = nullptr;
+        }
+        return *this;
+    }
+
+    /// The C handle (still owned by this World), or nullptr if empty.
+    defsim_world *get() const noexcept { return w_; }
+    /// Gives up ownership: the caller destroys the returned world with defsim_world_destroy.
+    /// A log sink, if any, is deliberately leaked so that it stays valid for that world.
+    defsim_world *release() noexcept
+    {
+        defsim_world *w = w_;
+        w_ = nullptr;
+        (void)log_.release();
+        return w;
+    }
+    explicit operator bool() const noexcept { return w_ != nullptr; }
+
+    /// Adds a body (defsim_world_add_body); the arrays of `def` are copied. Throws Error:
+    /// DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_INVALID_MESH, DEFSIM_ERR_INVALID_MATERIAL, ...
+    Body add_body(const BodyDef &def)
+    {
+        def.check_sizes();
+        defsim_body_id id{0, 0};
+        check(defsim_world_add_body(w_, &def.c_struct(), &id));
+        return Body(id);
+    }
+    /// Removes a body; later bodies' vertices move down. Throws DEFSIM_ERR_STALE_ID.
+    void remove_body(Body body) { check(defsim_world_remove_body(w_, body.id())); }
+    /// Pins body-local vertices where they are now. Throws DEFSIM_ERR_INVALID_ARGUMENT (index
+    /// out of range), DEFSIM_ERR_STALE_ID.
+    void pin(Body body, Span<const int32_t> vertices)
+    {
+        check(defsim_body_pin(w_, body.id(), vertices.data(),
+                              detail::count(vertices.size(), "vertices")));
+    }
+    /// Unpins body-local vertices. Same errors as pin.
+    void unpin(Body body, Span<const int32_t> vertices)
+    {
+        check(defsim_body_unpin(w_, body.id(), vertices.data(),
+                                detail::count(vertices.size(), "vertices")));
+    }
+    /// Vertices of one body. Throws DEFSIM_ERR_STALE_ID.
+    int32_t vertex_count(Body body) const
+    {
+        const int32_t n = defsim_body_vertex_count(w_, body.id());
+        if (n < 0) throw Error(static_cast<defsim_status>(n), "body is null, removed or foreign");
+        return n;
+    }
+    /// Index of a body's first vertex in the world's arrays. Throws DEFSIM_ERR_STALE_ID.
+    int32_t vertex_offset(Body body) const
+    {
+        const int32_t n = defsim_body_vertex_offset(w_, body.id());
+        if (n < 0) throw Error(static_cast<defsim_status>(n), "body is null, removed or foreign");
+        return n;
+    }
+
+    /// Total vertex count of the world (0 for an empty World).
+    int32_t vertex_count() const noexcept { return defsim_world_vertex_count(w_); }
+    /// Simulated time in seconds.
+    double time() const noexcept { return defsim_world_time(w_); }
+
+    /// Advances by h seconds. Throws Error (DEFSIM_ERR_UNSTABLE, DEFSIM_ERR_NOT_CONVERGED,
+    /// DEFSIM_ERR_INVALID_ARGUMENT); the state is then exactly as before the call.
+    void step(double h) { check(defsim_world_step(w_, h)); }
+    /// Advances by h seconds without throwing: returns the status (the state is unchanged on
+    /// error; last_error() says why).
+    defsim_status try_step(double h) noexcept { return defsim_world_step(w_, h); }
+
+    /// Copies positions (m) into out: 3 * vertex_count() doubles.
+    void get_positions(Span<double> out) const
+    {
+        check_size(out.size(), 3, "positions");
+        check(defsim_world_get_positions(w_, out.data(), vertex_count()));
+    }
+    /// Copies velocities (m/s) into out: 3 * vertex_count() doubles.
+    void get_velocities(Span<double> out) const
+    {
+        check_size(out.size(), 3, "velocities");
+        check(defsim_world_get_velocities(w_, out.data(), vertex_count()));
+    }
+    /// Copies the lumped vertex masses (kg) into out: vertex_count() doubles.
+    void get_masses(Span<double> out) const
+    {
+        check_size(out.size(), 1, "masses");
+        check(defsim_world_get_masses(w_, out.data(), vertex_count()));
+    }
+    std::vector<double> positions() const { return fetch(3, &World::get_positions); }
+    std::vector<double> velocities() const { return fetch(3, &World::get_velocities); }
+    std::vector<double> masses() const { return fetch(1, &World::get_masses); }
+
+    /// Sets positions and velocities (3 * vertex_count() each; an empty span leaves that part
+    /// unchanged). Throws DEFSIM_ERR_INVALID_ARGUMENT (size, non-finite value).
+    void set_state(Span<const double> x, Span<const double> v)
+    {
+        if (!x.empty()) check_size(x.size(), 3, "x");
+        if (!v.empty()) check_size(v.size(), 3, "v");
+        check(defsim_world_set_state(w_, x.empty() ? nullptr : x.data(),
+                                     v.empty() ? nullptr : v.data()));
+    }
+    void set_positions(Span<const double> x) { set_state(x, {}); }
+    void set_velocities(Span<const double> v) { set_state({}, v); }
+
+    /// Energies of the current state (J).
+    defsim_energy energy() const
+    {
+        defsim_energy e{};
+        check(defsim_world_energy(w_, &e));
+        return e;
+    }
+    /// Elastic forces -dE/dx (N) at the current positions into out (3 * vertex_count()).
+    void forces(Span<double> out)
+    {
+        check_size(out.size(), 3, "forces");
+        check(defsim_world_forces(w_, nullptr, out.data()));
+    }
+    /// Elastic forces at positions x into out (3 * vertex_count() each).
+    void forces(Span<const double> x, Span<double> out)
+    {
+        check_size(x.size(), 3, "x");
+        check_size(out.size(), 3, "forces");
+        check(defsim_world_forces(w_, x.data(), out.data()));
+    }
+    std::vector<double> forces()
+    {
+        std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
+        forces(Span<double>(f));
+        return f;
+    }
+
+    /// Counters and timings.
+    defsim_stats stats() const
+    {
+        defsim_stats s{};
+        s.size = sizeof s;
+        check(defsim_world_stats(w_, &s));
+        return s;
+    }
+    void reset_stats() noexcept { defsim_world_reset_stats(w_); }
+    /// Detail of the last failed call on this world ("" if none).
+    std::string last_error() const { return defsim_world_last_error(w_); }
+
+private:
+    void check(defsim_status st) const
+    {
+        if (st < 0 && !w_) throw Error(st, "the World is empty (moved from or released)");
+        detail::check(st, w_);
+    }
+    void check_size(std::size_t got, std::size_t per_vertex, const char *what) const
+    {
+        if (!w_) throw Error(DEFSIM_ERR_INVALID_ARGUMENT, "the World is empty (moved from or released)");
+        if (got != per_vertex * static_cast<std::size_t>(vertex_count()))
+            detail::invalid(std::string(what) + ": needs " + std::to_string(per_vertex) +
+                            " values per vertex of the world");
+    }
+    std::vector<double> fetch(std::size_t per_vertex,
+                              void (World::*get)(Span<double>) const) const
+    {
+        std::vector<double> r(per_vertex * static_cast<std::size_t>(vertex_count()));
+        (this->*get)(Span<double>(r));
+        return r;
+    }
+    static void log_trampoline(void *user, int level, const char *message)
+    {
+        try {
+            (*static_cast<LogFunction *>(user))(level, message);
+        } catch (...) {
+            // Exceptions cannot cross the C library; a log sink's failure is dropped.
+        }
+    }
+
+    defsim_world *w_ = nullptr;
+    std::unique_ptr<LogFunction> log_;
+};
+
+}  // namespace defsim
+
+#endif  // DEFSIM_DEFSIM_HPP

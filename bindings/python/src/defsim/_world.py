@@ -1,0 +1,568 @@
+# SPDX-License-Identifier: MIT
+"""Worlds and bodies."""
+from __future__ import annotations
+
+import dataclasses
+import enum
+from typing import Any, Callable, Iterator, List, NamedTuple, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _arrays
+from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
+                      error_from_status)
+from ._material import Material
+from ._mesh import Mesh
+from ._native import ffi, lib
+
+__all__ = ["World", "Body", "Energy", "Stats", "Pass", "Projection", "LogCallback"]
+
+#: A log sink: called with the level (0 error, 1 warning, 2 info, 3 debug) and the message.
+LogCallback = Callable[[int, str], None]
+
+
+class Projection(enum.IntEnum):
+    """How implicit backends make element Hessians positive semi-definite (``defsim_projection``)."""
+
+    NONE = 0    #: Exact Hessians (may be indefinite).
+    CLAMP = 1   #: Negative eigenvalues set to 0.
+    ABS = 2     #: Negative eigenvalues replaced by their absolute value.
+
+
+class Pass(enum.IntFlag):
+    """Passes a step ran (``Stats.passes``; the ``DEFSIM_PASS_*`` bits)."""
+
+    SPRINGS = 1 << 0
+    STVK = 1 << 1
+    COROTATED = 1 << 2
+    NEOHOOKEAN = 1 << 3
+    STABLE_NEOHOOKEAN = 1 << 4
+    GRAVITY = 1 << 5
+    MASS_DAMPING = 1 << 6
+    STIFFNESS_DAMPING = 1 << 7
+    PINS = 1 << 8
+    HESSIAN = 1 << 9
+    ENERGY = 1 << 10
+
+
+class Energy(NamedTuple):
+    """Energies of a world's state, in joules (``defsim_energy``)."""
+
+    kinetic: float          #: 1/2 v^T M v
+    elastic: float          #: springs plus tets, relative to the rest state
+    gravitational: float    #: -sum m g . x (zero at the origin)
+    total: float            #: kinetic + elastic + gravitational
+
+
+@dataclasses.dataclass(frozen=True)
+class Stats:
+    """Counters and timings of a world, cumulative since creation or ``reset_stats()``
+    (``defsim_stats``). Times are wall-clock seconds."""
+
+    passes: Pass                    #: passes of the last step
+    steps: int                      #: successful steps
+    failed_steps: int               #: steps that raised (state rolled back)
+    threads: int                    #: threads used for assembly
+    reordered_tets: int             #: rest tets with negative orientation that were reordered
+    time_step: float                #: total time inside step()
+    time_forces: float              #: force evaluation
+    time_hessian: float             #: stiffness matrix assembly
+    time_factor: float              #: sparse factorisation (implicit backends)
+    time_solve: float               #: linear solves
+    force_evals: int
+    hessian_evals: int
+    energy_evals: int
+    newton_iterations: int          #: nonlinear iterations (implicit backends)
+    line_search_backtracks: int
+    linear_solves: int
+    internal_steps: int             #: adaptive integrators
+    residual_evals: int
+    jacobian_evals: int
+    error_test_failures: int
+    convergence_failures: int
+    last_order: int                 #: adaptive BDF: order of the last internal step
+
+
+def _projection(value: Union[str, int, Projection]) -> int:
+    if isinstance(value, str):
+        try:
+            return int(Projection[value.strip().upper()])
+        except KeyError:
+            raise InvalidArgumentError(f"unknown projection {value!r}; one of none, clamp, "
+                                       f"abs") from None
+    try:
+        return int(Projection(int(value)))
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"unknown projection {value!r}") from None
+
+
+class Body:
+    """A body of a World: a small handle (index and generation), not the data.
+
+    Obtained from ``World.add_body``; it keeps its world alive. After ``remove()`` (or
+    ``World.remove_body``) the handle is stale and its methods raise StaleIdError. Two handles
+    compare equal when they name the same body of the same world.
+    """
+
+    __slots__ = ("_world", "_index", "_generation", "__weakref__")
+
+    def __init__(self, world: "World", index: int, generation: int) -> None:
+        self._world = world
+        self._index = index
+        self._generation = generation
+
+    @property
+    def world(self) -> "World":
+        return self._world
+
+    @property
+    def id(self) -> Tuple[int, int]:
+        """The C id as (index, generation)."""
+        return (self._index, self._generation)
+
+    def _cid(self) -> Any:
+        c = ffi.new("defsim_body_id *")
+        c.index = self._index
+        c.generation = self._generation
+        return c[0]
+
+    @property
+    def alive(self) -> bool:
+        """False once the body was removed or its world closed."""
+        w = self._world
+        return w._ptr is not None and lib.defsim_body_vertex_count(w._ptr, self._cid()) > 0
+
+    @property
+    def vertex_count(self) -> int:
+        """Number of vertices. Raises StaleIdError for a removed body."""
+        n = lib.defsim_body_vertex_count(self._world._live(), self._cid())
+        if n < 0:
+            raise self._stale(n)
+        return int(n)
+
+    @property
+    def vertex_offset(self) -> int:
+        """Index of the body's first vertex in the world's arrays (it changes when an earlier
+        body is removed)."""
+        n = lib.defsim_body_vertex_offset(self._world._live(), self._cid())
+        if n < 0:
+            raise self._stale(n)
+        return int(n)
+
+    @property
+    def vertices(self) -> slice:
+        """The slice of the world's vertex arrays that this body occupies."""
+        off = self.vertex_offset
+        return slice(off, off + self.vertex_count)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """A copy of this body's positions, (n, 3), m."""
+        return self._world.positions[self.vertices]
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """A copy of this body's velocities, (n, 3), m/s."""
+        return self._world.velocities[self.vertices]
+
+    def pin(self, vertices: Any) -> None:
+        """Same as ``World.pin(self, vertices)``."""
+        self._world.pin(self, vertices)
+
+    def unpin(self, vertices: Any) -> None:
+        """Same as ``World.unpin(self, vertices)``."""
+        self._world.unpin(self, vertices)
+
+    def remove(self) -> None:
+        """Same as ``World.remove_body(self)``."""
+        self._world.remove_body(self)
+
+    def _stale(self, status: int) -> Error:
+        return error_from_status(status, f"body {self.id} is removed or its world is closed")
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Body):
+            return NotImplemented
+        return self._world is other._world and self.id == other.id
+
+    def __hash__(self) -> int:
+        return hash((id(self._world), self._index, self._generation))
+
+    def __repr__(self) -> str:
+        return f"<defsim.Body index={self._index} generation={self._generation}>"
+
+
+class World:
+    """A simulation world (``defsim_world``): bodies, their state, and a backend that steps it.
+
+    Args:
+        backend: integrator name: "explicit_euler", "symplectic_euler" (built in),
+            "newton_cholmod", "sundials_ida", "sundials_kinsol" (modules), or one registered
+            with the C API. Default "symplectic_euler".
+        gravity: (gx, gy, gz) in m/s^2. Default (0, -9.81, 0).
+        num_threads: threads for force and Hessian assembly; 0: OpenMP's default.
+        tolerance: relative tolerance of nonlinear solves. Default 1e-6.
+        max_iterations: nonlinear iterations per step. Default 50.
+        rtol, atol: adaptive integrators' relative and absolute tolerances. Defaults 1e-4, 1e-6.
+        projection: "none", "clamp" or "abs" (implicit backends). Default "clamp".
+        max_order: adaptive BDF maximum order 1..5. Default 5.
+        max_internal_steps: adaptive integrators' internal steps per call. Default 100000.
+        log: optional callable(level, message) that receives the library's log messages.
+            Exceptions it raises are printed (as for any cffi callback) and otherwise ignored.
+
+    Arguments left as None take the library's defaults (``defsim_world_def_init``).
+    Raises BackendUnavailableError (unknown backend, or its module failed to load),
+    InvalidArgumentError (bad option values).
+
+    Arrays: ``positions``, ``velocities``, ``masses``, ``forces()`` return new numpy arrays
+    (copies; the library keeps its own state). Positions, velocities and forces have shape
+    (n, 3), vertices in the order the bodies were added. To avoid an allocation per frame, pass
+    a preallocated array to ``get_positions(out)`` / ``get_velocities(out)``.
+
+    A world is not thread-safe: use it from one thread at a time. ``close()`` (or a ``with``
+    block) frees it at once; otherwise it is freed when garbage-collected.
+    """
+
+    def __init__(self, backend: Optional[str] = None, *, gravity: Any = None,
+                 num_threads: Optional[int] = None, tolerance: Optional[float] = None,
+                 max_iterations: Optional[int] = None, rtol: Optional[float] = None,
+                 atol: Optional[float] = None,
+                 projection: Optional[Union[str, int, Projection]] = None,
+                 max_order: Optional[int] = None, max_internal_steps: Optional[int] = None,
+                 log: Optional[LogCallback] = None) -> None:
+        self._ptr: Any = None
+        self._bodies: List[Body] = []
+        self._log_cb: Any = None
+        d = ffi.new("defsim_world_def *")
+        lib.defsim_world_def_init(d, ffi.sizeof("defsim_world_def"))
+        name_buf = None
+        if backend is not None:
+            if not isinstance(backend, str):
+                raise InvalidArgumentError("backend must be a string")
+            name_buf = ffi.new("char[]", backend.encode("utf-8"))
+            d.backend = name_buf
+        if gravity is not None:
+            d.gravity = list(_arrays.triple(gravity, "gravity"))
+        if num_threads is not None:
+            d.num_threads = _arrays.c_int(num_threads, "num_threads")
+        if tolerance is not None:
+            d.tolerance = _arrays.c_double(tolerance, "tolerance")
+        if max_iterations is not None:
+            d.max_iterations = _arrays.c_int(max_iterations, "max_iterations")
+        if rtol is not None:
+            d.rtol = _arrays.c_double(rtol, "rtol")
+        if atol is not None:
+            d.atol = _arrays.c_double(atol, "atol")
+        if projection is not None:
+            d.projection = _projection(projection)
+        if max_order is not None:
+            d.max_order = _arrays.c_int(max_order, "max_order")
+        if max_internal_steps is not None:
+            d.max_internal_steps = _arrays.c_int(max_internal_steps, "max_internal_steps")
+        if log is not None:
+            if not callable(log):
+                raise InvalidArgumentError("log must be callable(level, message)")
+
+            def _sink(user: Any, level: int, message: Any) -> None:
+                log(int(level), ffi.string(message).decode("utf-8", "replace"))
+
+            self._log_cb = ffi.callback("defsim_log_fn", _sink)
+            d.log = self._log_cb
+        out = ffi.new("defsim_world **")
+        check(lib.defsim_world_create(d, out))
+        self._ptr = ffi.gc(out[0], lib.defsim_world_destroy)
+        self._backend = ffi.string(d.backend).decode("utf-8")
+        self._gravity = (float(d.gravity[0]), float(d.gravity[1]), float(d.gravity[2]))
+        del name_buf
+
+    # -- lifetime --------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Destroys the world now. Further calls raise InvalidArgumentError; bodies go stale.
+        Closing twice is allowed."""
+        if self._ptr is not None:
+            ptr, self._ptr = self._ptr, None
+            ffi.release(ptr)    # runs defsim_world_destroy while the log callback is alive
+        self._bodies = []
+
+    @property
+    def closed(self) -> bool:
+        return self._ptr is None
+
+    def __enter__(self) -> "World":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        # Destroy before the attributes (the log callback) go.
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def _live(self) -> Any:
+        if self._ptr is None:
+            raise InvalidArgumentError("the world is closed")
+        return self._ptr
+
+    def _check(self, status: int) -> None:
+        if status < 0:
+            msg = ffi.string(lib.defsim_world_last_error(self._ptr)).decode("utf-8", "replace")
+            raise error_from_status(status, msg)
+
+    def _own(self, body: Body) -> Any:
+        if not isinstance(body, Body):
+            raise InvalidArgumentError("expected a defsim.Body")
+        if body._world is not self:
+            raise StaleIdError(f"body {body.id} belongs to another world", Status.STALE_ID)
+        return body._cid()
+
+    # -- properties ------------------------------------------------------------------------
+
+    @property
+    def backend(self) -> str:
+        """The backend's name."""
+        return self._backend
+
+    @property
+    def gravity(self) -> Tuple[float, float, float]:
+        """Gravity in m/s^2, as given at creation."""
+        return self._gravity
+
+    @property
+    def vertex_count(self) -> int:
+        """Total vertex count of all live bodies."""
+        return int(lib.defsim_world_vertex_count(self._live()))
+
+    @property
+    def time(self) -> float:
+        """Simulated time in seconds: the sum of h over successful steps."""
+        return float(lib.defsim_world_time(self._live()))
+
+    @property
+    def bodies(self) -> List[Body]:
+        """The live bodies, in the order they were added (a new list)."""
+        return list(self._bodies)
+
+    def __iter__(self) -> Iterator[Body]:
+        return iter(list(self._bodies))
+
+    def __len__(self) -> int:
+        return len(self._bodies)
+
+    @property
+    def last_error(self) -> str:
+        """Detail of the last failed call on this world, or ""."""
+        return ffi.string(lib.defsim_world_last_error(self._live())).decode("utf-8", "replace")
+
+    # -- bodies ----------------------------------------------------------------------------
+
+    def add_body(self, vertices: Union[Mesh, Any], tets: Any = None, springs: Any = None,
+                 material: Optional[Material] = None, *, spring_stiffness: Any = None,
+                 vertex_mass: Any = None, initial_positions: Any = None,
+                 initial_velocities: Any = None) -> Body:
+        """Adds a body; its vertices follow those of the bodies added before it. All arrays are
+        copied.
+
+        Args:
+            vertices: rest positions (n, 3) in m, or a Mesh (whose tets and springs are used
+                unless given here).
+            tets: (m, 4) vertex indices (0-based, body-local), or None.
+            springs: (s, 2) vertex indices, or None.
+            material: a Material; None: the library's default (stable neo-Hookean).
+            spring_stiffness: optional (s,) k per spring in N/m (else material.stiffness).
+            vertex_mass: optional (n,) kg per vertex (else lumped from density plus
+                material.vertex_mass).
+            initial_positions, initial_velocities: optional (n, 3); default rest and zero.
+
+        Returns the new Body. Raises InvalidArgumentError (shapes, counts), InvalidMeshError
+        (index out of range, degenerate tet, zero-length spring, non-finite coordinate, vertex
+        without mass), InvalidMaterialError (bad parameters, tets with the spring model).
+        On error the world is unchanged.
+        """
+        w = self._live()
+        if isinstance(vertices, Mesh):
+            if tets is None:
+                tets = vertices.tets
+            if springs is None:
+                springs = vertices.springs
+            vertices = vertices.positions
+        rest = _arrays.points(vertices, "vertices")
+        n = rest.shape[0]
+        t = _arrays.indices(tets, "tets", 4)
+        s = _arrays.indices(springs, "springs", 2)
+        k = None if spring_stiffness is None else _arrays.vector(
+            spring_stiffness, "spring_stiffness", s.shape[0])
+        m = None if vertex_mass is None else _arrays.vector(vertex_mass, "vertex_mass", n)
+        x0 = None if initial_positions is None else _arrays.points(
+            initial_positions, "initial_positions", n)
+        v0 = None if initial_velocities is None else _arrays.points(
+            initial_velocities, "initial_velocities", n)
+        if material is not None and not isinstance(material, Material):
+            raise InvalidArgumentError("material must be a defsim.Material")
+        d = ffi.new("defsim_body_def *")
+        lib.defsim_body_def_init(d, ffi.sizeof("defsim_body_def"))
+        # Keep every buffer referenced until the call returns (the library copies them).
+        keep = [_arrays.dptr(rest), _arrays.iptr(t), _arrays.iptr(s), _arrays.dptr(k),
+                _arrays.dptr(m), _arrays.dptr(x0), _arrays.dptr(v0)]
+        d.rest_positions, d.tets, d.springs = keep[0], keep[1], keep[2]
+        d.spring_stiffness, d.vertex_mass = keep[3], keep[4]
+        d.initial_positions, d.initial_velocities = keep[5], keep[6]
+        d.vertex_count = _arrays.c_int(n, "vertex count")
+        d.tet_count = _arrays.c_int(t.shape[0], "tet count")
+        d.spring_count = _arrays.c_int(s.shape[0], "spring count")
+        if material is not None:
+            material._fill(ffi.addressof(d, "material"))
+        out = ffi.new("defsim_body_id *")
+        self._check(lib.defsim_world_add_body(w, d, out))
+        del keep
+        body = Body(self, int(out.index), int(out.generation))
+        self._bodies.append(body)
+        return body
+
+    def remove_body(self, body: Body) -> None:
+        """Removes a body; the vertices of later bodies move down and its handle goes stale.
+        Raises StaleIdError for a removed body or one of another world."""
+        self._check(lib.defsim_world_remove_body(self._live(), self._own(body)))
+        self._bodies = [b for b in self._bodies if b != body]
+
+    def _vertex_list(self, body: Body, vertices: Any) -> np.ndarray:
+        a = np.asarray(vertices)
+        if a.dtype == np.bool_:
+            n = body.vertex_count
+            if a.shape != (n,):
+                raise InvalidArgumentError(f"vertices: a boolean mask needs shape ({n},), got "
+                                           f"{a.shape}")
+            return np.flatnonzero(a).astype(np.int32)
+        return _arrays.indices(a.reshape(-1) if a.ndim == 0 else a, "vertices", 1).reshape(-1)
+
+    def pin(self, body: Body, vertices: Any) -> None:
+        """Pins vertices of a body where they are now: their velocity becomes zero and they do
+        not move until unpinned. `vertices`: body-local indices (an int, a sequence, an int
+        array) or a boolean mask over the body's vertices. Pinning a pinned vertex is allowed.
+        Raises InvalidArgumentError (index out of range), StaleIdError."""
+        cid = self._own(body)
+        v = self._vertex_list(body, vertices)
+        self._check(lib.defsim_body_pin(self._live(), cid, _arrays.iptr(v), v.size))
+
+    def unpin(self, body: Body, vertices: Any) -> None:
+        """Unpins vertices (same arguments as pin); unpinning a free vertex is allowed."""
+        cid = self._own(body)
+        v = self._vertex_list(body, vertices)
+        self._check(lib.defsim_body_unpin(self._live(), cid, _arrays.iptr(v), v.size))
+
+    # -- simulation ------------------------------------------------------------------------
+
+    def step(self, h: float, steps: int = 1) -> None:
+        """Advances the world by `steps` steps of h seconds each with its backend.
+
+        Raises InvalidArgumentError (h not finite or <= 0), UnstableError (the state became
+        non-finite), NotConvergedError (implicit backends). A failed step leaves positions,
+        velocities and time exactly as before it; earlier steps of the same call stay done.
+        """
+        w = self._live()
+        hh = _arrays.c_double(h, "h")
+        n = _arrays.c_int(steps, "steps")
+        if n < 0:
+            raise InvalidArgumentError("steps must be >= 0")
+        for _ in range(n):
+            st = lib.defsim_world_step(w, hh)
+            if st < 0:
+                self._check(st)
+
+    def get_positions(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """Positions (n, 3) in m, written into `out` (a C-contiguous float64 array of n*3
+        values) if given, else into a new array. Returns the array."""
+        return self._get(lib.defsim_world_get_positions, out, 3, "out")
+
+    def get_velocities(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """Velocities (n, 3) in m/s; same rules as get_positions."""
+        return self._get(lib.defsim_world_get_velocities, out, 3, "out")
+
+    def _get(self, fn: Any, out: Optional[np.ndarray], width: int, name: str) -> np.ndarray:
+        w = self._live()
+        n = int(lib.defsim_world_vertex_count(w))
+        if out is None:
+            out = np.empty((n, width) if width > 1 else (n,))
+        elif (not isinstance(out, np.ndarray) or out.dtype != np.float64
+              or not out.flags.c_contiguous or not out.flags.writeable
+              or out.size != width * n):
+            raise InvalidArgumentError(
+                f"{name}: needs a writable C-contiguous float64 array of {width * n} values")
+        if n > 0:
+            self._check(fn(w, _arrays.dptr(out), n))
+        return out
+
+    @property
+    def positions(self) -> np.ndarray:
+        """A copy of the positions, (n, 3), m. Assigning sets them (``set_state``)."""
+        return self.get_positions()
+
+    @positions.setter
+    def positions(self, value: Any) -> None:
+        self.set_state(positions=value)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """A copy of the velocities, (n, 3), m/s. Assigning sets them (``set_state``)."""
+        return self.get_velocities()
+
+    @velocities.setter
+    def velocities(self, value: Any) -> None:
+        self.set_state(velocities=value)
+
+    @property
+    def masses(self) -> np.ndarray:
+        """A copy of the lumped vertex masses, (n,), kg."""
+        return self._get(lib.defsim_world_get_masses, None, 1, "out")
+
+    def set_state(self, positions: Any = None, velocities: Any = None) -> None:
+        """Sets positions and/or velocities ((n, 3) each; None: unchanged). Pinned vertices
+        take the given positions as their new targets and zero velocity. Raises
+        InvalidArgumentError (shape, non-finite value); on error nothing changes."""
+        w = self._live()
+        n = int(lib.defsim_world_vertex_count(w))
+        x = None if positions is None else _arrays.points(positions, "positions", n)
+        v = None if velocities is None else _arrays.points(velocities, "velocities", n)
+        self._check(lib.defsim_world_set_state(w, _arrays.dptr(x), _arrays.dptr(v)))
+
+    def energy(self) -> Energy:
+        """Kinetic, elastic (relative to rest), gravitational and total energy in J."""
+        e = ffi.new("defsim_energy *")
+        self._check(lib.defsim_world_energy(self._live(), e))
+        return Energy(float(e.kinetic), float(e.elastic), float(e.gravitational), float(e.total))
+
+    def forces(self, positions: Any = None) -> np.ndarray:
+        """Elastic forces -dE/dx (N) at `positions` ((n, 3); None: the current ones), as a new
+        (n, 3) array. No gravity, damping or pinning is applied."""
+        w = self._live()
+        n = int(lib.defsim_world_vertex_count(w))
+        x = None if positions is None else _arrays.points(positions, "positions", n)
+        f = np.zeros((n, 3))
+        if n > 0:
+            self._check(lib.defsim_world_forces(w, _arrays.dptr(x), _arrays.dptr(f)))
+        return f
+
+    def stats(self) -> Stats:
+        """The world's counters and timings."""
+        s = ffi.new("defsim_stats *")
+        s.size = ffi.sizeof("defsim_stats")
+        self._check(lib.defsim_world_stats(self._live(), s))
+        values = {f.name: getattr(s, f.name) for f in dataclasses.fields(Stats)}
+        values["passes"] = Pass(int(s.passes))
+        for k, v in values.items():
+            if k != "passes":
+                values[k] = float(v) if k.startswith("time_") else int(v)
+        return Stats(**values)
+
+    def reset_stats(self) -> None:
+        """Zeroes the counters and timings (not reordered_tets, threads, passes)."""
+        lib.defsim_world_reset_stats(self._live())
+
+    def __repr__(self) -> str:
+        if self._ptr is None:
+            return "<defsim.World closed>"
+        return (f"<defsim.World backend={self._backend!r} bodies={len(self._bodies)} "
+                f"vertices={self.vertex_count} t={self.time:g}>")

@@ -172,3 +172,29 @@ def test_body_handles(world: defsim.World, box: defsim.Mesh) -> None:
     with defsim.World() as other:
         c = other.add_body(box)
         assert b.id == c.id and b != c   # same id, different worlds
+
+
+def test_stable_step_and_auto_substep():
+    """A mass m on a spring k to a pinned anchor: omega = sqrt(k/m), symplectic Euler's limit
+    is 2/omega; with auto_substep a step 10x that limit runs in substeps and stays bounded."""
+    import math
+
+    m, k = 0.5, 200.0
+    w0 = math.sqrt(k / m)
+    for auto in (False, True):
+        world = defsim.World("symplectic_euler", gravity=(0, 0, 0), auto_substep=auto)
+        body = world.add_body([[0, 0, 0], [1, 0, 0]], springs=[[0, 1]],
+                              material=defsim.Material("spring", stiffness=k),
+                              vertex_mass=[m, m], initial_positions=[[0, 0, 0], [1.01, 0, 0]])
+        body.pin([0])
+        h, omega = world.stable_step()
+        assert abs(omega - w0) < 1e-4 * w0
+        assert abs(h - 2.0 / w0) < 1e-4 * h
+        if auto:
+            world.step(10 * h, steps=20)
+            assert world.stats().substeps >= 200
+            assert abs(world.positions[1, 0] - 1.0) < 0.02
+        else:
+            # Each step multiplies the amplitude by about (omega h)^2 = 400: non-finite soon.
+            with pytest.raises(defsim.UnstableError):
+                world.step(10 * h, steps=200)

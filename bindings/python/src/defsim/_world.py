@@ -81,6 +81,8 @@ class Stats:
     error_test_failures: int
     convergence_failures: int
     last_order: int                 #: adaptive BDF: order of the last internal step
+    substeps: int                   #: backend steps taken by auto_substep
+    stable_step: float              #: last stable-step estimate in s (0: none made)
 
 
 def _projection(value: Union[str, int, Projection]) -> int:
@@ -207,6 +209,9 @@ class World:
         projection: "none", "clamp" or "abs" (implicit backends). Default "clamp".
         max_order: adaptive BDF maximum order 1..5. Default 5.
         max_internal_steps: adaptive integrators' internal steps per call. Default 100000.
+        auto_substep: explicit backends split each step into substeps under the estimated
+            stable step (``stable_step()``). Default False.
+        substep_safety: fraction of the stable step that auto_substep uses. Default 0.8.
         log: optional callable(level, message) that receives the library's log messages.
             Exceptions it raises are printed (as for any cffi callback) and otherwise ignored.
 
@@ -229,6 +234,7 @@ class World:
                  atol: Optional[float] = None,
                  projection: Optional[Union[str, int, Projection]] = None,
                  max_order: Optional[int] = None, max_internal_steps: Optional[int] = None,
+                 auto_substep: Optional[bool] = None, substep_safety: Optional[float] = None,
                  log: Optional[LogCallback] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
@@ -259,6 +265,10 @@ class World:
             d.max_order = _arrays.c_int(max_order, "max_order")
         if max_internal_steps is not None:
             d.max_internal_steps = _arrays.c_int(max_internal_steps, "max_internal_steps")
+        if auto_substep is not None:
+            d.auto_substep = 1 if auto_substep else 0
+        if substep_safety is not None:
+            d.substep_safety = _arrays.c_double(substep_safety, "substep_safety")
         if log is not None:
             if not callable(log):
                 raise InvalidArgumentError("log must be callable(level, message)")
@@ -527,6 +537,16 @@ class World:
         x = None if positions is None else _arrays.points(positions, "positions", n)
         v = None if velocities is None else _arrays.points(velocities, "velocities", n)
         self._check(lib.defsim_world_set_state(w, _arrays.dptr(x), _arrays.dptr(v)))
+
+    def stable_step(self) -> Tuple[float, float]:
+        """(h, omega_max): the largest stable step (s) of the world's backend from the current
+        state, and the highest angular frequency (rad/s) of the linearised system
+        (``defsim_world_stable_step``). h is inf for implicit backends, 0 for explicit Euler
+        without damping."""
+        h = ffi.new("double *")
+        om = ffi.new("double *")
+        self._check(lib.defsim_world_stable_step(self._live(), h, om))
+        return float(h[0]), float(om[0])
 
     def energy(self) -> Energy:
         """Kinetic, elastic (relative to rest), gravitational and total energy in J."""

@@ -949,8 +949,13 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
             if (text[i] == '\n') { ++line; col = 1; }
             else ++col;
         }
-        snprintf(s->error, sizeof s->error, "%s:%d:%d: JSON syntax error near \"%.20s\"", path,
-                 line, col, text + off);
+        char near[24];
+        size_t k = 0;
+        for (; k + 1 < sizeof near && off + k < len && text[off + k] != '\n'; ++k)
+            near[k] = text[off + k] == '\r' || text[off + k] == '\t' ? ' ' : text[off + k];
+        near[k] = '\0';
+        snprintf(s->error, sizeof s->error, "%s:%d:%d: JSON syntax error near \"%s\"", path,
+                 line, col, near);
         free(text);
         return -1;
     }

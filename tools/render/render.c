@@ -89,7 +89,8 @@ static const char *FS_MESH =
     "  float hemi = 0.5 + 0.5 * dot(n, up);\n"
     "  vec3 h = normalize(key + v);\n"
     "  float s = pow(max(dot(n, h), 0.0), 48.0) * 0.25;\n"
-    "  vec3 c = v_c * (0.28 + 0.22 * hemi + 0.62 * d) + vec3(s);\n"
+    "  float fill = 0.3 * max(dot(n, v), 0.0);\n"   /* a headlight, so no face is black */
+    "  vec3 c = v_c * (0.2 + 0.2 * hemi + 0.55 * d + fill) + vec3(s);\n"
     "  color = vec4(clamp(c, 0.0, 1.0), 1.0);\n"
     "}\n";
 

@@ -452,7 +452,8 @@ finish:
                s.write_vtk ? "" : "no VTK, ", pvd.n, s.write_png ? ", PNG" : "");
     }
     if (interrupted && rc == 0) {
-        fprintf(stderr, "defsim run: interrupted; frames 0..%d are written\n", last_frame);
+        fprintf(stderr, "defsim run: interrupted after frame %d; the output up to it is complete\n",
+                last_frame);
         rc = 130;
     }
     for (int i = 0; i < pvd.n; ++i) free(pvd.files[i]);

@@ -242,6 +242,8 @@ void rd_destroy(rd_renderer *r)
             if (r->prog_ground) r->gl.glDeleteProgram(r->prog_ground);
             if (r->prog_sky) r->gl.glDeleteProgram(r->prog_sky);
         }
+        /* Unbind first, so that Mesa frees the framebuffer it made for this buffer. */
+        OSMesaMakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
         OSMesaDestroyContext(r->ctx);
     }
     free(r->buffer);

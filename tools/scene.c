@@ -9,6 +9,8 @@
  */
 #include "scene.h"
 
+#include "fileio.h"
+
 #include <cjson/cJSON.h>
 
 #include <ctype.h>
@@ -884,26 +886,6 @@ void scene_free(scene *s)
     s->nbodies = 0;
 }
 
-static char *read_text(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 4096, n = 0;
-    char *buf = malloc(cap + 1);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap) break;
-        cap *= 2;
-        char *nb = realloc(buf, cap + 1);
-        if (!nb) { free(buf); buf = NULL; }
-        else buf = nb;
-    }
-    fclose(f);
-    if (buf) buf[n] = '\0';
-    *len = n;
-    return buf;
-}
-
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides)
 {
     memset(s, 0, sizeof *s);
@@ -931,7 +913,7 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     c.s = s;
     if (base != path) snprintf(c.dir, sizeof c.dir, "%.*s", (int)(base - path), path);
     size_t len = 0;
-    char *text = read_text(path, &len);
+    char *text = tools_read_file(path, &len);
     if (!text) {
         snprintf(s->error, sizeof s->error, "%s: cannot read the scene file", path);
         return -1;

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 #include "vtk.h"
 
+#include "fileio.h"
+
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -165,26 +167,6 @@ int vtk_write_pvd(const char *path, int n, const double *times, const char *cons
 /* ------------------------------------------------------------------------------------------ */
 /* Reading back */
 
-static char *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap) break;
-        cap *= 2;
-        char *nb = realloc(buf, cap + 1);
-        if (!nb) { free(buf); buf = NULL; }
-        else buf = nb;
-    }
-    fclose(f);
-    if (buf) buf[n] = '\0';
-    *len = n;
-    return buf;
-}
-
 /* Value of attribute `name` inside the tag that starts at `tag` (up to its '>'). */
 static int attr(const char *tag, const char *name, char *out, size_t size)
 {
@@ -225,7 +207,7 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
 {
     memset(out, 0, sizeof *out);
     size_t len;
-    char *buf = slurp(path, &len);
+    char *buf = tools_read_file(path, &len);
     if (!buf) return set_err(err, errsz, "%s: cannot read: %s", path, strerror(errno));
     int rc = -1;
     char *app = strstr(buf, "<AppendedData encoding=\"raw\">");
@@ -319,7 +301,7 @@ int vtk_read_pvd(const char *path, char ***files, double **times, char *err, siz
     *files = NULL;
     *times = NULL;
     size_t len;
-    char *buf = slurp(path, &len);
+    char *buf = tools_read_file(path, &len);
     if (!buf) return set_err(err, errsz, "%s: cannot read: %s", path, strerror(errno));
     int n = 0, cap = 0;
     char **f = NULL;

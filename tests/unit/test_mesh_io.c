@@ -16,37 +16,6 @@
         if (!(fabs(a_ - b_) <= (tol))) fail_msg("%s = %.17g, expected %.17g", #a, a_, b_);      \
     } while (0)
 
-static char tmpdir[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/defsim_mesh_io_XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
-/* Writes `text` to tmpdir/name and returns the full path (static buffer per call slot). */
-static const char *write_file(const char *name, const char *text)
-{
-    static char paths[8][300];
-    static int slot;
-    char *p = paths[slot++ % 8];
-    snprintf(p, 300, "%s/%s", tmpdir, name);
-    FILE *f = fopen(p, "wb");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-    return p;
-}
-
 static defsim_mesh empty_mesh(void)
 {
     defsim_mesh m;
@@ -59,9 +28,9 @@ static defsim_mesh empty_mesh(void)
 static int error_line(void)
 {
     const char *e = defsim_last_error();
-    const char *p = strstr(e, tmpdir);
+    const char *p = strstr(e, tu_tmpdir);
     if (!p) return 0;
-    p = strchr(p + strlen(tmpdir), ':');
+    p = strchr(p + strlen(tu_tmpdir), ':');
     return p ? atoi(p + 1) : 0;
 }
 
@@ -137,11 +106,11 @@ static const char *ELE =
 static void test_tetgen(void **state)
 {
     (void)state;
-    write_file("two.node", NODE);
-    const char *ele = write_file("two.ele", ELE);
+    tu_write_file("two.node", NODE);
+    const char *ele = tu_write_file("two.ele", ELE);
     char node[300], base[300];
-    snprintf(node, sizeof node, "%s/two.node", tmpdir);
-    snprintf(base, sizeof base, "%s/two", tmpdir);
+    snprintf(node, sizeof node, "%s/two.node", tu_tmpdir);
+    snprintf(base, sizeof base, "%s/two", tu_tmpdir);
     const char *paths[3] = {node, ele, base};
     for (int k = 0; k < 3; ++k) {
         defsim_mesh m = empty_mesh();
@@ -165,8 +134,8 @@ static void test_tetgen(void **state)
 static void test_tetgen_zero_based(void **state)
 {
     (void)state;
-    write_file("z.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
-    const char *ele = write_file("z.ele", "1 4 0\n0 0 1 2 3\n");
+    tu_write_file("z.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+    const char *ele = tu_write_file("z.ele", "1 4 0\n0 0 1 2 3\n");
     defsim_mesh m = empty_mesh();
     TU_OK(defsim_mesh_load(ele, &m));
     assert_int_equal(m.vertex_count, 4);
@@ -177,43 +146,43 @@ static void test_tetgen_zero_based(void **state)
 static void test_tetgen_errors(void **state)
 {
     (void)state;
-    write_file("bad.node", NODE);
+    tu_write_file("bad.node", NODE);
     /* A tet refers to point 9 on line 3. */
-    expect_error(write_file("bad.ele", "2 4 1\n1 1 2 3 4 0\n2 1 2 3 9 0\n"),
+    expect_error(tu_write_file("bad.ele", "2 4 1\n1 1 2 3 4 0\n2 1 2 3 9 0\n"),
                  DEFSIM_ERR_INVALID_MESH, 3);
     /* Quadratic tets: the header on line 2 (after a comment). */
-    expect_error(write_file("bad.ele", "# tets\n1 10 0\n1 1 2 3 4 5 6 1 2 3 4\n"),
+    expect_error(tu_write_file("bad.ele", "# tets\n1 10 0\n1 1 2 3 4 5 6 1 2 3 4\n"),
                  DEFSIM_ERR_INVALID_MESH, 2);
     /* A missing value: the next line's tet number is read as a vertex. */
-    expect_error(write_file("bad.ele", "2 4 0\n1 1 2 3\n2 1 2 3 5\n"), DEFSIM_ERR_IO, 2);
+    expect_error(tu_write_file("bad.ele", "2 4 0\n1 1 2 3\n2 1 2 3 5\n"), DEFSIM_ERR_IO, 2);
     /* A tet repeats a vertex. */
-    expect_error(write_file("bad.ele", "1 4 0\n1 1 2 2 4\n"), DEFSIM_ERR_INVALID_MESH, 2);
+    expect_error(tu_write_file("bad.ele", "1 4 0\n1 1 2 2 4\n"), DEFSIM_ERR_INVALID_MESH, 2);
     /* A degenerate (flat) tet on line 3. */
-    write_file("flat.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 0\n");
-    expect_error(write_file("flat.ele", "2 4 0\n1 1 2 3 4\n2 1 2 3 5\n"),
+    tu_write_file("flat.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 0\n");
+    expect_error(tu_write_file("flat.ele", "2 4 0\n1 1 2 3 4\n2 1 2 3 5\n"),
                  DEFSIM_ERR_INVALID_MESH, 3);
     /* A malformed coordinate on line 4 of the .node file. */
-    write_file("coord.node", "3 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 x 0\n");
-    write_file("coord.ele", "1 4 0\n1 1 2 3 4\n");
+    tu_write_file("coord.node", "3 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 x 0\n");
+    tu_write_file("coord.ele", "1 4 0\n1 1 2 3 4\n");
     char p[300];
-    snprintf(p, sizeof p, "%s/coord.node", tmpdir);
+    snprintf(p, sizeof p, "%s/coord.node", tu_tmpdir);
     expect_error(p, DEFSIM_ERR_IO, 4);
     /* Two points with the same number (line numbers are not known then). */
-    write_file("dup.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n2 0 1 0\n4 0 0 1\n");
-    snprintf(p, sizeof p, "%s/dup.ele", tmpdir);
-    write_file("dup.ele", "1 4 0\n1 1 2 4 4\n");
+    tu_write_file("dup.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n2 0 1 0\n4 0 0 1\n");
+    snprintf(p, sizeof p, "%s/dup.ele", tu_tmpdir);
+    tu_write_file("dup.ele", "1 4 0\n1 1 2 4 4\n");
     defsim_mesh m = empty_mesh();
     assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_INVALID_MESH);
     /* 2-D .node file. */
-    write_file("flat2.node", "3 2 0 0\n1 0 0\n2 1 0\n3 0 1\n");
-    write_file("flat2.ele", "1 4 0\n1 1 2 3 4\n");
-    snprintf(p, sizeof p, "%s/flat2.node", tmpdir);
+    tu_write_file("flat2.node", "3 2 0 0\n1 0 0\n2 1 0\n3 0 1\n");
+    tu_write_file("flat2.ele", "1 4 0\n1 1 2 3 4\n");
+    snprintf(p, sizeof p, "%s/flat2.node", tu_tmpdir);
     expect_error(p, DEFSIM_ERR_INVALID_MESH, 1);
     /* The pair is incomplete, the name unknown, the argument bad. */
-    write_file("lonely.node", NODE);
-    snprintf(p, sizeof p, "%s/lonely.node", tmpdir);
+    tu_write_file("lonely.node", NODE);
+    snprintf(p, sizeof p, "%s/lonely.node", tu_tmpdir);
     assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_IO);
-    snprintf(p, sizeof p, "%s/nothing", tmpdir);
+    snprintf(p, sizeof p, "%s/nothing", tu_tmpdir);
     assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_mesh_load(NULL, &m), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_mesh_load(p, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
@@ -283,7 +252,7 @@ static void test_gmsh_v2(void **state)
     defsim_mesh b = ref_box();
     char *text = gmsh_v2_text(&b, NULL);
     defsim_mesh m = empty_mesh();
-    TU_OK(defsim_mesh_load(write_file("box.msh", text), &m));
+    TU_OK(defsim_mesh_load(tu_write_file("box.msh", text), &m));
     check_same_as_box(&m, &b);
     defsim_mesh_free(&m);
     free(text);
@@ -293,27 +262,27 @@ static void test_gmsh_v2(void **state)
     const int first_elem = 3 + 4 + 2 + b.vertex_count + 1 + 2 + 1;
     const int extra = first_elem + 3 + b.tet_count;
     text = gmsh_v2_text(&b, "99 5 2 0 1 10 20 30 40 50 60 70 80");   /* a hexahedron */
-    expect_error(write_file("hex.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    expect_error(tu_write_file("hex.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
     free(text);
     text = gmsh_v2_text(&b, "99 11 2 0 1 10 20 30 40 50 60 70 80 90 100");   /* tet10 */
-    expect_error(write_file("tet10.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    expect_error(tu_write_file("tet10.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
     free(text);
     text = gmsh_v2_text(&b, "99 4 2 0 1 10 20 30 777");   /* undefined node */
-    expect_error(write_file("undef.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    expect_error(tu_write_file("undef.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
     free(text);
     text = gmsh_v2_text(&b, "99 4 2 0 1 10 20 30");   /* too few nodes, then $EndElements */
-    expect_error(write_file("short.msh", text), DEFSIM_ERR_IO, extra + 1);
+    expect_error(tu_write_file("short.msh", text), DEFSIM_ERR_IO, extra + 1);
     free(text);
-    expect_error(write_file("bin.msh", "$MeshFormat\n2.2 1 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
-    expect_error(write_file("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
-    expect_error(write_file("notmsh.msh", "hello\n"), DEFSIM_ERR_IO, 1);
+    expect_error(tu_write_file("bin.msh", "$MeshFormat\n2.2 1 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
+    expect_error(tu_write_file("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
+    expect_error(tu_write_file("notmsh.msh", "hello\n"), DEFSIM_ERR_IO, 1);
     /* Only surface elements: no tets at all. */
-    expect_error(write_file("surf.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n"
+    expect_error(tu_write_file("surf.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n"
                             "1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n"
                             "1 2 2 0 1 1 2 3\n$EndElements\n"),
                  DEFSIM_ERR_INVALID_MESH, 0);
     /* An unterminated section. */
-    expect_error(write_file("open.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Comments\n"
+    expect_error(tu_write_file("open.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Comments\n"
                             "bla\n"), DEFSIM_ERR_IO, 4);
     defsim_mesh_free(&b);
 }
@@ -382,7 +351,7 @@ static void test_gmsh_v4(void **state)
     for (int minor = 0; minor <= 1; ++minor) {
         char *text = gmsh_v4_text(&b, minor, NULL);
         defsim_mesh m = empty_mesh();
-        TU_OK(defsim_mesh_load(write_file("box4.msh", text), &m));
+        TU_OK(defsim_mesh_load(tu_write_file("box4.msh", text), &m));
         check_same_as_box(&m, &b);
         defsim_mesh_free(&m);
         free(text);
@@ -393,11 +362,11 @@ static void test_gmsh_v4(void **state)
         const int extra = 3 + 4 + 2 + node_lines + 3 + 2 + 2 + b.tet_count + 1;
         text = gmsh_v4_text(&b, minor, minor == 1 ? "3 1 6 1\n99 10 20 30 40 50 60"
                                                   : "1 3 6 1\n99 10 20 30 40 50 60");
-        expect_error(write_file("prism4.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+        expect_error(tu_write_file("prism4.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
         free(text);
         text = gmsh_v4_text(&b, minor, minor == 1 ? "3 1 4 1\n99 10 20 30 555"
                                                   : "1 3 4 1\n99 10 20 30 555");
-        expect_error(write_file("undef4.msh", text), DEFSIM_ERR_INVALID_MESH, extra + 1);
+        expect_error(tu_write_file("undef4.msh", text), DEFSIM_ERR_INVALID_MESH, extra + 1);
         free(text);
     }
     defsim_mesh_free(&b);
@@ -442,7 +411,7 @@ static void test_obj(void **state)
         "  -4 -3 -2\n"
         "l 2 5 -1\n";
     defsim_mesh m = empty_mesh();
-    TU_OK(defsim_mesh_load(write_file("cloth.obj", obj), &m));
+    TU_OK(defsim_mesh_load(tu_write_file("cloth.obj", obj), &m));
     assert_int_equal(m.vertex_count, 10);   /* the 11th (99, 99, 99) is on the polyline */
     assert_int_equal(m.tet_count, 0);
     assert_int_equal(m.triangle_count, 2 + 3);
@@ -486,22 +455,22 @@ static void test_obj_errors(void **state)
     const char *v3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     char text[256];
     snprintf(text, sizeof text, "%s# c\nf 1 2 4\n", v3);
-    expect_error(write_file("e1.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
+    expect_error(tu_write_file("e1.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
     snprintf(text, sizeof text, "%sf 1 2 0\n", v3);
-    expect_error(write_file("e2.obj", text), DEFSIM_ERR_IO, 4);
+    expect_error(tu_write_file("e2.obj", text), DEFSIM_ERR_IO, 4);
     snprintf(text, sizeof text, "%sf 1 2\n", v3);
-    expect_error(write_file("e3.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    expect_error(tu_write_file("e3.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
     snprintf(text, sizeof text, "%sf -1 -2 -4\n", v3);
-    expect_error(write_file("e4.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    expect_error(tu_write_file("e4.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
     snprintf(text, sizeof text, "%sf 1 2 2\n", v3);
-    expect_error(write_file("e5.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    expect_error(tu_write_file("e5.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
     snprintf(text, sizeof text, "v 0 0\n%sf 1 2 3\n", v3);
-    expect_error(write_file("e6.obj", text), DEFSIM_ERR_IO, 1);
+    expect_error(tu_write_file("e6.obj", text), DEFSIM_ERR_IO, 1);
     snprintf(text, sizeof text, "%sv 0 0 0\nf 1 2 4\n", v3);   /* vertices 1 and 4 coincide */
-    expect_error(write_file("e7.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
+    expect_error(tu_write_file("e7.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
     snprintf(text, sizeof text, "%sf a b c\n", v3);
-    expect_error(write_file("e8.obj", text), DEFSIM_ERR_IO, 4);
-    expect_error(write_file("e9.obj", v3), DEFSIM_ERR_INVALID_MESH, 0);
+    expect_error(tu_write_file("e8.obj", text), DEFSIM_ERR_IO, 4);
+    expect_error(tu_write_file("e9.obj", v3), DEFSIM_ERR_INVALID_MESH, 0);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -633,13 +602,13 @@ static void test_rope(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(test_tetgen, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_tetgen_zero_based, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_tetgen_errors, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_gmsh_v2, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_gmsh_v4, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_obj, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_obj_errors, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_tetgen, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_tetgen_zero_based, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_tetgen_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_gmsh_v2, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_gmsh_v4, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_obj, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_obj_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test(test_cloth),
         cmocka_unit_test(test_rope),
     };

@@ -10,34 +10,6 @@
 #include <string.h>
 #include <unistd.h>
 
-static char tmpdir[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/defsim_scene_XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
-static const char *write_file(const char *name, const char *text)
-{
-    static char path[300];
-    snprintf(path, sizeof path, "%s/%s", tmpdir, name);
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
-    return path;
-}
-
 /* The line in "PATH:LINE:COL: ..." where PATH is `path` (0 if none). */
 static int error_line(const scene *s, const char *path)
 {
@@ -152,7 +124,7 @@ static const char *scene_text(const char *line3, const char *line6)
 
 static void expect_line(const char *text, int line)
 {
-    const char *path = write_file("s.json", text);
+    const char *path = tu_write_file("s.json", text);
     scene s;
     assert_int_equal(scene_load(&s, path, NULL, 0), -1);
     print_message("    %s\n", s.error);
@@ -163,7 +135,7 @@ static void test_errors(void **state)
 {
     (void)state;
     /* The valid base first. */
-    const char *path = write_file("ok.json", scene_text("\"threads\": 1", "\"name\": \"b\""));
+    const char *path = tu_write_file("ok.json", scene_text("\"threads\": 1", "\"name\": \"b\""));
     scene s;
     if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
     scene_free(&s);
@@ -180,19 +152,19 @@ static void test_errors(void **state)
     expect_line(scene_text("\"fps\": 7", "\"name\": \"b\""), 3);   /* 1 / (fps h) not whole */
 
     /* A mesh file that does not load: the error names the scene line and the mesh file's line. */
-    write_file("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
+    tu_write_file("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
     const char *text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
                        " \"bodies\": [{\"mesh\": \"bad.obj\"}]}\n";
-    path = write_file("m.json", text);
+    path = tu_write_file("m.json", text);
     assert_int_equal(scene_load(&s, path, NULL, 0), -1);
     print_message("    %s\n", s.error);
     assert_int_equal(error_line(&s, path), 2);
     char obj[300];
-    snprintf(obj, sizeof obj, "%s/bad.obj", tmpdir);
+    snprintf(obj, sizeof obj, "%s/bad.obj", tu_tmpdir);
     assert_int_equal(error_line(&s, obj), 3);
 
     /* A backend that does not exist fails when the world is built. */
-    path = write_file("b.json", scene_text("\"backend\": \"no_such_backend\"", "\"name\": \"b\""));
+    path = tu_write_file("b.json", scene_text("\"backend\": \"no_such_backend\"", "\"name\": \"b\""));
     if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
     defsim_world *w = NULL;
     assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_BACKEND_UNAVAILABLE);
@@ -200,7 +172,7 @@ static void test_errors(void **state)
     scene_free(&s);
 
     /* A missing file. */
-    snprintf(obj, sizeof obj, "%s/missing.json", tmpdir);
+    snprintf(obj, sizeof obj, "%s/missing.json", tu_tmpdir);
     assert_int_equal(scene_load(&s, obj, NULL, 0), -1);
 }
 
@@ -208,14 +180,14 @@ static void test_mesh_file_and_transform(void **state)
 {
     (void)state;
     /* A square cloth from OBJ, placed by a mirroring transform: positions and normals follow. */
-    write_file("sq.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    tu_write_file("sq.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
     const char *text =
         "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"
         " \"bodies\": [{\"mesh\": {\"type\": \"file\", \"path\": \"sq.obj\"},\n"
         "   \"transform\": {\"scale\": [-2, 1, 1], \"translate\": [0, 0, 3]},\n"
         "   \"material\": {\"stiffness\": 50, \"vertex_mass\": 0.5},\n"
         "   \"velocity\": [1, 0, 0]}]}\n";
-    const char *path = write_file("obj.json", text);
+    const char *path = tu_write_file("obj.json", text);
     scene s;
     if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
     const scene_body *b = &s.bodies[0];
@@ -245,8 +217,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_shipped_scenes),
         cmocka_unit_test(test_overrides),
-        cmocka_unit_test_setup_teardown(test_errors, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
     };
     return cmocka_run_group_tests_name("scene", tests, NULL, NULL);
 }

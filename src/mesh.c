@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Meshes made by the library: the box generator and the boundary surface of tet meshes. */
+/* Meshes made by the library: box, cloth and rope generators, and the boundary of tet meshes. */
 #include "mesh.h"
 
 #include "mat3.h"
@@ -142,6 +142,124 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
         defsim__set_last_error("out of memory");
         return st;
     }
+    out.size = m->size;
+    *m = out;
+    return DEFSIM_OK;
+}
+
+static int finite3(const double *p)
+{
+    return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
+}
+
+defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const double v[3],
+                                int32_t nu, int32_t nv, defsim_mesh *m)
+{
+    if (!origin || !u || !v || !m || m->size < sizeof(defsim_mesh)) {
+        defsim__set_last_error("defsim_mesh_cloth: NULL argument or mesh->size not "
+                               "sizeof(defsim_mesh)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (nu < 1 || nv < 1 || (int64_t)(nu + 1) * (nv + 1) > 20000000) {
+        defsim__set_last_error("defsim_mesh_cloth: cells %d x %d out of range", (int)nu, (int)nv);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                         u[0] * v[1] - u[1] * v[0]};
+    const double area = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    const double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    const double lv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!finite3(origin) || !finite3(u) || !finite3(v) || !(area > 1e-12 * lu * lv)) {
+        defsim__set_last_error("defsim_mesh_cloth: origin, u and v must be finite, u and v "
+                               "non-zero and not parallel");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const int64_t W = nu + 1, nvert = W * (nv + 1);
+    const int64_t nstruct = (int64_t)nu * (nv + 1) + (int64_t)(nu + 1) * nv;
+    const int64_t nshear = 2 * (int64_t)nu * nv;
+    const int64_t nbend = (int64_t)(nu - 1) * (nv + 1) + (int64_t)(nu + 1) * (nv - 1);
+    const int64_t ns = nstruct + nshear + nbend, ntri = 2 * (int64_t)nu * nv;
+    defsim_mesh out;
+    memset(&out, 0, sizeof out);
+    out.positions = malloc((size_t)nvert * 3 * sizeof *out.positions);
+    out.triangles = malloc((size_t)ntri * 3 * sizeof *out.triangles);
+    out.springs = malloc((size_t)ns * 2 * sizeof *out.springs);
+    if (!out.positions || !out.triangles || !out.springs) {
+        defsim_mesh_free(&out);
+        defsim__set_last_error("out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int32_t j = 0; j <= nv; ++j)
+        for (int32_t i = 0; i <= nu; ++i) {
+            double *p = out.positions + 3 * (i + W * j);
+            const double a = (double)i / nu, b = (double)j / nv;
+            for (int c = 0; c < 3; ++c) p[c] = origin[c] + a * u[c] + b * v[c];
+        }
+    int32_t *t = out.triangles;
+    for (int32_t j = 0; j < nv; ++j)
+        for (int32_t i = 0; i < nu; ++i) {
+            const int32_t v00 = (int32_t)(i + W * j), v10 = v00 + 1;
+            const int32_t v01 = (int32_t)(v00 + W), v11 = v01 + 1;
+            *t++ = v00; *t++ = v10; *t++ = v11;
+            *t++ = v00; *t++ = v11; *t++ = v01;
+        }
+    int32_t *s = out.springs;
+    for (int32_t j = 0; j <= nv; ++j)
+        for (int32_t i = 0; i < nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + 1 + W * j); }
+    for (int32_t j = 0; j < nv; ++j)
+        for (int32_t i = 0; i <= nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + W * (j + 1)); }
+    for (int32_t j = 0; j < nv; ++j)
+        for (int32_t i = 0; i < nu; ++i) {
+            *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + 1 + W * (j + 1));
+            *s++ = (int32_t)(i + 1 + W * j); *s++ = (int32_t)(i + W * (j + 1));
+        }
+    for (int32_t j = 0; j <= nv; ++j)
+        for (int32_t i = 0; i + 2 <= nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + 2 + W * j); }
+    for (int32_t j = 0; j + 2 <= nv; ++j)
+        for (int32_t i = 0; i <= nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + W * (j + 2)); }
+    out.vertex_count = (int32_t)nvert;
+    out.triangle_count = (int32_t)ntri;
+    out.spring_count = (int32_t)ns;
+    out.size = m->size;
+    *m = out;
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t segments,
+                               defsim_mesh *m)
+{
+    if (!a || !b || !m || m->size < sizeof(defsim_mesh)) {
+        defsim__set_last_error("defsim_mesh_rope: NULL argument or mesh->size not "
+                               "sizeof(defsim_mesh)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (segments < 1 || segments > 50000000) {
+        defsim__set_last_error("defsim_mesh_rope: segments %d out of range", (int)segments);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    if (!finite3(a) || !finite3(b) || !(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0)) {
+        defsim__set_last_error("defsim_mesh_rope: ends must be finite and distinct");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const int64_t nvert = (int64_t)segments + 1, ns = 2 * (int64_t)segments - 1;
+    defsim_mesh out;
+    memset(&out, 0, sizeof out);
+    out.positions = malloc((size_t)nvert * 3 * sizeof *out.positions);
+    out.springs = malloc((size_t)ns * 2 * sizeof *out.springs);
+    if (!out.positions || !out.springs) {
+        defsim_mesh_free(&out);
+        defsim__set_last_error("out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int64_t i = 0; i < nvert; ++i)
+        for (int c = 0; c < 3; ++c)
+            out.positions[3 * i + c] = i == segments ? b[c] : a[c] + d[c] * (double)i / segments;
+    int32_t *s = out.springs;
+    for (int32_t i = 0; i < segments; ++i) { *s++ = i; *s++ = i + 1; }
+    for (int32_t i = 0; i + 2 <= segments; ++i) { *s++ = i; *s++ = i + 2; }
+    out.vertex_count = (int32_t)nvert;
+    out.spring_count = (int32_t)ns;
     out.size = m->size;
     *m = out;
     return DEFSIM_OK;

@@ -374,6 +374,49 @@ DEFSIM_API defsim_status defsim_mesh_box(const double lo[3], const double hi[3],
 /// NULL is ignored.
 DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 
+/// Loads a mesh file, choosing the format by the file's extension:
+///  - ".node" / ".ele" (TetGen; either file of the pair, or the base name "beam.1" when
+///    "beam.1.node" exists): linear tets, any first index; attributes and markers are ignored.
+///  - ".msh" (Gmsh 2.x and 4.0 / 4.1, ASCII): linear tetrahedra (type 4). Points, lines and
+///    surface elements are skipped; any other volume element (hexahedra, prisms, quadratic tets,
+///    ...) is an error.
+///  - ".obj" (Wavefront): faces (polygons are fan-triangulated; "v/vt/vn" forms and negative,
+///    relative indices are accepted) and polylines ("l"). The unique edges of the faces and the
+///    polyline segments become springs, sorted by vertex pair (a cloth or a rope); no bending
+///    springs are added. Texture coordinates, normals, groups and materials are ignored.
+/// Vertices that no element uses are dropped; the others keep their order in the file. Tets are
+/// reordered to positive orientation and `triangles` receives their outward boundary (for OBJ,
+/// the faces as given). mesh->size must be set; on success the arrays are allocated (free with
+/// defsim_mesh_free), on failure *mesh is unchanged.
+/// Errors, with "file:line: ..." in defsim_last_error(): DEFSIM_ERR_INVALID_ARGUMENT (NULL,
+/// mesh->size, unknown extension), DEFSIM_ERR_IO (cannot read, malformed or binary file),
+/// DEFSIM_ERR_INVALID_MESH (unsupported element, undefined or repeated vertex, degenerate tet,
+/// zero-length edge, no elements), DEFSIM_ERR_OUT_OF_MEMORY. Thread-safe.
+DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);
+
+/// Makes a cloth grid of (nu + 1) x (nv + 1) vertices at origin + i/nu * u + j/nv * v (m),
+/// vertex index i + (nu + 1) j, with two triangles per cell (split along the diagonal from
+/// (i, j) to (i + 1, j + 1), normals along u x v) and springs in this order:
+/// structural along u (nu (nv + 1)), structural along v ((nu + 1) nv), shear (both diagonals of
+/// every cell, 2 nu nv), then bending between every second vertex along u ((nu - 1)(nv + 1)) and
+/// along v ((nu + 1)(nv - 1)). Hosts that want other bending or shear stiffnesses pass
+/// defsim_body_def.spring_stiffness ordered the same way.
+/// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, nu or nv < 1, too large, u and v not spanning a
+/// plane, non-finite input), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_mesh_cloth(const double origin[3], const double u[3],
+                                           const double v[3], int32_t nu, int32_t nv,
+                                           defsim_mesh *mesh);
+
+/// Makes a rope from a to b (m): segments + 1 equally spaced vertices, `segments` springs
+/// between neighbours (vertex i to i + 1, in order), then segments - 1 bending springs between
+/// every second vertex (i to i + 2). No tets or triangles.
+/// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, segments < 1 or too large, a == b, non-finite
+/// input), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t segments,
+                                          defsim_mesh *mesh);
+
 #ifdef __cplusplus
 }
 #endif

@@ -2,6 +2,7 @@
 #include "test_util.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -88,4 +89,34 @@ double tu_rel_diff(const double *a, const double *b, int n, double floor)
         if (fabs(b[i]) > s) s = fabs(b[i]);
     }
     return d / s;
+}
+
+char tu_tmpdir[256];
+
+int tu_tmpdir_setup(void **state)
+{
+    (void)state;
+    snprintf(tu_tmpdir, sizeof tu_tmpdir, "/tmp/defsim_test_XXXXXX");
+    return mkdtemp(tu_tmpdir) ? 0 : -1;
+}
+
+int tu_tmpdir_teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tu_tmpdir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+const char *tu_write_file(const char *name, const char *text)
+{
+    static char paths[8][300];
+    static int slot;
+    char *p = paths[slot++ % 8];
+    snprintf(p, sizeof paths[0], "%s/%s", tu_tmpdir, name);
+    FILE *f = fopen(p, "wb");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+    return p;
 }

@@ -30,6 +30,14 @@ double *tu_velocities(const defsim_world *w);
 /* max |a - b| / max(max |b|, floor) */
 double tu_rel_diff(const double *a, const double *b, int n, double floor);
 
+/* A fresh temporary directory (tu_tmpdir) for tests that write files; for CMocka setup and
+ * teardown. tu_write_file writes text to tu_tmpdir/name and returns the path (valid until the
+ * 8th call after). */
+extern char tu_tmpdir[256];
+int tu_tmpdir_setup(void **state);
+int tu_tmpdir_teardown(void **state);
+const char *tu_write_file(const char *name, const char *text);
+
 #define TU_OK(expr) assert_int_equal((expr), DEFSIM_OK)
 
 #endif

@@ -1,0 +1,63 @@
+# SPDX-License-Identifier: MIT
+# One visual test: render FRAME of SCENE and compare it with GOLDEN.
+#   -DMODE=run      render while running (defsim-render SCENE.json)
+#   -DMODE=frames   write VTK frames with `defsim run`, then render them with defsim-render
+#   -DMODE=update   render and copy the image over GOLDEN (regenerating goldens)
+#   -DEXPECT=match  the images must match within the tolerance (pngdiff exit 0)
+#   -DEXPECT=differ the images must differ (pngdiff exit 1): proves the check can fail
+#   -DSETS="world.gravity=[0,9.81,0];..."  scene overrides (defsim run --set)
+# The tolerance (THRESHOLD, MAX_FRACTION) is documented in tests/render/README.md.
+foreach(v DEFSIM RENDER PNGDIFF SCENE FRAME GOLDEN OUT MODE)
+  if(NOT DEFINED ${v})
+    message(FATAL_ERROR "visual_test.cmake: ${v} is not set")
+  endif()
+endforeach()
+if(NOT DEFINED EXPECT)
+  set(EXPECT match)
+endif()
+if(NOT DEFINED THRESHOLD)
+  set(THRESHOLD 16)
+endif()
+if(NOT DEFINED MAX_FRACTION)
+  set(MAX_FRACTION 0.0002)
+endif()
+file(REMOVE_RECURSE "${OUT}")
+file(MAKE_DIRECTORY "${OUT}")
+set(args)
+foreach(s IN LISTS SETS)
+  list(APPEND args --set "${s}")
+endforeach()
+string(LENGTH "00000${FRAME}" len)
+math(EXPR start "${len} - 5")
+string(SUBSTRING "00000${FRAME}" ${start} 5 padded)
+set(image "${OUT}/frame_${padded}.png")
+# One thread: the simulation is bit-identical for a fixed thread count.
+if(MODE STREQUAL "frames")
+  execute_process(COMMAND "${DEFSIM}" run "${SCENE}" --frames ${FRAME} --threads 1 --progress none
+                          --out "${OUT}" ${args} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "defsim run failed (${rc})")
+  endif()
+  get_filename_component(name "${SCENE}" NAME_WE)
+  execute_process(COMMAND "${RENDER}" "${OUT}/${name}.pvd" --scene "${SCENE}" --out "${OUT}"
+                  RESULT_VARIABLE rc)
+else()
+  execute_process(COMMAND "${RENDER}" "${SCENE}" --frames ${FRAME} --threads 1 --progress none
+                          --out "${OUT}" ${args} RESULT_VARIABLE rc)
+endif()
+if(NOT rc EQUAL 0 OR NOT EXISTS "${image}")
+  message(FATAL_ERROR "rendering failed (${rc}); no ${image}")
+endif()
+if(MODE STREQUAL "update")
+  file(COPY_FILE "${image}" "${GOLDEN}")
+  message(STATUS "updated ${GOLDEN}")
+  return()
+endif()
+execute_process(COMMAND "${PNGDIFF}" "${image}" "${GOLDEN}" --threshold ${THRESHOLD}
+                        --max-fraction ${MAX_FRACTION} --diff "${OUT}/diff.png"
+                RESULT_VARIABLE rc)
+if(EXPECT STREQUAL "match" AND NOT rc EQUAL 0)
+  message(FATAL_ERROR "${image} does not match ${GOLDEN} (pngdiff exit ${rc}; see ${OUT}/diff.png)")
+elseif(EXPECT STREQUAL "differ" AND NOT rc EQUAL 1)
+  message(FATAL_ERROR "${image} was expected to differ from ${GOLDEN} (pngdiff exit ${rc})")
+endif()

@@ -1,0 +1,616 @@
+/* SPDX-License-Identifier: MIT */
+/* Mesh loaders (TetGen, Gmsh 2 / 4, OBJ) and the cloth and rope generators. Each test writes
+ * small files into a fresh temporary directory. */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* |a - b| <= tol, printing both values when not. */
+#define assert_near(a, b, tol)                                                                  \
+    do {                                                                                       \
+        double a_ = (a), b_ = (b);                                                             \
+        if (!(fabs(a_ - b_) <= (tol))) fail_msg("%s = %.17g, expected %.17g", #a, a_, b_);      \
+    } while (0)
+
+static defsim_mesh empty_mesh(void)
+{
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    return m;
+}
+
+/* The line number in "path:LINE: message" (0 if the message names no line). */
+static int error_line(void)
+{
+    const char *e = defsim_last_error();
+    const char *p = strstr(e, tu_tmpdir);
+    if (!p) return 0;
+    p = strchr(p + strlen(tu_tmpdir), ':');
+    return p ? atoi(p + 1) : 0;
+}
+
+static void expect_error(const char *path, defsim_status want, int line)
+{
+    defsim_mesh m = empty_mesh();
+    assert_int_equal(defsim_mesh_load(path, &m), want);
+    print_message("    %s\n", defsim_last_error());
+    assert_null(m.positions);
+    assert_int_equal(m.vertex_count, 0);
+    assert_int_equal(error_line(), line);
+}
+
+static double tet_volume(const double *P, const int32_t *t)
+{
+    double a[3], b[3], c[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = P[3 * t[0] + i] - P[3 * t[3] + i];
+        b[i] = P[3 * t[1] + i] - P[3 * t[3] + i];
+        c[i] = P[3 * t[2] + i] - P[3 * t[3] + i];
+    }
+    return (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+            a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0;
+}
+
+/* Volume from the boundary by the divergence theorem: outward triangles give +V. */
+static double boundary_volume(const defsim_mesh *m)
+{
+    double v = 0.0;
+    for (int t = 0; t < m->triangle_count; ++t) {
+        const double *a = m->positions + 3 * m->triangles[3 * t];
+        const double *b = m->positions + 3 * m->triangles[3 * t + 1];
+        const double *c = m->positions + 3 * m->triangles[3 * t + 2];
+        v += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+              a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0;
+    }
+    return v;
+}
+
+/* Every tet positive; sum of tet volumes and boundary volume both equal `volume`. */
+static void check_solid(const defsim_mesh *m, double volume)
+{
+    double v = 0.0;
+    for (int t = 0; t < m->tet_count; ++t) {
+        double vt = tet_volume(m->positions, m->tets + 4 * t);
+        assert_true(vt > 0.0);
+        v += vt;
+    }
+    assert_near(v, volume, 1e-12 * fabs(volume));
+    assert_near(boundary_volume(m), volume, 1e-12 * fabs(volume));
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* TetGen */
+
+/* Two tets sharing the face 1-2-3 (1-based numbers), one given with negative orientation,
+ * an unused point 6, comments, attributes and boundary markers. */
+static const char *NODE =
+    "# points: count dim attributes markers\n"
+    "6 3 1 1\n"
+    "1 0 0 0  7.5 1\n"
+    "2 1 0 0  7.5 1   # comment after data\n"
+    "3 0 1 0  7.5 0\n"
+    "\n"
+    "4 0 0 1  7.5 1\n"
+    "5 0 0 -1 7.5 1\n"
+    "6 9 9 9  7.5 0\n";
+static const char *ELE =
+    "2 4 1\n"
+    "1  1 2 3 4  0.5\n"
+    "2  1 2 3 5  0.5\n";
+
+static void test_tetgen(void **state)
+{
+    (void)state;
+    tu_write_file("two.node", NODE);
+    const char *ele = tu_write_file("two.ele", ELE);
+    char node[300], base[300];
+    snprintf(node, sizeof node, "%s/two.node", tu_tmpdir);
+    snprintf(base, sizeof base, "%s/two", tu_tmpdir);
+    const char *paths[3] = {node, ele, base};
+    for (int k = 0; k < 3; ++k) {
+        defsim_mesh m = empty_mesh();
+        TU_OK(defsim_mesh_load(paths[k], &m));
+        assert_int_equal(m.vertex_count, 5);   /* point 6 is unused and dropped */
+        assert_int_equal(m.tet_count, 2);
+        assert_int_equal(m.triangle_count, 6);
+        assert_int_equal(m.spring_count, 0);
+        assert_near(m.positions[3 * 4 + 2], -1.0, 0.0);
+        check_solid(&m, 2.0 / 6.0);
+        /* Vertex sets of the tets are kept (only the order of two may change). */
+        int sum0 = 0, sum1 = 0;
+        for (int a = 0; a < 4; ++a) { sum0 += m.tets[a]; sum1 += m.tets[4 + a]; }
+        assert_int_equal(sum0, 0 + 1 + 2 + 3);
+        assert_int_equal(sum1, 0 + 1 + 2 + 4);
+        defsim_mesh_free(&m);
+        assert_null(m.positions);
+    }
+}
+
+static void test_tetgen_zero_based(void **state)
+{
+    (void)state;
+    tu_write_file("z.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+    const char *ele = tu_write_file("z.ele", "1 4 0\n0 0 1 2 3\n");
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_load(ele, &m));
+    assert_int_equal(m.vertex_count, 4);
+    check_solid(&m, 1.0 / 6.0);
+    defsim_mesh_free(&m);
+}
+
+static void test_tetgen_errors(void **state)
+{
+    (void)state;
+    tu_write_file("bad.node", NODE);
+    /* A tet refers to point 9 on line 3. */
+    expect_error(tu_write_file("bad.ele", "2 4 1\n1 1 2 3 4 0\n2 1 2 3 9 0\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
+    /* Quadratic tets: the header on line 2 (after a comment). */
+    expect_error(tu_write_file("bad.ele", "# tets\n1 10 0\n1 1 2 3 4 5 6 1 2 3 4\n"),
+                 DEFSIM_ERR_INVALID_MESH, 2);
+    /* A missing value: the next line's tet number is read as a vertex. */
+    expect_error(tu_write_file("bad.ele", "2 4 0\n1 1 2 3\n2 1 2 3 5\n"), DEFSIM_ERR_IO, 2);
+    /* A tet repeats a vertex. */
+    expect_error(tu_write_file("bad.ele", "1 4 0\n1 1 2 2 4\n"), DEFSIM_ERR_INVALID_MESH, 2);
+    /* A degenerate (flat) tet on line 3. */
+    tu_write_file("flat.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 0\n");
+    expect_error(tu_write_file("flat.ele", "2 4 0\n1 1 2 3 4\n2 1 2 3 5\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
+    /* A malformed coordinate on line 4 of the .node file. */
+    tu_write_file("coord.node", "3 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 x 0\n");
+    tu_write_file("coord.ele", "1 4 0\n1 1 2 3 4\n");
+    char p[300];
+    snprintf(p, sizeof p, "%s/coord.node", tu_tmpdir);
+    expect_error(p, DEFSIM_ERR_IO, 4);
+    /* Two points with the same number (line numbers are not known then). */
+    tu_write_file("dup.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n2 0 1 0\n4 0 0 1\n");
+    snprintf(p, sizeof p, "%s/dup.ele", tu_tmpdir);
+    tu_write_file("dup.ele", "1 4 0\n1 1 2 4 4\n");
+    defsim_mesh m = empty_mesh();
+    assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_INVALID_MESH);
+    /* 2-D .node file. */
+    tu_write_file("flat2.node", "3 2 0 0\n1 0 0\n2 1 0\n3 0 1\n");
+    tu_write_file("flat2.ele", "1 4 0\n1 1 2 3 4\n");
+    snprintf(p, sizeof p, "%s/flat2.node", tu_tmpdir);
+    expect_error(p, DEFSIM_ERR_INVALID_MESH, 1);
+    /* The pair is incomplete, the name unknown, the argument bad. */
+    tu_write_file("lonely.node", NODE);
+    snprintf(p, sizeof p, "%s/lonely.node", tu_tmpdir);
+    assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_IO);
+    snprintf(p, sizeof p, "%s/nothing", tu_tmpdir);
+    assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_load(NULL, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_load(p, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    m.size = 4;
+    assert_int_equal(defsim_mesh_load(p, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Gmsh */
+
+/* A 2x1x1-cell box as reference geometry. */
+static defsim_mesh ref_box(void)
+{
+    defsim_mesh b = empty_mesh();
+    const double lo[3] = {0, 0, 0}, hi[3] = {2, 1, 0.5};
+    TU_OK(defsim_mesh_box(lo, hi, 2, 1, 1, &b));
+    return b;
+}
+
+/* Node tags are 10 * (index + 1): sparse, so the loader must map them. */
+#define TAG(i) (10 * ((i) + 1))
+
+static char *gmsh_v2_text(const defsim_mesh *b, const char *extra_element)
+{
+    size_t cap = 1 << 16;
+    char *s = malloc(cap);
+    size_t n = 0;
+    n += (size_t)snprintf(s + n, cap - n, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+                          "$PhysicalNames\n1\n3 1 \"solid\"\n$EndPhysicalNames\n"
+                          "$Nodes\n%d\n", b->vertex_count);
+    for (int i = 0; i < b->vertex_count; ++i)
+        n += (size_t)snprintf(s + n, cap - n, "%d %.17g %.17g %.17g\n", TAG(i),
+                              b->positions[3 * i], b->positions[3 * i + 1], b->positions[3 * i + 2]);
+    int ne = b->tet_count + 3 + (extra_element ? 1 : 0);
+    n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n%d\n", ne);
+    n += (size_t)snprintf(s + n, cap - n, "1 15 2 0 1 %d\n", TAG(0));            /* point */
+    n += (size_t)snprintf(s + n, cap - n, "2 1 2 0 1 %d %d\n", TAG(0), TAG(1));  /* line */
+    n += (size_t)snprintf(s + n, cap - n, "3 2 2 0 1 %d %d %d\n", TAG(0), TAG(1), TAG(3));
+    for (int t = 0; t < b->tet_count; ++t) {
+        const int32_t *q = b->tets + 4 * t;
+        /* Odd tets are written with negative orientation. */
+        if (t % 2)
+            n += (size_t)snprintf(s + n, cap - n, "%d 4 2 1 1 %d %d %d %d\n", 4 + t, TAG(q[1]),
+                                  TAG(q[0]), TAG(q[2]), TAG(q[3]));
+        else
+            n += (size_t)snprintf(s + n, cap - n, "%d 4 2 1 1 %d %d %d %d\n", 4 + t, TAG(q[0]),
+                                  TAG(q[1]), TAG(q[2]), TAG(q[3]));
+    }
+    if (extra_element) n += (size_t)snprintf(s + n, cap - n, "%s\n", extra_element);
+    snprintf(s + n, cap - n, "$EndElements\n");
+    return s;
+}
+
+static void check_same_as_box(const defsim_mesh *m, const defsim_mesh *b)
+{
+    assert_int_equal(m->vertex_count, b->vertex_count);
+    assert_int_equal(m->tet_count, b->tet_count);
+    assert_int_equal(m->triangle_count, b->triangle_count);
+    for (int i = 0; i < 3 * b->vertex_count; ++i)
+        assert_near(m->positions[i], b->positions[i], 0.0);
+    check_solid(m, 2.0 * 1.0 * 0.5);
+}
+
+static void test_gmsh_v2(void **state)
+{
+    (void)state;
+    defsim_mesh b = ref_box();
+    char *text = gmsh_v2_text(&b, NULL);
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("box.msh", text), &m));
+    check_same_as_box(&m, &b);
+    defsim_mesh_free(&m);
+    free(text);
+
+    /* Line of the first element: 3 header lines, 4 physical-name lines, $Nodes, count, nodes,
+     * $EndNodes, $Elements, count. */
+    const int first_elem = 3 + 4 + 2 + b.vertex_count + 1 + 2 + 1;
+    const int extra = first_elem + 3 + b.tet_count;
+    text = gmsh_v2_text(&b, "99 5 2 0 1 10 20 30 40 50 60 70 80");   /* a hexahedron */
+    expect_error(tu_write_file("hex.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    free(text);
+    text = gmsh_v2_text(&b, "99 11 2 0 1 10 20 30 40 50 60 70 80 90 100");   /* tet10 */
+    expect_error(tu_write_file("tet10.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    free(text);
+    text = gmsh_v2_text(&b, "99 4 2 0 1 10 20 30 777");   /* undefined node */
+    expect_error(tu_write_file("undef.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+    free(text);
+    text = gmsh_v2_text(&b, "99 4 2 0 1 10 20 30");   /* too few nodes, then $EndElements */
+    expect_error(tu_write_file("short.msh", text), DEFSIM_ERR_IO, extra + 1);
+    free(text);
+    expect_error(tu_write_file("bin.msh", "$MeshFormat\n2.2 1 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
+    expect_error(tu_write_file("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n"), DEFSIM_ERR_IO, 2);
+    expect_error(tu_write_file("notmsh.msh", "hello\n"), DEFSIM_ERR_IO, 1);
+    /* Only surface elements: no tets at all. */
+    expect_error(tu_write_file("surf.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n"
+                            "1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n"
+                            "1 2 2 0 1 1 2 3\n$EndElements\n"),
+                 DEFSIM_ERR_INVALID_MESH, 0);
+    /* An unterminated section. */
+    expect_error(tu_write_file("open.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Comments\n"
+                            "bla\n"), DEFSIM_ERR_IO, 4);
+    defsim_mesh_free(&b);
+}
+
+/* Gmsh 4.1 (minor 1) or 4.0 (minor 0): a point entity, a curve with parametric nodes, the
+ * volume's nodes, a surface triangle block and a tet block (split in two blocks). */
+static char *gmsh_v4_text(const defsim_mesh *b, int minor, const char *extra_block)
+{
+    size_t cap = 1 << 16;
+    char *s = malloc(cap);
+    size_t n = 0;
+    const int nv = b->vertex_count;
+    n += (size_t)snprintf(s + n, cap - n, "$MeshFormat\n4.%d 0 8\n$EndMeshFormat\n"
+                          "$Entities\n1 1 1 1\n1 0 0 0 0\n$EndEntities\n", minor);
+    /* Blocks: node 0 on a point (dim 0), node 1 on a curve (dim 1, parametric), the rest. */
+    if (minor == 1)
+        n += (size_t)snprintf(s + n, cap - n, "$Nodes\n3 %d %d %d\n", nv, TAG(0), TAG(nv - 1));
+    else
+        n += (size_t)snprintf(s + n, cap - n, "$Nodes\n3 %d\n", nv);
+    struct { int dim, first, count, param; } blocks[3] = {{0, 0, 1, 0}, {1, 1, 1, 1}, {3, 2, nv - 2, 0}};
+    for (int k = 0; k < 3; ++k) {
+        const int d = blocks[k].dim, f = blocks[k].first, c = blocks[k].count, p = blocks[k].param;
+        if (minor == 1) {
+            n += (size_t)snprintf(s + n, cap - n, "%d %d %d %d\n", d, k + 1, p, c);
+            for (int i = f; i < f + c; ++i) n += (size_t)snprintf(s + n, cap - n, "%d\n", TAG(i));
+            for (int i = f; i < f + c; ++i)
+                n += (size_t)snprintf(s + n, cap - n, "%.17g %.17g %.17g%s\n", b->positions[3 * i],
+                                      b->positions[3 * i + 1], b->positions[3 * i + 2],
+                                      p ? " 0.25" : "");
+        } else {
+            n += (size_t)snprintf(s + n, cap - n, "%d %d %d %d\n", k + 1, d, p, c);
+            for (int i = f; i < f + c; ++i)
+                n += (size_t)snprintf(s + n, cap - n, "%d %.17g %.17g %.17g%s\n", TAG(i),
+                                      b->positions[3 * i], b->positions[3 * i + 1],
+                                      b->positions[3 * i + 2], p ? " 0.25" : "");
+        }
+    }
+    const int half = b->tet_count / 2;
+    const int nblocks = 3 + (extra_block ? 1 : 0);
+    if (minor == 1)
+        n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n%d %d 1 %d\n", nblocks,
+                              b->tet_count + 1, b->tet_count + 1);
+    else
+        n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n%d %d\n", nblocks,
+                              b->tet_count + 1);
+    n += (size_t)snprintf(s + n, cap - n, minor == 1 ? "2 1 2 1\n" : "1 2 2 1\n");
+    n += (size_t)snprintf(s + n, cap - n, "1 %d %d %d\n", TAG(0), TAG(1), TAG(3));
+    for (int k = 0; k < 2; ++k) {
+        int t0 = k ? half : 0, t1 = k ? b->tet_count : half;
+        n += (size_t)snprintf(s + n, cap - n, minor == 1 ? "3 1 4 %d\n" : "1 3 4 %d\n", t1 - t0);
+        for (int t = t0; t < t1; ++t) {
+            const int32_t *q = b->tets + 4 * t;
+            n += (size_t)snprintf(s + n, cap - n, "%d %d %d %d %d\n", 2 + t, TAG(q[0]), TAG(q[1]),
+                                  TAG(q[2]), TAG(q[3]));
+        }
+    }
+    if (extra_block) n += (size_t)snprintf(s + n, cap - n, "%s\n", extra_block);
+    snprintf(s + n, cap - n, "$EndElements\n");
+    return s;
+}
+
+static void test_gmsh_v4(void **state)
+{
+    (void)state;
+    defsim_mesh b = ref_box();
+    for (int minor = 0; minor <= 1; ++minor) {
+        char *text = gmsh_v4_text(&b, minor, NULL);
+        defsim_mesh m = empty_mesh();
+        TU_OK(defsim_mesh_load(tu_write_file("box4.msh", text), &m));
+        check_same_as_box(&m, &b);
+        defsim_mesh_free(&m);
+        free(text);
+        /* Line of an extra block header: header 3 + entities 4 + ($Nodes, counts, blocks)
+         * + $EndNodes + $Elements + counts + triangle block 2 + tet blocks. */
+        const int nv = b.vertex_count;
+        const int node_lines = minor == 1 ? 3 + 2 * nv : 3 + nv;
+        const int extra = 3 + 4 + 2 + node_lines + 3 + 2 + 2 + b.tet_count + 1;
+        text = gmsh_v4_text(&b, minor, minor == 1 ? "3 1 6 1\n99 10 20 30 40 50 60"
+                                                  : "1 3 6 1\n99 10 20 30 40 50 60");
+        expect_error(tu_write_file("prism4.msh", text), DEFSIM_ERR_INVALID_MESH, extra);
+        free(text);
+        text = gmsh_v4_text(&b, minor, minor == 1 ? "3 1 4 1\n99 10 20 30 555"
+                                                  : "1 3 4 1\n99 10 20 30 555");
+        expect_error(tu_write_file("undef4.msh", text), DEFSIM_ERR_INVALID_MESH, extra + 1);
+        free(text);
+    }
+    defsim_mesh_free(&b);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* OBJ */
+
+static int has_spring(const defsim_mesh *m, int a, int b)
+{
+    for (int s = 0; s < m->spring_count; ++s)
+        if ((m->springs[2 * s] == a && m->springs[2 * s + 1] == b) ||
+            (m->springs[2 * s] == b && m->springs[2 * s + 1] == a))
+            return 1;
+    return 0;
+}
+
+static void test_obj(void **state)
+{
+    (void)state;
+    /* A unit square as two triangles in v/vt/vn and v//vn forms, then a pentagon with relative
+     * indices (fan: 3 triangles), a continued line, an unused vertex, and a polyline. */
+    const char *obj =
+        "# square\n"
+        "mtllib none.mtl\n"
+        "o cloth\n"
+        "v 0 0 0\n"
+        "v 1 0 0\n"
+        "v 1 1 0 1.0\n"
+        "v 0 1 0 0.5 0.5 0.5\n"
+        "vt 0 0\nvn 0 0 1\n"
+        "usemtl a\ns off\n"
+        "f 1/1/1 2/1/1 3/1/1\n"
+        "f 1//1 3//1 4//1   # second\n"
+        "v 5 0 0\n"
+        "v 6 0 0\n"
+        "v 6 1 0\n"
+        "v 5.5 2 0\n"
+        "v 5 1 0\n"
+        "v 99 99 99\n"
+        "f -6 -5 \\\n"
+        "  -4 -3 -2\n"
+        "l 2 5 -1\n";
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("cloth.obj", obj), &m));
+    assert_int_equal(m.vertex_count, 10);   /* the 11th (99, 99, 99) is on the polyline */
+    assert_int_equal(m.tet_count, 0);
+    assert_int_equal(m.triangle_count, 2 + 3);
+    const int32_t tris[15] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7, 4, 7, 8};
+    for (int i = 0; i < 15; ++i) assert_int_equal(m.triangles[i], tris[i]);
+    /* Edges: square 5, pentagon 5 + 2 diagonals, polyline 2 (1-4 and 4-9). */
+    assert_int_equal(m.spring_count, 5 + 7 + 2);
+    assert_true(has_spring(&m, 0, 2));
+    assert_true(has_spring(&m, 4, 6));
+    assert_true(has_spring(&m, 1, 4));
+    assert_true(has_spring(&m, 4, 9));
+    assert_false(has_spring(&m, 1, 3));
+    for (int s = 1; s < m.spring_count; ++s) {   /* sorted, unique */
+        const int32_t *p = m.springs + 2 * (s - 1), *q = m.springs + 2 * s;
+        assert_true(p[0] < p[1] && q[0] < q[1]);
+        assert_true(p[0] < q[0] || (p[0] == q[0] && p[1] < q[1]));
+    }
+    assert_near(m.positions[3 * 9], 99.0, 0.0);
+    assert_near(m.positions[3 * 7 + 1], 2.0, 0.0);
+
+    /* The springs make a valid spring body, at rest with zero elastic force. */
+    defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m.positions;
+    bd.vertex_count = m.vertex_count;
+    bd.springs = m.springs;
+    bd.spring_count = m.spring_count;
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    TU_OK(defsim_world_add_body(w, &bd, NULL));
+    double f[30];
+    TU_OK(defsim_world_forces(w, NULL, f));
+    for (int i = 0; i < 30; ++i) assert_near(f[i], 0.0, 1e-12);
+    defsim_world_destroy(w);
+    defsim_mesh_free(&m);
+}
+
+static void test_obj_errors(void **state)
+{
+    (void)state;
+    const char *v3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    char text[256];
+    snprintf(text, sizeof text, "%s# c\nf 1 2 4\n", v3);
+    expect_error(tu_write_file("e1.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
+    snprintf(text, sizeof text, "%sf 1 2 0\n", v3);
+    expect_error(tu_write_file("e2.obj", text), DEFSIM_ERR_IO, 4);
+    snprintf(text, sizeof text, "%sf 1 2\n", v3);
+    expect_error(tu_write_file("e3.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    snprintf(text, sizeof text, "%sf -1 -2 -4\n", v3);
+    expect_error(tu_write_file("e4.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    snprintf(text, sizeof text, "%sf 1 2 2\n", v3);
+    expect_error(tu_write_file("e5.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
+    snprintf(text, sizeof text, "v 0 0\n%sf 1 2 3\n", v3);
+    expect_error(tu_write_file("e6.obj", text), DEFSIM_ERR_IO, 1);
+    snprintf(text, sizeof text, "%sv 0 0 0\nf 1 2 4\n", v3);   /* vertices 1 and 4 coincide */
+    expect_error(tu_write_file("e7.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
+    snprintf(text, sizeof text, "%sf a b c\n", v3);
+    expect_error(tu_write_file("e8.obj", text), DEFSIM_ERR_IO, 4);
+    expect_error(tu_write_file("e9.obj", v3), DEFSIM_ERR_INVALID_MESH, 0);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Generators */
+
+static double len(const defsim_mesh *m, int s)
+{
+    const double *a = m->positions + 3 * m->springs[2 * s], *b = m->positions + 3 * m->springs[2 * s + 1];
+    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+static void test_cloth(void **state)
+{
+    (void)state;
+    const double o[3] = {1, 2, 3}, u[3] = {0.6, 0, 0}, v[3] = {0, 0, -0.4};
+    const int nu = 3, nv = 4;
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_cloth(o, u, v, nu, nv, &m));
+    assert_int_equal(m.vertex_count, 4 * 5);
+    assert_int_equal(m.triangle_count, 2 * 12);
+    const int ns_u = nu * (nv + 1), ns_v = (nu + 1) * nv, nsh = 2 * nu * nv;
+    const int nb_u = (nu - 1) * (nv + 1), nb_v = (nu + 1) * (nv - 1);
+    assert_int_equal(m.spring_count, ns_u + ns_v + nsh + nb_u + nb_v);
+    /* Vertex (i, j) sits at o + i/nu u + j/nv v. */
+    const double *p = m.positions + 3 * (2 + 4 * 3);
+    assert_near(p[0], 1.0 + 0.4, 1e-15);
+    assert_near(p[1], 2.0, 0.0);
+    assert_near(p[2], 3.0 - 0.3, 1e-15);
+    /* Rest lengths by kind, in the documented order. */
+    const double du = 0.2, dv = 0.1, dd = sqrt(du * du + dv * dv);
+    int s = 0;
+    for (int k = 0; k < ns_u; ++k) assert_near(len(&m, s++), du, 1e-14);
+    for (int k = 0; k < ns_v; ++k) assert_near(len(&m, s++), dv, 1e-14);
+    for (int k = 0; k < nsh; ++k) assert_near(len(&m, s++), dd, 1e-14);
+    for (int k = 0; k < nb_u; ++k) assert_near(len(&m, s++), 2 * du, 1e-14);
+    for (int k = 0; k < nb_v; ++k) assert_near(len(&m, s++), 2 * dv, 1e-14);
+    /* Triangles: normals along u x v = (0, 0.24, 0), total area |u x v|. */
+    double area = 0.0;
+    for (int t = 0; t < m.triangle_count; ++t) {
+        const double *a = m.positions + 3 * m.triangles[3 * t];
+        const double *b = m.positions + 3 * m.triangles[3 * t + 1];
+        const double *c = m.positions + 3 * m.triangles[3 * t + 2];
+        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        double ny = e1[2] * e2[0] - e1[0] * e2[2];
+        assert_true(ny > 0.0);
+        area += 0.5 * ny;
+    }
+    assert_near(area, 0.24, 1e-14);
+    /* Every triangle edge is a structural or shear spring. */
+    for (int t = 0; t < m.triangle_count; ++t)
+        for (int a = 0; a < 3; ++a) {
+            int x = m.triangles[3 * t + a], y = m.triangles[3 * t + (a + 1) % 3], found = 0;
+            for (int k = 0; k < ns_u + ns_v + nsh && !found; ++k)
+                found = (m.springs[2 * k] == x && m.springs[2 * k + 1] == y) ||
+                        (m.springs[2 * k] == y && m.springs[2 * k + 1] == x);
+            assert_true(found);
+        }
+    defsim_mesh_free(&m);
+
+    /* One cell: no bending springs. */
+    TU_OK(defsim_mesh_cloth(o, u, v, 1, 1, &m));
+    assert_int_equal(m.spring_count, 2 + 2 + 2);
+    defsim_mesh_free(&m);
+    assert_int_equal(defsim_mesh_cloth(o, u, u, 2, 2, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_cloth(o, u, v, 0, 2, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_cloth(NULL, u, v, 2, 2, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    const double bad[3] = {NAN, 0, 0};
+    assert_int_equal(defsim_mesh_cloth(bad, u, v, 2, 2, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(m.positions);
+}
+
+static void test_rope(void **state)
+{
+    (void)state;
+    const double a[3] = {0, 1, 0}, b[3] = {2, 1, 0};
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_rope(a, b, 8, &m));
+    assert_int_equal(m.vertex_count, 9);
+    assert_int_equal(m.spring_count, 8 + 7);
+    assert_int_equal(m.tet_count, 0);
+    assert_int_equal(m.triangle_count, 0);
+    for (int s = 0; s < 8; ++s) {
+        assert_int_equal(m.springs[2 * s], s);
+        assert_int_equal(m.springs[2 * s + 1], s + 1);
+        assert_near(len(&m, s), 0.25, 1e-15);
+    }
+    for (int s = 8; s < 15; ++s) {
+        assert_int_equal(m.springs[2 * s + 1] - m.springs[2 * s], 2);
+        assert_near(len(&m, s), 0.5, 1e-15);
+    }
+    assert_near(m.positions[3 * 8], 2.0, 0.0);
+
+    /* A rope hanging from one end, heavily damped, settles to a static state in which the top
+     * spring carries the weight of everything below it: k (l - l0) = (n - 1) m g (straight). */
+    defsim_world *w = tu_world("symplectic_euler", -9.81, 1);
+    const double top[3] = {0, 0, 0}, bottom[3] = {0, -1, 0};
+    defsim_mesh r = empty_mesh();
+    TU_OK(defsim_mesh_rope(top, bottom, 4, &r));
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = r.positions;
+    bd.vertex_count = r.vertex_count;
+    bd.springs = r.springs;
+    bd.spring_count = 4;   /* links only */
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.material.stiffness = 100.0;
+    bd.material.vertex_mass = 0.01;
+    bd.material.mass_damping = 20.0;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    const int32_t pin = 0;
+    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    for (int i = 0; i < 20000; ++i) TU_OK(defsim_world_step(w, 1e-3));
+    double x[15];
+    TU_OK(defsim_world_get_positions(w, x, 5));
+    const double stretch = 4 * 0.01 * 9.81 / 100.0;
+    assert_near(-x[3 * 1 + 1], 0.25 + stretch, 1e-9);
+    defsim_world_destroy(w);
+    defsim_mesh_free(&r);
+
+    assert_int_equal(defsim_mesh_rope(a, a, 3, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_rope(a, b, 0, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_rope(a, b, 3, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    defsim_mesh_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_tetgen, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_tetgen_zero_based, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_tetgen_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_gmsh_v2, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_gmsh_v4, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_obj, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_obj_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test(test_cloth),
+        cmocka_unit_test(test_rope),
+    };
+    return cmocka_run_group_tests_name("mesh_io", tests, NULL, NULL);
+}

@@ -1,0 +1,224 @@
+/* SPDX-License-Identifier: MIT */
+/* Scene files (tools/scene.c): the shipped scenes, overrides, and errors that name file:line. */
+#include "test_util.h"
+
+#include "scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* The line in "PATH:LINE:COL: ..." where PATH is `path` (0 if none). */
+static int error_line(const scene *s, const char *path)
+{
+    const char *p = strstr(s->error, path);
+    if (!p || p[strlen(path)] != ':') return 0;
+    return atoi(p + strlen(path) + 1);
+}
+
+static void shipped(const char *name, scene *s)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s.json", DEFSIM_SCENES_DIR, name);
+    if (scene_load(s, path, NULL, 0)) fail_msg("%s", s->error);
+}
+
+static void test_shipped_scenes(void **state)
+{
+    (void)state;
+    static const char *names[] = {"cantilever", "cloth", "rope", "stiff_block", "squash"};
+    for (int i = 0; i < 5; ++i) {
+        scene s;
+        shipped(names[i], &s);
+        defsim_world *w = NULL;
+        if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+        assert_int_equal(defsim_world_vertex_count(w), s.vertex_count);
+        TU_OK(defsim_world_step(w, s.h));
+        defsim_world_destroy(w);
+        scene_free(&s);
+    }
+    /* The cantilever: 12 x 4 x 4 cells, clamped face x = 0, 40 steps per frame at 30 fps. */
+    scene s;
+    shipped("cantilever", &s);
+    assert_int_equal(s.frame_steps, 40);
+    assert_int_equal(s.frames, 60);
+    assert_int_equal(s.bodies[0].mesh.vertex_count, 13 * 5 * 5);
+    assert_int_equal(s.bodies[0].mesh.tet_count, 6 * 12 * 4 * 4);
+    assert_int_equal(s.bodies[0].npins, 5 * 5);
+    for (int i = 0; i < s.bodies[0].npins; ++i)
+        assert_true(s.bodies[0].mesh.positions[3 * s.bodies[0].pins[i]] == 0.0);
+    const double *p = s.bodies[0].mesh.positions + 3 * s.bodies[0].probe;
+    assert_true(p[0] == 3.0 && p[1] == 1.0 && p[2] == 1.0);
+    assert_true(s.bodies[0].material.model == DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    assert_true(s.bodies[0].material.youngs_modulus == 1e6);
+    scene_free(&s);
+
+    /* Cloth stiffnesses by spring kind; total mass spread over the vertices. */
+    shipped("cloth", &s);
+    const scene_body *c = &s.bodies[0];
+    const int nu = 20, nv = 20, nstruct = nu * (nv + 1) + (nu + 1) * nv, nshear = 2 * nu * nv;
+    assert_non_null(c->spring_k);
+    assert_true(c->spring_k[0] == 400.0 && c->spring_k[nstruct - 1] == 400.0);
+    assert_true(c->spring_k[nstruct] == 100.0 && c->spring_k[nstruct + nshear - 1] == 100.0);
+    assert_true(c->spring_k[nstruct + nshear] == 10.0 && c->spring_k[c->mesh.spring_count - 1] == 10.0);
+    assert_true(fabs(c->material.vertex_mass * c->mesh.vertex_count - 0.2) < 1e-15);
+    assert_int_equal(c->line_count, 0);
+    scene_free(&s);
+
+    /* Rope: links are drawn, bending springs are not. */
+    shipped("rope", &s);
+    assert_int_equal(s.bodies[0].line_count, 40);
+    assert_int_equal(s.bodies[0].mesh.spring_count, 40 + 39);
+    scene_free(&s);
+
+    /* Squash: initial = mirror and half height about the centre (y = 0.5), so every rest tet
+     * is inverted at the start. */
+    shipped("squash", &s);
+    const scene_body *b = &s.bodies[0];
+    assert_non_null(b->initial);
+    for (int i = 0; i < b->mesh.vertex_count; ++i) {
+        const double y = b->mesh.positions[3 * i + 1], yi = b->initial[3 * i + 1];
+        assert_true(fabs(yi - (0.5 - 0.5 * (y - 0.5))) < 1e-15);
+        assert_true(b->initial[3 * i] == b->mesh.positions[3 * i]);
+    }
+    scene_free(&s);
+}
+
+static void test_overrides(void **state)
+{
+    (void)state;
+    char path[512];
+    snprintf(path, sizeof path, "%s/cantilever.json", DEFSIM_SCENES_DIR);
+    const char *sets[] = {"world.gravity=[0, 9.81, 0]", "bodies.0.material.youngs_modulus=1e4",
+                          "world.backend=explicit_euler", "output.width=320"};
+    scene s;
+    if (scene_load(&s, path, sets, 4)) fail_msg("%s", s.error);
+    assert_true(s.def.gravity[1] == 9.81);
+    assert_true(s.bodies[0].material.youngs_modulus == 1e4);
+    assert_string_equal(s.backend, "explicit_euler");
+    assert_int_equal(s.width, 320);
+    scene_free(&s);
+    const char *bad[] = {"bodies.5.name=x"};
+    assert_int_equal(scene_load(&s, path, bad, 1), -1);
+    const char *bad2[] = {"world.h=-1"};
+    assert_int_equal(scene_load(&s, path, bad2, 1), -1);
+}
+
+/* A minimal valid scene with one line replaced. */
+static const char *scene_text(const char *line3, const char *line6)
+{
+    static char buf[2048];
+    snprintf(buf, sizeof buf,
+             "{\n"
+             "  \"world\": {\"h\": 1e-3, \"duration\": 0.01,\n"
+             "  %s},\n"
+             "  \"bodies\": [\n"
+             "    {\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]},\n"
+             "     %s}\n"
+             "  ]\n"
+             "}\n", line3, line6);
+    return buf;
+}
+
+static void expect_line(const char *text, int line)
+{
+    const char *path = tu_write_file("s.json", text);
+    scene s;
+    assert_int_equal(scene_load(&s, path, NULL, 0), -1);
+    print_message("    %s\n", s.error);
+    assert_int_equal(error_line(&s, path), line);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    /* The valid base first. */
+    const char *path = tu_write_file("ok.json", scene_text("\"threads\": 1", "\"name\": \"b\""));
+    scene s;
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    scene_free(&s);
+
+    expect_line(scene_text("\"thredas\": 1", "\"name\": \"b\""), 3);                 /* typo */
+    expect_line(scene_text("\"threads\": -1", "\"name\": \"b\""), 3);                /* range */
+    expect_line(scene_text("\"threads\": 1,", "\"name\": \"b\""), 3);                /* syntax */
+    expect_line(scene_text("\"gravity\": [0, 1]", "\"name\": \"b\""), 3);            /* shape */
+    expect_line(scene_text("\"threads\": 1", "\"material\": {\"youngs_modulus\": 0}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"material\": {\"model\": \"rubber\"}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"pin\": {\"box\": {\"lo\": [5,5,5], \"hi\": [6,6,6]}}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"pin\": [0, 8]"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"material\": {\"bending_stiffness\": 1}"), 6);
+    expect_line(scene_text("\"fps\": 7", "\"name\": \"b\""), 3);   /* 1 / (fps h) not whole */
+
+    /* A mesh file that does not load: the error names the scene line and the mesh file's line. */
+    tu_write_file("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
+    const char *text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+                       " \"bodies\": [{\"mesh\": \"bad.obj\"}]}\n";
+    path = tu_write_file("m.json", text);
+    assert_int_equal(scene_load(&s, path, NULL, 0), -1);
+    print_message("    %s\n", s.error);
+    assert_int_equal(error_line(&s, path), 2);
+    char obj[300];
+    snprintf(obj, sizeof obj, "%s/bad.obj", tu_tmpdir);
+    assert_int_equal(error_line(&s, obj), 3);
+
+    /* A backend that does not exist fails when the world is built. */
+    path = tu_write_file("b.json", scene_text("\"backend\": \"no_such_backend\"", "\"name\": \"b\""));
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    defsim_world *w = NULL;
+    assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_BACKEND_UNAVAILABLE);
+    assert_null(w);
+    scene_free(&s);
+
+    /* A missing file. */
+    snprintf(obj, sizeof obj, "%s/missing.json", tu_tmpdir);
+    assert_int_equal(scene_load(&s, obj, NULL, 0), -1);
+}
+
+static void test_mesh_file_and_transform(void **state)
+{
+    (void)state;
+    /* A square cloth from OBJ, placed by a mirroring transform: positions and normals follow. */
+    tu_write_file("sq.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    const char *text =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"file\", \"path\": \"sq.obj\"},\n"
+        "   \"transform\": {\"scale\": [-2, 1, 1], \"translate\": [0, 0, 3]},\n"
+        "   \"material\": {\"stiffness\": 50, \"vertex_mass\": 0.5},\n"
+        "   \"velocity\": [1, 0, 0]}]}\n";
+    const char *path = tu_write_file("obj.json", text);
+    scene s;
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    const scene_body *b = &s.bodies[0];
+    assert_int_equal(b->mesh.vertex_count, 4);
+    assert_int_equal(b->mesh.triangle_count, 2);
+    assert_int_equal(b->mesh.spring_count, 5);
+    assert_true(b->mesh.positions[3 * 2] == -2.0 && b->mesh.positions[3 * 2 + 2] == 3.0);
+    /* Mirrored: the triangle normal stays +z (order flipped back). */
+    const int32_t *t = b->mesh.triangles;
+    const double *P = b->mesh.positions;
+    double e1x = P[3 * t[1]] - P[3 * t[0]], e1y = P[3 * t[1] + 1] - P[3 * t[0] + 1];
+    double e2x = P[3 * t[2]] - P[3 * t[0]], e2y = P[3 * t[2] + 1] - P[3 * t[0] + 1];
+    assert_true(e1x * e2y - e1y * e2x > 0.0);
+    assert_true(b->material.model == DEFSIM_MODEL_SPRING);
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    /* Free flight at 1 m/s without gravity: the energy is kinetic, 1/2 (4 * 0.5) 1^2. */
+    defsim_energy e;
+    TU_OK(defsim_world_energy(w, &e));
+    assert_true(fabs(e.kinetic - 1.0) < 1e-14);
+    defsim_world_destroy(w);
+    scene_free(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_shipped_scenes),
+        cmocka_unit_test(test_overrides),
+        cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
+    };
+    return cmocka_run_group_tests_name("scene", tests, NULL, NULL);
+}

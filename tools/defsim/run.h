@@ -1,0 +1,9 @@
+/* SPDX-License-Identifier: MIT */
+#ifndef DEFSIM_TOOLS_RUN_H
+#define DEFSIM_TOOLS_RUN_H
+
+/* `defsim run`: argv holds the arguments after "run". Returns the process exit status:
+ * 0 done, 1 error, 2 usage error, 130 interrupted by SIGINT (output complete so far). */
+int run_main(int argc, char **argv);
+
+#endif

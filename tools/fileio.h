@@ -1,0 +1,12 @@
+/* SPDX-License-Identifier: MIT */
+/* Small file helpers shared by the tools. */
+#ifndef DEFSIM_TOOLS_FILEIO_H
+#define DEFSIM_TOOLS_FILEIO_H
+
+#include <stddef.h>
+
+/* Reads a whole file into a malloc'd, NUL-terminated buffer; *len gets its size. NULL (errno
+ * set) if it cannot be read. */
+char *tools_read_file(const char *path, size_t *len);
+
+#endif

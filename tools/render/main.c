@@ -1,0 +1,251 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim-render: PNG frames of a simulation.
+ *
+ *   defsim-render SCENE.json [defsim run options]
+ *       runs the scene and renders while running (same as defsim run --render --no-vtk)
+ *   defsim-render RUN.pvd | FRAME.vtu ... [--scene SCENE.json] [--out DIR] [--frames LIST]
+ *       renders frames written by defsim run; the camera, size and colours come from the
+ *       scene when given, else the camera is fitted to the first frame
+ */
+#include "image.h"
+#include "render.h"
+#include "../defsim/run.h"
+#include "../scene.h"
+#include "../vtk.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int ends_with(const char *s, const char *t)
+{
+    size_t n = strlen(s), k = strlen(t);
+    return n >= k && !strcmp(s + n - k, t);
+}
+
+static int usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
+               "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR] "
+               "[--frames LIST]\n");
+    return f == stderr ? 2 : 0;
+}
+
+/* Render parts for one frame's cells: tet boundaries, triangles, lines, per body. */
+static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout)
+{
+    int32_t nb = 0;
+    for (int64_t i = 0; i < c->ncells; ++i) if (c->body[i] + 1 > nb) nb = c->body[i] + 1;
+    rd_part *p = calloc((size_t)(nb > 0 ? nb : 1), sizeof *p);
+    if (!p) return -1;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t nt = 0, ntri = 0, nl = 0;
+        for (int64_t i = 0; i < c->ncells; ++i)
+            if (c->body[i] == b) {
+                nt += c->types[i] == VTK_TETRA;
+                ntri += c->types[i] == VTK_TRIANGLE;
+                nl += c->types[i] == VTK_LINE;
+            }
+        int64_t *tets = malloc((size_t)(nt + 1) * 4 * sizeof *tets);
+        int32_t *tris = malloc((size_t)(ntri + 1) * 3 * sizeof *tris);
+        int32_t *lines = malloc((size_t)(nl + 1) * 2 * sizeof *lines);
+        if (!tets || !tris || !lines) return -1;
+        int64_t kt = 0, ktri = 0, kl = 0;
+        for (int64_t i = 0; i < c->ncells; ++i) {
+            if (c->body[i] != b) continue;
+            const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
+            if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
+            if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
+            if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
+            kt += c->types[i] == VTK_TETRA;
+            ktri += c->types[i] == VTK_TRIANGLE;
+            kl += c->types[i] == VTK_LINE;
+        }
+        if (nt > 0) {
+            free(tris);
+            int32_t n = 0;
+            tris = rd_tet_surface(tets, nt, &n);
+            if (!tris) return -1;
+            ntri = n;
+        }
+        free(tets);
+        p[b].tris = tris;
+        p[b].ntris = (int32_t)ntri;
+        p[b].lines = lines;
+        p[b].nlines = (int32_t)nl;
+        p[b].smooth = nt == 0;
+        if (s && b < s->nbodies) memcpy(p[b].color, s->bodies[b].color, sizeof p[b].color);
+        else scene_palette(b, p[b].color);
+    }
+    *out = p;
+    *nout = nb;
+    return 0;
+}
+
+static void parts_free(rd_part *p, int n)
+{
+    for (int i = 0; i < n; ++i) { free((void *)p[i].tris); free((void *)p[i].lines); }
+    free(p);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) return usage(stderr);
+    if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) return usage(stdout);
+    if (ends_with(argv[1], ".json")) {
+        /* Render while running: defsim run with PNG output and no VTK. */
+        char **args = calloc((size_t)argc + 3, sizeof *args);
+        if (!args) return 1;
+        int n = 0;
+        for (int i = 1; i < argc; ++i) args[n++] = argv[i];
+        args[n++] = "--render";
+        args[n++] = "--no-vtk";
+        int rc = run_main(n, args);
+        free(args);
+        return rc;
+    }
+    const char *scene_path = NULL, *out_dir = NULL;
+    char **inputs = calloc((size_t)argc, sizeof *inputs);
+    int ninputs = 0, *list = calloc((size_t)argc, sizeof *list), nlist = 0;
+    if (!inputs || !list) return 1;
+    for (int i = 1; i < argc; ++i) {
+        if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene_path = argv[++i];
+        else if (!strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
+        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) {
+            for (char *s = argv[++i], *end;; s = end + 1) {
+                list[nlist++] = (int)strtol(s, &end, 10);
+                if (end == s || (*end && *end != ',')) return usage(stderr);
+                if (!*end) break;
+            }
+        } else if (argv[i][0] == '-') return usage(stderr);
+        else inputs[ninputs++] = argv[i];
+    }
+    /* The frame files and their times. */
+    char **files = NULL;
+    double *times = NULL;
+    int nfiles = 0;
+    char err[1024], dir[2048] = ".";
+    if (ninputs == 1 && ends_with(inputs[0], ".pvd")) {
+        nfiles = vtk_read_pvd(inputs[0], &files, &times, err, sizeof err);
+        if (nfiles < 0) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
+        const char *slash = strrchr(inputs[0], '/');
+        if (slash) snprintf(dir, sizeof dir, "%.*s", (int)(slash - inputs[0]), inputs[0]);
+        for (int i = 0; i < nfiles; ++i) {
+            char *full = malloc(strlen(dir) + strlen(files[i]) + 2);
+            if (!full) return 1;
+            sprintf(full, "%s/%s", dir, files[i]);
+            free(files[i]);
+            files[i] = full;
+        }
+    } else {
+        files = calloc((size_t)ninputs + 1, sizeof *files);
+        times = calloc((size_t)ninputs + 1, sizeof *times);
+        for (int i = 0; i < ninputs; ++i) files[nfiles++] = strdup(inputs[i]);
+        if (ninputs > 0) {
+            const char *slash = strrchr(inputs[0], '/');
+            if (slash) snprintf(dir, sizeof dir, "%.*s", (int)(slash - inputs[0]), inputs[0]);
+        }
+    }
+    if (nfiles == 0) {
+        fprintf(stderr, "defsim-render: no frames to render\n");
+        return 2;
+    }
+    scene s;
+    int have_scene = 0;
+    if (scene_path) {
+        if (scene_load(&s, scene_path, NULL, 0)) {
+            fprintf(stderr, "defsim-render: %s\n", s.error);
+            return 1;
+        }
+        have_scene = 1;
+    } else {
+        memset(&s, 0, sizeof s);
+        s.width = 640;
+        s.height = 400;
+        s.supersample = 2;
+        s.camera.automatic = 1;
+        s.camera.fov = 35.0;
+        s.camera.azimuth = 35.0;
+        s.camera.elevation = 20.0;
+        s.camera.zoom = 1.0;
+        s.camera.ground = 1;
+        s.def.gravity[1] = -9.81;
+    }
+    const char *od = out_dir ? out_dir : dir;
+    rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
+    if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
+    image img = {s.width, s.height, malloc((size_t)s.width * s.height * 3)};
+    image thumbs[12];
+    double tt[12];
+    int nthumbs = 0, rc = 0, have_view = 0;
+    rd_view view;
+    for (int i = 0; i < nfiles && rc == 0; ++i) {
+        vtk_frame fr;
+        if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
+            fprintf(stderr, "defsim-render: %s\n", err);
+            rc = 1;
+            break;
+        }
+        /* The view is fixed by the first frame read (or the scene's initial state). */
+        if (!have_view) {
+            double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+            if (have_scene) scene_bounds(&s, lo, hi);
+            else
+                for (int32_t k = 0; k < fr.nv; ++k)
+                    for (int c = 0; c < 3; ++c) {
+                        lo[c] = fmin(lo[c], fr.x[3 * k + c]);
+                        hi[c] = fmax(hi[c], fr.x[3 * k + c]);
+                    }
+            rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
+            have_view = 1;
+        }
+        const char *base = strrchr(files[i], '/');
+        base = base ? base + 1 : files[i];
+        int fnum = -1;
+        if (sscanf(base, "frame_%d.vtu", &fnum) != 1) fnum = -1;
+        int want = nlist == 0;
+        for (int k = 0; k < nlist; ++k) want |= list[k] == fnum;
+        if (want) {
+            rd_part *parts = NULL;
+            int np = 0;
+            char path[4200];
+            snprintf(path, sizeof path, "%s/%.*s.png", od, (int)(strlen(base) - 4), base);
+            if (parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np) ||
+                rd_render(rd, &view, fr.x, parts, np, img.rgb, err, sizeof err) ||
+                image_write_png(path, &img, err, sizeof err)) {
+                fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
+                rc = 1;
+            } else {
+                printf("%s\n", path);
+                if (nthumbs < 12 && image_downscale(&img, 2, &thumbs[nthumbs]) == 0)
+                    tt[nthumbs++] = fr.time;
+            }
+            parts_free(parts, np);
+        }
+        vtk_frame_free(&fr);
+    }
+    if (rc == 0 && nthumbs > 1) {
+        image sheet;
+        char path[4200];
+        snprintf(path, sizeof path, "%s/contact_sheet.png", od);
+        if (image_contact_sheet(thumbs, tt, nthumbs, 4, &sheet) ||
+            image_write_png(path, &sheet, err, sizeof err)) {
+            fprintf(stderr, "defsim-render: contact sheet: %s\n", err);
+            rc = 1;
+        }
+        image_free(&sheet);
+    }
+    for (int k = 0; k < nthumbs; ++k) image_free(&thumbs[k]);
+    for (int i = 0; i < nfiles; ++i) free(files[i]);
+    free(files);
+    free(times);
+    free(inputs);
+    free(list);
+    image_free(&img);
+    rd_destroy(rd);
+    if (have_scene) scene_free(&s);
+    return rc;
+}

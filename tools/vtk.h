@@ -1,0 +1,54 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * VTK XML output that ParaView opens: one .vtu (unstructured grid, raw appended binary) per frame
+ * and a .pvd collection listing them with their times. The reader reads back the .vtu files
+ * that vtk_write_vtu wrote (for defsim-render), not arbitrary VTK files.
+ */
+#ifndef DEFSIM_TOOLS_VTK_H
+#define DEFSIM_TOOLS_VTK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+enum { VTK_LINE = 3, VTK_TRIANGLE = 5, VTK_TETRA = 10 };
+
+/* Cells of a frame: tets, triangles and lines, each tagged with its body. */
+typedef struct vtk_cells {
+    int64_t *conn;      /* vertex indices of all cells */
+    int64_t *offsets;   /* end of each cell in conn (VTK's convention) */
+    uint8_t *types;     /* VTK_* per cell */
+    int32_t *body;      /* body index per cell */
+    int64_t ncells, nconn;
+} vtk_cells;
+
+/* A frame read back: positions and cells. */
+typedef struct vtk_frame {
+    int32_t nv;
+    double *x;          /* 3 nv */
+    double time;
+    vtk_cells cells;
+} vtk_frame;
+
+/* Appends cells of one type (k vertices each, body-local indices + offset) for a body. */
+int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t offset, uint8_t type,
+                  int32_t body);
+void vtk_cells_free(vtk_cells *c);
+
+/* Writes a .vtu (atomically: a temporary file renamed into place). v may be NULL. Returns 0, or
+ * -1 with a message in err. */
+int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
+                  const vtk_cells *c, double time, char *err, size_t errsz);
+
+/* Writes a .pvd collection of n datasets (atomically). */
+int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
+                  char *err, size_t errsz);
+
+/* Reads a .vtu written by vtk_write_vtu. Returns 0, or -1 with a message in err. */
+int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz);
+void vtk_frame_free(vtk_frame *f);
+
+/* Reads the file names (relative to the .pvd's folder, as written) and times of a .pvd.
+ * *files and each name are malloc'd. Returns the count, or -1 with a message in err. */
+int vtk_read_pvd(const char *path, char ***files, double **times, char *err, size_t errsz);
+
+#endif

@@ -93,6 +93,37 @@ static void group_dpdf(int model, double mu, double la, const double F[9], doubl
     }
 }
 
+/* dPdF of a tet model made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from
+ * its eigen-structure in signed singular values (material_models.h, *_sigma): the 3 x 3 block h
+ * is projected and the six twist / flip eigenvalues clamped, which is the projection of the
+ * 9 x 9 tensor without a 9 x 9 eigensolver. D2, if not NULL, receives the projection with mode2
+ * from the same decomposition. */
+static void group_dpdf_projected(int model, double mu, double la, const double F[9], int mode,
+                                 double D[81], int mode2, double *D2)
+{
+    double U[9], V[9], s[3], h[9], es[3], ek[3];
+    defsim__svd3(F, U, s, V);
+    switch (model) {
+    case DEFSIM_MODEL_STVK: defsim__stvk_sigma(mu, la, s, h, es, ek); break;
+    case DEFSIM_MODEL_COROTATED: defsim__corotated_sigma(mu, la, s, h, es, ek); break;
+    case DEFSIM_MODEL_NEOHOOKEAN: defsim__neohookean_sigma(mu, la, s, h, es, ek); break;
+    default: defsim__snh_sigma(mu, la, s, h, es, ek); break;
+    }
+    const int modes[2] = {mode, mode2};
+    double *out[2] = {D, D2};
+    for (int k = 0; k < 2; ++k) {
+        if (!out[k]) continue;
+        double hp[9], esp[3], ekp[3];
+        memcpy(hp, h, sizeof hp);
+        defsim__project_psd(3, hp, modes[k]);
+        for (int p = 0; p < 3; ++p) {
+            esp[p] = es[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -es[p] : 0.0) : es[p];
+            ekp[p] = ek[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -ek[p] : 0.0) : ek[p];
+        }
+        defsim__isotropic_dPdF(U, V, hp, esp, ekp, out[k]);
+    }
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Elastic force kernels: one per material model, the constitutive law inlined. */
 
@@ -177,8 +208,8 @@ static void damping_tets(const defsim__group *g, const double *x, const double *
             double F[9], dF[9], D[81], dP[9];
             tet_deformation(x, id, dm, F);
             tet_deformation(v, id, dm, dF);
-            group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
-            defsim__project_psd(9, D, DEFSIM_PROJECTION_CLAMP);
+            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP, D,
+                                 0, NULL);
             apply_dpdf(D, dF, dP);
             tet_scatter(f, id, dm, dP, -g->beta[e] * g->vol[e]);
         }
@@ -504,15 +535,23 @@ static int element_matrix(const defsim_world *w, const defsim__group *g, const d
     }
     double F[9], D[81], gr[4][3];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
-    group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
-    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+    if (proj == DEFSIM_PROJECTION_NONE) {
+        group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+        if (sd != 0.0) {
+            double Dd[81];
+            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP,
+                                 Dd, 0, NULL);
+            for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+        } else {
+            for (int i = 0; i < 81; ++i) D[i] *= sk;
+        }
+    } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
         double Dd[81];
-        memcpy(Dd, D, sizeof Dd);
-        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
-        defsim__project_psd(9, D, proj);
+        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D,
+                             DEFSIM_PROJECTION_CLAMP, Dd);
         for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
     } else {
-        defsim__project_psd(9, D, proj);
+        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
         for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
     }
     tet_gradients(g->dminv + 9 * (int64_t)e, gr);

@@ -233,7 +233,10 @@ static defsim_status nc_init(const defsim_host *host, defsim_system *sys, void *
     pthread_mutex_unlock(&analysis_lock);
     s->rhs = cholmod_l_zeros((size_t)s->n, 1, CHOLMOD_REAL, &s->cc);
     if (!s->L || !s->rhs) {
-        host->set_error(sys, "newton_cholmod: CHOLMOD analysis failed (out of memory)");
+        char why[96];
+        snprintf(why, sizeof why, "newton_cholmod: CHOLMOD analysis failed (CHOLMOD status %d)",
+                 s->cc.status);
+        host->set_error(sys, why);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     char msg[256];
@@ -337,6 +340,19 @@ static void add_shift(nc_solver *s, double shift, double h)
         s->hval[s->pat.col_ptr[j + 1] - 1] += shift * s->mass[s->free[j]] / (h * h);
 }
 
+/* A simplicial LDL' factorisation succeeds on indefinite matrices; the matrix is positive
+ * definite exactly when every pivot D(j,j) (first entry of column j) is positive. Supernodal and
+ * LL' factorisations report NOT_POSDEF themselves. */
+static int ldl_positive(const cholmod_factor *L)
+{
+    if (L->is_super || L->is_ll) return 1;
+    const SuiteSparse_long *lp = L->p;
+    const double *lx = L->x;
+    for (size_t j = 0; j < L->n; ++j)
+        if (!(lx[lp[j]] > 0.0)) return 0;
+    return 1;
+}
+
 /* Factorises the Hessian and solves H dx = -grad. An exact (unprojected) Hessian can be
  * indefinite: then the factorisation fails or dx is not a descent direction, and the diagonal is
  * shifted by growing multiples of M / h^2 until it is. *slope receives grad . dx. */
@@ -357,7 +373,7 @@ static defsim_status factor_solve(nc_solver *s, const defsim_host *host, defsim_
             result = DEFSIM_ERR_OUT_OF_MEMORY;
             break;
         }
-        if (s->cc.status == CHOLMOD_OK) {
+        if (s->cc.status == CHOLMOD_OK && ldl_positive(s->L)) {
             double *b = s->rhs->x;
             for (int64_t k = 0; k < s->n; ++k) b[k] = -s->grad[k];
             t0 = host->wall_time();
@@ -405,7 +421,7 @@ static defsim_status factor_solve(nc_solver *s, const defsim_host *host, defsim_
 static defsim_status fail(const defsim_host *host, defsim_system *sys, defsim_status st,
                           const char *message)
 {
-    host->stats(sys)->convergence_failures++;
+    if (st == DEFSIM_ERR_NOT_CONVERGED) host->stats(sys)->convergence_failures++;
     host->set_error(sys, message);
     return st;
 }
@@ -436,8 +452,9 @@ static defsim_status nc_step(const defsim_host *host, defsim_system *sys, void *
         memcpy(s->x, s->x0, bytes);
         gx = merit(s, host, sys, s->x, h, &scale);
         if (!isfinite(gx))
-            return fail(host, sys, DEFSIM_ERR_UNSTABLE,
-                        "newton_cholmod: the energy is undefined at the start of the step");
+            return fail(host, sys, DEFSIM_ERR_NOT_CONVERGED,
+                        "newton_cholmod: the energy is undefined at the start of the step "
+                        "(an inverted neo-Hookean element?)");
     }
     memcpy(s->xt, s->x, bytes);
 
@@ -452,8 +469,8 @@ static defsim_status nc_step(const defsim_host *host, defsim_system *sys, void *
         double slope = 0.0;
         st = factor_solve(s, host, sys, h, &slope);
         if (st != DEFSIM_OK) {
-            stats->convergence_failures++;
-            return st;
+            if (st == DEFSIM_ERR_NOT_CONVERGED) stats->convergence_failures++;
+            return st;   /* factor_solve set the message */
         }
         double dxmax = 0.0;
         for (int64_t k = 0; k < s->n; ++k) dxmax = fmax(dxmax, fabs(s->dx[k]));

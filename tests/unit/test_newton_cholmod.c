@@ -550,7 +550,7 @@ static void test_all_pinned(void **state)
 /* One step from a strongly compressed state: the minimiser does not depend on how (or whether)
  * the Hessian is projected, nor on the factorisation and ordering; only the path does. */
 
-static double *one_step(defsim_projection proj, int64_t *iterations)
+static double *one_step_h(defsim_projection proj, double h, int64_t *iterations)
 {
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 0.5, 0.5};
     defsim_world *w = nc_world(-9.81, 1, 1e-12, 100, proj);
@@ -561,7 +561,7 @@ static double *one_step(defsim_projection proj, int64_t *iterations)
     double *x = tu_positions(w);
     for (int i = 0; i < n; ++i) x[3 * i] *= 0.6;   /* compressed along the beam to 60 % */
     TU_OK(defsim_world_set_state(w, x, NULL));
-    step_ok(w, 0.02);
+    step_ok(w, h);
     free(x);
     x = tu_positions(w);
     defsim_stats s = {.size = sizeof s};
@@ -569,6 +569,11 @@ static double *one_step(defsim_projection proj, int64_t *iterations)
     if (iterations) *iterations = s.newton_iterations;
     defsim_world_destroy(w);
     return x;
+}
+
+static double *one_step(defsim_projection proj, int64_t *iterations)
+{
+    return one_step_h(proj, 0.02, iterations);
 }
 
 static void test_projections_agree(void **state)
@@ -599,6 +604,31 @@ static void test_projections_agree(void **state)
     assert_true(moved > 1e-2);
     assert_true(dab < 1e-9 && dac < 1e-9);
     free(a); free(b); free(c); free(x0);
+}
+
+/* At h = 1 s the exact (PROJECTION_NONE) Hessian of the compressed beam is indefinite even
+ * with M / h^2: the solver shifts its diagonal until the factorisation is positive definite
+ * (CHOLMOD reports NOT_POSDEF in supernodal mode; in simplicial LDL' mode a pivot is <= 0), and
+ * still reaches the minimiser that the projected Hessians reach. */
+static void test_indefinite_exact_hessian(void **state)
+{
+    (void)state;
+    const char *factor[2] = {"supernodal", "simplicial"};
+    const int n = 5 * 3 * 3;
+    for (int f = 0; f < 2; ++f) {
+        setenv("DEFSIM_CHOLMOD_FACTOR", factor[f], 1);
+        int64_t it_none, it_clamp;
+        double *a = one_step_h(DEFSIM_PROJECTION_NONE, 1.0, &it_none);
+        double *b = one_step_h(DEFSIM_PROJECTION_CLAMP, 1.0, &it_clamp);
+        double d = 0.0;
+        for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - b[i]));
+        printf("h = 1 s, %s: Newton iterations none %lld, clamp %lld; difference %.2e m\n",
+               factor[f], (long long)it_none, (long long)it_clamp, d);
+        assert_true(d < 1e-9);
+        free(a);
+        free(b);
+    }
+    unsetenv("DEFSIM_CHOLMOD_FACTOR");
 }
 
 static void test_factorisations_agree(void **state)
@@ -727,6 +757,7 @@ int main(void)
         cmocka_unit_test(test_not_converged_rolls_back),
         cmocka_unit_test(test_all_pinned),
         cmocka_unit_test(test_projections_agree),
+        cmocka_unit_test(test_indefinite_exact_hessian),
         cmocka_unit_test(test_factorisations_agree),
         cmocka_unit_test(test_scale_free),
         cmocka_unit_test(test_determinism),

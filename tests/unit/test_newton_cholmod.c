@@ -482,6 +482,19 @@ static void test_neohookean_line_search(void **state)
     printf("neo-Hookean slam: %lld Newton iterations, %lld line-search backtracks\n",
            (long long)st.newton_iterations, (long long)st.line_search_backtracks);
     assert_true(st.line_search_backtracks > 0);
+
+    /* A state the model has no energy for (mirrored: every tet inverted) cannot be stepped:
+     * NOT_CONVERGED, nothing changes. */
+    double *x = tu_positions(w);
+    for (int i = 0; i < n; ++i) x[3 * i + 1] = -x[3 * i + 1];
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    double *xb = tu_positions(w);
+    assert_int_equal(defsim_world_step(w, 0.05), DEFSIM_ERR_NOT_CONVERGED);
+    double *xa = tu_positions(w);
+    assert_memory_equal(xa, xb, 3 * (size_t)n * sizeof *xa);
+    free(x);
+    free(xa);
+    free(xb);
     free(v);
     defsim_world_destroy(w);
 }

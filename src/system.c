@@ -115,7 +115,11 @@ static void group_dpdf_projected(int model, double mu, double la, const double F
         if (!out[k]) continue;
         double hp[9], esp[3], ekp[3];
         memcpy(hp, h, sizeof hp);
-        defsim__project_psd(3, hp, modes[k]);
+        /* Positive definite (leading minors > 0, Sylvester), the common case: nothing to do. */
+        const double m2 = h[0] * h[4] - h[1] * h[3];
+        const double m3 = h[0] * (h[4] * h[8] - h[5] * h[7]) - h[1] * (h[3] * h[8] - h[5] * h[6]) +
+                          h[2] * (h[3] * h[7] - h[4] * h[6]);
+        if (!(h[0] > 0.0 && m2 > 0.0 && m3 > 0.0)) defsim__project_psd(3, hp, modes[k]);
         for (int p = 0; p < 3; ++p) {
             esp[p] = es[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -es[p] : 0.0) : es[p];
             ekp[p] = ek[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -ek[p] : 0.0) : ek[p];
@@ -556,20 +560,37 @@ static int element_matrix(const defsim_world *w, const defsim__group *g, const d
     }
     tet_gradients(g->dminv + 9 * (int64_t)e, gr);
     const double vol = g->vol[e];
-    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l] */
-    for (int b = 0; b < 4; ++b) {
+    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l]. D is symmetric, so K is; and
+     * g_3 = -(g_0 + g_1 + g_2) makes node 3's blocks minus sums of the others: only the six
+     * blocks a <= b < 3 need the products. */
+    for (int b = 0; b < 3; ++b) {
         double Dg[9][3];   /* Dg[(i,j)][k] = sum_l D[(i,j),(k,l)] g_b[l] */
         for (int r = 0; r < 9; ++r)
             for (int k = 0; k < 3; ++k)
                 Dg[r][k] = D[9 * r + 3 * k] * gr[b][0] + D[9 * r + 3 * k + 1] * gr[b][1] +
                            D[9 * r + 3 * k + 2] * gr[b][2];
-        for (int a = 0; a < 4; ++a)
+        for (int a = 0; a <= b; ++a)
             for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k)
-                    K[(3 * a + i) * nd + 3 * b + k] =
-                        vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
-                               gr[a][2] * Dg[3 * i + 2][k]);
+                for (int k = 0; k < 3; ++k) {
+                    const double v = vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
+                                            gr[a][2] * Dg[3 * i + 2][k]);
+                    K[(3 * a + i) * nd + 3 * b + k] = v;
+                    K[(3 * b + k) * nd + 3 * a + i] = v;
+                }
     }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const double *row = K + (3 * a + i) * nd;
+                const double v = -(row[k] + row[3 + k] + row[6 + k]);
+                K[(3 * a + i) * nd + 9 + k] = v;
+                K[(9 + k) * nd + 3 * a + i] = v;
+            }
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double *row = K + (9 + i) * nd;
+            K[(9 + i) * nd + 9 + k] = -(row[k] + row[3 + k] + row[6 + k]);
+        }
     return 1;
 }
 

@@ -399,7 +399,13 @@ static defsim_status factor_solve(nc_solver *s, const defsim_host *host, defsim_
                                   double h, double *slope)
 {
     defsim_stats *stats = host->stats(sys);
-    const int threads = host->num_threads(sys);
+    /* Called from inside the host's own parallel region (worlds stepped in parallel), the
+     * assembly runs on one thread (nested regions are inactive), and so should the BLAS:
+     * T threads per world times the host's threads would oversubscribe the cores. */
+    int threads = host->num_threads(sys);
+#ifdef _OPENMP
+    if (omp_in_parallel()) threads = 1;
+#endif
     double shift = 0.0;
     defsim_status result = DEFSIM_OK;
     blas_enter(threads);

@@ -8,6 +8,7 @@
 #include "test_util.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -757,6 +758,63 @@ static void test_determinism(void **state)
     free(b);
 }
 
+/* Worlds stepped concurrently from several threads, with different thread counts (so that the
+ * process-wide BLAS thread count is contended) and concurrent symbolic analyses, give exactly
+ * what each gives alone. */
+typedef struct concurrent_job {
+    int threads;
+    double *x;
+} concurrent_job;
+
+static double *concurrent_run(int threads)
+{
+    defsim_world *w = nc_world(-9.81, threads, 1e-8, 50, DEFSIM_PROJECTION_CLAMP);
+    const double hi[3] = {2, 0.5, 0.5}, lo[3] = {0, 0, 0};
+    defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 8, 2, 2, lo, hi, 1e6, 0.3,
+                                  1000);
+    tu_pin_below(w, b, 0, 0.0);
+    for (int s = 0; s < 8; ++s)
+        if (defsim_world_step(w, 1.0 / 60.0) != DEFSIM_OK) {
+            defsim_world_destroy(w);
+            return NULL;
+        }
+    double *x = tu_positions(w);
+    defsim_world_destroy(w);
+    return x;
+}
+
+static void *concurrent_thread(void *arg)
+{
+    concurrent_job *job = arg;
+    job->x = concurrent_run(job->threads);
+    return NULL;
+}
+
+static void test_concurrent_worlds(void **state)
+{
+    (void)state;
+    enum { JOBS = 4 };
+    const int n = 9 * 3 * 3;
+    double *serial[2] = {concurrent_run(1), concurrent_run(2)};
+    assert_non_null(serial[0]);
+    assert_non_null(serial[1]);
+    concurrent_job jobs[JOBS];
+    pthread_t tid[JOBS];
+    for (int k = 0; k < JOBS; ++k) {
+        jobs[k].threads = 1 + k % 2;
+        jobs[k].x = NULL;
+        assert_int_equal(pthread_create(&tid[k], NULL, concurrent_thread, &jobs[k]), 0);
+    }
+    for (int k = 0; k < JOBS; ++k) assert_int_equal(pthread_join(tid[k], NULL), 0);
+    for (int k = 0; k < JOBS; ++k) {
+        assert_non_null(jobs[k].x);
+        assert_memory_equal(jobs[k].x, serial[k % 2], 3 * (size_t)n * sizeof(double));
+        free(jobs[k].x);
+    }
+    free(serial[0]);
+    free(serial[1]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -774,6 +832,7 @@ int main(void)
         cmocka_unit_test(test_factorisations_agree),
         cmocka_unit_test(test_scale_free),
         cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_concurrent_worlds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

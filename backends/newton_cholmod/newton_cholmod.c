@@ -123,7 +123,7 @@ static void omp_restore(omp_saved saved)
 
 typedef struct nc_solver {
     int64_t ndof, n;           /* all DOFs, free DOFs */
-    const int64_t *free;       /* free index -> DOF */
+    const int64_t *fdof;       /* free index -> DOF */
     const double *mass, *alpha;
     int stiffness_damping;
     double gravity[3];
@@ -214,7 +214,7 @@ static defsim_status nc_init(const defsim_host *host, defsim_system *sys, void *
     st->s = s;
     s->ndof = host->dof_count(sys);
     s->n = host->free_dof_count(sys);
-    s->free = host->free_dofs(sys);
+    s->fdof = host->free_dofs(sys);
     s->mass = host->mass(sys);
     s->alpha = host->mass_damping(sys);
     s->stiffness_damping = host->has_stiffness_damping(sys);
@@ -278,13 +278,14 @@ static defsim_status nc_init(const defsim_host *host, defsim_system *sys, void *
         host->set_error(sys, why);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    const int ord = s->L->ordering;
     char msg[256];
     snprintf(msg, sizeof msg,
              "newton_cholmod: %lld free DOFs, nnz(A upper) %lld, nnz(L) %.0f, %.3g Gflop per "
              "factorisation, %s, %s ordering, analysis %.3f s",
              (long long)s->n, (long long)s->pat.nnz, s->cc.lnz, s->cc.fl * 1e-9,
              s->L->is_super ? "supernodal" : "simplicial",
-             s->L->ordering == CHOLMOD_METIS ? "METIS" : s->L->ordering == CHOLMOD_AMD ? "AMD" : "other",
+             ord == CHOLMOD_METIS ? "METIS" : ord == CHOLMOD_AMD ? "AMD" : "other",
              host->wall_time() - t0);
     host->log(sys, 2, msg);
     return DEFSIM_OK;
@@ -316,7 +317,7 @@ static void sym_upper_product(const nc_solver *s, const double *v, const double 
 /* e = x - x_n over the free DOFs, and be = B e if there is stiffness damping. */
 static void displacement(nc_solver *s, const double *x)
 {
-    for (int64_t k = 0; k < s->n; ++k) s->e[k] = x[s->free[k]] - s->x0[s->free[k]];
+    for (int64_t k = 0; k < s->n; ++k) s->e[k] = x[s->fdof[k]] - s->x0[s->fdof[k]];
     if (s->bval) sym_upper_product(s, s->bval, s->e, s->be);
 }
 
@@ -330,7 +331,7 @@ static double merit(nc_solver *s, const defsim_host *host, defsim_system *sys, c
     displacement(s, x);
     double inertia = 0.0, damping = 0.0, grav = 0.0;
     for (int64_t k = 0; k < s->n; ++k) {
-        const int64_t i = s->free[k];
+        const int64_t i = s->fdof[k];
         const double d = x[i] - s->y[i], e = s->e[k];
         inertia += s->mass[i] * d * d;
         damping += s->alpha[i] * s->mass[i] * e * e;
@@ -353,7 +354,7 @@ static defsim_status gradient(nc_solver *s, const defsim_host *host, defsim_syst
     displacement(s, x);
     const double ih2 = 1.0 / (h * h), ih = 1.0 / h;
     for (int64_t k = 0; k < s->n; ++k) {
-        const int64_t i = s->free[k];
+        const int64_t i = s->fdof[k];
         double damping = s->alpha[i] * s->mass[i] * s->e[k] + (s->bval ? s->be[k] : 0.0);
         s->grad[k] = s->mass[i] * (x[i] - s->y[i]) * ih2 - s->f[i] + damping * ih;
     }
@@ -376,7 +377,7 @@ static defsim_status hessian(nc_solver *s, const defsim_host *host, defsim_syste
 static void add_shift(nc_solver *s, double shift, double h)
 {
     for (int64_t j = 0; j < s->n; ++j)
-        s->hval[s->pat.col_ptr[j + 1] - 1] += shift * s->mass[s->free[j]] / (h * h);
+        s->hval[s->pat.col_ptr[j + 1] - 1] += shift * s->mass[s->fdof[j]] / (h * h);
 }
 
 /* A simplicial LDL' factorisation succeeds on indefinite matrices; the matrix is positive
@@ -525,9 +526,9 @@ static defsim_status nc_step(const defsim_host *host, defsim_system *sys, void *
         /* Converged: the update moves no DOF by more than tol (velocity change <= tol / h).
          * The update is still applied; for exact Newton it squares the remaining error. */
         if (dxmax <= tol) {
-            for (int64_t k = 0; k < s->n; ++k) s->x[s->free[k]] += s->dx[k];
+            for (int64_t k = 0; k < s->n; ++k) s->x[s->fdof[k]] += s->dx[k];
             for (int64_t k = 0; k < s->n; ++k) {
-                const int64_t i = s->free[k];
+                const int64_t i = s->fdof[k];
                 vw[i] = (s->x[i] - s->x0[i]) / h;
                 xw[i] = s->x[i];
             }
@@ -541,7 +542,7 @@ static defsim_status nc_step(const defsim_host *host, defsim_system *sys, void *
         int accepted = 0;
         for (int b = 0; b <= NC_MAX_BACKTRACKS; ++b) {
             for (int64_t k = 0; k < s->n; ++k) {
-                const int64_t i = s->free[k];
+                const int64_t i = s->fdof[k];
                 s->xt[i] = s->x[i] + alpha * s->dx[k];
             }
             gt = merit(s, host, sys, s->xt, h, &tscale);

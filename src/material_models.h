@@ -305,4 +305,87 @@ static inline void defsim__snh_dPdF(double mu, double lambda, const double F[9],
         }
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* dPdF in signed singular values, for the analytic PSD projection of element Hessians.       */
+/* Every model above is isotropic: psi = f(s) in the signed singular values s of F. For each,   */
+/* *_sigma gives the Hessian h = d2f/ds2 (3 x 3 row-major) and the eigenvalues of the twist and */
+/* flip modes of defsim__isotropic_dPdF for the pairs (0,1), (0,2), (1,2):                    */
+/* ev_sym = (g_a - g_b)/(s_a - s_b) and ev_skew = (g_a + g_b)/(s_a + s_b), g = df/ds, in closed */
+/* forms that need no such division where one exists. With these, dPdF's eigenvalues are those */
+/* of h and the six ev, so clamping them projects dPdF without a 9 x 9 eigensolver.             */
+
+static inline void defsim__stvk_sigma(double mu, double lambda, const double s[3], double h[9],
+                                      double ev_sym[3], double ev_skew[3])
+{
+    static const int pa[3] = {0, 0, 1}, pb[3] = {1, 2, 2};
+    double tr = 0.5 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] - 3.0);
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+            h[3 * a + b] = lambda * s[a] * s[b] +
+                           (a == b ? mu * (3.0 * s[a] * s[a] - 1.0) + lambda * tr : 0.0);
+    for (int p = 0; p < 3; ++p) {
+        double x = s[pa[p]], y = s[pb[p]];
+        ev_sym[p] = mu * (x * x + x * y + y * y - 1.0) + lambda * tr;
+        ev_skew[p] = mu * (x * x - x * y + y * y - 1.0) + lambda * tr;
+    }
+}
+
+static inline void defsim__corotated_sigma(double mu, double lambda, const double s[3],
+                                           double h[9], double ev_sym[3], double ev_skew[3])
+{
+    static const int pa[3] = {0, 0, 1}, pb[3] = {1, 2, 2};
+    double tr = s[0] + s[1] + s[2] - 3.0, g[3];
+    for (int a = 0; a < 3; ++a) {
+        g[a] = 2.0 * mu * (s[a] - 1.0) + lambda * tr;
+        for (int b = 0; b < 3; ++b) h[3 * a + b] = lambda + (a == b ? 2.0 * mu : 0.0);
+    }
+    for (int p = 0; p < 3; ++p) {
+        ev_sym[p] = 2.0 * mu;
+        ev_skew[p] = (g[pa[p]] + g[pb[p]]) / defsim__safe_sum(s[pa[p]], s[pb[p]]);
+    }
+}
+
+/* Undefined (NAN) unless every s > 0. */
+static inline void defsim__neohookean_sigma(double mu, double lambda, const double s[3],
+                                            double h[9], double ev_sym[3], double ev_skew[3])
+{
+    static const int pa[3] = {0, 0, 1}, pb[3] = {1, 2, 2};
+    if (!(s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0)) {
+        for (int i = 0; i < 9; ++i) h[i] = NAN;
+        for (int p = 0; p < 3; ++p) ev_sym[p] = ev_skew[p] = NAN;
+        return;
+    }
+    double c = mu - lambda * log(s[0] * s[1] * s[2]);
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+            h[3 * a + b] = lambda / (s[a] * s[b]) + (a == b ? mu + c / (s[a] * s[a]) : 0.0);
+    for (int p = 0; p < 3; ++p) {
+        double q = s[pa[p]] * s[pb[p]];
+        ev_sym[p] = mu + c / q;
+        ev_skew[p] = mu - c / q;
+    }
+}
+
+static inline void defsim__snh_sigma(double mu, double lambda, const double s[3], double h[9],
+                                     double ev_sym[3], double ev_skew[3])
+{
+    static const int pa[3] = {0, 0, 1}, pb[3] = {1, 2, 2};
+    double mp, lp, alpha;
+    defsim__snh_params(mu, lambda, &mp, &lp, &alpha);
+    double ic = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+    double J = s[0] * s[1] * s[2];
+    double c1 = mp * (1.0 - 1.0 / (ic + 1.0)), cf = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
+    double c2 = lp * (J - alpha);
+    double pr[3] = {s[1] * s[2], s[0] * s[2], s[0] * s[1]};   /* dJ/ds */
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+            h[3 * a + b] = cf * s[a] * s[b] + lp * pr[a] * pr[b] +
+                           (a == b ? c1 : c2 * s[3 - a - b]);
+    for (int p = 0; p < 3; ++p) {
+        double sc = s[3 - pa[p] - pb[p]];
+        ev_sym[p] = c1 - c2 * sc;
+        ev_skew[p] = c1 + c2 * sc;
+    }
+}
+
 #endif /* DEFSIM_MATERIAL_MODELS_H */

@@ -94,6 +94,41 @@ static void group_dpdf(int model, double mu, double la, const double F[9], doubl
     }
 }
 
+/* dPdF of a tet model made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from
+ * its eigen-structure in signed singular values (material_models.h, *_sigma): the 3 x 3 block h
+ * is projected and the six twist / flip eigenvalues clamped, which is the projection of the
+ * 9 x 9 tensor without a 9 x 9 eigensolver. D2, if not NULL, receives the projection with mode2
+ * from the same decomposition. */
+static void group_dpdf_projected(int model, double mu, double la, const double F[9], int mode,
+                                 double D[81], int mode2, double *D2)
+{
+    double U[9], V[9], s[3], h[9], es[3], ek[3];
+    defsim__svd3(F, U, s, V);
+    switch (model) {
+    case DEFSIM_MODEL_STVK: defsim__stvk_sigma(mu, la, s, h, es, ek); break;
+    case DEFSIM_MODEL_COROTATED: defsim__corotated_sigma(mu, la, s, h, es, ek); break;
+    case DEFSIM_MODEL_NEOHOOKEAN: defsim__neohookean_sigma(mu, la, s, h, es, ek); break;
+    default: defsim__snh_sigma(mu, la, s, h, es, ek); break;
+    }
+    const int modes[2] = {mode, mode2};
+    double *out[2] = {D, D2};
+    for (int k = 0; k < 2; ++k) {
+        if (!out[k]) continue;
+        double hp[9], esp[3], ekp[3];
+        memcpy(hp, h, sizeof hp);
+        /* Positive definite (leading minors > 0, Sylvester), the common case: nothing to do. */
+        const double m2 = h[0] * h[4] - h[1] * h[3];
+        const double m3 = h[0] * (h[4] * h[8] - h[5] * h[7]) - h[1] * (h[3] * h[8] - h[5] * h[6]) +
+                          h[2] * (h[3] * h[7] - h[4] * h[6]);
+        if (!(h[0] > 0.0 && m2 > 0.0 && m3 > 0.0)) defsim__project_psd(3, hp, modes[k]);
+        for (int p = 0; p < 3; ++p) {
+            esp[p] = es[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -es[p] : 0.0) : es[p];
+            ekp[p] = ek[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -ek[p] : 0.0) : ek[p];
+        }
+        defsim__isotropic_dPdF(U, V, hp, esp, ekp, out[k]);
+    }
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Elastic force kernels: one per material model, the constitutive law inlined. */
 
@@ -200,10 +235,9 @@ static void forces_springs(const defsim__group *g, const double *x, double *f, i
     }
 }
 
-/* Stiffness damping -beta K_e(x) v_e per element with the exact element stiffness. An element
- * whose stiffness is not positive along its own velocity (v_e^T K_e v_e <= 0: compressed past
- * a stability limit) contributes nothing, so damping never injects energy; this costs one dP/dF
- * per element instead of an eigen-decomposition. */
+/* Stiffness damping -beta K_e(x) v_e per element with the element stiffness made positive
+ * semi-definite (analytic eigenvalue clamping of dP/dF): linear in v, never injects energy, and
+ * the same matrix B that implicit backends assemble. */
 static void damping_tets(const defsim__group *g, const double *x, const double *v, double *f,
                          int nthreads)
 {
@@ -217,11 +251,9 @@ static void damping_tets(const defsim__group *g, const double *x, const double *
             double F[9], dF[9], D[81], dP[9];
             tet_deformation(x, id, dm, F);
             tet_deformation(v, id, dm, dF);
-            group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP, D,
+                                 0, NULL);
             apply_dpdf(D, dF, dP);
-            double q = 0.0;
-            for (int k = 0; k < 9; ++k) q += dF[k] * dP[k];
-            if (!(q > 0.0)) continue;
             tet_scatter(f, id, dm, dP, -g->beta[e] * g->vol[e]);
         }
     }
@@ -547,33 +579,58 @@ static int element_matrix(const defsim_world *w, const defsim__group *g, const d
     }
     double F[9], D[81], gr[4][3];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
-    group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
-    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+    if (proj == DEFSIM_PROJECTION_NONE) {
+        group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+        if (sd != 0.0) {
+            double Dd[81];
+            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP,
+                                 Dd, 0, NULL);
+            for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+        } else {
+            for (int i = 0; i < 81; ++i) D[i] *= sk;
+        }
+    } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
         double Dd[81];
-        memcpy(Dd, D, sizeof Dd);
-        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
-        defsim__project_psd(9, D, proj);
+        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D,
+                             DEFSIM_PROJECTION_CLAMP, Dd);
         for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
     } else {
-        defsim__project_psd(9, D, proj);
+        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
         for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
     }
     tet_gradients(g->dminv + 9 * (int64_t)e, gr);
     const double vol = g->vol[e];
-    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l] */
-    for (int b = 0; b < 4; ++b) {
+    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l]. D is symmetric, so K is; and
+     * g_3 = -(g_0 + g_1 + g_2) makes node 3's blocks minus sums of the others: only the six
+     * blocks a <= b < 3 need the products. */
+    for (int b = 0; b < 3; ++b) {
         double Dg[9][3];   /* Dg[(i,j)][k] = sum_l D[(i,j),(k,l)] g_b[l] */
         for (int r = 0; r < 9; ++r)
             for (int k = 0; k < 3; ++k)
                 Dg[r][k] = D[9 * r + 3 * k] * gr[b][0] + D[9 * r + 3 * k + 1] * gr[b][1] +
                            D[9 * r + 3 * k + 2] * gr[b][2];
-        for (int a = 0; a < 4; ++a)
+        for (int a = 0; a <= b; ++a)
             for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k)
-                    K[(3 * a + i) * nd + 3 * b + k] =
-                        vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
-                               gr[a][2] * Dg[3 * i + 2][k]);
+                for (int k = 0; k < 3; ++k) {
+                    const double v = vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
+                                            gr[a][2] * Dg[3 * i + 2][k]);
+                    K[(3 * a + i) * nd + 3 * b + k] = v;
+                    K[(3 * b + k) * nd + 3 * a + i] = v;
+                }
     }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const double *row = K + (3 * a + i) * nd;
+                const double v = -(row[k] + row[3 + k] + row[6 + k]);
+                K[(3 * a + i) * nd + 9 + k] = v;
+                K[(9 + k) * nd + 3 * a + i] = v;
+            }
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double *row = K + (9 + i) * nd;
+            K[(9 + i) * nd + 9 + k] = -(row[k] + row[3 + k] + row[6 + k]);
+        }
     return 1;
 }
 

@@ -36,12 +36,15 @@ typedef struct run_result {
 
 /* The scene: a clamped beam of tets ("beam") or a rope of springs pinned at one end ("rope").
  * E sets the tet Young's modulus or, for the rope, the spring stiffness k = E * 1e-4 m. */
+static int max_iterations_opt;   /* 0: the library's default */
+
 static defsim_world *make_world(const char *scene, const char *backend, double E, double nu,
                                 int start, int *nv_out)
 {
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
+    if (max_iterations_opt > 0) wd.max_iterations = max_iterations_opt;
     wd.num_threads = 1;
     defsim_world *w = NULL;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
@@ -177,7 +180,8 @@ static int usage(void)
 {
     fprintf(stderr,
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
-            "                     [--scenes beam,rope] [--steps N] [--time T]\n");
+            "                     [--scenes beam,rope] [--steps N] [--time T]\n"
+            "                     [--max-iterations N]\n");
     return 2;
 }
 
@@ -198,6 +202,8 @@ int defsim_tool_stress(int argc, char **argv)
             snprintf(scenes_buf, sizeof scenes_buf, "%s", argv[++i]);
         else if (!strcmp(argv[i], "--steps") && i + 1 < argc) max_steps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--time") && i + 1 < argc) T = atof(argv[++i]);
+        else if (!strcmp(argv[i], "--max-iterations") && i + 1 < argc)
+            max_iterations_opt = atoi(argv[++i]);
         else return usage();
     }
     if (max_steps == 0) max_steps = reduced ? 200 : 1000;

@@ -35,8 +35,8 @@ typedef struct defsim_system defsim_system;
 enum {
     DEFSIM_FORCE_ELASTIC = 1u << 0,  ///< -dE/dx of springs and tets.
     DEFSIM_FORCE_GRAVITY = 1u << 1,  ///< M g.
-    DEFSIM_FORCE_DAMPING = 1u << 2,  ///< -(alpha M + beta K(x)) v (Rayleigh); an element whose
-                                     ///< stiffness is not positive along its velocity adds none.
+    DEFSIM_FORCE_DAMPING = 1u << 2,  ///< -(alpha M + B(x)) v (Rayleigh; B = sum beta_e K_e with
+                                     ///< each K_e clamped to positive semi-definite).
     DEFSIM_FORCE_ALL = 7u
 };
 

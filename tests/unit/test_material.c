@@ -1011,6 +1011,76 @@ static void test_project_psd(void **state)
     assert_true(changed == 0 || changed == 1);
 }
 
+/* The analytic eigen-structure (material_models.h, *_sigma) that element Hessians are projected
+ * with: rebuilt through defsim__isotropic_dPdF it equals the model's dPdF, and with h projected
+ * and the six twist / flip eigenvalues clamped it equals the 9 x 9 eigensolver's projection. */
+static void test_sigma_projection(void **state)
+{
+    const model_case *mc = *state;
+    rng_seed(77 + (uint64_t)mc->model);
+    double Fs[MAX_SET][9];
+    int n = build_set(Fs, mc->inverted);
+    /* Near-repeated and compressed singular values, where projections change most. */
+    const double extra[4][3] = {{1.0, 1.0 + 1e-9, 1.0}, {0.3, 0.4, 0.5}, {0.2, 0.2, 0.9},
+                                {2.5, 0.5, 0.5}};
+    for (int k = 0; k < 4 && n < MAX_SET; ++k, ++n) {
+        double U[9], V[9];
+        random_rotation(U);
+        random_rotation(V);
+        compose_usv(U, extra[k], V, Fs[n]);
+    }
+    for (int t = 0; t < 3; ++t) {
+        double mu, lambda;
+        defsim__lame(test_E[t], test_nu[t], &mu, &lambda);
+        for (int f = 0; f < n; ++f) {
+            const double *F = Fs[f];
+            double U[9], V[9], s[3], h[9], es[3], ek[3], D[81], Diso[81];
+            defsim__svd3(F, U, s, V);
+            switch (mc->model) {
+            case DEFSIM_MODEL_STVK:
+                defsim__stvk_sigma(mu, lambda, s, h, es, ek);
+                defsim__stvk_dPdF(mu, lambda, F, D);
+                break;
+            case DEFSIM_MODEL_COROTATED:
+                defsim__corotated_sigma(mu, lambda, s, h, es, ek);
+                defsim__corotated_dPdF(mu, lambda, F, D);
+                break;
+            case DEFSIM_MODEL_NEOHOOKEAN:
+                defsim__neohookean_sigma(mu, lambda, s, h, es, ek);
+                defsim__neohookean_dPdF(mu, lambda, F, D);
+                break;
+            default:
+                defsim__snh_sigma(mu, lambda, s, h, es, ek);
+                defsim__snh_dPdF(mu, lambda, F, D);
+                break;
+            }
+            defsim__isotropic_dPdF(U, V, h, es, ek, Diso);
+            const double scale = norm_n(D, 81);
+            assert_below(diff_n(Diso, D, 81), 1e-10 * scale);
+            for (int mode = 1; mode <= 2; ++mode) {
+                double want[81], hp[9], esp[3], ekp[3], got[81];
+                memcpy(want, D, sizeof want);
+                defsim__project_psd(9, want, mode);
+                memcpy(hp, h, sizeof hp);
+                defsim__project_psd(3, hp, mode);
+                for (int p = 0; p < 3; ++p) {
+                    esp[p] = es[p] >= 0.0 ? es[p] : (mode == 1 ? 0.0 : -es[p]);
+                    ekp[p] = ek[p] >= 0.0 ? ek[p] : (mode == 1 ? 0.0 : -ek[p]);
+                }
+                defsim__isotropic_dPdF(U, V, hp, esp, ekp, got);
+                assert_below(diff_n(got, want, 81), 1e-9 * scale);
+            }
+        }
+    }
+    /* The neo-Hookean eigen-structure is undefined where det F <= 0, like its dPdF. */
+    if (mc->model == DEFSIM_MODEL_NEOHOOKEAN) {
+        const double s[3] = {1.0, 0.5, -0.1};
+        double h[9], es[3], ek[3];
+        defsim__neohookean_sigma(1.0, 1.0, s, h, es, ek);
+        assert_true(isnan(h[0]) && isnan(es[0]) && isnan(ek[2]));
+    }
+}
+
 /* ------------------------------------------------------------------------------------------ */
 
 /* The per-model tests, named "<model>: <test>" in the output. */
@@ -1018,7 +1088,7 @@ static void test_project_psd(void **state)
 #define MODEL_TESTS(name, mc)                                                                   \
     MODEL_TEST(name, test_gradient_fd, mc), MODEL_TEST(name, test_hessian_fd, mc),              \
         MODEL_TEST(name, test_rest, mc), MODEL_TEST(name, test_rotation_invariance, mc),        \
-        MODEL_TEST(name, test_uniaxial, mc)
+        MODEL_TEST(name, test_uniaxial, mc), MODEL_TEST(name, test_sigma_projection, mc)
 
 int main(void)
 {

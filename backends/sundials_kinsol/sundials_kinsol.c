@@ -106,6 +106,24 @@ static defsim_status kin_fail(kin_state *s, const char *call, int flag)
     return DEFSIM_ERR_NOT_CONVERGED;
 }
 
+/* One KINSol call from the guess in s->u; adds its counters (which count this call only) to
+ * the world's statistics. */
+static int kin_solve(kin_state *s)
+{
+    int flag = KINSol(s->mem, s->u, KIN_LINESEARCH, s->uscale, s->fscale);
+    long nni = 0, nfe = 0, nje = 0, nbt = 0;
+    KINGetNumNonlinSolvIters(s->mem, &nni);
+    KINGetNumFuncEvals(s->mem, &nfe);
+    KINGetNumJacEvals(s->mem, &nje);
+    KINGetNumBacktrackOps(s->mem, &nbt);
+    defsim_stats *st = s->host->stats(s->sys);
+    st->newton_iterations += nni;
+    st->residual_evals += nfe;
+    st->jacobian_evals += nje;
+    st->line_search_backtracks += nbt;
+    return flag;
+}
+
 static void kin_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
@@ -230,19 +248,15 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         fs[i] = h * h / (s->mf[i] * L);
     }
     s->sun.msg[0] = '\0';
-    int flag = KINSol(s->mem, s->u, KIN_LINESEARCH, s->uscale, s->fscale);
-
-    /* KINSOL's counters count this solve only. */
-    long nni = 0, nfe = 0, nje = 0, nbt = 0;
-    KINGetNumNonlinSolvIters(s->mem, &nni);
-    KINGetNumFuncEvals(s->mem, &nfe);
-    KINGetNumJacEvals(s->mem, &nje);
-    KINGetNumBacktrackOps(s->mem, &nbt);
+    int flag = kin_solve(s);
+    if (flag == KIN_FIRST_SYSFUNC_ERR) {
+        /* The inertial guess inverts an element whose energy is undefined there (neo-Hookean):
+         * start again from x_n, where the forces are finite. */
+        for (int64_t i = 0; i < s->n; ++i) u[i] = s->xn[s->free_dofs[i]];
+        s->sun.msg[0] = '\0';
+        flag = kin_solve(s);
+    }
     defsim_stats *st = host->stats(sys);
-    st->newton_iterations += nni;
-    st->residual_evals += nfe;
-    st->jacobian_evals += nje;
-    st->line_search_backtracks += nbt;
     if (flag < 0 || flag == KIN_STEP_LT_STPTOL) {
         st->convergence_failures++;
         if (flag == KIN_STEP_LT_STPTOL) {

@@ -4,10 +4,12 @@
  * with a line search, KLU for the sparse Newton systems).
  *
  * Over the free DOFs, x = x_{n+1} solves G(x) = grad g(x) = 0 with
- *     G(x) = M (x - y) / h^2 - f_el(x) - f_damp(x_n, (x - x_n) / h),
+ *     G(x) = M (x - y) / h^2 - f_el(x) + (C + B(x_n)) (x - x_n) / h,
  *     y    = x_n + h v_n + h^2 M^-1 f_gravity,
- * f_damp(x, v) = -(alpha M + beta K(x)) v the world's Rayleigh damping with its stiffness frozen
- * at the start of the step; then v_{n+1} = (x - x_n) / h. The Newton matrix is
+ * C = diag(alpha m) and B(x_n) = sum_e beta_e K_e(x_n) (element Hessians clamped to PSD) the
+ * Rayleigh damping matrices, frozen at the start of the step: the damping is linear in
+ * v_{n+1} = (x - x_n) / h, symmetric and positive semi-definite, so g is an energy and the
+ * damping only ever removes energy. The Newton matrix is
  *     dG/dx = M / h^2 + K(x) + (C + B(x_n)) / h,
  * refactorised at every iteration (full Newton). KINSOL's convergence test is on the max norm of
  * fscale * G, and fscale_i = h^2 / (m_i L) with L the scene's length scale, so the tolerance is
@@ -37,36 +39,42 @@ typedef struct kin_state {
     const int64_t *free_dofs;
     defsim_csc kpat;           /* the core's FULL pattern (borrowed) */
     int damp_b;                /* any stiffness damping (beta > 0) */
-    int damping;               /* any damping at all (alpha or beta on a free DOF) */
-    double *mf;                /* mass per free DOF */
-    double *xn, *vn, *x, *vt, *fel, *fd, *fg;   /* full DOF arrays */
+    double *mf, *cf;           /* mass and alpha m per free DOF */
+    double *du;                /* x - x_n per free DOF */
+    double *xn, *vn, *x, *fel, *fg;   /* full DOF arrays */
     double *bval;              /* B(x_n) values on the pattern (damp_b only) */
     double h;
 } kin_state;
 
-/* G at u (free DOFs). Elastic forces at x, damping at (x_n, (x - x_n) / h). */
+/* G at u (free DOFs). */
 static int kin_residual(N_Vector uu, N_Vector ff, void *user)
 {
     kin_state *s = user;
     const double *u = N_VGetArrayPointer(uu);
     double *g = N_VGetArrayPointer(ff);
     const double h = s->h, ih = 1.0 / h, ih2 = ih * ih;
-    for (int64_t i = 0; i < s->n; ++i) {
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n; ++i) {
         const int64_t d = s->free_dofs[i];
         s->x[d] = u[i];
-        s->vt[d] = (u[i] - s->xn[d]) * ih;
+        s->du[i] = u[i] - s->xn[d];
     }
     /* Non-finite forces (an inverted neo-Hookean element): recoverable, the line search backs
      * off. */
     if (s->host->forces(s->sys, s->x, NULL, DEFSIM_FORCE_ELASTIC, s->fel) != DEFSIM_OK) return 1;
-    if (s->damping &&
-        s->host->forces(s->sys, s->xn, s->vt, DEFSIM_FORCE_DAMPING, s->fd) != DEFSIM_OK)
-        return 1;
-    for (int64_t i = 0; i < s->n; ++i) {
+    for (int64_t i = 0; i < n; ++i) {
         const int64_t d = s->free_dofs[i];
-        double r = s->mf[i] * (u[i] - s->xn[d] - h * s->vn[d]) * ih2 - s->fel[d] - s->fg[d];
-        if (s->damping) r -= s->fd[d];
-        g[i] = r;
+        g[i] = s->mf[i] * (s->du[i] - h * s->vn[d]) * ih2 - s->fel[d] - s->fg[d] +
+               s->cf[i] * s->du[i] * ih;
+    }
+    /* + B(x_n) (x - x_n) / h, column by column (B is symmetric). */
+    if (s->damp_b) {
+        const int64_t *cp = s->kpat.col_ptr, *ri = s->kpat.row_idx;
+        for (int64_t j = 0; j < n; ++j) {
+            const double a = s->du[j] * ih;
+            if (a == 0.0) continue;
+            for (int64_t k = cp[j]; k < cp[j + 1]; ++k) g[ri[k]] += s->bval[k] * a;
+        }
     }
     return 0;
 }
@@ -135,11 +143,11 @@ static void kin_fini(const defsim_host *host, defsim_system *sys, void *state)
     if (s->fscale) N_VDestroy(s->fscale);
     s->u = s->uscale = s->fscale = NULL;
     defsim__sun_close(&s->sun);
-    host->release(s->mf);
-    host->release(s->xn); host->release(s->vn); host->release(s->x); host->release(s->vt);
-    host->release(s->fel); host->release(s->fd); host->release(s->fg);
+    host->release(s->mf); host->release(s->cf); host->release(s->du);
+    host->release(s->xn); host->release(s->vn); host->release(s->x);
+    host->release(s->fel); host->release(s->fg);
     host->release(s->bval);
-    s->mf = s->xn = s->vn = s->x = s->vt = s->fel = s->fd = s->fg = s->bval = NULL;
+    s->mf = s->cf = s->du = s->xn = s->vn = s->x = s->fel = s->fg = s->bval = NULL;
 }
 
 #define SET(call)                                                                             \
@@ -167,24 +175,23 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     const size_t nd = (size_t)s->ndof;
     s->damp_b = host->has_stiffness_damping(sys) != 0;
     s->mf = defsim__sun_calloc(host, (size_t)n, sizeof *s->mf);
+    s->cf = defsim__sun_calloc(host, (size_t)n, sizeof *s->cf);
+    s->du = defsim__sun_calloc(host, (size_t)n, sizeof *s->du);
     s->xn = defsim__sun_calloc(host, nd, sizeof *s->xn);
     s->vn = defsim__sun_calloc(host, nd, sizeof *s->vn);
     s->x = defsim__sun_calloc(host, nd, sizeof *s->x);
-    s->vt = defsim__sun_calloc(host, nd, sizeof *s->vt);
     s->fel = defsim__sun_calloc(host, nd, sizeof *s->fel);
-    s->fd = defsim__sun_calloc(host, nd, sizeof *s->fd);
     s->fg = defsim__sun_calloc(host, nd, sizeof *s->fg);
     s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)s->kpat.nnz, sizeof *s->bval) : NULL;
-    if (!s->mf || !s->xn || !s->vn || !s->x || !s->vt || !s->fel || !s->fd || !s->fg ||
+    if (!s->mf || !s->cf || !s->du || !s->xn || !s->vn || !s->x || !s->fel || !s->fg ||
         (s->damp_b && !s->bval)) {
         host->set_error(sys, "sundials_kinsol: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     const double *m = host->mass(sys), *alpha = host->mass_damping(sys);
-    s->damping = s->damp_b;
     for (int64_t i = 0; i < n; ++i) {
         s->mf[i] = m[s->free_dofs[i]];
-        if (alpha[s->free_dofs[i]] > 0.0) s->damping = 1;
+        s->cf[i] = alpha[s->free_dofs[i]] * s->mf[i];
     }
 
     st = defsim__sun_open(&s->sun, host, sys);
@@ -228,7 +235,6 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
     memcpy(s->xn, host->positions(sys), bytes);
     memcpy(s->vn, host->velocities(sys), bytes);
     memcpy(s->x, s->xn, bytes);
-    memset(s->vt, 0, bytes);
     s->h = h;
     if (host->forces(sys, s->xn, NULL, DEFSIM_FORCE_GRAVITY, s->fg) != DEFSIM_OK) {
         host->set_error(sys, "sundials_kinsol: non-finite external forces");

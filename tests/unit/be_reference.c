@@ -14,7 +14,7 @@ typedef struct ref_ctx {
     double h;
     int64_t n, ndof;
     int64_t *free;            /* free DOF indices */
-    double *x, *vt, *fe, *fd; /* full DOF arrays */
+    double *x, *dx, *fe, *fd; /* full DOF arrays */
 } ref_ctx;
 
 /* G over the free DOFs at free positions u. */
@@ -24,15 +24,17 @@ static void residual(ref_ctx *c, const double *u, double *g)
     for (int64_t i = 0; i < c->n; ++i) {
         const int64_t d = c->free[i];
         c->x[d] = u[i];
-        c->vt[d] = (u[i] - c->xn[d]) / c->h;
+        c->dx[d] = u[i] - c->xn[d];
     }
+    /* Damping (alpha M + beta K(x_n)) (x - x_n) / h with the core's matrices at x_n. */
+    const defsim_matrix_coeffs damp = {0.0, 1.0 / c->h, 0.0, 1.0 / c->h};
     (void)defsim__forces(w, c->x, NULL, DEFSIM_FORCE_ELASTIC, c->fe);
-    (void)defsim__forces(w, c->xn, c->vt, DEFSIM_FORCE_DAMPING, c->fd);
+    TU_OK(defsim__matrix_product(w, c->xn, &damp, c->dx, c->fd));
     for (int64_t i = 0; i < c->n; ++i) {
         const int64_t d = c->free[i];
         const double m = w->mass3[d];
         g[i] = m * (u[i] - c->xn[d] - c->h * c->vn[d]) / (c->h * c->h) - c->fe[d] -
-               m * w->def.gravity[d % 3] - c->fd[d];
+               m * w->def.gravity[d % 3] + c->fd[d];
     }
 }
 
@@ -72,7 +74,7 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
     const size_t nd = (size_t)c.ndof;
     c.free = malloc(nd * sizeof *c.free);
     c.x = malloc(nd * sizeof *c.x);
-    c.vt = calloc(nd, sizeof *c.vt);
+    c.dx = calloc(nd, sizeof *c.dx);
     c.fe = malloc(nd * sizeof *c.fe);
     c.fd = malloc(nd * sizeof *c.fd);
     for (int64_t d = 0; d < c.ndof; ++d)
@@ -118,7 +120,7 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
         v1[d] = (u[i] - xn[d]) / h;
     }
     free(u); free(g); free(gp); free(gm); free(J);
-    free(c.free); free(c.x); free(c.vt); free(c.fe); free(c.fd);
+    free(c.free); free(c.x); free(c.dx); free(c.fe); free(c.fd);
     return it;
 }
 

@@ -8,7 +8,8 @@
 #include <defsim/defsim.h>
 
 /* One step of h from (xn, vn) (3 n doubles each) of world w's scene, into (x1, v1):
- *     M (x - xn - h vn) / h^2 - f_el(x) - M g - f_damp(xn, (x - xn) / h) = 0 on free DOFs,
+ *     M (x - xn - h vn) / h^2 - f_el(x) - M g + (C + B(xn)) (x - xn) / h = 0 on free DOFs
+ * (C, B the core's Rayleigh damping matrices, applied with defsim__matrix_product),
  * v1 = (x1 - xn) / h; pinned vertices keep xn and get zero velocity. Returns the number of
  * Newton iterations; fails the test if Newton does not converge. The world is not changed. */
 int be_reference_step(defsim_world *w, const double *xn, const double *vn, double h, double *x1,

@@ -14,6 +14,7 @@
  * refactorised at every iteration (full Newton). KINSOL's convergence test is on the max norm of
  * fscale * G, and fscale_i = h^2 / (m_i L) with L the scene's length scale, so the tolerance is
  * a position-like residual relative to the size of the scene: the same at any mesh size or unit.
+ * Newton starts from the inertial position y; if that solve fails, once more from x_n.
  */
 #include "defsim/backend.h"
 
@@ -99,20 +100,16 @@ static int kin_jacobian(N_Vector uu, N_Vector fu, SUNMatrix J, void *user, N_Vec
     return 0;
 }
 
-static const char *kin_flag_name(int flag, char **owned)
-{
-    *owned = KINGetReturnFlagName(flag);   /* malloc'd by KINSOL */
-    return *owned;
-}
-
 static defsim_status kin_fail(kin_state *s, const char *call, int flag)
 {
-    char *owned = NULL;
-    defsim__sun_fail(&s->sun, "sundials_kinsol", call, kin_flag_name(flag, &owned), flag,
-                     s->host->time(s->sys));
-    free(owned);
+    char *name = KINGetReturnFlagName(flag);   /* malloc'd by KINSOL */
+    defsim__sun_fail(&s->sun, "sundials_kinsol", call, name, flag, s->host->time(s->sys));
+    free(name);
     return DEFSIM_ERR_NOT_CONVERGED;
 }
+
+/* KIN_STEP_LT_STPTOL (steps at roundoff, residual above the tolerance) counts as a failure. */
+static int kin_failed(int flag) { return flag < 0 || flag == KIN_STEP_LT_STPTOL; }
 
 /* One KINSol call from the guess in s->u; adds its counters (which count this call only) to
  * the world's statistics. */
@@ -254,16 +251,18 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         fs[i] = h * h / (s->mf[i] * L);
     }
     s->sun.msg[0] = '\0';
-    int flag = kin_solve(s);
-    if (flag == KIN_FIRST_SYSFUNC_ERR) {
-        /* The inertial guess inverts an element whose energy is undefined there (neo-Hookean):
-         * start again from x_n, where the forces are finite. */
+    defsim_stats *st = host->stats(sys);
+    int flag = kin_solve(s), first = 0;
+    if (kin_failed(flag)) {
+        /* From the inertial guess the forces may be undefined (an inverted neo-Hookean element)
+         * or Newton may stall on a non-convex energy: try once more from x_n. */
+        st->convergence_failures++;
+        first = flag;
         for (int64_t i = 0; i < s->n; ++i) u[i] = s->xn[s->free_dofs[i]];
         s->sun.msg[0] = '\0';
         flag = kin_solve(s);
     }
-    defsim_stats *st = host->stats(sys);
-    if (flag < 0 || flag == KIN_STEP_LT_STPTOL) {
+    if (kin_failed(flag)) {
         st->convergence_failures++;
         if (flag == KIN_STEP_LT_STPTOL) {
             /* Stalled at roundoff above the tolerance: not a solution to the asked accuracy. */
@@ -273,7 +272,11 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
                      "steps at roundoff but the scaled residual %.3g is above the tolerance %.3g",
                      fnorm, host->options(sys)->tolerance);
         }
-        return kin_fail(s, "KINSol", flag);
+        char *owned = KINGetReturnFlagName(first);   /* malloc'd by KINSOL */
+        char call[96];
+        snprintf(call, sizeof call, "KINSol (from y: %s; from x_n)", owned ? owned : "?");
+        free(owned);
+        return kin_fail(s, call, flag);
     }
     double *x = host->positions(sys), *v = host->velocities(sys);
     for (int64_t i = 0; i < s->n; ++i) {

@@ -143,6 +143,8 @@ static void test_oscillators_tolerance_sweep(void **state)
         assert_true(st.jacobian_evals > 0 && st.jacobian_evals <= st.internal_steps);
         assert_true(st.newton_iterations >= st.internal_steps);
         assert_true(st.linear_solves >= st.newton_iterations);
+        assert_true(st.time_factor > 0.0 && st.time_solve > 0.0);
+        assert_true(st.hessian_evals >= st.jacobian_evals);
         defsim_world_destroy(w);
     }
     /* Three decades of tolerance buy at least two decades of error. */

@@ -85,6 +85,7 @@ static void test_vs_dense_reference(void **state)
         assert_int_equal(st.linear_solves, st.newton_iterations);
         assert_true(st.residual_evals > st.newton_iterations);
         assert_int_equal(st.convergence_failures, 0);
+        assert_true(st.time_factor > 0.0 && st.time_solve > 0.0);
         defsim_world_destroy(w);
     }
 }

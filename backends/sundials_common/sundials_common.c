@@ -1,0 +1,130 @@
+/* SPDX-License-Identifier: MIT */
+/* Shared SUNDIALS plumbing of the sundials_ida and sundials_kinsol modules. */
+#include "sundials_common.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include <sunlinsol/sunlinsol_klu.h>
+#include <sunmatrix/sunmatrix_sparse.h>
+
+/* The KLU solver's ops table is replaced by a copy whose setup and solve time the original ones.
+ * SUNDIALS passes only the solver to its ops, so the copy is the first member of a struct that
+ * also holds what the timers need; the original table is put back before the solver is freed. */
+struct defsim__sun_timer {
+    struct _generic_SUNLinearSolver_Ops ops;   /* must stay first */
+    SUNLinearSolver_Ops orig;
+    const defsim_host *host;
+    defsim_system *sys;
+};
+
+static defsim__sun_timer *timer_of(SUNLinearSolver S) { return (defsim__sun_timer *)S->ops; }
+
+static int timed_setup(SUNLinearSolver S, SUNMatrix A)
+{
+    defsim__sun_timer *t = timer_of(S);
+    const double t0 = t->host->wall_time();
+    int r = t->orig->setup(S, A);
+    t->host->stats(t->sys)->time_factor += t->host->wall_time() - t0;
+    return r;
+}
+
+static int timed_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, realtype tol)
+{
+    defsim__sun_timer *t = timer_of(S);
+    const double t0 = t->host->wall_time();
+    int r = t->orig->solve(S, A, x, b, tol);
+    defsim_stats *st = t->host->stats(t->sys);
+    st->time_solve += t->host->wall_time() - t0;
+    st->linear_solves++;
+    return r;
+}
+
+void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
+{
+    if (count == 0) count = 1;
+    if (size != 0 && count > (size_t)-1 / size) return NULL;
+    void *p = host->alloc(count * size);
+    if (p) memset(p, 0, count * size);
+    return p;
+}
+
+defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys)
+{
+    s->host = host;
+    s->sys = sys;
+    s->msg[0] = '\0';
+    if (SUNContext_Create(NULL, &s->ctx) != 0) {
+        s->ctx = NULL;
+        host->set_error(sys, "SUNDIALS: SUNContext_Create failed (out of memory)");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    return DEFSIM_OK;
+}
+
+defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz)
+{
+    s->J = SUNSparseMatrix((sunindextype)n, (sunindextype)n, (sunindextype)(nnz > 0 ? nnz : 1),
+                           CSC_MAT, s->ctx);
+    if (!s->J) goto oom;
+    s->LS = SUNLinSol_KLU(tmpl, s->J, s->ctx);
+    if (!s->LS) goto oom;
+    s->timer = defsim__sun_calloc(s->host, 1, sizeof *s->timer);
+    if (!s->timer) goto oom;
+    s->timer->ops = *s->LS->ops;
+    s->timer->orig = s->LS->ops;
+    s->timer->host = s->host;
+    s->timer->sys = s->sys;
+    s->timer->ops.setup = timed_setup;
+    s->timer->ops.solve = timed_solve;
+    s->LS->ops = &s->timer->ops;
+    return DEFSIM_OK;
+oom:
+    s->host->set_error(s->sys, "SUNDIALS: out of memory creating the sparse matrix or KLU solver");
+    return DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+void defsim__sun_close(defsim__sun *s)
+{
+    if (s->LS) {
+        if (s->timer) s->LS->ops = s->timer->orig;
+        SUNLinSolFree(s->LS);
+        s->LS = NULL;
+    }
+    if (s->timer) {
+        s->host->release(s->timer);
+        s->timer = NULL;
+    }
+    if (s->J) {
+        SUNMatDestroy(s->J);
+        s->J = NULL;
+    }
+    if (s->ctx) SUNContext_Free(&s->ctx);
+    s->ctx = NULL;
+}
+
+void defsim__sun_error_handler(int code, const char *module, const char *function, char *msg,
+                               void *user)
+{
+    defsim__sun *s = user;
+    char line[sizeof s->msg];
+    snprintf(line, sizeof line, "%s (%s): %s", function ? function : "?", module ? module : "?",
+             msg ? msg : "");
+    /* 99 is IDA_WARNING and KIN_WARNING: worth a log line, not a failure. */
+    if (code == 99) {
+        s->host->log(s->sys, 1, line);
+    } else {
+        memcpy(s->msg, line, sizeof s->msg);
+        s->host->log(s->sys, 3, line);
+    }
+}
+
+void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, const char *flag_name,
+                      long flag, double t)
+{
+    char buf[640];
+    snprintf(buf, sizeof buf, "%s: %s failed with %s (flag %ld) at t = %.17g s%s%s", backend, call,
+             flag_name ? flag_name : "an unknown flag", flag, t, s->msg[0] ? ": " : "", s->msg);
+    s->host->set_error(s->sys, buf);
+    s->msg[0] = '\0';
+}

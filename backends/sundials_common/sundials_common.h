@@ -1,0 +1,60 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * What the two SUNDIALS backends (sundials_ida, sundials_kinsol) share: a SUNDIALS context, a
+ * sparse CSC matrix with the KLU direct solver (wrapped so that factorisation and solve times
+ * land in defsim_stats), and capture of SUNDIALS error messages. Linked statically into each
+ * module; every symbol is hidden.
+ */
+#ifndef DEFSIM_SUNDIALS_COMMON_H
+#define DEFSIM_SUNDIALS_COMMON_H
+
+#include "defsim/backend.h"
+
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sundials/sundials_linearsolver.h>
+#include <sundials/sundials_matrix.h>
+
+/* SUNDIALS 6 (SUNContext, error handler functions); 7 changed both. */
+#if SUNDIALS_VERSION_MAJOR != 6
+#error "the SUNDIALS backends need SUNDIALS 6.x"
+#endif
+
+typedef struct defsim__sun_timer defsim__sun_timer;
+
+/* SUNDIALS objects of one world. Zero-initialised state is "nothing allocated". */
+typedef struct defsim__sun {
+    const defsim_host *host;
+    defsim_system *sys;
+    SUNContext ctx;
+    SUNMatrix J;               /* CSC, sunindextype = int64_t */
+    SUNLinearSolver LS;        /* KLU, ops wrapped by `timer` */
+    defsim__sun_timer *timer;
+    char msg[384];             /* last error message SUNDIALS reported */
+} defsim__sun;
+
+/* Creates the context. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */
+defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys);
+
+/* Creates an n x n CSC matrix with room for nnz entries and a KLU solver for it, whose setup
+ * (factorisation) and solve are timed into stats->time_factor / time_solve and counted in
+ * stats->linear_solves. `tmpl` is a vector of length n. */
+defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz);
+
+/* Frees everything defsim__sun_open / defsim__sun_klu made (any subset of it). */
+void defsim__sun_close(defsim__sun *s);
+
+/* Error handler for IDASetErrHandlerFn / KINSetErrHandlerFn (user data: the defsim__sun).
+ * Keeps errors for the failure message and sends warnings to the world's log. */
+void defsim__sun_error_handler(int code, const char *module, const char *function, char *msg,
+                               void *user);
+
+/* Sets the world's error to "<backend>: <call> failed with <FLAG_NAME> (flag <flag>) at t = ...:
+ * <last SUNDIALS message>". `flag_name` may be NULL. */
+void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, const char *flag_name,
+                      long flag, double t);
+
+/* Allocation through the host (zeroed; NULL on failure). */
+void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);
+
+#endif

@@ -1,0 +1,508 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * sundials_ida: damped oscillators against their analytic solutions (error falls with the
+ * tolerance and stays near it), a nonlinear tet beam against an independent leapfrog reference,
+ * statistics, re-initialisation after set_state and pin changes, failures that leave the state
+ * untouched, and the conformance checks (rest, momentum, pins).
+ */
+#include "test_util.h"
+
+#include "world.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---------------------------------------------------------------------------------------- */
+/* Damped linear oscillators: a mass on a spring along x to a pinned anchor. In 1D the spring
+ * force is exactly -k u, Rayleigh damping gives -(alpha m + beta k) u', so
+ *     u'' + c u' + w0^2 u = 0,   c = alpha + beta k / m,   w0^2 = k / m.                      */
+
+typedef struct osc {
+    double m, k, alpha, beta, u0, v0;
+    int32_t vertex;    /* world index of the moving vertex */
+} osc;
+
+static defsim_world *ida_world(double rtol, double atol, int max_order, int max_steps, double gy)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = "sundials_ida";
+    d.gravity[1] = gy;
+    d.num_threads = 1;
+    d.rtol = rtol;
+    d.atol = atol;
+    d.max_order = max_order;
+    d.max_internal_steps = max_steps;
+    defsim_world *w = NULL;
+    if (defsim_world_create(&d, &w) != DEFSIM_OK)
+        fail_msg("world_create(sundials_ida): %s", defsim_last_error());
+    return w;
+}
+
+static defsim_body_id add_oscillator(defsim_world *w, osc *o, double z)
+{
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    double rest[6] = {0, 0, z, 1, 0, z}, x0[6] = {0, 0, z, 1 + o->u0, 0, z};
+    double v0[6] = {0, 0, 0, o->v0, 0, 0}, mass[2] = {1.0, o->m};
+    int32_t s[2] = {0, 1};
+    bd.rest_positions = rest;
+    bd.initial_positions = x0;
+    bd.initial_velocities = v0;
+    bd.vertex_count = 2;
+    bd.springs = s;
+    bd.spring_count = 1;
+    bd.vertex_mass = mass;
+    bd.material.stiffness = o->k;
+    bd.material.mass_damping = o->alpha;
+    bd.material.stiffness_damping = o->beta;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    int32_t pin = 0;
+    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    o->vertex = defsim_body_vertex_offset(w, id) + 1;
+    return id;
+}
+
+/* Exact displacement and velocity at time t from (u0, v0) at time 0 (underdamped). */
+static void osc_exact(const osc *o, double t, double *u, double *v)
+{
+    const double c = o->alpha + o->beta * o->k / o->m, w0 = sqrt(o->k / o->m);
+    const double g = 0.5 * c, wd = sqrt(w0 * w0 - g * g);
+    const double A = o->u0, B = (o->v0 + g * o->u0) / wd;
+    const double e = exp(-g * t), cs = cos(wd * t), sn = sin(wd * t);
+    *u = e * (A * cs + B * sn);
+    *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
+}
+
+enum { NOSC = 3 };
+
+static osc osc_set[NOSC] = {
+    {0.5, 200.0, 0.4, 0.0, 0.1, 0.5, 0},     /* mass damping only, w0 = 20 */
+    {1.0, 50.0, 0.0, 0.01, -0.05, 1.0, 0},   /* stiffness damping only, c = 0.5 */
+    {0.2, 20.0, 0.3, 0.002, 0.2, 0.0, 0},    /* both, c = 0.5 */
+};
+
+/* Largest error in units of the requested tolerance: |y - y*| / (rtol amp + atol), where amp
+ * is the amplitude of that component, over every oscillator's displacement and velocity. */
+static double osc_error(defsim_world *w, const osc *os, int n, double t, double rtol, double atol,
+                        double *abs_err)
+{
+    int nv = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    double worst = 0.0, worst_abs = 0.0;
+    (void)nv;
+    for (int i = 0; i < n; ++i) {
+        double u, ve;
+        osc_exact(&os[i], t, &u, &ve);
+        const double w0 = sqrt(os[i].k / os[i].m);
+        const double amp_u = fmax(fabs(os[i].u0), fabs(os[i].v0) / w0);
+        const double amp_v = w0 * amp_u;
+        const double eu = fabs(x[3 * os[i].vertex] - 1.0 - u), ev = fabs(v[3 * os[i].vertex] - ve);
+        worst = fmax(worst, fmax(eu / (rtol * amp_u + atol), ev / (rtol * amp_v + atol)));
+        worst_abs = fmax(worst_abs, fmax(eu, ev));
+        /* Motion stays on the x axis. */
+        assert_true(fabs(x[3 * os[i].vertex + 1]) < 1e-12 && fabs(x[3 * os[i].vertex + 2] -
+                                                                  x[3 * (os[i].vertex - 1) + 2]) < 1e-12);
+    }
+    free(x);
+    free(v);
+    if (abs_err) *abs_err = worst_abs;
+    return worst;
+}
+
+static void test_oscillators_tolerance_sweep(void **state)
+{
+    (void)state;
+    const double tols[4] = {1e-5, 1e-6, 1e-7, 1e-8};
+    double err[4], abs_err[4];
+    for (int k = 0; k < 4; ++k) {
+        defsim_world *w = ida_world(tols[k], tols[k], 5, 100000, 0.0);
+        osc os[NOSC];
+        memcpy(os, osc_set, sizeof os);
+        for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+        for (int s = 0; s < 50; ++s) TU_OK(defsim_world_step(w, 0.1));
+        const double t = defsim_world_time(w);
+        assert_true(fabs(t - 5.0) < 1e-12);
+        err[k] = osc_error(w, os, NOSC, t, tols[k], tols[k], &abs_err[k]);
+        defsim_stats st = {.size = sizeof st};
+        TU_OK(defsim_world_stats(w, &st));
+        printf("ida oscillators tol %.0e: max error %.3e (abs), %.2f x tolerance; internal steps "
+               "%lld, order %d, residuals %lld, Jacobians %lld, error-test failures %lld, "
+               "convergence failures %lld\n",
+               tols[k], abs_err[k], err[k], (long long)st.internal_steps, (int)st.last_order,
+               (long long)st.residual_evals, (long long)st.jacobian_evals,
+               (long long)st.error_test_failures, (long long)st.convergence_failures);
+        assert_true(err[k] <= 10.0);
+        assert_true(st.internal_steps > 50);
+        assert_true(st.last_order >= 1 && st.last_order <= 5);
+        assert_true(st.residual_evals > st.internal_steps);
+        assert_true(st.jacobian_evals > 0 && st.jacobian_evals <= st.internal_steps);
+        assert_true(st.newton_iterations >= st.internal_steps);
+        assert_true(st.linear_solves >= st.newton_iterations);
+        assert_true(st.time_factor > 0.0 && st.time_solve > 0.0);
+        assert_true(st.hessian_evals >= st.jacobian_evals);
+        defsim_world_destroy(w);
+    }
+    /* Three decades of tolerance buy at least two decades of error. */
+    assert_true(abs_err[0] / abs_err[3] >= 100.0);
+    for (int k = 0; k + 1 < 4; ++k) assert_true(abs_err[k + 1] < abs_err[k]);
+}
+
+/* One call of step(5 s) lands on t = 5 exactly as fifty calls of 0.1 s do. */
+static void test_single_long_step(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
+    osc os[NOSC];
+    memcpy(os, osc_set, sizeof os);
+    for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+    TU_OK(defsim_world_step(w, 5.0));
+    assert_true(defsim_world_time(w) == 5.0);
+    assert_true(osc_error(w, os, NOSC, 5.0, 1e-8, 1e-8, NULL) <= 10.0);
+    defsim_world_destroy(w);
+}
+
+/* max_order bounds the order IDA uses; a lower order needs many more steps for the same
+ * accuracy (order 1 is backward Euler). */
+static void test_max_order(void **state)
+{
+    (void)state;
+    int64_t steps[3];
+    const int orders[3] = {1, 2, 5};
+    const double tol[3] = {1e-3, 1e-6, 1e-6};
+    for (int k = 0; k < 3; ++k) {
+        defsim_world *w = ida_world(tol[k], tol[k], orders[k], 1000000, 0.0);
+        osc os[1] = {osc_set[0]};
+        add_oscillator(w, &os[0], 0.0);
+        int used_max = 0;
+        defsim_stats st = {.size = sizeof st};
+        for (int s = 0; s < 20; ++s) {
+            TU_OK(defsim_world_step(w, 0.05));
+            TU_OK(defsim_world_stats(w, &st));
+            if (st.last_order > used_max) used_max = st.last_order;
+        }
+        steps[k] = st.internal_steps;
+        const double e = osc_error(w, os, 1, defsim_world_time(w), tol[k], tol[k], NULL);
+        printf("ida max_order %d, tol %.0e: highest order used %d, internal steps %lld, error "
+               "%.2f x tolerance\n", orders[k], tol[k], used_max, (long long)steps[k], e);
+        assert_true(used_max <= orders[k] && used_max >= (orders[k] < 3 ? orders[k] : 3));
+        assert_true(e <= 10.0);
+        defsim_world_destroy(w);
+    }
+    assert_true(steps[1] > 3 * steps[2]);
+}
+
+/* After set_state, IDA restarts from the new state: no stale history. */
+static void test_set_state_reinit(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
+    osc os[1] = {osc_set[0]};
+    add_oscillator(w, &os[0], 0.0);
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
+    /* New initial condition at t = 1: displacement -0.03, velocity 0.7. */
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    x[3 * os[0].vertex] = 1.0 - 0.03;
+    v[3 * os[0].vertex] = 0.7;
+    TU_OK(defsim_world_set_state(w, x, v));
+    const double t1 = defsim_world_time(w);
+    for (int s = 0; s < 20; ++s) TU_OK(defsim_world_step(w, 0.1));
+    osc o = os[0];
+    o.u0 = -0.03;
+    o.v0 = 0.7;
+    double e = osc_error(w, &o, 1, defsim_world_time(w) - t1, 1e-8, 1e-8, NULL);
+    printf("ida after set_state: error %.2f x tolerance\n", e);
+    assert_true(e <= 10.0);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+}
+
+/* Pinning a moving vertex between steps stops it where it is; the other oscillator goes on
+ * undisturbed; unpinning releases it from rest. */
+static void test_pin_changes(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
+    osc os[2] = {osc_set[0], osc_set[2]};
+    add_oscillator(w, &os[0], 0.0);
+    defsim_body_id b = add_oscillator(w, &os[1], 2.0);
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
+    int32_t one = 1;
+    TU_OK(defsim_body_pin(w, b, &one, 1));
+    double *xp = tu_positions(w);
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    for (int c = 0; c < 3; ++c) {
+        assert_true(x[3 * os[1].vertex + c] == xp[3 * os[1].vertex + c]);
+        assert_true(v[3 * os[1].vertex + c] == 0.0);
+    }
+    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL) <= 10.0);
+    /* Released at rest from displacement d at t = 2. */
+    const double d = x[3 * os[1].vertex] - 1.0, t2 = defsim_world_time(w);
+    TU_OK(defsim_body_unpin(w, b, &one, 1));
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
+    osc o = os[1];
+    o.u0 = d;
+    o.v0 = 0.0;
+    assert_true(osc_error(w, &o, 1, defsim_world_time(w) - t2, 1e-8, 1e-8, NULL) <= 10.0);
+    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL) <= 10.0);
+    free(xp);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+}
+
+/* Too few internal steps: DEFSIM_ERR_NOT_CONVERGED, the state and time exactly as before, and
+ * the world goes on exactly as a fresh world from the same state. */
+static void test_failure_leaves_state(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-8, 1e-8, 5, 200, 0.0);
+    defsim_world *fresh = ida_world(1e-8, 1e-8, 5, 200, 0.0);
+    osc os[1] = {osc_set[0]}, of[1] = {osc_set[0]};
+    add_oscillator(w, &os[0], 0.0);
+    add_oscillator(fresh, &of[0], 0.0);
+    const int n = defsim_world_vertex_count(w);
+    double *x0 = tu_positions(w), *v0 = tu_velocities(w);
+    assert_int_equal(defsim_world_step(w, 50.0), DEFSIM_ERR_NOT_CONVERGED);
+    assert_true(strlen(defsim_world_last_error(w)) > 0);
+    double *x1 = tu_positions(w), *v1 = tu_velocities(w);
+    assert_memory_equal(x0, x1, 3 * (size_t)n * sizeof *x0);
+    assert_memory_equal(v0, v1, 3 * (size_t)n * sizeof *v0);
+    assert_true(defsim_world_time(w) == 0.0);
+    defsim_stats st = {.size = sizeof st};
+    TU_OK(defsim_world_stats(w, &st));
+    assert_int_equal(st.failed_steps, 1);
+    assert_true(st.internal_steps >= 200);
+    for (int s = 0; s < 5; ++s) {
+        TU_OK(defsim_world_step(w, 0.01));
+        TU_OK(defsim_world_step(fresh, 0.01));
+    }
+    double *xa = tu_positions(w), *xb = tu_positions(fresh);
+    double *va = tu_velocities(w), *vb = tu_velocities(fresh);
+    assert_memory_equal(xa, xb, 3 * (size_t)n * sizeof *xa);
+    assert_memory_equal(va, vb, 3 * (size_t)n * sizeof *va);
+    free(x0); free(v0); free(x1); free(v1); free(xa); free(xb); free(va); free(vb);
+    defsim_world_destroy(w);
+    defsim_world_destroy(fresh);
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* A nonlinear tet beam against an independent reference: leapfrog (symplectic Euler with the
+ * velocity staggered by half a step, second order) at a step 1e4 times below IDA's typical. */
+
+static defsim_world *beam(const char *backend, double rtol, defsim_projection proj)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = backend;
+    d.gravity[1] = -9.81;
+    d.num_threads = 1;
+    d.rtol = rtol;
+    d.atol = rtol;
+    d.projection = proj;
+    defsim_world *w = NULL;
+    TU_OK(defsim_world_create(&d, &w));
+    const double lo[3] = {0, 0, 0}, hi[3] = {2, 0.5, 0.5};
+    defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 4, 1, 1, lo, hi, 2e4, 0.3, 1000);
+    tu_pin_below(w, b, 0, 0.0);
+    /* Swinging up, so the run is not only a sag from rest. */
+    int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    for (int i = 0; i < n; ++i) v[3 * i + 1] = 0.5 * x[3 * i];
+    TU_OK(defsim_world_set_state(w, NULL, v));
+    free(x);
+    free(v);
+    return w;
+}
+
+static void leapfrog_accel(defsim_world *w, const double *x, const double *m, const double *x0,
+                           double *a)
+{
+    int n = defsim_world_vertex_count(w);
+    TU_OK(defsim_world_forces(w, x, a));
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c)
+            a[3 * i + c] = x0[3 * i] <= 1e-12 ? 0.0 : a[3 * i + c] / m[i] + (c == 1 ? -9.81 : 0.0);
+}
+
+static void test_beam_vs_leapfrog(void **state)
+{
+    (void)state;
+    const double T = 0.2, hl = 5e-6;
+    defsim_world *ref = beam("symplectic_euler", 1e-4, DEFSIM_PROJECTION_CLAMP);
+    const int n = defsim_world_vertex_count(ref);
+    double *m = malloc((size_t)n * sizeof *m), *a = malloc(3 * (size_t)n * sizeof *a);
+    TU_OK(defsim_world_get_masses(ref, m, n));
+    double *x0 = tu_positions(ref), *v = tu_velocities(ref);
+    leapfrog_accel(ref, x0, m, x0, a);
+    for (int i = 0; i < 3 * n; ++i) v[i] -= 0.5 * hl * a[i];
+    TU_OK(defsim_world_set_state(ref, NULL, v));
+    const int steps = (int)lround(T / hl);
+    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(ref, hl));
+    double *xr = tu_positions(ref), *vr = tu_velocities(ref);
+    leapfrog_accel(ref, xr, m, x0, a);
+    for (int i = 0; i < 3 * n; ++i) vr[i] += 0.5 * hl * a[i];
+
+    /* With exact Jacobians (no projection) Newton converges in about one iteration a step. */
+    const defsim_projection projs[2] = {DEFSIM_PROJECTION_NONE, DEFSIM_PROJECTION_CLAMP};
+    for (int p = 0; p < 2; ++p) {
+        defsim_world *w = beam("sundials_ida", 1e-9, projs[p]);
+        for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, T / 10));
+        double *x = tu_positions(w), *vi = tu_velocities(w);
+        double ex = tu_rel_diff(x, xr, 3 * n, 1.0), ev = tu_rel_diff(vi, vr, 3 * n, 1.0);
+        defsim_stats st = {.size = sizeof st};
+        TU_OK(defsim_world_stats(w, &st));
+        printf("ida beam (projection %d) vs leapfrog h = %g: rel. diff x %.2e, v %.2e; steps %lld, "
+               "Newton %lld, Jacobians %lld, convergence failures %lld, error-test failures %lld\n",
+               (int)projs[p], hl, ex, ev, (long long)st.internal_steps,
+               (long long)st.newton_iterations, (long long)st.jacobian_evals,
+               (long long)st.convergence_failures, (long long)st.error_test_failures);
+        assert_true(ex < 1e-9);
+        assert_true(ev < 1e-8);
+        if (projs[p] == DEFSIM_PROJECTION_NONE) {
+            assert_true(st.convergence_failures == 0);
+            assert_true(st.newton_iterations < 2 * st.internal_steps);
+        }
+        free(x);
+        free(vi);
+        defsim_world_destroy(w);
+    }
+    free(m); free(a); free(x0); free(v); free(xr); free(vr);
+    defsim_world_destroy(ref);
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Conformance: rest stays at rest, a free body keeps its momentum (and falls with exactly M g t
+ * of it), pinned vertices do not move, nothing turns non-finite. */
+
+static void test_rest_stays_at_rest(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-6, 1e-6, 5, 100000, 0.0);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    const int n = defsim_world_vertex_count(w);
+    double *x0 = tu_positions(w);
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.05));
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    for (int i = 0; i < 3 * n; ++i) {
+        assert_true(fabs(x[i] - x0[i]) < 1e-14);
+        assert_true(fabs(v[i]) < 1e-14);
+    }
+    free(x0); free(x); free(v);
+    defsim_world_destroy(w);
+}
+
+static void test_free_body_momentum(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-6, 1e-6, 5, 100000, -9.81);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
+    unsigned long long seed = 7;
+    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_get_masses(w, m, n));
+    double p0[3] = {0, 0, 0}, M = 0;
+    for (int i = 0; i < n; ++i) {
+        M += m[i];
+        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
+    }
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.02));
+    free(v);
+    v = tu_velocities(w);
+    double p[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
+    const double t = defsim_world_time(w);
+    printf("ida free body: momentum drift %.2e %.2e %.2e (kg m/s, M = %g kg)\n", p[0] - p0[0],
+           p[1] - (p0[1] - 9.81 * M * t), p[2] - p0[2], M);
+    assert_true(fabs(p[0] - p0[0]) < 1e-9 * M);
+    assert_true(fabs(p[2] - p0[2]) < 1e-9 * M);
+    assert_true(fabs(p[1] - (p0[1] - 9.81 * M * t)) < 1e-9 * M);
+    free(x); free(v); free(m);
+    defsim_world_destroy(w);
+}
+
+static void test_pinned_fixed(void **state)
+{
+    (void)state;
+    defsim_world *w = beam("sundials_ida", 1e-5, DEFSIM_PROJECTION_CLAMP);
+    const int n = defsim_world_vertex_count(w);
+    double *x0 = tu_positions(w);
+    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.05));
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    int pinned = 0;
+    for (int i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            assert_true(isfinite(x[3 * i + c]) && isfinite(v[3 * i + c]));
+            if (x0[3 * i] <= 1e-12) {
+                assert_true(x[3 * i + c] == x0[3 * i + c]);
+                assert_true(v[3 * i + c] == 0.0);
+            }
+        }
+        pinned += x0[3 * i] <= 1e-12;
+    }
+    assert_int_equal(pinned, 4);
+    assert_true(x[3 * (n - 1) + 1] < x0[3 * (n - 1) + 1] - 1e-3 ||
+                x[3 * (n - 1) + 1] > x0[3 * (n - 1) + 1] + 1e-3);   /* the tip moved */
+    free(x0); free(x); free(v);
+    defsim_world_destroy(w);
+}
+
+/* A world whose vertices are all pinned steps without work. */
+static void test_all_pinned(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-6, 1e-6, 5, 100000, -9.81);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_STVK, 1, 1, 1, lo, hi, 1e5, 0.3, 1000);
+    tu_pin_below(w, b, 0, 2.0);
+    double *x0 = tu_positions(w);
+    TU_OK(defsim_world_step(w, 0.1));
+    double *x = tu_positions(w);
+    assert_memory_equal(x0, x, 3 * 8 * sizeof *x);
+    free(x0); free(x);
+    defsim_world_destroy(w);
+}
+
+static void test_flags(void **state)
+{
+    (void)state;
+    defsim_world *w = ida_world(1e-6, 1e-6, 5, 100000, 0.0);   /* loads the module */
+    defsim_world_destroy(w);
+    const defsim_backend *b = NULL;
+    TU_OK(defsim__find_backend("sundials_ida", &b));
+    assert_true(b->flags & DEFSIM_BACKEND_NEEDS_MATRIX);
+    assert_true(b->flags & DEFSIM_BACKEND_ADAPTIVE);
+    assert_true(b->flags & DEFSIM_BACKEND_IMPLICIT);
+    assert_false(b->flags & DEFSIM_BACKEND_DISSIPATIVE);
+    assert_non_null(b->reset);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_flags),
+        cmocka_unit_test(test_oscillators_tolerance_sweep),
+        cmocka_unit_test(test_single_long_step),
+        cmocka_unit_test(test_max_order),
+        cmocka_unit_test(test_set_state_reinit),
+        cmocka_unit_test(test_pin_changes),
+        cmocka_unit_test(test_failure_leaves_state),
+        cmocka_unit_test(test_beam_vs_leapfrog),
+        cmocka_unit_test(test_rest_stays_at_rest),
+        cmocka_unit_test(test_free_body_momentum),
+        cmocka_unit_test(test_pinned_fixed),
+        cmocka_unit_test(test_all_pinned),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

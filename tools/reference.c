@@ -1,0 +1,254 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * defsim-reference: the reference solution of the work-precision benchmark. A nonlinear tet
+ * cantilever (box [0,3] x [0,1] x [0,1] m of 3n x n x n cells, 6 tets per cell, clamped at x = 0,
+ * under gravity, from rest) is integrated with sundials_ida at a tight tolerance to time T, and
+ * the state at T is written as text with 17 significant digits.
+ *
+ *   defsim-reference [--model snh|nh|corotated|stvk] [--n N] [--T SECONDS] [--rtol R]
+ *                    [--atol A] [--E PA] [--nu NU] [--rho KG_M3] [--alpha 1_S] [--beta S]
+ *                    [--threads T] [--out PATH] [--quiet]
+ *
+ * Defaults: snh, n = 3 (9 x 3 x 3 cells, 486 tets, 160 vertices), T = 1 s, rtol = atol = 1e-10,
+ * E = 1 MPa, nu = 0.3, rho = 1000 kg/m^3, no damping, out = reference_<model>_n<n>.txt.
+ *
+ * File format (version 1): line-oriented, "key value..." lines in this order, then the vertices.
+ *     defsim-reference 1
+ *     model snh                          snh | nh | corotated | stvk
+ *     cells 9 3 3                        box cells along x, y, z (defsim_mesh_box)
+ *     box 0 0 0 3 1 1                    lo and hi corners (m)
+ *     youngs_modulus 1000000             Pa
+ *     poisson_ratio 0.3
+ *     density 1000                       kg/m^3
+ *     mass_damping 0                     Rayleigh alpha (1/s)
+ *     stiffness_damping 0                Rayleigh beta (s)
+ *     gravity 0 -9.81 0                  m/s^2
+ *     clamp x 0                          vertices with x <= 0 are pinned
+ *     start rest                         rest positions, zero velocity, t = 0
+ *     end_time 1                         s
+ *     backend sundials_ida
+ *     rtol 1e-10
+ *     atol 1e-10                         m and m/s, per second of simulated time
+ *     internal_steps 12345               IDA's steps
+ *     wall_seconds 12.3
+ *     energy 1.2 3.4 -5.6 -1.0           kinetic, elastic, gravitational, total (J) at T
+ *     vertices 160
+ *     x y z vx vy vz                     one line per vertex (m, m/s), in defsim_mesh_box order
+ *                                        (vertex i + (nx+1)(j + (ny+1) k))
+ * Numbers are printed with %.17g, so they read back exactly.
+ */
+#include <defsim/defsim.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#ifndef DEFSIM_REFERENCE_MODULE_DIR
+#define DEFSIM_REFERENCE_MODULE_DIR ""
+#endif
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int usage(void)
+{
+    fprintf(stderr,
+            "usage: defsim-reference [--model snh|nh|corotated|stvk] [--n N] [--T SECONDS]\n"
+            "                        [--rtol R] [--atol A] [--E PA] [--nu NU] [--rho KG_M3]\n"
+            "                        [--alpha 1_S] [--beta S] [--threads T] [--out PATH] [--quiet]\n");
+    return 2;
+}
+
+static int parse_double(const char *s, double *out)
+{
+    char *end = NULL;
+    double v = strtod(s, &end);
+    if (!end || *end || end == s) return 0;
+    *out = v;
+    return 1;
+}
+
+int main(int argc, char **argv)
+{
+    const char *model_name = "snh", *out_path = NULL;
+    double T = 1.0, rtol = 1e-10, atol = 1e-10, E = 1e6, nu = 0.3, rho = 1000.0;
+    double alpha = 0.0, beta = 0.0, nd = 3, threads = 1;
+    int quiet = 0;
+    for (int i = 1; i < argc; ++i) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--quiet")) { quiet = 1; continue; }
+        if (i + 1 >= argc) return usage();
+        const char *v = argv[++i];
+        int ok = 1;
+        if (!strcmp(a, "--model")) model_name = v;
+        else if (!strcmp(a, "--out")) out_path = v;
+        else if (!strcmp(a, "--n")) ok = parse_double(v, &nd);
+        else if (!strcmp(a, "--T")) ok = parse_double(v, &T);
+        else if (!strcmp(a, "--rtol")) ok = parse_double(v, &rtol);
+        else if (!strcmp(a, "--atol")) ok = parse_double(v, &atol);
+        else if (!strcmp(a, "--E")) ok = parse_double(v, &E);
+        else if (!strcmp(a, "--nu")) ok = parse_double(v, &nu);
+        else if (!strcmp(a, "--rho")) ok = parse_double(v, &rho);
+        else if (!strcmp(a, "--alpha")) ok = parse_double(v, &alpha);
+        else if (!strcmp(a, "--beta")) ok = parse_double(v, &beta);
+        else if (!strcmp(a, "--threads")) ok = parse_double(v, &threads);
+        else return usage();
+        if (!ok) {
+            fprintf(stderr, "defsim-reference: %s: not a number: %s\n", a, v);
+            return 2;
+        }
+    }
+    defsim_model model;
+    if (!strcmp(model_name, "snh")) model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
+    else if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
+    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
+    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
+    else {
+        fprintf(stderr, "defsim-reference: unknown model %s\n", model_name);
+        return 2;
+    }
+    const int n = (int)nd;
+    if (n < 1 || n > 64 || (double)n != nd || !(T > 0.0) || threads < 0 || threads > 1024) {
+        fprintf(stderr, "defsim-reference: need 1 <= n <= 64 (integer), T > 0, threads >= 0\n");
+        return 2;
+    }
+    char default_out[64];
+    snprintf(default_out, sizeof default_out, "reference_%s_n%d.txt", model_name, n);
+    if (!out_path) out_path = default_out;
+    /* Run from the build tree, the module sits beside the tools unless the user says otherwise. */
+    if (!getenv("DEFSIM_BACKEND_PATH") && DEFSIM_REFERENCE_MODULE_DIR[0])
+        setenv("DEFSIM_BACKEND_PATH", DEFSIM_REFERENCE_MODULE_DIR, 0);
+
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    wd.backend = "sundials_ida";
+    wd.num_threads = (int32_t)threads;
+    wd.rtol = rtol;
+    wd.atol = atol;
+    wd.max_internal_steps = 10000000;
+    defsim_world *w = NULL;
+    if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_last_error());
+        return 1;
+    }
+    defsim_mesh m = {.size = sizeof m};
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    const int nx = 3 * n, ny = n, nz = n;
+    if (defsim_mesh_box(lo, hi, nx, ny, nz, &m) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_last_error());
+        defsim_world_destroy(w);
+        return 1;
+    }
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m.positions;
+    bd.vertex_count = m.vertex_count;
+    bd.tets = m.tets;
+    bd.tet_count = m.tet_count;
+    defsim_material_init(&bd.material, sizeof bd.material, model);
+    bd.material.youngs_modulus = E;
+    bd.material.poisson_ratio = nu;
+    bd.material.density = rho;
+    bd.material.mass_damping = alpha;
+    bd.material.stiffness_damping = beta;
+    defsim_body_id b;
+    int rc = 1;
+    double *state = NULL;
+    int32_t *pins = NULL;
+    FILE *f = NULL;
+    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
+        goto done;
+    }
+    pins = malloc((size_t)m.vertex_count * sizeof *pins);
+    state = malloc(6 * (size_t)m.vertex_count * sizeof *state);
+    if (!pins || !state) {
+        fprintf(stderr, "defsim-reference: out of memory\n");
+        goto done;
+    }
+    int np = 0;
+    for (int i = 0; i < m.vertex_count; ++i)
+        if (m.positions[3 * i] <= 0.0) pins[np++] = i;
+    if (defsim_body_pin(w, b, pins, np) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
+        goto done;
+    }
+    if (!quiet)
+        fprintf(stderr, "defsim-reference: %s cantilever, %d tets, %d vertices (%d clamped), to "
+                        "T = %g s with sundials_ida at rtol %g, atol %g\n",
+                model_name, m.tet_count, m.vertex_count, np, T, rtol, atol);
+
+    /* One hundred calls, so that progress can be shown; IDA keeps its history across them. */
+    const int calls = 100;
+    const double t0 = now();
+    for (int c = 0; c < calls; ++c) {
+        /* The last call ends exactly on T. */
+        const double h = (c == calls - 1) ? T - defsim_world_time(w) : T / calls;
+        if (defsim_world_step(w, h) != DEFSIM_OK) {
+            fprintf(stderr, "defsim-reference: step %d failed: %s\n", c,
+                    defsim_world_last_error(w));
+            goto done;
+        }
+        if (!quiet && (c + 1) % 10 == 0) {
+            defsim_stats st = {.size = sizeof st};
+            defsim_world_stats(w, &st);
+            fprintf(stderr, "  t = %.3f s: %lld internal steps, %.1f s\n", defsim_world_time(w),
+                    (long long)st.internal_steps, now() - t0);
+        }
+    }
+    const double wall = now() - t0;
+    defsim_stats st = {.size = sizeof st};
+    defsim_world_stats(w, &st);
+    defsim_energy en;
+    defsim_world_energy(w, &en);
+    const int nv = m.vertex_count;
+    if (defsim_world_get_positions(w, state, nv) != DEFSIM_OK ||
+        defsim_world_get_velocities(w, state + 3 * (size_t)nv, nv) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
+        goto done;
+    }
+    f = fopen(out_path, "w");
+    if (!f) {
+        fprintf(stderr, "defsim-reference: cannot write %s\n", out_path);
+        goto done;
+    }
+    fprintf(f, "defsim-reference 1\nmodel %s\ncells %d %d %d\nbox 0 0 0 3 1 1\n", model_name, nx,
+            ny, nz);
+    fprintf(f, "youngs_modulus %.17g\npoisson_ratio %.17g\ndensity %.17g\n", E, nu, rho);
+    fprintf(f, "mass_damping %.17g\nstiffness_damping %.17g\n", alpha, beta);
+    fprintf(f, "gravity %.17g %.17g %.17g\nclamp x 0\nstart rest\n", wd.gravity[0],
+            wd.gravity[1], wd.gravity[2]);
+    fprintf(f, "end_time %.17g\nbackend sundials_ida\nrtol %.17g\natol %.17g\n",
+            defsim_world_time(w), rtol, atol);
+    fprintf(f, "internal_steps %lld\nwall_seconds %.3f\n", (long long)st.internal_steps, wall);
+    fprintf(f, "energy %.17g %.17g %.17g %.17g\nvertices %d\n", en.kinetic, en.elastic,
+            en.gravitational, en.total, nv);
+    for (int i = 0; i < nv; ++i) {
+        const double *x = state + 3 * (size_t)i, *v = state + 3 * ((size_t)nv + i);
+        fprintf(f, "%.17g %.17g %.17g %.17g %.17g %.17g\n", x[0], x[1], x[2], v[0], v[1], v[2]);
+    }
+    if (fclose(f) != 0) {
+        f = NULL;
+        fprintf(stderr, "defsim-reference: error writing %s\n", out_path);
+        goto done;
+    }
+    f = NULL;
+    if (!quiet)
+        fprintf(stderr, "defsim-reference: wrote %s (%lld internal steps, %lld Newton iterations, "
+                        "%lld Jacobians, %.1f s)\n",
+                out_path, (long long)st.internal_steps, (long long)st.newton_iterations,
+                (long long)st.jacobian_evals, wall);
+    rc = 0;
+done:
+    if (f) fclose(f);
+    free(pins);
+    free(state);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
+    return rc;
+}

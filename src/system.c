@@ -135,6 +135,7 @@ static void group_dpdf_projected(int model, double mu, double la, const double F
 #define DEFSIM__TET_FORCE_KERNEL(NAME, PFUN)                                                  \
     static void NAME(const defsim__group *g, const double *x, double *f, int nthreads)       \
     {                                                                                         \
+        (void)nthreads;                                                                       \
         for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
             const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];                     \
             _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(e1 - e0 > PAR_MIN)") \
@@ -217,6 +218,7 @@ static inline void spring_block(const double *xa, const double *xb, double k, do
 
 static void forces_springs(const defsim__group *g, const double *x, double *f, int nthreads)
 {
+    (void)nthreads;   /* used by OpenMP pragmas only */
     for (int32_t c = 0; c < g->ncolors; ++c) {
         const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
 #pragma omp parallel for schedule(static) num_threads(nthreads) if (e1 - e0 > PAR_MIN)
@@ -241,6 +243,7 @@ static void forces_springs(const defsim__group *g, const double *x, double *f, i
 static void damping_tets(const defsim__group *g, const double *x, const double *v, double *f,
                          int nthreads)
 {
+    (void)nthreads;   /* used by OpenMP pragmas only */
     for (int32_t c = 0; c < g->ncolors; ++c) {
         const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
 #pragma omp parallel for schedule(static) num_threads(nthreads) if (e1 - e0 > PAR_MIN / 8)
@@ -262,6 +265,7 @@ static void damping_tets(const defsim__group *g, const double *x, const double *
 static void damping_springs(const defsim__group *g, const double *x, const double *v, double *f,
                             int nthreads)
 {
+    (void)nthreads;   /* used by OpenMP pragmas only */
     for (int32_t c = 0; c < g->ncolors; ++c) {
         const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
 #pragma omp parallel for schedule(static) num_threads(nthreads) if (e1 - e0 > PAR_MIN)

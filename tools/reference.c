@@ -37,23 +37,17 @@
  *                                        (vertex i + (nx+1)(j + (ny+1) k))
  * Numbers are printed with %.17g, so they read back exactly.
  */
+#include "refsol.h"
+
 #include <defsim/defsim.h>
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #ifndef DEFSIM_REFERENCE_MODULE_DIR
 #define DEFSIM_REFERENCE_MODULE_DIR ""
 #endif
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static int usage(void)
 {
@@ -158,7 +152,6 @@ int main(int argc, char **argv)
     bd.material.stiffness_damping = beta;
     defsim_body_id b;
     int rc = 1;
-    double *state = NULL;
     int32_t *pins = NULL;
     FILE *f = NULL;
     if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
@@ -166,8 +159,7 @@ int main(int argc, char **argv)
         goto done;
     }
     pins = malloc((size_t)m.vertex_count * sizeof *pins);
-    state = malloc(6 * (size_t)m.vertex_count * sizeof *state);
-    if (!pins || !state) {
+    if (!pins) {
         fprintf(stderr, "defsim-reference: out of memory\n");
         goto done;
     }
@@ -184,37 +176,16 @@ int main(int argc, char **argv)
                 model_name, m.tet_count, m.vertex_count, np, T, rtol, atol);
 
     /* One hundred calls, so that progress can be shown; IDA keeps its history across them. */
-    const int calls = 100;
-    const double t0 = now();
-    for (int c = 0; c < calls; ++c) {
-        /* The last call ends exactly on T. */
-        const double h = (c == calls - 1) ? T - defsim_world_time(w) : T / calls;
-        if (defsim_world_step(w, h) != DEFSIM_OK) {
-            fprintf(stderr, "defsim-reference: step %d failed: %s\n", c,
-                    defsim_world_last_error(w));
-            goto done;
-        }
-        if (!quiet && (c + 1) % 10 == 0) {
-            defsim_stats st = {.size = sizeof st};
-            defsim_world_stats(w, &st);
-            fprintf(stderr, "  t = %.3f s: %lld internal steps, %.1f s\n", defsim_world_time(w),
-                    (long long)st.internal_steps, now() - t0);
-        }
-    }
-    const double wall = now() - t0;
+    refsol ref;
+    if (refsol_integrate(w, T, 100, rtol, atol, quiet ? NULL : "  defsim-reference", &ref) !=
+        DEFSIM_OK)
+        goto done;
     defsim_stats st = {.size = sizeof st};
     defsim_world_stats(w, &st);
-    defsim_energy en;
-    defsim_world_energy(w, &en);
-    const int nv = m.vertex_count;
-    if (defsim_world_get_positions(w, state, nv) != DEFSIM_OK ||
-        defsim_world_get_velocities(w, state + 3 * (size_t)nv, nv) != DEFSIM_OK) {
-        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
-        goto done;
-    }
     f = fopen(out_path, "w");
     if (!f) {
         fprintf(stderr, "defsim-reference: cannot write %s\n", out_path);
+        refsol_free(&ref);
         goto done;
     }
     fprintf(f, "defsim-reference 1\nmodel %s\ncells %d %d %d\nbox 0 0 0 3 1 1\n", model_name, nx,
@@ -223,16 +194,10 @@ int main(int argc, char **argv)
     fprintf(f, "mass_damping %.17g\nstiffness_damping %.17g\n", alpha, beta);
     fprintf(f, "gravity %.17g %.17g %.17g\nclamp x 0\nstart rest\n", wd.gravity[0],
             wd.gravity[1], wd.gravity[2]);
-    fprintf(f, "end_time %.17g\nbackend sundials_ida\nrtol %.17g\natol %.17g\n",
-            defsim_world_time(w), rtol, atol);
-    fprintf(f, "internal_steps %lld\nwall_seconds %.3f\n", (long long)st.internal_steps, wall);
-    fprintf(f, "energy %.17g %.17g %.17g %.17g\nvertices %d\n", en.kinetic, en.elastic,
-            en.gravitational, en.total, nv);
-    for (int i = 0; i < nv; ++i) {
-        const double *x = state + 3 * (size_t)i, *v = state + 3 * ((size_t)nv + i);
-        fprintf(f, "%.17g %.17g %.17g %.17g %.17g %.17g\n", x[0], x[1], x[2], v[0], v[1], v[2]);
-    }
-    if (fclose(f) != 0) {
+    const int wrote = refsol_write_tail(f, &ref);
+    const double wall = ref.wall_seconds;
+    refsol_free(&ref);
+    if (fclose(f) != 0 || wrote != 0) {
         f = NULL;
         fprintf(stderr, "defsim-reference: error writing %s\n", out_path);
         goto done;
@@ -247,7 +212,6 @@ int main(int argc, char **argv)
 done:
     if (f) fclose(f);
     free(pins);
-    free(state);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
     return rc;

@@ -3,6 +3,7 @@
  * defsim: the command-line tool. `defsim <command> [args]`; each command lives in its own file
  * and receives the arguments after its name.
  */
+#include "bench.h"
 #include "run.h"
 #include "stress.h"
 
@@ -20,6 +21,8 @@ typedef struct command {
 static const command commands[] = {
     {"run", "run a scene file: progress, VTK frames, PNG frames with --render", run_main},
     {"stress", "stability stress matrix: scenes x backends x h x E x nu x starts", defsim_tool_stress},
+    {"bench", "work-precision benchmark: error against wall time per backend, h and tolerance",
+     defsim_tool_bench},
 };
 
 static int usage(FILE *f)

@@ -1,0 +1,767 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `defsim bench SCENE.json`: work-precision benchmark. For each backend it sweeps the step size h
+ * (fixed-step backends) or the tolerance (sundials_ida), runs the scene to a fixed end time T,
+ * and measures the wall time of the stepping loop (median of repeats) and the error at T against
+ * a reference solution: sundials_ida at rtol 1e-10 on the same scene, computed once and cached in
+ * the output folder under a hash of the scene file, the overrides and T. Writes a CSV, a Pareto
+ * table (the fastest backend and setting for each error level) and, through tools/plot_wp.py, a
+ * log-log plot of error against time. tools/README.md documents the definitions.
+ */
+#include "bench.h"
+
+#include "refsol.h"
+#include "scene.h"
+
+#include <errno.h>
+#include <math.h>
+#include <spawn.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char **environ;
+
+#ifndef DEFSIM_BENCH_MODULE_DIR
+#define DEFSIM_BENCH_MODULE_DIR ""
+#endif
+#ifndef DEFSIM_BENCH_PLOT_SCRIPT
+#define DEFSIM_BENCH_PLOT_SCRIPT ""
+#endif
+
+/* The reference: sundials_ida at this rtol (atol = rtol times the body size), checked against a
+ * second run at REF_CHECK_RTOL. Bump REF_FORMAT when the way it is computed changes, so that old
+ * cached files are not reused. */
+#define REF_RTOL 1e-10
+#define REF_CHECK_RTOL 1e-9
+#define REF_FORMAT "bench-reference-2"
+/* A run whose RMS position error exceeds the body's size has left the solution entirely. */
+#define DIVERGED_RMS 1.0
+/* ... and one whose energy error exceeds the energy scale is on its way to blowing up. */
+#define DIVERGED_ENERGY 1.0
+
+#define MAX_BACKENDS 8
+#define MAX_VALUES 32
+#define MAX_SETS 64
+
+static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "newton_cholmod",
+                                     "sundials_kinsol", "sundials_ida"};
+
+typedef struct point {
+    const char *backend;
+    int is_tol;            /* 0: value is h (s); 1: value is the tolerance */
+    double value;
+    double wall;           /* median over repeats of the stepping loop, s */
+    double rms, max, energy;
+    char status[32];       /* ok, unstable, diverged, not_converged, or the status name */
+    long long steps, newton, internal;
+    int pareto;            /* not dominated in (wall, rms) by another ok point */
+} point;
+
+typedef struct bench {
+    scene s;
+    const char *scene_path;
+    const char *sets[MAX_SETS];
+    int nsets;
+    double T, frame_dt;
+    int repeats;
+    int threads;           /* world.num_threads of every run */
+    double size;           /* bounding-box diagonal of the rest shape, m */
+    double energy_scale;   /* J */
+    unsigned char *pinned; /* per world vertex */
+    int32_t nv;
+    double *x, *v;         /* scratch, 3 nv */
+} bench;
+
+static int usage(FILE *f)
+{
+    fprintf(f,
+        "usage: defsim bench SCENE.json [options]\n"
+        "  --backends A,B,...  backends to compare (default: all five; unavailable ones are\n"
+        "                      skipped with a note)\n"
+        "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
+        "                      doubled up to 1/30 s)\n"
+        "  --tol LIST          sundials_ida tolerances, rtol = tol, atol = tol x body size\n"
+        "                      (default 1e-3,1e-4,...,1e-8)\n"
+        "  --time T            end time, s (default: min(0.5, the scene's duration))\n"
+        "  --repeats R         timed repeats per point, median reported (default 3)\n"
+        "  --threads N         assembly threads (default 1, for timings that compare the\n"
+        "                      methods; 0: OpenMP's default)\n"
+        "  --set KEY=VALUE     override a scene value, as in defsim run; repeatable\n"
+        "  --out DIR           output folder (default bench_<scene>)\n"
+        "  --reference FILE    reference file to use, or to write if it does not exist\n"
+        "                      (default DIR/<scene>_reference_<hash>.txt)\n"
+        "  --python PATH       interpreter for tools/plot_wp.py (default $DEFSIM_PYTHON or\n"
+        "                      python3)\n"
+        "  --plot-script PATH  the plotting script (default: tools/plot_wp.py of the source)\n"
+        "  --no-plot           do not call the plotting script\n"
+        "  -h, --help          this text\n"
+        "Exit status: 0 done (also when no plot could be made), 1 error, 2 usage error.\n");
+    return f == stderr ? 2 : 0;
+}
+
+static int make_dirs(const char *path)
+{
+    char tmp[2048];
+    snprintf(tmp, sizeof tmp, "%s", path);
+    for (char *p = tmp + 1; *p; ++p)
+        if (*p == '/') {
+            *p = '\0';
+            if (mkdir(tmp, 0777) != 0 && errno != EEXIST) return -1;
+            *p = '/';
+        }
+    return mkdir(tmp, 0777) != 0 && errno != EEXIST ? -1 : 0;
+}
+
+/* Comma-separated positive numbers. Returns the count, or -1. */
+static int parse_list(const char *s, double *out, int max)
+{
+    int n = 0;
+    while (*s) {
+        char *end = NULL;
+        const double v = strtod(s, &end);
+        if (end == s || !(v > 0.0) || !isfinite(v) || n == max) return -1;
+        out[n++] = v;
+        s = end;
+        if (*s == ',') ++s;
+        else if (*s) return -1;
+    }
+    return n;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* FNV-1a, 64 bits: the cache key (not cryptographic; it only has to change with its input). */
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i) {
+        h ^= p[i];
+        h *= 1099511628211ULL;
+    }
+    return h;
+}
+
+static defsim_status build(bench *b, const char *backend, double rtol, defsim_world **w)
+{
+    b->s.def.backend = backend;
+    b->s.def.num_threads = b->threads;
+    if (rtol > 0.0) {
+        b->s.def.rtol = rtol;
+        b->s.def.atol = rtol * b->size;
+        b->s.def.max_internal_steps = 10000000;
+    }
+    snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
+    return scene_build(&b->s, w);
+}
+
+/* Steps `w` to T: fixed steps of h (is_tol 0) or calls of one frame each (adaptive). */
+static defsim_status advance(bench *b, defsim_world *w, int is_tol, double h, long long n)
+{
+    for (long long i = 0; i < n; ++i) {
+        const double step = (is_tol && i == n - 1) ? b->T - defsim_world_time(w) : h;
+        const defsim_status st = defsim_world_step(w, step);
+        if (st != DEFSIM_OK) return st;
+    }
+    return DEFSIM_OK;
+}
+
+/* Position errors (over free vertices, relative to the body size) of x against the reference. */
+static void position_error(const bench *b, const double *x, const double *xr, double *rms,
+                           double *max)
+{
+    double sum = 0.0, mx = 0.0;
+    int32_t n = 0;
+    for (int32_t i = 0; i < b->nv; ++i) {
+        if (b->pinned[i]) continue;
+        const double dx = x[3 * i] - xr[3 * i], dy = x[3 * i + 1] - xr[3 * i + 1],
+                     dz = x[3 * i + 2] - xr[3 * i + 2];
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        sum += d2;
+        if (d2 > mx) mx = d2;
+        ++n;
+    }
+    *rms = n ? sqrt(sum / n) / b->size : 0.0;
+    *max = sqrt(mx) / b->size;
+}
+
+static void run_point(bench *b, const refsol *ref, point *p)
+{
+    double h = p->value;
+    long long n;
+    if (p->is_tol) {
+        h = b->frame_dt;
+        n = (long long)ceil(b->T / h - 1e-9);
+    } else {
+        /* Whole steps that end exactly on T: h is shortened slightly if T/h is not whole. */
+        n = (long long)ceil(b->T / h - 1e-9);
+        if (n < 1) n = 1;
+        h = b->T / (double)n;
+        p->value = h;
+    }
+    double walls[64];
+    int nw = 0;
+    snprintf(p->status, sizeof p->status, "ok");
+    for (int r = 0; r < b->repeats && r < 64; ++r) {
+        defsim_world *w = NULL;
+        defsim_status st = build(b, p->backend, p->is_tol ? p->value : 0.0, &w);
+        if (st != DEFSIM_OK) {
+            snprintf(p->status, sizeof p->status, "%s", defsim_status_string(st));
+            fprintf(stderr, "defsim bench: %s\n", b->s.error);
+            return;
+        }
+        const double t0 = refsol_now();
+        st = advance(b, w, p->is_tol, h, n);
+        const double t1 = refsol_now();
+        defsim_stats stats = {.size = sizeof stats};
+        defsim_world_stats(w, &stats);
+        p->steps = stats.steps;
+        p->newton = stats.newton_iterations;
+        p->internal = stats.internal_steps;
+        if (st != DEFSIM_OK) {
+            /* A failed run is not timed again: its failure is the result. */
+            snprintf(p->status, sizeof p->status, "%s",
+                     st == DEFSIM_ERR_UNSTABLE        ? "unstable"
+                     : st == DEFSIM_ERR_NOT_CONVERGED ? "not_converged"
+                                                      : defsim_status_string(st));
+            p->wall = t1 - t0;
+            p->rms = p->max = p->energy = NAN;
+            defsim_world_destroy(w);
+            return;
+        }
+        walls[nw++] = t1 - t0;
+        if (r == b->repeats - 1 || r == 63) {
+            defsim_energy e;
+            defsim_world_get_positions(w, b->x, b->nv);
+            defsim_world_energy(w, &e);
+            position_error(b, b->x, ref->x, &p->rms, &p->max);
+            p->energy = fabs(e.total - ref->energy.total) / b->energy_scale;
+            if (!isfinite(p->rms) || !isfinite(p->energy) || p->rms > DIVERGED_RMS ||
+                p->energy > DIVERGED_ENERGY)
+                snprintf(p->status, sizeof p->status, "diverged");
+        }
+        defsim_world_destroy(w);
+    }
+    qsort(walls, (size_t)nw, sizeof *walls, cmp_double);
+    p->wall = nw % 2 ? walls[nw / 2] : 0.5 * (walls[nw / 2 - 1] + walls[nw / 2]);
+}
+
+/* The reference cache key, as 16 hex digits. */
+static int reference_key(const bench *b, char key[17], char *err, size_t errlen)
+{
+    FILE *f = fopen(b->scene_path, "rb");
+    if (!f) {
+        snprintf(err, errlen, "%s: %s", b->scene_path, strerror(errno));
+        return -1;
+    }
+    uint64_t h = 14695981039346656037ULL;
+    h = fnv1a(h, REF_FORMAT, sizeof REF_FORMAT);
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0) h = fnv1a(h, buf, n);
+    fclose(f);
+    for (int i = 0; i < b->nsets; ++i) h = fnv1a(h, b->sets[i], strlen(b->sets[i]) + 1);
+    snprintf(buf, sizeof buf, "T=%.17g", b->T);
+    h = fnv1a(h, buf, strlen(buf) + 1);
+    snprintf(key, 17, "%016llx", (unsigned long long)h);
+    return 0;
+}
+
+/* The "key" line of a reference file, or "" if it has none. */
+static void read_key(const char *path, char key[64])
+{
+    key[0] = '\0';
+    FILE *f = fopen(path, "r");
+    if (!f) return;
+    char line[1024];
+    while (fgets(line, sizeof line, f) && strncmp(line, "vertices", 8) != 0)
+        if (sscanf(line, "key %63s", key) == 1) break;
+    fclose(f);
+}
+
+static defsim_status integrate_reference(bench *b, double rtol, refsol *out)
+{
+    defsim_world *w = NULL;
+    defsim_status st = build(b, "sundials_ida", rtol, &w);
+    if (st != DEFSIM_OK) {
+        fprintf(stderr, "defsim bench: reference: %s\n", b->s.error);
+        return st;
+    }
+    const int calls = (int)ceil(b->T / b->frame_dt - 1e-9);
+    char tag[64];
+    snprintf(tag, sizeof tag, "  reference rtol %g", rtol);
+    st = refsol_integrate(w, b->T, calls < 1 ? 1 : calls, rtol, rtol * b->size,
+                          isatty(STDERR_FILENO) ? tag : NULL, out);
+    defsim_world_destroy(w);
+    return st;
+}
+
+/* Loads the cached reference or computes, checks and writes it. *cached tells which. */
+static int get_reference(bench *b, const char *path, const char *key, refsol *ref, int *cached)
+{
+    char err[1200], file_key[64];
+    *cached = 0;
+    if (access(path, R_OK) == 0) {
+        read_key(path, file_key);
+        if (file_key[0] && strcmp(file_key, key) != 0) {
+            fprintf(stderr, "defsim bench: %s was computed for another scene, overrides or end "
+                            "time (key %s, here %s); remove it or name another file\n",
+                    path, file_key, key);
+            return -1;
+        }
+        if (refsol_read(path, ref, err, sizeof err) != 0) {
+            fprintf(stderr, "defsim bench: %s\n", err);
+            return -1;
+        }
+        if (ref->vertex_count != b->nv || fabs(ref->end_time - b->T) > 1e-9 * b->T) {
+            fprintf(stderr, "defsim bench: %s has %d vertices at t = %g s; the scene has %d, "
+                            "T = %g s\n", path, (int)ref->vertex_count, ref->end_time,
+                    (int)b->nv, b->T);
+            refsol_free(ref);
+            return -1;
+        }
+        *cached = 1;
+        printf("reference: cached %s (sundials_ida rtol %g, %lld internal steps, took %.1f s "
+               "when computed)%s\n", path, ref->rtol, (long long)ref->internal_steps,
+               ref->wall_seconds, file_key[0] ? "" : " [no key: trusted as given]");
+        return 0;
+    }
+    printf("reference: computing sundials_ida at rtol %g (check at %g) to T = %g s ...\n",
+           REF_RTOL, REF_CHECK_RTOL, b->T);
+    fflush(stdout);
+    refsol check;
+    if (integrate_reference(b, REF_RTOL, ref) != DEFSIM_OK) return -1;
+    if (integrate_reference(b, REF_CHECK_RTOL, &check) != DEFSIM_OK) {
+        refsol_free(ref);
+        return -1;
+    }
+    double rms, max;
+    position_error(b, check.x, ref->x, &rms, &max);
+    const double de = fabs(check.energy.total - ref->energy.total) / b->energy_scale;
+    printf("reference: %.1f s, %lld internal steps; rtol %g against %g: position error RMS %.2e "
+           "max %.2e (of the body size), energy %.2e\n", ref->wall_seconds,
+           (long long)ref->internal_steps, REF_CHECK_RTOL, REF_RTOL, rms, max, de);
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        fprintf(stderr, "defsim bench: cannot write %s: %s\n", path, strerror(errno));
+        refsol_free(ref);
+        refsol_free(&check);
+        return -1;
+    }
+    fprintf(f, "defsim-reference 1\nscene %s\nscene_name %s\nkey %s\nformat %s\n",
+            b->scene_path, b->s.name, key, REF_FORMAT);
+    for (int i = 0; i < b->nsets; ++i) fprintf(f, "set %s\n", b->sets[i]);
+    fprintf(f, "size %.17g\nenergy_scale %.17g\n", b->size, b->energy_scale);
+    fprintf(f, "check_rtol %.17g\ncheck_rms_err %.17g\ncheck_max_err %.17g\n"
+               "check_energy_err %.17g\ncheck_wall_seconds %.3f\n",
+            REF_CHECK_RTOL, rms, max, de, check.wall_seconds);
+    const int wrote = refsol_write_tail(f, ref);
+    refsol_free(&check);
+    if (fclose(f) != 0 || wrote != 0) {
+        fprintf(stderr, "defsim bench: error writing %s\n", path);
+        refsol_free(ref);
+        return -1;
+    }
+    return 0;
+}
+
+static void mark_pareto(point *p, int n)
+{
+    for (int i = 0; i < n; ++i) {
+        p[i].pareto = 0;
+        if (strcmp(p[i].status, "ok")) continue;
+        int dominated = 0;
+        for (int j = 0; j < n && !dominated; ++j)
+            if (j != i && !strcmp(p[j].status, "ok") && p[j].wall <= p[i].wall &&
+                p[j].rms <= p[i].rms && (p[j].wall < p[i].wall || p[j].rms < p[i].rms))
+                dominated = 1;
+        p[i].pareto = !dominated;
+    }
+}
+
+static void setting(const point *p, char *buf, size_t n)
+{
+    snprintf(buf, n, "%s = %.3g%s", p->is_tol ? "tol" : "h", p->value, p->is_tol ? "" : " s");
+}
+
+/* Pareto table: for each error level the fastest point reaching it, and the fastest point of
+ * any other backend (to show the margin). Printed and written as markdown. */
+static int write_pareto(const bench *b, const point *p, int n, const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        fprintf(stderr, "defsim bench: cannot write %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    fprintf(f, "# Work-precision: %s, T = %g s\n\n", b->s.name, b->T);
+    fprintf(f, "Error = RMS position error at T over the free vertices, relative to the "
+               "bounding-box diagonal of the rest shape (%.4g m). Time = median wall time of "
+               "the stepping loop.\n\n", b->size);
+    fprintf(f, "| RMS error <= | fastest | setting | wall (s) | RMS error | next other backend "
+               "| its wall (s) |\n|---|---|---|---|---|---|---|\n");
+    printf("\nPareto table (RMS position error / body size at T = %g s):\n", b->T);
+    printf("  %-8s  %-17s %-16s %10s %10s   %s\n", "level", "fastest", "setting", "wall_s",
+           "rms_err", "next other backend");
+    for (int k = 1; k <= 6; ++k) {
+        const double level = pow(10.0, -k);
+        int best = -1, other = -1;
+        for (int i = 0; i < n; ++i)
+            if (!strcmp(p[i].status, "ok") && p[i].rms <= level &&
+                (best < 0 || p[i].wall < p[best].wall))
+                best = i;
+        if (best >= 0)
+            for (int i = 0; i < n; ++i)
+                if (!strcmp(p[i].status, "ok") && p[i].rms <= level &&
+                    strcmp(p[i].backend, p[best].backend) &&
+                    (other < 0 || p[i].wall < p[other].wall))
+                    other = i;
+        char s1[64], s2[160] = "none";
+        if (best < 0) {
+            fprintf(f, "| 1e-%d | none reached | | | | | |\n", k);
+            printf("  1e-%-5d  none reached\n", k);
+            continue;
+        }
+        setting(&p[best], s1, sizeof s1);
+        if (other >= 0) {
+            char so[64];
+            setting(&p[other], so, sizeof so);
+            snprintf(s2, sizeof s2, "%s (%s): %.3g s, %.1fx slower", p[other].backend, so,
+                     p[other].wall, p[other].wall / p[best].wall);
+            fprintf(f, "| 1e-%d | %s | %s | %.4g | %.2e | %s (%s) | %.4g |\n", k, p[best].backend,
+                    s1, p[best].wall, p[best].rms, p[other].backend, so, p[other].wall);
+        } else {
+            fprintf(f, "| 1e-%d | %s | %s | %.4g | %.2e | none | |\n", k, p[best].backend, s1,
+                    p[best].wall, p[best].rms);
+        }
+        printf("  1e-%-5d  %-17s %-16s %10.4g %10.2e   %s\n", k, p[best].backend, s1,
+               p[best].wall, p[best].rms, s2);
+    }
+    fprintf(f, "\nPareto-optimal points (no other point is both faster and more accurate):\n\n");
+    for (int i = 0; i < n; ++i)
+        if (p[i].pareto) {
+            char s1[64];
+            setting(&p[i], s1, sizeof s1);
+            fprintf(f, "- %s, %s: %.4g s, RMS %.2e\n", p[i].backend, s1, p[i].wall, p[i].rms);
+        }
+    return fclose(f) == 0 ? 0 : -1;
+}
+
+static int write_csv(const point *p, int n, const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        fprintf(stderr, "defsim bench: cannot write %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    fprintf(f, "backend,kind,value,wall_s,rms_err,max_err,energy_err,status,steps,"
+               "newton_iterations,internal_steps,pareto\n");
+    for (int i = 0; i < n; ++i)
+        fprintf(f, "%s,%s,%.10g,%.6g,%.6e,%.6e,%.6e,%s,%lld,%lld,%lld,%d\n", p[i].backend,
+                p[i].is_tol ? "tol" : "h", p[i].value, p[i].wall, p[i].rms, p[i].max,
+                p[i].energy, p[i].status, p[i].steps, p[i].newton, p[i].internal, p[i].pareto);
+    return fclose(f) == 0 ? 0 : -1;
+}
+
+/* Runs the plotting script. Never fails the bench: says how to make the plot by hand. */
+static void plot(const char *python, const char *script, const char *csv, const char *png,
+                 const char *title)
+{
+    if (!script[0] || access(script, R_OK) != 0) {
+        printf("plot: no plotting script found (pass --plot-script tools/plot_wp.py); make the "
+               "plot with\n  python3 tools/plot_wp.py %s --out %s\n", csv, png);
+        return;
+    }
+    char *argv[] = {(char *)python, (char *)script, (char *)csv, "--out", (char *)png,
+                    "--title", (char *)title, NULL};
+    pid_t pid;
+    int status = 0;
+    fflush(stdout);
+    if (posix_spawnp(&pid, python, NULL, NULL, argv, environ) != 0 ||
+        waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        printf("plot: %s %s did not make the plot (%s); with matplotlib installed, run\n"
+               "  %s %s %s --out %s\n", python, script,
+               WIFEXITED(status) && WEXITSTATUS(status) == 3 ? "matplotlib is missing"
+                                                             : "interpreter or script failed",
+               python, script, csv, png);
+        return;
+    }
+    printf("plot: %s\n", png);
+}
+
+int defsim_tool_bench(int argc, char **argv)
+{
+    const char *scene_path = NULL, *out_dir = NULL, *ref_path = NULL;
+    const char *python = getenv("DEFSIM_PYTHON"), *script = DEFSIM_BENCH_PLOT_SCRIPT;
+    const char *backend_list = NULL;
+    double hs[MAX_VALUES], tols[MAX_VALUES], T = 0.0;
+    int nh = 0, ntol = 0, repeats = 3, threads = 1, no_plot = 0;
+    bench b;
+    memset(&b, 0, sizeof b);
+    if (!python || !python[0]) python = "python3";
+    for (int i = 0; i < argc; ++i) {
+        const char *a = argv[i];
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
+        if (!strcmp(a, "--no-plot")) { no_plot = 1; continue; }
+        if (a[0] != '-') {
+            if (scene_path) return usage(stderr);
+            scene_path = a;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "defsim bench: %s needs a value\n", a);
+            return 2;
+        }
+        const char *v = argv[++i];
+        char *end = NULL;
+        if (!strcmp(a, "--backends")) backend_list = v;
+        else if (!strcmp(a, "--h")) {
+            if ((nh = parse_list(v, hs, MAX_VALUES)) <= 0) {
+                fprintf(stderr, "defsim bench: --h: need up to %d positive numbers: %s\n",
+                        MAX_VALUES, v);
+                return 2;
+            }
+        } else if (!strcmp(a, "--tol")) {
+            if ((ntol = parse_list(v, tols, MAX_VALUES)) <= 0) {
+                fprintf(stderr, "defsim bench: --tol: need up to %d positive numbers: %s\n",
+                        MAX_VALUES, v);
+                return 2;
+            }
+        } else if (!strcmp(a, "--time")) {
+            T = strtod(v, &end);
+            if (end == v || *end || !(T > 0.0) || !isfinite(T)) {
+                fprintf(stderr, "defsim bench: --time: need a positive number: %s\n", v);
+                return 2;
+            }
+        } else if (!strcmp(a, "--repeats") || !strcmp(a, "--threads")) {
+            const long n = strtol(v, &end, 10);
+            const long lo = a[2] == 'r' ? 1 : 0, hi = a[2] == 'r' ? 64 : 1024;
+            if (end == v || *end || n < lo || n > hi) {
+                fprintf(stderr, "defsim bench: %s: need an integer in %ld..%ld: %s\n", a, lo, hi,
+                        v);
+                return 2;
+            }
+            if (a[2] == 'r') repeats = (int)n;
+            else threads = (int)n;
+        } else if (!strcmp(a, "--set")) {
+            if (b.nsets == MAX_SETS || !strchr(v, '=')) {
+                fprintf(stderr, "defsim bench: --set KEY=VALUE (at most %d): %s\n", MAX_SETS, v);
+                return 2;
+            }
+            b.sets[b.nsets++] = v;
+        } else if (!strcmp(a, "--out")) out_dir = v;
+        else if (!strcmp(a, "--reference")) ref_path = v;
+        else if (!strcmp(a, "--python")) python = v;
+        else if (!strcmp(a, "--plot-script")) script = v;
+        else {
+            fprintf(stderr, "defsim bench: unknown option %s\n", a);
+            return usage(stderr);
+        }
+    }
+    if (!scene_path) return usage(stderr);
+
+    /* Backends: the list, in order, without duplicates. */
+    const char *backends[MAX_BACKENDS];
+    char names[MAX_BACKENDS][64];
+    int nb = 0;
+    if (backend_list) {
+        const char *p = backend_list;
+        while (*p) {
+            const size_t len = strcspn(p, ",");
+            if (len == 0 || len >= 64 || nb == MAX_BACKENDS) {
+                fprintf(stderr, "defsim bench: --backends: bad list: %s\n", backend_list);
+                return 2;
+            }
+            memcpy(names[nb], p, len);
+            names[nb][len] = '\0';
+            int dup = 0;
+            for (int k = 0; k < nb; ++k) dup |= !strcmp(names[k], names[nb]);
+            if (!dup) {
+                backends[nb] = names[nb];
+                ++nb;
+            }
+            p += len;
+            if (*p == ',') ++p;
+        }
+    } else {
+        for (size_t k = 0; k < sizeof all_backends / sizeof *all_backends; ++k)
+            backends[nb++] = all_backends[k];
+    }
+    /* From the build tree the modules sit beside the tools unless the user says otherwise. */
+    if (!getenv("DEFSIM_BACKEND_PATH") && DEFSIM_BENCH_MODULE_DIR[0])
+        setenv("DEFSIM_BACKEND_PATH", DEFSIM_BENCH_MODULE_DIR, 0);
+
+    if (scene_load(&b.s, scene_path, b.sets, b.nsets) != 0) {
+        fprintf(stderr, "defsim bench: %s\n", b.s.error);
+        return 1;
+    }
+    b.scene_path = scene_path;
+    b.repeats = repeats;
+    b.threads = threads;
+    b.T = T > 0.0 ? T : fmin(0.5, b.s.duration);
+    b.frame_dt = b.s.h * b.s.frame_steps;
+    int rc = 1;
+    refsol ref = {0};
+    point *pts = NULL;
+
+    /* Body size: the bounding-box diagonal of the rest shape of all bodies. */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double mass = 0.0;
+    for (int32_t i = 0; i < b.s.nbodies; ++i)
+        for (int32_t v = 0; v < b.s.bodies[i].mesh.vertex_count; ++v)
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = fmin(lo[k], b.s.bodies[i].mesh.positions[3 * v + k]);
+                hi[k] = fmax(hi[k], b.s.bodies[i].mesh.positions[3 * v + k]);
+            }
+    b.size = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
+
+    /* A symplectic world gives the initial state, masses, energies and pins. */
+    defsim_world *w0 = NULL;
+    if (build(&b, "symplectic_euler", 0.0, &w0) != DEFSIM_OK) {
+        fprintf(stderr, "defsim bench: %s\n", b.s.error);
+        goto done;
+    }
+    b.nv = defsim_world_vertex_count(w0);
+    b.x = malloc(3 * (size_t)b.nv * sizeof *b.x);
+    b.v = malloc(3 * (size_t)b.nv * sizeof *b.v);
+    b.pinned = calloc((size_t)b.nv, 1);
+    double *m = malloc((size_t)b.nv * sizeof *m);
+    if (!b.x || !b.v || !b.pinned || !m) {
+        free(m);
+        defsim_world_destroy(w0);
+        fprintf(stderr, "defsim bench: out of memory\n");
+        goto done;
+    }
+    defsim_world_get_masses(w0, m, b.nv);
+    for (int32_t i = 0; i < b.nv; ++i) mass += m[i];
+    free(m);
+    for (int32_t i = 0; i < b.s.nbodies; ++i)
+        for (int32_t k = 0; k < b.s.bodies[i].npins; ++k)
+            b.pinned[b.s.bodies[i].offset + b.s.bodies[i].pins[k]] = 1;
+    /* Energy scale: the initial kinetic and elastic energy plus the potential energy of the
+     * whole mass lifted by one body size in the scene's gravity. */
+    defsim_energy e0;
+    defsim_world_energy(w0, &e0);
+    const double *g = b.s.def.gravity;
+    b.energy_scale = fabs(e0.kinetic) + fabs(e0.elastic) +
+                     mass * sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * b.size;
+    if (!(b.energy_scale > 0.0)) b.energy_scale = 1.0;
+    defsim_world_destroy(w0);
+
+    /* Default sweeps. */
+    /* h: geometric from the scene's h to 1/30 s, ratio about 2 (both ends included). */
+    if (nh == 0) {
+        const double top = 1.0 / 30.0;
+        if (b.s.h >= top) {
+            hs[nh++] = b.s.h;
+        } else {
+            int steps = (int)ceil(log2(top / b.s.h) - 1e-9);
+            if (steps > MAX_VALUES - 1) steps = MAX_VALUES - 1;
+            for (int k = 0; k <= steps; ++k)
+                hs[nh++] = b.s.h * pow(top / b.s.h, (double)k / steps);
+        }
+    }
+    if (ntol == 0)
+        for (int k = 3; k <= 8; ++k) tols[ntol++] = pow(10.0, -k);
+
+    /* Which backends exist here. */
+    const char *use[MAX_BACKENDS];
+    int nuse = 0, have_ida = 0;
+    for (int k = 0; k < nb; ++k) {
+        defsim_world_def wd;
+        defsim_world_def_init(&wd, sizeof wd);
+        wd.backend = backends[k];
+        defsim_world *w = NULL;
+        const defsim_status st = defsim_world_create(&wd, &w);
+        defsim_world_destroy(w);
+        if (st != DEFSIM_OK) {
+            printf("note: backend %s skipped: %s: %s\n", backends[k], defsim_status_string(st),
+                   defsim_last_error());
+            continue;
+        }
+        use[nuse++] = backends[k];
+    }
+    {
+        defsim_world_def wd;
+        defsim_world_def_init(&wd, sizeof wd);
+        wd.backend = "sundials_ida";
+        defsim_world *w = NULL;
+        have_ida = defsim_world_create(&wd, &w) == DEFSIM_OK;
+        defsim_world_destroy(w);
+    }
+    if (nuse == 0) {
+        fprintf(stderr, "defsim bench: none of the backends is available\n");
+        goto done;
+    }
+
+    char dir[1024], path[1400], key[17], err[1200];
+    if (out_dir) snprintf(dir, sizeof dir, "%s", out_dir);
+    else snprintf(dir, sizeof dir, "bench_%s", b.s.name);
+    if (make_dirs(dir) != 0) {
+        fprintf(stderr, "defsim bench: cannot create %s: %s\n", dir, strerror(errno));
+        goto done;
+    }
+    if (reference_key(&b, key, err, sizeof err) != 0) {
+        fprintf(stderr, "defsim bench: %s\n", err);
+        goto done;
+    }
+    if (ref_path) snprintf(path, sizeof path, "%s", ref_path);
+    else snprintf(path, sizeof path, "%s/%s_reference_%s.txt", dir, b.s.name, key);
+    printf("defsim bench: %s, %d vertices, T = %g s, body size %.4g m, energy scale %.4g J, "
+           "%d repeat(s)\n", b.s.name, (int)b.nv, b.T, b.size, b.energy_scale, b.repeats);
+    int cached = 0;
+    if (!have_ida && access(path, R_OK) != 0) {
+        fprintf(stderr, "defsim bench: the reference needs the sundials_ida backend, which is "
+                        "not available, and %s does not exist\n", path);
+        goto done;
+    }
+    if (get_reference(&b, path, key, &ref, &cached) != 0) goto done;
+
+    /* The sweep. */
+    int npts = 0;
+    pts = calloc((size_t)nuse * MAX_VALUES, sizeof *pts);
+    if (!pts) goto done;
+    printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value", "wall_s",
+           "rms_err", "max_err", "energy_err", "status");
+    for (int k = 0; k < nuse; ++k) {
+        const int is_tol = !strcmp(use[k], "sundials_ida");
+        const int nval = is_tol ? ntol : nh;
+        for (int j = 0; j < nval; ++j) {
+            point *p = &pts[npts++];
+            p->backend = use[k];
+            p->is_tol = is_tol;
+            p->value = is_tol ? tols[j] : hs[j];
+            run_point(&b, &ref, p);
+            printf("%-17s %-5s %10.4g %10.4g %10.3e %10.3e %10.3e  %s\n", p->backend,
+                   is_tol ? "tol" : "h", p->value, p->wall, p->rms, p->max, p->energy,
+                   p->status);
+            fflush(stdout);
+        }
+    }
+    mark_pareto(pts, npts);
+    char csv[1500], png[1500], md[1500], title[512];
+    snprintf(csv, sizeof csv, "%s/%s.csv", dir, b.s.name);
+    snprintf(png, sizeof png, "%s/%s.png", dir, b.s.name);
+    snprintf(md, sizeof md, "%s/%s_pareto.md", dir, b.s.name);
+    if (write_csv(pts, npts, csv) != 0 || write_pareto(&b, pts, npts, md) != 0) goto done;
+    printf("\nwrote %s, %s\n", csv, md);
+    snprintf(title, sizeof title, "%s: %d vertices, T = %g s", b.s.name, (int)b.nv, b.T);
+    if (!no_plot) plot(python, script, csv, png, title);
+    rc = 0;
+done:
+    free(pts);
+    refsol_free(&ref);
+    free(b.x);
+    free(b.v);
+    free(b.pinned);
+    scene_free(&b.s);
+    return rc;
+}

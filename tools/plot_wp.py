@@ -1,0 +1,113 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""Work-precision plot from the CSV of `defsim bench`.
+
+Left: RMS position error at the end time (relative to the body size) against the median wall
+time of the stepping loop, log-log, one line per backend; every point is labelled with its step
+size h (fixed-step backends) or tolerance (sundials_ida); the dashed grey staircase is the Pareto
+front. Right: the energy error against the same times. Runs that failed or diverged are left out
+(they are listed under the plot).
+
+    python3 tools/plot_wp.py bench_cantilever/cantilever.csv [--out PNG] [--title TEXT]
+
+Exit status: 0 written, 2 bad input, 3 matplotlib is not installed.
+"""
+import argparse
+import csv
+import sys
+
+COLORS = {"explicit_euler": "#c62828", "symplectic_euler": "#2e7d32",
+          "newton_cholmod": "#1565c0", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00"}
+MARKERS = {"explicit_euler": "x", "symplectic_euler": "o", "newton_cholmod": "s",
+           "sundials_kinsol": "D", "sundials_ida": "^"}
+
+
+def label(r):
+    v = float(r["value"])
+    return f"{v:.0e}" if r["kind"] == "tol" else f"h={v:.2g}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("csv")
+    ap.add_argument("--out", default=None, help="PNG path (default: the CSV's with .png)")
+    ap.add_argument("--title", default=None)
+    a = ap.parse_args()
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("plot_wp.py: matplotlib is not installed (pip install matplotlib)", file=sys.stderr)
+        return 3
+    try:
+        rows = list(csv.DictReader(open(a.csv)))
+    except OSError as e:
+        print(f"plot_wp.py: {e}", file=sys.stderr)
+        return 2
+    need = {"backend", "kind", "value", "wall_s", "rms_err", "energy_err", "status"}
+    if not rows or not need <= set(rows[0]):
+        print(f"plot_wp.py: {a.csv}: not a defsim bench CSV", file=sys.stderr)
+        return 2
+    out = a.out or (a.csv[:-4] if a.csv.endswith(".csv") else a.csv) + ".png"
+    ok = [r for r in rows if r["status"] == "ok"]
+    bad = [r for r in rows if r["status"] != "ok"]
+    backends = list(dict.fromkeys(r["backend"] for r in rows))
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6))
+    for ax, col, ylab in ((axes[0], "rms_err", "RMS position error at T / body size"),
+                          (axes[1], "energy_err", "|E(T) - E_ref(T)| / energy scale")):
+        for b in backends:
+            rs = sorted((r for r in ok if r["backend"] == b), key=lambda r: float(r["wall_s"]))
+            rs = [r for r in rs if float(r[col]) > 0]
+            if not rs:
+                continue
+            xs = [float(r["wall_s"]) for r in rs]
+            ys = [float(r[col]) for r in rs]
+            ax.plot(xs, ys, marker=MARKERS.get(b, "o"), color=COLORS.get(b), label=b, lw=1.5,
+                    ms=6)
+            for r, x, y in zip(rs, xs, ys):
+                ax.annotate(label(r), (x, y), textcoords="offset points", xytext=(4, 4),
+                            fontsize=7, color=COLORS.get(b, "k"))
+        if col == "rms_err":
+            # Pareto front: the fastest way to each error level reached.
+            pts = sorted((float(r["wall_s"]), float(r["rms_err"])) for r in ok
+                         if float(r["rms_err"]) > 0)
+            fx, fy, best = [], [], float("inf")
+            for x, y in pts:
+                if y < best:
+                    if fx:
+                        fx.append(x)
+                        fy.append(best)
+                    fx.append(x)
+                    fy.append(y)
+                    best = y
+            if fx:
+                ax.plot(fx, fy, ls="--", color="0.5", lw=1, zorder=0, label="Pareto front")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time of the stepping loop (s, median)")
+        ax.set_ylabel(ylab)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8, loc="best")
+    axes[0].set_title("position error")
+    axes[1].set_title("energy error")
+    if a.title:
+        fig.suptitle(a.title)
+    if bad:
+        groups = {}
+        for r in bad:
+            groups.setdefault((r["backend"], r["status"]), []).append(label(r))
+        text = "left out: " + "; ".join(f"{b} {s} at {', '.join(v)}"
+                                        for (b, s), v in groups.items())
+        fig.text(0.01, 0.01, text, fontsize=7, wrap=True)
+        fig.tight_layout(rect=(0, 0.05, 1, 0.96))
+    else:
+        fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.savefig(out, dpi=110)
+    print(out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

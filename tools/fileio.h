@@ -9,4 +9,7 @@
  * set) if it cannot be read. */
 char *tools_read_file(const char *path, size_t *len);
 
+/* Creates a folder and its missing parents (like mkdir -p). Returns 0, or -1 (errno set). */
+int tools_make_dirs(const char *path);
+
 #endif

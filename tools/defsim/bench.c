@@ -13,6 +13,8 @@
 #include "refsol.h"
 #include "scene.h"
 
+#include "fileio.h"
+
 #include <errno.h>
 #include <math.h>
 #include <spawn.h>
@@ -102,19 +104,6 @@ static int usage(FILE *f)
         "  -h, --help          this text\n"
         "Exit status: 0 done (also when no plot could be made), 1 error, 2 usage error.\n");
     return f == stderr ? 2 : 0;
-}
-
-static int make_dirs(const char *path)
-{
-    char tmp[2048];
-    snprintf(tmp, sizeof tmp, "%s", path);
-    for (char *p = tmp + 1; *p; ++p)
-        if (*p == '/') {
-            *p = '\0';
-            if (mkdir(tmp, 0777) != 0 && errno != EEXIST) return -1;
-            *p = '/';
-        }
-    return mkdir(tmp, 0777) != 0 && errno != EEXIST ? -1 : 0;
 }
 
 /* Comma-separated positive numbers. Returns the count, or -1. */
@@ -705,7 +694,7 @@ int defsim_tool_bench(int argc, char **argv)
     char dir[1024], path[1400], key[17], err[1200];
     if (out_dir) snprintf(dir, sizeof dir, "%s", out_dir);
     else snprintf(dir, sizeof dir, "bench_%s", b.s.name);
-    if (make_dirs(dir) != 0) {
+    if (tools_make_dirs(dir) != 0) {
         fprintf(stderr, "defsim bench: cannot create %s: %s\n", dir, strerror(errno));
         goto done;
     }

@@ -13,6 +13,8 @@
 #include "render/render.h"
 #endif
 
+#include "fileio.h"
+
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -53,19 +55,6 @@ static int usage(FILE *f)
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
         "  -h, --help         this text\n");
     return f == stderr ? 2 : 0;
-}
-
-static int make_dirs(const char *path)
-{
-    char tmp[2048];
-    snprintf(tmp, sizeof tmp, "%s", path);
-    for (char *p = tmp + 1; *p; ++p)
-        if (*p == '/') {
-            *p = '\0';
-            if (mkdir(tmp, 0777) != 0 && errno != EEXIST) return -1;
-            *p = '/';
-        }
-    return mkdir(tmp, 0777) != 0 && errno != EEXIST ? -1 : 0;
 }
 
 /* Frames to write: every n-th and the last, or an explicit list. */
@@ -191,7 +180,7 @@ int run_main(int argc, char **argv)
     }
     char dir[2048];
     snprintf(dir, sizeof dir, "%s", out_dir ? out_dir : s.name);
-    if (make_dirs(dir)) {
+    if (tools_make_dirs(dir)) {
         fprintf(stderr, "defsim run: cannot create the output folder %s: %s\n", dir, strerror(errno));
         defsim_world_destroy(w);
         scene_free(&s);

@@ -11,6 +11,8 @@
  *
  *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
  */
+#include "bench_beam.h"
+
 #include <defsim/defsim.h>
 
 #include <stdio.h>
@@ -63,23 +65,18 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
     wd.num_threads = threads;
     defsim_world *w;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m->positions;
-    bd.vertex_count = m->vertex_count;
-    bd.tets = m->tets;
-    bd.tet_count = m->tet_count;
-    bd.material.mass_damping = v->alpha;
-    bd.material.stiffness_damping = v->beta;
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    mat.mass_damping = v->alpha;
+    mat.stiffness_damping = v->beta;
     defsim_body_id b;
-    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) return NULL;
-    int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins);
-    int np = 0;
-    for (int i = 0; i < m->vertex_count; ++i)
-        if (m->positions[3 * i] == 0.0) pins[np++] = i;
-    if (v->pins >= 1) defsim_body_pin(w, b, pins, np);
-    if (v->pins == 2) defsim_body_unpin(w, b, pins, np);
-    free(pins);
+    if (bench_add_beam(w, m, &mat, v->pins >= 1, &b) != DEFSIM_OK) return NULL;
+    if (v->pins == 2) {
+        int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins);
+        if (!pins) return NULL;
+        defsim_body_unpin(w, b, pins, bench_clamp_list(m, pins));
+        free(pins);
+    }
     if (v->extra_body) {
         defsim_body_def eb;
         defsim_body_def_init(&eb, sizeof eb);
@@ -128,9 +125,8 @@ int main(int argc, char **argv)
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
     if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0) return 2;
-    defsim_mesh m = {.size = sizeof m};
-    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
-    if (defsim_mesh_box(lo, hi, 3 * n, n, n, &m) != DEFSIM_OK) return 1;
+    defsim_mesh m;
+    if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;
     defsim_world *w[NV];
     for (int v = 0; v < NV; ++v)
         if (!(w[v] = make(&variants[v], &m, threads))) {

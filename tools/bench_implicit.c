@@ -15,6 +15,8 @@
  * --max-iterations 1 times exactly one Newton iteration per step (the step then reports
  * "not converged", which the benchmark expects and ignores).
  */
+#include "bench_beam.h"
+
 #include <defsim/defsim.h>
 
 #include <stdio.h>
@@ -84,33 +86,22 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", defsim_last_error());
         return 1;
     }
-    defsim_mesh m = {.size = sizeof m};
-    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
-    if (defsim_mesh_box(lo, hi, 3 * n, n, n, &m) != DEFSIM_OK) {
+    defsim_mesh m;
+    if (bench_beam_mesh(n, &m) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_last_error());
         return 1;
     }
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
-    bd.material.youngs_modulus = 1e6;
-    bd.material.poisson_ratio = 0.3;
-    bd.material.density = 1000.0;
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, model);
+    mat.youngs_modulus = 1e6;
+    mat.poisson_ratio = 0.3;
+    mat.density = 1000.0;
     defsim_body_id b;
-    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
+    if (bench_add_beam(w, &m, &mat, 1, &b) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_world_last_error(w));
         return 1;
     }
-    int32_t *pins = malloc((size_t)m.vertex_count * sizeof *pins);
-    int np = 0;
-    for (int i = 0; i < m.vertex_count; ++i)
-        if (m.positions[3 * i] == 0.0) pins[np++] = i;
-    if (!pins || defsim_body_pin(w, b, pins, np) != DEFSIM_OK) return 1;
-    free(pins);
+    const int np = (n + 1) * (n + 1);   /* the x = 0 face */
 
     defsim_stats s0 = {.size = sizeof s0};
     defsim_world_stats(w, &s0);

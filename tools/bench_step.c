@@ -15,6 +15,8 @@
  * state), against B GB/s (default 18: STREAM triad, one thread, on the reference machine).
  * `forces_tet_steps_per_s` is the force evaluation alone (defsim_stats.time_forces).
  */
+#include "bench_beam.h"
+
 #include <defsim/defsim.h>
 
 #include <stdio.h>
@@ -70,27 +72,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", defsim_last_error());
         return 1;
     }
-    defsim_mesh m = {.size = sizeof m};
-    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
-    if (defsim_mesh_box(lo, hi, 3 * n, n, n, &m) != DEFSIM_OK) return 1;
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
+    defsim_mesh m;
+    if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, model);
     defsim_body_id b;
-    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
+    if (bench_add_beam(w, &m, &mat, 1, &b) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_world_last_error(w));
         return 1;
     }
-    int32_t *pins = malloc((size_t)m.vertex_count * sizeof *pins);
-    int np = 0;
-    for (int i = 0; i < m.vertex_count; ++i)
-        if (m.positions[3 * i] == 0.0) pins[np++] = i;
-    defsim_body_pin(w, b, pins, np);
-    free(pins);
     const double h = 1e-5;   /* well under the stable step: timing does not depend on it */
     for (int i = 0; i < 2; ++i) defsim_world_step(w, h);   /* plan, init, warm caches */
     defsim_world_reset_stats(w);

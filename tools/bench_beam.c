@@ -1,0 +1,38 @@
+/* SPDX-License-Identifier: MIT */
+#include "bench_beam.h"
+
+#include <stdlib.h>
+
+defsim_status bench_beam_mesh(int n, defsim_mesh *m)
+{
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    m->size = sizeof *m;
+    return defsim_mesh_box(lo, hi, 3 * n, n, n, m);
+}
+
+int32_t bench_clamp_list(const defsim_mesh *m, int32_t *out)
+{
+    int32_t np = 0;
+    for (int32_t i = 0; i < m->vertex_count; ++i)
+        if (m->positions[3 * (int64_t)i] == 0.0) out[np++] = i;
+    return np;
+}
+
+defsim_status bench_add_beam(defsim_world *w, const defsim_mesh *m, const defsim_material *material,
+                             int clamp, defsim_body_id *id)
+{
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m->positions;
+    bd.vertex_count = m->vertex_count;
+    bd.tets = m->tets;
+    bd.tet_count = m->tet_count;
+    bd.material = *material;
+    defsim_status st = defsim_world_add_body(w, &bd, id);
+    if (st != DEFSIM_OK || !clamp) return st;
+    int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins);
+    if (!pins) return DEFSIM_ERR_OUT_OF_MEMORY;
+    st = defsim_body_pin(w, *id, pins, bench_clamp_list(m, pins));
+    free(pins);
+    return st;
+}

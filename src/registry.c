@@ -5,8 +5,9 @@
  * every table is copied into a full-size, zero-filled entry so that optional ops appended after
  * the backend was built read as NULL.
  */
-#include "world.h"
+#include "registry.h"
 
+#include "host.h"
 #include "status.h"
 
 #include <dlfcn.h>

@@ -43,4 +43,24 @@ void defsim__clear_last_error(void) { last_error[0] = '\0'; }
 
 const char *defsim_last_error(void) { return last_error; }
 
+void defsim__error(defsim__messages *m, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m->error, sizeof m->error, fmt, ap);
+    va_end(ap);
+    if (m->log) m->log(m->log_user, 0, m->error);
+}
+
+void defsim__log(defsim__messages *m, int level, const char *fmt, ...)
+{
+    if (!m->log) return;
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    m->log(m->log_user, level, msg);
+}
+
 int32_t defsim_version_number(void) { return DEFSIM_VERSION_NUMBER; }

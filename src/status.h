@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Status text and the thread-local message behind defsim_last_error(). */
+/* Status text, the thread-local message behind defsim_last_error() and per-world messages. */
 #ifndef DEFSIM_STATUS_H
 #define DEFSIM_STATUS_H
 
@@ -14,5 +14,18 @@
 /* Sets the message of defsim_last_error() for this thread (printf format). */
 void defsim__set_last_error(const char *fmt, ...) DEFSIM_PRINTF(1, 2);
 void defsim__clear_last_error(void);
+
+/* The messages of one world: the text of its last failure and the host's log callback. */
+typedef struct defsim__messages {
+    char error[512];
+    void (*log)(void *user, int level, const char *message);
+    void *log_user;
+} defsim__messages;
+
+/* Sets the last error of m and logs it at level 0. */
+void defsim__error(defsim__messages *m, const char *fmt, ...) DEFSIM_PRINTF(2, 3);
+
+/* Logs a message when the host gave a callback. */
+void defsim__log(defsim__messages *m, int level, const char *fmt, ...) DEFSIM_PRINTF(3, 4);
 
 #endif

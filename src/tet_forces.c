@@ -288,7 +288,6 @@ static void rotations(int32_t n, const double *F, double *R)
 
 const defsim__tet_kernels DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA) = {
     .name = DEFSIM__STR(DEFSIM_ISA),
-    .lanes = DEFSIM_VW,
     .forces = {forces_stvk, forces_corotated, forces_neohookean, forces_snh},
     .rotation = rotations,
 };

@@ -8,7 +8,7 @@
 #ifndef DEFSIM_TET_FORCES_H
 #define DEFSIM_TET_FORCES_H
 
-#include "world.h"
+#include "system.h"
 
 #include <stdint.h>
 
@@ -31,7 +31,6 @@ typedef void (*defsim__tet_force_fn)(const defsim__group *g, const double *x, do
 
 typedef struct defsim__tet_kernels {
     const char *name;       /* "generic", "avx2", "avx512" */
-    int lanes;              /* doubles per vector */
     /* Adds the elastic forces of group g at positions x into f, by model (STVK, COROTATED,
      * NEOHOOKEAN, STABLE_NEOHOOKEAN). */
     defsim__tet_force_fn forces[DEFSIM__TET_MODELS];

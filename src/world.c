@@ -1,17 +1,24 @@
 /* SPDX-License-Identifier: MIT */
-/* Worlds, bodies, pins, state, stepping: the public API over the system. */
+/*
+ * Worlds, bodies, pins, state, stepping: the public API over the compiled system.
+ *
+ * Contents: creation; bodies; pins; state; evaluation; stability; stepping.
+ */
 #include "world.h"
 
+#include "clock.h"
+#include "energy.h"
+#include "forces.h"
 #include "mat3.h"
 #include "material.h"
-#include "status.h"
+#include "plan.h"
+#include "registry.h"
+#include "stability.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -19,33 +26,6 @@
 
 /* A tet whose |det Dm| is below this fraction of its longest edge cubed is degenerate. */
 #define DEFSIM__DEGENERATE_REL 1e-12
-
-double defsim__now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-void defsim__world_error(defsim_world *w, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(w->error, sizeof w->error, fmt, ap);
-    va_end(ap);
-    if (w->def.log) w->def.log(w->def.log_user, 0, w->error);
-}
-
-void defsim__world_log(defsim_world *w, int level, const char *fmt, ...)
-{
-    if (!w->def.log) return;
-    char msg[512];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    w->def.log(w->def.log_user, level, msg);
-}
 
 /* ------------------------------------------------------------------------------------------ */
 /* Creation */
@@ -147,13 +127,22 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
         defsim__set_last_error("out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    w->msg = calloc(1, sizeof *w->msg);
+    if (!w->msg) {
+        free(w);
+        defsim__set_last_error("out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     w->def = d;
+    w->msg->log = d.log;
+    w->msg->log_user = d.log_user;
     snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
     w->def.backend = w->backend_name;
     w->backend = b;
     if (b->state_size > 0) {
         w->bstate = calloc(1, b->state_size);
         if (!w->bstate) {
+            free(w->msg);
             free(w);
             defsim__set_last_error("out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -167,6 +156,9 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     if (w->nthreads < 1) w->nthreads = 1;
     w->stats.size = sizeof w->stats;
     w->stats.threads = w->nthreads;
+    w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
+                                .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
+                                .msg = w->msg};
     *out = w;
     return DEFSIM_OK;
 }
@@ -174,10 +166,34 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
 static void backend_fini(defsim_world *w)
 {
     if (w->backend_ready) {
-        w->backend->fini(&defsim__host, (defsim_system *)w, w->bstate);
+        w->backend->fini(&defsim__host, &w->handle, w->bstate);
         w->backend_ready = 0;
     }
     if (w->bstate) memset(w->bstate, 0, w->backend->state_size);
+}
+
+static void unplan(defsim_world *w)
+{
+    defsim__unplan(&w->sys, &w->work);
+    w->planned = 0;
+}
+
+defsim_status defsim__world_plan(defsim_world *w)
+{
+    if (w->planned) return DEFSIM_OK;
+    w->h_stable = 0.0;
+    const defsim__plan_input in = {
+        .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
+        .pinned = w->pinned, .gravity = w->def.gravity, .projection = (int)w->def.projection,
+        .nthreads = w->nthreads,
+        .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0};
+    defsim_status st = defsim__plan(&w->sys, &w->work, &in);
+    if (st != DEFSIM_OK) {
+        defsim__error(w->msg, "out of memory while planning the world");
+        return st;
+    }
+    w->planned = 1;
+    return DEFSIM_OK;
 }
 
 static void body_free(defsim__body *b)
@@ -192,15 +208,17 @@ void defsim_world_destroy(defsim_world *w)
 {
     if (!w) return;
     backend_fini(w);
-    defsim__unplan(w);
+    unplan(w);
     for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
     free(w->bodies);
-    free(w->x); free(w->v); free(w->mass); free(w->pinned);
+    free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
+    free(w->x_save); free(w->v_save);
     free(w->bstate);
+    free(w->msg);
     free(w);
 }
 
-const char *defsim_world_last_error(const defsim_world *w) { return w ? w->error : ""; }
+const char *defsim_world_last_error(const defsim_world *w) { return w ? w->msg->error : ""; }
 
 /* ------------------------------------------------------------------------------------------ */
 /* Bodies */
@@ -227,10 +245,11 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         if (w->bodies[b].generation & 1u) nv += w->bodies[b].nv;
     size_t n = (size_t)(nv > 0 ? nv : 1);
     double *x = malloc(3 * n * sizeof *x), *v = malloc(3 * n * sizeof *v);
+    double *xs = malloc(3 * n * sizeof *xs), *vs = malloc(3 * n * sizeof *vs);
     double *mass = malloc(n * sizeof *mass);
     uint8_t *pinned = malloc(n);
-    if (!x || !v || !mass || !pinned) {
-        free(x); free(v); free(mass); free(pinned);
+    if (!x || !v || !xs || !vs || !mass || !pinned) {
+        free(x); free(v); free(xs); free(vs); free(mass); free(pinned);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     int32_t off = 0;
@@ -239,8 +258,8 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         if (!(bd->generation & 1u)) continue;
         size_t bytes = 3 * (size_t)bd->nv * sizeof(double);
         if (old_offset[b] >= 0) {
-            memcpy(x + 3 * (int64_t)off, w->x + 3 * (int64_t)old_offset[b], bytes);
-            memcpy(v + 3 * (int64_t)off, w->v + 3 * (int64_t)old_offset[b], bytes);
+            memcpy(x + 3 * (int64_t)off, w->state.x + 3 * (int64_t)old_offset[b], bytes);
+            memcpy(v + 3 * (int64_t)off, w->state.v + 3 * (int64_t)old_offset[b], bytes);
         } else {
             memcpy(x + 3 * (int64_t)off, new_x, bytes);
             if (new_v) memcpy(v + 3 * (int64_t)off, new_v, bytes);
@@ -251,11 +270,13 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         bd->offset = off;
         off += bd->nv;
     }
-    free(w->x); free(w->v); free(w->mass); free(w->pinned);
-    w->x = x; w->v = v; w->mass = mass; w->pinned = pinned;
+    free(w->state.x); free(w->state.v); free(w->x_save); free(w->v_save);
+    free(w->mass); free(w->pinned);
+    w->state.x = x; w->state.v = v; w->x_save = xs; w->v_save = vs;
+    w->mass = mass; w->pinned = pinned;
     w->nv = nv;
     backend_fini(w);
-    defsim__unplan(w);
+    unplan(w);
     return DEFSIM_OK;
 }
 
@@ -263,7 +284,7 @@ static defsim_status validate_array(defsim_world *w, const double *a, int64_t n,
 {
     for (int64_t i = 0; i < n; ++i)
         if (!isfinite(a[i])) {
-            defsim__world_error(w, "%s: vertex %lld coordinate %d is not finite", what,
+            defsim__error(w->msg, "%s: vertex %lld coordinate %d is not finite", what,
                                 (long long)(i / 3), (int)(i % 3));
             return DEFSIM_ERR_INVALID_MESH;
         }
@@ -275,7 +296,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (!def || def->size < offsetof(defsim_body_def, material) + sizeof(uint32_t)) {
-        defsim__world_error(w, "add_body: def is NULL or def->size is too small "
+        defsim__error(w->msg, "add_body: def is NULL or def->size is too small "
                                "(use defsim_body_def_init)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
@@ -283,7 +304,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     defsim_body_def_init(&d, sizeof d);
     memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
     if (d.material.size < offsetof(defsim_material, youngs_modulus)) {
-        defsim__world_error(w, "add_body: material.size %u is too small (use "
+        defsim__error(w->msg, "add_body: material.size %u is too small (use "
                                "defsim_material_init)", (unsigned)d.material.size);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
@@ -297,20 +318,20 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     }
     if (!d.rest_positions || d.vertex_count < 1 || d.tet_count < 0 || d.spring_count < 0 ||
         (d.tet_count > 0 && !d.tets) || (d.spring_count > 0 && !d.springs)) {
-        defsim__world_error(w, "add_body: needs rest_positions, vertex_count >= 1, and arrays "
+        defsim__error(w->msg, "add_body: needs rest_positions, vertex_count >= 1, and arrays "
                                "for non-zero tet_count / spring_count");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (d.vertex_count > (INT32_MAX - w->nv) / 3 || d.tet_count > INT32_MAX / 16 ||
         d.spring_count > INT32_MAX / 4) {
-        defsim__world_error(w, "add_body: counts too large");
+        defsim__error(w->msg, "add_body: counts too large");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     char msg[256];
     defsim_status st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0,
                                               msg, sizeof msg);
     if (st != DEFSIM_OK) {
-        defsim__world_error(w, "add_body: %s", msg);
+        defsim__error(w->msg, "add_body: %s", msg);
         return st;
     }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
@@ -333,7 +354,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
     if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k) {
         body_free(&b);
-        defsim__world_error(w, "out of memory");
+        defsim__error(w->msg, "out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     memcpy(b.rest, d.rest_positions, 3 * (size_t)nv * sizeof *b.rest);
@@ -349,13 +370,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         int32_t *tt = b.tets + 4 * (int64_t)t;
         for (int a = 0; a < 4; ++a) {
             if (tt[a] < 0 || tt[a] >= nv) {
-                defsim__world_error(w, "add_body: tet %d vertex %d index %d out of range [0, %d)",
+                defsim__error(w->msg, "add_body: tet %d vertex %d index %d out of range [0, %d)",
                                     (int)t, a, (int)tt[a], (int)nv);
                 goto fail;
             }
             for (int c = 0; c < a; ++c)
                 if (tt[c] == tt[a]) {
-                    defsim__world_error(w, "add_body: tet %d repeats vertex %d", (int)t, (int)tt[a]);
+                    defsim__error(w->msg, "add_body: tet %d repeats vertex %d", (int)t, (int)tt[a]);
                     goto fail;
                 }
         }
@@ -373,7 +394,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         lmax = sqrt(lmax);
         double det = defsim__m3_det(dm);
         if (!(fabs(det) > DEFSIM__DEGENERATE_REL * lmax * lmax * lmax)) {
-            defsim__world_error(w, "add_body: tet %d is degenerate (volume %g, longest edge %g)",
+            defsim__error(w->msg, "add_body: tet %d is degenerate (volume %g, longest edge %g)",
                                 (int)t, det / 6.0, lmax);
             goto fail;
         }
@@ -387,19 +408,19 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     for (int32_t s = 0; s < ns; ++s) {
         const int32_t a = b.springs[2 * (int64_t)s], c = b.springs[2 * (int64_t)s + 1];
         if (a < 0 || a >= nv || c < 0 || c >= nv) {
-            defsim__world_error(w, "add_body: spring %d index out of range [0, %d)", (int)s, (int)nv);
+            defsim__error(w->msg, "add_body: spring %d index out of range [0, %d)", (int)s, (int)nv);
             goto fail;
         }
         const double *pa = b.rest + 3 * (int64_t)a, *pc = b.rest + 3 * (int64_t)c;
         double l = sqrt((pa[0] - pc[0]) * (pa[0] - pc[0]) + (pa[1] - pc[1]) * (pa[1] - pc[1]) +
                         (pa[2] - pc[2]) * (pa[2] - pc[2]));
         if (a == c || !(l > 0.0)) {
-            defsim__world_error(w, "add_body: spring %d has zero rest length", (int)s);
+            defsim__error(w->msg, "add_body: spring %d has zero rest length", (int)s);
             goto fail;
         }
         double k = d.spring_stiffness ? d.spring_stiffness[s] : b.mat.stiffness;
         if (!isfinite(k) || k < 0.0) {
-            defsim__world_error(w, "add_body: spring %d stiffness %g must be finite and >= 0",
+            defsim__error(w->msg, "add_body: spring %d stiffness %g must be finite and >= 0",
                                 (int)s, k);
             st = DEFSIM_ERR_INVALID_MATERIAL;
             goto fail;
@@ -409,7 +430,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
         if (!isfinite(m) || !(m > 0.0)) {
-            defsim__world_error(w, "add_body: vertex %d has mass %g (needs a positive mass: "
+            defsim__error(w->msg, "add_body: vertex %d has mass %g (needs a positive mass: "
                                    "give vertex_mass, or put it in a tet with density > 0)",
                                 (int)i, m);
             st = d.vertex_mass ? DEFSIM_ERR_INVALID_MATERIAL : DEFSIM_ERR_INVALID_MESH;
@@ -421,12 +442,12 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     if (w->nbodies == w->cap_bodies) {
         int32_t cap = w->cap_bodies ? 2 * w->cap_bodies : 8;
         defsim__body *nb = realloc(w->bodies, (size_t)cap * sizeof *nb);
-        if (!nb) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__world_error(w, "out of memory"); goto fail; }
+        if (!nb) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__error(w->msg, "out of memory"); goto fail; }
         w->bodies = nb;
         w->cap_bodies = cap;
     }
     int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
-    if (!old) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__world_error(w, "out of memory"); goto fail; }
+    if (!old) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__error(w->msg, "out of memory"); goto fail; }
     for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
     old[w->nbodies] = -1;
     b.generation = 1;
@@ -436,11 +457,10 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     free(old);
     if (st != DEFSIM_OK) {
         w->nbodies--;
-        defsim__world_error(w, "out of memory");
+        defsim__error(w->msg, "out of memory");
         goto fail;
     }
     w->stats.reordered_tets += reordered;
-    w->body_count_alive++;
     if (out) {
         out->index = (uint32_t)w->nbodies;
         out->generation = 1;
@@ -463,7 +483,7 @@ static defsim__body *lookup_or_error(defsim_world *w, defsim_body_id id)
 {
     defsim__body *b = lookup(w, id);
     if (!b)
-        defsim__world_error(w, "body id {%u, %u} is null, removed or not of this world",
+        defsim__error(w->msg, "body id {%u, %u} is null, removed or not of this world",
                             (unsigned)id.index, (unsigned)id.generation);
     return b;
 }
@@ -474,18 +494,17 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
     defsim__body *b = lookup_or_error(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
-    if (!old) { defsim__world_error(w, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    if (!old) { defsim__error(w->msg, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
     for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
     b->generation++;
     defsim_status st = rebuild_vertices(w, old, NULL, NULL);
     free(old);
     if (st != DEFSIM_OK) {
         b->generation--;
-        defsim__world_error(w, "out of memory");
+        defsim__error(w->msg, "out of memory");
         return st;
     }
     body_free(b);
-    w->body_count_alive--;
     return DEFSIM_OK;
 }
 
@@ -510,12 +529,12 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
     defsim__body *b = lookup_or_error(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (n < 0 || (n > 0 && !verts)) {
-        defsim__world_error(w, "pin: n %d < 0 or verts NULL", (int)n);
+        defsim__error(w->msg, "pin: n %d < 0 or verts NULL", (int)n);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     for (int32_t i = 0; i < n; ++i)
         if (verts[i] < 0 || verts[i] >= b->nv) {
-            defsim__world_error(w, "pin: vertex %d (entry %d) out of range [0, %d)",
+            defsim__error(w->msg, "pin: vertex %d (entry %d) out of range [0, %d)",
                                 (int)verts[i], (int)i, (int)b->nv);
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
@@ -526,13 +545,13 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
         b->pinned[v] = value;
         w->pinned[b->offset + v] = value;
         if (value) {
-            double *vv = w->v + 3 * ((int64_t)b->offset + v);
+            double *vv = w->state.v + 3 * ((int64_t)b->offset + v);
             vv[0] = vv[1] = vv[2] = 0.0;
         }
     }
     if (changed) {
         backend_fini(w);
-        defsim__unplan(w);
+        unplan(w);
     }
     return DEFSIM_OK;
 }
@@ -552,14 +571,14 @@ defsim_status defsim_body_unpin(defsim_world *w, defsim_body_id id, const int32_
 /* State */
 
 int32_t defsim_world_vertex_count(const defsim_world *w) { return w ? w->nv : 0; }
-double defsim_world_time(const defsim_world *w) { return w ? w->t : 0.0; }
+double defsim_world_time(const defsim_world *w) { return w ? w->state.t : 0.0; }
 
 static defsim_status copy_out(const defsim_world *w, const double *src, int width, double *out,
                               int32_t n)
 {
     if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (n != w->nv) {
-        defsim__world_error((defsim_world *)w, "n = %d but the world has %d vertices", (int)n,
+        defsim__error(w->msg, "n = %d but the world has %d vertices", (int)n,
                             (int)w->nv);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
@@ -569,12 +588,12 @@ static defsim_status copy_out(const defsim_world *w, const double *src, int widt
 
 defsim_status defsim_world_get_positions(const defsim_world *w, double *out, int32_t n)
 {
-    return copy_out(w, w ? w->x : NULL, 3, out, n);
+    return copy_out(w, w ? w->state.x : NULL, 3, out, n);
 }
 
 defsim_status defsim_world_get_velocities(const defsim_world *w, double *out, int32_t n)
 {
-    return copy_out(w, w ? w->v : NULL, 3, out, n);
+    return copy_out(w, w ? w->state.v : NULL, 3, out, n);
 }
 
 defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_t n)
@@ -588,16 +607,16 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
     const int64_t ndof = 3 * (int64_t)w->nv;
     for (int64_t i = 0; i < ndof; ++i)
         if ((x && !isfinite(x[i])) || (v && !isfinite(v[i]))) {
-            defsim__world_error(w, "set_state: DOF %lld is not finite", (long long)i);
+            defsim__error(w->msg, "set_state: DOF %lld is not finite", (long long)i);
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-    if (x) memcpy(w->x, x, (size_t)ndof * sizeof *x);
-    if (v) memcpy(w->v, v, (size_t)ndof * sizeof *v);
+    if (x) memcpy(w->state.x, x, (size_t)ndof * sizeof *x);
+    if (v) memcpy(w->state.v, v, (size_t)ndof * sizeof *v);
     w->h_stable = 0.0;
     for (int32_t i = 0; i < w->nv; ++i)
-        if (w->pinned[i]) w->v[3 * (int64_t)i] = w->v[3 * (int64_t)i + 1] = w->v[3 * (int64_t)i + 2] = 0.0;
+        if (w->pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend_ready && w->backend->reset) {
-        defsim_status st = w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate);
+        defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
         if (st != DEFSIM_OK) backend_fini(w);   /* re-initialised at the next step */
     }
     return DEFSIM_OK;
@@ -606,42 +625,51 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
 /* ------------------------------------------------------------------------------------------ */
 /* Evaluation */
 
-static defsim_status ensure_planned(defsim_world *w)
+defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
 {
-    if (!w->planned) w->h_stable = 0.0;
-    defsim_status st = defsim__plan(w);
-    if (st != DEFSIM_OK) defsim__world_error(w, "out of memory while planning the world");
-    return st;
-}
-
-defsim_status defsim_world_energy(const defsim_world *cw, defsim_energy *out)
-{
-    if (!cw || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_world *w = (defsim_world *)cw;   /* planning is a cache, not a change of state */
-    defsim_status st = ensure_planned(w);
-    if (st != DEFSIM_OK) return st;
+    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    /* A world not planned yet is compiled into a temporary system: this call changes nothing. */
+    defsim__system tmp;
+    defsim__work tmpw, work = w->work;
+    const defsim__system *s = &w->sys;
+    if (!w->planned) {
+        memset(&tmp, 0, sizeof tmp);
+        memset(&tmpw, 0, sizeof tmpw);
+        const defsim__plan_input in = {
+            .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
+            .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads};
+        if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
+            defsim__error(w->msg, "out of memory while planning the world");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        s = &tmp;
+        work = tmpw;
+    }
     double ke = 0.0, ge = 0.0;
     const double *g = w->def.gravity;
     for (int32_t i = 0; i < w->nv; ++i) {
-        const double *v = w->v + 3 * (int64_t)i, *x = w->x + 3 * (int64_t)i;
+        const double *v = w->state.v + 3 * (int64_t)i, *x = w->state.x + 3 * (int64_t)i;
         ke += 0.5 * w->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         ge -= w->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
     }
     out->kinetic = ke;
-    out->elastic = defsim__elastic_energy(w, w->x);
+    out->elastic = defsim__elastic_energy(s, &work, w->state.x);
     out->gravitational = ge;
     out->total = ke + out->elastic + ge;
+    if (!w->planned) defsim__unplan(&tmp, &tmpw);
     return DEFSIM_OK;
 }
 
 defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_out)
 {
     if (!w || !f_out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = ensure_planned(w);
+    defsim_status st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
-    uint32_t keep = w->step_passes;
-    (void)defsim__forces(w, x ? x : w->x, NULL, DEFSIM_FORCE_ELASTIC | DEFSIM__FORCE_KEEP_PINNED, f_out);
-    w->step_passes = keep;
+    const double t0 = defsim__now();
+    (void)defsim__forces(&w->sys, x ? x : w->state.x, NULL,
+                         DEFSIM_FORCE_ELASTIC | DEFSIM__FORCE_KEEP_PINNED, f_out, NULL);
+    w->stats.force_evals++;
+    w->stats.time_forces += defsim__now() - t0;
     return DEFSIM_OK;
 }
 
@@ -673,19 +701,13 @@ void defsim_world_reset_stats(defsim_world *w)
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
 {
     double om = 0.0;
-    defsim_status st = defsim__omega_max(w, w->x, &om);
+    defsim_status st = defsim__omega_max(&w->sys, &w->work, w->state.x, &om);
     if (st != DEFSIM_OK) {
-        defsim__world_error(w, st == DEFSIM_ERR_OUT_OF_MEMORY ? "out of memory"
+        defsim__error(w->msg, st == DEFSIM_ERR_OUT_OF_MEMORY ? "out of memory"
                                                               : "stable step: non-finite stiffness");
         return st;
     }
-    double alpha = 0.0, beta = 0.0;
-    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i)
-        if (!w->pinned[i / 3] && w->alpha3[i] > alpha) alpha = w->alpha3[i];
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
-        for (int32_t e = 0; e < w->groups[m].n; ++e)
-            if (w->groups[m].beta[e] > beta) beta = w->groups[m].beta[e];
-    const double c = alpha + beta * om * om;
+    const double c = defsim__damping_coeff(&w->sys, om);
     *h = w->backend->stable_step ? w->backend->stable_step(om, c) : INFINITY;
     if (omega) *omega = om;
     w->stats.stable_step = *h;
@@ -695,7 +717,7 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
 defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *omega_out)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = ensure_planned(w);
+    defsim_status st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     double h = INFINITY, om = 0.0;
     if (w->nv > 0 && (st = estimate_stable_step(w, &h, &om)) != DEFSIM_OK) return st;
@@ -711,33 +733,33 @@ defsim_status defsim_world_step(defsim_world *w, double h)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (!isfinite(h) || !(h > 0.0)) {
-        defsim__world_error(w, "step: h = %g must be finite and > 0", h);
+        defsim__error(w->msg, "step: h = %g must be finite and > 0", h);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     double t0 = defsim__now();
-    defsim_status st = ensure_planned(w);
+    defsim_status st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     if (w->nv == 0) {
-        w->t += h;
+        w->state.t += h;
         w->stats.steps++;
         return DEFSIM_OK;
     }
     if (!w->backend_ready) {
-        st = w->backend->init(&defsim__host, (defsim_system *)w, w->bstate);
+        st = w->backend->init(&defsim__host, &w->handle, w->bstate);
         if (st != DEFSIM_OK) {
-            w->backend->fini(&defsim__host, (defsim_system *)w, w->bstate);
+            w->backend->fini(&defsim__host, &w->handle, w->bstate);
             memset(w->bstate, 0, w->backend->state_size);
-            if (!w->error[0]) defsim__world_error(w, "backend %s failed to initialise", w->backend->name);
+            if (!w->msg->error[0]) defsim__error(w->msg, "backend %s failed to initialise", w->backend->name);
             w->stats.failed_steps++;
             return st;
         }
         w->backend_ready = 1;
     }
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
-    memcpy(w->x_save, w->x, bytes);
-    memcpy(w->v_save, w->v, bytes);
+    memcpy(w->x_save, w->state.x, bytes);
+    memcpy(w->v_save, w->state.v, bytes);
     w->step_passes = 0;
-    w->error[0] = '\0';
+    w->msg->error[0] = '\0';
     const int substep = w->def.auto_substep && w->backend->stable_step;
     for (int attempt = 0; attempt < 2; ++attempt) {
         int64_t n = 1;
@@ -752,7 +774,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
             double k = ceil(h / (w->def.substep_safety * w->h_stable));
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
-                defsim__world_error(w, "step: auto_substep would need %g substeps (stable step %g s)",
+                defsim__error(w->msg, "step: auto_substep would need %g substeps (stable step %g s)",
                                     k, w->h_stable);
                 break;
             }
@@ -760,39 +782,39 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         }
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i)
-            st = w->backend->step(&defsim__host, (defsim_system *)w, w->bstate, h / (double)n);
+            st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
         if (substep) w->stats.substeps += n;
         if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
         /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
-        memcpy(w->x, w->x_save, bytes);
-        memcpy(w->v, w->v_save, bytes);
-        if (w->backend->reset) w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate);
+        memcpy(w->state.x, w->x_save, bytes);
+        memcpy(w->state.v, w->v_save, bytes);
+        if (w->backend->reset) w->backend->reset(&defsim__host, &w->handle, w->bstate);
     }
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) {
         const int64_t ndof = 3 * (int64_t)w->nv;
         int ok = 1;
-        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(w->x[i]) & isfinite(w->v[i]);
+        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(w->state.x[i]) & isfinite(w->state.v[i]);
         if (!ok) {
             st = DEFSIM_ERR_UNSTABLE;
-            defsim__world_error(w, "step: the state became non-finite (h = %g at t = %g); "
-                                   "state restored", h, w->t);
+            defsim__error(w->msg, "step: the state became non-finite (h = %g at t = %g); "
+                                   "state restored", h, w->state.t);
         }
     }
     if (st != DEFSIM_OK) {
-        memcpy(w->x, w->x_save, bytes);
-        memcpy(w->v, w->v_save, bytes);
-        if (!w->error[0])
-            defsim__world_error(w, "step: backend %s failed: %s", w->backend->name,
+        memcpy(w->state.x, w->x_save, bytes);
+        memcpy(w->state.v, w->v_save, bytes);
+        if (!w->msg->error[0])
+            defsim__error(w->msg, "step: backend %s failed: %s", w->backend->name,
                                 defsim_status_string(st));
         if (w->backend->reset &&
-            w->backend->reset(&defsim__host, (defsim_system *)w, w->bstate) != DEFSIM_OK)
+            w->backend->reset(&defsim__host, &w->handle, w->bstate) != DEFSIM_OK)
             backend_fini(w);
         w->stats.failed_steps++;
         w->stats.time_step += defsim__now() - t0;
         return st;
     }
-    w->t += h;
+    w->state.t += h;
     w->stats.steps++;
     w->stats.passes = w->step_passes;
     w->stats.time_step += defsim__now() - t0;

@@ -3,6 +3,8 @@
 
 #include "test_util.h"
 #include "world.h"
+#include "assembly.h"
+#include "forces.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -28,11 +30,11 @@ static void residual(ref_ctx *c, const double *u, double *g)
     }
     /* Damping (alpha M + beta K(x_n)) (x - x_n) / h with the core's matrices at x_n. */
     const defsim_matrix_coeffs damp = {0.0, 1.0 / c->h, 0.0, 1.0 / c->h};
-    (void)defsim__forces(w, c->x, NULL, DEFSIM_FORCE_ELASTIC, c->fe);
-    TU_OK(defsim__matrix_product(w, c->xn, &damp, c->dx, c->fd));
+    (void)defsim__forces(&w->sys, c->x, NULL, DEFSIM_FORCE_ELASTIC, c->fe, NULL);
+    TU_OK(defsim__matrix_product(&w->sys, c->xn, &damp, c->dx, c->fd));
     for (int64_t i = 0; i < c->n; ++i) {
         const int64_t d = c->free[i];
-        const double m = w->mass3[d];
+        const double m = w->sys.mass3[d];
         g[i] = m * (u[i] - c->xn[d] - c->h * c->vn[d]) / (c->h * c->h) - c->fe[d] -
                m * w->def.gravity[d % 3] + c->fd[d];
     }
@@ -69,7 +71,7 @@ static void dense_solve(double *A, double *b, int64_t n)
 int be_reference_step(defsim_world *w, const double *xn, const double *vn, double h, double *x1,
                       double *v1)
 {
-    TU_OK(defsim__plan(w));
+    TU_OK(defsim__world_plan(w));
     ref_ctx c = {.w = w, .xn = xn, .vn = vn, .h = h, .ndof = 3 * (int64_t)w->nv};
     const size_t nd = (size_t)c.ndof;
     c.free = malloc(nd * sizeof *c.free);
@@ -84,7 +86,7 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
     double *u = malloc((size_t)n * sizeof *u), *g = malloc((size_t)n * sizeof *g);
     double *gp = malloc((size_t)n * sizeof *gp), *gm = malloc((size_t)n * sizeof *gm);
     double *J = malloc((size_t)(n * n) * sizeof *J);
-    const double L = w->length_scale, eps = 1e-6 * L;
+    const double L = w->sys.length_scale, eps = 1e-6 * L;
     for (int64_t i = 0; i < n; ++i) {
         const int64_t d = c.free[i];
         u[i] = xn[d] + h * vn[d] + h * h * w->def.gravity[d % 3];

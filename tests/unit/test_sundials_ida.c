@@ -8,6 +8,7 @@
 #include "test_util.h"
 
 #include "world.h"
+#include "registry.h"
 
 #include <math.h>
 #include <stdio.h>

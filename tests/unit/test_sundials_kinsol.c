@@ -8,6 +8,7 @@
 #include "be_reference.h"
 #include "test_util.h"
 #include "world.h"
+#include "registry.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -107,7 +108,7 @@ static void test_tolerance_is_relative_position(void **state)
         double *x = tu_positions(w);
         double e = 0.0;
         for (int i = 0; i < 3 * n; ++i) e = fmax(e, fabs(x[i] - xr[i]));
-        errs[k] = e / w->length_scale;
+        errs[k] = e / w->sys.length_scale;
         printf("kinsol tolerance %.0e: position error / L = %.2e\n", tols[k], errs[k]);
         assert_true(errs[k] <= tols[k]);
         free(x0); free(v0); free(xr); free(vr); free(x);

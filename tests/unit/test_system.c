@@ -5,6 +5,7 @@
 
 #include "mat3.h"
 #include "world.h"
+#include "assembly.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -161,22 +162,23 @@ static void test_matrix_matches_forces(void **state)
     (void)state;
     for (int mi = 0; mi < 4; ++mi) {
         defsim_world *w = deformed_world(MODELS[mi], 2, 0.05, 21 + mi);
-        w->def.projection = DEFSIM_PROJECTION_NONE;
         int32_t pin[3] = {0, 1, 2};
         defsim_body_id b0 = {1, 1};
         TU_OK(defsim_body_pin(w, b0, pin, 3));
-        TU_OK(defsim__plan(w));
+        TU_OK(defsim__world_plan(w));
+        TU_OK(defsim__pattern_build(&w->sys));
+        w->sys.projection = DEFSIM_PROJECTION_NONE;
         defsim_csc full, up;
-        TU_OK(defsim__matrix_pattern(w, DEFSIM_TRIANGLE_FULL, &full));
-        TU_OK(defsim__matrix_pattern(w, DEFSIM_TRIANGLE_UPPER, &up));
+        TU_OK(defsim__matrix_pattern(&w->sys, DEFSIM_TRIANGLE_FULL, &full));
+        TU_OK(defsim__matrix_pattern(&w->sys, DEFSIM_TRIANGLE_UPPER, &up));
         assert_int_equal(full.n, 3 * (defsim_world_vertex_count(w) - 3));
         assert_int_equal(up.nnz, (full.nnz + full.n) / 2);
         double *vf = malloc((size_t)full.nnz * sizeof *vf), *vu = malloc((size_t)up.nnz * sizeof *vu);
         defsim_matrix_coeffs cf = {1.0, 0.0, 0.0, 0.0};
         int n = defsim_world_vertex_count(w);
         double *x = tu_positions(w);
-        TU_OK(defsim__matrix_values(w, x, &cf, DEFSIM_TRIANGLE_FULL, vf));
-        TU_OK(defsim__matrix_values(w, x, &cf, DEFSIM_TRIANGLE_UPPER, vu));
+        TU_OK(defsim__matrix_values(&w->sys, x, &cf, DEFSIM_TRIANGLE_FULL, vf, NULL));
+        TU_OK(defsim__matrix_values(&w->sys, x, &cf, DEFSIM_TRIANGLE_UPPER, vu, NULL));
         /* Dense copy of the full matrix; check symmetry and the upper layout. */
         int64_t nf = full.n;
         double *A = calloc((size_t)(nf * nf), sizeof *A);
@@ -199,7 +201,7 @@ static void test_matrix_matches_forces(void **state)
         double *fp = malloc(3 * (size_t)n * sizeof *fp), *fm = malloc(3 * (size_t)n * sizeof *fm);
         double err = 0;
         for (int64_t j = 0; j < nf; ++j) {
-            int64_t dof = w->free_dofs[j];
+            int64_t dof = w->sys.free_dofs[j];
             const double h = 1e-6, x0 = x[dof];
             x[dof] = x0 + h;
             TU_OK(defsim_world_forces(w, x, fp));
@@ -207,7 +209,7 @@ static void test_matrix_matches_forces(void **state)
             TU_OK(defsim_world_forces(w, x, fm));
             x[dof] = x0;
             for (int64_t i = 0; i < nf; ++i) {
-                int64_t r = w->free_dofs[i];
+                int64_t r = w->sys.free_dofs[i];
                 double fd = -(fp[r] - fm[r]) / (2 * h);
                 err = fmax(err, fabs(fd - A[i * nf + j]));
             }
@@ -215,11 +217,11 @@ static void test_matrix_matches_forces(void **state)
         if (!(err < 1e-6 * amax)) fail_msg("model %d: |K - fd| = %g, |K| = %g", MODELS[mi], err, amax);
         /* matrix_product with mass and damping terms against the assembled values. */
         defsim_matrix_coeffs c2 = {0.7, 0.0, 3.0, 0.0};
-        TU_OK(defsim__matrix_values(w, x, &c2, DEFSIM_TRIANGLE_FULL, vf));
+        TU_OK(defsim__matrix_values(&w->sys, x, &c2, DEFSIM_TRIANGLE_FULL, vf, NULL));
         double *dx = malloc(3 * (size_t)n * sizeof *dx), *out = malloc(3 * (size_t)n * sizeof *out);
         unsigned long long seed = 77;
         for (int i = 0; i < 3 * n; ++i) dx[i] = tu_rand(&seed);
-        TU_OK(defsim__matrix_product(w, x, &c2, dx, out));
+        TU_OK(defsim__matrix_product(&w->sys, x, &c2, dx, out));
         double perr = 0, pmax = 0;
         for (int64_t i = 0; i < nf; ++i) {
             double s = 0;
@@ -227,9 +229,9 @@ static void test_matrix_matches_forces(void **state)
                 double a = 0;
                 for (int64_t p = full.col_ptr[j]; p < full.col_ptr[j + 1]; ++p)
                     if (full.row_idx[p] == i) a = vf[p];
-                s += a * dx[w->free_dofs[j]];
+                s += a * dx[w->sys.free_dofs[j]];
             }
-            perr = fmax(perr, fabs(s - out[w->free_dofs[i]]));
+            perr = fmax(perr, fabs(s - out[w->sys.free_dofs[i]]));
             pmax = fmax(pmax, fabs(s));
         }
         assert_true(perr < 1e-10 * pmax);
@@ -263,15 +265,16 @@ static void test_projection_psd(void **state)
             TU_OK(defsim_world_add_body(w, &bd, NULL));
             double x[12];
             for (int i = 0; i < 12; ++i) x[i] = 0.6 * X[i] + 0.5 * tu_rand(&seed);
-            TU_OK(defsim__plan(w));
+            TU_OK(defsim__world_plan(w));
+            TU_OK(defsim__pattern_build(&w->sys));
             defsim_csc full;
-            TU_OK(defsim__matrix_pattern(w, DEFSIM_TRIANGLE_FULL, &full));
+            TU_OK(defsim__matrix_pattern(&w->sys, DEFSIM_TRIANGLE_FULL, &full));
             assert_int_equal(full.nnz, 144);
             for (int proj = 0; proj <= 2; ++proj) {
-                w->def.projection = (defsim_projection)proj;
+                w->sys.projection = proj;
                 defsim_matrix_coeffs c = {1.0, 0.0, 0.0, 0.0};
                 double v[144], A[144], ev[12], evec[144];
-                TU_OK(defsim__matrix_values(w, x, &c, DEFSIM_TRIANGLE_FULL, v));
+                TU_OK(defsim__matrix_values(&w->sys, x, &c, DEFSIM_TRIANGLE_FULL, v, NULL));
                 for (int j = 0; j < 12; ++j)
                     for (int64_t p = full.col_ptr[j]; p < full.col_ptr[j + 1]; ++p)
                         A[full.row_idx[p] * 12 + j] = v[p];

@@ -7,6 +7,7 @@
 #include "material_models.h"
 #include "tet_forces.h"
 #include "world.h"
+#include "forces.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -26,8 +27,8 @@ static double fro(const double *A, int n)
 /* Elastic forces of the world at its state with the given kernels (NULL: scalar). */
 static void forces_with(defsim_world *w, const defsim__tet_kernels *k, double *f)
 {
-    TU_OK(defsim__plan(w));
-    w->tet_kernels = k;
+    TU_OK(defsim__world_plan(w));
+    w->sys.tet_kernels = k;
     double *x = tu_positions(w);
     TU_OK(defsim_world_forces(w, x, f));
     free(x);
@@ -86,9 +87,10 @@ static void test_neohookean_inverted_is_unstable(void **state)
         int n = defsim_world_vertex_count(w);
         double *x = tu_positions(w), *f = malloc(3 * (size_t)n * sizeof *f);
         for (int i = 0; i < n; ++i) x[3 * i + 2] = -x[3 * i + 2];   /* mirror: every J < 0 */
-        TU_OK(defsim__plan(w));
-        w->tet_kernels = k;
-        assert_int_equal(defsim__forces(w, x, NULL, DEFSIM_FORCE_ELASTIC, f), DEFSIM_ERR_UNSTABLE);
+        TU_OK(defsim__world_plan(w));
+        w->sys.tet_kernels = k;
+        assert_int_equal(defsim__forces(&w->sys, x, NULL, DEFSIM_FORCE_ELASTIC, f, NULL),
+                         DEFSIM_ERR_UNSTABLE);
         for (int i = 0; i < 3 * n; ++i) assert_true(isnan(f[i]));
         free(x); free(f);
         defsim_world_destroy(w);

@@ -1,0 +1,288 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The planner: compiles the bodies of a world into a defsim__system (system.h) when the world
+ * is first stepped or evaluated after a change: element groups per material with their rest
+ * data, colours and SIMD batches, per-DOF masses and damping, free-DOF maps, the pass plan, the
+ * sparse pattern when the backend assembles matrices, and the workspaces physics functions
+ * use, so that no step allocates.
+ *
+ * Contents: kernel variants; freeing; SIMD batches; element groups; defsim__plan.
+ */
+#include "plan.h"
+
+#include "assembly.h"
+#include "colour.h"
+#include "energy.h"
+#include "mat3.h"
+#include "material_models.h"
+#include "tet_forces.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The batched kernels (tet_forces.c) come in one variant per instruction set; the scalar
+ * kernels above remain the reference (DEFSIM_SIMD=scalar). */
+const defsim__tet_kernels *defsim__tet_kernels_find(const char *name)
+{
+    if (!name) return NULL;
+    if (!strcmp(name, "generic")) return &defsim__tet_kernels_generic;
+#if defined(DEFSIM_HAVE_X86_KERNELS)
+    __builtin_cpu_init();
+    if (!strcmp(name, "avx2") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+        return &defsim__tet_kernels_avx2;
+    if (!strcmp(name, "avx512") && __builtin_cpu_supports("avx512f") &&
+        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
+        return &defsim__tet_kernels_avx512;
+#endif
+    return NULL;
+}
+
+const defsim__tet_kernels *defsim__tet_kernels_best(void)
+{
+    static const char *const order[] = {"avx512", "avx2", "generic"};
+    for (int i = 0; i < 3; ++i) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(order[i]);
+        if (k) return k;
+    }
+    return &defsim__tet_kernels_generic;
+}
+
+/* The environment may force a variant (DEFSIM_SIMD=scalar|generic|avx2|avx512), for
+ * benchmarks and cross-checks; an unknown or unsupported name falls back to the best. */
+static const defsim__tet_kernels *select_tet_kernels(void)
+{
+    const char *env = getenv("DEFSIM_SIMD");
+    if (env && !strcmp(env, "scalar")) return NULL;
+    const defsim__tet_kernels *k = defsim__tet_kernels_find(env);
+    return k ? k : defsim__tet_kernels_best();
+}
+
+static void group_free(defsim__group *g)
+{
+    free(g->idx); free(g->dminv); free(g->vol); free(g->mu); free(g->lambda);
+    free(g->k); free(g->l0); free(g->beta); free(g->color_ptr); free(g->blk);
+    free(g->bcolor_ptr); free(g->bidx); free(g->bdata); free(g->blanes);
+    memset(g, 0, sizeof *g);
+}
+
+void defsim__unplan(defsim__system *s, defsim__work *wk)
+{
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) group_free(&s->groups[m]);
+    defsim__pattern *p = &s->pattern;
+    free(p->adj_ptr); free(p->adj); free(p->upper_rank0);
+    free(p->full_col_ptr); free(p->full_row_idx); free(p->upper_col_ptr); free(p->upper_row_idx);
+    free(s->mass); free(s->mass3); free(s->alpha3); free(s->pinned);
+    free(s->free_dofs); free(s->dof_to_free); free(s->vfree);
+    memset(s, 0, sizeof *s);
+    free(wk->partial); free(wk->pz); free(wk->py); free(wk->pu);
+    memset(wk, 0, sizeof *wk);
+}
+
+/* Cuts each colour of a tet group into batches of DEFSIM__BATCH elements in the SIMD layout
+ * (tet_forces.h). A colour's last batch is padded with copies of its first element: they are
+ * computed with valid data but never scattered. */
+static defsim_status pack_batches(defsim__group *g)
+{
+    const int B = DEFSIM__BATCH, rows = DEFSIM__BATCH_ROWS;
+    g->bcolor_ptr = malloc(((size_t)g->ncolors + 1) * sizeof *g->bcolor_ptr);
+    if (!g->bcolor_ptr) return DEFSIM_ERR_OUT_OF_MEMORY;
+    int32_t nb = 0;
+    for (int32_t c = 0; c < g->ncolors; ++c) {
+        g->bcolor_ptr[c] = nb;
+        nb += (g->color_ptr[c + 1] - g->color_ptr[c] + B - 1) / B;
+    }
+    g->bcolor_ptr[g->ncolors] = nb;
+    g->nbatch = nb;
+    const size_t nbs = (size_t)(nb > 0 ? nb : 1);
+    g->bidx = malloc(nbs * 4 * B * sizeof *g->bidx);
+    g->bdata = aligned_alloc(64, nbs * rows * B * sizeof *g->bdata);   /* rows * 64 bytes */
+    g->blanes = malloc(nbs);
+    if (!g->bidx || !g->bdata || !g->blanes) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t c = 0; c < g->ncolors; ++c)
+        for (int32_t b = g->bcolor_ptr[c]; b < g->bcolor_ptr[c + 1]; ++b) {
+            const int32_t first = g->color_ptr[c] + (b - g->bcolor_ptr[c]) * B;
+            const int32_t left = g->color_ptr[c + 1] - first;
+            g->blanes[b] = (uint8_t)(left < B ? left : B);
+            for (int l = 0; l < B; ++l) {
+                const int64_t e = l < g->blanes[b] ? first + l : first;
+                double *d = g->bdata + (int64_t)rows * B * b + l;
+                for (int a = 0; a < 4; ++a) g->bidx[(4 * (int64_t)b + a) * B + l] = g->idx[4 * e + a];
+                for (int r = 0; r < 9; ++r) d[(DEFSIM__ROW_DMINV + r) * B] = g->dminv[9 * e + r];
+                d[DEFSIM__ROW_NVOL * B] = -g->vol[e];
+                if (g->model == DEFSIM_MODEL_STABLE_NEOHOOKEAN) {
+                    defsim__snh_params(g->mu[e], g->lambda[e], &d[DEFSIM__ROW_P0 * B],
+                                       &d[DEFSIM__ROW_P1 * B], &d[DEFSIM__ROW_P2 * B]);
+                } else {
+                    d[DEFSIM__ROW_P0 * B] = g->mu[e];
+                    d[DEFSIM__ROW_P1 * B] = g->lambda[e];
+                    d[DEFSIM__ROW_P2 * B] = 0.0;
+                }
+            }
+        }
+    return DEFSIM_OK;
+}
+
+static const int tet_models[DEFSIM__TET_MODELS] = {
+    DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED, DEFSIM_MODEL_NEOHOOKEAN,
+    DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+static const uint32_t tet_passes[DEFSIM__TET_MODELS] = {
+    DEFSIM_PASS_STVK, DEFSIM_PASS_COROTATED, DEFSIM_PASS_NEOHOOKEAN,
+    DEFSIM_PASS_STABLE_NEOHOOKEAN};
+
+static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in)
+{
+    int32_t count[DEFSIM__TET_MODELS + 1] = {0};
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        if (bd->nt > 0) count[bd->mat.model - DEFSIM_MODEL_STVK] += bd->nt;
+        count[DEFSIM__TET_MODELS] += bd->ns;
+    }
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        defsim__group *g = &s->groups[m];
+        const size_t n = (size_t)(count[m] > 0 ? count[m] : 1);
+        g->n = count[m];
+        g->nodes = m < DEFSIM__TET_MODELS ? 4 : 2;
+        g->model = m < DEFSIM__TET_MODELS ? tet_models[m] : DEFSIM_MODEL_SPRING;
+        g->pass = m < DEFSIM__TET_MODELS ? tet_passes[m] : DEFSIM_PASS_SPRINGS;
+        g->idx = malloc(n * g->nodes * sizeof *g->idx);
+        g->beta = malloc(n * sizeof *g->beta);
+        if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
+        if (m < DEFSIM__TET_MODELS) {
+            g->dminv = malloc(9 * n * sizeof *g->dminv);
+            g->vol = malloc(n * sizeof *g->vol);
+            g->mu = malloc(n * sizeof *g->mu);
+            g->lambda = malloc(n * sizeof *g->lambda);
+            if (!g->dminv || !g->vol || !g->mu || !g->lambda) return DEFSIM_ERR_OUT_OF_MEMORY;
+        } else {
+            g->k = malloc(n * sizeof *g->k);
+            g->l0 = malloc(n * sizeof *g->l0);
+            if (!g->k || !g->l0) return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        g->n = 0;
+    }
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        const double beta = bd->mat.stiffness_damping;
+        if (bd->nt > 0) {
+            defsim__group *g = &s->groups[bd->mat.model - DEFSIM_MODEL_STVK];
+            for (int32_t t = 0; t < bd->nt; ++t) {
+                const int32_t *lt = bd->tets + 4 * (int64_t)t;
+                const int32_t e = g->n++;
+                double dm[9];
+                const double *p3 = bd->rest + 3 * (int64_t)lt[3];
+                for (int a = 0; a < 3; ++a)
+                    for (int i = 0; i < 3; ++i)
+                        dm[3 * i + a] = bd->rest[3 * (int64_t)lt[a] + i] - p3[i];
+                double det = defsim__m3_inverse(dm, g->dminv + 9 * (int64_t)e);
+                g->vol[e] = fabs(det) / 6.0;
+                g->mu[e] = bd->mu;
+                g->lambda[e] = bd->lambda;
+                g->beta[e] = beta;
+                for (int a = 0; a < 4; ++a) g->idx[4 * (int64_t)e + a] = bd->offset + lt[a];
+            }
+        }
+        defsim__group *sg = &s->groups[DEFSIM__TET_MODELS];
+        for (int32_t s = 0; s < bd->ns; ++s) {
+            const int32_t a = bd->springs[2 * (int64_t)s], c = bd->springs[2 * (int64_t)s + 1];
+            const int32_t e = sg->n++;
+            const double *pa = bd->rest + 3 * (int64_t)a, *pc = bd->rest + 3 * (int64_t)c;
+            double d0 = pc[0] - pa[0], d1 = pc[1] - pa[1], d2 = pc[2] - pa[2];
+            sg->idx[2 * (int64_t)e] = bd->offset + a;
+            sg->idx[2 * (int64_t)e + 1] = bd->offset + c;
+            sg->k[e] = bd->k[s];
+            sg->l0[e] = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+            sg->beta[e] = beta;
+        }
+    }
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        defsim_status st = defsim__colour_group(&s->groups[m], s->nv);
+        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m]);
+        if (st != DEFSIM_OK) return st;
+    }
+    s->tet_kernels = select_tet_kernels();
+    return DEFSIM_OK;
+}
+
+defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__plan_input *in)
+{
+    defsim__unplan(s, wk);
+    s->nv = in->nv;
+    s->nthreads = in->nthreads;
+    s->projection = in->projection;
+    for (int c = 0; c < 3; ++c) s->gravity[c] = in->gravity[c];
+    const int64_t ndof = 3 * (int64_t)s->nv;
+    const size_t nd = (size_t)(ndof > 0 ? ndof : 1), nv = (size_t)(s->nv > 0 ? s->nv : 1);
+    defsim_status st = plan_groups(s, in);
+    if (st != DEFSIM_OK) goto fail;
+    st = DEFSIM_ERR_OUT_OF_MEMORY;
+    s->mass = malloc(nv * sizeof *s->mass);
+    s->pinned = malloc(nv);
+    s->mass3 = malloc(nd * sizeof *s->mass3);
+    s->alpha3 = malloc(nd * sizeof *s->alpha3);
+    s->free_dofs = malloc(nd * sizeof *s->free_dofs);
+    s->dof_to_free = malloc(nd * sizeof *s->dof_to_free);
+    s->vfree = malloc(nv * sizeof *s->vfree);
+    int32_t maxn = 1;
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
+        if (s->groups[m].n > maxn) maxn = s->groups[m].n;
+    wk->npartial = (maxn + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
+    wk->partial = malloc((size_t)wk->npartial * sizeof *wk->partial);
+    wk->pz = malloc(nd * sizeof *wk->pz);
+    wk->py = malloc(nd * sizeof *wk->py);
+    wk->pu = malloc(nd * sizeof *wk->pu);
+    if (!s->mass || !s->pinned || !s->mass3 || !s->alpha3 || !s->free_dofs || !s->dof_to_free ||
+        !s->vfree || !wk->partial || !wk->pz || !wk->py || !wk->pu)
+        goto fail;
+    if (s->nv > 0) {
+        memcpy(s->mass, in->mass, (size_t)s->nv * sizeof *s->mass);
+        memcpy(s->pinned, in->pinned, (size_t)s->nv);
+    }
+
+    /* Per-DOF data, free maps and which passes the scene needs. */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        if (bd->mat.stiffness_damping > 0.0 && (bd->nt > 0 || bd->ns > 0))
+            s->has_stiffness_damping = 1;
+        for (int32_t i = 0; i < bd->nv; ++i) {
+            const int64_t v = bd->offset + i;
+            for (int c = 0; c < 3; ++c) {
+                s->mass3[3 * v + c] = bd->mass[i];
+                s->alpha3[3 * v + c] = bd->mat.mass_damping;
+                double p = bd->rest[3 * (int64_t)i + c];
+                if (p < lo[c]) lo[c] = p;
+                if (p > hi[c]) hi[c] = p;
+            }
+            if (bd->mat.mass_damping > 0.0 && !s->pinned[v]) s->has_mass_damping = 1;
+        }
+    }
+    for (int32_t v = 0; v < s->nv; ++v) {
+        if (s->pinned[v]) {
+            s->has_pins = 1;
+            s->vfree[v] = -1;
+            for (int c = 0; c < 3; ++c) s->dof_to_free[3 * (int64_t)v + c] = -1;
+            continue;
+        }
+        s->vfree[v] = s->nfree_v++;
+        for (int c = 0; c < 3; ++c) {
+            s->dof_to_free[3 * (int64_t)v + c] = s->nfree;
+            s->free_dofs[s->nfree++] = 3 * (int64_t)v + c;
+        }
+    }
+    const double *g = s->gravity;
+    s->has_gravity = (g[0] != 0.0 || g[1] != 0.0 || g[2] != 0.0) && s->nv > 0;
+    double diag = 0.0;
+    if (s->nv > 0)
+        diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                    (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    s->length_scale = diag > 0.0 ? diag : 1.0;
+    if (in->need_matrix && (st = defsim__pattern_build(s)) != DEFSIM_OK) goto fail;
+    return DEFSIM_OK;
+fail:
+    defsim__unplan(s, wk);
+    return st;
+}

@@ -1,0 +1,17 @@
+/* SPDX-License-Identifier: MIT */
+/* Stability of explicit steps (stability.c). */
+#ifndef DEFSIM_STABILITY_H
+#define DEFSIM_STABILITY_H
+
+#include "system.h"
+
+/* omega_max = sqrt(largest eigenvalue of M^-1 K(x)) over the free DOFs (rad/s), by power
+ * iteration in the planner's workspace (no allocation). DEFSIM_ERR_UNSTABLE if not finite. */
+defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const double *x,
+                                double *omega);
+
+/* The damping coefficient c = alpha + beta omega^2 of the stiffest mode (1/s): the largest
+ * mass damping of a free DOF and stiffness damping of an element. */
+double defsim__damping_coeff(const defsim__system *s, double omega);
+
+#endif /* DEFSIM_STABILITY_H */

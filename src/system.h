@@ -1,0 +1,89 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The compiled system: what the bodies of a world compile to when it is planned (plan.c), in
+ * the spirit of MuJoCo's mjModel. Element groups per material (structure of arrays, coloured for
+ * conflict-free scatter, cut into SIMD batches), springs, masses, free-DOF maps, pins, the
+ * sparse pattern and the pass plan. Physics functions (forces.c, energy.c, assembly.c,
+ * stability.c) read a `const defsim__system *` and write only into their outputs and into a
+ * `defsim__work` (scratch the planner sized); they never see the world.
+ */
+#ifndef DEFSIM_SYSTEM_H
+#define DEFSIM_SYSTEM_H
+
+#include "defsim/backend.h"
+
+#include <stdint.h>
+
+enum { DEFSIM__TET_MODELS = 4 };   /* STVK, COROTATED, NEOHOOKEAN, STABLE_NEOHOOKEAN */
+
+/* One element group: all tets of one model, or all springs. Elements are sorted by colour so
+ * that elements of one colour share no vertex and can scatter in parallel without atomics. */
+typedef struct defsim__group {
+    int32_t n;                /* elements */
+    int32_t nodes;            /* 4 (tets) or 2 (springs) */
+    int32_t *idx;             /* nodes * n global vertex ids */
+    double *dminv;            /* 9 n (tets) */
+    double *vol;              /* n (tets) */
+    double *mu, *lambda;      /* n (tets) */
+    double *k, *l0;           /* n (springs) */
+    double *beta;             /* n: stiffness damping (s) */
+    int32_t ncolors;
+    int32_t *color_ptr;       /* ncolors + 1 */
+    int32_t *blk;             /* nodes^2 n: rank of row vertex in column vertex's list */
+    uint32_t pass;            /* DEFSIM_PASS_* bit */
+    int model;                /* defsim_model */
+    /* SIMD batches of a tet group (tet_forces.h): colour c is batches bcolor_ptr[c] ..
+     * bcolor_ptr[c + 1] - 1; blanes[b] of a batch's lanes are real elements. */
+    int32_t nbatch;
+    int32_t *bcolor_ptr;      /* ncolors + 1 */
+    int32_t *bidx;            /* 4 DEFSIM__BATCH per batch: bidx[(4 b + a) BATCH + lane] */
+    double *bdata;            /* DEFSIM__BATCH_ROWS DEFSIM__BATCH per batch, 64-byte aligned */
+    uint8_t *blanes;          /* nbatch */
+} defsim__group;
+
+/* The sparse pattern of matrices over free DOFs (assembly.c), built once per plan. Free DOFs
+ * come in vertex triples, so the pattern is made of 3x3 blocks. */
+typedef struct defsim__pattern {
+    int built;
+    int64_t *adj_ptr;         /* nfree_v + 1 */
+    int32_t *adj;             /* free-vertex neighbours (incl. self), sorted */
+    int64_t *full_col_ptr, *full_row_idx;
+    int64_t *upper_col_ptr, *upper_row_idx;
+    int64_t full_nnz, upper_nnz;
+    int32_t *upper_rank0;     /* per free vertex: neighbours ranked below it (for UPPER) */
+} defsim__pattern;
+
+typedef struct defsim__system {
+    int32_t nv;               /* vertices */
+    int32_t nthreads;
+    double gravity[3];        /* m/s^2 */
+    int projection;           /* defsim_projection of element Hessians */
+    double *mass;             /* nv */
+    double *mass3, *alpha3;   /* 3 nv: mass and mass-damping alpha per DOF */
+    uint8_t *pinned;          /* nv */
+
+    /* element groups: tets per model, then springs */
+    defsim__group groups[DEFSIM__TET_MODELS + 1];
+
+    /* the pass plan: what the scene uses */
+    int has_gravity, has_mass_damping, has_stiffness_damping, has_pins;
+    double length_scale;      /* diagonal of the rest bounding box (m) */
+
+    /* free DOFs: vertices are pinned whole, so free DOFs come in triples */
+    int64_t nfree;
+    int64_t *free_dofs, *dof_to_free;
+    int32_t *vfree;           /* vertex -> free vertex index or -1 */
+    int32_t nfree_v;
+
+    defsim__pattern pattern;
+    const struct defsim__tet_kernels *tet_kernels;   /* batched force kernels; NULL: scalar */
+} defsim__system;
+
+/* Scratch that physics functions write (sized by the planner, so that no step allocates). */
+typedef struct defsim__work {
+    double *partial;          /* per-block partial sums of deterministic reductions */
+    int32_t npartial;
+    double *pz, *py, *pu;     /* 3 nv each: power iteration (stability.c) */
+} defsim__work;
+
+#endif /* DEFSIM_SYSTEM_H */

@@ -622,7 +622,7 @@ class World:
         cname = name.encode("utf-8")
         if isinstance(value, str):
             self._check(lib.defsim_world_set_option(w, cname, value.encode("utf-8")))
-        elif isinstance(value, (bool, int, float, np.integer, np.floating)):
+        elif isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):
             self._check(lib.defsim_world_set_option_number(w, cname, float(value)))
         else:
             raise InvalidArgumentError(f"option {name}: value must be a string, bool or number, "

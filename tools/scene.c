@@ -14,6 +14,7 @@
 #include <cjson/cJSON.h>
 
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -915,7 +916,8 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     size_t len = 0;
     char *text = tools_read_file(path, &len);
     if (!text) {
-        snprintf(s->error, sizeof s->error, "%s: cannot read the scene file", path);
+        snprintf(s->error, sizeof s->error, "%s: cannot read the scene file: %s", path,
+                 strerror(errno));
         return -1;
     }
     c.text = text;

@@ -35,32 +35,47 @@ typedef struct ctx {
     char dir[1024];   /* folder of the scene file, with a trailing '/' (or empty) */
 } ctx;
 
+/* cJSON's whitespace: every byte up to 0x20, NUL and other control bytes included. */
+static int json_ws(char ch) { return (unsigned char)ch <= 0x20; }
+
 static size_t skip_json_ws(const char *t, size_t i, size_t n)
 {
-    while (i < n && (t[i] == ' ' || t[i] == '\t' || t[i] == '\n' || t[i] == '\r')) ++i;
+    while (i < n && json_ws(t[i])) ++i;
     return i;
 }
 
-/* Records the start of each value of valid JSON text in pre-order. */
-static size_t scan_value(const char *t, size_t i, size_t n, size_t *out, size_t *k)
+/* Position scanner: where each value starts, in pre-order. */
+typedef struct scan {
+    const char *t;
+    size_t n;
+    size_t *out, cap, k;   /* out[0..cap) holds the first cap starts; k counts them all */
+} scan;
+
+/* Scans one value of text that cJSON accepted; returns the index past it. Whatever the text,
+ * it writes no more than `cap` entries and ends (each step moves forward or stops). */
+static size_t scan_value(scan *sc, size_t i)
 {
+    const char *t = sc->t;
+    const size_t n = sc->n;
     i = skip_json_ws(t, i, n);
-    out[(*k)++] = i;
+    if (sc->k < sc->cap) sc->out[sc->k] = i;
+    ++sc->k;
     if (i >= n) return i;
     if (t[i] == '{' || t[i] == '[') {
         const char close = t[i] == '{' ? '}' : ']';
         const int object = t[i] == '{';
         i = skip_json_ws(t, i + 1, n);
         while (i < n && t[i] != close) {
+            const size_t before = i;
             if (object) {
                 /* the key: a string, then ':' */
                 ++i;
                 while (i < n && t[i] != '"') i += t[i] == '\\' ? 2 : 1;
                 i = skip_json_ws(t, i + 1, n) + 1;   /* past ':' */
             }
-            i = scan_value(t, i, n, out, k);
-            i = skip_json_ws(t, i, n);
+            i = skip_json_ws(t, scan_value(sc, i), n);
             if (i < n && t[i] == ',') i = skip_json_ws(t, i + 1, n);
+            else if (i <= before) return n;   /* not JSON: give up, the count will disagree */
         }
         return i + 1;
     }
@@ -69,7 +84,7 @@ static size_t scan_value(const char *t, size_t i, size_t n, size_t *out, size_t 
         while (i < n && t[i] != '"') i += t[i] == '\\' ? 2 : 1;
         return i + 1;
     }
-    while (i < n && !strchr(",]} \t\r\n", t[i])) ++i;
+    while (i < n && !json_ws(t[i]) && !strchr(",]}", t[i])) ++i;
     return i;
 }
 
@@ -966,13 +981,13 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
         snprintf(s->error, sizeof s->error, "out of memory");
         goto done;
     }
-    size_t k = 0;
-    scan_value(text, start, len, offsets, &k);
-    if (k != nn) {
+    scan sc = {text, len, offsets, nn, 0};
+    scan_value(&sc, start);
+    if (sc.k != nn) {
         snprintf(s->error, sizeof s->error, "%s: internal error mapping JSON positions", path);
         goto done;
     }
-    k = 0;
+    size_t k = 0;
     pair_nodes(root, offsets, &k, c.pos);
     c.npos = nn;
     qsort(c.pos, nn, sizeof *c.pos, cmp_pos);

@@ -218,3 +218,14 @@ int image_contact_sheet(const image *tiles, const double *times, int n, int cols
     }
     return 0;
 }
+
+int image_write_contact_sheet(const char *path, const image *tiles, const double *times, int n,
+                              int cols, char *err, size_t errsz)
+{
+    image sheet = {0, 0, NULL};
+    int rc = image_contact_sheet(tiles, times, n, cols, &sheet);
+    if (rc) snprintf(err, errsz, "out of memory");
+    else rc = image_write_png(path, &sheet, err, errsz);
+    image_free(&sheet);
+    return rc;
+}

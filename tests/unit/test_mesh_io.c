@@ -434,13 +434,8 @@ static void test_obj(void **state)
 
     /* The springs make a valid spring body, at rest with zero elastic force. */
     defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.springs = m.springs;
-    bd.spring_count = m.spring_count;
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    assert_int_equal(m.tet_count, 0);
+    const defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_SPRING);
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     double f[30];
     TU_OK(defsim_world_forces(w, NULL, f));

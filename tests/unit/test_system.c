@@ -336,12 +336,7 @@ static void test_damping_dissipates(void **state)
         defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
         defsim_mesh m = {.size = sizeof m};
         TU_OK(defsim_mesh_box(LO, HI, 2, 1, 1, &m));
-        defsim_body_def bd;
-        defsim_body_def_init(&bd, sizeof bd);
-        bd.rest_positions = m.positions;
-        bd.vertex_count = m.vertex_count;
-        bd.tets = m.tets;
-        bd.tet_count = m.tet_count;
+        defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
         bd.material.youngs_modulus = 1e4;
         if (mode == 0) bd.material.mass_damping = 2.0;
         else bd.material.stiffness_damping = 0.01;

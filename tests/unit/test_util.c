@@ -32,13 +32,7 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     TU_OK(defsim_mesh_box(lo, hi, nx, ny, nz, &m));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
+    defsim_body_def bd = test_mesh_body(&m, model);
     bd.material.youngs_modulus = E;
     bd.material.poisson_ratio = nu;
     bd.material.density = rho;

@@ -5,6 +5,8 @@
 
 #include <defsim/defsim.h>
 
+#include "mesh_body.h"
+
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

@@ -11,22 +11,9 @@
 static defsim_world *oscillator(const char *backend, double m, double k, double a)
 {
     defsim_world *w = tu_world(backend, 0.0, 1);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1 + a, 0, 0}, mass[2] = {1.0, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    const tu_spring2 o = {.l0 = 1, .x1 = {1 + a, 0, 0}, .m0 = 1.0, .m1 = m, .k = k,
+                          .pin_anchor = 1};
+    tu_add_spring2(w, &o);
     return w;
 }
 

@@ -43,26 +43,10 @@ static defsim_world *ida_world(double rtol, double atol, int max_order, int max_
 
 static defsim_body_id add_oscillator(defsim_world *w, osc *o, double z)
 {
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double rest[6] = {0, 0, z, 1, 0, z}, x0[6] = {0, 0, z, 1 + o->u0, 0, z};
-    double v0[6] = {0, 0, 0, o->v0, 0, 0}, mass[2] = {1.0, o->m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = rest;
-    bd.initial_positions = x0;
-    bd.initial_velocities = v0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = o->k;
-    bd.material.mass_damping = o->alpha;
-    bd.material.stiffness_damping = o->beta;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    const tu_spring2 s = {.anchor = {0, 0, z}, .l0 = 1, .x1 = {1 + o->u0, 0, z},
+                          .v1 = {o->v0, 0, 0}, .m0 = 1.0, .m1 = o->m, .k = o->k,
+                          .alpha = o->alpha, .beta = o->beta, .pin_anchor = 1};
+    const defsim_body_id id = tu_add_spring2(w, &s);
     o->vertex = defsim_body_vertex_offset(w, id) + 1;
     return id;
 }

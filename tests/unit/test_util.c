@@ -43,6 +43,33 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     return id;
 }
 
+defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o)
+{
+    const double *a = o->anchor;
+    double rest[6] = {a[0], a[1], a[2], a[0] + o->l0, a[1], a[2]};
+    double x0[6] = {a[0], a[1], a[2], o->x1[0], o->x1[1], o->x1[2]};
+    double v0[6] = {0, 0, 0, o->v1[0], o->v1[1], o->v1[2]}, mass[2] = {o->m0, o->m1};
+    const int32_t link[2] = {0, 1};
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.rest_positions = rest;
+    bd.initial_positions = x0;
+    bd.initial_velocities = v0;
+    bd.vertex_count = 2;
+    bd.springs = link;
+    bd.spring_count = 1;
+    bd.vertex_mass = mass;
+    bd.material.stiffness = o->k;
+    bd.material.mass_damping = o->alpha;
+    bd.material.stiffness_damping = o->beta;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    const int32_t pin = 0;
+    if (o->pin_anchor) TU_OK(defsim_body_pin(w, id, &pin, 1));
+    return id;
+}
+
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)
 {
     int nv = defsim_body_vertex_count(w, b), off = defsim_body_vertex_offset(w, b);

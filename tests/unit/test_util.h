@@ -22,6 +22,17 @@ defsim_world *tu_world(const char *backend, double gy, int threads);
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);
 
+/* Two vertices joined by one spring (the oscillators and pendulums of the integrator tests):
+ * vertex 0 of mass m0 at `anchor`, vertex 1 of mass m1 at rest at anchor + (l0, 0, 0), starting
+ * at x1 (absolute) with velocity v1, vertex 0 at rest; material stiffness k and Rayleigh alpha,
+ * beta. With pin_anchor, vertex 0 is pinned. Fails the test on error. */
+typedef struct tu_spring2 {
+    double anchor[3], l0, x1[3], v1[3];
+    double m0, m1, k, alpha, beta;
+    int pin_anchor;
+} tu_spring2;
+defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

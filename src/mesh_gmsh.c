@@ -164,15 +164,24 @@ static void gmsh_elements_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
     }
 }
 
+/* Format 4 section header: entity blocks, `item`s (at most `max`), in 4.1 the range of tags. */
+static int gmsh_v4_counts(defsim__reader *r, int minor, const char *item, long long max,
+                          long long *nblocks)
+{
+    char what[3][48];
+    snprintf(what[0], sizeof what[0], "number of %ss", item);
+    snprintf(what[1], sizeof what[1], "minimum %s tag", item);
+    snprintf(what[2], sizeof what[2], "maximum %s tag", item);
+    long long n, skip;
+    return defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, nblocks) &&
+           defsim__rd_count(r, what[0], 0, max, &n) &&
+           (minor < 1 || (defsim__rd_i64(r, what[1], &skip) && defsim__rd_i64(r, what[2], &skip)));
+}
+
 static void gmsh_nodes_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
 {
-    long long nblocks, nn, skip;
-    if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
-        !defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn))
-        return;
-    if (minor >= 1 && (!defsim__rd_i64(r, "minimum node tag", &skip) ||
-                       !defsim__rd_i64(r, "maximum node tag", &skip)))
-        return;
+    long long nblocks;
+    if (!gmsh_v4_counts(r, minor, "node", INT32_MAX / 3, &nblocks)) return;
     for (long long b = 0; b < nblocks; ++b) {
         long long dim, param, cnt;
         if (!gmsh_entity(r, minor, &dim)) return;
@@ -217,13 +226,8 @@ static void gmsh_nodes_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
 
 static void gmsh_elements_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
 {
-    long long nblocks, ne, skip;
-    if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
-        !defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne))
-        return;
-    if (minor >= 1 && (!defsim__rd_i64(r, "minimum element tag", &skip) ||
-                       !defsim__rd_i64(r, "maximum element tag", &skip)))
-        return;
+    long long nblocks;
+    if (!gmsh_v4_counts(r, minor, "element", INT32_MAX, &nblocks)) return;
     for (long long b = 0; b < nblocks; ++b) {
         long long dim, type, cnt;
         defsim__rd_skip_ws(r);

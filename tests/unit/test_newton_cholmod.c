@@ -15,18 +15,6 @@
 
 static const char *NC = "newton_cholmod";
 
-static int mapped(const char *needle)
-{
-    FILE *f = fopen("/proc/self/maps", "r");
-    if (!f) return -1;
-    char line[1024];
-    int found = 0;
-    while (fgets(line, sizeof line, f))
-        if (strstr(line, needle)) found = 1;
-    fclose(f);
-    return found;
-}
-
 static defsim_world *nc_world(double gy, int threads, double tol, int max_it,
                               defsim_projection proj)
 {
@@ -93,14 +81,14 @@ static void test_loaded_on_demand(void **state)
     tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 1e5, 0.3, 1000);
     for (int i = 0; i < 5; ++i) TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
-    assert_int_equal(mapped("defsim_newton_cholmod.so"), 0);
-    assert_int_equal(mapped("libcholmod"), 0);
+    assert_int_equal(tu_mapped("defsim_newton_cholmod.so"), 0);
+    assert_int_equal(tu_mapped("libcholmod"), 0);
 
     w = nc_world(-9.81, 1, 1e-6, 50, DEFSIM_PROJECTION_CLAMP);
-    assert_int_equal(mapped("defsim_newton_cholmod.so"), 1);
+    assert_int_equal(tu_mapped("defsim_newton_cholmod.so"), 1);
     tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 1e5, 0.3, 1000);
     step_ok(w, 1.0 / 60.0);
-    assert_int_equal(mapped("libcholmod"), 1);
+    assert_int_equal(tu_mapped("libcholmod"), 1);
     defsim_stats s = {.size = sizeof s};
     TU_OK(defsim_world_stats(w, &s));
     assert_true(s.newton_iterations >= 1);

@@ -112,6 +112,18 @@ double tu_rel_diff(const double *a, const double *b, int n, double floor)
     return d / s;
 }
 
+int tu_mapped(const char *needle)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    if (!f) return -1;
+    char line[1024];
+    int found = 0;
+    while (fgets(line, sizeof line, f))
+        if (strstr(line, needle)) found = 1;
+    fclose(f);
+    return found;
+}
+
 char tu_tmpdir[256];
 
 int tu_tmpdir_setup(void **state)

@@ -43,6 +43,10 @@ double *tu_velocities(const defsim_world *w);
 /* max |a - b| / max(max |b|, floor) */
 double tu_rel_diff(const double *a, const double *b, int n, double floor);
 
+/* 1 if a file whose path contains `needle` is mapped into this process (a loaded module), 0 if
+ * not, -1 if /proc/self/maps cannot be read. */
+int tu_mapped(const char *needle);
+
 /* A fresh temporary directory (tu_tmpdir) for tests that write files; for CMocka setup and
  * teardown. tu_write_file writes text to tu_tmpdir/name and returns the path (valid until the
  * 8th call after). */

@@ -98,12 +98,8 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    defsim_model model;
-    if (!strcmp(model_name, "snh")) model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
-    else if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
-    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
-    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
-    else {
+    const defsim_model model = bench_model_by_name(model_name);
+    if (!model) {
         fprintf(stderr, "defsim-reference: unknown model %s\n", model_name);
         return 2;
     }

@@ -209,13 +209,14 @@ static void chain_ref_step(chain_ref *c, double h)
     }
 }
 
-static defsim_world *chain_world(double alpha, double beta, double tol)
+/* The chain: CH_N masses CH_M on a line, scale * CH_L apart, joined by springs of stiffness k
+ * with Rayleigh damping alpha, beta; vertex 0 pinned. */
+static void add_chain(defsim_world *w, double scale, double k, double alpha, double beta)
 {
-    defsim_world *w = nc_world(CH_G, 1, tol, 50, DEFSIM_PROJECTION_CLAMP);
     double x[3 * CH_N] = {0}, m[CH_N];
     int32_t sp[2 * (CH_N - 1)];
     for (int i = 0; i < CH_N; ++i) {
-        x[3 * i] = CH_L * i;
+        x[3 * i] = scale * CH_L * i;
         m[i] = CH_M;
     }
     for (int s = 0; s + 1 < CH_N; ++s) {
@@ -225,7 +226,7 @@ static defsim_world *chain_world(double alpha, double beta, double tol)
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = CH_K;
+    bd.material.stiffness = k;
     bd.material.mass_damping = alpha;
     bd.material.stiffness_damping = beta;
     bd.rest_positions = x;
@@ -237,6 +238,12 @@ static defsim_world *chain_world(double alpha, double beta, double tol)
     TU_OK(defsim_world_add_body(w, &bd, &id));
     int32_t pin = 0;
     TU_OK(defsim_body_pin(w, id, &pin, 1));
+}
+
+static defsim_world *chain_world(double alpha, double beta, double tol)
+{
+    defsim_world *w = nc_world(CH_G, 1, tol, 50, DEFSIM_PROJECTION_CLAMP);
+    add_chain(w, 1.0, CH_K, alpha, beta);
     return w;
 }
 
@@ -657,29 +664,7 @@ static void scaled_chain(double c, double s, int steps, double *x_out, int64_t *
     d.tolerance = 1e-8;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
-    double x[3 * CH_N] = {0}, m[CH_N];
-    int32_t sp[2 * (CH_N - 1)];
-    for (int i = 0; i < CH_N; ++i) {
-        x[3 * i] = c * CH_L * i;
-        m[i] = CH_M;
-    }
-    for (int k = 0; k + 1 < CH_N; ++k) {
-        sp[2 * k] = k;
-        sp[2 * k + 1] = k + 1;
-    }
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = CH_K / (s * s);
-    bd.rest_positions = x;
-    bd.vertex_count = CH_N;
-    bd.springs = sp;
-    bd.spring_count = CH_N - 1;
-    bd.vertex_mass = m;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    add_chain(w, c, CH_K / (s * s), 0.0, 0.0);
     for (int k = 0; k < steps; ++k) step_ok(w, 0.01 * s);
     TU_OK(defsim_world_get_positions(w, x_out, CH_N));
     defsim_stats st = {.size = sizeof st};

@@ -127,17 +127,7 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
 defsim_world *be_cantilever(const char *backend, double tol, int max_iter, defsim_model model,
                            double alpha, double beta, defsim_projection proj, double unit)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    d.gravity[1] = -9.81 * unit;
-    d.num_threads = 1;
-    d.tolerance = tol;
-    d.max_iterations = max_iter;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    defsim_world *w = tu_implicit_world(backend, -9.81 * unit, 1, tol, max_iter, proj);
     defsim_mesh m = {.size = sizeof m};
     const double lo[3] = {0, 0, 0}, hi[3] = {1.5 * unit, 0.5 * unit, 0.5 * unit};
     TU_OK(defsim_mesh_box(lo, hi, 3, 1, 1, &m));

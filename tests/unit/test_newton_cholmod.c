@@ -18,17 +18,7 @@ static const char *NC = "newton_cholmod";
 static defsim_world *nc_world(double gy, int threads, double tol, int max_it,
                               defsim_projection proj)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = NC;
-    d.gravity[1] = gy;
-    d.num_threads = threads;
-    d.tolerance = tol;
-    d.max_iterations = max_it;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) fail_msg("world_create: %s", defsim_last_error());
-    return w;
+    return tu_implicit_world(NC, gy, threads, tol, max_it, proj);
 }
 
 static void step_ok(defsim_world *w, double h)

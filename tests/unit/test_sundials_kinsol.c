@@ -16,18 +16,7 @@
 
 static defsim_world *kin_world(double tol, int max_iter, double gy, defsim_projection proj)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = "sundials_kinsol";
-    d.gravity[1] = gy;
-    d.num_threads = 1;
-    d.tolerance = tol;
-    d.max_iterations = max_iter;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(sundials_kinsol): %s", defsim_last_error());
-    return w;
+    return tu_implicit_world("sundials_kinsol", gy, 1, tol, max_iter, proj);
 }
 
 static defsim_world *cantilever(double tol, int max_iter, defsim_model model, double alpha,

@@ -25,6 +25,35 @@ defsim_world *tu_world(const char *backend, double gy, int threads)
     return w;
 }
 
+defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
+                                int max_iter, defsim_projection proj)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = backend;
+    d.gravity[1] = gy;
+    d.num_threads = threads;
+    d.tolerance = tol;
+    d.max_iterations = max_iter;
+    d.projection = proj;
+    defsim_world *w = NULL;
+    if (defsim_world_create(&d, &w) != DEFSIM_OK)
+        fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    return w;
+}
+
+void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20])
+{
+    for (int i = 0; i < 4; ++i) {
+        x[6 * i] = x0 + cell * i; x[6 * i + 1] = 0.0; x[6 * i + 2] = 0.0;
+        x[6 * i + 3] = x0 + cell * i; x[6 * i + 4] = cell; x[6 * i + 5] = z1;
+    }
+    int k = 0;
+    for (int i = 0; i < 4; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 1; }
+    for (int i = 0; i < 3; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 2; }
+    for (int i = 0; i < 3; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 3; }
+}
+
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho)
 {

@@ -18,6 +18,14 @@ double tu_rand(unsigned long long *state);
 /* A world with the given backend, gravity along y and thread count; fails the test on error. */
 defsim_world *tu_world(const char *backend, double gy, int threads);
 
+/* A world with an implicit backend's settings: Newton tolerance, iterations and projection. */
+defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
+                                int max_iter, defsim_projection proj);
+
+/* A spring ladder (cloth strip) of 4 rungs along x: vertices 2i = (x0 + cell i, 0, 0) and
+ * 2i + 1 = (x0 + cell i, cell, z1), and 10 springs: the rungs, then the two rails' diagonals. */
+void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20]);
+
 /* Adds an nx*ny*nz-cell box of tets on [lo, hi] with the given model; returns its id. */
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);

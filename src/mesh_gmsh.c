@@ -285,10 +285,9 @@ static void gmsh_sections(defsim__reader *r, defsim__raw_mesh *m, int minor,
 defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
 {
     defsim__reader r;
-    defsim_status st = defsim__rd_open(&r, path, 0);
-    if (st != DEFSIM_OK) return st;
     defsim__raw_mesh m;
-    defsim__raw_init(&m);
+    defsim_status st = defsim__raw_open(&m, &r, path, 0);
+    if (st != DEFSIM_OK) return st;
     const char *tok;
     size_t n = defsim__rd_token(&r, &tok);
     if (!defsim__tok_is(tok, n, "$MeshFormat")) {

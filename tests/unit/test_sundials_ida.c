@@ -26,19 +26,12 @@ typedef struct osc {
 
 static defsim_world *ida_world(double rtol, double atol, int max_order, int max_steps, double gy)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = "sundials_ida";
-    d.gravity[1] = gy;
-    d.num_threads = 1;
+    defsim_world_def d = tu_world_def("sundials_ida", gy, 1);
     d.rtol = rtol;
     d.atol = atol;
     d.max_order = max_order;
     d.max_internal_steps = max_steps;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(sundials_ida): %s", defsim_last_error());
-    return w;
+    return tu_create(&d);
 }
 
 static defsim_body_id add_oscillator(defsim_world *w, osc *o, double z)

@@ -12,34 +12,38 @@ double tu_rand(unsigned long long *s)
     return (double)(*s >> 11) * (2.0 / 9007199254740992.0) - 1.0;
 }
 
-defsim_world *tu_world(const char *backend, double gy, int threads)
+defsim_world_def tu_world_def(const char *backend, double gy, int threads)
 {
     defsim_world_def d;
     defsim_world_def_init(&d, sizeof d);
     d.backend = backend;
     d.gravity[1] = gy;
     d.num_threads = threads;
+    return d;
+}
+
+defsim_world *tu_create(const defsim_world_def *d)
+{
     defsim_world *w = NULL;
-    defsim_status st = defsim_world_create(&d, &w);
-    if (st != DEFSIM_OK) fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    if (defsim_world_create(d, &w) != DEFSIM_OK)
+        fail_msg("world_create(%s): %s", d->backend, defsim_last_error());
     return w;
+}
+
+defsim_world *tu_world(const char *backend, double gy, int threads)
+{
+    const defsim_world_def d = tu_world_def(backend, gy, threads);
+    return tu_create(&d);
 }
 
 defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
                                 int max_iter, defsim_projection proj)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    d.gravity[1] = gy;
-    d.num_threads = threads;
+    defsim_world_def d = tu_world_def(backend, gy, threads);
     d.tolerance = tol;
     d.max_iterations = max_iter;
     d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(%s): %s", backend, defsim_last_error());
-    return w;
+    return tu_create(&d);
 }
 
 void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20])

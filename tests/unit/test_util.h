@@ -15,8 +15,11 @@
 /* Deterministic uniform in [-1, 1). */
 double tu_rand(unsigned long long *state);
 
-/* A world with the given backend, gravity along y and thread count; fails the test on error. */
+/* A world with the given backend, gravity along y and thread count; fails the test on error.
+ * tu_world_def is its def, for tests that set more; tu_create creates a world or fails. */
 defsim_world *tu_world(const char *backend, double gy, int threads);
+defsim_world_def tu_world_def(const char *backend, double gy, int threads);
+defsim_world *tu_create(const defsim_world_def *d);
 
 /* A world with an implicit backend's settings: Newton tolerance, iterations and projection. */
 defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Mesh loaders (TetGen, Gmsh 2 / 4, OBJ) and the cloth and rope generators. Each test writes
- * small files into a fresh temporary directory. */
+ * small files into a fresh temporary directory.
+ *
+ * Contents: checks shared by the loaders' tests; TetGen; Gmsh; OBJ; generators. */
 #include "test_util.h"
 
 #include <math.h>

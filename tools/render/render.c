@@ -4,6 +4,9 @@
  * looked up with OSMesaGetProcAddress (types from glcorearb.h). Geometry is rebuilt on the CPU every frame (flat
  * normals for solids, area-weighted vertex normals for cloth, tubes for lines) and drawn as plain
  * triangles; nothing depends on timing, so a frame renders the same on every run.
+ *
+ * Contents: shaders; vectors and the view (camera fitting, grid spacing, matrices); geometry
+ * (triangles with normals, line tubes); rd_render; surfaces of tet cells (rd_tet_surface).
  */
 #include "render.h"
 

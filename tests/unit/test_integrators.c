@@ -193,31 +193,7 @@ static void test_free_fall_momentum(void **state)
 {
     (void)state;
     defsim_world *w = tu_world("symplectic_euler", -9.81, 2);
-    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
-    int n = defsim_world_vertex_count(w);
-    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
-    unsigned long long seed = 2;
-    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
-    TU_OK(defsim_world_set_state(w, x, v));
-    TU_OK(defsim_world_get_masses(w, m, n));
-    double p0[3] = {0, 0, 0}, M = 0;
-    for (int i = 0; i < n; ++i) {
-        M += m[i];
-        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
-    }
-    const int steps = 500;
-    const double h = 1e-4;
-    for (int i = 0; i < steps; ++i) TU_OK(defsim_world_step(w, h));
-    free(v);
-    v = tu_velocities(w);
-    double p[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
-    assert_true(fabs(p[0] - p0[0]) < 1e-10 * M);
-    assert_true(fabs(p[2] - p0[2]) < 1e-10 * M);
-    assert_true(fabs(p[1] - (p0[1] - 9.81 * M * steps * h)) < 1e-10 * M);
-    free(x); free(v); free(m);
+    tu_check_free_fall(w, "symplectic_euler", -9.81, 2, 500, 1e-4, 1e-10);
     defsim_world_destroy(w);
 }
 

@@ -103,6 +103,59 @@ defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o)
     return id;
 }
 
+void tu_check_free_fall(defsim_world *w, const char *what, double gy, unsigned long long seed,
+                        int steps, double h, double tol)
+{
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
+    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_get_masses(w, m, n));
+    double p0[3] = {0, 0, 0}, M = 0;
+    for (int i = 0; i < n; ++i) {
+        M += m[i];
+        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
+    }
+    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+    free(v);
+    v = tu_velocities(w);
+    double p[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
+    const double t = defsim_world_time(w);
+    printf("%s free body: momentum drift %.2e %.2e %.2e (kg m/s, M = %g kg)\n", what,
+           p[0] - p0[0], p[1] - (p0[1] + gy * M * t), p[2] - p0[2], M);
+    assert_true(fabs(p[0] - p0[0]) < tol * M);
+    assert_true(fabs(p[2] - p0[2]) < tol * M);
+    assert_true(fabs(p[1] - (p0[1] + gy * M * t)) < tol * M);
+    free(x); free(v); free(m);
+}
+
+double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned)
+{
+    const int n = defsim_world_vertex_count(w);
+    double *x0 = tu_positions(w);
+    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    int pinned = 0;
+    for (int i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            assert_true(isfinite(x[3 * i + c]) && isfinite(v[3 * i + c]));
+            if (x0[3 * i] <= 1e-12) {
+                assert_true(x[3 * i + c] == x0[3 * i + c]);
+                assert_true(v[3 * i + c] == 0.0);
+            }
+        }
+        pinned += x0[3 * i] <= 1e-12;
+    }
+    assert_int_equal(pinned, npinned);
+    const double tip = x[3 * (n - 1) + 1] - x0[3 * (n - 1) + 1];
+    free(x0); free(x); free(v);
+    return tip;
+}
+
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)
 {
     int nv = defsim_body_vertex_count(w, b), off = defsim_body_vertex_offset(w, b);

@@ -44,6 +44,18 @@ typedef struct tu_spring2 {
 } tu_spring2;
 defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o);
 
+/* Momentum of a free body changes by M g t and by nothing else: adds a 2x2x2-cell co-rotated
+ * unit box (E 1e5 Pa, nu 0.3, 1000 kg/m^3) to w (gravity gy along y, no other body), perturbs
+ * its positions and velocities (seed), takes `steps` steps of h and asserts each component of
+ * the momentum to tol * M (kg m/s). `what` names the run in the printed drift. */
+void tu_check_free_fall(defsim_world *w, const char *what, double gy, unsigned long long seed,
+                        int steps, double h, double tol);
+
+/* Takes `steps` steps of h and asserts that the state stays finite and that every vertex that
+ * started at x <= 1e-12 (the clamped end: `npinned` of them) has kept its position exactly with
+ * zero velocity. Returns how far the last vertex moved along y (m). */
+double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

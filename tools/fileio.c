@@ -1,32 +1,39 @@
 /* SPDX-License-Identifier: MIT */
 #include "fileio.h"
 
+#include "../src/file_read.h"
+
 #include <errno.h>
 #include <stdio.h>
-#include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 
 char *tools_read_file(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap) break;
-        cap *= 2;
-        char *nb = realloc(buf, cap + 1);
-        if (!nb) { free(buf); buf = NULL; }
-        else buf = nb;
-    }
-    const int err = ferror(f);
-    fclose(f);
-    if (buf && err) { free(buf); buf = NULL; errno = EIO; }
-    if (!buf) return NULL;
-    buf[n] = '\0';
-    *len = n;
+    char *buf;
+    int err = defsim__read_file(path, DEFSIM__FILE_MAX, &buf, len);
+    if (err) errno = err;
     return buf;
+}
+
+FILE *tools_tmp_open(const char *path, char *tmp, size_t tmpsz, char *err, size_t errsz)
+{
+    snprintf(tmp, tmpsz, "%s.tmp", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) snprintf(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
+    return f;
+}
+
+int tools_tmp_commit(FILE *f, const char *tmp, const char *path, int ok, char *err,
+                     size_t errsz)
+{
+    ok = ok && !ferror(f);
+    ok = (fclose(f) == 0) && ok;
+    if (ok && rename(tmp, path) == 0) return 0;
+    const int e = errno;
+    remove(tmp);
+    snprintf(err, errsz, "%s: write failed: %s", path, strerror(e));
+    return -1;
 }
 
 int tools_make_dirs(const char *path)

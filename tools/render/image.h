@@ -36,4 +36,8 @@ int image_downscale(const image *in, int factor, image *out);
 /* Lays tiles out in a grid with `cols` columns and a label under each ("%.2f s"). */
 int image_contact_sheet(const image *tiles, const double *times, int n, int cols, image *out);
 
+/* image_contact_sheet written to the PNG `path`. 0 or -1 with err. */
+int image_write_contact_sheet(const char *path, const image *tiles, const double *times, int n,
+                              int cols, char *err, size_t errsz);
+
 #endif

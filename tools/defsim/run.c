@@ -14,6 +14,7 @@
 #endif
 
 #include "fileio.h"
+#include "run_summary.h"
 
 #include <errno.h>
 #include <math.h>
@@ -53,6 +54,8 @@ static int usage(FILE *f)
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
+        "  --summary-json FILE  write how the run ended (status, steps, energies, probes,\n"
+        "                     stable-step estimate) as JSON\n"
         "  -h, --help         this text\n");
     return f == stderr ? 2 : 0;
 }
@@ -93,7 +96,7 @@ static int pvd_add(out_state *o, const char *file, double t)
 
 int run_main(int argc, char **argv)
 {
-    const char *scene_path = NULL, *out_dir = NULL, *progress = "auto";
+    const char *scene_path = NULL, *out_dir = NULL, *progress = "auto", *summary_path = NULL;
     int render = 0, vtk = 1;
     const char **sets = calloc((size_t)argc + 4, sizeof *sets);
     int nsets = 0, *list = calloc((size_t)argc + 1, sizeof *list), nlist = 0;
@@ -107,6 +110,7 @@ int run_main(int argc, char **argv)
         else if (!strcmp(a, "--render")) render = 1;
         else if (!strcmp(a, "--no-vtk")) vtk = 0;
         else if (!strcmp(a, "--progress") && has) progress = argv[++i];
+        else if (!strcmp(a, "--summary-json") && has) summary_path = argv[++i];
         else if (!strcmp(a, "--set") && has) sets[nsets++] = argv[++i];
         else if (!strcmp(a, "--backend") && has) {
             snprintf(backend_set, sizeof backend_set, "world.backend=\"%s\"", argv[++i]);
@@ -275,11 +279,15 @@ int run_main(int argc, char **argv)
     sigaction(SIGINT, &sa, &old_sa);
     interrupted = 0;
 
+    /* The estimate costs some force evaluations, so only a summary asks for it. */
+    double stable_step = 0.0;
+    defsim_status run_st = DEFSIM_OK;
+    if (summary_path) defsim_world_stable_step(w, &stable_step, NULL);
     const double h = s.h, t_start = now();
     double t_out = 0.0, t_render = 0.0, last_bar = -1.0, e0 = 0.0;
     int64_t steps = 0;
     int last_frame = 0;
-    defsim_energy e = {0};
+    defsim_energy e = {0}, e_start = {0};
     if (mode == 1 || mode == 2)
         printf("%s: %d bodies, %d vertices, backend %s, h = %g s, %d frames of %d steps\n",
                s.name, (int)s.nbodies, (int)nv, s.backend, h, (int)s.frames, (int)s.frame_steps);
@@ -289,6 +297,7 @@ int run_main(int argc, char **argv)
             for (int32_t k = 0; k < s.frame_steps; ++k) {
                 defsim_status st = defsim_world_step(w, h);
                 if (st != DEFSIM_OK) {
+                    run_st = st;
                     if (mode == 2) printf("\n");
                     fprintf(stderr, "defsim run: %s: step %lld (t = %g s, frame %d) failed: %s: %s\n",
                             s.path, (long long)steps + 1, defsim_world_time(w), f,
@@ -302,7 +311,10 @@ int run_main(int argc, char **argv)
         const double t = defsim_world_time(w);
         defsim_world_get_positions(w, x, nv);
         defsim_world_energy(w, &e);
-        if (f == 0) e0 = e.total;
+        if (f == 0) {
+            e0 = e.total;
+            e_start = e;
+        }
         fprintf(csv, "%d,%.17g,%.17g,%.17g,%.17g,%.17g", f, t, e.kinetic, e.elastic,
                 e.gravitational, e.total);
         for (int32_t i = 0; i < s.nbodies; ++i)
@@ -385,6 +397,19 @@ finish:
     if (vtk_write_vtu(path, nv, x, v, &cells, defsim_world_time(w), err, sizeof err)) {
         fprintf(stderr, "defsim run: %s\n", err);
         rc = 1;
+    }
+    if (summary_path) {
+        run_summary sum = {.status = run_st != DEFSIM_OK ? defsim_status_string(run_st)
+                                     : interrupted ? "interrupted" : rc ? "error" : "ok",
+                           .step_status = run_st, .frames = last_frame, .wall = now() - t_start,
+                           .stable_step = stable_step, .x = x,
+                           .message = run_st != DEFSIM_OK ? defsim_world_last_error(w) : ""};
+        sum.start = e_start;
+        defsim_world_energy(w, &sum.end);
+        if (run_summary_write(summary_path, &s, w, &sum, err, sizeof err)) {
+            fprintf(stderr, "defsim run: %s\n", err);
+            rc = 1;
+        }
     }
 #ifdef DEFSIM_HAVE_RENDER
     if (s.write_png && nthumbs > 1) {

@@ -1,0 +1,186 @@
+# SPDX-License-Identifier: MIT
+"""defsim.sweep on a real LocalCluster of 2 workers: results equal to `defsim run` bit for bit,
+failures as rows, a worker killed mid-sweep, resume, the stress tool, the CLI."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import stat
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from defsim.sweep import (grid, read_results, read_vtu, run_sweep, run_tool_sweep, samples,
+                          variant_id, write_tool_csv)
+from defsim.sweep._cli import main as cli_main
+
+E = "bodies.0.material.youngs_modulus"
+# Step sizes that divide a 1/30 s frame (the scene's fps) into whole steps.
+H = [1 / 2400, 1 / 1800, 1 / 1200, 1 / 960]
+SHORT = {"world.duration": 0.1}
+
+
+def test_variants_grid_samples_ids():
+    g = grid({"a": [1, 2, 3], "b": ["x", "y"]})
+    assert g == [{"a": a, "b": b} for a in (1, 2, 3) for b in ("x", "y")]
+    s1 = samples({"e": (1e4, 1e8, "log"), "nu": (0.2, 0.45), "k": (1, 3, "int")}, 200, seed=7)
+    assert s1 == samples({"e": (1e4, 1e8, "log"), "nu": (0.2, 0.45), "k": (1, 3, "int")}, 200,
+                         seed=7)
+    e = np.array([v["e"] for v in s1])
+    assert e.min() >= 1e4 and e.max() <= 1e8
+    # Log-uniform: about half the samples below the geometric middle, 1e6.
+    assert 70 < (e < 1e6).sum() < 130
+    assert {v["k"] for v in s1} == {1, 2, 3}
+    assert variant_id({"a": 1.0, "b": 2}) == variant_id({"b": 2, "a": 1.0})
+    assert variant_id({"a": 1.0}) != variant_id({"a": 1.5})
+    assert len({variant_id(v) for v in g}) == 6
+
+
+def _serial_tip(exe, scene, overrides, out):
+    """The probe (tip) of `defsim run` with the same overrides and threads, from its final.vtu."""
+    cmd = [exe, "run", str(scene), "--out", str(out), "--progress", "none", "--no-vtk",
+           "--threads", "1"]
+    for k, v in overrides.items():
+        cmd += ["--set", f"{k}={json.dumps(v)}"]
+    subprocess.run(cmd, check=True, capture_output=True)
+    return read_vtu(str(out / "final.vtu"))["Points"]
+
+
+def test_twelve_variants_equal_defsim_run_bit_for_bit(client, exe, cantilever, tmp_path):
+    variants = [{**v, **SHORT} for v in grid({E: [1e5, 1e6, 1e7], "world.h": H})]
+    df = run_sweep(cantilever, variants, tmp_path / "sweep", client=client, exe=exe,
+                   metrics=lambda s: {"tip_y": s.positions[324, 1],
+                                      "min_y": s.positions[:, 1].min()})
+    assert len(df) == 12 and list(df["status"]) == ["ok"] * 12
+    assert sorted(df.attrs["ran"]) == sorted(variant_id(v) for v in variants)
+    for i, v in enumerate(variants):
+        x = _serial_tip(exe, cantilever, v, tmp_path / f"serial{i}")
+        row = df.iloc[i]
+        assert row[E] == v[E] and row["world.h"] == v["world.h"]
+        assert row["steps"] == round(0.1 / v["world.h"])
+        # Bit for bit: the summary's 17 digits and the metric read from final.vtu.
+        assert (row["probe0_x"], row["probe0_y"], row["probe0_z"]) == tuple(x[324])
+        assert row["metric_tip_y"] == x[324, 1] and row["metric_min_y"] == x[:, 1].min()
+    # Every variant ended somewhere else: the overrides reached the runs.
+    assert len(set(df["probe0_y"])) == 12
+
+
+def _wrapper(tmp_path, exe):
+    """A `defsim` that segfaults when its arguments say "crash" and hangs when they say "hang":
+    real signals and real hangs, to check that they stay inside their variant."""
+    path = tmp_path / "defsim-wrapper"
+    path.write_text("#!/bin/sh\ncase \"$*\" in\n  *crash*) kill -SEGV $$ ;;\n"
+                    "  *hang*) exec sleep 60 ;;\nesac\n" f"exec {exe} \"$@\"\n")
+    path.chmod(path.stat().st_mode | stat.S_IXUSR)
+    return str(path)
+
+
+def test_failures_are_rows_and_the_sweep_goes_on(client, exe, cantilever, tmp_path):
+    ok = {**SHORT, "world.h": 1 / 1200}
+    variants = [
+        ok,
+        {**SHORT, E: 1e7, "world.h": 1 / 300},                     # blows up (explicit limit)
+        {**SHORT, "world.backend": "newton_cholmod", "world.max_iterations": 1,
+         "world.tolerance": 1e-12, "world.h": 1 / 30},              # Newton gives up
+        {**SHORT, E: -1.0},                                         # the scene is refused
+        {**SHORT, "description": "crash"},                          # segfaults
+        {**SHORT, "description": "hang"},                           # killed after the timeout
+        {**SHORT, "world.h": 1 / 2400},
+    ]
+    df = run_sweep(cantilever, variants, tmp_path / "s", client=client,
+                   exe=_wrapper(tmp_path, exe), timeout=4.0)
+    assert list(df["status"]) == ["ok", "unstable", "not_converged", "error", "crashed",
+                                  "timeout", "ok"]
+    unstable = df.iloc[1]
+    assert 0 < unstable["steps"] < 30 and unstable["failed_steps"] == 1
+    # The predicted stable step says why: h was above it.
+    assert unstable["stable_step"] < 1 / 300
+    assert df.iloc[2]["steps"] == 0 and "Newton" in df.iloc[2]["message"]
+    assert "youngs_modulus" in df.iloc[3]["message"]
+    assert df.iloc[4]["returncode"] == -signal.SIGSEGV
+    assert 4.0 <= df.iloc[5]["run_s"] < 30
+    assert df.iloc[6]["steps"] == 240
+
+
+def test_worker_killed_mid_sweep_loses_nothing(client, exe, cantilever, tmp_path):
+    pids = client.run(os.getpid)   # worker address -> pid
+    killed = {}
+
+    def kill_busy_worker(row):
+        if killed:
+            return
+        busy = [w for w, keys in client.processing().items() if keys]
+        if busy:
+            killed["address"], killed["keys"] = busy[0], client.processing()[busy[0]]
+            os.kill(pids[busy[0]], signal.SIGKILL)
+
+    # Each variant about 0.2 s of stepping, so the kill lands while one runs.
+    variants = [{"world.duration": 0.5, "world.h": 1 / 2400, E: e}
+                for e in np.geomspace(2e5, 5e6, 16)]
+    df = run_sweep(cantilever, variants, tmp_path / "k", client=client, exe=exe,
+                   on_row=kill_busy_worker)
+    assert killed and killed["keys"], "no worker was busy when a row arrived"
+    with pytest.raises(OSError):
+        os.kill(pids[killed["address"]], 0)   # that process is gone
+    assert len(df) == 16 and df["variant_id"].is_unique
+    assert set(df["variant_id"]) == {variant_id(v) for v in variants}
+    assert (df["status"] == "ok").all() and (df["steps"] == 1200).all()
+    # What the dead worker held was run again by another one.
+    lost = {k.split("-")[2] for k in killed["keys"]}
+    rerun = df[df["variant_id"].isin(lost)]
+    assert len(rerun) == len(lost) and (rerun["worker"] != killed["address"]).any()
+    # The table on disk is complete and unduplicated too.
+    disk = read_results(tmp_path / "k")
+    assert len(disk) == 16 and disk["variant_id"].is_unique
+
+
+def test_resume_runs_only_the_missing_variants(client, exe, cantilever, tmp_path):
+    variants = [{**SHORT, "world.h": h, E: e} for h in H for e in (1e6, 3e6)]
+    first = run_sweep(cantilever, variants, tmp_path / "r", client=client, exe=exe,
+                      max_variants=3, batch=1)
+    assert len(first) == 3 and len(first.attrs["ran"]) == 3
+    with pytest.raises(ValueError, match="resume"):
+        run_sweep(cantilever, variants, tmp_path / "r", client=client, exe=exe)
+    second = run_sweep(cantilever, variants, tmp_path / "r", client=client, exe=exe,
+                       resume=True)
+    all_ids = {variant_id(v) for v in variants}
+    assert set(second.attrs["ran"]) == all_ids - set(first.attrs["ran"])
+    assert len(second.attrs["ran"]) == 5
+    assert len(second) == 8 and set(second["variant_id"]) == all_ids
+    # Nothing left: a third call runs nothing.
+    third = run_sweep(cantilever, variants, tmp_path / "r", client=client, exe=exe, resume=True)
+    assert third.attrs["ran"] == [] and len(third) == 8
+
+
+def test_stress_through_the_engine_equals_the_serial_tool(client, exe, tmp_path):
+    args = ["--reduced", "--scenes", "rope", "--backends", "symplectic_euler", "--steps", "100"]
+    serial = tmp_path / "serial.csv"
+    subprocess.run([exe, "stress", *args, "--csv", str(serial)], check=True,
+                   capture_output=True)
+    df = run_tool_sweep("stress", args, tmp_path / "t", client=client, exe=exe)
+    assert len(df) == df.attrs["variants"] == 60 and (df["status"] == "ok").all()
+    write_tool_csv(df, tmp_path / "sweep.csv")
+    assert (tmp_path / "sweep.csv").read_text() == serial.read_text()
+    # Both outcomes occur in this matrix, so equality means something.
+    classes = set(df["csv_row"].str.split(",").str[6])
+    assert {"stable", "energy_blowup"} <= classes
+
+
+def test_cli_local_scheduler_and_plot(cluster, exe, cantilever, tmp_path, capsys):
+    out = tmp_path / "cli"
+    rc = cli_main([str(cantilever), "--out", str(out), "--scheduler", cluster.scheduler_address,
+                   "--grid", f"{E}=1e6,1e7", "--grid", "world.h=0.0008333333333333334,"
+                   "0.0033333333333333335", "--grid", "world.duration=0.1", "--exe", exe,
+                   "--plot", "--no-progress"])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "3 ok, 1 unstable (4 variants)" in text
+    assert (out / "sweep.png").stat().st_size > 5000
+    df = read_results(out)
+    assert len(df) == 4
+    bad = df[df["status"] == "unstable"]
+    assert len(bad) == 1 and math.isclose(bad.iloc[0]["stable_step"], 0.001446, rel_tol=0.05)

@@ -12,10 +12,11 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
-from defsim.sweep import (grid, read_results, read_vtu, run_sweep, run_tool_sweep, samples,
-                          variant_id, write_tool_csv)
+from defsim.sweep import (finish_bench, grid, read_results, read_vtu, run_sweep,
+                          run_tool_sweep, samples, variant_id, write_tool_csv)
 from defsim.sweep._cli import main as cli_main
 
 E = "bodies.0.material.youngs_modulus"
@@ -168,6 +169,34 @@ def test_stress_through_the_engine_equals_the_serial_tool(client, exe, tmp_path)
     # Both outcomes occur in this matrix, so equality means something.
     classes = set(df["csv_row"].str.split(",").str[6])
     assert {"stable", "energy_blowup"} <= classes
+
+
+def test_bench_through_the_engine_matches_the_serial_bench(client, exe, tmp_path):
+    rope = Path(__file__).resolve().parents[4] / "tests" / "scenes" / "rope.json"
+    common = [str(rope), "--backends", "symplectic_euler,newton_cholmod,sundials_ida",
+              "--h", "2e-4,4e-4,8e-4", "--tol", "1e-4,1e-6", "--time", "0.05", "--repeats", "1",
+              "--no-plot"]
+    serial = subprocess.run([exe, "bench", *common, "--out", str(tmp_path / "serial")],
+                            capture_output=True, text=True)
+    if serial.returncode or "skipped" in serial.stdout:
+        pytest.skip(f"the bench needs sundials_ida and newton_cholmod: {serial.stderr.strip()}")
+    args = [*common, "--out", str(tmp_path / "dist")]
+    df = run_tool_sweep("bench", args, tmp_path / "t", client=client, exe=exe)
+    assert len(df) == 8 and (df["status"] == "ok").all()
+    finish_bench(df, args, tmp_path / "rows.csv", exe=exe)
+    a = pd.read_csv(tmp_path / "serial" / "rope.csv")
+    b = pd.read_csv(tmp_path / "dist" / "rope.csv")
+    # Everything but the timings (taken concurrently here) and the Pareto flags that follow
+    # from them is the same: errors, statuses and counts are deterministic.
+    same = ["backend", "kind", "value", "rms_err", "max_err", "energy_err", "status", "steps",
+            "newton_iterations", "internal_steps"]
+    pd.testing.assert_frame_equal(a[same], b[same])
+    # The assembled CSV marks as Pareto-optimal exactly the points no other beats in both.
+    for i, r in b.iterrows():
+        dominated = ((b["wall_s"] <= r["wall_s"]) & (b["rms_err"] <= r["rms_err"]) &
+                     ((b["wall_s"] < r["wall_s"]) | (b["rms_err"] < r["rms_err"]))).any()
+        assert r["pareto"] == int(not dominated)
+    assert (tmp_path / "dist" / "rope_pareto.md").is_file()
 
 
 def test_cli_local_scheduler_and_plot(cluster, exe, cantilever, tmp_path, capsys):

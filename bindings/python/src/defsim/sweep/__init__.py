@@ -15,11 +15,11 @@ variants already there. ``defsim-sweep`` is the command line. See the README, "R
 """
 from __future__ import annotations
 
-from ._engine import (list_tool_variants, read_results, run_sweep, run_tool_sweep,
-                      write_tool_csv)
+from ._engine import (finish_bench, list_tool_variants, read_results, run_sweep,
+                      run_tool_sweep, write_tool_csv)
 from ._runner import FinalState, find_defsim, read_vtu
 from ._variants import grid, samples, variant_id
 
-__all__ = ["run_sweep", "run_tool_sweep", "write_tool_csv", "list_tool_variants",
+__all__ = ["run_sweep", "run_tool_sweep", "write_tool_csv", "finish_bench", "list_tool_variants",
            "read_results", "grid", "samples", "variant_id", "FinalState", "find_defsim",
            "read_vtu"]

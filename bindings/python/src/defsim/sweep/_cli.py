@@ -14,6 +14,7 @@ USAGE_EXAMPLES = """examples:
   defsim-sweep scene.json --out mc --samples 100 --seed 1 \\
       --range bodies.0.material.youngs_modulus=1e5,1e7,log --scheduler tcp://host:8786
   defsim-sweep --tool stress --out stress_sweep --workers 2 -- --reduced --backends symplectic_euler
+  defsim-sweep --tool bench --out wp_sweep --workers 2 -- tests/scenes/rope.json --out bench_rope
 """
 
 
@@ -48,7 +49,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--timeout", type=float, default=3600.0,
                    help="seconds before a variant is killed (default 3600)")
     p.add_argument("--exe", help="the defsim executable (default: $DEFSIM_EXE, PATH, build/)")
-    p.add_argument("--tool", choices=["stress"],
+    p.add_argument("--tool", choices=["stress", "bench"],
                    help="spread the runs of `defsim TOOL` instead; its arguments follow --")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
@@ -131,7 +132,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(f"defsim-sweep: {exc.name} is missing: pip install './bindings/python[sweep]'",
               file=sys.stderr)
         return 1
-    from ._engine import run_sweep, run_tool_sweep, write_tool_csv
+    from ._engine import finish_bench, run_sweep, run_tool_sweep, write_tool_csv
     out = Path(ns.out)
     try:
         if ns.tool:
@@ -147,6 +148,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 print(f"run {r['index']}: {r['status']}: {r['message']}", file=sys.stderr)
             if len(failed):
                 return 1
+            if ns.tool == "bench":
+                # The serial bench assembles the CSV, Pareto table and plot from the rows.
+                print(finish_bench(df, tool_args, out / "bench_rows.csv", exe=ns.exe), end="")
+                return 0
             csv = out / f"{ns.tool}.csv"
             write_tool_csv(df, csv)
             print(_stress_table(df))

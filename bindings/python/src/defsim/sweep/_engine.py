@@ -230,7 +230,8 @@ def list_tool_variants(tool: str, args: Sequence[str], exe: Optional[str] = None
     if proc.returncode != 0:
         raise RuntimeError(f"defsim {tool} --list-variants failed ({proc.returncode}): "
                            f"{proc.stderr.strip()}")
-    return [json.loads(ln) for ln in proc.stdout.splitlines() if ln.strip()]
+    # Other lines are the tool's own report (the bench's reference).
+    return [json.loads(ln) for ln in proc.stdout.splitlines() if ln.startswith("{")]
 
 
 def run_tool_sweep(tool: str, args: Sequence[str], out: Union[str, os.PathLike], *,
@@ -239,16 +240,18 @@ def run_tool_sweep(tool: str, args: Sequence[str], out: Union[str, os.PathLike],
                    timeout: Optional[float] = 3600.0, exe: Optional[str] = None,
                    max_variants: Optional[int] = None, progress: bool = False,
                    batch: int = 32, flush_interval: float = 2.0) -> pd.DataFrame:
-    """The runs of `defsim TOOL ARGS` (tools with --list-variants and --variant K: `stress`)
-    spread over Dask. Returns one row per run, in the tool's order, with the tool's settings
-    and its CSV line; `write_tool_csv` writes the CSV the serial tool would have written."""
+    """The runs of `defsim TOOL ARGS` (`stress` or `bench`: tools with --list-variants and
+    --variant K) spread over Dask. The listing runs first, here (the bench computes or loads its
+    reference there, once). Returns one row per run, in the tool's order, with the tool's
+    settings and its CSV line; `write_tool_csv` writes the CSV the serial tool would have
+    written (stress), `finish_bench` the bench's CSV, Pareto table and plot."""
     out = Path(out).resolve()
     exe = find_defsim(exe)
     listed = list_tool_variants(tool, args, exe)
     ids = [hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:16] for v in listed]
     _manifest(out, {"kind": "tool", "tool": tool, "args": list(args)}, resume)
     done = set(read_results(out)["variant_id"]) if resume else set()
-    tasks = [ToolTask(vid, int(v["index"]), exe, tool, list(args), timeout)
+    tasks = [ToolTask(vid, int(v["index"]), exe, tool, list(args), timeout, os.getcwd())
              for vid, v in zip(ids, listed) if vid not in done]
     ran = _execute(tasks, run_tool_variant, out, client, scheduler, workers, max_variants,
                    progress, batch, flush_interval, None)
@@ -277,3 +280,20 @@ def write_tool_csv(df: pd.DataFrame, path: Union[str, os.PathLike]) -> None:
         f.write(headers.pop() + "\n")
         for line in df.sort_values("index")["csv_row"]:
             f.write(line + "\n")
+
+
+def finish_bench(df: pd.DataFrame, args: Sequence[str], rows_path: Union[str, os.PathLike],
+                 exe: Optional[str] = None) -> str:
+    """Writes the rows of a bench sweep to `rows_path` and runs `defsim bench ARGS --rows FILE`,
+    which writes the CSV (with its Pareto column), the Pareto table and the plot exactly as the
+    serial bench does, from these rows. Returns the bench's output (its table)."""
+    import subprocess
+    from ._runner import child_env
+    write_tool_csv(df, rows_path)
+    exe = find_defsim(exe)
+    proc = subprocess.run([exe, "bench", *args, "--rows", str(rows_path)], capture_output=True,
+                          text=True, env=child_env(exe))
+    if proc.returncode != 0:
+        raise RuntimeError(f"defsim bench --rows failed ({proc.returncode}): "
+                           f"{proc.stderr.strip()}")
+    return proc.stdout

@@ -129,11 +129,12 @@ def _worker_name() -> str:
         return f"pid{os.getpid()}"
 
 
-def _run(cmd: List[str], env: Dict[str, str], timeout: Optional[float]):
+def _run(cmd: List[str], env: Dict[str, str], timeout: Optional[float],
+         cwd: Optional[str] = None):
     """(returncode, stdout, stderr, timed_out). The child gets its own process group, so a
     timeout kills whatever it started too."""
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
-                            start_new_session=True)
+                            start_new_session=True, cwd=cwd)
     try:
         out, err = proc.communicate(timeout=timeout)
         return proc.returncode, out.decode(errors="replace"), err.decode(errors="replace"), False
@@ -236,31 +237,35 @@ def _metric_columns(result: Any) -> Dict[str, Any]:
 
 @dataclass
 class ToolTask:
-    """One run of `defsim stress` (or another tool with --variant): its CSV header and row."""
+    """One run of `defsim stress` or `defsim bench` (`--variant K`): its CSV header and row."""
     variant_id: str
     index: int
     exe: str
     tool: str
     args: Sequence[str]
     timeout: Optional[float] = None
+    cwd: Optional[str] = None       # the client's folder, where relative paths in args point
 
 
 def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
     """Runs `defsim TOOL ARGS --variant K`; the row keeps the tool's CSV header and line as
-    text (`csv_header`, `csv_row`) so the sweep can write the tool's own CSV unchanged."""
+    text (`csv_header`, `csv_row`: the last two lines it prints) so the sweep can write the
+    tool's own CSV unchanged."""
     t_start = time.time()
     cmd = [task.exe, task.tool, *task.args, "--variant", str(task.index)]
     t0 = time.perf_counter()
-    rc, out, err, timed_out = _run(cmd, child_env(task.exe), task.timeout)
+    cwd = task.cwd if task.cwd and os.path.isdir(task.cwd) else None
+    rc, out, err, timed_out = _run(cmd, child_env(task.exe), task.timeout, cwd)
     run_s = time.perf_counter() - t0
     lines = [ln for ln in out.splitlines() if ln.strip()]
     row: Dict[str, Any] = {"variant_id": task.variant_id, "index": task.index, "returncode": rc,
                            "run_s": run_s, "worker": _worker_name(), "t_start": t_start,
                            "csv_header": "", "csv_row": "", "message": err.strip()[-2000:]}
-    if len(lines) >= 2 and not timed_out and rc >= 0:
-        row["csv_header"], row["csv_row"] = lines[0], lines[1]
-        # With --check a violation exits 1 and still prints its row.
-        row["status"] = "ok" if rc == 0 else "violation" if rc == 1 else "error"
+    # With --check a stress violation exits 1 and still prints its row.
+    printed = rc == 0 or (task.tool == "stress" and rc == 1)
+    if len(lines) >= 2 and not timed_out and printed:
+        row["csv_header"], row["csv_row"] = lines[-2], lines[-1]
+        row["status"] = "ok" if rc == 0 else "violation"
     else:
         row.update(_exit_status(rc, timed_out, err))
     row["t_end"] = time.time()

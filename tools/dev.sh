@@ -39,8 +39,8 @@ deps() {
 # Without network access the Python tests are left out (CMake says so) and the rest runs.
 pyenv() {
     local venv=$build/pyenv
-    if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c \
-            "import numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm" 2>/dev/null; then
+    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm"
+    if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import $imports" 2>/dev/null; then
         mkdir -p "$build"
         [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || true
         "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy cffi pytest \

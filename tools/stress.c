@@ -238,7 +238,8 @@ int defsim_tool_stress(int argc, char **argv)
         fprintf(stderr, "defsim stress: cannot write %s\n", csv_path);
         return 1;
     }
-    if (csv) fprintf(csv, "scene,backend,h,E,nu,start,class,steps,energy_ratio,h_predicted,status\n");
+    if (csv)
+        fprintf(csv, "scene,backend,h,E,nu,start,class,steps,energy_ratio,h_predicted,status\n");
     int violations = 0, runs = 0;
     long index = -1;
     char *save_b = NULL;

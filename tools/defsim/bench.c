@@ -789,16 +789,18 @@ int defsim_tool_bench(int argc, char **argv)
     }
     pts = calloc((size_t)nuse * MAX_VALUES, sizeof *pts);
     if (!pts) goto done;
-    if (!one) printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value", "wall_s",
-           "rms_err", "max_err", "energy_err", "status");
+    if (!one)
+        printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value",
+               "wall_s", "rms_err", "max_err", "energy_err", "status");
     for (int k = 0; k < nuse; ++k) {
         const int is_tol = !strcmp(use[k], "sundials_ida");
         const int nval = is_tol ? ntol : nh;
         for (int j = 0; j < nval; ++j) {
             ++index;
             if (list_variants) {
-                printf("{\"index\": %ld, \"backend\": \"%s\", \"kind\": \"%s\", \"value\": %.17g}\n",
-                       index, use[k], is_tol ? "tol" : "h", is_tol ? tols[j] : hs[j]);
+                printf("{\"index\": %ld, \"backend\": \"%s\", \"kind\": \"%s\", "
+                       "\"value\": %.17g}\n", index, use[k], is_tol ? "tol" : "h",
+                       is_tol ? tols[j] : hs[j]);
                 continue;
             }
             if (variant >= 0 && index != variant) continue;
@@ -821,7 +823,8 @@ int defsim_tool_bench(int argc, char **argv)
     if (one) {
         if (variant >= 0 && npts == 1) write_rows(stdout, pts, 1);
         else if (variant >= 0) {
-            fprintf(stderr, "defsim bench: --variant %ld: there are %ld runs\n", variant, index + 1);
+            fprintf(stderr, "defsim bench: --variant %ld: there are %ld runs\n", variant,
+                    index + 1);
             rc = 2;
             goto done;
         }

@@ -9,13 +9,7 @@ from typing import Iterator
 
 import pytest
 
-# Skipped, with the reason printed by `pytest -rs`, only where the sweep extras are missing.
-distributed = pytest.importorskip(
-    "distributed", reason="dask.distributed is not installed (pip install './bindings/python[sweep]')")
-pytest.importorskip("pandas", reason="pandas is not installed (the sweep extras)")
-pytest.importorskip("pyarrow", reason="pyarrow is not installed (the sweep extras)")
-
-from defsim.sweep import find_defsim  # noqa: E402
+from defsim.sweep import find_defsim
 
 SCENES = Path(__file__).resolve().parents[4] / "tests" / "scenes"
 
@@ -35,6 +29,7 @@ def cantilever() -> Path:
 
 @pytest.fixture(scope="module")
 def cluster() -> Iterator[object]:
+    import distributed
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as c:
@@ -43,6 +38,7 @@ def cluster() -> Iterator[object]:
 
 @pytest.fixture
 def client(cluster) -> Iterator[object]:
+    import distributed
     with distributed.Client(cluster) as c:
         # A test that killed a worker leaves its nanny restarting it: wait for both.
         c.wait_for_workers(2, timeout=60)

@@ -12,12 +12,17 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
+
+# Skipped, with the reason (pytest -rs), only where the sweep extras are missing.
+_EXTRAS = "pip install './bindings/python[sweep]'"
+pytest.importorskip("distributed", reason=f"dask.distributed is not installed: {_EXTRAS}")
+pd = pytest.importorskip("pandas", reason=f"pandas is not installed: {_EXTRAS}")
+pytest.importorskip("pyarrow", reason=f"pyarrow is not installed: {_EXTRAS}")
 
 from defsim.sweep import (finish_bench, grid, read_results, read_vtu, run_sweep,
                           run_tool_sweep, samples, variant_id, write_tool_csv)
-from defsim.sweep._cli import main as cli_main
+from defsim.sweep._cli import main as cli_main  # noqa: E402
 
 E = "bodies.0.material.youngs_modulus"
 # Step sizes that divide a 1/30 s frame (the scene's fps) into whole steps.

@@ -15,11 +15,27 @@ variants already there. ``defsim-sweep`` is the command line. See the README, "R
 """
 from __future__ import annotations
 
-from ._engine import (finish_bench, list_tool_variants, read_results, run_sweep,
-                      run_tool_sweep, write_tool_csv)
-from ._runner import FinalState, find_defsim, read_vtu
-from ._variants import grid, samples, variant_id
+from typing import Any
 
-__all__ = ["run_sweep", "run_tool_sweep", "write_tool_csv", "finish_bench", "list_tool_variants",
-           "read_results", "grid", "samples", "variant_id", "FinalState", "find_defsim",
-           "read_vtu"]
+# Names resolve on first use (PEP 562), so that `defsim-sweep` can say which extra is missing
+# instead of failing at import.
+_EXPORTS = {
+    "run_sweep": "_engine", "run_tool_sweep": "_engine", "write_tool_csv": "_engine",
+    "finish_bench": "_engine", "list_tool_variants": "_engine", "read_results": "_engine",
+    "grid": "_variants", "samples": "_variants", "variant_id": "_variants",
+    "FinalState": "_runner", "find_defsim": "_runner", "read_vtu": "_runner",
+}
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'defsim.sweep' has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list:
+    return sorted(list(globals()) + __all__)

@@ -18,6 +18,28 @@ def _label(v) -> str:
     return f"{v:.3g}" if isinstance(v, float) else str(v)
 
 
+def _stable_step_marks(ax, df, kx, ky, xs, ys) -> list:
+    """With the step size on the y axis, a dash in each column at the stable step that
+    `defsim run` estimated at the start (the median over the column's variants), placed between
+    the rows on a log scale: where explicit runs are expected to start failing."""
+    if ky != "world.h" or "stable_step" not in df.columns or len(ys) < 2:
+        return []
+    import matplotlib.lines as mlines
+    logs = np.log([float(y) for y in ys])
+    drawn = False
+    for j, x in enumerate(xs):
+        hp = df.loc[df[kx] == x, "stable_step"].median()
+        if not (isinstance(hp, float) and math.isfinite(hp) and hp > 0):
+            continue
+        if not logs[0] <= math.log(hp) <= logs[-1]:
+            continue   # beyond the swept steps
+        y = float(np.interp(math.log(hp), logs, np.arange(len(ys))))
+        ax.plot([j - 0.5, j + 0.5], [y, y], color="black", lw=1.5, ls="--")
+        drawn = True
+    return [mlines.Line2D([], [], color="black", ls="--", label="estimated\nstable step")] \
+        if drawn else []
+
+
 def heat_map(df, keys: Sequence[str], value: str, path: Union[str, Path], title: str = "") -> Path:
     """Draws `value` (the "status" column, or a numeric one) over the first two swept keys
     (x: the first, y: the second; one key gives a single row) into `path` (PNG). Cells that hold
@@ -55,8 +77,9 @@ def heat_map(df, keys: Sequence[str], value: str, path: Union[str, Path], title:
             for (x, y), r in cell.items():
                 ax.text(xs.index(x), ys.index(y), f"{int(r['steps'])} steps", ha="center",
                         va="center", fontsize=7, color="white")
-        ax.legend(handles=[Patch(color=STATUS_COLORS.get(s, "#bbbbbb"), label=s) for s in names],
-                  loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+        handles = [Patch(color=STATUS_COLORS.get(s, "#bbbbbb"), label=s) for s in names]
+        handles += _stable_step_marks(ax, df, kx, ky, xs, ys)
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     else:
         grid = np.full((len(ys), len(xs)), np.nan)
         for (x, y), r in cell.items():

@@ -148,8 +148,11 @@ def _exit_status(rc: int, timed_out: bool, stderr: str) -> Dict[str, Any]:
     if timed_out:
         return {"status": "timeout", "message": "killed after the per-variant timeout"}
     if rc < 0:
-        return {"status": "crashed", "message": f"killed by signal {-rc} "
-                f"({signal.Signals(-rc).name if -rc in signal.Signals._value2member_map_ else '?'})"}
+        try:
+            name = signal.Signals(-rc).name
+        except ValueError:
+            name = "?"
+        return {"status": "crashed", "message": f"killed by signal {-rc} ({name})"}
     lines = [ln for ln in stderr.strip().splitlines() if ln.strip()]
     return {"status": "error", "message": lines[-1] if lines else f"exit status {rc}"}
 

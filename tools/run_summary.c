@@ -40,11 +40,9 @@ static void put_energy(FILE *f, const char *name, const defsim_energy *e)
 int run_summary_write(const char *path, const scene *s, const defsim_world *w,
                       const run_summary *r, char *err, size_t errsz)
 {
-    char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
+    FILE *f = fopen(path, "w");
     if (!f) {
-        snprintf(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
+        snprintf(err, errsz, "%s: %s", path, strerror(errno));
         return -1;
     }
     defsim_stats st = {.size = sizeof st};
@@ -86,12 +84,9 @@ int run_summary_write(const char *path, const scene *s, const defsim_world *w,
         first = 0;
     }
     fputs(first ? "]\n}\n" : "\n  ]\n}\n", f);
-    int ok = !ferror(f);
-    ok = (fclose(f) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
-        const int e = errno;
-        remove(tmp);
-        snprintf(err, errsz, "%s: write failed: %s", path, strerror(e));
+    const int bad = ferror(f);
+    if (fclose(f) != 0 || bad) {
+        snprintf(err, errsz, "%s: write failed: %s", path, strerror(errno));
         return -1;
     }
     return 0;

@@ -21,9 +21,9 @@ typedef struct run_summary {
     const double *x;         /* final positions, 3 * vertex count */
 } run_summary;
 
-/* Writes the summary as JSON to `path` (through a temporary file and a rename, so a reader never
- * sees half a file). Probe positions are printed with 17 significant digits: they parse back to
- * the same doubles. Returns 0, or -1 with `err` set. */
+/* Writes the summary as JSON to `path`, at the end of the run (readers wait for the process to
+ * exit). Numbers are printed with 17 significant digits: they parse back to the same doubles.
+ * Returns 0, or -1 with `err` set. */
 int run_summary_write(const char *path, const scene *s, const defsim_world *w,
                       const run_summary *r, char *err, size_t errsz);
 

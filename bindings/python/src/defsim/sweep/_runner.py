@@ -16,7 +16,7 @@ import signal
 import subprocess
 import time
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
@@ -118,7 +118,6 @@ class SceneTask:
     keep_output: bool = False
     vtk: bool = False               # all VTK frames too (final.vtu is always written)
     metrics: Optional[Callable[[FinalState], Any]] = None
-    extra_args: Sequence[str] = field(default_factory=tuple)
 
 
 def _worker_name() -> str:
@@ -174,7 +173,6 @@ def run_scene_variant(task: SceneTask) -> Dict[str, Any]:
         cmd.append("--no-vtk")
     for key, value in task.overrides.items():
         cmd += ["--set", f"{key}={json.dumps(value)}"]
-    cmd += list(task.extra_args)
     t0 = time.perf_counter()
     rc, _out, err, timed_out = _run(cmd, child_env(task.exe), task.timeout)
     run_s = time.perf_counter() - t0
@@ -182,10 +180,14 @@ def run_scene_variant(task: SceneTask) -> Dict[str, Any]:
                            "worker": _worker_name(), "message": ""}
     summary: Dict[str, Any] = {}
     if summary_path.is_file() and not timed_out and rc >= 0:
-        summary = json.loads(summary_path.read_text())
+        try:
+            summary = json.loads(summary_path.read_text())
+        except ValueError:   # cut short (a full disk): the run's stderr says more
+            summary = {}
+    if summary:
         row["status"] = str(summary["status"]).replace(" ", "_")
         row["message"] = summary.get("message", "")
-        if rc not in (0, 1):
+        if rc not in (0, 1, 130):
             row["status"], row["message"] = "error", f"exit status {rc}: {row['message']}"
     else:
         row.update(_exit_status(rc, timed_out, err))

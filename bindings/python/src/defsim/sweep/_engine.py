@@ -14,7 +14,8 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Seque
 
 import pandas as pd
 
-from ._runner import SceneTask, ToolTask, find_defsim, run_scene_variant, run_tool_variant
+from ._runner import (SceneTask, ToolTask, find_defsim, run_guarded, run_scene_variant,
+                      run_tool_variant)
 from ._variants import dedupe
 
 RESULTS = "results"   # DIR/results/part-*.parquet
@@ -139,7 +140,8 @@ def _execute(tasks: Sequence[Any], func: Callable[[Any], Dict[str, Any]], out: P
         # (with a token per call, so that a client kept between calls never hands back a
         # result of an earlier call).
         token = uuid.uuid4().hex[:8]
-        futures = c.map(func, tasks, key=[f"defsim-variant-{t.variant_id}-{token}" for t in tasks])
+        futures = c.map(run_guarded, tasks, func=func,
+                        key=[f"defsim-variant-{t.variant_id}-{token}" for t in tasks])
         seen = set()
         try:
             for fut, row in as_completed(futures, with_results=True):

@@ -50,6 +50,12 @@ def find_defsim(exe: Optional[str] = None) -> str:
                             "PATH, or build the project (build/bin/defsim)")
 
 
+def worker_exe(client_exe: str) -> str:
+    """The executable a worker runs: the client's if this machine has it at the same path,
+    else this machine's own (DEFSIM_EXE, PATH, a build tree)."""
+    return client_exe if os.access(client_exe, os.X_OK) else find_defsim()
+
+
 def child_env(exe: str) -> Dict[str, str]:
     """The variant's environment: this process's, plus DEFSIM_BACKEND_PATH pointing at the build
     tree's modules when `exe` is a build-tree binary and the variable is not set (an installed
@@ -167,14 +173,15 @@ def run_scene_variant(task: SceneTask) -> Dict[str, Any]:
     work = runs / f".{task.variant_id}.{uuid.uuid4().hex[:8]}"
     work.mkdir(parents=True, exist_ok=True)
     summary_path = work / "summary.json"
-    cmd = [task.exe, "run", task.scene, "--out", str(work), "--progress", "none",
+    exe = worker_exe(task.exe)
+    cmd = [exe, "run", task.scene, "--out", str(work), "--progress", "none",
            "--summary-json", str(summary_path), "--threads", str(int(task.threads))]
     if not task.vtk:
         cmd.append("--no-vtk")
     for key, value in task.overrides.items():
         cmd += ["--set", f"{key}={json.dumps(value)}"]
     t0 = time.perf_counter()
-    rc, _out, err, timed_out = _run(cmd, child_env(task.exe), task.timeout)
+    rc, _out, err, timed_out = _run(cmd, child_env(exe), task.timeout)
     run_s = time.perf_counter() - t0
     row: Dict[str, Any] = {"variant_id": task.variant_id, "returncode": rc, "run_s": run_s,
                            "worker": _worker_name(), "message": ""}
@@ -257,10 +264,11 @@ def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
     text (`csv_header`, `csv_row`: the last two lines it prints) so the sweep can write the
     tool's own CSV unchanged."""
     t_start = time.time()
-    cmd = [task.exe, task.tool, *task.args, "--variant", str(task.index)]
+    exe = worker_exe(task.exe)
+    cmd = [exe, task.tool, *task.args, "--variant", str(task.index)]
     t0 = time.perf_counter()
     cwd = task.cwd if task.cwd and os.path.isdir(task.cwd) else None
-    rc, out, err, timed_out = _run(cmd, child_env(task.exe), task.timeout, cwd)
+    rc, out, err, timed_out = _run(cmd, child_env(exe), task.timeout, cwd)
     run_s = time.perf_counter() - t0
     lines = [ln for ln in out.splitlines() if ln.strip()]
     row: Dict[str, Any] = {"variant_id": task.variant_id, "index": task.index, "returncode": rc,
@@ -275,3 +283,18 @@ def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
         row.update(_exit_status(rc, timed_out, err))
     row["t_end"] = time.time()
     return row
+
+
+def run_guarded(task: Any, func: Callable[[Any], Dict[str, Any]]) -> Dict[str, Any]:
+    """func(task), or an `error` row if the worker itself fails (no executable there, a full
+    disk): a failing variant never ends the sweep."""
+    try:
+        return func(task)
+    except Exception as exc:
+        now = time.time()
+        row: Dict[str, Any] = {"variant_id": task.variant_id, "status": "error",
+                               "returncode": -1, "message": f"worker: {type(exc).__name__}: {exc}",
+                               "worker": _worker_name(), "t_start": now, "t_end": now}
+        if isinstance(task, ToolTask):
+            row.update(index=task.index, csv_header="", csv_row="")
+        return row

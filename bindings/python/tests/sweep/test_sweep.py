@@ -46,6 +46,19 @@ def test_variants_grid_samples_ids():
     assert len({variant_id(v) for v in g}) == 6
 
 
+def test_a_failing_worker_call_is_an_error_row():
+    from defsim.sweep._runner import SceneTask, ToolTask, run_guarded
+
+    def boom(task):
+        raise OSError("no space left on device")
+
+    row = run_guarded(SceneTask("abc", {}, "s.json", "/nonexistent", "defsim"), boom)
+    assert row["variant_id"] == "abc" and row["status"] == "error"
+    assert "OSError" in row["message"]
+    row = run_guarded(ToolTask("t1", 7, "defsim", "stress", []), boom)
+    assert row["index"] == 7 and row["csv_row"] == "" and row["status"] == "error"
+
+
 def _serial_tip(exe, scene, overrides, out):
     """The probe (tip) of `defsim run` with the same overrides and threads, from its final.vtu."""
     cmd = [exe, "run", str(scene), "--out", str(out), "--progress", "none", "--no-vtk",

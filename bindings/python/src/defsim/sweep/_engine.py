@@ -140,7 +140,7 @@ def _execute(tasks: Sequence[Any], func: Callable[[Any], Dict[str, Any]], out: P
         # (with a token per call, so that a client kept between calls never hands back a
         # result of an earlier call).
         token = uuid.uuid4().hex[:8]
-        futures = c.map(run_guarded, tasks, func=func,
+        futures = c.map(run_guarded, tasks, run=func,
                         key=[f"defsim-variant-{t.variant_id}-{token}" for t in tasks])
         seen = set()
         try:

@@ -285,11 +285,11 @@ def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
     return row
 
 
-def run_guarded(task: Any, func: Callable[[Any], Dict[str, Any]]) -> Dict[str, Any]:
-    """func(task), or an `error` row if the worker itself fails (no executable there, a full
+def run_guarded(task: Any, run: Callable[[Any], Dict[str, Any]]) -> Dict[str, Any]:
+    """run(task), or an `error` row if the worker itself fails (no executable there, a full
     disk): a failing variant never ends the sweep."""
     try:
-        return func(task)
+        return run(task)
     except Exception as exc:
         now = time.time()
         row: Dict[str, Any] = {"variant_id": task.variant_id, "status": "error",

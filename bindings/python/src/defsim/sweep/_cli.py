@@ -169,6 +169,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except (ValueError, FileNotFoundError, RuntimeError) as exc:
         print(f"defsim-sweep: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        # The rows that arrived are on disk (the engine flushes them on the way out).
+        print(f"\ndefsim-sweep: interrupted; the finished variants are in {out / 'results'}; "
+              "--resume runs the others", file=sys.stderr)
+        return 130
     keys = list(dict.fromkeys(k for v in variants for k in v))
     print(summary_table(df, keys))
     print(f"ran {len(df.attrs['ran'])} variants now; results: {out / 'results'}")

@@ -27,7 +27,7 @@ def read_results(out: Union[str, os.PathLike]) -> pd.DataFrame:
     could do, keeps its first row)."""
     parts = sorted((Path(out) / RESULTS).glob("part-*.parquet"))
     if not parts:
-        return pd.DataFrame()
+        return pd.DataFrame({"variant_id": pd.Series(dtype=str)})
     # Parts are read one by one: a column that only later variants have (a metric that failed
     # earlier) would not fit one dataset schema.
     df = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True, sort=False)

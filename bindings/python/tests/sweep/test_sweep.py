@@ -92,8 +92,11 @@ def _wrapper(tmp_path, exe):
     """A `defsim` that segfaults when its arguments say "crash" and hangs when they say "hang":
     real signals and real hangs, to check that they stay inside their variant."""
     path = tmp_path / "defsim-wrapper"
+    modules = Path(exe).resolve().parent.parent / "modules"   # as the sweep gives the real one
     path.write_text("#!/bin/sh\ncase \"$*\" in\n  *crash*) kill -SEGV $$ ;;\n"
-                    "  *hang*) exec sleep 60 ;;\nesac\n" f"exec {exe} \"$@\"\n")
+                    "  *hang*) exec sleep 60 ;;\nesac\n"
+                    f"export DEFSIM_BACKEND_PATH=${{DEFSIM_BACKEND_PATH:-{modules}}}\n"
+                    f"exec {exe} \"$@\"\n")
     path.chmod(path.stat().st_mode | stat.S_IXUSR)
     return str(path)
 
@@ -173,6 +176,23 @@ def test_resume_runs_only_the_missing_variants(client, exe, cantilever, tmp_path
     # Nothing left: a third call runs nothing.
     third = run_sweep(cantilever, variants, tmp_path / "r", client=client, exe=exe, resume=True)
     assert third.attrs["ran"] == [] and len(third) == 8
+
+
+def test_scene_as_a_dict(client, exe, cantilever, tmp_path):
+    scene = json.loads(cantilever.read_text())
+    scene["world"]["duration"] = 0.1
+    variants = [{E: 1e6}, {E: 2e6}]
+    df = run_sweep(scene, variants, tmp_path / "d", client=client, exe=exe)
+    assert list(df["status"]) == ["ok", "ok"] and list(df.columns[:1]) == [E]
+    assert json.loads((tmp_path / "d" / "scene.json").read_text()) == scene
+    # The Parquet rows alone say what ran.
+    disk = read_results(tmp_path / "d").set_index("variant_id")
+    assert [json.loads(disk.loc[variant_id(v), "overrides"]) for v in variants] == variants
+    # Another scene in the same folder is refused, and the folder's scene stays.
+    other = {**scene, "world": {**scene["world"], "duration": 0.2}}
+    with pytest.raises(ValueError, match="something else"):
+        run_sweep(other, variants, tmp_path / "d", client=client, exe=exe, resume=True)
+    assert json.loads((tmp_path / "d" / "scene.json").read_text()) == scene
 
 
 def test_stress_through_the_engine_equals_the_serial_tool(client, exe, tmp_path):

@@ -135,10 +135,9 @@ def _execute(tasks: Sequence[Any], func: Callable[[Any], Dict[str, Any]], out: P
                     progress)
     with _client(client, scheduler, workers) as c:
         from distributed import as_completed
-        # The key is the variant id: Dask runs a key once per sweep, and reschedules it when a
-        # worker dies before returning its result.
-        # (with a token per call, so that a client kept between calls never hands back a
-        # result of an earlier call).
+        # The key is the variant id: Dask runs a key once, and reschedules it when a worker dies
+        # before returning its result. A token per call keeps a client that is reused between
+        # calls from handing back a result of an earlier call.
         token = uuid.uuid4().hex[:8]
         futures = c.map(run_guarded, tasks, run=func,
                         key=[f"defsim-variant-{t.variant_id}-{token}" for t in tasks])
@@ -190,19 +189,19 @@ def run_sweep(scene: Union[str, os.PathLike, Mapping[str, Any]],
     out = Path(out).resolve()
     exe = find_defsim(exe)
     if isinstance(scene, Mapping):
-        # A scene given as a dict is written to the folder; its mesh files, if any, must then
-        # be absolute paths or paths relative to `out`.
-        out.mkdir(parents=True, exist_ok=True)
-        text = json.dumps(scene, indent=1, sort_keys=True)
+        # A scene given as a dict is written to the folder (once the folder is known to hold
+        # this sweep); its mesh files, if any, must be absolute paths or relative to `out`.
+        data = json.dumps(scene, indent=1, sort_keys=True).encode()
         scene_path = out / "scene.json"
-        if not scene_path.exists() or scene_path.read_text() != text:
-            scene_path.write_text(text)
     else:
         scene_path = Path(scene).resolve()
-    scene_hash = hashlib.sha256(scene_path.read_bytes()).hexdigest()[:16]
+        data = scene_path.read_bytes()
+    scene_hash = hashlib.sha256(data).hexdigest()[:16]
     items = dedupe(variants)
     _manifest(out, {"kind": "scene", "scene": str(scene_path), "scene_sha256": scene_hash},
               resume)
+    if isinstance(scene, Mapping):
+        scene_path.write_bytes(data)
     done = set(read_results(out)["variant_id"]) if resume else set()
     tasks = [SceneTask(vid, ov, str(scene_path), str(out), exe, threads, timeout, keep_output,
                        vtk, metrics) for vid, ov in items if vid not in done]
@@ -212,10 +211,12 @@ def run_sweep(scene: Union[str, os.PathLike, Mapping[str, Any]],
     if not df.empty:
         wanted = {vid: i for i, (vid, _) in enumerate(items)}
         df = df[df["variant_id"].isin(wanted)].copy()
-        # Override columns, one per swept key, in the order of the variants.
+        # One column per swept key, first; rows in the order of the variants.
         by_id = dict(items)
-        for key in dict.fromkeys(k for _, ov in items for k in ov):
-            df[key] = [by_id[v].get(key) for v in df["variant_id"]]
+        keys = list(dict.fromkeys(k for _, ov in items for k in ov))
+        swept = pd.DataFrame({k: [by_id[v].get(k) for v in df["variant_id"]] for k in keys},
+                             index=df.index)
+        df = pd.concat([swept, df.drop(columns=[k for k in keys if k in df.columns])], axis=1)
         df = df.sort_values("variant_id", key=lambda s: s.map(wanted)).reset_index(drop=True)
     df.attrs["ran"] = ran
     return df

@@ -22,13 +22,6 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-#: The columns every scene row has, in order (probe, metric and override columns follow).
-BASE_COLUMNS = ["variant_id", "status", "returncode", "message", "steps", "failed_steps",
-                "frames", "sim_time", "wall_s", "run_s", "stable_step", "E_start",
-                "E_kinetic", "E_elastic", "E_gravitational", "E_total", "output", "worker",
-                "t_start", "t_end"]
-
-
 def find_defsim(exe: Optional[str] = None) -> str:
     """The `defsim` executable: `exe` if given, else $DEFSIM_EXE, else `defsim` on PATH, else a
     build tree around this source checkout (build*/bin/defsim). Raises FileNotFoundError."""
@@ -183,8 +176,10 @@ def run_scene_variant(task: SceneTask) -> Dict[str, Any]:
     t0 = time.perf_counter()
     rc, _out, err, timed_out = _run(cmd, child_env(exe), task.timeout)
     run_s = time.perf_counter() - t0
+    # The overrides go into the row as JSON text too, so the Parquet files alone say what ran.
     row: Dict[str, Any] = {"variant_id": task.variant_id, "returncode": rc, "run_s": run_s,
-                           "worker": _worker_name(), "message": ""}
+                           "worker": _worker_name(), "message": "",
+                           "overrides": json.dumps(task.overrides, sort_keys=True)}
     summary: Dict[str, Any] = {}
     if summary_path.is_file() and not timed_out and rc >= 0:
         try:

@@ -59,6 +59,16 @@ def test_a_failing_worker_call_is_an_error_row():
     assert row["index"] == 7 and row["csv_row"] == "" and row["status"] == "error"
 
 
+def test_a_tool_run_numbered_otherwise_on_a_worker_is_refused(exe):
+    from defsim.sweep._runner import ToolTask, run_tool_variant
+    args = ["--reduced", "--scenes", "rope", "--backends", "symplectic_euler", "--steps", "10"]
+    assert run_tool_variant(ToolTask("a", 3, exe, "stress", args,
+                                     backend="symplectic_euler"))["status"] == "ok"
+    # As if the client had listed explicit_euler at index 3 and this worker lacked it.
+    row = run_tool_variant(ToolTask("a", 3, exe, "stress", args, backend="explicit_euler"))
+    assert row["status"] == "mismatch" and row["csv_row"] == ""
+
+
 def _serial_tip(exe, scene, overrides, out):
     """The probe (tip) of `defsim run` with the same overrides and threads, from its final.vtu."""
     cmd = [exe, "run", str(scene), "--out", str(out), "--progress", "none", "--no-vtk",

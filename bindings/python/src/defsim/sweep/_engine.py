@@ -254,7 +254,8 @@ def run_tool_sweep(tool: str, args: Sequence[str], out: Union[str, os.PathLike],
     ids = [hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:16] for v in listed]
     _manifest(out, {"kind": "tool", "tool": tool, "args": list(args)}, resume)
     done = set(read_results(out)["variant_id"]) if resume else set()
-    tasks = [ToolTask(vid, int(v["index"]), exe, tool, list(args), timeout, os.getcwd())
+    tasks = [ToolTask(vid, int(v["index"]), exe, tool, list(args), timeout, os.getcwd(),
+                      str(v.get("backend", "")))
              for vid, v in zip(ids, listed) if vid not in done]
     ran = _execute(tasks, run_tool_variant, out, client, scheduler, workers, max_variants,
                    progress, batch, flush_interval, None)

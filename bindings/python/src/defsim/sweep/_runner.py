@@ -252,6 +252,7 @@ class ToolTask:
     args: Sequence[str]
     timeout: Optional[float] = None
     cwd: Optional[str] = None       # the client's folder, where relative paths in args point
+    backend: str = ""               # the run's backend in the client's listing
 
 
 def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
@@ -274,6 +275,14 @@ def run_tool_variant(task: ToolTask) -> Dict[str, Any]:
     if len(lines) >= 2 and not timed_out and printed:
         row["csv_header"], row["csv_row"] = lines[-2], lines[-1]
         row["status"] = "ok" if rc == 0 else "violation"
+        # A worker that lacks a backend module numbers the runs differently: its row is not
+        # the listed run.
+        fields = dict(zip(lines[-2].split(","), lines[-1].split(",")))
+        if task.backend and fields.get("backend") != task.backend:
+            row.update(status="mismatch", csv_header="", csv_row="",
+                       message=f"run {task.index} here is {fields.get('backend')!r}, listed as "
+                               f"{task.backend!r} (are the same backend modules on every "
+                               "worker?)")
     else:
         row.update(_exit_status(rc, timed_out, err))
     row["t_end"] = time.time()

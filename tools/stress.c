@@ -204,7 +204,11 @@ int defsim_tool_stress(int argc, char **argv)
         if (!strcmp(argv[i], "--reduced")) reduced = 1;
         else if (!strcmp(argv[i], "--check")) check = 1;
         else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
-        else if (!strcmp(argv[i], "--variant") && i + 1 < argc) variant = atol(argv[++i]);
+        else if (!strcmp(argv[i], "--variant") && i + 1 < argc) {
+            char *end = NULL;
+            variant = strtol(argv[++i], &end, 10);
+            if (end == argv[i] || *end || variant < 0) return usage();
+        }
         else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv_path = argv[++i];
         else if (!strcmp(argv[i], "--backends") && i + 1 < argc)
             snprintf(backends_buf, sizeof backends_buf, "%s", argv[++i]);

@@ -34,14 +34,20 @@ deps() {
     fi
 }
 
-# A virtual environment with what the Python binding's tests need (numpy, cffi, pytest).
+# A virtual environment with what the Python binding's tests need (numpy, cffi, pytest, and the
+# sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm).
 # Without network access the Python tests are left out (CMake says so) and the rest runs.
 pyenv() {
     local venv=$build/pyenv
-    if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import numpy, cffi, pytest" 2>/dev/null; then
+    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm"
+    if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import $imports" 2>/dev/null; then
         mkdir -p "$build"
-        python3 -m venv "$venv" && "$venv/bin/python" -m pip install -q --disable-pip-version-check \
-            numpy cffi pytest || { echo "== no Python test environment (pip failed)"; return 0; }
+        [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || true
+        "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy cffi pytest \
+            "dask[distributed]" pandas pyarrow matplotlib tqdm || echo "== pip failed"
+        # Without the sweep extras the binding's own tests still run (CMake says what it skipped).
+        "$venv/bin/python" -c "import numpy, cffi, pytest" 2>/dev/null ||
+            { echo "== no Python test environment"; return 0; }
     fi
     python_arg="-DDEFSIM_PYTHON=$venv/bin/python"
 }

@@ -184,13 +184,18 @@ static int usage(void)
     fprintf(stderr,
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
             "                     [--scenes beam,rope] [--steps N] [--time T]\n"
-            "                     [--max-iterations N] [--max-internal-steps N]\n");
+            "                     [--max-iterations N] [--max-internal-steps N]\n"
+            "                     [--list-variants | --variant K]\n"
+            "  --list-variants    print the runs of the matrix as JSON lines (index and settings)\n"
+            "  --variant K        run only run K of the matrix; print the CSV header and its row\n"
+            "                     (with --check, exit 1 if it is a violation)\n");
     return 2;
 }
 
 int defsim_tool_stress(int argc, char **argv)
 {
-    int reduced = 0, check = 0, max_steps = 0;
+    int reduced = 0, check = 0, max_steps = 0, list_variants = 0;
+    long variant = -1;   /* >= 0: run only this one (defsim-sweep --tool stress) */
     double T = 0.5;
     const char *csv_path = "stress.csv";
     char backends_buf[512] = "explicit_euler,symplectic_euler,newton_cholmod,sundials_kinsol,sundials_ida";
@@ -198,6 +203,12 @@ int defsim_tool_stress(int argc, char **argv)
     for (int i = 0; i < argc; ++i) {
         if (!strcmp(argv[i], "--reduced")) reduced = 1;
         else if (!strcmp(argv[i], "--check")) check = 1;
+        else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
+        else if (!strcmp(argv[i], "--variant") && i + 1 < argc) {
+            char *end = NULL;
+            variant = strtol(argv[++i], &end, 10);
+            if (end == argv[i] || *end || variant < 0) return usage();
+        }
         else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv_path = argv[++i];
         else if (!strcmp(argv[i], "--backends") && i + 1 < argc)
             snprintf(backends_buf, sizeof backends_buf, "%s", argv[++i]);
@@ -224,17 +235,25 @@ int defsim_tool_stress(int argc, char **argv)
     const int nh = reduced ? 5 : 9, nE = reduced ? 3 : 6, nnu = reduced ? 2 : 4;
     const int nstart = NSTARTS;
 
-    FILE *csv = fopen(csv_path, "w");
-    if (!csv) { fprintf(stderr, "defsim stress: cannot write %s\n", csv_path); return 1; }
-    fprintf(csv, "scene,backend,h,E,nu,start,class,steps,energy_ratio,h_predicted,status\n");
+    /* One run of the matrix alone writes its row to stdout; a listing writes no CSV. */
+    const int one = list_variants || variant >= 0;
+    FILE *csv = list_variants ? NULL : variant >= 0 ? stdout : fopen(csv_path, "w");
+    if (!csv && !list_variants) {
+        fprintf(stderr, "defsim stress: cannot write %s\n", csv_path);
+        return 1;
+    }
+    if (csv)
+        fprintf(csv, "scene,backend,h,E,nu,start,class,steps,energy_ratio,h_predicted,status\n");
     int violations = 0, runs = 0;
+    long index = -1;
     char *save_b = NULL;
-    printf("%-10s %-18s %8s %8s %8s %8s %8s\n", "scene", "backend", "stable", "blowup",
-           "nonfinite", "error", "runs");
+    if (!one)
+        printf("%-10s %-18s %8s %8s %8s %8s %8s\n", "scene", "backend", "stable", "blowup",
+               "nonfinite", "error", "runs");
     for (char *b = strtok_r(backends_buf, ",", &save_b); b; b = strtok_r(NULL, ",", &save_b)) {
         uint32_t flags = 0;
         if (!backend_flags(b, &flags)) {
-            printf("%-10s %-18s (not available: %s)\n", "-", b, defsim_last_error());
+            if (!one) printf("%-10s %-18s (not available: %s)\n", "-", b, defsim_last_error());
             continue;
         }
         char scenes[128], *save_s = NULL;
@@ -246,6 +265,15 @@ int defsim_tool_stress(int argc, char **argv)
                 for (int in = 0; in < nn; ++in)
                     for (int st = 0; st < nstart; ++st)
                         for (int ih = 0; ih < nh; ++ih) {
+                            ++index;
+                            if (list_variants) {
+                                printf("{\"index\": %ld, \"scene\": \"%s\", \"backend\": \"%s\", "
+                                       "\"h\": %.6g, \"E\": %.6g, \"nu\": %.4g, \"start\": "
+                                       "\"%s\"}\n", index, sc, b, hs[ih], Es[ie], nus[in],
+                                       start_names[st]);
+                                continue;
+                            }
+                            if (variant >= 0 && index != variant) continue;
                             run_result r = run_one(sc, b, hs[ih], Es[ie], nus[in], st, max_steps, T);
                             ++runs;
                             count[r.cls]++;
@@ -280,11 +308,18 @@ int defsim_tool_stress(int argc, char **argv)
                                         nus[in], start_names[st], why, class_names[r.cls], r.h_pred);
                             }
                         }
-            printf("%-10s %-18s %8d %8d %8d %8d %8d\n", sc, b, count[CLS_STABLE],
+            if (!one)
+                printf("%-10s %-18s %8d %8d %8d %8d %8d\n", sc, b, count[CLS_STABLE],
                    count[CLS_BLOWUP], count[CLS_NONFINITE], count[CLS_ERROR],
                    count[0] + count[1] + count[2] + count[3]);
         }
     }
+    if (variant >= 0 && runs == 0) {
+        fprintf(stderr, "defsim stress: --variant %ld: the matrix has %ld runs\n", variant,
+                index + 1);
+        return 2;
+    }
+    if (one) return violations ? 1 : 0;
     fclose(csv);
     printf("%d runs written to %s", runs, csv_path);
     if (check) printf(", %d violations", violations);

@@ -102,6 +102,12 @@ static int usage(FILE *f)
         "                      python3)\n"
         "  --plot-script PATH  the plotting script (default: tools/plot_wp.py of the source)\n"
         "  --no-plot           do not call the plotting script\n"
+        "  --list-variants     compute or load the reference, then print the runs as JSON\n"
+        "                      lines (index, backend, kind, value) and stop\n"
+        "  --variant K         run only run K (the reference must be cached: --list-variants\n"
+        "                      first); print the CSV header and its row\n"
+        "  --rows FILE         take the runs' rows from FILE (the --variant K outputs, in\n"
+        "                      order) instead of running them; write the CSV, table and plot\n"
         "  -h, --help          this text\n"
         "Exit status: 0 done (also when no plot could be made), 1 error, 2 usage error.\n");
     return f == stderr ? 2 : 0;
@@ -444,6 +450,18 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
     return fclose(f) == 0 ? 0 : -1;
 }
 
+#define CSV_HEADER "backend,kind,value,wall_s,rms_err,max_err,energy_err,status,steps," \
+                   "newton_iterations,internal_steps,pareto"
+
+static void write_rows(FILE *f, const point *p, int n)
+{
+    fprintf(f, CSV_HEADER "\n");
+    for (int i = 0; i < n; ++i)
+        fprintf(f, "%s,%s,%.10g,%.6g,%.6e,%.6e,%.6e,%s,%lld,%lld,%lld,%d\n", p[i].backend,
+                p[i].is_tol ? "tol" : "h", p[i].value, p[i].wall, p[i].rms, p[i].max,
+                p[i].energy, p[i].status, p[i].steps, p[i].newton, p[i].internal, p[i].pareto);
+}
+
 static int write_csv(const point *p, int n, const char *path)
 {
     FILE *f = fopen(path, "w");
@@ -451,13 +469,42 @@ static int write_csv(const point *p, int n, const char *path)
         fprintf(stderr, "defsim bench: cannot write %s: %s\n", path, strerror(errno));
         return -1;
     }
-    fprintf(f, "backend,kind,value,wall_s,rms_err,max_err,energy_err,status,steps,"
-               "newton_iterations,internal_steps,pareto\n");
-    for (int i = 0; i < n; ++i)
-        fprintf(f, "%s,%s,%.10g,%.6g,%.6e,%.6e,%.6e,%s,%lld,%lld,%lld,%d\n", p[i].backend,
-                p[i].is_tol ? "tol" : "h", p[i].value, p[i].wall, p[i].rms, p[i].max,
-                p[i].energy, p[i].status, p[i].steps, p[i].newton, p[i].internal, p[i].pareto);
+    write_rows(f, p, n);
     return fclose(f) == 0 ? 0 : -1;
+}
+
+/* The next row of a --rows file into p, whose backend and kind the run order fixes: the
+ * numbers parse back to what the run printed (the CSV's formats, printed again, give the same
+ * text). Header lines are skipped. Returns 0, or -1 with a message. */
+static int read_row(FILE *f, point *p)
+{
+    char line[1024], *save = NULL;
+    do {
+        if (!fgets(line, sizeof line, f)) {
+            fprintf(stderr, "defsim bench: --rows: fewer rows than runs\n");
+            return -1;
+        }
+    } while (!strncmp(line, "backend,", 8) || line[0] == '\n');
+    line[strcspn(line, "\r\n")] = '\0';
+    char *fld[12];
+    int n = 0;
+    for (char *t = strtok_r(line, ",", &save); t && n < 12; t = strtok_r(NULL, ",", &save))
+        fld[n++] = t;
+    if (n != 12 || strcmp(fld[0], p->backend) || strcmp(fld[1], p->is_tol ? "tol" : "h")) {
+        fprintf(stderr, "defsim bench: --rows: a row does not match run %s %s (wrong order or "
+                        "other arguments)\n", p->backend, p->is_tol ? "tol" : "h");
+        return -1;
+    }
+    p->value = strtod(fld[2], NULL);
+    p->wall = strtod(fld[3], NULL);
+    p->rms = strtod(fld[4], NULL);
+    p->max = strtod(fld[5], NULL);
+    p->energy = strtod(fld[6], NULL);
+    snprintf(p->status, sizeof p->status, "%s", fld[7]);
+    p->steps = strtoll(fld[8], NULL, 10);
+    p->newton = strtoll(fld[9], NULL, 10);
+    p->internal = strtoll(fld[10], NULL, 10);
+    return 0;
 }
 
 /* Runs the plotting script. Never fails the bench: says how to make the plot by hand. */
@@ -488,7 +535,9 @@ static void plot(const char *python, const char *script, const char *csv, const 
 
 int defsim_tool_bench(int argc, char **argv)
 {
-    const char *scene_path = NULL, *out_dir = NULL, *ref_path = NULL;
+    const char *scene_path = NULL, *out_dir = NULL, *ref_path = NULL, *rows_path = NULL;
+    int list_variants = 0;
+    long variant = -1;   /* >= 0: run only this one (defsim-sweep --tool bench) */
     const char *python = getenv("DEFSIM_PYTHON"), *script = DEFSIM_BENCH_PLOT_SCRIPT;
     const char *backend_list = NULL;
     double hs[MAX_VALUES], tols[MAX_VALUES], T = 0.0;
@@ -500,6 +549,7 @@ int defsim_tool_bench(int argc, char **argv)
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
         if (!strcmp(a, "--no-plot")) { no_plot = 1; continue; }
+        if (!strcmp(a, "--list-variants")) { list_variants = 1; continue; }
         if (a[0] != '-') {
             if (scene_path) return usage(stderr);
             scene_path = a;
@@ -550,6 +600,14 @@ int defsim_tool_bench(int argc, char **argv)
         else if (!strcmp(a, "--reference")) ref_path = v;
         else if (!strcmp(a, "--python")) python = v;
         else if (!strcmp(a, "--plot-script")) script = v;
+        else if (!strcmp(a, "--rows")) rows_path = v;
+        else if (!strcmp(a, "--variant")) {
+            variant = strtol(v, &end, 10);
+            if (end == v || *end || variant < 0) {
+                fprintf(stderr, "defsim bench: --variant: need a run index >= 0: %s\n", v);
+                return 2;
+            }
+        }
         else {
             fprintf(stderr, "defsim bench: unknown option %s\n", a);
             return usage(stderr);
@@ -713,28 +771,66 @@ int defsim_tool_bench(int argc, char **argv)
                         "not available, and %s does not exist\n", path);
         goto done;
     }
+    /* Runs of a distributed sweep must not compute the reference each (nor race writing it). */
+    if (variant >= 0 && access(path, R_OK) != 0) {
+        fprintf(stderr, "defsim bench: --variant: no cached reference %s (run --list-variants "
+                        "with the same arguments first)\n", path);
+        goto done;
+    }
     if (get_reference(&b, path, key, &ref, &cached) != 0) goto done;
 
     /* The sweep. */
     int npts = 0;
+    long index = -1;
+    const int one = list_variants || variant >= 0;
+    FILE *rows = rows_path ? fopen(rows_path, "r") : NULL;
+    if (rows_path && !rows) {
+        fprintf(stderr, "defsim bench: --rows: cannot read %s: %s\n", rows_path, strerror(errno));
+        goto done;
+    }
     pts = calloc((size_t)nuse * MAX_VALUES, sizeof *pts);
     if (!pts) goto done;
-    printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value", "wall_s",
-           "rms_err", "max_err", "energy_err", "status");
+    if (!one)
+        printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value",
+               "wall_s", "rms_err", "max_err", "energy_err", "status");
     for (int k = 0; k < nuse; ++k) {
         const int is_tol = !strcmp(use[k], "sundials_ida");
         const int nval = is_tol ? ntol : nh;
         for (int j = 0; j < nval; ++j) {
+            ++index;
+            if (list_variants) {
+                printf("{\"index\": %ld, \"backend\": \"%s\", \"kind\": \"%s\", "
+                       "\"value\": %.17g}\n", index, use[k], is_tol ? "tol" : "h",
+                       is_tol ? tols[j] : hs[j]);
+                continue;
+            }
+            if (variant >= 0 && index != variant) continue;
             point *p = &pts[npts++];
             p->backend = use[k];
             p->is_tol = is_tol;
             p->value = is_tol ? tols[j] : hs[j];
-            run_point(&b, &ref, p);
-            printf("%-17s %-5s %10.4g %10.4g %10.3e %10.3e %10.3e  %s\n", p->backend,
+            if (rows && read_row(rows, p) != 0) {
+                fclose(rows);
+                goto done;
+            }
+            if (!rows) run_point(&b, &ref, p);
+            if (!one) printf("%-17s %-5s %10.4g %10.4g %10.3e %10.3e %10.3e  %s\n", p->backend,
                    is_tol ? "tol" : "h", p->value, p->wall, p->rms, p->max, p->energy,
                    p->status);
             fflush(stdout);
         }
+    }
+    if (rows) fclose(rows);
+    if (one) {
+        if (variant >= 0 && npts == 1) write_rows(stdout, pts, 1);
+        else if (variant >= 0) {
+            fprintf(stderr, "defsim bench: --variant %ld: there are %ld runs\n", variant,
+                    index + 1);
+            rc = 2;
+            goto done;
+        }
+        rc = 0;
+        goto done;
     }
     mark_pareto(pts, npts);
     char csv[1500], png[1500], md[1500], title[512];

@@ -19,6 +19,7 @@
 #endif
 
 #include "fileio.h"
+#include "run_summary.h"
 
 #include <errno.h>
 #include <math.h>
@@ -54,6 +55,8 @@ static int usage(FILE *f)
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
         "                     (sundials_ida.rtol=1e-6, core.simd=generic); repeatable\n"
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
+        "  --summary-json FILE  write how the run ended (status, steps, energies, probes,\n"
+        "                     stable-step estimate) as JSON\n"
         "  -h, --help         this text\n");
     return f == stderr ? 2 : 0;
 }
@@ -61,7 +64,7 @@ static int usage(FILE *f)
 enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
 
 typedef struct run_opts {
-    const char *scene_path, *out_dir;
+    const char *scene_path, *out_dir, *summary_path;
     int render, vtk, progress;
     const char **sets;   /* --set, --backend and --threads as scene overrides */
     int nsets;
@@ -116,6 +119,7 @@ static int parse_args(int argc, char **argv, run_opts *o)
         else if (!strcmp(a, "--progress") && has) progress = argv[++i];
         else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
         else if (!strcmp(a, "--option") && has) o->opts[o->nopts++] = argv[++i];
+        else if (!strcmp(a, "--summary-json") && has) o->summary_path = argv[++i];
         else if (!strcmp(a, "--backend") && has) {
             snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
             o->sets[o->nsets++] = o->backend_set;
@@ -571,8 +575,13 @@ int run_main(int argc, char **argv)
     sigaction(SIGINT, &sa, &old_sa);
     interrupted = 0;
 
+    /* The estimate costs some force evaluations, so only a summary asks for it. */
+    double stable_step = 0.0;
+    defsim_status run_st = DEFSIM_OK;
+    defsim_energy e_start = {0};
+    if (o.summary_path) defsim_world_stable_step(w, &stable_step, NULL);
     progress pr = {o.progress, tools_now(), -1.0};
-    const double h = s.h;
+    const double h = s.h, t_start = tools_now();
     int64_t steps = 0;
     const int started = r.rc == 0;   /* else nothing was written: no final state, no summary */
     if (started && pr.mode != PROGRESS_NONE)
@@ -583,6 +592,7 @@ int run_main(int argc, char **argv)
         for (int32_t k = 0; f > 0 && k < s.frame_steps; ++k, ++steps) {
             defsim_status st = defsim_world_step(w, h);
             if (st != DEFSIM_OK) {
+                run_st = st;
                 if (pr.mode == PROGRESS_BAR) printf("\n");
                 fprintf(stderr, "defsim run: %s: step %lld (t = %g s, frame %d) failed: %s: %s\n",
                         s.path, (long long)steps + 1, defsim_world_time(w), f,
@@ -595,7 +605,10 @@ int run_main(int argc, char **argv)
         const double t = defsim_world_time(w);
         defsim_world_get_positions(w, x, nv);
         defsim_world_energy(w, &r.e);
-        if (f == 0) r.e0 = r.e.total;
+        if (f == 0) {
+            r.e0 = r.e.total;
+            e_start = r.e;
+        }
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
@@ -628,6 +641,20 @@ int run_main(int argc, char **argv)
     if (png_close(&png, out.dir)) r.rc = 1;
 #endif
     if (started && pr.mode != PROGRESS_NONE) print_summary(&pr, &s, w, &r, x, out.dir);
+    if (o.summary_path) {
+        char err[1024];
+        run_summary sum = {.status = run_st != DEFSIM_OK ? defsim_status_string(run_st)
+                                     : interrupted ? "interrupted" : r.rc ? "error" : "ok",
+                           .step_status = run_st, .frames = r.last_frame,
+                           .wall = tools_now() - t_start, .stable_step = stable_step, .x = x,
+                           .message = run_st != DEFSIM_OK ? defsim_world_last_error(w) : ""};
+        sum.start = e_start;
+        defsim_world_energy(w, &sum.end);
+        if (run_summary_write(o.summary_path, &s, w, &sum, err, sizeof err)) {
+            fprintf(stderr, "defsim run: %s\n", err);
+            r.rc = 1;
+        }
+    }
     if (interrupted && r.rc == 0) {
         fprintf(stderr, "defsim run: interrupted after frame %d; the output up to it is complete\n",
                 r.last_frame);

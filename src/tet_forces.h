@@ -12,6 +12,15 @@
 
 #include <stdint.h>
 
+/* Names of per-instruction-set symbols: DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA). */
+#ifndef DEFSIM_ISA
+#define DEFSIM_ISA generic
+#endif
+#define DEFSIM__CAT2(a, b) a##b
+#define DEFSIM__CAT(a, b) DEFSIM__CAT2(a, b)
+#define DEFSIM__STR2(a) #a
+#define DEFSIM__STR(a) DEFSIM__STR2(a)
+
 /* Lanes per batch (the widest vector, AVX-512, has 8 doubles; narrower ISAs do sub-batches). */
 #define DEFSIM__BATCH 8
 

@@ -19,6 +19,7 @@
  */
 #include "test_util.h"
 
+#include "registry.h"
 #include "world.h"
 
 #include <math.h>

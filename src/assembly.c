@@ -36,28 +36,10 @@ static int32_t find_rank(const int32_t *list, int64_t n, int32_t key)
     return (int32_t)lo;
 }
 
-defsim_status defsim__pattern_build(defsim__system *s)
+/* Visits every pair (fa, fb) of free vertices of one element: counts it in pos[fa + 1]
+ * (list NULL) or appends fb to fa's list at pos[fa]. */
+static void element_pairs(const defsim__system *s, int64_t *pos, int32_t *list)
 {
-    defsim__pattern *p = &s->pattern;
-    if (p->built) return DEFSIM_OK;
-    const int32_t nfv = s->nfree_v;
-    int64_t *cnt = calloc((size_t)nfv + 1, sizeof *cnt);
-    if (!cnt) return DEFSIM_ERR_OUT_OF_MEMORY;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        const defsim__group *g = &s->groups[m];
-        for (int64_t e = 0; e < g->n; ++e)
-            for (int a = 0; a < g->nodes; ++a) {
-                int32_t fa = s->vfree[g->idx[g->nodes * e + a]];
-                if (fa < 0) continue;
-                for (int b = 0; b < g->nodes; ++b)
-                    if (s->vfree[g->idx[g->nodes * e + b]] >= 0) cnt[fa + 1]++;
-            }
-    }
-    for (int32_t i = 0; i < nfv; ++i) cnt[i + 1] += cnt[i] + 1;   /* + self */
-    int32_t *tmp = malloc((size_t)(cnt[nfv] > 0 ? cnt[nfv] : 1) * sizeof *tmp);
-    int64_t *fill = malloc(((size_t)nfv + 1) * sizeof *fill);
-    if (!tmp || !fill) { free(cnt); free(tmp); free(fill); return DEFSIM_ERR_OUT_OF_MEMORY; }
-    for (int32_t i = 0; i < nfv; ++i) { fill[i] = cnt[i]; tmp[fill[i]++] = i; }
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
         const defsim__group *g = &s->groups[m];
         for (int64_t e = 0; e < g->n; ++e)
@@ -66,10 +48,28 @@ defsim_status defsim__pattern_build(defsim__system *s)
                 if (fa < 0) continue;
                 for (int b = 0; b < g->nodes; ++b) {
                     int32_t fb = s->vfree[g->idx[g->nodes * e + b]];
-                    if (fb >= 0) tmp[fill[fa]++] = fb;
+                    if (fb < 0) continue;
+                    if (list) list[pos[fa]++] = fb;
+                    else pos[fa + 1]++;
                 }
             }
     }
+}
+
+defsim_status defsim__pattern_build(defsim__system *s)
+{
+    defsim__pattern *p = &s->pattern;
+    if (p->built) return DEFSIM_OK;
+    const int32_t nfv = s->nfree_v;
+    int64_t *cnt = calloc((size_t)nfv + 1, sizeof *cnt);
+    if (!cnt) return DEFSIM_ERR_OUT_OF_MEMORY;
+    element_pairs(s, cnt, NULL);
+    for (int32_t i = 0; i < nfv; ++i) cnt[i + 1] += cnt[i] + 1;   /* + self */
+    int32_t *tmp = malloc((size_t)(cnt[nfv] > 0 ? cnt[nfv] : 1) * sizeof *tmp);
+    int64_t *fill = malloc(((size_t)nfv + 1) * sizeof *fill);
+    if (!tmp || !fill) { free(cnt); free(tmp); free(fill); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    for (int32_t i = 0; i < nfv; ++i) { fill[i] = cnt[i]; tmp[fill[i]++] = i; }
+    element_pairs(s, fill, tmp);
     /* Sort and deduplicate each list in place, compacting into adj. */
     p->adj_ptr = malloc(((size_t)nfv + 1) * sizeof *p->adj_ptr);
     p->upper_rank0 = malloc(((size_t)nfv + 1) * sizeof *p->upper_rank0);

@@ -78,6 +78,9 @@ extern const defsim__spring_model defsim__model_spring;
  * mu = E/(2(1+nu)), lambda = E nu/((1+nu)(1-2nu)). */
 void defsim__lame(double E, double nu, double *mu, double *lambda);
 
+/* params of a model whose batched law takes (mu, lambda) as they are: p = {mu, lambda, 0}. */
+void defsim__lame_params(double mu, double lambda, double p[3]);
+
 /* dPdF of model m made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from its
  * eigen-structure (sigma): the 3 x 3 block h is projected and the six twist / flip eigenvalues
  * clamped. D2, if not NULL, receives the projection with mode2 from the same decomposition. */

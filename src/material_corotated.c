@@ -42,6 +42,8 @@ static double corotated_P(double mu, double lambda, const double F[9], double P[
     return corotated_psi_sigma(mu, lambda, s);
 }
 
+DEFSIM__TET_FORCE_KERNEL(forces_corotated, corotated_P)
+
 static void corotated_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
 {
     double U[9], s[3], V[9];
@@ -76,26 +78,10 @@ static void corotated_sigma(double mu, double lambda, const double s[3], double 
     }
 }
 
-DEFSIM__TET_FORCE_KERNEL(forces_corotated, corotated_P)
-
-static void params(double mu, double lambda, double p[3])
-{
-    p[0] = mu;
-    p[1] = lambda;
-    p[2] = 0.0;
-}
-
 const defsim__model defsim__model_corotated = {
-    .name = "corotated",
-    .id = DEFSIM_MODEL_COROTATED,
-    .pass = DEFSIM_PASS_COROTATED,
-    .params = params,
-    .psi = corotated_psi,
-    .P = corotated_P,
-    .dPdF = corotated_dPdF,
-    .sigma = corotated_sigma,
-    .forces = forces_corotated,
-};
+    .name = "corotated", .id = DEFSIM_MODEL_COROTATED, .pass = DEFSIM_PASS_COROTATED,
+    .params = defsim__lame_params, .psi = corotated_psi, .P = corotated_P, .dPdF = corotated_dPdF,
+    .sigma = corotated_sigma, .forces = forces_corotated};
 
 #else /* DEFSIM_ISA: the batched law */
 

@@ -9,7 +9,6 @@
 #include "material.h"
 
 #include "element.h"
-#include "isotropic.h"
 #include "mat3.h"
 
 #include <math.h>
@@ -25,12 +24,18 @@ static double neohookean_psi(double mu, double lambda, const double F[9])
     return 0.5 * mu * (defsim__m3_ddot(F, F) - 3.0) - mu * lj + 0.5 * lambda * lj * lj;
 }
 
+/* G = cof F; returns J = det F from it. */
+static double cofactor_det(const double F[9], double G[9])
+{
+    defsim__m3_cofactor(F, G);
+    return F[0] * G[0] + F[1] * G[1] + F[2] * G[2];
+}
+
 /* P = mu (F - F^-T) + lambda log J F^-T. */
 static double neohookean_P(double mu, double lambda, const double F[9], double P[9])
 {
     double G[9];
-    defsim__m3_cofactor(F, G);
-    double J = F[0] * G[0] + F[1] * G[1] + F[2] * G[2];
+    const double J = cofactor_det(F, G);
     if (!(J > 0.0)) {
         for (int i = 0; i < 9; ++i) P[i] = NAN;
         return INFINITY;
@@ -41,12 +46,13 @@ static double neohookean_P(double mu, double lambda, const double F[9], double P
     return 0.5 * mu * (defsim__m3_ddot(F, F) - 3.0) - mu * lj + 0.5 * lambda * lj * lj;
 }
 
+DEFSIM__TET_FORCE_KERNEL(forces_neohookean, neohookean_P)
+
 /* With G = F^-T: dP_ij/dF_kl = mu d_ik d_jl + (mu - lambda log J) G_il G_kj + lambda G_ij G_kl. */
 static void neohookean_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
 {
     double G[9];
-    defsim__m3_cofactor(F, G);
-    double J = F[0] * G[0] + F[1] * G[1] + F[2] * G[2];
+    const double J = cofactor_det(F, G);
     if (!(J > 0.0)) {
         for (int i = 0; i < 81; ++i) dPdF[i] = NAN;
         return;
@@ -83,27 +89,11 @@ static void neohookean_sigma(double mu, double lambda, const double s[3], double
     }
 }
 
-DEFSIM__TET_FORCE_KERNEL(forces_neohookean, neohookean_P)
-
-static void params(double mu, double lambda, double p[3])
-{
-    p[0] = mu;
-    p[1] = lambda;
-    p[2] = 0.0;
-}
-
 const defsim__model defsim__model_neohookean = {
-    .name = "neohookean",
-    .id = DEFSIM_MODEL_NEOHOOKEAN,
-    .pass = DEFSIM_PASS_NEOHOOKEAN,
-    .needs_positive_det = 1,
-    .params = params,
-    .psi = neohookean_psi,
-    .P = neohookean_P,
-    .dPdF = neohookean_dPdF,
-    .sigma = neohookean_sigma,
-    .forces = forces_neohookean,
-};
+    .name = "neohookean", .id = DEFSIM_MODEL_NEOHOOKEAN, .pass = DEFSIM_PASS_NEOHOOKEAN,
+    .needs_positive_det = 1, .params = defsim__lame_params, .psi = neohookean_psi,
+    .P = neohookean_P, .dPdF = neohookean_dPdF, .sigma = neohookean_sigma,
+    .forces = forces_neohookean};
 
 #else /* DEFSIM_ISA: the batched law */
 

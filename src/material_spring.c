@@ -56,10 +56,5 @@ static void forces_springs(const defsim__group *g, const double *x, double *f, i
 }
 
 const defsim__spring_model defsim__model_spring = {
-    .name = "spring",
-    .id = DEFSIM_MODEL_SPRING,
-    .pass = DEFSIM_PASS_SPRINGS,
-    .energy = spring_energy,
-    .block = spring_block,
-    .forces = forces_springs,
-};
+    .name = "spring", .id = DEFSIM_MODEL_SPRING, .pass = DEFSIM_PASS_SPRINGS,
+    .energy = spring_energy, .block = spring_block, .forces = forces_springs};

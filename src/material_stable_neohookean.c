@@ -9,7 +9,6 @@
 #include "material.h"
 
 #include "element.h"
-#include "isotropic.h"
 #include "mat3.h"
 
 #include <math.h>
@@ -57,6 +56,8 @@ static double snh_P(double mu, double lambda, const double F[9], double P[9])
     for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
     return 0.5 * mp * (ic - 3.0) + 0.5 * lp * d * d - 0.5 * mp * log(ic + 1.0);
 }
+
+DEFSIM__TET_FORCE_KERNEL(forces_snh, snh_P)
 
 /*
  * dP_ij/dF_kl = c1 d_ik d_jl + 2 mu'/(I_C+1)^2 F_ij F_kl + lambda' C_ij C_kl
@@ -116,25 +117,16 @@ static void snh_sigma(double mu, double lambda, const double s[3], double h[9],
     }
 }
 
-DEFSIM__TET_FORCE_KERNEL(forces_snh, snh_P)
-
 static void params(double mu, double lambda, double p[3])
 {
     snh_params(mu, lambda, &p[0], &p[1], &p[2]);
 }
 
 const defsim__model defsim__model_stable_neohookean = {
-    .name = "stable_neohookean",
-    .id = DEFSIM_MODEL_STABLE_NEOHOOKEAN,
-    .pass = DEFSIM_PASS_STABLE_NEOHOOKEAN,
-    .params = params,
-    .psi = snh_psi,
-    .psi_rest = snh_psi_rest,
-    .P = snh_P,
-    .dPdF = snh_dPdF,
-    .sigma = snh_sigma,
-    .forces = forces_snh,
-};
+    .name = "stable_neohookean", .id = DEFSIM_MODEL_STABLE_NEOHOOKEAN,
+    .pass = DEFSIM_PASS_STABLE_NEOHOOKEAN, .params = params, .psi = snh_psi,
+    .psi_rest = snh_psi_rest, .P = snh_P, .dPdF = snh_dPdF, .sigma = snh_sigma,
+    .forces = forces_snh};
 
 #else /* DEFSIM_ISA: the batched law */
 

@@ -9,7 +9,6 @@
 #include "material.h"
 
 #include "element.h"
-#include "isotropic.h"
 #include "mat3.h"
 
 #include <math.h>
@@ -48,6 +47,8 @@ static double stvk_P(double mu, double lambda, const double F[9], double P[9])
     return psi;
 }
 
+DEFSIM__TET_FORCE_KERNEL(forces_stvk, stvk_P)
+
 /* dP_ij/dF_kl = delta_ik S_lj + mu F_il F_kj + mu (F F^T)_ik delta_jl + lambda F_ij F_kl. */
 static void stvk_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
 {
@@ -82,26 +83,10 @@ static void stvk_sigma(double mu, double lambda, const double s[3], double h[9],
     }
 }
 
-DEFSIM__TET_FORCE_KERNEL(forces_stvk, stvk_P)
-
-static void params(double mu, double lambda, double p[3])
-{
-    p[0] = mu;
-    p[1] = lambda;
-    p[2] = 0.0;
-}
-
 const defsim__model defsim__model_stvk = {
-    .name = "stvk",
-    .id = DEFSIM_MODEL_STVK,
-    .pass = DEFSIM_PASS_STVK,
-    .params = params,
-    .psi = stvk_psi,
-    .P = stvk_P,
-    .dPdF = stvk_dPdF,
-    .sigma = stvk_sigma,
-    .forces = forces_stvk,
-};
+    .name = "stvk", .id = DEFSIM_MODEL_STVK, .pass = DEFSIM_PASS_STVK,
+    .params = defsim__lame_params, .psi = stvk_psi, .P = stvk_P, .dPdF = stvk_dPdF,
+    .sigma = stvk_sigma, .forces = forces_stvk};
 
 #else /* DEFSIM_ISA: the batched law */
 

@@ -12,6 +12,7 @@
  * runs again with the scalar reference kernels, DEFSIM_SIMD=scalar) and worlds run on one
  * thread, so the hashes do not depend on the machine's instruction set or core count.
  */
+#include "fileio.h"
 #include "scene.h"
 
 #include <defsim/defsim.h>
@@ -21,16 +22,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) {
-        h ^= p[i];
-        h *= 1099511628211ull;
-    }
-    return h;
-}
 
 static const uint64_t fnv_offset = 14695981039346656037ull;
 
@@ -140,7 +131,7 @@ static int run(const char *dir, const run_case *rc, const char *model, const bac
         char what[16];
         snprintf(what, sizeof what, "%d", k);
         uint64_t hash = fnv_offset;
-        hash = fnv1a(hash, &st, sizeof st);
+        hash = tools_fnv1a(hash, &st, sizeof st);
         if (defsim_world_get_positions(w, x, n) || defsim_world_get_velocities(w, v, n)) exit(2);
         for (int32_t i = 0; i < 3 * n; ++i)
             if (!isfinite(x[i]) || !isfinite(v[i])) {
@@ -151,22 +142,22 @@ static int run(const char *dir, const run_case *rc, const char *model, const bac
             fprintf(stderr, "%s: step %d: %s\n", key, k, defsim_world_last_error(w));
             exit(2);
         }
-        hash = fnv1a(hash, x, 3 * (size_t)n * sizeof *x);
-        hash = fnv1a(hash, v, 3 * (size_t)n * sizeof *v);
+        hash = tools_fnv1a(hash, x, 3 * (size_t)n * sizeof *x);
+        hash = tools_fnv1a(hash, v, 3 * (size_t)n * sizeof *v);
         push(out, key, what, hash);
     }
     uint64_t hf = fnv_offset;
     st = defsim_world_forces(w, x, f);
-    hf = fnv1a(hf, &st, sizeof st);
-    hf = fnv1a(hf, f, 3 * (size_t)n * sizeof *f);
+    hf = tools_fnv1a(hf, &st, sizeof st);
+    hf = tools_fnv1a(hf, f, 3 * (size_t)n * sizeof *f);
     push(out, key, "forces", hf);
     defsim_energy e;
     st = defsim_world_energy(w, &e);
-    uint64_t he = fnv1a(fnv_offset, &st, sizeof st);
-    he = fnv1a(he, &e.kinetic, sizeof e.kinetic);
-    he = fnv1a(he, &e.elastic, sizeof e.elastic);
-    he = fnv1a(he, &e.gravitational, sizeof e.gravitational);
-    he = fnv1a(he, &e.total, sizeof e.total);
+    uint64_t he = tools_fnv1a(fnv_offset, &st, sizeof st);
+    he = tools_fnv1a(he, &e.kinetic, sizeof e.kinetic);
+    he = tools_fnv1a(he, &e.elastic, sizeof e.elastic);
+    he = tools_fnv1a(he, &e.gravitational, sizeof e.gravitational);
+    he = tools_fnv1a(he, &e.total, sizeof e.total);
     push(out, key, "energy", he);
     free(x);
     free(v);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Batched (SIMD) elastic force kernels for the four tet models, compiled once per instruction
- * set and chosen once at plan time (system.c). The batch layout is shared by all variants:
+ * Batched (SIMD) elastic force kernels, one per tet model (material_list.h), compiled once per
+ * instruction set and chosen once at plan time (plan.c). The batch layout is shared by all
+ * variants:
  * each colour of a tet group is cut into batches of DEFSIM__BATCH elements, the last one padded
  * with copies of its first element that are computed but never scattered.
  */

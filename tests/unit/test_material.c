@@ -16,9 +16,9 @@
 #include <string.h>
 
 #include "defsim/defsim.h"
+#include "isotropic.h"
 #include "mat3.h"
 #include "material.h"
-#include "isotropic.h"
 #include "material.h"
 
 /* ------------------------------------------------------------------------------------------ */

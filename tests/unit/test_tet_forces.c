@@ -3,12 +3,12 @@
  * scalar reference kernels, and the co-rotated kernel's quaternion rotation against the SVD. */
 #include "test_util.h"
 
-#include "mat3.h"
+#include "forces.h"
 #include "isotropic.h"
+#include "mat3.h"
 #include "material.h"
 #include "tet_forces.h"
 #include "world.h"
-#include "forces.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -10,12 +10,15 @@
  */
 #include "plan.h"
 
+#include "tet_rest.h"
+
 #include "assembly.h"
 #include "colour.h"
 #include "energy.h"
 #include "mat3.h"
 #include "material.h"
 #include "tet_forces.h"
+#include "tet_rest.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -159,13 +162,9 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;
                 const int32_t e = g->n++;
-                double dm[9];
-                const double *p3 = bd->rest + 3 * (int64_t)lt[3];
-                for (int a = 0; a < 3; ++a)
-                    for (int i = 0; i < 3; ++i)
-                        dm[3 * i + a] = bd->rest[3 * (int64_t)lt[a] + i] - p3[i];
-                double det = defsim__m3_inverse(dm, g->dminv + 9 * (int64_t)e);
-                g->vol[e] = fabs(det) / 6.0;
+                defsim__tet_rest rest;
+                defsim__tet_rest_eval(bd->rest, lt, &rest, g->dminv + 9 * (int64_t)e);
+                g->vol[e] = fabs(rest.det) / 6.0;
                 g->mu[e] = bd->mu;
                 g->lambda[e] = bd->lambda;
                 g->beta[e] = beta;

@@ -21,6 +21,7 @@
 
 extern const defsim_backend defsim__explicit_euler_backend;
 extern const defsim_backend defsim__symplectic_euler_backend;
+extern const defsim_backend defsim__velocity_verlet_backend;
 
 typedef struct entry {
     defsim_backend table;
@@ -82,6 +83,7 @@ static void register_builtins(void)
     pthread_mutex_lock(&lock);
     add_locked(&defsim__explicit_euler_backend, NULL);
     add_locked(&defsim__symplectic_euler_backend, NULL);
+    add_locked(&defsim__velocity_verlet_backend, NULL);
     pthread_mutex_unlock(&lock);
 }
 

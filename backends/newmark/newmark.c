@@ -53,12 +53,12 @@ static defsim_status nm_init(const defsim_host *host, defsim_system *sys, void *
     return defsim__ic_init(&nm_scheme, host, sys, state);
 }
 
-/* Not flagged DISSIPATIVE: without damping it conserves the energy of linear problems. */
+/* CONSERVATIVE, not DISSIPATIVE: without damping it conserves the energy of linear problems. */
 static const defsim_backend nm_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
     .name = "newmark",
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT,
+    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | DEFSIM_BACKEND_CONSERVATIVE,
     .state_size = DEFSIM__IC_STATE_SIZE,
     .init = nm_init,
     .step = defsim__ic_step,

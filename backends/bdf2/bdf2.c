@@ -60,34 +60,10 @@ static void bdf2_accept(defsim__ic_solver *s, double h)
     s->history_valid = 1;
 }
 
-static const defsim__ic_scheme bdf2_scheme = {
+const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "bdf2",
+    .flags = DEFSIM_BACKEND_DISSIPATIVE,
     .work_vectors = 3,
     .prepare = bdf2_prepare,
     .accept = bdf2_accept,
 };
-
-static defsim_status bdf2_init(const defsim_host *host, defsim_system *sys, void *state)
-{
-    return defsim__ic_init(&bdf2_scheme, host, sys, state);
-}
-
-static const defsim_backend bdf2_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "bdf2",
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | DEFSIM_BACKEND_DISSIPATIVE,
-    .state_size = DEFSIM__IC_STATE_SIZE,
-    .init = bdf2_init,
-    .step = defsim__ic_step,
-    .fini = defsim__ic_fini,
-    .reset = defsim__ic_reset,
-};
-
-/// Module entry point (DEFSIM_MODULE_ENTRY): hands the core the bdf2 backend table.
-/// Returns DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 1.
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__ic_module_entry(host, &bdf2_backend, out);
-}

@@ -138,7 +138,7 @@ typedef struct ic_solver {
     cholmod_dense *rhs, *sol, *ywork, *ework;
 } ic_solver;
 
-void defsim__ic_fini(const defsim_host *host, defsim_system *sys, void *state)
+static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
     ic_solver **slot = state, *s = *slot;
@@ -193,9 +193,9 @@ static int factor_kind(void)
     return CHOLMOD_AUTO;
 }
 
-defsim_status defsim__ic_init(const defsim__ic_scheme *scheme, const defsim_host *host,
-                              defsim_system *sys, void *state)
+static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *state)
 {
+    const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
     ic_solver **slot = state;
     ic_solver *s = host->alloc(sizeof *s);
     if (!s) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -287,7 +287,7 @@ defsim_status defsim__ic_init(const defsim__ic_scheme *scheme, const defsim_host
     return DEFSIM_OK;
 }
 
-defsim_status defsim__ic_reset(const defsim_host *host, defsim_system *sys, void *state)
+static defsim_status ic_reset(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)host;
     (void)sys;
@@ -588,7 +588,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
 }
 
-defsim_status defsim__ic_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *state, double h)
 {
     ic_solver *s = *(ic_solver **)state;
     defsim__ic_solver *p = &s->pub;
@@ -615,12 +615,31 @@ defsim_status defsim__ic_step(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
-defsim_status defsim__ic_module_entry(const defsim_host *host, const defsim_backend *backend,
-                                      const defsim_backend **out)
+/* The module's table, filled from its scheme by the entry point (once, under the registry's lock;
+ * the registry copies it). */
+static defsim_backend ic_backend;
+
+/// Module entry point (DEFSIM_MODULE_ENTRY): hands the core this module's backend table (its
+/// scheme's name and flags). Returns DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than
+/// ABI version 1.
+__attribute__((visibility("default"))) defsim_status defsim_module_init(
+    const defsim_host *host, const defsim_backend **out)
 {
     if (!host || !out || host->abi_version < 1 ||
         host->size < offsetof(defsim_host, release) + sizeof host->release)
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = backend;
+    const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
+    ic_backend = (defsim_backend){
+        .abi_version = DEFSIM_BACKEND_ABI_VERSION,
+        .struct_size = sizeof(defsim_backend),
+        .name = scheme->name,
+        .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | scheme->flags,
+        .state_size = sizeof(ic_solver *),
+        .init = ic_init,
+        .step = ic_step,
+        .fini = ic_fini,
+        .reset = ic_reset,
+    };
+    *out = &ic_backend;
     return DEFSIM_OK;
 }

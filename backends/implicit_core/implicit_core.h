@@ -31,7 +31,8 @@ typedef struct defsim__ic_targets {
 } defsim__ic_targets;
 
 typedef struct defsim__ic_scheme {
-    const char *name;          /* the backend's name, for messages */
+    const char *name;          /* the backend's name */
+    uint32_t flags;            /* DEFSIM_BACKEND_* beyond NEEDS_MATRIX | IMPLICIT */
     int work_vectors;          /* DOF-long vectors in defsim__ic_solver.work (<= MAX_WORK) */
     /* Fills st from x0, v0 and h (y, z and guess may point at x0, v0, the solver's y, z or its
      * work vectors), and assembles the stiffness-damping matrix with defsim__ic_damping_matrix. */
@@ -57,20 +58,9 @@ struct defsim__ic_solver {
     int history_valid;         /* cleared by init, reset and failed steps */
 };
 
-/* The backend ops, for a scheme's table: init through a one-line wrapper that names the scheme,
- * the others directly. */
-defsim_status defsim__ic_init(const defsim__ic_scheme *scheme, const defsim_host *host,
-                              defsim_system *sys, void *state);
-defsim_status defsim__ic_step(const defsim_host *host, defsim_system *sys, void *state, double h);
-void defsim__ic_fini(const defsim_host *host, defsim_system *sys, void *state);
-defsim_status defsim__ic_reset(const defsim_host *host, defsim_system *sys, void *state);
-
-/* The body of a module's entry point: checks the host table and hands out the backend. */
-defsim_status defsim__ic_module_entry(const defsim_host *host, const defsim_backend *backend,
-                                      const defsim_backend **out);
-
-/* Bytes of backend state (the table's state_size). */
-#define DEFSIM__IC_STATE_SIZE (sizeof(defsim__ic_solver *))
+/* The scheme of this module: each module defines exactly one, and the core builds the module's
+ * backend table (name, flags | NEEDS_MATRIX | IMPLICIT, the core's ops) and entry point from it. */
+extern const defsim__ic_scheme defsim__ic_module_scheme;
 
 /* Assembles B at positions xb into s->bval (no-op without stiffness damping). */
 defsim_status defsim__ic_damping_matrix(defsim__ic_solver *s, const defsim_host *host,

@@ -41,35 +41,11 @@ static defsim_status nm_prepare(defsim__ic_solver *s, const defsim_host *host,
     return DEFSIM_OK;
 }
 
-static const defsim__ic_scheme nm_scheme = {
+/* Without damping it conserves the energy of linear problems: CONSERVATIVE, not DISSIPATIVE. */
+const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "newmark",
+    .flags = DEFSIM_BACKEND_CONSERVATIVE,
     .work_vectors = 1,
     .prepare = nm_prepare,
     .accept = NULL,
 };
-
-static defsim_status nm_init(const defsim_host *host, defsim_system *sys, void *state)
-{
-    return defsim__ic_init(&nm_scheme, host, sys, state);
-}
-
-/* CONSERVATIVE, not DISSIPATIVE: without damping it conserves the energy of linear problems. */
-static const defsim_backend nm_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "newmark",
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | DEFSIM_BACKEND_CONSERVATIVE,
-    .state_size = DEFSIM__IC_STATE_SIZE,
-    .init = nm_init,
-    .step = defsim__ic_step,
-    .fini = defsim__ic_fini,
-    .reset = NULL,
-};
-
-/// Module entry point (DEFSIM_MODULE_ENTRY): hands the core the newmark backend table.
-/// Returns DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 1.
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__ic_module_entry(host, &nm_backend, out);
-}

@@ -22,34 +22,10 @@ static defsim_status be_prepare(defsim__ic_solver *s, const defsim_host *host,
     return defsim__ic_damping_matrix(s, host, sys, s->x0);
 }
 
-static const defsim__ic_scheme be_scheme = {
+const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "newton_cholmod",
+    .flags = DEFSIM_BACKEND_DISSIPATIVE,
     .work_vectors = 0,
     .prepare = be_prepare,
     .accept = NULL,
 };
-
-static defsim_status be_init(const defsim_host *host, defsim_system *sys, void *state)
-{
-    return defsim__ic_init(&be_scheme, host, sys, state);
-}
-
-static const defsim_backend be_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "newton_cholmod",
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | DEFSIM_BACKEND_DISSIPATIVE,
-    .state_size = DEFSIM__IC_STATE_SIZE,
-    .init = be_init,
-    .step = defsim__ic_step,
-    .fini = defsim__ic_fini,
-    .reset = NULL,
-};
-
-/// Module entry point (DEFSIM_MODULE_ENTRY): hands the core the newton_cholmod backend table.
-/// Returns DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 1.
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__ic_module_entry(host, &be_backend, out);
-}

@@ -25,46 +25,12 @@ static int have(const char *backend)
     return st == DEFSIM_OK;
 }
 
-/* A mass m on a spring k (Rayleigh alpha, beta) to a pinned anchor, displaced by a along x, no
- * gravity: x'' = -omega^2 x - c x' with omega^2 = k/m, c = alpha + beta k/m. */
-static defsim_world *oscillator(const char *backend, double m, double k, double alpha,
-                                double beta, double a, int auto_substep)
-{
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    d.gravity[1] = 0.0;
-    d.num_threads = 1;
-    d.auto_substep = auto_substep;
-    defsim_world *w = NULL;
-    TU_OK(defsim_world_create(&d, &w));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1 + a, 0, 0}, mass[2] = {1.0, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    bd.material.mass_damping = alpha;
-    bd.material.stiffness_damping = beta;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
-    return w;
-}
-
 /* Errors in x and v at T of N steps against x(t) = e^{-ct/2} a (cos wd t + c/(2 wd) sin wd t). */
 static void oscillator_error(const char *backend, int N, double *ex, double *ev)
 {
     const double m = 0.5, k = 200.0, alpha = 0.8, beta = 2e-3, a = 0.01, T = 1.0;
     const double om2 = k / m, c = alpha + beta * om2, wd = sqrt(om2 - 0.25 * c * c);
-    defsim_world *w = oscillator(backend, m, k, alpha, beta, a, 0);
+    defsim_world *w = tu_oscillator(backend, 1.0, m, k, alpha, beta, a, 1, 0);
     for (int i = 0; i < N; ++i) TU_OK(defsim_world_step(w, T / N));
     double x[6], v[6];
     TU_OK(defsim_world_get_positions(w, x, 2));
@@ -111,7 +77,7 @@ static void test_newmark_linear_energy(void **state)
     const char *names[2] = {"newmark", "newton_cholmod"};
     double ratio[2], dev = 0.0;
     for (int b = 0; b < 2; ++b) {
-        defsim_world *w = oscillator(names[b], m, k, 0.0, 0.0, 0.01, 0);
+        defsim_world *w = tu_oscillator(names[b], 1.0, m, k, 0.0, 0.0, 0.01, 1, 0);
         defsim_energy e0, e;
         TU_OK(defsim_world_energy(w, &e0));
         for (int i = 0; i < 10000; ++i) {
@@ -340,7 +306,8 @@ static void test_bdf2_restart(void **state)
 static double energy_ratio(double alpha, double beta, double h, int steps, int auto_substep)
 {
     const double m = 0.5, k = 200.0;
-    defsim_world *w = oscillator("velocity_verlet", m, k, alpha, beta, 0.01, auto_substep);
+    defsim_world *w =
+        tu_oscillator("velocity_verlet", 1.0, m, k, alpha, beta, 0.01, 1, auto_substep);
     defsim_energy e0, e;
     TU_OK(defsim_world_energy(w, &e0));
     for (int i = 0; i < steps; ++i)
@@ -360,7 +327,7 @@ static void test_verlet_stable_step(void **state)
     const double damping[3][2] = {{0.0, 0.0}, {4.0, 0.0}, {1.0, 2e-3}};
     for (int d = 0; d < 3; ++d) {
         const double alpha = damping[d][0], beta = damping[d][1], c = alpha + beta * om * om;
-        defsim_world *w = oscillator("velocity_verlet", m, k, alpha, beta, 0.01, 0);
+        defsim_world *w = tu_oscillator("velocity_verlet", 1.0, m, k, alpha, beta, 0.01, 1, 0);
         double hs, omega;
         TU_OK(defsim_world_stable_step(w, &hs, &omega));
         defsim_world_destroy(w);

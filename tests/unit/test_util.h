@@ -20,6 +20,12 @@ defsim_world *tu_world(const char *backend, double gy, int threads);
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);
 
+/* A world (no gravity, one thread, auto_substep as given) holding one spring k (Rayleigh alpha,
+ * beta) between vertex 0 at the origin (mass m0, pinned if `pin`) and vertex 1 of mass m, at rest
+ * at x = 1 and started at x = 1 + a: with the pin, x'' = -(k/m) x - (alpha + beta k/m) x'. */
+defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
+                            double beta, double a, int pin, int auto_substep);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

@@ -47,6 +47,17 @@ static defsim_status bdf2_prepare(defsim__ic_solver *s, const defsim_host *host,
     st->y = y;
     st->z = z;
     st->guess = y;
+    /* With history, Newton starts from x_n + h v_n + h^2/2 a, a = (v_n - v_{n-1}) / h_{n-1}: third
+     * order accurate, where y is off by b^2 h^2 a'. */
+    if (a2 > 0.0) {
+        double *guess = s->work[3];
+        memcpy(guess, xb, (size_t)s->ndof * sizeof(double));
+        for (int64_t k = 0; k < s->n; ++k) {
+            const int64_t i = s->fdof[k];
+            guess[i] += 0.5 * h * h * (s->v0[i] - vp[i]) / s->history_h;
+        }
+        st->guess = guess;
+    }
     /* B at the predicted end of the step keeps the damping term second order. */
     return defsim__ic_damping_matrix(s, host, sys, xb);
 }
@@ -63,7 +74,7 @@ static void bdf2_accept(defsim__ic_solver *s, double h)
 const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "bdf2",
     .flags = DEFSIM_BACKEND_DISSIPATIVE,
-    .work_vectors = 3,
+    .work_vectors = 4,
     .prepare = bdf2_prepare,
     .accept = bdf2_accept,
 };

@@ -64,6 +64,12 @@ static void set_error(defsim_system *s, const char *message)
     defsim__world_error(W(s), "%s", message ? message : "");
 }
 
+static const double *option_values(const defsim_system *s)
+{
+    return defsim__options_values(&CW(s)->options);
+}
+static double *counters(defsim_system *s) { return defsim__options_counters(&W(s)->options); }
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -94,4 +100,6 @@ const defsim_host defsim__host = {
     .set_error = set_error,
     .alloc = alloc,
     .release = release,
+    .option_values = option_values,
+    .counters = counters,
 };

@@ -27,6 +27,7 @@ static defsim_status bdf2_prepare(defsim__ic_solver *s, const defsim_host *host,
     double *xb = s->work[2], *z = s->z, *y = s->y;
     double a1 = 1.0, a2 = 0.0, b = 1.0;
     const double w = s->history_valid ? h / s->history_h : INFINITY;
+    if (!(w <= BDF2_MAX_RATIO)) s->counters[DEFSIM__IC_COUNTERS] += 1.0;
     if (w <= BDF2_MAX_RATIO) {
         a1 = (1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w);
         a2 = w * w / (1.0 + 2.0 * w);
@@ -71,10 +72,17 @@ static void bdf2_accept(defsim__ic_solver *s, double h)
     s->history_valid = 1;
 }
 
+static const defsim_counter_spec bdf2_counters[1] = {
+    {"restarts", "backward-Euler steps taken for want of history: the first step, after "
+                 "set_state, pins or a failed step, or after a step ratio above 2.414"},
+};
+
 const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "bdf2",
     .flags = DEFSIM_BACKEND_DISSIPATIVE,
     .work_vectors = 4,
     .prepare = bdf2_prepare,
     .accept = bdf2_accept,
+    .counters = bdf2_counters,
+    .counter_count = 1,
 };

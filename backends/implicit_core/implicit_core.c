@@ -125,6 +125,8 @@ static void omp_restore(omp_saved saved)
 
 typedef struct ic_solver {
     defsim__ic_solver pub;     /* what schemes see; first, so the pointers convert */
+    double tolerance;          /* relative (options) */
+    int max_iterations;
     int stiffness_damping;
     double gravity[3];
     defsim_csc pat;            /* upper triangle over free DOFs (borrowed from the system) */
@@ -165,16 +167,62 @@ static double *alloc_doubles(const defsim_host *host, int64_t n)
     return host->alloc((size_t)(n > 0 ? n : 1) * sizeof(double));
 }
 
-/* Orderings to try: AMD and METIS by default; DEFSIM_CHOLMOD_ORDERING=amd|metis picks one. */
-static void ordering_methods(cholmod_common *cc)
+/* ------------------------------------------------------------------------------------------ */
+/* Options ("<backend>.<name>"), the same for every scheme. "projection" is read by the core's
+ * matrix assembly itself; the others here, at init. */
+
+enum { OPT_TOLERANCE, OPT_MAX_ITERATIONS, OPT_PROJECTION, OPT_ORDERING, OPT_FACTOR, OPT_COUNT };
+static const char ORDERINGS[] = "best|amd|metis", FACTORS[] = "auto|supernodal|simplicial";
+
+static const defsim_option_spec ic_options[OPT_COUNT] = {
+    {"tolerance", DEFSIM_OPTION_REAL, 1e-6, DBL_MIN, 1.0, NULL,
+     "Newton stops when no DOF's update exceeds tolerance x L (L: diagonal of the rest "
+     "positions' bounding box); relative, in (0, 1]"},
+    {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
+     "Newton iterations per step before the step fails with NOT_CONVERGED"},
+    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
+     "element Hessians: exact (none), negative eigenvalues set to 0 (clamp) or to their "
+     "magnitude (abs)"},
+    {"cholmod_ordering", DEFSIM_OPTION_CHOICE, 0, 0, 0, ORDERINGS,
+     "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or metis; the "
+     "environment variable DEFSIM_CHOLMOD_ORDERING overrides it"},
+    {"cholmod_factor", DEFSIM_OPTION_CHOICE, 0, 0, 0, FACTORS,
+     "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the environment "
+     "variable DEFSIM_CHOLMOD_FACTOR overrides it"},
+};
+
+static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
+    {"shifted_factorisations", "Newton iterations whose Hessian needed a diagonal shift to be "
+                               "positive definite (only with projection none)"},
+};
+
+/* The index of `name` in the '|'-separated `choices`, or -1. */
+static int choice_index(const char *choices, const char *name)
 {
-    const char *e = getenv("DEFSIM_CHOLMOD_ORDERING");
-    if (e && strcmp(e, "amd") == 0) {
+    const size_t len = strlen(name);
+    const char *p = choices;
+    for (int k = 0;; ++k) {
+        const size_t n = strcspn(p, "|");
+        if (n == len && strncmp(p, name, len) == 0) return k;
+        if (!p[n]) return -1;
+        p += n + 1;
+    }
+}
+
+/* A CHOICE option, unless the environment variable names one of its choices. */
+static int choice_option(const double *values, int opt, const char *env)
+{
+    const char *e = getenv(env);
+    const int k = e ? choice_index(ic_options[opt].choices, e) : -1;
+    return k >= 0 ? k : (int)values[opt];
+}
+
+/* Orderings to try: AMD and METIS ("best"), or one of them. */
+static void ordering_methods(cholmod_common *cc, int ordering)
+{
+    if (ordering == 1 || ordering == 2) {
         cc->nmethods = 1;
-        cc->method[0].ordering = CHOLMOD_AMD;
-    } else if (e && strcmp(e, "metis") == 0) {
-        cc->nmethods = 1;
-        cc->method[0].ordering = CHOLMOD_METIS;
+        cc->method[0].ordering = ordering == 1 ? CHOLMOD_AMD : CHOLMOD_METIS;
     } else {
         cc->nmethods = 2;
         cc->method[0].ordering = CHOLMOD_AMD;
@@ -183,15 +231,6 @@ static void ordering_methods(cholmod_common *cc)
 }
 
 static pthread_mutex_t analysis_lock = PTHREAD_MUTEX_INITIALIZER;
-
-/* Which factorisation: CHOLMOD's choice by default; DEFSIM_CHOLMOD_FACTOR overrides it. */
-static int factor_kind(void)
-{
-    const char *e = getenv("DEFSIM_CHOLMOD_FACTOR");
-    if (e && strcmp(e, "simplicial") == 0) return CHOLMOD_SIMPLICIAL;
-    if (e && strcmp(e, "supernodal") == 0) return CHOLMOD_SUPERNODAL;
-    return CHOLMOD_AUTO;
-}
 
 static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *state)
 {
@@ -209,6 +248,10 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     p->mass = host->mass(sys);
     p->alpha = host->mass_damping(sys);
     s->stiffness_damping = host->has_stiffness_damping(sys);
+    const double *opt = host->option_values(sys);
+    s->tolerance = opt[OPT_TOLERANCE];
+    s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
+    p->counters = host->counters(sys);
     memcpy(s->gravity, host->options(sys)->gravity, sizeof s->gravity);
     p->x0 = alloc_doubles(host, p->ndof);
     p->v0 = alloc_doubles(host, p->ndof);
@@ -243,9 +286,11 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     /* Fill-reducing ordering: AMD and METIS, keeping the one with less fill (METIS halves the
      * flops on the 100k-tet beam). METIS keeps global random state, so analyses run one at a
      * time in the process (analysis_lock): then its ordering is the same on every run. */
-    ordering_methods(&s->cc);
+    ordering_methods(&s->cc, choice_option(opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
     s->cc.postorder = 1;
-    s->cc.supernodal = factor_kind();
+    const int factor = choice_option(opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
+    s->cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
+                       : factor == 2 ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
     s->cc.quick_return_if_not_posdef = 1;
     s->cc.print = 0;
 
@@ -486,6 +531,7 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
             result = DEFSIM_ERR_NOT_CONVERGED;
             break;
         }
+        if (shift == 0.0) s->pub.counters[DEFSIM__IC_SHIFTED] += 1.0;
         const double next = shift == 0.0 ? 1.0 : 10.0 * shift;
         add_shift(s, next - shift, h);
         shift = next;
@@ -511,7 +557,6 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
                               defsim_system *sys, double h)
 {
     defsim__ic_solver *p = &s->pub;
-    const defsim_world_def *opt = host->options(sys);
     defsim_stats *stats = host->stats(sys);
     const size_t bytes = (size_t)p->ndof * sizeof(double);
 
@@ -530,9 +575,9 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     }
     memcpy(s->xt, s->x, bytes);
 
-    const double tol = opt->tolerance * host->length_scale(sys);
+    const double tol = s->tolerance * host->length_scale(sys);
     char msg[200];
-    for (int it = 1; it <= opt->max_iterations; ++it) {
+    for (int it = 1; it <= s->max_iterations; ++it) {
         stats->newton_iterations++;
         defsim_status st = gradient(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "non-finite forces");
@@ -584,7 +629,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         scale = tscale;
     }
     snprintf(msg, sizeof msg, "no convergence in %d Newton iterations (tolerance %.3g m)",
-             (int)opt->max_iterations, tol);
+             s->max_iterations, tol);
     return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
 }
 
@@ -615,20 +660,25 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
     return DEFSIM_OK;
 }
 
-/* The module's table, filled from its scheme by the entry point (once, under the registry's lock;
- * the registry copies it). */
+/* The module's table and counters, filled from its scheme by the entry point (once, under the
+ * registry's lock; the registry copies the table). */
 static defsim_backend ic_backend;
+static defsim_counter_spec ic_counters[DEFSIM__IC_COUNTERS + DEFSIM__IC_MAX_SCHEME_COUNTERS];
 
 /// Module entry point (DEFSIM_MODULE_ENTRY): hands the core this module's backend table (its
-/// scheme's name and flags). Returns DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than
-/// ABI version 1.
+/// scheme's name, flags and counters; the core's options). Returns
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 2.
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    if (!host || !out || host->abi_version < 1 ||
-        host->size < offsetof(defsim_host, release) + sizeof host->release)
-        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
+    if (!host || !out || host->abi_version < 2 ||
+        host->size < offsetof(defsim_host, counters) + sizeof host->counters ||
+        scheme->counter_count > DEFSIM__IC_MAX_SCHEME_COUNTERS)
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    memcpy(ic_counters, ic_core_counters, sizeof ic_core_counters);
+    for (int32_t k = 0; k < scheme->counter_count; ++k)
+        ic_counters[DEFSIM__IC_COUNTERS + k] = scheme->counters[k];
     ic_backend = (defsim_backend){
         .abi_version = DEFSIM_BACKEND_ABI_VERSION,
         .struct_size = sizeof(defsim_backend),
@@ -639,6 +689,10 @@ __attribute__((visibility("default"))) defsim_status defsim_module_init(
         .step = ic_step,
         .fini = ic_fini,
         .reset = ic_reset,
+        .options = ic_options,
+        .option_count = OPT_COUNT,
+        .counters = ic_counters,
+        .counter_count = DEFSIM__IC_COUNTERS + scheme->counter_count,
     };
     *out = &ic_backend;
     return DEFSIM_OK;

@@ -40,7 +40,14 @@ typedef struct defsim__ic_scheme {
                              double h, defsim__ic_targets *st);
     /* Optional: after a converged step (x0, v0 still hold the start of the step). */
     void (*accept)(defsim__ic_solver *s, double h);
+    /* The scheme's own counters, after the core's (DEFSIM__IC_COUNTERS of them). */
+    const defsim_counter_spec *counters;
+    int32_t counter_count;
 } defsim__ic_scheme;
+
+/* The core's counters; a scheme's come after them in the backend's table. */
+enum { DEFSIM__IC_SHIFTED = 0, DEFSIM__IC_COUNTERS = 1 };
+#define DEFSIM__IC_MAX_SCHEME_COUNTERS 4
 
 /* The per-world solver as schemes see it (the core's struct begins with it). */
 struct defsim__ic_solver {
@@ -56,6 +63,7 @@ struct defsim__ic_solver {
     double *work[DEFSIM__IC_MAX_WORK];
     double history_h;          /* scheme history: step of the last accepted step */
     int history_valid;         /* cleared by init, reset and failed steps */
+    double *counters;          /* the backend's counters (core's, then the scheme's) */
 };
 
 /* The scheme of this module: each module defines exactly one, and the core builds the module's

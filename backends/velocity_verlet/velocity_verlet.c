@@ -46,7 +46,10 @@ static defsim_status vv_step(const defsim_host *host, defsim_system *sys, void *
     const double *m = host->mass(sys);
     const int64_t n = host->dof_count(sys);
     defsim_status st = DEFSIM_OK;
-    if (!s->carried) st = host->forces(sys, x, v, DEFSIM_FORCE_ALL, s->f);
+    if (!s->carried) {
+        st = host->forces(sys, x, v, DEFSIM_FORCE_ALL, s->f);
+        host->counters(sys)[0] += 1.0;
+    }
     s->carried = 0;   /* until this step has evaluated F_{n+1} */
     if (st != DEFSIM_OK) {
         host->set_error(sys, "velocity_verlet: non-finite forces");
@@ -88,6 +91,11 @@ static double vv_stable_step(double omega, double c)
     return d > 0.0 ? 2.0 / d : 1e300;
 }
 
+static const defsim_counter_spec vv_counters[1] = {
+    {"force_restarts", "steps that evaluated f(x_n, v_n) first because no carried force was "
+                       "valid (the first step, after set_state, pins, bodies or a failed step)"},
+};
+
 const defsim_backend defsim__velocity_verlet_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
@@ -99,4 +107,6 @@ const defsim_backend defsim__velocity_verlet_backend = {
     .fini = vv_fini,
     .reset = vv_reset,
     .stable_step = vv_stable_step,
+    .counters = vv_counters,
+    .counter_count = 1,
 };

@@ -300,6 +300,115 @@ static void test_bdf2_restart(void **state)
 }
 
 /* --------------------------------------------------------------------------------------- */
+/* Options and counters by name, shared by the three implicit schemes. */
+
+static double option(defsim_world *w, const char *name)
+{
+    double v = NAN;
+    TU_OK(defsim_world_get_option(w, name, &v));
+    return v;
+}
+
+static double stat(defsim_world *w, const char *name)
+{
+    double v = NAN;
+    TU_OK(defsim_world_stat(w, name, &v));
+    return v;
+}
+
+/* A beam compressed to 60 % along its axis, one step of h = 1 s: the exact Hessian is
+ * indefinite there (projection none needs diagonal shifts; clamp never does). Returns the
+ * backend's shifted_factorisations counter. */
+static double compressed_step_shifts(const char *backend, const char *projection)
+{
+    char name[64];
+    defsim_body_id id;
+    defsim_world *w = beam(backend, &id);
+    snprintf(name, sizeof name, "%s.projection", backend);
+    TU_OK(defsim_world_set_option(w, name, projection));
+    snprintf(name, sizeof name, "%s.max_iterations", backend);
+    TU_OK(defsim_world_set_option(w, name, "200"));
+    double *x = tu_positions(w);
+    for (int i = 0; i < defsim_world_vertex_count(w); ++i) x[3 * i] *= 0.6;
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    TU_OK(defsim_world_step(w, 1.0));
+    snprintf(name, sizeof name, "%s.shifted_factorisations", backend);
+    const double shifts = stat(w, name);
+    free(x);
+    defsim_world_destroy(w);
+    return shifts;
+}
+
+static void test_implicit_options(void **state)
+{
+    (void)state;
+    const char *names[] = {"newton_cholmod", "newmark", "bdf2"};
+    char name[64];
+    for (int b = 0; b < 3; ++b) {
+        if (!have(names[b])) skip();
+        defsim_body_id id;
+        defsim_world *w = beam(names[b], &id);
+        snprintf(name, sizeof name, "%s.tolerance", names[b]);
+        assert_true(option(w, name) == 1e-6);
+        /* One Newton iteration at tolerance 1e-12 cannot converge: a clean failure, state kept;
+         * back at 50 iterations the same step succeeds. */
+        TU_OK(defsim_world_set_option(w, name, "1e-12"));
+        snprintf(name, sizeof name, "%s.max_iterations", names[b]);
+        TU_OK(defsim_world_set_option(w, name, "1"));
+        double *x0 = tu_positions(w), *x1;
+        assert_int_equal(defsim_world_step(w, 1.0 / 60.0), DEFSIM_ERR_NOT_CONVERGED);
+        x1 = tu_positions(w);
+        assert_memory_equal(x0, x1, 3 * (size_t)defsim_world_vertex_count(w) * sizeof *x0);
+        TU_OK(defsim_world_set_option(w, name, "50"));
+        TU_OK(defsim_world_step(w, 1.0 / 60.0));
+        assert_int_equal(defsim_world_set_option(w, name, "0"), DEFSIM_ERR_INVALID_ARGUMENT);
+        snprintf(name, sizeof name, "%s.cholmod_ordering", names[b]);
+        TU_OK(defsim_world_set_option(w, name, "metis"));
+        assert_true(option(w, name) == 2);
+        TU_OK(defsim_world_step(w, 1.0 / 60.0));
+        free(x0);
+        free(x1);
+        defsim_world_destroy(w);
+
+        const double none = compressed_step_shifts(names[b], "none");
+        const double clamp = compressed_step_shifts(names[b], "clamp");
+        printf("%-15s compressed beam, h = 1 s: shifted factorisations none %g, clamp %g\n",
+               names[b], none, clamp);
+        assert_true(none > 0.0);
+        assert_true(clamp == 0.0);
+    }
+}
+
+/* The counters of carried state: velocity_verlet.force_restarts and bdf2.restarts count the
+ * steps that started without it. */
+static void test_restart_counters(void **state)
+{
+    (void)state;
+    const char *names[2] = {"velocity_verlet", "bdf2"};
+    const char *counters[2] = {"velocity_verlet.force_restarts", "bdf2.restarts"};
+    const double h[2] = {2e-4, 1.0 / 60.0};
+    for (int b = 0; b < 2; ++b) {
+        if (!have(names[b])) continue;
+        defsim_body_id id;
+        defsim_world *w = beam(names[b], &id);
+        double *x, *v;
+        perturbed(w, &x, &v);
+        for (int i = 0; i < 4; ++i) TU_OK(defsim_world_step(w, h[b]));
+        assert_true(stat(w, counters[b]) == 1.0);
+        TU_OK(defsim_world_set_state(w, x, v));
+        for (int i = 0; i < 4; ++i) TU_OK(defsim_world_step(w, h[b]));
+        assert_true(stat(w, counters[b]) == 2.0);
+        const int32_t far = defsim_body_vertex_count(w, id) - 1;
+        TU_OK(defsim_body_pin(w, id, &far, 1));
+        TU_OK(defsim_world_step(w, h[b]));
+        assert_true(stat(w, counters[b]) == 3.0);
+        free(x);
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
+/* --------------------------------------------------------------------------------------- */
 /* Velocity Verlet's stability limit: 2 / (c + sqrt(c^2 + omega^2)). */
 
 /* Energy after `steps` steps of h, relative to the start (inf if the step failed). */
@@ -364,6 +473,8 @@ int main(void)
         cmocka_unit_test(test_bdf2_restart),
         cmocka_unit_test(test_bdf2_first_step_is_backward_euler),
         cmocka_unit_test(test_verlet_stable_step),
+        cmocka_unit_test(test_implicit_options),
+        cmocka_unit_test(test_restart_counters),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

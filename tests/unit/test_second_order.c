@@ -94,6 +94,33 @@ static void test_newmark_linear_energy(void **state)
     assert_true(ratio[1] < 1e-3);
 }
 
+/* BDF2 on an undamped linear oscillator: the energy never rises from one step to the next (the
+ * backward-Euler start included) at omega h from 0.1 to 5, and it does decay. */
+static void test_bdf2_energy_monotone(void **state)
+{
+    (void)state;
+    if (!have("bdf2")) skip();
+    const double m = 0.5, k = 200.0, om = sqrt(k / m);
+    const double oh[4] = {0.1, 0.5, 1.0, 5.0};
+    for (int j = 0; j < 4; ++j) {
+        defsim_world *w = tu_oscillator("bdf2", 1.0, m, k, 0.0, 0.0, 0.01, 1, 0);
+        double v0[6] = {0, 0, 0, 0.1, 0, 0};   /* start off the turning point */
+        TU_OK(defsim_world_set_state(w, NULL, v0));
+        defsim_energy e0, e;
+        TU_OK(defsim_world_energy(w, &e0));
+        double prev = e0.total;
+        for (int i = 0; i < 400; ++i) {
+            TU_OK(defsim_world_step(w, oh[j] / om));
+            TU_OK(defsim_world_energy(w, &e));
+            assert_true(e.total <= prev * (1.0 + 1e-12));
+            prev = e.total;
+        }
+        printf("bdf2, omega h = %.1f: E after 400 steps / E0 = %.3g\n", oh[j], e.total / e0.total);
+        assert_true(e.total < e0.total);
+        defsim_world_destroy(w);
+    }
+}
+
 /* --------------------------------------------------------------------------------------- */
 /* An undamped soft beam (stable neo-Hookean, 2 m x 0.5 m x 0.5 m, clamped at x = 0) set swinging
  * by an initial velocity, no gravity: total energy over 10 s at h = 1/60 s. */
@@ -468,6 +495,7 @@ int main(void)
         cmocka_unit_test(test_oscillator_orders),
         cmocka_unit_test(test_newmark_linear_energy),
         cmocka_unit_test(test_newmark_beam_energy),
+        cmocka_unit_test(test_bdf2_energy_monotone),
         cmocka_unit_test(test_verlet_invalidation),
         cmocka_unit_test(test_verlet_force_count),
         cmocka_unit_test(test_bdf2_restart),

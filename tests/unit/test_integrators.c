@@ -155,12 +155,13 @@ static void test_convergence_orders(void **state)
     const int n3 = 3 * 5 * 2 * 2;
     double *ref = run_to("symplectic_euler", READ_STAGGERED, T, 1e-3 / 256);
     const double hs[4] = {1e-3, 5e-4, 2.5e-4, 1.25e-4};
-    struct { const char *backend; int read; const char *label; double lo, hi; } cases[3] = {
+    struct { const char *backend; int read; const char *label; double lo, hi; } cases[4] = {
         {"explicit_euler", READ_SYNC, "explicit Euler", 0.85, 1.15},
         {"symplectic_euler", READ_SYNC, "symplectic Euler, synchronous (x_n, v_n)", 0.85, 1.15},
         {"symplectic_euler", READ_STAGGERED, "symplectic Euler, staggered (v at half steps)", 1.85, 2.15},
+        {"velocity_verlet", READ_SYNC, "velocity Verlet (x_n, v_n)", 1.85, 2.15},
     };
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < 4; ++c) {
         double ex[4], ev[4];
         for (int k = 0; k < 4; ++k) {
             double *r = run_to(cases[c].backend, cases[c].read, T, hs[k]);

@@ -11,6 +11,7 @@ Exit status: 0 written, 2 bad input, 3 matplotlib is not installed.
 """
 import argparse
 import csv
+import importlib.util
 import sys
 
 
@@ -24,18 +25,17 @@ def read(path):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("runs", nargs="+", help="LABEL=path/to/energy.csv")
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--title", default=None)
-    a = ap.parse_args()
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", help="LABEL=path/to/energy.csv")
+    parser.add_argument("--out", required=True, help="PNG path")
+    parser.add_argument("--title", default="total energy error")
+    a = parser.parse_args()
+    if importlib.util.find_spec("matplotlib") is None:
         print("plot_energy.py: matplotlib is not installed", file=sys.stderr)
         return 3
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
     runs = []
     try:
         for spec in a.runs:
@@ -64,7 +64,7 @@ def main():
             ax.set_ylim(-0.015, 0.015)
             ax.set_title("the same, zoomed to the 1 % band")
     axes[0].set_ylabel("(E(t) - E(0)) / largest kinetic energy")
-    axes[0].set_title(a.title or "total energy error")
+    axes[0].set_title(a.title)
     axes[0].legend(loc="lower left", fontsize=9)
     fig.tight_layout()
     fig.savefig(a.out, dpi=110)

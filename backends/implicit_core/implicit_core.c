@@ -175,20 +175,24 @@ enum { OPT_TOLERANCE, OPT_MAX_ITERATIONS, OPT_PROJECTION, OPT_ORDERING, OPT_FACT
 static const char ORDERINGS[] = "best|amd|metis", FACTORS[] = "auto|supernodal|simplicial";
 
 static const defsim_option_spec ic_options[OPT_COUNT] = {
-    {"tolerance", DEFSIM_OPTION_REAL, 1e-6, DBL_MIN, 1.0, NULL,
-     "Newton stops when no DOF's update exceeds tolerance x L (L: diagonal of the rest "
-     "positions' bounding box); relative, in (0, 1]"},
-    {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
-     "Newton iterations per step before the step fails with NOT_CONVERGED"},
-    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
-     "element Hessians: exact (none), negative eigenvalues set to 0 (clamp) or to their "
-     "magnitude (abs)"},
-    {"cholmod_ordering", DEFSIM_OPTION_CHOICE, 0, 0, 0, ORDERINGS,
-     "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or metis; the "
-     "environment variable DEFSIM_CHOLMOD_ORDERING overrides it"},
-    {"cholmod_factor", DEFSIM_OPTION_CHOICE, 0, 0, 0, FACTORS,
-     "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the environment "
-     "variable DEFSIM_CHOLMOD_FACTOR overrides it"},
+    [OPT_TOLERANCE] = {.name = "tolerance", .type = DEFSIM_OPTION_REAL, .default_value = 1e-6,
+        .min_value = DBL_MIN, .max_value = 1.0,
+        .doc = "Newton stops when no DOF's update exceeds tolerance x L (L: diagonal of the rest "
+               "positions' bounding box); relative, in (0, 1]"},
+    [OPT_MAX_ITERATIONS] = {.name = "max_iterations", .type = DEFSIM_OPTION_INT,
+        .default_value = 50, .min_value = 1, .max_value = 1e6,
+        .doc = "Newton iterations per step before the step fails with NOT_CONVERGED"},
+    [OPT_PROJECTION] = {.name = "projection", .type = DEFSIM_OPTION_CHOICE,
+        .default_value = DEFSIM_PROJECTION_CLAMP, .choices = "none|clamp|abs",
+        .doc = "element Hessians: exact (none), negative eigenvalues set to 0 (clamp) or to "
+               "their magnitude (abs)"},
+    [OPT_ORDERING] = {.name = "cholmod_ordering", .type = DEFSIM_OPTION_CHOICE,
+        .choices = ORDERINGS,
+        .doc = "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or "
+               "metis; the environment variable DEFSIM_CHOLMOD_ORDERING overrides it"},
+    [OPT_FACTOR] = {.name = "cholmod_factor", .type = DEFSIM_OPTION_CHOICE, .choices = FACTORS,
+        .doc = "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the "
+               "environment variable DEFSIM_CHOLMOD_FACTOR overrides it"},
 };
 
 static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {

@@ -97,16 +97,7 @@ static const defsim_counter_spec vv_counters[1] = {
 };
 
 const defsim_backend defsim__velocity_verlet_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "velocity_verlet",
-    .flags = DEFSIM_BACKEND_CONSERVATIVE,
-    .state_size = sizeof(vv_state),
-    .init = vv_init,
-    .step = vv_step,
-    .fini = vv_fini,
-    .reset = vv_reset,
-    .stable_step = vv_stable_step,
-    .counters = vv_counters,
-    .counter_count = 1,
-};
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION, .struct_size = sizeof(defsim_backend),
+    .name = "velocity_verlet", .flags = DEFSIM_BACKEND_CONSERVATIVE,
+    .state_size = sizeof(vv_state), .init = vv_init, .step = vv_step, .fini = vv_fini,
+    .reset = vv_reset, .stable_step = vv_stable_step, .counters = vv_counters, .counter_count = 1};

@@ -50,16 +50,7 @@ static void test_energy_drift(void **state)
     const char *names[2] = {"symplectic_euler", "explicit_euler"};
     for (int b = 0; b < 2; ++b) {
         defsim_world *w = tu_oscillator(names[b], 1.0, m, k, 0.0, 0.0, 0.01, 1, 0);
-        defsim_energy e0, e;
-        TU_OK(defsim_world_energy(w, &e0));
-        for (int i = 0; i < 100000; ++i) {
-            TU_OK(defsim_world_step(w, h));
-            if (i % 97 == 0 || i == 99999) {
-                TU_OK(defsim_world_energy(w, &e));
-                dev[b] = fmax(dev[b], fabs(e.total - e0.total) / e0.total);
-            }
-        }
-        ratio[b] = e.total / e0.total;
+        ratio[b] = tu_energy_run(w, h, 100000, &dev[b]);
         defsim_world_destroy(w);
     }
     printf("energy over 1e5 steps (omega h = 0.004): symplectic max deviation %.3f %%, end/start "

@@ -32,18 +32,18 @@ defsim_body_id tu_add_spring_pair(defsim_world *w, const double rest[6], const d
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    const double mass[2] = {m0, m};
-    const int32_t s[2] = {0, 1};
-    bd.material.stiffness = k;
-    bd.material.mass_damping = alpha;
-    bd.material.stiffness_damping = beta;
     bd.vertex_count = 2;
     bd.rest_positions = rest;
     bd.initial_positions = x0;
     bd.initial_velocities = v0;
+    const double mass[2] = {m0, m};
     bd.vertex_mass = mass;
+    const int32_t s[2] = {0, 1};
     bd.springs = s;
     bd.spring_count = 1;
+    bd.material.stiffness = k;
+    bd.material.mass_damping = alpha;
+    bd.material.stiffness_damping = beta;
     defsim_body_id id;
     TU_OK(defsim_world_add_body(w, &bd, &id));
     if (pin) {

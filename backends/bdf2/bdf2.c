@@ -27,11 +27,12 @@ static defsim_status bdf2_prepare(defsim__ic_solver *s, const defsim_host *host,
     double *xb = s->work[2], *z = s->z, *y = s->y;
     double a1 = 1.0, a2 = 0.0, b = 1.0;
     const double w = s->history_valid ? h / s->history_h : INFINITY;
-    if (!(w <= BDF2_MAX_RATIO)) s->counters[DEFSIM__IC_COUNTERS] += 1.0;
     if (w <= BDF2_MAX_RATIO) {
         a1 = (1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w);
         a2 = w * w / (1.0 + 2.0 * w);
         b = (1.0 + w) / (1.0 + 2.0 * w);
+    } else {
+        s->counters[DEFSIM__IC_COUNTERS] += 1.0;   /* restarts */
     }
     const size_t bytes = (size_t)s->ndof * sizeof(double);
     memcpy(z, s->x0, bytes);   /* pinned DOFs stay exactly at x_n */
@@ -52,7 +53,7 @@ static defsim_status bdf2_prepare(defsim__ic_solver *s, const defsim_host *host,
      * order accurate, where y is off by b^2 h^2 a'. */
     if (a2 > 0.0) {
         double *guess = s->work[3];
-        memcpy(guess, xb, (size_t)s->ndof * sizeof(double));
+        memcpy(guess, xb, bytes);
         for (int64_t k = 0; k < s->n; ++k) {
             const int64_t i = s->fdof[k];
             guess[i] += 0.5 * h * h * (s->v0[i] - vp[i]) / s->history_h;

@@ -58,6 +58,33 @@ void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[
     for (int i = 0; i < 3; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 3; }
 }
 
+defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
+                            double beta, double a, int pin, int auto_substep)
+{
+    defsim_world_def d = tu_world_def(backend, 0.0, 1);
+    d.auto_substep = auto_substep;
+    defsim_world *w = tu_create(&d);
+    const tu_spring2 o = {.l0 = 1, .x1 = {1 + a, 0, 0}, .m0 = m0, .m1 = m, .k = k,
+                          .alpha = alpha, .beta = beta, .pin_anchor = pin};
+    tu_add_spring2(w, &o);
+    return w;
+}
+
+double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev)
+{
+    defsim_energy e0, e;
+    TU_OK(defsim_world_energy(w, &e0));
+    e = e0;
+    double dev = 0.0;
+    for (int i = 0; i < steps; ++i) {
+        TU_OK(defsim_world_step(w, h));
+        TU_OK(defsim_world_energy(w, &e));
+        dev = fmax(dev, fabs(e.total - e0.total) / fabs(e0.total));
+    }
+    if (max_dev) *max_dev = dev;
+    return e.total / e0.total;
+}
+
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho)
 {

@@ -56,6 +56,16 @@ void tu_check_free_fall(defsim_world *w, const char *what, double gy, unsigned l
  * zero velocity. Returns how far the last vertex moved along y (m). */
 double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned);
 
+/* Steps w `steps` times by h and returns E_total(end) / E_total(start); *max_dev receives the
+ * largest |E(t) - E(0)| / |E(0)| over the steps (checked after every step). */
+double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev);
+
+/* A world (no gravity, one thread, auto_substep as given) holding one spring k (Rayleigh alpha,
+ * beta) between vertex 0 at the origin (mass m0, pinned if `pin`) and vertex 1 of mass m, at rest
+ * at x = 1 and started at x = 1 + a: with the pin, x'' = -(k/m) x - (alpha + beta k/m) x'. */
+defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
+                            double beta, double a, int pin, int auto_substep);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

@@ -19,6 +19,7 @@
 #include "material.h"
 #include "tet_forces.h"
 #include "tet_rest.h"
+#include "tet_rest.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -64,6 +64,14 @@ static void set_error(defsim_system *s, const char *message)
     defsim__world_error(W(s), "%s", message ? message : "");
 }
 
+static defsim_status omega_max(defsim_system *s, const double *x, double *omega, double *damping)
+{
+    if (!x || !omega || !damping) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim_status st = defsim__omega_max(W(s), x, omega);
+    *damping = st == DEFSIM_OK ? defsim__damping_rate(CW(s), *omega) : 0.0;
+    return st;
+}
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -94,4 +102,5 @@ const defsim_host defsim__host = {
     .set_error = set_error,
     .alloc = alloc,
     .release = release,
+    .omega_max = omega_max,
 };

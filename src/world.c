@@ -670,6 +670,17 @@ void defsim_world_reset_stats(defsim_world *w)
 /* ------------------------------------------------------------------------------------------ */
 /* Stability */
 
+double defsim__damping_rate(const defsim_world *w, double omega)
+{
+    double alpha = 0.0, beta = 0.0;
+    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i)
+        if (!w->pinned[i / 3] && w->alpha3[i] > alpha) alpha = w->alpha3[i];
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
+        for (int32_t e = 0; e < w->groups[m].n; ++e)
+            if (w->groups[m].beta[e] > beta) beta = w->groups[m].beta[e];
+    return alpha + beta * omega * omega;
+}
+
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
 {
     double om = 0.0;
@@ -679,13 +690,7 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
                                                               : "stable step: non-finite stiffness");
         return st;
     }
-    double alpha = 0.0, beta = 0.0;
-    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i)
-        if (!w->pinned[i / 3] && w->alpha3[i] > alpha) alpha = w->alpha3[i];
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
-        for (int32_t e = 0; e < w->groups[m].n; ++e)
-            if (w->groups[m].beta[e] > beta) beta = w->groups[m].beta[e];
-    const double c = alpha + beta * om * om;
+    const double c = defsim__damping_rate(w, om);
     *h = w->backend->stable_step ? w->backend->stable_step(om, c) : INFINITY;
     if (omega) *omega = om;
     w->stats.stable_step = *h;

@@ -130,6 +130,9 @@ defsim_status defsim__matrix_product(defsim_world *w, const double *x,
 
 /* omega_max = sqrt(largest eigenvalue of M^-1 K(x)) over the free DOFs (system.c). */
 defsim_status defsim__omega_max(defsim_world *w, const double *x, double *omega);
+/* Rayleigh damping rate c = alpha + beta omega^2 of the stability estimate (largest alpha over
+ * the free DOFs, largest beta over the elements; world.c). */
+double defsim__damping_rate(const defsim_world *w, double omega);
 
 /* The host service table handed to backends. */
 extern const defsim_host defsim__host;

@@ -46,12 +46,18 @@ extern char **environ;
 /* ... and one whose energy error exceeds the energy scale is on its way to blowing up. */
 #define DIVERGED_ENERGY 1.0
 
-#define MAX_BACKENDS 8
+#define MAX_BACKENDS 12
 #define MAX_VALUES 32
 #define MAX_SETS 64
 
 static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "newton_cholmod",
-                                     "sundials_kinsol", "sundials_ida"};
+                                     "sundials_kinsol", "sundials_ida", "sundials_erk"};
+
+/* Backends swept by tolerance (adaptive) rather than by step size. */
+static int swept_by_tolerance(const char *backend)
+{
+    return !strcmp(backend, "sundials_ida") || !strcmp(backend, "sundials_erk");
+}
 
 typedef struct point {
     const char *backend;
@@ -721,7 +727,7 @@ int defsim_tool_bench(int argc, char **argv)
     printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value", "wall_s",
            "rms_err", "max_err", "energy_err", "status");
     for (int k = 0; k < nuse; ++k) {
-        const int is_tol = !strcmp(use[k], "sundials_ida");
+        const int is_tol = swept_by_tolerance(use[k]);
         const int nval = is_tol ? ntol : nh;
         for (int j = 0; j < nval; ++j) {
             point *p = &pts[npts++];

@@ -2,6 +2,7 @@
 /* Shared SUNDIALS plumbing of the sundials_ida and sundials_kinsol modules. */
 #include "sundials_common.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -47,6 +48,38 @@ void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
     void *p = host->alloc(count * size);
     if (p) memset(p, 0, count * size);
     return p;
+}
+
+/* A host of ABI version 2 or later (options and counters by name). */
+static int has_v2(const defsim_host *host)
+{
+    return host->abi_version >= 2 &&
+           host->size >= offsetof(defsim_host, counters) + sizeof host->counters;
+}
+
+void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
+                         const defsim_option_spec *specs, int count, double *out)
+{
+    const double *v = has_v2(host) && host->option_values ? host->option_values(sys) : NULL;
+    const defsim_world_def *d = v ? NULL : host->options(sys);
+    for (int i = 0; i < count; ++i) {
+        out[i] = v ? v[i] : specs[i].default_value;
+        if (!d) continue;
+        const char *n = specs[i].name;
+        if (!strcmp(n, "rtol")) out[i] = d->rtol;
+        else if (!strcmp(n, "atol")) out[i] = d->atol;
+        else if (!strcmp(n, "max_order")) out[i] = d->max_order;
+        else if (!strcmp(n, "max_internal_steps")) out[i] = d->max_internal_steps;
+        else if (!strcmp(n, "tolerance")) out[i] = d->tolerance;
+        else if (!strcmp(n, "max_iterations")) out[i] = d->max_iterations;
+        else if (!strcmp(n, "projection")) out[i] = d->projection;
+    }
+}
+
+void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value)
+{
+    double *c = has_v2(host) && host->counters ? host->counters(sys) : NULL;
+    if (c) c[which] += value;
 }
 
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys)

@@ -54,6 +54,15 @@ void defsim__sun_error_handler(int code, const char *module, const char *functio
 void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, const char *flag_name,
                       long flag, double t);
 
+/* The backend's option values in the order of `specs`: the host's (option_values), or, from a
+ * core without options by name, the defaults with the world def's fields of the same name
+ * (rtol, atol, max_order, max_internal_steps, tolerance, max_iterations, projection). */
+void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
+                         const defsim_option_spec *specs, int count, double *out);
+
+/* Adds `value` to counter `which` of the backend (no-op if the host keeps no counters). */
+void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
+
 /* Allocation through the host (zeroed; NULL on failure). */
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);
 

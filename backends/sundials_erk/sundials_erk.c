@@ -188,8 +188,7 @@ static double erk_stable_step(double omega, double c)
 
 static void count(erk_state *s, int which, double value)
 {
-    double *c = s->host->counters ? s->host->counters(s->sys) : NULL;
-    if (c) c[which] += value;
+    defsim__sun_count(s->host, s->sys, which, value);
 }
 
 static void scatter(erk_state *s, const double *y)
@@ -346,20 +345,6 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->minv = s->x = s->v = s->f = NULL;
 }
 
-/* The option values: the host's, or (a core without options by name) the defaults with the
- * world def's rtol, atol and max_internal_steps. */
-static void read_options(erk_state *s, double o[O_COUNT])
-{
-    const double *v = s->host->option_values ? s->host->option_values(s->sys) : NULL;
-    for (int i = 0; i < O_COUNT; ++i) o[i] = v ? v[i] : erk_options[i].default_value;
-    if (!v) {
-        const defsim_world_def *d = s->host->options(s->sys);
-        o[O_RTOL] = d->rtol;
-        o[O_ATOL] = d->atol;
-        o[O_MAX_STEPS] = d->max_internal_steps;
-    }
-}
-
 #define SET(call)                                                                             \
     do {                                                                                      \
         int flag_ = (call);                                                                   \
@@ -380,7 +365,7 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     s->need_reinit = 1;
     if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
-    read_options(s, o);
+    defsim__sun_options(host, sys, erk_options, O_COUNT, o);
     s->rtol = o[O_RTOL];
     s->atol = o[O_ATOL];
     s->table = (int)o[O_TABLE];

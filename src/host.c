@@ -64,6 +64,12 @@ static void set_error(defsim_system *s, const char *message)
     defsim__world_error(W(s), "%s", message ? message : "");
 }
 
+static const double *option_values(const defsim_system *s)
+{
+    return defsim__options_values(&CW(s)->options);
+}
+static double *counters(defsim_system *s) { return defsim__options_counters(&W(s)->options); }
+
 static defsim_status omega_max(defsim_system *s, const double *x, double *omega, double *damping)
 {
     if (!x || !omega || !damping) return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -102,5 +108,7 @@ const defsim_host defsim__host = {
     .set_error = set_error,
     .alloc = alloc,
     .release = release,
+    .option_values = option_values,
+    .counters = counters,
     .omega_max = omega_max,
 };

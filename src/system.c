@@ -160,7 +160,7 @@ static const tet_force_fn tet_force_kernels[DEFSIM__TET_MODELS] = {
     forces_stvk, forces_corotated, forces_neohookean, forces_snh};
 
 /* The batched kernels (tet_forces.c) come in one variant per instruction set; the scalar
- * kernels above remain the reference (DEFSIM_SIMD=scalar). */
+ * kernels above remain the reference (core.simd = scalar). */
 const defsim__tet_kernels *defsim__tet_kernels_find(const char *name)
 {
     if (!name) return NULL;
@@ -184,16 +184,6 @@ const defsim__tet_kernels *defsim__tet_kernels_best(void)
         if (k) return k;
     }
     return &defsim__tet_kernels_generic;
-}
-
-/* The environment may force a variant (DEFSIM_SIMD=scalar|generic|avx2|avx512), for
- * benchmarks and cross-checks; an unknown or unsupported name falls back to the best. */
-static const defsim__tet_kernels *select_tet_kernels(void)
-{
-    const char *env = getenv("DEFSIM_SIMD");
-    if (env && !strcmp(env, "scalar")) return NULL;
-    const defsim__tet_kernels *k = defsim__tet_kernels_find(env);
-    return k ? k : defsim__tet_kernels_best();
 }
 
 /* Spring direction, length and the 3x3 block Kb = k (n n^T + s (I - n n^T)), s = 1 - l0/l,
@@ -565,7 +555,7 @@ static int element_matrix(const defsim_world *w, const defsim__group *g, const d
 {
     const double sk = c->k, sd = c->kd * g->beta[e];
     if (sk == 0.0 && sd == 0.0) return 0;
-    const int proj = w->def.projection;
+    const int proj = defsim__options_projection(&w->options, w->def.projection);
     const int nn = g->nodes, nd = 3 * nn;
     if (nn == 2) {
         const double *xa = x + 3 * (int64_t)g->idx[2 * (int64_t)e];
@@ -782,7 +772,7 @@ defsim_status defsim__matrix_product(defsim_world *w, const double *x,
                                      double *out)
 {
     if (!x || !c || !dx || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    matrix_apply(w, x, c, w->def.projection, dx, out);
+    matrix_apply(w, x, c, defsim__options_projection(&w->options, w->def.projection), dx, out);
     return DEFSIM_OK;
 }
 
@@ -1050,7 +1040,7 @@ static defsim_status plan_groups(defsim_world *w)
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&w->groups[m]);
         if (st != DEFSIM_OK) return st;
     }
-    w->tet_kernels = select_tet_kernels();
+    w->tet_kernels = defsim__options_tet_kernels(&w->options);
     return DEFSIM_OK;
 }
 

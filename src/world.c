@@ -151,9 +151,15 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
     w->def.backend = w->backend_name;
     w->backend = b;
+    st = defsim__options_init(&w->options, b, &d);
+    if (st != DEFSIM_OK) {
+        free(w);
+        return st;
+    }
     if (b->state_size > 0) {
         w->bstate = calloc(1, b->state_size);
         if (!w->bstate) {
+            defsim__options_free(&w->options);
             free(w);
             defsim__set_last_error("out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -197,6 +203,7 @@ void defsim_world_destroy(defsim_world *w)
     free(w->bodies);
     free(w->x); free(w->v); free(w->mass); free(w->pinned);
     free(w->bstate);
+    defsim__options_free(&w->options);
     free(w);
 }
 
@@ -665,6 +672,7 @@ void defsim_world_reset_stats(defsim_world *w)
     s.threads = w->stats.threads;
     s.reordered_tets = w->stats.reordered_tets;
     w->stats = s;
+    defsim__options_reset_counters(&w->options);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -727,6 +735,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->stats.steps++;
         return DEFSIM_OK;
     }
+    if (defsim__options_take_reinit(&w->options)) backend_fini(w);   /* an option changed */
     if (!w->backend_ready) {
         st = w->backend->init(&defsim__host, (defsim_system *)w, w->bstate);
         if (st != DEFSIM_OK) {
@@ -743,7 +752,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     memcpy(w->v_save, w->v, bytes);
     w->step_passes = 0;
     w->error[0] = '\0';
-    const int substep = w->def.auto_substep && w->backend->stable_step;
+    const int substep = defsim__options_auto_substep(&w->options) && w->backend->stable_step;
     for (int attempt = 0; attempt < 2; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -754,7 +763,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                 w->h_stable = attempt > 0 ? 0.5 * hs : hs;
                 w->steps_since_estimate = 0;
             }
-            double k = ceil(h / (w->def.substep_safety * w->h_stable));
+            double k = ceil(h / (defsim__options_substep_safety(&w->options) * w->h_stable));
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
                 defsim__world_error(w, "step: auto_substep would need %g substeps (stable step %g s)",

@@ -9,6 +9,7 @@
 #define DEFSIM_WORLD_H
 
 #include "defsim/backend.h"
+#include "options.h"
 
 #include <stdint.h>
 
@@ -59,6 +60,7 @@ struct defsim_world {
     char backend_name[64];
     const defsim_backend *backend;
     void *bstate;
+    defsim__options options;  /* options and counters by name (options.c) */
     int backend_ready;        /* init succeeded for the current plan */
     int planned;              /* groups, maps and workspaces match the bodies */
     char error[512];

@@ -71,6 +71,9 @@ typedef struct defsim_matrix_coeffs {
 /// defsim_world_set_option. The type (defsim_option_type) is declared in defsim.h, which hosts
 /// read too. Every value is held as a double: INT values are whole numbers, BOOL values 0 or 1,
 /// CHOICE values the index of the chosen name in `choices`.
+/// One name is shared with the core: a CHOICE option "projection" with choices "none|clamp|abs"
+/// (the defsim_projection values) is the projection that matrix_values and matrix_product apply
+/// in that backend's worlds; a backend without it gets the world def's (deprecated) projection.
 typedef struct defsim_option_spec {
     const char *name;           ///< [a-z0-9_]{1,63}, unique within the backend: "rtol". Static.
     defsim_option_type type;
@@ -136,6 +139,7 @@ typedef struct defsim_host {
                                     const defsim_matrix_coeffs *c, const double *dx, double *out);
 
     /// The world's creation options (tolerance, max_iterations, rtol, atol, projection, ...).
+    /// Deprecated for backend settings: declare options and read option_values instead.
     const defsim_world_def *(*options)(const defsim_system *sys);
     /// Threads for assembly (>= 1).
     int32_t (*num_threads)(const defsim_system *sys);

@@ -50,36 +50,28 @@ void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
     return p;
 }
 
-/* A host of ABI version 2 or later (options and counters by name). */
-static int has_v2(const defsim_host *host)
-{
-    return host->abi_version >= 2 &&
-           host->size >= offsetof(defsim_host, counters) + sizeof host->counters;
-}
-
 void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
                          const defsim_option_spec *specs, int count, double *out)
 {
-    const double *v = has_v2(host) && host->option_values ? host->option_values(sys) : NULL;
-    const defsim_world_def *d = v ? NULL : host->options(sys);
-    for (int i = 0; i < count; ++i) {
-        out[i] = v ? v[i] : specs[i].default_value;
-        if (!d) continue;
-        const char *n = specs[i].name;
-        if (!strcmp(n, "rtol")) out[i] = d->rtol;
-        else if (!strcmp(n, "atol")) out[i] = d->atol;
-        else if (!strcmp(n, "max_order")) out[i] = d->max_order;
-        else if (!strcmp(n, "max_internal_steps")) out[i] = d->max_internal_steps;
-        else if (!strcmp(n, "tolerance")) out[i] = d->tolerance;
-        else if (!strcmp(n, "max_iterations")) out[i] = d->max_iterations;
-        else if (!strcmp(n, "projection")) out[i] = d->projection;
-    }
+    const double *v = host->option_values(sys);
+    for (int i = 0; i < count; ++i) out[i] = v ? v[i] : specs[i].default_value;
+}
+
+double *defsim__sun_counters(const defsim_host *host, defsim_system *sys)
+{
+    return host->counters(sys);
 }
 
 void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value)
 {
-    double *c = has_v2(host) && host->counters ? host->counters(sys) : NULL;
+    double *c = host->counters(sys);
     if (c) c[which] += value;
+}
+
+int defsim__sun_host_ok(const defsim_host *host)
+{
+    return host && host->abi_version >= 2 &&
+           host->size >= offsetof(defsim_host, omega_max) + sizeof host->omega_max;
 }
 
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys)

@@ -54,14 +54,18 @@ void defsim__sun_error_handler(int code, const char *module, const char *functio
 void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, const char *flag_name,
                       long flag, double t);
 
-/* The backend's option values in the order of `specs`: the host's (option_values), or, from a
- * core without options by name, the defaults with the world def's fields of the same name
- * (rtol, atol, max_order, max_internal_steps, tolerance, max_iterations, projection). */
+/* The backend's option values in the order of `specs` (the host's; the defaults if the host
+ * holds none). */
 void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
                          const defsim_option_spec *specs, int count, double *out);
 
-/* Adds `value` to counter `which` of the backend (no-op if the host keeps no counters). */
+/* The backend's counters (NULL if it declares none), and adding to one of them. */
+double *defsim__sun_counters(const defsim_host *host, defsim_system *sys);
 void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
+
+/* True for a host of ABI version 2 with every service the SUNDIALS modules use (options,
+ * counters, omega_max). */
+int defsim__sun_host_ok(const defsim_host *host);
 
 /* Allocation through the host (zeroed; NULL on failure). */
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);

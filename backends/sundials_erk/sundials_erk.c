@@ -294,7 +294,7 @@ static void update_stats(erk_state *s)
     count(s, C_ETF, (double)(c.etf - s->base.etf));
     count(s, C_STAB_LIMITED, (double)(c.stab - s->base.stab));
     count(s, C_ACC_LIMITED, (double)(c.acc - s->base.acc));
-    double *cs = s->host->counters ? s->host->counters(s->sys) : NULL;
+    double *cs = defsim__sun_counters(s->host, s->sys);
     if (cs) cs[C_ORDER] = s->order;   /* a level, not a sum */
     s->base = c;
 }
@@ -464,10 +464,7 @@ static const defsim_backend erk_backend = {
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    /* Options, counters and omega_max are services of ABI version 2. */
-    if (!host || !out || host->abi_version < 2 ||
-        host->size < offsetof(defsim_host, omega_max) + sizeof host->omega_max)
-        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    if (!out || !defsim__sun_host_ok(host)) return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     *out = &erk_backend;
     return DEFSIM_OK;
 }

@@ -86,11 +86,14 @@ static osc osc_set[NOSC] = {
     {0.2, 20.0, 0.3, 0.002, 0.2, 0.0, 0},    /* both, c = 0.5 */
 };
 
-/* Largest error in units of the requested tolerance: |y - y*| / (rtol amp + atol), where amp
- * is the amplitude of that component, over every oscillator's displacement and velocity. */
+/* Largest position error in units of the requested tolerance: |u - u*| / (rtol amp + atol),
+ * where amp is the amplitude of the displacement, over every oscillator (the module controls
+ * the position error per second of simulated time; velocities per internal step, README). The
+ * largest velocity error |v - v*| / (rtol amp_v + atol) goes to *verr if verr is not NULL. */
 static double osc_error(defsim_world *w, const osc *os, int n, double t, double rtol, double atol,
-                        double *abs_err)
+                        double *abs_err, double *verr)
 {
+    double worst_v = 0.0;
     int nv = defsim_world_vertex_count(w);
     double *x = tu_positions(w), *v = tu_velocities(w);
     double worst = 0.0, worst_abs = 0.0;
@@ -102,8 +105,9 @@ static double osc_error(defsim_world *w, const osc *os, int n, double t, double 
         const double amp_u = fmax(fabs(os[i].u0), fabs(os[i].v0) / w0);
         const double amp_v = w0 * amp_u;
         const double eu = fabs(x[3 * os[i].vertex] - 1.0 - u), ev = fabs(v[3 * os[i].vertex] - ve);
-        worst = fmax(worst, fmax(eu / (rtol * amp_u + atol), ev / (rtol * amp_v + atol)));
-        worst_abs = fmax(worst_abs, fmax(eu, ev));
+        worst = fmax(worst, eu / (rtol * amp_u + atol));
+        worst_v = fmax(worst_v, ev / (rtol * amp_v + atol));
+        worst_abs = fmax(worst_abs, eu);
         /* Motion stays on the x axis. */
         assert_true(fabs(x[3 * os[i].vertex + 1]) < 1e-12 && fabs(x[3 * os[i].vertex + 2] -
                                                                   x[3 * (os[i].vertex - 1) + 2]) < 1e-12);
@@ -111,6 +115,7 @@ static double osc_error(defsim_world *w, const osc *os, int n, double t, double 
     free(x);
     free(v);
     if (abs_err) *abs_err = worst_abs;
+    if (verr) *verr = worst_v;
     return worst;
 }
 
@@ -118,7 +123,7 @@ static void test_oscillators_tolerance_sweep(void **state)
 {
     (void)state;
     const double tols[4] = {1e-5, 1e-6, 1e-7, 1e-8};
-    double err[4], abs_err[4];
+    double err[4], abs_err[4], verr[4];
     for (int k = 0; k < 4; ++k) {
         defsim_world *w = ida_world(tols[k], tols[k], 5, 100000, 0.0);
         osc os[NOSC];
@@ -127,16 +132,17 @@ static void test_oscillators_tolerance_sweep(void **state)
         for (int s = 0; s < 50; ++s) TU_OK(defsim_world_step(w, 0.1));
         const double t = defsim_world_time(w);
         assert_true(fabs(t - 5.0) < 1e-12);
-        err[k] = osc_error(w, os, NOSC, t, tols[k], tols[k], &abs_err[k]);
+        err[k] = osc_error(w, os, NOSC, t, tols[k], tols[k], &abs_err[k], &verr[k]);
         defsim_stats st = {.size = sizeof st};
         TU_OK(defsim_world_stats(w, &st));
-        printf("ida oscillators tol %.0e: max error %.3e (abs), %.2f x tolerance; internal steps "
-               "%lld, order %d, residuals %lld, Jacobians %lld, error-test failures %lld, "
-               "convergence failures %lld\n",
-               tols[k], abs_err[k], err[k], (long long)st.internal_steps, (int)st.last_order,
+        printf("ida oscillators tol %.0e: max position error %.3e (abs), %.2f x tolerance "
+               "(velocities %.2f x); internal steps %lld, order %d, residuals %lld, Jacobians "
+               "%lld, error-test failures %lld, convergence failures %lld\n",
+               tols[k], abs_err[k], err[k], verr[k], (long long)st.internal_steps,
+               (int)st.last_order,
                (long long)st.residual_evals, (long long)st.jacobian_evals,
                (long long)st.error_test_failures, (long long)st.convergence_failures);
-        assert_true(err[k] <= 10.0);
+        assert_true(err[k] <= 10.0 * t);   /* the contract: tolerance per second */
         assert_true(st.internal_steps > 50);
         assert_true(st.last_order >= 1 && st.last_order <= 5);
         assert_true(st.residual_evals > st.internal_steps);
@@ -152,6 +158,40 @@ static void test_oscillators_tolerance_sweep(void **state)
     for (int k = 0; k + 1 < 4; ++k) assert_true(abs_err[k + 1] < abs_err[k]);
 }
 
+/* Calibration, measured as defsim bench measures (rtol = tol, atol = tol x the size L of the
+ * scene, error = position error / L): the oscillators above at T = 0.5 s and T = 5 s, over three
+ * decades of tolerance. The error must stay within a factor of 10 of T x tol (the contract:
+ * tolerance per second of simulated time). */
+static void test_calibration(void **state)
+{
+    (void)state;
+    const double tols[4] = {1e-3, 1e-4, 1e-5, 1e-6}, horizons[2] = {0.5, 5.0}, L = 1.0;
+    for (int h = 0; h < 2; ++h) {
+        const double T = horizons[h];
+        for (int k = 0; k < 4; ++k) {
+            defsim_world *w = ida_world(tols[k], tols[k] * L, 5, 1000000, 0.0);
+            osc os[NOSC];
+            memcpy(os, osc_set, sizeof os);
+            for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+            for (int s = 0; s < (int)lround(T / 0.05); ++s) TU_OK(defsim_world_step(w, 0.05));
+            double *x = tu_positions(w), worst = 0.0;
+            for (int i = 0; i < NOSC; ++i) {
+                double u, v;
+                osc_exact(&os[i], defsim_world_time(w), &u, &v);
+                worst = fmax(worst, fabs(x[3 * os[i].vertex] - 1.0 - u) / L);
+            }
+            free(x);
+            defsim_stats st = {.size = sizeof st};
+            TU_OK(defsim_world_stats(w, &st));
+            const double ratio = worst / (T * tols[k]);
+            printf("ida calibration T = %g s, tol %.0e: position error %.3e = %.3f x T tol, "
+                   "%lld internal steps\n", T, tols[k], worst, ratio, (long long)st.internal_steps);
+            assert_true(ratio >= 0.1 && ratio <= 10.0);
+            defsim_world_destroy(w);
+        }
+    }
+}
+
 /* One call of step(5 s) lands on t = 5 exactly as fifty calls of 0.1 s do. */
 static void test_single_long_step(void **state)
 {
@@ -162,7 +202,7 @@ static void test_single_long_step(void **state)
     for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
     TU_OK(defsim_world_step(w, 5.0));
     assert_true(defsim_world_time(w) == 5.0);
-    assert_true(osc_error(w, os, NOSC, 5.0, 1e-8, 1e-8, NULL) <= 10.0);
+    assert_true(osc_error(w, os, NOSC, 5.0, 1e-8, 1e-8, NULL, NULL) <= 10.0 * 5.0);
     defsim_world_destroy(w);
 }
 
@@ -186,7 +226,7 @@ static void test_max_order(void **state)
             if (st.last_order > used_max) used_max = st.last_order;
         }
         steps[k] = st.internal_steps;
-        const double e = osc_error(w, os, 1, defsim_world_time(w), tol[k], tol[k], NULL);
+        const double e = osc_error(w, os, 1, defsim_world_time(w), tol[k], tol[k], NULL, NULL);
         printf("ida max_order %d, tol %.0e: highest order used %d, internal steps %lld, error "
                "%.2f x tolerance\n", orders[k], tol[k], used_max, (long long)steps[k], e);
         assert_true(used_max <= orders[k] && used_max >= (orders[k] < 3 ? orders[k] : 3));
@@ -214,7 +254,7 @@ static void test_set_state_reinit(void **state)
     osc o = os[0];
     o.u0 = -0.03;
     o.v0 = 0.7;
-    double e = osc_error(w, &o, 1, defsim_world_time(w) - t1, 1e-8, 1e-8, NULL);
+    double e = osc_error(w, &o, 1, defsim_world_time(w) - t1, 1e-8, 1e-8, NULL, NULL);
     printf("ida after set_state: error %.2f x tolerance\n", e);
     assert_true(e <= 10.0);
     free(x);
@@ -241,7 +281,8 @@ static void test_pin_changes(void **state)
         assert_true(x[3 * os[1].vertex + c] == xp[3 * os[1].vertex + c]);
         assert_true(v[3 * os[1].vertex + c] == 0.0);
     }
-    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL) <= 10.0);
+    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL, NULL) <=
+                10.0 * defsim_world_time(w));
     /* Released at rest from displacement d at t = 2. */
     const double d = x[3 * os[1].vertex] - 1.0, t2 = defsim_world_time(w);
     TU_OK(defsim_body_unpin(w, b, &one, 1));
@@ -249,8 +290,10 @@ static void test_pin_changes(void **state)
     osc o = os[1];
     o.u0 = d;
     o.v0 = 0.0;
-    assert_true(osc_error(w, &o, 1, defsim_world_time(w) - t2, 1e-8, 1e-8, NULL) <= 10.0);
-    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL) <= 10.0);
+    assert_true(osc_error(w, &o, 1, defsim_world_time(w) - t2, 1e-8, 1e-8, NULL, NULL) <=
+                10.0 * (defsim_world_time(w) - t2));
+    assert_true(osc_error(w, &os[0], 1, defsim_world_time(w), 1e-8, 1e-8, NULL, NULL) <=
+                10.0 * defsim_world_time(w));
     free(xp);
     free(x);
     free(v);
@@ -493,6 +536,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_flags),
         cmocka_unit_test(test_oscillators_tolerance_sweep),
+        cmocka_unit_test(test_calibration),
         cmocka_unit_test(test_single_long_step),
         cmocka_unit_test(test_max_order),
         cmocka_unit_test(test_set_state_reinit),

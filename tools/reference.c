@@ -194,6 +194,7 @@ int main(int argc, char **argv)
     fprintf(f, "mass_damping %.17g\nstiffness_damping %.17g\n", alpha, beta);
     fprintf(f, "gravity %.17g %.17g %.17g\nclamp x 0\nstart rest\n", wd.gravity[0],
             wd.gravity[1], wd.gravity[2]);
+    ref.backend = "sundials_ida";
     const int wrote = refsol_write_tail(f, &ref);
     const double wall = ref.wall_seconds;
     refsol_free(&ref);

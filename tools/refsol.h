@@ -14,6 +14,8 @@
 
 /* The state at T and how it was obtained. */
 typedef struct refsol {
+    const char *backend;      /* static string: the backend that computed it (set by the caller
+                                 before refsol_write_tail) */
     double end_time;          /* s */
     double rtol, atol;
     int64_t internal_steps;

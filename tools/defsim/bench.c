@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * `defsim bench SCENE.json`: work-precision benchmark. For each backend it sweeps the step size h
- * (fixed-step backends) or the tolerance (sundials_ida), runs the scene to a fixed end time T,
+ * (fixed-step backends) or the tolerance (sundials_ida, sundials_erk), runs the scene to a fixed
+ * end time T,
  * and measures the wall time of the stepping loop (median of repeats) and the error at T against
- * a reference solution: sundials_ida at rtol 1e-10 on the same scene, computed once and cached in
+ * a reference solution: sundials_erk at rtol 1e-10 on the same scene, computed once and cached in
  * the output folder under a hash of the scene file, the overrides and T. Writes a CSV, a Pareto
  * table (the fastest backend and setting for each error level) and, through tools/plot_wp.py, a
  * log-log plot of error against time. tools/README.md documents the definitions.
@@ -35,12 +36,13 @@ extern char **environ;
 #define DEFSIM_BENCH_PLOT_SCRIPT ""
 #endif
 
-/* The reference: sundials_ida at this rtol (atol = rtol times the body size), checked against a
+/* The reference: REF_BACKEND at this rtol (atol = rtol times the body size), checked against a
  * second run at REF_CHECK_RTOL. Bump REF_FORMAT when the way it is computed changes, so that old
  * cached files are not reused. */
+#define REF_BACKEND "sundials_erk"
 #define REF_RTOL 1e-10
 #define REF_CHECK_RTOL 1e-9
-#define REF_FORMAT "bench-reference-2"
+#define REF_FORMAT "bench-reference-3"
 /* A run whose RMS position error exceeds the body's size has left the solution entirely. */
 #define DIVERGED_RMS 1.0
 /* ... and one whose energy error exceeds the energy scale is on its way to blowing up. */
@@ -93,7 +95,8 @@ static int usage(FILE *f)
         "                      skipped with a note)\n"
         "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
         "                      doubled up to 1/30 s)\n"
-        "  --tol LIST          sundials_ida tolerances, rtol = tol, atol = tol x body size\n"
+        "  --tol LIST          sundials_ida and sundials_erk tolerances, rtol = tol,\n"
+        "                      atol = tol x body size\n"
         "                      (default 1e-3,1e-4,...,1e-8)\n"
         "  --time T            end time, s (default: min(0.5, the scene's duration))\n"
         "  --repeats R         timed repeats per point, median reported (default 3)\n"
@@ -270,22 +273,25 @@ static int reference_key(const bench *b, char key[17], char *err, size_t errlen)
     return 0;
 }
 
-/* The "key" line of a reference file, or "" if it has none. */
-static void read_key(const char *path, char key[64])
+/* The "key" line of a reference file, or "" if it has none; *check_err (if not NULL) gets its
+ * "check_rms_err" value, or 0 if it has none. */
+static void read_key(const char *path, char key[64], double *check_err)
 {
     key[0] = '\0';
+    if (check_err) *check_err = 0.0;
     FILE *f = fopen(path, "r");
     if (!f) return;
     char line[1024];
     while (fgets(line, sizeof line, f) && strncmp(line, "vertices", 8) != 0)
-        if (sscanf(line, "key %63s", key) == 1) break;
+        if (sscanf(line, "key %63s", key) != 1 && check_err)
+            sscanf(line, "check_rms_err %lf", check_err);
     fclose(f);
 }
 
 static defsim_status integrate_reference(bench *b, double rtol, refsol *out)
 {
     defsim_world *w = NULL;
-    defsim_status st = build(b, "sundials_ida", rtol, &w);
+    defsim_status st = build(b, REF_BACKEND, rtol, &w);
     if (st != DEFSIM_OK) {
         fprintf(stderr, "defsim bench: reference: %s\n", b->s.error);
         return st;
@@ -295,6 +301,7 @@ static defsim_status integrate_reference(bench *b, double rtol, refsol *out)
     snprintf(tag, sizeof tag, "  reference rtol %g", rtol);
     st = refsol_integrate(w, b->T, calls < 1 ? 1 : calls, rtol, rtol * b->size,
                           isatty(STDERR_FILENO) ? tag : NULL, out);
+    out->backend = REF_BACKEND;
     defsim_world_destroy(w);
     return st;
 }
@@ -305,7 +312,7 @@ static int get_reference(bench *b, const char *path, const char *key, refsol *re
     char err[1200], file_key[64];
     *cached = 0;
     if (access(path, R_OK) == 0) {
-        read_key(path, file_key);
+        read_key(path, file_key, NULL);
         if (file_key[0] && strcmp(file_key, key) != 0) {
             fprintf(stderr, "defsim bench: %s was computed for another scene, overrides or end "
                             "time (key %s, here %s); remove it or name another file\n",
@@ -324,12 +331,12 @@ static int get_reference(bench *b, const char *path, const char *key, refsol *re
             return -1;
         }
         *cached = 1;
-        printf("reference: cached %s (sundials_ida rtol %g, %lld internal steps, took %.1f s "
+        printf("reference: cached %s (rtol %g, %lld internal steps, took %.1f s "
                "when computed)%s\n", path, ref->rtol, (long long)ref->internal_steps,
                ref->wall_seconds, file_key[0] ? "" : " [no key: trusted as given]");
         return 0;
     }
-    printf("reference: computing sundials_ida at rtol %g (check at %g) to T = %g s ...\n",
+    printf("reference: computing %s at rtol %g (check at %g) to T = %g s ...\n", REF_BACKEND,
            REF_RTOL, REF_CHECK_RTOL, b->T);
     fflush(stdout);
     refsol check;
@@ -447,6 +454,63 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
             fprintf(f, "- %s, %s: %.4g s, RMS %.2e\n", p[i].backend, s1, p[i].wall, p[i].rms);
         }
     return fclose(f) == 0 ? 0 : -1;
+}
+
+/* Observed order of each backend: the least-squares slope of log(RMS error) against log(mean
+ * step), mean step = h (fixed-step) or T / internal steps (adaptive), over the `ORDER_POINTS`
+ * finest ok points whose error is above 100 times the reference's own (so that the reference does
+ * not set it) and below 1e-2 (the asymptotic range). Printed and appended to the Pareto file. */
+#define ORDER_POINTS 3
+static void write_orders(const bench *b, const point *p, int n, double ref_err, const char *path)
+{
+    FILE *f = fopen(path, "a");
+    if (f) fprintf(f, "\nObserved orders (slope of log RMS error against log mean step over the "
+                      "%d finest points with error in [%.1e, 1e-2]):\n\n", ORDER_POINTS,
+                   100.0 * ref_err);
+    printf("\nObserved orders (%d finest points with RMS error in [%.1e, 1e-2]):\n", ORDER_POINTS,
+           100.0 * ref_err);
+    for (int i = 0; i < n; ++i) {
+        int seen = 0;
+        for (int j = 0; j < i; ++j) seen |= !strcmp(p[j].backend, p[i].backend);
+        if (seen) continue;
+        double hs[MAX_VALUES], es[MAX_VALUES];
+        int m = 0;
+        for (int j = i; j < n && m < MAX_VALUES; ++j) {
+            const point *q = &p[j];
+            if (strcmp(q->backend, p[i].backend) || strcmp(q->status, "ok") ||
+                !(q->rms >= 100.0 * ref_err && q->rms <= 1e-2))
+                continue;
+            const double h = q->is_tol ? (q->internal > 0 ? b->T / (double)q->internal : 0.0)
+                                       : q->value;
+            if (!(h > 0.0)) continue;
+            hs[m] = h;
+            es[m++] = q->rms;
+        }
+        /* The finest ORDER_POINTS by mean step (insertion sort, ascending h). */
+        for (int a = 1; a < m; ++a)
+            for (int c = a; c > 0 && hs[c] < hs[c - 1]; --c) {
+                double t = hs[c]; hs[c] = hs[c - 1]; hs[c - 1] = t;
+                t = es[c]; es[c] = es[c - 1]; es[c - 1] = t;
+            }
+        const int k = m < ORDER_POINTS ? m : ORDER_POINTS;
+        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        for (int a = 0; a < k; ++a) {
+            const double x = log(hs[a]), y = log(es[a]);
+            sx += x; sy += y; sxx += x * x; sxy += x * y;
+        }
+        const double den = k * sxx - sx * sx;
+        if (k < 2 || !(fabs(den) > 1e-12)) {
+            printf("  %-17s  too few points\n", p[i].backend);
+            if (f) fprintf(f, "- %s: too few points\n", p[i].backend);
+            continue;
+        }
+        const double order = (k * sxy - sx * sy) / den;
+        printf("  %-17s  %.2f  (mean steps %.3g .. %.3g s)\n", p[i].backend, order, hs[0],
+               hs[k - 1]);
+        if (f) fprintf(f, "- %s: %.2f (mean steps %.3g to %.3g s)\n", p[i].backend, order, hs[0],
+                       hs[k - 1]);
+    }
+    if (f) fclose(f);
 }
 
 static int write_csv(const point *p, int n, const char *path)
@@ -669,7 +733,7 @@ int defsim_tool_bench(int argc, char **argv)
 
     /* Which backends exist here. */
     const char *use[MAX_BACKENDS];
-    int nuse = 0, have_ida = 0;
+    int nuse = 0, have_ref = 0;
     for (int k = 0; k < nb; ++k) {
         defsim_world_def wd;
         defsim_world_def_init(&wd, sizeof wd);
@@ -687,9 +751,9 @@ int defsim_tool_bench(int argc, char **argv)
     {
         defsim_world_def wd;
         defsim_world_def_init(&wd, sizeof wd);
-        wd.backend = "sundials_ida";
+        wd.backend = REF_BACKEND;
         defsim_world *w = NULL;
-        have_ida = defsim_world_create(&wd, &w) == DEFSIM_OK;
+        have_ref = defsim_world_create(&wd, &w) == DEFSIM_OK;
         defsim_world_destroy(w);
     }
     if (nuse == 0) {
@@ -713,8 +777,8 @@ int defsim_tool_bench(int argc, char **argv)
     printf("defsim bench: %s, %d vertices, T = %g s, body size %.4g m, energy scale %.4g J, "
            "%d repeat(s)\n", b.s.name, (int)b.nv, b.T, b.size, b.energy_scale, b.repeats);
     int cached = 0;
-    if (!have_ida && access(path, R_OK) != 0) {
-        fprintf(stderr, "defsim bench: the reference needs the sundials_ida backend, which is "
+    if (!have_ref && access(path, R_OK) != 0) {
+        fprintf(stderr, "defsim bench: the reference needs the " REF_BACKEND " backend, which is "
                         "not available, and %s does not exist\n", path);
         goto done;
     }
@@ -747,6 +811,10 @@ int defsim_tool_bench(int argc, char **argv)
     snprintf(png, sizeof png, "%s/%s.png", dir, b.s.name);
     snprintf(md, sizeof md, "%s/%s_pareto.md", dir, b.s.name);
     if (write_csv(pts, npts, csv) != 0 || write_pareto(&b, pts, npts, md) != 0) goto done;
+    double ref_err = 0.0;
+    char file_key[64];
+    read_key(path, file_key, &ref_err);
+    write_orders(&b, pts, npts, ref_err, md);
     printf("\nwrote %s, %s\n", csv, md);
     snprintf(title, sizeof title, "%s: %d vertices, T = %g s", b.s.name, (int)b.nv, b.T);
     if (!no_plot) plot(python, script, csv, png, title);

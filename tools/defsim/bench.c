@@ -77,6 +77,8 @@ typedef struct bench {
     const char *scene_path;
     const char *sets[MAX_SETS];
     int nsets;
+    const char *opts[MAX_SETS];  /* --option NAME=VALUE, for the swept runs (not the reference) */
+    int nopts;
     double T, frame_dt;
     int repeats;
     int threads;           /* world.num_threads of every run */
@@ -103,6 +105,9 @@ static int usage(FILE *f)
         "  --threads N         assembly threads (default 1, for timings that compare the\n"
         "                      methods; 0: OpenMP's default)\n"
         "  --set KEY=VALUE     override a scene value, as in defsim run; repeatable\n"
+        "  --option NAME=VALUE set an option by name (\"sundials_ida.linear_solver=klu\") in\n"
+        "                      the runs of the backend it names (not in the reference);\n"
+        "                      repeatable\n"
         "  --out DIR           output folder (default bench_<scene>)\n"
         "  --reference FILE    reference file to use, or to write if it does not exist\n"
         "                      (default DIR/<scene>_reference_<hash>.txt)\n"
@@ -161,6 +166,24 @@ static defsim_status build(bench *b, const char *backend, double rtol, defsim_wo
     return scene_build(&b->s, w);
 }
 
+/* Sets the --option values that name `backend` (or "core.") on w. */
+static defsim_status apply_options(const bench *b, const char *backend, defsim_world *w)
+{
+    const size_t bl = strlen(backend);
+    for (int i = 0; i < b->nopts; ++i) {
+        const char *o = b->opts[i], *eq = strchr(o, '=');
+        if (strncmp(o, "core.", 5) && (strncmp(o, backend, bl) || o[bl] != '.')) continue;
+        char name[128];
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o), o);
+        const defsim_status st = defsim_world_set_option(w, name, eq + 1);
+        if (st != DEFSIM_OK) {
+            fprintf(stderr, "defsim bench: --option %s: %s\n", o, defsim_world_last_error(w));
+            return st;
+        }
+    }
+    return DEFSIM_OK;
+}
+
 /* Steps `w` to T: fixed steps of h (is_tol 0) or calls of one frame each (adaptive). */
 static defsim_status advance(bench *b, defsim_world *w, int is_tol, double h, long long n)
 {
@@ -214,6 +237,11 @@ static void run_point(bench *b, const refsol *ref, point *p)
         if (st != DEFSIM_OK) {
             snprintf(p->status, sizeof p->status, "%s", defsim_status_string(st));
             fprintf(stderr, "defsim bench: %s\n", b->s.error);
+            return;
+        }
+        if ((st = apply_options(b, p->backend, w)) != DEFSIM_OK) {
+            snprintf(p->status, sizeof p->status, "%s", defsim_status_string(st));
+            defsim_world_destroy(w);
             return;
         }
         const double t0 = refsol_now();
@@ -615,6 +643,13 @@ int defsim_tool_bench(int argc, char **argv)
                 return 2;
             }
             b.sets[b.nsets++] = v;
+        } else if (!strcmp(a, "--option")) {
+            if (b.nopts == MAX_SETS || !strchr(v, '=') || strchr(v, '=') == v) {
+                fprintf(stderr, "defsim bench: --option NAME=VALUE (at most %d): %s\n", MAX_SETS,
+                        v);
+                return 2;
+            }
+            b.opts[b.nopts++] = v;
         } else if (!strcmp(a, "--out")) out_dir = v;
         else if (!strcmp(a, "--reference")) ref_path = v;
         else if (!strcmp(a, "--python")) python = v;

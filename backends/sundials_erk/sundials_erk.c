@@ -45,7 +45,7 @@
 #define STAB_REFRESH 1024
 /* Amplification per step allowed to the highest mode at the stability limit: |R(h lambda)| <=
  * 1 + STAB_GROWTH. Most pairs' regions touch the imaginary axis only briefly (Dormand-Prince 5:
- * up to |h omega| = 0.997) and then leave it slowly (|R| = 1.01 at 1.74), and the error test holds
+ * up to |h omega| = 0.997) and then leave it slowly (|R| = 1.01 at 1.725), and the error test holds
  * such slow growth of an undamped mode: at 1.01 the internal steps are as long as the error
  * control alone would make them, without its rejected steps (README "Stability"). */
 #define STAB_GROWTH 1e-2
@@ -83,7 +83,7 @@ static const defsim_option_spec erk_options[O_COUNT] = {
      "internal steps allowed per defsim_world_step call"},
     {"stability_limit", DEFSIM_OPTION_BOOL, 1, 0, 1, NULL,
      "limit internal steps to the stability region at the estimated omega_max"},
-    {"stability_safety", DEFSIM_OPTION_REAL, 0.9, 0.01, 1.0, NULL,
+    {"stability_safety", DEFSIM_OPTION_REAL, 0.9, 0.01, 0.99, NULL,
      "fraction of the stability limit used for an internal step"},
 };
 

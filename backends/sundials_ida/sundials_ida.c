@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * sundials_ida: adaptive variable-order BDF (SUNDIALS IDA) with a sparse KLU Newton solver.
+ * sundials_ida: adaptive variable-order BDF (SUNDIALS IDA); Newton systems solved either reduced
+ * to the positions and factorised by CHOLMOD (linear_solver = cholmod, the default) or in full
+ * by KLU (linear_solver = klu).
  *
  * The equations of motion over the free DOFs, as the implicit DAE F(t, y, y') = 0 with
  * y = [x, v]:
@@ -15,11 +17,11 @@
  * (IDASetStopTime), with as many internal steps as the tolerances need; IDA's history is kept
  * between calls and dropped (IDAReInit) when the host changes the state or a step fails.
  *
- * Tolerances are per second of simulated time (error per unit step): the local error of an
- * internal step of length h_i is held to (rtol |y| + atol) min(1, h_i / 1 s), through IDA's
- * error-weight function. IDA's own control (per step, whatever its length) lets the global error
- * grow with the number of steps, 10 to 500 times the tolerance on oscillators; per unit step,
- * the error after T seconds stays near T times the tolerance, and falls in proportion to it.
+ * Tolerances are per second of simulated time, measured in positions (ida_weights): the local
+ * position error of an internal step of length h_i is held to K (rtol |x| + atol) min(1, h_i/1 s)
+ * and the local velocity error to K (rtol |v| + atol), which moves the positions by about
+ * h_i times that over the next step; K = IDA_TOL_CALIBRATION. The position error after T seconds
+ * is then near T times the tolerance and falls in proportion to it (README "Tolerances").
  */
 #include "defsim/backend.h"
 

@@ -193,7 +193,8 @@ int defsim_tool_stress(int argc, char **argv)
     int reduced = 0, check = 0, max_steps = 0;
     double T = 0.5;
     const char *csv_path = "stress.csv";
-    char backends_buf[512] = "explicit_euler,symplectic_euler,newton_cholmod,sundials_kinsol,sundials_ida";
+    char backends_buf[512] =
+        "explicit_euler,symplectic_euler,newton_cholmod,sundials_kinsol,sundials_ida,sundials_erk";
     char scenes_buf[128] = "beam,rope";
     for (int i = 0; i < argc; ++i) {
         if (!strcmp(argv[i], "--reduced")) reduced = 1;

@@ -41,6 +41,32 @@ static int timed_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, r
     return r;
 }
 
+void defsim__sun_scatter(const int64_t *free_dofs, int64_t n, const double *y, double *x,
+                         double *v)
+{
+    for (int64_t i = 0; i < n; ++i) {
+        x[free_dofs[i]] = y[i];
+        v[free_dofs[i]] = y[n + i];
+    }
+}
+
+void defsim__sun_gather(const int64_t *free_dofs, int64_t n, const double *x, const double *v,
+                        double *y)
+{
+    for (int64_t i = 0; i < n; ++i) {
+        y[i] = x[free_dofs[i]];
+        y[n + i] = v[free_dofs[i]];
+    }
+}
+
+defsim_status defsim__sun_reset(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)host;
+    (void)sys;
+    ((defsim__sun *)state)->need_reinit = 1;
+    return DEFSIM_OK;
+}
+
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
 {
     if (count == 0) count = 1;
@@ -68,10 +94,14 @@ void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, d
     if (c) c[which] += value;
 }
 
-int defsim__sun_host_ok(const defsim_host *host)
+defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
+                                 const defsim_backend *backend)
 {
-    return host && host->abi_version >= 2 &&
-           host->size >= offsetof(defsim_host, omega_max) + sizeof host->omega_max;
+    if (!out || !host || host->abi_version < 2 ||
+        host->size < offsetof(defsim_host, omega_max) + sizeof host->omega_max)
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    *out = backend;
+    return DEFSIM_OK;
 }
 
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys)

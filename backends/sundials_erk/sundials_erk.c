@@ -107,7 +107,7 @@ typedef struct erk_counts {
 } erk_counts;
 
 typedef struct erk_state {
-    defsim__sun sun;
+    defsim__sun sun;           /* first: defsim__sun_reset reaches it through the state */
     const defsim_host *host;
     defsim_system *sys;
     void *mem;                 /* ERKStep memory */
@@ -121,7 +121,6 @@ typedef struct erk_state {
     int order;
     ARKodeButcherTable bt;     /* a copy of the table, for its stability function */
     double t;
-    int need_reinit;
     double h_stab;             /* last stability limit (s); 0: not estimated */
     long stab_step, stab_etf, stab_exp;   /* ERKStep's step, error-test failure and
                                              stability-limited step counts at that estimate */
@@ -199,11 +198,7 @@ static void count(erk_state *s, int which, double value)
 
 static void scatter(erk_state *s, const double *y)
 {
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        s->x[d] = y[i];
-        s->v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, y, s->x, s->v);
 }
 
 static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
@@ -312,7 +307,7 @@ static defsim_status erk_fail(erk_state *s, const char *call, int flag)
     if (s->mem) ERKStepGetCurrentTime(s->mem, &tcur);
     defsim__sun_fail(&s->sun, "sundials_erk", call, name, flag, tcur);
     free(name);
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     return DEFSIM_ERR_NOT_CONVERGED;
 }
 
@@ -322,17 +317,13 @@ static defsim_status erk_restart(erk_state *s)
     const size_t bytes = (size_t)s->ndof * sizeof(double);
     memcpy(s->x, s->host->positions(s->sys), bytes);
     memcpy(s->v, s->host->velocities(s->sys), bytes);
-    double *y = N_VGetArrayPointer(s->y);
-    for (int64_t i = 0; i < s->n; ++i) {
-        y[i] = s->x[s->free_dofs[i]];
-        y[s->n + i] = s->v[s->free_dofs[i]];
-    }
+    defsim__sun_gather(s->free_dofs, s->n, s->x, s->v, N_VGetArrayPointer(s->y));
     s->t = s->host->time(s->sys);
     int flag = ERKStepReInit(s->mem, erk_rhs, s->t, s->y);
     if (flag < 0) return erk_fail(s, "ERKStepReInit", flag);
     memset(&s->base, 0, sizeof s->base);
     s->h_stab = 0.0;
-    s->need_reinit = 0;
+    s->sun.need_reinit = 0;
     return DEFSIM_OK;
 }
 
@@ -368,7 +359,7 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     s->n = host->free_dof_count(sys);
     s->ndof = host->dof_count(sys);
     s->free_dofs = host->free_dofs(sys);
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
     defsim__sun_options(host, sys, erk_options, O_COUNT, o);
@@ -419,7 +410,7 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
 {
     erk_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
-    if (s->need_reinit) {
+    if (s->sun.need_reinit) {
         defsim_status st = erk_restart(s);
         if (st != DEFSIM_OK) return st;
     }
@@ -431,22 +422,9 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
     flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
     update_stats(s);
     if (flag < 0) return erk_fail(s, "ERKStepEvolve", flag);
-    double *x = host->positions(sys), *v = host->velocities(sys);
-    const double *y = N_VGetArrayPointer(s->y);
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        x[d] = y[i];
-        v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, N_VGetArrayPointer(s->y), host->positions(sys),
+                        host->velocities(sys));
     s->t = tout;
-    return DEFSIM_OK;
-}
-
-static defsim_status erk_reset(const defsim_host *host, defsim_system *sys, void *state)
-{
-    (void)host;
-    (void)sys;
-    ((erk_state *)state)->need_reinit = 1;
     return DEFSIM_OK;
 }
 
@@ -459,7 +437,7 @@ static const defsim_backend erk_backend = {
     .init = erk_init,
     .step = erk_step,
     .fini = erk_fini,
-    .reset = erk_reset,
+    .reset = defsim__sun_reset,
     .stable_step = erk_stable_step,
     .options = erk_options,
     .option_count = O_COUNT,
@@ -470,7 +448,5 @@ static const defsim_backend erk_backend = {
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    if (!out || !defsim__sun_host_ok(host)) return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = &erk_backend;
-    return DEFSIM_OK;
+    return defsim__sun_module(host, out, &erk_backend);
 }

@@ -96,7 +96,7 @@ typedef struct ida_counts {
 typedef struct ida_chol ida_chol;
 
 typedef struct ida_state {
-    defsim__sun sun;
+    defsim__sun sun;           /* first: defsim__sun_reset reaches it through the state */
     const defsim_host *host;
     defsim_system *sys;
     void *mem;                 /* IDA memory */
@@ -117,18 +117,12 @@ typedef struct ida_state {
     SUNLinearSolver cls;       /* its SUNLinearSolver */
     SUNMatrix token;           /* the matrix IDA sees (no storage) */
     double t;                  /* IDA's time at the last return */
-    int need_reinit;
     ida_counts base;
 } ida_state;
 
-/* x, v (full) from y = [x_free, v_free]. */
 static void scatter(ida_state *s, const double *y)
 {
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        s->x[d] = y[i];
-        s->v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, y, s->x, s->v);
 }
 
 static int ida_residual(realtype t, N_Vector yy, N_Vector yp, N_Vector rr, void *user)
@@ -470,7 +464,7 @@ static defsim_status ida_fail(ida_state *s, const char *call, int flag)
     if (s->mem) IDAGetCurrentTime(s->mem, &tcur);
     defsim__sun_fail(&s->sun, "sundials_ida", call, name, flag, tcur);
     free(name);   /* IDAGetReturnFlagName returns a malloc'd string */
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     return DEFSIM_ERR_NOT_CONVERGED;
 }
 
@@ -497,7 +491,7 @@ static defsim_status ida_restart(ida_state *s)
     int flag = IDAReInit(s->mem, s->t, s->y, s->yp);
     if (flag < 0) return ida_fail(s, "IDAReInit", flag);
     memset(&s->base, 0, sizeof s->base);
-    s->need_reinit = 0;
+    s->sun.need_reinit = 0;
     return DEFSIM_OK;
 }
 
@@ -585,7 +579,7 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
     s->n = host->free_dof_count(sys);
     s->ndof = host->dof_count(sys);
     s->free_dofs = host->free_dofs(sys);
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
     defsim__sun_options(host, sys, ida_options, O_COUNT, o);
@@ -658,7 +652,7 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
 {
     ida_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
-    if (s->need_reinit) {
+    if (s->sun.need_reinit) {
         defsim_status st = ida_restart(s);
         if (st != DEFSIM_OK) return st;
     }
@@ -669,22 +663,9 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
     flag = IDASolve(s->mem, tout, &tret, s->y, s->yp, IDA_NORMAL);
     update_stats(s);
     if (flag < 0) return ida_fail(s, "IDASolve", flag);
-    double *x = host->positions(sys), *v = host->velocities(sys);
-    const double *y = N_VGetArrayPointer(s->y);
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        x[d] = y[i];
-        v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, N_VGetArrayPointer(s->y), host->positions(sys),
+                        host->velocities(sys));
     s->t = tout;
-    return DEFSIM_OK;
-}
-
-static defsim_status ida_reset(const defsim_host *host, defsim_system *sys, void *state)
-{
-    (void)host;
-    (void)sys;
-    ((ida_state *)state)->need_reinit = 1;
     return DEFSIM_OK;
 }
 
@@ -698,7 +679,7 @@ static const defsim_backend ida_backend = {
     .init = ida_init,
     .step = ida_step,
     .fini = ida_fini,
-    .reset = ida_reset,
+    .reset = defsim__sun_reset,
     .options = ida_options,
     .option_count = O_COUNT,
     .counters = ida_counters,
@@ -708,7 +689,5 @@ static const defsim_backend ida_backend = {
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    if (!out || !defsim__sun_host_ok(host)) return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = &ida_backend;
-    return DEFSIM_OK;
+    return defsim__sun_module(host, out, &ida_backend);
 }

@@ -336,7 +336,5 @@ static const defsim_backend kin_backend = {
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    if (!out || !defsim__sun_host_ok(host)) return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = &kin_backend;
-    return DEFSIM_OK;
+    return defsim__sun_module(host, out, &kin_backend);
 }

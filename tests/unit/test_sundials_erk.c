@@ -14,16 +14,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A mass on a spring along x to a pinned anchor: u'' + c u' + w0^2 u = 0 with c = alpha. */
-typedef struct osc {
-    double m, k, alpha, u0, v0;
-    int32_t vertex;
-} osc;
-
-static const osc osc_set[3] = {
-    {0.5, 200.0, 0.4, 0.1, 0.5, 0},   /* w0 = 20 rad/s */
-    {1.0, 50.0, 0.0, -0.05, 1.0, 0},  /* undamped, w0 = 7.1 */
-    {0.2, 20.0, 0.3, 0.2, 0.0, 0},    /* w0 = 10 */
+/* Oscillators (test_util.h) with mass damping only. */
+static const tu_osc osc_set[3] = {
+    {0.5, 200.0, 0.4, 0.0, 0.1, 0.5, 0},   /* w0 = 20 rad/s */
+    {1.0, 50.0, 0.0, 0.0, -0.05, 1.0, 0},  /* undamped, w0 = 7.1 */
+    {0.2, 20.0, 0.3, 0.0, 0.2, 0.0, 0},    /* w0 = 10 */
 };
 
 static defsim_world *erk_world(double tol)
@@ -34,36 +29,6 @@ static defsim_world *erk_world(double tol)
     TU_OK(defsim_world_set_option(w, "sundials_erk.rtol", v));
     TU_OK(defsim_world_set_option(w, "sundials_erk.atol", v));
     return w;
-}
-
-static void add_oscillator(defsim_world *w, osc *o, double z)
-{
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double rest[6] = {0, 0, z, 1, 0, z}, x0[6] = {0, 0, z, 1 + o->u0, 0, z};
-    double v0[6] = {0, 0, 0, o->v0, 0, 0}, mass[2] = {1.0, o->m};
-    int32_t s[2] = {0, 1}, pin = 0;
-    bd.rest_positions = rest;
-    bd.initial_positions = x0;
-    bd.initial_velocities = v0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = o->k;
-    bd.material.mass_damping = o->alpha;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
-    o->vertex = defsim_body_vertex_offset(w, id) + 1;
-}
-
-static void osc_exact(const osc *o, double t, double *u)
-{
-    const double w0 = sqrt(o->k / o->m), g = 0.5 * o->alpha, wd = sqrt(w0 * w0 - g * g);
-    const double A = o->u0, B = (o->v0 + g * o->u0) / wd;
-    *u = exp(-g * t) * (A * cos(wd * t) + B * sin(wd * t));
 }
 
 static double stat(defsim_world *w, const char *name)
@@ -82,16 +47,16 @@ static void test_oscillators(void **state)
     double err[4], hmean[4];
     for (int k = 0; k < 4; ++k) {
         defsim_world *w = erk_world(tols[k]);
-        osc os[3];
+        tu_osc os[3];
         memcpy(os, osc_set, sizeof os);
-        for (int i = 0; i < 3; ++i) add_oscillator(w, &os[i], 2.0 * i);
+        for (int i = 0; i < 3; ++i) tu_add_oscillator(w, &os[i], 2.0 * i);
         for (int s = 0; s < 40; ++s) TU_OK(defsim_world_step(w, 0.05));
         assert_true(fabs(defsim_world_time(w) - T) < 1e-12);
         double *x = tu_positions(w);
         err[k] = 0.0;
         for (int i = 0; i < 3; ++i) {
-            double u;
-            osc_exact(&os[i], T, &u);
+            double u, ve;
+            tu_osc_exact(&os[i], T, &u, &ve);
             err[k] = fmax(err[k], fabs(x[3 * os[i].vertex] - 1.0 - u));
         }
         free(x);
@@ -150,8 +115,8 @@ static void test_stable_step(void **state)
 {
     (void)state;
     defsim_world *w = tu_world("sundials_erk", 0.0, 1);
-    osc o = osc_set[1];
-    add_oscillator(w, &o, 0.0);
+    tu_osc o = osc_set[1];
+    tu_add_oscillator(w, &o, 0.0);
     double h = 0.0, omega = 0.0;
     TU_OK(defsim_world_stable_step(w, &h, &omega));
     const double strict = dp5_imag_limit(0.0), y = dp5_imag_limit(1e-2);
@@ -221,16 +186,16 @@ static void test_set_state_resets(void **state)
     (void)state;
     const double tol = 1e-4;
     defsim_world *a = erk_world(tol), *b = erk_world(tol), *c = erk_world(tol);
-    osc oa = osc_set[0], ob = osc_set[0], oc = osc_set[0];
-    add_oscillator(a, &oa, 0.0);
-    add_oscillator(b, &ob, 0.0);
+    tu_osc oa = osc_set[0], ob = osc_set[0], oc = osc_set[0];
+    tu_add_oscillator(a, &oa, 0.0);
+    tu_add_oscillator(b, &ob, 0.0);
     for (int s = 0; s < 7; ++s) TU_OK(defsim_world_step(a, 0.05));
     for (int s = 0; s < 7; ++s) TU_OK(defsim_world_step(b, 0.05));
     double *x = tu_positions(a), *v = tu_velocities(a);
     /* c: a fresh world whose initial state is a's. */
     oc.u0 = x[3 * oa.vertex] - 1.0;
     oc.v0 = v[3 * oa.vertex];
-    add_oscillator(c, &oc, 0.0);
+    tu_add_oscillator(c, &oc, 0.0);
     TU_OK(defsim_world_set_state(a, x, v));   /* the same state: only the history goes */
     const double before = stat(a, "sundials_erk.internal_steps");
     for (int s = 0; s < 7; ++s) {
@@ -265,11 +230,11 @@ static void test_tables(void **state)
     for (int k = 0; k < 6; ++k) {
         defsim_world *w = erk_world(1e-6);
         TU_OK(defsim_world_set_option(w, "sundials_erk.table", tables[k]));
-        osc o = osc_set[1];
-        add_oscillator(w, &o, 0.0);
+        tu_osc o = osc_set[1];
+        tu_add_oscillator(w, &o, 0.0);
         for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.05));
-        double u;
-        osc_exact(&o, 0.5, &u);
+        double u, ve;
+        tu_osc_exact(&o, 0.5, &u, &ve);
         double *x = tu_positions(w);
         const double e = fabs(x[3 * o.vertex] - 1.0 - u);
         free(x);

@@ -14,16 +14,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* ---------------------------------------------------------------------------------------- */
-/* Damped linear oscillators: a mass on a spring along x to a pinned anchor. In 1D the spring
- * force is exactly -k u, Rayleigh damping gives -(alpha m + beta k) u', so
- *     u'' + c u' + w0^2 u = 0,   c = alpha + beta k / m,   w0^2 = k / m.                      */
-
-typedef struct osc {
-    double m, k, alpha, beta, u0, v0;
-    int32_t vertex;    /* world index of the moving vertex */
-} osc;
-
 static defsim_world *ida_world(double rtol, double atol, int max_order, int max_steps, double gy)
 {
     defsim_world_def d;
@@ -41,46 +31,9 @@ static defsim_world *ida_world(double rtol, double atol, int max_order, int max_
     return w;
 }
 
-static defsim_body_id add_oscillator(defsim_world *w, osc *o, double z)
-{
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double rest[6] = {0, 0, z, 1, 0, z}, x0[6] = {0, 0, z, 1 + o->u0, 0, z};
-    double v0[6] = {0, 0, 0, o->v0, 0, 0}, mass[2] = {1.0, o->m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = rest;
-    bd.initial_positions = x0;
-    bd.initial_velocities = v0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = o->k;
-    bd.material.mass_damping = o->alpha;
-    bd.material.stiffness_damping = o->beta;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
-    o->vertex = defsim_body_vertex_offset(w, id) + 1;
-    return id;
-}
-
-/* Exact displacement and velocity at time t from (u0, v0) at time 0 (underdamped). */
-static void osc_exact(const osc *o, double t, double *u, double *v)
-{
-    const double c = o->alpha + o->beta * o->k / o->m, w0 = sqrt(o->k / o->m);
-    const double g = 0.5 * c, wd = sqrt(w0 * w0 - g * g);
-    const double A = o->u0, B = (o->v0 + g * o->u0) / wd;
-    const double e = exp(-g * t), cs = cos(wd * t), sn = sin(wd * t);
-    *u = e * (A * cs + B * sn);
-    *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
-}
-
 enum { NOSC = 3 };
 
-static osc osc_set[NOSC] = {
+static tu_osc osc_set[NOSC] = {
     {0.5, 200.0, 0.4, 0.0, 0.1, 0.5, 0},     /* mass damping only, w0 = 20 */
     {1.0, 50.0, 0.0, 0.01, -0.05, 1.0, 0},   /* stiffness damping only, c = 0.5 */
     {0.2, 20.0, 0.3, 0.002, 0.2, 0.0, 0},    /* both, c = 0.5 */
@@ -90,7 +43,7 @@ static osc osc_set[NOSC] = {
  * where amp is the amplitude of the displacement, over every oscillator (the module controls
  * the position error per second of simulated time; velocities per internal step, README). The
  * largest velocity error |v - v*| / (rtol amp_v + atol) goes to *verr if verr is not NULL. */
-static double osc_error(defsim_world *w, const osc *os, int n, double t, double rtol, double atol,
+static double osc_error(defsim_world *w, const tu_osc *os, int n, double t, double rtol, double atol,
                         double *abs_err, double *verr)
 {
     double worst_v = 0.0;
@@ -100,7 +53,7 @@ static double osc_error(defsim_world *w, const osc *os, int n, double t, double 
     (void)nv;
     for (int i = 0; i < n; ++i) {
         double u, ve;
-        osc_exact(&os[i], t, &u, &ve);
+        tu_osc_exact(&os[i], t, &u, &ve);
         const double w0 = sqrt(os[i].k / os[i].m);
         const double amp_u = fmax(fabs(os[i].u0), fabs(os[i].v0) / w0);
         const double amp_v = w0 * amp_u;
@@ -126,9 +79,9 @@ static void test_oscillators_tolerance_sweep(void **state)
     double err[4], abs_err[4], verr[4];
     for (int k = 0; k < 4; ++k) {
         defsim_world *w = ida_world(tols[k], tols[k], 5, 100000, 0.0);
-        osc os[NOSC];
+        tu_osc os[NOSC];
         memcpy(os, osc_set, sizeof os);
-        for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+        for (int i = 0; i < NOSC; ++i) tu_add_oscillator(w, &os[i], 2.0 * i);
         for (int s = 0; s < 50; ++s) TU_OK(defsim_world_step(w, 0.1));
         const double t = defsim_world_time(w);
         assert_true(fabs(t - 5.0) < 1e-12);
@@ -170,14 +123,14 @@ static void test_calibration(void **state)
         const double T = horizons[h];
         for (int k = 0; k < 4; ++k) {
             defsim_world *w = ida_world(tols[k], tols[k] * L, 5, 1000000, 0.0);
-            osc os[NOSC];
+            tu_osc os[NOSC];
             memcpy(os, osc_set, sizeof os);
-            for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+            for (int i = 0; i < NOSC; ++i) tu_add_oscillator(w, &os[i], 2.0 * i);
             for (int s = 0; s < (int)lround(T / 0.05); ++s) TU_OK(defsim_world_step(w, 0.05));
             double *x = tu_positions(w), worst = 0.0;
             for (int i = 0; i < NOSC; ++i) {
                 double u, v;
-                osc_exact(&os[i], defsim_world_time(w), &u, &v);
+                tu_osc_exact(&os[i], defsim_world_time(w), &u, &v);
                 worst = fmax(worst, fabs(x[3 * os[i].vertex] - 1.0 - u) / L);
             }
             free(x);
@@ -197,9 +150,9 @@ static void test_single_long_step(void **state)
 {
     (void)state;
     defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
-    osc os[NOSC];
+    tu_osc os[NOSC];
     memcpy(os, osc_set, sizeof os);
-    for (int i = 0; i < NOSC; ++i) add_oscillator(w, &os[i], 2.0 * i);
+    for (int i = 0; i < NOSC; ++i) tu_add_oscillator(w, &os[i], 2.0 * i);
     TU_OK(defsim_world_step(w, 5.0));
     assert_true(defsim_world_time(w) == 5.0);
     assert_true(osc_error(w, os, NOSC, 5.0, 1e-8, 1e-8, NULL, NULL) <= 10.0 * 5.0);
@@ -216,8 +169,8 @@ static void test_max_order(void **state)
     const double tol[3] = {1e-3, 1e-6, 1e-6};
     for (int k = 0; k < 3; ++k) {
         defsim_world *w = ida_world(tol[k], tol[k], orders[k], 1000000, 0.0);
-        osc os[1] = {osc_set[0]};
-        add_oscillator(w, &os[0], 0.0);
+        tu_osc os[1] = {osc_set[0]};
+        tu_add_oscillator(w, &os[0], 0.0);
         int used_max = 0;
         defsim_stats st = {.size = sizeof st};
         for (int s = 0; s < 20; ++s) {
@@ -241,8 +194,8 @@ static void test_set_state_reinit(void **state)
 {
     (void)state;
     defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
-    osc os[1] = {osc_set[0]};
-    add_oscillator(w, &os[0], 0.0);
+    tu_osc os[1] = {osc_set[0]};
+    tu_add_oscillator(w, &os[0], 0.0);
     for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
     /* New initial condition at t = 1: displacement -0.03, velocity 0.7. */
     double *x = tu_positions(w), *v = tu_velocities(w);
@@ -251,7 +204,7 @@ static void test_set_state_reinit(void **state)
     TU_OK(defsim_world_set_state(w, x, v));
     const double t1 = defsim_world_time(w);
     for (int s = 0; s < 20; ++s) TU_OK(defsim_world_step(w, 0.1));
-    osc o = os[0];
+    tu_osc o = os[0];
     o.u0 = -0.03;
     o.v0 = 0.7;
     double e = osc_error(w, &o, 1, defsim_world_time(w) - t1, 1e-8, 1e-8, NULL, NULL);
@@ -268,9 +221,9 @@ static void test_pin_changes(void **state)
 {
     (void)state;
     defsim_world *w = ida_world(1e-8, 1e-8, 5, 100000, 0.0);
-    osc os[2] = {osc_set[0], osc_set[2]};
-    add_oscillator(w, &os[0], 0.0);
-    defsim_body_id b = add_oscillator(w, &os[1], 2.0);
+    tu_osc os[2] = {osc_set[0], osc_set[2]};
+    tu_add_oscillator(w, &os[0], 0.0);
+    defsim_body_id b = tu_add_oscillator(w, &os[1], 2.0);
     for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
     int32_t one = 1;
     TU_OK(defsim_body_pin(w, b, &one, 1));
@@ -287,7 +240,7 @@ static void test_pin_changes(void **state)
     const double d = x[3 * os[1].vertex] - 1.0, t2 = defsim_world_time(w);
     TU_OK(defsim_body_unpin(w, b, &one, 1));
     for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.1));
-    osc o = os[1];
+    tu_osc o = os[1];
     o.u0 = d;
     o.v0 = 0.0;
     assert_true(osc_error(w, &o, 1, defsim_world_time(w) - t2, 1e-8, 1e-8, NULL, NULL) <=
@@ -307,9 +260,9 @@ static void test_failure_leaves_state(void **state)
     (void)state;
     defsim_world *w = ida_world(1e-8, 1e-8, 5, 200, 0.0);
     defsim_world *fresh = ida_world(1e-8, 1e-8, 5, 200, 0.0);
-    osc os[1] = {osc_set[0]}, of[1] = {osc_set[0]};
-    add_oscillator(w, &os[0], 0.0);
-    add_oscillator(fresh, &of[0], 0.0);
+    tu_osc os[1] = {osc_set[0]}, of[1] = {osc_set[0]};
+    tu_add_oscillator(w, &os[0], 0.0);
+    tu_add_oscillator(fresh, &of[0], 0.0);
     const int n = defsim_world_vertex_count(w);
     double *x0 = tu_positions(w), *v0 = tu_velocities(w);
     assert_int_equal(defsim_world_step(w, 50.0), DEFSIM_ERR_NOT_CONVERGED);

@@ -35,7 +35,7 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
     {"auto_substep", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
      "conditionally stable backends: split each step into substeps of at most substep_safety "
      "times the estimated stable step"},
-    /* (0, 1]: DBL_MIN stands for the open bound of an inclusive range */
+    /* (0, 1]: DBL_MIN, the smallest normal double, stands for the open bound */
     {"substep_safety", DEFSIM_OPTION_REAL, 0.8, DBL_MIN, 1.0, NULL,
      "fraction of the stable step that auto_substep uses, in (0, 1]"},
 };
@@ -198,7 +198,10 @@ static void describe_valid(const defsim_option_spec *s, char *out, size_t size)
 {
     switch (s->type) {
     case DEFSIM_OPTION_REAL:
-        snprintf(out, size, "a number in [%g, %g]", s->min_value, s->max_value);
+        if (s->min_value == DBL_MIN)   /* how an open bound at 0 is declared */
+            snprintf(out, size, "a number in (0, %g]", s->max_value);
+        else
+            snprintf(out, size, "a number in [%g, %g]", s->min_value, s->max_value);
         break;
     case DEFSIM_OPTION_INT:
         snprintf(out, size, "a whole number in [%.0f, %.0f]", s->min_value, s->max_value);

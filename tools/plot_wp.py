@@ -17,9 +17,10 @@ import csv
 import sys
 
 COLORS = {"explicit_euler": "#c62828", "symplectic_euler": "#2e7d32",
-          "newton_cholmod": "#1565c0", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00"}
+          "newton_cholmod": "#1565c0", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00",
+          "sundials_erk": "#00838f"}
 MARKERS = {"explicit_euler": "x", "symplectic_euler": "o", "newton_cholmod": "s",
-           "sundials_kinsol": "D", "sundials_ida": "^"}
+           "sundials_kinsol": "D", "sundials_ida": "^", "sundials_erk": "v"}
 
 
 def label(r):

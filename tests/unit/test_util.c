@@ -271,3 +271,23 @@ const char *tu_write_file(const char *name, const char *text)
 {
     return tu_write_bytes(name, text, strlen(text));
 }
+
+defsim_body_id tu_add_oscillator(defsim_world *w, tu_osc *o, double z)
+{
+    const tu_spring2 s = {.anchor = {0, 0, z}, .l0 = 1, .x1 = {1 + o->u0, 0, z},
+                          .v1 = {o->v0, 0, 0}, .m0 = 1.0, .m1 = o->m, .k = o->k,
+                          .alpha = o->alpha, .beta = o->beta, .pin_anchor = 1};
+    const defsim_body_id id = tu_add_spring2(w, &s);
+    o->vertex = defsim_body_vertex_offset(w, id) + 1;
+    return id;
+}
+
+void tu_osc_exact(const tu_osc *o, double t, double *u, double *v)
+{
+    const double c = o->alpha + o->beta * o->k / o->m, w0 = sqrt(o->k / o->m);
+    const double g = 0.5 * c, wd = sqrt(w0 * w0 - g * g);
+    const double A = o->u0, B = (o->v0 + g * o->u0) / wd;
+    const double e = exp(-g * t), cs = cos(wd * t), sn = sin(wd * t);
+    *u = e * (A * cs + B * sn);
+    *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
+}

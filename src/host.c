@@ -121,9 +121,11 @@ defsim_status defsim__host_forces(defsim_system *s, const double *x, const doubl
         }
     }
     *s->passes |= DEFSIM_PASS_FORCE_CALLBACK;
-    if (s->sys->has_pins && !keep)
+    if (s->sys->has_pins && !keep) {
         for (int32_t i = 0; i < nv; ++i)
             if (s->sys->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
+        *s->passes |= DEFSIM_PASS_PINS;
+    }
     return DEFSIM_OK;
 }
 

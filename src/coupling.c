@@ -11,6 +11,7 @@
 #include "element.h"
 #include "forces.h"
 #include "mat3.h"
+#include "material.h"
 #include "world.h"
 
 #include <math.h>
@@ -548,28 +549,20 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const double *x = w->state.x + 3 * (int64_t)b->offset;
-    for (int32_t t = 0; t < b->nt; ++t) {
+    const defsim__model *model = defsim__model_find(b->mat.model);
+    for (int32_t t = 0; t < b->nt && model; ++t) {
         const int32_t *tt = b->tets + 4 * (int64_t)t;
-        double dm[9], dminv[9], F[9], P[9], psi;
+        double dm[9], dminv[9], F[9], P[9];
         const double *p3 = b->rest + 3 * (int64_t)tt[3];
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i) dm[3 * i + a] = b->rest[3 * (int64_t)tt[a] + i] - p3[i];
         (void)defsim__m3_inverse(dm, dminv);
         tet_deformation(x, tt, dminv, F);
-        const double mu = b->mu, la = b->lambda, J = defsim__m3_det(F);
-        switch (b->mat.model) {
-        case DEFSIM_MODEL_STVK:
-            psi = defsim__stvk_P(mu, la, F, P);
-            break;
-        case DEFSIM_MODEL_COROTATED:
-            psi = defsim__corotated_P(mu, la, F, P);
-            break;
-        case DEFSIM_MODEL_NEOHOOKEAN:
-            psi = J > 0.0 ? defsim__neohookean_P(mu, la, F, P) : INFINITY;
-            break;
-        default:
-            psi = defsim__snh_P(mu, la, F, P) - defsim__snh_psi_rest(mu, la);
-            break;
+        const double J = defsim__m3_det(F);
+        double psi = INFINITY;
+        if (!(model->needs_positive_det && !(J > 0.0))) {
+            psi = model->P(b->mu, b->lambda, F, P);
+            if (model->psi_rest) psi -= model->psi_rest(b->mu, b->lambda);
         }
         double sigma[9], vm = NAN;
         const int defined = J != 0.0 && isfinite(psi);

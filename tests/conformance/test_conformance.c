@@ -30,6 +30,7 @@
  */
 #include "test_util.h"
 
+#include "registry.h"
 #include "world.h"
 
 #include <math.h>

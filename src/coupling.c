@@ -332,8 +332,19 @@ static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_att
 
 static int is_null(defsim_body_id id) { return id.index == 0 && id.generation == 0; }
 
-static defsim_status check_attachment(defsim_world *w, const defsim_attachment_def *d)
+/* Validates the host's def into *out (defaults for fields an older def lacks). */
+static defsim_status check_attachment(defsim_world *w, const defsim_attachment_def *def,
+                                      defsim_attachment_def *out)
 {
+    if (!def || def->size < offsetof(defsim_attachment_def, damping)) {
+        defsim__error(w->msg, "add_attachment: def is NULL or def->size is too small "
+                      "(use defsim_attachment_def_init)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_attachment_def_init(out, sizeof *out);
+    memcpy(out, def, def->size < sizeof *out ? def->size : sizeof *out);
+    out->size = sizeof *out;
+    const defsim_attachment_def *d = out;
     const defsim__body *b = defsim__world_body(w, d->body);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (d->vertex < 0 || d->vertex >= b->nv) {
@@ -387,16 +398,8 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
     defsim_status st = defsim__world_check_unlocked(w);
     if (st != DEFSIM_OK) return st;
-    if (!def || def->size < offsetof(defsim_attachment_def, damping)) {
-        defsim__error(w->msg, "add_attachment: def is NULL or def->size is too small "
-                      "(use defsim_attachment_def_init)");
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
     defsim_attachment_def d;
-    defsim_attachment_def_init(&d, sizeof d);
-    memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
-    d.size = sizeof d;
-    if ((st = check_attachment(w, &d)) != DEFSIM_OK) return st;
+    if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
     int32_t slot = 0;
     while (slot < w->natt && (w->att[slot].generation & 1u)) ++slot;

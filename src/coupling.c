@@ -74,11 +74,10 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
 
 void defsim__coupling_free(defsim_world *w)
 {
-    w->cpl.fn = NULL;
-    w->nv = 0;
-    (void)defsim__coupling_reserve(w);   /* nv 0 and no callback: frees, allocates nothing */
-    free(w->cpl.drv); free(w->cpl.drv_start); free(w->cpl.drv_target); free(w->cpl.drv_x0);
-    free(w->cpl.drv_x1); free(w->cpl.pin_vel);
+    defsim__coupling *c = &w->cpl;
+    free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
+    free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
+    free(c->pin_vel);
     free(w->fext); free(w->att); free(w->pin_target); free(w->targeted);
 }
 

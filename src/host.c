@@ -77,7 +77,11 @@ static const int64_t *free_dofs(const defsim_system *s) { return s->sys->free_do
 static const int64_t *dof_to_free(const defsim_system *s) { return s->sys->dof_to_free; }
 static double *positions(defsim_system *s) { return s->state->x; }
 static double *velocities(defsim_system *s) { return s->state->v; }
-static double sys_time(const defsim_system *s) { return s->state->t; }
+/* The start of the backend's step: with auto_substep, of the substep. */
+static double sys_time(const defsim_system *s)
+{
+    return s->cpl->in_step ? s->cpl->t0 : s->state->t;
+}
 static const double *mass(const defsim_system *s) { return s->sys->mass3; }
 static const double *mass_damping(const defsim_system *s) { return s->sys->alpha3; }
 static int has_stiffness_damping(const defsim_system *s)
@@ -210,6 +214,12 @@ static const double *pin_velocities(const defsim_system *s)
     return s->cpl->ndrv > 0 ? s->cpl->pin_vel : NULL;
 }
 
+static int applied_forces_vary(const defsim_system *s)
+{
+    const defsim__coupling *c = s->cpl;
+    return c->jac != NULL && c->in_step && c->implicit;
+}
+
 /* Backends that do not declare DEFSIM_BACKEND_NEEDS_MATRIX get the pattern on first use. */
 static defsim_status ensure_pattern(defsim_system *s)
 {
@@ -295,4 +305,5 @@ const defsim_host defsim__host = {
     .forces_at = forces_at,
     .pin_positions = pin_positions,
     .pin_velocities = pin_velocities,
+    .applied_forces_vary = applied_forces_vary,
 };

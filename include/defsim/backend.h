@@ -24,7 +24,7 @@ extern "C" {
 
 /// ABI version of the tables below. Bumped when fields are appended.
 /// Version 2 appended the host's coupling services (defsim_host.forces_at, pin_positions,
-/// pin_velocities). The core accepts backends built against 1 or 2.
+/// pin_velocities, applied_forces_vary). The core accepts backends built against 1 or 2.
 #define DEFSIM_BACKEND_ABI_VERSION 2u
 
 /// Name of the one symbol a module exports.
@@ -88,7 +88,8 @@ typedef struct defsim_host {
     /// sets them after the step (see pin_positions).
     double *(*positions)(defsim_system *sys);
     double *(*velocities)(defsim_system *sys);
-    /// Simulated time at the start of this step (s).
+    /// Simulated time at the start of this step (s); of the substep when the world splits its
+    /// steps (auto_substep).
     double (*time)(const defsim_system *sys);
     /// Lumped mass per DOF (3 * vertex count, kg) and mass-damping alpha per DOF (1/s).
     const double *(*mass)(const defsim_system *sys);
@@ -166,6 +167,11 @@ typedef struct defsim_host {
     /// the step (explicit and symplectic Euler) needs neither service.
     void (*pin_positions)(const defsim_system *sys, double t, double *x);
     const double *(*pin_velocities)(const defsim_system *sys);
+    /// True when, in this step, the applied forces (DEFSIM_FORCE_GRAVITY) depend on x: a force
+    /// callback with a Jacobian in an implicit backend. A backend that evaluates the applied
+    /// forces once per step (at x_n) must then evaluate them at every iterate instead, to match
+    /// the callback's stiffness that matrix_values adds to K.
+    int (*applied_forces_vary)(const defsim_system *sys);
 } defsim_host;
 
 /// Capability flags of a backend.

@@ -833,6 +833,34 @@ static void test_pin_forces_definition(void **state)
     defsim_world_destroy(w);
 }
 
+/* The stable-step estimate sees attachments: a stiff spring raises omega_max, a strong damper
+ * shortens symplectic Euler's stable step (h^2 w^2 + 2 c h = 4). */
+static void test_attachment_stable_step(void **state)
+{
+    (void)state;
+    defsim_world *w = world_def("symplectic_euler", -9.81, 1e-6);
+    defsim_body_id b = add_beam(w, DEFSIM_MODEL_STVK);
+    double h0, om0, h1, om1, h2, om2;
+    TU_OK(defsim_world_stable_step(w, &h0, &om0));
+    defsim_attachment_def d;
+    defsim_attachment_def_init(&d, sizeof d);
+    d.body = b;
+    d.vertex = 0;
+    d.stiffness = 1.0;
+    d.damping = 1e4;
+    defsim_attachment_id id;
+    TU_OK(defsim_world_add_attachment(w, &d, &id));
+    TU_OK(defsim_world_stable_step(w, &h1, &om1));
+    assert_true(fabs(om1 - om0) <= 1e-3 * om0 && h1 < 0.5 * h0);
+    TU_OK(defsim_world_remove_attachment(w, id));
+    d.stiffness = 1e9;
+    d.damping = 0.0;
+    TU_OK(defsim_world_add_attachment(w, &d, NULL));
+    TU_OK(defsim_world_stable_step(w, &h2, &om2));
+    assert_true(om2 > 2.0 * om0 && h2 < 0.5 * h0);
+    defsim_world_destroy(w);
+}
+
 /* Ids: removed attachments and those of removed bodies are stale; bad definitions are refused
  * and change nothing; set_target moves a world point without re-planning. */
 static void test_attachment_bad_input(void **state)
@@ -987,6 +1015,7 @@ int main(void)
         cmocka_unit_test(test_attachment_momentum),
         cmocka_unit_test(test_static_equilibrium),
         cmocka_unit_test(test_pin_forces_definition),
+        cmocka_unit_test(test_attachment_stable_step),
         cmocka_unit_test(test_attachment_bad_input),
         cmocka_unit_test(test_element_stress),
     };

@@ -272,6 +272,12 @@ static void set_error(defsim_system *s, const char *message)
     defsim__error(s->msg, "%s", message ? message : "");
 }
 
+static const double *option_values(const defsim_system *s)
+{
+    return defsim__options_values(s->options);
+}
+static double *counters(defsim_system *s) { return defsim__options_counters(s->options); }
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -302,6 +308,8 @@ const defsim_host defsim__host = {
     .set_error = set_error,
     .alloc = alloc,
     .release = release,
+    .option_values = option_values,
+    .counters = counters,
     .forces_at = forces_at,
     .pin_positions = pin_positions,
     .pin_velocities = pin_velocities,

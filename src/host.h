@@ -7,6 +7,7 @@
 #ifndef DEFSIM_HOST_H
 #define DEFSIM_HOST_H
 
+#include "options.h"
 #include "status.h"
 #include "system.h"
 
@@ -51,6 +52,7 @@ struct defsim_system {
     defsim_stats *stats;
     uint32_t *passes;         /* DEFSIM_PASS_* of the current step */
     defsim__messages *msg;
+    defsim__options *options; /* option values and counters by name */
     defsim__coupling *cpl;
     const double *x_start;    /* 3 nv: positions at the start of the world's step */
 };

@@ -48,16 +48,6 @@ const defsim__tet_kernels *defsim__tet_kernels_best(void)
     return &defsim__tet_kernels_generic;
 }
 
-/* The environment may force a variant (DEFSIM_SIMD=scalar|generic|avx2|avx512), for
- * benchmarks and cross-checks; an unknown or unsupported name falls back to the best. */
-static const defsim__tet_kernels *select_tet_kernels(void)
-{
-    const char *env = getenv("DEFSIM_SIMD");
-    if (env && !strcmp(env, "scalar")) return NULL;
-    const defsim__tet_kernels *k = defsim__tet_kernels_find(env);
-    return k ? k : defsim__tet_kernels_best();
-}
-
 static void group_free(defsim__group *g)
 {
     free(g->idx); free(g->dminv); free(g->vol); free(g->mu); free(g->lambda);
@@ -202,7 +192,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m]);
         if (st != DEFSIM_OK) return st;
     }
-    s->tet_kernels = select_tet_kernels();
+    s->tet_kernels = in->tet_kernels;
     return DEFSIM_OK;
 }
 

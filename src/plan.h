@@ -16,6 +16,7 @@ typedef struct defsim__plan_input {
     const uint8_t *pinned;        /* nv */
     const double *gravity;        /* 3 */
     int projection;               /* defsim_projection */
+    const struct defsim__tet_kernels *tet_kernels;  /* batched force kernels; NULL: scalar */
     int32_t nthreads;
     int need_matrix;              /* build the sparse pattern now */
     const defsim__attachment *attachments;   /* live ones have an odd generation */

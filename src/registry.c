@@ -7,6 +7,8 @@
  */
 #include "registry.h"
 
+#include "builtin_backends.h"
+#include "options.h"
 #include "host.h"
 #include "status.h"
 
@@ -19,9 +21,6 @@
 #ifndef DEFSIM_MODULE_DIR
 #define DEFSIM_MODULE_DIR ""
 #endif
-
-extern const defsim_backend defsim__explicit_euler_backend;
-extern const defsim_backend defsim__symplectic_euler_backend;
 
 typedef struct entry {
     defsim_backend table;
@@ -58,6 +57,19 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
                                "has a name outside [a-z0-9_]{1,63}, or lacks init/step/fini");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
+    /* ABI version 1 tables end before `options`: those fields read as NULL / 0. */
+    defsim_backend full;
+    memset(&full, 0, sizeof full);
+    memcpy(&full, b, b->struct_size < sizeof full ? b->struct_size : sizeof full);
+    char why[200];
+    if (!defsim__options_check_table(&full, why, sizeof why)) {
+        defsim__set_last_error("backend '%s': %s", b->name, why);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (strcmp(b->name, "core") == 0) {
+        defsim__set_last_error("the backend name 'core' is reserved for the world's options");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     if (find_locked(b->name)) {
         defsim__set_last_error("a backend named '%s' is already registered", b->name);
         return DEFSIM_ERR_CONFLICT;
@@ -67,8 +79,7 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
         defsim__set_last_error("out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    size_t n = b->struct_size < sizeof e->table ? b->struct_size : sizeof e->table;
-    memcpy(&e->table, b, n);
+    e->table = full;
     snprintf(e->name, sizeof e->name, "%s", b->name);
     e->table.name = e->name;
     e->table.struct_size = sizeof e->table;
@@ -81,8 +92,7 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
 static void register_builtins(void)
 {
     pthread_mutex_lock(&lock);
-    add_locked(&defsim__explicit_euler_backend, NULL);
-    add_locked(&defsim__symplectic_euler_backend, NULL);
+    for (const defsim_backend *const *b = defsim__builtin_backends; *b; ++b) add_locked(*b, NULL);
     pthread_mutex_unlock(&lock);
 }
 

@@ -139,10 +139,17 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
     w->def.backend = w->backend_name;
     w->backend = b;
+    st = defsim__options_init(&w->options, b, &d);
+    if (st != DEFSIM_OK) {
+        free(w->msg);
+        free(w);
+        return st;
+    }
     if (b->state_size > 0) {
         w->bstate = calloc(1, b->state_size);
         if (!w->bstate) {
             free(w->msg);
+            defsim__options_free(&w->options);
             free(w);
             defsim__set_last_error("out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -158,7 +165,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->stats.threads = w->nthreads;
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
-                                .msg = w->msg, .cpl = &w->cpl};
+                                .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
     *out = w;
     return DEFSIM_OK;
 }
@@ -172,7 +179,7 @@ static void backend_fini(defsim_world *w)
     if (w->bstate) memset(w->bstate, 0, w->backend->state_size);
 }
 
-static void unplan(defsim_world *w)
+void defsim__world_unplan(defsim_world *w)
 {
     defsim__unplan(&w->sys, &w->work);
     w->planned = 0;
@@ -181,7 +188,7 @@ static void unplan(defsim_world *w)
 void defsim__world_invalidate(defsim_world *w)
 {
     backend_fini(w);
-    unplan(w);
+    defsim__world_unplan(w);
 }
 
 defsim_status defsim__world_check_unlocked(defsim_world *w)
@@ -197,8 +204,9 @@ defsim_status defsim__world_plan(defsim_world *w)
     w->h_stable = 0.0;
     const defsim__plan_input in = {
         .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
-        .pinned = w->pinned, .gravity = w->def.gravity, .projection = (int)w->def.projection,
-        .nthreads = w->nthreads,
+        .pinned = w->pinned, .gravity = w->def.gravity,
+        .projection = defsim__options_projection(&w->options, (int)w->def.projection),
+        .tet_kernels = defsim__options_tet_kernels(&w->options), .nthreads = w->nthreads,
         .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
         .attachments = w->att, .nattachments = w->natt};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
@@ -225,7 +233,7 @@ void defsim_world_destroy(defsim_world *w)
 {
     if (!w) return;
     backend_fini(w);
-    unplan(w);
+    defsim__world_unplan(w);
     for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
     free(w->bodies);
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
@@ -233,6 +241,7 @@ void defsim_world_destroy(defsim_world *w)
     free(w->bstate);
     defsim__coupling_free(w);
     free(w->msg);
+    defsim__options_free(&w->options);
     free(w);
 }
 
@@ -317,7 +326,7 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     }
     w->nv = nv;
     backend_fini(w);
-    unplan(w);
+    defsim__world_unplan(w);
     return DEFSIM_OK;
 }
 
@@ -600,7 +609,7 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
     }
     if (changed) {
         backend_fini(w);
-        unplan(w);
+        defsim__world_unplan(w);
     }
     return DEFSIM_OK;
 }
@@ -748,6 +757,7 @@ void defsim_world_reset_stats(defsim_world *w)
     s.threads = w->stats.threads;
     s.reordered_tets = w->stats.reordered_tets;
     w->stats = s;
+    defsim__options_reset_counters(&w->options);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -800,6 +810,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->stats.steps++;
         return DEFSIM_OK;
     }
+    if (defsim__options_take_reinit(&w->options)) backend_fini(w);   /* an option changed */
     if (!w->backend_ready) {
         st = w->backend->init(&defsim__host, &w->handle, w->bstate);
         if (st != DEFSIM_OK) {
@@ -816,7 +827,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     memcpy(w->v_save, w->state.v, bytes);
     w->step_passes = 0;
     w->msg->error[0] = '\0';
-    const int substep = w->def.auto_substep && w->backend->stable_step;
+    const int substep = defsim__options_auto_substep(&w->options) && w->backend->stable_step;
     st = defsim__coupling_step_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
@@ -828,7 +839,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                 w->h_stable = attempt > 0 ? 0.5 * hs : hs;
                 w->steps_since_estimate = 0;
             }
-            double k = ceil(h / (w->def.substep_safety * w->h_stable));
+            double k = ceil(h / (defsim__options_substep_safety(&w->options) * w->h_stable));
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
                 defsim__error(w->msg, "step: auto_substep would need %g substeps (stable step %g s)",
@@ -882,4 +893,62 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->stats.passes = w->step_passes;
     w->stats.time_step += defsim__now() - t0;
     return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Options and statistics by name (options.c does the work). */
+
+/* Settings the compiled system holds take effect without a re-plan. */
+static defsim_status options_changed(defsim_world *w, defsim_status st)
+{
+    if (st == DEFSIM_OK && w->planned) {
+        w->sys.tet_kernels = defsim__options_tet_kernels(&w->options);
+        w->sys.projection = defsim__options_projection(&w->options, (int)w->def.projection);
+    }
+    return st;
+}
+
+defsim_status defsim_world_set_option(defsim_world *w, const char *name, const char *value)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    return options_changed(w, defsim__options_set_text(&w->options, w->msg, name, value));
+}
+
+defsim_status defsim_world_set_option_number(defsim_world *w, const char *name, double value)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    return options_changed(w, defsim__options_set_number(&w->options, w->msg, name, value));
+}
+
+defsim_status defsim_world_get_option(const defsim_world *w, const char *name, double *value)
+{
+    return w ? defsim__options_get(&w->options, w->msg, name, value) : DEFSIM_ERR_INVALID_ARGUMENT;
+}
+
+int32_t defsim_world_option_count(const defsim_world *w)
+{
+    return w ? defsim__options_count(&w->options) : 0;
+}
+
+defsim_status defsim_world_option_info(const defsim_world *w, int32_t i, defsim_option_info *out)
+{
+    return w ? defsim__options_info(&w->options, i, out) : DEFSIM_ERR_INVALID_ARGUMENT;
+}
+
+int32_t defsim_world_stat_count(const defsim_world *w)
+{
+    return w ? defsim__options_stat_count(&w->options) : 0;
+}
+
+defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const char **name,
+                                     double *value)
+{
+    return w ? defsim__options_stat_info(&w->options, &w->stats, i, name, value)
+             : DEFSIM_ERR_INVALID_ARGUMENT;
+}
+
+defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
+{
+    return w ? defsim__options_stat(&w->options, w->msg, &w->stats, name, value)
+             : DEFSIM_ERR_INVALID_ARGUMENT;
 }

@@ -12,6 +12,7 @@
 #include "host.h"
 #include "status.h"
 #include "system.h"
+#include "options.h"
 
 #include <stdint.h>
 
@@ -20,6 +21,7 @@ struct defsim_world {
     char backend_name[64];
     const defsim_backend *backend;
     void *bstate;
+    defsim__options options;  /* options and counters by name (options.c) */
     int backend_ready;        /* init succeeded for the current plan */
     int planned;              /* sys and work match the bodies */
     defsim__messages *msg;    /* allocated: const getters may report errors */
@@ -60,6 +62,8 @@ struct defsim_world {
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).
  * Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (with the world's error set). */
 defsim_status defsim__world_plan(defsim_world *w);
+/* Drops the compiled system; the next step or query plans again. */
+void defsim__world_unplan(defsim_world *w);
 
 /* Looks up a live body (NULL if stale) and sets the world's error if it is not. */
 defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id);

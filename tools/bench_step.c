@@ -61,8 +61,6 @@ int main(int argc, char **argv)
     else if (strcmp(model_name, "snh")) { fprintf(stderr, "unknown model %s\n", model_name); return 2; }
     if (n < 1 || steps < 1 || repeats < 1 || repeats > 100 || threads < 0) return 2;
 
-    /* The batched kernel variant is chosen when the world plans (DEFSIM_SIMD overrides it). */
-    if (simd) setenv("DEFSIM_SIMD", simd, 1);
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
@@ -71,6 +69,11 @@ int main(int argc, char **argv)
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_last_error());
         return 1;
+    }
+    /* The batched kernel variant (DEFSIM_SIMD, when set, still overrides the option). */
+    if (simd && defsim_world_set_option(w, "core.simd", simd) != DEFSIM_OK) {
+        fprintf(stderr, "--simd: %s\n", defsim_world_last_error(w));
+        return 2;
     }
     defsim_mesh m;
     if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;

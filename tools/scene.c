@@ -302,13 +302,56 @@ static int apply_override(scene *s, cJSON *root, const char *spec)
 /* ------------------------------------------------------------------------------------------ */
 /* World and output */
 
+/* world.options: {"sundials_ida.rtol": 1e-6, "core.simd": "generic", "core.auto_substep": true}.
+ * Shapes are checked here (with positions); values by the library when scene_build sets them. */
+static int parse_options(ctx *c, const cJSON *o)
+{
+    if (!o) return 0;
+    if (!cJSON_IsObject(o)) return fail(c, o, "world.options must be an object of option names");
+    for (const cJSON *e = o->child; e; e = e->next) {
+        const char *dot = strchr(e->string, '.');
+        if (!dot || dot == e->string || !dot[1])
+            return fail(c, e, "world.options: \"%s\" is not of the form core.<name> or "
+                        "<backend>.<name>", e->string);
+        if (!cJSON_IsNumber(e) && !cJSON_IsString(e) && !cJSON_IsBool(e))
+            return fail(c, e, "world.options.%s must be a number, a string or true/false",
+                        e->string);
+    }
+    c->s->options = cJSON_Duplicate(o, 1);
+    if (!c->s->options) return fail(c, o, "out of memory");
+    return 0;
+}
+
+static defsim_status apply_options(scene *s, defsim_world *w)
+{
+    for (const cJSON *e = s->options ? s->options->child : NULL; e; e = e->next) {
+        const size_t plen = (size_t)(strchr(e->string, '.') - e->string);
+        if (!(plen == 4 && !strncmp(e->string, "core", 4)) &&
+            !(plen == strlen(s->backend) && !strncmp(e->string, s->backend, plen))) {
+            fprintf(stderr, "warning: %s: world.options \"%s\" is not for this run's backend "
+                    "%s: skipped\n", s->path, e->string, s->backend);
+            continue;
+        }
+        defsim_status st = cJSON_IsString(e)
+            ? defsim_world_set_option(w, e->string, e->valuestring)
+            : defsim_world_set_option_number(w, e->string, cJSON_IsNumber(e) ? e->valuedouble
+                                                                             : cJSON_IsTrue(e));
+        if (st != DEFSIM_OK) {
+            snprintf(s->error, sizeof s->error, "%s: world.options \"%s\": %s: %s", s->path,
+                     e->string, defsim_status_string(st), defsim_world_last_error(w));
+            return st;
+        }
+    }
+    return DEFSIM_OK;
+}
+
 static int parse_world(ctx *c, const cJSON *w)
 {
     scene *s = c->s;
     static const char *const keys[] = {"backend", "h", "duration", "frame_steps", "fps",
                                        "gravity", "threads", "tolerance", "max_iterations",
                                        "rtol", "atol", "projection", "max_order",
-                                       "max_internal_steps", NULL};
+                                       "max_internal_steps", "options", NULL};
     if (check_keys(c, w, "world", keys)) return -1;
     defsim_world_def_init(&s->def, sizeof s->def);
     const cJSON *b = cJSON_GetObjectItemCaseSensitive(w, "backend");
@@ -366,7 +409,7 @@ static int parse_world(ctx *c, const cJSON *w)
         if (found < 0) return fail(c, p, "world.projection must be \"none\", \"clamp\" or \"abs\"");
         s->def.projection = (defsim_projection)found;
     }
-    return 0;
+    return parse_options(c, cJSON_GetObjectItemCaseSensitive(w, "options"));
 }
 
 static int parse_camera(ctx *c, const cJSON *j)
@@ -884,6 +927,8 @@ void scene_free(scene *s)
     free(s->bodies);
     s->bodies = NULL;
     s->nbodies = 0;
+    cJSON_Delete(s->options);
+    s->options = NULL;
 }
 
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides)
@@ -1023,6 +1068,10 @@ defsim_status scene_build(scene *s, defsim_world **out)
     if (st != DEFSIM_OK) {
         snprintf(s->error, sizeof s->error, "%s: world.backend \"%s\": %s: %s", s->path,
                  s->backend, defsim_status_string(st), defsim_last_error());
+        return st;
+    }
+    if ((st = apply_options(s, w)) != DEFSIM_OK) {
+        defsim_world_destroy(w);
         return st;
     }
     for (int32_t i = 0; i < s->nbodies; ++i) {

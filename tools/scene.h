@@ -56,6 +56,7 @@ typedef struct scene {
     int32_t width, height, supersample;
     int contact_sheet;
     scene_camera camera;
+    struct cJSON *options;  /* world.options (a copy), applied by scene_build; or NULL */
     scene_body *bodies;
     int32_t nbodies;
     int32_t vertex_count;   /* sum over bodies */
@@ -67,8 +68,9 @@ typedef struct scene {
  * (the scene is then freed). Relative mesh paths are taken from the scene file's folder. */
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides);
 
-/* Creates the world and adds the bodies with their pins. Returns DEFSIM_OK or an error with
- * s->error naming the body (and the library's detail). */
+/* Creates the world, sets world.options (those of another backend than the world's are skipped
+ * with a warning on stderr) and adds the bodies with their pins. Returns DEFSIM_OK or an error
+ * with s->error naming the option or body (and the library's detail). */
 defsim_status scene_build(scene *s, defsim_world **out);
 
 void scene_free(scene *s);

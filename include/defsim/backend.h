@@ -23,9 +23,11 @@ extern "C" {
 #endif
 
 /// ABI version of the tables below. Bumped when fields are appended.
-/// Version 2 appended the host's coupling services (defsim_host.forces_at, pin_positions,
-/// pin_velocities, applied_forces_vary). The core accepts backends built against 1 or 2.
-#define DEFSIM_BACKEND_ABI_VERSION 2u
+/// Version 2 appended options and counters (defsim_backend.options ... counter_count,
+/// defsim_host.option_values and counters); version 3 the host's coupling services
+/// (defsim_host.forces_at, pin_positions, pin_velocities, applied_forces_vary). The core accepts
+/// backends built against 1 to 3; a backend checks host->size before using a later field.
+#define DEFSIM_BACKEND_ABI_VERSION 3u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -70,6 +72,29 @@ typedef struct defsim_csc {
 typedef struct defsim_matrix_coeffs {
     double k, kd, m, md;
 } defsim_matrix_coeffs;
+
+/// An option of a backend, set by hosts by name ("<backend>.<name>") with
+/// defsim_world_set_option. The type (defsim_option_type) is declared in defsim.h, which hosts
+/// read too. Every value is held as a double: INT values are whole numbers, BOOL values 0 or 1,
+/// CHOICE values the index of the chosen name in `choices`.
+/// One name is shared with the core: a CHOICE option "projection" with choices "none|clamp|abs"
+/// (the defsim_projection values) is the projection that matrix_values and matrix_product apply
+/// in that backend's worlds; a backend without it gets the world def's (deprecated) projection.
+typedef struct defsim_option_spec {
+    const char *name;           ///< [a-z0-9_]{1,63}, unique within the backend: "rtol". Static.
+    defsim_option_type type;
+    double default_value;       ///< Within the range (REAL, INT); an index of `choices` (CHOICE).
+    double min_value;           ///< Inclusive lower bound (REAL and INT; ignored otherwise).
+    double max_value;           ///< Inclusive upper bound (REAL and INT; ignored otherwise).
+    const char *choices;        ///< CHOICE only: names separated by '|' ("none|clamp|abs").
+    const char *doc;            ///< One line, with units. Static.
+} defsim_option_spec;
+
+/// A counter of a backend, read by hosts by name ("<backend>.<name>") with defsim_world_stat.
+typedef struct defsim_counter_spec {
+    const char *name;           ///< [a-z0-9_]{1,63}, unique within the backend: "internal_steps".
+    const char *doc;            ///< One line, with units. Static.
+} defsim_counter_spec;
 
 /// Host services handed to every backend op. Owned by the core; valid for the process.
 typedef struct defsim_host {
@@ -131,6 +156,7 @@ typedef struct defsim_host {
                                     const defsim_matrix_coeffs *c, const double *dx, double *out);
 
     /// The world's creation options (tolerance, max_iterations, rtol, atol, projection, ...).
+    /// Deprecated for backend settings: declare options and read option_values instead.
     const defsim_world_def *(*options)(const defsim_system *sys);
     /// Threads for assembly (>= 1).
     int32_t (*num_threads)(const defsim_system *sys);
@@ -149,7 +175,19 @@ typedef struct defsim_host {
     void *(*alloc)(size_t bytes);
     void (*release)(void *ptr);
 
-    /* Appended in version 2: the host's coupling terms. */
+    /* ABI version 2 */
+
+    /// Current values of the backend's options, in the order of its `options` table (the
+    /// defaults unless the host set them). Valid from init to fini: changing an option
+    /// re-initialises the backend (fini, then init) before the next step, so a backend reads its
+    /// options in init. NULL if the backend declares no options.
+    const double *(*option_values)(const defsim_system *sys);
+    /// The backend's counters, in the order of its `counters` table: zeroed at world creation
+    /// and by defsim_world_reset_stats, kept across re-initialisation; the backend adds to them
+    /// and hosts read them with defsim_world_stat. NULL if the backend declares no counters.
+    double *(*counters)(defsim_system *sys);
+
+    /* ABI version 3: the host's coupling terms. */
 
     /// forces with the time t (s) at which the host's force callback is evaluated (stages of
     /// multi-stage and adaptive methods). v NULL gives the callback the state's velocities.
@@ -204,11 +242,22 @@ typedef struct defsim_backend {
     /// for a linear oscillator of angular frequency omega (rad/s) with damping rate c (1/s),
     /// i.e. x'' = -omega^2 x - c x'. Returns 0 if no step is stable.
     double (*stable_step)(double omega, double c);
+
+    /* ABI version 2: a table built against version 1 (smaller struct_size) has none of these. */
+
+    /// Options (may be NULL when option_count is 0). Static storage.
+    const defsim_option_spec *options;
+    int32_t option_count;
+    /// Counters (may be NULL when counter_count is 0). Static storage.
+    const defsim_counter_spec *counters;
+    int32_t counter_count;
 } defsim_backend;
 
-/// Registers a backend for all worlds created after the call. The table must stay valid for the
-/// life of the process. Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad name, ABI
-/// version, struct size, or missing init/step/fini), DEFSIM_ERR_CONFLICT (name taken).
+/// Registers a backend for all worlds created after the call. The table (and its options and
+/// counters) must stay valid for the life of the process. Thread-safe. Errors:
+/// DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad name, ABI version, struct size, missing
+/// init/step/fini, or an invalid option or counter: bad or repeated name, negative count, a
+/// default outside its range, a CHOICE without choices), DEFSIM_ERR_CONFLICT (name taken).
 DEFSIM_API defsim_status defsim_register_backend(const defsim_backend *backend);
 
 /// Entry point of a module: sets *out to the module's backend (static storage).

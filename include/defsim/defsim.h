@@ -133,6 +133,12 @@ typedef enum defsim_projection {
 typedef void (*defsim_log_fn)(void *user, int level, const char *message);
 
 /// Creation parameters of a world. Fill with defsim_world_def_init, then change what you need.
+/// The fields after num_threads (tolerance ... substep_safety, except log and log_user) are
+/// deprecated: they keep working in this major version, but options by name
+/// (defsim_world_set_option) replace them. At creation each deprecated field that differs from
+/// its default sets the option of the same name of the world's backend ("<backend>.rtol") or
+/// of the core ("core.auto_substep", "core.substep_safety"), where one exists; a field with no
+/// such option is ignored. Options set after creation win.
 typedef struct defsim_world_def {
     uint32_t size;             ///< sizeof(defsim_world_def), set by defsim_world_def_init.
     const char *backend;       ///< Integrator: "explicit_euler", "symplectic_euler" (built in),
@@ -140,19 +146,28 @@ typedef struct defsim_world_def {
                                ///< a registered one. Copied. Default "symplectic_euler".
     double gravity[3];         ///< m/s^2. Default (0, -9.81, 0).
     int32_t num_threads;       ///< Threads for force and Hessian assembly; 0: OpenMP's default.
-    double tolerance;          ///< Nonlinear solves: relative tolerance (see backend READMEs). 1e-6.
-    int32_t max_iterations;    ///< Nonlinear solves: iteration limit per step. Default 50.
-    double rtol, atol;         ///< Adaptive integrators: relative tolerance and absolute (m, m/s).
+    double tolerance;          ///< Deprecated ("<backend>.tolerance"). Nonlinear solves:
+                               ///< relative tolerance (see backend READMEs). Default 1e-6.
+    int32_t max_iterations;    ///< Deprecated ("<backend>.max_iterations"). Nonlinear solves:
+                               ///< iteration limit per step. Default 50.
+    double rtol, atol;         ///< Deprecated ("<backend>.rtol", "<backend>.atol"). Adaptive
+                               ///< integrators: relative tolerance and absolute (m, m/s).
                                ///< Defaults 1e-4 and 1e-6.
     defsim_log_fn log;         ///< Optional log sink; NULL: silent.
     void *log_user;            ///< Passed to log.
-    defsim_projection projection;  ///< Implicit backends. Default DEFSIM_PROJECTION_CLAMP.
-    int32_t max_order;         ///< Adaptive BDF: maximum order 1..5. Default 5.
-    int32_t max_internal_steps;///< Adaptive integrators: internal steps per call. Default 100000.
-    int32_t auto_substep;      ///< Conditionally stable backends: 1 splits each defsim_world_step
-                               ///< into substeps no longer than substep_safety times the
-                               ///< estimated stable step (defsim_world_stable_step). Default 0.
-    double substep_safety;     ///< Fraction of the stable step used by auto_substep. Default 0.8.
+    defsim_projection projection;  ///< Deprecated ("<backend>.projection", a CHOICE whose
+                               ///< index is the enum value). Implicit backends. Default
+                               ///< DEFSIM_PROJECTION_CLAMP.
+    int32_t max_order;         ///< Deprecated ("<backend>.max_order"). Adaptive BDF: maximum
+                               ///< order 1..5. Default 5.
+    int32_t max_internal_steps;///< Deprecated ("<backend>.max_internal_steps"). Adaptive
+                               ///< integrators: internal steps per call. Default 100000.
+    int32_t auto_substep;      ///< Deprecated ("core.auto_substep"). Conditionally stable
+                               ///< backends: 1 splits each defsim_world_step into substeps no
+                               ///< longer than substep_safety times the estimated stable step
+                               ///< (defsim_world_stable_step). Default 0.
+    double substep_safety;     ///< Deprecated ("core.substep_safety"). Fraction of the stable
+                               ///< step used by auto_substep. Default 0.8.
 } defsim_world_def;
 
 /// Fills *def with defaults. `size` must be sizeof *def. Does nothing if def is NULL.
@@ -355,8 +370,85 @@ typedef struct defsim_stats {
 /// from an older header receives the fields it knows). Errors: DEFSIM_ERR_INVALID_ARGUMENT.
 DEFSIM_API defsim_status defsim_world_stats(const defsim_world *world, defsim_stats *out);
 
-/// Zeroes the counters and timings (not reordered_tets, threads, passes).
+/// Zeroes the counters and timings (not reordered_tets, threads, passes), including the
+/// backend's counters by name.
 DEFSIM_API void defsim_world_reset_stats(defsim_world *world);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Options and statistics by name                                                             */
+
+/// Type of an option. Every option value is held in a double.
+typedef enum defsim_option_type {
+    DEFSIM_OPTION_REAL = 1,     ///< A real number within [min_value, max_value].
+    DEFSIM_OPTION_INT = 2,      ///< A whole number within [min_value, max_value].
+    DEFSIM_OPTION_BOOL = 3,     ///< 0 or 1; as text "true|false|on|off|1|0".
+    DEFSIM_OPTION_CHOICE = 4    ///< One of the names in `choices` ("none|clamp|abs"); the value is
+                                ///< its index (0-based).
+} defsim_option_type;
+
+/// Description and current value of one option of a world (defsim_world_option_info).
+typedef struct defsim_option_info {
+    uint32_t size;              ///< Set by the caller to sizeof(defsim_option_info) before the call.
+    const char *name;           ///< Full name: "core.simd", "sundials_ida.rtol". Borrowed.
+    defsim_option_type type;
+    double value;               ///< Current value (CHOICE: index into choices).
+    double default_value;
+    double min_value;           ///< Inclusive range (REAL, INT); 0 and 1 for BOOL; 0 and the
+    double max_value;           ///< number of choices - 1 for CHOICE.
+    const char *choices;        ///< CHOICE: names separated by '|'; NULL otherwise. Borrowed.
+    const char *doc;            ///< One line with units. Borrowed.
+} defsim_option_info;
+
+/// Sets an option of the world by name. `name` is "<backend>.<option>" for an option of the
+/// world's backend ("sundials_ida.max_order") or "core.<option>" for an option of the world
+/// itself: "core.simd" (auto|scalar|generic|avx2|avx512: the tet force kernels; the environment
+/// variable DEFSIM_SIMD, when set, overrides it), "core.auto_substep" (BOOL), and
+/// "core.substep_safety" (REAL in (0, 1]). `value` is text: a number ("3", "1e-6"), a BOOL word
+/// ("true", "false", "on", "off", "1", "0") or a CHOICE name ("clamp"). Changing an option of the
+/// backend re-initialises the backend (fini, then init) before the next step: adaptive history
+/// is dropped as by defsim_world_set_state; counters are kept. Setting an option to its current
+/// value changes nothing. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name, an option of
+/// a backend other than the world's, unparsable or out of range; defsim_world_last_error names
+/// the valid range or choices, and the world is unchanged).
+DEFSIM_API defsim_status defsim_world_set_option(defsim_world *world, const char *name,
+                                                 const char *value);
+
+/// Sets an option by name to a number: REAL and INT values (INT must be whole), BOOL 0 or 1,
+/// CHOICE the index of a choice. Same rules and errors as defsim_world_set_option.
+DEFSIM_API defsim_status defsim_world_set_option_number(defsim_world *world, const char *name,
+                                                        double value);
+
+/// Reads the current value of an option by name into *value (CHOICE: the index of the choice).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
+DEFSIM_API defsim_status defsim_world_get_option(const defsim_world *world, const char *name,
+                                                 double *value);
+
+/// Number of options of the world: the core's, then its backend's. 0 for a NULL world.
+DEFSIM_API int32_t defsim_world_option_count(const defsim_world *world);
+
+/// Describes option i (0 .. defsim_world_option_count - 1) into *out; set out->size first (a
+/// smaller size from an older header receives the fields it knows). The strings are borrowed
+/// and valid until the world is destroyed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size,
+/// i out of range).
+DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int32_t i,
+                                                  defsim_option_info *out);
+
+/// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
+/// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
+/// of the world's backend ("sundials_ida.internal_steps"). Errors: DEFSIM_ERR_INVALID_ARGUMENT
+/// (NULL, unknown name).
+DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
+                                           double *value);
+
+/// Number of statistics by name: the fields of defsim_stats (except size), then the backend's
+/// counters. 0 for a NULL world.
+DEFSIM_API int32_t defsim_world_stat_count(const defsim_world *world);
+
+/// Name and value of statistic i (0 .. defsim_world_stat_count - 1). Either output may be NULL.
+/// The name is borrowed and valid until the world is destroyed.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, i out of range).
+DEFSIM_API defsim_status defsim_world_stat_info(const defsim_world *world, int32_t i,
+                                                const char **name, double *value);
 
 /* ------------------------------------------------------------------------------------------ */
 /* Meshes                                                                                     */

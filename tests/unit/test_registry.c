@@ -110,8 +110,9 @@ typedef struct old_backend {
 static void test_register(void **state)
 {
     (void)state;
-    defsim_backend b = {DEFSIM_BACKEND_ABI_VERSION, sizeof(defsim_backend), "drift", 0, 16,
-                        my_init, my_step, my_fini, NULL, NULL};
+    defsim_backend b = {.abi_version = DEFSIM_BACKEND_ABI_VERSION,
+                        .struct_size = sizeof(defsim_backend), .name = "drift", .state_size = 16,
+                        .init = my_init, .step = my_step, .fini = my_fini};
     static defsim_backend keep;
     keep = b;
     TU_OK(defsim_register_backend(&keep));

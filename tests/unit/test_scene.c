@@ -212,6 +212,64 @@ static void test_mesh_file_and_transform(void **state)
     scene_free(&s);
 }
 
+/* world.options set options by name after creation (numbers, strings, booleans); those of
+ * another backend are skipped; bad shapes fail at load with their line, bad values at build.
+ * testmod (tests/unit/testmod.c) divides velocities by 1 + h damping after each step. */
+static void test_world_options(void **state)
+{
+    (void)state;
+    const char *opts = "\"backend\": \"testmod\", \"gravity\": [0, 0, 0],\n"
+                       "  \"options\": {\"testmod.damping\": 2.5, \"core.simd\": \"scalar\",\n"
+                       "              \"core.auto_substep\": true, \"sundials_ida.rtol\": 1e-6}";
+    const char *path = tu_write_file("opt.json", scene_text(opts, "\"name\": \"b\""));
+    scene s;
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    double v;
+    TU_OK(defsim_world_get_option(w, "testmod.damping", &v));
+    assert_true(v == 2.5);
+    TU_OK(defsim_world_get_option(w, "core.simd", &v));
+    assert_true(v == 1.0);   /* scalar */
+    TU_OK(defsim_world_get_option(w, "core.auto_substep", &v));
+    assert_true(v == 1.0);
+    /* A uniform translation has no elastic force: one step divides v by 1 + h damping. */
+    const int n = defsim_world_vertex_count(w);
+    double *vel = malloc(3 * (size_t)n * sizeof *vel);
+    for (int i = 0; i < 3 * n; ++i) vel[i] = i % 3 == 0 ? 1.0 : 0.0;
+    TU_OK(defsim_world_set_state(w, NULL, vel));
+    TU_OK(defsim_world_set_option(w, "core.auto_substep", "false"));
+    TU_OK(defsim_world_step(w, s.h));
+    TU_OK(defsim_world_get_velocities(w, vel, n));
+    for (int i = 0; i < n; ++i) assert_true(fabs(vel[3 * i] - 1.0 / (1.0 + 2.5 * s.h)) < 1e-9);
+    TU_OK(defsim_world_stat(w, "testmod.steps", &v));
+    assert_true(v == 1.0);
+    free(vel);
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    /* --backend symplectic_euler: the testmod option is skipped, the core's still apply. */
+    const char *sets[] = {"world.backend=symplectic_euler"};
+    if (scene_load(&s, path, sets, 1)) fail_msg("%s", s.error);
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    TU_OK(defsim_world_get_option(w, "core.simd", &v));
+    assert_true(v == 1.0);
+    assert_int_equal(defsim_world_get_option(w, "testmod.damping", &v),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    expect_line(scene_text("\"options\": [1]", "\"name\": \"b\""), 3);
+    expect_line(scene_text("\"options\": {\"rtol\": 1}", "\"name\": \"b\""), 3);
+    expect_line(scene_text("\"options\": {\"core.simd\": [1]}", "\"name\": \"b\""), 3);
+    path = tu_write_file("v.json", scene_text("\"options\": {\"core.substep_safety\": 2}",
+                                              "\"name\": \"b\""));
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(w);
+    scene_free(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -219,6 +277,7 @@ int main(void)
         cmocka_unit_test(test_overrides),
         cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
     };
     return cmocka_run_group_tests_name("scene", tests, NULL, NULL);
 }

@@ -52,6 +52,8 @@ static int usage(FILE *f)
         "  --threads N        override world.threads\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
+        "  --option NAME=VALUE  set a world option after the scene's world.options\n"
+        "                     (sundials_ida.rtol=1e-6, core.simd=generic); repeatable\n"
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
         "  -h, --help         this text\n");
     return f == stderr ? 2 : 0;
@@ -91,14 +93,35 @@ static int pvd_add(out_state *o, const char *file, double t)
     return 0;
 }
 
+/* --option NAME=VALUE, after the scene's own options: an error names what is valid. */
+static int set_cli_options(defsim_world *w, const char *const *opts, int n)
+{
+    for (int i = 0; i < n; ++i) {
+        const char *eq = strchr(opts[i], '=');
+        char name[160];
+        if (!eq || eq == opts[i] || (size_t)(eq - opts[i]) >= sizeof name) {
+            fprintf(stderr, "defsim run: --option %s: expected NAME=VALUE\n", opts[i]);
+            return -1;
+        }
+        snprintf(name, sizeof name, "%.*s", (int)(eq - opts[i]), opts[i]);
+        if (defsim_world_set_option(w, name, eq + 1) != DEFSIM_OK) {
+            fprintf(stderr, "defsim run: --option %s: %s\n", opts[i], defsim_world_last_error(w));
+            return -1;
+        }
+    }
+    return 0;
+}
+
 int run_main(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_dir = NULL, *progress = "auto";
     int render = 0, vtk = 1;
     const char **sets = calloc((size_t)argc + 4, sizeof *sets);
+    const char **opts = calloc((size_t)argc + 1, sizeof *opts);
+    int nopts = 0;
     int nsets = 0, *list = calloc((size_t)argc + 1, sizeof *list), nlist = 0;
     char backend_set[128], threads_set[64];
-    if (!sets || !list) return 1;
+    if (!sets || !opts || !list) return 1;
     for (int i = 0; i < argc; ++i) {
         const char *a = argv[i];
         const int has = i + 1 < argc;
@@ -108,6 +131,7 @@ int run_main(int argc, char **argv)
         else if (!strcmp(a, "--no-vtk")) vtk = 0;
         else if (!strcmp(a, "--progress") && has) progress = argv[++i];
         else if (!strcmp(a, "--set") && has) sets[nsets++] = argv[++i];
+        else if (!strcmp(a, "--option") && has) opts[nopts++] = argv[++i];
         else if (!strcmp(a, "--backend") && has) {
             snprintf(backend_set, sizeof backend_set, "world.backend=\"%s\"", argv[++i]);
             sets[nsets++] = backend_set;
@@ -178,6 +202,12 @@ int run_main(int argc, char **argv)
         scene_free(&s);
         return 1;
     }
+    if (set_cli_options(w, opts, nopts)) {
+        defsim_world_destroy(w);
+        scene_free(&s);
+        return 2;
+    }
+    free(opts);
     char dir[2048];
     snprintf(dir, sizeof dir, "%s", out_dir ? out_dir : s.name);
     if (tools_make_dirs(dir)) {

@@ -345,6 +345,30 @@ static void test_bodies()
     CHECK(std::equal(x.begin(), x.end(), m2.positions().begin()));
 }
 
+// Options and statistics by name.
+static void test_options_and_stats()
+{
+    defsim::World w(defsim::WorldDef().gravity(0, -9.81, 0));
+    w.set_option("core.simd", "scalar");
+    CHECK(w.option("core.simd") == 1.0);
+    w.set_option("core.substep_safety", 0.5);
+    w.set_option("core.auto_substep", "on");
+    CHECK(w.option("core.substep_safety") == 0.5 && w.option("core.auto_substep") == 1.0);
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_option("core.substep_safety", 2.0); }));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_option("core.simd", "sse2"); }));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_option("sundials_ida.rtol", 1e-6); }));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.option("core.nothing"); }));
+    CHECK(w.option("core.substep_safety") == 0.5);
+    const double p[3] = {0, 0, 0};
+    w.add_body(defsim::BodyDef().rest_positions(p).material(
+        defsim::Material(defsim::Model::spring).vertex_mass(1.0)));
+    for (int i = 0; i < 4; ++i) w.step(1e-3);
+    const defsim_stats s = w.stats();
+    CHECK(w.stat("steps") == 4.0 && w.stat("steps") == static_cast<double>(s.steps));
+    CHECK(w.stat("force_evals") == static_cast<double>(s.force_evals));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.stat("nothing"); }));
+}
+
 int main()
 {
     test_version();
@@ -356,6 +380,7 @@ int main()
     test_material_eval();
     test_energy_forces();
     test_bodies();
+    test_options_and_stats();
     if (failures) std::fprintf(stderr, "%d check(s) failed\n", failures);
     return failures ? 1 : 0;
 }

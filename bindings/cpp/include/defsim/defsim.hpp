@@ -650,6 +650,40 @@ public:
         return s;
     }
     void reset_stats() noexcept { defsim_world_reset_stats(w_); }
+
+    /// Sets an option by name from text (defsim_world_set_option): "core.simd" = "generic",
+    /// "sundials_ida.rtol" = "1e-6", "core.auto_substep" = "true". Changing an option of the
+    /// backend re-initialises it before the next step. Throws Error DEFSIM_ERR_INVALID_ARGUMENT
+    /// (unknown name, another backend's option, bad value: what() lists what is valid); the
+    /// world is then unchanged.
+    void set_option(const std::string &name, const std::string &value)
+    {
+        check(defsim_world_set_option(w_, name.c_str(), value.c_str()));
+    }
+    /// Sets an option by name to a number (defsim_world_set_option_number): REAL and INT
+    /// values, 0 or 1 for BOOL, the index of a CHOICE. Throws as set_option(name, text).
+    void set_option(const std::string &name, double value)
+    {
+        check(defsim_world_set_option_number(w_, name.c_str(), value));
+    }
+    /// The current value of an option (a CHOICE gives the index of its choice). Throws Error
+    /// DEFSIM_ERR_INVALID_ARGUMENT for an unknown name.
+    double option(const std::string &name) const
+    {
+        double v = 0.0;
+        check(defsim_world_get_option(w_, name.c_str(), &v));
+        return v;
+    }
+    /// A statistic by name: a field of defsim_stats ("steps", "newton_iterations") or a counter
+    /// of the backend ("sundials_ida.internal_steps"). Throws Error DEFSIM_ERR_INVALID_ARGUMENT
+    /// for an unknown name.
+    double stat(const std::string &name) const
+    {
+        double v = 0.0;
+        check(defsim_world_stat(w_, name.c_str(), &v));
+        return v;
+    }
+
     /// Detail of the last failed call on this world ("" if none).
     std::string last_error() const { return defsim_world_last_error(w_); }
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-from typing import Any, Callable, Iterator, List, NamedTuple, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
@@ -87,6 +87,8 @@ class Stats:
     last_order: int                 #: adaptive BDF: order of the last internal step
     substeps: int                   #: backend steps taken by auto_substep
     stable_step: float              #: last stable-step estimate in s (0: none made)
+    #: the backend's counters by full name ("sundials_ida.internal_steps": value)
+    counters: Dict[str, float] = dataclasses.field(default_factory=dict)
 
 
 def _projection(value: Union[str, int, Projection]) -> int:
@@ -216,6 +218,10 @@ class World:
         auto_substep: explicit backends split each step into substeps under the estimated
             stable step (``stable_step()``). Default False.
         substep_safety: fraction of the stable step that auto_substep uses. Default 0.8.
+        options: options by name, set after creation in order: ``{"core.simd": "generic",
+            "sundials_ida.rtol": 1e-6}`` (see ``set_option``). Preferred over the keyword
+            arguments tolerance ... substep_safety, which are deprecated: each that differs
+            from its default sets the option of the same name of the backend or core.
         log: optional callable(level, message) that receives the library's log messages.
             Exceptions it raises are printed (as for any cffi callback) and otherwise ignored.
 
@@ -239,7 +245,8 @@ class World:
                  projection: Optional[Union[str, int, Projection]] = None,
                  max_order: Optional[int] = None, max_internal_steps: Optional[int] = None,
                  auto_substep: Optional[bool] = None, substep_safety: Optional[float] = None,
-                 log: Optional[LogCallback] = None) -> None:
+                 log: Optional[LogCallback] = None,
+                 options: Optional[Mapping[str, Any]] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
         self._log_cb: Any = None
@@ -288,6 +295,13 @@ class World:
         self._backend = ffi.string(d.backend).decode("utf-8")
         self._gravity = (float(d.gravity[0]), float(d.gravity[1]), float(d.gravity[2]))
         del name_buf
+        if options is not None:
+            try:
+                for name, value in dict(options).items():
+                    self.set_option(name, value)
+            except Exception:
+                self.close()
+                raise
 
     # -- lifetime --------------------------------------------------------------------------
 
@@ -574,16 +588,91 @@ class World:
         s = ffi.new("defsim_stats *")
         s.size = ffi.sizeof("defsim_stats")
         self._check(lib.defsim_world_stats(self._live(), s))
-        values = {f.name: getattr(s, f.name) for f in dataclasses.fields(Stats)}
+        values = {f.name: getattr(s, f.name) for f in dataclasses.fields(Stats)
+                  if f.name != "counters"}
         values["passes"] = Pass(int(s.passes))
         for k, v in values.items():
             if k != "passes":
-                values[k] = float(v) if k.startswith("time_") else int(v)
-        return Stats(**values)
+                values[k] = float(v) if k.startswith("time_") or k == "stable_step" else int(v)
+        w = self._live()
+        name = ffi.new("const char **")
+        value = ffi.new("double *")
+        counters = {}
+        for i in range(int(lib.defsim_world_stat_count(w))):
+            self._check(lib.defsim_world_stat_info(w, i, name, value))
+            key = ffi.string(name[0]).decode("utf-8")
+            if "." in key:   # "<backend>.<counter>"; the stats' own fields have no dot
+                counters[key] = float(value[0])
+        return Stats(counters=counters, **values)
 
     def reset_stats(self) -> None:
-        """Zeroes the counters and timings (not reordered_tets, threads, passes)."""
+        """Zeroes the counters and timings (not reordered_tets, threads, passes), the backend's
+        counters included."""
         lib.defsim_world_reset_stats(self._live())
+
+    # -- options and statistics by name ----------------------------------------------------
+
+    def set_option(self, name: str, value: Union[str, bool, int, float]) -> None:
+        """Sets an option by name: ``"core.simd"``, ``"core.auto_substep"``,
+        ``"core.substep_safety"``, or ``"<backend>.<option>"`` of this world's backend. A string
+        is parsed by the library ("1e-6", "true", "clamp"); a bool sets 0 or 1; a number sets
+        the value (for a choice, its index). Changing a backend option re-initialises the
+        backend before the next step. Raises InvalidArgumentError (unknown name, another
+        backend's option, bad value: the message lists what is valid); the world is then
+        unchanged."""
+        w = self._live()
+        if not isinstance(name, str):
+            raise InvalidArgumentError("option name must be a string")
+        cname = name.encode("utf-8")
+        if isinstance(value, str):
+            self._check(lib.defsim_world_set_option(w, cname, value.encode("utf-8")))
+        elif isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):
+            self._check(lib.defsim_world_set_option_number(w, cname, float(value)))
+        else:
+            raise InvalidArgumentError(f"option {name}: value must be a string, bool or number, "
+                                       f"not {type(value).__name__}")
+
+    def _option_infos(self) -> List[Any]:
+        w = self._live()
+        infos = []
+        for i in range(int(lib.defsim_world_option_count(w))):
+            info = ffi.new("defsim_option_info *")
+            info.size = ffi.sizeof("defsim_option_info")
+            self._check(lib.defsim_world_option_info(w, i, info))
+            infos.append(info)
+        return infos
+
+    @staticmethod
+    def _typed(info: Any) -> Union[str, bool, int, float]:
+        v = float(info.value)
+        if info.type == lib.DEFSIM_OPTION_INT:
+            return int(v)
+        if info.type == lib.DEFSIM_OPTION_BOOL:
+            return v != 0.0
+        if info.type == lib.DEFSIM_OPTION_CHOICE:
+            return ffi.string(info.choices).decode("utf-8").split("|")[int(v)]
+        return v
+
+    def option(self, name: str) -> Union[str, bool, int, float]:
+        """The current value of an option: a float (REAL), int (INT), bool (BOOL) or the
+        chosen name (CHOICE). Raises InvalidArgumentError for an unknown name."""
+        value = ffi.new("double *")   # the library explains an unknown name
+        self._check(lib.defsim_world_get_option(self._live(), str(name).encode("utf-8"), value))
+        return next(self._typed(i) for i in self._option_infos()
+                    if ffi.string(i.name).decode("utf-8") == name)
+
+    def options(self) -> Dict[str, Union[str, bool, int, float]]:
+        """Every option of the world (the core's, then its backend's) and its value, typed as
+        ``option()`` returns it."""
+        return {ffi.string(i.name).decode("utf-8"): self._typed(i) for i in self._option_infos()}
+
+    def stat(self, name: str) -> float:
+        """A statistic by name: a field of ``Stats`` ("steps", "newton_iterations", ...) or a
+        counter of the backend ("sundials_ida.internal_steps"). Raises InvalidArgumentError
+        for an unknown name."""
+        value = ffi.new("double *")
+        self._check(lib.defsim_world_stat(self._live(), str(name).encode("utf-8"), value))
+        return float(value[0])
 
     def __repr__(self) -> str:
         if self._ptr is None:

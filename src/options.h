@@ -1,0 +1,78 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Options and counters by name (issue 10): the world's own options ("core.*") and those its
+ * backend declares in its table, their current values, the backend's counters, and the names
+ * under which hosts reach them. One defsim__options lives in each world; nothing here knows the
+ * world's layout, so the world calls in at creation, destruction, stepping and reset_stats.
+ */
+#ifndef DEFSIM_OPTIONS_H
+#define DEFSIM_OPTIONS_H
+
+#include "defsim/backend.h"
+#include "status.h"
+
+/* The core's options, in the order defsim_world_option_info lists them. */
+enum {
+    DEFSIM__OPT_SIMD = 0,          /* CHOICE auto|scalar|generic|avx2|avx512 */
+    DEFSIM__OPT_AUTO_SUBSTEP = 1,  /* BOOL */
+    DEFSIM__OPT_SUBSTEP_SAFETY = 2,/* REAL (0, 1] */
+    DEFSIM__CORE_OPTIONS = 3
+};
+
+typedef struct defsim__options {
+    double core[DEFSIM__CORE_OPTIONS];
+    const defsim_backend *backend;
+    double *values;          /* backend->option_count: current values */
+    double *counters;        /* backend->counter_count */
+    const char **names;      /* full names: core options, backend options, then counters */
+    char *name_buf;          /* storage of the backend's full names */
+    int reinit;              /* a backend option changed since the backend's last init */
+} defsim__options;
+
+/* Allocates the values and counters of backend b (defaults, counters zero) and maps the
+ * deprecated world-def fields that differ from their defaults onto options of the same name.
+ * On failure sets defsim_last_error() and leaves *o freed. */
+defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
+                                   const defsim_world_def *def);
+void defsim__options_free(defsim__options *o);
+
+/* Zeroes the backend's counters (defsim_world_reset_stats). */
+void defsim__options_reset_counters(defsim__options *o);
+
+/* Returns 1 once after a backend option changed: the world re-initialises its backend. */
+int defsim__options_take_reinit(defsim__options *o);
+
+/* What the core reads of its options. */
+int defsim__options_auto_substep(const defsim__options *o);
+double defsim__options_substep_safety(const defsim__options *o);
+/* The backend's "projection" option when it declares one, else `def_projection` (the world
+ * def's, for backends that still read it there). */
+int defsim__options_projection(const defsim__options *o, int def_projection);
+/* The batched tet kernels core.simd selects (NULL: the scalar kernels); the environment
+ * variable DEFSIM_SIMD overrides the option when it is set. */
+const struct defsim__tet_kernels *defsim__options_tet_kernels(const defsim__options *o);
+
+/* Host services (backend.h, ABI version 2). */
+const double *defsim__options_values(const defsim__options *o);
+double *defsim__options_counters(defsim__options *o);
+
+/* Checks the options and counters a backend declares (registry). On error writes why to msg. */
+int defsim__options_check_table(const defsim_backend *b, char *msg, size_t size);
+
+/* What the world's public option and statistics calls do (world.c checks the world pointer
+ * and applies changed settings to its compiled system). Errors go to msg. */
+defsim_status defsim__options_set_text(defsim__options *o, defsim__messages *msg,
+                                      const char *name, const char *value);
+defsim_status defsim__options_set_number(defsim__options *o, defsim__messages *msg,
+                                        const char *name, double value);
+defsim_status defsim__options_get(const defsim__options *o, defsim__messages *msg,
+                                  const char *name, double *value);
+int32_t defsim__options_count(const defsim__options *o);
+defsim_status defsim__options_info(const defsim__options *o, int32_t i, defsim_option_info *out);
+int32_t defsim__options_stat_count(const defsim__options *o);
+defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_stats *stats,
+                                        int32_t i, const char **name, double *value);
+defsim_status defsim__options_stat(const defsim__options *o, defsim__messages *msg,
+                                   const defsim_stats *stats, const char *name, double *value);
+
+#endif /* DEFSIM_OPTIONS_H */

@@ -65,6 +65,17 @@ static defsim_world *twins(const char *backend, double gy, double tol, defsim_mo
     return w;
 }
 
+/* An attachment of vertex `vertex` of `body`, stiffness k and damping c, to the origin. */
+static defsim_attachment_def attachment(defsim_body_id body, int32_t vertex, double k, double c)
+{
+    defsim_attachment_def d;
+    defsim_attachment_def_init(&d, sizeof d);
+    d.body = body;
+    d.vertex = vertex;
+    d.stiffness = k; d.damping = c;   /* N/m, N s/m */
+    return d;
+}
+
 /* Random forces, fixed seed: 3 n doubles in [-scale, scale). */
 static double *random_forces(int n, double scale, unsigned long long seed)
 {
@@ -423,11 +434,7 @@ static void test_callback_implicit_jacobian(void **state)
         cb_data d = {.k = k};
         TU_OK(defsim_world_set_force_callback(w, cb_force, cb_jacobian, &d));
         for (int i = 0; i < n; ++i) {
-            defsim_attachment_def ad;
-            defsim_attachment_def_init(&ad, sizeof ad);
-            ad.body = rb;
-            ad.vertex = i;
-            ad.stiffness = k;
+            const defsim_attachment_def ad = attachment(rb, i, k, 0.0);
             TU_OK(defsim_world_add_attachment(ref, &ad, NULL));
         }
         for (int s = 0; s < 10; ++s) {
@@ -611,12 +618,7 @@ static defsim_world *stitched(const char *backend, double gy, defsim_attachment_
     defsim_body_id a = add_beam(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     const double lo[3] = {0, 0.5, 0}, hi[3] = {1, 0.75, 0.25};
     defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_COROTATED, 4, 1, 1, lo, hi, 1e5, 0.3, 1000.0);
-    defsim_attachment_def d;
-    defsim_attachment_def_init(&d, sizeof d);
-    d.body = a;
-    d.vertex = 3;
-    d.stiffness = 2e3;
-    d.damping = 5.0;
+    defsim_attachment_def d = attachment(a, 3, 2e3, 5.0);
     d.target[0] = 0.4; d.target[1] = -0.2; d.target[2] = 0.1;
     TU_OK(defsim_world_add_attachment(w, &d, &ids[0]));
     d.vertex = 7;
@@ -767,12 +769,7 @@ static void test_static_equilibrium(void **state)
         } else {
             for (int i = 0; i < n; ++i)
                 if (x[3 * i + 1] >= HI[1] - 1e-12) {
-                    defsim_attachment_def ad;
-                    defsim_attachment_def_init(&ad, sizeof ad);
-                    ad.body = id;
-                    ad.vertex = i;
-                    ad.stiffness = 5e3;
-                    ad.damping = 2.0;
+                    defsim_attachment_def ad = attachment(id, i, 5e3, 2.0);
                     memcpy(ad.target, x + 3 * i, sizeof ad.target);
                     TU_OK(defsim_world_add_attachment(w, &ad, &att[na++]));
                 }
@@ -842,12 +839,7 @@ static void test_attachment_stable_step(void **state)
     defsim_body_id b = add_beam(w, DEFSIM_MODEL_STVK);
     double h0, om0, h1, om1, h2, om2;
     TU_OK(defsim_world_stable_step(w, &h0, &om0));
-    defsim_attachment_def d;
-    defsim_attachment_def_init(&d, sizeof d);
-    d.body = b;
-    d.vertex = 0;
-    d.stiffness = 1.0;
-    d.damping = 1e4;
+    defsim_attachment_def d = attachment(b, 0, 1.0, 1e4);
     defsim_attachment_id id;
     TU_OK(defsim_world_add_attachment(w, &d, &id));
     TU_OK(defsim_world_stable_step(w, &h1, &om1));
@@ -870,11 +862,7 @@ static void test_attachment_bad_input(void **state)
     defsim_world *w = stitched("symplectic_euler", -9.81, ids);
     defsim_body_id a = {1, 1}, b = {2, 1};
     snapshot s = snap(w);
-    defsim_attachment_def d;
-    defsim_attachment_def_init(&d, sizeof d);
-    d.body = a;
-    d.vertex = 1;
-    d.stiffness = -1.0;
+    defsim_attachment_def d = attachment(a, 1, -1.0, 0.0);
     assert_int_equal(defsim_world_add_attachment(w, &d, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
     d.stiffness = 10.0;
     d.damping = NAN;
@@ -921,8 +909,7 @@ static void test_attachment_bad_input(void **state)
     for (int i = 1; i < 4; ++i)
         assert_int_equal(defsim_world_get_attachment_force(w, ids[i], f), DEFSIM_ERR_STALE_ID);
     TU_OK(defsim_world_get_attachment_force(w, ids[0], f));
-    defsim_attachment_def_init(&d, sizeof d);
-    d.body = a;
+    d = attachment(a, 0, 1e3, 0.0);
     defsim_attachment_id id2;
     TU_OK(defsim_world_add_attachment(w, &d, &id2));
     assert_true(id2.index == ids[1].index && id2.generation != ids[1].generation);

@@ -13,8 +13,6 @@
 
 #include <math.h>
 
-/* Saint Venant-Kirchhoff: E = (F^T F - I)/2, psi = mu E:E + lambda/2 tr(E)^2.                  */
-
 /* Second Piola-Kirchhoff stress S = 2 mu E + lambda tr(E) I; returns psi. */
 static double stvk_S(double mu, double lambda, const double F[9], double S[9])
 {

@@ -28,17 +28,27 @@ static int64_t first_non_finite(const double *a, int64_t n)
 /* ------------------------------------------------------------------------------------------ */
 /* Workspaces */
 
+static void release_callback(defsim__coupling *c)
+{
+    free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
+    c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
+}
+
+static void release_drive(defsim__coupling *c)
+{
+    free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
+    free(c->pin_vel);
+    c->drv = NULL;
+    c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
+}
+
 defsim_status defsim__coupling_reserve(defsim_world *w)
 {
     defsim__coupling *c = &w->cpl;
     const size_t n = (size_t)(w->nv > 0 ? w->nv : 1);
     if (c->nv != w->nv) {
-        free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
-        free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
-        free(c->pin_vel);
-        c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
-        c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
-        c->drv = NULL;
+        release_callback(c);
+        release_drive(c);
         c->nv = w->nv;
     }
     if (c->fn && !c->f0) {
@@ -48,8 +58,7 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
         c->K0 = malloc(9 * n * sizeof *c->K0);
         c->kcb = malloc(9 * n * sizeof *c->kcb);
         if (!c->f0 || !c->x0 || !c->veval || !c->K0 || !c->kcb) {
-            free(c->f0); free(c->x0); free(c->veval); free(c->K0); free(c->kcb);
-            c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
+            release_callback(c);
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
     }
@@ -62,10 +71,7 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
         c->pin_vel = calloc(3 * n, sizeof *c->pin_vel);
         if (!c->drv || !c->drv_start || !c->drv_target || !c->drv_x0 || !c->drv_x1 ||
             !c->pin_vel) {
-            free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0);
-            free(c->drv_x1); free(c->pin_vel);
-            c->drv = NULL;
-            c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
+            release_drive(c);
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
     }
@@ -74,10 +80,8 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
 
 void defsim__coupling_free(defsim_world *w)
 {
-    defsim__coupling *c = &w->cpl;
-    free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
-    free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
-    free(c->pin_vel);
+    release_callback(&w->cpl);
+    release_drive(&w->cpl);
     free(w->fext); free(w->att); free(w->pin_target); free(w->targeted);
 }
 

@@ -541,8 +541,8 @@ DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], 
 DEFSIM_API defsim_status defsim_world_set_external_forces(defsim_world *world, const double *f,
                                                           int32_t n);
 
-/// A host force callback. Adds forces (N) into f_inout (3 * n doubles, world vertex order; the
-/// core has already written the world's other forces there, do not overwrite them) at positions
+/// A host force callback. Adds forces (N) into f_inout (3 * n doubles, world vertex order; it
+/// holds the world's other forces, or zeros: add to it, do not overwrite it) at positions
 /// x (m) and velocities v (m/s), 3 * n doubles each, at time t (s). x, v and f_inout are
 /// borrowed for the call. Returns 0 on success; any other value is a failure: the step (or the
 /// call) that evaluated it fails with DEFSIM_ERR_CALLBACK and the world's state is unchanged.

@@ -17,9 +17,11 @@ import csv
 import sys
 
 COLORS = {"explicit_euler": "#c62828", "symplectic_euler": "#2e7d32",
-          "newton_cholmod": "#1565c0", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00"}
-MARKERS = {"explicit_euler": "x", "symplectic_euler": "o", "newton_cholmod": "s",
-           "sundials_kinsol": "D", "sundials_ida": "^"}
+          "velocity_verlet": "#00897b", "newton_cholmod": "#1565c0", "newmark": "#5e35b1",
+          "bdf2": "#3949ab", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00"}
+MARKERS = {"explicit_euler": "x", "symplectic_euler": "o", "velocity_verlet": "P",
+           "newton_cholmod": "s", "newmark": "v", "bdf2": "<", "sundials_kinsol": "D",
+           "sundials_ida": "^"}
 
 
 def label(r):

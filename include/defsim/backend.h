@@ -217,7 +217,12 @@ enum {
     DEFSIM_BACKEND_NEEDS_MATRIX = 1u << 0,  ///< Uses matrix_pattern / matrix_values.
     DEFSIM_BACKEND_ADAPTIVE = 1u << 1,      ///< Takes internal steps under an error tolerance.
     DEFSIM_BACKEND_IMPLICIT = 1u << 2,      ///< Stable at any step size for dissipative scenes.
-    DEFSIM_BACKEND_DISSIPATIVE = 1u << 3    ///< Total energy never grows without external work.
+    DEFSIM_BACKEND_DISSIPATIVE = 1u << 3,   ///< Total energy never grows without external work.
+    DEFSIM_BACKEND_CONSERVATIVE = 1u << 4   ///< Without damping, the total energy stays in a
+                                            ///< bounded band around its start: no drift, no
+                                            ///< numerical dissipation (symplectic or
+                                            ///< energy-conserving schemes; explicit ones inside
+                                            ///< their stability limit).
 };
 
 /// A backend: a const table. The host allocates `state_size` zeroed bytes per world and passes

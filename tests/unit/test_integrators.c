@@ -7,29 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A mass m on a spring k to a pinned anchor, displaced by a along x, no gravity. */
-static defsim_world *oscillator(const char *backend, double m, double k, double a)
-{
-    defsim_world *w = tu_world(backend, 0.0, 1);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1 + a, 0, 0}, mass[2] = {1.0, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
-    return w;
-}
-
 static double displacement(defsim_world *w)
 {
     double x[6];
@@ -42,7 +19,7 @@ static void test_spring_period(void **state)
 {
     (void)state;
     const double m = 0.5, k = 200.0, h = 1e-4, T = 2 * 3.14159265358979323846 * sqrt(m / k);
-    defsim_world *w = oscillator("symplectic_euler", m, k, 0.01);
+    defsim_world *w = tu_oscillator("symplectic_euler", 1.0, m, k, 0.0, 0.0, 0.01, 1, 0);
     double prev = displacement(w), first = -1, last = -1;
     int crossings = 0;
     for (int i = 1; i <= (int)(10.5 * T / h); ++i) {
@@ -72,17 +49,8 @@ static void test_energy_drift(void **state)
     double dev[2] = {0, 0}, ratio[2] = {0, 0};
     const char *names[2] = {"symplectic_euler", "explicit_euler"};
     for (int b = 0; b < 2; ++b) {
-        defsim_world *w = oscillator(names[b], m, k, 0.01);
-        defsim_energy e0, e;
-        TU_OK(defsim_world_energy(w, &e0));
-        for (int i = 0; i < 100000; ++i) {
-            TU_OK(defsim_world_step(w, h));
-            if (i % 97 == 0 || i == 99999) {
-                TU_OK(defsim_world_energy(w, &e));
-                dev[b] = fmax(dev[b], fabs(e.total - e0.total) / e0.total);
-            }
-        }
-        ratio[b] = e.total / e0.total;
+        defsim_world *w = tu_oscillator(names[b], 1.0, m, k, 0.0, 0.0, 0.01, 1, 0);
+        ratio[b] = tu_energy_run(w, h, 100000, &dev[b]);
         defsim_world_destroy(w);
     }
     printf("energy over 1e5 steps (omega h = 0.004): symplectic max deviation %.3f %%, end/start "
@@ -178,12 +146,13 @@ static void test_convergence_orders(void **state)
     const int n3 = 3 * 5 * 2 * 2;
     double *ref = run_to("symplectic_euler", READ_STAGGERED, T, 1e-3 / 256);
     const double hs[4] = {1e-3, 5e-4, 2.5e-4, 1.25e-4};
-    struct { const char *backend; int read; const char *label; double lo, hi; } cases[3] = {
+    struct { const char *backend; int read; const char *label; double lo, hi; } cases[4] = {
         {"explicit_euler", READ_SYNC, "explicit Euler", 0.85, 1.15},
         {"symplectic_euler", READ_SYNC, "symplectic Euler, synchronous (x_n, v_n)", 0.85, 1.15},
         {"symplectic_euler", READ_STAGGERED, "symplectic Euler, staggered (v at half steps)", 1.85, 2.15},
+        {"velocity_verlet", READ_SYNC, "velocity Verlet (x_n, v_n)", 1.85, 2.15},
     };
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < 4; ++c) {
         double ex[4], ev[4];
         for (int k = 0; k < 4; ++k) {
             double *r = run_to(cases[c].backend, cases[c].read, T, hs[k]);

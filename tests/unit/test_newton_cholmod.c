@@ -334,22 +334,8 @@ static void pendulum_rk4(double T, double out[3])
 static double pendulum_error(double T, double h, const double want[3])
 {
     defsim_world *w = nc_world(CH_G, 1, 1e-13, 50, DEFSIM_PROJECTION_CLAMP);
-    double x[6] = {0, 0, 0, PD_L0, 0, 0}, x0[6] = {0, 0, 0, 1.0, 0.0, 0.2}, m[2] = {1.0, PD_M};
-    int32_t sp[2] = {0, 1};
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = PD_K;
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = sp;
-    bd.spring_count = 1;
-    bd.vertex_mass = m;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    const double x[6] = {0, 0, 0, PD_L0, 0, 0}, x0[6] = {0, 0, 0, 1.0, 0.0, 0.2};
+    tu_add_spring_pair(w, x, x0, NULL, 1.0, PD_M, PD_K, 0.0, 0.0, 1);
     const int steps = (int)lround(T / h);
     for (int s = 0; s < steps; ++s) step_ok(w, h);
     double got[6];

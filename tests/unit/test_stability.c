@@ -7,67 +7,34 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Mass m on spring k: pinned anchor (one free vertex) or two free masses. */
-static defsim_world *oscillator(const char *backend, double m, double k, int pinned,
-                                double alpha, int auto_substep)
-{
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    d.gravity[1] = 0.0;
-    d.auto_substep = auto_substep;
-    defsim_world *w = NULL;
-    TU_OK(defsim_world_create(&d, &w));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1.01, 0, 0}, mass[2] = {m, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    bd.material.mass_damping = alpha;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    if (pinned) {
-        int32_t p = 0;
-        TU_OK(defsim_body_pin(w, id, &p, 1));
-    }
-    return w;
-}
-
 static void test_closed_forms(void **state)
 {
     (void)state;
     const double m = 0.5, k = 200.0;
     double h, om;
     /* One free mass: omega = sqrt(k/m); symplectic Euler limit 2 / omega. */
-    defsim_world *w = oscillator("symplectic_euler", m, k, 1, 0.0, 0);
+    defsim_world *w = tu_oscillator("symplectic_euler", m, m, k, 0.0, 0.0, 0.01, 1, 0);
     TU_OK(defsim_world_stable_step(w, &h, &om));
     assert_true(fabs(om - sqrt(k / m)) < 1e-4 * sqrt(k / m));
     assert_true(fabs(h - 2.0 / sqrt(k / m)) < 1e-4 * h);
     defsim_world_destroy(w);
     /* Two free masses: reduced mass m/2, omega = sqrt(2k/m). */
-    w = oscillator("symplectic_euler", m, k, 0, 0.0, 0);
+    w = tu_oscillator("symplectic_euler", m, m, k, 0.0, 0.0, 0.01, 0, 0);
     TU_OK(defsim_world_stable_step(w, &h, &om));
     assert_true(fabs(om - sqrt(2 * k / m)) < 1e-4 * om);
     defsim_world_destroy(w);
     /* Damped: h^2 omega^2 + 2 c h = 4. */
     const double alpha = 3.0, w0 = sqrt(k / m);
-    w = oscillator("symplectic_euler", m, k, 1, alpha, 0);
+    w = tu_oscillator("symplectic_euler", m, m, k, alpha, 0.0, 0.01, 1, 0);
     TU_OK(defsim_world_stable_step(w, &h, NULL));
     assert_true(fabs(h * h * w0 * w0 + 2 * alpha * h - 4.0) < 1e-3);
     defsim_world_destroy(w);
     /* Explicit Euler: c / omega^2 with damping, 0 without. */
-    w = oscillator("explicit_euler", m, k, 1, alpha, 0);
+    w = tu_oscillator("explicit_euler", m, m, k, alpha, 0.0, 0.01, 1, 0);
     TU_OK(defsim_world_stable_step(w, &h, NULL));
     assert_true(fabs(h - alpha / (w0 * w0)) < 1e-3 * h);
     defsim_world_destroy(w);
-    w = oscillator("explicit_euler", m, k, 1, 0.0, 0);
+    w = tu_oscillator("explicit_euler", m, m, k, 0.0, 0.0, 0.01, 1, 0);
     TU_OK(defsim_world_stable_step(w, &h, NULL));
     assert_true(h == 0.0);
     assert_int_equal(defsim_world_stable_step(NULL, &h, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
@@ -127,8 +94,8 @@ static void test_auto_substep(void **state)
     (void)state;
     const double m = 0.5, k = 200.0, w0 = sqrt(k / m);
     const double H = 20 * 2.0 / w0;
-    defsim_world *a = oscillator("symplectic_euler", m, k, 1, 0.0, 1);
-    defsim_world *b = oscillator("symplectic_euler", m, k, 1, 0.0, 0);
+    defsim_world *a = tu_oscillator("symplectic_euler", m, m, k, 0.0, 0.0, 0.01, 1, 1);
+    defsim_world *b = tu_oscillator("symplectic_euler", m, m, k, 0.0, 0.0, 0.01, 1, 0);
     for (int i = 0; i < 5; ++i) TU_OK(defsim_world_step(a, H));
     defsim_stats s = {.size = sizeof s};
     TU_OK(defsim_world_stats(a, &s));

@@ -25,6 +25,66 @@ defsim_world *tu_world(const char *backend, double gy, int threads)
     return w;
 }
 
+defsim_body_id tu_add_spring_pair(defsim_world *w, const double rest[6], const double x0[6],
+                                  const double *v0, double m0, double m, double k, double alpha,
+                                  double beta, int pin)
+{
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.vertex_count = 2;
+    bd.rest_positions = rest;
+    bd.initial_positions = x0;
+    bd.initial_velocities = v0;
+    const double mass[2] = {m0, m};
+    bd.vertex_mass = mass;
+    const int32_t s[2] = {0, 1};
+    bd.springs = s;
+    bd.spring_count = 1;
+    bd.material.stiffness = k;
+    bd.material.mass_damping = alpha;
+    bd.material.stiffness_damping = beta;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    if (pin) {
+        const int32_t anchor = 0;
+        TU_OK(defsim_body_pin(w, id, &anchor, 1));
+    }
+    return id;
+}
+
+defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
+                            double beta, double a, int pin, int auto_substep)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = backend;
+    d.gravity[1] = 0.0;
+    d.num_threads = 1;
+    d.auto_substep = auto_substep;
+    defsim_world *w = NULL;
+    if (defsim_world_create(&d, &w) != DEFSIM_OK)
+        fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    const double rest[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1 + a, 0, 0};
+    tu_add_spring_pair(w, rest, x0, NULL, m0, m, k, alpha, beta, pin);
+    return w;
+}
+
+double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev)
+{
+    defsim_energy e0, e;
+    TU_OK(defsim_world_energy(w, &e0));
+    e = e0;
+    double dev = 0.0;
+    for (int i = 0; i < steps; ++i) {
+        TU_OK(defsim_world_step(w, h));
+        TU_OK(defsim_world_energy(w, &e));
+        dev = fmax(dev, fabs(e.total - e0.total) / fabs(e0.total));
+    }
+    if (max_dev) *max_dev = dev;
+    return e.total / e0.total;
+}
+
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho)
 {

@@ -20,6 +20,23 @@ defsim_world *tu_world(const char *backend, double gy, int threads);
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);
 
+/* Adds one spring k (Rayleigh alpha, beta) between vertex 0 (mass m0, pinned if `pin`) and vertex
+ * 1 (mass m): rest positions `rest`, initial positions `x0` (6 doubles each), initial velocities
+ * `v0` (6 doubles, or NULL for rest). Returns the body's id. */
+defsim_body_id tu_add_spring_pair(defsim_world *w, const double rest[6], const double x0[6],
+                                  const double *v0, double m0, double m, double k, double alpha,
+                                  double beta, int pin);
+
+/* Steps w `steps` times by h and returns E_total(end) / E_total(start); *max_dev receives the
+ * largest |E(t) - E(0)| / |E(0)| over the steps (checked after every step). */
+double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev);
+
+/* A world (no gravity, one thread, auto_substep as given) holding one spring k (Rayleigh alpha,
+ * beta) between vertex 0 at the origin (mass m0, pinned if `pin`) and vertex 1 of mass m, at rest
+ * at x = 1 and started at x = 1 + a: with the pin, x'' = -(k/m) x - (alpha + beta k/m) x'. */
+defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
+                            double beta, double a, int pin, int auto_substep);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

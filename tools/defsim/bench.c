@@ -46,12 +46,13 @@ extern char **environ;
 /* ... and one whose energy error exceeds the energy scale is on its way to blowing up. */
 #define DIVERGED_ENERGY 1.0
 
-#define MAX_BACKENDS 8
+#define MAX_BACKENDS 12
 #define MAX_VALUES 32
 #define MAX_SETS 64
 
-static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "newton_cholmod",
-                                     "sundials_kinsol", "sundials_ida"};
+static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "velocity_verlet",
+                                     "newton_cholmod", "newmark", "bdf2", "sundials_kinsol",
+                                     "sundials_ida"};
 
 typedef struct point {
     const char *backend;
@@ -83,7 +84,7 @@ static int usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim bench SCENE.json [options]\n"
-        "  --backends A,B,...  backends to compare (default: all five; unavailable ones are\n"
+        "  --backends A,B,...  backends to compare (default: all eight; unavailable ones are\n"
         "                      skipped with a note)\n"
         "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
         "                      doubled up to 1/30 s)\n"
@@ -370,6 +371,58 @@ static void setting(const point *p, char *buf, size_t n)
     snprintf(buf, n, "%s = %.3g%s", p->is_tol ? "tol" : "h", p->value, p->is_tol ? "" : " s");
 }
 
+/* Observed order of each fixed-step backend: the least-squares slope of log(RMS error) on log(h)
+ * over its ORDER_POINTS smallest steps that ran ok (the asymptotic end of the sweep), printed
+ * and written to the Pareto file. */
+#define ORDER_POINTS 4
+
+static void write_orders(FILE *f, const point *p, int n)
+{
+    fprintf(f, "\nObserved orders (least-squares slope of log RMS error on log h over the %d "
+               "smallest steps that ran ok):\n\n", ORDER_POINTS);
+    printf("\nObserved order (slope of log RMS error on log h, %d smallest ok steps):\n",
+           ORDER_POINTS);
+    for (int i = 0; i < n; ++i) {
+        int first = 1;
+        for (int j = 0; j < i; ++j) first &= strcmp(p[j].backend, p[i].backend) != 0;
+        if (!first || p[i].is_tol) continue;
+        /* The ok points of this backend, smallest h first. */
+        double hs[MAX_VALUES], es[MAX_VALUES];
+        int m = 0;
+        for (int j = i; j < n && m < MAX_VALUES; ++j)
+            if (!strcmp(p[j].backend, p[i].backend) && !strcmp(p[j].status, "ok") &&
+                p[j].rms > 0.0) {
+                int k = m++;
+                while (k > 0 && hs[k - 1] > p[j].value) {
+                    hs[k] = hs[k - 1];
+                    es[k] = es[k - 1];
+                    --k;
+                }
+                hs[k] = p[j].value;
+                es[k] = p[j].rms;
+            }
+        if (m > ORDER_POINTS) m = ORDER_POINTS;
+        if (m < 2) {
+            printf("  %-17s fewer than 2 ok points\n", p[i].backend);
+            fprintf(f, "- %s: fewer than 2 ok points\n", p[i].backend);
+            continue;
+        }
+        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        for (int k = 0; k < m; ++k) {
+            const double lx = log(hs[k]), ly = log(es[k]);
+            sx += lx;
+            sy += ly;
+            sxx += lx * lx;
+            sxy += lx * ly;
+        }
+        const double order = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+        printf("  %-17s %6.3f  (h = %.3g .. %.3g s, RMS %.2e .. %.2e)\n", p[i].backend, order,
+               hs[0], hs[m - 1], es[0], es[m - 1]);
+        fprintf(f, "- %s: %.3f (h = %.3g .. %.3g s, RMS %.2e .. %.2e)\n", p[i].backend, order,
+                hs[0], hs[m - 1], es[0], es[m - 1]);
+    }
+}
+
 /* Pareto table: for each error level the fastest point reaching it, and the fastest point of
  * any other backend (to show the margin). Printed and written as markdown. */
 static int write_pareto(const bench *b, const point *p, int n, const char *path)
@@ -429,6 +482,7 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
             setting(&p[i], s1, sizeof s1);
             fprintf(f, "- %s, %s: %.4g s, RMS %.2e\n", p[i].backend, s1, p[i].wall, p[i].rms);
         }
+    write_orders(f, p, n);
     return fclose(f) == 0 ? 0 : -1;
 }
 

@@ -1,0 +1,703 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The implicit-solver core (implicit_core.h): one Newton loop for every scheme that minimises an
+ * incremental potential
+ *
+ *   g(x) = c_m/(2h^2) |x - y|^2_M + E(x) + c_d/(2h) |x - z|^2_D,   D = alpha M + B(x_b),
+ *
+ * with E the potential energy (elastic + gravitational): sparse Hessian assembled by the core
+ * into a pattern built once, CHOLMOD symbolic analysis once per set-up, numeric factorisation per
+ * iteration, a backtracking (Armijo) line search on g, and the scale-free test
+ * |dx|_inf <= tolerance * length_scale. v' = c_d/h (x' - z).
+ *
+ * Linked into each implicit module: it includes only defsim/backend.h, links CHOLMOD, and never
+ * libdefsim. README.md beside this file documents the method and the schemes.
+ */
+#include "implicit_core.h"
+
+#include <cholmod.h>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include <float.h>
+#include <stddef.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Armijo constant and the most halvings of the step before the line search gives up. */
+#define IC_ARMIJO 1e-4
+#define IC_MAX_BACKTRACKS 40
+/* Diagonal shifts tried (multiples of M / h^2) when an exact Hessian is not positive definite. */
+#define IC_MAX_SHIFTS 12
+/* Relative resolution of g: decreases smaller than this times |g|'s scale cannot be seen. */
+#define IC_G_RESOLUTION (1e3 * DBL_EPSILON)
+
+/* ------------------------------------------------------------------------------------------ */
+/* BLAS threads. CHOLMOD's supernodal factorisation calls the BLAS; Debian's OpenBLAS keeps one
+ * process-wide thread count, read from OPENBLAS_NUM_THREADS / OMP_NUM_THREADS at load (default:
+ * every core). We run the BLAS with the world's thread count, so that a world set to T threads
+ * uses T cores in every phase and its results are reproducible for that T. A world that needs a
+ * different count than the one in effect waits until no other implicit-backend factorisation is
+ * running; worlds with equal counts factorise concurrently. The weak references resolve to NULL
+ * when the BLAS is not OpenBLAS, and then the BLAS is left alone. */
+
+extern int openblas_get_num_threads(void) __attribute__((weak));
+extern void openblas_set_num_threads(int num_threads) __attribute__((weak));
+
+static pthread_mutex_t blas_lock = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t blas_idle = PTHREAD_COND_INITIALIZER;
+static int blas_active;    /* factorisations running */
+static int blas_current;   /* thread count they run with */
+static int blas_original;  /* count found before the first change; restored when idle */
+
+static void blas_enter(int threads)
+{
+    if (!openblas_get_num_threads || !openblas_set_num_threads) return;
+    pthread_mutex_lock(&blas_lock);
+    while (blas_active > 0 && blas_current != threads) pthread_cond_wait(&blas_idle, &blas_lock);
+    if (blas_active == 0) {
+        blas_original = openblas_get_num_threads();
+        blas_current = blas_original;
+    }
+    if (blas_current != threads) {
+        openblas_set_num_threads(threads);
+        blas_current = threads;
+    }
+    blas_active++;
+    pthread_mutex_unlock(&blas_lock);
+}
+
+static void blas_leave(void)
+{
+    if (!openblas_get_num_threads || !openblas_set_num_threads) return;
+    pthread_mutex_lock(&blas_lock);
+    if (--blas_active == 0) {
+        if (blas_current != blas_original) openblas_set_num_threads(blas_original);
+        blas_current = blas_original;
+        pthread_cond_broadcast(&blas_idle);
+    }
+    pthread_mutex_unlock(&blas_lock);
+}
+
+/* CHOLMOD's supernodal factorisation also opens OpenMP regions of its own (clearing, copying and
+ * assembling supernodes) with a fixed team of 4 threads, a constant of its build: on a machine
+ * with fewer free cores, or in a world set to 1 thread, those teams oversubscribe the cores and
+ * their idle threads spin beside the BLAS (measured: the 9216-tet factorisation 2.5x slower on
+ * 2 cores). With dynamic adjustment on and nthreads-var = T in the calling thread, libgomp gives
+ * such a region at most T threads. Both settings belong to the calling thread's data
+ * environment, so other threads are not affected; they are restored after the CHOLMOD calls. */
+typedef struct omp_saved {
+    int dynamic, threads;
+} omp_saved;
+
+static omp_saved omp_limit(int threads)
+{
+    omp_saved saved = {0, 0};
+#ifdef _OPENMP
+    saved.dynamic = omp_get_dynamic();
+    saved.threads = omp_get_max_threads();
+    omp_set_dynamic(1);
+    omp_set_num_threads(threads);
+#else
+    (void)threads;
+#endif
+    return saved;
+}
+
+static void omp_restore(omp_saved saved)
+{
+#ifdef _OPENMP
+    omp_set_num_threads(saved.threads);
+    omp_set_dynamic(saved.dynamic);
+#else
+    (void)saved;
+#endif
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* ------------------------------------------------------------------------------------------ */
+/* Per-world solver. Kept behind a pointer: cholmod_common is large and must not move. */
+
+typedef struct ic_solver {
+    defsim__ic_solver pub;     /* what schemes see; first, so the pointers convert */
+    double tolerance;          /* relative (options) */
+    int max_iterations;
+    int stiffness_damping;
+    double gravity[3];
+    defsim_csc pat;            /* upper triangle over free DOFs (borrowed from the system) */
+    double *hval;              /* Hessian values, pat.nnz */
+    double *x, *xt;            /* dof_count */
+    double *grad, *dx;         /* free DOFs */
+    cholmod_common cc;
+    int cc_started;
+    cholmod_sparse A;          /* wraps pat and hval */
+    cholmod_factor *L;
+    cholmod_dense *rhs, *sol, *ywork, *ework;
+} ic_solver;
+
+static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)sys;
+    ic_solver **slot = state, *s = *slot;
+    if (!s) return;
+    if (s->cc_started) {
+        cholmod_l_free_dense(&s->rhs, &s->cc);
+        cholmod_l_free_dense(&s->sol, &s->cc);
+        cholmod_l_free_dense(&s->ywork, &s->cc);
+        cholmod_l_free_dense(&s->ework, &s->cc);
+        cholmod_l_free_factor(&s->L, &s->cc);
+        cholmod_l_finish(&s->cc);
+    }
+    defsim__ic_solver *p = &s->pub;
+    double *owned[] = {s->hval, p->bval, p->x0, p->v0, p->y, p->z, s->x, s->xt, p->f,
+                       s->grad, s->dx, p->e, p->be};
+    for (size_t k = 0; k < sizeof owned / sizeof *owned; ++k) host->release(owned[k]);
+    for (int k = 0; k < DEFSIM__IC_MAX_WORK; ++k) host->release(p->work[k]);
+    host->release(s);
+    *slot = NULL;
+}
+
+static double *alloc_doubles(const defsim_host *host, int64_t n)
+{
+    return host->alloc((size_t)(n > 0 ? n : 1) * sizeof(double));
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Options ("<backend>.<name>"), the same for every scheme. "projection" is read by the core's
+ * matrix assembly itself; the others here, at init. */
+
+enum { OPT_TOLERANCE, OPT_MAX_ITERATIONS, OPT_PROJECTION, OPT_ORDERING, OPT_FACTOR, OPT_COUNT };
+static const char ORDERINGS[] = "best|amd|metis", FACTORS[] = "auto|supernodal|simplicial";
+
+static const defsim_option_spec ic_options[OPT_COUNT] = {
+    [OPT_TOLERANCE] = {.name = "tolerance", .type = DEFSIM_OPTION_REAL, .default_value = 1e-6,
+        .min_value = DBL_MIN, .max_value = 1.0,
+        .doc = "Newton stops when no DOF's update exceeds tolerance x L (L: diagonal of the rest "
+               "positions' bounding box); relative, in (0, 1]"},
+    [OPT_MAX_ITERATIONS] = {.name = "max_iterations", .type = DEFSIM_OPTION_INT,
+        .default_value = 50, .min_value = 1, .max_value = 1e6,
+        .doc = "Newton iterations per step before the step fails with NOT_CONVERGED"},
+    [OPT_PROJECTION] = {.name = "projection", .type = DEFSIM_OPTION_CHOICE,
+        .default_value = DEFSIM_PROJECTION_CLAMP, .choices = "none|clamp|abs",
+        .doc = "element Hessians: exact (none), negative eigenvalues set to 0 (clamp) or to "
+               "their magnitude (abs)"},
+    [OPT_ORDERING] = {.name = "cholmod_ordering", .type = DEFSIM_OPTION_CHOICE,
+        .choices = ORDERINGS,
+        .doc = "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or "
+               "metis; the environment variable DEFSIM_CHOLMOD_ORDERING overrides it"},
+    [OPT_FACTOR] = {.name = "cholmod_factor", .type = DEFSIM_OPTION_CHOICE, .choices = FACTORS,
+        .doc = "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the "
+               "environment variable DEFSIM_CHOLMOD_FACTOR overrides it"},
+};
+
+static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
+    {"shifted_factorisations", "Newton iterations whose Hessian needed a diagonal shift to be "
+                               "positive definite (only with projection none)"},
+};
+
+/* The index of `name` in the '|'-separated `choices`, or -1. */
+static int choice_index(const char *choices, const char *name)
+{
+    const size_t len = strlen(name);
+    const char *p = choices;
+    for (int k = 0;; ++k) {
+        const size_t n = strcspn(p, "|");
+        if (n == len && strncmp(p, name, len) == 0) return k;
+        if (!p[n]) return -1;
+        p += n + 1;
+    }
+}
+
+/* A CHOICE option, unless the environment variable names one of its choices. */
+static int choice_option(const double *values, int opt, const char *env)
+{
+    const char *e = getenv(env);
+    const int k = e ? choice_index(ic_options[opt].choices, e) : -1;
+    return k >= 0 ? k : (int)values[opt];
+}
+
+/* Orderings to try: AMD and METIS ("best"), or one of them. */
+static void ordering_methods(cholmod_common *cc, int ordering)
+{
+    if (ordering == 1 || ordering == 2) {
+        cc->nmethods = 1;
+        cc->method[0].ordering = ordering == 1 ? CHOLMOD_AMD : CHOLMOD_METIS;
+    } else {
+        cc->nmethods = 2;
+        cc->method[0].ordering = CHOLMOD_AMD;
+        cc->method[1].ordering = CHOLMOD_METIS;
+    }
+}
+
+static pthread_mutex_t analysis_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *state)
+{
+    const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
+    ic_solver **slot = state;
+    ic_solver *s = host->alloc(sizeof *s);
+    if (!s) return DEFSIM_ERR_OUT_OF_MEMORY;
+    memset(s, 0, sizeof *s);
+    *slot = s;
+    defsim__ic_solver *p = &s->pub;
+    p->scheme = scheme;
+    p->ndof = host->dof_count(sys);
+    p->n = host->free_dof_count(sys);
+    p->fdof = host->free_dofs(sys);
+    p->mass = host->mass(sys);
+    p->alpha = host->mass_damping(sys);
+    s->stiffness_damping = host->has_stiffness_damping(sys);
+    const double *opt = host->option_values(sys);
+    s->tolerance = opt[OPT_TOLERANCE];
+    s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
+    p->counters = host->counters(sys);
+    memcpy(s->gravity, host->options(sys)->gravity, sizeof s->gravity);
+    p->x0 = alloc_doubles(host, p->ndof);
+    p->v0 = alloc_doubles(host, p->ndof);
+    p->y = alloc_doubles(host, p->ndof);
+    p->z = alloc_doubles(host, p->ndof);
+    s->x = alloc_doubles(host, p->ndof);
+    s->xt = alloc_doubles(host, p->ndof);
+    p->f = alloc_doubles(host, p->ndof);
+    s->grad = alloc_doubles(host, p->n);
+    s->dx = alloc_doubles(host, p->n);
+    p->e = alloc_doubles(host, p->n);
+    p->be = alloc_doubles(host, p->n);
+    if (!p->x0 || !p->v0 || !p->y || !p->z || !s->x || !s->xt || !p->f || !s->grad || !s->dx ||
+        !p->e || !p->be)
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int k = 0; k < scheme->work_vectors && k < DEFSIM__IC_MAX_WORK; ++k)
+        if (!(p->work[k] = alloc_doubles(host, p->ndof))) return DEFSIM_ERR_OUT_OF_MEMORY;
+    if (p->n == 0) return DEFSIM_OK;   /* everything pinned: nothing to solve */
+
+    defsim_status status = host->matrix_pattern(sys, DEFSIM_TRIANGLE_UPPER, &s->pat);
+    if (status != DEFSIM_OK) return status;
+    s->hval = alloc_doubles(host, s->pat.nnz);
+    if (!s->hval) return DEFSIM_ERR_OUT_OF_MEMORY;
+    memset(s->hval, 0, (size_t)s->pat.nnz * sizeof *s->hval);
+    if (s->stiffness_damping) {
+        p->bval = alloc_doubles(host, s->pat.nnz);
+        if (!p->bval) return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+
+    cholmod_l_start(&s->cc);
+    s->cc_started = 1;
+    /* Fill-reducing ordering: AMD and METIS, keeping the one with less fill (METIS halves the
+     * flops on the 100k-tet beam). METIS keeps global random state, so analyses run one at a
+     * time in the process (analysis_lock): then its ordering is the same on every run. */
+    ordering_methods(&s->cc, choice_option(opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
+    s->cc.postorder = 1;
+    const int factor = choice_option(opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
+    s->cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
+                       : factor == 2 ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
+    s->cc.quick_return_if_not_posdef = 1;
+    s->cc.print = 0;
+
+    /* The pattern is only read by CHOLMOD; the casts drop const for its struct's sake. */
+    s->A.nrow = s->A.ncol = (size_t)s->pat.n;
+    s->A.nzmax = (size_t)s->pat.nnz;
+    s->A.p = (void *)s->pat.col_ptr;
+    s->A.i = (void *)s->pat.row_idx;
+    s->A.x = s->hval;
+    s->A.stype = 1;
+    s->A.itype = CHOLMOD_LONG;
+    s->A.xtype = CHOLMOD_REAL;
+    s->A.dtype = CHOLMOD_DOUBLE;
+    s->A.sorted = 1;
+    s->A.packed = 1;
+
+    double t0 = host->wall_time();
+    pthread_mutex_lock(&analysis_lock);
+    s->L = cholmod_l_analyze(&s->A, &s->cc);
+    pthread_mutex_unlock(&analysis_lock);
+    s->rhs = cholmod_l_zeros((size_t)p->n, 1, CHOLMOD_REAL, &s->cc);
+    if (!s->L || !s->rhs) {
+        char why[128];
+        snprintf(why, sizeof why, "%s: CHOLMOD analysis failed (CHOLMOD status %d)",
+                 scheme->name, s->cc.status);
+        host->set_error(sys, why);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    const int ord = s->L->ordering;
+    char msg[256];
+    snprintf(msg, sizeof msg,
+             "%s: %lld free DOFs, nnz(A upper) %lld, nnz(L) %.0f, %.3g Gflop per "
+             "factorisation, %s, %s ordering, analysis %.3f s", scheme->name,
+             (long long)p->n, (long long)s->pat.nnz, s->cc.lnz, s->cc.fl * 1e-9,
+             s->L->is_super ? "supernodal" : "simplicial",
+             ord == CHOLMOD_METIS ? "METIS" : ord == CHOLMOD_AMD ? "AMD" : "other",
+             host->wall_time() - t0);
+    host->log(sys, 2, msg);
+    return DEFSIM_OK;
+}
+
+static defsim_status ic_reset(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)host;
+    (void)sys;
+    ic_solver *s = *(ic_solver **)state;
+    if (s) s->pub.history_valid = 0;
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The incremental potential, its gradient and Hessian, over the free DOFs. */
+
+/* out = B in with B stored as its upper triangle (symmetric). */
+static void sym_upper_product(const ic_solver *s, const double *v, const double *in, double *out)
+{
+    const int64_t *cp = s->pat.col_ptr, *ri = s->pat.row_idx;
+    memset(out, 0, (size_t)s->pub.n * sizeof *out);
+    for (int64_t j = 0; j < s->pub.n; ++j) {
+        double sum = 0.0;
+        for (int64_t p = cp[j]; p < cp[j + 1]; ++p) {
+            const int64_t i = ri[p];
+            if (i == j) {
+                sum += v[p] * in[j];
+            } else {
+                sum += v[p] * in[i];
+                out[i] += v[p] * in[j];
+            }
+        }
+        out[j] += sum;
+    }
+}
+
+void defsim__ic_damping_product(const defsim__ic_solver *p, const double *in, double *out)
+{
+    if (p->bval) sym_upper_product((const ic_solver *)p, p->bval, in, out);
+    else memset(out, 0, (size_t)p->n * sizeof *out);
+}
+
+defsim_status defsim__ic_damping_matrix(defsim__ic_solver *p, const defsim_host *host,
+                                        defsim_system *sys, const double *xb)
+{
+    if (!p->bval) return DEFSIM_OK;
+    const defsim_matrix_coeffs cb = {0.0, 1.0, 0.0, 0.0};
+    return host->matrix_values(sys, xb, &cb, DEFSIM_TRIANGLE_UPPER, p->bval);
+}
+
+/* e = x - z over the free DOFs, and be = B e if there is stiffness damping. */
+static void displacement(ic_solver *s, const defsim__ic_targets *st, const double *x)
+{
+    defsim__ic_solver *p = &s->pub;
+    for (int64_t k = 0; k < p->n; ++k) p->e[k] = x[p->fdof[k]] - st->z[p->fdof[k]];
+    if (p->bval) sym_upper_product(s, p->bval, p->e, p->be);
+}
+
+/* g(x); +inf where the energy is undefined. *scale receives a magnitude of g's terms, so that
+ * the line search knows which decreases it can resolve. */
+static double merit(ic_solver *s, const defsim__ic_targets *st, const defsim_host *host,
+                    defsim_system *sys, const double *x, double h, double *scale)
+{
+    defsim__ic_solver *p = &s->pub;
+    const double pe = host->potential_energy(sys, x);
+    if (!isfinite(pe)) return INFINITY;
+    displacement(s, st, x);
+    double inertia = 0.0, damping = 0.0, grav = 0.0;
+    for (int64_t k = 0; k < p->n; ++k) {
+        const int64_t i = p->fdof[k];
+        const double d = x[i] - st->y[i], e = p->e[k];
+        inertia += p->mass[i] * d * d;
+        damping += p->alpha[i] * p->mass[i] * e * e;
+        if (p->bval) damping += e * p->be[k];
+        grav += p->mass[i] * fabs(s->gravity[i % 3] * x[i]);
+    }
+    inertia = st->cm * inertia / (2.0 * h * h);
+    damping = st->cd * damping / (2.0 * h);
+    if (scale) *scale = inertia + damping + fabs(pe) + grav;
+    return inertia + pe + damping;
+}
+
+/* grad g(x) over the free DOFs. */
+static defsim_status gradient(ic_solver *s, const defsim__ic_targets *st, const defsim_host *host,
+                              defsim_system *sys, const double *x, double h)
+{
+    defsim__ic_solver *p = &s->pub;
+    defsim_status status = host->forces(sys, x, NULL,
+                                        DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY, p->f);
+    if (status != DEFSIM_OK) return status;
+    displacement(s, st, x);
+    const double ih2 = st->cm / (h * h), ih = st->cd / h;
+    for (int64_t k = 0; k < p->n; ++k) {
+        const int64_t i = p->fdof[k];
+        double damping = p->alpha[i] * p->mass[i] * p->e[k] + (p->bval ? p->be[k] : 0.0);
+        s->grad[k] = p->mass[i] * (x[i] - st->y[i]) * ih2 - p->f[i] + damping * ih;
+    }
+    return DEFSIM_OK;
+}
+
+/* Hessian of g at x: K(x) + c_m M / h^2 + c_d (alpha M + B) / h, into hval. */
+static defsim_status hessian(ic_solver *s, const defsim__ic_targets *st, const defsim_host *host,
+                             defsim_system *sys, const double *x, double h)
+{
+    const defsim_matrix_coeffs c = {1.0, 0.0, st->cm / (h * h), st->cd / h};
+    defsim_status status = host->matrix_values(sys, x, &c, DEFSIM_TRIANGLE_UPPER, s->hval);
+    if (status != DEFSIM_OK) return status;
+    if (s->pub.bval)
+        for (int64_t p = 0; p < s->pat.nnz; ++p) s->hval[p] += st->cd * s->pub.bval[p] / h;
+    return DEFSIM_OK;
+}
+
+/* Adds shift * m_i / h^2 to the diagonal (the last entry of each column of the upper pattern). */
+static void add_shift(ic_solver *s, double shift, double h)
+{
+    for (int64_t j = 0; j < s->pub.n; ++j)
+        s->hval[s->pat.col_ptr[j + 1] - 1] += shift * s->pub.mass[s->pub.fdof[j]] / (h * h);
+}
+
+/* A simplicial LDL' factorisation succeeds on indefinite matrices; the matrix is positive
+ * definite exactly when every pivot D(j,j) (first entry of column j) is positive. Supernodal and
+ * LL' factorisations report NOT_POSDEF themselves. */
+static int ldl_positive(const cholmod_factor *L)
+{
+    if (L->is_super || L->is_ll) return 1;
+    const SuiteSparse_long *lp = L->p;
+    const double *lx = L->x;
+    for (size_t j = 0; j < L->n; ++j)
+        if (!(lx[lp[j]] > 0.0)) return 0;
+    return 1;
+}
+
+/* Sets the world's error to "<backend>: <message>". */
+static void say(const ic_solver *s, const defsim_host *host, defsim_system *sys,
+                const char *message)
+{
+    char msg[320];
+    snprintf(msg, sizeof msg, "%s: %s", s->pub.scheme->name, message);
+    host->set_error(sys, msg);
+}
+
+/* Factorises the Hessian and solves H dx = -grad. An exact (unprojected) Hessian can be
+ * indefinite: then the factorisation fails or dx is not a descent direction, and the diagonal is
+ * shifted by growing multiples of M / h^2 until it is. *slope receives grad . dx. */
+static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_system *sys,
+                                  double h, double *slope)
+{
+    defsim_stats *stats = host->stats(sys);
+    const int64_t n = s->pub.n;
+    /* Called from inside the host's own parallel region (worlds stepped in parallel), the
+     * assembly runs on one thread (nested regions are inactive), and so should the BLAS:
+     * T threads per world times the host's threads would oversubscribe the cores. */
+    int threads = host->num_threads(sys);
+#ifdef _OPENMP
+    if (omp_in_parallel()) threads = 1;
+#endif
+    double shift = 0.0;
+    defsim_status result = DEFSIM_OK;
+    blas_enter(threads);
+    const omp_saved omp = omp_limit(threads);
+    for (int attempt = 0;; ++attempt) {
+        double t0 = host->wall_time();
+        cholmod_l_factorize(&s->A, s->L, &s->cc);
+        stats->time_factor += host->wall_time() - t0;
+        if (s->cc.status < CHOLMOD_OK) {
+            say(s, host, sys, "CHOLMOD factorisation failed (out of memory)");
+            result = DEFSIM_ERR_OUT_OF_MEMORY;
+            break;
+        }
+        if (s->cc.status == CHOLMOD_OK && ldl_positive(s->L)) {
+            double *b = s->rhs->x;
+            for (int64_t k = 0; k < n; ++k) b[k] = -s->grad[k];
+            t0 = host->wall_time();
+            int ok = cholmod_l_solve2(CHOLMOD_A, s->L, s->rhs, NULL, &s->sol, NULL, &s->ywork,
+                                      &s->ework, &s->cc);
+            stats->time_solve += host->wall_time() - t0;
+            stats->linear_solves++;
+            if (!ok) {
+                say(s, host, sys, "CHOLMOD solve failed (out of memory)");
+                result = DEFSIM_ERR_OUT_OF_MEMORY;
+                break;
+            }
+            const double *xs = s->sol->x;
+            double d = 0.0, dmax = 0.0;
+            for (int64_t k = 0; k < n; ++k) {
+                s->dx[k] = xs[k];
+                d += s->grad[k] * xs[k];
+                dmax = fmax(dmax, fabs(xs[k]));
+            }
+            *slope = d;
+            if (d < 0.0 || dmax == 0.0) break;
+            if (!isfinite(d)) {
+                say(s, host, sys, "the Newton step is not finite");
+                result = DEFSIM_ERR_UNSTABLE;
+                break;
+            }
+        }
+        if (attempt == IC_MAX_SHIFTS) {
+            say(s, host, sys, "the Hessian stays indefinite after shifting its diagonal by "
+                              "1e11 M/h^2");
+            result = DEFSIM_ERR_NOT_CONVERGED;
+            break;
+        }
+        if (shift == 0.0) s->pub.counters[DEFSIM__IC_SHIFTED] += 1.0;
+        const double next = shift == 0.0 ? 1.0 : 10.0 * shift;
+        add_shift(s, next - shift, h);
+        shift = next;
+    }
+    omp_restore(omp);
+    blas_leave();
+    return result;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* One step. */
+
+static defsim_status fail(const ic_solver *s, const defsim_host *host, defsim_system *sys,
+                          defsim_status st, const char *message)
+{
+    if (st == DEFSIM_ERR_NOT_CONVERGED) host->stats(sys)->convergence_failures++;
+    say(s, host, sys, message);
+    return st;
+}
+
+/* The Newton loop on g from the scheme's guess; on success x holds the minimiser. */
+static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const defsim_host *host,
+                              defsim_system *sys, double h)
+{
+    defsim__ic_solver *p = &s->pub;
+    defsim_stats *stats = host->stats(sys);
+    const size_t bytes = (size_t)p->ndof * sizeof(double);
+
+    /* Start from the scheme's guess; where its energy is undefined (an inverted neo-Hookean
+     * element), from x_n. Pinned DOFs have v = 0, so they stay at x_n throughout. */
+    memcpy(s->x, stp->guess, bytes);
+    double scale = 0.0;
+    double gx = merit(s, stp, host, sys, s->x, h, &scale);
+    if (!isfinite(gx)) {
+        memcpy(s->x, p->x0, bytes);
+        gx = merit(s, stp, host, sys, s->x, h, &scale);
+        if (!isfinite(gx))
+            return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED,
+                        "the energy is undefined at the start of the step "
+                        "(an inverted neo-Hookean element?)");
+    }
+    memcpy(s->xt, s->x, bytes);
+
+    const double tol = s->tolerance * host->length_scale(sys);
+    char msg[200];
+    for (int it = 1; it <= s->max_iterations; ++it) {
+        stats->newton_iterations++;
+        defsim_status st = gradient(s, stp, host, sys, s->x, h);
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "non-finite forces");
+        st = hessian(s, stp, host, sys, s->x, h);
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
+        double slope = 0.0;
+        st = factor_solve(s, host, sys, h, &slope);
+        if (st != DEFSIM_OK) {
+            if (st == DEFSIM_ERR_NOT_CONVERGED) stats->convergence_failures++;
+            return st;   /* factor_solve set the message */
+        }
+        double dxmax = 0.0;
+        for (int64_t k = 0; k < p->n; ++k) dxmax = fmax(dxmax, fabs(s->dx[k]));
+
+        /* Converged: the update moves no DOF by more than tol. The update is still applied;
+         * for exact Newton it squares the remaining error. */
+        if (dxmax <= tol) {
+            for (int64_t k = 0; k < p->n; ++k) s->x[p->fdof[k]] += s->dx[k];
+            return DEFSIM_OK;
+        }
+
+        /* Backtracking line search: Armijo decrease of g. A full step whose predicted decrease
+         * is below g's resolution is taken if g does not rise beyond that resolution either. */
+        const double resolution = IC_G_RESOLUTION * scale;
+        double alpha = 1.0, gt = INFINITY, tscale = 0.0;
+        int accepted = 0;
+        for (int b = 0; b <= IC_MAX_BACKTRACKS; ++b) {
+            for (int64_t k = 0; k < p->n; ++k) {
+                const int64_t i = p->fdof[k];
+                s->xt[i] = s->x[i] + alpha * s->dx[k];
+            }
+            gt = merit(s, stp, host, sys, s->xt, h, &tscale);
+            if (gt <= gx + IC_ARMIJO * alpha * slope ||
+                (b == 0 && -slope <= resolution && gt <= gx + resolution)) {
+                accepted = 1;
+                break;
+            }
+            alpha *= 0.5;
+            stats->line_search_backtracks++;
+        }
+        if (!accepted) {
+            snprintf(msg, sizeof msg,
+                     "line search found no decrease at Newton iteration %d (|dx|_inf = %.3g m)",
+                     it, dxmax);
+            return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
+        }
+        memcpy(s->x, s->xt, bytes);
+        gx = gt;
+        scale = tscale;
+    }
+    snprintf(msg, sizeof msg, "no convergence in %d Newton iterations (tolerance %.3g m)",
+             s->max_iterations, tol);
+    return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
+}
+
+static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+{
+    ic_solver *s = *(ic_solver **)state;
+    defsim__ic_solver *p = &s->pub;
+    double *xw = host->positions(sys), *vw = host->velocities(sys);
+    if (p->n == 0) return DEFSIM_OK;   /* every vertex pinned: nothing moves */
+    const size_t bytes = (size_t)p->ndof * sizeof(double);
+    memcpy(p->x0, xw, bytes);
+    memcpy(p->v0, vw, bytes);
+
+    defsim__ic_targets stp = {0};
+    defsim_status st = p->scheme->prepare(p, host, sys, h, &stp);
+    if (st == DEFSIM_OK) st = minimise(s, &stp, host, sys, h);
+    else fail(s, host, sys, st, "damping matrix or forces at the start of the step failed");
+    if (st != DEFSIM_OK) {
+        p->history_valid = 0;
+        return st;
+    }
+    for (int64_t k = 0; k < p->n; ++k) {
+        const int64_t i = p->fdof[k];
+        vw[i] = stp.cd * (s->x[i] - stp.z[i]) / h;
+        xw[i] = s->x[i];
+    }
+    if (p->scheme->accept) p->scheme->accept(p, h);
+    return DEFSIM_OK;
+}
+
+/* The module's table and counters, filled from its scheme by the entry point (once, under the
+ * registry's lock; the registry copies the table). */
+static defsim_backend ic_backend;
+static defsim_counter_spec ic_counters[DEFSIM__IC_COUNTERS + DEFSIM__IC_MAX_SCHEME_COUNTERS];
+
+/// Module entry point (DEFSIM_MODULE_ENTRY): hands the core this module's backend table (its
+/// scheme's name, flags and counters; the core's options). Returns
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 2.
+__attribute__((visibility("default"))) defsim_status defsim_module_init(
+    const defsim_host *host, const defsim_backend **out)
+{
+    const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
+    if (!host || !out || host->abi_version < 2 ||
+        host->size < offsetof(defsim_host, counters) + sizeof host->counters ||
+        scheme->counter_count > DEFSIM__IC_MAX_SCHEME_COUNTERS)
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    memcpy(ic_counters, ic_core_counters, sizeof ic_core_counters);
+    for (int32_t k = 0; k < scheme->counter_count; ++k)
+        ic_counters[DEFSIM__IC_COUNTERS + k] = scheme->counters[k];
+    ic_backend = (defsim_backend){
+        .abi_version = DEFSIM_BACKEND_ABI_VERSION,
+        .struct_size = sizeof(defsim_backend),
+        .name = scheme->name,
+        .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | scheme->flags,
+        .state_size = sizeof(ic_solver *),
+        .init = ic_init,
+        .step = ic_step,
+        .fini = ic_fini,
+        .reset = ic_reset,
+        .options = ic_options,
+        .option_count = OPT_COUNT,
+        .counters = ic_counters,
+        .counter_count = DEFSIM__IC_COUNTERS + scheme->counter_count,
+    };
+    *out = &ic_backend;
+    return DEFSIM_OK;
+}

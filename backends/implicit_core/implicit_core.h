@@ -1,0 +1,79 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The implicit-solver core shared by newton_cholmod (backward Euler), newmark (average
+ * acceleration) and bdf2. Each step minimises an incremental potential
+ *
+ *   g(x) = c_m/(2h^2) |x - y|^2_M + E(x) + c_d/(2h) |x - z|^2_D,   D = alpha M + B(x_b),
+ *
+ * by Newton's method with CHOLMOD, and sets v' = c_d/h (x' - z). A scheme chooses the numbers
+ * c_m, c_d, the vectors y (inertial target), z (damping centre), the Newton start and the position
+ * x_b at which the stiffness-damping matrix B is frozen, and keeps its own history; the core owns
+ * the Newton loop, projection, line search, factorisation, pinned-DOF elimination and statistics.
+ * README.md beside this file derives g for each scheme.
+ *
+ * Compiled into every implicit module (never into libdefsim); its symbols stay hidden.
+ */
+#ifndef DEFSIM_IMPLICIT_CORE_H
+#define DEFSIM_IMPLICIT_CORE_H
+
+#include "defsim/backend.h"
+
+/* Vectors over all DOFs that a scheme may keep between steps (history) or use in prepare. */
+#define DEFSIM__IC_MAX_WORK 4
+
+typedef struct defsim__ic_solver defsim__ic_solver;
+
+/* What a scheme sets in prepare, for the step from (x0, v0) with step h. */
+typedef struct defsim__ic_targets {
+    double cm, cd;             /* coefficients of the inertia and damping terms of g */
+    const double *y, *z;       /* targets (all DOFs; pinned DOFs equal x0) */
+    const double *guess;       /* first Newton iterate (all DOFs) */
+} defsim__ic_targets;
+
+typedef struct defsim__ic_scheme {
+    const char *name;          /* the backend's name */
+    uint32_t flags;            /* DEFSIM_BACKEND_* beyond NEEDS_MATRIX | IMPLICIT */
+    int work_vectors;          /* DOF-long vectors in defsim__ic_solver.work (<= MAX_WORK) */
+    /* Fills st from x0, v0 and h (y, z and guess may point at x0, v0, the solver's y, z or its
+     * work vectors), and assembles the stiffness-damping matrix with defsim__ic_damping_matrix. */
+    defsim_status (*prepare)(defsim__ic_solver *s, const defsim_host *host, defsim_system *sys,
+                             double h, defsim__ic_targets *st);
+    /* Optional: after a converged step (x0, v0 still hold the start of the step). */
+    void (*accept)(defsim__ic_solver *s, double h);
+    /* The scheme's own counters, after the core's (DEFSIM__IC_COUNTERS of them). */
+    const defsim_counter_spec *counters;
+    int32_t counter_count;
+} defsim__ic_scheme;
+
+/* The core's counters; a scheme's come after them in the backend's table. */
+enum { DEFSIM__IC_SHIFTED = 0, DEFSIM__IC_COUNTERS = 1 };
+#define DEFSIM__IC_MAX_SCHEME_COUNTERS 4
+
+/* The per-world solver as schemes see it (the core's struct begins with it). */
+struct defsim__ic_solver {
+    const defsim__ic_scheme *scheme;
+    int64_t ndof, n;           /* all DOFs, free DOFs */
+    const int64_t *fdof;       /* free index -> DOF */
+    const double *mass, *alpha;
+    double *x0, *v0;           /* state at the start of the step (all DOFs) */
+    double *y, *z;             /* buffers for defsim__ic_targets.y and z (all DOFs) */
+    double *f;                 /* force scratch (all DOFs) */
+    double *e, *be;            /* free-DOF scratch, free in prepare */
+    double *bval;              /* B(x_b), pattern's nnz (NULL without stiffness damping) */
+    double *work[DEFSIM__IC_MAX_WORK];
+    double history_h;          /* scheme history: step of the last accepted step */
+    int history_valid;         /* cleared by init, reset and failed steps */
+    double *counters;          /* the backend's counters (core's, then the scheme's) */
+};
+
+/* The scheme of this module: each module defines exactly one, and the core builds the module's
+ * backend table (name, flags | NEEDS_MATRIX | IMPLICIT, the core's ops) and entry point from it. */
+extern const defsim__ic_scheme defsim__ic_module_scheme;
+
+/* Assembles B at positions xb into s->bval (no-op without stiffness damping). */
+defsim_status defsim__ic_damping_matrix(defsim__ic_solver *s, const defsim_host *host,
+                                        defsim_system *sys, const double *xb);
+/* out = B in over the free DOFs (free-DOF vectors); zero without stiffness damping. */
+void defsim__ic_damping_product(const defsim__ic_solver *s, const double *in, double *out);
+
+#endif /* DEFSIM_IMPLICIT_CORE_H */

@@ -85,8 +85,8 @@ double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev)
     return e.total / e0.total;
 }
 
-defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
-                          const double lo[3], const double hi[3], double E, double nu, double rho)
+defsim_body_id tu_add_box_material(defsim_world *w, int nx, int ny, int nz, const double lo[3],
+                                   const double hi[3], const defsim_material *mat)
 {
     defsim_mesh m;
     memset(&m, 0, sizeof m);
@@ -98,15 +98,23 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     bd.vertex_count = m.vertex_count;
     bd.tets = m.tets;
     bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
-    bd.material.youngs_modulus = E;
-    bd.material.poisson_ratio = nu;
-    bd.material.density = rho;
+    bd.material = *mat;
     defsim_body_id id = {0, 0};
     defsim_status st = defsim_world_add_body(w, &bd, &id);
     if (st != DEFSIM_OK) fail_msg("add_body: %s", defsim_world_last_error(w));
     defsim_mesh_free(&m);
     return id;
+}
+
+defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
+                          const double lo[3], const double hi[3], double E, double nu, double rho)
+{
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, model);
+    mat.youngs_modulus = E;
+    mat.poisson_ratio = nu;
+    mat.density = rho;
+    return tu_add_box_material(w, nx, ny, nz, lo, hi, &mat);
 }
 
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)

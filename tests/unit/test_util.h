@@ -16,6 +16,10 @@ double tu_rand(unsigned long long *state);
 /* A world with the given backend, gravity along y and thread count; fails the test on error. */
 defsim_world *tu_world(const char *backend, double gy, int threads);
 
+/* Adds an nx*ny*nz-cell box of tets on [lo, hi] of material *mat; returns its id. */
+defsim_body_id tu_add_box_material(defsim_world *w, int nx, int ny, int nz, const double lo[3],
+                                   const double hi[3], const defsim_material *mat);
+
 /* Adds an nx*ny*nz-cell box of tets on [lo, hi] with the given model; returns its id. */
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);

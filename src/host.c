@@ -9,6 +9,7 @@
 #include "energy.h"
 #include "forces.h"
 #include "mat3.h"
+#include "stability.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -278,6 +279,14 @@ static const double *option_values(const defsim_system *s)
 }
 static double *counters(defsim_system *s) { return defsim__options_counters(s->options); }
 
+static defsim_status omega_max(defsim_system *s, const double *x, double *omega, double *damping)
+{
+    if (!x || !omega || !damping) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim_status st = defsim__omega_max(s->sys, s->work, x, omega);
+    *damping = st == DEFSIM_OK ? defsim__damping_coeff(s->sys, *omega) : 0.0;
+    return st;
+}
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -310,6 +319,7 @@ const defsim_host defsim__host = {
     .release = release,
     .option_values = option_values,
     .counters = counters,
+    .omega_max = omega_max,
     .forces_at = forces_at,
     .pin_positions = pin_positions,
     .pin_velocities = pin_velocities,

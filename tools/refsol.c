@@ -70,8 +70,8 @@ defsim_status refsol_integrate(defsim_world *w, double T, int calls, double rtol
 
 int refsol_write_tail(FILE *f, const refsol *r)
 {
-    fprintf(f, "end_time %.17g\nbackend sundials_ida\nrtol %.17g\natol %.17g\n", r->end_time,
-            r->rtol, r->atol);
+    fprintf(f, "end_time %.17g\nbackend %s\nrtol %.17g\natol %.17g\n", r->end_time,
+            r->backend, r->rtol, r->atol);
     fprintf(f, "internal_steps %lld\nwall_seconds %.3f\n", (long long)r->internal_steps,
             r->wall_seconds);
     fprintf(f, "energy %.17g %.17g %.17g %.17g\nvertices %d\n", r->energy.kinetic,

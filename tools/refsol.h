@@ -14,6 +14,8 @@
 
 /* The state at T and how it was obtained. */
 typedef struct refsol {
+    const char *backend;      /* static string: the backend that computed it (set by the caller
+                                 before refsol_write_tail) */
     double end_time;          /* s */
     double rtol, atol;
     int64_t internal_steps;
@@ -26,8 +28,9 @@ typedef struct refsol {
 /* Seconds on the monotonic clock. */
 double refsol_now(void);
 
-/* Advances `w` (whose backend is normally sundials_ida) from its current time to exactly T in
- * `calls` calls of defsim_world_step (IDA keeps its history across them), then fills *out
+/* Advances `w` (an adaptive backend: sundials_erk or sundials_ida) from its current time to
+ * exactly T in `calls` calls of defsim_world_step (the backend keeps its history across them),
+ * then fills *out
  * (end time, statistics, energy, state). With `tag` non-NULL, progress goes to stderr every
  * tenth of the calls, prefixed with it. Returns DEFSIM_OK or the failing step's status (message
  * on stderr); *out is then empty. */

@@ -196,7 +196,7 @@ int defsim_tool_stress(int argc, char **argv)
     double T = 0.5;
     const char *csv_path = "stress.csv";
     char backends_buf[512] = "explicit_euler,symplectic_euler,velocity_verlet,newton_cholmod,"
-                             "newmark,bdf2,sundials_kinsol,sundials_ida";
+                             "newmark,bdf2,sundials_kinsol,sundials_ida,sundials_erk";
     char scenes_buf[128] = "beam,rope";
     for (int i = 0; i < argc; ++i) {
         if (!strcmp(argv[i], "--reduced")) reduced = 1;

@@ -2,6 +2,7 @@
 /* Shared SUNDIALS plumbing of the sundials_ida and sundials_kinsol modules. */
 #include "sundials_common.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -40,6 +41,32 @@ static int timed_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, r
     return r;
 }
 
+void defsim__sun_scatter(const int64_t *free_dofs, int64_t n, const double *y, double *x,
+                         double *v)
+{
+    for (int64_t i = 0; i < n; ++i) {
+        x[free_dofs[i]] = y[i];
+        v[free_dofs[i]] = y[n + i];
+    }
+}
+
+void defsim__sun_gather(const int64_t *free_dofs, int64_t n, const double *x, const double *v,
+                        double *y)
+{
+    for (int64_t i = 0; i < n; ++i) {
+        y[i] = x[free_dofs[i]];
+        y[n + i] = v[free_dofs[i]];
+    }
+}
+
+defsim_status defsim__sun_reset(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)host;
+    (void)sys;
+    ((defsim__sun *)state)->need_reinit = 1;
+    return DEFSIM_OK;
+}
+
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
 {
     if (count == 0) count = 1;
@@ -47,6 +74,34 @@ void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size)
     void *p = host->alloc(count * size);
     if (p) memset(p, 0, count * size);
     return p;
+}
+
+void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
+                         const defsim_option_spec *specs, int count, double *out)
+{
+    const double *v = host->option_values(sys);
+    for (int i = 0; i < count; ++i) out[i] = v ? v[i] : specs[i].default_value;
+}
+
+double *defsim__sun_counters(const defsim_host *host, defsim_system *sys)
+{
+    return host->counters(sys);
+}
+
+void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value)
+{
+    double *c = host->counters(sys);
+    if (c) c[which] += value;
+}
+
+defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
+                                 const defsim_backend *backend)
+{
+    if (!out || !host || host->abi_version < 2 ||
+        host->size < offsetof(defsim_host, omega_max) + sizeof host->omega_max)
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    *out = backend;
+    return DEFSIM_OK;
 }
 
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys)

@@ -31,6 +31,7 @@ typedef struct defsim__sun {
     SUNLinearSolver LS;        /* KLU, ops wrapped by `timer` */
     defsim__sun_timer *timer;
     char msg[384];             /* last error message SUNDIALS reported */
+    int need_reinit;           /* adaptive modules: restart from the world's state next step */
 } defsim__sun;
 
 /* Creates the context. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */
@@ -53,6 +54,30 @@ void defsim__sun_error_handler(int code, const char *module, const char *functio
  * <last SUNDIALS message>". `flag_name` may be NULL. */
 void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, const char *flag_name,
                       long flag, double t);
+
+/* The backend's option values in the order of `specs` (the host's; the defaults if the host
+ * holds none). */
+void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
+                         const defsim_option_spec *specs, int count, double *out);
+
+/* The backend's counters (NULL if it declares none), and adding to one of them. */
+double *defsim__sun_counters(const defsim_host *host, defsim_system *sys);
+void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
+
+/* The body of each module's entry point: hands out `backend` if the host is of ABI version 2
+ * with every service the SUNDIALS modules use (options, counters, omega_max). */
+defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
+                                 const defsim_backend *backend);
+
+/* y = [x_free, v_free] (2n entries) into the free entries of the full x and v, and back. */
+void defsim__sun_scatter(const int64_t *free_dofs, int64_t n, const double *y, double *x,
+                         double *v);
+void defsim__sun_gather(const int64_t *free_dofs, int64_t n, const double *x, const double *v,
+                        double *y);
+
+/* The reset op of the adaptive modules, whose state begins with its defsim__sun: the host set
+ * the state, so the integrator's history goes (need_reinit). */
+defsim_status defsim__sun_reset(const defsim_host *host, defsim_system *sys, void *state);
 
 /* Allocation through the host (zeroed; NULL on failure). */
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * sundials_ida: adaptive variable-order BDF (SUNDIALS IDA) with a sparse KLU Newton solver.
+ * sundials_ida: adaptive variable-order BDF (SUNDIALS IDA); Newton systems solved either reduced
+ * to the positions and factorised by CHOLMOD (linear_solver = cholmod, the default) or in full
+ * by KLU (linear_solver = klu).
  *
  * The equations of motion over the free DOFs, as the implicit DAE F(t, y, y') = 0 with
  * y = [x, v]:
@@ -15,11 +17,11 @@
  * (IDASetStopTime), with as many internal steps as the tolerances need; IDA's history is kept
  * between calls and dropped (IDAReInit) when the host changes the state or a step fails.
  *
- * Tolerances are per second of simulated time (error per unit step): the local error of an
- * internal step of length h_i is held to (rtol |y| + atol) min(1, h_i / 1 s), through IDA's
- * error-weight function. IDA's own control (per step, whatever its length) lets the global error
- * grow with the number of steps, 10 to 500 times the tolerance on oscillators; per unit step,
- * the error after T seconds stays near T times the tolerance, and falls in proportion to it.
+ * Tolerances are per second of simulated time, measured in positions (ida_weights): the local
+ * position error of an internal step of length h_i is held to K (rtol |x| + atol) min(1, h_i/1 s)
+ * and the local velocity error to K (rtol |v| + atol), which moves the positions by about
+ * h_i times that over the next step; K = IDA_TOL_CALIBRATION. The position error after T seconds
+ * is then near T times the tolerance and falls in proportion to it (README "Tolerances").
  */
 #include "defsim/backend.h"
 
@@ -28,9 +30,14 @@
 #include <ida/ida.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
+#ifdef DEFSIM_IDA_CHOLMOD
+#include <cholmod.h>
+#endif
+
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -38,14 +45,58 @@
  * above roundoff that IDA never stops with IDA_TOO_MUCH_ACC. */
 #define IDA_TOL_TIME 1.0
 #define IDA_TOL_FLOOR (500.0 * DBL_EPSILON)
+/* Scale of the local tolerances, chosen so that the measured error at T = 0.5 s sits within a
+ * factor of 10 of the tolerance (README "Tolerances": 0.1 to 0.4 x tol on the benchmark
+ * cantilever over six decades, 0.3 to 4.2 x T tol on damped oscillators at T = 0.5 and 5 s). */
+#define IDA_TOL_CALIBRATION 3.0
+/* Reduced systems whose factorisation needs fewer flops are factorised simplicial. */
+#define IDA_SUPERNODAL_FLOPS 1e8
+
+/* Options, in the order of ida_options. */
+enum { O_RTOL, O_ATOL, O_MAX_ORDER, O_MAX_STEPS, O_LINEAR_SOLVER, O_COUNT };
+enum { LS_CHOLMOD = 0, LS_KLU = 1 };
+
+#ifdef DEFSIM_IDA_CHOLMOD
+#define LS_DEFAULT LS_CHOLMOD
+#else
+#define LS_DEFAULT LS_KLU
+#endif
+
+static const defsim_option_spec ida_options[O_COUNT] = {
+    {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
+     "relative tolerance per second of simulated time"},
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1e300, NULL,
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities)"},
+    {"max_order", DEFSIM_OPTION_INT, 5, 1, 5, NULL, "highest BDF order"},
+    {"max_internal_steps", DEFSIM_OPTION_INT, 100000, 1, 2e9, NULL,
+     "internal steps allowed per defsim_world_step call"},
+    {"linear_solver", DEFSIM_OPTION_CHOICE, LS_DEFAULT, 0, 0, "cholmod|klu",
+     "Newton systems: cholmod (reduced n x n SPD system) or klu (full 2n x 2n system)"},
+};
+
+/* Counters, in the order of ida_counters. */
+enum { C_STEPS, C_ORDER, C_RES, C_JAC, C_ETF, C_NCF, C_NNI, C_FACTOR, C_COUNT };
+
+static const defsim_counter_spec ida_counters[C_COUNT] = {
+    {"internal_steps", "internal (BDF) steps"},
+    {"order", "BDF order of the last internal step"},
+    {"residual_evals", "residual evaluations (force evaluations)"},
+    {"jacobian_evals", "Newton matrix assemblies"},
+    {"error_test_failures", "internal steps rejected by the error test"},
+    {"convergence_failures", "Newton failures (IDA cut the step, or failed)"},
+    {"newton_iterations", "Newton iterations"},
+    {"factorizations", "numeric factorisations of the Newton matrix"},
+};
 
 /* IDA's cumulative counters at the last read (reset to 0 by IDAReInit). */
 typedef struct ida_counts {
-    long steps, res, jac, etf, ncf, nni;
+    long steps, res, jac, etf, ncf, nni, setups;
 } ida_counts;
 
+typedef struct ida_chol ida_chol;
+
 typedef struct ida_state {
-    defsim__sun sun;
+    defsim__sun sun;           /* first: defsim__sun_reset reaches it through the state */
     const defsim_host *host;
     defsim_system *sys;
     void *mem;                 /* IDA memory */
@@ -61,8 +112,11 @@ typedef struct ida_state {
     double *mf, *af;           /* mass and alpha per free DOF */
     double *x, *v, *f;         /* full DOF work arrays (pinned entries fixed) */
     double rtol, atol;
+    int solver;                /* LS_CHOLMOD or LS_KLU */
+    ida_chol *chol;            /* the reduced solver (LS_CHOLMOD) */
+    SUNLinearSolver cls;       /* its SUNLinearSolver */
+    SUNMatrix token;           /* the matrix IDA sees (no storage) */
     double t;                  /* IDA's time at the last return */
-    int need_reinit;
     ida_counts base;
     int coupled;               /* the host has the coupling services (forces_at, ...) */
     const double *pv;          /* this step's driven-pin velocities, or NULL */
@@ -89,14 +143,9 @@ static int ida_drive_begin(ida_state *s)
     return restart;
 }
 
-/* x, v (full) from y = [x_free, v_free]. */
 static void scatter(ida_state *s, const double *y)
 {
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        s->x[d] = y[i];
-        s->v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, y, s->x, s->v);
 }
 
 static int ida_residual(realtype t, N_Vector yy, N_Vector yp, N_Vector rr, void *user)
@@ -152,11 +201,232 @@ static int ida_jacobian(realtype t, realtype cj, N_Vector yy, N_Vector yp, N_Vec
     return 0;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* The reduced Newton solver (linear_solver = cholmod).
+ *
+ * IDA's Newton system J d = b with d = [dx, dv], b = [b1, b2] reads
+ *     cj dx - dv                  = b1
+ *     K dx + (cj M + C + B) dv    = b2
+ * Eliminating dv = cj dx - b1 leaves the symmetric n x n system
+ *     S dx = b2 + (cj M + C + B) b1,    S = cj^2 M + cj (C + B) + K,
+ * positive definite when K is projected (K, B positive semi-definite, M positive). CHOLMOD
+ * analyses S's pattern (upper triangle) once. For IDA this is a direct solver with a token
+ * matrix: IDA's Jacobian call (chol_jacobian, which receives cj and the iterate) assembles S,
+ * the solver's setup factorises it, and each solve is two triangular solves plus the recovery of
+ * dv. IDA itself scales the correction when it solves with a factorisation made for another cj,
+ * as for any matrix-based solver. */
+#ifdef DEFSIM_IDA_CHOLMOD
+struct ida_chol {
+    cholmod_common cc;
+    int started;
+    defsim_csc upat;           /* the core's UPPER pattern over free DOFs (borrowed) */
+    double *sval, *bval;       /* S values; B values (damp_b only), on upat */
+    cholmod_sparse A;          /* wraps upat and sval */
+    cholmod_factor *L;
+    cholmod_dense *rhs, *sol, *ywork, *ework;
+    double cj;                 /* cj of the current factorisation */
+};
+
+static SUNLinearSolver_Type chol_type(SUNLinearSolver S)
+{
+    (void)S;
+    return SUNLINEARSOLVER_DIRECT;
+}
+
+/* The token matrix IDA zeroes and hands to the Jacobian call: the values live in ida_chol. */
+static SUNMatrix_ID token_id(SUNMatrix A)
+{
+    (void)A;
+    return SUNMATRIX_CUSTOM;
+}
+
+static int token_zero(SUNMatrix A)
+{
+    (void)A;
+    return 0;
+}
+
+static int chol_jacobian(realtype t, realtype cj, N_Vector yy, N_Vector yp, N_Vector rr,
+                         SUNMatrix J, void *user, N_Vector t1, N_Vector t2, N_Vector t3)
+{
+    (void)t; (void)yp; (void)rr; (void)J; (void)t1; (void)t2; (void)t3;
+    ida_state *s = user;
+    ida_chol *c = s->chol;
+    scatter(s, N_VGetArrayPointer(yy));
+    const defsim_matrix_coeffs cs = {1.0, cj, cj * cj, cj};
+    if (s->host->matrix_values(s->sys, s->x, &cs, DEFSIM_TRIANGLE_UPPER, c->sval) != DEFSIM_OK)
+        return 1;
+    if (s->damp_b) {
+        const defsim_matrix_coeffs cb = {0.0, 1.0, 0.0, 0.0};
+        if (s->host->matrix_values(s->sys, s->x, &cb, DEFSIM_TRIANGLE_UPPER, c->bval) !=
+            DEFSIM_OK)
+            return 1;
+    }
+    c->cj = cj;
+    return 0;
+}
+
+static SUNLinearSolver_ID chol_id(SUNLinearSolver S)
+{
+    (void)S;
+    return SUNLINEARSOLVER_CUSTOM;
+}
+
+static int chol_setup(SUNLinearSolver LS, SUNMatrix A)
+{
+    (void)A;
+    ida_state *s = LS->content;
+    ida_chol *c = s->chol;
+    defsim_stats *st = s->host->stats(s->sys);
+    const double t0 = s->host->wall_time();
+    cholmod_l_factorize(&c->A, c->L, &c->cc);
+    st->time_factor += s->host->wall_time() - t0;
+    if (c->cc.status < CHOLMOD_OK) return SUNLS_MEM_FAIL;
+    /* Not positive definite (an unprojected K): IDA cuts the step, which raises cj^2 M. */
+    if (c->cc.status != CHOLMOD_OK) return SUNLS_PACKAGE_FAIL_REC;
+    return SUNLS_SUCCESS;
+}
+
+/* out += B in over free DOFs, B given by its upper triangle. */
+static void sym_upper_add(const defsim_csc *p, const double *val, const double *in, double *out)
+{
+    for (int64_t j = 0; j < p->n; ++j)
+        for (int64_t k = p->col_ptr[j]; k < p->col_ptr[j + 1]; ++k) {
+            const int64_t i = p->row_idx[k];
+            out[i] += val[k] * in[j];
+            if (i != j) out[j] += val[k] * in[i];
+        }
+}
+
+static int chol_solve(SUNLinearSolver LS, SUNMatrix A, N_Vector xv, N_Vector bv, realtype tol)
+{
+    (void)A;
+    (void)tol;
+    ida_state *s = LS->content;
+    ida_chol *c = s->chol;
+    const int64_t n = s->n;
+    const double *b = N_VGetArrayPointer(bv);
+    double *d = N_VGetArrayPointer(xv);
+    double *r = c->rhs->x;
+    const double cj = c->cj;
+    const double t0 = s->host->wall_time();
+    for (int64_t i = 0; i < n; ++i) r[i] = b[n + i] + (cj + s->af[i]) * s->mf[i] * b[i];
+    if (s->damp_b) sym_upper_add(&c->upat, c->bval, b, r);
+    if (!cholmod_l_solve2(CHOLMOD_A, c->L, c->rhs, NULL, &c->sol, NULL, &c->ywork, &c->ework,
+                          &c->cc))
+        return SUNLS_MEM_FAIL;
+    const double *dx = c->sol->x;
+    for (int64_t i = 0; i < n; ++i) {
+        const double dxi = dx[i];
+        d[n + i] = cj * dxi - b[i];
+        d[i] = dxi;
+    }
+    defsim_stats *st = s->host->stats(s->sys);
+    st->time_solve += s->host->wall_time() - t0;
+    st->linear_solves++;
+    return SUNLS_SUCCESS;
+}
+
+static int chol_free(SUNLinearSolver LS)
+{
+    SUNLinSolFreeEmpty(LS);
+    return SUNLS_SUCCESS;
+}
+
+static void chol_destroy(ida_state *s)
+{
+    ida_chol *c = s->chol;
+    if (!c) return;
+    if (c->started) {
+        cholmod_l_free_dense(&c->rhs, &c->cc);
+        cholmod_l_free_dense(&c->sol, &c->cc);
+        cholmod_l_free_dense(&c->ywork, &c->cc);
+        cholmod_l_free_dense(&c->ework, &c->cc);
+        cholmod_l_free_factor(&c->L, &c->cc);
+        cholmod_l_finish(&c->cc);
+    }
+    s->host->release(c->sval);
+    s->host->release(c->bval);
+    s->host->release(c);
+    s->chol = NULL;
+}
+
+/* The reduced solver: pattern, symbolic analysis (AMD, once), and its SUNLinearSolver. */
+static defsim_status chol_create(ida_state *s)
+{
+    const defsim_host *host = s->host;
+    ida_chol *c = defsim__sun_calloc(host, 1, sizeof *c);
+    if (!c) goto oom;
+    s->chol = c;
+    defsim_status st = host->matrix_pattern(s->sys, DEFSIM_TRIANGLE_UPPER, &c->upat);
+    if (st != DEFSIM_OK) return st;
+    c->sval = defsim__sun_calloc(host, (size_t)c->upat.nnz, sizeof *c->sval);
+    c->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)c->upat.nnz, sizeof *c->bval) : NULL;
+    if (!c->sval || (s->damp_b && !c->bval)) goto oom;
+    cholmod_l_start(&c->cc);
+    c->started = 1;
+    /* AMD only: METIS keeps global random state, and these systems are small. */
+    c->cc.nmethods = 1;
+    c->cc.method[0].ordering = CHOLMOD_AMD;
+    c->cc.postorder = 1;
+    c->cc.quick_return_if_not_posdef = 1;
+    c->cc.print = 0;
+    /* The pattern is only read by CHOLMOD; the casts drop const for its struct's sake. */
+    c->A.nrow = c->A.ncol = (size_t)c->upat.n;
+    c->A.nzmax = (size_t)c->upat.nnz;
+    c->A.p = (void *)c->upat.col_ptr;
+    c->A.i = (void *)c->upat.row_idx;
+    c->A.x = c->sval;
+    c->A.stype = 1;
+    c->A.itype = CHOLMOD_LONG;
+    c->A.xtype = CHOLMOD_REAL;
+    c->A.dtype = CHOLMOD_DOUBLE;
+    c->A.sorted = 1;
+    c->A.packed = 1;
+    c->L = cholmod_l_analyze(&c->A, &c->cc);
+    /* Small factorisations go simplicial: no BLAS and no OpenMP teams, which on a loaded
+     * machine made the supernodal one of the cantilever (6 Mflop) up to 5x slower. */
+    if (c->L && c->L->is_super && c->cc.fl < IDA_SUPERNODAL_FLOPS) {
+        cholmod_l_free_factor(&c->L, &c->cc);
+        c->cc.supernodal = CHOLMOD_SIMPLICIAL;
+        c->L = cholmod_l_analyze(&c->A, &c->cc);
+    }
+    c->rhs = cholmod_l_zeros((size_t)s->n, 1, CHOLMOD_REAL, &c->cc);
+    if (!c->L || !c->rhs) {
+        host->set_error(s->sys, "sundials_ida: CHOLMOD analysis failed (out of memory)");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    char msg[200];
+    snprintf(msg, sizeof msg,
+             "sundials_ida: reduced system of %lld free DOFs, nnz(S upper) %lld, nnz(L) %.0f, "
+             "%.3g Mflop per factorisation, %s",
+             (long long)s->n, (long long)c->upat.nnz, c->cc.lnz, c->cc.fl * 1e-6,
+             c->L->is_super ? "supernodal" : "simplicial");
+    host->log(s->sys, 2, msg);
+    s->cls = SUNLinSolNewEmpty(s->sun.ctx);
+    s->token = SUNMatNewEmpty(s->sun.ctx);
+    if (!s->cls || !s->token) goto oom;
+    s->token->ops->getid = token_id;
+    s->token->ops->zero = token_zero;
+    s->cls->content = s;
+    s->cls->ops->gettype = chol_type;
+    s->cls->ops->getid = chol_id;
+    s->cls->ops->setup = chol_setup;
+    s->cls->ops->solve = chol_solve;
+    s->cls->ops->free = chol_free;
+    return DEFSIM_OK;
+oom:
+    host->set_error(s->sys, "sundials_ida: out of memory");
+    return DEFSIM_ERR_OUT_OF_MEMORY;
+}
+#endif
+
 /* Adds IDA's counters since the last read to the world's statistics. */
 static void update_stats(ida_state *s)
 {
-    ida_counts c = {0, 0, 0, 0, 0, 0};
+    ida_counts c = {0, 0, 0, 0, 0, 0, 0};
     int order = 0;
+    IDAGetNumLinSolvSetups(s->mem, &c.setups);
     IDAGetNumSteps(s->mem, &c.steps);
     IDAGetNumResEvals(s->mem, &c.res);
     IDAGetNumJacEvals(s->mem, &c.jac);
@@ -172,12 +442,25 @@ static void update_stats(ida_state *s)
     st->convergence_failures += c.ncf - s->base.ncf;
     st->newton_iterations += c.nni - s->base.nni;
     if (c.steps > 0) st->last_order = order;
+    const defsim_host *h = s->host;
+    defsim__sun_count(h, s->sys, C_STEPS, (double)(c.steps - s->base.steps));
+    defsim__sun_count(h, s->sys, C_RES, (double)(c.res - s->base.res));
+    defsim__sun_count(h, s->sys, C_ETF, (double)(c.etf - s->base.etf));
+    defsim__sun_count(h, s->sys, C_NCF, (double)(c.ncf - s->base.ncf));
+    defsim__sun_count(h, s->sys, C_NNI, (double)(c.nni - s->base.nni));
+    defsim__sun_count(h, s->sys, C_JAC, (double)(c.jac - s->base.jac));
+    defsim__sun_count(h, s->sys, C_FACTOR, (double)(c.setups - s->base.setups));
+    double *cs = defsim__sun_counters(h, s->sys);
+    if (cs && c.steps > 0) cs[C_ORDER] = order;   /* a level, not a sum */
     s->base = c;
 }
 
-/* Error weights 1 / ((rtol |y_i| + atol) s) with s = min(1, h / IDA_TOL_TIME) for the step of
- * length h about to be taken (IDA calls this before every step after the first; the first step,
- * whose length IDA has not chosen yet, gets s = 1). */
+/* Error weights (README "Tolerances"): positions 1 / (K (rtol |x_i| + atol) s) with
+ * s = min(1, h / IDA_TOL_TIME) for the step of length h about to be taken (IDA calls this before
+ * every step after the first; the first step, whose length IDA has not chosen yet, gets s = 1);
+ * velocities 1 / (K (rtol |v_i| + atol)). A velocity error dv made in a step of length h moves
+ * the positions by h dv over the next step, so both kinds of local error add at most about
+ * K tol h of position error per step: K tol per second of simulated time. K = IDA_TOL_CALIBRATION. */
 static int ida_weights(N_Vector yv, N_Vector ewt, void *user)
 {
     ida_state *s = user;
@@ -188,9 +471,12 @@ static int ida_weights(N_Vector yv, N_Vector ewt, void *user)
     double f = (nst > 0 && h > 0.0) ? fabs(h) / IDA_TOL_TIME : 1.0;
     if (f > 1.0) f = 1.0;
     if (f * s->rtol < IDA_TOL_FLOOR) f = IDA_TOL_FLOOR / s->rtol;
+    const double kx = IDA_TOL_CALIBRATION * f, kv = IDA_TOL_CALIBRATION;
     const double *y = N_VGetArrayPointer(yv);
     double *w = N_VGetArrayPointer(ewt);
-    for (int64_t i = 0; i < 2 * s->n; ++i) w[i] = 1.0 / (f * (s->rtol * fabs(y[i]) + s->atol));
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n; ++i) w[i] = 1.0 / (kx * (s->rtol * fabs(y[i]) + s->atol));
+    for (int64_t i = n; i < 2 * n; ++i) w[i] = 1.0 / (kv * (s->rtol * fabs(y[i]) + s->atol));
     return 0;
 }
 
@@ -201,7 +487,7 @@ static defsim_status ida_fail(ida_state *s, const char *call, int flag)
     if (s->mem) IDAGetCurrentTime(s->mem, &tcur);
     defsim__sun_fail(&s->sun, "sundials_ida", call, name, flag, tcur);
     free(name);   /* IDAGetReturnFlagName returns a malloc'd string */
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     return DEFSIM_ERR_NOT_CONVERGED;
 }
 
@@ -228,7 +514,7 @@ static defsim_status ida_restart(ida_state *s)
     int flag = IDAReInit(s->mem, s->t, s->y, s->yp);
     if (flag < 0) return ida_fail(s, "IDAReInit", flag);
     memset(&s->base, 0, sizeof s->base);
-    s->need_reinit = 0;
+    s->sun.need_reinit = 0;
     return DEFSIM_OK;
 }
 
@@ -241,6 +527,13 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
     if (s->y) N_VDestroy(s->y);
     if (s->yp) N_VDestroy(s->yp);
     s->y = s->yp = NULL;
+    if (s->cls) SUNLinSolFree(s->cls);
+    if (s->token) SUNMatFreeEmpty(s->token);
+    s->cls = NULL;
+    s->token = NULL;
+#ifdef DEFSIM_IDA_CHOLMOD
+    chol_destroy(s);
+#endif
     defsim__sun_close(&s->sun);
     host->release(s->jcp); host->release(s->jri);
     host->release(s->kval); host->release(s->bval);
@@ -281,6 +574,26 @@ static void build_pattern(ida_state *s)
         }                                                                                     \
     } while (0)
 
+/* The full 2n x 2n Newton matrix and KLU (linear_solver = klu). */
+static defsim_status klu_create(ida_state *s)
+{
+    const defsim_host *host = s->host;
+    defsim_status st = host->matrix_pattern(s->sys, DEFSIM_TRIANGLE_FULL, &s->kpat);
+    if (st != DEFSIM_OK) return st;
+    const int64_t n = s->n, knnz = s->kpat.nnz;
+    s->jnnz = 2 * n + knnz + (s->damp_b ? knnz : n);
+    s->jcp = defsim__sun_calloc(host, (size_t)(2 * n + 1), sizeof *s->jcp);
+    s->jri = defsim__sun_calloc(host, (size_t)s->jnnz, sizeof *s->jri);
+    s->kval = defsim__sun_calloc(host, (size_t)knnz, sizeof *s->kval);
+    s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)knnz, sizeof *s->bval) : NULL;
+    if (!s->jcp || !s->jri || !s->kval || (s->damp_b && !s->bval)) {
+        host->set_error(s->sys, "sundials_ida: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    build_pattern(s);
+    return defsim__sun_klu(&s->sun, s->y, 2 * n, s->jnnz);
+}
+
 static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     ida_state *s = state;
@@ -291,25 +604,26 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
     s->n = host->free_dof_count(sys);
     s->ndof = host->dof_count(sys);
     s->free_dofs = host->free_dofs(sys);
-    s->need_reinit = 1;
+    s->sun.need_reinit = 1;
     if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
-    const defsim_world_def *opt = host->options(sys);
-    defsim_status st = host->matrix_pattern(sys, DEFSIM_TRIANGLE_FULL, &s->kpat);
-    if (st != DEFSIM_OK) return st;
-    const int64_t n = s->n, knnz = s->kpat.nnz;
+    double o[O_COUNT];
+    defsim__sun_options(host, sys, ida_options, O_COUNT, o);
+    s->solver = (int)o[O_LINEAR_SOLVER];
+#ifndef DEFSIM_IDA_CHOLMOD
+    if (s->solver == LS_CHOLMOD) {
+        host->set_error(sys, "sundials_ida: linear_solver cholmod: this build has no CHOLMOD "
+                             "(use klu)");
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    }
+#endif
+    const int64_t n = s->n;
     s->damp_b = host->has_stiffness_damping(sys) != 0;
-    s->jnnz = 2 * n + knnz + (s->damp_b ? knnz : n);
-    s->jcp = defsim__sun_calloc(host, (size_t)(2 * n + 1), sizeof *s->jcp);
-    s->jri = defsim__sun_calloc(host, (size_t)s->jnnz, sizeof *s->jri);
-    s->kval = defsim__sun_calloc(host, (size_t)knnz, sizeof *s->kval);
-    s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)knnz, sizeof *s->bval) : NULL;
     s->mf = defsim__sun_calloc(host, (size_t)n, sizeof *s->mf);
     s->af = defsim__sun_calloc(host, (size_t)n, sizeof *s->af);
     s->x = defsim__sun_calloc(host, (size_t)s->ndof, sizeof *s->x);
     s->v = defsim__sun_calloc(host, (size_t)s->ndof, sizeof *s->v);
     s->f = defsim__sun_calloc(host, (size_t)s->ndof, sizeof *s->f);
-    if (!s->jcp || !s->jri || !s->kval || (s->damp_b && !s->bval) || !s->mf || !s->af || !s->x ||
-        !s->v || !s->f) {
+    if (!s->mf || !s->af || !s->x || !s->v || !s->f) {
         host->set_error(sys, "sundials_ida: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -318,9 +632,8 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
         s->mf[i] = m[s->free_dofs[i]];
         s->af[i] = alpha[s->free_dofs[i]];
     }
-    build_pattern(s);
 
-    st = defsim__sun_open(&s->sun, host, sys);
+    defsim_status st = defsim__sun_open(&s->sun, host, sys);
     if (st != DEFSIM_OK) return st;
     s->y = N_VNew_Serial((sunindextype)(2 * n), s->sun.ctx);
     s->yp = s->y ? N_VClone(s->y) : NULL;
@@ -330,7 +643,11 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
     }
     N_VConst(0.0, s->y);
     N_VConst(0.0, s->yp);
-    st = defsim__sun_klu(&s->sun, s->y, 2 * n, s->jnnz);
+#ifdef DEFSIM_IDA_CHOLMOD
+    st = s->solver == LS_CHOLMOD ? chol_create(s) : klu_create(s);
+#else
+    st = klu_create(s);
+#endif
     if (st != DEFSIM_OK) return st;
     s->mem = IDACreate(s->sun.ctx);
     if (!s->mem) {
@@ -340,14 +657,19 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
     SET(IDASetErrHandlerFn(s->mem, defsim__sun_error_handler, &s->sun));
     SET(IDAInit(s->mem, ida_residual, host->time(sys), s->y, s->yp));
     /* atol is the same number for x (m) and v (m/s): see README "Tolerances". */
-    s->rtol = opt->rtol;
-    s->atol = opt->atol;
+    s->rtol = o[O_RTOL];
+    s->atol = o[O_ATOL];
     SET(IDAWFtolerances(s->mem, ida_weights));
     SET(IDASetUserData(s->mem, s));
-    SET(IDASetMaxOrd(s->mem, opt->max_order));
-    SET(IDASetMaxNumSteps(s->mem, opt->max_internal_steps));
-    SET(IDASetLinearSolver(s->mem, s->sun.LS, s->sun.J));
-    SET(IDASetJacFn(s->mem, ida_jacobian));
+    SET(IDASetMaxOrd(s->mem, (int)o[O_MAX_ORDER]));
+    SET(IDASetMaxNumSteps(s->mem, (long)o[O_MAX_STEPS]));
+    if (s->solver == LS_KLU) {
+        SET(IDASetLinearSolver(s->mem, s->sun.LS, s->sun.J));
+        SET(IDASetJacFn(s->mem, ida_jacobian));
+    } else {
+        SET(IDASetLinearSolver(s->mem, s->cls, s->token));
+        SET(IDASetJacFn(s->mem, chol_jacobian));
+    }
     return DEFSIM_OK;
 }
 
@@ -355,8 +677,8 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
 {
     ida_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
-    if (ida_drive_begin(s)) s->need_reinit = 1;
-    if (s->need_reinit) {
+    if (ida_drive_begin(s)) s->sun.need_reinit = 1;
+    if (s->sun.need_reinit) {
         defsim_status st = ida_restart(s);
         if (st != DEFSIM_OK) return st;
     }
@@ -367,22 +689,9 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
     flag = IDASolve(s->mem, tout, &tret, s->y, s->yp, IDA_NORMAL);
     update_stats(s);
     if (flag < 0) return ida_fail(s, "IDASolve", flag);
-    double *x = host->positions(sys), *v = host->velocities(sys);
-    const double *y = N_VGetArrayPointer(s->y);
-    for (int64_t i = 0; i < s->n; ++i) {
-        const int64_t d = s->free_dofs[i];
-        x[d] = y[i];
-        v[d] = y[s->n + i];
-    }
+    defsim__sun_scatter(s->free_dofs, s->n, N_VGetArrayPointer(s->y), host->positions(sys),
+                        host->velocities(sys));
     s->t = tout;
-    return DEFSIM_OK;
-}
-
-static defsim_status ida_reset(const defsim_host *host, defsim_system *sys, void *state)
-{
-    (void)host;
-    (void)sys;
-    ((ida_state *)state)->need_reinit = 1;
     return DEFSIM_OK;
 }
 
@@ -396,16 +705,15 @@ static const defsim_backend ida_backend = {
     .init = ida_init,
     .step = ida_step,
     .fini = ida_fini,
-    .reset = ida_reset,
+    .reset = defsim__sun_reset,
+    .options = ida_options,
+    .option_count = O_COUNT,
+    .counters = ida_counters,
+    .counter_count = C_COUNT,
 };
 
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    /* Every host service used here is of ABI version 1. */
-    if (!host || !out || host->abi_version < 1 ||
-        host->size < offsetof(defsim_host, release) + sizeof host->release)
-        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = &ida_backend;
-    return DEFSIM_OK;
+    return defsim__sun_module(host, out, &ida_backend);
 }

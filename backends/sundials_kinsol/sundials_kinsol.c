@@ -34,6 +34,27 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Options, in the order of kin_options. */
+enum { O_TOLERANCE, O_MAX_ITERATIONS, O_COUNT };
+
+static const defsim_option_spec kin_options[O_COUNT] = {
+    {"tolerance", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1.0, NULL,
+     "scaled residual: position error relative to the scene size"},
+    {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
+     "Newton iterations per solve (from y, then from x_n)"},
+};
+
+/* Counters, in the order of kin_counters. */
+enum { C_NNI, C_RES, C_JAC, C_BT, C_NCF, C_COUNT };
+
+static const defsim_counter_spec kin_counters[C_COUNT] = {
+    {"newton_iterations", "Newton iterations"},
+    {"residual_evals", "residual evaluations"},
+    {"jacobian_evals", "Newton matrix assemblies"},
+    {"line_search_backtracks", "line-search backtracks"},
+    {"convergence_failures", "failed KINSOL solves (a step that succeeds from x_n counts one)"},
+};
+
 typedef struct kin_state {
     defsim__sun sun;
     const defsim_host *host;
@@ -49,6 +70,7 @@ typedef struct kin_state {
     double *xn, *vn, *x, *fel, *fg;   /* full DOF arrays */
     double *bval;              /* B(x_n) values on the pattern (damp_b only) */
     double h;
+    double tolerance;
     int coupled;               /* the host has the coupling services (pin_positions, ...) */
     int vary;                  /* this step: applied forces depend on x, evaluated per residual */
     const double *pv;          /* this step's driven-pin velocities, or NULL */
@@ -139,6 +161,10 @@ static int kin_solve(kin_state *s)
     st->residual_evals += nfe;
     st->jacobian_evals += nje;
     st->line_search_backtracks += nbt;
+    defsim__sun_count(s->host, s->sys, C_NNI, (double)nni);
+    defsim__sun_count(s->host, s->sys, C_RES, (double)nfe);
+    defsim__sun_count(s->host, s->sys, C_JAC, (double)nje);
+    defsim__sun_count(s->host, s->sys, C_BT, (double)nbt);
     return flag;
 }
 
@@ -178,7 +204,9 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     s->ndof = host->dof_count(sys);
     s->free_dofs = host->free_dofs(sys);
     if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
-    const defsim_world_def *opt = host->options(sys);
+    double o[O_COUNT];
+    defsim__sun_options(host, sys, kin_options, O_COUNT, o);
+    s->tolerance = o[O_TOLERANCE];
     defsim_status st = host->matrix_pattern(sys, DEFSIM_TRIANGLE_FULL, &s->kpat);
     if (st != DEFSIM_OK) return st;
     const int64_t n = s->n;
@@ -233,8 +261,8 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     SET(KINSetJacFn(s->mem, kin_jacobian));
     /* Full Newton: a fresh Jacobian and factorisation at every iteration. */
     SET(KINSetMaxSetupCalls(s->mem, 1));
-    SET(KINSetNumMaxIters(s->mem, opt->max_iterations));
-    SET(KINSetFuncNormTol(s->mem, opt->tolerance));
+    SET(KINSetNumMaxIters(s->mem, (long)o[O_MAX_ITERATIONS]));
+    SET(KINSetFuncNormTol(s->mem, s->tolerance));
     /* KINSOL measures steps relative to max(|x_i|, L): stop only when they are at roundoff. */
     SET(KINSetScaledStepTol(s->mem, 16.0 * DBL_EPSILON));
     return DEFSIM_OK;
@@ -284,6 +312,7 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         /* From the inertial guess the forces may be undefined (an inverted neo-Hookean element)
          * or Newton may stall on a non-convex energy: try once more from x_n. */
         st->convergence_failures++;
+        defsim__sun_count(host, sys, C_NCF, 1.0);
         first = flag;
         for (int64_t i = 0; i < s->n; ++i) u[i] = s->xn[s->free_dofs[i]];
         s->sun.msg[0] = '\0';
@@ -291,13 +320,14 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
     }
     if (kin_failed(flag)) {
         st->convergence_failures++;
+        defsim__sun_count(host, sys, C_NCF, 1.0);
         if (flag == KIN_STEP_LT_STPTOL) {
             /* Stalled at roundoff above the tolerance: not a solution to the asked accuracy. */
             double fnorm = 0.0;
             KINGetFuncNorm(s->mem, &fnorm);
             snprintf(s->sun.msg, sizeof s->sun.msg,
                      "steps at roundoff but the scaled residual %.3g is above the tolerance %.3g",
-                     fnorm, host->options(sys)->tolerance);
+                     fnorm, s->tolerance);
         }
         char *owned = KINGetReturnFlagName(first);   /* malloc'd by KINSOL */
         char call[96];
@@ -324,15 +354,14 @@ static const defsim_backend kin_backend = {
     .step = kin_step,
     .fini = kin_fini,
     .reset = NULL,   /* no history: every step starts from the world's state */
+    .options = kin_options,
+    .option_count = O_COUNT,
+    .counters = kin_counters,
+    .counter_count = C_COUNT,
 };
 
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
-    /* Every host service used here is of ABI version 1. */
-    if (!host || !out || host->abi_version < 1 ||
-        host->size < offsetof(defsim_host, release) + sizeof host->release)
-        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    *out = &kin_backend;
-    return DEFSIM_OK;
+    return defsim__sun_module(host, out, &kin_backend);
 }

@@ -24,9 +24,10 @@ extern "C" {
 
 /// ABI version of the tables below. Bumped when fields are appended.
 /// Version 2 appended options and counters (defsim_backend.options ... counter_count,
-/// defsim_host.option_values and counters); version 3 the host's coupling services
-/// (defsim_host.forces_at, pin_positions, pin_velocities, applied_forces_vary). The core accepts
-/// backends built against 1 to 3; a backend checks host->size before using a later field.
+/// defsim_host.option_values and counters, and defsim_host.omega_max); version 3 the host's
+/// coupling services (defsim_host.forces_at, pin_positions, pin_velocities,
+/// applied_forces_vary). The core accepts backends built against 1 to 3; a backend checks
+/// host->size before using a later field.
 #define DEFSIM_BACKEND_ABI_VERSION 3u
 
 /// Name of the one symbol a module exports.
@@ -186,6 +187,15 @@ typedef struct defsim_host {
     /// and by defsim_world_reset_stats, kept across re-initialisation; the backend adds to them
     /// and hosts read them with defsim_world_stat. NULL if the backend declares no counters.
     double *(*counters)(defsim_system *sys);
+    /// Stability of explicit methods at positions x: *omega receives omega_max (rad/s), the
+    /// square root of the largest eigenvalue of M^-1 K(x) over the free DOFs (exact element
+    /// Hessians, power iteration to 1e-4 relative), and *damping the Rayleigh damping rate at that
+    /// frequency, c = alpha + beta omega_max^2 (1/s, the largest alpha and beta of the world): the
+    /// numbers defsim_world_stable_step hands to the backend's stable_step. Costs up to a few
+    /// hundred Hessian products. Returns DEFSIM_OK, DEFSIM_ERR_OUT_OF_MEMORY, or
+    /// DEFSIM_ERR_UNSTABLE if the estimate is not finite.
+    defsim_status (*omega_max)(defsim_system *sys, const double *x, double *omega,
+                               double *damping);
 
     /* ABI version 3: the host's coupling terms. */
 

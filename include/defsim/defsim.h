@@ -142,8 +142,9 @@ typedef void (*defsim_log_fn)(void *user, int level, const char *message);
 typedef struct defsim_world_def {
     uint32_t size;             ///< sizeof(defsim_world_def), set by defsim_world_def_init.
     const char *backend;       ///< Integrator: "explicit_euler", "symplectic_euler" (built in),
-                               ///< "newton_cholmod", "sundials_ida", "sundials_kinsol" (modules), or
-                               ///< a registered one. Copied. Default "symplectic_euler".
+                               ///< "newton_cholmod", "sundials_ida", "sundials_erk",
+                               ///< "sundials_kinsol" (modules), or a registered one. Copied.
+                               ///< Default "symplectic_euler".
     double gravity[3];         ///< m/s^2. Default (0, -9.81, 0).
     int32_t num_threads;       ///< Threads for force and Hessian assembly; 0: OpenMP's default.
     double tolerance;          ///< Deprecated ("<backend>.tolerance"). Nonlinear solves:

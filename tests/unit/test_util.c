@@ -188,3 +188,39 @@ const char *tu_write_file(const char *name, const char *text)
     fclose(f);
     return p;
 }
+
+defsim_body_id tu_add_oscillator(defsim_world *w, tu_osc *o, double z)
+{
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    double rest[6] = {0, 0, z, 1, 0, z}, x0[6] = {0, 0, z, 1 + o->u0, 0, z};
+    double v0[6] = {0, 0, 0, o->v0, 0, 0}, mass[2] = {1.0, o->m};
+    int32_t s[2] = {0, 1};
+    bd.rest_positions = rest;
+    bd.initial_positions = x0;
+    bd.initial_velocities = v0;
+    bd.vertex_count = 2;
+    bd.springs = s;
+    bd.spring_count = 1;
+    bd.vertex_mass = mass;
+    bd.material.stiffness = o->k;
+    bd.material.mass_damping = o->alpha;
+    bd.material.stiffness_damping = o->beta;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    int32_t pin = 0;
+    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    o->vertex = defsim_body_vertex_offset(w, id) + 1;
+    return id;
+}
+
+void tu_osc_exact(const tu_osc *o, double t, double *u, double *v)
+{
+    const double c = o->alpha + o->beta * o->k / o->m, w0 = sqrt(o->k / o->m);
+    const double g = 0.5 * c, wd = sqrt(w0 * w0 - g * g);
+    const double A = o->u0, B = (o->v0 + g * o->u0) / wd;
+    const double e = exp(-g * t), cs = cos(wd * t), sn = sin(wd * t);
+    *u = e * (A * cs + B * sn);
+    *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
+}

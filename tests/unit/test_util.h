@@ -51,6 +51,20 @@ double *tu_velocities(const defsim_world *w);
 /* max |a - b| / max(max |b|, floor) */
 double tu_rel_diff(const double *a, const double *b, int n, double floor);
 
+/* A damped linear oscillator: a vertex of mass m on a spring of stiffness k along x to a pinned
+ * anchor. In 1D the spring force is exactly -k u and Rayleigh damping gives
+ * -(alpha m + beta k) u', so u'' + c u' + w0^2 u = 0 with c = alpha + beta k / m, w0^2 = k / m. */
+typedef struct tu_osc {
+    double m, k, alpha, beta, u0, v0;
+    int32_t vertex;    /* world index of the moving vertex (set by tu_add_oscillator) */
+} tu_osc;
+
+/* Adds the oscillator's two-vertex body at height z (anchor pinned); returns its id. */
+defsim_body_id tu_add_oscillator(defsim_world *w, tu_osc *o, double z);
+
+/* Exact displacement and velocity at time t from (u0, v0) at time 0 (underdamped). */
+void tu_osc_exact(const tu_osc *o, double t, double *u, double *v);
+
 /* A fresh temporary directory (tu_tmpdir) for tests that write files; for CMocka setup and
  * teardown. tu_write_file writes text to tu_tmpdir/name and returns the path (valid until the
  * 8th call after). */

@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * `defsim bench SCENE.json`: work-precision benchmark. For each backend it sweeps the step size h
- * (fixed-step backends) or the tolerance (sundials_ida), runs the scene to a fixed end time T,
+ * (fixed-step backends) or the tolerance (sundials_ida, sundials_erk), runs the scene to a fixed
+ * end time T,
  * and measures the wall time of the stepping loop (median of repeats) and the error at T against
- * a reference solution: sundials_ida at rtol 1e-10 on the same scene, computed once and cached in
+ * a reference solution: sundials_erk at rtol 1e-10 on the same scene, computed once and cached in
  * the output folder under a hash of the scene file, the overrides and T. Writes a CSV, a Pareto
  * table (the fastest backend and setting for each error level) and, through tools/plot_wp.py, a
  * log-log plot of error against time. tools/README.md documents the definitions.
@@ -35,12 +36,13 @@ extern char **environ;
 #define DEFSIM_BENCH_PLOT_SCRIPT ""
 #endif
 
-/* The reference: sundials_ida at this rtol (atol = rtol times the body size), checked against a
+/* The reference: REF_BACKEND at this rtol (atol = rtol times the body size), checked against a
  * second run at REF_CHECK_RTOL. Bump REF_FORMAT when the way it is computed changes, so that old
  * cached files are not reused. */
+#define REF_BACKEND "sundials_erk"
 #define REF_RTOL 1e-10
 #define REF_CHECK_RTOL 1e-9
-#define REF_FORMAT "bench-reference-2"
+#define REF_FORMAT "bench-reference-3"
 /* A run whose RMS position error exceeds the body's size has left the solution entirely. */
 #define DIVERGED_RMS 1.0
 /* ... and one whose energy error exceeds the energy scale is on its way to blowing up. */
@@ -52,7 +54,13 @@ extern char **environ;
 
 static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "velocity_verlet",
                                      "newton_cholmod", "newmark", "bdf2", "sundials_kinsol",
-                                     "sundials_ida"};
+                                     "sundials_ida", "sundials_erk"};
+
+/* Backends swept by tolerance (adaptive) rather than by step size. */
+static int swept_by_tolerance(const char *backend)
+{
+    return !strcmp(backend, "sundials_ida") || !strcmp(backend, "sundials_erk");
+}
 
 typedef struct point {
     const char *backend;
@@ -70,6 +78,8 @@ typedef struct bench {
     const char *scene_path;
     const char *sets[MAX_SETS];
     int nsets;
+    const char *opts[MAX_SETS];  /* --option NAME=VALUE, for the swept runs (not the reference) */
+    int nopts;
     double T, frame_dt;
     int repeats;
     int threads;           /* world.num_threads of every run */
@@ -84,17 +94,21 @@ static int usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim bench SCENE.json [options]\n"
-        "  --backends A,B,...  backends to compare (default: all eight; unavailable ones are\n"
+        "  --backends A,B,...  backends to compare (default: all nine; unavailable ones are\n"
         "                      skipped with a note)\n"
         "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
         "                      doubled up to 1/30 s)\n"
-        "  --tol LIST          sundials_ida tolerances, rtol = tol, atol = tol x body size\n"
+        "  --tol LIST          sundials_ida and sundials_erk tolerances, rtol = tol,\n"
+        "                      atol = tol x body size\n"
         "                      (default 1e-3,1e-4,...,1e-8)\n"
         "  --time T            end time, s (default: min(0.5, the scene's duration))\n"
         "  --repeats R         timed repeats per point, median reported (default 3)\n"
         "  --threads N         assembly threads (default 1, for timings that compare the\n"
         "                      methods; 0: OpenMP's default)\n"
         "  --set KEY=VALUE     override a scene value, as in defsim run; repeatable\n"
+        "  --option NAME=VALUE set an option by name (\"sundials_ida.linear_solver=klu\") in\n"
+        "                      the runs of the backend it names (not in the reference);\n"
+        "                      repeatable\n"
         "  --out DIR           output folder (default bench_<scene>)\n"
         "  --reference FILE    reference file to use, or to write if it does not exist\n"
         "                      (default DIR/<scene>_reference_<hash>.txt)\n"
@@ -140,6 +154,24 @@ static defsim_status build(bench *b, const char *backend, double rtol, defsim_wo
     }
     snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
     return scene_build(&b->s, w);
+}
+
+/* Sets the --option values that name `backend` (or "core.") on w. */
+static defsim_status apply_options(const bench *b, const char *backend, defsim_world *w)
+{
+    const size_t bl = strlen(backend);
+    for (int i = 0; i < b->nopts; ++i) {
+        const char *o = b->opts[i], *eq = strchr(o, '=');
+        if (strncmp(o, "core.", 5) && (strncmp(o, backend, bl) || o[bl] != '.')) continue;
+        char name[128];
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o), o);
+        const defsim_status st = defsim_world_set_option(w, name, eq + 1);
+        if (st != DEFSIM_OK) {
+            fprintf(stderr, "defsim bench: --option %s: %s\n", o, defsim_world_last_error(w));
+            return st;
+        }
+    }
+    return DEFSIM_OK;
 }
 
 /* Steps `w` to T: fixed steps of h (is_tol 0) or calls of one frame each (adaptive). */
@@ -195,6 +227,11 @@ static void run_point(bench *b, const refsol *ref, point *p)
         if (st != DEFSIM_OK) {
             snprintf(p->status, sizeof p->status, "%s", defsim_status_string(st));
             fprintf(stderr, "defsim bench: %s\n", b->s.error);
+            return;
+        }
+        if ((st = apply_options(b, p->backend, w)) != DEFSIM_OK) {
+            snprintf(p->status, sizeof p->status, "%s", defsim_status_string(st));
+            defsim_world_destroy(w);
             return;
         }
         const double t0 = refsol_now();
@@ -254,22 +291,25 @@ static int reference_key(const bench *b, char key[17], char *err, size_t errlen)
     return 0;
 }
 
-/* The "key" line of a reference file, or "" if it has none. */
-static void read_key(const char *path, char key[64])
+/* The "key" line of a reference file, or "" if it has none; *check_err (if not NULL) gets its
+ * "check_rms_err" value, or 0 if it has none. */
+static void read_key(const char *path, char key[64], double *check_err)
 {
     key[0] = '\0';
+    if (check_err) *check_err = 0.0;
     FILE *f = fopen(path, "r");
     if (!f) return;
     char line[1024];
     while (fgets(line, sizeof line, f) && strncmp(line, "vertices", 8) != 0)
-        if (sscanf(line, "key %63s", key) == 1) break;
+        if (sscanf(line, "key %63s", key) != 1 && check_err)
+            sscanf(line, "check_rms_err %lf", check_err);
     fclose(f);
 }
 
 static defsim_status integrate_reference(bench *b, double rtol, refsol *out)
 {
     defsim_world *w = NULL;
-    defsim_status st = build(b, "sundials_ida", rtol, &w);
+    defsim_status st = build(b, REF_BACKEND, rtol, &w);
     if (st != DEFSIM_OK) {
         fprintf(stderr, "defsim bench: reference: %s\n", b->s.error);
         return st;
@@ -279,6 +319,7 @@ static defsim_status integrate_reference(bench *b, double rtol, refsol *out)
     snprintf(tag, sizeof tag, "  reference rtol %g", rtol);
     st = refsol_integrate(w, b->T, calls < 1 ? 1 : calls, rtol, rtol * b->size,
                           isatty(STDERR_FILENO) ? tag : NULL, out);
+    out->backend = REF_BACKEND;
     defsim_world_destroy(w);
     return st;
 }
@@ -289,7 +330,7 @@ static int get_reference(bench *b, const char *path, const char *key, refsol *re
     char err[1200], file_key[64];
     *cached = 0;
     if (access(path, R_OK) == 0) {
-        read_key(path, file_key);
+        read_key(path, file_key, NULL);
         if (file_key[0] && strcmp(file_key, key) != 0) {
             fprintf(stderr, "defsim bench: %s was computed for another scene, overrides or end "
                             "time (key %s, here %s); remove it or name another file\n",
@@ -308,12 +349,12 @@ static int get_reference(bench *b, const char *path, const char *key, refsol *re
             return -1;
         }
         *cached = 1;
-        printf("reference: cached %s (sundials_ida rtol %g, %lld internal steps, took %.1f s "
+        printf("reference: cached %s (rtol %g, %lld internal steps, took %.1f s "
                "when computed)%s\n", path, ref->rtol, (long long)ref->internal_steps,
                ref->wall_seconds, file_key[0] ? "" : " [no key: trusted as given]");
         return 0;
     }
-    printf("reference: computing sundials_ida at rtol %g (check at %g) to T = %g s ...\n",
+    printf("reference: computing %s at rtol %g (check at %g) to T = %g s ...\n", REF_BACKEND,
            REF_RTOL, REF_CHECK_RTOL, b->T);
     fflush(stdout);
     refsol check;
@@ -369,58 +410,6 @@ static void mark_pareto(point *p, int n)
 static void setting(const point *p, char *buf, size_t n)
 {
     snprintf(buf, n, "%s = %.3g%s", p->is_tol ? "tol" : "h", p->value, p->is_tol ? "" : " s");
-}
-
-/* Observed order of each fixed-step backend: the least-squares slope of log(RMS error) on log(h)
- * over its ORDER_POINTS smallest steps that ran ok (the asymptotic end of the sweep), printed
- * and written to the Pareto file. */
-#define ORDER_POINTS 4
-
-static void write_orders(FILE *f, const point *p, int n)
-{
-    fprintf(f, "\nObserved orders (least-squares slope of log RMS error on log h over the %d "
-               "smallest steps that ran ok):\n\n", ORDER_POINTS);
-    printf("\nObserved order (slope of log RMS error on log h, %d smallest ok steps):\n",
-           ORDER_POINTS);
-    for (int i = 0; i < n; ++i) {
-        int first = 1;
-        for (int j = 0; j < i; ++j) first &= strcmp(p[j].backend, p[i].backend) != 0;
-        if (!first || p[i].is_tol) continue;
-        /* The ok points of this backend, smallest h first. */
-        double hs[MAX_VALUES], es[MAX_VALUES];
-        int m = 0;
-        for (int j = i; j < n && m < MAX_VALUES; ++j)
-            if (!strcmp(p[j].backend, p[i].backend) && !strcmp(p[j].status, "ok") &&
-                p[j].rms > 0.0) {
-                int k = m++;
-                while (k > 0 && hs[k - 1] > p[j].value) {
-                    hs[k] = hs[k - 1];
-                    es[k] = es[k - 1];
-                    --k;
-                }
-                hs[k] = p[j].value;
-                es[k] = p[j].rms;
-            }
-        if (m > ORDER_POINTS) m = ORDER_POINTS;
-        if (m < 2) {
-            printf("  %-17s fewer than 2 ok points\n", p[i].backend);
-            fprintf(f, "- %s: fewer than 2 ok points\n", p[i].backend);
-            continue;
-        }
-        double sx = 0, sy = 0, sxx = 0, sxy = 0;
-        for (int k = 0; k < m; ++k) {
-            const double lx = log(hs[k]), ly = log(es[k]);
-            sx += lx;
-            sy += ly;
-            sxx += lx * lx;
-            sxy += lx * ly;
-        }
-        const double order = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-        printf("  %-17s %6.3f  (h = %.3g .. %.3g s, RMS %.2e .. %.2e)\n", p[i].backend, order,
-               hs[0], hs[m - 1], es[0], es[m - 1]);
-        fprintf(f, "- %s: %.3f (h = %.3g .. %.3g s, RMS %.2e .. %.2e)\n", p[i].backend, order,
-                hs[0], hs[m - 1], es[0], es[m - 1]);
-    }
 }
 
 /* Pareto table: for each error level the fastest point reaching it, and the fastest point of
@@ -482,8 +471,64 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
             setting(&p[i], s1, sizeof s1);
             fprintf(f, "- %s, %s: %.4g s, RMS %.2e\n", p[i].backend, s1, p[i].wall, p[i].rms);
         }
-    write_orders(f, p, n);
     return fclose(f) == 0 ? 0 : -1;
+}
+
+/* Observed order of each backend: the least-squares slope of log(RMS error) against log(mean
+ * step), mean step = h (fixed-step) or T / internal steps (adaptive), over the `ORDER_POINTS`
+ * finest ok points whose error is above 100 times the reference's own (so that the reference does
+ * not set it) and below 1e-2 (the asymptotic range). Printed and appended to the Pareto file. */
+#define ORDER_POINTS 3
+static void write_orders(const bench *b, const point *p, int n, double ref_err, const char *path)
+{
+    FILE *f = fopen(path, "a");
+    if (f) fprintf(f, "\nObserved orders (slope of log RMS error against log mean step over the "
+                      "%d finest points with error in [%.1e, 1e-2]):\n\n", ORDER_POINTS,
+                   100.0 * ref_err);
+    printf("\nObserved orders (%d finest points with RMS error in [%.1e, 1e-2]):\n", ORDER_POINTS,
+           100.0 * ref_err);
+    for (int i = 0; i < n; ++i) {
+        int seen = 0;
+        for (int j = 0; j < i; ++j) seen |= !strcmp(p[j].backend, p[i].backend);
+        if (seen) continue;
+        double hs[MAX_VALUES], es[MAX_VALUES];
+        int m = 0;
+        for (int j = i; j < n && m < MAX_VALUES; ++j) {
+            const point *q = &p[j];
+            if (strcmp(q->backend, p[i].backend) || strcmp(q->status, "ok") ||
+                !(q->rms >= 100.0 * ref_err && q->rms <= 1e-2))
+                continue;
+            const double h = q->is_tol ? (q->internal > 0 ? b->T / (double)q->internal : 0.0)
+                                       : q->value;
+            if (!(h > 0.0)) continue;
+            hs[m] = h;
+            es[m++] = q->rms;
+        }
+        /* The finest ORDER_POINTS by mean step (insertion sort, ascending h). */
+        for (int a = 1; a < m; ++a)
+            for (int c = a; c > 0 && hs[c] < hs[c - 1]; --c) {
+                double t = hs[c]; hs[c] = hs[c - 1]; hs[c - 1] = t;
+                t = es[c]; es[c] = es[c - 1]; es[c - 1] = t;
+            }
+        const int k = m < ORDER_POINTS ? m : ORDER_POINTS;
+        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        for (int a = 0; a < k; ++a) {
+            const double x = log(hs[a]), y = log(es[a]);
+            sx += x; sy += y; sxx += x * x; sxy += x * y;
+        }
+        const double den = k * sxx - sx * sx;
+        if (k < 2 || !(fabs(den) > 1e-12)) {
+            printf("  %-17s  too few points\n", p[i].backend);
+            if (f) fprintf(f, "- %s: too few points\n", p[i].backend);
+            continue;
+        }
+        const double order = (k * sxy - sx * sy) / den;
+        printf("  %-17s  %.2f  (mean steps %.3g .. %.3g s)\n", p[i].backend, order, hs[0],
+               hs[k - 1]);
+        if (f) fprintf(f, "- %s: %.2f (mean steps %.3g to %.3g s)\n", p[i].backend, order, hs[0],
+                       hs[k - 1]);
+    }
+    if (f) fclose(f);
 }
 
 static int write_csv(const point *p, int n, const char *path)
@@ -588,6 +633,13 @@ int defsim_tool_bench(int argc, char **argv)
                 return 2;
             }
             b.sets[b.nsets++] = v;
+        } else if (!strcmp(a, "--option")) {
+            if (b.nopts == MAX_SETS || !strchr(v, '=') || strchr(v, '=') == v) {
+                fprintf(stderr, "defsim bench: --option NAME=VALUE (at most %d): %s\n", MAX_SETS,
+                        v);
+                return 2;
+            }
+            b.opts[b.nopts++] = v;
         } else if (!strcmp(a, "--out")) out_dir = v;
         else if (!strcmp(a, "--reference")) ref_path = v;
         else if (!strcmp(a, "--python")) python = v;
@@ -706,7 +758,7 @@ int defsim_tool_bench(int argc, char **argv)
 
     /* Which backends exist here. */
     const char *use[MAX_BACKENDS];
-    int nuse = 0, have_ida = 0;
+    int nuse = 0, have_ref = 0;
     for (int k = 0; k < nb; ++k) {
         defsim_world_def wd;
         defsim_world_def_init(&wd, sizeof wd);
@@ -724,9 +776,9 @@ int defsim_tool_bench(int argc, char **argv)
     {
         defsim_world_def wd;
         defsim_world_def_init(&wd, sizeof wd);
-        wd.backend = "sundials_ida";
+        wd.backend = REF_BACKEND;
         defsim_world *w = NULL;
-        have_ida = defsim_world_create(&wd, &w) == DEFSIM_OK;
+        have_ref = defsim_world_create(&wd, &w) == DEFSIM_OK;
         defsim_world_destroy(w);
     }
     if (nuse == 0) {
@@ -750,8 +802,8 @@ int defsim_tool_bench(int argc, char **argv)
     printf("defsim bench: %s, %d vertices, T = %g s, body size %.4g m, energy scale %.4g J, "
            "%d repeat(s)\n", b.s.name, (int)b.nv, b.T, b.size, b.energy_scale, b.repeats);
     int cached = 0;
-    if (!have_ida && access(path, R_OK) != 0) {
-        fprintf(stderr, "defsim bench: the reference needs the sundials_ida backend, which is "
+    if (!have_ref && access(path, R_OK) != 0) {
+        fprintf(stderr, "defsim bench: the reference needs the " REF_BACKEND " backend, which is "
                         "not available, and %s does not exist\n", path);
         goto done;
     }
@@ -764,7 +816,7 @@ int defsim_tool_bench(int argc, char **argv)
     printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value", "wall_s",
            "rms_err", "max_err", "energy_err", "status");
     for (int k = 0; k < nuse; ++k) {
-        const int is_tol = !strcmp(use[k], "sundials_ida");
+        const int is_tol = swept_by_tolerance(use[k]);
         const int nval = is_tol ? ntol : nh;
         for (int j = 0; j < nval; ++j) {
             point *p = &pts[npts++];
@@ -784,6 +836,10 @@ int defsim_tool_bench(int argc, char **argv)
     snprintf(png, sizeof png, "%s/%s.png", dir, b.s.name);
     snprintf(md, sizeof md, "%s/%s_pareto.md", dir, b.s.name);
     if (write_csv(pts, npts, csv) != 0 || write_pareto(&b, pts, npts, md) != 0) goto done;
+    double ref_err = 0.0;
+    char file_key[64];
+    read_key(path, file_key, &ref_err);
+    write_orders(&b, pts, npts, ref_err, md);
     printf("\nwrote %s, %s\n", csv, md);
     snprintf(title, sizeof title, "%s: %d vertices, T = %g s", b.s.name, (int)b.nv, b.T);
     if (!no_plot) plot(python, script, csv, png, title);

@@ -205,8 +205,9 @@ class World:
 
     Args:
         backend: integrator name: "explicit_euler", "symplectic_euler", "velocity_verlet"
-            (built in), "newton_cholmod", "newmark", "bdf2", "sundials_ida", "sundials_kinsol"
-            (modules), or one registered with the C API. Default "symplectic_euler".
+            (built in), "newton_cholmod", "newmark", "bdf2", "sundials_ida", "sundials_erk",
+            "sundials_kinsol" (modules), or one registered with the C API. Default
+            "symplectic_euler".
         gravity: (gx, gy, gz) in m/s^2. Default (0, -9.81, 0).
         num_threads: threads for force and Hessian assembly; 0: OpenMP's default.
         tolerance: relative tolerance of nonlinear solves. Default 1e-6.

@@ -1,0 +1,452 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * sundials_erk: adaptive explicit Runge-Kutta (SUNDIALS ARKODE ERKStep) with an embedded pair.
+ *
+ * The equations of motion over the free DOFs as the first-order ODE y' = F(y), y = [x, v]:
+ *     x' = v,    v' = M^-1 f(x, v)      (f: elastic + gravity + Rayleigh damping)
+ * integrated by an explicit embedded Runge-Kutta pair (default Dormand-Prince 5(4)). One
+ * defsim_world_step(h) is one ERKStepEvolve to t + h (ERKStepSetStopTime): as many internal steps
+ * as the tolerances and the stability limit need; ERKStep's step-size history is kept between
+ * calls and dropped (ERKStepReInit) when the host sets the state or a step fails.
+ *
+ * Tolerances are per second of simulated time, as in sundials_ida: the local error of an
+ * internal step of length h_i is held to (rtol |y| + atol) min(1, h_i / 1 s) through ERKStep's
+ * error-weight function, so the error after T seconds is about T times the tolerance and falls
+ * in proportion to it.
+ *
+ * Stability: for the undamped linearisation the eigenvalues of dF/dy are +-i omega, omega^2 the
+ * eigenvalues of M^-1 K; with Rayleigh damping c = alpha + beta omega^2 they are the roots of
+ * lambda^2 + c lambda + omega^2 = 0. An explicit method is stable when h lambda lies in its
+ * region |R(z)| <= 1, R(z) = 1 + z b^T (I - z A)^-1 1 the stability function of the table. The
+ * module estimates omega_max and c at the current state through the host (power iteration on
+ * M^-1 K(x), refreshed every STAB_REFRESH internal steps) and hands ERKStep the largest h whose
+ * h lambda stays in the region (ERKStepSetStabilityFn), so that on stiff scenes the step sits
+ * just under the stability limit instead of being found by rejected steps.
+ */
+#include "defsim/backend.h"
+
+#include "sundials_common.h"
+
+#include <arkode/arkode_erkstep.h>
+
+#include <complex.h>
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Time unit of the tolerances (s), and the smallest effective relative tolerance (ERKStep stops
+ * with ARK_TOO_MUCH_ACC near roundoff). */
+#define ERK_TOL_TIME 1.0
+#define ERK_TOL_FLOOR (500.0 * DBL_EPSILON)
+/* Internal steps between two estimates of omega_max at most (each is a power iteration, which
+ * costs as much as tens of internal steps). */
+#define STAB_REFRESH 1024
+/* Amplification per step allowed to the highest mode at the stability limit: |R(h lambda)| <=
+ * 1 + STAB_GROWTH. Most pairs' regions touch the imaginary axis only briefly (Dormand-Prince 5:
+ * up to |h omega| = 0.997) and then leave it slowly (|R| = 1.01 at 1.725), and the error test holds
+ * such slow growth of an undamped mode: at 1.01 the internal steps are as long as the error
+ * control alone would make them, without its rejected steps (README "Stability"). */
+#define STAB_GROWTH 1e-2
+
+/* The tables offered (ARKODE's embedded explicit pairs whose stability region contains a
+ * segment of the imaginary axis: an undamped elastic body has its spectrum there, so a pair
+ * without one, like Heun-Euler 2(1), is unstable at every step size). */
+typedef struct erk_table {
+    const char *name;
+    ARKODE_ERKTableID id;
+} erk_table;
+
+static const erk_table tables[] = {
+    {"dormand_prince_5", ARKODE_DORMAND_PRINCE_7_4_5},
+    {"bogacki_shampine_3", ARKODE_BOGACKI_SHAMPINE_4_2_3},
+    {"zonneveld_4", ARKODE_ZONNEVELD_5_3_4},
+    {"cash_karp_5", ARKODE_CASH_KARP_6_4_5},
+    {"verner_6", ARKODE_VERNER_8_5_6},
+    {"fehlberg_8", ARKODE_FEHLBERG_13_7_8},
+};
+#define TABLE_COUNT ((int)(sizeof tables / sizeof *tables))
+
+/* Options, in the order of erk_options. */
+enum { O_RTOL, O_ATOL, O_TABLE, O_MAX_STEPS, O_STAB_LIMIT, O_STAB_SAFETY, O_COUNT };
+
+static const defsim_option_spec erk_options[O_COUNT] = {
+    {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
+     "relative tolerance per second of simulated time"},
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1e300, NULL,
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities)"},
+    {"table", DEFSIM_OPTION_CHOICE, 0, 0, 0,
+     "dormand_prince_5|bogacki_shampine_3|zonneveld_4|cash_karp_5|verner_6|fehlberg_8",
+     "embedded pair (method order in the name): Dormand-Prince 5(4) by default"},
+    {"max_internal_steps", DEFSIM_OPTION_INT, 100000, 1, 2e9, NULL,
+     "internal steps allowed per defsim_world_step call"},
+    {"stability_limit", DEFSIM_OPTION_BOOL, 1, 0, 1, NULL,
+     "limit internal steps to the stability region at the estimated omega_max"},
+    {"stability_safety", DEFSIM_OPTION_REAL, 0.9, 0.01, 0.99, NULL,
+     "fraction of the stability limit used for an internal step"},
+};
+
+/* Counters, in the order of erk_counters. */
+enum { C_STEPS, C_ATTEMPTS, C_RHS, C_ETF, C_STAB_LIMITED, C_ACC_LIMITED, C_STAB_ESTIMATES,
+       C_ORDER, C_COUNT };
+
+static const defsim_counter_spec erk_counters[C_COUNT] = {
+    {"internal_steps", "accepted internal steps"},
+    {"step_attempts", "internal steps attempted (accepted + rejected)"},
+    {"rhs_evals", "evaluations of the right-hand side (force evaluations)"},
+    {"error_test_failures", "internal steps rejected by the error test"},
+    {"stability_limited_steps", "internal steps whose length the stability limit set"},
+    {"accuracy_limited_steps", "internal steps whose length the error estimate set"},
+    {"stability_estimates", "estimates of omega_max (power iterations)"},
+    {"order", "order of the table in use"},
+};
+
+typedef struct erk_counts {
+    long steps, attempts, rhs, etf, stab, acc;
+} erk_counts;
+
+typedef struct erk_state {
+    defsim__sun sun;           /* first: defsim__sun_reset reaches it through the state */
+    const defsim_host *host;
+    defsim_system *sys;
+    void *mem;                 /* ERKStep memory */
+    N_Vector y;
+    int64_t n, ndof;
+    const int64_t *free_dofs;
+    double *minv;              /* 1 / mass per free DOF */
+    double *x, *v, *f;         /* full DOF work arrays (pinned entries fixed) */
+    double rtol, atol;
+    int table;                 /* index into tables[] */
+    int order;
+    ARKodeButcherTable bt;     /* a copy of the table, for its stability function */
+    double t;
+    double h_stab;             /* last stability limit (s); 0: not estimated */
+    long stab_step, stab_etf, stab_exp;   /* ERKStep's step, error-test failure and
+                                             stability-limited step counts at that estimate */
+    erk_counts base;
+} erk_state;
+
+/* ------------------------------------------------------------------------------------------ */
+/* Stability function of a table and the stable step for a damped oscillator. */
+
+static double complex stability_R(const ARKodeButcherTable B, double complex z)
+{
+    double complex k[16];
+    double complex r = 1.0;
+    for (int i = 0; i < B->stages && i < 16; ++i) {
+        double complex s = 1.0;
+        for (int j = 0; j < i; ++j) s += B->A[i][j] * k[j];
+        k[i] = z * s;   /* stage derivative of y' = y, scaled by h */
+        r += B->b[i] * k[i];
+    }
+    return r;
+}
+
+/* Largest h > 0 such that |R(s lambda)| <= 1 + STAB_GROWTH for every s in (0, h]: scanned in
+ * steps of 1/512 of |lambda|^-1, then bisected. */
+static double ray_limit(const ARKodeButcherTable B, double complex lambda)
+{
+    const double mag = cabs(lambda);
+    if (!(mag > 0.0)) return INFINITY;
+    const double ds = 1.0 / 512.0, tol = STAB_GROWTH;
+    double lo = 0.0, hi = 0.0;
+    for (double s = ds; s <= 64.0; s += ds) {
+        if (cabs(stability_R(B, s * lambda / mag)) > 1.0 + tol) {
+            hi = s;
+            break;
+        }
+        lo = s;
+    }
+    if (hi == 0.0) return INFINITY;   /* stable along the whole ray scanned */
+    for (int it = 0; it < 50; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        if (cabs(stability_R(B, mid * lambda / mag)) > 1.0 + tol) hi = mid;
+        else lo = mid;
+    }
+    return lo / mag;
+}
+
+/* Stable step of table B for x'' = -omega^2 x - c x': both eigenvalues inside the region. */
+static double table_stable_step(const ARKodeButcherTable B, double omega, double c)
+{
+    if (!(omega > 0.0) && !(c > 0.0)) return INFINITY;
+    const double complex disc = csqrt((double complex)(c * c - 4.0 * omega * omega));
+    const double complex l1 = 0.5 * (-c + disc), l2 = 0.5 * (-c - disc);
+    return fmin(ray_limit(B, l1), ray_limit(B, l2));
+}
+
+/* The backend table's stable_step op has no access to a world's options, so it reports the
+ * default table (Dormand-Prince 5(4)); worlds with another table limit their internal steps by
+ * that table's region all the same (erk_stability). */
+static double erk_stable_step(double omega, double c)
+{
+    ARKodeButcherTable B = ARKodeButcherTable_LoadERK(tables[0].id);
+    if (!B) return 0.0;
+    const double h = table_stable_step(B, omega, c);
+    ARKodeButcherTable_Free(B);
+    return h;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* ERKStep callbacks */
+
+static void count(erk_state *s, int which, double value)
+{
+    defsim__sun_count(s->host, s->sys, which, value);
+}
+
+static void scatter(erk_state *s, const double *y)
+{
+    defsim__sun_scatter(s->free_dofs, s->n, y, s->x, s->v);
+}
+
+static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
+{
+    (void)t;
+    erk_state *s = user;
+    const double *y = N_VGetArrayPointer(yy);
+    double *d = N_VGetArrayPointer(yd);
+    scatter(s, y);
+    /* Non-finite forces: recoverable, ERKStep retries with a shorter step. */
+    if (s->host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
+    const int64_t n = s->n;
+    for (int64_t i = 0; i < n; ++i) {
+        d[i] = y[n + i];
+        d[n + i] = s->f[s->free_dofs[i]] * s->minv[i];
+    }
+    return 0;
+}
+
+/* The stability limit at y: omega_max and the damping rate from the host. The spectrum of an
+ * elastic body changes slowly with its shape, so the estimate is kept until STAB_REFRESH steps
+ * later, or until a step fails the error test while the limit is what sets the steps (the body
+ * stiffened under it). */
+static int erk_stability(N_Vector yy, realtype t, realtype *hstab, void *user)
+{
+    (void)t;
+    erk_state *s = user;
+    long nst = 0, netf = 0, nexp = 0;
+    ERKStepGetNumSteps(s->mem, &nst);
+    ERKStepGetNumErrTestFails(s->mem, &netf);
+    ERKStepGetNumExpSteps(s->mem, &nexp);
+    const int stiffened = netf > s->stab_etf && nexp > s->stab_exp;
+    if (s->h_stab <= 0.0 || nst - s->stab_step >= STAB_REFRESH || stiffened) {
+        scatter(s, N_VGetArrayPointer(yy));
+        double omega = 0.0, c = 0.0;
+        if (s->host->omega_max(s->sys, s->x, &omega, &c) != DEFSIM_OK) {
+            *hstab = 0.0;   /* no estimate: no limit; the error test still holds */
+            return 0;
+        }
+        s->h_stab = table_stable_step(s->bt, omega, c);
+        s->stab_step = nst;
+        s->stab_etf = netf;
+        s->stab_exp = nexp;
+        s->host->stats(s->sys)->stable_step = s->h_stab;
+        count(s, C_STAB_ESTIMATES, 1.0);
+    }
+    *hstab = isfinite(s->h_stab) ? s->h_stab : 0.0;
+    return 0;
+}
+
+/* Error weights 1 / ((rtol |y_i| + atol) s), s = min(1, h / ERK_TOL_TIME) with h the last
+ * internal step (ERKStep sets the weights before each step; the next step is close to the last
+ * one) or, before the first step, the stability limit. */
+static int erk_weights(N_Vector yv, N_Vector ewt, void *user)
+{
+    erk_state *s = user;
+    long nst = 0;
+    realtype h = 0.0;
+    ERKStepGetNumSteps(s->mem, &nst);
+    if (nst > 0) ERKStepGetLastStep(s->mem, &h);
+    else if (s->h_stab > 0.0 && isfinite(s->h_stab)) h = s->h_stab;
+    double f = h > 0.0 ? fabs(h) / ERK_TOL_TIME : 1.0;
+    if (f > 1.0) f = 1.0;
+    if (f * s->rtol < ERK_TOL_FLOOR) f = ERK_TOL_FLOOR / s->rtol;
+    const double *y = N_VGetArrayPointer(yv);
+    double *w = N_VGetArrayPointer(ewt);
+    for (int64_t i = 0; i < 2 * s->n; ++i) w[i] = 1.0 / (f * (s->rtol * fabs(y[i]) + s->atol));
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Set-up, stepping */
+
+/* Adds ERKStep's counters since the last read to the world's statistics and counters. */
+static void update_stats(erk_state *s)
+{
+    erk_counts c = {0, 0, 0, 0, 0, 0};
+    long nfe = 0;
+    ERKStepGetNumSteps(s->mem, &c.steps);
+    ERKStepGetNumStepAttempts(s->mem, &c.attempts);
+    ERKStepGetNumRhsEvals(s->mem, &nfe);
+    ERKStepGetNumErrTestFails(s->mem, &c.etf);
+    ERKStepGetNumExpSteps(s->mem, &c.stab);
+    ERKStepGetNumAccSteps(s->mem, &c.acc);
+    c.rhs = nfe;
+    defsim_stats *st = s->host->stats(s->sys);
+    st->internal_steps += c.steps - s->base.steps;
+    st->residual_evals += c.rhs - s->base.rhs;
+    st->error_test_failures += c.etf - s->base.etf;
+    if (c.steps > 0) st->last_order = s->order;
+    count(s, C_STEPS, (double)(c.steps - s->base.steps));
+    count(s, C_ATTEMPTS, (double)(c.attempts - s->base.attempts));
+    count(s, C_RHS, (double)(c.rhs - s->base.rhs));
+    count(s, C_ETF, (double)(c.etf - s->base.etf));
+    count(s, C_STAB_LIMITED, (double)(c.stab - s->base.stab));
+    count(s, C_ACC_LIMITED, (double)(c.acc - s->base.acc));
+    double *cs = defsim__sun_counters(s->host, s->sys);
+    if (cs) cs[C_ORDER] = s->order;   /* a level, not a sum */
+    s->base = c;
+}
+
+static defsim_status erk_fail(erk_state *s, const char *call, int flag)
+{
+    char *name = ERKStepGetReturnFlagName(flag);   /* malloc'd by ARKODE */
+    realtype tcur = s->t;
+    if (s->mem) ERKStepGetCurrentTime(s->mem, &tcur);
+    defsim__sun_fail(&s->sun, "sundials_erk", call, name, flag, tcur);
+    free(name);
+    s->sun.need_reinit = 1;
+    return DEFSIM_ERR_NOT_CONVERGED;
+}
+
+/* Restarts ERKStep from the world's state (a fresh step-size history). */
+static defsim_status erk_restart(erk_state *s)
+{
+    const size_t bytes = (size_t)s->ndof * sizeof(double);
+    memcpy(s->x, s->host->positions(s->sys), bytes);
+    memcpy(s->v, s->host->velocities(s->sys), bytes);
+    defsim__sun_gather(s->free_dofs, s->n, s->x, s->v, N_VGetArrayPointer(s->y));
+    s->t = s->host->time(s->sys);
+    int flag = ERKStepReInit(s->mem, erk_rhs, s->t, s->y);
+    if (flag < 0) return erk_fail(s, "ERKStepReInit", flag);
+    memset(&s->base, 0, sizeof s->base);
+    s->h_stab = 0.0;
+    s->sun.need_reinit = 0;
+    return DEFSIM_OK;
+}
+
+static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)sys;
+    erk_state *s = state;
+    if (s->mem) ERKStepFree(&s->mem);
+    s->mem = NULL;
+    if (s->y) N_VDestroy(s->y);
+    s->y = NULL;
+    if (s->bt) ARKodeButcherTable_Free(s->bt);
+    s->bt = NULL;
+    defsim__sun_close(&s->sun);
+    host->release(s->minv); host->release(s->x); host->release(s->v); host->release(s->f);
+    s->minv = s->x = s->v = s->f = NULL;
+}
+
+#define SET(call)                                                                             \
+    do {                                                                                      \
+        int flag_ = (call);                                                                   \
+        if (flag_ < 0) {                                                                      \
+            erk_fail(s, #call, flag_);                                                        \
+            return flag_ == ARK_MEM_FAIL ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
+        }                                                                                     \
+    } while (0)
+
+static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void *state)
+{
+    erk_state *s = state;
+    s->host = host;
+    s->sys = sys;
+    s->n = host->free_dof_count(sys);
+    s->ndof = host->dof_count(sys);
+    s->free_dofs = host->free_dofs(sys);
+    s->sun.need_reinit = 1;
+    if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
+    double o[O_COUNT];
+    defsim__sun_options(host, sys, erk_options, O_COUNT, o);
+    s->rtol = o[O_RTOL];
+    s->atol = o[O_ATOL];
+    s->table = (int)o[O_TABLE];
+    if (s->table < 0 || s->table >= TABLE_COUNT) s->table = 0;
+    const size_t n = (size_t)s->n, nd = (size_t)s->ndof;
+    s->minv = defsim__sun_calloc(host, n, sizeof *s->minv);
+    s->x = defsim__sun_calloc(host, nd, sizeof *s->x);
+    s->v = defsim__sun_calloc(host, nd, sizeof *s->v);
+    s->f = defsim__sun_calloc(host, nd, sizeof *s->f);
+    s->bt = ARKodeButcherTable_LoadERK(tables[s->table].id);
+    if (!s->minv || !s->x || !s->v || !s->f || !s->bt) {
+        host->set_error(sys, "sundials_erk: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    s->order = s->bt->q;
+    const double *m = host->mass(sys);
+    for (int64_t i = 0; i < s->n; ++i) s->minv[i] = 1.0 / m[s->free_dofs[i]];
+
+    defsim_status st = defsim__sun_open(&s->sun, host, sys);
+    if (st != DEFSIM_OK) return st;
+    s->y = N_VNew_Serial((sunindextype)(2 * s->n), s->sun.ctx);
+    if (!s->y) {
+        host->set_error(sys, "sundials_erk: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    N_VConst(0.0, s->y);
+    s->mem = ERKStepCreate(erk_rhs, host->time(sys), s->y, s->sun.ctx);
+    if (!s->mem) {
+        host->set_error(sys, "sundials_erk: ERKStepCreate failed (out of memory)");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    SET(ERKStepSetErrHandlerFn(s->mem, defsim__sun_error_handler, &s->sun));
+    SET(ERKStepSetUserData(s->mem, s));
+    SET(ERKStepWFtolerances(s->mem, erk_weights));
+    SET(ERKStepSetTableNum(s->mem, tables[s->table].id));
+    SET(ERKStepSetMaxNumSteps(s->mem, (long)o[O_MAX_STEPS]));
+    if (o[O_STAB_LIMIT] != 0.0) {
+        SET(ERKStepSetStabilityFn(s->mem, erk_stability, s));
+        SET(ERKStepSetCFLFraction(s->mem, o[O_STAB_SAFETY]));
+    }
+    return DEFSIM_OK;
+}
+
+static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+{
+    erk_state *s = state;
+    if (s->n == 0) return DEFSIM_OK;
+    if (s->sun.need_reinit) {
+        defsim_status st = erk_restart(s);
+        if (st != DEFSIM_OK) return st;
+    }
+    const double tout = s->t + h;
+    int flag = ERKStepSetStopTime(s->mem, tout);
+    if (flag < 0) return erk_fail(s, "ERKStepSetStopTime", flag);
+    realtype tret = s->t;
+    s->sun.msg[0] = '\0';
+    flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
+    update_stats(s);
+    if (flag < 0) return erk_fail(s, "ERKStepEvolve", flag);
+    defsim__sun_scatter(s->free_dofs, s->n, N_VGetArrayPointer(s->y), host->positions(sys),
+                        host->velocities(sys));
+    s->t = tout;
+    return DEFSIM_OK;
+}
+
+static const defsim_backend erk_backend = {
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
+    .struct_size = sizeof(defsim_backend),
+    .name = "sundials_erk",
+    .flags = DEFSIM_BACKEND_ADAPTIVE,
+    .state_size = sizeof(erk_state),
+    .init = erk_init,
+    .step = erk_step,
+    .fini = erk_fini,
+    .reset = defsim__sun_reset,
+    .stable_step = erk_stable_step,
+    .options = erk_options,
+    .option_count = O_COUNT,
+    .counters = erk_counters,
+    .counter_count = C_COUNT,
+};
+
+__attribute__((visibility("default"))) defsim_status defsim_module_init(
+    const defsim_host *host, const defsim_backend **out)
+{
+    return defsim__sun_module(host, out, &erk_backend);
+}

@@ -383,6 +383,42 @@ static int available(const char *backend)
     return 1;
 }
 
+/* A force that varies in time, F sin(omega t) on every vertex: the momentum at T is
+ * sum F (1 - cos omega T) / omega, and a backend that evaluates forces within its step must hand
+ * the callback the time of each evaluation to get it to its order: velocity Verlet (second
+ * order: the end of the step for its second force) and sundials_erk (the stage times). */
+static int cb_sine(void *user, const double *x, const double *v, double t, int32_t n, double *f)
+{
+    (void)x; (void)v;
+    const double *F = user;
+    for (int i = 0; i < 3 * n; ++i) f[i] += F[i] * sin(5.0 * t);
+    return 0;
+}
+
+static void test_callback_time(void **state)
+{
+    (void)state;
+    const char *backends[2] = {"velocity_verlet", "sundials_erk"};
+    for (int b = 0; b < 2; ++b) {
+        if (!available(backends[b])) continue;
+        defsim_world *w = world_def(backends[b], 0.0, 1e-6);
+        add_beam(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+        const int n = defsim_world_vertex_count(w);
+        double *F = random_forces(n, 1.0, 41), sum[3] = {0, 0, 0}, p[3];
+        for (int i = 0; i < 3 * n; ++i) sum[i % 3] += F[i];
+        TU_OK(defsim_world_set_force_callback(w, cb_sine, NULL, F));
+        const double h = 2e-3;
+        for (int s = 0; s < 200; ++s) TU_OK(defsim_world_step(w, h));
+        momentum(w, p);
+        const double T = defsim_world_time(w), g = (1.0 - cos(5.0 * T)) / 5.0;
+        for (int k = 0; k < 3; ++k)
+            if (!(fabs(p[k] - sum[k] * g) <= 1e-4 * fabs(sum[k] * g)))
+                fail_msg("%s: momentum[%d] %.9g, want %.9g", backends[b], k, p[k], sum[k] * g);
+        free(F);
+        defsim_world_destroy(w);
+    }
+}
+
 /* Implicit backends, no Jacobian: the callback is called once per step, at the start, and held:
  * the same trajectory as held external forces set to its value before each step. */
 static void test_callback_implicit_held(void **state)
@@ -1044,6 +1080,7 @@ int main(void)
         cmocka_unit_test(test_external_carried),
         cmocka_unit_test(test_external_zero_skipped),
         cmocka_unit_test(test_callback_explicit),
+        cmocka_unit_test(test_callback_time),
         cmocka_unit_test(test_callback_implicit_held),
         cmocka_unit_test(test_callback_implicit_jacobian),
         cmocka_unit_test(test_callback_failures),

@@ -125,9 +125,6 @@ typedef struct erk_state {
     long stab_step, stab_etf, stab_exp;   /* ERKStep's step, error-test failure and
                                              stability-limited step counts at that estimate */
     erk_counts base;
-    int coupled;               /* the host has the coupling services (forces_at, ...) */
-    const double *pv;          /* this step's driven-pin velocities, or NULL */
-    int drove;                 /* the last step drove pins */
 } erk_state;
 
 /* ------------------------------------------------------------------------------------------ */
@@ -204,31 +201,17 @@ static void scatter(erk_state *s, const double *y)
     defsim__sun_scatter(s->free_dofs, s->n, y, s->x, s->v);
 }
 
-/* Driven pins are not unknowns: the right-hand side places them on their paths at the stage
- * time t (their velocities are in s->v from the restart), and the forces see t. Their velocities
- * change from step to step, so a step that drives pins, or follows one that did, restarts
- * ERKStep from the world's state. Returns 1 for a restart. */
-static int erk_drive_begin(erk_state *s)
-{
-    if (!s->coupled) return 0;
-    s->pv = s->host->pin_velocities(s->sys);
-    const int restart = s->pv != NULL || s->drove;
-    s->drove = s->pv != NULL;
-    return restart;
-}
-
 static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
 {
     erk_state *s = user;
     const double *y = N_VGetArrayPointer(yy);
     double *d = N_VGetArrayPointer(yd);
     scatter(s, y);
-    if (s->pv) s->host->pin_positions(s->sys, t, s->x);
-    const defsim_status st =
-        s->coupled ? s->host->forces_at(s->sys, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f)
-                   : s->host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f);
+    /* Driven pins are not unknowns: on their paths at the stage time (their velocities are in
+     * s->v from the restart, which each step that drives pins makes). */
+    if (s->sun.pv) s->host->pin_positions(s->sys, t, s->x);
     /* Non-finite forces: recoverable, ERKStep retries with a shorter step. */
-    if (st != DEFSIM_OK) return 1;
+    if (defsim__sun_forces(&s->sun, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
     const int64_t n = s->n;
     for (int64_t i = 0; i < n; ++i) {
         d[i] = y[n + i];
@@ -374,8 +357,6 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
 {
     erk_state *s = state;
     s->host = host;
-    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
-                                   sizeof host->applied_forces_vary;
     s->sys = sys;
     s->n = host->free_dof_count(sys);
     s->ndof = host->dof_count(sys);
@@ -431,7 +412,7 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
 {
     erk_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
-    if (erk_drive_begin(s)) s->sun.need_reinit = 1;
+    defsim__sun_drive_begin(&s->sun, 1);
     if (s->sun.need_reinit) {
         defsim_status st = erk_restart(s);
         if (st != DEFSIM_OK) return st;

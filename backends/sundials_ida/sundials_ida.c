@@ -118,30 +118,7 @@ typedef struct ida_state {
     SUNMatrix token;           /* the matrix IDA sees (no storage) */
     double t;                  /* IDA's time at the last return */
     ida_counts base;
-    int coupled;               /* the host has the coupling services (forces_at, ...) */
-    const double *pv;          /* this step's driven-pin velocities, or NULL */
-    int drove;                 /* the last step drove pins */
 } ida_state;
-
-/* Forces at time t (the host's force callback sees it). */
-static defsim_status ida_forces(ida_state *s, double t)
-{
-    if (!s->coupled) return s->host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f);
-    return s->host->forces_at(s->sys, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f);
-}
-
-/* Driven pins are not unknowns of IDA: the residual places them on their paths at its time t
- * (their velocities are in s->v from the restart). Their velocities change from step to step,
- * a kink in the residual's time dependence, so a step that drives pins, or follows one that
- * did, restarts IDA with y' consistent with the new velocities. Returns 1 for a restart. */
-static int ida_drive_begin(ida_state *s)
-{
-    if (!s->coupled) return 0;
-    s->pv = s->host->pin_velocities(s->sys);
-    const int restart = s->pv != NULL || s->drove;
-    s->drove = s->pv != NULL;
-    return restart;
-}
 
 static void scatter(ida_state *s, const double *y)
 {
@@ -154,9 +131,11 @@ static int ida_residual(realtype t, N_Vector yy, N_Vector yp, N_Vector rr, void 
     const double *y = N_VGetArrayPointer(yy), *yd = N_VGetArrayPointer(yp);
     double *r = N_VGetArrayPointer(rr);
     scatter(s, y);
-    if (s->pv) s->host->pin_positions(s->sys, t, s->x);
+    /* Driven pins are not unknowns: on their paths at time t (their velocities are in s->v
+     * from the restart, which each step that drives pins makes). */
+    if (s->sun.pv) s->host->pin_positions(s->sys, t, s->x);
     /* Non-finite forces (an inverted neo-Hookean element): recoverable, IDA cuts the step. */
-    if (ida_forces(s, t) != DEFSIM_OK) return 1;
+    if (defsim__sun_forces(&s->sun, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
     const int64_t n = s->n;
     for (int64_t i = 0; i < n; ++i) {
         r[i] = yd[i] - y[n + i];
@@ -497,7 +476,8 @@ static defsim_status ida_restart(ida_state *s)
     const defsim_host *host = s->host;
     memcpy(s->x, host->positions(s->sys), (size_t)s->ndof * sizeof *s->x);
     memcpy(s->v, host->velocities(s->sys), (size_t)s->ndof * sizeof *s->v);
-    if (ida_forces(s, host->time(s->sys)) != DEFSIM_OK) {
+    if (defsim__sun_forces(&s->sun, s->x, s->v, host->time(s->sys), DEFSIM_FORCE_ALL, s->f) !=
+        DEFSIM_OK) {
         host->set_error(s->sys, "sundials_ida: the forces at the initial state are not finite");
         return DEFSIM_ERR_UNSTABLE;
     }
@@ -598,8 +578,6 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
 {
     ida_state *s = state;
     s->host = host;
-    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
-                                   sizeof host->applied_forces_vary;
     s->sys = sys;
     s->n = host->free_dof_count(sys);
     s->ndof = host->dof_count(sys);
@@ -677,7 +655,7 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
 {
     ida_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
-    if (ida_drive_begin(s)) s->sun.need_reinit = 1;
+    defsim__sun_drive_begin(&s->sun, 1);
     if (s->sun.need_reinit) {
         defsim_status st = ida_restart(s);
         if (st != DEFSIM_OK) return st;

@@ -71,9 +71,7 @@ typedef struct kin_state {
     double *bval;              /* B(x_n) values on the pattern (damp_b only) */
     double h;
     double tolerance;
-    int coupled;               /* the host has the coupling services (pin_positions, ...) */
     int vary;                  /* this step: applied forces depend on x, evaluated per residual */
-    const double *pv;          /* this step's driven-pin velocities, or NULL */
     double *fpd;               /* -B(x_n) v_pins on the free DOFs (full DOF array) */
 } kin_state;
 
@@ -95,7 +93,7 @@ static int kin_residual(N_Vector uu, N_Vector ff, void *user)
     if (s->host->forces(s->sys, s->x, NULL, DEFSIM_FORCE_ELASTIC, s->fel) != DEFSIM_OK) return 1;
     if (s->vary) {
         if (s->host->forces(s->sys, s->x, NULL, DEFSIM_FORCE_GRAVITY, s->fg) != DEFSIM_OK) return 1;
-        if (s->pv && s->damp_b)
+        if (s->sun.pv && s->damp_b)
             for (int64_t i = 0; i < n; ++i) s->fg[s->free_dofs[i]] += s->fpd[s->free_dofs[i]];
     }
     for (int64_t i = 0; i < n; ++i) {
@@ -221,11 +219,9 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     s->fel = defsim__sun_calloc(host, nd, sizeof *s->fel);
     s->fg = defsim__sun_calloc(host, nd, sizeof *s->fg);
     s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)s->kpat.nnz, sizeof *s->bval) : NULL;
-    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
-                                   sizeof host->applied_forces_vary;
-    s->fpd = s->coupled && s->damp_b ? defsim__sun_calloc(host, nd, sizeof *s->fpd) : NULL;
+    s->fpd = s->damp_b ? defsim__sun_calloc(host, nd, sizeof *s->fpd) : NULL;
     if (!s->mf || !s->cf || !s->du || !s->xn || !s->vn || !s->x || !s->fel || !s->fg ||
-        (s->damp_b && !s->bval) || (s->coupled && s->damp_b && !s->fpd)) {
+        (s->damp_b && (!s->bval || !s->fpd))) {
         host->set_error(sys, "sundials_kinsol: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -277,15 +273,16 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
     memcpy(s->vn, host->velocities(sys), bytes);
     memcpy(s->x, s->xn, bytes);
     s->h = h;
-    s->pv = s->coupled ? host->pin_velocities(sys) : NULL;
-    s->vary = s->coupled && host->applied_forces_vary(sys);
-    if (s->pv) host->pin_positions(sys, host->time(sys) + h, s->x);
+    defsim__sun_drive_begin(&s->sun, 0);
+    const double *pv = s->sun.pv;
+    s->vary = s->sun.coupled && host->applied_forces_vary(sys);
+    if (pv) host->pin_positions(sys, host->time(sys) + h, s->x);
     if (host->forces(sys, s->xn, NULL, DEFSIM_FORCE_GRAVITY, s->fg) != DEFSIM_OK) {
         host->set_error(sys, "sundials_kinsol: non-finite external forces");
         return DEFSIM_ERR_UNSTABLE;
     }
-    if (s->pv && s->damp_b) {
-        if (host->forces(sys, s->xn, s->pv, DEFSIM_FORCE_DAMPING, s->fpd) != DEFSIM_OK) {
+    if (pv && s->damp_b) {
+        if (host->forces(sys, s->xn, pv, DEFSIM_FORCE_DAMPING, s->fpd) != DEFSIM_OK) {
             host->set_error(sys, "sundials_kinsol: non-finite damping of the driven pins");
             return DEFSIM_ERR_UNSTABLE;
         }

@@ -27,6 +27,19 @@ static inline void tet_gradients(const double *dminv, double g[4][3])
     }
 }
 
+/* Attachment e's combination sum_j a_j u[node_j] (u = x or v), minus its world point p when
+ * `point` is set: the spring's stretch d (x) or its rate (v). */
+static inline void attach_combine(const defsim__attachments *at, int32_t e, const double *u,
+                                  int point, double d[3])
+{
+    const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+    const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+    for (int i = 0; i < 3; ++i) d[i] = point ? -at->p[3 * (int64_t)e + i] : 0.0;
+    for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+        if (nd[j] >= 0)
+            for (int i = 0; i < 3; ++i) d[i] += a[j] * u[3 * (int64_t)nd[j] + i];
+}
+
 /* F = Ds Dm^-1 with Ds = [x0 - x3, x1 - x3, x2 - x3] (columns). */
 static inline void tet_deformation(const double *x, const int32_t *id, const double *dminv,
                                    double F[9])

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Energies of a compiled system: elastic and potential, as deterministic blocked sums. */
+/* Energies of a compiled system: elastic (with attachment springs) and potential (with
+ * gravity), as deterministic blocked sums. */
 #include "energy.h"
 
 #include "element.h"
@@ -39,6 +40,12 @@ double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const d
             part[b] = sum;
         }
         for (int32_t b = 0; b < nb; ++b) total += part[b];
+    }
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        double d[3];
+        attach_combine(at, e, x, 1, d);
+        total += 0.5 * at->k[e] * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     }
     return isnan(total) ? INFINITY : total;
 }

@@ -19,6 +19,8 @@ typedef struct defsim__plan_input {
     const struct defsim__tet_kernels *tet_kernels;  /* batched force kernels; NULL: scalar */
     int32_t nthreads;
     int need_matrix;              /* build the sparse pattern now */
+    const defsim__attachment *attachments;   /* live ones have an odd generation */
+    int32_t nattachments;
 } defsim__plan_input;
 
 /* Compiles `in` into s and sizes wk (freeing what they held). On failure both are left empty

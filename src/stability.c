@@ -60,5 +60,19 @@ double defsim__damping_coeff(const defsim__system *s, double omega)
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
         for (int32_t e = 0; e < s->groups[m].n; ++e)
             if (s->groups[m].beta[e] > beta) beta = s->groups[m].beta[e];
+    /* An attachment's damper acts on its nodes at a rate of at most c sum_j a_j^2 / min m. */
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        if (at->c[e] == 0.0) continue;
+        double a2 = 0.0, mmin = INFINITY;
+        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j) {
+            const int32_t v = at->node[DEFSIM__ATTACH_NODES * (int64_t)e + j];
+            if (v < 0 || s->pinned[v]) continue;
+            const double a = at->a[DEFSIM__ATTACH_NODES * (int64_t)e + j];
+            a2 += a * a;
+            if (s->mass[v] < mmin) mmin = s->mass[v];
+        }
+        if (a2 > 0.0 && at->c[e] * a2 / mmin > alpha) alpha = at->c[e] * a2 / mmin;
+    }
     return alpha + beta * omega * omega;
 }

@@ -11,7 +11,8 @@ defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const
                                 double *omega);
 
 /* The damping coefficient c = alpha + beta omega^2 of the stiffest mode (1/s): the largest
- * mass damping of a free DOF and stiffness damping of an element. */
+ * mass damping of a free DOF (or damping rate of an attachment's damper) and stiffness damping
+ * of an element. */
 double defsim__damping_coeff(const defsim__system *s, double omega);
 
 #endif /* DEFSIM_STABILITY_H */

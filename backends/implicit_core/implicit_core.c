@@ -133,6 +133,10 @@ typedef struct ic_solver {
     double *hval;              /* Hessian values, pat.nnz */
     double *x, *xt;            /* dof_count */
     double *grad, *dx;         /* free DOFs */
+    int coupled;               /* the host has the coupling services (pin_positions, ...) */
+    const int64_t *dof_free;   /* DOF -> free index or -1 */
+    double *dpin, *fpd;        /* driven pins: x_p - z_p, and -B(x_b) (x_p - z_p) on free DOFs */
+    int fpd_on;                /* this step's g has the pins' damping cross term */
     cholmod_common cc;
     int cc_started;
     cholmod_sparse A;          /* wraps pat and hval */
@@ -155,7 +159,7 @@ static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
     }
     defsim__ic_solver *p = &s->pub;
     double *owned[] = {s->hval, p->bval, p->x0, p->v0, p->y, p->z, s->x, s->xt, p->f,
-                       s->grad, s->dx, p->e, p->be};
+                       s->grad, s->dx, p->e, p->be, s->dpin, s->fpd};
     for (size_t k = 0; k < sizeof owned / sizeof *owned; ++k) host->release(owned[k]);
     for (int k = 0; k < DEFSIM__IC_MAX_WORK; ++k) host->release(p->work[k]);
     host->release(s);
@@ -284,6 +288,14 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
         p->bval = alloc_doubles(host, s->pat.nnz);
         if (!p->bval) return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
+                                   sizeof host->applied_forces_vary;
+    s->dof_free = host->dof_to_free(sys);
+    if (s->coupled && s->stiffness_damping) {
+        s->dpin = alloc_doubles(host, p->ndof);
+        s->fpd = alloc_doubles(host, p->ndof);
+        if (!s->dpin || !s->fpd) return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
 
     cholmod_l_start(&s->cc);
     s->cc_started = 1;
@@ -377,6 +389,7 @@ void defsim__ic_damping_product(const defsim__ic_solver *p, const double *in, do
 defsim_status defsim__ic_damping_matrix(defsim__ic_solver *p, const defsim_host *host,
                                         defsim_system *sys, const double *xb)
 {
+    p->xb = xb;
     if (!p->bval) return DEFSIM_OK;
     const defsim_matrix_coeffs cb = {0.0, 1.0, 0.0, 0.0};
     return host->matrix_values(sys, xb, &cb, DEFSIM_TRIANGLE_UPPER, p->bval);
@@ -406,6 +419,7 @@ static double merit(ic_solver *s, const defsim__ic_targets *st, const defsim_hos
         inertia += p->mass[i] * d * d;
         damping += p->alpha[i] * p->mass[i] * e * e;
         if (p->bval) damping += e * p->be[k];
+        if (s->fpd_on) damping -= 2.0 * e * s->fpd[i];
         grav += p->mass[i] * fabs(s->gravity[i % 3] * x[i]);
     }
     inertia = st->cm * inertia / (2.0 * h * h);
@@ -427,6 +441,7 @@ static defsim_status gradient(ic_solver *s, const defsim__ic_targets *st, const 
     for (int64_t k = 0; k < p->n; ++k) {
         const int64_t i = p->fdof[k];
         double damping = p->alpha[i] * p->mass[i] * p->e[k] + (p->bval ? p->be[k] : 0.0);
+        if (s->fpd_on) damping -= s->fpd[i];
         s->grad[k] = p->mass[i] * (x[i] - st->y[i]) * ih2 - p->f[i] + damping * ih;
     }
     return DEFSIM_OK;
@@ -556,6 +571,21 @@ static defsim_status fail(const ic_solver *s, const defsim_host *host, defsim_sy
     return st;
 }
 
+/* Driven pins move their DOFs from z_p to x_p over the step; through the damping term of g,
+ * c_d/(2h) |x - z|^2_D, that motion pulls on the free DOFs: the cross term c_d/h e . D_fp
+ * (x_p - z_p) = -c_d/h e . fpd with fpd = -B(x_b) (x_p - z_p) on the free rows (the forces'
+ * damping part at x_b with that velocity-like vector; alpha M is diagonal and adds nothing). */
+static defsim_status pin_damping(ic_solver *s, const defsim__ic_targets *stp,
+                                 const defsim_host *host, defsim_system *sys)
+{
+    defsim__ic_solver *p = &s->pub;
+    s->fpd_on = p->pin_vel != NULL && p->bval != NULL && s->dpin != NULL;
+    if (!s->fpd_on) return DEFSIM_OK;
+    for (int64_t i = 0; i < p->ndof; ++i)
+        s->dpin[i] = s->dof_free[i] < 0 ? s->x[i] - stp->z[i] : 0.0;
+    return host->forces(sys, p->xb, s->dpin, DEFSIM_FORCE_DAMPING, s->fpd);
+}
+
 /* The Newton loop on g from the scheme's guess; on success x holds the minimiser. */
 static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const defsim_host *host,
                               defsim_system *sys, double h)
@@ -565,12 +595,18 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     const size_t bytes = (size_t)p->ndof * sizeof(double);
 
     /* Start from the scheme's guess; where its energy is undefined (an inverted neo-Hookean
-     * element), from x_n. Pinned DOFs have v = 0, so they stay at x_n throughout. */
+     * element), from x_n. Pinned DOFs stay at x_n throughout, driven ones at their end-of-step
+     * positions (Dirichlet values). */
+    const double t_end = s->coupled ? host->time(sys) + h : 0.0;
     memcpy(s->x, stp->guess, bytes);
+    if (p->pin_vel) host->pin_positions(sys, t_end, s->x);
+    defsim_status pst = pin_damping(s, stp, host, sys);
+    if (pst != DEFSIM_OK) return fail(s, host, sys, pst, "non-finite damping of the driven pins");
     double scale = 0.0;
     double gx = merit(s, stp, host, sys, s->x, h, &scale);
     if (!isfinite(gx)) {
         memcpy(s->x, p->x0, bytes);
+        if (p->pin_vel) host->pin_positions(sys, t_end, s->x);
         gx = merit(s, stp, host, sys, s->x, h, &scale);
         if (!isfinite(gx))
             return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED,
@@ -646,6 +682,7 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
     const size_t bytes = (size_t)p->ndof * sizeof(double);
     memcpy(p->x0, xw, bytes);
     memcpy(p->v0, vw, bytes);
+    p->pin_vel = s->coupled ? host->pin_velocities(sys) : NULL;
 
     defsim__ic_targets stp = {0};
     defsim_status st = p->scheme->prepare(p, host, sys, h, &stp);

@@ -61,6 +61,9 @@ struct defsim__ic_solver {
     double *e, *be;            /* free-DOF scratch, free in prepare */
     double *bval;              /* B(x_b), pattern's nnz (NULL without stiffness damping) */
     double *work[DEFSIM__IC_MAX_WORK];
+    const double *pin_vel;     /* driven pins' velocities over this step (all DOFs, zero on the
+                                  free ones), or NULL: set by the core before prepare */
+    const double *xb;          /* where defsim__ic_damping_matrix last froze B */
     double history_h;          /* scheme history: step of the last accepted step */
     int history_valid;         /* cleared by init, reset and failed steps */
     double *counters;          /* the backend's counters (core's, then the scheme's) */

@@ -23,13 +23,25 @@ static defsim_status nm_prepare(defsim__ic_solver *s, const defsim_host *host,
     /* B at the predicted midpoint keeps the damping term second order. */
     defsim_status status = defsim__ic_damping_matrix(s, host, sys, z);
     if (status != DEFSIM_OK) return status;
-    status = host->forces(sys, s->x0, NULL, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY, s->f);
+    /* f(x_n) at t_n: the force callback, if any, sees the start of the step. */
+    const int coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
+                                          sizeof host->applied_forces_vary;
+    const uint32_t which = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
+    status = coupled ? host->forces_at(sys, s->x0, NULL, host->time(sys), which, s->f)
+                     : host->forces(sys, s->x0, NULL, which, s->f);
     if (status != DEFSIM_OK) return status;
     for (int64_t k = 0; k < s->n; ++k) s->e[k] = s->v0[s->fdof[k]];
     defsim__ic_damping_product(s, s->e, s->be);
+    /* Driven pins damp the free DOFs too: -B(z) v_pins on the free rows. */
+    double *fpin = s->work[1];
+    const int pins = s->pin_vel && s->bval;
+    if (pins && (status = host->forces(sys, z, s->pin_vel, DEFSIM_FORCE_DAMPING, fpin)) != DEFSIM_OK)
+        return status;
     for (int64_t k = 0; k < s->n; ++k) {
         const int64_t i = s->fdof[k];
-        const double a = (s->f[i] - s->alpha[i] * s->mass[i] * s->v0[i] - s->be[k]) / s->mass[i];
+        double net = s->f[i] - s->alpha[i] * s->mass[i] * s->v0[i] - s->be[k];
+        if (pins) net += fpin[i];
+        const double a = net / s->mass[i];
         y[i] += 0.25 * h * h * a;
         guess[i] += 0.5 * h * h * a;
     }
@@ -43,5 +55,5 @@ static defsim_status nm_prepare(defsim__ic_solver *s, const defsim_host *host,
 
 /* Without damping it conserves the energy of linear problems: CONSERVATIVE, not DISSIPATIVE. */
 const defsim__ic_scheme defsim__ic_module_scheme = {
-    .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE, .work_vectors = 1,
+    .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE, .work_vectors = 2,
     .prepare = nm_prepare};

@@ -109,6 +109,8 @@ defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_s
     s->host = host;
     s->sys = sys;
     s->msg[0] = '\0';
+    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
+                                   sizeof host->applied_forces_vary;
     if (SUNContext_Create(NULL, &s->ctx) != 0) {
         s->ctx = NULL;
         host->set_error(sys, "SUNDIALS: SUNContext_Create failed (out of memory)");
@@ -182,4 +184,18 @@ void defsim__sun_fail(defsim__sun *s, const char *backend, const char *call, con
              flag_name ? flag_name : "an unknown flag", flag, t, s->msg[0] ? ": " : "", s->msg);
     s->host->set_error(s->sys, buf);
     s->msg[0] = '\0';
+}
+
+void defsim__sun_drive_begin(defsim__sun *s, int adaptive)
+{
+    s->pv = s->coupled ? s->host->pin_velocities(s->sys) : NULL;
+    if (adaptive && (s->pv || s->drove)) s->need_reinit = 1;
+    s->drove = s->pv != NULL;
+}
+
+defsim_status defsim__sun_forces(const defsim__sun *s, const double *x, const double *v,
+                                 double t, uint32_t which, double *f)
+{
+    if (!s->coupled) return s->host->forces(s->sys, x, v, which, f);
+    return s->host->forces_at(s->sys, x, v, t, which, f);
 }

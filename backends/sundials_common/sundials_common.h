@@ -32,9 +32,13 @@ typedef struct defsim__sun {
     defsim__sun_timer *timer;
     char msg[384];             /* last error message SUNDIALS reported */
     int need_reinit;           /* adaptive modules: restart from the world's state next step */
+    int coupled;               /* the host has the coupling services (ABI 3: forces_at, ...) */
+    const double *pv;          /* this step's driven-pin velocities, or NULL */
+    int drove;                 /* the last step drove pins */
 } defsim__sun;
 
-/* Creates the context. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */
+/* Creates the context (and notes whether the host has the coupling services). Returns
+ * DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys);
 
 /* Creates an n x n CSC matrix with room for nnz entries and a KLU solver for it, whose setup
@@ -68,6 +72,17 @@ void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, d
  * with every service the SUNDIALS modules use (options, counters, omega_max). */
 defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
                                  const defsim_backend *backend);
+
+/* Driven pins at the start of a step: reads their velocities into s->pv. For the adaptive
+ * modules (adaptive != 0), a step that drives pins, or follows one that did, restarts the
+ * integrator from the world's state (need_reinit): the pins' velocities change from step to
+ * step, a kink in the equations' dependence on time. */
+void defsim__sun_drive_begin(defsim__sun *s, int adaptive);
+
+/* Forces `which` at (x, v) and time t (the force callback sees t) into f, through forces_at when
+ * the host has it. */
+defsim_status defsim__sun_forces(const defsim__sun *s, const double *x, const double *v,
+                                 double t, uint32_t which, double *f);
 
 /* y = [x_free, v_free] (2n entries) into the free entries of the full x and v, and back. */
 void defsim__sun_scatter(const int64_t *free_dofs, int64_t n, const double *y, double *x,

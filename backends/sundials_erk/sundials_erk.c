@@ -203,13 +203,15 @@ static void scatter(erk_state *s, const double *y)
 
 static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
 {
-    (void)t;
     erk_state *s = user;
     const double *y = N_VGetArrayPointer(yy);
     double *d = N_VGetArrayPointer(yd);
     scatter(s, y);
+    /* Driven pins are not unknowns: on their paths at the stage time (their velocities are in
+     * s->v from the restart, which each step that drives pins makes). */
+    if (s->sun.pv) s->host->pin_positions(s->sys, t, s->x);
     /* Non-finite forces: recoverable, ERKStep retries with a shorter step. */
-    if (s->host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
+    if (defsim__sun_forces(&s->sun, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
     const int64_t n = s->n;
     for (int64_t i = 0; i < n; ++i) {
         d[i] = y[n + i];
@@ -410,6 +412,7 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
 {
     erk_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
+    defsim__sun_drive_begin(&s->sun, 1);
     if (s->sun.need_reinit) {
         defsim_status st = erk_restart(s);
         if (st != DEFSIM_OK) return st;

@@ -127,13 +127,15 @@ static void scatter(ida_state *s, const double *y)
 
 static int ida_residual(realtype t, N_Vector yy, N_Vector yp, N_Vector rr, void *user)
 {
-    (void)t;
     ida_state *s = user;
     const double *y = N_VGetArrayPointer(yy), *yd = N_VGetArrayPointer(yp);
     double *r = N_VGetArrayPointer(rr);
     scatter(s, y);
+    /* Driven pins are not unknowns: on their paths at time t (their velocities are in s->v
+     * from the restart, which each step that drives pins makes). */
+    if (s->sun.pv) s->host->pin_positions(s->sys, t, s->x);
     /* Non-finite forces (an inverted neo-Hookean element): recoverable, IDA cuts the step. */
-    if (s->host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
+    if (defsim__sun_forces(&s->sun, s->x, s->v, t, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) return 1;
     const int64_t n = s->n;
     for (int64_t i = 0; i < n; ++i) {
         r[i] = yd[i] - y[n + i];
@@ -474,7 +476,8 @@ static defsim_status ida_restart(ida_state *s)
     const defsim_host *host = s->host;
     memcpy(s->x, host->positions(s->sys), (size_t)s->ndof * sizeof *s->x);
     memcpy(s->v, host->velocities(s->sys), (size_t)s->ndof * sizeof *s->v);
-    if (host->forces(s->sys, s->x, s->v, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK) {
+    if (defsim__sun_forces(&s->sun, s->x, s->v, host->time(s->sys), DEFSIM_FORCE_ALL, s->f) !=
+        DEFSIM_OK) {
         host->set_error(s->sys, "sundials_ida: the forces at the initial state are not finite");
         return DEFSIM_ERR_UNSTABLE;
     }
@@ -652,6 +655,7 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
 {
     ida_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
+    defsim__sun_drive_begin(&s->sun, 1);
     if (s->sun.need_reinit) {
         defsim_status st = ida_restart(s);
         if (st != DEFSIM_OK) return st;

@@ -15,6 +15,10 @@
  * fscale * G, and fscale_i = h^2 / (m_i L) with L the scene's length scale, so the tolerance is
  * a position-like residual relative to the size of the scene: the same at any mesh size or unit.
  * Newton starts from the inertial position y; if that solve fails, once more from x_n.
+ * Driven pins are Dirichlet values: pinned DOFs sit at their end-of-step positions in x, and the
+ * damping of their motion on free DOFs, -B(x_n) v_pins, joins f_gravity as a load over the step.
+ * The applied forces are evaluated once at x_n, unless the host says they depend on x (a force
+ * callback with a Jacobian): then at every residual.
  */
 #include "defsim/backend.h"
 
@@ -67,6 +71,8 @@ typedef struct kin_state {
     double *bval;              /* B(x_n) values on the pattern (damp_b only) */
     double h;
     double tolerance;
+    int vary;                  /* this step: applied forces depend on x, evaluated per residual */
+    double *fpd;               /* -B(x_n) v_pins on the free DOFs (full DOF array) */
 } kin_state;
 
 /* G at u (free DOFs). */
@@ -85,6 +91,11 @@ static int kin_residual(N_Vector uu, N_Vector ff, void *user)
     /* Non-finite forces (an inverted neo-Hookean element): recoverable, the line search backs
      * off. */
     if (s->host->forces(s->sys, s->x, NULL, DEFSIM_FORCE_ELASTIC, s->fel) != DEFSIM_OK) return 1;
+    if (s->vary) {
+        if (s->host->forces(s->sys, s->x, NULL, DEFSIM_FORCE_GRAVITY, s->fg) != DEFSIM_OK) return 1;
+        if (s->sun.pv && s->damp_b)
+            for (int64_t i = 0; i < n; ++i) s->fg[s->free_dofs[i]] += s->fpd[s->free_dofs[i]];
+    }
     for (int64_t i = 0; i < n; ++i) {
         const int64_t d = s->free_dofs[i];
         g[i] = s->mf[i] * (s->du[i] - h * s->vn[d]) * ih2 - s->fel[d] - s->fg[d] +
@@ -169,8 +180,8 @@ static void kin_fini(const defsim_host *host, defsim_system *sys, void *state)
     host->release(s->mf); host->release(s->cf); host->release(s->du);
     host->release(s->xn); host->release(s->vn); host->release(s->x);
     host->release(s->fel); host->release(s->fg);
-    host->release(s->bval);
-    s->mf = s->cf = s->du = s->xn = s->vn = s->x = s->fel = s->fg = s->bval = NULL;
+    host->release(s->bval); host->release(s->fpd);
+    s->mf = s->cf = s->du = s->xn = s->vn = s->x = s->fel = s->fg = s->bval = s->fpd = NULL;
 }
 
 #define SET(call)                                                                             \
@@ -208,8 +219,9 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     s->fel = defsim__sun_calloc(host, nd, sizeof *s->fel);
     s->fg = defsim__sun_calloc(host, nd, sizeof *s->fg);
     s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)s->kpat.nnz, sizeof *s->bval) : NULL;
+    s->fpd = s->damp_b ? defsim__sun_calloc(host, nd, sizeof *s->fpd) : NULL;
     if (!s->mf || !s->cf || !s->du || !s->xn || !s->vn || !s->x || !s->fel || !s->fg ||
-        (s->damp_b && !s->bval)) {
+        (s->damp_b && (!s->bval || !s->fpd))) {
         host->set_error(sys, "sundials_kinsol: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -261,9 +273,21 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
     memcpy(s->vn, host->velocities(sys), bytes);
     memcpy(s->x, s->xn, bytes);
     s->h = h;
+    defsim__sun_drive_begin(&s->sun, 0);
+    const double *pv = s->sun.pv;
+    s->vary = s->sun.coupled && host->applied_forces_vary(sys);
+    if (pv) host->pin_positions(sys, host->time(sys) + h, s->x);
     if (host->forces(sys, s->xn, NULL, DEFSIM_FORCE_GRAVITY, s->fg) != DEFSIM_OK) {
         host->set_error(sys, "sundials_kinsol: non-finite external forces");
         return DEFSIM_ERR_UNSTABLE;
+    }
+    if (pv && s->damp_b) {
+        if (host->forces(sys, s->xn, pv, DEFSIM_FORCE_DAMPING, s->fpd) != DEFSIM_OK) {
+            host->set_error(sys, "sundials_kinsol: non-finite damping of the driven pins");
+            return DEFSIM_ERR_UNSTABLE;
+        }
+        for (int64_t i = 0; i < s->n && !s->vary; ++i)
+            s->fg[s->free_dofs[i]] += s->fpd[s->free_dofs[i]];
     }
     if (s->damp_b) {
         const defsim_matrix_coeffs cb = {0.0, 1.0, 0.0, 0.0};

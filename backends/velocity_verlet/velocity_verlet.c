@@ -10,6 +10,8 @@
  * (reset) invalidate it, and the next step evaluates f(x_n, v_n) first. Damping forces, linear in
  * v, see the prediction w instead of the unknown v_{n+1}: the error is O(h^2) in a force that is
  * multiplied by h, so the method stays second order. README.md beside this file has the analysis.
+ * Driven pins: F_{n+1} is evaluated with them at their end-of-step positions and at time
+ * t_n + h; a carried F is not reused when their velocities change (it damped with the old ones).
  */
 #include "defsim/backend.h"
 
@@ -19,6 +21,8 @@ typedef struct vv_state {
     double *f;      /* F_n = f(x_n, w_n), valid if `carried` */
     double *w;      /* velocity prediction */
     int carried;
+    int coupled;    /* the host has the coupling services (forces_at, pin_positions, ...) */
+    int drove;      /* the last step drove pins */
 } vv_state;
 
 static defsim_status vv_init(const defsim_host *host, defsim_system *sys, void *state)
@@ -28,6 +32,8 @@ static defsim_status vv_init(const defsim_host *host, defsim_system *sys, void *
     s->f = host->alloc(bytes);
     s->w = host->alloc(bytes);
     s->carried = 0;
+    s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
+                                   sizeof host->applied_forces_vary;
     return s->f && s->w ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
 }
 
@@ -46,6 +52,9 @@ static defsim_status vv_step(const defsim_host *host, defsim_system *sys, void *
     const double *m = host->mass(sys);
     const int64_t n = host->dof_count(sys);
     defsim_status st = DEFSIM_OK;
+    const double *pv = s->coupled ? host->pin_velocities(sys) : NULL;
+    if (pv || s->drove) s->carried = 0;
+    s->drove = pv != NULL;
     if (!s->carried) {
         st = host->forces(sys, x, v, DEFSIM_FORCE_ALL, s->f);
         host->counters(sys)[0] += 1.0;
@@ -55,14 +64,20 @@ static defsim_status vv_step(const defsim_host *host, defsim_system *sys, void *
         host->set_error(sys, "velocity_verlet: non-finite forces");
         return st;
     }
-    /* Pinned DOFs have zero force and zero velocity, so they stay put. */
+    /* Pinned DOFs have zero force: they move with their velocity (zero unless driven). */
     for (int64_t i = 0; i < n; ++i) {
         const double a = s->f[i] / m[i];
         s->w[i] = v[i] + h * a;
         v[i] += 0.5 * h * a;
         x[i] += h * v[i];
     }
-    st = host->forces(sys, x, s->w, DEFSIM_FORCE_ALL, s->f);
+    if (s->coupled) {
+        const double t1 = host->time(sys) + h;
+        if (pv) host->pin_positions(sys, t1, x);
+        st = host->forces_at(sys, x, s->w, t1, DEFSIM_FORCE_ALL, s->f);
+    } else {
+        st = host->forces(sys, x, s->w, DEFSIM_FORCE_ALL, s->f);
+    }
     if (st != DEFSIM_OK) {
         host->set_error(sys, "velocity_verlet: non-finite forces");
         return st;

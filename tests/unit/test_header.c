@@ -15,12 +15,18 @@ int main(void)
     defsim_world *w = NULL;
     defsim_option_info info = {sizeof info, NULL, DEFSIM_OPTION_REAL, 0, 0, 0, 0, NULL, NULL};
     double steps = -1.0;
-    if (DEFSIM_BACKEND_ABI_VERSION != 2u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
+    if (DEFSIM_BACKEND_ABI_VERSION != 3u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
         defsim_world_create(&def, &w) != DEFSIM_OK || defsim_world_option_count(w) != 3 ||
         defsim_world_option_info(w, 2, &info) != DEFSIM_OK || info.value != 0.8 ||
         defsim_world_stat(w, "steps", &steps) != DEFSIM_OK || steps != 0.0)
         return 4;
     defsim_world_destroy(w);
+    /* The host's coupling (ABI version 3 host services; public declarations). */
+    defsim_attachment_def ad;
+    defsim_attachment_def_init(&ad, sizeof ad);
+    if (ad.size != sizeof ad || ad.stiffness != 1e3 || ad.target_vertex_count != 0 ||
+        sizeof(((defsim_host *)0)->applied_forces_vary) != sizeof(void (*)(void)))
+        return 5;
     if (strcmp(defsim_status_string(DEFSIM_ERR_STALE_ID), "stale id") != 0) return 2;
     return defsim_version_number() == DEFSIM_VERSION_NUMBER ? 0 : 3;
 }

@@ -85,17 +85,15 @@ double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev)
     return e.total / e0.total;
 }
 
-defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
-                          const double lo[3], const double hi[3], double E, double nu, double rho)
+defsim_body_id tu_add_box_material(defsim_world *w, int nx, int ny, int nz, const double lo[3],
+                                   const double hi[3], const defsim_material *mat)
 {
     defsim_mesh m;
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     TU_OK(defsim_mesh_box(lo, hi, nx, ny, nz, &m));
-    defsim_body_def bd = test_mesh_body(&m, model);
-    bd.material.youngs_modulus = E;
-    bd.material.poisson_ratio = nu;
-    bd.material.density = rho;
+    defsim_body_def bd = test_mesh_body(&m, mat->model);
+    bd.material = *mat;
     defsim_body_id id = {0, 0};
     defsim_status st = defsim_world_add_body(w, &bd, &id);
     if (st != DEFSIM_OK) fail_msg("add_body: %s", defsim_world_last_error(w));
@@ -181,6 +179,17 @@ double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned)
     const double tip = x[3 * (n - 1) + 1] - x0[3 * (n - 1) + 1];
     free(x0); free(x); free(v);
     return tip;
+}
+
+defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
+                          const double lo[3], const double hi[3], double E, double nu, double rho)
+{
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, model);
+    mat.youngs_modulus = E;
+    mat.poisson_ratio = nu;
+    mat.density = rho;
+    return tu_add_box_material(w, nx, ny, nz, lo, hi, &mat);
 }
 
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)

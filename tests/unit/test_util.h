@@ -29,6 +29,10 @@ defsim_world *tu_implicit_world(const char *backend, double gy, int threads, dou
  * 2i + 1 = (x0 + cell i, cell, z1), and 10 springs: the rungs, then the two rails' diagonals. */
 void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20]);
 
+/* Adds an nx*ny*nz-cell box of tets on [lo, hi] of material *mat; returns its id. */
+defsim_body_id tu_add_box_material(defsim_world *w, int nx, int ny, int nz, const double lo[3],
+                                   const double hi[3], const defsim_material *mat);
+
 /* Adds an nx*ny*nz-cell box of tets on [lo, hi] with the given model; returns its id. */
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);

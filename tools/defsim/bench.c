@@ -95,7 +95,7 @@ static int usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim bench SCENE.json [options]\n"
-        "  --backends A,B,...  backends to compare (default: all eight; unavailable ones are\n"
+        "  --backends A,B,...  backends to compare (default: all nine; unavailable ones are\n"
         "                      skipped with a note)\n"
         "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
         "                      doubled up to 1/30 s)\n"

@@ -14,6 +14,7 @@
 #include "plan.h"
 #include "registry.h"
 #include "stability.h"
+#include "tet_rest.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -23,9 +24,6 @@
 #ifdef _OPENMP
 #include <omp.h>
 #endif
-
-/* A tet whose |det Dm| is below this fraction of its longest edge cubed is degenerate. */
-#define DEFSIM__DEGENERATE_REL 1e-12
 
 /* ------------------------------------------------------------------------------------------ */
 /* Creation */
@@ -380,24 +378,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
                     goto fail;
                 }
         }
-        double dm[9], lmax = 0.0;
-        const double *p3 = b.rest + 3 * (int64_t)tt[3];
-        for (int a = 0; a < 3; ++a)
-            for (int i = 0; i < 3; ++i) dm[3 * i + a] = b.rest[3 * (int64_t)tt[a] + i] - p3[i];
-        for (int a = 0; a < 4; ++a)
-            for (int c = a + 1; c < 4; ++c) {
-                const double *pa = b.rest + 3 * (int64_t)tt[a], *pc = b.rest + 3 * (int64_t)tt[c];
-                double l2 = (pa[0] - pc[0]) * (pa[0] - pc[0]) + (pa[1] - pc[1]) * (pa[1] - pc[1]) +
-                            (pa[2] - pc[2]) * (pa[2] - pc[2]);
-                if (l2 > lmax) lmax = l2;
-            }
-        lmax = sqrt(lmax);
-        double det = defsim__m3_det(dm);
-        if (!(fabs(det) > DEFSIM__DEGENERATE_REL * lmax * lmax * lmax)) {
+        defsim__tet_rest rest;
+        if (defsim__tet_rest_eval(b.rest, tt, &rest, NULL)) {
             defsim__error(w->msg, "add_body: tet %d is degenerate (volume %g, longest edge %g)",
-                                (int)t, det / 6.0, lmax);
+                                (int)t, rest.det / 6.0, rest.longest_edge);
             goto fail;
         }
+        const double det = rest.det;
         if (det < 0.0) {
             int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
             ++reordered;

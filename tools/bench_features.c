@@ -12,6 +12,7 @@
  *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
  */
 #include "bench_beam.h"
+#include "clock.h"
 
 #include <defsim/defsim.h>
 
@@ -42,13 +43,6 @@ static const variant variants[] = {
     {"spring body beside (1 spring)", 9.81, 0, 0, 1, 0, 1},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static int cmp(const void *a, const void *b)
 {
@@ -138,9 +132,9 @@ int main(int argc, char **argv)
     for (int v = 0; v < NV; ++v) defsim_world_step(w[v], h);   /* plan and warm up */
     for (int r = 0; r < rounds; ++r)
         for (int v = 0; v < NV; ++v) {
-            double t0 = now();
+            double t0 = tools_now();
             for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
-            t[v][r] = (now() - t0) / steps;
+            t[v][r] = (tools_now() - t0) / steps;
         }
     printf("%d tets, %d threads, median of %d rounds x %d steps, variants interleaved\n\n",
            m.tet_count, threads, rounds, steps);

@@ -16,6 +16,7 @@
  * `forces_tet_steps_per_s` is the force evaluation alone (defsim_stats.time_forces).
  */
 #include "bench_beam.h"
+#include "clock.h"
 
 #include <defsim/defsim.h>
 
@@ -23,13 +24,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static int cmp(const void *a, const void *b)
 {
@@ -86,13 +80,13 @@ int main(int argc, char **argv)
     defsim_world_reset_stats(w);
     double t[100];
     for (int r = 0; r < repeats; ++r) {
-        double t0 = now();
+        double t0 = tools_now();
         for (int i = 0; i < steps; ++i)
             if (defsim_world_step(w, h) != DEFSIM_OK) {
                 fprintf(stderr, "step failed: %s\n", defsim_world_last_error(w));
                 return 1;
             }
-        t[r] = (now() - t0) / steps;
+        t[r] = (tools_now() - t0) / steps;
     }
     qsort(t, (size_t)repeats, sizeof *t, cmp);
     double med = t[repeats / 2];

@@ -1,31 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 #include "fileio.h"
 
+#include "../src/file_read.h"
+
 #include <errno.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <sys/stat.h>
 
 char *tools_read_file(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap) break;
-        cap *= 2;
-        char *nb = realloc(buf, cap + 1);
-        if (!nb) { free(buf); buf = NULL; }
-        else buf = nb;
-    }
-    const int err = ferror(f);
-    fclose(f);
-    if (buf && err) { free(buf); buf = NULL; errno = EIO; }
-    if (!buf) return NULL;
-    buf[n] = '\0';
-    *len = n;
+    char *buf;
+    int err = defsim__read_file(path, DEFSIM__FILE_MAX, &buf, len);
+    if (err) errno = err;
     return buf;
 }
 

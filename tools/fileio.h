@@ -6,7 +6,8 @@
 #include <stddef.h>
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer; *len gets its size. NULL (errno
- * set) if it cannot be read. */
+ * set; EFBIG beyond DEFSIM__FILE_MAX, 1 GiB) if it cannot be read. The reader is the library's
+ * (src/file_read.c, compiled into the tools since the shared library does not export it). */
 char *tools_read_file(const char *path, size_t *len);
 
 /* Creates a folder and its missing parents (like mkdir -p). Returns 0, or -1 (errno set). */

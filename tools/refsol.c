@@ -1,16 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 #include "refsol.h"
 
+#include "clock.h"
+
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-double refsol_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 void refsol_free(refsol *r)
 {
@@ -32,7 +27,7 @@ defsim_status refsol_integrate(defsim_world *w, double T, int calls, double rtol
         refsol_free(out);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    const double t_start = defsim_world_time(w), t0 = refsol_now();
+    const double t_start = defsim_world_time(w), t0 = tools_now();
     for (int c = 0; c < calls; ++c) {
         /* The last call ends exactly on T. */
         const double h = (c == calls - 1) ? T - defsim_world_time(w) : (T - t_start) / calls;
@@ -48,10 +43,10 @@ defsim_status refsol_integrate(defsim_world *w, double T, int calls, double rtol
             defsim_stats s = {.size = sizeof s};
             defsim_world_stats(w, &s);
             fprintf(stderr, "%s: t = %.4g s: %lld internal steps, %.1f s\n", tag,
-                    defsim_world_time(w), (long long)s.internal_steps, refsol_now() - t0);
+                    defsim_world_time(w), (long long)s.internal_steps, tools_now() - t0);
         }
     }
-    out->wall_seconds = refsol_now() - t0;
+    out->wall_seconds = tools_now() - t0;
     defsim_stats s = {.size = sizeof s};
     defsim_world_stats(w, &s);
     out->internal_steps = s.internal_steps;

@@ -23,9 +23,6 @@ typedef struct refsol {
     double *x, *v;            /* 3 vertex_count each (m, m/s); owned, freed by refsol_free */
 } refsol;
 
-/* Seconds on the monotonic clock. */
-double refsol_now(void);
-
 /* Advances `w` (whose backend is normally sundials_ida) from its current time to exactly T in
  * `calls` calls of defsim_world_step (IDA keeps its history across them), then fills *out
  * (end time, statistics, energy, state). With `tag` non-NULL, progress goes to stderr every

@@ -1,344 +1,61 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Scene files: cJSON parses the text; this file checks every key and value and builds a world.
+ * Scene files: checks every key and value of the world and the bodies and builds a world.
+ * The JSON layer (positions, typed access, overrides) is scene_json.c; the output and camera
+ * settings are scene_output.c.
  *
- * cJSON keeps no source positions, so error messages get their "line:col" from a second pass
- * over the (already validated) text that records where each value starts, in document order.
- * cJSON keeps members and elements in document order too, so a pre-order walk of its tree pairs
- * each node with its offset.
+ * Contents: world; bodies (transform, mesh, material, pins); scene_load; scene_build.
  */
-#include "scene.h"
+#include "scene_json.h"
 
 #include "fileio.h"
 
-#include <cjson/cJSON.h>
-
-#include <ctype.h>
+#include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* ------------------------------------------------------------------------------------------ */
-/* Source positions */
+/* World */
 
-typedef struct pos_entry { const cJSON *node; size_t offset; } pos_entry;
-
-typedef struct ctx {
-    scene *s;
-    const char *text;
-    size_t text_len;
-    pos_entry *pos;   /* sorted by node pointer */
-    size_t npos;
-    char dir[1024];   /* folder of the scene file, with a trailing '/' (or empty) */
-} ctx;
-
-static size_t skip_json_ws(const char *t, size_t i, size_t n)
-{
-    while (i < n && (t[i] == ' ' || t[i] == '\t' || t[i] == '\n' || t[i] == '\r')) ++i;
-    return i;
-}
-
-/* Records the start of each value of valid JSON text in pre-order. */
-static size_t scan_value(const char *t, size_t i, size_t n, size_t *out, size_t *k)
-{
-    i = skip_json_ws(t, i, n);
-    out[(*k)++] = i;
-    if (i >= n) return i;
-    if (t[i] == '{' || t[i] == '[') {
-        const char close = t[i] == '{' ? '}' : ']';
-        const int object = t[i] == '{';
-        i = skip_json_ws(t, i + 1, n);
-        while (i < n && t[i] != close) {
-            if (object) {
-                /* the key: a string, then ':' */
-                ++i;
-                while (i < n && t[i] != '"') i += t[i] == '\\' ? 2 : 1;
-                i = skip_json_ws(t, i + 1, n) + 1;   /* past ':' */
-            }
-            i = scan_value(t, i, n, out, k);
-            i = skip_json_ws(t, i, n);
-            if (i < n && t[i] == ',') i = skip_json_ws(t, i + 1, n);
-        }
-        return i + 1;
-    }
-    if (t[i] == '"') {
-        ++i;
-        while (i < n && t[i] != '"') i += t[i] == '\\' ? 2 : 1;
-        return i + 1;
-    }
-    while (i < n && !strchr(",]} \t\r\n", t[i])) ++i;
-    return i;
-}
-
-static size_t count_nodes(const cJSON *j)
-{
-    size_t n = 1;
-    for (const cJSON *c = j->child; c; c = c->next) n += count_nodes(c);
-    return n;
-}
-
-static void pair_nodes(const cJSON *j, const size_t *offsets, size_t *k, pos_entry *out)
-{
-    out[*k].node = j;
-    out[*k].offset = offsets[*k];
-    ++*k;
-    for (const cJSON *c = j->child; c; c = c->next) pair_nodes(c, offsets, k, out);
-}
-
-static int cmp_pos(const void *a, const void *b)
-{
-    const pos_entry *x = a, *y = b;
-    return (x->node > y->node) - (x->node < y->node);
-}
-
-/* "file:line:col" of a node, or "file (--set)" for nodes that overrides made. */
-static void where(const ctx *c, const cJSON *node, char *out, size_t size)
-{
-    size_t lo = 0, hi = c->npos;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        if (c->pos[mid].node < node) lo = mid + 1;
-        else hi = mid;
-    }
-    if (!node || lo >= c->npos || c->pos[lo].node != node) {
-        snprintf(out, size, "%s", c->s->path);
-        return;
-    }
-    int line = 1, col = 1;
-    for (size_t i = 0; i < c->pos[lo].offset && i < c->text_len; ++i) {
-        if (c->text[i] == '\n') { ++line; col = 1; }
-        else ++col;
-    }
-    snprintf(out, size, "%s:%d:%d", c->s->path, line, col);
-}
-
-static int node_line(const ctx *c, const cJSON *node)
-{
-    char buf[1100];
-    where(c, node, buf, sizeof buf);
-    const char *p = strrchr(buf, ':');
-    if (!p || p == buf) return 0;
-    const char *q = p - 1;
-    while (q > buf && isdigit((unsigned char)*q)) --q;
-    return *q == ':' ? atoi(q + 1) : 0;
-}
-
-static int fail(ctx *c, const cJSON *node, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static int fail(ctx *c, const cJSON *node, const char *fmt, ...)
-{
-    char loc[1100], msg[2048];
-    where(c, node, loc, sizeof loc);
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    snprintf(c->s->error, sizeof c->s->error, "%s: %s", loc, msg);
-    return -1;
-}
-
-/* ------------------------------------------------------------------------------------------ */
-/* Typed access with checks */
-
-/* Every key of `obj` must be in the NULL-terminated list. */
-static int check_keys(ctx *c, const cJSON *obj, const char *what, const char *const *known)
-{
-    if (!cJSON_IsObject(obj)) return fail(c, obj, "%s must be an object", what);
-    for (const cJSON *m = obj->child; m; m = m->next) {
-        int ok = 0;
-        for (const char *const *k = known; *k && !ok; ++k) ok = strcmp(m->string, *k) == 0;
-        if (!ok) {
-            char list[400] = "";
-            size_t n = 0;
-            for (const char *const *k = known; *k; ++k)
-                n += (size_t)snprintf(list + n, n < sizeof list ? sizeof list - n : 0, "%s%s",
-                                      k == known ? "" : ", ", *k);
-            return fail(c, m, "unknown key \"%s\" in %s (known: %s)", m->string, what, list);
-        }
-        for (const cJSON *o = obj->child; o != m; o = o->next)
-            if (strcmp(o->string, m->string) == 0)
-                return fail(c, m, "key \"%s\" appears twice in %s", m->string, what);
-    }
-    return 0;
-}
-
-static int get_number(ctx *c, const cJSON *obj, const char *key, const char *what, double lo,
-                      double hi, int lo_open, double *out)
-{
-    const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!j) return 0;
-    if (!cJSON_IsNumber(j) || !isfinite(j->valuedouble))
-        return fail(c, j, "%s.%s must be a number", what, key);
-    const double v = j->valuedouble;
-    if (v < lo || v > hi || (lo_open && v == lo))
-        return fail(c, j, "%s.%s = %g must be %s %g%s", what, key, v, lo_open ? ">" : ">=", lo,
-                    hi < 1e300 ? " and within range" : "");
-    *out = v;
-    return 0;
-}
-
-static int get_int(ctx *c, const cJSON *obj, const char *key, const char *what, int lo, int hi,
-                   int32_t *out)
-{
-    const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!j) return 0;
-    if (!cJSON_IsNumber(j) || j->valuedouble != floor(j->valuedouble))
-        return fail(c, j, "%s.%s must be an integer", what, key);
-    if (j->valuedouble < lo || j->valuedouble > hi)
-        return fail(c, j, "%s.%s = %g must be in [%d, %d]", what, key, j->valuedouble, lo, hi);
-    *out = (int32_t)j->valuedouble;
-    return 0;
-}
-
-static int get_bool(ctx *c, const cJSON *obj, const char *key, const char *what, int *out)
-{
-    const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!j) return 0;
-    if (!cJSON_IsBool(j)) return fail(c, j, "%s.%s must be true or false", what, key);
-    *out = cJSON_IsTrue(j);
-    return 0;
-}
-
-static int vec_of(ctx *c, const cJSON *j, const char *what, int n, double *out)
-{
-    if (!cJSON_IsArray(j) || cJSON_GetArraySize(j) != n)
-        return fail(c, j, "%s must be an array of %d numbers", what, n);
-    int i = 0;
-    for (const cJSON *e = j->child; e; e = e->next, ++i) {
-        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble))
-            return fail(c, e, "%s[%d] must be a finite number", what, i);
-        out[i] = e->valuedouble;
-    }
-    return 0;
-}
-
-static int get_vec3(ctx *c, const cJSON *obj, const char *key, const char *what, double out[3])
-{
-    const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!j) return 0;
-    char w[512];
-    snprintf(w, sizeof w, "%s.%s", what, key);
-    return vec_of(c, j, w, 3, out);
-}
-
-static const cJSON *require(ctx *c, const cJSON *obj, const char *key, const char *what)
-{
-    const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!j) fail(c, obj, "%s needs \"%s\"", what, key);
-    return j;
-}
-
-/* ------------------------------------------------------------------------------------------ */
-/* Overrides: "a.b.0.c=JSON" */
-
-static int apply_override(scene *s, cJSON *root, const char *spec)
-{
-    const char *eq = strchr(spec, '=');
-    if (!eq || eq == spec) {
-        snprintf(s->error, sizeof s->error, "--set %s: expected key.path=value", spec);
-        return -1;
-    }
-    cJSON *value = cJSON_Parse(eq + 1);
-    if (!value) value = cJSON_CreateString(eq + 1);
-    if (!value) {
-        snprintf(s->error, sizeof s->error, "out of memory");
-        return -1;
-    }
-    char path[512];
-    snprintf(path, sizeof path, "%.*s", (int)(eq - spec), spec);
-    cJSON *node = root;
-    char *save = NULL;
-    char *tok = strtok_r(path, ".", &save);
-    while (tok) {
-        char *next = strtok_r(NULL, ".", &save);
-        char *end;
-        long idx = strtol(tok, &end, 10);
-        const int is_index = *end == '\0' && cJSON_IsArray(node);
-        if (is_index) {
-            if (idx < 0 || idx >= cJSON_GetArraySize(node)) {
-                snprintf(s->error, sizeof s->error, "--set %s: index %ld out of range", spec, idx);
-                cJSON_Delete(value);
-                return -1;
-            }
-            if (!next) {
-                cJSON_ReplaceItemInArray(node, (int)idx, value);
-                return 0;
-            }
-            node = cJSON_GetArrayItem(node, (int)idx);
-        } else {
-            if (!cJSON_IsObject(node)) {
-                snprintf(s->error, sizeof s->error, "--set %s: \"%s\" is not inside an object",
-                         spec, tok);
-                cJSON_Delete(value);
-                return -1;
-            }
-            if (!next) {
-                if (cJSON_GetObjectItemCaseSensitive(node, tok))
-                    cJSON_ReplaceItemInObjectCaseSensitive(node, tok, value);
-                else
-                    cJSON_AddItemToObject(node, tok, value);
-                return 0;
-            }
-            cJSON *child = cJSON_GetObjectItemCaseSensitive(node, tok);
-            if (!child) {
-                child = cJSON_CreateObject();
-                cJSON_AddItemToObject(node, tok, child);
-            }
-            node = child;
-        }
-        tok = next;
-    }
-    cJSON_Delete(value);
-    snprintf(s->error, sizeof s->error, "--set %s: empty key path", spec);
-    return -1;
-}
-
-/* ------------------------------------------------------------------------------------------ */
-/* World and output */
-
-static int parse_world(ctx *c, const cJSON *w)
+static int parse_world(sj_ctx *c, const cJSON *w)
 {
     scene *s = c->s;
     static const char *const keys[] = {"backend", "h", "duration", "frame_steps", "fps",
                                        "gravity", "threads", "tolerance", "max_iterations",
                                        "rtol", "atol", "projection", "max_order",
                                        "max_internal_steps", NULL};
-    if (check_keys(c, w, "world", keys)) return -1;
+    if (sj_keys(c, w, "world", keys)) return -1;
     defsim_world_def_init(&s->def, sizeof s->def);
     const cJSON *b = cJSON_GetObjectItemCaseSensitive(w, "backend");
     if (b) {
         if (!cJSON_IsString(b) || !b->valuestring[0] || strlen(b->valuestring) >= sizeof s->backend)
-            return fail(c, b, "world.backend must be a backend name");
+            return sj_fail(c, b, "world.backend must be a backend name");
         snprintf(s->backend, sizeof s->backend, "%s", b->valuestring);
     } else {
         snprintf(s->backend, sizeof s->backend, "%s", "symplectic_euler");
     }
     s->def.backend = s->backend;
-    const cJSON *hj = require(c, w, "h", "world");
-    const cJSON *dj = require(c, w, "duration", "world");
+    const cJSON *hj = sj_require(c, w, "h", "world");
+    const cJSON *dj = sj_require(c, w, "duration", "world");
     if (!hj || !dj) return -1;
-    if (get_number(c, w, "h", "world", 0.0, 1e300, 1, &s->h) ||
-        get_number(c, w, "duration", "world", 0.0, 1e300, 1, &s->duration))
+    if (sj_number(c, w, "h", "world", 0.0, 1e300, 1, &s->h) ||
+        sj_number(c, w, "duration", "world", 0.0, 1e300, 1, &s->duration))
         return -1;
     const cJSON *fs = cJSON_GetObjectItemCaseSensitive(w, "frame_steps");
     const cJSON *fps = cJSON_GetObjectItemCaseSensitive(w, "fps");
-    if (fs && fps) return fail(c, fps, "world: give \"frame_steps\" or \"fps\", not both");
+    if (fs && fps) return sj_fail(c, fps, "world: give \"frame_steps\" or \"fps\", not both");
     s->frame_steps = 0;
-    if (get_int(c, w, "frame_steps", "world", 1, 1000000000, &s->frame_steps)) return -1;
+    if (sj_int(c, w, "frame_steps", "world", 1, 1000000000, &s->frame_steps)) return -1;
     if (fps) {
         double f = 0.0;
-        if (get_number(c, w, "fps", "world", 0.0, 1e300, 1, &f)) return -1;
+        if (sj_number(c, w, "fps", "world", 0.0, 1e300, 1, &f)) return -1;
         const double steps = 1.0 / (f * s->h);
         s->frame_steps = (int32_t)lround(steps);
         if (s->frame_steps < 1 || fabs(steps - s->frame_steps) > 1e-6 * steps)
-            return fail(c, fps, "world.fps = %g: 1 / (fps h) = %.6g steps per frame is not a "
-                        "whole number; change h or fps, or give frame_steps", f, steps);
+            return sj_fail(c, fps, "world.fps = %g: 1 / (fps h) = %.6g steps per frame is not a "
+                           "whole number; change h or fps, or give frame_steps", f, steps);
     }
     if (s->frame_steps == 0) {
         const double steps = 1.0 / (30.0 * s->h);   /* about 30 frames per second */
@@ -346,16 +63,16 @@ static int parse_world(ctx *c, const cJSON *w)
     }
     const double frames = ceil(s->duration / (s->h * s->frame_steps) - 1e-9);
     if (frames > 1e8 || frames * s->frame_steps > 9e15)
-        return fail(c, dj, "world.duration gives %g frames: too many", frames);
+        return sj_fail(c, dj, "world.duration gives %g frames: too many", frames);
     s->frames = frames < 1 ? 1 : (int32_t)frames;
-    if (get_vec3(c, w, "gravity", "world", s->def.gravity) ||
-        get_int(c, w, "threads", "world", 0, 4096, &s->def.num_threads) ||
-        get_number(c, w, "tolerance", "world", 0.0, 1e300, 1, &s->def.tolerance) ||
-        get_int(c, w, "max_iterations", "world", 1, 1000000, &s->def.max_iterations) ||
-        get_number(c, w, "rtol", "world", 0.0, 1e300, 1, &s->def.rtol) ||
-        get_number(c, w, "atol", "world", 0.0, 1e300, 1, &s->def.atol) ||
-        get_int(c, w, "max_order", "world", 1, 5, &s->def.max_order) ||
-        get_int(c, w, "max_internal_steps", "world", 1, 2000000000, &s->def.max_internal_steps))
+    if (sj_vec3(c, w, "gravity", "world", s->def.gravity) ||
+        sj_int(c, w, "threads", "world", 0, 4096, &s->def.num_threads) ||
+        sj_number(c, w, "tolerance", "world", 0.0, 1e300, 1, &s->def.tolerance) ||
+        sj_int(c, w, "max_iterations", "world", 1, 1000000, &s->def.max_iterations) ||
+        sj_number(c, w, "rtol", "world", 0.0, 1e300, 1, &s->def.rtol) ||
+        sj_number(c, w, "atol", "world", 0.0, 1e300, 1, &s->def.atol) ||
+        sj_int(c, w, "max_order", "world", 1, 5, &s->def.max_order) ||
+        sj_int(c, w, "max_internal_steps", "world", 1, 2000000000, &s->def.max_internal_steps))
         return -1;
     const cJSON *p = cJSON_GetObjectItemCaseSensitive(w, "projection");
     if (p) {
@@ -363,93 +80,10 @@ static int parse_world(ctx *c, const cJSON *w)
         int found = -1;
         for (int i = 0; i < 3; ++i)
             if (cJSON_IsString(p) && !strcmp(p->valuestring, names[i])) found = i;
-        if (found < 0) return fail(c, p, "world.projection must be \"none\", \"clamp\" or \"abs\"");
+        if (found < 0)
+            return sj_fail(c, p, "world.projection must be \"none\", \"clamp\" or \"abs\"");
         s->def.projection = (defsim_projection)found;
     }
-    return 0;
-}
-
-static int parse_camera(ctx *c, const cJSON *j)
-{
-    scene_camera *cam = &c->s->camera;
-    static const char *const keys[] = {"eye", "target", "up", "fov", "azimuth", "elevation",
-                                       "zoom", "fit", "ground", NULL};
-    if (check_keys(c, j, "output.camera", keys)) return -1;
-    const cJSON *eye = cJSON_GetObjectItemCaseSensitive(j, "eye");
-    if (eye) {
-        cam->automatic = 0;
-        if (!cJSON_GetObjectItemCaseSensitive(j, "target"))
-            return fail(c, j, "output.camera: \"eye\" needs \"target\"");
-        for (const char *k = "azimuth"; k; k = strcmp(k, "azimuth") == 0 ? "elevation" :
-                                              strcmp(k, "elevation") == 0 ? "zoom" :
-                                              strcmp(k, "zoom") == 0 ? "fit" : NULL) {
-            const cJSON *x = cJSON_GetObjectItemCaseSensitive(j, k);
-            if (x) return fail(c, x, "output.camera.%s is for the automatic camera; it cannot "
-                                     "be combined with \"eye\"", k);
-        }
-    }
-    if (get_vec3(c, j, "eye", "output.camera", cam->eye) ||
-        get_vec3(c, j, "target", "output.camera", cam->target) ||
-        get_vec3(c, j, "up", "output.camera", cam->up) ||
-        get_number(c, j, "fov", "output.camera", 1.0, 170.0, 0, &cam->fov) ||
-        get_number(c, j, "azimuth", "output.camera", -360.0, 360.0, 0, &cam->azimuth) ||
-        get_number(c, j, "elevation", "output.camera", -89.0, 89.0, 0, &cam->elevation) ||
-        get_number(c, j, "zoom", "output.camera", 0.0, 1e6, 1, &cam->zoom))
-        return -1;
-    const cJSON *fit = cJSON_GetObjectItemCaseSensitive(j, "fit");
-    if (fit) {
-        if (!cJSON_IsArray(fit) || cJSON_GetArraySize(fit) != 2 ||
-            vec_of(c, fit->child, "output.camera.fit[0]", 3, cam->fit_lo) ||
-            vec_of(c, fit->child->next, "output.camera.fit[1]", 3, cam->fit_hi))
-            return fail(c, fit, "output.camera.fit must be [[xlo, ylo, zlo], [xhi, yhi, zhi]]");
-        for (int i = 0; i < 3; ++i)
-            if (!(cam->fit_hi[i] >= cam->fit_lo[i]))
-                return fail(c, fit, "output.camera.fit: the second corner must not be below the "
-                                    "first");
-        cam->has_fit = 1;
-    }
-    const cJSON *g = cJSON_GetObjectItemCaseSensitive(j, "ground");
-    if (g) {
-        if (cJSON_IsBool(g)) cam->ground = cJSON_IsTrue(g);
-        else if (cJSON_IsNumber(g) && isfinite(g->valuedouble)) {
-            cam->ground = 1;
-            cam->has_ground_height = 1;
-            cam->ground_height = g->valuedouble;
-        } else {
-            return fail(c, g, "output.camera.ground must be true, false or a height (m)");
-        }
-    }
-    const double *u = cam->up;
-    const cJSON *uj = cJSON_GetObjectItemCaseSensitive(j, "up");
-    if (uj && u[0] * u[0] + u[1] * u[1] + u[2] * u[2] == 0.0)
-        return fail(c, uj, "output.camera.up must not be zero");
-    return 0;
-}
-
-static int parse_output(ctx *c, const cJSON *o)
-{
-    scene *s = c->s;
-    static const char *const keys[] = {"every", "formats", "width", "height", "supersample",
-                                       "contact_sheet", "camera", NULL};
-    if (check_keys(c, o, "output", keys)) return -1;
-    if (get_int(c, o, "every", "output", 1, 1000000000, &s->every) ||
-        get_int(c, o, "width", "output", 16, 8192, &s->width) ||
-        get_int(c, o, "height", "output", 16, 8192, &s->height) ||
-        get_int(c, o, "supersample", "output", 1, 4, &s->supersample) ||
-        get_bool(c, o, "contact_sheet", "output", &s->contact_sheet))
-        return -1;
-    const cJSON *f = cJSON_GetObjectItemCaseSensitive(o, "formats");
-    if (f) {
-        if (!cJSON_IsArray(f)) return fail(c, f, "output.formats must be an array of \"vtk\", \"png\"");
-        s->write_vtk = s->write_png = 0;
-        for (const cJSON *e = f->child; e; e = e->next) {
-            if (cJSON_IsString(e) && !strcmp(e->valuestring, "vtk")) s->write_vtk = 1;
-            else if (cJSON_IsString(e) && !strcmp(e->valuestring, "png")) s->write_png = 1;
-            else return fail(c, e, "output.formats: unknown format (known: \"vtk\", \"png\")");
-        }
-    }
-    const cJSON *cam = cJSON_GetObjectItemCaseSensitive(o, "camera");
-    if (cam && parse_camera(c, cam)) return -1;
     return 0;
 }
 
@@ -457,11 +91,12 @@ static int parse_output(ctx *c, const cJSON *o)
 /* Bodies */
 
 /* Applies p' = center + translate + R (S (M (p - center))) to n points. */
-static int parse_transform(ctx *c, const cJSON *j, const char *what, const double *default_center,
-                           const double *in, double *out, int32_t n, double *det_out)
+static int parse_transform(sj_ctx *c, const cJSON *j, const char *what,
+                           const double *default_center, const double *in, double *out, int32_t n,
+                           double *det_out)
 {
     static const char *const keys[] = {"matrix", "scale", "rotate", "translate", "center", NULL};
-    if (check_keys(c, j, what, keys)) return -1;
+    if (sj_keys(c, j, what, keys)) return -1;
     double M[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, S[3] = {1, 1, 1}, R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double t[3] = {0, 0, 0}, ctr[3] = {0, 0, 0};
     if (default_center) memcpy(ctr, default_center, sizeof ctr);
@@ -469,31 +104,31 @@ static int parse_transform(ctx *c, const cJSON *j, const char *what, const doubl
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(j, "matrix");
     if (m) {
         if (!cJSON_IsArray(m) || cJSON_GetArraySize(m) != 3)
-            return fail(c, m, "%s.matrix must be 3 rows of 3 numbers", what);
+            return sj_fail(c, m, "%s.matrix must be 3 rows of 3 numbers", what);
         int r = 0;
         for (const cJSON *row = m->child; row; row = row->next, ++r) {
             snprintf(w, sizeof w, "%s.matrix[%d]", what, r);
-            if (vec_of(c, row, w, 3, M + 3 * r)) return -1;
+            if (sj_vec(c, row, w, 3, M + 3 * r)) return -1;
         }
     }
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(j, "scale");
     if (sc) {
         if (cJSON_IsNumber(sc)) S[0] = S[1] = S[2] = sc->valuedouble;
-        else if (snprintf(w, sizeof w, "%s.scale", what), vec_of(c, sc, w, 3, S)) return -1;
+        else if (snprintf(w, sizeof w, "%s.scale", what), sj_vec(c, sc, w, 3, S)) return -1;
         for (int i = 0; i < 3; ++i)
             if (!isfinite(S[i]) || S[i] == 0.0)
-                return fail(c, sc, "%s.scale must be finite and non-zero", what);
+                return sj_fail(c, sc, "%s.scale must be finite and non-zero", what);
     }
     const cJSON *rot = cJSON_GetObjectItemCaseSensitive(j, "rotate");
     if (rot) {
         static const char *const rkeys[] = {"axis", "degrees", NULL};
         snprintf(w, sizeof w, "%s.rotate", what);
         double axis[3] = {0, 0, 1}, deg = 0.0;
-        if (check_keys(c, rot, w, rkeys) || get_vec3(c, rot, "axis", w, axis) ||
-            get_number(c, rot, "degrees", w, -1e6, 1e6, 0, &deg))
+        if (sj_keys(c, rot, w, rkeys) || sj_vec3(c, rot, "axis", w, axis) ||
+            sj_number(c, rot, "degrees", w, -1e6, 1e6, 0, &deg))
             return -1;
         const double l = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-        if (!(l > 0.0)) return fail(c, rot, "%s.rotate.axis must not be zero", what);
+        if (!(l > 0.0)) return sj_fail(c, rot, "%s.rotate.axis must not be zero", what);
         const double x = axis[0] / l, y = axis[1] / l, z = axis[2] / l;
         const double a = deg * 3.14159265358979323846 / 180.0, co = cos(a), si = sin(a), k = 1.0 - co;
         const double Rr[9] = {co + x * x * k, x * y * k - z * si, x * z * k + y * si,
@@ -501,7 +136,7 @@ static int parse_transform(ctx *c, const cJSON *j, const char *what, const doubl
                               z * x * k - y * si, z * y * k + x * si, co + z * z * k};
         memcpy(R, Rr, sizeof R);
     }
-    if (get_vec3(c, j, "translate", what, t) || get_vec3(c, j, "center", what, ctr)) return -1;
+    if (sj_vec3(c, j, "translate", what, t) || sj_vec3(c, j, "center", what, ctr)) return -1;
     double A[9];   /* R S M */
     for (int r = 0; r < 3; ++r)
         for (int col = 0; col < 3; ++col) {
@@ -511,7 +146,7 @@ static int parse_transform(ctx *c, const cJSON *j, const char *what, const doubl
         }
     *det_out = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
                A[2] * (A[3] * A[7] - A[4] * A[6]);
-    if (!(fabs(*det_out) > 1e-300)) return fail(c, j, "%s is singular", what);
+    if (!(fabs(*det_out) > 1e-300)) return sj_fail(c, j, "%s is singular", what);
     for (int32_t i = 0; i < n; ++i) {
         const double d[3] = {in[3 * i] - ctr[0], in[3 * i + 1] - ctr[1], in[3 * i + 2] - ctr[2]};
         for (int r = 0; r < 3; ++r)
@@ -522,7 +157,7 @@ static int parse_transform(ctx *c, const cJSON *j, const char *what, const doubl
 
 enum { MESH_FILE, MESH_BOX, MESH_CLOTH, MESH_ROPE };
 
-static int parse_mesh(ctx *c, const cJSON *j, const char *what, scene_body *b, int *kind,
+static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, int *kind,
                       int32_t *bending, int32_t *shear_first, int32_t *shear_count)
 {
     *bending = *shear_first = *shear_count = 0;
@@ -536,25 +171,25 @@ static int parse_mesh(ctx *c, const cJSON *j, const char *what, scene_body *b, i
     const cJSON *where_node = j;
     if (cJSON_IsString(j)) file = j->valuestring;
     else if (cJSON_IsObject(j)) {
-        const cJSON *type = require(c, j, "type", w);
+        const cJSON *type = sj_require(c, j, "type", w);
         if (!type) return -1;
-        if (!cJSON_IsString(type)) return fail(c, type, "%s.type must be a string", w);
+        if (!cJSON_IsString(type)) return sj_fail(c, type, "%s.type must be a string", w);
         const char *ty = type->valuestring;
         defsim_status st = DEFSIM_OK;
         if (!strcmp(ty, "box")) {
             static const char *const keys[] = {"type", "lo", "hi", "cells", NULL};
             double lo[3], hi[3], cells[3];
-            if (check_keys(c, j, w, keys) || !require(c, j, "lo", w) || !require(c, j, "hi", w) ||
-                !require(c, j, "cells", w) || get_vec3(c, j, "lo", w, lo) ||
-                get_vec3(c, j, "hi", w, hi) || get_vec3(c, j, "cells", w, cells))
+            if (sj_keys(c, j, w, keys) || !sj_require(c, j, "lo", w) ||
+                !sj_require(c, j, "hi", w) || !sj_require(c, j, "cells", w) || sj_vec3(c, j, "lo", w, lo) ||
+                sj_vec3(c, j, "hi", w, hi) || sj_vec3(c, j, "cells", w, cells))
                 return -1;
             for (int i = 0; i < 3; ++i) {
                 if (cells[i] != floor(cells[i]) || cells[i] < 1 || cells[i] > 1e4)
-                    return fail(c, cJSON_GetObjectItemCaseSensitive(j, "cells"),
-                                "%s.cells must be 3 integers >= 1", w);
+                    return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "cells"),
+                                   "%s.cells must be 3 integers >= 1", w);
                 if (!(hi[i] > lo[i]))
-                    return fail(c, cJSON_GetObjectItemCaseSensitive(j, "hi"),
-                                "%s: hi must be above lo on every axis", w);
+                    return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "hi"),
+                                   "%s: hi must be above lo on every axis", w);
             }
             *kind = MESH_BOX;
             st = defsim_mesh_box(lo, hi, (int32_t)cells[0], (int32_t)cells[1], (int32_t)cells[2], m);
@@ -562,14 +197,14 @@ static int parse_mesh(ctx *c, const cJSON *j, const char *what, scene_body *b, i
             static const char *const keys[] = {"type", "origin", "u", "v", "cells", NULL};
             double o[3], u[3], v[3], cells[2];
             const cJSON *cj = cJSON_GetObjectItemCaseSensitive(j, "cells");
-            if (check_keys(c, j, w, keys) || !require(c, j, "origin", w) || !require(c, j, "u", w) ||
-                !require(c, j, "v", w) || !require(c, j, "cells", w) ||
-                get_vec3(c, j, "origin", w, o) || get_vec3(c, j, "u", w, u) ||
-                get_vec3(c, j, "v", w, v) || vec_of(c, cj, "cells", 2, cells))
+            if (sj_keys(c, j, w, keys) || !sj_require(c, j, "origin", w) || !sj_require(c, j, "u", w) ||
+                !sj_require(c, j, "v", w) || !sj_require(c, j, "cells", w) ||
+                sj_vec3(c, j, "origin", w, o) || sj_vec3(c, j, "u", w, u) ||
+                sj_vec3(c, j, "v", w, v) || sj_vec(c, cj, "cells", 2, cells))
                 return -1;
             if (cells[0] != floor(cells[0]) || cells[1] != floor(cells[1]) || cells[0] < 1 ||
                 cells[1] < 1 || cells[0] * cells[1] > 1e7)
-                return fail(c, cj, "%s.cells must be 2 integers >= 1", w);
+                return sj_fail(c, cj, "%s.cells must be 2 integers >= 1", w);
             const int32_t nu = (int32_t)cells[0], nv = (int32_t)cells[1];
             *kind = MESH_CLOTH;
             st = defsim_mesh_cloth(o, u, v, nu, nv, m);
@@ -580,27 +215,27 @@ static int parse_mesh(ctx *c, const cJSON *j, const char *what, scene_body *b, i
             static const char *const keys[] = {"type", "a", "b", "segments", NULL};
             double a[3], bb[3];
             int32_t seg = 0;
-            if (check_keys(c, j, w, keys) || !require(c, j, "a", w) || !require(c, j, "b", w) ||
-                !require(c, j, "segments", w) || get_vec3(c, j, "a", w, a) ||
-                get_vec3(c, j, "b", w, bb) || get_int(c, j, "segments", w, 1, 10000000, &seg))
+            if (sj_keys(c, j, w, keys) || !sj_require(c, j, "a", w) || !sj_require(c, j, "b", w) ||
+                !sj_require(c, j, "segments", w) || sj_vec3(c, j, "a", w, a) ||
+                sj_vec3(c, j, "b", w, bb) || sj_int(c, j, "segments", w, 1, 10000000, &seg))
                 return -1;
             *kind = MESH_ROPE;
             st = defsim_mesh_rope(a, bb, seg, m);
             *bending = seg - 1;
         } else if (!strcmp(ty, "file")) {
             static const char *const keys[] = {"type", "path", NULL};
-            const cJSON *p = require(c, j, "path", w);
-            if (check_keys(c, j, w, keys) || !p) return -1;
-            if (!cJSON_IsString(p)) return fail(c, p, "%s.path must be a string", w);
+            const cJSON *p = sj_require(c, j, "path", w);
+            if (sj_keys(c, j, w, keys) || !p) return -1;
+            if (!cJSON_IsString(p)) return sj_fail(c, p, "%s.path must be a string", w);
             file = p->valuestring;
             where_node = p;
         } else {
-            return fail(c, type, "%s.type \"%s\" is unknown (known: box, cloth, rope, file)", w, ty);
+            return sj_fail(c, type, "%s.type \"%s\" is unknown (known: box, cloth, rope, file)", w, ty);
         }
         if (st != DEFSIM_OK)
-            return fail(c, j, "%s: %s: %s", w, defsim_status_string(st), defsim_last_error());
+            return sj_fail(c, j, "%s: %s: %s", w, defsim_status_string(st), defsim_last_error());
     } else {
-        return fail(c, j, "%s must be a file name or an object with \"type\"", w);
+        return sj_fail(c, j, "%s must be a file name or an object with \"type\"", w);
     }
     if (file) {
         char full[2200];
@@ -608,13 +243,13 @@ static int parse_mesh(ctx *c, const cJSON *j, const char *what, scene_body *b, i
         else snprintf(full, sizeof full, "%s%s", c->dir, file);
         defsim_status st = defsim_mesh_load(full, m);
         if (st != DEFSIM_OK)
-            return fail(c, where_node, "%s: %s: %s", w, defsim_status_string(st),
-                        defsim_last_error());
+            return sj_fail(c, where_node, "%s: %s: %s", w, defsim_status_string(st),
+                           defsim_last_error());
     }
     return 0;
 }
 
-static int parse_material(ctx *c, const cJSON *j, const char *what, scene_body *b, int kind,
+static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, int kind,
                           int32_t bending, int32_t shear_first, int32_t shear_count)
 {
     const int tets = b->mesh.tet_count > 0;
@@ -625,7 +260,7 @@ static int parse_material(ctx *c, const cJSON *j, const char *what, scene_body *
                                        "stiffness", "shear_stiffness", "bending_stiffness",
                                        "vertex_mass", "total_mass", "mass_damping",
                                        "stiffness_damping", NULL};
-    if (j && check_keys(c, j, w, keys)) return -1;
+    if (j && sj_keys(c, j, w, keys)) return -1;
     const cJSON *mj = j ? cJSON_GetObjectItemCaseSensitive(j, "model") : NULL;
     if (mj) {
         static const struct { const char *name; defsim_model m; } models[] = {
@@ -639,41 +274,41 @@ static int parse_material(ctx *c, const cJSON *j, const char *what, scene_body *
                 found = 1;
             }
         if (!found)
-            return fail(c, mj, "%s.model must be one of spring, stvk, corotated, neohookean, "
-                               "stable_neohookean", w);
+            return sj_fail(c, mj, "%s.model must be one of spring, stvk, corotated, neohookean, "
+                           "stable_neohookean", w);
     }
     defsim_material *m = &b->material;
     defsim_material_init(m, sizeof *m, model);
     if (!j) return 0;
     double shear = -1.0, bend = -1.0, total = -1.0;
-    if (get_number(c, j, "youngs_modulus", w, 0.0, 1e300, 1, &m->youngs_modulus) ||
-        get_number(c, j, "poisson_ratio", w, 0.0, 0.4999999, 0, &m->poisson_ratio) ||
-        get_number(c, j, "density", w, 0.0, 1e300, 0, &m->density) ||
-        get_number(c, j, "stiffness", w, 0.0, 1e300, 0, &m->stiffness) ||
-        get_number(c, j, "shear_stiffness", w, 0.0, 1e300, 0, &shear) ||
-        get_number(c, j, "bending_stiffness", w, 0.0, 1e300, 0, &bend) ||
-        get_number(c, j, "vertex_mass", w, 0.0, 1e300, 0, &m->vertex_mass) ||
-        get_number(c, j, "total_mass", w, 0.0, 1e300, 1, &total) ||
-        get_number(c, j, "mass_damping", w, 0.0, 1e300, 0, &m->mass_damping) ||
-        get_number(c, j, "stiffness_damping", w, 0.0, 1e300, 0, &m->stiffness_damping))
+    if (sj_number(c, j, "youngs_modulus", w, 0.0, 1e300, 1, &m->youngs_modulus) ||
+        sj_number(c, j, "poisson_ratio", w, 0.0, 0.4999999, 0, &m->poisson_ratio) ||
+        sj_number(c, j, "density", w, 0.0, 1e300, 0, &m->density) ||
+        sj_number(c, j, "stiffness", w, 0.0, 1e300, 0, &m->stiffness) ||
+        sj_number(c, j, "shear_stiffness", w, 0.0, 1e300, 0, &shear) ||
+        sj_number(c, j, "bending_stiffness", w, 0.0, 1e300, 0, &bend) ||
+        sj_number(c, j, "vertex_mass", w, 0.0, 1e300, 0, &m->vertex_mass) ||
+        sj_number(c, j, "total_mass", w, 0.0, 1e300, 1, &total) ||
+        sj_number(c, j, "mass_damping", w, 0.0, 1e300, 0, &m->mass_damping) ||
+        sj_number(c, j, "stiffness_damping", w, 0.0, 1e300, 0, &m->stiffness_damping))
         return -1;
     if (total > 0.0) {
         if (cJSON_GetObjectItemCaseSensitive(j, "vertex_mass"))
-            return fail(c, cJSON_GetObjectItemCaseSensitive(j, "total_mass"),
-                        "%s: give vertex_mass or total_mass, not both", w);
+            return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "total_mass"),
+                           "%s: give vertex_mass or total_mass, not both", w);
         m->vertex_mass = total / b->mesh.vertex_count;
     }
     if (shear >= 0.0 && kind != MESH_CLOTH)
-        return fail(c, cJSON_GetObjectItemCaseSensitive(j, "shear_stiffness"),
-                    "%s: shear_stiffness needs a \"cloth\" mesh", w);
+        return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "shear_stiffness"),
+                       "%s: shear_stiffness needs a \"cloth\" mesh", w);
     if (bend >= 0.0 && kind != MESH_CLOTH && kind != MESH_ROPE)
-        return fail(c, cJSON_GetObjectItemCaseSensitive(j, "bending_stiffness"),
-                    "%s: bending_stiffness needs a \"cloth\" or \"rope\" mesh (boxes and mesh "
-                    "files have no bending springs)", w);
+        return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "bending_stiffness"),
+                       "%s: bending_stiffness needs a \"cloth\" or \"rope\" mesh (boxes and mesh "
+                       "files have no bending springs)", w);
     if ((shear >= 0.0 || bend >= 0.0) && b->mesh.spring_count > 0) {
         const int32_t ns = b->mesh.spring_count;
         b->spring_k = malloc((size_t)ns * sizeof *b->spring_k);
-        if (!b->spring_k) return fail(c, j, "out of memory");
+        if (!b->spring_k) return sj_fail(c, j, "out of memory");
         for (int32_t s = 0; s < ns; ++s) b->spring_k[s] = m->stiffness;
         if (shear >= 0.0)
             for (int32_t s = shear_first; s < shear_first + shear_count; ++s) b->spring_k[s] = shear;
@@ -683,35 +318,35 @@ static int parse_material(ctx *c, const cJSON *j, const char *what, scene_body *
     return 0;
 }
 
-static int parse_pins(ctx *c, const cJSON *j, const char *what, scene_body *b, double tol)
+static int parse_pins(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol)
 {
     char w[200];
     snprintf(w, sizeof w, "%s.pin", what);
     const int32_t nv = b->mesh.vertex_count;
     uint8_t *mark = calloc((size_t)nv, 1);
-    if (!mark) return fail(c, j, "out of memory");
+    if (!mark) return sj_fail(c, j, "out of memory");
     const cJSON *indices = NULL, *boxes = NULL;
     if (cJSON_IsArray(j)) indices = j;
     else if (cJSON_IsObject(j)) {
         static const char *const keys[] = {"indices", "box", NULL};
-        if (check_keys(c, j, w, keys)) { free(mark); return -1; }
+        if (sj_keys(c, j, w, keys)) { free(mark); return -1; }
         indices = cJSON_GetObjectItemCaseSensitive(j, "indices");
         boxes = cJSON_GetObjectItemCaseSensitive(j, "box");
         if (indices && !cJSON_IsArray(indices)) {
             free(mark);
-            return fail(c, indices, "%s.indices must be an array of vertex indices", w);
+            return sj_fail(c, indices, "%s.indices must be an array of vertex indices", w);
         }
     } else {
         free(mark);
-        return fail(c, j, "%s must be an array of vertex indices or an object with \"indices\" "
-                          "and/or \"box\"", w);
+        return sj_fail(c, j, "%s must be an array of vertex indices or an object with \"indices\" "
+                       "and/or \"box\"", w);
     }
     if (indices)
         for (const cJSON *e = indices->child; e; e = e->next) {
             if (!cJSON_IsNumber(e) || e->valuedouble != floor(e->valuedouble) ||
                 e->valuedouble < 0 || e->valuedouble >= nv) {
                 free(mark);
-                return fail(c, e, "%s: vertex index must be an integer in [0, %d)", w, (int)nv);
+                return sj_fail(c, e, "%s: vertex index must be an integer in [0, %d)", w, (int)nv);
             }
             mark[(int32_t)e->valuedouble] = 1;
         }
@@ -720,16 +355,16 @@ static int parse_pins(ctx *c, const cJSON *j, const char *what, scene_body *b, d
         const cJSON *one = cJSON_IsArray(boxes) ? boxes->child : boxes;
         if (cJSON_IsArray(boxes) && !one) {
             free(mark);
-            return fail(c, boxes, "%s.box: empty list", w);
+            return sj_fail(c, boxes, "%s.box: empty list", w);
         }
         for (; one; one = cJSON_IsArray(boxes) ? one->next : NULL) {
             static const char *const keys[] = {"lo", "hi", NULL};
             double lo[3], hi[3];
             char wb[220];
             snprintf(wb, sizeof wb, "%s.box", w);
-            if (check_keys(c, one, wb, keys) || !require(c, one, "lo", wb) ||
-                !require(c, one, "hi", wb) || get_vec3(c, one, "lo", wb, lo) ||
-                get_vec3(c, one, "hi", wb, hi)) {
+            if (sj_keys(c, one, wb, keys) || !sj_require(c, one, "lo", wb) ||
+                !sj_require(c, one, "hi", wb) || sj_vec3(c, one, "lo", wb, lo) ||
+                sj_vec3(c, one, "hi", wb, hi)) {
                 free(mark);
                 return -1;
             }
@@ -742,45 +377,39 @@ static int parse_pins(ctx *c, const cJSON *j, const char *what, scene_body *b, d
             }
             if (hits == 0) {
                 free(mark);
-                return fail(c, one, "%s.box contains no vertex of the body (at rest, after "
-                                    "\"transform\")", w);
+                return sj_fail(c, one, "%s.box contains no vertex of the body (at rest, after "
+                               "\"transform\")", w);
             }
         }
     }
     int32_t n = 0;
     for (int32_t i = 0; i < nv; ++i) n += mark[i];
     b->pins = malloc((size_t)(n > 0 ? n : 1) * sizeof *b->pins);
-    if (!b->pins) { free(mark); return fail(c, j, "out of memory"); }
+    if (!b->pins) { free(mark); return sj_fail(c, j, "out of memory"); }
     for (int32_t i = 0; i < nv; ++i)
         if (mark[i]) b->pins[b->npins++] = i;
     free(mark);
     return 0;
 }
 
-static const float palette[6][3] = {{0.85f, 0.45f, 0.20f}, {0.25f, 0.55f, 0.85f},
-                                    {0.35f, 0.70f, 0.35f}, {0.80f, 0.30f, 0.45f},
-                                    {0.60f, 0.45f, 0.80f}, {0.85f, 0.75f, 0.25f}};
-
-void scene_palette(int i, float rgb[3]) { memcpy(rgb, palette[(i % 6 + 6) % 6], 3 * sizeof(float)); }
-
-static int parse_body(ctx *c, const cJSON *j, int index, scene_body *b)
+static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
 {
     char w[100];
     snprintf(w, sizeof w, "bodies[%d]", index);
     static const char *const keys[] = {"name", "mesh", "transform", "material", "pin", "velocity",
                                        "initial_transform", "color", "probe", NULL};
-    if (check_keys(c, j, w, keys)) return -1;
-    b->line = node_line(c, j);
+    if (sj_keys(c, j, w, keys)) return -1;
+    b->line = sj_node_line(c, j);
     b->probe = -1;
-    memcpy(b->color, palette[index % 6], sizeof b->color);
+    scene_palette(index, b->color);
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(j, "name");
     if (name) {
-        if (!cJSON_IsString(name)) return fail(c, name, "%s.name must be a string", w);
+        if (!cJSON_IsString(name)) return sj_fail(c, name, "%s.name must be a string", w);
         snprintf(b->name, sizeof b->name, "%s", name->valuestring);
     } else {
         snprintf(b->name, sizeof b->name, "body %d", index);
     }
-    const cJSON *mesh = require(c, j, "mesh", w);
+    const cJSON *mesh = sj_require(c, j, "mesh", w);
     int32_t bending, shear_first, shear_count;
     int kind;
     if (!mesh || parse_mesh(c, mesh, w, b, &kind, &bending, &shear_first, &shear_count)) return -1;
@@ -825,25 +454,25 @@ static int parse_body(ctx *c, const cJSON *j, int index, scene_body *b)
     if (it) {
         const double center[3] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
         b->initial = malloc(3 * (size_t)nv * sizeof *b->initial);
-        if (!b->initial) return fail(c, it, "out of memory");
+        if (!b->initial) return sj_fail(c, it, "out of memory");
         snprintf(wt, sizeof wt, "%s.initial_transform", w);
         if (parse_transform(c, it, wt, center, b->mesh.positions, b->initial, nv, &det)) return -1;
     }
     double vel[3];
     const cJSON *vj = cJSON_GetObjectItemCaseSensitive(j, "velocity");
     if (vj) {
-        if (get_vec3(c, j, "velocity", w, vel)) return -1;
+        if (sj_vec3(c, j, "velocity", w, vel)) return -1;
         b->velocity = malloc(3 * (size_t)nv * sizeof *b->velocity);
-        if (!b->velocity) return fail(c, vj, "out of memory");
+        if (!b->velocity) return sj_fail(c, vj, "out of memory");
         for (int32_t i = 0; i < nv; ++i) memcpy(b->velocity + 3 * i, vel, sizeof vel);
     }
     const cJSON *col = cJSON_GetObjectItemCaseSensitive(j, "color");
     if (col) {
         double rgb[3];
-        if (get_vec3(c, j, "color", w, rgb)) return -1;
+        if (sj_vec3(c, j, "color", w, rgb)) return -1;
         for (int k = 0; k < 3; ++k) {
             if (rgb[k] < 0.0 || rgb[k] > 1.0)
-                return fail(c, col, "%s.color components must be in [0, 1]", w);
+                return sj_fail(c, col, "%s.color components must be in [0, 1]", w);
             b->color[k] = (float)rgb[k];
         }
     }
@@ -852,13 +481,13 @@ static int parse_body(ctx *c, const cJSON *j, int index, scene_body *b)
         if (cJSON_IsNumber(probe)) {
             if (probe->valuedouble != floor(probe->valuedouble) || probe->valuedouble < 0 ||
                 probe->valuedouble >= nv)
-                return fail(c, probe, "%s.probe must be a vertex index in [0, %d) or a point",
+                return sj_fail(c, probe, "%s.probe must be a vertex index in [0, %d) or a point",
                             w, (int)nv);
             b->probe = (int32_t)probe->valuedouble;
         } else {
             /* The vertex nearest to the point, at rest. */
             double p[3];
-            if (get_vec3(c, j, "probe", w, p)) return -1;
+            if (sj_vec3(c, j, "probe", w, p)) return -1;
             double best = INFINITY;
             for (int32_t i = 0; i < nv; ++i) {
                 const double *q = b->mesh.positions + 3 * i;
@@ -872,6 +501,7 @@ static int parse_body(ctx *c, const cJSON *j, int index, scene_body *b)
 }
 
 /* ------------------------------------------------------------------------------------------ */
+/* Loading and building */
 
 void scene_free(scene *s)
 {
@@ -895,101 +525,40 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     snprintf(s->name, sizeof s->name, "%s", base);
     size_t nl = strlen(s->name);
     if (nl > 5 && !strcmp(s->name + nl - 5, ".json")) s->name[nl - 5] = '\0';
-    s->every = 1;
-    s->write_vtk = 1;
-    s->width = 640;
-    s->height = 400;
-    s->supersample = 2;
-    s->contact_sheet = 1;
-    s->camera.automatic = 1;
-    s->camera.fov = 35.0;
-    s->camera.azimuth = 35.0;
-    s->camera.elevation = 20.0;
-    s->camera.zoom = 1.0;
-    s->camera.ground = 1;
+    scene_output_defaults(s);
 
-    ctx c;
+    sj_ctx c;
     memset(&c, 0, sizeof c);
     c.s = s;
     if (base != path) snprintf(c.dir, sizeof c.dir, "%.*s", (int)(base - path), path);
     size_t len = 0;
     char *text = tools_read_file(path, &len);
     if (!text) {
-        snprintf(s->error, sizeof s->error, "%s: cannot read the scene file", path);
+        snprintf(s->error, sizeof s->error, "%s: cannot read the scene file: %s", path,
+                 strerror(errno));
         return -1;
     }
     c.text = text;
     c.text_len = len;
-    const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts(text, len, &end, 0);
-    if (!root) {
-        /* cJSON points at the character where parsing stopped. */
-        const char *e = cJSON_GetErrorPtr();
-        size_t off = e && e >= text && e <= text + len ? (size_t)(e - text) : 0;
-        int line = 1, col = 1;
-        for (size_t i = 0; i < off; ++i) {
-            if (text[i] == '\n') { ++line; col = 1; }
-            else ++col;
-        }
-        char near[24];
-        size_t k = 0;
-        for (; k + 1 < sizeof near && off + k < len && text[off + k] != '\n'; ++k)
-            near[k] = text[off + k] == '\r' || text[off + k] == '\t' ? ' ' : text[off + k];
-        near[k] = '\0';
-        snprintf(s->error, sizeof s->error, "%s:%d:%d: JSON syntax error near \"%s\"", path,
-                 line, col, near);
-        free(text);
-        return -1;
-    }
-    if (end) {
-        size_t i = skip_json_ws(text, (size_t)(end - text), len);
-        if (i < len) {
-            int line = 1;
-            for (size_t k = 0; k < i; ++k) line += text[k] == '\n';
-            snprintf(s->error, sizeof s->error, "%s:%d: text after the end of the JSON value",
-                     path, line);
-            cJSON_Delete(root);
-            free(text);
-            return -1;
-        }
-    }
-    /* Positions of the file's own nodes (before overrides add any). */
-    size_t start = 0;
-    if (len >= 3 && (unsigned char)text[0] == 0xEF) start = 3;   /* UTF-8 byte order mark */
-    const size_t nn = count_nodes(root);
-    size_t *offsets = malloc(nn * sizeof *offsets);
-    c.pos = malloc(nn * sizeof *c.pos);
     int rc = -1;
-    if (!offsets || !c.pos) {
-        snprintf(s->error, sizeof s->error, "out of memory");
-        goto done;
-    }
-    size_t k = 0;
-    scan_value(text, start, len, offsets, &k);
-    if (k != nn) {
-        snprintf(s->error, sizeof s->error, "%s: internal error mapping JSON positions", path);
-        goto done;
-    }
-    k = 0;
-    pair_nodes(root, offsets, &k, c.pos);
-    c.npos = nn;
-    qsort(c.pos, nn, sizeof *c.pos, cmp_pos);
+    cJSON *root = sj_parse(&c);
+    if (!root) goto done;
 
     for (int i = 0; i < noverrides; ++i)
-        if (apply_override(s, root, overrides[i])) goto done;
+        if (sj_override(s, root, overrides[i])) goto done;
 
     static const char *const keys[] = {"description", "world", "bodies", "output", NULL};
-    if (check_keys(&c, root, "the scene", keys)) goto done;
+    if (sj_keys(&c, root, "the scene", keys)) goto done;
     const cJSON *desc = cJSON_GetObjectItemCaseSensitive(root, "description");
-    if (desc && !cJSON_IsString(desc)) { fail(&c, desc, "description must be a string"); goto done; }
-    const cJSON *world = require(&c, root, "world", "the scene");
+    if (desc && !cJSON_IsString(desc)) { sj_fail(&c, desc, "description must be a string"); goto done; }
+    const cJSON *world = sj_require(&c, root, "world", "the scene");
     if (!world || parse_world(&c, world)) goto done;
     const cJSON *out = cJSON_GetObjectItemCaseSensitive(root, "output");
-    if (out && parse_output(&c, out)) goto done;
-    const cJSON *bodies = require(&c, root, "bodies", "the scene");
+    if (out && scene_parse_output(&c, out)) goto done;
+    const cJSON *bodies = sj_require(&c, root, "bodies", "the scene");
     if (!bodies) goto done;
     if (!cJSON_IsArray(bodies) || cJSON_GetArraySize(bodies) < 1) {
-        fail(&c, bodies, "bodies must be a non-empty array");
+        sj_fail(&c, bodies, "bodies must be a non-empty array");
         goto done;
     }
     const int nb = cJSON_GetArraySize(bodies);
@@ -1000,14 +569,13 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
         s->nbodies = i + 1;   /* so that scene_free releases what this body has so far */
         if (parse_body(&c, b, i, &s->bodies[i])) goto done;
         if (s->vertex_count > INT32_MAX / 3 - s->bodies[i].mesh.vertex_count) {
-            fail(&c, b, "too many vertices");
+            sj_fail(&c, b, "too many vertices");
             goto done;
         }
         s->vertex_count += s->bodies[i].mesh.vertex_count;
     }
     rc = 0;
 done:
-    free(offsets);
     free(c.pos);
     cJSON_Delete(root);
     free(text);

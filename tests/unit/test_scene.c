@@ -176,6 +176,43 @@ static void test_errors(void **state)
     assert_int_equal(scene_load(&s, obj, NULL, 0), -1);
 }
 
+/* cJSON takes every byte up to 0x20 as whitespace, the position scanner must too (issue 17: a
+ * 0x0C or NUL after '[' or in an object overflowed its table, 0x0B gave an internal error).
+ * Each '@' of a template becomes the byte; valid scenes load, invalid ones name the right line. */
+static void test_control_bytes_as_whitespace(void **state)
+{
+    (void)state;
+    static const unsigned char bytes[] = {0x00, 0x01, 0x09, 0x0B, 0x0C, 0x1F, 0x20};
+    static const struct { const char *line3, *line6; int error_line; } cases[] = {
+        {"\"gravity\": [@0, -9.81, 0]", "\"name\": \"b\"", 0},
+        {"@\"threads\"@:@1", "\"name\"@:@\"b\"@", 0},
+        {"\"threads\": 1", "\"velocity\": [@1,@0,@0@]@, \"name\": \"b\"", 0},
+        {"\"threads\": 1", "\"pin\": [@0@, 1, [@]@]", 6},
+        {"\"gravity\": [@0, 1]", "\"name\": \"b\"", 3},
+        {"\"threads\": 1", "@\"material\":@{@\"youngs_modulus\":@0}", 6},
+        {"\"threads\": 1", "\"material\": {\"model\":@\"rubber\"@}", 6},
+    };
+    for (size_t b = 0; b < sizeof bytes; ++b)
+        for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+            char text[2048];
+            snprintf(text, sizeof text, "%s", scene_text(cases[i].line3, cases[i].line6));
+            const size_t n = strlen(text);
+            for (size_t k = 0; k < n; ++k)
+                if (text[k] == '@') text[k] = (char)bytes[b];
+            const char *path = tu_write_bytes("ws.json", text, n);
+            scene s;
+            const int rc = scene_load(&s, path, NULL, 0);
+            if (cases[i].error_line == 0) {
+                if (rc) fail_msg("byte 0x%02x, case %zu: %s", bytes[b], i, s.error);
+                assert_int_equal(s.bodies[0].mesh.vertex_count, 8);
+                scene_free(&s);
+            } else {
+                assert_int_equal(rc, -1);
+                assert_int_equal(error_line(&s, path), cases[i].error_line);
+            }
+        }
+}
+
 static void test_mesh_file_and_transform(void **state)
 {
     (void)state;
@@ -219,6 +256,8 @@ int main(void)
         cmocka_unit_test(test_overrides),
         cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_control_bytes_as_whitespace, tu_tmpdir_setup,
+                                        tu_tmpdir_teardown),
     };
     return cmocka_run_group_tests_name("scene", tests, NULL, NULL);
 }

@@ -108,7 +108,7 @@ int tu_tmpdir_teardown(void **state)
     return system(cmd) == 0 ? 0 : -1;
 }
 
-const char *tu_write_file(const char *name, const char *text)
+const char *tu_write_bytes(const char *name, const void *data, size_t n)
 {
     static char paths[8][300];
     static int slot;
@@ -116,7 +116,12 @@ const char *tu_write_file(const char *name, const char *text)
     snprintf(p, sizeof paths[0], "%s/%s", tu_tmpdir, name);
     FILE *f = fopen(p, "wb");
     assert_non_null(f);
-    fputs(text, f);
-    fclose(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    assert_int_equal(fclose(f), 0);
     return p;
+}
+
+const char *tu_write_file(const char *name, const char *text)
+{
+    return tu_write_bytes(name, text, strlen(text));
 }

@@ -37,6 +37,8 @@ extern char tu_tmpdir[256];
 int tu_tmpdir_setup(void **state);
 int tu_tmpdir_teardown(void **state);
 const char *tu_write_file(const char *name, const char *text);
+/* The same for n bytes of any value (NUL included). */
+const char *tu_write_bytes(const char *name, const void *data, size_t n);
 
 #define TU_OK(expr) assert_int_equal((expr), DEFSIM_OK)
 

@@ -6,6 +6,8 @@
  */
 #include "run.h"
 
+#include "clock.h"
+
 #include "scene.h"
 #include "vtk.h"
 #ifdef DEFSIM_HAVE_RENDER
@@ -31,13 +33,6 @@ static void on_sigint(int sig)
 {
     (void)sig;
     interrupted = 1;
-}
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static int usage(FILE *f)
@@ -275,7 +270,7 @@ int run_main(int argc, char **argv)
     sigaction(SIGINT, &sa, &old_sa);
     interrupted = 0;
 
-    const double h = s.h, t_start = now();
+    const double h = s.h, t_start = tools_now();
     double t_out = 0.0, t_render = 0.0, last_bar = -1.0, e0 = 0.0;
     int64_t steps = 0;
     int last_frame = 0;
@@ -316,7 +311,7 @@ int run_main(int argc, char **argv)
         const int out = nlist > 0 ? wanted(f, s.frames, s.every, list, nlist)
                                   : wanted(f, s.frames, s.every, NULL, 0);
         if (out && s.write_vtk) {
-            const double t0 = now();
+            const double t0 = tools_now();
             char name[64];
             snprintf(name, sizeof name, "frame_%05d.vtu", f);
             snprintf(path, sizeof path, "%s/%s", dir, name);
@@ -328,11 +323,11 @@ int run_main(int argc, char **argv)
                 rc = 1;
                 goto finish;
             }
-            t_out += now() - t0;
+            t_out += tools_now() - t0;
         }
 #ifdef DEFSIM_HAVE_RENDER
         if (out && s.write_png) {
-            const double t0 = now();
+            const double t0 = tools_now();
             snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
             if (rd_render(rd, &view, x, parts, s.nbodies, frame_img.rgb, err, sizeof err) ||
                 image_write_png(path, &frame_img, err, sizeof err)) {
@@ -344,11 +339,11 @@ int run_main(int argc, char **argv)
                 if (sheet_frames[k] == f && nthumbs < SHEET_MAX &&
                     image_downscale(&frame_img, 2, &thumbs[nthumbs]) == 0)
                     thumb_t[nthumbs++] = t;
-            t_render += now() - t0;
+            t_render += tools_now() - t0;
         }
 #endif
         /* Progress. */
-        const double wall = now() - t_start;
+        const double wall = tools_now() - t_start;
         char probe[160] = "";
         for (int32_t i = 0; i < s.nbodies; ++i)
             if (s.bodies[i].probe >= 0) {
@@ -410,7 +405,7 @@ finish:
     if (mode != 0) {
         defsim_stats st = {.size = sizeof st};
         defsim_world_stats(w, &st);
-        const double wall = now() - t_start;
+        const double wall = tools_now() - t_start;
         printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall (%.0f steps/s)\n",
                interrupted ? "interrupted after" : rc ? "stopped after" : "done:", last_frame,
                (long long)st.steps, (long long)st.failed_steps, wall,

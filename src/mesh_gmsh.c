@@ -1,0 +1,323 @@
+/* SPDX-License-Identifier: MIT */
+/* Gmsh .msh, ASCII formats 2.x, 4.0 and 4.1: linear tets; lower-dimensional elements skipped. */
+#include "mesh_load.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Gmsh element types: node count and dimension (0 for unknown types). */
+static void gmsh_type(long long type, int *nodes, int *dim, const char **name)
+{
+    static const struct { int type, nodes, dim; const char *name; } T[] = {
+        {1, 2, 1, "2-node line"}, {2, 3, 2, "3-node triangle"}, {3, 4, 2, "4-node quadrangle"},
+        {4, 4, 3, "4-node tetrahedron"}, {5, 8, 3, "8-node hexahedron"},
+        {6, 6, 3, "6-node prism"}, {7, 5, 3, "5-node pyramid"}, {8, 3, 1, "3-node line"},
+        {9, 6, 2, "6-node triangle"}, {10, 9, 2, "9-node quadrangle"},
+        {11, 10, 3, "10-node (quadratic) tetrahedron"}, {12, 27, 3, "27-node hexahedron"},
+        {13, 18, 3, "18-node prism"}, {14, 14, 3, "14-node pyramid"}, {15, 1, 0, "point"},
+        {16, 8, 2, "8-node quadrangle"}, {17, 20, 3, "20-node hexahedron"},
+        {18, 15, 3, "15-node prism"}, {19, 13, 3, "13-node pyramid"},
+        {20, 9, 2, "9-node triangle"}, {21, 10, 2, "10-node triangle"},
+        {22, 12, 2, "12-node triangle"}, {23, 15, 2, "15-node triangle"},
+        {24, 15, 2, "15-node triangle"}, {25, 21, 2, "21-node triangle"},
+        {26, 4, 1, "4-node line"}, {27, 5, 1, "5-node line"}, {28, 6, 1, "6-node line"},
+        {29, 20, 3, "20-node tetrahedron"}, {30, 35, 3, "35-node tetrahedron"},
+        {31, 56, 3, "56-node tetrahedron"}, {92, 64, 3, "64-node hexahedron"},
+        {93, 125, 3, "125-node hexahedron"}};
+    *nodes = 0;
+    *dim = -1;
+    *name = "unknown element type";
+    for (size_t i = 0; i < sizeof T / sizeof T[0]; ++i)
+        if (T[i].type == type) { *nodes = T[i].nodes; *dim = T[i].dim; *name = T[i].name; }
+}
+
+/* Reads "$Name" and checks it; skips unknown sections. Returns 1 if a section was opened. */
+static int gmsh_section(defsim__reader *r, const char **name, size_t *n)
+{
+    *n = defsim__rd_token(r, name);
+    return *n > 0;
+}
+
+static void gmsh_skip_section(defsim__reader *r, const char *name, size_t n)
+{
+    char end[128];
+    snprintf(end, sizeof end, "$End%.*s", (int)(n > 100 ? 100 : n) - 1, name + 1);
+    int line = r->line;
+    for (;;) {
+        const char *tok;
+        size_t k = defsim__rd_token(r, &tok);
+        if (k == 0) {
+            defsim__rd_fail(r, DEFSIM_ERR_IO, line, "section %.*s has no %s", (int)n, name, end);
+            return;
+        }
+        if (defsim__tok_is(tok, k, end)) return;
+    }
+}
+
+static void gmsh_expect_end(defsim__reader *r, const char *end)
+{
+    if (r->st != DEFSIM_OK) return;
+    const char *tok;
+    size_t k = defsim__rd_token(r, &tok);
+    if (!defsim__tok_is(tok, k, end)) {
+        char shown[64];
+        defsim__rd_show(shown, sizeof shown, tok, k);
+        defsim__rd_fail(r, DEFSIM_ERR_IO, r->line, "expected %s, found %s", end, shown);
+    }
+}
+
+static int gmsh_push_node(defsim__reader *r, defsim__raw_mesh *m, long long tag, const double p[3])
+{
+    if (!defsim__vec_push(&m->pos, p, 1) || !defsim__vec_push(&m->tag, &tag, 1)) {
+        r->st = defsim__mesh_oom(r->path);
+        return 0;
+    }
+    return 1;
+}
+
+/* One element; keeps tets, skips lower-dimensional ones, rejects other volume elements. */
+static void gmsh_element(defsim__reader *r, defsim__raw_mesh *m, long long type, int dim_hint,
+                         int line, long long nodes[], int nn)
+{
+    int tn, dim;
+    const char *name;
+    gmsh_type(type, &tn, &dim, &name);
+    if (dim < 0) dim = dim_hint;
+    if (type == 4) {
+        if (!defsim__vec_push(&m->tets, nodes, 1) || !defsim__vec_push(&m->tet_line, &line, 1))
+            r->st = defsim__mesh_oom(r->path);
+    } else if (dim == 3) {
+        defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line,
+                        "element type %lld (%s): only linear tetrahedra (type 4) are supported as "
+                        "volume elements%s", type, name,
+                        type == 11 ? "; mesh with Mesh.ElementOrder = 1" : "");
+    } else if (dim < 0) {
+        defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line, "unknown element type %lld", type);
+    }
+    (void)nn;
+}
+
+static void gmsh_v2(defsim__reader *r, defsim__raw_mesh *m)
+{
+    const char *name;
+    size_t n;
+    while (r->st == DEFSIM_OK && gmsh_section(r, &name, &n)) {
+        int line = r->line;
+        if (defsim__tok_is(name, n, "$Nodes")) {
+            long long nn;
+            if (!defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn)) return;
+            for (long long i = 0; i < nn; ++i) {
+                long long tag;
+                double p[3];
+                if (!defsim__rd_i64(r, "node number", &tag) || !defsim__rd_f64(r, "x", &p[0]) ||
+                    !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
+                    return;
+                if (!gmsh_push_node(r, m, tag, p)) return;
+            }
+            gmsh_expect_end(r, "$EndNodes");
+        } else if (defsim__tok_is(name, n, "$Elements")) {
+            long long ne;
+            if (!defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne)) return;
+            for (long long e = 0; e < ne; ++e) {
+                long long tag, type, ntags, skip, v[4];
+                defsim__rd_skip_ws(r);
+                int eline = r->line;
+                if (!defsim__rd_i64(r, "element number", &tag) ||
+                    !defsim__rd_i64(r, "element type", &type) ||
+                    !defsim__rd_count(r, "number of tags", 0, 1000, &ntags))
+                    return;
+                for (long long k = 0; k < ntags; ++k)
+                    if (!defsim__rd_i64(r, "tag", &skip)) return;
+                if (type == 4) {
+                    for (int a = 0; a < 4; ++a)
+                        if (!defsim__rd_i64(r, "node number", &v[a])) return;
+                    if (r->line != eline) {
+                        defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early",
+                                        tag);
+                        return;
+                    }
+                } else {
+                    defsim__rd_to_eol(r);
+                }
+                gmsh_element(r, m, type, -1, eline, v, 4);
+                if (r->st != DEFSIM_OK) return;
+            }
+            gmsh_expect_end(r, "$EndElements");
+        } else if (name[0] == '$') {
+            gmsh_skip_section(r, name, n);
+        } else {
+            defsim__rd_fail(r, DEFSIM_ERR_IO, line, "expected a section ($Name), found '%.*s'",
+                            (int)(n > 40 ? 40 : n), name);
+        }
+    }
+}
+
+static void gmsh_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
+{
+    const char *name;
+    size_t n;
+    while (r->st == DEFSIM_OK && gmsh_section(r, &name, &n)) {
+        int line = r->line;
+        if (defsim__tok_is(name, n, "$Nodes")) {
+            long long nblocks, nn, skip;
+            if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
+                !defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn))
+                return;
+            if (minor >= 1 && (!defsim__rd_i64(r, "minimum node tag", &skip) ||
+                               !defsim__rd_i64(r, "maximum node tag", &skip)))
+                return;
+            for (long long b = 0; b < nblocks; ++b) {
+                long long dim, etag, param, cnt;
+                if (minor >= 1) {
+                    if (!defsim__rd_count(r, "entity dimension", 0, 3, &dim) ||
+                        !defsim__rd_i64(r, "entity tag", &etag))
+                        return;
+                } else if (!defsim__rd_i64(r, "entity tag", &etag) ||
+                           !defsim__rd_count(r, "entity dimension", 0, 3, &dim)) {
+                    return;
+                }
+                if (!defsim__rd_count(r, "parametric flag", 0, 1, &param) ||
+                    !defsim__rd_count(r, "nodes in block", 0, INT32_MAX / 3, &cnt))
+                    return;
+                /* Parametric coordinates follow x y z: one per entity dimension. */
+                const long long npar = param ? (minor >= 1 ? dim : (dim < 2 ? dim : 2)) : 0;
+                if (minor >= 1) {
+                    size_t first = m->tag.n;
+                    for (long long i = 0; i < cnt; ++i) {
+                        long long tag;
+                        const double zero[3] = {0, 0, 0};
+                        if (!defsim__rd_i64(r, "node tag", &tag) ||
+                            !gmsh_push_node(r, m, tag, zero))
+                            return;
+                    }
+                    double *P = m->pos.p;
+                    for (long long i = 0; i < cnt; ++i) {
+                        double *p = P + 3 * (first + (size_t)i), u;
+                        if (!defsim__rd_f64(r, "x", &p[0]) || !defsim__rd_f64(r, "y", &p[1]) ||
+                            !defsim__rd_f64(r, "z", &p[2]))
+                            return;
+                        for (long long k = 0; k < npar; ++k)
+                            if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
+                    }
+                } else {
+                    for (long long i = 0; i < cnt; ++i) {
+                        long long tag;
+                        double p[3], u;
+                        if (!defsim__rd_i64(r, "node tag", &tag) ||
+                            !defsim__rd_f64(r, "x", &p[0]) ||
+                            !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
+                            return;
+                        for (long long k = 0; k < npar; ++k)
+                            if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
+                        if (!gmsh_push_node(r, m, tag, p)) return;
+                    }
+                }
+            }
+            gmsh_expect_end(r, "$EndNodes");
+        } else if (defsim__tok_is(name, n, "$Elements")) {
+            long long nblocks, ne, skip;
+            if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
+                !defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne))
+                return;
+            if (minor >= 1 && (!defsim__rd_i64(r, "minimum element tag", &skip) ||
+                               !defsim__rd_i64(r, "maximum element tag", &skip)))
+                return;
+            for (long long b = 0; b < nblocks; ++b) {
+                long long dim, etag, type, cnt;
+                defsim__rd_skip_ws(r);
+                int bline = r->line;
+                if (minor >= 1) {
+                    if (!defsim__rd_count(r, "entity dimension", 0, 3, &dim) ||
+                        !defsim__rd_i64(r, "entity tag", &etag))
+                        return;
+                } else if (!defsim__rd_i64(r, "entity tag", &etag) ||
+                           !defsim__rd_count(r, "entity dimension", 0, 3, &dim)) {
+                    return;
+                }
+                if (!defsim__rd_i64(r, "element type", &type) ||
+                    !defsim__rd_count(r, "elements in block", 0, INT32_MAX, &cnt))
+                    return;
+                if (type != 4) {
+                    /* Boundary elements are skipped line by line; other volumes are errors. */
+                    gmsh_element(r, m, type, (int)dim, bline, NULL, 0);
+                    if (r->st != DEFSIM_OK) return;
+                    defsim__rd_skip_line(r);
+                    for (long long e = 0; e < cnt; ++e) defsim__rd_skip_line(r);
+                    continue;
+                }
+                for (long long e = 0; e < cnt; ++e) {
+                    long long tag, v[4];
+                    defsim__rd_skip_ws(r);
+                    int eline = r->line;
+                    if (!defsim__rd_i64(r, "element tag", &tag)) return;
+                    for (int a = 0; a < 4; ++a)
+                        if (!defsim__rd_i64(r, "node tag", &v[a])) return;
+                    if (r->line != eline) {
+                        defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early",
+                                        tag);
+                        return;
+                    }
+                    gmsh_element(r, m, 4, 3, eline, v, 4);
+                    if (r->st != DEFSIM_OK) return;
+                }
+            }
+            gmsh_expect_end(r, "$EndElements");
+        } else if (name[0] == '$') {
+            gmsh_skip_section(r, name, n);
+        } else {
+            defsim__rd_fail(r, DEFSIM_ERR_IO, line, "expected a section ($Name), found '%.*s'",
+                            (int)(n > 40 ? 40 : n), name);
+        }
+    }
+}
+
+defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
+{
+    defsim__reader r;
+    defsim_status st = defsim__rd_open(&r, path, 0);
+    if (st != DEFSIM_OK) return st;
+    defsim__raw_mesh m;
+    defsim__raw_init(&m);
+    const char *tok;
+    size_t n = defsim__rd_token(&r, &tok);
+    if (!defsim__tok_is(tok, n, "$MeshFormat")) {
+        defsim__rd_fail(&r, DEFSIM_ERR_IO, r.line, "not a Gmsh file: expected $MeshFormat");
+        goto done;
+    }
+    defsim__rd_skip_ws(&r);
+    int vline = r.line;
+    double version;
+    long long ftype, dsize;
+    if (!defsim__rd_f64(&r, "format version", &version) ||
+        !defsim__rd_i64(&r, "file type", &ftype) ||
+        !defsim__rd_i64(&r, "data size", &dsize))
+        goto done;
+    if (ftype != 0) {
+        defsim__rd_fail(&r, DEFSIM_ERR_IO, vline, "binary .msh files are not read; save as ASCII "
+                        "(Mesh.Binary = 0, the default)");
+        goto done;
+    }
+    int major = (int)floor(version), minor = (int)lround((version - major) * 10.0);
+    if (!(major == 2 || (major == 4 && minor <= 1))) {
+        defsim__rd_fail(&r, DEFSIM_ERR_IO, vline, "Gmsh format %g is not supported (2.x and 4.0, "
+                        "4.1 ASCII are)", version);
+        goto done;
+    }
+    gmsh_expect_end(&r, "$EndMeshFormat");
+    if (r.st != DEFSIM_OK) goto done;
+    if (major == 2) gmsh_v2(&r, &m);
+    else gmsh_v4(&r, &m, minor);
+    if (r.st == DEFSIM_OK && m.tets.n == 0)
+        defsim__rd_fail(&r, DEFSIM_ERR_INVALID_MESH, 0,
+                        "no tetrahedra (element type 4) in the file");
+done:
+    st = r.st;
+    defsim__rd_close(&r);
+    if (st == DEFSIM_OK) st = defsim__mesh_finish(path, &m, 0, out);
+    defsim__raw_free(&m);
+    return st;
+}
+

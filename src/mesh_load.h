@@ -1,0 +1,42 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * What the mesh loaders share after tokenizing: the collected mesh (vertices by the tag the file
+ * gives them, elements by vertex tags, each with its line) and `defsim__mesh_finish`, which maps
+ * tags to indices, drops vertices that no element uses (they would have no mass), orients tets
+ * positively, rejects degenerate elements (tet_rest.h) and adds the tets' boundary triangles.
+ * One loader per format: mesh_tetgen.c, mesh_gmsh.c, mesh_obj.c; mesh_load.c picks one.
+ */
+#ifndef DEFSIM_MESH_LOAD_H
+#define DEFSIM_MESH_LOAD_H
+
+#include "mesh_reader.h"
+
+typedef struct defsim__raw_mesh {
+    defsim__vec pos;      /* double x3 */
+    defsim__vec tag;      /* long long, one per vertex */
+    defsim__vec tets;     /* long long x4 (vertex tags) */
+    defsim__vec tet_line; /* int */
+    defsim__vec tris;     /* long long x3 */
+    defsim__vec tri_line; /* int */
+    defsim__vec segs;     /* long long x2: explicit springs (OBJ 'l') */
+    defsim__vec seg_line; /* int */
+    int tags_are_indices; /* tags are 0-based indices already (OBJ) */
+} defsim__raw_mesh;
+
+void defsim__raw_init(defsim__raw_mesh *m);
+void defsim__raw_free(defsim__raw_mesh *m);
+
+/* Sets "path: out of memory" and returns DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__mesh_oom(const char *path);
+
+/* Maps tags to indices, compacts, checks and orients; on success fills *out (owning). With
+ * `edge_springs`, the unique edges of the triangles become springs (OBJ cloth). */
+defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edge_springs,
+                                  defsim_mesh *out);
+
+/* The loaders: `base` is a TetGen path without .node/.ele. */
+defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out);
+defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out);
+defsim_status defsim__load_obj(const char *path, defsim_mesh *out);
+
+#endif

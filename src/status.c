@@ -17,7 +17,8 @@
     X(DEFSIM_ERR_IO, "input/output error")                      \
     X(DEFSIM_ERR_STALE_ID, "stale id")                          \
     X(DEFSIM_ERR_LOCKED, "locked")                              \
-    X(DEFSIM_ERR_CONFLICT, "conflict")
+    X(DEFSIM_ERR_CONFLICT, "conflict")                          \
+    X(DEFSIM_ERR_CALLBACK, "host callback failed")
 
 const char *defsim_status_string(defsim_status status)
 {

@@ -54,9 +54,12 @@ typedef enum defsim_status {
     DEFSIM_ERR_UNSTABLE = -6,             ///< The step produced a non-finite state; state unchanged.
     DEFSIM_ERR_OUT_OF_MEMORY = -7,        ///< An allocation failed; state unchanged.
     DEFSIM_ERR_IO = -8,                   ///< A file could not be read or written, or is malformed.
-    DEFSIM_ERR_STALE_ID = -9,             ///< A body id that is null, removed, or from another world.
+    DEFSIM_ERR_STALE_ID = -9,             ///< A body or attachment id that is null, removed, or
+                                          ///< from another world.
     DEFSIM_ERR_LOCKED = -10,              ///< The world is inside a callback and cannot be changed.
-    DEFSIM_ERR_CONFLICT = -11             ///< A backend of that name is already registered.
+    DEFSIM_ERR_CONFLICT = -11,            ///< A backend of that name is already registered.
+    DEFSIM_ERR_CALLBACK = -12             ///< A host callback reported failure or returned a
+                                          ///< non-finite value; state unchanged.
 } defsim_status;
 
 /// Static English text for a status code ("invalid argument", ...). Never NULL; the string is
@@ -280,8 +283,11 @@ DEFSIM_API defsim_status defsim_world_set_state(defsim_world *world, const doubl
 /// Energies of the current state, in joules.
 typedef struct defsim_energy {
     double kinetic;        ///< 1/2 v^T M v.
-    double elastic;        ///< Springs plus tets, relative to the rest state (see README).
-    double gravitational;  ///< -sum m g . x (zero at the origin).
+    double elastic;        ///< Springs, tets and attachment springs, relative to the rest state
+                           ///< (see README).
+    double gravitational;  ///< Potential of the constant force fields: -sum (m g + f_ext) . x,
+                           ///< with f_ext the held external forces (zero at the origin). The
+                           ///< force callback has no potential and is not included.
     double total;          ///< kinetic + elastic + gravitational.
 } defsim_energy;
 
@@ -306,7 +312,11 @@ enum {
     DEFSIM_PASS_STIFFNESS_DAMPING = 1u << 7,///< -beta K v (skipped when every beta = 0).
     DEFSIM_PASS_PINS = 1u << 8,             ///< Pinned-vertex handling (skipped without pins).
     DEFSIM_PASS_HESSIAN = 1u << 9,          ///< Stiffness matrix assembly (implicit backends only).
-    DEFSIM_PASS_ENERGY = 1u << 10           ///< Energy evaluation inside the step (line searches).
+    DEFSIM_PASS_ENERGY = 1u << 10,          ///< Energy evaluation inside the step (line searches).
+    DEFSIM_PASS_EXTERNAL_FORCES = 1u << 11, ///< Held external forces (skipped when none are set).
+    DEFSIM_PASS_FORCE_CALLBACK = 1u << 12,  ///< The host's force callback (skipped when none).
+    DEFSIM_PASS_ATTACHMENTS = 1u << 13,     ///< Attachment springs (skipped without attachments).
+    DEFSIM_PASS_DRIVEN_PINS = 1u << 14      ///< Pinned vertices moved to targets in this step.
 };
 
 /// Counters and timings, cumulative since creation (or since defsim_world_reset_stats).
@@ -416,6 +426,168 @@ DEFSIM_API defsim_status defsim_mesh_cloth(const double origin[3], const double 
 /// input), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t segments,
                                           defsim_mesh *mesh);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Coupling with the host: external forces, driven pins, attachments, read-back               */
+/*                                                                                            */
+/* These are terms of the world's forces, energy and stiffness: every backend sees them       */
+/* through the same host services as elasticity and gravity, and a world that does not use    */
+/* them runs exactly the passes it ran before (see defsim_stats.passes).                      */
+
+/// Sets one constant external force per vertex (N), 3 * n doubles in world vertex order; n must
+/// equal defsim_world_vertex_count. The forces are copied and held, in every step that follows,
+/// until changed or cleared: f == NULL (n is then ignored) clears them. Forces on pinned vertices
+/// are kept but have no effect while the vertex is pinned. When a body is added its vertices get
+/// zero force; when one is removed its forces go with it, the others keep theirs. Held forces
+/// are a potential force field (energy -f . x, reported in defsim_energy.gravitational), so
+/// implicit backends treat them exactly. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, n
+/// different from the vertex count, a non-finite value: the message names the vertex; the
+/// forces held before the call are kept), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_world_set_external_forces(defsim_world *world, const double *f,
+                                                          int32_t n);
+
+/// A host force callback. Adds forces (N) into f_inout (3 * n doubles, world vertex order; the
+/// core has already written the world's other forces there, do not overwrite them) at positions
+/// x (m) and velocities v (m/s), 3 * n doubles each, at time t (s). x, v and f_inout are
+/// borrowed for the call. Returns 0 on success; any other value is a failure: the step (or the
+/// call) that evaluated it fails with DEFSIM_ERR_CALLBACK and the world's state is unchanged.
+/// A non-finite force is treated as a failure too. The callback must not call the world.
+/// Forces it adds to pinned vertices have no effect (but count in defsim_world_get_pin_forces).
+typedef int (*defsim_force_fn)(void *user, const double *x, const double *v, double t, int32_t n,
+                               double *f_inout);
+
+/// Optional Jacobian of a force callback: writes the per-vertex 3x3 blocks dF_i/dx_i (N/m),
+/// row-major (blocks[9 i + 3 r + c] = d F_i[r] / d x_i[c]), 9 * n doubles, at (x, v, t).
+/// Couplings between different vertices are not expressible and taken as zero; implicit
+/// backends use the symmetric part of each block, made negative semi-definite as the world's
+/// projection does for element Hessians (so a force that pushes away from equilibrium is
+/// treated by the stabilised part only). Same return convention as defsim_force_fn.
+typedef int (*defsim_force_jacobian_fn)(void *user, const double *x, const double *v, double t,
+                                        int32_t n, double *blocks);
+
+/// Sets the world's force callback (fn == NULL clears it, with its jacobian and user). `user`
+/// is passed to both functions and stays owned by the host; it must outlive the world or the
+/// next call of this function.
+/// When it runs: explicit backends (explicit_euler, symplectic_euler, velocity_verlet,
+/// sundials_erk) call fn at every force evaluation with that evaluation's x, v and t (so an
+/// adaptive or multi-stage method sees the time within the step). Implicit backends (those
+/// flagged DEFSIM_BACKEND_IMPLICIT) with a jacobian call fn and jacobian at every Newton
+/// iterate (the force enters the residual, its Jacobian the Newton matrix, and the line-search
+/// energy the quadratic model -f0 . d - d^T J0 d / 2 with d = x - x_n, f0, J0 at the step's
+/// start); without a jacobian they call fn once at the start of the step, at (x_n, v_n, t_n),
+/// and hold that force constant over the step (first-order lag: fine for slowly varying forces,
+/// unstable for stiff ones; give a jacobian then). In every backend fn is first called once at
+/// the start of each step: a failure there fails the step before anything moves.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, a jacobian without fn).
+DEFSIM_API defsim_status defsim_world_set_force_callback(defsim_world *world, defsim_force_fn fn,
+                                                         defsim_force_jacobian_fn jacobian,
+                                                         void *user);
+
+/// Drives pinned vertices: each listed vertex (body-local index) is pinned by this call if it
+/// was not, and reaches positions[3 i .. 3 i + 2] (m) exactly at the end of the next step,
+/// moving on the straight line from where it is with constant velocity (displacement / h) over
+/// that step, which is also its velocity when the step ends. In the steps after that it stays
+/// where it arrived (an ordinary pin, velocity zero) unless given a new target. Backends see the
+/// motion within the step (implicit ones as Dirichlet conditions with prescribed values, IDA with
+/// the consistent derivative). Calling it again before stepping replaces the targets of the
+/// vertices it lists. Unpinning a vertex drops its target. verts may be NULL when n == 0.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 0, index out of range, a non-finite
+/// position), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_OUT_OF_MEMORY; on error nothing changes.
+DEFSIM_API defsim_status defsim_body_set_pin_targets(defsim_world *world, defsim_body_id body,
+                                                     const int32_t *verts, int32_t n,
+                                                     const double *positions);
+
+/// An attachment handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of
+/// removed attachments become stale and are rejected with DEFSIM_ERR_STALE_ID.
+typedef struct defsim_attachment_id {
+    uint32_t index;
+    uint32_t generation;
+} defsim_attachment_id;
+
+/// Creation parameters of an attachment: a zero-rest-length spring (energy k/2 |x_v - p|^2) with
+/// an optional damper (force -c (v_v - v_p)) from one vertex of `body` to a target point p:
+///  - target_body null ({0, 0}): p is the world point `target` (m), held fixed during steps,
+///    velocity zero, until defsim_attachment_set_target moves it;
+///  - otherwise p = sum_j target_weights[j] x[target_vertices[j]] over target_vertex_count
+///    (1 to 4) body-local vertices of target_body: a vertex (1), an edge (2), a triangle (3:
+///    a row of defsim_mesh.triangles, for a cloth or the boundary of a solid) or a tet (4: a row
+///    of defsim_mesh.tets). The weights are barycentric: finite and summing to 1 (within 1e-9),
+///    so that moving both ends together stretches nothing; the spring's reaction is spread over
+///    the target vertices with the same weights, and its exact Hessian couples both bodies.
+/// Fill with defsim_attachment_def_init, then change what you need.
+typedef struct defsim_attachment_def {
+    uint32_t size;                  ///< sizeof(defsim_attachment_def), set by the init function.
+    defsim_body_id body;            ///< Body of the attached vertex. Required.
+    int32_t vertex;                 ///< Body-local index of the attached vertex.
+    double stiffness;               ///< k in N/m, > 0. Default 1e3.
+    double damping;                 ///< c in N s/m, >= 0. Default 0.
+    double target[3];               ///< World point (m) when target_body is null. Default 0.
+    defsim_body_id target_body;     ///< Body of the target element, or null for a world point.
+    int32_t target_vertex_count;    ///< 1..4 (target_body only). Default 0.
+    int32_t target_vertices[4];     ///< Body-local vertex indices of target_body.
+    double target_weights[4];       ///< Barycentric weights of those vertices.
+} defsim_attachment_def;
+
+/// Fills *def with defaults (no body, k = 1e3 N/m, no damping, the world origin as target).
+/// `size` must be sizeof *def. Does nothing if def is NULL.
+DEFSIM_API void defsim_attachment_def_init(defsim_attachment_def *def, size_t size);
+
+/// Adds an attachment; on success *out (may be NULL) receives its id. An attachment whose body
+/// or target body is removed is removed with it (its id becomes stale). A pinned attached
+/// vertex is allowed: the spring then acts on the target only (and on the pin's reaction).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, stiffness <= 0 or damping < 0 or not
+/// finite, vertex or target vertex out of range, target_vertex_count outside 1..4, weights not
+/// finite or not summing to 1, a non-finite target), DEFSIM_ERR_STALE_ID (body or target_body),
+/// DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_world_add_attachment(defsim_world *world,
+                                                     const defsim_attachment_def *def,
+                                                     defsim_attachment_id *out);
+
+/// Removes an attachment; its id becomes stale. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL
+/// world), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_world_remove_attachment(defsim_world *world,
+                                                        defsim_attachment_id attachment);
+
+/// Moves the world point of an attachment to a world point (target_body becomes null if it was
+/// not: the attachment now pulls towards `target`, m). The point is held during the steps that
+/// follow (it jumps; it does not move within a step). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL,
+/// non-finite target), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_attachment_set_target(defsim_world *world,
+                                                      defsim_attachment_id attachment,
+                                                      const double target[3]);
+
+/// The force (N) that the attachment applies to its vertex at the current state:
+/// -k (x_v - p) - c (v_v - v_p). Its target receives the opposite force (spread by the weights).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_world_get_attachment_force(const defsim_world *world,
+                                                           defsim_attachment_id attachment,
+                                                           double out[3]);
+
+/// Reaction forces of the pins (N), 3 * n doubles, n = the world's vertex count: for each pinned
+/// (or driven) vertex, the force its support applies to the body to hold it on its path,
+/// R_i = m_i a_i - f_i(x, v, t) with f_i the total force of the world on that vertex (elastic,
+/// gravity, damping, external forces, callback, attachments) at the current state, and a_i = 0
+/// (pins move with constant velocity within a step). Free vertices get 0. At static equilibrium
+/// the pin forces sum to minus the sum of the world's applied forces (for a hanging body: its
+/// weight, pointing up). A rigid-body engine coupled two-way applies -R_i to what holds the pin.
+/// Evaluated on demand (one force evaluation, plus the force callback if one is set).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch), DEFSIM_ERR_CALLBACK (the force
+/// callback failed; out is unchanged), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double *out,
+                                                     int32_t n);
+
+/// Per-tet stress of a body at the current state, in the order of its tets as given to
+/// defsim_world_add_body (tet_count must equal that count; a spring body has 0): the Cauchy
+/// stress sigma = P F^T / det F (Pa, row-major 3x3, 9 doubles per tet), its von Mises value
+/// sqrt(3/2 s : s) with s = sigma - tr(sigma)/3 I (Pa, 1 per tet), and the strain energy density
+/// psi(F) relative to rest (J/m^3 of rest volume, 1 per tet). Any output may be NULL. All are
+/// zero at rest. A tet with det F = 0, or det F <= 0 under the neo-Hookean model (undefined
+/// there), gets NaN in every output (its energy density: +inf under neo-Hookean).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
+                                                    defsim_body_id body, double *cauchy,
+                                                    double *von_mises, double *energy_density,
+                                                    int32_t tet_count);
 
 #ifdef __cplusplus
 }

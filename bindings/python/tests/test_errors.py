@@ -33,6 +33,7 @@ def test_every_status_maps_to_its_class() -> None:
         Status.STALE_ID: (defsim.StaleIdError, LookupError),
         Status.LOCKED: (defsim.LockedError, defsim.Error),
         Status.CONFLICT: (defsim.ConflictError, defsim.Error),
+        Status.CALLBACK: (defsim.CallbackError, defsim.Error),
     }
     assert set(expect) == set(Status) - {Status.OK}
     for status, (cls, base) in expect.items():

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import Tuple
 
-from ._errors import (BackendUnavailableError, ConflictError, Error, FileError,
+from ._errors import (BackendUnavailableError, CallbackError, ConflictError, Error, FileError,
                       InvalidArgumentError, InvalidMaterialError, InvalidMeshError, LockedError,
                       NotConvergedError, OutOfMemoryError, StaleIdError, Status, UnstableError,
                       UnsupportedError, error_from_status)
@@ -60,6 +60,6 @@ __all__ = [
     "Mesh", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
-    "FileError", "StaleIdError", "LockedError", "ConflictError", "UnsupportedError",
+    "FileError", "StaleIdError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",
     "error_from_status", "library_version", "header_version", "library_path", "__version__",
 ]

@@ -30,6 +30,7 @@ class Status(enum.IntEnum):
     STALE_ID = -9
     LOCKED = -10
     CONFLICT = -11
+    CALLBACK = -12
 
 
 class Error(Exception):
@@ -129,6 +130,13 @@ class ConflictError(Error):
     default_status = Status.CONFLICT
 
 
+class CallbackError(Error):
+    """A host callback failed or returned a non-finite value; state unchanged
+    (``DEFSIM_ERR_CALLBACK``)."""
+
+    default_status = Status.CALLBACK
+
+
 class UnsupportedError(Error, NotImplementedError):
     """The loaded libdefsim lacks a function this package wraps (an older or smaller build).
 
@@ -148,6 +156,7 @@ _CLASSES: Dict[int, Type[Error]] = {
     Status.STALE_ID: StaleIdError,
     Status.LOCKED: LockedError,
     Status.CONFLICT: ConflictError,
+    Status.CALLBACK: CallbackError,
 }
 
 

@@ -43,6 +43,10 @@ class Pass(enum.IntFlag):
     PINS = 1 << 8
     HESSIAN = 1 << 9
     ENERGY = 1 << 10
+    EXTERNAL_FORCES = 1 << 11
+    FORCE_CALLBACK = 1 << 12
+    ATTACHMENTS = 1 << 13
+    DRIVEN_PINS = 1 << 14
 
 
 class Energy(NamedTuple):

@@ -52,7 +52,7 @@ static int parse_path(sj_ctx *c, const cJSON *j, const char *what, scene_path *o
                 return -1;
             const double l = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
             if (!(l > 0.0)) return sj_fail(c, rot, "%s.axis must not be zero", wr);
-            for (int i = 0; i < 3; ++i) q[4 + i] = axis[i] / l * deg * M_PI / 180.0;
+            for (int i = 0; i < 3; ++i) q[4 + i] = axis[i] / l * deg * 3.14159265358979323846 / 180.0;
         }
         ++out->n;
     }
@@ -298,7 +298,9 @@ static int parse_attachment(sj_ctx *c, const cJSON *e, int index, scene_attachme
     if (sj_keys(c, e, w, keys)) return -1;
     const cJSON *bj = sj_require(c, e, "body", w);
     int32_t body = -1;
-    if (!bj || body_ref(c, bj, "attachments[].body", &body)) return -1;
+    char wb[160];
+    snprintf(wb, sizeof wb, "%s.body", w);
+    if (!bj || body_ref(c, bj, wb, &body)) return -1;
     const scene_body *b = &s->bodies[body];
     const int32_t nv = b->mesh.vertex_count;
     const double *x0 = b->initial ? b->initial : b->mesh.positions;
@@ -370,7 +372,9 @@ static int parse_attachment(sj_ctx *c, const cJSON *e, int index, scene_attachme
             goto done;
         }
         if (tb) {
-            if (body_ref(c, tb, "attachments[].target.body", &tbody)) goto done;
+            char wtb[180];
+            snprintf(wtb, sizeof wtb, "%s.body", wt);
+            if (body_ref(c, tb, wtb, &tbody)) goto done;
             if (tbody == body) {
                 sj_fail(c, tb, "%s.body: a body cannot be attached to itself", wt);
                 goto done;
@@ -469,7 +473,8 @@ defsim_status scene_build_coupling(scene *s, defsim_world *w)
         if (st == DEFSIM_OK) st = defsim_world_set_external_forces(w, f, nv);
         free(f);
         free(m);
-        if (st != DEFSIM_OK) return fail(s, w, st, "bodies[].forces", 0);
+        for (int32_t i = 0; i < s->nbodies && st != DEFSIM_OK; ++i)
+            if (s->bodies[i].nforces > 0) return fail(s, w, st, "forces", s->bodies[i].line);
     }
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];

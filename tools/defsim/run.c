@@ -8,6 +8,7 @@
 
 #include "clock.h"
 
+#include "fields.h"
 #include "scene.h"
 #include "vtk.h"
 #ifdef DEFSIM_HAVE_RENDER
@@ -45,6 +46,8 @@ static int usage(FILE *f)
         "  --frames LIST      write only these frames (comma-separated numbers, 0 = start)\n"
         "  --backend NAME     override world.backend\n"
         "  --threads N        override world.threads\n"
+        "  --color MODE       colour rendered bodies by body (default), stress (von Mises) or\n"
+        "                     displacement, with a colour bar (= --set output.color=MODE)\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
@@ -92,7 +95,7 @@ int run_main(int argc, char **argv)
     int render = 0, vtk = 1;
     const char **sets = calloc((size_t)argc + 4, sizeof *sets);
     int nsets = 0, *list = calloc((size_t)argc + 1, sizeof *list), nlist = 0;
-    char backend_set[128], threads_set[64];
+    char backend_set[128], threads_set[64], color_set[128];
     if (!sets || !list) return 1;
     for (int i = 0; i < argc; ++i) {
         const char *a = argv[i];
@@ -106,6 +109,9 @@ int run_main(int argc, char **argv)
         else if (!strcmp(a, "--backend") && has) {
             snprintf(backend_set, sizeof backend_set, "world.backend=\"%s\"", argv[++i]);
             sets[nsets++] = backend_set;
+        } else if (!strcmp(a, "--color") && has) {
+            snprintf(color_set, sizeof color_set, "output.color=\"%s\"", argv[++i]);
+            sets[nsets++] = color_set;
         } else if (!strcmp(a, "--threads") && has) {
             snprintf(threads_set, sizeof threads_set, "world.threads=%s", argv[++i]);
             sets[nsets++] = threads_set;
@@ -200,6 +206,15 @@ int run_main(int argc, char **argv)
             bad = vtk_cells_add(&cells, b->mesh.springs, b->line_count, 2, b->offset, VTK_LINE, i);
         if (bad) { fprintf(stderr, "defsim run: out of memory\n"); return 1; }
     }
+    /* Stress, displacement, pin and attachment forces: written into the VTK frames, and what
+     * the renderer colours by. */
+    fields fl;
+    const unsigned need = s.fields | (s.write_png && s.color == SCENE_COLOR_STRESS ? SCENE_FIELD_STRESS : 0u) |
+                          (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? SCENE_FIELD_DISPLACEMENT : 0u);
+    if (fields_init(&fl, &s, w, need, err, sizeof err)) {
+        fprintf(stderr, "defsim run: %s\n", err);
+        return 1;
+    }
     snprintf(path, sizeof path, "%s/energy.csv", dir);
     FILE *csv = fopen(path, "w");
     if (!x || !v || !csv) {
@@ -215,6 +230,8 @@ int run_main(int argc, char **argv)
     rd_renderer *rd = NULL;
     rd_view view;
     rd_part *parts = NULL;
+    int32_t **tri_cell = NULL;
+    float **tri_rgb = NULL, *vertex_rgb = NULL;
     image frame_img = {0, 0, NULL};
     enum { SHEET_MAX = 12 };
     image thumbs[SHEET_MAX];
@@ -223,6 +240,10 @@ int run_main(int argc, char **argv)
     if (s.write_png) {
         rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
         parts = calloc((size_t)s.nbodies, sizeof *parts);
+        tri_cell = calloc((size_t)s.nbodies, sizeof *tri_cell);
+        tri_rgb = calloc((size_t)s.nbodies, sizeof *tri_rgb);
+        vertex_rgb = malloc(3 * (size_t)nv * sizeof *vertex_rgb + 1);
+        if (!tri_cell || !tri_rgb || !vertex_rgb) return 1;
         frame_img.width = s.width;
         frame_img.height = s.height;
         frame_img.rgb = malloc((size_t)s.width * s.height * 3);
@@ -248,6 +269,17 @@ int run_main(int argc, char **argv)
             parts[i].nlines = b->line_count;
             memcpy(parts[i].color, b->color, sizeof parts[i].color);
             parts[i].smooth = b->mesh.tet_count == 0;
+            /* Stress colours: each boundary triangle takes its tet's cell. */
+            if (s.color == SCENE_COLOR_STRESS && b->mesh.tet_count > 0) {
+                tri_cell[i] = malloc((size_t)(b->mesh.triangle_count + 1) * sizeof **tri_cell);
+                tri_rgb[i] = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof **tri_rgb);
+                if (!tri_cell[i] || !tri_rgb[i] ||
+                    rd_triangle_tets(b->mesh.tets, b->mesh.tet_count, b->mesh.triangles,
+                                     b->mesh.triangle_count, tri_cell[i]))
+                    return 1;
+                for (int32_t t = 0; t < b->mesh.triangle_count; ++t)
+                    if (tri_cell[i][t] >= 0) tri_cell[i][t] += (int32_t)fl.cell_offset[i];
+            }
         }
         /* Contact sheet: up to 12 of the written frames, evenly spread. */
         int written[4096], nw = 0;
@@ -282,7 +314,7 @@ int run_main(int argc, char **argv)
     for (int f = 0; f <= s.frames; ++f) {
         if (f > 0) {
             for (int32_t k = 0; k < s.frame_steps; ++k) {
-                defsim_status st = defsim_world_step(w, h);
+                defsim_status st = scene_step(&s, w, h);
                 if (st != DEFSIM_OK) {
                     if (mode == 2) printf("\n");
                     fprintf(stderr, "defsim run: %s: step %lld (t = %g s, frame %d) failed: %s: %s\n",
@@ -310,13 +342,19 @@ int run_main(int argc, char **argv)
         last_frame = f;
         const int out = nlist > 0 ? wanted(f, s.frames, s.every, list, nlist)
                                   : wanted(f, s.frames, s.every, NULL, 0);
+        if (out && (s.write_vtk || s.write_png) && fields_eval(&fl, &s, w, err, sizeof err)) {
+            fprintf(stderr, "defsim run: frame %d: %s\n", f, err);
+            rc = 1;
+            goto finish;
+        }
         if (out && s.write_vtk) {
             const double t0 = tools_now();
             char name[64];
             snprintf(name, sizeof name, "frame_%05d.vtu", f);
             snprintf(path, sizeof path, "%s/%s", dir, name);
             defsim_world_get_velocities(w, v, nv);
-            if (vtk_write_vtu(path, nv, x, v, &cells, t, err, sizeof err) || pvd_add(&pvd, name, t) ||
+            if (vtk_write_vtu(path, nv, x, v, &cells, t, fl.arrays, fl.narrays, err, sizeof err) ||
+                pvd_add(&pvd, name, t) ||
                 vtk_write_pvd(pvd_path, pvd.n, pvd.times, (const char *const *)pvd.files, err,
                               sizeof err)) {
                 fprintf(stderr, "defsim run: %s\n", err);
@@ -329,8 +367,12 @@ int run_main(int argc, char **argv)
         if (out && s.write_png) {
             const double t0 = tools_now();
             snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
-            if (rd_render(rd, &view, x, parts, s.nbodies, frame_img.rgb, err, sizeof err) ||
-                image_write_png(path, &frame_img, err, sizeof err)) {
+            double range[2];
+            rd_color_parts((scene_color)s.color, &s, parts, s.nbodies, tri_cell, fl.von_mises,
+                           fl.displacement, nv, vertex_rgb, tri_rgb, range);
+            const int bad = rd_render(rd, &view, x, parts, s.nbodies, frame_img.rgb, err, sizeof err);
+            if (!bad) rd_colorbar(frame_img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
+            if (bad || image_write_png(path, &frame_img, err, sizeof err)) {
                 fprintf(stderr, "defsim run: render: %s\n", err);
                 rc = 1;
                 goto finish;
@@ -377,7 +419,9 @@ finish:
     defsim_world_get_positions(w, x, nv);
     defsim_world_get_velocities(w, v, nv);
     snprintf(path, sizeof path, "%s/final.vtu", dir);
-    if (vtk_write_vtu(path, nv, x, v, &cells, defsim_world_time(w), err, sizeof err)) {
+    if (fields_eval(&fl, &s, w, err, sizeof err) ||
+        vtk_write_vtu(path, nv, x, v, &cells, defsim_world_time(w), fl.arrays, fl.narrays, err,
+                      sizeof err)) {
         fprintf(stderr, "defsim run: %s\n", err);
         rc = 1;
     }
@@ -400,6 +444,13 @@ finish:
             free((void *)parts[i].lines);
         }
     free(parts);
+    for (int32_t i = 0; tri_cell && i < s.nbodies; ++i) {
+        free(tri_cell[i]);
+        free(tri_rgb[i]);
+    }
+    free(tri_cell);
+    free(tri_rgb);
+    free(vertex_rgb);
     rd_destroy(rd);
 #endif
     if (mode != 0) {
@@ -444,6 +495,7 @@ finish:
     free(pvd.files);
     free(pvd.times);
     vtk_cells_free(&cells);
+    fields_free(&fl);
     free(x);
     free(v);
     free(list);

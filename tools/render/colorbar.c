@@ -59,3 +59,49 @@ void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double l
     if (lx > x0) lx = x0;
     image_draw_text(&im, lx, y0 - 7 * scale - 4, scale, 40, label);
 }
+
+void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
+                    int32_t nv, float *vbuf, float *const *tbuf, double range[2])
+{
+    range[0] = 0.0;
+    range[1] = 0.0;
+    for (int i = 0; i < nparts; ++i) parts[i].vertex_colors = parts[i].tri_colors = NULL;
+    if (mode == SCENE_COLOR_BODY) return;
+    if (mode == SCENE_COLOR_DISPLACEMENT && !displacement) return;
+    if (mode == SCENE_COLOR_STRESS && !cell_value) return;
+    /* The scale: fixed by the scene, else from zero to this frame's largest value. */
+    double top = 0.0;
+    if (mode == SCENE_COLOR_DISPLACEMENT)
+        for (int32_t v = 0; v < nv; ++v) {
+            const double *d = displacement + 3 * (int64_t)v;
+            top = fmax(top, sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+        }
+    else
+        for (int i = 0; i < nparts; ++i)
+            for (int32_t t = 0; tri_cell[i] && t < parts[i].ntris; ++t)
+                if (tri_cell[i][t] >= 0) top = fmax(top, cell_value[tri_cell[i][t]]);
+    if (s && s->has_color_range) {
+        range[0] = s->color_range[0];
+        range[1] = s->color_range[1];
+    } else {
+        range[1] = top > 0.0 ? top : 1.0;
+    }
+    const double span = range[1] - range[0];
+    if (mode == SCENE_COLOR_DISPLACEMENT) {
+        for (int32_t v = 0; v < nv; ++v) {
+            const double *d = displacement + 3 * (int64_t)v;
+            rd_colormap((sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - range[0]) / span, vbuf + 3 * (int64_t)v);
+        }
+        for (int i = 0; i < nparts; ++i) parts[i].vertex_colors = vbuf;
+        return;
+    }
+    for (int i = 0; i < nparts; ++i) {
+        if (!tri_cell[i]) continue;   /* a body without tets keeps its colour */
+        for (int32_t t = 0; t < parts[i].ntris; ++t) {
+            const int32_t c = tri_cell[i][t];
+            rd_colormap(c >= 0 ? (cell_value[c] - range[0]) / span : 0.0, tbuf[i] + 3 * (int64_t)t);
+        }
+        parts[i].tri_colors = tbuf[i];
+    }
+}

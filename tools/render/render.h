@@ -71,6 +71,15 @@ int rd_triangle_tets(const int32_t *tets, int64_t ntets, const int32_t *tris, in
 /* RGB of s in [0, 1] (clamped) on a perceptually ordered scale (dark blue, teal, green, yellow). */
 void rd_colormap(double s, float rgb[3]);
 
+/* Colours the parts of one frame by `mode`: stress sets the tri_colors (in tbuf[i], 3 per
+ * triangle) of each part i whose tri_cell[i] (the cell of each triangle, -1 for none) is not
+ * NULL, from cell_value (von Mises per cell, Pa); displacement sets every part's vertex_colors
+ * (vbuf, 3 per vertex) from |displacement|. range receives the scale: the scene's color_range,
+ * else 0 .. the frame's largest value. Body mode (or a missing array) clears both. */
+void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
+                    int32_t nv, float *vbuf, float *const *tbuf, double range[2]);
+
 /* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image. */
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
 

@@ -9,6 +9,7 @@ from typing import Any, Callable, Iterator, List, NamedTuple, Optional, Tuple, U
 import numpy as np
 
 from . import _arrays
+from ._coupling import BodyCoupling, WorldCoupling
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
                       error_from_status)
 from ._material import Material
@@ -102,7 +103,7 @@ def _projection(value: Union[str, int, Projection]) -> int:
         raise InvalidArgumentError(f"unknown projection {value!r}") from None
 
 
-class Body:
+class Body(BodyCoupling):
     """A body of a World: a small handle (index and generation), not the data.
 
     Obtained from ``World.add_body``; it keeps its world alive. After ``remove()`` (or
@@ -198,7 +199,7 @@ class Body:
         return f"<defsim.Body index={self._index} generation={self._generation}>"
 
 
-class World:
+class World(WorldCoupling):
     """A simulation world (``defsim_world``): bodies, their state, and a backend that steps it.
 
     Args:
@@ -242,6 +243,7 @@ class World:
                  log: Optional[LogCallback] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
+        self._tets: dict = {}   # tet count of each body, by id (element_stress)
         self._log_cb: Any = None
         d = ffi.new("defsim_world_def *")
         lib.defsim_world_def_init(d, ffi.sizeof("defsim_world_def"))
@@ -324,6 +326,7 @@ class World:
     def _check(self, status: int) -> None:
         if status < 0:
             msg = ffi.string(lib.defsim_world_last_error(self._ptr)).decode("utf-8", "replace")
+            self._callback_failed(status, msg)   # a Python callback raised: StepError from it
             raise error_from_status(status, msg)
 
     def _own(self, body: Body) -> Any:
@@ -434,7 +437,11 @@ class World:
         del keep
         body = Body(self, int(out.index), int(out.generation))
         self._bodies.append(body)
+        self._tets[body.id] = int(t.shape[0])
         return body
+
+    def _tet_count(self, body: Body) -> int:
+        return self._tets.get(body.id, 0)
 
     def remove_body(self, body: Body) -> None:
         """Removes a body; the vertices of later bodies move down and its handle goes stale.

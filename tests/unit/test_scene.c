@@ -123,6 +123,12 @@ static const char *scene_text(const char *line3, const char *line6)
     return buf;
 }
 
+/* Writes `text` to tu_tmpdir/name and loads it, which must succeed. */
+static void load_ok(const char *name, const char *text, scene *s)
+{
+    if (scene_load(s, tu_write_file(name, text), NULL, 0)) fail_msg("%s", s->error);
+}
+
 static void expect_line(const char *text, int line)
 {
     const char *path = tu_write_file("s.json", text);
@@ -225,9 +231,8 @@ static void test_mesh_file_and_transform(void **state)
         "   \"transform\": {\"scale\": [-2, 1, 1], \"translate\": [0, 0, 3]},\n"
         "   \"material\": {\"stiffness\": 50, \"vertex_mass\": 0.5},\n"
         "   \"velocity\": [1, 0, 0]}]}\n";
-    const char *path = tu_write_file("obj.json", text);
     scene s;
-    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    load_ok("obj.json", text, &s);
     const scene_body *b = &s.bodies[0];
     assert_int_equal(b->mesh.vertex_count, 4);
     assert_int_equal(b->mesh.triangle_count, 2);
@@ -290,9 +295,8 @@ static void test_coupling(void **state)
         "                   \"target\": {\"body\": \"box\"}},\n"
         "                  {\"body\": \"rope\", \"vertex\": 2, \"stiffness\": 5, \"damping\": 0.1,\n"
         "                   \"target\": {\"keys\": [{\"t\": 0}, {\"t\": 1, \"rotate\": {\"axis\": [0,0,1], \"degrees\": 90, \"center\": [1.3,0,0]}}]}}]}\n";
-    const char *path = tu_write_file("c.json", text);
     scene s;
-    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    load_ok("c.json", text, &s);
     assert_int_equal(s.nattachments, 2);
     const scene_attachment *a = &s.attachments[0];
     assert_int_equal(a->body, 1);
@@ -340,8 +344,7 @@ static void test_coupling(void **state)
     text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"
            " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [2,2,2]},\n"
            "   \"forces\": {\"total\": [0, 0, 6], \"box\": {\"lo\": [0,0,0], \"hi\": [0.5,1,1]}}}]}\n";
-    path = tu_write_file("f.json", text);
-    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    load_ok("f.json", text, &s);
     if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
     TU_OK(scene_step(&s, w, h));
     TU_OK(defsim_world_get_velocities(w, v, 27));

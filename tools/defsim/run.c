@@ -209,8 +209,10 @@ int run_main(int argc, char **argv)
     /* Stress, displacement, pin and attachment forces: written into the VTK frames, and what
      * the renderer colours by. */
     fields fl;
-    const unsigned need = s.fields | (s.write_png && s.color == SCENE_COLOR_STRESS ? SCENE_FIELD_STRESS : 0u) |
-                          (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? SCENE_FIELD_DISPLACEMENT : 0u);
+    const unsigned need =
+        (s.write_vtk ? s.fields : 0u) |
+        (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
+        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
     if (fields_init(&fl, &s, w, need, err, sizeof err)) {
         fprintf(stderr, "defsim run: %s\n", err);
         return 1;

@@ -300,23 +300,35 @@ private:
     defsim_mesh m_;
 };
 
-/// A body handle (defsim_body_id): a small value, not a pointer. The default is the null id.
-class Body {
+namespace detail {
+
+/// What Body and Attachment share: a small value around a C id {index, generation}, not a
+/// pointer. The default is the null id.
+template <class Id, class Self>
+class Handle {
 public:
-    constexpr Body() noexcept = default;
-    constexpr explicit Body(defsim_body_id id) noexcept : id_(id) {}
-    constexpr defsim_body_id id() const noexcept { return id_; }
+    constexpr Handle() noexcept = default;
+    constexpr explicit Handle(Id id) noexcept : id_(id) {}
+    constexpr Id id() const noexcept { return id_; }
     constexpr uint32_t index() const noexcept { return id_.index; }
     constexpr uint32_t generation() const noexcept { return id_.generation; }
     constexpr bool is_null() const noexcept { return id_.index == 0 && id_.generation == 0; }
-    friend constexpr bool operator==(Body a, Body b) noexcept
+    friend constexpr bool operator==(Self a, Self b) noexcept
     {
         return a.id_.index == b.id_.index && a.id_.generation == b.id_.generation;
     }
-    friend constexpr bool operator!=(Body a, Body b) noexcept { return !(a == b); }
+    friend constexpr bool operator!=(Self a, Self b) noexcept { return !(a == b); }
 
 private:
-    defsim_body_id id_{0, 0};
+    Id id_{0, 0};
+};
+
+}  // namespace detail
+
+/// A body handle (defsim_body_id): a small value, not a pointer. The default is the null id.
+class Body : public detail::Handle<defsim_body_id, Body> {
+public:
+    using Handle::Handle;
 };
 
 /// Creation parameters of a body (defsim_body_def). The arrays are NOT copied here: they must
@@ -486,20 +498,9 @@ private:
 /// An owning world handle (defsim_world). Move-only; a moved-from World is empty, and calls on
 /// it throw DEFSIM_ERR_INVALID_ARGUMENT.
 /// An attachment handle (defsim_attachment_id): a small value like Body. The default is null.
-class Attachment {
+class Attachment : public detail::Handle<defsim_attachment_id, Attachment> {
 public:
-    constexpr Attachment() noexcept = default;
-    constexpr explicit Attachment(defsim_attachment_id id) noexcept : id_(id) {}
-    constexpr defsim_attachment_id id() const noexcept { return id_; }
-    constexpr bool is_null() const noexcept { return id_.index == 0 && id_.generation == 0; }
-    friend constexpr bool operator==(Attachment a, Attachment b) noexcept
-    {
-        return a.id_.index == b.id_.index && a.id_.generation == b.id_.generation;
-    }
-    friend constexpr bool operator!=(Attachment a, Attachment b) noexcept { return !(a == b); }
-
-private:
-    defsim_attachment_id id_{0, 0};
+    using Handle::Handle;
 };
 
 /// Creation parameters of an attachment (defsim_attachment_def), from the library's defaults.
@@ -557,9 +558,9 @@ struct ElementStress {
 /// it (see World::set_force_callback).
 using ForceFunction =
     std::function<void(const double *x, const double *v, double t, int32_t n, double *f)>;
-/// Its optional Jacobian: writes 9 n doubles, the row-major blocks dF_i/dx_i (N/m).
-using ForceJacobianFunction =
-    std::function<void(const double *x, const double *v, double t, int32_t n, double *blocks)>;
+/// Its optional Jacobian (the same signature): writes into its last argument 9 n doubles, the
+/// row-major blocks dF_i/dx_i (N/m).
+using ForceJacobianFunction = ForceFunction;
 
 class World {
 public:
@@ -699,10 +700,10 @@ public:
         auto state = std::make_unique<ForceState>();
         state->fn = std::move(fn);
         state->jacobian = std::move(jacobian);
-        check(defsim_world_set_force_callback(w_, &World::force_trampoline,
-                                              state->jacobian ? &World::jacobian_trampoline
-                                                              : nullptr,
-                                              state.get()));
+        check(defsim_world_set_force_callback(
+            w_, &World::force_trampoline<&ForceState::fn>,
+            state->jacobian ? &World::force_trampoline<&ForceState::jacobian> : nullptr,
+            state.get()));
         force_ = std::move(state);
     }
     /// Drives body-local vertices (pinned by this call if they were not) to positions (3 per
@@ -853,24 +854,14 @@ private:
         }
         detail::check(st, w_);
     }
+    /// The C callback of the force function (Member = &ForceState::fn) or of its Jacobian.
+    template <ForceFunction ForceState::*Member>
     static int force_trampoline(void *user, const double *x, const double *v, double t,
-                                int32_t n, double *f) noexcept
+                                int32_t n, double *out) noexcept
     {
         auto *s = static_cast<ForceState *>(user);
         try {
-            s->fn(x, v, t, n, f);
-            return 0;
-        } catch (...) {
-            if (!s->error) s->error = std::current_exception();
-            return 1;
-        }
-    }
-    static int jacobian_trampoline(void *user, const double *x, const double *v, double t,
-                                   int32_t n, double *blocks) noexcept
-    {
-        auto *s = static_cast<ForceState *>(user);
-        try {
-            s->jacobian(x, v, t, n, blocks);
+            (s->*Member)(x, v, t, n, out);
             return 0;
         } catch (...) {
             if (!s->error) s->error = std::current_exception();

@@ -7,12 +7,13 @@ that ``World.add_attachment`` returns.
 """
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple, Optional, Tuple
+from typing import Any, Callable, NamedTuple, Optional
 
 import numpy as np
 
 from . import _arrays
 from ._errors import CallbackError, InvalidArgumentError, Status
+from ._handle import Handle
 from ._native import ffi, lib
 
 __all__ = ["Attachment", "ElementStress", "ForceCallback", "ForceJacobian", "StepError"]
@@ -91,32 +92,13 @@ class _ForceCallback:
                             Status.CALLBACK) from exc
 
 
-class Attachment:
+class Attachment(Handle):
     """A zero-rest-length spring from a vertex to a world point or to a point of another body
     (``World.add_attachment``): a small handle like Body. After ``remove()``, or when a body it
     joins is removed, it is stale and its methods raise StaleIdError."""
 
-    __slots__ = ("_world", "_index", "_generation", "__weakref__")
-
-    def __init__(self, world: Any, index: int, generation: int) -> None:
-        self._world = world
-        self._index = index
-        self._generation = generation
-
-    @property
-    def world(self) -> Any:
-        return self._world
-
-    @property
-    def id(self) -> Tuple[int, int]:
-        """The C id as (index, generation)."""
-        return (self._index, self._generation)
-
-    def _cid(self) -> Any:
-        c = ffi.new("defsim_attachment_id *")
-        c.index = self._index
-        c.generation = self._generation
-        return c[0]
+    __slots__ = ()
+    _ctype = "defsim_attachment_id *"
 
     def set_target(self, point: Any) -> None:
         """Moves the attachment's world point to `point` (m); an attachment to a body becomes
@@ -139,17 +121,6 @@ class Attachment:
         """Removes the attachment; this handle becomes stale."""
         w = self._world
         w._check(lib.defsim_world_remove_attachment(w._live(), self._cid()))
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Attachment):
-            return NotImplemented
-        return self._world is other._world and self.id == other.id
-
-    def __hash__(self) -> int:
-        return hash((id(self._world), self._index, self._generation))
-
-    def __repr__(self) -> str:
-        return f"<defsim.Attachment index={self._index} generation={self._generation}>"
 
 
 class WorldCoupling:

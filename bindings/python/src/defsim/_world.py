@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _arrays
 from ._coupling import BodyCoupling, WorldCoupling
+from ._handle import Handle
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
                       error_from_status)
 from ._material import Material
@@ -103,7 +104,7 @@ def _projection(value: Union[str, int, Projection]) -> int:
         raise InvalidArgumentError(f"unknown projection {value!r}") from None
 
 
-class Body(BodyCoupling):
+class Body(Handle, BodyCoupling):
     """A body of a World: a small handle (index and generation), not the data.
 
     Obtained from ``World.add_body``; it keeps its world alive. After ``remove()`` (or
@@ -111,27 +112,8 @@ class Body(BodyCoupling):
     compare equal when they name the same body of the same world.
     """
 
-    __slots__ = ("_world", "_index", "_generation", "__weakref__")
-
-    def __init__(self, world: "World", index: int, generation: int) -> None:
-        self._world = world
-        self._index = index
-        self._generation = generation
-
-    @property
-    def world(self) -> "World":
-        return self._world
-
-    @property
-    def id(self) -> Tuple[int, int]:
-        """The C id as (index, generation)."""
-        return (self._index, self._generation)
-
-    def _cid(self) -> Any:
-        c = ffi.new("defsim_body_id *")
-        c.index = self._index
-        c.generation = self._generation
-        return c[0]
+    __slots__ = ()
+    _ctype = "defsim_body_id *"
 
     @property
     def alive(self) -> bool:
@@ -186,17 +168,6 @@ class Body(BodyCoupling):
 
     def _stale(self, status: int) -> Error:
         return error_from_status(status, f"body {self.id} is removed or its world is closed")
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Body):
-            return NotImplemented
-        return self._world is other._world and self.id == other.id
-
-    def __hash__(self) -> int:
-        return hash((id(self._world), self._index, self._generation))
-
-    def __repr__(self) -> str:
-        return f"<defsim.Body index={self._index} generation={self._generation}>"
 
 
 class World(WorldCoupling):

@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Sparse matrices of a compiled system over its free DOFs: the pattern (built once per plan),
- * the values of A = m M + md alpha M + k K + kd B (K the stiffness, projected as the system
- * says; B the stiffness-damping matrix), and the product A dx without forming A.
+ * Sparse matrices of a compiled system over its free DOFs: the pattern (built once per plan, with
+ * the couplings of attachments between bodies), the values of A = m M + md alpha M + k K + kd B
+ * (K the stiffness, projected as the system says, plus attachment springs and the force
+ * callback's blocks; B the stiffness-damping matrix plus attachment dampers), and the product
+ * A dx without forming A.
  *
  * Contents: pattern; element matrices and values; element products and defsim__matrix_apply.
  */
@@ -34,6 +36,14 @@ static int32_t find_rank(const int32_t *list, int64_t n, int32_t key)
     return (int32_t)lo;
 }
 
+/* Free vertex of attachment e's node a, or -1 (unused node or pinned vertex). */
+static int32_t attach_free(const defsim__system *s, const defsim__attachments *at, int64_t e,
+                           int a)
+{
+    const int32_t v = at->node[DEFSIM__ATTACH_NODES * e + a];
+    return v >= 0 ? s->vfree[v] : -1;
+}
+
 defsim_status defsim__pattern_build(defsim__system *s)
 {
     defsim__pattern *p = &s->pattern;
@@ -51,6 +61,15 @@ defsim_status defsim__pattern_build(defsim__system *s)
                     if (s->vfree[g->idx[g->nodes * e + b]] >= 0) cnt[fa + 1]++;
             }
     }
+    const defsim__attachments *at = &s->att;
+    const int an = DEFSIM__ATTACH_NODES;
+    for (int64_t e = 0; e < at->n; ++e)
+        for (int a = 0; a < an; ++a) {
+            int32_t fa = attach_free(s, at, e, a);
+            if (fa < 0) continue;
+            for (int b = 0; b < an; ++b)
+                if (attach_free(s, at, e, b) >= 0) cnt[fa + 1]++;
+        }
     for (int32_t i = 0; i < nfv; ++i) cnt[i + 1] += cnt[i] + 1;   /* + self */
     int32_t *tmp = malloc((size_t)(cnt[nfv] > 0 ? cnt[nfv] : 1) * sizeof *tmp);
     int64_t *fill = malloc(((size_t)nfv + 1) * sizeof *fill);
@@ -68,6 +87,15 @@ defsim_status defsim__pattern_build(defsim__system *s)
                 }
             }
     }
+    for (int64_t e = 0; e < at->n; ++e)
+        for (int a = 0; a < an; ++a) {
+            int32_t fa = attach_free(s, at, e, a);
+            if (fa < 0) continue;
+            for (int b = 0; b < an; ++b) {
+                int32_t fb = attach_free(s, at, e, b);
+                if (fb >= 0) tmp[fill[fa]++] = fb;
+            }
+        }
     /* Sort and deduplicate each list in place, compacting into adj. */
     p->adj_ptr = malloc(((size_t)nfv + 1) * sizeof *p->adj_ptr);
     p->upper_rank0 = malloc(((size_t)nfv + 1) * sizeof *p->upper_rank0);
@@ -107,6 +135,20 @@ defsim_status defsim__pattern_build(defsim__system *s)
                 }
     }
 
+    if (at->n > 0) {
+        int32_t *blk = malloc((size_t)at->n * an * an * sizeof *blk);
+        if (!blk) return DEFSIM_ERR_OUT_OF_MEMORY;
+        for (int64_t e = 0; e < at->n; ++e)
+            for (int a = 0; a < an; ++a)
+                for (int b = 0; b < an; ++b) {
+                    int32_t fa = attach_free(s, at, e, a), fb = attach_free(s, at, e, b);
+                    int32_t r = -1;
+                    if (fa >= 0 && fb >= 0)
+                        r = find_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
+                    blk[(an * e + a) * an + b] = r;
+                }
+        s->att.blk = blk;
+    }
     /* Column pointers and row indices of both layouts. */
     const int64_t n = 3 * (int64_t)nfv;
     p->full_col_ptr = malloc(((size_t)n + 1) * sizeof(int64_t));
@@ -242,6 +284,47 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
     return 1;
 }
 
+/* Attachments: (k k_e + kd c_e) a_r a_s I3 in the block of node pair (r, s). */
+static void add_attachments(const defsim__system *s, const defsim_matrix_coeffs *c, int upper,
+                            const int64_t *cp, double *values, uint32_t *passes)
+{
+    const defsim__attachments *at = &s->att;
+    const int an = DEFSIM__ATTACH_NODES;
+    for (int32_t e = 0; e < at->n; ++e) {
+        const double w = c->k * at->k[e] + c->kd * at->c[e];
+        const double *a = at->a + an * (int64_t)e;
+        const int32_t *blk = at->blk + (int64_t)an * an * e;
+        for (int rb = 0; rb < an; ++rb) {
+            const int32_t fb = attach_free(s, at, e, rb);
+            if (fb < 0) continue;
+            for (int ra = 0; ra < an; ++ra) {
+                const int32_t r = blk[ra * an + rb], fa = attach_free(s, at, e, ra);
+                if (r < 0 || (upper && fa > fb)) continue;
+                for (int cc = 0; cc < 3; ++cc)
+                    values[cp[3 * (int64_t)fb + cc] + 3 * (int64_t)r + cc] += w * a[ra] * a[rb];
+            }
+        }
+    }
+    if (at->n > 0 && passes) *passes |= DEFSIM_PASS_HESSIAN | DEFSIM_PASS_ATTACHMENTS;
+}
+
+/* The force callback's stiffness blocks (symmetric, 3x3 per vertex) on the diagonal blocks. */
+static void add_callback(const defsim__system *s, double k, int upper, const int64_t *cp,
+                         double *values)
+{
+    const int32_t *rank0 = s->pattern.upper_rank0;
+    for (int32_t v = 0; v < s->nv; ++v) {
+        const int32_t fv = s->vfree[v];
+        if (fv < 0) continue;
+        const double *B = s->cb_stiffness + 9 * (int64_t)v;
+        /* the diagonal block's rank: below-diagonal neighbours come first in both layouts */
+        const int64_t r = rank0[fv];
+        for (int cb = 0; cb < 3; ++cb)
+            for (int ca = 0; ca <= (upper ? cb : 2); ++ca)
+                values[cp[3 * (int64_t)fv + cb] + 3 * r + ca] += k * B[3 * ca + cb];
+    }
+}
+
 defsim_status defsim__matrix_values(const defsim__system *s, const double *x,
                                     const defsim_matrix_coeffs *c, defsim_triangle tri,
                                     double *values, uint32_t *passes)
@@ -286,6 +369,8 @@ defsim_status defsim__matrix_values(const defsim__system *s, const double *x,
             if (g->n > 0 && passes) *passes |= DEFSIM_PASS_HESSIAN;
         }
     }
+    if (c->k != 0.0 || c->kd != 0.0) add_attachments(s, c, upper, cp, values, passes);
+    if (c->k != 0.0 && s->cb_stiffness) add_callback(s, c->k, upper, cp, values);
     if (c->m != 0.0 || c->md != 0.0) {
         const int32_t *rank0 = s->pattern.upper_rank0;
         for (int32_t fv = 0; fv < s->nfree_v; ++fv)
@@ -374,6 +459,28 @@ void defsim__matrix_apply(const defsim__system *s, const double *x,
             }
         }
     }
+    if (c->k != 0.0 || c->kd != 0.0) {
+        const defsim__attachments *at = &s->att;
+        for (int32_t e = 0; e < at->n; ++e) {
+            const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+            const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+            const double w = c->k * at->k[e] + c->kd * at->c[e];
+            double d[3] = {0.0, 0.0, 0.0};
+            for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+                if (nd[j] >= 0 && !s->pinned[nd[j]])
+                    for (int i = 0; i < 3; ++i) d[i] += a[j] * dx[3 * (int64_t)nd[j] + i];
+            for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+                if (nd[j] >= 0 && !s->pinned[nd[j]])
+                    for (int i = 0; i < 3; ++i) out[3 * (int64_t)nd[j] + i] += w * a[j] * d[i];
+        }
+    }
+    if (c->k != 0.0 && s->cb_stiffness)
+        for (int32_t v = 0; v < s->nv; ++v) {
+            if (s->pinned[v]) continue;
+            const double *B = s->cb_stiffness + 9 * (int64_t)v, *u = dx + 3 * (int64_t)v;
+            for (int i = 0; i < 3; ++i)
+                out[3 * (int64_t)v + i] += c->k * (B[3 * i] * u[0] + B[3 * i + 1] * u[1] + B[3 * i + 2] * u[2]);
+        }
     if (c->m != 0.0 || c->md != 0.0)
         for (int64_t i = 0; i < ndof; ++i)
             if (!s->pinned[i / 3]) out[i] += (c->m + c->md * s->alpha3[i]) * s->mass3[i] * dx[i];

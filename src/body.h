@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* A body as the host gave it: validated, tets reordered to positive orientation (world.c). */
+/* A body as the host gave it: validated, tets reordered to positive orientation (world.c); an
+ * attachment as the host gave it. */
 #ifndef DEFSIM_BODY_H
 #define DEFSIM_BODY_H
 
@@ -20,5 +21,11 @@ typedef struct defsim__body {
     double mu, lambda;
     int32_t offset;           /* first vertex in the world arrays */
 } defsim__body;
+
+/* An attachment as the host gave it (coupling.c): validated; its bodies are live while it is. */
+typedef struct defsim__attachment {
+    uint32_t generation;      /* odd while alive; bumped on removal */
+    defsim_attachment_def def;
+} defsim__attachment;
 
 #endif /* DEFSIM_BODY_H */

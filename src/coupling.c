@@ -1,38 +1,305 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The host's coupling API (defsim.h "Coupling with the host"): external forces, the force
- * callback, driven pins, attachments, pin forces and element stress.
+ * The host's coupling API (defsim.h "Coupling with the host"): held external forces, the force
+ * callback, driven pins, attachments, and what the host reads back (pin forces, attachment
+ * forces, element stress). The physics of these terms lives with the rest of the physics
+ * (forces.c, energy.c, assembly.c over the compiled system); this file keeps what the host
+ * made and calls the host's callbacks.
+ *
+ * Contents: workspaces; steps; external forces; driven pins; attachments; read-back.
  */
+#include "element.h"
+#include "forces.h"
+#include "mat3.h"
 #include "world.h"
 
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
-static defsim_status pending(defsim_world *w, const char *what)
+static int64_t first_non_finite(const double *a, int64_t n)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim__error(w->msg, "%s: not available in this build yet", what);
-    return DEFSIM_ERR_INVALID_ARGUMENT;
+    for (int64_t i = 0; i < n; ++i)
+        if (!isfinite(a[i])) return i;
+    return -1;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Workspaces */
+
+defsim_status defsim__coupling_reserve(defsim_world *w)
+{
+    defsim__coupling *c = &w->cpl;
+    const size_t n = (size_t)(w->nv > 0 ? w->nv : 1);
+    if (c->nv != w->nv) {
+        free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
+        free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
+        free(c->pin_vel);
+        c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
+        c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
+        c->drv = NULL;
+        c->nv = w->nv;
+    }
+    if (c->fn && !c->f0) {
+        c->f0 = malloc(3 * n * sizeof *c->f0);
+        c->x0 = malloc(3 * n * sizeof *c->x0);
+        c->veval = malloc(3 * n * sizeof *c->veval);
+        c->K0 = malloc(9 * n * sizeof *c->K0);
+        c->kcb = malloc(9 * n * sizeof *c->kcb);
+        if (!c->f0 || !c->x0 || !c->veval || !c->K0 || !c->kcb) {
+            free(c->f0); free(c->x0); free(c->veval); free(c->K0); free(c->kcb);
+            c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+    if (w->sys.has_pins && !c->drv) {
+        c->drv = malloc(3 * n * sizeof *c->drv);
+        c->drv_start = malloc(3 * n * sizeof *c->drv_start);
+        c->drv_target = malloc(3 * n * sizeof *c->drv_target);
+        c->drv_x0 = malloc(3 * n * sizeof *c->drv_x0);
+        c->drv_x1 = malloc(3 * n * sizeof *c->drv_x1);
+        c->pin_vel = calloc(3 * n, sizeof *c->pin_vel);
+        if (!c->drv || !c->drv_start || !c->drv_target || !c->drv_x0 || !c->drv_x1 ||
+            !c->pin_vel) {
+            free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0);
+            free(c->drv_x1); free(c->pin_vel);
+            c->drv = NULL;
+            c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+    return DEFSIM_OK;
+}
+
+void defsim__coupling_free(defsim_world *w)
+{
+    w->cpl.fn = NULL;
+    w->nv = 0;
+    (void)defsim__coupling_reserve(w);   /* nv 0 and no callback: frees, allocates nothing */
+    free(w->cpl.drv); free(w->cpl.drv_start); free(w->cpl.drv_target); free(w->cpl.drv_x0);
+    free(w->cpl.drv_x1); free(w->cpl.pin_vel);
+    free(w->fext); free(w->att); free(w->pin_target); free(w->targeted);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Steps */
+
+defsim_status defsim__coupling_step_begin(defsim_world *w, double h)
+{
+    defsim__coupling *c = &w->cpl;
+    const defsim__system *s = &w->sys;
+    c->implicit = (w->backend->flags & DEFSIM_BACKEND_IMPLICIT) != 0;
+    c->failed = 0;
+    c->t0 = w->state.t;
+    c->h = h;
+    c->ndrv = 0;
+    if (s->has_pins && (w->ntargeted > 0 || w->drove)) {
+        for (int32_t v = 0; v < s->nv; ++v) {
+            if (!s->pinned[v]) continue;
+            for (int k = 0; k < 3; ++k) {
+                const int64_t d = 3 * (int64_t)v + k;
+                double vel = 0.0;
+                if (w->targeted && w->targeted[v]) {
+                    c->drv[c->ndrv] = d;
+                    c->drv_start[c->ndrv] = w->state.x[d];
+                    c->drv_target[c->ndrv] = w->pin_target[d];
+                    c->ndrv++;
+                    vel = (w->pin_target[d] - w->state.x[d]) / h;
+                }
+                c->pin_vel[d] = vel;
+                w->state.v[d] = vel;
+            }
+        }
+        if (c->ndrv > 0) w->step_passes |= DEFSIM_PASS_DRIVEN_PINS;
+    }
+    if (c->fn && c->implicit) {
+        /* Implicit backends hold the callback (without a Jacobian) or model its energy (with
+         * one) from its value at the start of the step. */
+        const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
+        memset(c->f0, 0, bytes);
+        memcpy(c->x0, w->state.x, bytes);
+        defsim_status st = defsim__callback_forces(c, w->msg, w->nv, w->state.x, w->state.v,
+                                                   c->t0, c->f0);
+        if (st == DEFSIM_OK && c->jac)
+            st = defsim__callback_stiffness(c, w->msg, w->nv, s->projection, w->state.x,
+                                            w->state.v, c->t0, c->K0);
+        if (st != DEFSIM_OK) return st;
+        memcpy(c->veval, w->state.v, bytes);
+        c->teval = c->t0;
+        c->hold = c->jac == NULL;
+        w->step_passes |= DEFSIM_PASS_FORCE_CALLBACK;
+    } else {
+        c->hold = 0;
+    }
+    c->in_step = 1;
+    return DEFSIM_OK;
+}
+
+void defsim__coupling_substep_before(defsim_world *w, int64_t i, int64_t n, double hsub)
+{
+    defsim__coupling *c = &w->cpl;
+    c->t0 = w->state.t + (double)i * hsub;
+    c->h = hsub;
+    const double r = (double)(i + 1) / (double)n;
+    for (int64_t k = 0; k < c->ndrv; ++k) {
+        const int64_t d = c->drv[k];
+        c->drv_x0[k] = w->state.x[d];
+        c->drv_x1[k] = i + 1 == n ? c->drv_target[k]
+                                  : c->drv_start[k] + r * (c->drv_target[k] - c->drv_start[k]);
+        w->state.v[d] = c->pin_vel[d];
+    }
+}
+
+void defsim__coupling_substep_after(defsim_world *w)
+{
+    defsim__coupling *c = &w->cpl;
+    for (int64_t k = 0; k < c->ndrv; ++k) {
+        w->state.x[c->drv[k]] = c->drv_x1[k];
+        w->state.v[c->drv[k]] = c->pin_vel[c->drv[k]];
+    }
+}
+
+defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st)
+{
+    defsim__coupling *c = &w->cpl;
+    c->in_step = 0;
+    c->hold = 0;
+    w->sys.cb_stiffness = NULL;
+    if (c->failed) {
+        c->failed = 0;
+        st = DEFSIM_ERR_CALLBACK;   /* the callback's failure is the cause, whatever followed */
+    }
+    if (st == DEFSIM_OK) {
+        w->drove = c->ndrv > 0;
+        if (w->ntargeted > 0) memset(w->targeted, 0, (size_t)w->nv);
+        w->ntargeted = 0;
+    }
+    c->ndrv = 0;
+    return st;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* External forces and the callback */
 
 defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f, int32_t n)
 {
-    (void)f; (void)n;
-    return pending(w, "set_external_forces");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    if (!f) {
+        free(w->fext);
+        w->fext = NULL;
+        w->fext_nonzero = 0;
+        w->sys.fext = NULL;
+        return DEFSIM_OK;
+    }
+    if (n != w->nv) {
+        defsim__error(w->msg, "set_external_forces: n = %d but the world has %d vertices",
+                      (int)n, (int)w->nv);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const int64_t ndof = 3 * (int64_t)n, bad = first_non_finite(f, ndof);
+    if (bad >= 0) {
+        defsim__error(w->msg, "set_external_forces: the force on vertex %lld is not finite",
+                      (long long)(bad / 3));
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!w->fext) {
+        w->fext = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *w->fext);
+        if (!w->fext) {
+            defsim__error(w->msg, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+    int nonzero = 0;
+    for (int64_t i = 0; i < ndof; ++i) {
+        w->fext[i] = f[i];
+        nonzero |= f[i] != 0.0;
+    }
+    w->fext_nonzero = nonzero;
+    if (w->planned) w->sys.fext = nonzero ? w->fext : NULL;
+    return DEFSIM_OK;
 }
 
 defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn fn,
                                               defsim_force_jacobian_fn jacobian, void *user)
 {
-    (void)fn; (void)jacobian; (void)user;
-    return pending(w, "set_force_callback");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    if (!fn && jacobian) {
+        defsim__error(w->msg, "set_force_callback: a jacobian needs a force function");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim__coupling *c = &w->cpl;
+    const defsim__coupling old = *c;
+    c->fn = fn;
+    c->jac = fn ? jacobian : NULL;
+    c->user = fn ? user : NULL;
+    if (w->planned && (st = defsim__coupling_reserve(w)) != DEFSIM_OK) {
+        c->fn = old.fn;
+        c->jac = old.jac;
+        c->user = old.user;
+        defsim__error(w->msg, "out of memory");
+        return st;
+    }
+    return DEFSIM_OK;
 }
 
-defsim_status defsim_body_set_pin_targets(defsim_world *w, defsim_body_id body,
-                                          const int32_t *verts, int32_t n, const double *positions)
+/* ------------------------------------------------------------------------------------------ */
+/* Driven pins */
+
+defsim_status defsim_body_set_pin_targets(defsim_world *w, defsim_body_id id,
+                                          const int32_t *verts, int32_t n,
+                                          const double *positions)
 {
-    (void)body; (void)verts; (void)n; (void)positions;
-    return pending(w, "set_pin_targets");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__body *b = defsim__world_body(w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (n < 0 || (n > 0 && (!verts || !positions))) {
+        defsim__error(w->msg, "set_pin_targets: n %d < 0, or verts or positions NULL", (int)n);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    for (int32_t i = 0; i < n; ++i) {
+        if (verts[i] < 0 || verts[i] >= b->nv) {
+            defsim__error(w->msg, "set_pin_targets: vertex %d (entry %d) out of range [0, %d)",
+                          (int)verts[i], (int)i, (int)b->nv);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+        for (int k = 0; k < 3; ++k)
+            if (!isfinite(positions[3 * (int64_t)i + k])) {
+                defsim__error(w->msg, "set_pin_targets: target of entry %d is not finite", (int)i);
+                return DEFSIM_ERR_INVALID_ARGUMENT;
+            }
+    }
+    if (n == 0) return DEFSIM_OK;
+    if (!w->pin_target) {
+        w->pin_target = malloc(3 * (size_t)w->nv * sizeof *w->pin_target);
+        w->targeted = calloc((size_t)w->nv, 1);
+        if (!w->pin_target || !w->targeted) {
+            free(w->pin_target); free(w->targeted);
+            w->pin_target = NULL;
+            w->targeted = NULL;
+            defsim__error(w->msg, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+    if ((st = defsim_body_pin(w, id, verts, n)) != DEFSIM_OK) return st;
+    for (int32_t i = 0; i < n; ++i) {
+        const int64_t v = (int64_t)b->offset + verts[i];
+        if (!w->targeted[v]) {
+            w->targeted[v] = 1;
+            w->ntargeted++;
+        }
+        for (int k = 0; k < 3; ++k) w->pin_target[3 * v + k] = positions[3 * (int64_t)i + k];
+    }
+    return DEFSIM_OK;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Attachments */
 
 void defsim_attachment_def_init(defsim_attachment_def *def, size_t size)
 {
@@ -46,43 +313,284 @@ void defsim_attachment_def_init(defsim_attachment_def *def, size_t size)
     def->size = (uint32_t)size;
 }
 
+static defsim__attachment *attachment(const defsim_world *w, defsim_attachment_id id)
+{
+    if (id.index == 0 || id.index > (uint32_t)w->natt) return NULL;
+    defsim__attachment *a = &w->att[id.index - 1];
+    return a->generation == id.generation && (a->generation & 1u) ? a : NULL;
+}
+
+static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_attachment_id id)
+{
+    defsim__attachment *a = attachment(w, id);
+    if (!a)
+        defsim__error(w->msg, "attachment id {%u, %u} is null, removed or not of this world",
+                      (unsigned)id.index, (unsigned)id.generation);
+    return a;
+}
+
+static int is_null(defsim_body_id id) { return id.index == 0 && id.generation == 0; }
+
+static defsim_status check_attachment(defsim_world *w, const defsim_attachment_def *d)
+{
+    const defsim__body *b = defsim__world_body(w, d->body);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (d->vertex < 0 || d->vertex >= b->nv) {
+        defsim__error(w->msg, "add_attachment: vertex %d out of range [0, %d)", (int)d->vertex,
+                      (int)b->nv);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!isfinite(d->stiffness) || !(d->stiffness > 0.0) || !isfinite(d->damping) ||
+        d->damping < 0.0) {
+        defsim__error(w->msg, "add_attachment: stiffness %g must be finite and > 0, damping %g "
+                      "finite and >= 0", d->stiffness, d->damping);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (is_null(d->target_body)) {
+        if (first_non_finite(d->target, 3) >= 0) {
+            defsim__error(w->msg, "add_attachment: the target point is not finite");
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+        return DEFSIM_OK;
+    }
+    const defsim__body *tb = defsim__world_body(w, d->target_body);
+    if (!tb) return DEFSIM_ERR_STALE_ID;
+    if (d->target_vertex_count < 1 || d->target_vertex_count > 4) {
+        defsim__error(w->msg, "add_attachment: target_vertex_count %d must be 1..4",
+                      (int)d->target_vertex_count);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    double sum = 0.0;
+    for (int j = 0; j < d->target_vertex_count; ++j) {
+        if (d->target_vertices[j] < 0 || d->target_vertices[j] >= tb->nv) {
+            defsim__error(w->msg, "add_attachment: target vertex %d out of range [0, %d)",
+                          (int)d->target_vertices[j], (int)tb->nv);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+        if (!isfinite(d->target_weights[j])) {
+            defsim__error(w->msg, "add_attachment: target weight %d is not finite", j);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+        sum += d->target_weights[j];
+    }
+    if (!(fabs(sum - 1.0) <= 1e-9)) {
+        defsim__error(w->msg, "add_attachment: target weights sum to %.17g, not 1", sum);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachment_def *def,
                                           defsim_attachment_id *out)
 {
-    (void)def; (void)out;
-    return pending(w, "add_attachment");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    if (!def || def->size < offsetof(defsim_attachment_def, damping)) {
+        defsim__error(w->msg, "add_attachment: def is NULL or def->size is too small "
+                      "(use defsim_attachment_def_init)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_attachment_def d;
+    defsim_attachment_def_init(&d, sizeof d);
+    memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
+    d.size = sizeof d;
+    if ((st = check_attachment(w, &d)) != DEFSIM_OK) return st;
+    if (is_null(d.target_body)) d.target_vertex_count = 0;
+    int32_t slot = 0;
+    while (slot < w->natt && (w->att[slot].generation & 1u)) ++slot;
+    if (slot == w->natt && w->natt == w->cap_att) {
+        const int32_t cap = w->cap_att ? 2 * w->cap_att : 8;
+        defsim__attachment *na = realloc(w->att, (size_t)cap * sizeof *na);
+        if (!na) {
+            defsim__error(w->msg, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        w->att = na;
+        w->cap_att = cap;
+    }
+    if (slot == w->natt) w->att[w->natt++].generation = 0;
+    defsim__attachment *a = &w->att[slot];
+    a->generation++;
+    a->def = d;
+    defsim__world_invalidate(w);
+    if (out) {
+        out->index = (uint32_t)slot + 1;
+        out->generation = a->generation;
+    }
+    return DEFSIM_OK;
 }
 
 defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_id id)
 {
-    (void)id;
-    return pending(w, "remove_attachment");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__attachment *a = attachment_or_error(w, id);
+    if (!a) return DEFSIM_ERR_STALE_ID;
+    a->generation++;
+    defsim__world_invalidate(w);
+    return DEFSIM_OK;
+}
+
+void defsim__coupling_drop_body(defsim_world *w, int32_t b)
+{
+    for (int32_t i = 0; i < w->natt; ++i) {
+        defsim__attachment *a = &w->att[i];
+        if ((a->generation & 1u) &&
+            ((int32_t)a->def.body.index == b + 1 || (int32_t)a->def.target_body.index == b + 1))
+            a->generation++;
+    }
 }
 
 defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id id,
                                            const double target[3])
 {
-    (void)id; (void)target;
-    return pending(w, "attachment_set_target");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__attachment *a = attachment_or_error(w, id);
+    if (!a) return DEFSIM_ERR_STALE_ID;
+    if (!target || first_non_finite(target, 3) >= 0) {
+        defsim__error(w->msg, "attachment_set_target: target is NULL or not finite");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    for (int k = 0; k < 3; ++k) a->def.target[k] = target[k];
+    if (!is_null(a->def.target_body)) {
+        /* From a body's element to a world point: a change of the pattern. */
+        a->def.target_body = (defsim_body_id){0, 0};
+        a->def.target_vertex_count = 0;
+        defsim__world_invalidate(w);
+        return DEFSIM_OK;
+    }
+    if (w->planned) {
+        /* The compiled attachments are the live ones in slot order. */
+        int32_t e = 0;
+        for (const defsim__attachment *o = w->att; o < a; ++o) e += (o->generation & 1u) != 0;
+        for (int k = 0; k < 3; ++k) w->sys.att.p[3 * (int64_t)e + k] = target[k];
+    }
+    return DEFSIM_OK;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Read-back */
 
 defsim_status defsim_world_get_attachment_force(const defsim_world *w, defsim_attachment_id id,
                                                 double out[3])
 {
-    (void)id; (void)out;
-    return pending((defsim_world *)w, "get_attachment_force");
+    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__attachment *a = attachment_or_error(w, id);
+    if (!a) return DEFSIM_ERR_STALE_ID;
+    const defsim_attachment_def *d = &a->def;
+    const int64_t v = (int64_t)w->bodies[d->body.index - 1].offset + d->vertex;
+    double dx[3], dv[3];
+    for (int k = 0; k < 3; ++k) {
+        dx[k] = w->state.x[3 * v + k] - d->target[k] * (d->target_vertex_count == 0);
+        dv[k] = w->state.v[3 * v + k];
+    }
+    for (int j = 0; j < d->target_vertex_count; ++j) {
+        const int64_t t = (int64_t)w->bodies[d->target_body.index - 1].offset +
+                          d->target_vertices[j];
+        for (int k = 0; k < 3; ++k) {
+            dx[k] -= d->target_weights[j] * w->state.x[3 * t + k];
+            dv[k] -= d->target_weights[j] * w->state.v[3 * t + k];
+        }
+    }
+    for (int k = 0; k < 3; ++k) out[k] = -d->stiffness * dx[k] - d->damping * dv[k];
+    return DEFSIM_OK;
 }
 
 defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t n)
 {
-    (void)out; (void)n;
-    return pending(w, "get_pin_forces");
+    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (n != w->nv) {
+        defsim__error(w->msg, "get_pin_forces: n = %d but the world has %d vertices", (int)n,
+                      (int)w->nv);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_status st = defsim__world_plan(w);
+    if (st != DEFSIM_OK) return st;
+    const int64_t ndof = 3 * (int64_t)n;
+    if (!w->sys.has_pins) {
+        memset(out, 0, (size_t)ndof * sizeof *out);
+        return DEFSIM_OK;
+    }
+    double *f = malloc((size_t)ndof * sizeof *f);
+    if (!f) {
+        defsim__error(w->msg, "out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    uint32_t passes = 0;
+    uint32_t *saved = w->handle.passes;
+    w->handle.passes = &passes;   /* a read-back is not a step: leave the step's passes alone */
+    st = defsim__host_forces(&w->handle, w->state.x, w->state.v, w->state.t,
+                             DEFSIM_FORCE_ALL | DEFSIM__FORCE_KEEP_PINNED, f);
+    w->handle.passes = saved;
+    w->cpl.failed = 0;
+    if (st == DEFSIM_OK)
+        for (int64_t i = 0; i < ndof; ++i) out[i] = w->pinned[i / 3] ? -f[i] : 0.0;
+    else if (st != DEFSIM_ERR_CALLBACK)
+        defsim__error(w->msg, "get_pin_forces: the forces are not finite");
+    free(f);
+    return st;
 }
 
-defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id body,
+defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id id,
                                          double *cauchy, double *von_mises,
                                          double *energy_density, int32_t tet_count)
 {
-    (void)body; (void)cauchy; (void)von_mises; (void)energy_density; (void)tet_count;
-    return pending((defsim_world *)w, "body_element_stress");
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__body *b = defsim__world_body((defsim_world *)w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (tet_count != b->nt) {
+        defsim__error(w->msg, "element_stress: tet_count = %d but the body has %d tets",
+                      (int)tet_count, (int)b->nt);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const double *x = w->state.x + 3 * (int64_t)b->offset;
+    for (int32_t t = 0; t < b->nt; ++t) {
+        const int32_t *tt = b->tets + 4 * (int64_t)t;
+        double dm[9], dminv[9], F[9], P[9], psi;
+        const double *p3 = b->rest + 3 * (int64_t)tt[3];
+        for (int a = 0; a < 3; ++a)
+            for (int i = 0; i < 3; ++i) dm[3 * i + a] = b->rest[3 * (int64_t)tt[a] + i] - p3[i];
+        (void)defsim__m3_inverse(dm, dminv);
+        tet_deformation(x, tt, dminv, F);
+        const double mu = b->mu, la = b->lambda, J = defsim__m3_det(F);
+        switch (b->mat.model) {
+        case DEFSIM_MODEL_STVK:
+            psi = defsim__stvk_P(mu, la, F, P);
+            break;
+        case DEFSIM_MODEL_COROTATED:
+            psi = defsim__corotated_P(mu, la, F, P);
+            break;
+        case DEFSIM_MODEL_NEOHOOKEAN:
+            psi = J > 0.0 ? defsim__neohookean_P(mu, la, F, P) : INFINITY;
+            break;
+        default:
+            psi = defsim__snh_P(mu, la, F, P) - defsim__snh_psi_rest(mu, la);
+            break;
+        }
+        double sigma[9], vm = NAN;
+        const int defined = J != 0.0 && isfinite(psi);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                sigma[3 * i + j] = defined ? (P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] +
+                                              P[3 * i + 2] * F[3 * j + 2]) / J
+                                           : NAN;
+        if (defined) {
+            const double p = (sigma[0] + sigma[4] + sigma[8]) / 3.0;
+            double ss = 0.0;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) {
+                    const double s = sigma[3 * i + j] - (i == j ? p : 0.0);
+                    ss += s * s;
+                }
+            vm = sqrt(1.5 * ss);
+        }
+        if (cauchy) memcpy(cauchy + 9 * (int64_t)t, sigma, sizeof sigma);
+        if (von_mises) von_mises[t] = vm;
+        if (energy_density) energy_density[t] = J != 0.0 || !isfinite(psi) ? psi : NAN;
+    }
+    return DEFSIM_OK;
 }

@@ -10,6 +10,7 @@
 #include "defsim/backend.h"
 #include "mat3.h"
 #include "material_models.h"
+#include "system.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -26,6 +27,19 @@ static inline void tet_gradients(const double *dminv, double g[4][3])
         g[2][j] = dminv[2 * 3 + j];
         g[3][j] = -(g[0][j] + g[1][j] + g[2][j]);
     }
+}
+
+/* Attachment e's combination sum_j a_j u[node_j] (u = x or v), minus its world point p when
+ * `point` is set: the spring's stretch d (x) or its rate (v). */
+static inline void attach_combine(const defsim__attachments *at, int32_t e, const double *u,
+                                  int point, double d[3])
+{
+    const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+    const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+    for (int i = 0; i < 3; ++i) d[i] = point ? -at->p[3 * (int64_t)e + i] : 0.0;
+    for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+        if (nd[j] >= 0)
+            for (int i = 0; i < 3; ++i) d[i] += a[j] * u[3 * (int64_t)nd[j] + i];
 }
 
 /* F = Ds Dm^-1 with Ds = [x0 - x3, x1 - x3, x2 - x3] (columns). */

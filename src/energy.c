@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Energies of a compiled system: elastic and potential, as deterministic blocked sums. */
+/* Energies of a compiled system: elastic (with attachment springs) and potential (with gravity
+ * and held external forces), as deterministic blocked sums. */
 #include "energy.h"
 
 #include "element.h"
@@ -46,6 +47,12 @@ double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const d
         }
         for (int32_t b = 0; b < nb; ++b) total += part[b];
     }
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        double d[3];
+        attach_combine(at, e, x, 1, d);
+        total += 0.5 * at->k[e] * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    }
     return isnan(total) ? INFINITY : total;
 }
 
@@ -58,6 +65,11 @@ double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const
         for (int32_t i = 0; i < s->nv; ++i)
             sum -= s->mass[i] * (gr[0] * x[3 * (int64_t)i] + gr[1] * x[3 * (int64_t)i + 1] +
                                  gr[2] * x[3 * (int64_t)i + 2]);
+        e += sum;
+    }
+    if (s->fext) {
+        double sum = 0.0;
+        for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i) sum -= s->fext[i] * x[i];
         e += sum;
     }
     return e;

@@ -1,13 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Forces f(x, v) of a compiled system: elastic (one kernel per tet model, batched SIMD kernels
- * of tet_forces.c when chosen, scalar ones here as the reference), springs, stiffness and mass
- * damping, gravity, pins. Elements of a group are sorted by colour (no two elements of a colour
+ * of tet_forces.c when chosen, scalar ones here as the reference), springs, attachments,
+ * stiffness and mass damping, gravity and held external forces, pins. Elements of a group are sorted by colour (no two elements of a colour
  * share a vertex), so each colour scatters in parallel without atomics and every sum is formed
  * in the same order whatever the thread count: results are bit-identical for any number of
  * threads.
  *
- * Contents: scalar tet kernels; springs; stiffness damping; defsim__forces.
+ * Contents: scalar tet kernels; springs; stiffness damping; attachments; defsim__forces.
  */
 #include "forces.h"
 
@@ -120,6 +120,24 @@ static void damping_springs(const defsim__group *g, const double *x, const doubl
     }
 }
 
+/* Attachment springs (ELASTIC) and dampers (DAMPING): f_j -= a_j (k d + c sum_l a_l v_l). Few,
+ * and sharing vertices freely, so one thread in a fixed order. */
+static void forces_attachments(const defsim__attachments *at, const double *x, const double *v,
+                               int elastic, int damping, double *f)
+{
+    for (int32_t e = 0; e < at->n; ++e) {
+        const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+        const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+        const double k = elastic ? at->k[e] : 0.0, c = damping ? at->c[e] : 0.0;
+        double d[3] = {0.0, 0.0, 0.0}, w[3] = {0.0, 0.0, 0.0};
+        if (k != 0.0) attach_combine(at, e, x, 1, d);
+        if (c != 0.0) attach_combine(at, e, v, 0, w);
+        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+            if (nd[j] >= 0)
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)nd[j] + i] -= a[j] * (k * d[i] + c * w[i]);
+    }
+}
+
 static int all_finite(const double *a, int64_t n)
 {
     int ok = 1;
@@ -147,6 +165,14 @@ defsim_status defsim__forces(const defsim__system *s, const double *x, const dou
             used |= DEFSIM_PASS_SPRINGS;
         }
     }
+    if (s->att.n > 0) {
+        const int el = (which & DEFSIM_FORCE_ELASTIC) != 0;
+        const int dm = (which & DEFSIM_FORCE_DAMPING) && v && s->has_attachment_damping;
+        if (el || dm) {
+            forces_attachments(&s->att, x, v, el, dm, f);
+            used |= DEFSIM_PASS_ATTACHMENTS;
+        }
+    }
     if ((which & DEFSIM_FORCE_DAMPING) && v) {
         if (s->has_stiffness_damping) {
             for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
@@ -168,6 +194,10 @@ defsim_status defsim__forces(const defsim__system *s, const double *x, const dou
             f[3 * (int64_t)i + 2] += s->mass[i] * gr[2];
         }
         used |= DEFSIM_PASS_GRAVITY;
+    }
+    if ((which & DEFSIM_FORCE_GRAVITY) && s->fext) {
+        for (int64_t i = 0; i < ndof; ++i) f[i] += s->fext[i];
+        used |= DEFSIM_PASS_EXTERNAL_FORCES;
     }
     if (s->has_pins && !(which & DEFSIM__FORCE_KEEP_PINNED)) {
         for (int32_t i = 0; i < s->nv; ++i)

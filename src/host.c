@@ -1,14 +1,84 @@
 /* SPDX-License-Identifier: MIT */
 /* The table of host services that every backend receives (backend.h): the compiled system's
- * physics, plus the counting and timing of statistics. */
+ * physics, the host's force callback and driven pins, plus the counting and timing of
+ * statistics. */
 #include "host.h"
 
 #include "assembly.h"
 #include "clock.h"
 #include "energy.h"
 #include "forces.h"
+#include "mat3.h"
 
+#include <math.h>
 #include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------------------------ */
+/* The host's force callback */
+
+static int64_t first_non_finite(const double *a, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if (!isfinite(a[i])) return i;
+    return -1;
+}
+
+defsim_status defsim__callback_forces(defsim__coupling *c, defsim__messages *msg, int32_t nv,
+                                      const double *x, const double *v, double t, double *f)
+{
+    c->locked = 1;
+    const int rc = c->fn(c->user, x, v, t, nv, f);
+    c->locked = 0;
+    if (rc != 0) {
+        c->failed = 1;
+        defsim__error(msg, "force callback failed (returned %d at t = %g)", rc, t);
+        return DEFSIM_ERR_CALLBACK;
+    }
+    const int64_t bad = first_non_finite(f, 3 * (int64_t)nv);
+    if (bad >= 0) {
+        c->failed = 1;
+        defsim__error(msg, "force callback gave a non-finite force at vertex %lld (t = %g)",
+                      (long long)(bad / 3), t);
+        return DEFSIM_ERR_CALLBACK;
+    }
+    return DEFSIM_OK;
+}
+
+defsim_status defsim__callback_stiffness(defsim__coupling *c, defsim__messages *msg, int32_t nv,
+                                         int projection, const double *x, const double *v,
+                                         double t, double *K)
+{
+    memset(K, 0, 9 * (size_t)nv * sizeof *K);
+    c->locked = 1;
+    const int rc = c->jac(c->user, x, v, t, nv, K);
+    c->locked = 0;
+    if (rc != 0) {
+        c->failed = 1;
+        defsim__error(msg, "force Jacobian callback failed (returned %d at t = %g)", rc, t);
+        return DEFSIM_ERR_CALLBACK;
+    }
+    const int64_t bad = first_non_finite(K, 9 * (int64_t)nv);
+    if (bad >= 0) {
+        c->failed = 1;
+        defsim__error(msg, "force Jacobian callback gave a non-finite block at vertex %lld "
+                      "(t = %g)", (long long)(bad / 9), t);
+        return DEFSIM_ERR_CALLBACK;
+    }
+    for (int32_t i = 0; i < nv; ++i) {
+        double *B = K + 9 * (int64_t)i;
+        for (int r = 0; r < 3; ++r)
+            for (int s = r; s < 3; ++s) {
+                const double m = -0.5 * (B[3 * r + s] + B[3 * s + r]);
+                B[3 * r + s] = B[3 * s + r] = m;
+            }
+        if (projection != DEFSIM_PROJECTION_NONE) defsim__project_psd(3, B, projection);
+    }
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Services */
 
 static int64_t dof_count(const defsim_system *s) { return 3 * (int64_t)s->sys->nv; }
 static int64_t free_dof_count(const defsim_system *s) { return s->sys->nfree; }
@@ -19,25 +89,124 @@ static double *velocities(defsim_system *s) { return s->state->v; }
 static double sys_time(const defsim_system *s) { return s->state->t; }
 static const double *mass(const defsim_system *s) { return s->sys->mass3; }
 static const double *mass_damping(const defsim_system *s) { return s->sys->alpha3; }
-static int has_stiffness_damping(const defsim_system *s) { return s->sys->has_stiffness_damping; }
+static int has_stiffness_damping(const defsim_system *s)
+{
+    return s->sys->has_stiffness_damping || s->sys->has_attachment_damping;
+}
 
-static defsim_status forces(defsim_system *s, const double *x, const double *v, uint32_t which,
-                            double *f)
+defsim_status defsim__host_forces(defsim_system *s, const double *x, const double *v, double t,
+                                  uint32_t which, double *f)
+{
+    defsim__coupling *c = s->cpl;
+    const uint32_t keep = which & DEFSIM__FORCE_KEEP_PINNED;
+    which &= DEFSIM_FORCE_ALL;
+    if (!c->fn || !(which & DEFSIM_FORCE_GRAVITY))
+        return defsim__forces(s->sys, x, v, which | keep, f, s->passes);
+    /* The callback belongs to the applied forces (DEFSIM_FORCE_GRAVITY): added before pinned
+     * DOFs are cleared, so that it counts in pin forces like every other term. */
+    defsim_status st = defsim__forces(s->sys, x, v, which | DEFSIM__FORCE_KEEP_PINNED, f,
+                                      s->passes);
+    if (st != DEFSIM_OK) return st;
+    const int32_t nv = s->sys->nv;
+    const int64_t ndof = 3 * (int64_t)nv;
+    if (c->hold && c->in_step) {
+        for (int64_t i = 0; i < ndof; ++i) f[i] += c->f0[i];
+    } else {
+        if (!v) v = s->state->v;
+        st = defsim__callback_forces(c, s->msg, nv, x, v, t, f);
+        if (st != DEFSIM_OK) return st;
+        if (c->jac && c->in_step) {
+            memcpy(c->veval, v, (size_t)ndof * sizeof *v);
+            c->teval = t;
+        }
+    }
+    *s->passes |= DEFSIM_PASS_FORCE_CALLBACK;
+    if (s->sys->has_pins && !keep)
+        for (int32_t i = 0; i < nv; ++i)
+            if (s->sys->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
+    return DEFSIM_OK;
+}
+
+static defsim_status forces_at(defsim_system *s, const double *x, const double *v, double t,
+                               uint32_t which, double *f)
 {
     if (!x || !f || ((which & DEFSIM_FORCE_DAMPING) && !v)) return DEFSIM_ERR_INVALID_ARGUMENT;
     const double t0 = defsim__now();
-    defsim_status st = defsim__forces(s->sys, x, v, which & DEFSIM_FORCE_ALL, f, s->passes);
+    defsim_status st = defsim__host_forces(s, x, v, t, which & DEFSIM_FORCE_ALL, f);
     s->stats->force_evals++;
     s->stats->time_forces += defsim__now() - t0;
     return st;
 }
 
+/* Without a time, the callback sees the time that the backend's kind evaluates forces at:
+ * the start of the step (explicit), its end (implicit). */
+static defsim_status forces(defsim_system *s, const double *x, const double *v, uint32_t which,
+                            double *f)
+{
+    const defsim__coupling *c = s->cpl;
+    const double t = c->in_step ? c->t0 + (c->implicit ? c->h : 0.0) : s->state->t;
+    return forces_at(s, x, v, t, which, f);
+}
+
 static double potential_energy(defsim_system *s, const double *x)
 {
-    const double e = defsim__potential_energy(s->sys, s->work, x);
+    double e = defsim__potential_energy(s->sys, s->work, x);
+    /* An implicit step's line search sees the callback through its model from the step's
+     * start: -f0 . d held, plus d^T K0 d / 2 with a Jacobian (d = x - x0). */
+    const defsim__coupling *c = s->cpl;
+    if (c->fn && c->in_step && c->implicit) {
+        double lin = 0.0, quad = 0.0;
+        for (int32_t i = 0; i < s->sys->nv; ++i) {
+            if (s->sys->pinned[i]) continue;
+            double d[3];
+            for (int k = 0; k < 3; ++k) {
+                d[k] = x[3 * (int64_t)i + k] - c->x0[3 * (int64_t)i + k];
+                lin += c->f0[3 * (int64_t)i + k] * d[k];
+            }
+            if (c->jac) {
+                const double *K = c->K0 + 9 * (int64_t)i;
+                for (int r = 0; r < 3; ++r)
+                    quad += d[r] * (K[3 * r] * d[0] + K[3 * r + 1] * d[1] + K[3 * r + 2] * d[2]);
+            }
+        }
+        e += 0.5 * quad - lin;
+    }
     s->stats->energy_evals++;
     *s->passes |= DEFSIM_PASS_ENERGY;
     return e;
+}
+
+/* Implicit steps with a Jacobian callback: its stiffness at x, with the velocities and time
+ * of the latest force evaluation, joins K. */
+static defsim_status callback_stiffness(defsim_system *s, const double *x)
+{
+    defsim__coupling *c = s->cpl;
+    if (!(c->jac && c->in_step && c->implicit)) {
+        s->sys->cb_stiffness = NULL;
+        return DEFSIM_OK;
+    }
+    defsim_status st = defsim__callback_stiffness(c, s->msg, s->sys->nv, s->sys->projection, x,
+                                                  c->veval, c->teval, c->kcb);
+    s->sys->cb_stiffness = st == DEFSIM_OK ? c->kcb : NULL;
+    return st;
+}
+
+static void pin_positions(const defsim_system *s, double t, double *x)
+{
+    const defsim__coupling *c = s->cpl;
+    if (c->ndrv == 0) return;
+    if (t >= c->t0 + c->h) {
+        for (int64_t k = 0; k < c->ndrv; ++k) x[c->drv[k]] = c->drv_x1[k];
+        return;
+    }
+    const double r = t > c->t0 ? (t - c->t0) / c->h : 0.0;
+    for (int64_t k = 0; k < c->ndrv; ++k)
+        x[c->drv[k]] = c->drv_x0[k] + r * (c->drv_x1[k] - c->drv_x0[k]);
+}
+
+static const double *pin_velocities(const defsim_system *s)
+{
+    return s->cpl->ndrv > 0 ? s->cpl->pin_vel : NULL;
 }
 
 /* Backends that do not declare DEFSIM_BACKEND_NEEDS_MATRIX get the pattern on first use. */
@@ -61,6 +230,7 @@ static defsim_status matrix_values(defsim_system *s, const double *x,
     defsim_status st = ensure_pattern(s);
     if (st != DEFSIM_OK) return st;
     const double t0 = defsim__now();
+    if (c && c->k != 0.0 && (st = callback_stiffness(s, x)) != DEFSIM_OK) return st;
     st = defsim__matrix_values(s->sys, x, c, tri, values, s->passes);
     if (st != DEFSIM_OK) return st;
     s->stats->hessian_evals++;
@@ -71,6 +241,8 @@ static defsim_status matrix_values(defsim_system *s, const double *x,
 static defsim_status matrix_product(defsim_system *s, const double *x,
                                     const defsim_matrix_coeffs *c, const double *dx, double *out)
 {
+    defsim_status st;
+    if (x && c && c->k != 0.0 && (st = callback_stiffness(s, x)) != DEFSIM_OK) return st;
     return defsim__matrix_product(s->sys, x, c, dx, out);
 }
 
@@ -119,4 +291,7 @@ const defsim_host defsim__host = {
     .set_error = set_error,
     .alloc = alloc,
     .release = release,
+    .forces_at = forces_at,
+    .pin_positions = pin_positions,
+    .pin_velocities = pin_velocities,
 };

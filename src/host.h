@@ -16,6 +16,33 @@ typedef struct defsim__state {
     double t;                 /* s */
 } defsim__state;
 
+/* What the host services need of the host's coupling terms during a step (coupling.c): the
+ * force callback and the driven pins of the backend step under way. Owned by the world. */
+typedef struct defsim__coupling {
+    defsim_force_fn fn;       /* NULL: no callback */
+    defsim_force_jacobian_fn jac;
+    void *user;
+    int implicit;             /* the backend is DEFSIM_BACKEND_IMPLICIT */
+    int hold;                 /* implicit without jac: f0 is held over the step */
+    int failed;               /* the callback failed in this step */
+    int in_step;              /* f0, K0, x0 hold the start of the current step */
+    int locked;               /* a host callback is running: the world refuses changes */
+    double *f0, *K0, *x0;     /* 3 nv, 9 nv, 3 nv: callback force, stiffness, positions at the
+                                 start of an implicit step */
+    double *kcb;              /* 9 nv: stiffness blocks -sym(dF/dx) of the latest Jacobian */
+    double *veval;            /* 3 nv: velocities of the latest callback evaluation */
+    double teval;
+    int32_t nv;               /* the size the arrays were made for */
+
+    /* the backend step under way covers [t0, t0 + h]; driven DOFs go from drv_x0 to drv_x1 */
+    double t0, h;
+    int64_t ndrv;
+    int64_t *drv;             /* DOFs */
+    double *drv_start, *drv_target;   /* at the start and end of the world's step */
+    double *drv_x0, *drv_x1;  /* at the start and end of the backend step */
+    double *pin_vel;          /* 3 nv: velocity of the driven DOFs over the step, 0 elsewhere */
+} defsim__coupling;
+
 struct defsim_system {
     defsim__system *sys;      /* built by plan.c; host services build its pattern on demand */
     defsim__work *work;
@@ -24,7 +51,24 @@ struct defsim_system {
     defsim_stats *stats;
     uint32_t *passes;         /* DEFSIM_PASS_* of the current step */
     defsim__messages *msg;
+    defsim__coupling *cpl;
 };
+
+/* Adds the callback's forces at (x, v, t) into f (3 nv). On a failure or a non-finite force,
+ * sets c->failed and the error in msg and returns DEFSIM_ERR_CALLBACK (f is then undefined). */
+defsim_status defsim__callback_forces(defsim__coupling *c, defsim__messages *msg, int32_t nv,
+                                      const double *x, const double *v, double t, double *f);
+
+/* The callback's stiffness blocks -sym(dF_i/dx_i), projected as `projection` says, at
+ * (x, v, t) into K (9 nv). Same failure rules as defsim__callback_forces. */
+defsim_status defsim__callback_stiffness(defsim__coupling *c, defsim__messages *msg, int32_t nv,
+                                         int projection, const double *x, const double *v,
+                                         double t, double *K);
+
+/* Forces at (x, v, t) as the `forces` service gives them (v may be NULL: the step's start
+ * velocities go to the callback), with the force callback as the coupling says. */
+defsim_status defsim__host_forces(defsim_system *s, const double *x, const double *v, double t,
+                                  uint32_t which, double *f);
 
 /* The host service table handed to backends. */
 extern const defsim_host defsim__host;

@@ -2,9 +2,9 @@
 /*
  * The planner: compiles the bodies of a world into a defsim__system (system.h) when the world
  * is first stepped or evaluated after a change: element groups per material with their rest
- * data, colours and SIMD batches, per-DOF masses and damping, free-DOF maps, the pass plan, the
- * sparse pattern when the backend assembles matrices, and the workspaces physics functions
- * use, so that no step allocates.
+ * data, colours and SIMD batches, attachments, per-DOF masses and damping, free-DOF maps, the
+ * pass plan, the sparse pattern when the backend assembles matrices, and the workspaces physics
+ * functions use, so that no step allocates.
  *
  * Contents: kernel variants; freeing; SIMD batches; element groups; defsim__plan.
  */
@@ -69,6 +69,8 @@ static void group_free(defsim__group *g)
 void defsim__unplan(defsim__system *s, defsim__work *wk)
 {
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) group_free(&s->groups[m]);
+    defsim__attachments *at = &s->att;
+    free(at->node); free(at->a); free(at->k); free(at->c); free(at->p); free(at->blk);
     defsim__pattern *p = &s->pattern;
     free(p->adj_ptr); free(p->adj); free(p->upper_rank0);
     free(p->full_col_ptr); free(p->full_row_idx); free(p->upper_col_ptr); free(p->upper_row_idx);
@@ -206,6 +208,43 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     return DEFSIM_OK;
 }
 
+/* Attachments in world vertex ids: node 0 the attached vertex, then the target's vertices. */
+static defsim_status plan_attachments(defsim__system *s, const defsim__plan_input *in)
+{
+    int32_t n = 0;
+    for (int32_t i = 0; i < in->nattachments; ++i) n += (in->attachments[i].generation & 1u) != 0;
+    if (n == 0) return DEFSIM_OK;
+    defsim__attachments *at = &s->att;
+    const int an = DEFSIM__ATTACH_NODES;
+    at->node = malloc((size_t)n * an * sizeof *at->node);
+    at->a = malloc((size_t)n * an * sizeof *at->a);
+    at->k = malloc((size_t)n * sizeof *at->k);
+    at->c = malloc((size_t)n * sizeof *at->c);
+    at->p = malloc((size_t)n * 3 * sizeof *at->p);
+    if (!at->node || !at->a || !at->k || !at->c || !at->p) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t i = 0; i < in->nattachments; ++i) {
+        if (!(in->attachments[i].generation & 1u)) continue;
+        const defsim_attachment_def *d = &in->attachments[i].def;
+        const int32_t e = at->n++;
+        int32_t *nd = at->node + an * (int64_t)e;
+        double *a = at->a + an * (int64_t)e;
+        for (int j = 0; j < an; ++j) { nd[j] = -1; a[j] = 0.0; }
+        nd[0] = in->bodies[d->body.index - 1].offset + d->vertex;
+        a[0] = 1.0;
+        const int point = d->target_body.index == 0;
+        for (int c = 0; c < 3; ++c) at->p[3 * (int64_t)e + c] = point ? d->target[c] : 0.0;
+        if (!point)
+            for (int j = 0; j < d->target_vertex_count; ++j) {
+                nd[1 + j] = in->bodies[d->target_body.index - 1].offset + d->target_vertices[j];
+                a[1 + j] = -d->target_weights[j];
+            }
+        at->k[e] = d->stiffness;
+        at->c[e] = d->damping;
+        if (d->damping > 0.0) s->has_attachment_damping = 1;
+    }
+    return DEFSIM_OK;
+}
+
 defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__plan_input *in)
 {
     defsim__unplan(s, wk);
@@ -216,6 +255,7 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
     const int64_t ndof = 3 * (int64_t)s->nv;
     const size_t nd = (size_t)(ndof > 0 ? ndof : 1), nv = (size_t)(s->nv > 0 ? s->nv : 1);
     defsim_status st = plan_groups(s, in);
+    if (st == DEFSIM_OK) st = plan_attachments(s, in);
     if (st != DEFSIM_OK) goto fail;
     st = DEFSIM_ERR_OUT_OF_MEMORY;
     s->mass = malloc(nv * sizeof *s->mass);

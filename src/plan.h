@@ -18,6 +18,8 @@ typedef struct defsim__plan_input {
     int projection;               /* defsim_projection */
     int32_t nthreads;
     int need_matrix;              /* build the sparse pattern now */
+    const defsim__attachment *attachments;   /* live ones have an odd generation */
+    int32_t nattachments;
 } defsim__plan_input;
 
 /* Compiles `in` into s and sizes wk (freeing what they held). On failure both are left empty

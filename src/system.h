@@ -53,6 +53,21 @@ typedef struct defsim__pattern {
     int32_t *upper_rank0;     /* per free vertex: neighbours ranked below it (for UPPER) */
 } defsim__pattern;
 
+/* Attachments (attach.c): zero-rest-length springs on d = sum_j a_j x[node_j] - p, energy
+ * k/2 |d|^2, damping force -c a_j sum_l a_l v[node_l] on node j. Node 0 is the attached vertex
+ * (a = 1); nodes 1..4 the target's vertices (a = -weight), or unused (node -1, a = 0) for a
+ * world point p. */
+enum { DEFSIM__ATTACH_NODES = 5 };
+
+typedef struct defsim__attachments {
+    int32_t n;
+    int32_t *node;            /* 5 n */
+    double *a;                /* 5 n */
+    double *k, *c;            /* n: N/m, N s/m */
+    double *p;                /* 3 n: world point (0 for a body target) */
+    int32_t *blk;             /* 25 n: rank of node r in node s's pattern list (-1: pinned) */
+} defsim__attachments;
+
 typedef struct defsim__system {
     int32_t nv;               /* vertices */
     int32_t nthreads;
@@ -77,6 +92,13 @@ typedef struct defsim__system {
 
     defsim__pattern pattern;
     const struct defsim__tet_kernels *tet_kernels;   /* batched force kernels; NULL: scalar */
+
+    /* The host's terms (coupling.c, attach.c). fext and cb_stiffness are owned by the world and
+     * updated between (or, for cb_stiffness, by the host services during) steps. */
+    defsim__attachments att;
+    int has_attachment_damping;
+    const double *fext;       /* 3 nv held external forces, or NULL (none or all zero) */
+    const double *cb_stiffness;   /* 9 nv: -dF/dx blocks of the force callback, or NULL */
 } defsim__system;
 
 /* Scratch that physics functions write (sized by the planner, so that no step allocates). */

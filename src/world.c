@@ -156,7 +156,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->stats.threads = w->nthreads;
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
-                                .msg = w->msg};
+                                .msg = w->msg, .cpl = &w->cpl};
     *out = w;
     return DEFSIM_OK;
 }
@@ -176,6 +176,19 @@ static void unplan(defsim_world *w)
     w->planned = 0;
 }
 
+void defsim__world_invalidate(defsim_world *w)
+{
+    backend_fini(w);
+    unplan(w);
+}
+
+defsim_status defsim__world_check_unlocked(defsim_world *w)
+{
+    if (!w->cpl.locked) return DEFSIM_OK;
+    defsim__error(w->msg, "the world cannot be changed from inside its force callback");
+    return DEFSIM_ERR_LOCKED;
+}
+
 defsim_status defsim__world_plan(defsim_world *w)
 {
     if (w->planned) return DEFSIM_OK;
@@ -184,12 +197,16 @@ defsim_status defsim__world_plan(defsim_world *w)
         .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
         .pinned = w->pinned, .gravity = w->def.gravity, .projection = (int)w->def.projection,
         .nthreads = w->nthreads,
-        .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0};
+        .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
+        .attachments = w->att, .nattachments = w->natt};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
+    if (st == DEFSIM_OK && (st = defsim__coupling_reserve(w)) != DEFSIM_OK)
+        defsim__unplan(&w->sys, &w->work);
     if (st != DEFSIM_OK) {
         defsim__error(w->msg, "out of memory while planning the world");
         return st;
     }
+    w->sys.fext = w->fext_nonzero ? w->fext : NULL;
     w->planned = 1;
     return DEFSIM_OK;
 }
@@ -212,6 +229,7 @@ void defsim_world_destroy(defsim_world *w)
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
     free(w->x_save); free(w->v_save);
     free(w->bstate);
+    defsim__coupling_free(w);
     free(w->msg);
     free(w);
 }
@@ -246,10 +264,17 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     double *xs = malloc(3 * n * sizeof *xs), *vs = malloc(3 * n * sizeof *vs);
     double *mass = malloc(n * sizeof *mass);
     uint8_t *pinned = malloc(n);
-    if (!x || !v || !xs || !vs || !mass || !pinned) {
+    /* the host's per-vertex coupling data, where it has some: new bodies get none */
+    double *fext = w->fext ? calloc(3 * n, sizeof *fext) : NULL;
+    double *target = w->pin_target ? malloc(3 * n * sizeof *target) : NULL;
+    uint8_t *targeted = w->pin_target ? calloc(n, 1) : NULL;
+    if (!x || !v || !xs || !vs || !mass || !pinned || (w->fext && !fext) ||
+        (w->pin_target && (!target || !targeted))) {
         free(x); free(v); free(xs); free(vs); free(mass); free(pinned);
+        free(fext); free(target); free(targeted);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    int32_t ntargeted = 0;
     int32_t off = 0;
     for (int32_t b = 0; b < w->nbodies; ++b) {
         defsim__body *bd = &w->bodies[b];
@@ -258,6 +283,13 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         if (old_offset[b] >= 0) {
             memcpy(x + 3 * (int64_t)off, w->state.x + 3 * (int64_t)old_offset[b], bytes);
             memcpy(v + 3 * (int64_t)off, w->state.v + 3 * (int64_t)old_offset[b], bytes);
+            if (fext) memcpy(fext + 3 * (int64_t)off, w->fext + 3 * (int64_t)old_offset[b], bytes);
+            if (target) {
+                memcpy(target + 3 * (int64_t)off, w->pin_target + 3 * (int64_t)old_offset[b],
+                       bytes);
+                memcpy(targeted + off, w->targeted + old_offset[b], (size_t)bd->nv);
+                for (int32_t i = 0; i < bd->nv; ++i) ntargeted += targeted[off + i];
+            }
         } else {
             memcpy(x + 3 * (int64_t)off, new_x, bytes);
             if (new_v) memcpy(v + 3 * (int64_t)off, new_v, bytes);
@@ -272,6 +304,14 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     free(w->mass); free(w->pinned);
     w->state.x = x; w->state.v = v; w->x_save = xs; w->v_save = vs;
     w->mass = mass; w->pinned = pinned;
+    free(w->fext); free(w->pin_target); free(w->targeted);
+    w->fext = fext; w->pin_target = target; w->targeted = targeted;
+    w->ntargeted = ntargeted;
+    if (fext) {
+        int nonzero = 0;
+        for (int64_t i = 0; i < 3 * (int64_t)nv; ++i) nonzero |= fext[i] != 0.0;
+        w->fext_nonzero = nonzero;
+    }
     w->nv = nv;
     backend_fini(w);
     unplan(w);
@@ -293,6 +333,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
                                     defsim_body_id *out)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
     if (!def || def->size < offsetof(defsim_body_def, material) + sizeof(uint32_t)) {
         defsim__error(w->msg, "add_body: def is NULL or def->size is too small "
                                "(use defsim_body_def_init)");
@@ -466,7 +507,7 @@ static defsim__body *lookup(const defsim_world *w, defsim_body_id id)
     return b;
 }
 
-static defsim__body *lookup_or_error(defsim_world *w, defsim_body_id id)
+defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id)
 {
     defsim__body *b = lookup(w, id);
     if (!b)
@@ -478,7 +519,8 @@ static defsim__body *lookup_or_error(defsim_world *w, defsim_body_id id)
 defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim__body *b = lookup_or_error(w, id);
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
     if (!old) { defsim__error(w->msg, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
@@ -491,6 +533,7 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
         defsim__error(w->msg, "out of memory");
         return st;
     }
+    defsim__coupling_drop_body(w, (int32_t)(b - w->bodies));
     body_free(b);
     return DEFSIM_OK;
 }
@@ -513,7 +556,8 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
                               int32_t n, uint8_t value)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim__body *b = lookup_or_error(w, id);
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (n < 0 || (n > 0 && !verts)) {
         defsim__error(w->msg, "pin: n %d < 0 or verts NULL", (int)n);
@@ -531,6 +575,10 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
         if (b->pinned[v] != value) changed = 1;
         b->pinned[v] = value;
         w->pinned[b->offset + v] = value;
+        if (!value && w->targeted && w->targeted[b->offset + v]) {
+            w->targeted[b->offset + v] = 0;   /* unpinning drops the target */
+            w->ntargeted--;
+        }
         if (value) {
             double *vv = w->state.v + 3 * ((int64_t)b->offset + v);
             vv[0] = vv[1] = vv[2] = 0.0;
@@ -591,6 +639,7 @@ defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_
 defsim_status defsim_world_set_state(defsim_world *w, const double *x, const double *v)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
     const int64_t ndof = 3 * (int64_t)w->nv;
     for (int64_t i = 0; i < ndof; ++i)
         if ((x && !isfinite(x[i])) || (v && !isfinite(v[i]))) {
@@ -624,7 +673,8 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         memset(&tmpw, 0, sizeof tmpw);
         const defsim__plan_input in = {
             .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
-            .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads};
+            .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
+            .attachments = w->att, .nattachments = w->natt};
         if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
             defsim__error(w->msg, "out of memory while planning the world");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -638,6 +688,10 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         const double *v = w->state.v + 3 * (int64_t)i, *x = w->state.x + 3 * (int64_t)i;
         ke += 0.5 * w->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         ge -= w->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
+        if (w->fext_nonzero) {
+            const double *f = w->fext + 3 * (int64_t)i;
+            ge -= f[0] * x[0] + f[1] * x[1] + f[2] * x[2];
+        }
     }
     out->kinetic = ke;
     out->elastic = defsim__elastic_energy(s, &work, w->state.x);
@@ -719,6 +773,7 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 defsim_status defsim_world_step(defsim_world *w, double h)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
     if (!isfinite(h) || !(h > 0.0)) {
         defsim__error(w->msg, "step: h = %g must be finite and > 0", h);
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -748,7 +803,8 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->step_passes = 0;
     w->msg->error[0] = '\0';
     const int substep = w->def.auto_substep && w->backend->stable_step;
-    for (int attempt = 0; attempt < 2; ++attempt) {
+    st = defsim__coupling_step_begin(w, h);
+    for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
             /* Re-estimate every 64 steps, after any change, and after a failed attempt. */
@@ -768,15 +824,21 @@ defsim_status defsim_world_step(defsim_world *w, double h)
             n = k < 1.0 ? 1 : (int64_t)k;
         }
         st = DEFSIM_OK;
-        for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i)
+        for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
+            defsim__coupling_substep_before(w, i, n, h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
+            defsim__coupling_substep_after(w);
+        }
         if (substep) w->stats.substeps += n;
         if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
         /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);
+        st = defsim__coupling_step_begin(w, h);
+        if (st != DEFSIM_OK) break;
         if (w->backend->reset) w->backend->reset(&defsim__host, &w->handle, w->bstate);
     }
+    st = defsim__coupling_step_end(w, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) {
         const int64_t ndof = 3 * (int64_t)w->nv;

@@ -43,10 +43,49 @@ struct defsim_world {
     int32_t steps_since_estimate;
     defsim_stats stats;
     uint32_t step_passes;
+
+    /* The host's coupling terms (coupling.c). Per-vertex arrays are NULL until first used and
+     * are carried over like the state when bodies are added or removed. */
+    double *fext;             /* 3 nv held external forces, or NULL */
+    int fext_nonzero;         /* the system sees fext only when some force is not zero */
+    defsim__attachment *att;
+    int32_t natt, cap_att;
+    double *pin_target;       /* 3 nv: where driven pins end the next step */
+    uint8_t *targeted;        /* nv: the vertex has a target */
+    int32_t ntargeted;
+    int drove;                /* the last step moved pins: their velocities go back to zero */
+    defsim__coupling cpl;     /* callback and drive workspaces, sized by the plan */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).
  * Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (with the world's error set). */
 defsim_status defsim__world_plan(defsim_world *w);
+
+/* Looks up a live body (NULL if stale) and sets the world's error if it is not. */
+defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id);
+
+/* Discards the plan and the backend's set-up (after a change of bodies, pins, attachments). */
+void defsim__world_invalidate(defsim_world *w);
+
+/* Returns DEFSIM_ERR_LOCKED with the world's error set while a host callback runs, else OK. */
+defsim_status defsim__world_check_unlocked(defsim_world *w);
+
+/* Sizes the coupling workspaces (w->cpl) for the current plan and features (coupling.c).
+ * Returns DEFSIM_ERR_OUT_OF_MEMORY on failure. */
+defsim_status defsim__coupling_reserve(defsim_world *w);
+
+/* Frees the coupling workspaces and the host's coupling terms (at destruction). */
+void defsim__coupling_free(defsim_world *w);
+
+/* Removes the attachments that reference body index b (0-based), bumping their generations. */
+void defsim__coupling_drop_body(defsim_world *w, int32_t b);
+
+/* Step hooks (coupling.c): begin evaluates what the step holds (callback at the start for
+ * implicit backends; driven pins' velocities); before/after bracket each backend call i of n;
+ * end closes the step (ok: it succeeded, consume the targets). */
+defsim_status defsim__coupling_step_begin(defsim_world *w, double h);
+void defsim__coupling_substep_before(defsim_world *w, int64_t i, int64_t n, double hsub);
+void defsim__coupling_substep_after(defsim_world *w);
+defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st);
 
 #endif

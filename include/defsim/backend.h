@@ -23,7 +23,9 @@ extern "C" {
 #endif
 
 /// ABI version of the tables below. Bumped when fields are appended.
-#define DEFSIM_BACKEND_ABI_VERSION 1u
+/// Version 2 appended the host's coupling services (defsim_host.forces_at, pin_positions,
+/// pin_velocities). The core accepts backends built against 1 or 2.
+#define DEFSIM_BACKEND_ABI_VERSION 2u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -33,10 +35,12 @@ typedef struct defsim_system defsim_system;
 
 /// Which parts of the force to evaluate (bits for defsim_host.forces).
 enum {
-    DEFSIM_FORCE_ELASTIC = 1u << 0,  ///< -dE/dx of springs and tets.
-    DEFSIM_FORCE_GRAVITY = 1u << 1,  ///< M g.
+    DEFSIM_FORCE_ELASTIC = 1u << 0,  ///< -dE/dx of springs, tets and attachment springs.
+    DEFSIM_FORCE_GRAVITY = 1u << 1,  ///< The applied forces: M g, the host's held external forces
+                                     ///< and its force callback.
     DEFSIM_FORCE_DAMPING = 1u << 2,  ///< -(alpha M + B(x)) v (Rayleigh; B = sum beta_e K_e with
-                                     ///< each K_e clamped to positive semi-definite).
+                                     ///< each K_e clamped to positive semi-definite, plus the
+                                     ///< attachment dampers).
     DEFSIM_FORCE_ALL = 7u
 };
 
@@ -58,7 +62,10 @@ typedef struct defsim_csc {
 /// Coefficients of a linear combination of the world's matrices:
 ///   A = k K(x) + kd B(x) + m M + md C
 /// where K is the elastic stiffness d2E/dx2 (element Hessians projected as the world's
-/// defsim_projection says), B = sum_e beta_e K_e the stiffness-damping matrix, M the lumped
+/// defsim_projection says; plus the attachment springs' exact, constant Hessians, and in an
+/// implicit backend's step the force callback's stiffness -dF/dx when the host gave a Jacobian,
+/// evaluated at x with the velocities and time of the latest force evaluation),
+/// B = sum_e beta_e K_e the stiffness-damping matrix plus the attachment dampers, M the lumped
 /// (diagonal) mass matrix and C = diag(alpha_i m_i) the mass-damping matrix.
 typedef struct defsim_matrix_coeffs {
     double k, kd, m, md;
@@ -77,7 +84,8 @@ typedef struct defsim_host {
     const int64_t *(*dof_to_free)(const defsim_system *sys);
 
     /// The world's state, writable: the backend leaves the new positions and velocities here.
-    /// The core keeps a copy and restores it if the step fails. Pinned DOFs must stay unchanged.
+    /// The core keeps a copy and restores it if the step fails. Pinned DOFs are the core's: it
+    /// sets them after the step (see pin_positions).
     double *(*positions)(defsim_system *sys);
     double *(*velocities)(defsim_system *sys);
     /// Simulated time at the start of this step (s).
@@ -91,11 +99,19 @@ typedef struct defsim_host {
     /// Forces (N) at positions x and velocities v (v may be NULL without DEFSIM_FORCE_DAMPING),
     /// the parts selected by `which` (DEFSIM_FORCE_* bits), into f (dof_count doubles). Pinned
     /// DOFs receive 0. Deterministic for a fixed thread count. Returns DEFSIM_OK, or
-    /// DEFSIM_ERR_UNSTABLE if a non-finite value was produced.
+    /// DEFSIM_ERR_UNSTABLE if a non-finite value was produced, or DEFSIM_ERR_CALLBACK if the
+    /// host's force callback failed (the core fails the step whatever the backend returns).
+    /// The callback sees the time of the step's start in backends without
+    /// DEFSIM_BACKEND_IMPLICIT and of its end in implicit ones; forces_at passes a time. In an
+    /// implicit backend's step, a callback without a Jacobian is not called here: its value at
+    /// the start of the step is added.
     defsim_status (*forces)(defsim_system *sys, const double *x, const double *v,
                             uint32_t which, double *f);
-    /// Potential energy (J) at x: elastic (relative to rest) plus gravitational. Returns +inf where
-    /// the energy is undefined (an inverted neo-Hookean element), so line searches back off.
+    /// Potential energy (J) at x: elastic (relative to rest, with attachment springs) plus
+    /// gravitational, minus f_ext . x for the held external forces, and in an implicit
+    /// backend's step the force callback's model from the step's start (-f0 . d, plus
+    /// d^T K0 d / 2 with a Jacobian; d = x - x_n). Returns +inf where the energy is undefined (an
+    /// inverted neo-Hookean element), so line searches back off.
     double (*potential_energy)(defsim_system *sys, const double *x);
 
     /// Builds (once; later calls return the cached pattern) the sparsity pattern of the matrices
@@ -130,6 +146,25 @@ typedef struct defsim_host {
     /// Allocation that the core's allocator owns (NULL on failure); free with `release`.
     void *(*alloc)(size_t bytes);
     void (*release)(void *ptr);
+
+    /* Appended in version 2: the host's coupling terms. */
+
+    /// forces with the time t (s) at which the host's force callback is evaluated (stages of
+    /// multi-stage and adaptive methods). v NULL gives the callback the state's velocities.
+    defsim_status (*forces_at)(defsim_system *sys, const double *x, const double *v, double t,
+                               uint32_t which, double *f);
+    /// Driven pins. A step of size h from time t0 moves some pinned DOFs on straight lines with
+    /// constant velocity to prescribed end positions (implicit backends: Dirichlet conditions
+    /// with prescribed values). pin_positions writes into x, for every pinned DOF that moves in
+    /// this step, its position at time t in [t0, t0 + h] (exactly the end position for
+    /// t >= t0 + h), and leaves the other DOFs alone. pin_velocities gives their velocity over
+    /// the step (dof_count doubles, 0 for every other DOF), or NULL when no pinned DOF moves in
+    /// this step. At the start of the step the state already holds each pinned DOF's start
+    /// position and this velocity; after the step the core writes the end positions and the
+    /// velocities into the pinned DOFs, so a backend whose forces never see positions within
+    /// the step (explicit and symplectic Euler) needs neither service.
+    void (*pin_positions)(const defsim_system *sys, double t, double *x);
+    const double *(*pin_velocities)(const defsim_system *sys);
 } defsim_host;
 
 /// Capability flags of a backend.

@@ -461,12 +461,14 @@ static void test_pin_and_attachment_forces()
     const double g = -9.81;
     defsim::World w(defsim::WorldDef().backend("symplectic_euler").gravity(0, g, 0));
     const defsim::Mesh m = coupling_beam();
-    const defsim::Body b = w.add_body(defsim::BodyDef(m).material(coupling_material(40.0)));
+    // Near critical damping of the first bending mode (omega_1 = 1.875^2 sqrt(EI / (rho A L^4))
+    // = 4.0 rad/s): its amplitude falls by e^-24 over the 6 s.
+    const defsim::Body b = w.add_body(defsim::BodyDef(m).material(coupling_material(8.0)));
     std::vector<int32_t> clamp;
     for (int32_t i = 0; i < m.vertex_count(); ++i)
         if (m.positions()[3 * static_cast<std::size_t>(i)] == 0.0) clamp.push_back(i);
     w.pin(b, clamp);
-    for (int s = 0; s < 40000; ++s) w.step(1e-4);
+    for (int s = 0; s < 12000; ++s) w.step(5e-4);
     const std::vector<double> R = w.pin_forces(), mass = w.masses();
     double sum[3] = {0, 0, 0}, M = 0.0;
     for (std::size_t i = 0; i < mass.size(); ++i) {

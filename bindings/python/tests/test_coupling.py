@@ -200,8 +200,11 @@ def test_attachment_holds_a_hanging_body_with_its_weight() -> None:
         # The springs stretched by weight / (k * count) on average.
         sag = (b.positions[top, 1] - 0.2).mean()
         np.testing.assert_allclose(sag, weight[1] / (5e4 * len(top)), rtol=1e-6)
-        # Moving the target moves where the body settles; removal makes the handle stale.
-        atts[0].set_target(b.positions[top[0]] + np.array([0.0, 0.0, 0.0]))
+        # A moved target: the spring pulls with -k (x - p) towards it; removal makes the handle
+        # stale.
+        p = b.positions[top[0]] + np.array([0.0, 0.1, 0.0])
+        atts[0].set_target(p)
+        np.testing.assert_allclose(atts[0].force, -5e4 * (b.positions[top[0]] - p), rtol=1e-12)
         atts[0].remove()
         with pytest.raises(defsim.StaleIdError):
             atts[0].force

@@ -55,16 +55,33 @@ class _ForceCallback:
         self.fn = fn
         self.jacobian = jacobian
         self.error: Optional[BaseException] = None
+        # Views of the C buffers by (address, n, writable): the world passes the same buffers
+        # at every evaluation, and making a view costs more than the rest of the trampoline.
+        self._views: dict = {}
         self.c_fn = ffi.callback("defsim_force_fn", self._force)
         self.c_jac = ffi.callback("defsim_force_jacobian_fn", self._jac) if jacobian else ffi.NULL
 
+    def _cached(self, ptr: Any, n: int, writable: bool = False) -> np.ndarray:
+        key = (int(ffi.cast("uintptr_t", ptr)), n, writable)
+        a = self._views.get(key)
+        if a is None:
+            if len(self._views) > 16:
+                self._views.clear()
+            a = self._views[key] = _view(ptr, n, writable)
+        return a
+
     def _force(self, user: Any, x: Any, v: Any, t: float, n: int, f: Any) -> int:
         try:
-            r = np.asarray(self.fn(_view(x, n), _view(v, n), float(t)), dtype=np.float64)
-            if r.shape != (n, 3) and r.size != 3 * n:
-                raise InvalidArgumentError(f"the force callback returned shape {r.shape}, "
-                                           f"expected ({n}, 3)")
-            _view(f, n, writable=True)[...] += r.reshape(n, 3)
+            r = self.fn(self._cached(x, n), self._cached(v, n), float(t))
+            if type(r) is not np.ndarray or r.dtype != np.float64:
+                r = np.asarray(r, dtype=np.float64)
+            if r.shape != (n, 3):
+                if r.size != 3 * n:
+                    raise InvalidArgumentError(f"the force callback returned shape {r.shape}, "
+                                               f"expected ({n}, 3)")
+                r = r.reshape(n, 3)
+            fa = self._cached(f, n, writable=True)
+            fa += r
             return 0
         except BaseException as exc:  # never let an exception cross into C
             if self.error is None:
@@ -73,7 +90,8 @@ class _ForceCallback:
 
     def _jac(self, user: Any, x: Any, v: Any, t: float, n: int, blocks: Any) -> int:
         try:
-            r = np.asarray(self.jacobian(_view(x, n), _view(v, n), float(t)), dtype=np.float64)
+            r = np.asarray(self.jacobian(self._cached(x, n), self._cached(v, n), float(t)),
+                           dtype=np.float64)
             if r.size != 9 * n:
                 raise InvalidArgumentError(f"the force Jacobian returned shape {r.shape}, "
                                            f"expected ({n}, 3, 3)")
@@ -155,11 +173,12 @@ class WorldCoupling:
         the step). ``fn=None`` clears it. x and v are read-only views valid during the call:
         copy them to keep them.
 
-        Cost: each evaluation is a call from C into Python through cffi plus two array views
-        and one addition, about 5 to 10 microseconds before ``fn``'s own work (measured with
-        tests/test_coupling.py::test_callback_cost on the build machine), paid at every force
-        evaluation: once per step for the Euler methods, per stage or internal step for
-        multi-stage and adaptive ones, per Newton iterate for implicit ones with a Jacobian.
+        Cost: each evaluation is a call from C into Python through cffi, array views of the C
+        buffers (cached) and one addition: about 16 (2 vertices) to 35 (1,000 vertices)
+        microseconds besides ``fn``'s own work on the shared build machine
+        (``python bindings/python/bench_callback.py``), paid at every force evaluation: once
+        per step for the Euler methods, per internal step for adaptive ones, per Newton iterate
+        for implicit ones with a Jacobian.
         For large worlds vectorise ``fn`` with numpy; for fixed forces use
         ``set_external_forces``, which costs nothing per evaluation in Python.
 

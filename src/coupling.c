@@ -590,7 +590,7 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         }
         if (cauchy) memcpy(cauchy + 9 * (int64_t)t, sigma, sizeof sigma);
         if (von_mises) von_mises[t] = vm;
-        if (energy_density) energy_density[t] = J != 0.0 || !isfinite(psi) ? psi : NAN;
+        if (energy_density) energy_density[t] = psi;
     }
     return DEFSIM_OK;
 }

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Energies of a compiled system: elastic (with attachment springs) and potential (with gravity
- * and held external forces), as deterministic blocked sums. */
+/* Energies of a compiled system: elastic (with attachment springs) and potential (with
+ * gravity), as deterministic blocked sums. */
 #include "energy.h"
 
 #include "element.h"
@@ -65,11 +65,6 @@ double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const
         for (int32_t i = 0; i < s->nv; ++i)
             sum -= s->mass[i] * (gr[0] * x[3 * (int64_t)i] + gr[1] * x[3 * (int64_t)i + 1] +
                                  gr[2] * x[3 * (int64_t)i + 2]);
-        e += sum;
-    }
-    if (s->fext) {
-        double sum = 0.0;
-        for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i) sum -= s->fext[i] * x[i];
         e += sum;
     }
     return e;

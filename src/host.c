@@ -121,9 +121,11 @@ defsim_status defsim__host_forces(defsim_system *s, const double *x, const doubl
         }
     }
     *s->passes |= DEFSIM_PASS_FORCE_CALLBACK;
-    if (s->sys->has_pins && !keep)
+    if (s->sys->has_pins && !keep) {
         for (int32_t i = 0; i < nv; ++i)
             if (s->sys->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
+        *s->passes |= DEFSIM_PASS_PINS;
+    }
     return DEFSIM_OK;
 }
 
@@ -151,6 +153,14 @@ static defsim_status forces(defsim_system *s, const double *x, const double *v, 
 static double potential_energy(defsim_system *s, const double *x)
 {
     double e = defsim__potential_energy(s->sys, s->work, x);
+    /* Held forces contribute -f . (x - x_start): the same differences as -f . x without its
+     * large terms, which would hide small decreases from line searches. */
+    if (s->sys->fext) {
+        double sum = 0.0;
+        for (int64_t i = 0; i < 3 * (int64_t)s->sys->nv; ++i)
+            sum -= s->sys->fext[i] * (x[i] - s->x_start[i]);
+        e += sum;
+    }
     /* An implicit step's line search sees the callback through its model from the step's
      * start: -f0 . d held, plus d^T K0 d / 2 with a Jacobian (d = x - x0). */
     const defsim__coupling *c = s->cpl;

@@ -52,6 +52,7 @@ struct defsim_system {
     uint32_t *passes;         /* DEFSIM_PASS_* of the current step */
     defsim__messages *msg;
     defsim__coupling *cpl;
+    const double *x_start;    /* 3 nv: positions at the start of the world's step */
 };
 
 /* Adds the callback's forces at (x, v, t) into f (3 nv). On a failure or a non-finite force,

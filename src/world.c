@@ -303,6 +303,7 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     free(w->state.x); free(w->state.v); free(w->x_save); free(w->v_save);
     free(w->mass); free(w->pinned);
     w->state.x = x; w->state.v = v; w->x_save = xs; w->v_save = vs;
+    w->handle.x_start = xs;
     w->mass = mass; w->pinned = pinned;
     free(w->fext); free(w->pin_target); free(w->targeted);
     w->fext = fext; w->pin_target = target; w->targeted = targeted;

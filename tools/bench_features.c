@@ -5,7 +5,8 @@
  * variants that differ in one feature, interleaved round-robin so that machine noise hits all
  * alike; the median time per step of each is compared with the baseline. "zero" variants have
  * the feature present in the scene but with no effect (a damping coefficient of 0, an empty
- * pin list, an extra body of another material without elements): the planner must skip them,
+ * pin list, an extra body of another material without elements, external forces of zero, a
+ * force callback or an attachment set and then removed): the planner must skip them,
  * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
  * when used.
  *
@@ -28,19 +29,30 @@ typedef struct variant {
     int pins;                /* 0: none, 1: clamp x = 0, 2: pin then unpin (empty set) */
     int extra_body;          /* a one-vertex body of another material, no elements */
     int springs;             /* a spring body beside the beam: -1 none, 0 with zero springs... */
+    int external;            /* held external forces: 0 none, 1 all zero, 2 on (0.1 N down) */
+    int callback;            /* force callback: 0 none, 1 set then cleared, 2 on */
+    int attachments;         /* 0 none, 1 one added then removed, 2 on (free end to a point) */
 } variant;
 
 static const variant variants[] = {
-    {"baseline: gravity, clamp", 9.81, 0, 0, 1, 0, 0},
-    {"mass damping zero", 9.81, 0.0, 0, 1, 0, 0},
-    {"mass damping on (alpha 1)", 9.81, 1.0, 0, 1, 0, 0},
-    {"stiffness damping zero", 9.81, 0, 0.0, 1, 0, 0},
-    {"stiffness damping on (beta 1e-3)", 9.81, 0, 1e-3, 1, 0, 0},
-    {"gravity zero", 0.0, 0, 0, 1, 0, 0},
-    {"pins: none", 9.81, 0, 0, 0, 0, 0},
-    {"pins: pinned then unpinned", 9.81, 0, 0, 2, 0, 0},
-    {"other material present, no tets", 9.81, 0, 0, 1, 1, 0},
-    {"spring body beside (1 spring)", 9.81, 0, 0, 1, 0, 1},
+    {.name = "baseline: gravity, clamp", .gravity = 9.81, .pins = 1},
+    {.name = "mass damping zero", .gravity = 9.81, .alpha = 0.0, .pins = 1},
+    {.name = "mass damping on (alpha 1)", .gravity = 9.81, .alpha = 1.0, .pins = 1},
+    {.name = "stiffness damping zero", .gravity = 9.81, .beta = 0.0, .pins = 1},
+    {.name = "stiffness damping on (beta 1e-3)", .gravity = 9.81, .beta = 1e-3, .pins = 1},
+    {.name = "gravity zero", .gravity = 0.0, .pins = 1},
+    {.name = "pins: none", .gravity = 9.81, .pins = 0},
+    {.name = "pins: pinned then unpinned", .gravity = 9.81, .pins = 2},
+    {.name = "other material present, no tets", .gravity = 9.81, .pins = 1, .extra_body = 1},
+    {.name = "spring body beside (1 spring)", .gravity = 9.81, .pins = 1, .springs = 1},
+    {.name = "external forces zero", .gravity = 9.81, .pins = 1, .external = 1},
+    {.name = "external forces on", .gravity = 9.81, .pins = 1, .external = 2},
+    {.name = "no callback (set, then cleared)", .gravity = 9.81, .pins = 1, .callback = 1},
+    {.name = "callback on (constant force)", .gravity = 9.81, .pins = 1, .callback = 2},
+    {.name = "no attachments (added, then removed)", .gravity = 9.81, .pins = 1,
+     .attachments = 1},
+    {.name = "attachments on (10, free end to points)", .gravity = 9.81, .pins = 1,
+     .attachments = 2},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
 
@@ -48,6 +60,51 @@ static int cmp(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
+}
+
+/* A force callback: 0.1 N down on every vertex. */
+static int push_down(void *user, const double *x, const double *v, double t, int32_t n, double *f)
+{
+    (void)user; (void)x; (void)v; (void)t;
+    for (int32_t i = 0; i < n; ++i) f[3 * (int64_t)i + 1] -= 0.1;
+    return 0;
+}
+
+/* The host's coupling terms of a variant: held forces, callback, attachments. */
+static int couple(defsim_world *w, const variant *v, const defsim_mesh *m, defsim_body_id b)
+{
+    const int n = defsim_world_vertex_count(w);
+    if (v->external) {
+        double *f = calloc(3 * (size_t)n, sizeof *f);
+        if (!f) return -1;
+        for (int i = 0; i < n && v->external == 2; ++i) f[3 * i + 1] = -0.1;
+        int st = defsim_world_set_external_forces(w, f, n);
+        free(f);
+        if (st != DEFSIM_OK) return -1;
+    }
+    if (v->callback && defsim_world_set_force_callback(w, push_down, NULL, NULL) != DEFSIM_OK)
+        return -1;
+    if (v->callback == 1 && defsim_world_set_force_callback(w, NULL, NULL, NULL) != DEFSIM_OK)
+        return -1;
+    double xmax = 0.0;
+    for (int i = 0; i < m->vertex_count; ++i)
+        if (m->positions[3 * i] > xmax) xmax = m->positions[3 * i];
+    for (int i = 0, k = 0; i < m->vertex_count && v->attachments && k < 10; ++i) {
+        if (m->positions[3 * i] < xmax) continue;   /* the free end */
+        defsim_attachment_def d;
+        defsim_attachment_def_init(&d, sizeof d);
+        d.body = b;
+        d.vertex = i;
+        memcpy(d.target, m->positions + 3 * i, sizeof d.target);
+        defsim_attachment_id id;
+        if (defsim_world_add_attachment(w, &d, &id) != DEFSIM_OK) return -1;
+        if (v->attachments == 1) {
+            if (defsim_world_remove_attachment(w, id) != DEFSIM_OK) return -1;
+            break;
+        }
+        ++k;
+    }
+    return 0;
 }
 
 static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
@@ -93,15 +150,17 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
         defsim_material_init(&sb.material, sizeof sb.material, DEFSIM_MODEL_SPRING);
         if (defsim_world_add_body(w, &sb, NULL) != DEFSIM_OK) return NULL;
     }
+    if (couple(w, v, m, b) != 0) return NULL;
     return w;
 }
 
 static void passes(uint32_t p, char *out, size_t n)
 {
     static const char *names[] = {"springs", "stvk", "corotated", "neohookean", "snh", "gravity",
-                                  "mass_damping", "stiffness_damping", "pins", "hessian", "energy"};
+                                  "mass_damping", "stiffness_damping", "pins", "hessian", "energy",
+                                  "external", "callback", "attachments", "driven_pins"};
     out[0] = '\0';
-    for (int i = 0; i < 11; ++i)
+    for (int i = 0; i < 15; ++i)
         if (p & (1u << i)) {
             strncat(out, names[i], n - strlen(out) - 1);
             strncat(out, " ", n - strlen(out) - 1);

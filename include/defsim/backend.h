@@ -108,10 +108,11 @@ typedef struct defsim_host {
     defsim_status (*forces)(defsim_system *sys, const double *x, const double *v,
                             uint32_t which, double *f);
     /// Potential energy (J) at x: elastic (relative to rest, with attachment springs) plus
-    /// gravitational, minus f_ext . x for the held external forces, and in an implicit
-    /// backend's step the force callback's model from the step's start (-f0 . d, plus
-    /// d^T K0 d / 2 with a Jacobian; d = x - x_n). Returns +inf where the energy is undefined (an
-    /// inverted neo-Hookean element), so line searches back off.
+    /// gravitational, minus f_ext . (x - x_n) for the held external forces (x_n: the positions
+    /// at the start of the step, so only differences within a step mean anything), and in an
+    /// implicit backend's step the force callback's model from the step's start (-f0 . d, plus
+    /// d^T K0 d / 2 with a Jacobian; d = x - x_n). Returns +inf where the energy is undefined
+    /// (an inverted neo-Hookean element), so line searches back off.
     double (*potential_energy)(defsim_system *sys, const double *x);
 
     /// Builds (once; later calls return the cached pattern) the sparsity pattern of the matrices

@@ -242,7 +242,8 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 /// time are exactly as before the call and the world stays usable.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (h not finite or <= 0, NULL world),
 /// DEFSIM_ERR_UNSTABLE (the result was not finite), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
-/// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made).
+/// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made),
+/// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (called from inside it).
 DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 
 /// Estimates the largest step that the world's backend can take stably from the current state.
@@ -296,7 +297,8 @@ typedef struct defsim_energy {
 DEFSIM_API defsim_status defsim_world_energy(const defsim_world *world, defsim_energy *out);
 
 /// Elastic forces -dE/dx (N) at positions x (3 * vertex_count doubles; NULL: current positions),
-/// written to f_out (3 * vertex_count). No gravity, damping or pinning is applied.
+/// written to f_out (3 * vertex_count): springs, tets and attachment springs. No gravity,
+/// damping, external forces, callback or pinning is applied.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out).
 DEFSIM_API defsim_status defsim_world_forces(defsim_world *world, const double *x, double *f_out);
 
@@ -442,7 +444,8 @@ DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], 
 /// are a potential force field (energy -f . x, reported in defsim_energy.gravitational), so
 /// implicit backends treat them exactly. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, n
 /// different from the vertex count, a non-finite value: the message names the vertex; the
-/// forces held before the call are kept), DEFSIM_ERR_OUT_OF_MEMORY.
+/// forces held before the call are kept), DEFSIM_ERR_LOCKED (called from inside the force
+/// callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_set_external_forces(defsim_world *world, const double *f,
                                                           int32_t n);
 
@@ -476,9 +479,12 @@ typedef int (*defsim_force_jacobian_fn)(void *user, const double *x, const doubl
 /// energy the quadratic model -f0 . d - d^T J0 d / 2 with d = x - x_n, f0, J0 at the step's
 /// start); without a jacobian they call fn once at the start of the step, at (x_n, v_n, t_n),
 /// and hold that force constant over the step (first-order lag: fine for slowly varying forces,
-/// unstable for stiff ones; give a jacobian then). In every backend fn is first called once at
-/// the start of each step: a failure there fails the step before anything moves.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, a jacobian without fn).
+/// unstable for stiff ones; give a jacobian then). Implicit backends also call fn (and the
+/// jacobian) once at the start of every step, for the held value and the line-search model. When
+/// a backend evaluates forces without velocities, fn receives the world's current velocity array.
+/// defsim_world_get_pin_forces calls fn at the current state.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, a jacobian without fn), DEFSIM_ERR_LOCKED
+/// (called from inside the callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_set_force_callback(defsim_world *world, defsim_force_fn fn,
                                                          defsim_force_jacobian_fn jacobian,
                                                          void *user);
@@ -582,7 +588,7 @@ DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double
 /// sqrt(3/2 s : s) with s = sigma - tr(sigma)/3 I (Pa, 1 per tet), and the strain energy density
 /// psi(F) relative to rest (J/m^3 of rest volume, 1 per tet). Any output may be NULL. All are
 /// zero at rest. A tet with det F = 0, or det F <= 0 under the neo-Hookean model (undefined
-/// there), gets NaN in every output (its energy density: +inf under neo-Hookean).
+/// there), gets NaN stresses; its energy density is that of the model (+inf for neo-Hookean).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID.
 DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
                                                     defsim_body_id body, double *cauchy,

@@ -11,7 +11,18 @@
  *  - finite:      a violent scene (large random deformation and velocities) stays finite;
  *  - energy:      backends flagged DEFSIM_BACKEND_DISSIPATIVE never increase the total energy
  *                 (kinetic + elastic + gravitational) of a swinging cantilever;
- *  - determinism: two runs with the same thread count are bit-identical.
+ *  - determinism: two runs with the same thread count are bit-identical;
+ *  - external:    held external forces and a force callback (constant forces, gravity off):
+ *                 the momentum grows as t sum F;
+ *  - driven:      driven pins land exactly on their targets each step; a body whose clamp and
+ *                 free part move with one constant velocity translates exactly (the backend
+ *                 sees the pins move within the step); a clamp driven on a circle drags the
+ *                 body along;
+ *  - attachments: body-to-body attachments are internal forces (momentum M g t, as above, with
+ *                 a second box stitched on);
+ *                 implicit backends need about as many Newton iterations with them as without;
+ *  - callback failure: a failing or NaN callback fails the step with DEFSIM_ERR_CALLBACK and
+ *                 leaves the state bit-identical.
  *
  * The only per-backend choice is the step size: backends flagged DEFSIM_BACKEND_IMPLICIT take
  * h = 1/60 s; the others a step well inside the explicit stability limit of the scene
@@ -56,18 +67,23 @@ static int step_count(double h)
     return (int)ceil(0.25 / h);
 }
 
-static defsim_world *make_world(double gy, int threads)
+static defsim_world *make_world_tol(double gy, int threads, double tolerance)
 {
     defsim_world_def d;
     defsim_world_def_init(&d, sizeof d);
     d.backend = backend_name;
     d.gravity[1] = gy;
     d.num_threads = threads;
-    d.tolerance = 1e-10;
+    d.tolerance = tolerance;
     defsim_world *w = NULL;
     if (defsim_world_create(&d, &w) != DEFSIM_OK)
         fail_msg("world_create(%s): %s", backend_name, defsim_last_error());
     return w;
+}
+
+static defsim_world *make_world(double gy, int threads)
+{
+    return make_world_tol(gy, threads, 1e-10);
 }
 
 /* A 4x2x2-cell stable neo-Hookean box on [0,1]x[0,.5]x[0,.5] and, beside it, a spring ladder
@@ -307,6 +323,255 @@ static void test_determinism(void **state)
     free(b);
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* The host's coupling terms */
+
+/* Their checks are exact whatever the nonlinear tolerance (momentum) or need no tight one; a
+ * clamped Newton converges only linearly on compressed springs, so 1e-10 costs many iterations. */
+#define COUPLING_TOL 1e-8
+
+static int cb_add(void *user, const double *x, const double *v, double t, int32_t n, double *f)
+{
+    (void)x; (void)v; (void)t;
+    const double *F = user;
+    for (int i = 0; i < 3 * n; ++i) f[i] += F[i];
+    return 0;
+}
+
+static void test_external(void **state)
+{
+    (void)state;
+    for (int use_callback = 0; use_callback < 2; ++use_callback) {
+        defsim_world *w = make_world_tol(0.0, 1, COUPLING_TOL);
+        add_scene(w);
+        perturb(w, 0.02, 0.0, 23);
+        const int n = defsim_world_vertex_count(w);
+        double *m = malloc((size_t)n * sizeof *m), *F = malloc(3 * (size_t)n * sizeof *F);
+        double p0[3], p[3], sum[3] = {0, 0, 0};
+        unsigned long long seed = 29;
+        TU_OK(defsim_world_get_masses(w, m, n));
+        for (int i = 0; i < 3 * n; ++i) {
+            F[i] = 2.0 * tu_rand(&seed);
+            sum[i % 3] += F[i];
+        }
+        if (use_callback) TU_OK(defsim_world_set_force_callback(w, cb_add, NULL, F));
+        else TU_OK(defsim_world_set_external_forces(w, F, n));
+        momentum(w, m, p0);
+        const double h = step_size();
+        const int steps = step_count(h);
+        for (int s = 0; s < steps; ++s) step_ok(w, h);
+        momentum(w, m, p);
+        const double t = defsim_world_time(w);
+        double scale = 0.0;
+        for (int c = 0; c < 3; ++c) scale = fmax(scale, fabs(sum[c]) * t);
+        for (int c = 0; c < 3; ++c)
+            if (!(fabs(p[c] - p0[c] - t * sum[c]) <= 1e-8 * scale))
+                fail_msg("%s (%s): momentum[%d] grew by %.12g, want %.12g", backend_name,
+                         use_callback ? "callback" : "external forces", c, p[c] - p0[c],
+                         t * sum[c]);
+        free(m); free(F);
+        defsim_world_destroy(w);
+    }
+}
+
+/* The box's clamp (x = 0) in world vertex ids; returns the count. */
+static int clamp_vertices(defsim_world *w, defsim_body_id box, int32_t *local)
+{
+    const int nb = defsim_body_vertex_count(w, box), off = defsim_body_vertex_offset(w, box);
+    double *x = tu_positions(w);
+    int k = 0;
+    for (int i = 0; i < nb; ++i)
+        if (x[3 * (off + i)] <= 1e-12) local[k++] = i;
+    free(x);
+    return k;
+}
+
+static void test_driven(void **state)
+{
+    (void)state;
+    /* A moving frame: clamp driven with velocity u, everything else starting with u, no
+     * gravity. The exact motion is a rigid translation x0 + u t. */
+    const double u[3] = {0.3, -0.2, 0.1};
+    defsim_world *w = make_world_tol(0.0, 1, COUPLING_TOL);
+    defsim_body_id box = add_scene(w);
+    int32_t cl[64];
+    const int nc = clamp_vertices(w, box, cl);
+    const int n = defsim_world_vertex_count(w), off = defsim_body_vertex_offset(w, box);
+    double *x0 = tu_positions(w), *v = tu_velocities(w), *tgt = malloc(3 * (size_t)nc * sizeof *tgt);
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) v[3 * i + c] = u[c];
+    TU_OK(defsim_world_set_state(w, NULL, v));
+    const double h = step_size();
+    const int steps = step_count(h);
+    double err = 0.0;
+    for (int s = 1; s <= steps; ++s) {
+        for (int j = 0; j < nc; ++j)
+            for (int c = 0; c < 3; ++c) tgt[3 * j + c] = x0[3 * (off + cl[j]) + c] + u[c] * s * h;
+        TU_OK(defsim_body_set_pin_targets(w, box, cl, nc, tgt));
+        step_ok(w, h);
+        double *x = tu_positions(w);
+        for (int j = 0; j < nc; ++j)
+            for (int c = 0; c < 3; ++c)
+                if (x[3 * (off + cl[j]) + c] != tgt[3 * j + c])
+                    fail_msg("%s: driven vertex %d missed its target at step %d by %.3g m",
+                             backend_name, cl[j], s, x[3 * (off + cl[j]) + c] - tgt[3 * j + c]);
+        for (int i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c)
+                err = fmax(err, fabs(x[3 * i + c] - (x0[3 * i + c] + u[c] * s * h)));
+        free(x);
+    }
+    const double disp = 0.3 * steps * h;
+    if (!(err <= 1e-8 * disp))
+        fail_msg("%s: a translating frame deviated from x0 + u t by %.3g m (of %.3g m)",
+                 backend_name, err, disp);
+    defsim_world_destroy(w);
+
+    /* A clamp driven on a quarter circle of radius R in the y-z plane (period 4 s, well below
+     * the beam's first bending mode): the body's centre follows the clamp. */
+    w = make_world_tol(0.0, 1, COUPLING_TOL);
+    box = add_scene(w);
+    const double R = 0.1, om = 2.0 * 3.14159265358979323846 / 4.0;
+    const int nb = defsim_body_vertex_count(w, box);
+    const int qsteps = (int)ceil(1.0 / h);
+    double *xs = NULL;
+    for (int s = 1; s <= qsteps; ++s) {
+        const double t = s * h;
+        for (int j = 0; j < nc; ++j) {
+            const double *p = x0 + 3 * (off + cl[j]);
+            tgt[3 * j] = p[0];
+            tgt[3 * j + 1] = p[1] + R * (1.0 - cos(om * t));
+            tgt[3 * j + 2] = p[2] + R * sin(om * t);
+        }
+        TU_OK(defsim_body_set_pin_targets(w, box, cl, nc, tgt));
+        step_ok(w, h);
+    }
+    xs = tu_positions(w);
+    assert_all_finite(xs, 3 * n);
+    const double t = qsteps * h, want[2] = {R * (1.0 - cos(om * t)), R * sin(om * t)};
+    double c[2] = {0, 0};
+    for (int i = 0; i < nb; ++i)
+        for (int k = 0; k < 2; ++k) c[k] += (xs[3 * (off + i) + 1 + k] - x0[3 * (off + i) + 1 + k]) / nb;
+    const double dist = hypot(c[0] - want[0], c[1] - want[1]), arc = hypot(want[0], want[1]);
+    if (!(dist <= 0.25 * arc))
+        fail_msg("%s: the body's centre is %.3g m from the clamp's displacement (%.3g m)",
+                 backend_name, dist, arc);
+    free(xs); free(x0); free(v); free(tgt);
+    defsim_world_destroy(w);
+}
+
+/* A second box, one cell on [1, 1.5] x [0, .5] x [0, .5], stitched to the scene's box at their
+ * common face (stitch = 1): each vertex of its face to a point of the box near its twin (a vertex, an edge,
+ * a triangle, a tet's four vertices), with dampers. */
+static void attach_scene(defsim_world *w, defsim_body_id box, int stitch)
+{
+    const double lo[3] = {4 * SC_CELL, 0, 0}, hi[3] = {6 * SC_CELL, 2 * SC_CELL, 2 * SC_CELL};
+    defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_COROTATED, 1, 1, 1, lo, hi, SC_E, SC_NU, SC_RHO);
+    if (!stitch) return;
+#define BOX_V(j, k) (4 + 5 * ((j) + 3 * (k)))
+    for (int k = 0; k < 2; ++k)
+        for (int j = 0; j < 2; ++j) {
+            defsim_attachment_def d;
+            defsim_attachment_def_init(&d, sizeof d);
+            d.body = b;
+            d.vertex = 2 * (j + 2 * k);
+            d.stiffness = 2e3;
+            d.damping = 2.0;
+            d.target_body = box;
+            d.target_vertex_count = 1 + j + 2 * k;
+            const int32_t near[4] = {BOX_V(2 * j, 2 * k), BOX_V(1, 2 * k), BOX_V(2 * j, 1),
+                                     BOX_V(1, 1)};
+            for (int q = 0; q < d.target_vertex_count; ++q) {
+                d.target_vertices[q] = near[q];
+                d.target_weights[q] = q == 0 ? 1.0 - 0.05 * (d.target_vertex_count - 1) : 0.05;
+            }
+            TU_OK(defsim_world_add_attachment(w, &d, NULL));
+        }
+#undef BOX_V
+}
+
+static void test_attachments(void **state)
+{
+    (void)state;
+    const double g = -9.81;
+    int64_t iters[2] = {0, 0};
+    for (int with = 0; with < 2; ++with) {
+        defsim_world *w = make_world_tol(g, 1, COUPLING_TOL);
+        defsim_body_id box = add_scene(w);
+        attach_scene(w, box, with);
+        perturb(w, 0.02, 0.5, 31);
+        const int n = defsim_world_vertex_count(w);
+        double *m = malloc((size_t)n * sizeof *m), p0[3], p[3], M = 0.0;
+        TU_OK(defsim_world_get_masses(w, m, n));
+        for (int i = 0; i < n; ++i) M += m[i];
+        momentum(w, m, p0);
+        const double h = step_size();
+        for (int s = 0; s < step_count(h); ++s) step_ok(w, h);
+        momentum(w, m, p);
+        const double t = defsim_world_time(w), scale = M * (0.5 + fabs(g) * t);
+        const double want[3] = {p0[0], p0[1] + M * g * t, p0[2]};
+        for (int c = 0; c < 3; ++c)
+            if (!(fabs(p[c] - want[c]) <= 1e-8 * scale))
+                fail_msg("%s: with attachments, momentum[%d] = %.12g, want %.12g", backend_name,
+                         c, p[c], want[c]);
+        defsim_stats st = {.size = sizeof st};
+        TU_OK(defsim_world_stats(w, &st));
+        if (with) assert_true(st.passes & DEFSIM_PASS_ATTACHMENTS);
+        iters[with] = st.newton_iterations;
+        free(m);
+        defsim_world_destroy(w);
+    }
+    if (!(iters[1] <= 1.5 * (double)iters[0] + 2))
+        fail_msg("%s: %lld nonlinear iterations with attachments, %lld without", backend_name,
+                 (long long)iters[1], (long long)iters[0]);
+}
+
+typedef struct failing {
+    int calls, fail_at, nan_at;
+} failing;
+
+static int cb_failing(void *user, const double *x, const double *v, double t, int32_t n,
+                      double *f)
+{
+    (void)x; (void)v; (void)t;
+    failing *d = user;
+    d->calls++;
+    if (d->calls == d->fail_at) return -1;
+    if (d->calls == d->nan_at) f[n / 2] = NAN;
+    return 0;
+}
+
+static void test_callback_failure(void **state)
+{
+    (void)state;
+    for (int mode = 0; mode < 2; ++mode) {
+        defsim_world *w = make_world_tol(-9.81, 1, COUPLING_TOL);
+        defsim_body_id box = add_scene(w);
+        tu_pin_below(w, box, 0, 0.0);
+        failing d = {0, mode == 0 ? 4 : 0, mode == 1 ? 4 : 0};
+        TU_OK(defsim_world_set_force_callback(w, cb_failing, NULL, &d));
+        const int n = defsim_world_vertex_count(w);
+        const double h = step_size();
+        defsim_status st = DEFSIM_OK;
+        for (int s = 0; s < 8 && st == DEFSIM_OK; ++s) {
+            double *x = tu_positions(w), *v = tu_velocities(w), t = defsim_world_time(w);
+            st = defsim_world_step(w, h);
+            if (st != DEFSIM_OK) {
+                double *x2 = tu_positions(w), *v2 = tu_velocities(w);
+                assert_memory_equal(x, x2, 3 * (size_t)n * sizeof *x);
+                assert_memory_equal(v, v2, 3 * (size_t)n * sizeof *v);
+                assert_true(defsim_world_time(w) == t);
+                free(x2); free(v2);
+            }
+            free(x); free(v);
+        }
+        if (st != DEFSIM_ERR_CALLBACK)
+            fail_msg("%s: a %s callback gave status %s", backend_name,
+                     mode ? "NaN" : "failing", defsim_status_string(st));
+        step_ok(w, h);   /* usable afterwards */
+        defsim_world_destroy(w);
+    }
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
@@ -329,6 +594,10 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_finite),
         cmocka_unit_test(test_energy),
         cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_external),
+        cmocka_unit_test(test_driven),
+        cmocka_unit_test(test_attachments),
+        cmocka_unit_test(test_callback_failure),
     };
     return cmocka_run_group_tests_name(backend_name, tests, NULL, NULL);
 }

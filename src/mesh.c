@@ -74,6 +74,25 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
     return DEFSIM_OK;
 }
 
+/* A zeroed mesh with room for nv vertices and nt tets, ntri triangles, ns springs (arrays of
+ * zero items stay NULL). On failure nothing is left allocated. */
+static defsim_status mesh_alloc(defsim_mesh *out, int64_t nv, int64_t nt, int64_t ntri,
+                                int64_t ns)
+{
+    memset(out, 0, sizeof *out);
+    out->positions = malloc((size_t)nv * 3 * sizeof *out->positions);
+    if (nt > 0) out->tets = malloc((size_t)nt * 4 * sizeof *out->tets);
+    if (ntri > 0) out->triangles = malloc((size_t)ntri * 3 * sizeof *out->triangles);
+    if (ns > 0) out->springs = malloc((size_t)ns * 2 * sizeof *out->springs);
+    if (!out->positions || (nt > 0 && !out->tets) || (ntri > 0 && !out->triangles) ||
+        (ns > 0 && !out->springs)) {
+        defsim_mesh_free(out);
+        defsim__set_last_error("out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx, int32_t ny,
                               int32_t nz, defsim_mesh *m)
 {
@@ -95,14 +114,8 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
     const int64_t nv = (int64_t)(nx + 1) * (ny + 1) * (nz + 1);
     const int64_t nt = 6 * (int64_t)nx * ny * nz;
     defsim_mesh out;
-    memset(&out, 0, sizeof out);
-    out.positions = malloc((size_t)nv * 3 * sizeof *out.positions);
-    out.tets = malloc((size_t)nt * 4 * sizeof *out.tets);
-    if (!out.positions || !out.tets) {
-        defsim_mesh_free(&out);
-        defsim__set_last_error("out of memory");
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
+    defsim_status st = mesh_alloc(&out, nv, nt, 0, 0);
+    if (st != DEFSIM_OK) return st;
     const int32_t n[3] = {nx, ny, nz};
     for (int32_t k = 0; k <= nz; ++k)
         for (int32_t j = 0; j <= ny; ++j)
@@ -135,8 +148,8 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
                 }
     out.vertex_count = (int32_t)nv;
     out.tet_count = (int32_t)nt;
-    defsim_status st = defsim__tet_boundary(out.positions, out.tets, out.tet_count,
-                                            &out.triangles, &out.triangle_count);
+    st = defsim__tet_boundary(out.positions, out.tets, out.tet_count, &out.triangles,
+                              &out.triangle_count);
     if (st != DEFSIM_OK) {
         defsim_mesh_free(&out);
         defsim__set_last_error("out of memory");
@@ -180,15 +193,8 @@ defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const
     const int64_t nbend = (int64_t)(nu - 1) * (nv + 1) + (int64_t)(nu + 1) * (nv - 1);
     const int64_t ns = nstruct + nshear + nbend, ntri = 2 * (int64_t)nu * nv;
     defsim_mesh out;
-    memset(&out, 0, sizeof out);
-    out.positions = malloc((size_t)nvert * 3 * sizeof *out.positions);
-    out.triangles = malloc((size_t)ntri * 3 * sizeof *out.triangles);
-    out.springs = malloc((size_t)ns * 2 * sizeof *out.springs);
-    if (!out.positions || !out.triangles || !out.springs) {
-        defsim_mesh_free(&out);
-        defsim__set_last_error("out of memory");
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
+    defsim_status st = mesh_alloc(&out, nvert, 0, ntri, ns);
+    if (st != DEFSIM_OK) return st;
     for (int32_t j = 0; j <= nv; ++j)
         for (int32_t i = 0; i <= nu; ++i) {
             double *p = out.positions + 3 * (i + W * j);
@@ -244,14 +250,8 @@ defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t seg
     }
     const int64_t nvert = (int64_t)segments + 1, ns = 2 * (int64_t)segments - 1;
     defsim_mesh out;
-    memset(&out, 0, sizeof out);
-    out.positions = malloc((size_t)nvert * 3 * sizeof *out.positions);
-    out.springs = malloc((size_t)ns * 2 * sizeof *out.springs);
-    if (!out.positions || !out.springs) {
-        defsim_mesh_free(&out);
-        defsim__set_last_error("out of memory");
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
+    defsim_status st = mesh_alloc(&out, nvert, 0, 0, ns);
+    if (st != DEFSIM_OK) return st;
     for (int64_t i = 0; i < nvert; ++i)
         for (int c = 0; c < 3; ++c)
             out.positions[3 * i + c] = i == segments ? b[c] : a[c] + d[c] * (double)i / segments;

@@ -100,170 +100,178 @@ static void gmsh_element(defsim__reader *r, defsim__raw_mesh *m, long long type,
     (void)nn;
 }
 
-static void gmsh_v2(defsim__reader *r, defsim__raw_mesh *m)
+/* The four node tags of tet element `tag`, which began on line `eline` and must end there. */
+static int gmsh_tet_nodes(defsim__reader *r, const char *what, long long tag, int eline,
+                          long long v[4])
 {
-    const char *name;
-    size_t n;
-    while (r->st == DEFSIM_OK && gmsh_section(r, &name, &n)) {
-        int line = r->line;
-        if (defsim__tok_is(name, n, "$Nodes")) {
-            long long nn;
-            if (!defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn)) return;
-            for (long long i = 0; i < nn; ++i) {
+    for (int a = 0; a < 4; ++a)
+        if (!defsim__rd_i64(r, what, &v[a])) return 0;
+    if (r->line != eline) {
+        defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early", tag);
+        return 0;
+    }
+    return 1;
+}
+
+/* Format 4 entity block header: "dim tag" (4.1) or "tag dim" (4.0). */
+static int gmsh_entity(defsim__reader *r, int minor, long long *dim)
+{
+    long long etag;
+    if (minor >= 1)
+        return defsim__rd_count(r, "entity dimension", 0, 3, dim) &&
+               defsim__rd_i64(r, "entity tag", &etag);
+    return defsim__rd_i64(r, "entity tag", &etag) &&
+           defsim__rd_count(r, "entity dimension", 0, 3, dim);
+}
+
+static void gmsh_nodes_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
+{
+    (void)minor;
+    long long nn;
+    if (!defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn)) return;
+    for (long long i = 0; i < nn; ++i) {
+        long long tag;
+        double p[3];
+        if (!defsim__rd_i64(r, "node number", &tag) || !defsim__rd_f64(r, "x", &p[0]) ||
+            !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
+            return;
+        if (!gmsh_push_node(r, m, tag, p)) return;
+    }
+}
+
+static void gmsh_elements_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
+{
+    (void)minor;
+    long long ne;
+    if (!defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne)) return;
+    for (long long e = 0; e < ne; ++e) {
+        long long tag, type, ntags, skip, v[4];
+        defsim__rd_skip_ws(r);
+        int eline = r->line;
+        if (!defsim__rd_i64(r, "element number", &tag) ||
+            !defsim__rd_i64(r, "element type", &type) ||
+            !defsim__rd_count(r, "number of tags", 0, 1000, &ntags))
+            return;
+        for (long long k = 0; k < ntags; ++k)
+            if (!defsim__rd_i64(r, "tag", &skip)) return;
+        if (type == 4) {
+            if (!gmsh_tet_nodes(r, "node number", tag, eline, v)) return;
+        } else {
+            defsim__rd_to_eol(r);
+        }
+        gmsh_element(r, m, type, -1, eline, v, 4);
+        if (r->st != DEFSIM_OK) return;
+    }
+}
+
+/* Format 4 section header: entity blocks, `item`s (at most `max`), in 4.1 the range of tags. */
+static int gmsh_v4_counts(defsim__reader *r, int minor, const char *item, long long max,
+                          long long *nblocks)
+{
+    char what[3][48];
+    snprintf(what[0], sizeof what[0], "number of %ss", item);
+    snprintf(what[1], sizeof what[1], "minimum %s tag", item);
+    snprintf(what[2], sizeof what[2], "maximum %s tag", item);
+    long long n, skip;
+    return defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, nblocks) &&
+           defsim__rd_count(r, what[0], 0, max, &n) &&
+           (minor < 1 || (defsim__rd_i64(r, what[1], &skip) && defsim__rd_i64(r, what[2], &skip)));
+}
+
+static void gmsh_nodes_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
+{
+    long long nblocks;
+    if (!gmsh_v4_counts(r, minor, "node", INT32_MAX / 3, &nblocks)) return;
+    for (long long b = 0; b < nblocks; ++b) {
+        long long dim, param, cnt;
+        if (!gmsh_entity(r, minor, &dim)) return;
+        if (!defsim__rd_count(r, "parametric flag", 0, 1, &param) ||
+            !defsim__rd_count(r, "nodes in block", 0, INT32_MAX / 3, &cnt))
+            return;
+        /* Parametric coordinates follow x y z: one per entity dimension. */
+        const long long npar = param ? (minor >= 1 ? dim : (dim < 2 ? dim : 2)) : 0;
+        if (minor >= 1) {
+            size_t first = m->tag.n;
+            for (long long i = 0; i < cnt; ++i) {
                 long long tag;
-                double p[3];
-                if (!defsim__rd_i64(r, "node number", &tag) || !defsim__rd_f64(r, "x", &p[0]) ||
+                const double zero[3] = {0, 0, 0};
+                if (!defsim__rd_i64(r, "node tag", &tag) ||
+                    !gmsh_push_node(r, m, tag, zero))
+                    return;
+            }
+            double *P = m->pos.p;
+            for (long long i = 0; i < cnt; ++i) {
+                double *p = P + 3 * (first + (size_t)i), u;
+                if (!defsim__rd_f64(r, "x", &p[0]) || !defsim__rd_f64(r, "y", &p[1]) ||
+                    !defsim__rd_f64(r, "z", &p[2]))
+                    return;
+                for (long long k = 0; k < npar; ++k)
+                    if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
+            }
+        } else {
+            for (long long i = 0; i < cnt; ++i) {
+                long long tag;
+                double p[3], u;
+                if (!defsim__rd_i64(r, "node tag", &tag) ||
+                    !defsim__rd_f64(r, "x", &p[0]) ||
                     !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
                     return;
+                for (long long k = 0; k < npar; ++k)
+                    if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
                 if (!gmsh_push_node(r, m, tag, p)) return;
             }
-            gmsh_expect_end(r, "$EndNodes");
-        } else if (defsim__tok_is(name, n, "$Elements")) {
-            long long ne;
-            if (!defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne)) return;
-            for (long long e = 0; e < ne; ++e) {
-                long long tag, type, ntags, skip, v[4];
-                defsim__rd_skip_ws(r);
-                int eline = r->line;
-                if (!defsim__rd_i64(r, "element number", &tag) ||
-                    !defsim__rd_i64(r, "element type", &type) ||
-                    !defsim__rd_count(r, "number of tags", 0, 1000, &ntags))
-                    return;
-                for (long long k = 0; k < ntags; ++k)
-                    if (!defsim__rd_i64(r, "tag", &skip)) return;
-                if (type == 4) {
-                    for (int a = 0; a < 4; ++a)
-                        if (!defsim__rd_i64(r, "node number", &v[a])) return;
-                    if (r->line != eline) {
-                        defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early",
-                                        tag);
-                        return;
-                    }
-                } else {
-                    defsim__rd_to_eol(r);
-                }
-                gmsh_element(r, m, type, -1, eline, v, 4);
-                if (r->st != DEFSIM_OK) return;
-            }
-            gmsh_expect_end(r, "$EndElements");
-        } else if (name[0] == '$') {
-            gmsh_skip_section(r, name, n);
-        } else {
-            defsim__rd_fail(r, DEFSIM_ERR_IO, line, "expected a section ($Name), found '%.*s'",
-                            (int)(n > 40 ? 40 : n), name);
         }
     }
 }
 
-static void gmsh_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
+static void gmsh_elements_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
+{
+    long long nblocks;
+    if (!gmsh_v4_counts(r, minor, "element", INT32_MAX, &nblocks)) return;
+    for (long long b = 0; b < nblocks; ++b) {
+        long long dim, type, cnt;
+        defsim__rd_skip_ws(r);
+        int bline = r->line;
+        if (!gmsh_entity(r, minor, &dim)) return;
+        if (!defsim__rd_i64(r, "element type", &type) ||
+            !defsim__rd_count(r, "elements in block", 0, INT32_MAX, &cnt))
+            return;
+        if (type != 4) {
+            /* Boundary elements are skipped line by line; other volumes are errors. */
+            gmsh_element(r, m, type, (int)dim, bline, NULL, 0);
+            if (r->st != DEFSIM_OK) return;
+            defsim__rd_skip_line(r);
+            for (long long e = 0; e < cnt; ++e) defsim__rd_skip_line(r);
+            continue;
+        }
+        for (long long e = 0; e < cnt; ++e) {
+            long long tag, v[4];
+            defsim__rd_skip_ws(r);
+            int eline = r->line;
+            if (!defsim__rd_i64(r, "element tag", &tag) ||
+                !gmsh_tet_nodes(r, "node tag", tag, eline, v))
+                return;
+            gmsh_element(r, m, 4, 3, eline, v, 4);
+            if (r->st != DEFSIM_OK) return;
+        }
+    }
+}
+
+typedef void (*gmsh_reader_fn)(defsim__reader *r, defsim__raw_mesh *m, int minor);
+
+/* The sections of the file: $Nodes and $Elements by the version's readers, others skipped. */
+static void gmsh_sections(defsim__reader *r, defsim__raw_mesh *m, int minor,
+                          gmsh_reader_fn nodes, gmsh_reader_fn elements)
 {
     const char *name;
     size_t n;
     while (r->st == DEFSIM_OK && gmsh_section(r, &name, &n)) {
         int line = r->line;
         if (defsim__tok_is(name, n, "$Nodes")) {
-            long long nblocks, nn, skip;
-            if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
-                !defsim__rd_count(r, "number of nodes", 0, INT32_MAX / 3, &nn))
-                return;
-            if (minor >= 1 && (!defsim__rd_i64(r, "minimum node tag", &skip) ||
-                               !defsim__rd_i64(r, "maximum node tag", &skip)))
-                return;
-            for (long long b = 0; b < nblocks; ++b) {
-                long long dim, etag, param, cnt;
-                if (minor >= 1) {
-                    if (!defsim__rd_count(r, "entity dimension", 0, 3, &dim) ||
-                        !defsim__rd_i64(r, "entity tag", &etag))
-                        return;
-                } else if (!defsim__rd_i64(r, "entity tag", &etag) ||
-                           !defsim__rd_count(r, "entity dimension", 0, 3, &dim)) {
-                    return;
-                }
-                if (!defsim__rd_count(r, "parametric flag", 0, 1, &param) ||
-                    !defsim__rd_count(r, "nodes in block", 0, INT32_MAX / 3, &cnt))
-                    return;
-                /* Parametric coordinates follow x y z: one per entity dimension. */
-                const long long npar = param ? (minor >= 1 ? dim : (dim < 2 ? dim : 2)) : 0;
-                if (minor >= 1) {
-                    size_t first = m->tag.n;
-                    for (long long i = 0; i < cnt; ++i) {
-                        long long tag;
-                        const double zero[3] = {0, 0, 0};
-                        if (!defsim__rd_i64(r, "node tag", &tag) ||
-                            !gmsh_push_node(r, m, tag, zero))
-                            return;
-                    }
-                    double *P = m->pos.p;
-                    for (long long i = 0; i < cnt; ++i) {
-                        double *p = P + 3 * (first + (size_t)i), u;
-                        if (!defsim__rd_f64(r, "x", &p[0]) || !defsim__rd_f64(r, "y", &p[1]) ||
-                            !defsim__rd_f64(r, "z", &p[2]))
-                            return;
-                        for (long long k = 0; k < npar; ++k)
-                            if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
-                    }
-                } else {
-                    for (long long i = 0; i < cnt; ++i) {
-                        long long tag;
-                        double p[3], u;
-                        if (!defsim__rd_i64(r, "node tag", &tag) ||
-                            !defsim__rd_f64(r, "x", &p[0]) ||
-                            !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
-                            return;
-                        for (long long k = 0; k < npar; ++k)
-                            if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
-                        if (!gmsh_push_node(r, m, tag, p)) return;
-                    }
-                }
-            }
+            nodes(r, m, minor);
             gmsh_expect_end(r, "$EndNodes");
         } else if (defsim__tok_is(name, n, "$Elements")) {
-            long long nblocks, ne, skip;
-            if (!defsim__rd_count(r, "number of entity blocks", 0, INT32_MAX, &nblocks) ||
-                !defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne))
-                return;
-            if (minor >= 1 && (!defsim__rd_i64(r, "minimum element tag", &skip) ||
-                               !defsim__rd_i64(r, "maximum element tag", &skip)))
-                return;
-            for (long long b = 0; b < nblocks; ++b) {
-                long long dim, etag, type, cnt;
-                defsim__rd_skip_ws(r);
-                int bline = r->line;
-                if (minor >= 1) {
-                    if (!defsim__rd_count(r, "entity dimension", 0, 3, &dim) ||
-                        !defsim__rd_i64(r, "entity tag", &etag))
-                        return;
-                } else if (!defsim__rd_i64(r, "entity tag", &etag) ||
-                           !defsim__rd_count(r, "entity dimension", 0, 3, &dim)) {
-                    return;
-                }
-                if (!defsim__rd_i64(r, "element type", &type) ||
-                    !defsim__rd_count(r, "elements in block", 0, INT32_MAX, &cnt))
-                    return;
-                if (type != 4) {
-                    /* Boundary elements are skipped line by line; other volumes are errors. */
-                    gmsh_element(r, m, type, (int)dim, bline, NULL, 0);
-                    if (r->st != DEFSIM_OK) return;
-                    defsim__rd_skip_line(r);
-                    for (long long e = 0; e < cnt; ++e) defsim__rd_skip_line(r);
-                    continue;
-                }
-                for (long long e = 0; e < cnt; ++e) {
-                    long long tag, v[4];
-                    defsim__rd_skip_ws(r);
-                    int eline = r->line;
-                    if (!defsim__rd_i64(r, "element tag", &tag)) return;
-                    for (int a = 0; a < 4; ++a)
-                        if (!defsim__rd_i64(r, "node tag", &v[a])) return;
-                    if (r->line != eline) {
-                        defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early",
-                                        tag);
-                        return;
-                    }
-                    gmsh_element(r, m, 4, 3, eline, v, 4);
-                    if (r->st != DEFSIM_OK) return;
-                }
-            }
+            elements(r, m, minor);
             gmsh_expect_end(r, "$EndElements");
         } else if (name[0] == '$') {
             gmsh_skip_section(r, name, n);
@@ -277,10 +285,9 @@ static void gmsh_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
 defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
 {
     defsim__reader r;
-    defsim_status st = defsim__rd_open(&r, path, 0);
-    if (st != DEFSIM_OK) return st;
     defsim__raw_mesh m;
-    defsim__raw_init(&m);
+    defsim_status st = defsim__raw_open(&m, &r, path, 0);
+    if (st != DEFSIM_OK) return st;
     const char *tok;
     size_t n = defsim__rd_token(&r, &tok);
     if (!defsim__tok_is(tok, n, "$MeshFormat")) {
@@ -308,8 +315,8 @@ defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
     }
     gmsh_expect_end(&r, "$EndMeshFormat");
     if (r.st != DEFSIM_OK) goto done;
-    if (major == 2) gmsh_v2(&r, &m);
-    else gmsh_v4(&r, &m, minor);
+    if (major == 2) gmsh_sections(&r, &m, minor, gmsh_nodes_v2, gmsh_elements_v2);
+    else gmsh_sections(&r, &m, minor, gmsh_nodes_v4, gmsh_elements_v4);
     if (r.st == DEFSIM_OK && m.tets.n == 0)
         defsim__rd_fail(&r, DEFSIM_ERR_INVALID_MESH, 0,
                         "no tetrahedra (element type 4) in the file");

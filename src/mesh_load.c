@@ -21,6 +21,13 @@ void defsim__raw_init(defsim__raw_mesh *m)
     m->tet_line.elem = m->tri_line.elem = m->seg_line.elem = sizeof(int);
 }
 
+defsim_status defsim__raw_open(defsim__raw_mesh *m, defsim__reader *r, const char *path,
+                               int hash_comments)
+{
+    defsim__raw_init(m);
+    return defsim__rd_open(r, path, hash_comments);
+}
+
 void defsim__raw_free(defsim__raw_mesh *m)
 {
     free(m->pos.p); free(m->tag.p); free(m->tets.p); free(m->tet_line.p);

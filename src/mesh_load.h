@@ -24,6 +24,9 @@ typedef struct defsim__raw_mesh {
 } defsim__raw_mesh;
 
 void defsim__raw_init(defsim__raw_mesh *m);
+/* defsim__raw_init, then defsim__rd_open of the loader's file; on failure nothing needs freeing. */
+defsim_status defsim__raw_open(defsim__raw_mesh *m, defsim__reader *r, const char *path,
+                               int hash_comments);
 void defsim__raw_free(defsim__raw_mesh *m);
 
 /* Sets "path: out of memory" and returns DEFSIM_ERR_OUT_OF_MEMORY. */

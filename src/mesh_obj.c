@@ -69,10 +69,9 @@ static int obj_index(defsim__reader *r, const char *tok, size_t n, size_t nv, in
 defsim_status defsim__load_obj(const char *path, defsim_mesh *out)
 {
     defsim__reader r;
-    defsim_status st = defsim__rd_open(&r, path, 1);
-    if (st != DEFSIM_OK) return st;
     defsim__raw_mesh m;
-    defsim__raw_init(&m);
+    defsim_status st = defsim__raw_open(&m, &r, path, 1);
+    if (st != DEFSIM_OK) return st;
     m.tags_are_indices = 1;
     defsim__vec poly = {NULL, 0, 0, sizeof(long long)};
     for (size_t i = 0; i + 1 < r.len; ++i) {

@@ -2,6 +2,17 @@
 #include "bench_beam.h"
 
 #include <stdlib.h>
+#include <string.h>
+
+defsim_model bench_model_by_name(const char *name)
+{
+    static const struct { const char *name; defsim_model model; } models[] = {
+        {"snh", DEFSIM_MODEL_STABLE_NEOHOOKEAN}, {"nh", DEFSIM_MODEL_NEOHOOKEAN},
+        {"corotated", DEFSIM_MODEL_COROTATED}, {"stvk", DEFSIM_MODEL_STVK}};
+    for (size_t i = 0; i < sizeof models / sizeof models[0]; ++i)
+        if (!strcmp(name, models[i].name)) return models[i].model;
+    return (defsim_model)0;
+}
 
 defsim_status bench_beam_mesh(int n, defsim_mesh *m)
 {

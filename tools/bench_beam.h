@@ -17,4 +17,8 @@ int32_t bench_clamp_list(const defsim_mesh *m, int32_t *out);
 defsim_status bench_add_beam(defsim_world *w, const defsim_mesh *m, const defsim_material *material,
                              int clamp, defsim_body_id *id);
 
+/* The material model named "snh", "nh", "corotated" or "stvk" (the tools' short names);
+ * 0 if the name is none of them. */
+defsim_model bench_model_by_name(const char *name);
+
 #endif

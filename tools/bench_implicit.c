@@ -59,12 +59,8 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--projection")) proj = v;
         else return usage("unknown option");
     }
-    defsim_model model;
-    if (!strcmp(model_name, "snh")) model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
-    else if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
-    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
-    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
-    else return usage("unknown model");
+    const defsim_model model = bench_model_by_name(model_name);
+    if (!model) return usage("unknown model");
     defsim_projection projection;
     if (!strcmp(proj, "none")) projection = DEFSIM_PROJECTION_NONE;
     else if (!strcmp(proj, "clamp")) projection = DEFSIM_PROJECTION_CLAMP;

@@ -48,11 +48,8 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--stream-gbs")) stream_gbs = atof(argv[i + 1]);
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
-    defsim_model model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
-    if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
-    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
-    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
-    else if (strcmp(model_name, "snh")) { fprintf(stderr, "unknown model %s\n", model_name); return 2; }
+    const defsim_model model = bench_model_by_name(model_name);
+    if (!model) { fprintf(stderr, "unknown model %s\n", model_name); return 2; }
     if (n < 1 || steps < 1 || repeats < 1 || repeats > 100 || threads < 0) return 2;
 
     /* The batched kernel variant is chosen when the world plans (DEFSIM_SIMD overrides it). */

@@ -5,6 +5,7 @@
 
 #include <errno.h>
 #include <stdio.h>
+#include <string.h>
 #include <sys/stat.h>
 
 char *tools_read_file(const char *path, size_t *len)
@@ -13,6 +14,26 @@ char *tools_read_file(const char *path, size_t *len)
     int err = defsim__read_file(path, DEFSIM__FILE_MAX, &buf, len);
     if (err) errno = err;
     return buf;
+}
+
+FILE *tools_tmp_open(const char *path, char *tmp, size_t tmpsz, char *err, size_t errsz)
+{
+    snprintf(tmp, tmpsz, "%s.tmp", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) snprintf(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
+    return f;
+}
+
+int tools_tmp_commit(FILE *f, const char *tmp, const char *path, int ok, char *err,
+                     size_t errsz)
+{
+    ok = ok && !ferror(f);
+    ok = (fclose(f) == 0) && ok;
+    if (ok && rename(tmp, path) == 0) return 0;
+    const int e = errno;
+    remove(tmp);
+    snprintf(err, errsz, "%s: write failed: %s", path, strerror(e));
+    return -1;
 }
 
 int tools_make_dirs(const char *path)

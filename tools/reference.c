@@ -37,6 +37,7 @@
  *                                        (vertex i + (nx+1)(j + (ny+1) k))
  * Numbers are printed with %.17g, so they read back exactly.
  */
+#include "bench_beam.h"
 #include "refsol.h"
 
 #include <defsim/defsim.h>
@@ -97,12 +98,8 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    defsim_model model;
-    if (!strcmp(model_name, "snh")) model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
-    else if (!strcmp(model_name, "nh")) model = DEFSIM_MODEL_NEOHOOKEAN;
-    else if (!strcmp(model_name, "corotated")) model = DEFSIM_MODEL_COROTATED;
-    else if (!strcmp(model_name, "stvk")) model = DEFSIM_MODEL_STVK;
-    else {
+    const defsim_model model = bench_model_by_name(model_name);
+    if (!model) {
         fprintf(stderr, "defsim-reference: unknown model %s\n", model_name);
         return 2;
     }
@@ -131,49 +128,35 @@ int main(int argc, char **argv)
         return 1;
     }
     defsim_mesh m = {.size = sizeof m};
-    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
-    const int nx = 3 * n, ny = n, nz = n;
-    if (defsim_mesh_box(lo, hi, nx, ny, nz, &m) != DEFSIM_OK) {
+    if (bench_beam_mesh(n, &m) != DEFSIM_OK) {
         fprintf(stderr, "defsim-reference: %s\n", defsim_last_error());
         defsim_world_destroy(w);
         return 1;
     }
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
-    bd.material.youngs_modulus = E;
-    bd.material.poisson_ratio = nu;
-    bd.material.density = rho;
-    bd.material.mass_damping = alpha;
-    bd.material.stiffness_damping = beta;
+    defsim_material mat;
+    defsim_material_init(&mat, sizeof mat, model);
+    mat.youngs_modulus = E;
+    mat.poisson_ratio = nu;
+    mat.density = rho;
+    mat.mass_damping = alpha;
+    mat.stiffness_damping = beta;
     defsim_body_id b;
     int rc = 1;
-    int32_t *pins = NULL;
+    int32_t *pins = malloc((size_t)m.vertex_count * sizeof *pins);
     FILE *f = NULL;
-    if (defsim_world_add_body(w, &bd, &b) != DEFSIM_OK) {
-        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
-        goto done;
-    }
-    pins = malloc((size_t)m.vertex_count * sizeof *pins);
     if (!pins) {
         fprintf(stderr, "defsim-reference: out of memory\n");
         goto done;
     }
-    int np = 0;
-    for (int i = 0; i < m.vertex_count; ++i)
-        if (m.positions[3 * i] <= 0.0) pins[np++] = i;
-    if (defsim_body_pin(w, b, pins, np) != DEFSIM_OK) {
+    if (bench_add_beam(w, &m, &mat, 1, &b) != DEFSIM_OK) {
         fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
         goto done;
     }
+    const int32_t np = bench_clamp_list(&m, pins);
     if (!quiet)
         fprintf(stderr, "defsim-reference: %s cantilever, %d tets, %d vertices (%d clamped), to "
                         "T = %g s with sundials_ida at rtol %g, atol %g\n",
-                model_name, m.tet_count, m.vertex_count, np, T, rtol, atol);
+                model_name, m.tet_count, m.vertex_count, (int)np, T, rtol, atol);
 
     /* One hundred calls, so that progress can be shown; IDA keeps its history across them. */
     refsol ref;
@@ -188,8 +171,9 @@ int main(int argc, char **argv)
         refsol_free(&ref);
         goto done;
     }
-    fprintf(f, "defsim-reference 1\nmodel %s\ncells %d %d %d\nbox 0 0 0 3 1 1\n", model_name, nx,
-            ny, nz);
+    /* The beam of bench_beam.h: 3n x n x n cells on [0,3] x [0,1] x [0,1]. */
+    fprintf(f, "defsim-reference 1\nmodel %s\ncells %d %d %d\nbox 0 0 0 3 1 1\n", model_name,
+            3 * n, n, n);
     fprintf(f, "youngs_modulus %.17g\npoisson_ratio %.17g\ndensity %.17g\n", E, nu, rho);
     fprintf(f, "mass_damping %.17g\nstiffness_damping %.17g\n", alpha, beta);
     fprintf(f, "gravity %.17g %.17g %.17g\nclamp x 0\nstart rest\n", wd.gravity[0],

@@ -86,9 +86,8 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
     if (n_extra < 0 || n_extra > MAX_EXTRA)
         return set_err(err, errsz, "%s: %d extra arrays (at most %d)", path, n_extra, MAX_EXTRA);
     char tmp[2200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) return set_err(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
+    FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
+    if (!f) return -1;
     const uint64_t bx = 3 * (uint64_t)nv * sizeof(double);
     const uint64_t bconn = (uint64_t)c->nconn * sizeof(int64_t);
     const uint64_t boff = (uint64_t)c->ncells * sizeof(int64_t);
@@ -155,23 +154,15 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
          put_block(f, c->conn, bconn) && put_block(f, c->offsets, boff) &&
          put_block(f, c->types, btyp);
     fputs("\n  </AppendedData>\n</VTKFile>\n", f);
-    ok = ok && !ferror(f);
-    ok = (fclose(f) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
-        int e = errno;
-        remove(tmp);
-        return set_err(err, errsz, "%s: write failed: %s", path, strerror(e));
-    }
-    return 0;
+    return tools_tmp_commit(f, tmp, path, ok, err, errsz);
 }
 
 int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
                   char *err, size_t errsz)
 {
     char tmp[2200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
-    if (!f) return set_err(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
+    FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
+    if (!f) return -1;
     fprintf(f, "<?xml version=\"1.0\"?>\n"
                "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"%s\">\n"
                "  <Collection>\n", little_endian() ? "LittleEndian" : "BigEndian");
@@ -179,14 +170,7 @@ int vtk_write_pvd(const char *path, int n, const double *times, const char *cons
         fprintf(f, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n",
                 times[i], files[i]);
     fputs("  </Collection>\n</VTKFile>\n", f);
-    int ok = !ferror(f);
-    ok = (fclose(f) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
-        int e = errno;
-        remove(tmp);
-        return set_err(err, errsz, "%s: write failed: %s", path, strerror(e));
-    }
-    return 0;
+    return tools_tmp_commit(f, tmp, path, 1, err, errsz);
 }
 
 /* ------------------------------------------------------------------------------------------ */

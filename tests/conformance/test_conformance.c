@@ -94,15 +94,8 @@ static defsim_body_id add_scene(defsim_world *w)
     defsim_body_id box = tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 4, 2, 2, lo, hi, SC_E,
                                     SC_NU, SC_RHO);
     double sx[3 * 8];
-    for (int i = 0; i < 4; ++i) {
-        sx[6 * i] = 1.5 + SC_CELL * i; sx[6 * i + 1] = 0.0; sx[6 * i + 2] = 0.0;
-        sx[6 * i + 3] = 1.5 + SC_CELL * i; sx[6 * i + 4] = SC_CELL; sx[6 * i + 5] = 0.1;
-    }
     int32_t sp[2 * 10];
-    int k = 0;
-    for (int i = 0; i < 4; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 1; }
-    for (int i = 0; i < 3; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 2; }
-    for (int i = 0; i < 3; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 3; }
+    tu_ladder(1.5, SC_CELL, 0.1, sx, sp);
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
@@ -111,7 +104,7 @@ static defsim_body_id add_scene(defsim_world *w)
     bd.rest_positions = sx;
     bd.vertex_count = 8;
     bd.springs = sp;
-    bd.spring_count = k / 2;
+    bd.spring_count = 10;
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     return box;
 }

@@ -1,15 +1,9 @@
 # SPDX-License-Identifier: MIT
 # Installs the build into WORK_DIR/prefix, then builds two consumers against it: one with
 # find_package(defsim) (CMake package) and one with pkg-config, and runs both.
-file(REMOVE_RECURSE ${WORK_DIR})
+include(${CMAKE_CURRENT_LIST_DIR}/../../cmake/install_and_run.cmake)
 set(prefix ${WORK_DIR}/prefix)
-macro(run)
-  execute_process(COMMAND ${ARGV} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "failed (${rc}): ${ARGV}\n${out}\n${err}")
-  endif()
-endmacro()
-run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+install_to(${prefix})
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/consumer -DCMAKE_PREFIX_PATH=${prefix})
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/consumer)
 run(${WORK_DIR}/consumer/consumer)

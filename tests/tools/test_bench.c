@@ -10,6 +10,8 @@
  *
  *   test_bench DEFSIM_EXE SCENE.json OUT_DIR
  */
+#include "tool_check.h"
+
 #include <dirent.h>
 #include <math.h>
 #include <stdio.h>
@@ -17,18 +19,6 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-
-static int failures;
-
-#define CHECK(cond, ...)                                                                          \
-    do {                                                                                          \
-        if (!(cond)) {                                                                            \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                                  \
-            fprintf(stderr, __VA_ARGS__);                                                         \
-            fprintf(stderr, "\n");                                                                \
-            ++failures;                                                                           \
-        }                                                                                         \
-    } while (0)
 
 typedef struct row {
     char backend[32], kind[8], status[32];

@@ -7,6 +7,10 @@
  *
  *   test_run_sigint DEFSIM_EXE SCENE.json OUT_DIR
  */
+#include "tool_check.h"
+
+#include "file_read.h"
+
 #include <dirent.h>
 #include <signal.h>
 #include <stdio.h>
@@ -18,36 +22,19 @@
 #include <time.h>
 #include <unistd.h>
 
-static int failures;
-
-#define CHECK(cond, ...)                                                                          \
-    do {                                                                                          \
-        if (!(cond)) {                                                                            \
-            fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                                  \
-            fprintf(stderr, __VA_ARGS__);                                                         \
-            fprintf(stderr, "\n");                                                                \
-            ++failures;                                                                           \
-        }                                                                                         \
-    } while (0)
-
-static char *slurp(const char *path, size_t *len)
+/* *text: the whole file (NUL-terminated; the caller frees it) through the library's reader
+ * (src/file_read.c), or NULL. */
+static void slurp(const char *path, char **text, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = malloc((size_t)n + 1);
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) { free(b); b = NULL; }
-    fclose(f);
-    if (b) b[n] = '\0';
-    if (len) *len = (size_t)n;
-    return b;
+    size_t n = 0;
+    if (defsim__read_file(path, DEFSIM__FILE_MAX, text, &n)) *text = NULL;
+    if (len) *len = n;
 }
 
 static int count_datasets(const char *pvd)
 {
-    char *t = slurp(pvd, NULL);
+    char *t;
+    slurp(pvd, &t, NULL);
     int n = 0;
     for (const char *p = t; p && (p = strstr(p, "<DataSet")); ++p) ++n;
     free(t);
@@ -152,7 +139,8 @@ int main(int argc, char **argv)
     CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 130,
           "exit status %d (expected 130)", WIFEXITED(status) ? WEXITSTATUS(status) : -1);
 
-    char *text = slurp(pvd, NULL);
+    char *text;
+    slurp(pvd, &text, NULL);
     CHECK(text && xml_well_formed(text), "%s is not well-formed XML", pvd);
     int listed = 0;
     for (const char *p = text; p && (p = strstr(p, "<DataSet")); ++p) {
@@ -163,7 +151,8 @@ int main(int argc, char **argv)
         CHECK(at && at < end, "DataSet %d does not name %s", listed, want);
         snprintf(path, sizeof path, "%s/frame_%05d.vtu", out, listed);
         size_t len = 0;
-        char *vtu = slurp(path, &len);
+        char *vtu;
+        slurp(path, &vtu, &len);
         CHECK(vtu && len > 20 && strncmp(vtu, "<?xml", 5) == 0 &&
               strcmp(vtu + len - 11, "</VTKFile>\n") == 0, "%s is missing or incomplete", path);
         free(vtu);

@@ -129,27 +129,11 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
 defsim_world *be_cantilever(const char *backend, double tol, int max_iter, defsim_model model,
                            double alpha, double beta, defsim_projection proj, double unit)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    d.gravity[1] = -9.81 * unit;
-    d.num_threads = 1;
-    d.tolerance = tol;
-    d.max_iterations = max_iter;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    defsim_world *w = tu_implicit_world(backend, -9.81 * unit, 1, tol, max_iter, proj);
     defsim_mesh m = {.size = sizeof m};
     const double lo[3] = {0, 0, 0}, hi[3] = {1.5 * unit, 0.5 * unit, 0.5 * unit};
     TU_OK(defsim_mesh_box(lo, hi, 3, 1, 1, &m));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
+    defsim_body_def bd = test_mesh_body(&m, model);
     /* Pa = kg / (m s^2): in kg, mm, s the modulus is 1e-3 times smaller, the density 1e-9. */
     bd.material.youngs_modulus = 5e4 / unit;
     bd.material.poisson_ratio = 0.35;

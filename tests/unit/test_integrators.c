@@ -11,22 +11,9 @@
 static defsim_world *oscillator(const char *backend, double m, double k, double a)
 {
     defsim_world *w = tu_world(backend, 0.0, 1);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1 + a, 0, 0}, mass[2] = {1.0, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    const tu_spring2 o = {.l0 = 1, .x1 = {1 + a, 0, 0}, .m0 = 1.0, .m1 = m, .k = k,
+                          .pin_anchor = 1};
+    tu_add_spring2(w, &o);
     return w;
 }
 
@@ -206,31 +193,7 @@ static void test_free_fall_momentum(void **state)
 {
     (void)state;
     defsim_world *w = tu_world("symplectic_euler", -9.81, 2);
-    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
-    int n = defsim_world_vertex_count(w);
-    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
-    unsigned long long seed = 2;
-    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
-    TU_OK(defsim_world_set_state(w, x, v));
-    TU_OK(defsim_world_get_masses(w, m, n));
-    double p0[3] = {0, 0, 0}, M = 0;
-    for (int i = 0; i < n; ++i) {
-        M += m[i];
-        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
-    }
-    const int steps = 500;
-    const double h = 1e-4;
-    for (int i = 0; i < steps; ++i) TU_OK(defsim_world_step(w, h));
-    free(v);
-    v = tu_velocities(w);
-    double p[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
-    assert_true(fabs(p[0] - p0[0]) < 1e-10 * M);
-    assert_true(fabs(p[2] - p0[2]) < 1e-10 * M);
-    assert_true(fabs(p[1] - (p0[1] - 9.81 * M * steps * h)) < 1e-10 * M);
-    free(x); free(v); free(m);
+    tu_check_free_fall(w, "symplectic_euler", -9.81, 2, 500, 1e-4, 1e-10);
     defsim_world_destroy(w);
 }
 

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Mesh loaders (TetGen, Gmsh 2 / 4, OBJ) and the cloth and rope generators. Each test writes
- * small files into a fresh temporary directory. */
+ * small files into a fresh temporary directory.
+ *
+ * Contents: checks shared by the loaders' tests; TetGen; Gmsh; OBJ; generators. */
 #include "test_util.h"
 
 #include <math.h>
@@ -434,13 +436,8 @@ static void test_obj(void **state)
 
     /* The springs make a valid spring body, at rest with zero elastic force. */
     defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.springs = m.springs;
-    bd.spring_count = m.spring_count;
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    assert_int_equal(m.tet_count, 0);
+    const defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_SPRING);
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     double f[30];
     TU_OK(defsim_world_forces(w, NULL, f));
@@ -452,25 +449,25 @@ static void test_obj(void **state)
 static void test_obj_errors(void **state)
 {
     (void)state;
-    const char *v3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
-    char text[256];
-    snprintf(text, sizeof text, "%s# c\nf 1 2 4\n", v3);
-    expect_error(tu_write_file("e1.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
-    snprintf(text, sizeof text, "%sf 1 2 0\n", v3);
-    expect_error(tu_write_file("e2.obj", text), DEFSIM_ERR_IO, 4);
-    snprintf(text, sizeof text, "%sf 1 2\n", v3);
-    expect_error(tu_write_file("e3.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
-    snprintf(text, sizeof text, "%sf -1 -2 -4\n", v3);
-    expect_error(tu_write_file("e4.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
-    snprintf(text, sizeof text, "%sf 1 2 2\n", v3);
-    expect_error(tu_write_file("e5.obj", text), DEFSIM_ERR_INVALID_MESH, 4);
-    snprintf(text, sizeof text, "v 0 0\n%sf 1 2 3\n", v3);
-    expect_error(tu_write_file("e6.obj", text), DEFSIM_ERR_IO, 1);
-    snprintf(text, sizeof text, "%sv 0 0 0\nf 1 2 4\n", v3);   /* vertices 1 and 4 coincide */
-    expect_error(tu_write_file("e7.obj", text), DEFSIM_ERR_INVALID_MESH, 5);
-    snprintf(text, sizeof text, "%sf a b c\n", v3);
-    expect_error(tu_write_file("e8.obj", text), DEFSIM_ERR_IO, 4);
-    expect_error(tu_write_file("e9.obj", v3), DEFSIM_ERR_INVALID_MESH, 0);
+    /* Three vertices (lines 1-3) with a statement before and after them. */
+    static const struct { const char *before, *after; defsim_status st; int line; } cases[] = {
+        {"", "# c\nf 1 2 4\n", DEFSIM_ERR_INVALID_MESH, 5},
+        {"", "f 1 2 0\n", DEFSIM_ERR_IO, 4},
+        {"", "f 1 2\n", DEFSIM_ERR_INVALID_MESH, 4},
+        {"", "f -1 -2 -4\n", DEFSIM_ERR_INVALID_MESH, 4},
+        {"", "f 1 2 2\n", DEFSIM_ERR_INVALID_MESH, 4},
+        {"v 0 0\n", "f 1 2 3\n", DEFSIM_ERR_IO, 1},
+        {"", "v 0 0 0\nf 1 2 4\n", DEFSIM_ERR_INVALID_MESH, 5},   /* vertices 1 and 4 coincide */
+        {"", "f a b c\n", DEFSIM_ERR_IO, 4},
+        {"", "", DEFSIM_ERR_INVALID_MESH, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        char text[256], name[16];
+        snprintf(text, sizeof text, "%sv 0 0 0\nv 1 0 0\nv 0 1 0\n%s", cases[i].before,
+                 cases[i].after);
+        snprintf(name, sizeof name, "e%zu.obj", i + 1);
+        expect_error(tu_write_file(name, text), cases[i].st, cases[i].line);
+    }
 }
 
 /* ------------------------------------------------------------------------------------------ */

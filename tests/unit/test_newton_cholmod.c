@@ -15,32 +15,10 @@
 
 static const char *NC = "newton_cholmod";
 
-static int mapped(const char *needle)
-{
-    FILE *f = fopen("/proc/self/maps", "r");
-    if (!f) return -1;
-    char line[1024];
-    int found = 0;
-    while (fgets(line, sizeof line, f))
-        if (strstr(line, needle)) found = 1;
-    fclose(f);
-    return found;
-}
-
 static defsim_world *nc_world(double gy, int threads, double tol, int max_it,
                               defsim_projection proj)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = NC;
-    d.gravity[1] = gy;
-    d.num_threads = threads;
-    d.tolerance = tol;
-    d.max_iterations = max_it;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) fail_msg("world_create: %s", defsim_last_error());
-    return w;
+    return tu_implicit_world(NC, gy, threads, tol, max_it, proj);
 }
 
 static void step_ok(defsim_world *w, double h)
@@ -93,14 +71,14 @@ static void test_loaded_on_demand(void **state)
     tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 1e5, 0.3, 1000);
     for (int i = 0; i < 5; ++i) TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
-    assert_int_equal(mapped("defsim_newton_cholmod.so"), 0);
-    assert_int_equal(mapped("libcholmod"), 0);
+    assert_int_equal(tu_mapped("defsim_newton_cholmod.so"), 0);
+    assert_int_equal(tu_mapped("libcholmod"), 0);
 
     w = nc_world(-9.81, 1, 1e-6, 50, DEFSIM_PROJECTION_CLAMP);
-    assert_int_equal(mapped("defsim_newton_cholmod.so"), 1);
+    assert_int_equal(tu_mapped("defsim_newton_cholmod.so"), 1);
     tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 1e5, 0.3, 1000);
     step_ok(w, 1.0 / 60.0);
-    assert_int_equal(mapped("libcholmod"), 1);
+    assert_int_equal(tu_mapped("libcholmod"), 1);
     defsim_stats s = {.size = sizeof s};
     TU_OK(defsim_world_stats(w, &s));
     assert_true(s.newton_iterations >= 1);
@@ -221,13 +199,14 @@ static void chain_ref_step(chain_ref *c, double h)
     }
 }
 
-static defsim_world *chain_world(double alpha, double beta, double tol)
+/* The chain: CH_N masses CH_M on a line, scale * CH_L apart, joined by springs of stiffness k
+ * with Rayleigh damping alpha, beta; vertex 0 pinned. */
+static void add_chain(defsim_world *w, double scale, double k, double alpha, double beta)
 {
-    defsim_world *w = nc_world(CH_G, 1, tol, 50, DEFSIM_PROJECTION_CLAMP);
     double x[3 * CH_N] = {0}, m[CH_N];
     int32_t sp[2 * (CH_N - 1)];
     for (int i = 0; i < CH_N; ++i) {
-        x[3 * i] = CH_L * i;
+        x[3 * i] = scale * CH_L * i;
         m[i] = CH_M;
     }
     for (int s = 0; s + 1 < CH_N; ++s) {
@@ -237,7 +216,7 @@ static defsim_world *chain_world(double alpha, double beta, double tol)
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = CH_K;
+    bd.material.stiffness = k;
     bd.material.mass_damping = alpha;
     bd.material.stiffness_damping = beta;
     bd.rest_positions = x;
@@ -249,6 +228,12 @@ static defsim_world *chain_world(double alpha, double beta, double tol)
     TU_OK(defsim_world_add_body(w, &bd, &id));
     int32_t pin = 0;
     TU_OK(defsim_body_pin(w, id, &pin, 1));
+}
+
+static defsim_world *chain_world(double alpha, double beta, double tol)
+{
+    defsim_world *w = nc_world(CH_G, 1, tol, 50, DEFSIM_PROJECTION_CLAMP);
+    add_chain(w, 1.0, CH_K, alpha, beta);
     return w;
 }
 
@@ -334,22 +319,9 @@ static void pendulum_rk4(double T, double out[3])
 static double pendulum_error(double T, double h, const double want[3])
 {
     defsim_world *w = nc_world(CH_G, 1, 1e-13, 50, DEFSIM_PROJECTION_CLAMP);
-    double x[6] = {0, 0, 0, PD_L0, 0, 0}, x0[6] = {0, 0, 0, 1.0, 0.0, 0.2}, m[2] = {1.0, PD_M};
-    int32_t sp[2] = {0, 1};
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = PD_K;
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = sp;
-    bd.spring_count = 1;
-    bd.vertex_mass = m;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    const tu_spring2 o = {.l0 = PD_L0, .x1 = {1.0, 0.0, 0.2}, .m0 = 1.0, .m1 = PD_M, .k = PD_K,
+                          .pin_anchor = 1};
+    tu_add_spring2(w, &o);
     const int steps = (int)lround(T / h);
     for (int s = 0; s < steps; ++s) step_ok(w, h);
     double got[6];
@@ -682,29 +654,7 @@ static void scaled_chain(double c, double s, int steps, double *x_out, int64_t *
     d.tolerance = 1e-8;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
-    double x[3 * CH_N] = {0}, m[CH_N];
-    int32_t sp[2 * (CH_N - 1)];
-    for (int i = 0; i < CH_N; ++i) {
-        x[3 * i] = c * CH_L * i;
-        m[i] = CH_M;
-    }
-    for (int k = 0; k + 1 < CH_N; ++k) {
-        sp[2 * k] = k;
-        sp[2 * k + 1] = k + 1;
-    }
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    bd.material.stiffness = CH_K / (s * s);
-    bd.rest_positions = x;
-    bd.vertex_count = CH_N;
-    bd.springs = sp;
-    bd.spring_count = CH_N - 1;
-    bd.vertex_mass = m;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    int32_t pin = 0;
-    TU_OK(defsim_body_pin(w, id, &pin, 1));
+    add_chain(w, c, CH_K / (s * s), 0.0, 0.0);
     for (int k = 0; k < steps; ++k) step_ok(w, 0.01 * s);
     TU_OK(defsim_world_get_positions(w, x_out, CH_N));
     defsim_stats st = {.size = sizeof st};

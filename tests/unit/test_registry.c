@@ -9,18 +9,6 @@
 
 #include <defsim/backend.h>
 
-static int mapped(const char *needle)
-{
-    FILE *f = fopen("/proc/self/maps", "r");
-    if (!f) return -1;
-    char line[1024];
-    int found = 0;
-    while (fgets(line, sizeof line, f))
-        if (strstr(line, needle)) found = 1;
-    fclose(f);
-    return found;
-}
-
 static double *run(const char *backend, int steps)
 {
     defsim_world *w = tu_world(backend, -9.81, 1);
@@ -39,9 +27,9 @@ static void test_builtins_load_nothing(void **state)
     (void)state;
     free(run("explicit_euler", 3));
     free(run("symplectic_euler", 3));
-    assert_int_equal(mapped("defsim_testmod.so"), 0);
-    assert_int_equal(mapped("defsim_newton_cholmod.so"), 0);
-    assert_int_equal(mapped("defsim_sundials"), 0);
+    assert_int_equal(tu_mapped("defsim_testmod.so"), 0);
+    assert_int_equal(tu_mapped("defsim_newton_cholmod.so"), 0);
+    assert_int_equal(tu_mapped("defsim_sundials"), 0);
 }
 
 /* The module is found through DEFSIM_BACKEND_PATH, loaded on first use, and computes exactly
@@ -50,7 +38,7 @@ static void test_module_loads_and_matches(void **state)
 {
     (void)state;
     double *a = run("testmod", 50), *b = run("symplectic_euler", 50);
-    assert_int_equal(mapped("defsim_testmod.so"), 1);
+    assert_int_equal(tu_mapped("defsim_testmod.so"), 1);
     assert_memory_equal(a, b, 3 * 5 * 3 * 3 * sizeof(double));
     free(a);
     free(b);

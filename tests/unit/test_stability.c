@@ -18,25 +18,9 @@ static defsim_world *oscillator(const char *backend, double m, double k, int pin
     d.auto_substep = auto_substep;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-    double x[6] = {0, 0, 0, 1, 0, 0}, x0[6] = {0, 0, 0, 1.01, 0, 0}, mass[2] = {m, m};
-    int32_t s[2] = {0, 1};
-    bd.rest_positions = x;
-    bd.initial_positions = x0;
-    bd.vertex_count = 2;
-    bd.springs = s;
-    bd.spring_count = 1;
-    bd.vertex_mass = mass;
-    bd.material.stiffness = k;
-    bd.material.mass_damping = alpha;
-    defsim_body_id id;
-    TU_OK(defsim_world_add_body(w, &bd, &id));
-    if (pinned) {
-        int32_t p = 0;
-        TU_OK(defsim_body_pin(w, id, &p, 1));
-    }
+    const tu_spring2 o = {.l0 = 1, .x1 = {1.01, 0, 0}, .m0 = m, .m1 = m, .k = k, .alpha = alpha,
+                          .pin_anchor = pinned};
+    tu_add_spring2(w, &o);
     return w;
 }
 

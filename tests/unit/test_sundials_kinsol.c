@@ -17,18 +17,7 @@
 
 static defsim_world *kin_world(double tol, int max_iter, double gy, defsim_projection proj)
 {
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = "sundials_kinsol";
-    d.gravity[1] = gy;
-    d.num_threads = 1;
-    d.tolerance = tol;
-    d.max_iterations = max_iter;
-    d.projection = proj;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK)
-        fail_msg("world_create(sundials_kinsol): %s", defsim_last_error());
-    return w;
+    return tu_implicit_world("sundials_kinsol", gy, 1, tol, max_iter, proj);
 }
 
 static defsim_world *cantilever(double tol, int max_iter, defsim_model model, double alpha,
@@ -259,32 +248,7 @@ static void test_free_body_momentum(void **state)
 {
     (void)state;
     defsim_world *w = kin_world(1e-8, 50, -9.81, DEFSIM_PROJECTION_CLAMP);
-    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
-    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
-    const int n = defsim_world_vertex_count(w);
-    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
-    unsigned long long seed = 11;
-    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
-    TU_OK(defsim_world_set_state(w, x, v));
-    TU_OK(defsim_world_get_masses(w, m, n));
-    double p0[3] = {0, 0, 0}, M = 0;
-    for (int i = 0; i < n; ++i) {
-        M += m[i];
-        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
-    }
-    const double h = 0.02;
-    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, h));
-    free(v);
-    v = tu_velocities(w);
-    double p[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
-    printf("kinsol free body: momentum drift %.2e %.2e %.2e (kg m/s, M = %g kg)\n", p[0] - p0[0],
-           p[1] - (p0[1] - 9.81 * M * 10 * h), p[2] - p0[2], M);
-    assert_true(fabs(p[0] - p0[0]) < 1e-9 * M);
-    assert_true(fabs(p[2] - p0[2]) < 1e-9 * M);
-    assert_true(fabs(p[1] - (p0[1] - 9.81 * M * 10 * h)) < 1e-9 * M);
-    free(x); free(v); free(m);
+    tu_check_free_fall(w, "kinsol", -9.81, 11, 10, 0.02, 1e-9);
     defsim_world_destroy(w);
 }
 
@@ -293,23 +257,7 @@ static void test_pinned_fixed(void **state)
     (void)state;
     defsim_world *w = cantilever(1e-6, 50, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0.0, 0.0,
                                  DEFSIM_PROJECTION_CLAMP, 1.0);
-    const int n = defsim_world_vertex_count(w);
-    double *x0 = tu_positions(w);
-    for (int s = 0; s < 10; ++s) TU_OK(defsim_world_step(w, 0.05));
-    double *x = tu_positions(w), *v = tu_velocities(w);
-    int pinned = 0;
-    for (int i = 0; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) {
-            assert_true(isfinite(x[3 * i + c]) && isfinite(v[3 * i + c]));
-            if (x0[3 * i] <= 1e-12) {
-                assert_true(x[3 * i + c] == x0[3 * i + c]);
-                assert_true(v[3 * i + c] == 0.0);
-            }
-        }
-        pinned += x0[3 * i] <= 1e-12;
-    }
-    assert_int_equal(pinned, 4);
-    free(x0); free(x); free(v);
+    tu_check_clamped_end(w, 10, 0.05, 4);
     defsim_world_destroy(w);
 }
 

@@ -23,15 +23,8 @@ static defsim_world *deformed_world(defsim_model model, int threads, double amp,
     tu_add_box(w, model, 2, 2, 2, LO, HI, 1e5, 0.35, 1000.0);
     /* A spring ladder (cloth strip) body. */
     double sx[3 * 8];
-    for (int i = 0; i < 4; ++i) {
-        sx[6 * i] = 3.0 + 0.5 * i; sx[6 * i + 1] = 0.0; sx[6 * i + 2] = 0.0;
-        sx[6 * i + 3] = 3.0 + 0.5 * i; sx[6 * i + 4] = 0.5; sx[6 * i + 5] = 0.0;
-    }
     int32_t sp[2 * 10];
-    int k = 0;
-    for (int i = 0; i < 4; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 1; }
-    for (int i = 0; i < 3; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 2; }
-    for (int i = 0; i < 3; ++i) { sp[k++] = 2 * i; sp[k++] = 2 * i + 3; }
+    tu_ladder(3.0, 0.5, 0.0, sx, sp);
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
@@ -39,7 +32,7 @@ static defsim_world *deformed_world(defsim_model model, int threads, double amp,
     bd.rest_positions = sx;
     bd.vertex_count = 8;
     bd.springs = sp;
-    bd.spring_count = k / 2;
+    bd.spring_count = 10;
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     int n = defsim_world_vertex_count(w);
     double *x = tu_positions(w);
@@ -339,12 +332,7 @@ static void test_damping_dissipates(void **state)
         defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
         defsim_mesh m = {.size = sizeof m};
         TU_OK(defsim_mesh_box(LO, HI, 2, 1, 1, &m));
-        defsim_body_def bd;
-        defsim_body_def_init(&bd, sizeof bd);
-        bd.rest_positions = m.positions;
-        bd.vertex_count = m.vertex_count;
-        bd.tets = m.tets;
-        bd.tet_count = m.tet_count;
+        defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
         bd.material.youngs_modulus = 1e4;
         if (mode == 0) bd.material.mass_damping = 2.0;
         else bd.material.stiffness_damping = 0.01;

@@ -12,17 +12,50 @@ double tu_rand(unsigned long long *s)
     return (double)(*s >> 11) * (2.0 / 9007199254740992.0) - 1.0;
 }
 
-defsim_world *tu_world(const char *backend, double gy, int threads)
+defsim_world_def tu_world_def(const char *backend, double gy, int threads)
 {
     defsim_world_def d;
     defsim_world_def_init(&d, sizeof d);
     d.backend = backend;
     d.gravity[1] = gy;
     d.num_threads = threads;
+    return d;
+}
+
+defsim_world *tu_create(const defsim_world_def *d)
+{
     defsim_world *w = NULL;
-    defsim_status st = defsim_world_create(&d, &w);
-    if (st != DEFSIM_OK) fail_msg("world_create(%s): %s", backend, defsim_last_error());
+    if (defsim_world_create(d, &w) != DEFSIM_OK)
+        fail_msg("world_create(%s): %s", d->backend, defsim_last_error());
     return w;
+}
+
+defsim_world *tu_world(const char *backend, double gy, int threads)
+{
+    const defsim_world_def d = tu_world_def(backend, gy, threads);
+    return tu_create(&d);
+}
+
+defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
+                                int max_iter, defsim_projection proj)
+{
+    defsim_world_def d = tu_world_def(backend, gy, threads);
+    d.tolerance = tol;
+    d.max_iterations = max_iter;
+    d.projection = proj;
+    return tu_create(&d);
+}
+
+void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20])
+{
+    for (int i = 0; i < 4; ++i) {
+        x[6 * i] = x0 + cell * i; x[6 * i + 1] = 0.0; x[6 * i + 2] = 0.0;
+        x[6 * i + 3] = x0 + cell * i; x[6 * i + 4] = cell; x[6 * i + 5] = z1;
+    }
+    int k = 0;
+    for (int i = 0; i < 4; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 1; }
+    for (int i = 0; i < 3; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 2; }
+    for (int i = 0; i < 3; ++i) { springs[k++] = 2 * i; springs[k++] = 2 * i + 3; }
 }
 
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
@@ -32,13 +65,7 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     TU_OK(defsim_mesh_box(lo, hi, nx, ny, nz, &m));
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, model);
+    defsim_body_def bd = test_mesh_body(&m, model);
     bd.material.youngs_modulus = E;
     bd.material.poisson_ratio = nu;
     bd.material.density = rho;
@@ -47,6 +74,86 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     if (st != DEFSIM_OK) fail_msg("add_body: %s", defsim_world_last_error(w));
     defsim_mesh_free(&m);
     return id;
+}
+
+defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o)
+{
+    const double *a = o->anchor;
+    double rest[6] = {a[0], a[1], a[2], a[0] + o->l0, a[1], a[2]};
+    double x0[6] = {a[0], a[1], a[2], o->x1[0], o->x1[1], o->x1[2]};
+    double v0[6] = {0, 0, 0, o->v1[0], o->v1[1], o->v1[2]}, mass[2] = {o->m0, o->m1};
+    const int32_t link[2] = {0, 1};
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.rest_positions = rest;
+    bd.initial_positions = x0;
+    bd.initial_velocities = v0;
+    bd.vertex_count = 2;
+    bd.springs = link;
+    bd.spring_count = 1;
+    bd.vertex_mass = mass;
+    bd.material.stiffness = o->k;
+    bd.material.mass_damping = o->alpha;
+    bd.material.stiffness_damping = o->beta;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    const int32_t pin = 0;
+    if (o->pin_anchor) TU_OK(defsim_body_pin(w, id, &pin, 1));
+    return id;
+}
+
+void tu_check_free_fall(defsim_world *w, const char *what, double gy, unsigned long long seed,
+                        int steps, double h, double tol)
+{
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w), *m = malloc((size_t)n * sizeof *m);
+    for (int i = 0; i < 3 * n; ++i) { x[i] += 0.05 * tu_rand(&seed); v[i] = 0.5 * tu_rand(&seed); }
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_get_masses(w, m, n));
+    double p0[3] = {0, 0, 0}, M = 0;
+    for (int i = 0; i < n; ++i) {
+        M += m[i];
+        for (int c = 0; c < 3; ++c) p0[c] += m[i] * v[3 * i + c];
+    }
+    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+    free(v);
+    v = tu_velocities(w);
+    double p[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) p[c] += m[i] * v[3 * i + c];
+    const double t = defsim_world_time(w);
+    printf("%s free body: momentum drift %.2e %.2e %.2e (kg m/s, M = %g kg)\n", what,
+           p[0] - p0[0], p[1] - (p0[1] + gy * M * t), p[2] - p0[2], M);
+    assert_true(fabs(p[0] - p0[0]) < tol * M);
+    assert_true(fabs(p[2] - p0[2]) < tol * M);
+    assert_true(fabs(p[1] - (p0[1] + gy * M * t)) < tol * M);
+    free(x); free(v); free(m);
+}
+
+double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned)
+{
+    const int n = defsim_world_vertex_count(w);
+    double *x0 = tu_positions(w);
+    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    int pinned = 0;
+    for (int i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            assert_true(isfinite(x[3 * i + c]) && isfinite(v[3 * i + c]));
+            if (x0[3 * i] <= 1e-12) {
+                assert_true(x[3 * i + c] == x0[3 * i + c]);
+                assert_true(v[3 * i + c] == 0.0);
+            }
+        }
+        pinned += x0[3 * i] <= 1e-12;
+    }
+    assert_int_equal(pinned, npinned);
+    const double tip = x[3 * (n - 1) + 1] - x0[3 * (n - 1) + 1];
+    free(x0); free(x); free(v);
+    return tip;
 }
 
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)
@@ -89,6 +196,18 @@ double tu_rel_diff(const double *a, const double *b, int n, double floor)
         if (fabs(b[i]) > s) s = fabs(b[i]);
     }
     return d / s;
+}
+
+int tu_mapped(const char *needle)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    if (!f) return -1;
+    char line[1024];
+    int found = 0;
+    while (fgets(line, sizeof line, f))
+        if (strstr(line, needle)) found = 1;
+    fclose(f);
+    return found;
 }
 
 char tu_tmpdir[256];

@@ -5,6 +5,8 @@
 
 #include <defsim/defsim.h>
 
+#include "mesh_body.h"
+
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -13,12 +15,46 @@
 /* Deterministic uniform in [-1, 1). */
 double tu_rand(unsigned long long *state);
 
-/* A world with the given backend, gravity along y and thread count; fails the test on error. */
+/* A world with the given backend, gravity along y and thread count; fails the test on error.
+ * tu_world_def is its def, for tests that set more; tu_create creates a world or fails. */
 defsim_world *tu_world(const char *backend, double gy, int threads);
+defsim_world_def tu_world_def(const char *backend, double gy, int threads);
+defsim_world *tu_create(const defsim_world_def *d);
+
+/* A world with an implicit backend's settings: Newton tolerance, iterations and projection. */
+defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
+                                int max_iter, defsim_projection proj);
+
+/* A spring ladder (cloth strip) of 4 rungs along x: vertices 2i = (x0 + cell i, 0, 0) and
+ * 2i + 1 = (x0 + cell i, cell, z1), and 10 springs: the rungs, then the two rails' diagonals. */
+void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20]);
 
 /* Adds an nx*ny*nz-cell box of tets on [lo, hi] with the given model; returns its id. */
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);
+
+/* Two vertices joined by one spring (the oscillators and pendulums of the integrator tests):
+ * vertex 0 of mass m0 at `anchor`, vertex 1 of mass m1 at rest at anchor + (l0, 0, 0), starting
+ * at x1 (absolute) with velocity v1, vertex 0 at rest; material stiffness k and Rayleigh alpha,
+ * beta. With pin_anchor, vertex 0 is pinned. Fails the test on error. */
+typedef struct tu_spring2 {
+    double anchor[3], l0, x1[3], v1[3];
+    double m0, m1, k, alpha, beta;
+    int pin_anchor;
+} tu_spring2;
+defsim_body_id tu_add_spring2(defsim_world *w, const tu_spring2 *o);
+
+/* Momentum of a free body changes by M g t and by nothing else: adds a 2x2x2-cell co-rotated
+ * unit box (E 1e5 Pa, nu 0.3, 1000 kg/m^3) to w (gravity gy along y, no other body), perturbs
+ * its positions and velocities (seed), takes `steps` steps of h and asserts each component of
+ * the momentum to tol * M (kg m/s). `what` names the run in the printed drift. */
+void tu_check_free_fall(defsim_world *w, const char *what, double gy, unsigned long long seed,
+                        int steps, double h, double tol);
+
+/* Takes `steps` steps of h and asserts that the state stays finite and that every vertex that
+ * started at x <= 1e-12 (the clamped end: `npinned` of them) has kept its position exactly with
+ * zero velocity. Returns how far the last vertex moved along y (m). */
+double tu_check_clamped_end(defsim_world *w, int steps, double h, int npinned);
 
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
@@ -29,6 +65,10 @@ double *tu_velocities(const defsim_world *w);
 
 /* max |a - b| / max(max |b|, floor) */
 double tu_rel_diff(const double *a, const double *b, int n, double floor);
+
+/* 1 if a file whose path contains `needle` is mapped into this process (a loaded module), 0 if
+ * not, -1 if /proc/self/maps cannot be read. */
+int tu_mapped(const char *needle);
 
 /* A fresh temporary directory (tu_tmpdir) for tests that write files; for CMocka setup and
  * teardown. tu_write_file writes text to tu_tmpdir/name and returns the path (valid until the

@@ -2,6 +2,8 @@
 /* World and body API: defaults, bodies, masses, pins, state, ids, and every bad-input path. */
 #include "test_util.h"
 
+#include "tet_rest.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -149,6 +151,15 @@ static void test_bad_bodies(void **state)
     double flat[12] = {1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 0};   /* all in z = 0 */
     z = bd;
     z.rest_positions = flat;
+    assert_int_equal(defsim_world_add_body(w, &z, &id), DEFSIM_ERR_INVALID_MESH);
+    /* The rule of tet_rest.h: a sliver of height twice the threshold is a body, half is not. */
+    const double l = sqrt(2.0), limit = DEFSIM__DEGENERATE_REL * l * l * l;
+    double sliver[12] = {1, 0, 0, 0, 1, 0, 0, 0, 2.0 * limit, 0, 0, 0};
+    z.rest_positions = sliver;
+    defsim_body_id thin;
+    TU_OK(defsim_world_add_body(w, &z, &thin));
+    TU_OK(defsim_world_remove_body(w, thin));
+    sliver[8] = 0.5 * limit;
     assert_int_equal(defsim_world_add_body(w, &z, &id), DEFSIM_ERR_INVALID_MESH);
     /* Two tets, the second degenerate: its index is in the message. */
     double x5[15] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0};

@@ -3,6 +3,9 @@
  * `defsim run SCENE.json`: runs a scene, shows progress, writes VTK frames (.vtu + .pvd), an
  * energy log and the final state, and with --render PNG frames and a contact sheet.
  * Ctrl-C stops after the current frame; everything written so far stays valid.
+ *
+ * Contents: options; frame output (energy.csv, VTK); PNG output (renderer, contact sheet);
+ * progress and summary; run_main (the frame loop).
  */
 #include "run.h"
 
@@ -24,8 +27,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 static volatile sig_atomic_t interrupted;
@@ -35,6 +36,9 @@ static void on_sigint(int sig)
     (void)sig;
     interrupted = 1;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Options */
 
 static int usage(FILE *f)
 {
@@ -55,6 +59,93 @@ static int usage(FILE *f)
     return f == stderr ? 2 : 0;
 }
 
+enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
+
+typedef struct run_opts {
+    const char *scene_path, *out_dir;
+    int render, vtk, progress;
+    const char **sets;   /* --set, --backend and --threads as scene overrides */
+    int nsets;
+    int *list, nlist;    /* --frames */
+    char backend_set[128], threads_set[64], color_set[128];
+} run_opts;
+
+static void opts_free(run_opts *o)
+{
+    free(o->sets);
+    free(o->list);
+}
+
+/* "3,10,20" into o->list. */
+static int parse_frame_list(run_opts *o, char *s)
+{
+    char *end;
+    for (;;) {
+        long v = strtol(s, &end, 10);
+        if (end == s || v < 0 || v > 1000000000) break;
+        o->list[o->nlist++] = (int)v;
+        if (*end != ',') {
+            if (*end == '\0') return 0;
+            break;
+        }
+        s = end + 1;
+    }
+    fprintf(stderr, "defsim run: --frames: expected comma-separated frame numbers\n");
+    return 2;
+}
+
+/* Returns -1 to go on, or the exit status (usage, help, bad options). */
+static int parse_args(int argc, char **argv, run_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->vtk = 1;
+    o->sets = calloc((size_t)argc + 4, sizeof *o->sets);
+    o->list = calloc((size_t)argc + 1, sizeof *o->list);
+    if (!o->sets || !o->list) return 1;
+    const char *progress = "auto";
+    for (int i = 0; i < argc; ++i) {
+        const char *a = argv[i];
+        const int has = i + 1 < argc;
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
+        else if (!strcmp(a, "--out") && has) o->out_dir = argv[++i];
+        else if (!strcmp(a, "--render")) o->render = 1;
+        else if (!strcmp(a, "--no-vtk")) o->vtk = 0;
+        else if (!strcmp(a, "--progress") && has) progress = argv[++i];
+        else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
+        else if (!strcmp(a, "--backend") && has) {
+            snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
+            o->sets[o->nsets++] = o->backend_set;
+        } else if (!strcmp(a, "--color") && has) {
+            snprintf(o->color_set, sizeof o->color_set, "output.color=\"%s\"", argv[++i]);
+            o->sets[o->nsets++] = o->color_set;
+        } else if (!strcmp(a, "--threads") && has) {
+            snprintf(o->threads_set, sizeof o->threads_set, "world.threads=%s", argv[++i]);
+            o->sets[o->nsets++] = o->threads_set;
+        } else if (!strcmp(a, "--frames") && has) {
+            if (parse_frame_list(o, argv[++i])) return 2;
+        } else if (a[0] == '-') {
+            fprintf(stderr, "defsim run: unknown option %s\n", a);
+            return usage(stderr);
+        } else if (!o->scene_path) o->scene_path = a;
+        else {
+            fprintf(stderr, "defsim run: one scene file at a time (got %s and %s)\n",
+                    o->scene_path, a);
+            return 2;
+        }
+    }
+    if (!o->scene_path) return usage(stderr);
+    if (!strcmp(progress, "auto"))
+        o->progress = isatty(STDOUT_FILENO) ? PROGRESS_BAR : PROGRESS_LINES;
+    else if (!strcmp(progress, "bar")) o->progress = PROGRESS_BAR;
+    else if (!strcmp(progress, "lines")) o->progress = PROGRESS_LINES;
+    else if (!strcmp(progress, "none")) o->progress = PROGRESS_NONE;
+    else {
+        fprintf(stderr, "defsim run: --progress must be auto, bar, lines or none\n");
+        return 2;
+    }
+    return -1;
+}
+
 /* Frames to write: every n-th and the last, or an explicit list. */
 static int wanted(int f, int frames, int every, const int *list, int nlist)
 {
@@ -66,13 +157,20 @@ static int wanted(int f, int frames, int every, const int *list, int nlist)
     return f % every == 0 || f == frames;
 }
 
-typedef struct out_state {
-    char **files;
+/* ------------------------------------------------------------------------------------------ */
+/* Frame output: energy.csv every frame, VTK frames with their .pvd index, final.vtu */
+
+typedef struct frame_out {
+    char dir[2048], path[4200], pvd_path[4200], err[1024];
+    FILE *csv;
+    vtk_cells cells;
+    fields fl;      /* stress, displacement, pin and attachment forces: VTK data, colours */
+    char **files;   /* written .vtu frames and their times, for the .pvd */
     double *times;
     int n, cap;
-} out_state;
+} frame_out;
 
-static int pvd_add(out_state *o, const char *file, double t)
+static int pvd_add(frame_out *o, const char *file, double t)
 {
     if (o->n == o->cap) {
         int cap = o->cap ? 2 * o->cap : 64;
@@ -89,212 +187,401 @@ static int pvd_add(out_state *o, const char *file, double t)
     return 0;
 }
 
-int run_main(int argc, char **argv)
+/* Creates the folder, the VTK cells of all bodies and energy.csv with its header. */
+static int out_open(frame_out *o, const scene *s, const char *dir)
 {
-    const char *scene_path = NULL, *out_dir = NULL, *progress = "auto";
-    int render = 0, vtk = 1;
-    const char **sets = calloc((size_t)argc + 4, sizeof *sets);
-    int nsets = 0, *list = calloc((size_t)argc + 1, sizeof *list), nlist = 0;
-    char backend_set[128], threads_set[64], color_set[128];
-    if (!sets || !list) return 1;
-    for (int i = 0; i < argc; ++i) {
-        const char *a = argv[i];
-        const int has = i + 1 < argc;
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
-        else if (!strcmp(a, "--out") && has) out_dir = argv[++i];
-        else if (!strcmp(a, "--render")) render = 1;
-        else if (!strcmp(a, "--no-vtk")) vtk = 0;
-        else if (!strcmp(a, "--progress") && has) progress = argv[++i];
-        else if (!strcmp(a, "--set") && has) sets[nsets++] = argv[++i];
-        else if (!strcmp(a, "--backend") && has) {
-            snprintf(backend_set, sizeof backend_set, "world.backend=\"%s\"", argv[++i]);
-            sets[nsets++] = backend_set;
-        } else if (!strcmp(a, "--color") && has) {
-            snprintf(color_set, sizeof color_set, "output.color=\"%s\"", argv[++i]);
-            sets[nsets++] = color_set;
-        } else if (!strcmp(a, "--threads") && has) {
-            snprintf(threads_set, sizeof threads_set, "world.threads=%s", argv[++i]);
-            sets[nsets++] = threads_set;
-        } else if (!strcmp(a, "--frames") && has) {
-            char *s = argv[++i], *end;
-            for (;;) {
-                long v = strtol(s, &end, 10);
-                if (end == s || v < 0 || v > 1000000000) {
-                    fprintf(stderr, "defsim run: --frames: expected comma-separated frame numbers\n");
-                    return 2;
-                }
-                list[nlist++] = (int)v;
-                if (*end != ',') break;
-                s = end + 1;
-            }
-            if (*end) {
-                fprintf(stderr, "defsim run: --frames: expected comma-separated frame numbers\n");
-                return 2;
-            }
-        } else if (a[0] == '-') {
-            fprintf(stderr, "defsim run: unknown option %s\n", a);
-            return usage(stderr);
-        } else if (!scene_path) scene_path = a;
-        else {
-            fprintf(stderr, "defsim run: one scene file at a time (got %s and %s)\n", scene_path, a);
-            return 2;
+    snprintf(o->dir, sizeof o->dir, "%s", dir);
+    if (tools_make_dirs(o->dir)) {
+        fprintf(stderr, "defsim run: cannot create the output folder %s: %s\n", o->dir,
+                strerror(errno));
+        return -1;
+    }
+    snprintf(o->pvd_path, sizeof o->pvd_path, "%s/%s.pvd", o->dir, s->name);
+    for (int32_t i = 0; i < s->nbodies; ++i) {
+        const scene_body *b = &s->bodies[i];
+        int bad = 0;
+        if (b->mesh.tet_count > 0)
+            bad = vtk_cells_add(&o->cells, b->mesh.tets, b->mesh.tet_count, 4, b->offset,
+                                VTK_TETRA, i);
+        else if (b->mesh.triangle_count > 0)
+            bad = vtk_cells_add(&o->cells, b->mesh.triangles, b->mesh.triangle_count, 3,
+                                b->offset, VTK_TRIANGLE, i);
+        else
+            bad = vtk_cells_add(&o->cells, b->mesh.springs, b->line_count, 2, b->offset,
+                                VTK_LINE, i);
+        if (bad) {
+            fprintf(stderr, "defsim run: out of memory\n");
+            return -1;
         }
     }
-    if (!scene_path) return usage(stderr);
-    int mode = 0;   /* 0 none, 1 lines, 2 bar */
-    if (!strcmp(progress, "auto")) mode = isatty(STDOUT_FILENO) ? 2 : 1;
-    else if (!strcmp(progress, "bar")) mode = 2;
-    else if (!strcmp(progress, "lines")) mode = 1;
-    else if (strcmp(progress, "none")) {
-        fprintf(stderr, "defsim run: --progress must be auto, bar, lines or none\n");
-        return 2;
+    snprintf(o->path, sizeof o->path, "%s/energy.csv", o->dir);
+    o->csv = fopen(o->path, "w");
+    if (!o->csv) {
+        fprintf(stderr, "defsim run: cannot write %s\n", o->path);
+        return -1;
     }
+    fprintf(o->csv, "frame,time,kinetic,elastic,gravitational,total");
+    for (int32_t i = 0; i < s->nbodies; ++i)
+        if (s->bodies[i].probe >= 0) fprintf(o->csv, ",probe%d_x,probe%d_y,probe%d_z", i, i, i);
+    fprintf(o->csv, "\n");
+    return 0;
+}
 
-    scene s;
-    if (scene_load(&s, scene_path, sets, nsets)) {
-        fprintf(stderr, "defsim run: %s\n", s.error);
+/* Position of the probe of body i in x. */
+static const double *probe_of(const scene *s, int32_t i, const double *x)
+{
+    return x + 3 * ((int64_t)s->bodies[i].offset + s->bodies[i].probe);
+}
+
+static void out_energy(frame_out *o, const scene *s, int f, double t, const defsim_energy *e,
+                       const double *x)
+{
+    fprintf(o->csv, "%d,%.17g,%.17g,%.17g,%.17g,%.17g", f, t, e->kinetic, e->elastic,
+            e->gravitational, e->total);
+    for (int32_t i = 0; i < s->nbodies; ++i)
+        if (s->bodies[i].probe >= 0) {
+            const double *p = probe_of(s, i, x);
+            fprintf(o->csv, ",%.17g,%.17g,%.17g", p[0], p[1], p[2]);
+        }
+    fprintf(o->csv, "\n");
+    fflush(o->csv);
+}
+
+/* frame_NNNNN.vtu and the .pvd index rewritten to include it. */
+static int out_vtk(frame_out *o, int f, double t, int32_t nv, const double *x, const double *v)
+{
+    char name[64];
+    snprintf(name, sizeof name, "frame_%05d.vtu", f);
+    snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
+    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->fl.arrays, o->fl.narrays, o->err,
+                      sizeof o->err) ||
+        pvd_add(o, name, t) ||
+        vtk_write_pvd(o->pvd_path, o->n, o->times, (const char *const *)o->files, o->err,
+                      sizeof o->err)) {
+        fprintf(stderr, "defsim run: %s\n", o->err);
+        return -1;
+    }
+    return 0;
+}
+
+static int out_final(frame_out *o, const scene *s, defsim_world *w, int32_t nv, const double *x,
+                     const double *v)
+{
+    snprintf(o->path, sizeof o->path, "%s/final.vtu", o->dir);
+    if (fields_eval(&o->fl, s, w, o->err, sizeof o->err) ||
+        vtk_write_vtu(o->path, nv, x, v, &o->cells, defsim_world_time(w), o->fl.arrays,
+                      o->fl.narrays, o->err, sizeof o->err)) {
+        fprintf(stderr, "defsim run: %s\n", o->err);
+        return -1;
+    }
+    return 0;
+}
+
+static void out_close(frame_out *o)
+{
+    if (o->csv) fclose(o->csv);
+    o->csv = NULL;
+    for (int i = 0; i < o->n; ++i) free(o->files[i]);
+    free(o->files);
+    free(o->times);
+    vtk_cells_free(&o->cells);
+    fields_free(&o->fl);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* PNG output: a renderer with one part per body, frames, and a contact sheet of up to 12 */
+
+#ifdef DEFSIM_HAVE_RENDER
+enum { SHEET_MAX = 12 };
+
+typedef struct png_out {
+    rd_renderer *rd;
+    rd_view view;
+    rd_part *parts;
+    int32_t nparts;
+    int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
+    float **tri_rgb, *vertex_rgb;
+    image frame;
+    image thumbs[SHEET_MAX];
+    double thumb_t[SHEET_MAX];
+    int nthumbs, sheet_frames[SHEET_MAX], nsheet;
+    char err[1024];
+} png_out;
+
+static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
+{
+    p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
+    p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
+    p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
+    p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
+    p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
+    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb ? s->nbodies : 0;
+    p->frame.width = s->width;
+    p->frame.height = s->height;
+    p->frame.rgb = malloc((size_t)s->width * s->height * 3);
+    if (!p->rd || !p->nparts || !p->frame.rgb) {
+        fprintf(stderr, "defsim run: renderer: %s\n", p->rd ? "out of memory" : p->err);
+        return -1;
+    }
+    double lo[3], hi[3];
+    scene_bounds(s, lo, hi);
+    rd_view_make(&s->camera, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
+    for (int32_t i = 0; i < s->nbodies; ++i) {
+        const scene_body *b = &s->bodies[i];
+        int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
+        int32_t *lines = malloc(2 * (size_t)(b->line_count + 1) * sizeof *lines);
+        p->parts[i].tris = tris;
+        p->parts[i].lines = lines;
+        if (!tris || !lines) {
+            fprintf(stderr, "defsim run: renderer: out of memory\n");
+            return -1;
+        }
+        for (int64_t k = 0; k < 3 * (int64_t)b->mesh.triangle_count; ++k)
+            tris[k] = b->mesh.triangles[k] + b->offset;
+        for (int64_t k = 0; k < 2 * (int64_t)b->line_count; ++k)
+            lines[k] = b->mesh.springs[k] + b->offset;
+        p->parts[i].ntris = b->mesh.triangle_count;
+        p->parts[i].nlines = b->line_count;
+        memcpy(p->parts[i].color, b->color, sizeof p->parts[i].color);
+        p->parts[i].smooth = b->mesh.tet_count == 0;
+        /* Stress colours: each boundary triangle takes its tet's cell. */
+        if (s->color == SCENE_COLOR_STRESS && b->mesh.tet_count > 0) {
+            const int32_t nt = b->mesh.triangle_count;
+            int32_t *cell = p->tri_cell[i] = malloc((size_t)(nt + 1) * sizeof *cell);
+            p->tri_rgb[i] = malloc(3 * (size_t)(nt + 1) * sizeof **p->tri_rgb);
+            if (!cell || !p->tri_rgb[i] ||
+                rd_triangle_tets(b->mesh.tets, b->mesh.tet_count, b->mesh.triangles, nt, cell)) {
+                fprintf(stderr, "defsim run: renderer: out of memory\n");
+                return -1;
+            }
+            for (int32_t t = 0; t < nt; ++t)
+                if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
+        }
+    }
+    /* Contact sheet: up to 12 of the written frames, evenly spread. */
+    int written[4096], nw = 0;
+    for (int f = 0; f <= s->frames && nw < 4096; ++f)
+        if (f == 0 ? (o->nlist == 0 || wanted(0, s->frames, s->every, o->list, o->nlist))
+                   : wanted(f, s->frames, s->every, o->list, o->nlist))
+            written[nw++] = f;
+    if (nw > 1 && s->contact_sheet) {
+        p->nsheet = nw < SHEET_MAX ? nw : SHEET_MAX;
+        for (int k = 0; k < p->nsheet; ++k)
+            p->sheet_frames[k] = written[(int)lround((double)k * (nw - 1) / (p->nsheet - 1))];
+    }
+    return 0;
+}
+
+/* frame_NNNNN.png (coloured as the scene says, with its colour bar), kept as a thumbnail when
+ * the contact sheet shows frame f. */
+static int png_frame(png_out *p, const scene *s, const fields *fl, const char *dir, int f,
+                     double t, const double *x)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
+    double range[2];
+    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, fl->von_mises,
+                   fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
+    const int bad = rd_render(p->rd, &p->view, x, p->parts, p->nparts, p->frame.rgb, p->err,
+                              sizeof p->err);
+    if (!bad)
+        rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
+    if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
+        fprintf(stderr, "defsim run: render: %s\n", p->err);
+        return -1;
+    }
+    for (int k = 0; k < p->nsheet; ++k)
+        if (p->sheet_frames[k] == f && p->nthumbs < SHEET_MAX &&
+            image_downscale(&p->frame, 2, &p->thumbs[p->nthumbs]) == 0)
+            p->thumb_t[p->nthumbs++] = t;
+    return 0;
+}
+
+/* Writes the contact sheet (if two or more thumbnails) and frees everything. */
+static int png_close(png_out *p, const char *dir)
+{
+    int rc = 0;
+    if (p->nthumbs > 1) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/contact_sheet.png", dir);
+        if (image_write_contact_sheet(path, p->thumbs, p->thumb_t, p->nthumbs, 4, p->err,
+                                      sizeof p->err)) {
+            fprintf(stderr, "defsim run: contact sheet: %s\n", p->err);
+            rc = -1;
+        }
+    }
+    for (int k = 0; k < p->nthumbs; ++k) image_free(&p->thumbs[k]);
+    image_free(&p->frame);
+    for (int32_t i = 0; i < p->nparts; ++i) {
+        free((void *)p->parts[i].tris);
+        free((void *)p->parts[i].lines);
+        free(p->tri_cell[i]);
+        free(p->tri_rgb[i]);
+    }
+    free(p->parts);
+    free(p->tri_cell);
+    free(p->tri_rgb);
+    free(p->vertex_rgb);
+    rd_destroy(p->rd);
+    return rc;
+}
+#endif
+
+/* ------------------------------------------------------------------------------------------ */
+/* Progress and summary */
+
+typedef struct progress {
+    int mode;
+    double t_start, last_bar;
+} progress;
+
+static void progress_frame(progress *pr, const scene *s, int f, int written, double t,
+                           int64_t steps, const defsim_energy *e, const double *x)
+{
+    const double wall = tools_now() - pr->t_start;
+    char probe[160] = "";
+    for (int32_t i = 0; i < s->nbodies; ++i)
+        if (s->bodies[i].probe >= 0) {
+            const double *p = probe_of(s, i, x);
+            snprintf(probe, sizeof probe, "  probe (%.4f, %.4f, %.4f)", p[0], p[1], p[2]);
+            break;
+        }
+    const double sps = wall > 0.0 ? (double)steps / wall : 0.0;
+    if (pr->mode == PROGRESS_LINES && written) {
+        printf("frame %5d/%d  t %8.4f s  wall %7.2f s  %9.0f steps/s  E %12.6g J "
+               "(kin %.4g, ela %.4g, grav %.4g)%s\n", f, (int)s->frames, t, wall, sps, e->total,
+               e->kinetic, e->elastic, e->gravitational, probe);
+        fflush(stdout);
+    } else if (pr->mode == PROGRESS_BAR &&
+               (wall - pr->last_bar >= 0.1 || f == s->frames || interrupted)) {
+        pr->last_bar = wall;
+        const int width = 24, fill = (int)lround((double)width * f / s->frames);
+        char bar[32];
+        for (int k = 0; k < width; ++k) bar[k] = k < fill ? '#' : '.';
+        bar[width] = '\0';
+        printf("\r[%s] frame %d/%d  t %.3f s  wall %.1f s  %.0f steps/s  E %.6g J%s\x1b[K",
+               bar, f, (int)s->frames, t, wall, sps, e->total, probe);
+        fflush(stdout);
+    }
+}
+
+typedef struct run_result {
+    int rc, last_frame, vtk_frames;
+    double e0, t_out, t_render;
+    defsim_energy e;
+} run_result;
+
+static void print_summary(const progress *pr, const scene *s, defsim_world *w,
+                          const run_result *r, const double *x, const char *dir)
+{
+    defsim_stats st = {.size = sizeof st};
+    defsim_world_stats(w, &st);
+    const double wall = tools_now() - pr->t_start;
+    const defsim_energy *e = &r->e;
+    printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall (%.0f steps/s)\n",
+           interrupted ? "interrupted after" : r->rc ? "stopped after" : "done:", r->last_frame,
+           (long long)st.steps, (long long)st.failed_steps, wall,
+           wall > 0 ? (double)st.steps / wall : 0.0);
+    printf("  time: step %.3f s (forces %.3f, hessian %.3f, factor %.3f, solve %.3f), "
+           "output %.3f s, render %.3f s\n", st.time_step, st.time_forces, st.time_hessian,
+           st.time_factor, st.time_solve, r->t_out, r->t_render);
+    if (st.newton_iterations || st.linear_solves)
+        printf("  Newton: %lld iterations, %lld line-search backtracks, %lld linear solves, "
+               "%lld convergence failures\n", (long long)st.newton_iterations,
+               (long long)st.line_search_backtracks, (long long)st.linear_solves,
+               (long long)st.convergence_failures);
+    if (st.internal_steps)
+        printf("  adaptive: %lld internal steps, %lld residual and %lld Jacobian evaluations, "
+               "%lld error-test and %lld convergence failures, last order %d\n",
+               (long long)st.internal_steps, (long long)st.residual_evals,
+               (long long)st.jacobian_evals, (long long)st.error_test_failures,
+               (long long)st.convergence_failures, (int)st.last_order);
+    printf("  energy: start %.6g J, end %.6g J (kinetic %.6g, elastic %.6g, gravitational %.6g)\n",
+           r->e0, e->total, e->kinetic, e->elastic, e->gravitational);
+    for (int32_t i = 0; i < s->nbodies; ++i)
+        if (s->bodies[i].probe >= 0) {
+            const double *p = probe_of(s, i, x);
+            printf("  probe of %s (vertex %d): (%.6f, %.6f, %.6f)\n", s->bodies[i].name,
+                   (int)s->bodies[i].probe, p[0], p[1], p[2]);
+        }
+    printf("  output: %s/ (%s%d frames%s, final.vtu, energy.csv)\n", dir,
+           s->write_vtk ? "" : "no VTK, ", r->vtk_frames, s->write_png ? ", PNG" : "");
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The run */
+
+/* Loads the scene with the options applied and checks what needs the scene. Returns -1 to go
+ * on (world built), or the exit status. */
+static int load(const run_opts *o, scene *s, defsim_world **w)
+{
+    if (scene_load(s, o->scene_path, o->sets, o->nsets)) {
+        fprintf(stderr, "defsim run: %s\n", s->error);
         return 1;
     }
-    free(sets);
-    if (render) s.write_png = 1;
-    if (!vtk) s.write_vtk = 0;
-    for (int i = 0; i < nlist; ++i)
-        if (list[i] > s.frames) {
+    if (o->render) s->write_png = 1;
+    if (!o->vtk) s->write_vtk = 0;
+    for (int i = 0; i < o->nlist; ++i)
+        if (o->list[i] > s->frames) {
             fprintf(stderr, "defsim run: --frames: frame %d is past the last frame (%d)\n",
-                    list[i], (int)s.frames);
-            scene_free(&s);
+                    o->list[i], (int)s->frames);
+            scene_free(s);
             return 2;
         }
 #ifndef DEFSIM_HAVE_RENDER
-    if (s.write_png) {
+    if (s->write_png) {
         fprintf(stderr, "defsim run: PNG output needs the OSMesa renderer, and this build has "
                         "none (configure with -DDEFSIM_WITH_OSMESA=ON and libosmesa6-dev)\n");
-        scene_free(&s);
+        scene_free(s);
         return 1;
     }
 #endif
+    if (scene_build(s, w) != DEFSIM_OK) {
+        fprintf(stderr, "defsim run: %s\n", s->error);
+        scene_free(s);
+        return 1;
+    }
+    return -1;
+}
+
+int run_main(int argc, char **argv)
+{
+    run_opts o;
+    int rc = parse_args(argc, argv, &o);
+    scene s;
     defsim_world *w = NULL;
-    if (scene_build(&s, &w) != DEFSIM_OK) {
-        fprintf(stderr, "defsim run: %s\n", s.error);
-        scene_free(&s);
-        return 1;
+    if (rc < 0) rc = load(&o, &s, &w);
+    if (rc >= 0) {
+        opts_free(&o);
+        return rc;
     }
-    char dir[2048];
-    snprintf(dir, sizeof dir, "%s", out_dir ? out_dir : s.name);
-    if (tools_make_dirs(dir)) {
-        fprintf(stderr, "defsim run: cannot create the output folder %s: %s\n", dir, strerror(errno));
-        defsim_world_destroy(w);
-        scene_free(&s);
-        return 1;
-    }
-    int rc = 0;
     const int32_t nv = defsim_world_vertex_count(w);
     double *x = malloc(3 * (size_t)nv * sizeof *x), *v = malloc(3 * (size_t)nv * sizeof *v);
-    vtk_cells cells = {0};
-    out_state pvd = {0};
-    char err[1024], path[4200], pvd_path[4200];
-    snprintf(pvd_path, sizeof pvd_path, "%s/%s.pvd", dir, s.name);
-    for (int32_t i = 0; i < s.nbodies; ++i) {
-        const scene_body *b = &s.bodies[i];
-        int bad = 0;
-        if (b->mesh.tet_count > 0)
-            bad = vtk_cells_add(&cells, b->mesh.tets, b->mesh.tet_count, 4, b->offset, VTK_TETRA, i);
-        else if (b->mesh.triangle_count > 0)
-            bad = vtk_cells_add(&cells, b->mesh.triangles, b->mesh.triangle_count, 3, b->offset,
-                                VTK_TRIANGLE, i);
-        else
-            bad = vtk_cells_add(&cells, b->mesh.springs, b->line_count, 2, b->offset, VTK_LINE, i);
-        if (bad) { fprintf(stderr, "defsim run: out of memory\n"); return 1; }
+    frame_out out;
+    memset(&out, 0, sizeof out);
+    run_result r;
+    memset(&r, 0, sizeof r);
+#ifdef DEFSIM_HAVE_RENDER
+    png_out png;
+    memset(&png, 0, sizeof png);
+#endif
+    if (!x || !v) {
+        fprintf(stderr, "defsim run: out of memory\n");
+        r.rc = 1;
+    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name)) {
+        r.rc = 1;
     }
-    /* Stress, displacement, pin and attachment forces: written into the VTK frames, and what
-     * the renderer colours by. */
-    fields fl;
+    /* The fields the VTK frames carry and what the renderer colours by. */
     const unsigned need =
         (s.write_vtk ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
         (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
-    if (fields_init(&fl, &s, w, need, err, sizeof err)) {
-        fprintf(stderr, "defsim run: %s\n", err);
-        return 1;
+    if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
+        fprintf(stderr, "defsim run: %s\n", out.err);
+        r.rc = 1;
     }
-    snprintf(path, sizeof path, "%s/energy.csv", dir);
-    FILE *csv = fopen(path, "w");
-    if (!x || !v || !csv) {
-        fprintf(stderr, "defsim run: cannot write %s\n", path);
-        return 1;
-    }
-    fprintf(csv, "frame,time,kinetic,elastic,gravitational,total");
-    for (int32_t i = 0; i < s.nbodies; ++i)
-        if (s.bodies[i].probe >= 0) fprintf(csv, ",probe%d_x,probe%d_y,probe%d_z", i, i, i);
-    fprintf(csv, "\n");
-
 #ifdef DEFSIM_HAVE_RENDER
-    rd_renderer *rd = NULL;
-    rd_view view;
-    rd_part *parts = NULL;
-    int32_t **tri_cell = NULL;
-    float **tri_rgb = NULL, *vertex_rgb = NULL;
-    image frame_img = {0, 0, NULL};
-    enum { SHEET_MAX = 12 };
-    image thumbs[SHEET_MAX];
-    double thumb_t[SHEET_MAX];
-    int nthumbs = 0, sheet_frames[SHEET_MAX], nsheet = 0;
-    if (s.write_png) {
-        rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
-        parts = calloc((size_t)s.nbodies, sizeof *parts);
-        tri_cell = calloc((size_t)s.nbodies, sizeof *tri_cell);
-        tri_rgb = calloc((size_t)s.nbodies, sizeof *tri_rgb);
-        vertex_rgb = malloc(3 * (size_t)nv * sizeof *vertex_rgb + 1);
-        if (!tri_cell || !tri_rgb || !vertex_rgb) return 1;
-        frame_img.width = s.width;
-        frame_img.height = s.height;
-        frame_img.rgb = malloc((size_t)s.width * s.height * 3);
-        if (!rd || !parts || !frame_img.rgb) {
-            fprintf(stderr, "defsim run: renderer: %s\n", rd ? "out of memory" : err);
-            return 1;
-        }
-        double lo[3], hi[3];
-        scene_bounds(&s, lo, hi);
-        rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
-        for (int32_t i = 0; i < s.nbodies; ++i) {
-            const scene_body *b = &s.bodies[i];
-            int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
-            int32_t *lines = malloc(2 * (size_t)(b->line_count + 1) * sizeof *lines);
-            if (!tris || !lines) return 1;
-            for (int64_t k = 0; k < 3 * (int64_t)b->mesh.triangle_count; ++k)
-                tris[k] = b->mesh.triangles[k] + b->offset;
-            for (int64_t k = 0; k < 2 * (int64_t)b->line_count; ++k)
-                lines[k] = b->mesh.springs[k] + b->offset;
-            parts[i].tris = tris;
-            parts[i].ntris = b->mesh.triangle_count;
-            parts[i].lines = lines;
-            parts[i].nlines = b->line_count;
-            memcpy(parts[i].color, b->color, sizeof parts[i].color);
-            parts[i].smooth = b->mesh.tet_count == 0;
-            /* Stress colours: each boundary triangle takes its tet's cell. */
-            if (s.color == SCENE_COLOR_STRESS && b->mesh.tet_count > 0) {
-                tri_cell[i] = malloc((size_t)(b->mesh.triangle_count + 1) * sizeof **tri_cell);
-                tri_rgb[i] = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof **tri_rgb);
-                if (!tri_cell[i] || !tri_rgb[i] ||
-                    rd_triangle_tets(b->mesh.tets, b->mesh.tet_count, b->mesh.triangles,
-                                     b->mesh.triangle_count, tri_cell[i]))
-                    return 1;
-                for (int32_t t = 0; t < b->mesh.triangle_count; ++t)
-                    if (tri_cell[i][t] >= 0) tri_cell[i][t] += (int32_t)fl.cell_offset[i];
-            }
-        }
-        /* Contact sheet: up to 12 of the written frames, evenly spread. */
-        int written[4096], nw = 0;
-        for (int f = 0; f <= s.frames && nw < 4096; ++f)
-            if (f == 0 ? (nlist == 0 || wanted(0, s.frames, s.every, list, nlist))
-                       : wanted(f, s.frames, s.every, list, nlist))
-                written[nw++] = f;
-        if (nw > 1 && s.contact_sheet) {
-            nsheet = nw < SHEET_MAX ? nw : SHEET_MAX;
-            for (int k = 0; k < nsheet; ++k)
-                sheet_frames[k] = written[(int)lround((double)k * (nw - 1) / (nsheet - 1))];
-        }
-    }
+    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl)) r.rc = 1;
 #endif
 
     struct sigaction sa, old_sa;
@@ -304,204 +591,79 @@ int run_main(int argc, char **argv)
     sigaction(SIGINT, &sa, &old_sa);
     interrupted = 0;
 
-    const double h = s.h, t_start = tools_now();
-    double t_out = 0.0, t_render = 0.0, last_bar = -1.0, e0 = 0.0;
+    progress pr = {o.progress, tools_now(), -1.0};
+    const double h = s.h;
     int64_t steps = 0;
-    int last_frame = 0;
-    defsim_energy e = {0};
-    if (mode == 1 || mode == 2)
+    const int started = r.rc == 0;   /* else nothing was written: no final state, no summary */
+    if (started && pr.mode != PROGRESS_NONE)
         printf("%s: %d bodies, %d vertices, backend %s, h = %g s, %d frames of %d steps\n",
                s.name, (int)s.nbodies, (int)nv, s.backend, h, (int)s.frames, (int)s.frame_steps);
     fflush(stdout);
-    for (int f = 0; f <= s.frames; ++f) {
-        if (f > 0) {
-            for (int32_t k = 0; k < s.frame_steps; ++k) {
-                defsim_status st = scene_step(&s, w, h);
-                if (st != DEFSIM_OK) {
-                    if (mode == 2) printf("\n");
-                    fprintf(stderr, "defsim run: %s: step %lld (t = %g s, frame %d) failed: %s: %s\n",
-                            s.path, (long long)steps + 1, defsim_world_time(w), f,
-                            defsim_status_string(st), defsim_world_last_error(w));
-                    rc = 1;
-                    goto finish;
-                }
-                ++steps;
-            }
-        }
-        const double t = defsim_world_time(w);
-        defsim_world_get_positions(w, x, nv);
-        defsim_world_energy(w, &e);
-        if (f == 0) e0 = e.total;
-        fprintf(csv, "%d,%.17g,%.17g,%.17g,%.17g,%.17g", f, t, e.kinetic, e.elastic,
-                e.gravitational, e.total);
-        for (int32_t i = 0; i < s.nbodies; ++i)
-            if (s.bodies[i].probe >= 0) {
-                const double *p = x + 3 * ((int64_t)s.bodies[i].offset + s.bodies[i].probe);
-                fprintf(csv, ",%.17g,%.17g,%.17g", p[0], p[1], p[2]);
-            }
-        fprintf(csv, "\n");
-        fflush(csv);
-        last_frame = f;
-        const int out = nlist > 0 ? wanted(f, s.frames, s.every, list, nlist)
-                                  : wanted(f, s.frames, s.every, NULL, 0);
-        if (out && (s.write_vtk || s.write_png) && fields_eval(&fl, &s, w, err, sizeof err)) {
-            fprintf(stderr, "defsim run: frame %d: %s\n", f, err);
-            rc = 1;
-            goto finish;
-        }
-        if (out && s.write_vtk) {
-            const double t0 = tools_now();
-            char name[64];
-            snprintf(name, sizeof name, "frame_%05d.vtu", f);
-            snprintf(path, sizeof path, "%s/%s", dir, name);
-            defsim_world_get_velocities(w, v, nv);
-            if (vtk_write_vtu(path, nv, x, v, &cells, t, fl.arrays, fl.narrays, err, sizeof err) ||
-                pvd_add(&pvd, name, t) ||
-                vtk_write_pvd(pvd_path, pvd.n, pvd.times, (const char *const *)pvd.files, err,
-                              sizeof err)) {
-                fprintf(stderr, "defsim run: %s\n", err);
-                rc = 1;
-                goto finish;
-            }
-            t_out += tools_now() - t0;
-        }
-#ifdef DEFSIM_HAVE_RENDER
-        if (out && s.write_png) {
-            const double t0 = tools_now();
-            snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
-            double range[2];
-            rd_color_parts((scene_color)s.color, &s, parts, s.nbodies, tri_cell, fl.von_mises,
-                           fl.displacement, nv, vertex_rgb, tri_rgb, range);
-            const int bad = rd_render(rd, &view, x, parts, s.nbodies, frame_img.rgb, err, sizeof err);
-            if (!bad) rd_colorbar(frame_img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
-            if (bad || image_write_png(path, &frame_img, err, sizeof err)) {
-                fprintf(stderr, "defsim run: render: %s\n", err);
-                rc = 1;
-                goto finish;
-            }
-            for (int k = 0; k < nsheet; ++k)
-                if (sheet_frames[k] == f && nthumbs < SHEET_MAX &&
-                    image_downscale(&frame_img, 2, &thumbs[nthumbs]) == 0)
-                    thumb_t[nthumbs++] = t;
-            t_render += tools_now() - t0;
-        }
-#endif
-        /* Progress. */
-        const double wall = tools_now() - t_start;
-        char probe[160] = "";
-        for (int32_t i = 0; i < s.nbodies; ++i)
-            if (s.bodies[i].probe >= 0) {
-                const double *p = x + 3 * ((int64_t)s.bodies[i].offset + s.bodies[i].probe);
-                snprintf(probe, sizeof probe, "  probe (%.4f, %.4f, %.4f)", p[0], p[1], p[2]);
+    for (int f = 0; r.rc == 0 && f <= s.frames; ++f) {
+        for (int32_t k = 0; f > 0 && k < s.frame_steps; ++k, ++steps) {
+            defsim_status st = scene_step(&s, w, h);
+            if (st != DEFSIM_OK) {
+                if (pr.mode == PROGRESS_BAR) printf("\n");
+                fprintf(stderr, "defsim run: %s: step %lld (t = %g s, frame %d) failed: %s: %s\n",
+                        s.path, (long long)steps + 1, defsim_world_time(w), f,
+                        defsim_status_string(st), defsim_world_last_error(w));
+                r.rc = 1;
                 break;
             }
-        const double sps = wall > 0.0 ? (double)steps / wall : 0.0;
-        if (mode == 1 && out) {
-            printf("frame %5d/%d  t %8.4f s  wall %7.2f s  %9.0f steps/s  E %12.6g J "
-                   "(kin %.4g, ela %.4g, grav %.4g)%s\n", f, (int)s.frames, t, wall, sps, e.total,
-                   e.kinetic, e.elastic, e.gravitational, probe);
-            fflush(stdout);
-        } else if (mode == 2 && (wall - last_bar >= 0.1 || f == s.frames || interrupted)) {
-            last_bar = wall;
-            const int width = 24, fill = (int)lround((double)width * f / s.frames);
-            char bar[32];
-            for (int k = 0; k < width; ++k) bar[k] = k < fill ? '#' : '.';
-            bar[width] = '\0';
-            printf("\r[%s] frame %d/%d  t %.3f s  wall %.1f s  %.0f steps/s  E %.6g J%s\x1b[K",
-                   bar, f, (int)s.frames, t, wall, sps, e.total, probe);
-            fflush(stdout);
         }
+        if (r.rc) break;
+        const double t = defsim_world_time(w);
+        defsim_world_get_positions(w, x, nv);
+        defsim_world_energy(w, &r.e);
+        if (f == 0) r.e0 = r.e.total;
+        out_energy(&out, &s, f, t, &r.e, x);
+        r.last_frame = f;
+        const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
+        if (written && (s.write_vtk || s.write_png) &&
+            fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
+            fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
+            r.rc = 1;
+            break;
+        }
+        if (written && s.write_vtk) {
+            const double t0 = tools_now();
+            defsim_world_get_velocities(w, v, nv);
+            if (out_vtk(&out, f, t, nv, x, v)) { r.rc = 1; break; }
+            r.t_out += tools_now() - t0;
+        }
+#ifdef DEFSIM_HAVE_RENDER
+        if (written && s.write_png) {
+            const double t0 = tools_now();
+            if (png_frame(&png, &s, &out.fl, out.dir, f, t, x)) { r.rc = 1; break; }
+            r.t_render += tools_now() - t0;
+        }
+#endif
+        progress_frame(&pr, &s, f, written, t, steps, &r.e, x);
         if (interrupted) break;
     }
-finish:
     sigaction(SIGINT, &old_sa, NULL);
-    if (mode == 2) printf("\n");
-    fclose(csv);
-    /* The final state, whatever stopped the run. */
-    defsim_world_get_positions(w, x, nv);
-    defsim_world_get_velocities(w, v, nv);
-    snprintf(path, sizeof path, "%s/final.vtu", dir);
-    if (fields_eval(&fl, &s, w, err, sizeof err) ||
-        vtk_write_vtu(path, nv, x, v, &cells, defsim_world_time(w), fl.arrays, fl.narrays, err,
-                      sizeof err)) {
-        fprintf(stderr, "defsim run: %s\n", err);
-        rc = 1;
+    if (started && pr.mode == PROGRESS_BAR) printf("\n");
+    r.vtk_frames = out.n;
+    if (started) {
+        /* The final state, whatever stopped the run. */
+        defsim_world_get_positions(w, x, nv);
+        defsim_world_get_velocities(w, v, nv);
+        if (out_final(&out, &s, w, nv, x, v)) r.rc = 1;
     }
 #ifdef DEFSIM_HAVE_RENDER
-    if (s.write_png && nthumbs > 1) {
-        image sheet;
-        snprintf(path, sizeof path, "%s/contact_sheet.png", dir);
-        if (image_contact_sheet(thumbs, thumb_t, nthumbs, 4, &sheet) ||
-            image_write_png(path, &sheet, err, sizeof err)) {
-            fprintf(stderr, "defsim run: contact sheet: %s\n", err);
-            rc = 1;
-        }
-        image_free(&sheet);
-    }
-    for (int k = 0; k < nthumbs; ++k) image_free(&thumbs[k]);
-    image_free(&frame_img);
-    if (parts)
-        for (int32_t i = 0; i < s.nbodies; ++i) {
-            free((void *)parts[i].tris);
-            free((void *)parts[i].lines);
-        }
-    free(parts);
-    for (int32_t i = 0; tri_cell && i < s.nbodies; ++i) {
-        free(tri_cell[i]);
-        free(tri_rgb[i]);
-    }
-    free(tri_cell);
-    free(tri_rgb);
-    free(vertex_rgb);
-    rd_destroy(rd);
+    if (png_close(&png, out.dir)) r.rc = 1;
 #endif
-    if (mode != 0) {
-        defsim_stats st = {.size = sizeof st};
-        defsim_world_stats(w, &st);
-        const double wall = tools_now() - t_start;
-        printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall (%.0f steps/s)\n",
-               interrupted ? "interrupted after" : rc ? "stopped after" : "done:", last_frame,
-               (long long)st.steps, (long long)st.failed_steps, wall,
-               wall > 0 ? (double)st.steps / wall : 0.0);
-        printf("  time: step %.3f s (forces %.3f, hessian %.3f, factor %.3f, solve %.3f), "
-               "output %.3f s, render %.3f s\n", st.time_step, st.time_forces, st.time_hessian,
-               st.time_factor, st.time_solve, t_out, t_render);
-        if (st.newton_iterations || st.linear_solves)
-            printf("  Newton: %lld iterations, %lld line-search backtracks, %lld linear solves, "
-                   "%lld convergence failures\n", (long long)st.newton_iterations,
-                   (long long)st.line_search_backtracks, (long long)st.linear_solves,
-                   (long long)st.convergence_failures);
-        if (st.internal_steps)
-            printf("  adaptive: %lld internal steps, %lld residual and %lld Jacobian evaluations, "
-                   "%lld error-test and %lld convergence failures, last order %d\n",
-                   (long long)st.internal_steps, (long long)st.residual_evals,
-                   (long long)st.jacobian_evals, (long long)st.error_test_failures,
-                   (long long)st.convergence_failures, (int)st.last_order);
-        printf("  energy: start %.6g J, end %.6g J (kinetic %.6g, elastic %.6g, gravitational %.6g)\n",
-               e0, e.total, e.kinetic, e.elastic, e.gravitational);
-        for (int32_t i = 0; i < s.nbodies; ++i)
-            if (s.bodies[i].probe >= 0) {
-                const double *p = x + 3 * ((int64_t)s.bodies[i].offset + s.bodies[i].probe);
-                printf("  probe of %s (vertex %d): (%.6f, %.6f, %.6f)\n", s.bodies[i].name,
-                       (int)s.bodies[i].probe, p[0], p[1], p[2]);
-            }
-        printf("  output: %s/ (%s%d frames%s, final.vtu, energy.csv)\n", dir,
-               s.write_vtk ? "" : "no VTK, ", pvd.n, s.write_png ? ", PNG" : "");
-    }
-    if (interrupted && rc == 0) {
+    if (started && pr.mode != PROGRESS_NONE) print_summary(&pr, &s, w, &r, x, out.dir);
+    if (interrupted && r.rc == 0) {
         fprintf(stderr, "defsim run: interrupted after frame %d; the output up to it is complete\n",
-                last_frame);
-        rc = 130;
+                r.last_frame);
+        r.rc = 130;
     }
-    for (int i = 0; i < pvd.n; ++i) free(pvd.files[i]);
-    free(pvd.files);
-    free(pvd.times);
-    vtk_cells_free(&cells);
-    fields_free(&fl);
+    out_close(&out);
     free(x);
     free(v);
-    free(list);
+    opts_free(&o);
     defsim_world_destroy(w);
     scene_free(&s);
-    return rc;
+    return r.rc;
 }

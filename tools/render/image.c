@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 #include "image.h"
 
+#include "fileio.h"
+
 #include <png.h>
 
 #include <errno.h>
@@ -20,12 +22,8 @@ void image_free(image *im)
 int image_write_png(const char *path, const image *im, char *err, size_t errsz)
 {
     char tmp[2200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "wb");
-    if (!f) {
-        snprintf(err, errsz, "%s: cannot write: %s", tmp, strerror(errno));
-        return -1;
-    }
+    FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
+    if (!f) return -1;
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     png_bytep *rows = malloc((size_t)im->height * sizeof *rows);
@@ -45,12 +43,7 @@ int image_write_png(const char *path, const image *im, char *err, size_t errsz)
     png_write_png(png, info, PNG_TRANSFORM_IDENTITY, NULL);
     png_destroy_write_struct(&png, &info);
     free(rows);
-    if (fclose(f) != 0 || rename(tmp, path) != 0) {
-        remove(tmp);
-        snprintf(err, errsz, "%s: write failed: %s", path, strerror(errno));
-        return -1;
-    }
-    return 0;
+    return tools_tmp_commit(f, tmp, path, 1, err, errsz);
 }
 
 int image_read_png(const char *path, image *out, char *err, size_t errsz)
@@ -238,4 +231,15 @@ int image_contact_sheet(const image *tiles, const double *times, int n, int cols
         image_draw_text(out, x0 + 2, y0 + th + 3, 2, 40, text);
     }
     return 0;
+}
+
+int image_write_contact_sheet(const char *path, const image *tiles, const double *times, int n,
+                              int cols, char *err, size_t errsz)
+{
+    image sheet = {0, 0, NULL};
+    int rc = image_contact_sheet(tiles, times, n, cols, &sheet);
+    if (rc) snprintf(err, errsz, "out of memory");
+    else rc = image_write_png(path, &sheet, err, errsz);
+    image_free(&sheet);
+    return rc;
 }

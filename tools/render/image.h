@@ -40,4 +40,8 @@ void image_draw_text(image *im, int x0, int y0, int scale, uint8_t grey, const c
 /* Lays tiles out in a grid with `cols` columns and a label under each ("%.2f s"). */
 int image_contact_sheet(const image *tiles, const double *times, int n, int cols, image *out);
 
+/* image_contact_sheet written to the PNG `path`. 0 or -1 with err. */
+int image_write_contact_sheet(const char *path, const image *tiles, const double *times, int n,
+                              int cols, char *err, size_t errsz);
+
 #endif

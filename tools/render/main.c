@@ -284,15 +284,12 @@ int main(int argc, char **argv)
         vtk_frame_free(&fr);
     }
     if (rc == 0 && nthumbs > 1) {
-        image sheet;
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", od);
-        if (image_contact_sheet(thumbs, tt, nthumbs, 4, &sheet) ||
-            image_write_png(path, &sheet, err, sizeof err)) {
+        if (image_write_contact_sheet(path, thumbs, tt, nthumbs, 4, err, sizeof err)) {
             fprintf(stderr, "defsim-render: contact sheet: %s\n", err);
             rc = 1;
         }
-        image_free(&sheet);
     }
     for (int k = 0; k < nthumbs; ++k) image_free(&thumbs[k]);
     for (int i = 0; i < nfiles; ++i) free(files[i]);

@@ -4,6 +4,9 @@
  * looked up with OSMesaGetProcAddress (types from glcorearb.h). Geometry is rebuilt on the CPU every frame (flat
  * normals for solids, area-weighted vertex normals for cloth, tubes for lines) and drawn as plain
  * triangles; nothing depends on timing, so a frame renders the same on every run.
+ *
+ * Contents: shaders; vectors and the view (camera fitting, grid spacing, matrices); geometry
+ * (triangles with normals, line tubes); rd_render; surfaces of tet cells (rd_tet_surface).
  */
 #include "render.h"
 
@@ -269,6 +272,15 @@ static void normalize(double *a)
     if (l > 0.0) for (int i = 0; i < 3; ++i) a[i] /= l;
 }
 
+/* (x1 - x0) x (x2 - x0) of triangle q: its normal, twice its area long. */
+static void tri_normal(const double *x, const int32_t *q, double n[3])
+{
+    double e1[3], e2[3];
+    sub(x + 3 * (int64_t)q[1], x + 3 * (int64_t)q[0], e1);
+    sub(x + 3 * (int64_t)q[2], x + 3 * (int64_t)q[0], e2);
+    cross(e1, e2, n);
+}
+
 /* A "nice" grid spacing (1, 2 or 5 times a power of ten) close to x. */
 static double nice(double x)
 {
@@ -401,20 +413,16 @@ static int add_triangles(rd_renderer *r, const double *x, const rd_part *p)
         if (!vn) return 0;
         for (int32_t t = 0; t < p->ntris; ++t) {
             const int32_t *q = p->tris + 3 * t;
-            double e1[3], e2[3], n[3];
-            sub(x + 3 * (int64_t)q[1], x + 3 * (int64_t)q[0], e1);
-            sub(x + 3 * (int64_t)q[2], x + 3 * (int64_t)q[0], e2);
-            cross(e1, e2, n);
+            double n[3];
+            tri_normal(x, q, n);
             for (int a = 0; a < 3; ++a)
                 for (int i = 0; i < 3; ++i) vn[3 * (int64_t)q[a] + i] += n[i];
         }
     }
     for (int32_t t = 0; t < p->ntris; ++t) {
         const int32_t *q = p->tris + 3 * t;
-        double e1[3], e2[3], n[3];
-        sub(x + 3 * (int64_t)q[1], x + 3 * (int64_t)q[0], e1);
-        sub(x + 3 * (int64_t)q[2], x + 3 * (int64_t)q[0], e2);
-        cross(e1, e2, n);
+        double n[3];
+        tri_normal(x, q, n);
         normalize(n);
         for (int a = 0; a < 3; ++a) {
             double nn[3] = {n[0], n[1], n[2]};

@@ -2,15 +2,9 @@
 # Installs the build into WORK_DIR/prefix, builds the embedding example (EXAMPLE_DIR) against
 # it with find_package(defsim) (so it uses the installed defsim.hpp, defsim.h and libdefsim),
 # and runs it.
-file(REMOVE_RECURSE ${WORK_DIR})
+include(${CMAKE_CURRENT_LIST_DIR}/../../../cmake/install_and_run.cmake)
 set(prefix ${WORK_DIR}/prefix)
-macro(run)
-  execute_process(COMMAND ${ARGV} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "failed (${rc}): ${ARGV}\n${out}\n${err}")
-  endif()
-endmacro()
-run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+install_to(${prefix})
 if(NOT EXISTS ${prefix}/include/defsim/defsim.hpp)
   message(FATAL_ERROR "defsim.hpp was not installed")
 endif()

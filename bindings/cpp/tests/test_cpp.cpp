@@ -3,6 +3,8 @@
 // size checks, and that it computes exactly what the C API computes.
 #include <defsim/defsim.hpp>
 
+#include "mesh_body.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -113,13 +115,7 @@ static std::vector<double> beam_c(int steps)
     defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.8, 0.2, 0.2};
     defsim_mesh_box(lo, hi, 4, 1, 1, &m);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     bd.material.youngs_modulus = 3e5;
     bd.material.mass_damping = 0.3;
     defsim_body_id id;

@@ -11,6 +11,8 @@
  */
 #include <defsim/defsim.h>
 
+#include "mesh_body.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -42,13 +44,7 @@ int main(int argc, char **argv)
     defsim_mesh m = {sizeof m, NULL, 0, NULL, 0, NULL, 0, NULL, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.6, 0.2, 0.2};
     if ((st = defsim_mesh_box(lo, hi, 3, 1, 1, &m)) != DEFSIM_OK) return fail(NULL, st, "mesh_box");
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = m.positions;
-    bd.vertex_count = m.vertex_count;
-    bd.tets = m.tets;
-    bd.tet_count = m.tet_count;
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_COROTATED);
+    defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_COROTATED);
     bd.material.youngs_modulus = 2e5;
     bd.material.poisson_ratio = 0.35;
     bd.material.density = 900;

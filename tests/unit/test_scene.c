@@ -339,6 +339,26 @@ static void test_coupling(void **state)
     scene_free(&s);
     defsim_world_destroy(w);
 
+    /* A drive that turns a rope's end a quarter turn about z through the origin in 10 ms:
+     * after 5 ms it has turned 45 degrees, after 20 ms (past the last key) it stays at 90. */
+    text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.02, \"gravity\": [0, 0, 0]},\n"
+           " \"bodies\": [{\"mesh\": {\"type\": \"rope\", \"a\": [-1,0,0], \"b\": [1,0,0], \"segments\": 2},\n"
+           "   \"material\": {\"stiffness\": 10, \"vertex_mass\": 0.01},\n"
+           "   \"drive\": {\"indices\": [2], \"keys\": [{\"t\": 0},\n"
+           "     {\"t\": 0.01, \"rotate\": {\"axis\": [0,0,2], \"degrees\": 90, \"center\": [0,0,0]}}]}}]}\n";
+    load_ok("r.json", text, &s);
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(scene_step(&s, w, h));
+        TU_OK(defsim_world_get_positions(w, x, 3));
+        const double a = (k < 9 ? (k + 1) * 0.1 : 1.0) * acos(-1.0) / 2.0;
+        if (!(fabs(x[6] - cos(a)) < 1e-12 && fabs(x[7] - sin(a)) < 1e-12 && fabs(x[8]) < 1e-15))
+            fail_msg("step %d: (%g, %g, %g), expected (%g, %g, 0)", k + 1, x[6], x[7], x[8],
+                     cos(a), sin(a));
+    }
+    scene_free(&s);
+    defsim_world_destroy(w);
+
     /* A total force spread by mass: after the first step from rest (no elastic force yet) every
      * selected vertex has v = h F / M_selected, the others none. */
     text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"

@@ -25,7 +25,7 @@ void rd_colormap(double s, float rgb[3])
 
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi)
 {
-    if (mode == SCENE_COLOR_BODY) return;
+    if (mode == SCENE_COLOR_BODY || !(hi > lo)) return;   /* nothing was coloured */
     image im = {width, height, rgb};
     const int scale = height >= 300 ? 2 : 1, ch = 4 * scale;   /* character advance */
     const int bar_w = 6 * scale + 4, bar_h = height / 2;
@@ -69,7 +69,9 @@ void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts
     for (int i = 0; i < nparts; ++i) parts[i].vertex_colors = parts[i].tri_colors = NULL;
     if (mode == SCENE_COLOR_BODY) return;
     if (mode == SCENE_COLOR_DISPLACEMENT && !displacement) return;
-    if (mode == SCENE_COLOR_STRESS && !cell_value) return;
+    int any = mode == SCENE_COLOR_DISPLACEMENT;
+    for (int i = 0; i < nparts; ++i) any |= tri_cell[i] != NULL;
+    if (mode == SCENE_COLOR_STRESS && (!cell_value || !any)) return;   /* no tets: no bar */
     /* The scale: fixed by the scene, else from zero to this frame's largest value. */
     double top = 0.0;
     if (mode == SCENE_COLOR_DISPLACEMENT)

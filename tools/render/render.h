@@ -75,12 +75,14 @@ void rd_colormap(double s, float rgb[3]);
  * triangle) of each part i whose tri_cell[i] (the cell of each triangle, -1 for none) is not
  * NULL, from cell_value (von Mises per cell, Pa); displacement sets every part's vertex_colors
  * (vbuf, 3 per vertex) from |displacement|. range receives the scale: the scene's color_range,
- * else 0 .. the frame's largest value. Body mode (or a missing array) clears both. */
+ * else 0 .. the frame's largest value. Body mode, a missing array or no tets (for stress)
+ * clears both and gives the range [0, 0]. */
 void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
                     int32_t *const *tri_cell, const double *cell_value, const double *displacement,
                     int32_t nv, float *vbuf, float *const *tbuf, double range[2]);
 
-/* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image. */
+/* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image; nothing for
+ * body colours or an empty range (hi <= lo). */
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
 
 #endif

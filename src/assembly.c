@@ -11,6 +11,8 @@
 #include "assembly.h"
 
 #include "element.h"
+#include "mat3.h"
+#include "material.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -44,37 +46,10 @@ static int32_t attach_free(const defsim__system *s, const defsim__attachments *a
     return v >= 0 ? s->vfree[v] : -1;
 }
 
-defsim_status defsim__pattern_build(defsim__system *s)
+/* Visits every pair (fa, fb) of free vertices of one element or attachment: counts it in
+ * pos[fa + 1] (list NULL) or appends fb to fa's list at pos[fa]. */
+static void element_pairs(const defsim__system *s, int64_t *pos, int32_t *list)
 {
-    defsim__pattern *p = &s->pattern;
-    if (p->built) return DEFSIM_OK;
-    const int32_t nfv = s->nfree_v;
-    int64_t *cnt = calloc((size_t)nfv + 1, sizeof *cnt);
-    if (!cnt) return DEFSIM_ERR_OUT_OF_MEMORY;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        const defsim__group *g = &s->groups[m];
-        for (int64_t e = 0; e < g->n; ++e)
-            for (int a = 0; a < g->nodes; ++a) {
-                int32_t fa = s->vfree[g->idx[g->nodes * e + a]];
-                if (fa < 0) continue;
-                for (int b = 0; b < g->nodes; ++b)
-                    if (s->vfree[g->idx[g->nodes * e + b]] >= 0) cnt[fa + 1]++;
-            }
-    }
-    const defsim__attachments *at = &s->att;
-    const int an = DEFSIM__ATTACH_NODES;
-    for (int64_t e = 0; e < at->n; ++e)
-        for (int a = 0; a < an; ++a) {
-            int32_t fa = attach_free(s, at, e, a);
-            if (fa < 0) continue;
-            for (int b = 0; b < an; ++b)
-                if (attach_free(s, at, e, b) >= 0) cnt[fa + 1]++;
-        }
-    for (int32_t i = 0; i < nfv; ++i) cnt[i + 1] += cnt[i] + 1;   /* + self */
-    int32_t *tmp = malloc((size_t)(cnt[nfv] > 0 ? cnt[nfv] : 1) * sizeof *tmp);
-    int64_t *fill = malloc(((size_t)nfv + 1) * sizeof *fill);
-    if (!tmp || !fill) { free(cnt); free(tmp); free(fill); return DEFSIM_ERR_OUT_OF_MEMORY; }
-    for (int32_t i = 0; i < nfv; ++i) { fill[i] = cnt[i]; tmp[fill[i]++] = i; }
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
         const defsim__group *g = &s->groups[m];
         for (int64_t e = 0; e < g->n; ++e)
@@ -83,19 +58,40 @@ defsim_status defsim__pattern_build(defsim__system *s)
                 if (fa < 0) continue;
                 for (int b = 0; b < g->nodes; ++b) {
                     int32_t fb = s->vfree[g->idx[g->nodes * e + b]];
-                    if (fb >= 0) tmp[fill[fa]++] = fb;
+                    if (fb < 0) continue;
+                    if (list) list[pos[fa]++] = fb;
+                    else pos[fa + 1]++;
                 }
             }
     }
+    const defsim__attachments *at = &s->att;
     for (int64_t e = 0; e < at->n; ++e)
-        for (int a = 0; a < an; ++a) {
+        for (int a = 0; a < DEFSIM__ATTACH_NODES; ++a) {
             int32_t fa = attach_free(s, at, e, a);
             if (fa < 0) continue;
-            for (int b = 0; b < an; ++b) {
+            for (int b = 0; b < DEFSIM__ATTACH_NODES; ++b) {
                 int32_t fb = attach_free(s, at, e, b);
-                if (fb >= 0) tmp[fill[fa]++] = fb;
+                if (fb < 0) continue;
+                if (list) list[pos[fa]++] = fb;
+                else pos[fa + 1]++;
             }
         }
+}
+
+defsim_status defsim__pattern_build(defsim__system *s)
+{
+    defsim__pattern *p = &s->pattern;
+    if (p->built) return DEFSIM_OK;
+    const int32_t nfv = s->nfree_v;
+    int64_t *cnt = calloc((size_t)nfv + 1, sizeof *cnt);
+    if (!cnt) return DEFSIM_ERR_OUT_OF_MEMORY;
+    element_pairs(s, cnt, NULL);
+    for (int32_t i = 0; i < nfv; ++i) cnt[i + 1] += cnt[i] + 1;   /* + self */
+    int32_t *tmp = malloc((size_t)(cnt[nfv] > 0 ? cnt[nfv] : 1) * sizeof *tmp);
+    int64_t *fill = malloc(((size_t)nfv + 1) * sizeof *fill);
+    if (!tmp || !fill) { free(cnt); free(tmp); free(fill); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    for (int32_t i = 0; i < nfv; ++i) { fill[i] = cnt[i]; tmp[fill[i]++] = i; }
+    element_pairs(s, fill, tmp);
     /* Sort and deduplicate each list in place, compacting into adj. */
     p->adj_ptr = malloc(((size_t)nfv + 1) * sizeof *p->adj_ptr);
     p->upper_rank0 = malloc(((size_t)nfv + 1) * sizeof *p->upper_rank0);
@@ -135,6 +131,8 @@ defsim_status defsim__pattern_build(defsim__system *s)
                 }
     }
 
+    const defsim__attachments *at = &s->att;
+    const int an = DEFSIM__ATTACH_NODES;
     if (at->n > 0) {
         int32_t *blk = malloc((size_t)at->n * an * an * sizeof *blk);
         if (!blk) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -217,8 +215,9 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
         const double *xa = x + 3 * (int64_t)g->idx[2 * (int64_t)e];
         const double *xb = x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1];
         double Kb[9], Kd[9];
-        spring_block(xa, xb, g->k[e], g->l0[e], proj, Kb);
-        if (sd != 0.0) spring_block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
+        defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], proj, Kb);
+        if (sd != 0.0)
+            defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
         for (int i = 0; i < 9; ++i) Kb[i] = sk * Kb[i] + (sd != 0.0 ? sd * Kd[i] : 0.0);
         for (int a = 0; a < 2; ++a)
             for (int b = 0; b < 2; ++b)
@@ -230,22 +229,22 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
     double F[9], D[81], gr[4][3];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
     if (proj == DEFSIM_PROJECTION_NONE) {
-        group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+        g->law->dPdF(g->mu[e], g->lambda[e], F, D);
         if (sd != 0.0) {
             double Dd[81];
-            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP,
-                                 Dd, 0, NULL);
+            defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F,
+                                         DEFSIM_PROJECTION_CLAMP, Dd, 0, NULL);
             for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
         } else {
             for (int i = 0; i < 81; ++i) D[i] *= sk;
         }
     } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
         double Dd[81];
-        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D,
-                             DEFSIM_PROJECTION_CLAMP, Dd);
+        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D,
+                                     DEFSIM_PROJECTION_CLAMP, Dd);
         for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
     } else {
-        group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
+        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
         for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
     }
     tet_gradients(g->dminv + 9 * (int64_t)e, gr);
@@ -395,8 +394,9 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
         const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
         const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)b;
         double Kb[9], Kd[9], d[3];
-        spring_block(xa, xb, g->k[e], g->l0[e], proj, Kb);
-        if (sd != 0.0) spring_block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
+        defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], proj, Kb);
+        if (sd != 0.0)
+            defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
         for (int i = 0; i < 3; ++i) {
             double ua = pinned[a] ? 0.0 : dx[3 * (int64_t)a + i];
             double ub = pinned[b] ? 0.0 : dx[3 * (int64_t)b + i];
@@ -415,7 +415,7 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
     const double *dm = g->dminv + 9 * (int64_t)e;
     double F[9], D[81], dF[9], dP[9], gr[4][3];
     tet_deformation(x, id, dm, F);
-    group_dpdf(g->model, g->mu[e], g->lambda[e], F, D);
+    g->law->dPdF(g->mu[e], g->lambda[e], F, D);
     if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
         double Dd[81];
         memcpy(Dd, D, sizeof Dd);

@@ -11,6 +11,7 @@
 #include "element.h"
 #include "forces.h"
 #include "mat3.h"
+#include "material.h"
 #include "world.h"
 
 #include <math.h>
@@ -73,11 +74,10 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
 
 void defsim__coupling_free(defsim_world *w)
 {
-    w->cpl.fn = NULL;
-    w->nv = 0;
-    (void)defsim__coupling_reserve(w);   /* nv 0 and no callback: frees, allocates nothing */
-    free(w->cpl.drv); free(w->cpl.drv_start); free(w->cpl.drv_target); free(w->cpl.drv_x0);
-    free(w->cpl.drv_x1); free(w->cpl.pin_vel);
+    defsim__coupling *c = &w->cpl;
+    free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
+    free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
+    free(c->pin_vel);
     free(w->fext); free(w->att); free(w->pin_target); free(w->targeted);
 }
 
@@ -331,8 +331,19 @@ static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_att
 
 static int is_null(defsim_body_id id) { return id.index == 0 && id.generation == 0; }
 
-static defsim_status check_attachment(defsim_world *w, const defsim_attachment_def *d)
+/* Validates the host's def into *out (defaults for fields an older def lacks). */
+static defsim_status check_attachment(defsim_world *w, const defsim_attachment_def *def,
+                                      defsim_attachment_def *out)
 {
+    if (!def || def->size < offsetof(defsim_attachment_def, damping)) {
+        defsim__error(w->msg, "add_attachment: def is NULL or def->size is too small "
+                      "(use defsim_attachment_def_init)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    defsim_attachment_def_init(out, sizeof *out);
+    memcpy(out, def, def->size < sizeof *out ? def->size : sizeof *out);
+    out->size = sizeof *out;
+    const defsim_attachment_def *d = out;
     const defsim__body *b = defsim__world_body(w, d->body);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (d->vertex < 0 || d->vertex >= b->nv) {
@@ -386,16 +397,8 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
     defsim_status st = defsim__world_check_unlocked(w);
     if (st != DEFSIM_OK) return st;
-    if (!def || def->size < offsetof(defsim_attachment_def, damping)) {
-        defsim__error(w->msg, "add_attachment: def is NULL or def->size is too small "
-                      "(use defsim_attachment_def_init)");
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
     defsim_attachment_def d;
-    defsim_attachment_def_init(&d, sizeof d);
-    memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
-    d.size = sizeof d;
-    if ((st = check_attachment(w, &d)) != DEFSIM_OK) return st;
+    if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
     int32_t slot = 0;
     while (slot < w->natt && (w->att[slot].generation & 1u)) ++slot;
@@ -548,28 +551,20 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const double *x = w->state.x + 3 * (int64_t)b->offset;
-    for (int32_t t = 0; t < b->nt; ++t) {
+    const defsim__model *model = defsim__model_find(b->mat.model);
+    for (int32_t t = 0; t < b->nt && model; ++t) {
         const int32_t *tt = b->tets + 4 * (int64_t)t;
-        double dm[9], dminv[9], F[9], P[9], psi;
+        double dm[9], dminv[9], F[9], P[9];
         const double *p3 = b->rest + 3 * (int64_t)tt[3];
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i) dm[3 * i + a] = b->rest[3 * (int64_t)tt[a] + i] - p3[i];
         (void)defsim__m3_inverse(dm, dminv);
         tet_deformation(x, tt, dminv, F);
-        const double mu = b->mu, la = b->lambda, J = defsim__m3_det(F);
-        switch (b->mat.model) {
-        case DEFSIM_MODEL_STVK:
-            psi = defsim__stvk_P(mu, la, F, P);
-            break;
-        case DEFSIM_MODEL_COROTATED:
-            psi = defsim__corotated_P(mu, la, F, P);
-            break;
-        case DEFSIM_MODEL_NEOHOOKEAN:
-            psi = J > 0.0 ? defsim__neohookean_P(mu, la, F, P) : INFINITY;
-            break;
-        default:
-            psi = defsim__snh_P(mu, la, F, P) - defsim__snh_psi_rest(mu, la);
-            break;
+        const double J = defsim__m3_det(F);
+        double psi = INFINITY;
+        if (!(model->needs_positive_det && !(J > 0.0))) {
+            psi = model->P(b->mu, b->lambda, F, P);
+            if (model->psi_rest) psi -= model->psi_rest(b->mu, b->lambda);
         }
         double sigma[9], vm = NAN;
         const int defined = J != 0.0 && isfinite(psi);

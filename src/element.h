@@ -1,15 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Per-element building blocks shared by forces.c, energy.c and assembly.c, inlined into their
- * loops: F = Ds Dm^-1, the scatter of P Dm^-T to nodes, node gradients, dP = D : dF, a spring's
- * 3x3 block, and dP/dF of a tet model (plain or made positive semi-definite).
+ * Per-element building blocks shared by the physics files and the material files, inlined into
+ * their loops: F = Ds Dm^-1, the scatter of P Dm^-T to nodes, node gradients, dP = D : dF, and
+ * the scalar force kernel of a tet model.
  */
 #ifndef DEFSIM_ELEMENT_H
 #define DEFSIM_ELEMENT_H
 
 #include "defsim/backend.h"
-#include "mat3.h"
-#include "material_models.h"
 #include "system.h"
 
 #include <math.h>
@@ -88,71 +86,24 @@ static inline void apply_dpdf(const double D[81], const double dF[9], double dP[
     }
 }
 
-/* dPdF of any tet model (not the hot path). */
-static inline void group_dpdf(int model, double mu, double la, const double F[9], double D[81])
-{
-    switch (model) {
-    case DEFSIM_MODEL_STVK: defsim__stvk_dPdF(mu, la, F, D); break;
-    case DEFSIM_MODEL_COROTATED: defsim__corotated_dPdF(mu, la, F, D); break;
-    case DEFSIM_MODEL_NEOHOOKEAN: defsim__neohookean_dPdF(mu, la, F, D); break;
-    default: defsim__snh_dPdF(mu, la, F, D); break;
+/* The scalar force kernel of a tet model over its element group, the law PFUN(mu, lambda, F, P)
+ * inlined: the reference the batched kernels are checked against (DEFSIM_SIMD=scalar). */
+#define DEFSIM__TET_FORCE_KERNEL(NAME, PFUN)                                                  \
+    static void NAME(const defsim__group *g, const double *x, double *f, int nthreads)       \
+    {                                                                                         \
+        (void)nthreads;                                                                       \
+        for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
+            const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];                     \
+            _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(e1 - e0 > 1024)") \
+            for (int32_t e = e0; e < e1; ++e) {                                               \
+                const int32_t *id = g->idx + 4 * (int64_t)e;                                  \
+                const double *dm = g->dminv + 9 * (int64_t)e;                                 \
+                double F[9], P[9];                                                            \
+                tet_deformation(x, id, dm, F);                                                \
+                (void)PFUN(g->mu[e], g->lambda[e], F, P);                                     \
+                tet_scatter(f, id, dm, P, -g->vol[e]);                                        \
+            }                                                                                 \
+        }                                                                                     \
     }
-}
-
-/* dPdF of a tet model made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from
- * its eigen-structure in signed singular values (material_models.h, *_sigma): the 3 x 3 block h
- * is projected and the six twist / flip eigenvalues clamped, which is the projection of the
- * 9 x 9 tensor without a 9 x 9 eigensolver. D2, if not NULL, receives the projection with mode2
- * from the same decomposition. */
-static inline void group_dpdf_projected(int model, double mu, double la, const double F[9], int mode,
-                                        double D[81], int mode2, double *D2)
-{
-    double U[9], V[9], s[3], h[9], es[3], ek[3];
-    defsim__svd3(F, U, s, V);
-    switch (model) {
-    case DEFSIM_MODEL_STVK: defsim__stvk_sigma(mu, la, s, h, es, ek); break;
-    case DEFSIM_MODEL_COROTATED: defsim__corotated_sigma(mu, la, s, h, es, ek); break;
-    case DEFSIM_MODEL_NEOHOOKEAN: defsim__neohookean_sigma(mu, la, s, h, es, ek); break;
-    default: defsim__snh_sigma(mu, la, s, h, es, ek); break;
-    }
-    const int modes[2] = {mode, mode2};
-    double *out[2] = {D, D2};
-    for (int k = 0; k < 2; ++k) {
-        if (!out[k]) continue;
-        double hp[9], esp[3], ekp[3];
-        memcpy(hp, h, sizeof hp);
-        /* Positive definite (leading minors > 0, Sylvester), the common case: nothing to do. */
-        const double m2 = h[0] * h[4] - h[1] * h[3];
-        const double m3 = h[0] * (h[4] * h[8] - h[5] * h[7]) - h[1] * (h[3] * h[8] - h[5] * h[6]) +
-                          h[2] * (h[3] * h[7] - h[4] * h[6]);
-        if (!(h[0] > 0.0 && m2 > 0.0 && m3 > 0.0)) defsim__project_psd(3, hp, modes[k]);
-        for (int p = 0; p < 3; ++p) {
-            esp[p] = es[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -es[p] : 0.0) : es[p];
-            ekp[p] = ek[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -ek[p] : 0.0) : ek[p];
-        }
-        defsim__isotropic_dPdF(U, V, hp, esp, ekp, out[k]);
-    }
-}
-
-
-/* Spring direction, length and the 3x3 block Kb = k (n n^T + s (I - n n^T)), s = 1 - l0/l,
- * with s projected as the element's Hessian would be (its eigenvalues are k and k s). */
-static inline void spring_block(const double *xa, const double *xb, double k, double l0,
-                                int projection, double Kb[9])
-{
-    double d[3] = {xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]};
-    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    double n[3] = {0, 0, 0};
-    double s = 0.0;
-    if (l > 0.0) {
-        n[0] = d[0] / l; n[1] = d[1] / l; n[2] = d[2] / l;
-        s = 1.0 - l0 / l;
-    }
-    if (projection == DEFSIM_PROJECTION_CLAMP && s < 0.0) s = 0.0;
-    if (projection == DEFSIM_PROJECTION_ABS) s = fabs(s);
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            Kb[3 * i + j] = k * ((1.0 - s) * n[i] * n[j] + (i == j ? s : 0.0));
-}
 
 #endif /* DEFSIM_ELEMENT_H */

@@ -4,27 +4,21 @@
 #include "energy.h"
 
 #include "element.h"
+#include "material.h"
 
 #include <math.h>
 
 static double element_energy(const defsim__group *g, const double *x, int32_t e)
 {
-    if (g->nodes == 2) {
-        const double *xa = x + 3 * (int64_t)g->idx[2 * (int64_t)e];
-        const double *xb = x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1];
-        double d0 = xb[0] - xa[0], d1 = xb[1] - xa[1], d2 = xb[2] - xa[2];
-        double dl = sqrt(d0 * d0 + d1 * d1 + d2 * d2) - g->l0[e];
-        return 0.5 * g->k[e] * dl * dl;
-    }
-    double F[9], psi;
+    if (g->nodes == 2)
+        return defsim__model_spring.energy(x + 3 * (int64_t)g->idx[2 * (int64_t)e],
+                                           x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1], g->k[e],
+                                           g->l0[e]);
+    double F[9];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
     const double mu = g->mu[e], la = g->lambda[e];
-    switch (g->model) {
-    case DEFSIM_MODEL_STVK: psi = defsim__stvk_psi(mu, la, F); break;
-    case DEFSIM_MODEL_COROTATED: psi = defsim__corotated_psi(mu, la, F); break;
-    case DEFSIM_MODEL_NEOHOOKEAN: psi = defsim__neohookean_psi(mu, la, F); break;
-    default: psi = defsim__snh_psi(mu, la, F) - defsim__snh_psi_rest(mu, la); break;
-    }
+    double psi = g->law->psi(mu, la, F);
+    if (g->law->psi_rest) psi -= g->law->psi_rest(mu, la);
     return g->vol[e] * psi;
 }
 

@@ -1,74 +1,24 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Forces f(x, v) of a compiled system: elastic (one kernel per tet model, batched SIMD kernels
- * of tet_forces.c when chosen, scalar ones here as the reference), springs, attachments,
- * stiffness and mass damping, gravity and held external forces, pins. Elements of a group are sorted by colour (no two elements of a colour
- * share a vertex), so each colour scatters in parallel without atomics and every sum is formed
- * in the same order whatever the thread count: results are bit-identical for any number of
- * threads.
+ * Forces f(x, v) of a compiled system: elastic (one kernel per tet model: the batched SIMD
+ * kernels of tet_forces.c when chosen, else the model's scalar one), springs, attachments,
+ * stiffness and mass damping, gravity and held external forces, pins. Elements of a group are
+ * sorted by colour (no two elements of a colour share a vertex), so each colour scatters in
+ * parallel without atomics and every sum is formed in the same order whatever the thread count:
+ * results are bit-identical for any number of threads.
  *
- * Contents: scalar tet kernels; springs; stiffness damping; attachments; defsim__forces.
+ * Contents: stiffness damping; attachments; defsim__forces.
  */
 #include "forces.h"
 
 #include "element.h"
+#include "material.h"
 #include "tet_forces.h"
 
 #include <math.h>
 #include <string.h>
 
 enum { PAR_MIN = 1024 };
-
-/* ------------------------------------------------------------------------------------------ */
-/* Elastic force kernels: one per material model, the constitutive law inlined. */
-
-#define DEFSIM__TET_FORCE_KERNEL(NAME, PFUN)                                                  \
-    static void NAME(const defsim__group *g, const double *x, double *f, int nthreads)       \
-    {                                                                                         \
-        (void)nthreads;                                                                       \
-        for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
-            const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];                     \
-            _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(e1 - e0 > PAR_MIN)") \
-            for (int32_t e = e0; e < e1; ++e) {                                               \
-                const int32_t *id = g->idx + 4 * (int64_t)e;                                  \
-                const double *dm = g->dminv + 9 * (int64_t)e;                                 \
-                double F[9], P[9];                                                            \
-                tet_deformation(x, id, dm, F);                                                \
-                (void)PFUN(g->mu[e], g->lambda[e], F, P);                                     \
-                tet_scatter(f, id, dm, P, -g->vol[e]);                                        \
-            }                                                                                 \
-        }                                                                                     \
-    }
-
-DEFSIM__TET_FORCE_KERNEL(forces_stvk, defsim__stvk_P)
-DEFSIM__TET_FORCE_KERNEL(forces_corotated, defsim__corotated_P)
-DEFSIM__TET_FORCE_KERNEL(forces_neohookean, defsim__neohookean_P)
-DEFSIM__TET_FORCE_KERNEL(forces_snh, defsim__snh_P)
-
-typedef void (*tet_force_fn)(const defsim__group *, const double *, double *, int);
-static const tet_force_fn tet_force_kernels[DEFSIM__TET_MODELS] = {
-    forces_stvk, forces_corotated, forces_neohookean, forces_snh};
-
-static void forces_springs(const defsim__group *g, const double *x, double *f, int nthreads)
-{
-    (void)nthreads;   /* used by OpenMP pragmas only */
-    for (int32_t c = 0; c < g->ncolors; ++c) {
-        const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(nthreads) if (e1 - e0 > PAR_MIN)
-        for (int32_t e = e0; e < e1; ++e) {
-            const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
-            const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)b;
-            double d[3] = {xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]};
-            double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            /* f_a = k (l - l0) d / l; a spring of zero current length exerts no force. */
-            double s = l > 0.0 ? g->k[e] * (l - g->l0[e]) / l : 0.0;
-            for (int i = 0; i < 3; ++i) {
-                f[3 * (int64_t)a + i] += s * d[i];
-                f[3 * (int64_t)b + i] -= s * d[i];
-            }
-        }
-    }
-}
 
 /* Stiffness damping -beta K_e(x) v_e per element with the element stiffness made positive
  * semi-definite (analytic eigenvalue clamping of dP/dF): linear in v, never injects energy, and
@@ -87,8 +37,8 @@ static void damping_tets(const defsim__group *g, const double *x, const double *
             double F[9], dF[9], D[81], dP[9];
             tet_deformation(x, id, dm, F);
             tet_deformation(v, id, dm, dF);
-            group_dpdf_projected(g->model, g->mu[e], g->lambda[e], F, DEFSIM_PROJECTION_CLAMP, D,
-                                 0, NULL);
+            defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F,
+                                         DEFSIM_PROJECTION_CLAMP, D, 0, NULL);
             apply_dpdf(D, dF, dP);
             tet_scatter(f, id, dm, dP, -g->beta[e] * g->vol[e]);
         }
@@ -106,8 +56,8 @@ static void damping_springs(const defsim__group *g, const double *x, const doubl
             if (g->beta[e] == 0.0) continue;
             const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
             double Kb[9];
-            spring_block(x + 3 * (int64_t)a, x + 3 * (int64_t)b, g->k[e], g->l0[e],
-                         DEFSIM_PROJECTION_CLAMP, Kb);
+            defsim__model_spring.block(x + 3 * (int64_t)a, x + 3 * (int64_t)b, g->k[e], g->l0[e],
+                                       DEFSIM_PROJECTION_CLAMP, Kb);
             const double *va = v + 3 * (int64_t)a, *vb = v + 3 * (int64_t)b;
             double dv[3] = {vb[0] - va[0], vb[1] - va[1], vb[2] - va[2]};
             for (int i = 0; i < 3; ++i) {
@@ -156,13 +106,13 @@ defsim_status defsim__forces(const defsim__system *s, const double *x, const dou
         for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
             if (s->groups[m].n == 0) continue;
             if (s->tet_kernels) s->tet_kernels->forces[m](&s->groups[m], x, f, nt);
-            else tet_force_kernels[m](&s->groups[m], x, f, nt);
+            else s->groups[m].law->forces(&s->groups[m], x, f, nt);
             used |= s->groups[m].pass;
         }
         const defsim__group *sg = &s->groups[DEFSIM__TET_MODELS];
         if (sg->n > 0) {
-            forces_springs(sg, x, f, nt);
-            used |= DEFSIM_PASS_SPRINGS;
+            defsim__model_spring.forces(sg, x, f, nt);
+            used |= sg->pass;
         }
     }
     if (s->att.n > 0) {

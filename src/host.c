@@ -24,25 +24,29 @@ static int64_t first_non_finite(const double *a, int64_t n)
     return -1;
 }
 
+/* Calls the callback (jac: the Jacobian, writing `width` doubles per vertex into out; else the
+ * forces, adding 3 per vertex) with the world locked, and checks what it returned and wrote. */
+static defsim_status call_host(defsim__coupling *c, defsim__messages *msg, int32_t nv, int jac,
+                               const double *x, const double *v, double t, double *out)
+{
+    const char *what = jac ? "force Jacobian callback" : "force callback";
+    const int width = jac ? 9 : 3;
+    c->locked = 1;
+    const int rc = jac ? c->jac(c->user, x, v, t, nv, out) : c->fn(c->user, x, v, t, nv, out);
+    c->locked = 0;
+    const int64_t bad = rc != 0 ? -1 : first_non_finite(out, width * (int64_t)nv);
+    if (rc == 0 && bad < 0) return DEFSIM_OK;
+    c->failed = 1;
+    if (rc != 0) defsim__error(msg, "%s failed (returned %d at t = %g)", what, rc, t);
+    else defsim__error(msg, "%s gave a non-finite value at vertex %lld (t = %g)", what,
+                       (long long)(bad / width), t);
+    return DEFSIM_ERR_CALLBACK;
+}
+
 defsim_status defsim__callback_forces(defsim__coupling *c, defsim__messages *msg, int32_t nv,
                                       const double *x, const double *v, double t, double *f)
 {
-    c->locked = 1;
-    const int rc = c->fn(c->user, x, v, t, nv, f);
-    c->locked = 0;
-    if (rc != 0) {
-        c->failed = 1;
-        defsim__error(msg, "force callback failed (returned %d at t = %g)", rc, t);
-        return DEFSIM_ERR_CALLBACK;
-    }
-    const int64_t bad = first_non_finite(f, 3 * (int64_t)nv);
-    if (bad >= 0) {
-        c->failed = 1;
-        defsim__error(msg, "force callback gave a non-finite force at vertex %lld (t = %g)",
-                      (long long)(bad / 3), t);
-        return DEFSIM_ERR_CALLBACK;
-    }
-    return DEFSIM_OK;
+    return call_host(c, msg, nv, 0, x, v, t, f);
 }
 
 defsim_status defsim__callback_stiffness(defsim__coupling *c, defsim__messages *msg, int32_t nv,
@@ -50,21 +54,8 @@ defsim_status defsim__callback_stiffness(defsim__coupling *c, defsim__messages *
                                          double t, double *K)
 {
     memset(K, 0, 9 * (size_t)nv * sizeof *K);
-    c->locked = 1;
-    const int rc = c->jac(c->user, x, v, t, nv, K);
-    c->locked = 0;
-    if (rc != 0) {
-        c->failed = 1;
-        defsim__error(msg, "force Jacobian callback failed (returned %d at t = %g)", rc, t);
-        return DEFSIM_ERR_CALLBACK;
-    }
-    const int64_t bad = first_non_finite(K, 9 * (int64_t)nv);
-    if (bad >= 0) {
-        c->failed = 1;
-        defsim__error(msg, "force Jacobian callback gave a non-finite block at vertex %lld "
-                      "(t = %g)", (long long)(bad / 9), t);
-        return DEFSIM_ERR_CALLBACK;
-    }
+    defsim_status st = call_host(c, msg, nv, 1, x, v, t, K);
+    if (st != DEFSIM_OK) return st;
     for (int32_t i = 0; i < nv; ++i) {
         double *B = K + 9 * (int64_t)i;
         for (int r = 0; r < 3; ++r)

@@ -1,17 +1,43 @@
 /* SPDX-License-Identifier: MIT */
+/*
+ * What the material models share: the list of tet models (material_list.h) and lookup by id,
+ * Lame parameters, the PSD projection of dP/dF from a model's eigen-structure, validation, and
+ * the public defaults and evaluation.
+ */
 #include "material.h"
 
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
-#include "material_models.h"
+#include "isotropic.h"
+#include "mat3.h"
 #include "status.h"
+
+#define DEFSIM__MODEL_ENTRY(name) &defsim__model_##name,
+const defsim__model *const defsim__tet_models[DEFSIM__TET_MODELS] = {
+    DEFSIM__TET_MODEL_LIST(DEFSIM__MODEL_ENTRY)};
+#undef DEFSIM__MODEL_ENTRY
+
+const defsim__model *defsim__model_find(int id)
+{
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
+        if ((int)defsim__tet_models[m]->id == id) return defsim__tet_models[m];
+    return NULL;
+}
 
 void defsim__lame(double E, double nu, double *mu, double *lambda)
 {
     *mu = E / (2.0 * (1.0 + nu));
     *lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+}
+
+void defsim__lame_params(double mu, double lambda, double p[3])
+{
+    p[0] = mu;
+    p[1] = lambda;
+    p[2] = 0.0;
 }
 
 static void put_msg(char *msg, size_t msg_size, const char *fmt, ...)
@@ -23,10 +49,35 @@ static void put_msg(char *msg, size_t msg_size, const char *fmt, ...)
     va_end(ap);
 }
 
-static int is_tet_model(int model)
+/* dPdF of a tet model made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from
+ * its eigen-structure in signed singular values (the model's sigma): the 3 x 3 block h
+ * is projected and the six twist / flip eigenvalues clamped, which is the projection of the
+ * 9 x 9 tensor without a 9 x 9 eigensolver. D2, if not NULL, receives the projection with mode2
+ * from the same decomposition. */
+void defsim__model_dpdf_projected(const defsim__model *m, double mu, double la,
+                                  const double F[9], int mode, double D[81], int mode2,
+                                  double *D2)
 {
-    return model == DEFSIM_MODEL_STVK || model == DEFSIM_MODEL_COROTATED ||
-           model == DEFSIM_MODEL_NEOHOOKEAN || model == DEFSIM_MODEL_STABLE_NEOHOOKEAN;
+    double U[9], V[9], s[3], h[9], es[3], ek[3];
+    defsim__svd3(F, U, s, V);
+    m->sigma(mu, la, s, h, es, ek);
+    const int modes[2] = {mode, mode2};
+    double *out[2] = {D, D2};
+    for (int k = 0; k < 2; ++k) {
+        if (!out[k]) continue;
+        double hp[9], esp[3], ekp[3];
+        memcpy(hp, h, sizeof hp);
+        /* Positive definite (leading minors > 0, Sylvester), the common case: nothing to do. */
+        const double m2 = h[0] * h[4] - h[1] * h[3];
+        const double m3 = h[0] * (h[4] * h[8] - h[5] * h[7]) - h[1] * (h[3] * h[8] - h[5] * h[6]) +
+                          h[2] * (h[3] * h[7] - h[4] * h[6]);
+        if (!(h[0] > 0.0 && m2 > 0.0 && m3 > 0.0)) defsim__project_psd(3, hp, modes[k]);
+        for (int p = 0; p < 3; ++p) {
+            esp[p] = es[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -es[p] : 0.0) : es[p];
+            ekp[p] = ek[p] < 0.0 ? (modes[k] == DEFSIM_PROJECTION_ABS ? -ek[p] : 0.0) : ek[p];
+        }
+        defsim__isotropic_dPdF(U, V, hp, esp, ekp, out[k]);
+    }
 }
 
 /* Written as !(x >= 0) so that NaN fails too. */
@@ -52,7 +103,7 @@ defsim_status defsim__material_check(const defsim_material *m, int has_tets, int
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     int model = (int)m->model;
-    if (model != DEFSIM_MODEL_SPRING && !is_tet_model(model)) {
+    if (model != DEFSIM_MODEL_SPRING && !defsim__model_find(model)) {
         put_msg(msg, msg_size, "material.model %d is not a known model", model);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
@@ -60,7 +111,7 @@ defsim_status defsim__material_check(const defsim_material *m, int has_tets, int
         put_msg(msg, msg_size, "material.model is DEFSIM_MODEL_SPRING but the body has tets");
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
-    if (is_tet_model(model)) {
+    if (defsim__model_find(model)) {
         if (!(isfinite(m->youngs_modulus) && m->youngs_modulus > 0.0)) {
             put_msg(msg, msg_size, "material.youngs_modulus must be finite and > 0 (got %.17g)",
                     m->youngs_modulus);
@@ -129,34 +180,19 @@ defsim_status defsim_material_eval(const defsim_material *material, const double
 
     double mu, lambda;
     defsim__lame(material->youngs_modulus, material->poisson_ratio, &mu, &lambda);
-    double e = 0.0, Pbuf[9];
-    double *Pout = P != NULL ? P : Pbuf;
-    switch (material->model) {
-    case DEFSIM_MODEL_STVK:
-        if (psi != NULL || P != NULL) e = defsim__stvk_P(mu, lambda, F, Pout);
-        if (dPdF != NULL) defsim__stvk_dPdF(mu, lambda, F, dPdF);
-        break;
-    case DEFSIM_MODEL_COROTATED:
-        if (P != NULL) e = defsim__corotated_P(mu, lambda, F, P);
-        else if (psi != NULL) e = defsim__corotated_psi(mu, lambda, F);
-        if (dPdF != NULL) defsim__corotated_dPdF(mu, lambda, F, dPdF);
-        break;
-    case DEFSIM_MODEL_NEOHOOKEAN: {
+    /* The check admits only tet models here. */
+    const defsim__model *m = defsim__model_find((int)material->model);
+    if (m->needs_positive_det) {
         double J = defsim__m3_det(F);
         if (!(J > 0.0)) {
-            defsim__set_last_error(
-                "defsim_material_eval: neo-Hookean is undefined at det F = %.17g <= 0", J);
+            defsim__set_last_error("defsim_material_eval: %s is undefined at det F = %.17g <= 0",
+                                   m->name, J);
             return DEFSIM_ERR_UNSTABLE;
         }
-        if (psi != NULL || P != NULL) e = defsim__neohookean_P(mu, lambda, F, Pout);
-        if (dPdF != NULL) defsim__neohookean_dPdF(mu, lambda, F, dPdF);
-        break;
     }
-    default: /* DEFSIM_MODEL_STABLE_NEOHOOKEAN; the check admits no other model here. */
-        if (psi != NULL || P != NULL) e = defsim__snh_P(mu, lambda, F, Pout);
-        if (dPdF != NULL) defsim__snh_dPdF(mu, lambda, F, dPdF);
-        break;
-    }
+    double e = 0.0, Pbuf[9];
+    if (psi != NULL || P != NULL) e = m->P(mu, lambda, F, P != NULL ? P : Pbuf);
+    if (dPdF != NULL) m->dPdF(mu, lambda, F, dPdF);
     if (psi != NULL) *psi = e;
     return DEFSIM_OK;
 }

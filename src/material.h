@@ -1,15 +1,92 @@
 /* SPDX-License-Identifier: MIT */
-/* Material parameters: Lame conversion and validation (private). */
+/*
+ * Material models (private). Each tet model is one file (material_<name>.c, listed in
+ * material_list.h) exporting one defsim__model table; springs are material_spring.c with a
+ * defsim__spring_model table. material.c holds what is common: Lame parameters, validation,
+ * lookup by id, and the PSD projection of dP/dF from a model's eigen-structure.
+ */
 #ifndef DEFSIM_MATERIAL_H
 #define DEFSIM_MATERIAL_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "defsim/defsim.h"
+#include "material_list.h"
+#include "system.h"
+
+/*
+ * A tet model. Every function takes the Lame parameters mu = E/(2(1+nu)),
+ * lambda = E nu/((1+nu)(1-2nu)) of the user's (E, nu) and a deformation gradient F, row-major
+ * (F[3*i+j] = F_ij). P(I) = 0 and dPdF(I) is the linear elasticity tensor for every model.
+ */
+typedef struct defsim__model {
+    const char *name;                 /* "stvk", as in material_list.h */
+    defsim_model id;                  /* DEFSIM_MODEL_* */
+    uint32_t pass;                    /* DEFSIM_PASS_* bit of its element group */
+    int needs_positive_det;           /* undefined (NaN stress) where det F <= 0 */
+    /* The per-element parameters of the batched law (batch rows P0, P1, P2): the model's own
+     * reparameterisation of (mu, lambda) lives here. */
+    void (*params)(double mu, double lambda, double p[3]);
+    /* Energy density psi(F) (J/m^3); psi_rest(mu, lambda) = psi(I), which world energies
+     * subtract (NULL: zero). */
+    double (*psi)(double mu, double lambda, const double F[9]);
+    double (*psi_rest)(double mu, double lambda);
+    /* First Piola-Kirchhoff stress P = dpsi/dF; returns psi. */
+    double (*P)(double mu, double lambda, const double F[9], double P[9]);
+    /* dPdF[9*(3*i+j) + (3*k+l)] = dP_ij / dF_kl (symmetric 9 x 9). */
+    void (*dPdF)(double mu, double lambda, const double F[9], double dPdF[81]);
+    /* Eigen-structure in signed singular values s of F (psi = f(s)): the Hessian h = d2f/ds2
+     * (3 x 3) and the twist / flip eigenvalues ev_sym = (g_a - g_b)/(s_a - s_b) and
+     * ev_skew = (g_a + g_b)/(s_a + s_b) of the pairs (0,1), (0,2), (1,2), g = df/ds, in closed
+     * forms: with them dPdF is projected without a 9 x 9 eigensolver. */
+    void (*sigma)(double mu, double lambda, const double s[3], double h[9], double ev_sym[3],
+                  double ev_skew[3]);
+    /* Adds the elastic forces of group g at x into f: the scalar reference kernel
+     * (DEFSIM_SIMD=scalar). */
+    void (*forces)(const defsim__group *g, const double *x, double *f, int nthreads);
+} defsim__model;
+
+#define DEFSIM__DECLARE_MODEL(name) extern const defsim__model defsim__model_##name;
+DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_MODEL)
+#undef DEFSIM__DECLARE_MODEL
+
+/* The tet models in list order (the order of their element groups). */
+extern const defsim__model *const defsim__tet_models[DEFSIM__TET_MODELS];
+
+/* The tet model of a public id, or NULL (springs, unknown). */
+const defsim__model *defsim__model_find(int id);
+
+/* Springs: E = k/2 (l - l0)^2 between two vertices. */
+typedef struct defsim__spring_model {
+    const char *name;
+    defsim_model id;
+    uint32_t pass;
+    /* Energy of one spring between xa and xb (J). */
+    double (*energy)(const double *xa, const double *xb, double k, double l0);
+    /* The 3x3 block Kb = k (n n^T + s (I - n n^T)), s = 1 - l0/l projected with `projection`
+     * (its eigenvalues are k and k s); the element Hessian is [Kb -Kb; -Kb Kb]. */
+    void (*block)(const double *xa, const double *xb, double k, double l0, int projection,
+                  double Kb[9]);
+    /* Adds the forces of spring group g at x into f. */
+    void (*forces)(const defsim__group *g, const double *x, double *f, int nthreads);
+} defsim__spring_model;
+
+extern const defsim__spring_model defsim__model_spring;
 
 /* Lame parameters of Young's modulus E and Poisson ratio nu (DESIGN.md section 4):
  * mu = E/(2(1+nu)), lambda = E nu/((1+nu)(1-2nu)). */
 void defsim__lame(double E, double nu, double *mu, double *lambda);
+
+/* params of a model whose batched law takes (mu, lambda) as they are: p = {mu, lambda, 0}. */
+void defsim__lame_params(double mu, double lambda, double p[3]);
+
+/* dPdF of model m made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from its
+ * eigen-structure (sigma): the 3 x 3 block h is projected and the six twist / flip eigenvalues
+ * clamped. D2, if not NULL, receives the projection with mode2 from the same decomposition. */
+void defsim__model_dpdf_projected(const defsim__model *m, double mu, double lambda,
+                                  const double F[9], int mode, double D[81], int mode2,
+                                  double *D2);
 
 /* Validates a material for a body that has tets and/or springs. Returns DEFSIM_OK,
  * DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof(defsim_material)) or

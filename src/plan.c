@@ -14,7 +14,7 @@
 #include "colour.h"
 #include "energy.h"
 #include "mat3.h"
-#include "material_models.h"
+#include "material.h"
 #include "tet_forces.h"
 
 #include <math.h>
@@ -112,25 +112,23 @@ static defsim_status pack_batches(defsim__group *g)
                 for (int a = 0; a < 4; ++a) g->bidx[(4 * (int64_t)b + a) * B + l] = g->idx[4 * e + a];
                 for (int r = 0; r < 9; ++r) d[(DEFSIM__ROW_DMINV + r) * B] = g->dminv[9 * e + r];
                 d[DEFSIM__ROW_NVOL * B] = -g->vol[e];
-                if (g->model == DEFSIM_MODEL_STABLE_NEOHOOKEAN) {
-                    defsim__snh_params(g->mu[e], g->lambda[e], &d[DEFSIM__ROW_P0 * B],
-                                       &d[DEFSIM__ROW_P1 * B], &d[DEFSIM__ROW_P2 * B]);
-                } else {
-                    d[DEFSIM__ROW_P0 * B] = g->mu[e];
-                    d[DEFSIM__ROW_P1 * B] = g->lambda[e];
-                    d[DEFSIM__ROW_P2 * B] = 0.0;
-                }
+                double prm[3];
+                g->law->params(g->mu[e], g->lambda[e], prm);
+                d[DEFSIM__ROW_P0 * B] = prm[0];
+                d[DEFSIM__ROW_P1 * B] = prm[1];
+                d[DEFSIM__ROW_P2 * B] = prm[2];
             }
         }
     return DEFSIM_OK;
 }
 
-static const int tet_models[DEFSIM__TET_MODELS] = {
-    DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED, DEFSIM_MODEL_NEOHOOKEAN,
-    DEFSIM_MODEL_STABLE_NEOHOOKEAN};
-static const uint32_t tet_passes[DEFSIM__TET_MODELS] = {
-    DEFSIM_PASS_STVK, DEFSIM_PASS_COROTATED, DEFSIM_PASS_NEOHOOKEAN,
-    DEFSIM_PASS_STABLE_NEOHOOKEAN};
+/* The element group of a tet model (material_list.h order); bodies are validated, so found. */
+static int group_of(int model)
+{
+    int m = 0;
+    while (m < DEFSIM__TET_MODELS - 1 && (int)defsim__tet_models[m]->id != model) ++m;
+    return m;
+}
 
 static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in)
 {
@@ -138,7 +136,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
-        if (bd->nt > 0) count[bd->mat.model - DEFSIM_MODEL_STVK] += bd->nt;
+        if (bd->nt > 0) count[group_of(bd->mat.model)] += bd->nt;
         count[DEFSIM__TET_MODELS] += bd->ns;
     }
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
@@ -146,8 +144,8 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         const size_t n = (size_t)(count[m] > 0 ? count[m] : 1);
         g->n = count[m];
         g->nodes = m < DEFSIM__TET_MODELS ? 4 : 2;
-        g->model = m < DEFSIM__TET_MODELS ? tet_models[m] : DEFSIM_MODEL_SPRING;
-        g->pass = m < DEFSIM__TET_MODELS ? tet_passes[m] : DEFSIM_PASS_SPRINGS;
+        g->law = m < DEFSIM__TET_MODELS ? defsim__tet_models[m] : NULL;
+        g->pass = m < DEFSIM__TET_MODELS ? defsim__tet_models[m]->pass : defsim__model_spring.pass;
         g->idx = malloc(n * g->nodes * sizeof *g->idx);
         g->beta = malloc(n * sizeof *g->beta);
         if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -169,7 +167,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         if (!(bd->generation & 1u)) continue;
         const double beta = bd->mat.stiffness_damping;
         if (bd->nt > 0) {
-            defsim__group *g = &s->groups[bd->mat.model - DEFSIM_MODEL_STVK];
+            defsim__group *g = &s->groups[group_of(bd->mat.model)];
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;
                 const int32_t e = g->n++;

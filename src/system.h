@@ -11,10 +11,14 @@
 #define DEFSIM_SYSTEM_H
 
 #include "defsim/backend.h"
+#include "material_list.h"
 
 #include <stdint.h>
 
-enum { DEFSIM__TET_MODELS = 4 };   /* STVK, COROTATED, NEOHOOKEAN, STABLE_NEOHOOKEAN */
+/* Tet models (material_list.h), one element group each. */
+#define DEFSIM__COUNT_MODEL(name) +1
+enum { DEFSIM__TET_MODELS = 0 DEFSIM__TET_MODEL_LIST(DEFSIM__COUNT_MODEL) };
+#undef DEFSIM__COUNT_MODEL
 
 /* One element group: all tets of one model, or all springs. Elements are sorted by colour so
  * that elements of one colour share no vertex and can scatter in parallel without atomics. */
@@ -31,7 +35,7 @@ typedef struct defsim__group {
     int32_t *color_ptr;       /* ncolors + 1 */
     int32_t *blk;             /* nodes^2 n: rank of row vertex in column vertex's list */
     uint32_t pass;            /* DEFSIM_PASS_* bit */
-    int model;                /* defsim_model */
+    const struct defsim__model *law;   /* tets: the model (material.h); springs: NULL */
     /* SIMD batches of a tet group (tet_forces.h): colour c is batches bcolor_ptr[c] ..
      * bcolor_ptr[c + 1] - 1; blanes[b] of a batch's lanes are real elements. */
     int32_t nbatch;

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Batched (SIMD) elastic force kernels for the four tet models, compiled once per instruction
- * set and chosen once at plan time (system.c). The batch layout is shared by all variants:
+ * Batched (SIMD) elastic force kernels, one per tet model (material_list.h), compiled once per
+ * instruction set and chosen once at plan time (plan.c). The batch layout is shared by all
+ * variants:
  * each colour of a tet group is cut into batches of DEFSIM__BATCH elements, the last one padded
  * with copies of its first element that are computed but never scattered.
  */
@@ -11,6 +12,15 @@
 #include "system.h"
 
 #include <stdint.h>
+
+/* Names of per-instruction-set symbols: DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA). */
+#ifndef DEFSIM_ISA
+#define DEFSIM_ISA generic
+#endif
+#define DEFSIM__CAT2(a, b) a##b
+#define DEFSIM__CAT(a, b) DEFSIM__CAT2(a, b)
+#define DEFSIM__STR2(a) #a
+#define DEFSIM__STR(a) DEFSIM__STR2(a)
 
 /* Lanes per batch (the widest vector, AVX-512, has 8 doubles; narrower ISAs do sub-batches). */
 #define DEFSIM__BATCH 8

@@ -324,7 +324,7 @@ static defsim_status validate_array(defsim_world *w, const double *a, int64_t n,
     for (int64_t i = 0; i < n; ++i)
         if (!isfinite(a[i])) {
             defsim__error(w->msg, "%s: vertex %lld coordinate %d is not finite", what,
-                                (long long)(i / 3), (int)(i % 3));
+                          (long long)(i / 3), (int)(i % 3));
             return DEFSIM_ERR_INVALID_MESH;
         }
     return DEFSIM_OK;
@@ -337,7 +337,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
     if (!def || def->size < offsetof(defsim_body_def, material) + sizeof(uint32_t)) {
         defsim__error(w->msg, "add_body: def is NULL or def->size is too small "
-                               "(use defsim_body_def_init)");
+                              "(use defsim_body_def_init)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     defsim_body_def d;
@@ -345,7 +345,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     memcpy(&d, def, def->size < sizeof d ? def->size : sizeof d);
     if (d.material.size < offsetof(defsim_material, youngs_modulus)) {
         defsim__error(w->msg, "add_body: material.size %u is too small (use "
-                               "defsim_material_init)", (unsigned)d.material.size);
+                              "defsim_material_init)", (unsigned)d.material.size);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (d.material.size < sizeof d.material) {
@@ -359,7 +359,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     if (!d.rest_positions || d.vertex_count < 1 || d.tet_count < 0 || d.spring_count < 0 ||
         (d.tet_count > 0 && !d.tets) || (d.spring_count > 0 && !d.springs)) {
         defsim__error(w->msg, "add_body: needs rest_positions, vertex_count >= 1, and arrays "
-                               "for non-zero tet_count / spring_count");
+                              "for non-zero tet_count / spring_count");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (d.vertex_count > (INT32_MAX - w->nv) / 3 || d.tet_count > INT32_MAX / 16 ||
@@ -423,7 +423,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__tet_rest rest;
         if (defsim__tet_rest_eval(b.rest, tt, &rest, NULL)) {
             defsim__error(w->msg, "add_body: tet %d is degenerate (volume %g, longest edge %g)",
-                                (int)t, rest.det / 6.0, rest.longest_edge);
+                          (int)t, rest.det / 6.0, rest.longest_edge);
             goto fail;
         }
         const double det = rest.det;
@@ -450,7 +450,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         double k = d.spring_stiffness ? d.spring_stiffness[s] : b.mat.stiffness;
         if (!isfinite(k) || k < 0.0) {
             defsim__error(w->msg, "add_body: spring %d stiffness %g must be finite and >= 0",
-                                (int)s, k);
+                          (int)s, k);
             st = DEFSIM_ERR_INVALID_MATERIAL;
             goto fail;
         }
@@ -460,8 +460,8 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
         if (!isfinite(m) || !(m > 0.0)) {
             defsim__error(w->msg, "add_body: vertex %d has mass %g (needs a positive mass: "
-                                   "give vertex_mass, or put it in a tet with density > 0)",
-                                (int)i, m);
+                                  "give vertex_mass, or put it in a tet with density > 0)",
+                          (int)i, m);
             st = d.vertex_mass ? DEFSIM_ERR_INVALID_MATERIAL : DEFSIM_ERR_INVALID_MESH;
             goto fail;
         }
@@ -513,7 +513,7 @@ defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id)
     defsim__body *b = lookup(w, id);
     if (!b)
         defsim__error(w->msg, "body id {%u, %u} is null, removed or not of this world",
-                            (unsigned)id.index, (unsigned)id.generation);
+                      (unsigned)id.index, (unsigned)id.generation);
     return b;
 }
 
@@ -615,7 +615,7 @@ static defsim_status copy_out(const defsim_world *w, const double *src, int widt
     if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (n != w->nv) {
         defsim__error(w->msg, "n = %d but the world has %d vertices", (int)n,
-                            (int)w->nv);
+                      (int)w->nv);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (n > 0) memcpy(out, src, (size_t)width * (size_t)n * sizeof *out);
@@ -819,7 +819,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
                 defsim__error(w->msg, "step: auto_substep would need %g substeps (stable step %g s)",
-                                    k, w->h_stable);
+                              k, w->h_stable);
                 break;
             }
             n = k < 1.0 ? 1 : (int64_t)k;
@@ -848,7 +848,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         if (!ok) {
             st = DEFSIM_ERR_UNSTABLE;
             defsim__error(w->msg, "step: the state became non-finite (h = %g at t = %g); "
-                                   "state restored", h, w->state.t);
+                                  "state restored", h, w->state.t);
         }
     }
     if (st != DEFSIM_OK) {
@@ -856,7 +856,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         memcpy(w->state.v, w->v_save, bytes);
         if (!w->msg->error[0])
             defsim__error(w->msg, "step: backend %s failed: %s", w->backend->name,
-                                defsim_status_string(st));
+                          defsim_status_string(st));
         if (w->backend->reset &&
             w->backend->reset(&defsim__host, &w->handle, w->bstate) != DEFSIM_OK)
             backend_fini(w);

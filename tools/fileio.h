@@ -4,6 +4,7 @@
 #define DEFSIM_TOOLS_FILEIO_H
 
 #include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer; *len gets its size. NULL (errno
@@ -22,5 +23,9 @@ int tools_tmp_commit(FILE *f, const char *tmp, const char *path, int ok, char *e
 
 /* Creates a folder and its missing parents (like mkdir -p). Returns 0, or -1 (errno set). */
 int tools_make_dirs(const char *path);
+
+/* FNV-1a, 64 bits, of n bytes continuing from h (start: 14695981039346656037): a key that
+ * changes with its input (not cryptographic). */
+uint64_t tools_fnv1a(uint64_t h, const void *data, size_t n);
 
 #endif

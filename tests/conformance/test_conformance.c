@@ -30,6 +30,7 @@
  */
 #include "test_util.h"
 
+#include "registry.h"
 #include "world.h"
 
 #include <math.h>
@@ -172,6 +173,33 @@ static void momentum(defsim_world *w, const double *m, double p[3])
     free(v);
 }
 
+/* The masses (malloc'd), their sum *M and the momentum p0 of a scene about to fall. */
+static double *fall_start(defsim_world *w, double *M, double p0[3])
+{
+    const int n = defsim_world_vertex_count(w);
+    double *m = malloc((size_t)n * sizeof *m);
+    TU_OK(defsim_world_get_masses(w, m, n));
+    *M = 0.0;
+    for (int i = 0; i < n; ++i) *M += m[i];
+    momentum(w, m, p0);
+    return m;
+}
+
+/* A free scene falling under g from momentum p0 (initial speeds 0.5 m/s) has momentum
+ * p0 + M g t now: internal forces cancel in every backend. */
+static void check_fall(defsim_world *w, const double *m, double M, double g, const double p0[3],
+                       const char *what)
+{
+    double p[3];
+    momentum(w, m, p);
+    const double t = defsim_world_time(w), scale = M * (0.5 + fabs(g) * t);
+    const double want[3] = {p0[0], p0[1] + M * g * t, p0[2]};
+    for (int c = 0; c < 3; ++c)
+        if (!(fabs(p[c] - want[c]) <= 1e-8 * scale))
+            fail_msg("%s%s: momentum[%d] = %.12g, want %.12g", backend_name, what, c, p[c],
+                     want[c]);
+}
+
 static void test_momentum(void **state)
 {
     (void)state;
@@ -179,23 +207,13 @@ static void test_momentum(void **state)
     defsim_world *w = make_world(g, 1);
     add_scene(w);
     perturb(w, 0.02, 0.5, 7);
-    const int n = defsim_world_vertex_count(w);
-    double *m = malloc((size_t)n * sizeof *m), p0[3], p[3], M = 0.0;
-    TU_OK(defsim_world_get_masses(w, m, n));
-    for (int i = 0; i < n; ++i) M += m[i];
-    momentum(w, m, p0);
+    double p0[3], M, *m = fall_start(w, &M, p0);
     const double h = step_size();
     const int steps = step_count(h);
     for (int s = 0; s < steps; ++s) step_ok(w, h);
-    momentum(w, m, p);
     const double t = defsim_world_time(w);
     assert_true(fabs(t - steps * h) <= 1e-12 * t);
-    const double want[3] = {p0[0], p0[1] + M * g * t, p0[2]};
-    /* Scale: the momentum of the initial velocities (0.5 m/s) and of the fall. */
-    const double scale = M * (0.5 + fabs(g) * t);
-    for (int c = 0; c < 3; ++c)
-        if (!(fabs(p[c] - want[c]) <= 1e-8 * scale))
-            fail_msg("%s: momentum[%d] = %.12g, want %.12g", backend_name, c, p[c], want[c]);
+    check_fall(w, m, M, g, p0, "");
     free(m);
     defsim_world_destroy(w);
 }
@@ -492,20 +510,10 @@ static void test_attachments(void **state)
         defsim_body_id box = add_scene(w);
         attach_scene(w, box, with);
         perturb(w, 0.02, 0.5, 31);
-        const int n = defsim_world_vertex_count(w);
-        double *m = malloc((size_t)n * sizeof *m), p0[3], p[3], M = 0.0;
-        TU_OK(defsim_world_get_masses(w, m, n));
-        for (int i = 0; i < n; ++i) M += m[i];
-        momentum(w, m, p0);
+        double p0[3], M, *m = fall_start(w, &M, p0);
         const double h = step_size();
         for (int s = 0; s < step_count(h); ++s) step_ok(w, h);
-        momentum(w, m, p);
-        const double t = defsim_world_time(w), scale = M * (0.5 + fabs(g) * t);
-        const double want[3] = {p0[0], p0[1] + M * g * t, p0[2]};
-        for (int c = 0; c < 3; ++c)
-            if (!(fabs(p[c] - want[c]) <= 1e-8 * scale))
-                fail_msg("%s: with attachments, momentum[%d] = %.12g, want %.12g", backend_name,
-                         c, p[c], want[c]);
+        check_fall(w, m, M, g, p0, with ? " (attachments)" : "");
         defsim_stats st = {.size = sizeof st};
         TU_OK(defsim_world_stats(w, &st));
         if (with) assert_true(st.passes & DEFSIM_PASS_ATTACHMENTS);

@@ -8,9 +8,11 @@
  *   test_golden <scenes dir> <golden file>            compare (exit 1 on the first difference)
  *   test_golden <scenes dir> <golden file> --record   write the golden file
  *
- * The batched kernels are forced to their generic variant (DEFSIM_SIMD=generic) and worlds run
- * on one thread, so the hashes do not depend on the machine's instruction set or core count.
+ * The batched kernels are forced to their generic variant (DEFSIM_SIMD=generic; symplectic Euler
+ * runs again with the scalar reference kernels, DEFSIM_SIMD=scalar) and worlds run on one
+ * thread, so the hashes do not depend on the machine's instruction set or core count.
  */
+#include "fileio.h"
 #include "scene.h"
 
 #include <defsim/defsim.h>
@@ -20,16 +22,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) {
-        h ^= p[i];
-        h *= 1099511628211ull;
-    }
-    return h;
-}
 
 static const uint64_t fnv_offset = 14695981039346656037ull;
 
@@ -98,14 +90,16 @@ static void push(lines *L, const char *key, const char *what, uint64_t hash)
     l->hash = hash;
 }
 
-/* Runs one case and appends its lines. Returns 0, or -1 when the backend is unavailable. */
+/* Runs one case with the tet kernels `simd` (DEFSIM_SIMD: "generic" or "scalar") and appends
+ * its lines. Returns 0, or -1 when the backend is unavailable. */
 static int run(const char *dir, const run_case *rc, const char *model, const backend_case *bc,
-               lines *out)
+               const char *simd, lines *out)
 {
     char path[1024], key[160];
     snprintf(path, sizeof path, "%s/%s.json", dir, rc->scene);
-    snprintf(key, sizeof key, "%s%s/%s/%s", rc->scene, rc->variant, bc->name,
-             model ? model : "spring");
+    snprintf(key, sizeof key, "%s%s/%s/%s%s", rc->scene, rc->variant, bc->name,
+             model ? model : "spring", strcmp(simd, "generic") ? "/scalar" : "");
+    setenv("DEFSIM_SIMD", simd, 1);   /* read when the world is planned */
     char o_backend[128], o_model[128];
     snprintf(o_backend, sizeof o_backend, "world.backend=%s", bc->name);
     snprintf(o_model, sizeof o_model, "bodies.0.material.model=%s", model ? model : "spring");
@@ -137,7 +131,7 @@ static int run(const char *dir, const run_case *rc, const char *model, const bac
         char what[16];
         snprintf(what, sizeof what, "%d", k);
         uint64_t hash = fnv_offset;
-        hash = fnv1a(hash, &st, sizeof st);
+        hash = tools_fnv1a(hash, &st, sizeof st);
         if (defsim_world_get_positions(w, x, n) || defsim_world_get_velocities(w, v, n)) exit(2);
         for (int32_t i = 0; i < 3 * n; ++i)
             if (!isfinite(x[i]) || !isfinite(v[i])) {
@@ -148,22 +142,22 @@ static int run(const char *dir, const run_case *rc, const char *model, const bac
             fprintf(stderr, "%s: step %d: %s\n", key, k, defsim_world_last_error(w));
             exit(2);
         }
-        hash = fnv1a(hash, x, 3 * (size_t)n * sizeof *x);
-        hash = fnv1a(hash, v, 3 * (size_t)n * sizeof *v);
+        hash = tools_fnv1a(hash, x, 3 * (size_t)n * sizeof *x);
+        hash = tools_fnv1a(hash, v, 3 * (size_t)n * sizeof *v);
         push(out, key, what, hash);
     }
     uint64_t hf = fnv_offset;
     st = defsim_world_forces(w, x, f);
-    hf = fnv1a(hf, &st, sizeof st);
-    hf = fnv1a(hf, f, 3 * (size_t)n * sizeof *f);
+    hf = tools_fnv1a(hf, &st, sizeof st);
+    hf = tools_fnv1a(hf, f, 3 * (size_t)n * sizeof *f);
     push(out, key, "forces", hf);
     defsim_energy e;
     st = defsim_world_energy(w, &e);
-    uint64_t he = fnv1a(fnv_offset, &st, sizeof st);
-    he = fnv1a(he, &e.kinetic, sizeof e.kinetic);
-    he = fnv1a(he, &e.elastic, sizeof e.elastic);
-    he = fnv1a(he, &e.gravitational, sizeof e.gravitational);
-    he = fnv1a(he, &e.total, sizeof e.total);
+    uint64_t he = tools_fnv1a(fnv_offset, &st, sizeof st);
+    he = tools_fnv1a(he, &e.kinetic, sizeof e.kinetic);
+    he = tools_fnv1a(he, &e.elastic, sizeof e.elastic);
+    he = tools_fnv1a(he, &e.gravitational, sizeof e.gravitational);
+    he = tools_fnv1a(he, &e.total, sizeof e.total);
     push(out, key, "energy", he);
     free(x);
     free(v);
@@ -200,8 +194,6 @@ int main(int argc, char **argv)
         return 2;
     }
     const int record = argc > 3 && !strcmp(argv[3], "--record");
-    /* Read when the first world is planned. */
-    setenv("DEFSIM_SIMD", "generic", 1);
 
     lines got = {0}, want = {0};
     int skipped = 0;
@@ -210,15 +202,17 @@ int main(int argc, char **argv)
         for (int m = 0; m < nm; ++m) {
             if (scenes[i].skip_model && !strcmp(scenes[i].skip_model, models[m])) continue;
             for (size_t b = 0; b < sizeof backends / sizeof *backends; ++b)
-                if (run(argv[1], &scenes[i], scenes[i].tets ? models[m] : NULL, &backends[b],
-                        &got)) {
-                    if (record) {
-                        fprintf(stderr, "backend %s unavailable: cannot record\n",
-                                backends[b].name);
-                        return 2;
+                /* The scalar reference kernels too, on tet scenes with symplectic Euler. */
+                for (int k = 0; k < (scenes[i].tets && b == 1 ? 2 : 1); ++k)
+                    if (run(argv[1], &scenes[i], scenes[i].tets ? models[m] : NULL,
+                            &backends[b], k ? "scalar" : "generic", &got)) {
+                        if (record) {
+                            fprintf(stderr, "backend %s unavailable: cannot record\n",
+                                    backends[b].name);
+                            return 2;
+                        }
+                        ++skipped;
                     }
-                    ++skipped;
-                }
         }
     }
 

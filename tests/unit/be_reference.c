@@ -2,9 +2,9 @@
 #include "be_reference.h"
 
 #include "test_util.h"
-#include "world.h"
 #include "assembly.h"
 #include "forces.h"
+#include "world.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Unit tests of the material models (src/material.c, src/material_models.h) and of the small
+ * Unit tests of the material models (src/material.c, src/material_*.c) and of the small
  * linear algebra they use (src/mat3.c): signed SVD, symmetric eigen-decomposition and PSD
  * projection. Models are exercised through the public defsim_material_eval.
  */
@@ -16,9 +16,10 @@
 #include <string.h>
 
 #include "defsim/defsim.h"
+#include "isotropic.h"
 #include "mat3.h"
 #include "material.h"
-#include "material_models.h"
+#include "material.h"
 
 /* ------------------------------------------------------------------------------------------ */
 /* Helpers                                                                                    */
@@ -300,7 +301,7 @@ static void test_rest(void **state)
             double mp = 4.0 / 3.0 * mu, lp = lambda + 5.0 / 6.0 * mu;
             double alpha = 1.0 + 3.0 * mp / (4.0 * lp);
             psi0 = 0.5 * lp * (1.0 - alpha) * (1.0 - alpha) - 0.5 * mp * log(4.0);
-            assert_close(defsim__snh_psi_rest(mu, lambda), psi0, 1e-12 * scale);
+            assert_close(defsim__model_stable_neohookean.psi_rest(mu, lambda), psi0, 1e-12 * scale);
         }
         assert_close(psi, psi0, 1e-12 * scale);
         assert_below(norm_n(P, 9), 1e-12 * scale);
@@ -515,10 +516,10 @@ static void test_neohookean_unstable(void **state)
     double mu, lambda;
     defsim__lame(1e6, 0.3, &mu, &lambda);
     diag3(-0.5, 1.0, 1.0, F);
-    assert_true(isinf(defsim__neohookean_psi(mu, lambda, F)));
-    assert_true(isinf(defsim__neohookean_P(mu, lambda, F, P)));
+    assert_true(isinf(defsim__model_neohookean.psi(mu, lambda, F)));
+    assert_true(isinf(defsim__model_neohookean.P(mu, lambda, F, P)));
     assert_true(isnan(P[0]) && isnan(P[8]));
-    defsim__neohookean_dPdF(mu, lambda, F, dPdF);
+    defsim__model_neohookean.dPdF(mu, lambda, F, dPdF);
     assert_true(isnan(dPdF[0]) && isnan(dPdF[80]));
 }
 
@@ -538,22 +539,22 @@ static void test_kernels_consistent(void **state)
             F[8] += 1.0;
         } while (defsim__m3_det(F) <= 0.1);
         double P[9];
-        assert_close(defsim__stvk_P(mu, lambda, F, P), defsim__stvk_psi(mu, lambda, F),
+        assert_close(defsim__model_stvk.P(mu, lambda, F, P), defsim__model_stvk.psi(mu, lambda, F),
                      1e-12 * mu);
-        assert_close(defsim__corotated_P(mu, lambda, F, P), defsim__corotated_psi(mu, lambda, F),
+        assert_close(defsim__model_corotated.P(mu, lambda, F, P), defsim__model_corotated.psi(mu, lambda, F),
                      1e-12 * mu);
-        assert_close(defsim__neohookean_P(mu, lambda, F, P),
-                     defsim__neohookean_psi(mu, lambda, F), 1e-12 * mu);
-        assert_close(defsim__snh_P(mu, lambda, F, P), defsim__snh_psi(mu, lambda, F), 1e-12 * mu);
+        assert_close(defsim__model_neohookean.P(mu, lambda, F, P),
+                     defsim__model_neohookean.psi(mu, lambda, F), 1e-12 * mu);
+        assert_close(defsim__model_stable_neohookean.P(mu, lambda, F, P), defsim__model_stable_neohookean.psi(mu, lambda, F), 1e-12 * mu);
     }
     /* nu = 0 (lambda = 0): stable neo-Hookean is still well defined. */
     double I[9], P[9], dPdF[81];
     defsim__m3_identity(I);
     defsim__lame(1e6, 0.0, &mu, &lambda);
     assert_true(lambda == 0.0);
-    assert_true(isfinite(defsim__snh_P(mu, lambda, I, P)));
+    assert_true(isfinite(defsim__model_stable_neohookean.P(mu, lambda, I, P)));
     assert_below(norm_n(P, 9), 1e-10 * mu);
-    defsim__snh_dPdF(mu, lambda, I, dPdF);
+    defsim__model_stable_neohookean.dPdF(mu, lambda, I, dPdF);
     assert_true(all_finite(dPdF, 81));
 }
 
@@ -1002,7 +1003,7 @@ static void test_project_psd(void **state)
     double mu, lambda, F[9], H[81];
     defsim__lame(1e6, 0.3, &mu, &lambda);
     diag3(0.3, 0.4, 0.5, F);
-    defsim__snh_dPdF(mu, lambda, F, H);
+    defsim__model_stable_neohookean.dPdF(mu, lambda, F, H);
     int changed = defsim__project_psd(9, H, 1);
     double W[81], ev[9], V[81];
     memcpy(W, H, sizeof W);
@@ -1011,7 +1012,7 @@ static void test_project_psd(void **state)
     assert_true(changed == 0 || changed == 1);
 }
 
-/* The analytic eigen-structure (material_models.h, *_sigma) that element Hessians are projected
+/* The analytic eigen-structure (each model table's sigma) that element Hessians are projected
  * with: rebuilt through defsim__isotropic_dPdF it equals the model's dPdF, and with h projected
  * and the six twist / flip eigenvalues clamped it equals the 9 x 9 eigensolver's projection. */
 static void test_sigma_projection(void **state)
@@ -1036,24 +1037,9 @@ static void test_sigma_projection(void **state)
             const double *F = Fs[f];
             double U[9], V[9], s[3], h[9], es[3], ek[3], D[81], Diso[81];
             defsim__svd3(F, U, s, V);
-            switch (mc->model) {
-            case DEFSIM_MODEL_STVK:
-                defsim__stvk_sigma(mu, lambda, s, h, es, ek);
-                defsim__stvk_dPdF(mu, lambda, F, D);
-                break;
-            case DEFSIM_MODEL_COROTATED:
-                defsim__corotated_sigma(mu, lambda, s, h, es, ek);
-                defsim__corotated_dPdF(mu, lambda, F, D);
-                break;
-            case DEFSIM_MODEL_NEOHOOKEAN:
-                defsim__neohookean_sigma(mu, lambda, s, h, es, ek);
-                defsim__neohookean_dPdF(mu, lambda, F, D);
-                break;
-            default:
-                defsim__snh_sigma(mu, lambda, s, h, es, ek);
-                defsim__snh_dPdF(mu, lambda, F, D);
-                break;
-            }
+            const defsim__model *md = defsim__model_find(mc->model);
+            md->sigma(mu, lambda, s, h, es, ek);
+            md->dPdF(mu, lambda, F, D);
             defsim__isotropic_dPdF(U, V, h, es, ek, Diso);
             const double scale = norm_n(D, 81);
             assert_below(diff_n(Diso, D, 81), 1e-10 * scale);
@@ -1076,7 +1062,7 @@ static void test_sigma_projection(void **state)
     if (mc->model == DEFSIM_MODEL_NEOHOOKEAN) {
         const double s[3] = {1.0, 0.5, -0.1};
         double h[9], es[3], ek[3];
-        defsim__neohookean_sigma(1.0, 1.0, s, h, es, ek);
+        defsim__model_neohookean.sigma(1.0, 1.0, s, h, es, ek);
         assert_true(isnan(h[0]) && isnan(es[0]) && isnan(ek[2]));
     }
 }

@@ -7,8 +7,8 @@
  */
 #include "test_util.h"
 
-#include "world.h"
 #include "registry.h"
+#include "world.h"
 
 #include <math.h>
 #include <stdio.h>

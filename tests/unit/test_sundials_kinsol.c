@@ -6,9 +6,9 @@
  * conformance checks (rest, momentum, pins).
  */
 #include "be_reference.h"
+#include "registry.h"
 #include "test_util.h"
 #include "world.h"
-#include "registry.h"
 
 #include <math.h>
 #include <stdio.h>

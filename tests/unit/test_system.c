@@ -3,9 +3,9 @@
  * invariance, stiffness matrices against finite differences of the forces, determinism. */
 #include "test_util.h"
 
+#include "assembly.h"
 #include "mat3.h"
 #include "world.h"
-#include "assembly.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -3,11 +3,12 @@
  * scalar reference kernels, and the co-rotated kernel's quaternion rotation against the SVD. */
 #include "test_util.h"
 
+#include "forces.h"
+#include "isotropic.h"
 #include "mat3.h"
-#include "material_models.h"
+#include "material.h"
 #include "tet_forces.h"
 #include "world.h"
-#include "forces.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -124,7 +125,7 @@ enum { NF = 1200 };
 
 /* The quaternion rotation equals the SVD's R = U V^T, to rounding over the conditioning
  * 1 / (s1 + s2) of R itself, for random, near-singular, inverted and scaled F; and the
- * co-rotated stress agrees with defsim__corotated_P to 1e-12 relative where R is unique. */
+ * co-rotated stress agrees with the co-rotated model's P to 1e-12 relative where R is unique. */
 static void test_rotation_matches_svd(void **state)
 {
     (void)state;
@@ -183,7 +184,7 @@ static void test_rotation_matches_svd(void **state)
             /* Stresses where R is well determined (gap >= 1e-3), in units of mu = lambda = 1. */
             if (gap[e] >= 1e-3 && fabs(s[0]) < 1e3 && fabs(s[0]) > 1e-3) {
                 double Ps[9], Pf[9];
-                defsim__corotated_P(1.0, 1.0, Fe, Ps);
+                defsim__model_corotated.P(1.0, 1.0, Fe, Ps);
                 double tr = trRF - 3.0;
                 for (int i = 0; i < 9; ++i) Pf[i] = 2.0 * (Fe[i] - Re[i]) + tr * Re[i];
                 for (int i = 0; i < 9; ++i) d[i] = Pf[i] - Ps[i];

@@ -129,17 +129,6 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* FNV-1a, 64 bits: the cache key (not cryptographic; it only has to change with its input). */
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) {
-        h ^= p[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
 static defsim_status build(bench *b, const char *backend, double rtol, defsim_world **w)
 {
     b->s.def.backend = backend;
@@ -253,14 +242,14 @@ static int reference_key(const bench *b, char key[17], char *err, size_t errlen)
         return -1;
     }
     uint64_t h = 14695981039346656037ULL;
-    h = fnv1a(h, REF_FORMAT, sizeof REF_FORMAT);
+    h = tools_fnv1a(h, REF_FORMAT, sizeof REF_FORMAT);
     char buf[4096];
     size_t n;
-    while ((n = fread(buf, 1, sizeof buf, f)) > 0) h = fnv1a(h, buf, n);
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0) h = tools_fnv1a(h, buf, n);
     fclose(f);
-    for (int i = 0; i < b->nsets; ++i) h = fnv1a(h, b->sets[i], strlen(b->sets[i]) + 1);
+    for (int i = 0; i < b->nsets; ++i) h = tools_fnv1a(h, b->sets[i], strlen(b->sets[i]) + 1);
     snprintf(buf, sizeof buf, "T=%.17g", b->T);
-    h = fnv1a(h, buf, strlen(buf) + 1);
+    h = tools_fnv1a(h, buf, strlen(buf) + 1);
     snprintf(key, 17, "%016llx", (unsigned long long)h);
     return 0;
 }

@@ -1,0 +1,152 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Stable neo-Hookean (Smith, de Goes, Kim 2018) with its Lame reparameterisation.
+ * The scalar law and its table (material.h); compiled again per instruction set (DEFSIM_ISA
+ * defined, tet_batch.h) for the batched SIMD law. Conventions: DESIGN.md section 4.
+ */
+#if !defined(DEFSIM_ISA)
+
+#include "material.h"
+
+#include "element.h"
+#include "mat3.h"
+
+#include <math.h>
+
+/* Stable neo-Hookean (Smith, de Goes, Kim 2018), with mu' = 4/3 mu, lambda' = lambda + 5/6 mu,   */
+/* alpha = 1 + 3 mu' / (4 lambda') = 1 + mu / lambda', I_C = tr(F^T F):                         */
+/* psi = mu'/2 (I_C - 3) + lambda'/2 (J - alpha)^2 - mu'/2 log(I_C + 1).                        */
+/* Finite for every finite F (I_C + 1 >= 1). psi(I) = snh_psi_rest(mu, lambda) != 0.     */
+
+static void snh_params(double mu, double lambda, double *mu_p, double *lambda_p, double *alpha)
+{
+    *mu_p = 4.0 / 3.0 * mu;
+    *lambda_p = lambda + 5.0 / 6.0 * mu;
+    /* lambda' > 0 whenever mu > 0; alpha -> 1 when both vanish (no energy at all). */
+    *alpha = (*lambda_p != 0.0) ? 1.0 + mu / *lambda_p : 1.0;
+}
+
+static double snh_psi(double mu, double lambda, const double F[9])
+{
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    double ic = defsim__m3_ddot(F, F);
+    double d = defsim__m3_det(F) - alpha;
+    return 0.5 * mp * (ic - 3.0) + 0.5 * lp * d * d - 0.5 * mp * log(ic + 1.0);
+}
+
+/* psi(I) = lambda'/2 (1 - alpha)^2 - mu'/2 log 4: the rest energy that world energies subtract. */
+static double snh_psi_rest(double mu, double lambda)
+{
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    return 0.5 * lp * (1.0 - alpha) * (1.0 - alpha) - 0.5 * mp * log(4.0);
+}
+
+/* P = mu' (1 - 1/(I_C + 1)) F + lambda' (J - alpha) cof(F). */
+static double snh_P(double mu, double lambda, const double F[9], double P[9])
+{
+    double mp, lp, alpha, C[9];
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    defsim__m3_cofactor(F, C);
+    double ic = defsim__m3_ddot(F, F);
+    double d = F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha;
+    double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
+    double c2 = lp * d;
+    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
+    return 0.5 * mp * (ic - 3.0) + 0.5 * lp * d * d - 0.5 * mp * log(ic + 1.0);
+}
+
+DEFSIM__TET_FORCE_KERNEL(forces_snh, snh_P)
+
+/*
+ * dP_ij/dF_kl = c1 d_ik d_jl + 2 mu'/(I_C+1)^2 F_ij F_kl + lambda' C_ij C_kl
+ *             + lambda' (J - alpha) d2J/dF_ij dF_kl,
+ * with d2J/dF_ij dF_kl = eps_ikn eps_jlm F_nm (nonzero only for i != k, j != l).
+ */
+static void snh_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
+{
+    double mp, lp, alpha, C[9];
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    defsim__m3_cofactor(F, C);
+    double ic = defsim__m3_ddot(F, F);
+    double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
+    double cF = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
+    double c2 = lp * (F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha);
+    for (int r = 0; r < 9; ++r)
+        for (int c = r; c < 9; ++c) {
+            double h = cF * F[r] * F[c] + lp * C[r] * C[c];
+            if (r == c) h += c1;
+            dPdF[9 * r + c] = dPdF[9 * c + r] = h;
+        }
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            if (i == k) continue;
+            int n = 3 - i - k;
+            double sik = ((k - i + 3) % 3 == 1) ? c2 : -c2;
+            for (int j = 0; j < 3; ++j)
+                for (int l = 0; l < 3; ++l) {
+                    if (j == l) continue;
+                    int m = 3 - j - l;
+                    double sjl = ((l - j + 3) % 3 == 1) ? sik : -sik;
+                    dPdF[9 * (3 * i + j) + 3 * k + l] += sjl * F[3 * n + m];
+                }
+        }
+}
+
+static void snh_sigma(double mu, double lambda, const double s[3], double h[9],
+                      double ev_sym[3],
+                      double ev_skew[3])
+{
+    static const int pa[3] = {0, 0, 1}, pb[3] = {1, 2, 2};
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    double ic = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+    double J = s[0] * s[1] * s[2];
+    double c1 = mp * (1.0 - 1.0 / (ic + 1.0)), cf = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
+    double c2 = lp * (J - alpha);
+    double pr[3] = {s[1] * s[2], s[0] * s[2], s[0] * s[1]};   /* dJ/ds */
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+            h[3 * a + b] = cf * s[a] * s[b] + lp * pr[a] * pr[b] +
+                           (a == b ? c1 : c2 * s[3 - a - b]);
+    for (int p = 0; p < 3; ++p) {
+        double sc = s[3 - pa[p] - pb[p]];
+        ev_sym[p] = c1 - c2 * sc;
+        ev_skew[p] = c1 + c2 * sc;
+    }
+}
+
+static void params(double mu, double lambda, double p[3])
+{
+    snh_params(mu, lambda, &p[0], &p[1], &p[2]);
+}
+
+const defsim__model defsim__model_stable_neohookean = {
+    .name = "stable_neohookean", .id = DEFSIM_MODEL_STABLE_NEOHOOKEAN,
+    .pass = DEFSIM_PASS_STABLE_NEOHOOKEAN, .params = params, .psi = snh_psi,
+    .psi_rest = snh_psi_rest, .P = snh_P, .dPdF = snh_dPdF, .sigma = snh_sigma,
+    .forces = forces_snh};
+
+#else /* DEFSIM_ISA: the batched law */
+
+#include "tet_batch.h"
+
+/* Stable neo-Hookean: P = mu' (1 - 1/(I_C + 1)) F + lambda' (J - alpha) cof F. */
+DEFSIM_SIMD_INLINE void law_snh(const double *d, int s, const vd F[9], vd P[9])
+{
+    const vd mp = v_load(ROW(d, DEFSIM__ROW_P0, s)), lp = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    const vd alpha = v_load(ROW(d, DEFSIM__ROW_P2, s));
+    vd C[9];
+    cofactor(F, C);
+    vd ic = F[0] * F[0];
+    for (int i = 1; i < 9; ++i) ic += F[i] * F[i];
+    const vd c1 = mp * (1.0 - 1.0 / (ic + 1.0));
+    const vd c2 = lp * (F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha);
+    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
+}
+
+
+DEFSIM__BATCHED_KERNEL(stable_neohookean, law_snh)
+
+#endif

@@ -1,0 +1,117 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The machinery of batched (SIMD) tet force kernels, shared by the per-instruction-set compiles
+ * of the material files (material_<name>.c with DEFSIM_ISA defined) and tet_forces.c: gather,
+ * F = Ds Dm^-1 and the scatter of forces lane-wise, and the kernel skeleton around a model's
+ * law. The laws are those of the scalar models, rewritten lane-wise: same formulas, same
+ * conventions (DESIGN.md section 4). Results differ from the scalar kernels only by rounding:
+ * the vector log is fdlibm's algorithm (within 1 ulp of libm), and the FMA-capable variants
+ * contract a*b+c (-ffp-contract=fast), so machines with different instruction sets differ in
+ * the last bits. On one machine a variant is deterministic, whatever the thread count: every
+ * lane's arithmetic depends on its own element only, and the scatter order is the colour order.
+ */
+#ifndef DEFSIM_TET_BATCH_H
+#define DEFSIM_TET_BATCH_H
+
+#include "simd.h"
+#include "tet_forces.h"
+
+#include <stddef.h>
+#include <string.h>
+
+enum {
+    NSUB = DEFSIM__BATCH / DEFSIM_VW,          /* vectors per batch */
+    PAR_MIN_BATCHES = 1024 / DEFSIM__BATCH     /* same threshold as the scalar kernels */
+};
+
+/* Row r of a batch's data block d, lanes of sub-batch s. */
+#define ROW(d, r, s) ((d) + (r) * DEFSIM__BATCH + (s) * DEFSIM_VW)
+
+/* ------------------------------------------------------------------------------------------ */
+/* Shared batch machinery: gather, F = Ds Dm^-1, forces h_a = -vol P g_a, scatter.             */
+
+/* The three coordinates of the lanes' vertices id[0 .. VW-1] (on Zen 4, row loads and
+ * transposes measured faster than hardware gathers). */
+DEFSIM_SIMD_INLINE void gather3(const double *x, const int32_t *id, vd p[3])
+{
+    const double *rows[DEFSIM_VW];
+    for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = x + 3 * (int64_t)id[l];
+    v_gather_rows3(rows, p);
+}
+
+/* F = Ds Dm^-1 with Ds = [x0 - x3, x1 - x3, x2 - x3] for the lanes of sub-batch s. */
+DEFSIM_SIMD_INLINE void batch_deformation(const double *x, const int32_t *id, const double *d,
+                                          int s, vd dm[9], vd F[9])
+{
+    for (int r = 0; r < 9; ++r) dm[r] = v_load(ROW(d, DEFSIM__ROW_DMINV + r, s));
+    vd p[4][3], ds[9];
+    for (int a = 0; a < 4; ++a) gather3(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, p[a]);
+    for (int i = 0; i < 3; ++i)
+        for (int a = 0; a < 3; ++a) ds[3 * i + a] = p[a][i] - p[3][i];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            F[3 * i + j] = ds[3 * i + 0] * dm[0 + j] + ds[3 * i + 1] * dm[3 + j] +
+                           ds[3 * i + 2] * dm[6 + j];
+}
+
+/* h_a[i] = -vol sum_j P_ij Dminv[a][j], h_3 = -(h_0 + h_1 + h_2), added to the forces of the
+ * first nl lanes. Elements of a colour share no vertex, so neither do lanes. */
+DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9],
+                                      const vd dm[9], vd nvol, int nl)
+{
+    vd h[4][3];
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
+            h[a][i] = nvol * (P[3 * i + 0] * dm[3 * a + 0] + P[3 * i + 1] * dm[3 * a + 1] +
+                              P[3 * i + 2] * dm[3 * a + 2]);
+    for (int i = 0; i < 3; ++i) h[3][i] = -(h[0][i] + h[1][i] + h[2][i]);
+    for (int a = 0; a < 4; ++a) {
+        double *rows[DEFSIM_VW];
+        for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = f + 3 * (int64_t)id[a * DEFSIM__BATCH + l];
+        v_scatter_add_rows3(rows, h[a], nl);
+    }
+}
+
+/* The batched kernel of model `name` for this instruction set, defsim__batched_<name>_<isa>
+ * (listed in tet_forces.c's table): LAW(d, s, F, P) computes P for the lanes of sub-batch s. */
+#define DEFSIM__BATCHED_KERNEL(name, LAW)                                                     \
+    void DEFSIM__CAT(defsim__batched_##name##_, DEFSIM_ISA)(const defsim__group *g,          \
+                                                           const double *x, double *f,       \
+                                                           int nthreads)                     \
+    {                                                                                         \
+        (void)nthreads;                                                                       \
+        for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
+            const int32_t b0 = g->bcolor_ptr[c], b1 = g->bcolor_ptr[c + 1];                   \
+            _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(b1 - b0 > PAR_MIN_BATCHES)") \
+            for (int32_t b = b0; b < b1; ++b) {                                               \
+                const int32_t *id = g->bidx + 4 * DEFSIM__BATCH * (int64_t)b;                 \
+                const double *d = g->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b; \
+                for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {              \
+                    vd dm[9], F[9], P[9];                                                     \
+                    batch_deformation(x, id, d, s, dm, F);                                    \
+                    LAW(d, s, F, P);                                                          \
+                    batch_scatter(f, id + s * DEFSIM_VW, P, dm,                               \
+                                  v_load(ROW(d, DEFSIM__ROW_NVOL, s)),                        \
+                                  g->blanes[b] - s * DEFSIM_VW);                              \
+                }                                                                             \
+            }                                                                                 \
+        }                                                                                     \
+    }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Shared by the lane-wise laws of the material files.                                        */
+
+DEFSIM_SIMD_INLINE void cofactor(const vd A[9], vd C[9])
+{
+    C[0] = A[4] * A[8] - A[5] * A[7];
+    C[1] = A[5] * A[6] - A[3] * A[8];
+    C[2] = A[3] * A[7] - A[4] * A[6];
+    C[3] = A[2] * A[7] - A[1] * A[8];
+    C[4] = A[0] * A[8] - A[2] * A[6];
+    C[5] = A[1] * A[6] - A[0] * A[7];
+    C[6] = A[1] * A[5] - A[2] * A[4];
+    C[7] = A[2] * A[3] - A[0] * A[5];
+    C[8] = A[0] * A[4] - A[1] * A[3];
+}
+
+#endif /* DEFSIM_TET_BATCH_H */

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* The tools' one clock (the library's is defsim__now in src/world.c, not exported). */
+/* The tools' one clock (the library's is defsim__now in src/clock.c, not exported). */
 #ifndef DEFSIM_TOOLS_CLOCK_H
 #define DEFSIM_TOOLS_CLOCK_H
 

@@ -4,6 +4,8 @@
  * The JSON layer (positions, typed access, overrides) is scene_json.c; the output and camera
  * settings are scene_output.c.
  *
+ * Forces, driven pins and attachments are scene_coupling.c.
+ *
  * Contents: world; bodies (transform, mesh, material, pins); scene_load; scene_build.
  */
 #include "scene_json.h"
@@ -361,78 +363,80 @@ static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_bod
     return 0;
 }
 
+int sj_select(sj_ctx *c, const cJSON *indices, const cJSON *boxes, const char *what,
+              const double *pos, int32_t nv, double tol, uint8_t *mark)
+{
+    if (indices && !cJSON_IsArray(indices))
+        return sj_fail(c, indices, "%s.indices must be an array of vertex indices", what);
+    if (indices)
+        for (const cJSON *e = indices->child; e; e = e->next) {
+            if (!cJSON_IsNumber(e) || e->valuedouble != floor(e->valuedouble) ||
+                e->valuedouble < 0 || e->valuedouble >= nv)
+                return sj_fail(c, e, "%s: vertex index must be an integer in [0, %d)", what, (int)nv);
+            mark[(int32_t)e->valuedouble] = 1;
+        }
+    if (!boxes) return 0;
+    /* One box {lo, hi}, or an array of them. */
+    const cJSON *one = cJSON_IsArray(boxes) ? boxes->child : boxes;
+    if (cJSON_IsArray(boxes) && !one) return sj_fail(c, boxes, "%s.box: empty list", what);
+    for (; one; one = cJSON_IsArray(boxes) ? one->next : NULL) {
+        static const char *const keys[] = {"lo", "hi", NULL};
+        double lo[3], hi[3];
+        char wb[220];
+        snprintf(wb, sizeof wb, "%s.box", what);
+        if (sj_keys(c, one, wb, keys) || !sj_require(c, one, "lo", wb) ||
+            !sj_require(c, one, "hi", wb) || sj_vec3(c, one, "lo", wb, lo) ||
+            sj_vec3(c, one, "hi", wb, hi))
+            return -1;
+        int hits = 0;
+        for (int32_t i = 0; i < nv; ++i) {
+            const double *p = pos + 3 * i;
+            int in = 1;
+            for (int k = 0; k < 3; ++k) in &= p[k] >= lo[k] - tol && p[k] <= hi[k] + tol;
+            if (in) { mark[i] = 1; ++hits; }
+        }
+        if (hits == 0)
+            return sj_fail(c, one, "%s.box contains no vertex of the body (at rest, after "
+                           "\"transform\")", what);
+    }
+    return 0;
+}
+
+int sj_marked(sj_ctx *c, const cJSON *where, const uint8_t *mark, int32_t nv, int32_t **out,
+              int32_t *n)
+{
+    int32_t k = 0;
+    for (int32_t i = 0; i < nv; ++i) k += mark[i];
+    *out = malloc((size_t)(k > 0 ? k : 1) * sizeof **out);
+    if (!*out) return sj_fail(c, where, "out of memory");
+    *n = 0;
+    for (int32_t i = 0; i < nv; ++i)
+        if (mark[i]) (*out)[(*n)++] = i;
+    return 0;
+}
+
 static int parse_pins(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol)
 {
     char w[200];
     snprintf(w, sizeof w, "%s.pin", what);
     const int32_t nv = b->mesh.vertex_count;
-    uint8_t *mark = calloc((size_t)nv, 1);
-    if (!mark) return sj_fail(c, j, "out of memory");
     const cJSON *indices = NULL, *boxes = NULL;
     if (cJSON_IsArray(j)) indices = j;
     else if (cJSON_IsObject(j)) {
         static const char *const keys[] = {"indices", "box", NULL};
-        if (sj_keys(c, j, w, keys)) { free(mark); return -1; }
+        if (sj_keys(c, j, w, keys)) return -1;
         indices = cJSON_GetObjectItemCaseSensitive(j, "indices");
         boxes = cJSON_GetObjectItemCaseSensitive(j, "box");
-        if (indices && !cJSON_IsArray(indices)) {
-            free(mark);
-            return sj_fail(c, indices, "%s.indices must be an array of vertex indices", w);
-        }
     } else {
-        free(mark);
         return sj_fail(c, j, "%s must be an array of vertex indices or an object with \"indices\" "
                        "and/or \"box\"", w);
     }
-    if (indices)
-        for (const cJSON *e = indices->child; e; e = e->next) {
-            if (!cJSON_IsNumber(e) || e->valuedouble != floor(e->valuedouble) ||
-                e->valuedouble < 0 || e->valuedouble >= nv) {
-                free(mark);
-                return sj_fail(c, e, "%s: vertex index must be an integer in [0, %d)", w, (int)nv);
-            }
-            mark[(int32_t)e->valuedouble] = 1;
-        }
-    if (boxes) {
-        /* One box {lo, hi}, or an array of them. */
-        const cJSON *one = cJSON_IsArray(boxes) ? boxes->child : boxes;
-        if (cJSON_IsArray(boxes) && !one) {
-            free(mark);
-            return sj_fail(c, boxes, "%s.box: empty list", w);
-        }
-        for (; one; one = cJSON_IsArray(boxes) ? one->next : NULL) {
-            static const char *const keys[] = {"lo", "hi", NULL};
-            double lo[3], hi[3];
-            char wb[220];
-            snprintf(wb, sizeof wb, "%s.box", w);
-            if (sj_keys(c, one, wb, keys) || !sj_require(c, one, "lo", wb) ||
-                !sj_require(c, one, "hi", wb) || sj_vec3(c, one, "lo", wb, lo) ||
-                sj_vec3(c, one, "hi", wb, hi)) {
-                free(mark);
-                return -1;
-            }
-            int hits = 0;
-            for (int32_t i = 0; i < nv; ++i) {
-                const double *p = b->mesh.positions + 3 * i;
-                int in = 1;
-                for (int k = 0; k < 3; ++k) in &= p[k] >= lo[k] - tol && p[k] <= hi[k] + tol;
-                if (in) { mark[i] = 1; ++hits; }
-            }
-            if (hits == 0) {
-                free(mark);
-                return sj_fail(c, one, "%s.box contains no vertex of the body (at rest, after "
-                               "\"transform\")", w);
-            }
-        }
-    }
-    int32_t n = 0;
-    for (int32_t i = 0; i < nv; ++i) n += mark[i];
-    b->pins = malloc((size_t)(n > 0 ? n : 1) * sizeof *b->pins);
-    if (!b->pins) { free(mark); return sj_fail(c, j, "out of memory"); }
-    for (int32_t i = 0; i < nv; ++i)
-        if (mark[i]) b->pins[b->npins++] = i;
+    uint8_t *mark = calloc((size_t)nv, 1);
+    if (!mark) return sj_fail(c, j, "out of memory");
+    const int rc = sj_select(c, indices, boxes, w, b->mesh.positions, nv, tol, mark) ||
+                   sj_marked(c, j, mark, nv, &b->pins, &b->npins);
     free(mark);
-    return 0;
+    return rc ? -1 : 0;
 }
 
 static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
@@ -440,7 +444,8 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     char w[100];
     snprintf(w, sizeof w, "bodies[%d]", index);
     static const char *const keys[] = {"name", "mesh", "transform", "material", "pin", "velocity",
-                                       "initial_transform", "color", "probe", NULL};
+                                       "initial_transform", "color", "probe", "forces", "drive",
+                                       NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
     b->probe = -1;
@@ -509,6 +514,11 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
         if (!b->velocity) return sj_fail(c, vj, "out of memory");
         for (int32_t i = 0; i < nv; ++i) memcpy(b->velocity + 3 * i, vel, sizeof vel);
     }
+    const cJSON *fj = cJSON_GetObjectItemCaseSensitive(j, "forces");
+    const cJSON *drive = cJSON_GetObjectItemCaseSensitive(j, "drive");
+    if ((fj && scene_parse_forces(c, fj, w, b, 1e-9 * diag)) ||
+        (drive && scene_parse_drive(c, drive, w, b, 1e-9 * diag)))
+        return -1;
     const cJSON *col = cJSON_GetObjectItemCaseSensitive(j, "color");
     if (col) {
         double rgb[3];
@@ -554,6 +564,7 @@ void scene_free(scene *s)
         defsim_mesh_free(&b->mesh);
         free(b->initial); free(b->velocity); free(b->spring_k); free(b->pins);
     }
+    scene_free_coupling(s);
     free(s->bodies);
     s->bodies = NULL;
     s->nbodies = 0;
@@ -592,7 +603,8 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     for (int i = 0; i < noverrides; ++i)
         if (sj_override(s, root, overrides[i])) goto done;
 
-    static const char *const keys[] = {"description", "world", "bodies", "output", NULL};
+    static const char *const keys[] = {"description", "world", "bodies", "attachments", "output",
+                                       NULL};
     if (sj_keys(&c, root, "the scene", keys)) goto done;
     const cJSON *desc = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (desc && !cJSON_IsString(desc)) { sj_fail(&c, desc, "description must be a string"); goto done; }
@@ -619,6 +631,8 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
         }
         s->vertex_count += s->bodies[i].mesh.vertex_count;
     }
+    const cJSON *att = cJSON_GetObjectItemCaseSensitive(root, "attachments");
+    if (att && scene_parse_attachments(&c, att)) goto done;
     rc = 0;
 done:
     free(c.pos);
@@ -670,6 +684,11 @@ defsim_status scene_build(scene *s, defsim_world **out)
             return st;
         }
         b->offset = defsim_body_vertex_offset(w, b->id);
+    }
+    st = scene_build_coupling(s, w);
+    if (st != DEFSIM_OK) {
+        defsim_world_destroy(w);
+        return st;
     }
     *out = w;
     return DEFSIM_OK;

@@ -26,6 +26,64 @@ typedef struct scene_camera {
     double ground_height;   /* along the up axis */
 } scene_camera;
 
+/* What the renderer colours bodies by. */
+typedef enum scene_color {
+    SCENE_COLOR_BODY = 0,          /* each body its colour */
+    SCENE_COLOR_STRESS = 1,        /* von Mises stress per tet, Pa */
+    SCENE_COLOR_DISPLACEMENT = 2   /* |x - x(0)| per vertex, m */
+} scene_color;
+
+/* "body", "stress", "displacement" -> scene_color, or -1. */
+int scene_color_parse(const char *name);
+
+/* Fields of the VTK frames beyond positions, velocities and body (output.fields). */
+enum {
+    SCENE_FIELD_STRESS = 1,             /* cell data: cauchy_stress (9), von_mises, energy_density */
+    SCENE_FIELD_DISPLACEMENT = 2,       /* point data: displacement */
+    SCENE_FIELD_PIN_FORCES = 4,         /* point data: pin_force (reaction of each pin, N) */
+    SCENE_FIELD_ATTACHMENT_FORCES = 8   /* point data: attachment_force (N, on the vertex) */
+};
+
+/* A keyframed rigid motion: keys (t, translation, rotation about an axis through a centre),
+ * linear between keys in the translation, the rotation vector (axis x angle) and the centre;
+ * held before the first key and after the last. */
+typedef struct scene_path {
+    int32_t n;
+    double *key;            /* 10 per key: t, translation (3), rotation vector (3, rad), centre (3) */
+} scene_path;
+
+/* One entry of a body's "forces": a force on each selected vertex, or a total spread over them
+ * in proportion to their masses. */
+typedef struct scene_force {
+    int32_t n;
+    int32_t *verts;         /* body-local */
+    double f[3];            /* N */
+    int total;              /* 1: f is the total over the selection */
+} scene_force;
+
+/* Driven pins of a body: vertices that follow a path from where they start. */
+typedef struct scene_drive {
+    int32_t n;
+    int32_t *verts;         /* body-local */
+    double *anchor;         /* 3 n: their initial positions */
+    double *target;         /* 3 n: scratch for the targets of the next step */
+    scene_path path;
+} scene_drive;
+
+/* One attachment spring of the scene (a selection of k vertices makes k of them). */
+typedef struct scene_attachment {
+    int line;               /* of its object in the scene file */
+    int32_t body, vertex;   /* scene body index, body-local vertex */
+    double stiffness, damping;
+    int32_t target_body;    /* -1: a world point */
+    int32_t target_count;   /* target_body: 1..4 vertices and barycentric weights */
+    int32_t target_vertices[4];
+    double target_weights[4];
+    double anchor[3];       /* world point at t = 0 */
+    int32_t path;           /* -1: fixed; else index into scene.paths, moving anchor */
+    defsim_attachment_id id;   /* after scene_build */
+} scene_attachment;
+
 typedef struct scene_body {
     char name[64];
     int line;               /* of the body object in the scene file */
@@ -41,6 +99,10 @@ typedef struct scene_body {
     int32_t probe;          /* body-local vertex whose position is reported, or -1 */
     defsim_body_id id;      /* after scene_build */
     int32_t offset;         /* first vertex in the world, after scene_build */
+    struct scene_force *forces;   /* "forces": resolved into N per vertex by scene_build */
+    int32_t nforces;
+    scene_drive *drives;    /* "drive": keyframed pins */
+    int32_t ndrives;
 } scene_body;
 
 typedef struct scene {
@@ -59,6 +121,14 @@ typedef struct scene {
     struct cJSON *options;  /* world.options (a copy), applied by scene_build; or NULL */
     scene_body *bodies;
     int32_t nbodies;
+    scene_attachment *attachments;
+    int32_t nattachments;
+    scene_path *paths;      /* the attachments' paths (each selection shares one) */
+    int32_t npaths;
+    int color;              /* scene_color of rendered frames */
+    int has_color_range;
+    double color_range[2];  /* fixed colour scale (Pa or m); else each frame 0 .. its maximum */
+    unsigned fields;        /* SCENE_FIELD_* written into VTK frames */
     int32_t vertex_count;   /* sum over bodies */
     char error[4096];       /* "file:line:col: what" of the last failure */
 } scene;
@@ -69,9 +139,18 @@ typedef struct scene {
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides);
 
 /* Creates the world, sets world.options (those of another backend than the world's are skipped
- * with a warning on stderr) and adds the bodies with their pins. Returns DEFSIM_OK or an error
- * with s->error naming the option or body (and the library's detail). */
+ * with a warning on stderr) and adds the bodies with their pins, external forces, driven pins
+ * and attachments. Returns DEFSIM_OK or an error with s->error naming the option, body or
+ * attachment (and the library's detail). */
 defsim_status scene_build(scene *s, defsim_world **out);
+
+/* One step of h: first moves the driven pins and keyframed attachment points to where their
+ * paths are at t + h (t = the world's time), then defsim_world_step. A failure leaves the error
+ * in the world's last error. */
+defsim_status scene_step(scene *s, defsim_world *w, double h);
+
+/* 1 if the scene moves anything along a path (driven pins, keyframed attachments). */
+int scene_has_paths(const scene *s);
 
 void scene_free(scene *s);
 

@@ -61,6 +61,23 @@ const cJSON *sj_require(sj_ctx *c, const cJSON *obj, const char *key, const char
 /* Applies one "--set a.b.0.c=JSON" to the tree (a value that is not JSON becomes a string). */
 int sj_override(scene *s, cJSON *root, const char *spec);
 
+/* Marks the vertices selected by `indices` (an array of indices) and `boxes` (a box {lo, hi} or
+ * a list of them, each selecting at least one vertex within tol) among nv positions. Either
+ * node may be NULL. `what` names the selection in messages. */
+int sj_select(sj_ctx *c, const cJSON *indices, const cJSON *boxes, const char *what,
+              const double *pos, int32_t nv, double tol, uint8_t *mark);
+/* The marked vertices as a malloc'd list. */
+int sj_marked(sj_ctx *c, const cJSON *where, const uint8_t *mark, int32_t nv, int32_t **out,
+              int32_t *n);
+
+/* scene_coupling.c: a body's "forces" and "drive" (after its pins and initial positions), the
+ * scene's "attachments" (after all bodies), and what scene_build and scene_free do for them. */
+int scene_parse_forces(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol);
+int scene_parse_drive(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol);
+int scene_parse_attachments(sj_ctx *c, const cJSON *j);
+defsim_status scene_build_coupling(scene *s, defsim_world *w);
+void scene_free_coupling(scene *s);
+
 /* scene_output.c: defaults of the output settings, and the "output" section. */
 void scene_output_defaults(scene *s);
 int scene_parse_output(sj_ctx *c, const cJSON *o);

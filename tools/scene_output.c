@@ -12,8 +12,18 @@ static const float palette[6][3] = {{0.85f, 0.45f, 0.20f}, {0.25f, 0.55f, 0.85f}
 
 void scene_palette(int i, float rgb[3]) { memcpy(rgb, palette[(i % 6 + 6) % 6], 3 * sizeof(float)); }
 
+int scene_color_parse(const char *name)
+{
+    static const char *const names[] = {"body", "stress", "displacement"};
+    for (int i = 0; name && i < 3; ++i)
+        if (!strcmp(name, names[i])) return i;
+    return -1;
+}
+
 void scene_output_defaults(scene *s)
 {
+    s->fields = SCENE_FIELD_STRESS | SCENE_FIELD_DISPLACEMENT | SCENE_FIELD_PIN_FORCES |
+                SCENE_FIELD_ATTACHMENT_FORCES;
     s->every = 1;
     s->write_vtk = 1;
     s->width = 640;
@@ -89,7 +99,8 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
 {
     scene *s = c->s;
     static const char *const keys[] = {"every", "formats", "width", "height", "supersample",
-                                       "contact_sheet", "camera", NULL};
+                                       "contact_sheet", "camera", "color", "color_range",
+                                       "fields", NULL};
     if (sj_keys(c, o, "output", keys)) return -1;
     if (sj_int(c, o, "every", "output", 1, 1000000000, &s->every) ||
         sj_int(c, o, "width", "output", 16, 8192, &s->width) ||
@@ -109,5 +120,36 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     }
     const cJSON *cam = cJSON_GetObjectItemCaseSensitive(o, "camera");
     if (cam && parse_camera(c, cam)) return -1;
+    const cJSON *col = cJSON_GetObjectItemCaseSensitive(o, "color");
+    if (col) {
+        s->color = cJSON_IsString(col) ? scene_color_parse(col->valuestring) : -1;
+        if (s->color < 0)
+            return sj_fail(c, col, "output.color must be \"body\", \"stress\" or \"displacement\"");
+    }
+    const cJSON *cr = cJSON_GetObjectItemCaseSensitive(o, "color_range");
+    if (cr) {
+        if (sj_vec(c, cr, "output.color_range", 2, s->color_range)) return -1;
+        if (!(s->color_range[1] > s->color_range[0]))
+            return sj_fail(c, cr, "output.color_range must be [lo, hi] with hi > lo");
+        s->has_color_range = 1;
+    }
+    const cJSON *fl = cJSON_GetObjectItemCaseSensitive(o, "fields");
+    if (fl) {
+        static const char *const names[] = {"stress", "displacement", "pin_forces",
+                                            "attachment_forces"};
+        if (!cJSON_IsArray(fl))
+            return sj_fail(c, fl, "output.fields must be an array of \"stress\", \"displacement\", "
+                           "\"pin_forces\", \"attachment_forces\"");
+        s->fields = 0;
+        for (const cJSON *e = fl->child; e; e = e->next) {
+            int found = -1;
+            for (int i = 0; i < 4; ++i)
+                if (cJSON_IsString(e) && !strcmp(e->valuestring, names[i])) found = i;
+            if (found < 0)
+                return sj_fail(c, e, "output.fields: unknown field (known: \"stress\", "
+                               "\"displacement\", \"pin_forces\", \"attachment_forces\")");
+            s->fields |= 1u << found;
+        }
+    }
     return 0;
 }

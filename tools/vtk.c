@@ -71,9 +71,20 @@ static int put_block(FILE *f, const void *data, uint64_t bytes)
            (bytes == 0 || fwrite(data, 1, (size_t)bytes, f) == (size_t)bytes);
 }
 
-int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
-                  const vtk_cells *c, double time, char *err, size_t errsz)
+static void array_tag(FILE *f, const char *name, int components, uint64_t offset)
 {
+    fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"%d\" "
+               "format=\"appended\" offset=\"%llu\"/>\n", name, components,
+            (unsigned long long)offset);
+}
+
+int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
+                  const vtk_cells *c, double time, const vtk_array *extra, int n_extra,
+                  char *err, size_t errsz)
+{
+    enum { MAX_EXTRA = 16 };
+    if (n_extra < 0 || n_extra > MAX_EXTRA)
+        return set_err(err, errsz, "%s: %d extra arrays (at most %d)", path, n_extra, MAX_EXTRA);
     char tmp[2200];
     FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
     if (!f) return -1;
@@ -82,8 +93,16 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
     const uint64_t boff = (uint64_t)c->ncells * sizeof(int64_t);
     const uint64_t btyp = (uint64_t)c->ncells;
     const uint64_t bbody = (uint64_t)c->ncells * sizeof(int32_t);
-    uint64_t o = 0, o_v = 0, o_body, o_x, o_conn, o_off, o_typ;
+    uint64_t o = 0, o_v = 0, o_body, o_x, o_conn, o_off, o_typ, o_extra[MAX_EXTRA], b_extra[MAX_EXTRA];
     if (v) { o_v = o; o += 8 + bx; }
+    int point_extra = 0;
+    for (int k = 0; k < n_extra; ++k) {
+        b_extra[k] = (uint64_t)extra[k].components * sizeof(double) *
+                     (extra[k].cell ? (uint64_t)c->ncells : (uint64_t)nv);
+        o_extra[k] = o;
+        o += 8 + b_extra[k];
+        point_extra += !extra[k].cell;
+    }
     o_body = o; o += 8 + bbody;
     o_x = o; o += 8 + bx;
     o_conn = o; o += 8 + bconn;
@@ -99,15 +118,19 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
                "    </FieldData>\n"
                "    <Piece NumberOfPoints=\"%d\" NumberOfCells=\"%lld\">\n",
             little_endian() ? "LittleEndian" : "BigEndian", time, (int)nv, (long long)c->ncells);
-    if (v)
-        fprintf(f, "      <PointData Vectors=\"velocity\">\n"
-                   "        <DataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\" "
-                   "format=\"appended\" offset=\"%llu\"/>\n"
-                   "      </PointData>\n", (unsigned long long)o_v);
+    if (v || point_extra) {
+        fprintf(f, v ? "      <PointData Vectors=\"velocity\">\n" : "      <PointData>\n");
+        if (v) array_tag(f, "velocity", 3, o_v);
+        for (int k = 0; k < n_extra; ++k)
+            if (!extra[k].cell) array_tag(f, extra[k].name, extra[k].components, o_extra[k]);
+        fprintf(f, "      </PointData>\n");
+    }
     fprintf(f, "      <CellData Scalars=\"body\">\n"
                "        <DataArray type=\"Int32\" Name=\"body\" format=\"appended\" "
-               "offset=\"%llu\"/>\n"
-               "      </CellData>\n"
+               "offset=\"%llu\"/>\n", (unsigned long long)o_body);
+    for (int k = 0; k < n_extra; ++k)
+        if (extra[k].cell) array_tag(f, extra[k].name, extra[k].components, o_extra[k]);
+    fprintf(f, "      </CellData>\n"
                "      <Points>\n"
                "        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" "
                "format=\"appended\" offset=\"%llu\"/>\n"
@@ -123,11 +146,13 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
                "    </Piece>\n"
                "  </UnstructuredGrid>\n"
                "  <AppendedData encoding=\"raw\">\n   _",
-            (unsigned long long)o_body, (unsigned long long)o_x, (unsigned long long)o_conn,
+            (unsigned long long)o_x, (unsigned long long)o_conn,
             (unsigned long long)o_off, (unsigned long long)o_typ);
-    int ok = (!v || put_block(f, v, bx)) && put_block(f, c->body, bbody) && put_block(f, x, bx) &&
-             put_block(f, c->conn, bconn) && put_block(f, c->offsets, boff) &&
-             put_block(f, c->types, btyp);
+    int ok = !v || put_block(f, v, bx);
+    for (int k = 0; k < n_extra && ok; ++k) ok = put_block(f, extra[k].data, b_extra[k]);
+    ok = ok && put_block(f, c->body, bbody) && put_block(f, x, bx) &&
+         put_block(f, c->conn, bconn) && put_block(f, c->offsets, boff) &&
+         put_block(f, c->types, btyp);
     fputs("\n  </AppendedData>\n</VTKFile>\n", f);
     return tools_tmp_commit(f, tmp, path, ok, err, errsz);
 }
@@ -239,15 +264,24 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     c->offsets = malloc(boff ? boff : 1);
     c->types = malloc(btyp ? btyp : 1);
     c->body = malloc(bbody ? bbody : 1);
-    if (!out->x || !c->conn || !c->offsets || !c->types || !c->body) {
-        set_err(err, errsz, "%s: out of memory", path);
-        goto done;
-    }
+    if (!out->x || !c->conn || !c->offsets || !c->types || !c->body) goto oom;
     memcpy(out->x, px, bx);
     memcpy(c->conn, pconn, bconn);
     memcpy(c->offsets, poff, boff);
     memcpy(c->types, ptyp, btyp);
     memcpy(c->body, pbody, bbody);
+    /* Optional arrays the renderer colours by; a wrong size is an error, absence is not. */
+    uint64_t bvm = 0, bdisp = 0;
+    const uint8_t *pvm = block(buf, data, end, "von_mises", &bvm);
+    const uint8_t *pdisp = block(buf, data, end, "displacement", &bdisp);
+    if ((pvm && bvm != (uint64_t)nc * 8) || (pdisp && bdisp != bx)) {
+        set_err(err, errsz, "%s: von_mises or displacement has the wrong size", path);
+        goto done;
+    }
+    if (pvm && !(out->von_mises = malloc(bvm ? bvm : 1))) goto oom;
+    if (pdisp && !(out->displacement = malloc(bdisp ? bdisp : 1))) goto oom;
+    if (pvm) memcpy(out->von_mises, pvm, bvm);
+    if (pdisp) memcpy(out->displacement, pdisp, bdisp);
     int64_t prev = 0;
     for (int64_t i = 0; i < nc; ++i) {
         const int64_t k = c->offsets[i] - prev;
@@ -267,6 +301,9 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
         prev = c->offsets[i];
     }
     rc = 0;
+    goto done;
+oom:
+    set_err(err, errsz, "%s: out of memory", path);
 done:
     free(buf);
     if (rc) vtk_frame_free(out);
@@ -276,6 +313,8 @@ done:
 void vtk_frame_free(vtk_frame *f)
 {
     free(f->x);
+    free(f->von_mises);
+    free(f->displacement);
     vtk_cells_free(&f->cells);
     memset(f, 0, sizeof *f);
 }

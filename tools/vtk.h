@@ -21,23 +21,34 @@ typedef struct vtk_cells {
     int64_t ncells, nconn;
 } vtk_cells;
 
-/* A frame read back: positions and cells. */
+/* A frame read back: positions, cells and the arrays the renderer can colour by. */
 typedef struct vtk_frame {
     int32_t nv;
     double *x;          /* 3 nv */
     double time;
     vtk_cells cells;
+    double *von_mises;      /* NULL, or one per cell (cell data "von_mises", Pa) */
+    double *displacement;   /* NULL, or 3 nv (point data "displacement", m) */
 } vtk_frame;
+
+/* An extra Float64 data array of a frame: per point (`cell` 0, nv tuples) or per cell. */
+typedef struct vtk_array {
+    const char *name;
+    int components;         /* 1, 3, 6 or 9 */
+    int cell;
+    const double *data;     /* components * tuples */
+} vtk_array;
 
 /* Appends cells of one type (k vertices each, body-local indices + offset) for a body. */
 int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t offset, uint8_t type,
                   int32_t body);
 void vtk_cells_free(vtk_cells *c);
 
-/* Writes a .vtu (atomically: a temporary file renamed into place). v may be NULL. Returns 0, or
- * -1 with a message in err. */
+/* Writes a .vtu (atomically: a temporary file renamed into place). v may be NULL; `extra` adds
+ * n_extra point or cell data arrays. Returns 0, or -1 with a message in err. */
 int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
-                  const vtk_cells *c, double time, char *err, size_t errsz);
+                  const vtk_cells *c, double time, const vtk_array *extra, int n_extra,
+                  char *err, size_t errsz);
 
 /* Writes a .pvd collection of n datasets (atomically). */
 int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,

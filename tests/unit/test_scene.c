@@ -28,8 +28,9 @@ static void shipped(const char *name, scene *s)
 static void test_shipped_scenes(void **state)
 {
     (void)state;
-    static const char *names[] = {"cantilever", "cloth", "rope", "stiff_block", "squash"};
-    for (int i = 0; i < 5; ++i) {
+    static const char *names[] = {"cantilever", "cloth", "rope", "stiff_block", "squash",
+                                  "driven_circle", "cantilever_stress"};
+    for (int i = 0; i < 7; ++i) {
         scene s;
         shipped(names[i], &s);
         defsim_world *w = NULL;
@@ -120,6 +121,12 @@ static const char *scene_text(const char *line3, const char *line6)
              "  ]\n"
              "}\n", line3, line6);
     return buf;
+}
+
+/* Writes `text` to tu_tmpdir/name and loads it, which must succeed. */
+static void load_ok(const char *name, const char *text, scene *s)
+{
+    if (scene_load(s, tu_write_file(name, text), NULL, 0)) fail_msg("%s", s->error);
 }
 
 static void expect_line(const char *text, int line)
@@ -224,9 +231,8 @@ static void test_mesh_file_and_transform(void **state)
         "   \"transform\": {\"scale\": [-2, 1, 1], \"translate\": [0, 0, 3]},\n"
         "   \"material\": {\"stiffness\": 50, \"vertex_mass\": 0.5},\n"
         "   \"velocity\": [1, 0, 0]}]}\n";
-    const char *path = tu_write_file("obj.json", text);
     scene s;
-    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    load_ok("obj.json", text, &s);
     const scene_body *b = &s.bodies[0];
     assert_int_equal(b->mesh.vertex_count, 4);
     assert_int_equal(b->mesh.triangle_count, 2);
@@ -307,6 +313,136 @@ static void test_world_options(void **state)
     scene_free(&s);
 }
 
+/* Forces, drives and attachments: errors name their line; the tool's barycentric weights
+ * reproduce the attached point; a total force is spread by mass; driven pins follow the path. */
+static void test_coupling(void **state)
+{
+    (void)state;
+    expect_line(scene_text("\"threads\": 1", "\"forces\": {\"total\": [0,1,0], \"per_vertex\": [0,1,0]}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"forces\": [{\"total\": [0,1,0], \"boxx\": 1}]"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"drive\": {\"indices\": [0], \"keys\": []}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"drive\": {\"indices\": [0], \"keys\": [{\"t\": 1}, {\"t\": 0.5}]}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"drive\": {\"keys\": [{\"t\": 0}]}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"drive\": {\"indices\": [0], \"keys\": [{\"t\": 0, \"rotate\": {\"axis\": [0,0,0], \"degrees\": 3}}]}"), 6);
+    const char *bad_att =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+        " \"attachments\": [\n"
+        "   {\"body\": 0, \"vertex\": 0, \"stiffness\": 10},\n"
+        "   {\"body\": \"nobody\", \"vertex\": 0, \"stiffness\": 10}]}\n";
+    expect_line(bad_att, 5);
+    const char *bad_key =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+        " \"attachments\": [{\"body\": 0, \"vertex\": 0,\n"
+        "   \"stiffness\": 10, \"target\": {\"body\": 0}}]}\n";
+    expect_line(bad_key, 4);
+
+    /* A rope whose middle vertex sits inside a box of tets, attached to it; a total force on
+     * the box; the rope's first vertex driven 0.1 m along x over 0.01 s. */
+    const char *text =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"
+        " \"bodies\": [\n"
+        "  {\"name\": \"box\", \"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [2,2,2]},\n"
+        "   \"material\": {\"youngs_modulus\": 1e4, \"density\": 100},\n"
+        "   \"forces\": {\"total\": [3, 0, 0], \"box\": {\"lo\": [0,0,0], \"hi\": [0.5,1,1]}}},\n"
+        "  {\"name\": \"rope\", \"mesh\": {\"type\": \"rope\", \"a\": [0.3,0.2,0.1], \"b\": [1.3,0.4,0.9], \"segments\": 2},\n"
+        "   \"material\": {\"stiffness\": 10, \"vertex_mass\": 0.01},\n"
+        "   \"drive\": {\"indices\": [0], \"keys\": [{\"t\": 0}, {\"t\": 0.01, \"translate\": [0.1, 0, 0]}]}}],\n"
+        " \"attachments\": [{\"body\": \"rope\", \"point\": [0.8,0.3,0.5], \"stiffness\": 50,\n"
+        "                   \"target\": {\"body\": \"box\"}},\n"
+        "                  {\"body\": \"rope\", \"vertex\": 2, \"stiffness\": 5, \"damping\": 0.1,\n"
+        "                   \"target\": {\"keys\": [{\"t\": 0}, {\"t\": 1, \"rotate\": {\"axis\": [0,0,1], \"degrees\": 90, \"center\": [1.3,0,0]}}]}}]}\n";
+    scene s;
+    load_ok("c.json", text, &s);
+    assert_int_equal(s.nattachments, 2);
+    const scene_attachment *a = &s.attachments[0];
+    assert_int_equal(a->body, 1);
+    assert_int_equal(a->vertex, 1);
+    assert_int_equal(a->target_body, 0);
+    assert_int_equal(a->target_count, 4);
+    const double *X = s.bodies[0].mesh.positions, p[3] = {0.8, 0.3, 0.5};
+    double q[3] = {0, 0, 0}, wsum = 0.0;
+    for (int j = 0; j < 4; ++j) {
+        assert_true(a->target_weights[j] >= 0.0);
+        wsum += a->target_weights[j];
+        for (int c = 0; c < 3; ++c) q[c] += a->target_weights[j] * X[3 * a->target_vertices[j] + c];
+    }
+    assert_true(fabs(wsum - 1.0) < 1e-14);
+    for (int c = 0; c < 3; ++c) assert_true(fabs(q[c] - p[c]) < 1e-12);
+    assert_int_equal(s.attachments[1].target_body, -1);
+    assert_true(s.attachments[1].path >= 0);
+    assert_int_equal(s.bodies[0].nforces, 1);
+    assert_int_equal(s.bodies[0].forces[0].n, 3 * 3 * 2);   /* x in {0, 0.5}: 2 planes of 3 x 3 */
+    assert_int_equal(s.bodies[1].ndrives, 1);
+    assert_true(scene_has_paths(&s));
+
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    const double h = 1e-3;
+    for (int k = 0; k < 5; ++k) TU_OK(scene_step(&s, w, h));
+    const int32_t nv = defsim_world_vertex_count(w);
+    double *x = malloc(3 * (size_t)nv * sizeof *x), *v = malloc(3 * (size_t)nv * sizeof *v);
+    double *m = malloc((size_t)nv * sizeof *m);
+    TU_OK(defsim_world_get_positions(w, x, nv));
+    TU_OK(defsim_world_get_velocities(w, v, nv));
+    TU_OK(defsim_world_get_masses(w, m, nv));
+    /* The driven vertex is where the path puts it at t = 5 ms: half of 0.1 m along x. */
+    const double *d = x + 3 * s.bodies[1].offset;
+    assert_true(fabs(d[0] - 0.35) < 1e-12 && fabs(d[1] - 0.2) < 1e-12 && fabs(d[2] - 0.1) < 1e-12);
+    /* The attachment to the box: its spring is relaxed at rest, so it pulls with -k (x - p). */
+    double f[3];
+    TU_OK(defsim_world_get_attachment_force(w, s.attachments[0].id, f));
+    assert_true(isfinite(f[0]) && isfinite(f[1]) && isfinite(f[2]));
+    scene_free(&s);
+    defsim_world_destroy(w);
+
+    /* A drive that turns a rope's end a quarter turn about z through the origin in 10 ms:
+     * after 5 ms it has turned 45 degrees, after 20 ms (past the last key) it stays at 90. */
+    text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.02, \"gravity\": [0, 0, 0]},\n"
+           " \"bodies\": [{\"mesh\": {\"type\": \"rope\", \"a\": [-1,0,0], \"b\": [1,0,0], \"segments\": 2},\n"
+           "   \"material\": {\"stiffness\": 10, \"vertex_mass\": 0.01},\n"
+           "   \"drive\": {\"indices\": [2], \"keys\": [{\"t\": 0},\n"
+           "     {\"t\": 0.01, \"rotate\": {\"axis\": [0,0,2], \"degrees\": 90, \"center\": [0,0,0]}}]}}]}\n";
+    load_ok("r.json", text, &s);
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(scene_step(&s, w, h));
+        TU_OK(defsim_world_get_positions(w, x, 3));
+        const double a = (k < 9 ? (k + 1) * 0.1 : 1.0) * acos(-1.0) / 2.0;
+        if (!(fabs(x[6] - cos(a)) < 1e-12 && fabs(x[7] - sin(a)) < 1e-12 && fabs(x[8]) < 1e-15))
+            fail_msg("step %d: (%g, %g, %g), expected (%g, %g, 0)", k + 1, x[6], x[7], x[8],
+                     cos(a), sin(a));
+    }
+    scene_free(&s);
+    defsim_world_destroy(w);
+
+    /* A total force spread by mass: after the first step from rest (no elastic force yet) every
+     * selected vertex has v = h F / M_selected, the others none. */
+    text = "{\"world\": {\"h\": 1e-3, \"duration\": 0.01, \"gravity\": [0, 0, 0]},\n"
+           " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [2,2,2]},\n"
+           "   \"forces\": {\"total\": [0, 0, 6], \"box\": {\"lo\": [0,0,0], \"hi\": [0.5,1,1]}}}]}\n";
+    load_ok("f.json", text, &s);
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    TU_OK(scene_step(&s, w, h));
+    TU_OK(defsim_world_get_velocities(w, v, 27));
+    TU_OK(defsim_world_get_masses(w, m, 27));
+    double M = 0.0;
+    for (int32_t i = 0; i < s.bodies[0].forces[0].n; ++i) M += m[s.bodies[0].forces[0].verts[i]];
+    for (int32_t i = 0; i < 27; ++i) {
+        const int sel = s.bodies[0].mesh.positions[3 * i] <= 0.5;
+        /* Elastic forces at rest are zero to rounding. */
+        const double tol = 1e-9 * h * 6.0 / M;
+        if (!(fabs(v[3 * i]) < tol && fabs(v[3 * i + 1]) < tol &&
+              fabs(v[3 * i + 2] - (sel ? h * 6.0 / M : 0.0)) < tol))
+            fail_msg("vertex %d: v = (%g, %g, %g), selected %d, h F / M = %g", (int)i, v[3 * i],
+                     v[3 * i + 1], v[3 * i + 2], sel, h * 6.0 / M);
+    }
+    scene_free(&s);
+    defsim_world_destroy(w);
+    free(x); free(v); free(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -315,6 +451,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_control_bytes_as_whitespace, tu_tmpdir_setup,
                                         tu_tmpdir_teardown),
     };

@@ -745,6 +745,13 @@ int defsim_tool_bench(int argc, char **argv)
         fprintf(stderr, "defsim bench: %s\n", b.s.error);
         return 1;
     }
+    /* The reference integrator takes whole frames: a path would move only at frame ends. */
+    if (scene_has_paths(&b.s)) {
+        fprintf(stderr, "defsim bench: %s: driven pins and keyframed attachments (\"drive\", "
+                "\"target.keys\") are not supported by the work-precision benchmark\n", scene_path);
+        scene_free(&b.s);
+        return 1;
+    }
     b.scene_path = scene_path;
     b.repeats = repeats;
     b.threads = threads;

@@ -11,6 +11,7 @@
 
 #include "clock.h"
 
+#include "fields.h"
 #include "scene.h"
 #include "vtk.h"
 #ifdef DEFSIM_HAVE_RENDER
@@ -50,6 +51,8 @@ static int usage(FILE *f)
         "  --frames LIST      write only these frames (comma-separated numbers, 0 = start)\n"
         "  --backend NAME     override world.backend\n"
         "  --threads N        override world.threads\n"
+        "  --color MODE       colour rendered bodies by body (default), stress (von Mises) or\n"
+        "                     displacement, with a colour bar (= --set output.color=MODE)\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
@@ -71,7 +74,7 @@ typedef struct run_opts {
     const char **opts;   /* --option NAME=VALUE, set after the scene's world.options */
     int nopts;
     int *list, nlist;    /* --frames */
-    char backend_set[128], threads_set[64];
+    char backend_set[128], threads_set[64], color_set[128];
 } run_opts;
 
 static void opts_free(run_opts *o)
@@ -123,6 +126,9 @@ static int parse_args(int argc, char **argv, run_opts *o)
         else if (!strcmp(a, "--backend") && has) {
             snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
             o->sets[o->nsets++] = o->backend_set;
+        } else if (!strcmp(a, "--color") && has) {
+            snprintf(o->color_set, sizeof o->color_set, "output.color=\"%s\"", argv[++i]);
+            o->sets[o->nsets++] = o->color_set;
         } else if (!strcmp(a, "--threads") && has) {
             snprintf(o->threads_set, sizeof o->threads_set, "world.threads=%s", argv[++i]);
             o->sets[o->nsets++] = o->threads_set;
@@ -169,6 +175,7 @@ typedef struct frame_out {
     char dir[2048], path[4200], pvd_path[4200], err[1024];
     FILE *csv;
     vtk_cells cells;
+    fields fl;      /* stress, displacement, pin and attachment forces: VTK data, colours */
     char **files;   /* written .vtu frames and their times, for the .pvd */
     double *times;
     int n, cap;
@@ -257,7 +264,8 @@ static int out_vtk(frame_out *o, int f, double t, int32_t nv, const double *x, c
     char name[64];
     snprintf(name, sizeof name, "frame_%05d.vtu", f);
     snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
-    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->err, sizeof o->err) ||
+    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->fl.arrays, o->fl.narrays, o->err,
+                      sizeof o->err) ||
         pvd_add(o, name, t) ||
         vtk_write_pvd(o->pvd_path, o->n, o->times, (const char *const *)o->files, o->err,
                       sizeof o->err)) {
@@ -267,10 +275,13 @@ static int out_vtk(frame_out *o, int f, double t, int32_t nv, const double *x, c
     return 0;
 }
 
-static int out_final(frame_out *o, int32_t nv, const double *x, const double *v, double t)
+static int out_final(frame_out *o, const scene *s, defsim_world *w, int32_t nv, const double *x,
+                     const double *v)
 {
     snprintf(o->path, sizeof o->path, "%s/final.vtu", o->dir);
-    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->err, sizeof o->err)) {
+    if (fields_eval(&o->fl, s, w, o->err, sizeof o->err) ||
+        vtk_write_vtu(o->path, nv, x, v, &o->cells, defsim_world_time(w), o->fl.arrays,
+                      o->fl.narrays, o->err, sizeof o->err)) {
         fprintf(stderr, "defsim run: %s\n", o->err);
         return -1;
     }
@@ -285,6 +296,7 @@ static void out_close(frame_out *o)
     free(o->files);
     free(o->times);
     vtk_cells_free(&o->cells);
+    fields_free(&o->fl);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -298,6 +310,8 @@ typedef struct png_out {
     rd_view view;
     rd_part *parts;
     int32_t nparts;
+    int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
+    float **tri_rgb, *vertex_rgb;
     image frame;
     image thumbs[SHEET_MAX];
     double thumb_t[SHEET_MAX];
@@ -305,15 +319,18 @@ typedef struct png_out {
     char err[1024];
 } png_out;
 
-static int png_open(png_out *p, const scene *s, const run_opts *o)
+static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
     p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
-    p->nparts = p->parts ? s->nbodies : 0;
+    p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
+    p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
+    p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
+    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
-    if (!p->rd || !p->parts || !p->frame.rgb) {
+    if (!p->rd || !p->nparts || !p->frame.rgb) {
         fprintf(stderr, "defsim run: renderer: %s\n", p->rd ? "out of memory" : p->err);
         return -1;
     }
@@ -338,6 +355,19 @@ static int png_open(png_out *p, const scene *s, const run_opts *o)
         p->parts[i].nlines = b->line_count;
         memcpy(p->parts[i].color, b->color, sizeof p->parts[i].color);
         p->parts[i].smooth = b->mesh.tet_count == 0;
+        /* Stress colours: each boundary triangle takes its tet's cell. */
+        if (s->color == SCENE_COLOR_STRESS && b->mesh.tet_count > 0) {
+            const int32_t nt = b->mesh.triangle_count;
+            int32_t *cell = p->tri_cell[i] = malloc((size_t)(nt + 1) * sizeof *cell);
+            p->tri_rgb[i] = malloc(3 * (size_t)(nt + 1) * sizeof **p->tri_rgb);
+            if (!cell || !p->tri_rgb[i] ||
+                rd_triangle_tets(b->mesh.tets, b->mesh.tet_count, b->mesh.triangles, nt, cell)) {
+                fprintf(stderr, "defsim run: renderer: out of memory\n");
+                return -1;
+            }
+            for (int32_t t = 0; t < nt; ++t)
+                if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
+        }
     }
     /* Contact sheet: up to 12 of the written frames, evenly spread. */
     int written[4096], nw = 0;
@@ -353,13 +383,21 @@ static int png_open(png_out *p, const scene *s, const run_opts *o)
     return 0;
 }
 
-/* frame_NNNNN.png, kept as a thumbnail when the contact sheet shows frame f. */
-static int png_frame(png_out *p, const char *dir, int f, double t, const double *x)
+/* frame_NNNNN.png (coloured as the scene says, with its colour bar), kept as a thumbnail when
+ * the contact sheet shows frame f. */
+static int png_frame(png_out *p, const scene *s, const fields *fl, const char *dir, int f,
+                     double t, const double *x)
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
-    if (rd_render(p->rd, &p->view, x, p->parts, p->nparts, p->frame.rgb, p->err, sizeof p->err) ||
-        image_write_png(path, &p->frame, p->err, sizeof p->err)) {
+    double range[2];
+    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, fl->von_mises,
+                   fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
+    const int bad = rd_render(p->rd, &p->view, x, p->parts, p->nparts, p->frame.rgb, p->err,
+                              sizeof p->err);
+    if (!bad)
+        rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
+    if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
         fprintf(stderr, "defsim run: render: %s\n", p->err);
         return -1;
     }
@@ -388,8 +426,13 @@ static int png_close(png_out *p, const char *dir)
     for (int32_t i = 0; i < p->nparts; ++i) {
         free((void *)p->parts[i].tris);
         free((void *)p->parts[i].lines);
+        free(p->tri_cell[i]);
+        free(p->tri_rgb[i]);
     }
     free(p->parts);
+    free(p->tri_cell);
+    free(p->tri_rgb);
+    free(p->vertex_rgb);
     rd_destroy(p->rd);
     return rc;
 }
@@ -564,8 +607,17 @@ int run_main(int argc, char **argv)
     } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name)) {
         r.rc = 1;
     }
+    /* The fields the VTK frames carry and what the renderer colours by. */
+    const unsigned need =
+        (s.write_vtk ? s.fields : 0u) |
+        (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
+        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
+    if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
+        fprintf(stderr, "defsim run: %s\n", out.err);
+        r.rc = 1;
+    }
 #ifdef DEFSIM_HAVE_RENDER
-    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o)) r.rc = 1;
+    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl)) r.rc = 1;
 #endif
 
     struct sigaction sa, old_sa;
@@ -590,7 +642,7 @@ int run_main(int argc, char **argv)
     fflush(stdout);
     for (int f = 0; r.rc == 0 && f <= s.frames; ++f) {
         for (int32_t k = 0; f > 0 && k < s.frame_steps; ++k, ++steps) {
-            defsim_status st = defsim_world_step(w, h);
+            defsim_status st = scene_step(&s, w, h);
             if (st != DEFSIM_OK) {
                 run_st = st;
                 if (pr.mode == PROGRESS_BAR) printf("\n");
@@ -612,6 +664,12 @@ int run_main(int argc, char **argv)
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
+        if (written && (s.write_vtk || s.write_png) &&
+            fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
+            fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
+            r.rc = 1;
+            break;
+        }
         if (written && s.write_vtk) {
             const double t0 = tools_now();
             defsim_world_get_velocities(w, v, nv);
@@ -621,7 +679,7 @@ int run_main(int argc, char **argv)
 #ifdef DEFSIM_HAVE_RENDER
         if (written && s.write_png) {
             const double t0 = tools_now();
-            if (png_frame(&png, out.dir, f, t, x)) { r.rc = 1; break; }
+            if (png_frame(&png, &s, &out.fl, out.dir, f, t, x)) { r.rc = 1; break; }
             r.t_render += tools_now() - t0;
         }
 #endif
@@ -635,7 +693,7 @@ int run_main(int argc, char **argv)
         /* The final state, whatever stopped the run. */
         defsim_world_get_positions(w, x, nv);
         defsim_world_get_velocities(w, v, nv);
-        if (out_final(&out, nv, x, v, defsim_world_time(w))) r.rc = 1;
+        if (out_final(&out, &s, w, nv, x, v)) r.rc = 1;
     }
 #ifdef DEFSIM_HAVE_RENDER
     if (png_close(&png, out.dir)) r.rc = 1;

@@ -152,7 +152,8 @@ int image_downscale(const image *in, int k, image *out)
     return 0;
 }
 
-/* A 3x5 pixel font for the labels: digits, '.', ' ' and 's'. */
+/* A 3x5 pixel font for labels: digits, capitals, and '.', ' ', '-', '+', '(', ')', ',', 'e'
+ * (exponents), 's', 'a' and 'm' (units). Unknown characters are blank. */
 static const char *glyph(char ch)
 {
     switch (ch) {
@@ -167,13 +168,33 @@ static const char *glyph(char ch)
     case '8': return "111101111101111";
     case '9': return "111101111001111";
     case '.': return "000000000000010";
+    case ',': return "000000000010100";
     case 's': return "000011110001110";
     case '-': return "000000111000000";
+    case '+': return "000010111010000";
+    case '(': return "001010010010001";
+    case ')': return "100010010010100";
+    case 'e': return "000111111100111";
+    case 'a': return "000110011101111";
+    case 'm': return "000110111101101";
+    case 'A': return "010101111101101";
+    case 'C': return "111100100100111";
+    case 'D': return "110101101101110";
+    case 'E': return "111100111100111";
+    case 'I': return "111010010010111";
+    case 'L': return "100100100100111";
+    case 'M': return "101111111101101";
+    case 'N': return "110101101101101";
+    case 'O': return "111101101101111";
+    case 'P': return "111101111100100";
+    case 'S': return "111100111001111";
+    case 'T': return "111010010010010";
+    case 'V': return "101101101101010";
     default: return "000000000000000";
     }
 }
 
-static void draw_text(image *im, int x0, int y0, int scale, const char *text)
+void image_draw_text(image *im, int x0, int y0, int scale, uint8_t grey, const char *text)
 {
     for (int i = 0; text[i]; ++i) {
         const char *g = glyph(text[i]);
@@ -184,7 +205,7 @@ static void draw_text(image *im, int x0, int y0, int scale, const char *text)
                         for (int sx = 0; sx < scale; ++sx) {
                             const int x = x0 + (4 * i + gx) * scale + sx, y = y0 + gy * scale + sy;
                             if (x >= 0 && y >= 0 && x < im->width && y < im->height)
-                                memset(im->rgb + 3 * ((size_t)y * im->width + x), 40, 3);
+                                memset(im->rgb + 3 * ((size_t)y * im->width + x), grey, 3);
                         }
     }
 }
@@ -207,7 +228,7 @@ int image_contact_sheet(const image *tiles, const double *times, int n, int cols
                    tiles[i].rgb + 3 * (size_t)y * tiles[i].width, 3 * (size_t)tw);
         char text[32];
         snprintf(text, sizeof text, "%.2f s", times[i]);
-        draw_text(out, x0 + 2, y0 + th + 3, 2, text);
+        image_draw_text(out, x0 + 2, y0 + th + 3, 2, 40, text);
     }
     return 0;
 }

@@ -33,6 +33,10 @@ int image_compare(const image *a, const image *b, int threshold, image_diff *out
 /* Scales an image down by an integer factor (box filter). */
 int image_downscale(const image *in, int factor, image *out);
 
+/* Draws text in a 3x5 pixel font scaled by `scale`, top-left corner (x0, y0), in grey level
+ * `grey`; clipped to the image. Each character advances 4 * scale pixels. */
+void image_draw_text(image *im, int x0, int y0, int scale, uint8_t grey, const char *text);
+
 /* Lays tiles out in a grid with `cols` columns and a label under each ("%.2f s"). */
 int image_contact_sheet(const image *tiles, const double *times, int n, int cols, image *out);
 

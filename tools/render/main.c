@@ -5,6 +5,7 @@
  *   defsim-render SCENE.json [defsim run options]
  *       runs the scene and renders while running (same as defsim run --render --no-vtk)
  *   defsim-render RUN.pvd | FRAME.vtu ... [--scene SCENE.json] [--out DIR] [--frames LIST]
+ *                 [--color body|stress|displacement]
  *       renders frames written by defsim run; the camera, size and colours come from the
  *       scene when given, else the camera is fitted to the first frame
  */
@@ -30,17 +31,23 @@ static int usage(FILE *f)
 {
     fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
                "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR] "
-               "[--frames LIST]\n");
+               "[--frames LIST] [--color body|stress|displacement]\n");
     return f == stderr ? 2 : 0;
 }
 
-/* Render parts for one frame's cells: tet boundaries, triangles, lines, per body. */
-static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout)
+/* Render parts for one frame's cells: tet boundaries, triangles, lines, per body; with
+ * tri_cell, each part's triangles' cells (tet boundaries: the tet's cell) for stress colours. */
+static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout,
+                            int32_t ***tri_cell)
 {
     int32_t nb = 0;
     for (int64_t i = 0; i < c->ncells; ++i) if (c->body[i] + 1 > nb) nb = c->body[i] + 1;
     rd_part *p = calloc((size_t)(nb > 0 ? nb : 1), sizeof *p);
-    if (!p) return -1;
+    int32_t **tc = calloc((size_t)(nb > 0 ? nb : 1), sizeof *tc);
+    if (!p || !tc) return -1;
+    *out = p;
+    *nout = nb;
+    *tri_cell = tc;
     for (int32_t b = 0; b < nb; ++b) {
         int64_t nt = 0, ntri = 0, nl = 0;
         for (int64_t i = 0; i < c->ncells; ++i)
@@ -52,13 +59,16 @@ static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, i
         int64_t *tets = malloc((size_t)(nt + 1) * 4 * sizeof *tets);
         int32_t *tris = malloc((size_t)(ntri + 1) * 3 * sizeof *tris);
         int32_t *lines = malloc((size_t)(nl + 1) * 2 * sizeof *lines);
-        if (!tets || !tris || !lines) return -1;
+        int32_t *cell = malloc((size_t)(nt + ntri + 1) * sizeof *cell);
+        if (!tets || !tris || !lines || !cell) return -1;
         int64_t kt = 0, ktri = 0, kl = 0;
         for (int64_t i = 0; i < c->ncells; ++i) {
             if (c->body[i] != b) continue;
             const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
             if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
             if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
+            if (c->types[i] == VTK_TETRA) cell[kt] = (int32_t)i;
+            if (c->types[i] == VTK_TRIANGLE) cell[ktri] = (int32_t)i;
             if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
             kt += c->types[i] == VTK_TETRA;
             ktri += c->types[i] == VTK_TRIANGLE;
@@ -70,8 +80,18 @@ static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, i
             tris = rd_tet_surface(tets, nt, &n);
             if (!tris) return -1;
             ntri = n;
+            /* The surface's triangles, mapped to their tets' cells. */
+            int32_t *t32 = malloc((size_t)(4 * nt + 1) * sizeof *t32), *of = malloc((size_t)(n + 1) * sizeof *of);
+            if (!t32 || !of) return -1;
+            for (int64_t k = 0; k < 4 * nt; ++k) t32[k] = (int32_t)tets[k];
+            if (rd_triangle_tets(t32, nt, tris, n, of)) return -1;
+            for (int32_t k = 0; k < n; ++k) of[k] = of[k] >= 0 ? cell[of[k]] : -1;
+            free(t32);
+            free(cell);
+            cell = of;
         }
         free(tets);
+        tc[b] = cell;
         p[b].tris = tris;
         p[b].ntris = (int32_t)ntri;
         p[b].lines = lines;
@@ -80,15 +100,18 @@ static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, i
         if (s && b < s->nbodies) memcpy(p[b].color, s->bodies[b].color, sizeof p[b].color);
         else scene_palette(b, p[b].color);
     }
-    *out = p;
-    *nout = nb;
     return 0;
 }
 
-static void parts_free(rd_part *p, int n)
+static void parts_free(rd_part *p, int n, int32_t **tri_cell)
 {
-    for (int i = 0; i < n; ++i) { free((void *)p[i].tris); free((void *)p[i].lines); }
+    for (int i = 0; p && i < n; ++i) {
+        free((void *)p[i].tris);
+        free((void *)p[i].lines);
+        if (tri_cell) free(tri_cell[i]);
+    }
     free(p);
+    free(tri_cell);
 }
 
 int main(int argc, char **argv)
@@ -107,13 +130,14 @@ int main(int argc, char **argv)
         free(args);
         return rc;
     }
-    const char *scene_path = NULL, *out_dir = NULL;
+    const char *scene_path = NULL, *out_dir = NULL, *color = NULL;
     char **inputs = calloc((size_t)argc, sizeof *inputs);
     int ninputs = 0, *list = calloc((size_t)argc, sizeof *list), nlist = 0;
     if (!inputs || !list) return 1;
     for (int i = 1; i < argc; ++i) {
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene_path = argv[++i];
         else if (!strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
+        else if (!strcmp(argv[i], "--color") && i + 1 < argc) color = argv[++i];
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) {
             for (char *s = argv[++i], *end;; s = end + 1) {
                 list[nlist++] = (int)strtol(s, &end, 10);
@@ -174,6 +198,10 @@ int main(int argc, char **argv)
         s.camera.ground = 1;
         s.def.gravity[1] = -9.81;
     }
+    if (color && (s.color = scene_color_parse(color)) < 0) {
+        fprintf(stderr, "defsim-render: --color must be body, stress or displacement\n");
+        return 2;
+    }
     const char *od = out_dir ? out_dir : dir;
     rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
     if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
@@ -210,12 +238,40 @@ int main(int argc, char **argv)
         for (int k = 0; k < nlist; ++k) want |= list[k] == fnum;
         if (want) {
             rd_part *parts = NULL;
-            int np = 0;
+            int32_t **tri_cell = NULL;
+            int np = 0, bad = 0;
             char path[4200];
             snprintf(path, sizeof path, "%s/%.*s.png", od, (int)(strlen(base) - 4), base);
-            if (parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np) ||
-                rd_render(rd, &view, fr.x, parts, np, img.rgb, err, sizeof err) ||
-                image_write_png(path, &img, err, sizeof err)) {
+            if (parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
+                snprintf(err, sizeof err, "out of memory");
+                bad = 1;
+            }
+            /* Colours from the frame's von_mises and displacement arrays. */
+            float *vrgb = NULL, **trgb = NULL;
+            double range[2] = {0.0, 0.0};
+            if (!bad && s.color != SCENE_COLOR_BODY) {
+                if ((s.color == SCENE_COLOR_STRESS && !fr.von_mises) ||
+                    (s.color == SCENE_COLOR_DISPLACEMENT && !fr.displacement)) {
+                    snprintf(err, sizeof err, "no %s array to colour by (written by defsim run "
+                             "with output.fields)", s.color == SCENE_COLOR_STRESS ? "von_mises"
+                                                                                   : "displacement");
+                    bad = 1;
+                }
+                vrgb = malloc(3 * (size_t)fr.nv * sizeof *vrgb + 1);
+                trgb = calloc((size_t)np + 1, sizeof *trgb);
+                for (int k = 0; !bad && trgb && k < np; ++k)
+                    if (!(trgb[k] = malloc(3 * (size_t)(parts[k].ntris + 1) * sizeof **trgb))) bad = 1;
+                if (!vrgb || !trgb) bad = 1;
+                if (!bad)
+                    rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
+                                   fr.displacement, fr.nv, vrgb, trgb, range);
+            }
+            if (!bad) bad = rd_render(rd, &view, fr.x, parts, np, img.rgb, err, sizeof err);
+            if (!bad) rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
+            for (int k = 0; trgb && k < np; ++k) free(trgb[k]);
+            free(trgb);
+            free(vrgb);
+            if (bad || image_write_png(path, &img, err, sizeof err)) {
                 fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
                 rc = 1;
             } else {
@@ -223,7 +279,7 @@ int main(int argc, char **argv)
                 if (nthumbs < 12 && image_downscale(&img, 2, &thumbs[nthumbs]) == 0)
                     tt[nthumbs++] = fr.time;
             }
-            parts_free(parts, np);
+            parts_free(parts, np, tri_cell);
         }
         vtk_frame_free(&fr);
     }

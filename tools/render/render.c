@@ -430,7 +430,9 @@ static int add_triangles(rd_renderer *r, const double *x, const rd_part *p)
                 memcpy(nn, vn + 3 * (int64_t)q[a], sizeof nn);
                 normalize(nn);
             }
-            emit(r, x + 3 * (int64_t)q[a], nn, p->color);
+            const float *col = p->tri_colors ? p->tri_colors + 3 * (int64_t)t
+                               : p->vertex_colors ? p->vertex_colors + 3 * (int64_t)q[a] : p->color;
+            emit(r, x + 3 * (int64_t)q[a], nn, col);
         }
     }
     free(vn);
@@ -611,6 +613,16 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
 
 typedef struct rface { int64_t key[3]; int32_t v[3]; } rface;
 
+/* For a positively oriented tet (0, 1, 2, 3) these faces point outward. */
+static const int F[4][3] = {{1, 3, 2}, {0, 2, 3}, {0, 3, 1}, {0, 1, 2}};
+
+static void sort3(int64_t k[3])
+{
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j)
+            if (k[j] < k[i]) { const int64_t s = k[i]; k[i] = k[j]; k[j] = s; }
+}
+
 static int cmp_rface(const void *a, const void *b)
 {
     const rface *x = a, *y = b;
@@ -621,8 +633,6 @@ static int cmp_rface(const void *a, const void *b)
 
 int32_t *rd_tet_surface(const int64_t *tets, int64_t nt, int32_t *ntris)
 {
-    /* For a positively oriented tet (0, 1, 2, 3) these faces point outward. */
-    static const int F[4][3] = {{1, 3, 2}, {0, 2, 3}, {0, 3, 1}, {0, 1, 2}};
     rface *f = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *f);
     int32_t *out = malloc((size_t)(nt > 0 ? nt : 1) * 4 * 3 * sizeof *out);
     if (!f || !out) { free(f); free(out); return NULL; }
@@ -630,9 +640,7 @@ int32_t *rd_tet_surface(const int64_t *tets, int64_t nt, int32_t *ntris)
         for (int k = 0; k < 4; ++k) {
             rface *q = &f[4 * t + k];
             for (int i = 0; i < 3; ++i) q->v[i] = (int32_t)(q->key[i] = tets[4 * t + F[k][i]]);
-            for (int i = 0; i < 3; ++i)
-                for (int j = i + 1; j < 3; ++j)
-                    if (q->key[j] < q->key[i]) { int64_t s = q->key[i]; q->key[i] = q->key[j]; q->key[j] = s; }
+            sort3(q->key);
         }
     qsort(f, (size_t)(4 * nt), sizeof *f, cmp_rface);
     int32_t n = 0;
@@ -645,4 +653,30 @@ int32_t *rd_tet_surface(const int64_t *tets, int64_t nt, int32_t *ntris)
     free(f);
     *ntris = n;
     return out;
+}
+
+int rd_triangle_tets(const int32_t *tets, int64_t nt, const int32_t *tris, int32_t ntris,
+                     int32_t *tet_of)
+{
+    /* Every face of every tet, sorted by its vertex set; each triangle is looked up. */
+    rface *f = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *f);
+    if (!f) return -1;
+    for (int64_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 4; ++k) {
+            rface *q = &f[4 * t + k];
+            int64_t *key = q->key;
+            for (int i = 0; i < 3; ++i) key[i] = tets[4 * t + F[k][i]];
+            sort3(key);
+            q->v[0] = (int32_t)t;
+        }
+    qsort(f, (size_t)(4 * nt), sizeof *f, cmp_rface);
+    for (int32_t i = 0; i < ntris; ++i) {
+        rface want;
+        for (int a = 0; a < 3; ++a) want.key[a] = tris[3 * (int64_t)i + a];
+        sort3(want.key);
+        const rface *hit = nt > 0 ? bsearch(&want, f, (size_t)(4 * nt), sizeof *f, cmp_rface) : NULL;
+        tet_of[i] = hit ? hit->v[0] : -1;
+    }
+    free(f);
+    return 0;
 }

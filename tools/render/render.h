@@ -38,6 +38,9 @@ typedef struct rd_part {
     int32_t nlines;
     float color[3];
     int smooth;               /* smooth normals and two-sided lighting (cloth) */
+    const float *vertex_colors;   /* NULL, or RGB per vertex of x (indexed like tris and lines),
+                                     interpolated over triangles: replaces color */
+    const float *tri_colors;      /* NULL, or RGB per triangle (flat): replaces color */
 } rd_part;
 
 typedef struct rd_renderer rd_renderer;
@@ -55,5 +58,31 @@ int rd_render(rd_renderer *r, const rd_view *view, const double *x, const rd_par
 /* Outward boundary triangles of tets (faces used once), oriented by the tets' orientation:
  * malloc'd, 3 per triangle. Positively oriented tets give outward triangles. */
 int32_t *rd_tet_surface(const int64_t *tets, int64_t ntets, int32_t *ntris);
+
+/* For each of the ntris triangles, the index of a tet (of ntets, 4 vertex indices each) that has
+ * all three of its vertices, or -1: maps a body's boundary triangles to the cells whose values
+ * colour them. Returns 0, or -1 when out of memory. */
+int rd_triangle_tets(const int32_t *tets, int64_t ntets, const int32_t *tris, int32_t ntris,
+                     int32_t *tet_of);
+
+/* Colour scales (scene_color): the colour of a value, and the bar drawn into a finished image
+ * (right edge: the scale, its range with units, and a label). */
+
+/* RGB of s in [0, 1] (clamped) on a perceptually ordered scale (dark blue, teal, green, yellow). */
+void rd_colormap(double s, float rgb[3]);
+
+/* Colours the parts of one frame by `mode`: stress sets the tri_colors (in tbuf[i], 3 per
+ * triangle) of each part i whose tri_cell[i] (the cell of each triangle, -1 for none) is not
+ * NULL, from cell_value (von Mises per cell, Pa); displacement sets every part's vertex_colors
+ * (vbuf, 3 per vertex) from |displacement|. range receives the scale: the scene's color_range,
+ * else 0 .. the frame's largest value. Body mode, a missing array or no tets (for stress)
+ * clears both and gives the range [0, 0]. */
+void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
+                    int32_t nv, float *vbuf, float *const *tbuf, double range[2]);
+
+/* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image; nothing for
+ * body colours or an empty range (hi <= lo). */
+void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
 
 #endif

@@ -5,9 +5,12 @@
 
 #include "mesh_body.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -365,6 +368,185 @@ static void test_options_and_stats()
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.stat("nothing"); }));
 }
 
+// ---- coupling with the host ------------------------------------------------------------------
+
+static defsim::Mesh coupling_beam() { return defsim::Mesh::box({0, 0, 0}, {0.6, 0.1, 0.1}, 3, 1, 1); }
+
+static defsim::Material coupling_material(double damping)
+{
+    return defsim::Material(defsim::Model::corotated).youngs_modulus(1e5).poisson_ratio(0.3)
+        .density(500).mass_damping(damping);
+}
+
+// Free body, no gravity, F_i = m_i a (held forces, then the same through a callback): after n
+// symplectic Euler steps v_i = n h F_i / m_i.
+static void test_external_forces()
+{
+    const double h = 1e-3, a[3] = {0.5, -1.0, 2.0};
+    const int n = 40;
+    for (int callback = 0; callback <= 1; ++callback) {
+        defsim::World w(defsim::WorldDef().backend("symplectic_euler").gravity(0, 0, 0));
+        const defsim::Mesh m = coupling_beam();
+        w.add_body(defsim::BodyDef(m).material(coupling_material(0.0)));
+        const std::vector<double> mass = w.masses();
+        std::vector<double> F(3 * mass.size());
+        for (std::size_t i = 0; i < mass.size(); ++i)
+            for (int c = 0; c < 3; ++c) F[3 * i + c] = mass[i] * a[c];
+        if (callback)
+            w.set_force_callback([&F](const double *, const double *, double, int32_t k, double *f) {
+                for (int32_t i = 0; i < 3 * k; ++i) f[i] += F[static_cast<std::size_t>(i)];
+            });
+        else
+            w.set_external_forces(F);
+        for (int s = 0; s < n; ++s) w.step(h);
+        const std::vector<double> v = w.velocities();
+        double err = 0.0;
+        for (std::size_t i = 0; i < mass.size(); ++i)
+            for (int c = 0; c < 3; ++c)
+                err = std::max(err, std::fabs(v[3 * i + c] - n * h * F[3 * i + c] / mass[i]));
+        CHECK(err < 1e-9);
+    }
+}
+
+// A callback that throws: the step fails, the exception comes out of step() unchanged, and the
+// state is as before; bad forces are refused.
+static void test_callback_exception()
+{
+    defsim::World w(defsim::WorldDef().backend("symplectic_euler"));
+    const defsim::Mesh m = coupling_beam();
+    w.add_body(defsim::BodyDef(m).material(coupling_material(0.0)));
+    int calls = 0;
+    w.set_force_callback([&calls](const double *, const double *, double, int32_t, double *) {
+        if (++calls > 2) throw std::runtime_error("host failed");
+    });
+    w.step(1e-4);
+    w.step(1e-4);
+    const std::vector<double> x = w.positions(), v = w.velocities();
+    const double t = w.time();
+    bool caught = false;
+    try {
+        w.step(1e-4);
+    } catch (const std::runtime_error &e) {
+        caught = std::string(e.what()) == "host failed";
+    }
+    CHECK(caught);
+    CHECK(w.positions() == x && w.velocities() == v && w.time() == t);
+    CHECK(w.try_step(1e-4) == DEFSIM_ERR_CALLBACK);
+    w.set_force_callback(nullptr);
+    w.step(1e-4);
+    CHECK(w.time() > t);
+    std::vector<double> bad(3 * static_cast<std::size_t>(w.vertex_count()), 0.0);
+    bad[4] = std::nan("");
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_external_forces(bad); }));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] {
+        w.set_external_forces(std::vector<double>(5, 0.0));
+    }));
+}
+
+// The clamped end of a beam driven round a circle lands on each target at the end of its step.
+static void test_driven_pins()
+{
+    defsim::World w(defsim::WorldDef().backend("symplectic_euler"));
+    const defsim::Mesh m = coupling_beam();
+    const defsim::Body b = w.add_body(defsim::BodyDef(m).material(coupling_material(1.0)));
+    std::vector<int32_t> clamp;
+    std::vector<double> rest;
+    for (int32_t i = 0; i < m.vertex_count(); ++i)
+        if (m.positions()[3 * static_cast<std::size_t>(i)] == 0.0) {
+            clamp.push_back(i);
+            for (int c = 0; c < 3; ++c) rest.push_back(m.positions()[3 * static_cast<std::size_t>(i) + c]);
+        }
+    double err = 0.0;
+    for (int k = 1; k <= 10; ++k) {
+        const double ang = 2 * 3.14159265358979323846 * k / 40;
+        std::vector<double> target = rest;
+        for (std::size_t j = 0; j < clamp.size(); ++j) {
+            target[3 * j + 1] += 0.05 * std::sin(ang);
+            target[3 * j + 2] += 0.05 * (1 - std::cos(ang));
+        }
+        w.set_pin_targets(b, clamp, target);
+        w.step(5e-4);
+        const std::vector<double> x = w.positions();
+        for (std::size_t j = 0; j < clamp.size(); ++j)
+            for (int c = 0; c < 3; ++c)
+                err = std::max(err, std::fabs(x[3 * static_cast<std::size_t>(clamp[j]) + c] - target[3 * j + c]));
+    }
+    CHECK(err < 1e-12);
+}
+
+// A clamped cantilever settled with damping: its pin forces sum to minus its weight (1e-6
+// relative), and an attachment's force is -k (x - p).
+static void test_pin_and_attachment_forces()
+{
+    const double g = -9.81;
+    defsim::World w(defsim::WorldDef().backend("symplectic_euler").gravity(0, g, 0));
+    const defsim::Mesh m = coupling_beam();
+    // Near critical damping of the first bending mode (omega_1 = 1.875^2 sqrt(EI / (rho A L^4))
+    // = 4.0 rad/s): its amplitude falls by e^-24 over the 6 s.
+    const defsim::Body b = w.add_body(defsim::BodyDef(m).material(coupling_material(8.0)));
+    std::vector<int32_t> clamp;
+    for (int32_t i = 0; i < m.vertex_count(); ++i)
+        if (m.positions()[3 * static_cast<std::size_t>(i)] == 0.0) clamp.push_back(i);
+    w.pin(b, clamp);
+    for (int s = 0; s < 12000; ++s) w.step(5e-4);
+    const std::vector<double> R = w.pin_forces(), mass = w.masses();
+    double sum[3] = {0, 0, 0}, M = 0.0;
+    for (std::size_t i = 0; i < mass.size(); ++i) {
+        M += mass[i];
+        for (int c = 0; c < 3; ++c) sum[c] += R[3 * i + c];
+    }
+    const double weight = M * g;
+    CHECK(std::fabs(sum[1] + weight) < 1e-6 * std::fabs(weight));
+    CHECK(std::fabs(sum[0]) < 1e-6 * std::fabs(weight) && std::fabs(sum[2]) < 1e-6 * std::fabs(weight));
+
+    const std::array<double, 3> p = {0.7, 0.0, 0.05};
+    const defsim::Attachment a = w.add_attachment(
+        defsim::AttachmentDef().vertex(b, 1).stiffness(200.0).target(p));
+    const std::vector<double> x = w.positions();
+    const std::array<double, 3> f = w.attachment_force(a);
+    for (int c = 0; c < 3; ++c) CHECK(std::fabs(f[static_cast<std::size_t>(c)] + 200.0 * (x[3 + static_cast<std::size_t>(c)] - p[static_cast<std::size_t>(c)])) < 1e-9);
+    w.remove_attachment(a);
+    CHECK(throws_status(DEFSIM_ERR_STALE_ID, [&] { w.attachment_force(a); }));
+}
+
+// The stress of a uniformly deformed tet is P F^T / J of its material, zero at rest.
+static void test_element_stress()
+{
+    const defsim::Model models[] = {defsim::Model::stvk, defsim::Model::corotated,
+                                    defsim::Model::neohookean, defsim::Model::stable_neohookean};
+    for (defsim::Model model : models) {
+        defsim::World w(defsim::WorldDef().gravity(0, 0, 0));
+        const std::vector<double> X = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+        const std::vector<int32_t> tet = {0, 1, 2, 3};
+        const defsim::Material mat = defsim::Material(model).youngs_modulus(1e5).poisson_ratio(0.3);
+        const defsim::Body b = w.add_body(defsim::BodyDef().rest_positions(X).tets(tet).material(mat));
+        const defsim::ElementStress rest = w.element_stress(b, 1);
+        CHECK(std::all_of(rest.cauchy.begin(), rest.cauchy.end(), [](double s) { return s == 0.0; }));
+        const std::array<double, 9> F = {1.2, 0.1, 0.0, 0.05, 0.9, 0.02, 0.0, -0.03, 1.1};
+        std::vector<double> x(12);
+        for (int v = 0; v < 4; ++v)
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c) x[3 * v + r] += F[3 * r + c] * X[3 * v + c];
+        w.set_positions(x);
+        const defsim::ElementStress s = w.element_stress(b, 1);
+        const defsim::MaterialEval e = defsim::material_eval(mat, F);
+        const double J = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
+                         F[2] * (F[3] * F[7] - F[4] * F[6]);
+        double scale = 0.0, err = 0.0;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) {
+                double sigma = 0.0;   // (P F^T)_rc / J
+                for (int k = 0; k < 3; ++k) sigma += e.P[3 * r + k] * F[3 * c + k];
+                sigma /= J;
+                scale = std::max(scale, std::fabs(sigma));
+                err = std::max(err, std::fabs(s.cauchy[static_cast<std::size_t>(3 * r + c)] - sigma));
+            }
+        CHECK(scale > 1e3 && err < 1e-10 * scale);
+        CHECK(s.von_mises[0] > 0.0 && s.energy_density[0] > 0.0);
+        CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.element_stress(b, 2); }));
+    }
+}
+
 int main()
 {
     test_version();
@@ -377,6 +559,11 @@ int main()
     test_energy_forces();
     test_bodies();
     test_options_and_stats();
+    test_external_forces();
+    test_callback_exception();
+    test_driven_pins();
+    test_pin_and_attachment_forces();
+    test_element_stress();
     if (failures) std::fprintf(stderr, "%d check(s) failed\n", failures);
     return failures ? 1 : 0;
 }

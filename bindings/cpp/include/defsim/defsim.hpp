@@ -24,6 +24,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <exception>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -299,23 +300,35 @@ private:
     defsim_mesh m_;
 };
 
-/// A body handle (defsim_body_id): a small value, not a pointer. The default is the null id.
-class Body {
+namespace detail {
+
+/// What Body and Attachment share: a small value around a C id {index, generation}, not a
+/// pointer. The default is the null id.
+template <class Id, class Self>
+class Handle {
 public:
-    constexpr Body() noexcept = default;
-    constexpr explicit Body(defsim_body_id id) noexcept : id_(id) {}
-    constexpr defsim_body_id id() const noexcept { return id_; }
+    constexpr Handle() noexcept = default;
+    constexpr explicit Handle(Id id) noexcept : id_(id) {}
+    constexpr Id id() const noexcept { return id_; }
     constexpr uint32_t index() const noexcept { return id_.index; }
     constexpr uint32_t generation() const noexcept { return id_.generation; }
     constexpr bool is_null() const noexcept { return id_.index == 0 && id_.generation == 0; }
-    friend constexpr bool operator==(Body a, Body b) noexcept
+    friend constexpr bool operator==(Self a, Self b) noexcept
     {
         return a.id_.index == b.id_.index && a.id_.generation == b.id_.generation;
     }
-    friend constexpr bool operator!=(Body a, Body b) noexcept { return !(a == b); }
+    friend constexpr bool operator!=(Self a, Self b) noexcept { return !(a == b); }
 
 private:
-    defsim_body_id id_{0, 0};
+    Id id_{0, 0};
+};
+
+}  // namespace detail
+
+/// A body handle (defsim_body_id): a small value, not a pointer. The default is the null id.
+class Body : public detail::Handle<defsim_body_id, Body> {
+public:
+    using Handle::Handle;
 };
 
 /// Creation parameters of a body (defsim_body_def). The arrays are NOT copied here: they must
@@ -484,6 +497,71 @@ private:
 
 /// An owning world handle (defsim_world). Move-only; a moved-from World is empty, and calls on
 /// it throw DEFSIM_ERR_INVALID_ARGUMENT.
+/// An attachment handle (defsim_attachment_id): a small value like Body. The default is null.
+class Attachment : public detail::Handle<defsim_attachment_id, Attachment> {
+public:
+    using Handle::Handle;
+};
+
+/// Creation parameters of an attachment (defsim_attachment_def), from the library's defaults.
+/// Setters return *this.
+class AttachmentDef {
+public:
+    AttachmentDef() noexcept { defsim_attachment_def_init(&d_, sizeof d_); }
+    /// The attached vertex: body-local index `vertex` of `body`.
+    AttachmentDef &vertex(Body body, int32_t vertex) noexcept
+    {
+        d_.body = body.id();
+        d_.vertex = vertex;
+        return *this;
+    }
+    AttachmentDef &stiffness(double k) noexcept { d_.stiffness = k; return *this; }   ///< N/m
+    AttachmentDef &damping(double c) noexcept { d_.damping = c; return *this; }       ///< N s/m
+    /// A world point (m) as the target.
+    AttachmentDef &target(const std::array<double, 3> &p) noexcept
+    {
+        d_.target_body = defsim_body_id{0, 0};
+        d_.target_vertex_count = 0;
+        for (int i = 0; i < 3; ++i) d_.target[i] = p[i];
+        return *this;
+    }
+    /// The point sum_j weights[j] x[vertices[j]] of `body` (1 to 4 body-local vertices, weights
+    /// summing to 1) as the target. Throws DEFSIM_ERR_INVALID_ARGUMENT for other sizes.
+    AttachmentDef &target(Body body, Span<const int32_t> vertices, Span<const double> weights)
+    {
+        if (vertices.size() < 1 || vertices.size() > 4 || weights.size() != vertices.size())
+            detail::invalid("attachment target: 1 to 4 vertices with one weight each");
+        d_.target_body = body.id();
+        d_.target_vertex_count = static_cast<int32_t>(vertices.size());
+        for (std::size_t j = 0; j < vertices.size(); ++j) {
+            d_.target_vertices[j] = vertices.data()[j];
+            d_.target_weights[j] = weights.data()[j];
+        }
+        return *this;
+    }
+    const defsim_attachment_def &c_struct() const noexcept { return d_; }
+
+private:
+    defsim_attachment_def d_;
+};
+
+/// Per-tet stress of a body (World::element_stress), in the order of its tets.
+struct ElementStress {
+    std::vector<double> cauchy;          ///< 9 per tet, row-major, Pa
+    std::vector<double> von_mises;       ///< 1 per tet, Pa
+    std::vector<double> energy_density;  ///< 1 per tet, J/m^3 relative to rest
+};
+
+/// A force callback: adds forces (N) into f (3 n doubles, already holding the world's other
+/// forces) at positions x (m), velocities v (m/s), time t (s). It may throw: the exception is
+/// caught at the C boundary, the step fails with the state unchanged, and World::step rethrows
+/// it (see World::set_force_callback).
+using ForceFunction =
+    std::function<void(const double *x, const double *v, double t, int32_t n, double *f)>;
+/// Its optional Jacobian (the same signature): writes into its last argument 9 n doubles, the
+/// row-major blocks dF_i/dx_i (N/m).
+using ForceJacobianFunction = ForceFunction;
+
 class World {
 public:
     /// Creates a world (defsim_world_create). Throws Error: DEFSIM_ERR_BACKEND_UNAVAILABLE,
@@ -504,13 +582,18 @@ public:
     ~World() { defsim_world_destroy(w_); }
     World(const World &) = delete;
     World &operator=(const World &) = delete;
-    World(World &&other) noexcept : w_(other.w_), log_(std::move(other.log_)) { other.w_ = nullptr; }
+    World(World &&other) noexcept
+        : w_(other.w_), log_(std::move(other.log_)), force_(std::move(other.force_))
+    {
+        other.w_ = nullptr;
+    }
     World &operator=(World &&other) noexcept
     {
         if (this != &other) {
             defsim_world_destroy(w_);
             w_ = other.w_;
             log_ = std::move(other.log_);
+            force_ = std::move(other.force_);
             other.w_ = nullptr;
         }
         return *this;
@@ -525,6 +608,7 @@ public:
         defsim_world *w = w_;
         w_ = nullptr;
         (void)log_.release();
+        (void)force_.release();
         return w;
     }
     explicit operator bool() const noexcept { return w_ != nullptr; }
@@ -574,11 +658,110 @@ public:
     double time() const noexcept { return defsim_world_time(w_); }
 
     /// Advances by h seconds. Throws Error (DEFSIM_ERR_UNSTABLE, DEFSIM_ERR_NOT_CONVERGED,
-    /// DEFSIM_ERR_INVALID_ARGUMENT); the state is then exactly as before the call.
+    /// DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_CALLBACK); the state is then exactly as before
+    /// the call. When the force callback threw, its exception is rethrown instead.
     void step(double h) { check(defsim_world_step(w_, h)); }
     /// Advances by h seconds without throwing: returns the status (the state is unchanged on
-    /// error; last_error() says why).
-    defsim_status try_step(double h) noexcept { return defsim_world_step(w_, h); }
+    /// error; last_error() says why). An exception of the force callback is dropped.
+    defsim_status try_step(double h) noexcept
+    {
+        const defsim_status st = defsim_world_step(w_, h);
+        if (force_) force_->error = nullptr;
+        return st;
+    }
+
+    // -- coupling with the host ------------------------------------------------------------
+
+    /// Holds one external force per vertex (N, 3 * vertex_count() doubles, copied) in every
+    /// step until changed; an empty span clears them. Throws DEFSIM_ERR_INVALID_ARGUMENT (size,
+    /// non-finite value: the forces held before stay).
+    void set_external_forces(Span<const double> f)
+    {
+        if (f.empty()) {
+            check(defsim_world_set_external_forces(w_, nullptr, 0));
+            return;
+        }
+        check_size(f.size(), 3, "forces");
+        check(defsim_world_set_external_forces(w_, f.data(), vertex_count()));
+    }
+    /// Sets the force callback, with an optional Jacobian for implicit backends (without one
+    /// they hold the force of the step's start over the step); an empty fn clears both. The
+    /// functions live in this World. An exception thrown by either never crosses the C ABI: it
+    /// is caught, the C callback reports failure, the step fails with the state unchanged, and
+    /// step() (or pin_forces()) rethrows the exception.
+    void set_force_callback(ForceFunction fn, ForceJacobianFunction jacobian = {})
+    {
+        if (!fn) {
+            if (jacobian) detail::invalid("a Jacobian needs a force callback");
+            check(defsim_world_set_force_callback(w_, nullptr, nullptr, nullptr));
+            force_.reset();
+            return;
+        }
+        auto state = std::make_unique<ForceState>();
+        state->fn = std::move(fn);
+        state->jacobian = std::move(jacobian);
+        check(defsim_world_set_force_callback(
+            w_, &World::force_trampoline<&ForceState::fn>,
+            state->jacobian ? &World::force_trampoline<&ForceState::jacobian> : nullptr,
+            state.get()));
+        force_ = std::move(state);
+    }
+    /// Drives body-local vertices (pinned by this call if they were not) to positions (3 per
+    /// vertex, m), reached at the end of the next step. Throws DEFSIM_ERR_INVALID_ARGUMENT,
+    /// DEFSIM_ERR_STALE_ID; nothing changes on error.
+    void set_pin_targets(Body body, Span<const int32_t> vertices, Span<const double> positions)
+    {
+        if (positions.size() != 3 * vertices.size())
+            detail::invalid("set_pin_targets: needs 3 positions per vertex");
+        check(defsim_body_set_pin_targets(w_, body.id(), vertices.data(),
+                                          detail::count(vertices.size(), "vertices"),
+                                          positions.data()));
+    }
+    /// Adds an attachment. Throws DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_STALE_ID.
+    Attachment add_attachment(const AttachmentDef &def)
+    {
+        defsim_attachment_id id{0, 0};
+        check(defsim_world_add_attachment(w_, &def.c_struct(), &id));
+        return Attachment(id);
+    }
+    /// Removes an attachment. Throws DEFSIM_ERR_STALE_ID.
+    void remove_attachment(Attachment a) { check(defsim_world_remove_attachment(w_, a.id())); }
+    /// Moves an attachment's target to the world point p (m). Throws DEFSIM_ERR_STALE_ID,
+    /// DEFSIM_ERR_INVALID_ARGUMENT.
+    void set_attachment_target(Attachment a, const std::array<double, 3> &p)
+    {
+        check(defsim_attachment_set_target(w_, a.id(), p.data()));
+    }
+    /// The force (N) the attachment applies to its vertex now. Throws DEFSIM_ERR_STALE_ID.
+    std::array<double, 3> attachment_force(Attachment a) const
+    {
+        std::array<double, 3> f{};
+        check(defsim_world_get_attachment_force(w_, a.id(), f.data()));
+        return f;
+    }
+    /// Reaction forces of the pins (N) into out (3 * vertex_count()); zero for free vertices.
+    void pin_forces(Span<double> out)
+    {
+        check_size(out.size(), 3, "pin forces");
+        check(defsim_world_get_pin_forces(w_, out.data(), vertex_count()));
+    }
+    std::vector<double> pin_forces()
+    {
+        std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
+        pin_forces(Span<double>(f));
+        return f;
+    }
+    /// Per-tet Cauchy stress (9 per tet), von Mises stress and energy density of a body with
+    /// tet_count tets (as added). Throws DEFSIM_ERR_INVALID_ARGUMENT (count), DEFSIM_ERR_STALE_ID.
+    ElementStress element_stress(Body body, int32_t tet_count) const
+    {
+        if (tet_count < 0) detail::invalid("element_stress: tet_count < 0");
+        const auto m = static_cast<std::size_t>(tet_count);
+        ElementStress r{std::vector<double>(9 * m), std::vector<double>(m), std::vector<double>(m)};
+        check(defsim_body_element_stress(w_, body.id(), r.cauchy.data(), r.von_mises.data(),
+                                         r.energy_density.data(), tet_count));
+        return r;
+    }
 
     /// Copies positions (m) into out: 3 * vertex_count() doubles.
     void get_positions(Span<double> out) const
@@ -688,10 +871,36 @@ public:
     std::string last_error() const { return defsim_world_last_error(w_); }
 
 private:
+    /// The force callback and the exception it threw during the current call, if any.
+    struct ForceState {
+        ForceFunction fn;
+        ForceJacobianFunction jacobian;
+        std::exception_ptr error;
+    };
+
     void check(defsim_status st) const
     {
         if (st < 0 && !w_) throw Error(st, "the World is empty (moved from or released)");
+        if (st == DEFSIM_ERR_CALLBACK && force_ && force_->error) {
+            std::exception_ptr e = force_->error;
+            force_->error = nullptr;
+            std::rethrow_exception(e);
+        }
         detail::check(st, w_);
+    }
+    /// The C callback of the force function (Member = &ForceState::fn) or of its Jacobian.
+    template <ForceFunction ForceState::*Member>
+    static int force_trampoline(void *user, const double *x, const double *v, double t,
+                                int32_t n, double *out) noexcept
+    {
+        auto *s = static_cast<ForceState *>(user);
+        try {
+            (s->*Member)(x, v, t, n, out);
+            return 0;
+        } catch (...) {
+            if (!s->error) s->error = std::current_exception();
+            return 1;
+        }
     }
     void check_size(std::size_t got, std::size_t per_vertex, const char *what) const
     {
@@ -718,6 +927,7 @@ private:
 
     defsim_world *w_ = nullptr;
     std::unique_ptr<LogFunction> log_;
+    std::unique_ptr<ForceState> force_;
 };
 
 }  // namespace defsim

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Tuple
 
+from ._coupling import Attachment, ElementStress, StepError
 from ._errors import (BackendUnavailableError, CallbackError, ConflictError, Error, FileError,
                       InvalidArgumentError, InvalidMaterialError, InvalidMeshError, LockedError,
                       NotConvergedError, OutOfMemoryError, StaleIdError, Status, UnstableError,
@@ -55,7 +56,7 @@ def header_version() -> Tuple[int, int, int]:
 
 
 __all__ = [
-    "World", "Body", "Energy", "Stats", "Pass", "Projection", "LogCallback",
+    "World", "Body", "Attachment", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
     "Material", "Model", "MaterialEval", "material_eval",
     "Mesh", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",

@@ -9,6 +9,8 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Opt
 import numpy as np
 
 from . import _arrays
+from ._coupling import BodyCoupling, WorldCoupling
+from ._handle import Handle
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
                       error_from_status)
 from ._material import Material
@@ -104,7 +106,7 @@ def _projection(value: Union[str, int, Projection]) -> int:
         raise InvalidArgumentError(f"unknown projection {value!r}") from None
 
 
-class Body:
+class Body(Handle, BodyCoupling):
     """A body of a World: a small handle (index and generation), not the data.
 
     Obtained from ``World.add_body``; it keeps its world alive. After ``remove()`` (or
@@ -112,27 +114,8 @@ class Body:
     compare equal when they name the same body of the same world.
     """
 
-    __slots__ = ("_world", "_index", "_generation", "__weakref__")
-
-    def __init__(self, world: "World", index: int, generation: int) -> None:
-        self._world = world
-        self._index = index
-        self._generation = generation
-
-    @property
-    def world(self) -> "World":
-        return self._world
-
-    @property
-    def id(self) -> Tuple[int, int]:
-        """The C id as (index, generation)."""
-        return (self._index, self._generation)
-
-    def _cid(self) -> Any:
-        c = ffi.new("defsim_body_id *")
-        c.index = self._index
-        c.generation = self._generation
-        return c[0]
+    __slots__ = ()
+    _ctype = "defsim_body_id *"
 
     @property
     def alive(self) -> bool:
@@ -188,19 +171,8 @@ class Body:
     def _stale(self, status: int) -> Error:
         return error_from_status(status, f"body {self.id} is removed or its world is closed")
 
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Body):
-            return NotImplemented
-        return self._world is other._world and self.id == other.id
 
-    def __hash__(self) -> int:
-        return hash((id(self._world), self._index, self._generation))
-
-    def __repr__(self) -> str:
-        return f"<defsim.Body index={self._index} generation={self._generation}>"
-
-
-class World:
+class World(WorldCoupling):
     """A simulation world (``defsim_world``): bodies, their state, and a backend that steps it.
 
     Args:
@@ -250,6 +222,7 @@ class World:
                  options: Optional[Mapping[str, Any]] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
+        self._tets: dict = {}   # tet count of each body, by id (element_stress)
         self._log_cb: Any = None
         d = ffi.new("defsim_world_def *")
         lib.defsim_world_def_init(d, ffi.sizeof("defsim_world_def"))
@@ -339,6 +312,7 @@ class World:
     def _check(self, status: int) -> None:
         if status < 0:
             msg = ffi.string(lib.defsim_world_last_error(self._ptr)).decode("utf-8", "replace")
+            self._callback_failed(status, msg)   # a Python callback raised: StepError from it
             raise error_from_status(status, msg)
 
     def _own(self, body: Body) -> Any:
@@ -449,7 +423,11 @@ class World:
         del keep
         body = Body(self, int(out.index), int(out.generation))
         self._bodies.append(body)
+        self._tets[body.id] = int(t.shape[0])
         return body
+
+    def _tet_count(self, body: Body) -> int:
+        return self._tets.get(body.id, 0)
 
     def remove_body(self, body: Body) -> None:
         """Removes a body; the vertices of later bodies move down and its handle goes stale.

@@ -12,6 +12,10 @@
  *
  * Linked into each implicit module: it includes only defsim/backend.h, links CHOLMOD, and never
  * libdefsim. README.md beside this file documents the method and the schemes.
+ *
+ * Contents: constants; BLAS and CHOLMOD threads; the per-world solver; options; orderings and
+ * symbolic analysis; the incremental potential, its gradient and Hessian; factorise and solve
+ * (with diagonal shifts); one step: driven pins, the Newton loop with its line search, roll-back.
  */
 #include "implicit_core.h"
 

@@ -22,6 +22,10 @@
  * M^-1 K(x), refreshed every STAB_REFRESH internal steps) and hands ERKStep the largest h whose
  * h lambda stays in the region (ERKStepSetStabilityFn), so that on stiff scenes the step sits
  * just under the stability limit instead of being found by rejected steps.
+ *
+ * Contents: constants and tables offered; options and counters; stability function and stable
+ * step of a table; ERKStep callbacks (right-hand side, error weights, stability limit); set-up,
+ * stepping and the backend table.
  */
 #include "defsim/backend.h"
 

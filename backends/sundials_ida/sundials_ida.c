@@ -22,6 +22,10 @@
  * and the local velocity error to K (rtol |v| + atol), which moves the positions by about
  * h_i times that over the next step; K = IDA_TOL_CALIBRATION. The position error after T seconds
  * is then near T times the tolerance and falls in proportion to it (README "Tolerances").
+ *
+ * Contents: constants, options and counters; the reduced Newton solver (CHOLMOD behind a
+ * SUNLinearSolver); statistics; error weights; restart with consistent derivatives; the full
+ * 2n x 2n Newton matrix and KLU; residual and Jacobian callbacks; set-up, stepping and the table.
  */
 #include "defsim/backend.h"
 

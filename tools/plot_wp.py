@@ -19,7 +19,7 @@ import sys
 COLORS = {"explicit_euler": "#c62828", "symplectic_euler": "#2e7d32",
           "velocity_verlet": "#00897b", "newton_cholmod": "#1565c0", "newmark": "#5e35b1",
           "bdf2": "#3949ab", "sundials_kinsol": "#6a1b9a", "sundials_ida": "#ef6c00",
-          "sundials_erk": "#00838f"}
+          "sundials_erk": "#c62828"}
 MARKERS = {"explicit_euler": "x", "symplectic_euler": "o", "velocity_verlet": "P",
            "newton_cholmod": "s", "newmark": "v", "bdf2": "<", "sundials_kinsol": "D",
            "sundials_ida": "^", "sundials_erk": "X"}

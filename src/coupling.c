@@ -547,7 +547,7 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
                                          double *energy_density, int32_t tet_count)
 {
     if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    const defsim__body *b = defsim__world_body((defsim_world *)w, id);
+    const defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (tet_count != b->nt) {
         defsim__error(w->msg, "element_stress: tet_count = %d but the body has %d tets",

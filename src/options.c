@@ -7,7 +7,7 @@
  *   2. checking a backend's declared options and counters (registry)
  *   3. values: parsing text, validating numbers, describing what is valid
  *   4. a world's options: init (with the deprecated world-def fields), free, what the core reads
- *   5. the public API: set, get, iterate, stats by name
+ *   5. by name: set, get, iterate, stats (world.c wraps these as the public calls)
  */
 #include "options.h"
 
@@ -410,11 +410,11 @@ double *defsim__options_counters(defsim__options *o)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* 5. Public API */
+/* 5. By name (the public calls in world.c) */
 
 typedef struct option_ref {
     const defsim_option_spec *spec;
-    double *value;
+    int index;        /* into the core's values, or the backend's */
     const char *full;
     int backend;      /* 1: an option of the backend (changing it re-initialises it) */
 } option_ref;
@@ -437,7 +437,7 @@ static int resolve(const defsim__options *o, defsim__messages *msg, const char *
     if (plen == 4 && strncmp(name, "core", 4) == 0) {
         for (int c = 0; c < DEFSIM__CORE_OPTIONS; ++c) {
             if (strcmp(CORE_SPECS[c].name, dot + 1) == 0) {
-                *r = (option_ref){&CORE_SPECS[c], (double *)&o->core[c], CORE_NAMES[c], 0};
+                *r = (option_ref){&CORE_SPECS[c], c, CORE_NAMES[c], 0};
                 return 1;
             }
             used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", c ? ", " : "",
@@ -453,7 +453,7 @@ static int resolve(const defsim__options *o, defsim__messages *msg, const char *
     }
     int k = find_backend_option(b, dot + 1);
     if (k >= 0) {
-        *r = (option_ref){&b->options[k], &o->values[k], o->names[DEFSIM__CORE_OPTIONS + k], 1};
+        *r = (option_ref){&b->options[k], k, o->names[DEFSIM__CORE_OPTIONS + k], 1};
         return 1;
     }
     for (int32_t i = 0; i < b->option_count && used < sizeof list; ++i)
@@ -467,7 +467,8 @@ static int resolve(const defsim__options *o, defsim__messages *msg, const char *
 static defsim_status assign(defsim__options *o, defsim__messages *msg, const option_ref *r,
                             double v)
 {
-    if (*r->value == v) return DEFSIM_OK;
+    double *value = r->backend ? &o->values[r->index] : &o->core[r->index];
+    if (*value == v) return DEFSIM_OK;
     if (r->spec == &CORE_SPECS[DEFSIM__OPT_SIMD] && v > SIMD_SCALAR) {
         const char *p = SIMD_CHOICES;
         for (int i = 0; i < (int)v; ++i) p = strchr(p, '|') + 1;
@@ -479,7 +480,7 @@ static defsim_status assign(defsim__options *o, defsim__messages *msg, const opt
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
     }
-    *r->value = v;
+    *value = v;
     if (r->backend) o->reinit = 1;
     return DEFSIM_OK;
 }
@@ -522,7 +523,7 @@ defsim_status defsim__options_get(const defsim__options *o, defsim__messages *ms
     if (!value) return DEFSIM_ERR_INVALID_ARGUMENT;
     option_ref r;
     if (!resolve(o, msg, name, &r)) return DEFSIM_ERR_INVALID_ARGUMENT;
-    *value = *r.value;
+    *value = r.backend ? o->values[r.index] : o->core[r.index];
     return DEFSIM_OK;
 }
 

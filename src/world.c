@@ -518,7 +518,7 @@ static defsim__body *lookup(const defsim_world *w, defsim_body_id id)
     return b;
 }
 
-defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id)
+defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id)
 {
     defsim__body *b = lookup(w, id);
     if (!b)

@@ -66,7 +66,7 @@ defsim_status defsim__world_plan(defsim_world *w);
 void defsim__world_unplan(defsim_world *w);
 
 /* Looks up a live body (NULL if stale) and sets the world's error if it is not. */
-defsim__body *defsim__world_body(defsim_world *w, defsim_body_id id);
+defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id);
 
 /* Discards the plan and the backend's set-up (after a change of bodies, pins, attachments). */
 void defsim__world_invalidate(defsim_world *w);

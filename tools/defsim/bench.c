@@ -107,7 +107,7 @@ static int usage(FILE *f)
         "                      atol = tol x body size\n"
         "                      (default 1e-3 to 1e-8 in half decades: 1e-3, 3.16e-4, ...)\n"
         "  --time T            end time, s (default: min(0.5, the scene's duration))\n"
-        "  --repeats R         timed repeats per point, median reported (default 3)\n"
+        "  --repeats R         timed repeats per point, median reported (default 5)\n"
         "  --threads N         assembly threads (default 1, for timings that compare the\n"
         "                      methods; 0: OpenMP's default)\n"
         "  --set KEY=VALUE     override a scene value, as in defsim run; repeatable\n"
@@ -633,7 +633,7 @@ int defsim_tool_bench(int argc, char **argv)
     const char *python = getenv("DEFSIM_PYTHON"), *script = DEFSIM_BENCH_PLOT_SCRIPT;
     const char *backend_list = NULL;
     double hs[MAX_VALUES], tols[MAX_VALUES], T = 0.0;
-    int nh = 0, ntol = 0, repeats = 3, threads = 1, no_plot = 0;
+    int nh = 0, ntol = 0, repeats = 5, threads = 1, no_plot = 0;
     bench b;
     memset(&b, 0, sizeof b);
     if (!python || !python[0]) python = "python3";

@@ -57,7 +57,8 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
                                "has a name outside [a-z0-9_]{1,63}, or lacks init/step/fini");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    /* ABI version 1 tables end before `options`: those fields read as NULL / 0. */
+    /* Older tables are shorter (version 1 ends before `options`, 2 and 3 before
+     * `stable_step_options`): the fields they lack read as NULL / 0. */
     defsim_backend full;
     memset(&full, 0, sizeof full);
     memcpy(&full, b, b->struct_size < sizeof full ? b->struct_size : sizeof full);

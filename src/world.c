@@ -761,7 +761,10 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
         return st;
     }
     const double c = defsim__damping_coeff(&w->sys, om);
-    *h = w->backend->stable_step ? w->backend->stable_step(om, c) : INFINITY;
+    const defsim_backend *b = w->backend;
+    *h = b->stable_step_options ? b->stable_step_options(defsim__options_values(&w->options), om, c)
+         : b->stable_step       ? b->stable_step(om, c)
+                                : INFINITY;
     if (omega) *omega = om;
     w->stats.stable_step = *h;
     return DEFSIM_OK;
@@ -798,7 +801,10 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->stats.steps++;
         return DEFSIM_OK;
     }
-    if (defsim__options_take_reinit(&w->options)) backend_fini(w);   /* an option changed */
+    if (defsim__options_take_reinit(&w->options)) {   /* an option changed */
+        backend_fini(w);
+        w->h_stable = 0.0;   /* the stability limit may depend on it */
+    }
     if (!w->backend_ready) {
         st = w->backend->init(&defsim__host, &w->handle, w->bstate);
         if (st != DEFSIM_OK) {
@@ -815,7 +821,8 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     memcpy(w->v_save, w->state.v, bytes);
     w->step_passes = 0;
     w->msg->error[0] = '\0';
-    const int substep = defsim__options_auto_substep(&w->options) && w->backend->stable_step;
+    const int substep = defsim__options_auto_substep(&w->options) &&
+                        (w->backend->stable_step || w->backend->stable_step_options);
     st = defsim__coupling_step_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;

@@ -180,16 +180,27 @@ static double table_stable_step(const ARKodeButcherTable B, double omega, double
     return fmin(ray_limit(B, l1), ray_limit(B, l2));
 }
 
-/* The backend table's stable_step op has no access to a world's options, so it reports the
- * default table (Dormand-Prince 5(4)); worlds with another table limit their internal steps by
- * that table's region all the same (erk_stability). */
-static double erk_stable_step(double omega, double c)
+/* Index into tables[] of the option values o (the default table for NULL). */
+static int table_index(const double *o)
 {
-    ARKodeButcherTable B = ARKodeButcherTable_LoadERK(tables[0].id);
+    const int t = o ? (int)o[O_TABLE] : 0;
+    return t >= 0 && t < TABLE_COUNT ? t : 0;
+}
+
+/* Stable step of the option's table: what defsim_world_stable_step and auto_substep use. */
+static double erk_stable_step_options(const double *option_values, double omega, double c)
+{
+    ARKodeButcherTable B = ARKodeButcherTable_LoadERK(tables[table_index(option_values)].id);
     if (!B) return 0.0;
     const double h = table_stable_step(B, omega, c);
     ARKodeButcherTable_Free(B);
     return h;
+}
+
+/* For cores that predate stable_step_options: the default table (Dormand-Prince 5(4)). */
+static double erk_stable_step(double omega, double c)
+{
+    return erk_stable_step_options(NULL, omega, c);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -371,8 +382,7 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     defsim__sun_options(host, sys, erk_options, O_COUNT, o);
     s->rtol = o[O_RTOL];
     s->atol = o[O_ATOL];
-    s->table = (int)o[O_TABLE];
-    if (s->table < 0 || s->table >= TABLE_COUNT) s->table = 0;
+    s->table = table_index(o);
     const size_t n = (size_t)s->n, nd = (size_t)s->ndof;
     s->minv = defsim__sun_calloc(host, n, sizeof *s->minv);
     s->x = defsim__sun_calloc(host, nd, sizeof *s->x);
@@ -450,6 +460,7 @@ static const defsim_backend erk_backend = {
     .option_count = O_COUNT,
     .counters = erk_counters,
     .counter_count = C_COUNT,
+    .stable_step_options = erk_stable_step_options,
 };
 
 __attribute__((visibility("default"))) defsim_status defsim_module_init(

@@ -26,9 +26,10 @@ extern "C" {
 /// Version 2 appended options and counters (defsim_backend.options ... counter_count,
 /// defsim_host.option_values and counters, and defsim_host.omega_max); version 3 the host's
 /// coupling services (defsim_host.forces_at, pin_positions, pin_velocities,
-/// applied_forces_vary). The core accepts backends built against 1 to 3; a backend checks
+/// applied_forces_vary); version 4 defsim_backend.stable_step_options. The core accepts backends
+/// built against 1 to 4 (a table's struct_size says which fields it has); a backend checks
 /// host->size before using a later field.
-#define DEFSIM_BACKEND_ABI_VERSION 3u
+#define DEFSIM_BACKEND_ABI_VERSION 4u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -266,6 +267,17 @@ typedef struct defsim_backend {
     /// Counters (may be NULL when counter_count is 0). Static storage.
     const defsim_counter_spec *counters;
     int32_t counter_count;
+
+    /* ABI version 4: tables built against 1 to 3 (smaller struct_size) have none of these. */
+
+    /// Optional (NULL: the core uses stable_step): stable_step for a backend whose stability
+    /// region depends on its options. option_values holds the world's current values of the
+    /// backend's options, in the order of its `options` table (what defsim_host.option_values
+    /// gives; NULL when option_count is 0); the op reads them only during the call. omega, c and
+    /// the return value are as for stable_step. When present, the core calls it instead of
+    /// stable_step for defsim_world_stable_step and auto_substep; keep stable_step (for the
+    /// defaults) as well, so that a backend without this op still has a limit.
+    double (*stable_step_options)(const double *option_values, double omega, double c);
 } defsim_backend;
 
 /// Registers a backend for all worlds created after the call. The table (and its options and

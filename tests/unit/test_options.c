@@ -455,6 +455,13 @@ static defsim_status nop_step(const defsim_host *h, defsim_system *s, void *st, 
     return DEFSIM_OK;
 }
 static void nop_fini(const defsim_host *h, defsim_system *s, void *st) { (void)h, (void)s, (void)st; }
+static double half_period(double omega, double c) { (void)c; return 3.14159 / omega; }
+/* Version 4: the limit scales with the option rtol, which the op reads from the values given. */
+static double rtol_period(const double *values, double omega, double c)
+{
+    (void)c;
+    return values[OPT_RTOL] * 1e4 * 6.28318 / omega;
+}
 
 static void test_registry_tables(void **state)
 {
@@ -479,6 +486,39 @@ static void test_registry_tables(void **state)
     assert_int_equal(defsim_world_stat_count(w), 24);
     TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
+
+    /* Versions 2 and 3: options and counters, no stable_step_options (garbage here); the core
+     * reports stable_step. Version 4: stable_step_options, given the world's option values,
+     * wins over stable_step, and auto_substep follows it after an option changes. */
+    static defsim_backend v3, v4;
+    memset(&v3, 0xA5, sizeof v3);
+    memcpy(&v3, &OT_BACKEND, offsetof(defsim_backend, stable_step_options));
+    v3.abi_version = 3;
+    v3.struct_size = (uint32_t)offsetof(defsim_backend, stable_step_options);
+    v3.name = "opt_v3";
+    v3.stable_step = half_period;
+    v4 = OT_BACKEND;
+    v4.name = "opt_v4";
+    v4.stable_step = half_period;
+    v4.stable_step_options = rtol_period;
+    for (int k = 0; k < 2; ++k) {
+        st = defsim_register_backend(k ? &v4 : &v3);
+        assert_true(st == DEFSIM_OK || st == DEFSIM_ERR_CONFLICT);
+        w = beam_world(k ? "opt_v4" : "opt_v3");
+        TU_OK(defsim_world_set_option(w, "core.auto_substep", "true"));
+        double h = 0.0, om = 0.0, subs = 0.0;
+        TU_OK(defsim_world_stable_step(w, &h, &om));
+        /* rtol defaults to 1e-4: 2 pi / omega for version 4, pi / omega for version 3. */
+        assert_true(om > 0.0 && fabs(h * om - (k ? 6.28318 : 3.14159)) < 1e-12);
+        TU_OK(defsim_world_set_option(w, k ? "opt_v4.rtol" : "opt_v3.rtol", "2e-4"));
+        TU_OK(defsim_world_stable_step(w, &h, NULL));
+        assert_true(fabs(h * om - (k ? 12.56636 : 3.14159)) < 1e-12);
+        /* One step of 39.9 limits at safety 0.8: ceil(49.875) = 50 substeps. */
+        TU_OK(defsim_world_step(w, 39.9 * h));
+        TU_OK(defsim_world_stat(w, "substeps", &subs));
+        assert_true(subs == 50.0);
+        defsim_world_destroy(w);
+    }
 
     static const defsim_option_spec dup[2] = {
         {"a", DEFSIM_OPTION_REAL, 0, 0, 1, NULL, ""}, {"a", DEFSIM_OPTION_INT, 0, 0, 1, NULL, ""}};

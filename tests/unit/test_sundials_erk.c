@@ -2,7 +2,8 @@
 /*
  * sundials_erk: damped oscillators against their analytic solutions (error within the
  * per-second contract and falling with the tolerance, observed order at least 4), the stability
- * limit against an independent evaluation of Dormand-Prince's stability polynomial, stability
+ * limit of three tables against independent evaluations of their stability polynomials (reported
+ * and used by auto_substep), stability
  * limiting on a stiff beam (few rejected steps, counters by name), history dropped on set_state,
  * and options by name (table choice, bad values refused).
  */
@@ -83,23 +84,38 @@ static void test_oscillators(void **state)
     assert_true(p >= 4.0);
 }
 
-/* Dormand-Prince 5(4) propagates the 5th-order solution, whose stability polynomial is
- * R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24 + z^5/120 + z^6/600. On the imaginary axis |R(iy)| <= 1
- * only up to y = 0.997; the module's limit is where the amplification reaches 1.01. Both are
- * found here by bisection on that closed form; the second must be what defsim_world_stable_step
- * reports times omega_max for an undamped scene. */
-static double dp5_amp(double y)
+/* Stability polynomials R(z) = sum r_k z^k of three tables. Dormand-Prince 5(4) propagates the
+ * 5th-order solution: 1 + z + z^2/2 + z^3/6 + z^4/24 + z^5/120 + z^6/600. Bogacki-Shampine 3(2)
+ * and Zonneveld 4(3) propagate explicit 3- and 4-stage solutions of order 3 and 4 (their last
+ * stage only feeds the embedding), so R is the Taylor polynomial of exp(z) of that degree. On the
+ * imaginary axis |R(iy)| <= 1 holds for Dormand-Prince only up to y = 0.997; the module's limit
+ * is where the amplification reaches 1.01. Both are found here by bisection on the closed form;
+ * the second must be what defsim_world_stable_step reports times omega_max for an undamped
+ * scene. */
+typedef struct erk_poly {
+    const char *table;
+    double r[7];
+} erk_poly;
+
+static const erk_poly polys[3] = {
+    {"dormand_prince_5", {1, 1, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 600}},
+    {"bogacki_shampine_3", {1, 1, 1.0 / 2, 1.0 / 6, 0, 0, 0}},
+    {"zonneveld_4", {1, 1, 1.0 / 2, 1.0 / 6, 1.0 / 24, 0, 0}},
+};
+
+static double poly_amp(const erk_poly *p, double y)
 {
     const double complex z = I * y;
-    return cabs(1 + z + z * z / 2 + z * z * z / 6 + z * z * z * z / 24 +
-                z * z * z * z * z / 120 + z * z * z * z * z * z / 600);
+    double complex r = 0.0, zk = 1.0;
+    for (int k = 0; k < 7; ++k, zk *= z) r += p->r[k] * zk;
+    return cabs(r);
 }
 
-static double dp5_imag_limit(double growth)
+static double imag_limit(const erk_poly *p, double growth)
 {
     double lo = 0.0, hi = 0.0;
     for (double y = 1e-3; y < 10.0; y += 1e-3) {
-        if (dp5_amp(y) > 1.0 + growth) {
+        if (poly_amp(p, y) > 1.0 + growth) {
             hi = y;
             break;
         }
@@ -107,26 +123,65 @@ static double dp5_imag_limit(double growth)
     }
     for (int it = 0; it < 60; ++it) {
         const double y = 0.5 * (lo + hi);
-        if (dp5_amp(y) > 1.0 + growth) hi = y;
+        if (poly_amp(p, y) > 1.0 + growth) hi = y;
         else lo = y;
     }
     return lo;
 }
 
+/* defsim_world_stable_step reports the limit of the table the option chose, switched on one
+ * world; without the option, Dormand-Prince's. */
 static void test_stable_step(void **state)
 {
     (void)state;
     defsim_world *w = tu_world("sundials_erk", 0.0, 1);
     tu_osc o = osc_set[1];
     tu_add_oscillator(w, &o, 0.0);
-    double h = 0.0, omega = 0.0;
-    TU_OK(defsim_world_stable_step(w, &h, &omega));
-    const double strict = dp5_imag_limit(0.0), y = dp5_imag_limit(1e-2);
-    printf("erk stable step %.6g s at omega %.6g: h omega = %.6f, closed form %.6f (|R| <= 1 up "
-           "to %.6f)\n", h, omega, h * omega, y, strict);
-    assert_true(fabs(omega - sqrt(50.0)) < 1e-3 * sqrt(50.0));
-    assert_true(fabs(strict - 0.997) < 1e-3 && y > 1.6 && y < 1.9);
-    assert_true(fabs(h * omega - y) < 1e-6 * y);
+    double hw[3];
+    for (int k = 0; k < 3; ++k) {
+        if (k > 0) TU_OK(defsim_world_set_option(w, "sundials_erk.table", polys[k].table));
+        double h = 0.0, omega = 0.0;
+        TU_OK(defsim_world_stable_step(w, &h, &omega));
+        const double strict = imag_limit(&polys[k], 0.0), y = imag_limit(&polys[k], 1e-2);
+        printf("erk %s stable step %.6g s at omega %.6g: h omega = %.6f, closed form %.6f "
+               "(|R| <= 1 up to %.6f)\n", polys[k].table, h, omega, h * omega, y, strict);
+        assert_true(fabs(omega - sqrt(50.0)) < 1e-3 * sqrt(50.0));
+        assert_true(fabs(h * omega - y) < 1e-6 * y);
+        hw[k] = h * omega;
+    }
+    /* The README's table: 0.997 / 1.725, 1.732 / 1.754, 2.828 / 2.832. */
+    assert_true(fabs(imag_limit(&polys[0], 0.0) - 0.997) < 1e-3);
+    assert_true(fabs(hw[0] - 1.725) < 1e-3 && fabs(hw[1] - 1.754) < 1e-3 &&
+                fabs(hw[2] - 2.832) < 1e-3);
+    defsim_world_destroy(w);
+}
+
+/* core.auto_substep splits an outer step into ceil(h / (safety h_stable)) substeps with the
+ * chosen table's h_stable, and re-estimates when the table changes. */
+static void test_auto_substep_table(void **state)
+{
+    (void)state;
+    defsim_world *w = erk_world(1e-6);
+    TU_OK(defsim_world_set_option(w, "core.auto_substep", "true"));
+    tu_osc o = osc_set[1];
+    tu_add_oscillator(w, &o, 0.0);
+    const double h = 1.97, safety = 0.8, omega = sqrt(50.0);
+    double expect[3], taken[3], before = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        TU_OK(defsim_world_set_option(w, "sundials_erk.table", polys[k].table));
+        TU_OK(defsim_world_step(w, h));
+        const double hs = imag_limit(&polys[k], 1e-2) / omega;
+        expect[k] = ceil(h / (safety * hs));
+        taken[k] = stat(w, "substeps") - before;
+        before = stat(w, "substeps");
+        printf("erk auto_substep, %s: %.0f substeps of %.4g s (limit %.4g s), expected %.0f\n",
+               polys[k].table, taken[k], h / taken[k], hs, expect[k]);
+        assert_true(taken[k] == expect[k]);
+        assert_true(h / taken[k] <= safety * hs);
+        assert_true(fabs(stat(w, "stable_step") - hs) < 1e-4 * hs);
+    }
+    /* h is chosen so that the three counts differ: Dormand-Prince's limit would give 11 each. */
+    assert_true(expect[0] == 11.0 && expect[1] == 10.0 && expect[2] == 7.0);
     defsim_world_destroy(w);
 }
 
@@ -262,6 +317,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_oscillators),
         cmocka_unit_test(test_stable_step),
+        cmocka_unit_test(test_auto_substep_table),
         cmocka_unit_test(test_stability_limiting),
         cmocka_unit_test(test_set_state_resets),
         cmocka_unit_test(test_tables),

@@ -1024,7 +1024,8 @@ defsim_status defsim_world_set_option_number(defsim_world *w, const char *name, 
 
 defsim_status defsim_world_get_option(const defsim_world *w, const char *name, double *value)
 {
-    return defsim__world_live(w) ? defsim__options_get(&w->options, w->msg, name, value) : DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_live(w) ? defsim__options_get(&w->options, w->msg, name, value)
+                                 : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 int32_t defsim_world_option_count(const defsim_world *w)
@@ -1034,7 +1035,8 @@ int32_t defsim_world_option_count(const defsim_world *w)
 
 defsim_status defsim_world_option_info(const defsim_world *w, int32_t i, defsim_option_info *out)
 {
-    return defsim__world_live(w) ? defsim__options_info(&w->options, i, out) : DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_live(w) ? defsim__options_info(&w->options, i, out)
+                                 : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 int32_t defsim_world_stat_count(const defsim_world *w)

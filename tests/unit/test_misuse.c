@@ -14,7 +14,8 @@
  *
  * Adding a row: one line in MISUSE_ROWS below (context, flags, function, expected, call).
  * BADW, BADW1 and BADWV (functions that return nothing) add the three rows of a world pointer
- * that is NULL, destroyed or foreign; LOCKED adds the two rows of a call from inside the log callback and the force callback.
+ * that is NULL, destroyed or foreign; LOCKED adds the two rows of a call from inside the log
+ * callback and from inside the force callback.
  */
 #include "test_util.h"
 
@@ -718,6 +719,19 @@ static void test_table(void **state)
             drop(&s[k]);
         }
     }
+    /* the summary that docs/errors.md quotes */
+    int by_status[16] = {0}, by_ctx[3] = {0}, values = 0;
+    for (int i = 0; i < NROWS; ++i) {
+        by_ctx[ROWS[i].ctx]++;
+        if (ROWS[i].flags & F_VALUE) ++values;
+        else if (ROWS[i].expect <= 0 && ROWS[i].expect > -16) by_status[-ROWS[i].expect]++;
+    }
+    for (int k = 0; k < 16; ++k)
+        if (by_status[k])
+            printf("  %-28s %3d rows\n", defsim_status_string((defsim_status)-k), by_status[k]);
+    printf("  %-28s %3d rows\n", "(a value, not a status)", values);
+    printf("  direct %d, from the log callback %d, from the force callback %d\n",
+           by_ctx[CTX_DIRECT], by_ctx[CTX_LOG], by_ctx[CTX_FORCE]);
     printf("%d rows, %d failures\n", NROWS, failures);
     assert_int_equal(failures, 0);
     /* The fixture is still usable: the lock is released, the world steps. */
@@ -1007,8 +1021,9 @@ static void test_ids_of_another_world(void **state)
     (void)state;
     defsim_world *w1 = tu_world("symplectic_euler", -9.81, 1);
     defsim_world *w2 = tu_world("symplectic_euler", -9.81, 1);
-    const defsim_body_id b1 = tu_add_box(w1, DEFSIM_MODEL_COROTATED, 1, 1, 1, LO, HI, 1e5, 0.3, 1e3);
-    const defsim_body_id b2 = tu_add_box(w2, DEFSIM_MODEL_COROTATED, 1, 1, 1, LO, HI, 1e5, 0.3, 1e3);
+    const defsim_model m = DEFSIM_MODEL_COROTATED;
+    const defsim_body_id b1 = tu_add_box(w1, m, 1, 1, 1, LO, HI, 1e5, 0.3, 1e3);
+    const defsim_body_id b2 = tu_add_box(w2, m, 1, 1, 1, LO, HI, 1e5, 0.3, 1e3);
     const int nv = defsim_world_vertex_count(w2);
     assert_int_equal(defsim_world_remove_body(w2, b1), DEFSIM_ERR_STALE_ID);
     assert_int_equal(defsim_world_vertex_count(w2), nv);

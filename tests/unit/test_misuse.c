@@ -127,7 +127,7 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_world_create, INVALID, defsim_world_create(&f->wdef_threads, &f->out_world)) \
     X(CTX_DIRECT, 0, defsim_world_create, INVALID, defsim_world_create(&f->wdef_nobackend, &f->out_world)) \
     X(CTX_DIRECT, 0, defsim_world_create, DEFSIM_ERR_BACKEND_UNAVAILABLE, defsim_world_create(&f->wdef_backend, &f->out_world)) \
-    BADWV(X, defsim_world_destroy)                                                  \
+    BADWV(X, defsim_world_destroy)                                                              \
     X(CTX_LOG, F_VALUE, defsim_world_destroy, 0, (defsim_world_destroy(f->w), 0))              \
     X(CTX_FORCE, F_VALUE, defsim_world_destroy, 0, (defsim_world_destroy(f->w), 0))            \
     /* bodies */                                                                                \

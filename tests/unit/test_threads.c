@@ -66,20 +66,13 @@ static void run_scene(int s, result *r)
         r->ok = 0;
         return;
     }
-    defsim_material m;
-    defsim_material_init(&m, sizeof m, models[s]);
-    m.youngs_modulus = 2e4 * (1 + s);
-    m.stiffness_damping = s == 2 ? 2e-3 : 0.0;   /* explicit Euler is stable only with damping */
     defsim_mesh mesh;
     mesh.size = sizeof mesh;
     r->ok &= defsim_mesh_box(LO, HI, 3, 1, 1, &mesh) == DEFSIM_OK;
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    bd.rest_positions = mesh.positions;
-    bd.vertex_count = mesh.vertex_count;
-    bd.tets = mesh.tets;
-    bd.tet_count = mesh.tet_count;
-    bd.material = m;
+    defsim_body_def bd = test_mesh_body(&mesh, models[s]);
+    bd.material.youngs_modulus = 2e4 * (1 + s);
+    /* explicit Euler is stable only with damping */
+    bd.material.stiffness_damping = s == 2 ? 2e-3 : 0.0;
     defsim_body_id b;
     r->ok &= defsim_world_add_body(w, &bd, &b) == DEFSIM_OK;
     /* clamp the x = 0 end */

@@ -210,7 +210,8 @@ DEFSIM_API const char *defsim_world_last_error(const defsim_world *world);
 /// become stale and are rejected with DEFSIM_ERR_STALE_ID, and so are ids of another world: an
 /// id carries a tag of the world that made it (one of 4095; worlds made less than 4095
 /// creations apart have different tags). The slot of a removed body is reused by the next body
-/// added (a new generation). A world holds at most 1,048,575 bodies and as many attachments.
+/// added (a new generation). A world holds at most 1,048,575 bodies, as many attachments and as
+/// many colliders.
 /// Treat ids as opaque: do not make them up.
 typedef struct defsim_body_id {
     uint32_t index;
@@ -748,8 +749,9 @@ typedef enum defsim_shape {
 /// or gradient fails the step with DEFSIM_ERR_CALLBACK and the state unchanged.
 typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
 
-/// A collider handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of removed
-/// colliders become stale and are rejected with DEFSIM_ERR_STALE_ID.
+/// A collider handle: a small value like defsim_body_id (tagged with its world, slots reused).
+/// {0, 0} is the null id. Ids of removed colliders, and of another world's, are stale and
+/// rejected with DEFSIM_ERR_STALE_ID.
 typedef struct defsim_collider_id {
     uint32_t index;
     uint32_t generation;
@@ -791,14 +793,15 @@ DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
 /// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
 /// 1e-6 of unit length, a mesh with too few vertices or triangles or an index out of range, an
-/// SDF without a callback), DEFSIM_ERR_LOCKED (called from inside a callback),
-/// DEFSIM_ERR_OUT_OF_MEMORY. On error nothing changes.
+/// SDF without a callback), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most colliders it can). On error
+/// nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,
                                                    const defsim_collider_def *def,
                                                    defsim_collider_id *out);
 
 /// Removes a collider; its id becomes stale. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world),
-/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host callback).
 DEFSIM_API defsim_status defsim_world_remove_collider(defsim_world *world,
                                                       defsim_collider_id collider);
 

@@ -6,7 +6,7 @@
  * the world, before any body). Each row runs against a fixture of three worlds; the row's
  * status must be the documented one, nothing may crash, and every world must be unchanged: its
  * state compared exactly and its model by a digest (bodies, ids, pins, masses, attachments,
- * external forces, callback, driven pins, options).
+ * external forces, callback, driven pins, colliders, options).
  *
  * The header agrees with the table: a second test parses include/defsim/defsim.h and checks
  * that every public function has at least one row, and that every status a row observes for a
@@ -46,6 +46,9 @@ typedef struct fx {
     defsim_world *dead, *alien;    /* a world marked destroyed; bytes that are no world */
     defsim_body_id box, rope, stale, foreign, null_id;
     defsim_attachment_id att, att_stale, att_foreign, att_null;
+    defsim_collider_id col, col_stale, col_foreign, col_null, col_out;
+    defsim_collider_def cdef, cdef_size0, cdef_nan, cdef_shape, cdef_radius, cdef_quat, cdef_out0;
+    double quat_id[4], quat_bad[4];
     int32_t nv, nt, nv2;
     double buf[BUF], x_nan[BUF], f_inf[BUF];
     int32_t verts[2], bad_verts[2];
@@ -336,7 +339,42 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_body_element_stress, INVALID, defsim_body_element_stress(f->w, f->box, f->buf, NULL, NULL, -1)) \
     X(CTX_DIRECT, 0, defsim_body_element_stress, STALE, defsim_body_element_stress(f->w, f->stale, NULL, NULL, NULL, 0)) \
     X(CTX_DIRECT, 0, defsim_body_element_stress, STALE, defsim_body_element_stress(f->w, f->foreign, NULL, NULL, NULL, 0)) \
-    X(CTX_LOG, 0, defsim_body_element_stress, OK, defsim_body_element_stress(f->w, f->box, f->buf, NULL, NULL, f->nt))
+    X(CTX_LOG, 0, defsim_body_element_stress, OK, defsim_body_element_stress(f->w, f->box, f->buf, NULL, NULL, f->nt)) \
+    /* colliders */                                                                             \
+    X(CTX_DIRECT, F_VALUE, defsim_collider_def_init, 0, (defsim_collider_def_init(NULL, sizeof f->cdef), 0)) \
+    BADW(X, defsim_world_add_collider, INVALID, &f->cdef, NULL)                                 \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, NULL, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, &f->cdef_size0, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, &f->cdef_nan, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, &f->cdef_shape, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, &f->cdef_radius, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_add_collider, INVALID, defsim_world_add_collider(f->w, &f->cdef_quat, NULL)) \
+    LOCKED(X, defsim_world_add_collider, &f->cdef, NULL)                                        \
+    BADW(X, defsim_world_remove_collider, INVALID, f->col)                                      \
+    X(CTX_DIRECT, 0, defsim_world_remove_collider, STALE, defsim_world_remove_collider(f->w, f->col_null)) \
+    X(CTX_DIRECT, 0, defsim_world_remove_collider, STALE, defsim_world_remove_collider(f->w, f->col_stale)) \
+    X(CTX_DIRECT, 0, defsim_world_remove_collider, STALE, defsim_world_remove_collider(f->w, f->col_foreign)) \
+    X(CTX_DIRECT, 0, defsim_world_remove_collider, STALE, defsim_world_remove_collider(f->w2, f->col)) \
+    LOCKED(X, defsim_world_remove_collider, f->col)                                             \
+    BADW(X, defsim_collider_set_pose, INVALID, f->col, f->p3, f->quat_id)                       \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, INVALID, defsim_collider_set_pose(f->w, f->col, NULL, f->quat_id)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, INVALID, defsim_collider_set_pose(f->w, f->col, f->p3, NULL)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, INVALID, defsim_collider_set_pose(f->w, f->col, f->nan3, f->quat_id)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, INVALID, defsim_collider_set_pose(f->w, f->col, f->p3, f->quat_bad)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, STALE, defsim_collider_set_pose(f->w, f->col_stale, f->p3, f->quat_id)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_pose, STALE, defsim_collider_set_pose(f->w, f->col_foreign, f->p3, f->quat_id)) \
+    LOCKED(X, defsim_collider_set_pose, f->col, f->p3, f->quat_id)                              \
+    BADW1(X, F_VALUE, defsim_world_collider_count, 0)                                           \
+    X(CTX_LOG, F_VALUE, defsim_world_collider_count, 1, defsim_world_collider_count(f->w))     \
+    BADW(X, defsim_world_get_collider, INVALID, 0, &f->col_out, NULL)                           \
+    X(CTX_DIRECT, 0, defsim_world_get_collider, INVALID, defsim_world_get_collider(f->w, -1, &f->col_out, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_get_collider, INVALID, defsim_world_get_collider(f->w, 1, &f->col_out, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_get_collider, INVALID, defsim_world_get_collider(f->w, 0, NULL, &f->cdef_out0)) \
+    X(CTX_FORCE, 0, defsim_world_get_collider, OK, defsim_world_get_collider(f->w, 0, &f->col_out, NULL)) \
+    BADW(X, defsim_world_get_contact_forces, INVALID, f->buf, f->nv)                            \
+    X(CTX_DIRECT, 0, defsim_world_get_contact_forces, INVALID, defsim_world_get_contact_forces(f->w, NULL, f->nv)) \
+    X(CTX_DIRECT, 0, defsim_world_get_contact_forces, INVALID, defsim_world_get_contact_forces(f->w, f->buf, f->nv - 1)) \
+    X(CTX_FORCE, 0, defsim_world_get_contact_forces, OK, defsim_world_get_contact_forces(f->w, f->buf, f->nv))
 
 typedef struct row {
     int ctx, flags;
@@ -462,6 +500,12 @@ static int setup(void **state)
     for (int i = 0; i < 3 * f->nv; ++i) fe[i] = 0.01 * (i % 7);
     TU_OK(defsim_world_set_external_forces(f->w, fe, f->nv));
     free(fe);
+    /* a ground plane far below, a stale collider id */
+    defsim_collider_def_init(&f->cdef, sizeof f->cdef);
+    f->cdef.position[1] = -100.0;
+    TU_OK(defsim_world_add_collider(f->w, &f->cdef, &f->col_stale));
+    TU_OK(defsim_world_add_collider(f->w, &f->cdef, &f->col));
+    TU_OK(defsim_world_remove_collider(f->w, f->col_stale));
     TU_OK(defsim_world_step(f->w, H));   /* planned, backend ready, moving */
 
     /* w2: a body and an attachment of its own, whose ids must be stale in w */
@@ -469,6 +513,7 @@ static int setup(void **state)
     defsim_attachment_def ad = f->adef;
     ad.body = f->foreign;
     TU_OK(defsim_world_add_attachment(f->w2, &ad, &f->att_foreign));
+    TU_OK(defsim_world_add_collider(f->w2, &f->cdef, &f->col_foreign));
     f->nv2 = defsim_world_vertex_count(f->w2);
 
     /* scratch inputs */
@@ -526,6 +571,21 @@ static int setup(void **state)
     f->adef_badvertex.vertex = 1000;
     f->adef_size0 = f->adef;
     f->adef_size0.size = 0;
+
+    f->cdef_size0 = f->cdef;
+    f->cdef_size0.size = 0;
+    f->cdef_nan = f->cdef;
+    f->cdef_nan.position[0] = NAN;
+    f->cdef_shape = f->cdef;
+    f->cdef_shape.shape = (defsim_shape)99;
+    f->cdef_radius = f->cdef;
+    f->cdef_radius.shape = DEFSIM_SHAPE_SPHERE;
+    f->cdef_radius.radius = -1.0;
+    f->cdef_quat = f->cdef;
+    f->cdef_quat.rotation[0] = 2.0;
+    f->cdef_out0.size = 0;
+    f->quat_id[0] = 1.0;
+    f->quat_bad[0] = f->quat_bad[1] = 1.0;
 
     f->wdef = tu_world_def("symplectic_euler", -9.81, 1);
     f->wdef_size0 = f->wdef;
@@ -624,6 +684,20 @@ static uint64_t model_digest(const defsim_world *w)
         mix(&h, &a->def.target_vertex_count, sizeof a->def.target_vertex_count);
         mix(&h, a->def.target_vertices, sizeof a->def.target_vertices);
         mix(&h, a->def.target_weights, sizeof a->def.target_weights);
+    }
+    mix(&h, &w->ncol, sizeof w->ncol);
+    for (int32_t i = 0; i < w->ncol; ++i) {
+        const defsim__collider *c = &w->col[i];
+        mix(&h, &c->generation, sizeof c->generation);
+        if (!(c->generation & 1u)) continue;
+        mix(&h, &c->def.shape, sizeof c->def.shape);
+        mix(&h, c->def.normal, sizeof c->def.normal);
+        mix(&h, &c->def.radius, sizeof c->def.radius);
+        mix(&h, &c->def.friction, sizeof c->def.friction);
+        mix(&h, c->pos, sizeof c->pos);
+        mix(&h, c->rot, sizeof c->rot);
+        mix(&h, c->pos1, sizeof c->pos1);
+        mix(&h, c->rot1, sizeof c->rot1);
     }
     mix(&h, &w->ntargeted, sizeof w->ntargeted);
     if (w->targeted) mix(&h, w->targeted, (size_t)w->nv);

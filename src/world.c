@@ -420,8 +420,8 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     char msg[256];
-    st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0,
-                                              msg, sizeof msg);
+    st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0, msg,
+                                sizeof msg);
     if (st != DEFSIM_OK) {
         defsim__error(w->msg, "add_body: %s", msg);
         return st;

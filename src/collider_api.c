@@ -25,10 +25,7 @@ static defsim__collider *collider_or_error(const defsim_world *w, defsim_collide
     if (!c)
         defsim__error(w->msg, "collider id {%u, %u} is %s", (unsigned)id.index,
                       (unsigned)id.generation,
-                      id.index == 0 && id.generation == 0 ? "null"
-                      : defsim__world_id_slot(w, id.index) < 0
-                          ? "not of this world"
-                          : "stale (its collider was removed)");
+                      defsim__world_id_problem(w, id.index, id.generation));
     return c;
 }
 

@@ -328,10 +328,7 @@ static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_att
     if (!a)
         defsim__error(w->msg, "attachment id {%u, %u} is %s", (unsigned)id.index,
                       (unsigned)id.generation,
-                      id.index == 0 && id.generation == 0 ? "null"
-                      : defsim__world_id_slot(w, id.index) < 0
-                          ? "not of this world"
-                          : "stale (its attachment was removed)");
+                      defsim__world_id_problem(w, id.index, id.generation));
     return a;
 }
 

@@ -232,6 +232,12 @@ uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot)
     return w->id_tag << DEFSIM__ID_SLOT_BITS | (uint32_t)(slot + 1);
 }
 
+const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation)
+{
+    if (index == 0 && generation == 0) return "null";
+    return defsim__world_id_slot(w, index) < 0 ? "not of this world" : "stale (removed)";
+}
+
 defsim_status defsim__world_plan(defsim_world *w)
 {
     if (w->planned) return DEFSIM_OK;
@@ -590,9 +596,7 @@ defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id)
     if (!b)
         defsim__error(w->msg, "body id {%u, %u} is %s", (unsigned)id.index,
                       (unsigned)id.generation,
-                      id.index == 0 && id.generation == 0 ? "null"
-                      : defsim__world_id_slot(w, id.index) < 0 ? "not of this world"
-                                                               : "stale (its body was removed)");
+                      defsim__world_id_problem(w, id.index, id.generation));
     return b;
 }
 

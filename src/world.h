@@ -97,6 +97,8 @@ int defsim__world_live(const defsim_world *w);
 int64_t defsim__world_id_slot(const defsim_world *w, uint32_t index);
 /* The index of slot `slot` in an id of this world. */
 uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot);
+/* What is wrong with an id that names nothing live: "null", "not of this world" or "stale". */
+const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation);
 
 /* On entry of a public function that changes the world: DEFSIM_ERR_INVALID_ARGUMENT for a
  * pointer that is not a live world, DEFSIM_ERR_LOCKED inside a host callback, else OK. */

@@ -8,6 +8,14 @@
 
 #include <stdint.h>
 
+/* Body and attachment ids: the index holds the slot + 1 in its low DEFSIM__ID_SLOT_BITS and the
+ * tag of the world that made it above them, so that an id of another world is stale here. */
+#define DEFSIM__ID_SLOT_BITS 20
+#define DEFSIM__ID_SLOT_MASK ((1u << DEFSIM__ID_SLOT_BITS) - 1u)
+#define DEFSIM__ID_MAX_SLOTS ((int32_t)DEFSIM__ID_SLOT_MASK)
+#define DEFSIM__ID_TAGS ((1u << (32 - DEFSIM__ID_SLOT_BITS)) - 1u)
+#define DEFSIM__ID_SLOT(index) ((int64_t)((index) & DEFSIM__ID_SLOT_MASK) - 1)
+
 typedef struct defsim__body {
     uint32_t generation;      /* odd while alive; bumped on removal */
     int32_t nv, nt, ns;

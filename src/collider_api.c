@@ -13,8 +13,9 @@
 
 static defsim__collider *collider(const defsim_world *w, defsim_collider_id id)
 {
-    if (id.index == 0 || id.index > (uint32_t)w->ncol) return NULL;
-    defsim__collider *c = &w->col[id.index - 1];
+    const int64_t slot = defsim__world_id_slot(w, id.index);
+    if (slot < 0 || slot >= w->ncol) return NULL;
+    defsim__collider *c = &w->col[slot];
     return c->generation == id.generation && (c->generation & 1u) ? c : NULL;
 }
 
@@ -22,21 +23,27 @@ static defsim__collider *collider_or_error(const defsim_world *w, defsim_collide
 {
     defsim__collider *c = collider(w, id);
     if (!c)
-        defsim__error(w->msg, "collider id {%u, %u} is null, removed or not of this world",
-                      (unsigned)id.index, (unsigned)id.generation);
+        defsim__error(w->msg, "collider id {%u, %u} is %s", (unsigned)id.index,
+                      (unsigned)id.generation,
+                      defsim__world_id_problem(w, id.index, id.generation));
     return c;
 }
 
 defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_def *def,
                                         defsim_collider_id *out)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__collider c;
     if ((st = defsim__collider_make(w->msg, def, &c)) != DEFSIM_OK) return st;
     int32_t slot = 0;
     while (slot < w->ncol && (w->col[slot].generation & 1u)) ++slot;
+    if (slot == DEFSIM__ID_MAX_SLOTS) {
+        defsim__collider_free(&c);
+        defsim__error(w->msg, "add_collider: the world holds %d colliders, the most it can",
+                      (int)DEFSIM__ID_MAX_SLOTS);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     if (slot == w->ncol && w->ncol == w->cap_col) {
         const int32_t cap = w->cap_col ? 2 * w->cap_col : 4;
         defsim__collider *nc = realloc(w->col, (size_t)cap * sizeof *nc);
@@ -53,7 +60,7 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
     w->col[slot] = c;
     w->colliders_changed = 1;
     if (out) {
-        out->index = (uint32_t)slot + 1;
+        out->index = defsim__world_id_index(w, slot);
         out->generation = c.generation;
     }
     return DEFSIM_OK;
@@ -61,8 +68,7 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
 
 defsim_status defsim_world_remove_collider(defsim_world *w, defsim_collider_id id)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__collider *c = collider_or_error(w, id);
     if (!c) return DEFSIM_ERR_STALE_ID;
@@ -75,8 +81,7 @@ defsim_status defsim_world_remove_collider(defsim_world *w, defsim_collider_id i
 defsim_status defsim_collider_set_pose(defsim_world *w, defsim_collider_id id,
                                        const double position[3], const double rotation[4])
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__collider *c = collider_or_error(w, id);
     if (!c) return DEFSIM_ERR_STALE_ID;
@@ -94,7 +99,7 @@ defsim_status defsim_collider_set_pose(defsim_world *w, defsim_collider_id id,
 
 int32_t defsim_world_collider_count(const defsim_world *w)
 {
-    if (!w) return 0;
+    if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
     for (int32_t i = 0; i < w->ncol; ++i) n += (w->col[i].generation & 1u) != 0;
     return n;
@@ -103,7 +108,7 @@ int32_t defsim_world_collider_count(const defsim_world *w)
 defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim_collider_id *id,
                                         defsim_collider_def *def)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (def && def->size < offsetof(defsim_collider_def, friction) + sizeof(double)) {
         defsim__error(w->msg, "get_collider: def->size is too small");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -112,7 +117,7 @@ defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim
         const defsim__collider *c = &w->col[s];
         if (!(c->generation & 1u) || n++ != i) continue;
         if (id) {
-            id->index = (uint32_t)s + 1;
+            id->index = defsim__world_id_index(w, s);
             id->generation = c->generation;
         }
         if (def) {
@@ -132,10 +137,10 @@ defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim
 
 defsim_status defsim_world_get_contact_forces(const defsim_world *w, double *out, int32_t n)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (n != w->nv) {
-        defsim__error(w->msg, "get_contact_forces: n = %d but the world has %d vertices",
-                      (int)n, (int)w->nv);
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out || n != w->nv) {
+        defsim__error(w->msg, "get_contact_forces: out is NULL or n = %d but the world has %d "
+                      "vertices", (int)n, (int)w->nv);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const int64_t ndof = 3 * (int64_t)n;

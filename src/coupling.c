@@ -187,8 +187,7 @@ defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st)
 
 defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f, int32_t n)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     if (!f) {
         free(w->fext);
@@ -228,8 +227,7 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
 defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn fn,
                                               defsim_force_jacobian_fn jacobian, void *user)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     if (!fn && jacobian) {
         defsim__error(w->msg, "set_force_callback: a jacobian needs a force function");
@@ -257,8 +255,7 @@ defsim_status defsim_body_set_pin_targets(defsim_world *w, defsim_body_id id,
                                           const int32_t *verts, int32_t n,
                                           const double *positions)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
@@ -319,8 +316,9 @@ void defsim_attachment_def_init(defsim_attachment_def *def, size_t size)
 
 static defsim__attachment *attachment(const defsim_world *w, defsim_attachment_id id)
 {
-    if (id.index == 0 || id.index > (uint32_t)w->natt) return NULL;
-    defsim__attachment *a = &w->att[id.index - 1];
+    const int64_t slot = defsim__world_id_slot(w, id.index);
+    if (slot < 0 || slot >= w->natt) return NULL;
+    defsim__attachment *a = &w->att[slot];
     return a->generation == id.generation && (a->generation & 1u) ? a : NULL;
 }
 
@@ -328,8 +326,9 @@ static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_att
 {
     defsim__attachment *a = attachment(w, id);
     if (!a)
-        defsim__error(w->msg, "attachment id {%u, %u} is null, removed or not of this world",
-                      (unsigned)id.index, (unsigned)id.generation);
+        defsim__error(w->msg, "attachment id {%u, %u} is %s", (unsigned)id.index,
+                      (unsigned)id.generation,
+                      defsim__world_id_problem(w, id.index, id.generation));
     return a;
 }
 
@@ -398,14 +397,18 @@ static defsim_status check_attachment(defsim_world *w, const defsim_attachment_d
 defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachment_def *def,
                                           defsim_attachment_id *out)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim_attachment_def d;
     if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
     int32_t slot = 0;
     while (slot < w->natt && (w->att[slot].generation & 1u)) ++slot;
+    if (slot == DEFSIM__ID_MAX_SLOTS) {
+        defsim__error(w->msg, "add_attachment: the world holds %d attachments, the most it can",
+                      (int)DEFSIM__ID_MAX_SLOTS);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     if (slot == w->natt && w->natt == w->cap_att) {
         const int32_t cap = w->cap_att ? 2 * w->cap_att : 8;
         defsim__attachment *na = realloc(w->att, (size_t)cap * sizeof *na);
@@ -422,7 +425,7 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     a->def = d;
     defsim__world_invalidate(w);
     if (out) {
-        out->index = (uint32_t)slot + 1;
+        out->index = defsim__world_id_index(w, slot);
         out->generation = a->generation;
     }
     return DEFSIM_OK;
@@ -430,8 +433,7 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
 
 defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_id id)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__attachment *a = attachment_or_error(w, id);
     if (!a) return DEFSIM_ERR_STALE_ID;
@@ -440,12 +442,12 @@ defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_
     return DEFSIM_OK;
 }
 
-void defsim__coupling_drop_body(defsim_world *w, int32_t b)
+void defsim__coupling_drop_body(defsim_world *w, defsim_body_id id)
 {
     for (int32_t i = 0; i < w->natt; ++i) {
         defsim__attachment *a = &w->att[i];
         if ((a->generation & 1u) &&
-            ((int32_t)a->def.body.index == b + 1 || (int32_t)a->def.target_body.index == b + 1))
+            (a->def.body.index == id.index || a->def.target_body.index == id.index))
             a->generation++;
     }
 }
@@ -453,8 +455,7 @@ void defsim__coupling_drop_body(defsim_world *w, int32_t b)
 defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id id,
                                            const double target[3])
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     defsim__attachment *a = attachment_or_error(w, id);
     if (!a) return DEFSIM_ERR_STALE_ID;
@@ -485,18 +486,22 @@ defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id
 defsim_status defsim_world_get_attachment_force(const defsim_world *w, defsim_attachment_id id,
                                                 double out[3])
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out) {
+        defsim__error(w->msg, "get_attachment_force: out is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     const defsim__attachment *a = attachment_or_error(w, id);
     if (!a) return DEFSIM_ERR_STALE_ID;
     const defsim_attachment_def *d = &a->def;
-    const int64_t v = (int64_t)w->bodies[d->body.index - 1].offset + d->vertex;
+    const int64_t v = (int64_t)defsim__world_find_body(w, d->body)->offset + d->vertex;
     double dx[3], dv[3];
     for (int k = 0; k < 3; ++k) {
         dx[k] = w->state.x[3 * v + k] - d->target[k] * (d->target_vertex_count == 0);
         dv[k] = w->state.v[3 * v + k];
     }
     for (int j = 0; j < d->target_vertex_count; ++j) {
-        const int64_t t = (int64_t)w->bodies[d->target_body.index - 1].offset +
+        const int64_t t = (int64_t)defsim__world_find_body(w, d->target_body)->offset +
                           d->target_vertices[j];
         for (int k = 0; k < 3; ++k) {
             dx[k] -= d->target_weights[j] * w->state.x[3 * t + k];
@@ -509,13 +514,14 @@ defsim_status defsim_world_get_attachment_force(const defsim_world *w, defsim_at
 
 defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t n)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (n != w->nv) {
-        defsim__error(w->msg, "get_pin_forces: n = %d but the world has %d vertices", (int)n,
-                      (int)w->nv);
+    defsim_status st = defsim__world_enter(w);   /* it calls the force callback */
+    if (st != DEFSIM_OK) return st;
+    if (!out || n != w->nv) {
+        defsim__error(w->msg, "get_pin_forces: out is NULL or n = %d but the world has %d "
+                      "vertices", (int)n, (int)w->nv);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    defsim_status st = defsim__world_plan(w);
+    st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     const int64_t ndof = 3 * (int64_t)n;
     if (!w->sys.has_pins) {
@@ -546,7 +552,7 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
                                          double *cauchy, double *von_mises,
                                          double *energy_density, int32_t tet_count)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
     const defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (tet_count != b->nt) {

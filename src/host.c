@@ -32,9 +32,9 @@ static defsim_status call_host(defsim__coupling *c, defsim__messages *msg, int32
 {
     const char *what = jac ? "force Jacobian callback" : "force callback";
     const int width = jac ? 9 : 3;
-    c->locked = 1;
+    msg->locked++;
     const int rc = jac ? c->jac(c->user, x, v, t, nv, out) : c->fn(c->user, x, v, t, nv, out);
-    c->locked = 0;
+    msg->locked--;
     const int64_t bad = rc != 0 ? -1 : first_non_finite(out, width * (int64_t)nv);
     if (rc == 0 && bad < 0) return DEFSIM_OK;
     c->failed = 1;

@@ -27,7 +27,6 @@ typedef struct defsim__coupling {
     int hold;                 /* implicit without jac: f0 is held over the step */
     int failed;               /* the callback failed in this step */
     int in_step;              /* f0, K0, x0 hold the start of the current step */
-    int locked;               /* a host callback is running: the world refuses changes */
     double *f0, *K0, *x0;     /* 3 nv, 9 nv, 3 nv: callback force, stiffness, positions at the
                                  start of an implicit step */
     double *kcb;              /* 9 nv: stiffness blocks -sym(dF/dx) of the latest Jacobian */

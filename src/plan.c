@@ -217,13 +217,15 @@ static defsim_status plan_attachments(defsim__system *s, const defsim__plan_inpu
         int32_t *nd = at->node + an * (int64_t)e;
         double *a = at->a + an * (int64_t)e;
         for (int j = 0; j < an; ++j) { nd[j] = -1; a[j] = 0.0; }
-        nd[0] = in->bodies[d->body.index - 1].offset + d->vertex;
+        nd[0] = in->bodies[in->body_dense[DEFSIM__ID_SLOT(d->body.index)]].offset + d->vertex;
         a[0] = 1.0;
         const int point = d->target_body.index == 0;
         for (int c = 0; c < 3; ++c) at->p[3 * (int64_t)e + c] = point ? d->target[c] : 0.0;
+        const int32_t target_offset =
+            point ? 0 : in->bodies[in->body_dense[DEFSIM__ID_SLOT(d->target_body.index)]].offset;
         if (!point)
             for (int j = 0; j < d->target_vertex_count; ++j) {
-                nd[1 + j] = in->bodies[d->target_body.index - 1].offset + d->target_vertices[j];
+                nd[1 + j] = target_offset + d->target_vertices[j];
                 a[1 + j] = -d->target_weights[j];
             }
         at->k[e] = d->stiffness;

@@ -21,6 +21,7 @@ typedef struct defsim__plan_input {
     int need_matrix;              /* build the sparse pattern now */
     const defsim__attachment *attachments;   /* live ones have an odd generation */
     int32_t nattachments;
+    const int32_t *body_dense;    /* id slot -> index into bodies (attachments' body ids) */
 } defsim__plan_input;
 
 /* Compiles `in` into s and sizes wk (freeing what they held). On failure both are left empty

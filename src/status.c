@@ -3,6 +3,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 /* One X-macro list gives every code its text. */
 #define DEFSIM_STATUS_LIST(X)                                   \
@@ -44,24 +45,39 @@ void defsim__clear_last_error(void) { last_error[0] = '\0'; }
 
 const char *defsim_last_error(void) { return last_error; }
 
+/* Calls the host's log callback with the world locked; not from inside itself. */
+static void call_log(defsim__messages *m, int level, const char *text)
+{
+    m->locked++;
+    m->in_log = 1;
+    m->log(m->log_user, level, text);
+    m->in_log = 0;
+    m->locked--;
+}
+
 void defsim__error(defsim__messages *m, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(m->error, sizeof m->error, fmt, ap);
     va_end(ap);
-    if (m->log) m->log(m->log_user, 0, m->error);
+    if (!m->log || m->in_log) return;
+    /* The callback gets a copy: a refused call from inside it overwrites m->error. */
+    char text[sizeof m->error];
+    memcpy(text, m->error, sizeof text);
+    call_log(m, 0, text);
+    memcpy(m->error, text, sizeof text);
 }
 
 void defsim__log(defsim__messages *m, int level, const char *fmt, ...)
 {
-    if (!m->log) return;
+    if (!m->log || m->in_log) return;
     char msg[512];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    m->log(m->log_user, level, msg);
+    call_log(m, level, msg);
 }
 
 int32_t defsim_version_number(void) { return DEFSIM_VERSION_NUMBER; }

@@ -17,6 +17,7 @@
 #include "tet_rest.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,6 +29,10 @@
 
 /* ------------------------------------------------------------------------------------------ */
 /* Creation */
+
+/* Worlds made one after another get different tags (ids of one are stale in the other) and a
+ * run is reproducible: the tag is a serial number, not a random one. */
+static atomic_uint world_serial;
 
 void defsim_world_def_init(defsim_world_def *def, size_t size)
 {
@@ -132,6 +137,8 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
         defsim__set_last_error("out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    w->magic = DEFSIM__WORLD_MAGIC;
+    w->id_tag = (uint32_t)atomic_fetch_add(&world_serial, 1u) % DEFSIM__ID_TAGS + 1u;
     w->def = d;
     w->msg->log = d.log;
     w->msg->log_user = d.log_user;
@@ -192,9 +199,43 @@ void defsim__world_invalidate(defsim_world *w)
 
 defsim_status defsim__world_check_unlocked(defsim_world *w)
 {
-    if (!w->cpl.locked) return DEFSIM_OK;
-    defsim__error(w->msg, "the world cannot be changed from inside its force callback");
+    if (!w->msg->locked) return DEFSIM_OK;
+    defsim__error(w->msg, "the world cannot be changed from inside a host callback (log, force "
+                          "callback or its Jacobian)");
     return DEFSIM_ERR_LOCKED;
+}
+
+int defsim__world_live(const defsim_world *w)
+{
+    if (w && w->magic == DEFSIM__WORLD_MAGIC) return 1;
+    defsim__set_last_error("%s", !w ? "the world is NULL"
+                                 : w->magic == DEFSIM__WORLD_DEAD
+                                     ? "the world was destroyed"
+                                     : "not a world made by defsim_world_create");
+    return 0;
+}
+
+defsim_status defsim__world_enter(defsim_world *w)
+{
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_check_unlocked(w);
+}
+
+int64_t defsim__world_id_slot(const defsim_world *w, uint32_t index)
+{
+    if ((index >> DEFSIM__ID_SLOT_BITS) != w->id_tag) return -1;
+    return DEFSIM__ID_SLOT(index);
+}
+
+uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot)
+{
+    return w->id_tag << DEFSIM__ID_SLOT_BITS | (uint32_t)(slot + 1);
+}
+
+const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation)
+{
+    if (index == 0 && generation == 0) return "null";
+    return defsim__world_id_slot(w, index) < 0 ? "not of this world" : "stale (removed)";
 }
 
 defsim_status defsim__world_plan(defsim_world *w)
@@ -207,7 +248,7 @@ defsim_status defsim__world_plan(defsim_world *w)
         .projection = defsim__options_projection(&w->options, (int)w->def.projection),
         .tet_kernels = defsim__options_tet_kernels(&w->options), .nthreads = w->nthreads,
         .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
-        .attachments = w->att, .nattachments = w->natt};
+        .attachments = w->att, .nattachments = w->natt, .body_dense = w->body_dense};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
     if (st == DEFSIM_OK && (st = defsim__coupling_reserve(w)) != DEFSIM_OK)
         defsim__unplan(&w->sys, &w->work);
@@ -230,11 +271,12 @@ static void body_free(defsim__body *b)
 
 void defsim_world_destroy(defsim_world *w)
 {
-    if (!w) return;
+    if (!w || !defsim__world_live(w)) return;
+    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return;   /* the caller is inside it */
     backend_fini(w);
     defsim__world_unplan(w);
     for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
-    free(w->bodies);
+    free(w->bodies); free(w->body_gen); free(w->body_dense);
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
     free(w->x_save); free(w->v_save);
     free(w->bstate);
@@ -242,10 +284,15 @@ void defsim_world_destroy(defsim_world *w)
     defsim__colliders_free(w);
     free(w->msg);
     defsim__options_free(&w->options);
+    w->magic = DEFSIM__WORLD_DEAD;
     free(w);
 }
 
-const char *defsim_world_last_error(const defsim_world *w) { return w ? w->msg->error : ""; }
+const char *defsim_world_last_error(const defsim_world *w)
+{
+    if (!w) return "";
+    return defsim__world_live(w) ? w->msg->error : defsim_last_error();
+}
 
 /* ------------------------------------------------------------------------------------------ */
 /* Bodies */
@@ -344,8 +391,8 @@ static defsim_status validate_array(defsim_world *w, const double *a, int64_t n,
 defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
                                     defsim_body_id *out)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     if (!def || def->size < offsetof(defsim_body_def, material) + sizeof(uint32_t)) {
         defsim__error(w->msg, "add_body: def is NULL or def->size is too small "
                               "(use defsim_body_def_init)");
@@ -379,8 +426,8 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     char msg[256];
-    defsim_status st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0,
-                                              msg, sizeof msg);
+    st = defsim__material_check(&d.material, d.tet_count > 0, d.spring_count > 0, msg,
+                                sizeof msg);
     if (st != DEFSIM_OK) {
         defsim__error(w->msg, "add_body: %s", msg);
         return st;
@@ -479,18 +526,38 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         b.mass[i] = m;
     }
 
+    /* The id takes the first free slot (its generation makes the ids of its earlier bodies
+     * stale); the vertices still follow those of the bodies added before. */
+    int32_t slot = 0;
+    while (slot < w->nslots && (w->body_gen[slot] & 1u)) ++slot;
+    st = DEFSIM_ERR_OUT_OF_MEMORY;
+    if (slot == DEFSIM__ID_MAX_SLOTS) {
+        defsim__error(w->msg, "add_body: the world holds %d bodies, the most it can",
+                      (int)DEFSIM__ID_MAX_SLOTS);
+        goto fail;
+    }
+    if (slot == w->cap_slots) {
+        int32_t cap = w->cap_slots ? 2 * w->cap_slots : 8;
+        if (cap > DEFSIM__ID_MAX_SLOTS) cap = DEFSIM__ID_MAX_SLOTS;
+        uint32_t *gen = realloc(w->body_gen, (size_t)cap * sizeof *gen);
+        if (gen) w->body_gen = gen;
+        int32_t *dense = gen ? realloc(w->body_dense, (size_t)cap * sizeof *dense) : NULL;
+        if (!dense) { defsim__error(w->msg, "out of memory"); goto fail; }
+        w->body_dense = dense;
+        w->cap_slots = cap;
+    }
     if (w->nbodies == w->cap_bodies) {
         int32_t cap = w->cap_bodies ? 2 * w->cap_bodies : 8;
         defsim__body *nb = realloc(w->bodies, (size_t)cap * sizeof *nb);
-        if (!nb) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__error(w->msg, "out of memory"); goto fail; }
+        if (!nb) { defsim__error(w->msg, "out of memory"); goto fail; }
         w->bodies = nb;
         w->cap_bodies = cap;
     }
     int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
-    if (!old) { st = DEFSIM_ERR_OUT_OF_MEMORY; defsim__error(w->msg, "out of memory"); goto fail; }
+    if (!old) { defsim__error(w->msg, "out of memory"); goto fail; }
     for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
     old[w->nbodies] = -1;
-    b.generation = 1;
+    b.generation = (slot < w->nslots ? w->body_gen[slot] : 0u) + 1u;
     w->bodies[w->nbodies++] = b;
     st = rebuild_vertices(w, old, d.initial_positions ? d.initial_positions : d.rest_positions,
                           d.initial_velocities);
@@ -500,10 +567,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__error(w->msg, "out of memory");
         goto fail;
     }
+    if (slot == w->nslots) w->nslots++;
+    w->body_gen[slot] = b.generation;
+    w->body_dense[slot] = w->nbodies - 1;
     w->stats.reordered_tets += reordered;
     if (out) {
-        out->index = (uint32_t)w->nbodies;
-        out->generation = 1;
+        out->index = defsim__world_id_index(w, slot);
+        out->generation = b.generation;
     }
     return DEFSIM_OK;
 fail:
@@ -511,64 +581,76 @@ fail:
     return st;
 }
 
-static defsim__body *lookup(const defsim_world *w, defsim_body_id id)
+defsim__body *defsim__world_find_body(const defsim_world *w, defsim_body_id id)
 {
-    if (id.index == 0 || id.index > (uint32_t)w->nbodies) return NULL;
-    defsim__body *b = &w->bodies[id.index - 1];
-    if (b->generation != id.generation || !(b->generation & 1u)) return NULL;
-    return b;
+    const int64_t slot = defsim__world_id_slot(w, id.index);
+    if (slot < 0 || slot >= w->nslots || w->body_gen[slot] != id.generation ||
+        !(id.generation & 1u))
+        return NULL;
+    return &w->bodies[w->body_dense[slot]];
 }
 
 defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id)
 {
-    defsim__body *b = lookup(w, id);
+    defsim__body *b = defsim__world_find_body(w, id);
     if (!b)
-        defsim__error(w->msg, "body id {%u, %u} is null, removed or not of this world",
-                      (unsigned)id.index, (unsigned)id.generation);
+        defsim__error(w->msg, "body id {%u, %u} is %s", (unsigned)id.index,
+                      (unsigned)id.generation,
+                      defsim__world_id_problem(w, id.index, id.generation));
     return b;
 }
 
 defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
     if (!old) { defsim__error(w->msg, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
     for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
     b->generation++;
-    defsim_status st = rebuild_vertices(w, old, NULL, NULL);
+    st = rebuild_vertices(w, old, NULL, NULL);
     free(old);
     if (st != DEFSIM_OK) {
         b->generation--;
         defsim__error(w->msg, "out of memory");
         return st;
     }
-    defsim__coupling_drop_body(w, (int32_t)(b - w->bodies));
+    defsim__coupling_drop_body(w, id);
     body_free(b);
+    /* Close the gap in the dense array; the slot is free for the next body. */
+    const int64_t slot = DEFSIM__ID_SLOT(id.index);
+    const int32_t dense = w->body_dense[slot];
+    memmove(w->bodies + dense, w->bodies + dense + 1,
+            (size_t)(w->nbodies - dense - 1) * sizeof *w->bodies);
+    w->nbodies--;
+    for (int32_t i = 0; i < w->nslots; ++i)
+        if (w->body_dense[i] > dense) w->body_dense[i]--;
+    w->body_dense[slot] = -1;
+    w->body_gen[slot]++;
     return DEFSIM_OK;
 }
 
 int32_t defsim_body_vertex_count(const defsim_world *w, defsim_body_id id)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    const defsim__body *b = lookup(w, id);
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__body *b = defsim__world_body(w, id);
     return b ? b->nv : DEFSIM_ERR_STALE_ID;
 }
 
 int32_t defsim_body_vertex_offset(const defsim_world *w, defsim_body_id id)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    const defsim__body *b = lookup(w, id);
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim__body *b = defsim__world_body(w, id);
     return b ? b->offset : DEFSIM_ERR_STALE_ID;
 }
 
 static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t *verts,
                               int32_t n, uint8_t value)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
     if (n < 0 || (n > 0 && !verts)) {
@@ -617,13 +699,26 @@ defsim_status defsim_body_unpin(defsim_world *w, defsim_body_id id, const int32_
 /* ------------------------------------------------------------------------------------------ */
 /* State */
 
-int32_t defsim_world_vertex_count(const defsim_world *w) { return w ? w->nv : 0; }
-double defsim_world_time(const defsim_world *w) { return w ? w->state.t : 0.0; }
-
-static defsim_status copy_out(const defsim_world *w, const double *src, int width, double *out,
-                              int32_t n)
+int32_t defsim_world_vertex_count(const defsim_world *w)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_live(w) ? w->nv : 0;
+}
+
+double defsim_world_time(const defsim_world *w)
+{
+    return defsim__world_live(w) ? w->state.t : 0.0;
+}
+
+/* which: 0 positions, 1 velocities, 2 masses */
+static defsim_status copy_out(const defsim_world *w, int which, double *out, int32_t n)
+{
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const double *src = which == 0 ? w->state.x : which == 1 ? w->state.v : w->mass;
+    const int width = which == 2 ? 1 : 3;
+    if (!out) {
+        defsim__error(w->msg, "the output array is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     if (n != w->nv) {
         defsim__error(w->msg, "n = %d but the world has %d vertices", (int)n,
                       (int)w->nv);
@@ -635,23 +730,23 @@ static defsim_status copy_out(const defsim_world *w, const double *src, int widt
 
 defsim_status defsim_world_get_positions(const defsim_world *w, double *out, int32_t n)
 {
-    return copy_out(w, w ? w->state.x : NULL, 3, out, n);
+    return copy_out(w, 0, out, n);
 }
 
 defsim_status defsim_world_get_velocities(const defsim_world *w, double *out, int32_t n)
 {
-    return copy_out(w, w ? w->state.v : NULL, 3, out, n);
+    return copy_out(w, 1, out, n);
 }
 
 defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_t n)
 {
-    return copy_out(w, w ? w->mass : NULL, 1, out, n);
+    return copy_out(w, 2, out, n);
 }
 
 defsim_status defsim_world_set_state(defsim_world *w, const double *x, const double *v)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    const defsim_status entered = defsim__world_enter(w);
+    if (entered != DEFSIM_OK) return entered;
     const int64_t ndof = 3 * (int64_t)w->nv;
     for (int64_t i = 0; i < ndof; ++i)
         if ((x && !isfinite(x[i])) || (v && !isfinite(v[i]))) {
@@ -675,7 +770,11 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
 
 defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out) {
+        defsim__error(w->msg, "energy: out is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     /* A world not planned yet is compiled into a temporary system: this call changes nothing. */
     defsim__system tmp;
     defsim__work tmpw, work = w->work;
@@ -686,7 +785,7 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         const defsim__plan_input in = {
             .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
             .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
-            .attachments = w->att, .nattachments = w->natt};
+            .attachments = w->att, .nattachments = w->natt, .body_dense = w->body_dense};
         if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
             defsim__error(w->msg, "out of memory while planning the world");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -715,8 +814,13 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
 
 defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_out)
 {
-    if (!w || !f_out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_plan(w);
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
+    if (!f_out) {
+        defsim__error(w->msg, "forces: f_out is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     const double t0 = defsim__now();
     (void)defsim__forces(&w->sys, x ? x : w->state.x, NULL,
@@ -728,7 +832,11 @@ defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_ou
 
 defsim_status defsim_world_stats(const defsim_world *w, defsim_stats *out)
 {
-    if (!w || !out || out->size < sizeof(uint32_t)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out || out->size < sizeof(uint32_t)) {
+        defsim__error(w->msg, "stats: out is NULL or out->size is 0");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     size_t n = out->size < sizeof w->stats ? out->size : sizeof w->stats;
     uint32_t size = out->size;
     memcpy(out, &w->stats, n);
@@ -738,7 +846,7 @@ defsim_status defsim_world_stats(const defsim_world *w, defsim_stats *out)
 
 void defsim_world_reset_stats(defsim_world *w)
 {
-    if (!w) return;
+    if (defsim__world_enter(w) != DEFSIM_OK) return;
     defsim_stats s;
     memset(&s, 0, sizeof s);
     s.size = sizeof s;
@@ -773,8 +881,9 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
 
 defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *omega_out)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_plan(w);
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
+    st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     double h = INFINITY, om = 0.0;
     if (w->nv > 0 && (st = estimate_stable_step(w, &h, &om)) != DEFSIM_OK) return st;
@@ -788,14 +897,14 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 
 defsim_status defsim_world_step(defsim_world *w, double h)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (defsim__world_check_unlocked(w) != DEFSIM_OK) return DEFSIM_ERR_LOCKED;
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     if (!isfinite(h) || !(h > 0.0)) {
         defsim__error(w->msg, "step: h = %g must be finite and > 0", h);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     double t0 = defsim__now();
-    defsim_status st = defsim__world_plan(w);
+    st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     if (w->nv == 0) {
         w->state.t += h;
@@ -906,45 +1015,49 @@ static defsim_status options_changed(defsim_world *w, defsim_status st)
 
 defsim_status defsim_world_set_option(defsim_world *w, const char *name, const char *value)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     return options_changed(w, defsim__options_set_text(&w->options, w->msg, name, value));
 }
 
 defsim_status defsim_world_set_option_number(defsim_world *w, const char *name, double value)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     return options_changed(w, defsim__options_set_number(&w->options, w->msg, name, value));
 }
 
 defsim_status defsim_world_get_option(const defsim_world *w, const char *name, double *value)
 {
-    return w ? defsim__options_get(&w->options, w->msg, name, value) : DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_live(w) ? defsim__options_get(&w->options, w->msg, name, value)
+                                 : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 int32_t defsim_world_option_count(const defsim_world *w)
 {
-    return w ? defsim__options_count(&w->options) : 0;
+    return defsim__world_live(w) ? defsim__options_count(&w->options) : 0;
 }
 
 defsim_status defsim_world_option_info(const defsim_world *w, int32_t i, defsim_option_info *out)
 {
-    return w ? defsim__options_info(&w->options, i, out) : DEFSIM_ERR_INVALID_ARGUMENT;
+    return defsim__world_live(w) ? defsim__options_info(&w->options, i, out)
+                                 : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 int32_t defsim_world_stat_count(const defsim_world *w)
 {
-    return w ? defsim__options_stat_count(&w->options) : 0;
+    return defsim__world_live(w) ? defsim__options_stat_count(&w->options) : 0;
 }
 
 defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const char **name,
                                      double *value)
 {
-    return w ? defsim__options_stat_info(&w->options, &w->stats, i, name, value)
+    return defsim__world_live(w) ? defsim__options_stat_info(&w->options, &w->stats, i, name, value)
              : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
 {
-    return w ? defsim__options_stat(&w->options, w->msg, &w->stats, name, value)
+    return defsim__world_live(w) ? defsim__options_stat(&w->options, w->msg, &w->stats, name, value)
              : DEFSIM_ERR_INVALID_ARGUMENT;
 }

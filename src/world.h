@@ -17,7 +17,14 @@
 
 #include <stdint.h>
 
+/* A world starts with a magic number: a best-effort check of the pointer, SQLite's way. Ids
+ * carry the world's tag (body.h). */
+#define DEFSIM__WORLD_MAGIC 0x64736d77u      /* "dsmw" */
+#define DEFSIM__WORLD_DEAD 0x64656164u       /* "dead": set by defsim_world_destroy */
+
 struct defsim_world {
+    uint32_t magic;           /* DEFSIM__WORLD_MAGIC while the world lives */
+    uint32_t id_tag;          /* 1 .. 4095, in the index of every id the world hands out */
     defsim_world_def def;
     char backend_name[64];
     const defsim_backend *backend;
@@ -27,8 +34,12 @@ struct defsim_world {
     int planned;              /* sys and work match the bodies */
     defsim__messages *msg;    /* allocated: const getters may report errors */
 
-    defsim__body *bodies;
+    defsim__body *bodies;     /* live bodies in vertex order (and, during a removal, the one
+                                 going, with an even generation) */
     int32_t nbodies, cap_bodies;
+    uint32_t *body_gen;       /* per id slot: generation, odd while the slot's body lives */
+    int32_t *body_dense;      /* per id slot: index into bodies, -1 when free */
+    int32_t nslots, cap_slots;
 
     /* state and per-vertex data (rebuilt on add/remove; state carried over) */
     int32_t nv;
@@ -75,11 +86,29 @@ void defsim__world_unplan(defsim_world *w);
 
 /* Looks up a live body (NULL if stale) and sets the world's error if it is not. */
 defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id);
+/* The same without an error: for ids the world holds (attachments). */
+defsim__body *defsim__world_find_body(const defsim_world *w, defsim_body_id id);
+
+/* Best-effort check of a world pointer on entry of a public function: 0 for NULL, destroyed or
+ * foreign pointers (defsim_last_error() then says so), 1 for a live world. */
+int defsim__world_live(const defsim_world *w);
+
+/* An id's slot (0-based) if its index carries this world's tag, else -1. */
+int64_t defsim__world_id_slot(const defsim_world *w, uint32_t index);
+/* The index of slot `slot` in an id of this world. */
+uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot);
+/* What is wrong with an id that names nothing live: "null", "not of this world" or "stale". */
+const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation);
+
+/* On entry of a public function that changes the world: DEFSIM_ERR_INVALID_ARGUMENT for a
+ * pointer that is not a live world, DEFSIM_ERR_LOCKED inside a host callback, else OK. */
+defsim_status defsim__world_enter(defsim_world *w);
 
 /* Discards the plan and the backend's set-up (after a change of bodies, pins, attachments). */
 void defsim__world_invalidate(defsim_world *w);
 
-/* Returns DEFSIM_ERR_LOCKED with the world's error set while a host callback runs, else OK. */
+/* Returns DEFSIM_ERR_LOCKED with the world's error set while a host callback (log, force
+ * callback or its Jacobian) runs, else OK. */
 defsim_status defsim__world_check_unlocked(defsim_world *w);
 
 /* Sizes the coupling workspaces (w->cpl) for the current plan and features (coupling.c).
@@ -89,8 +118,8 @@ defsim_status defsim__coupling_reserve(defsim_world *w);
 /* Frees the coupling workspaces and the host's coupling terms (at destruction). */
 void defsim__coupling_free(defsim_world *w);
 
-/* Removes the attachments that reference body index b (0-based), bumping their generations. */
-void defsim__coupling_drop_body(defsim_world *w, int32_t b);
+/* Removes the attachments that reference the body `id`, bumping their generations. */
+void defsim__coupling_drop_body(defsim_world *w, defsim_body_id id);
 
 /* Step hooks (coupling.c): begin evaluates what the step holds (callback at the start for
  * implicit backends; driven pins' velocities); before/after bracket each backend call i of n;

@@ -3,12 +3,13 @@
 #
 # One entry point for a fresh Debian/Ubuntu machine:
 #   tools/dev.sh demo    install what is missing, build, run the demo scene
-#   tools/dev.sh test    install what is missing, build, run every test
+#   tools/dev.sh test    install what is missing, build, run every test (and tsan)
+#   tools/dev.sh tsan    build and run the thread test under ThreadSanitizer (build-tsan)
 #   tools/dev.sh deps    only install (as root) or print the apt-get line (otherwise)
 #   tools/dev.sh build   only configure and build
 #
 # Environment: DEFSIM_BUILD_DIR (default ./build), DEFSIM_JOBS (default nproc),
-# DEFSIM_CMAKE_ARGS (extra cmake arguments).
+# DEFSIM_CMAKE_ARGS (extra cmake arguments), DEFSIM_TSAN_BUILD_DIR (default ./build-tsan).
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -58,6 +59,18 @@ configure_and_build() {
     cmake --build "$build" -j "$jobs"
 }
 
+# The thread test alone in a ThreadSanitizer build (docs/threads.md): the library without
+# OpenMP (libgomp is not instrumented) and without the optional modules; about 25 s of CPU to
+# build and 2 s to run. The other tests are not run there.
+tsan() {
+    local tb=${DEFSIM_TSAN_BUILD_DIR:-$root/build-tsan}
+    cmake -S "$root" -B "$tb" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDEFSIM_TSAN=ON \
+        -DDEFSIM_WITH_CHOLMOD=OFF -DDEFSIM_WITH_SUNDIALS=OFF -DDEFSIM_WITH_OSMESA=OFF \
+        -DDEFSIM_BUILD_TOOLS=OFF
+    cmake --build "$tb" -j "$jobs" --target test_threads
+    ctest --test-dir "$tb" -R '^test_threads$' --output-on-failure
+}
+
 python_arg=""
 case "${1:-}" in
 deps) deps ;;
@@ -67,7 +80,9 @@ test)
     pyenv
     configure_and_build
     ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 900
+    tsan
     ;;
+tsan) deps; tsan ;;
 demo)
     deps
     configure_and_build

@@ -12,9 +12,21 @@
  *  - Input arrays are copied; the caller keeps ownership. Outputs are written into buffers that
  *    the caller owns, unless a comment says that a pointer is borrowed.
  *  - Fallible calls return a defsim_status: DEFSIM_OK (0) or a negative error code. A call that
- *    fails leaves the world exactly as it was, and defsim_world_last_error() describes why.
- *  - A world is not thread-safe: call it from one thread at a time. Different worlds may be used
- *    from different threads concurrently. Registration of backends is thread-safe.
+ *    fails leaves the world exactly as it was, and defsim_world_last_error() describes why. The
+ *    statuses a function can return are named in its "Errors:" line (docs/errors.md; a test
+ *    holds the two together).
+ *  - A world pointer that is NULL, destroyed or not made by defsim_world_create is refused with
+ *    DEFSIM_ERR_INVALID_ARGUMENT (or ignored, by functions that return nothing) where the
+ *    library can tell: a magic number in the world checks it, best effort, not a guarantee
+ *    (using a destroyed world is undefined behaviour; the check catches most cases).
+ *  - From inside a host callback of a world (its log callback, force callback or force
+ *    Jacobian), every call that changes that world returns DEFSIM_ERR_LOCKED and changes
+ *    nothing (defsim_world_destroy and defsim_world_reset_stats do nothing); read-only calls are
+ *    allowed and see the state as it is at that moment of the step.
+ *  - A world is not thread-safe: call it from one thread at a time, read-only calls included
+ *    (they write the world's message and workspaces). Different worlds may be used from
+ *    different threads concurrently. Registration of backends is thread-safe. See
+ *    docs/threads.md.
  */
 #ifndef DEFSIM_DEFSIM_H
 #define DEFSIM_DEFSIM_H
@@ -111,9 +123,9 @@ DEFSIM_API void defsim_material_init(defsim_material *material, size_t size, def
 /// The stable neo-Hookean energy is not zero at F = I: psi(I) = lambda'/2 (1 - alpha)^2 -
 /// mu'/2 log 4, a constant (see README "Materials"); world energies subtract it so that a body at
 /// rest has zero elastic energy, defsim_material_eval does not.
-/// Returns DEFSIM_ERR_INVALID_ARGUMENT for NULL material or F, a spring model, or non-finite F;
-/// DEFSIM_ERR_INVALID_MATERIAL for bad parameters; DEFSIM_ERR_UNSTABLE for the neo-Hookean model
-/// at det F <= 0, where it is undefined. Thread-safe.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL material or F, a spring model, or non-finite F),
+/// DEFSIM_ERR_INVALID_MATERIAL (bad parameters), DEFSIM_ERR_UNSTABLE (the neo-Hookean model at
+/// det F <= 0, where it is undefined). Thread-safe.
 DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
                                               double *psi, double P[9], double dPdF[81]);
 
@@ -181,18 +193,26 @@ DEFSIM_API void defsim_world_def_init(defsim_world_def *def, size_t size);
 /// On failure *out is set to NULL and defsim_last_error() says why.
 DEFSIM_API defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **out);
 
-/// Destroys a world and everything it owns. NULL is ignored.
+/// Destroys a world and everything it owns. NULL is ignored, and so is a world that is already
+/// destroyed or not a world, where this can be told (best effort), and a call from inside one of
+/// the world's host callbacks (the world lives on; destroy it after the callback returns).
 DEFSIM_API void defsim_world_destroy(defsim_world *world);
 
 /// Detail of the last failed call on this world ("tet 17 is degenerate (volume 1e-30)"), or ""
-/// if none failed. Borrowed: valid until the next call on this world. NULL world gives "".
+/// if none failed. Borrowed: valid until the next call on this world. NULL world gives "", a
+/// pointer that is not a live world the thread's defsim_last_error().
 DEFSIM_API const char *defsim_world_last_error(const defsim_world *world);
 
 /* ------------------------------------------------------------------------------------------ */
 /* Bodies                                                                                     */
 
 /// A body handle: a small value, not a pointer. {0, 0} is the null id. Ids of removed bodies
-/// become stale and are rejected with DEFSIM_ERR_STALE_ID.
+/// become stale and are rejected with DEFSIM_ERR_STALE_ID, and so are ids of another world: an
+/// id carries a tag of the world that made it (one of 4095; worlds made less than 4095
+/// creations apart have different tags). The slot of a removed body is reused by the next body
+/// added (a new generation). A world holds at most 1,048,575 bodies, as many attachments and as
+/// many colliders.
+/// Treat ids as opaque: do not make them up.
 typedef struct defsim_body_id {
     uint32_t index;
     uint32_t generation;
@@ -220,31 +240,38 @@ DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
 
 /// Adds a body; its vertices follow those of the bodies added before it. Rest tets with negative
 /// orientation are reordered (counted in defsim_stats.reordered_tets). On success *out (may be
-/// NULL) receives the id. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, counts),
+/// NULL) receives the id. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, not a live world, size,
+/// counts),
 /// DEFSIM_ERR_INVALID_MESH (index out of range, non-finite coordinate, degenerate tet or spring
 /// of zero rest length, repeated vertex, vertex without mass; the message names the element),
 /// DEFSIM_ERR_INVALID_MATERIAL (E <= 0, nu outside [0, 0.5), negative density, stiffness, mass or
-/// damping, tets with a spring model), DEFSIM_ERR_OUT_OF_MEMORY.
+/// damping, tets with a spring model), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most bodies it can).
 DEFSIM_API defsim_status defsim_world_add_body(defsim_world *world, const defsim_body_def *def,
                                                defsim_body_id *out);
 
 /// Removes a body; the vertices of later bodies move down. The id becomes stale.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world), DEFSIM_ERR_STALE_ID.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world), DEFSIM_ERR_STALE_ID (null, removed, or of
+/// another world), DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_remove_body(defsim_world *world, defsim_body_id body);
 
-/// Number of vertices of a live body (>= 1), or a negative status for a stale id / NULL world.
+/// Number of vertices of a live body (>= 1), or a negative status.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world), DEFSIM_ERR_STALE_ID.
 DEFSIM_API int32_t defsim_body_vertex_count(const defsim_world *world, defsim_body_id body);
 
 /// Index of the body's first vertex in the world's arrays, or a negative status.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world), DEFSIM_ERR_STALE_ID.
 DEFSIM_API int32_t defsim_body_vertex_offset(const defsim_world *world, defsim_body_id body);
 
 /// Pins vertices (body-local indices) where they are now: their velocity becomes zero and they do
 /// not move until unpinned. Pinning a pinned vertex is allowed. verts may be NULL when n == 0.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 0, index out of range), DEFSIM_ERR_STALE_ID.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 0, index out of range), DEFSIM_ERR_STALE_ID,
+/// DEFSIM_ERR_LOCKED (from inside a host callback).
 DEFSIM_API defsim_status defsim_body_pin(defsim_world *world, defsim_body_id body,
                                          const int32_t *verts, int32_t n);
 
-/// Unpins vertices (body-local indices); unpinning a free vertex is allowed. Same errors as pin.
+/// Unpins vertices (body-local indices); unpinning a free vertex is allowed. Same errors as
+/// defsim_body_pin.
 DEFSIM_API defsim_status defsim_body_unpin(defsim_world *world, defsim_body_id body,
                                            const int32_t *verts, int32_t n);
 
@@ -259,7 +286,8 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (h not finite or <= 0, NULL world),
 /// DEFSIM_ERR_UNSTABLE (the result was not finite), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
 /// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made),
-/// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (called from inside it).
+/// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (from inside a host
+/// callback). A world without bodies only advances its time.
 DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 
 /// Estimates the largest step that the world's backend can take stably from the current state.
@@ -271,7 +299,7 @@ DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 /// an undamped oscillator), +INFINITY for implicit backends. It is a linearisation at the current
 /// state: large deformations that stiffen the material lower it. Either output may be NULL.
 /// Cost: about 20 to 100 force evaluations. Errors: DEFSIM_ERR_INVALID_ARGUMENT,
-/// DEFSIM_ERR_OUT_OF_MEMORY.
+/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_stable_step(defsim_world *world, double *h_out,
                                                   double *omega_max_out);
 
@@ -287,13 +315,15 @@ DEFSIM_API defsim_status defsim_world_get_positions(const defsim_world *world, d
 DEFSIM_API defsim_status defsim_world_get_velocities(const defsim_world *world, double *out,
                                                      int32_t n);
 
-/// Copies the lumped vertex masses (kg) into out, n doubles (one per vertex).
+/// Copies the lumped vertex masses (kg) into out, n doubles (one per vertex). Same rules as
+/// defsim_world_get_positions.
 DEFSIM_API defsim_status defsim_world_get_masses(const defsim_world *world, double *out, int32_t n);
 
 /// Sets positions and velocities, each 3 * vertex_count doubles (either may be NULL: unchanged).
 /// Pinned vertices take the given positions as their new targets and zero velocity. Backends
 /// with internal history (adaptive BDF) restart from this state.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, non-finite value).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, non-finite value), DEFSIM_ERR_LOCKED (from
+/// inside a host callback).
 DEFSIM_API defsim_status defsim_world_set_state(defsim_world *world, const double *x,
                                                 const double *v);
 
@@ -315,7 +345,8 @@ DEFSIM_API defsim_status defsim_world_energy(const defsim_world *world, defsim_e
 /// Elastic forces -dE/dx (N) at positions x (3 * vertex_count doubles; NULL: current positions),
 /// written to f_out (3 * vertex_count): springs, tets and attachment springs. No gravity,
 /// damping, external forces, callback or pinning is applied.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out), DEFSIM_ERR_LOCKED (from inside a
+/// host callback: it compiles the world and counts in its statistics), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_forces(defsim_world *world, const double *x, double *f_out);
 
 /// Passes the world ran in its last step (bits of defsim_stats.passes).
@@ -372,7 +403,7 @@ typedef struct defsim_stats {
 DEFSIM_API defsim_status defsim_world_stats(const defsim_world *world, defsim_stats *out);
 
 /// Zeroes the counters and timings (not reordered_tets, threads, passes), including the
-/// backend's counters by name.
+/// backend's counters by name. Does nothing for a NULL world or from inside a host callback.
 DEFSIM_API void defsim_world_reset_stats(defsim_world *world);
 
 /* ------------------------------------------------------------------------------------------ */
@@ -410,7 +441,8 @@ typedef struct defsim_option_info {
 /// is dropped as by defsim_world_set_state; counters are kept. Setting an option to its current
 /// value changes nothing. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name, an option of
 /// a backend other than the world's, unparsable or out of range; defsim_world_last_error names
-/// the valid range or choices, and the world is unchanged).
+/// the valid range or choices, and the world is unchanged), DEFSIM_ERR_LOCKED (from inside a
+/// host callback).
 DEFSIM_API defsim_status defsim_world_set_option(defsim_world *world, const char *name,
                                                  const char *value);
 
@@ -493,10 +525,10 @@ DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 /// reordered to positive orientation and `triangles` receives their outward boundary (for OBJ,
 /// the faces as given). mesh->size must be set; on success the arrays are allocated (free with
 /// defsim_mesh_free), on failure *mesh is unchanged.
-/// Errors, with "file:line: ..." in defsim_last_error(): DEFSIM_ERR_INVALID_ARGUMENT (NULL,
-/// mesh->size, unknown extension), DEFSIM_ERR_IO (cannot read, malformed or binary file),
-/// DEFSIM_ERR_INVALID_MESH (unsupported element, undefined or repeated vertex, degenerate tet,
-/// zero-length edge, no elements), DEFSIM_ERR_OUT_OF_MEMORY. Thread-safe.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, mesh->size, unknown extension), DEFSIM_ERR_IO
+/// (cannot read, malformed or binary file), DEFSIM_ERR_INVALID_MESH (unsupported element,
+/// undefined or repeated vertex, degenerate tet, zero-length edge, no elements),
+/// DEFSIM_ERR_OUT_OF_MEMORY; defsim_last_error() says "file:line: ...". Thread-safe.
 DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);
 
 /// Makes a cloth grid of (nu + 1) x (nv + 1) vertices at origin + i/nu * u + j/nv * v (m),
@@ -537,8 +569,8 @@ DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], 
 /// are a potential force field (energy -f . x, reported in defsim_energy.gravitational), so
 /// implicit backends treat them exactly. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, n
 /// different from the vertex count, a non-finite value: the message names the vertex; the
-/// forces held before the call are kept), DEFSIM_ERR_LOCKED (called from inside the force
-/// callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// forces held before the call are kept), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_set_external_forces(defsim_world *world, const double *f,
                                                           int32_t n);
 
@@ -577,7 +609,7 @@ typedef int (*defsim_force_jacobian_fn)(void *user, const double *x, const doubl
 /// a backend evaluates forces without velocities, fn receives the world's current velocity array.
 /// defsim_world_get_pin_forces calls fn at the current state.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, a jacobian without fn), DEFSIM_ERR_LOCKED
-/// (called from inside the callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_set_force_callback(defsim_world *world, defsim_force_fn fn,
                                                          defsim_force_jacobian_fn jacobian,
                                                          void *user);
@@ -591,13 +623,15 @@ DEFSIM_API defsim_status defsim_world_set_force_callback(defsim_world *world, de
 /// the consistent derivative). Calling it again before stepping replaces the targets of the
 /// vertices it lists. Unpinning a vertex drops its target. verts may be NULL when n == 0.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 0, index out of range, a non-finite
-/// position), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_OUT_OF_MEMORY; on error nothing changes.
+/// position), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY; on error nothing changes.
 DEFSIM_API defsim_status defsim_body_set_pin_targets(defsim_world *world, defsim_body_id body,
                                                      const int32_t *verts, int32_t n,
                                                      const double *positions);
 
-/// An attachment handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of
-/// removed attachments become stale and are rejected with DEFSIM_ERR_STALE_ID.
+/// An attachment handle: a small value like defsim_body_id (tagged with its world, slots
+/// reused). {0, 0} is the null id. Ids of removed attachments, and of another world's, are
+/// stale and rejected with DEFSIM_ERR_STALE_ID.
 typedef struct defsim_attachment_id {
     uint32_t index;
     uint32_t generation;
@@ -637,20 +671,21 @@ DEFSIM_API void defsim_attachment_def_init(defsim_attachment_def *def, size_t si
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, stiffness <= 0 or damping < 0 or not
 /// finite, vertex or target vertex out of range, target_vertex_count outside 1..4, weights not
 /// finite or not summing to 1, a non-finite target), DEFSIM_ERR_STALE_ID (body or target_body),
-/// DEFSIM_ERR_OUT_OF_MEMORY.
+/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY (also: the world
+/// holds the most attachments it can).
 DEFSIM_API defsim_status defsim_world_add_attachment(defsim_world *world,
                                                      const defsim_attachment_def *def,
                                                      defsim_attachment_id *out);
 
 /// Removes an attachment; its id becomes stale. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL
-/// world), DEFSIM_ERR_STALE_ID.
+/// world), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host callback).
 DEFSIM_API defsim_status defsim_world_remove_attachment(defsim_world *world,
                                                         defsim_attachment_id attachment);
 
 /// Moves the world point of an attachment to a world point (target_body becomes null if it was
 /// not: the attachment now pulls towards `target`, m). The point is held during the steps that
 /// follow (it jumps; it does not move within a step). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL,
-/// non-finite target), DEFSIM_ERR_STALE_ID.
+/// non-finite target), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host callback).
 DEFSIM_API defsim_status defsim_attachment_set_target(defsim_world *world,
                                                       defsim_attachment_id attachment,
                                                       const double target[3]);
@@ -671,7 +706,8 @@ DEFSIM_API defsim_status defsim_world_get_attachment_force(const defsim_world *w
 /// weight, pointing up). A rigid-body engine coupled two-way applies -R_i to what holds the pin.
 /// Evaluated on demand (one force evaluation, plus the force callback if one is set).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch), DEFSIM_ERR_CALLBACK (the force
-/// callback failed; out is unchanged), DEFSIM_ERR_OUT_OF_MEMORY.
+/// callback failed; out is unchanged), DEFSIM_ERR_LOCKED (from inside a host callback: it calls
+/// the force callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double *out,
                                                      int32_t n);
 
@@ -713,8 +749,9 @@ typedef enum defsim_shape {
 /// or gradient fails the step with DEFSIM_ERR_CALLBACK and the state unchanged.
 typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
 
-/// A collider handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of removed
-/// colliders become stale and are rejected with DEFSIM_ERR_STALE_ID.
+/// A collider handle: a small value like defsim_body_id (tagged with its world, slots reused).
+/// {0, 0} is the null id. Ids of removed colliders, and of another world's, are stale and
+/// rejected with DEFSIM_ERR_STALE_ID.
 typedef struct defsim_collider_id {
     uint32_t index;
     uint32_t generation;
@@ -756,14 +793,15 @@ DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
 /// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
 /// 1e-6 of unit length, a mesh with too few vertices or triangles or an index out of range, an
-/// SDF without a callback), DEFSIM_ERR_LOCKED (called from inside a callback),
-/// DEFSIM_ERR_OUT_OF_MEMORY. On error nothing changes.
+/// SDF without a callback), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most colliders it can). On error
+/// nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,
                                                    const defsim_collider_def *def,
                                                    defsim_collider_id *out);
 
 /// Removes a collider; its id becomes stale. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world),
-/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host callback).
 DEFSIM_API defsim_status defsim_world_remove_collider(defsim_world *world,
                                                       defsim_collider_id collider);
 

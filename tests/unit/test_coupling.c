@@ -54,7 +54,7 @@ static void momentum(const defsim_world *w, double p[3])
     free(m);
 }
 
-/* Two worlds alike, each with one beam (body id {1, 1}): one to couple, *ref to compare with. */
+/* Two worlds alike, each with one beam (body_k(w, 0)): one to couple, *ref to compare with. */
 static defsim_world *twins(const char *backend, double gy, double tol, defsim_model model,
                            defsim_world **ref)
 {
@@ -63,6 +63,12 @@ static defsim_world *twins(const char *backend, double gy, double tol, defsim_mo
     add_beam(w, model);
     add_beam(*ref, model);
     return w;
+}
+
+/* The id of the k-th body added to a world where none was removed (ids carry the world's tag). */
+static defsim_body_id body_k(const defsim_world *w, int32_t k)
+{
+    return (defsim_body_id){defsim__world_id_index(w, k), 1};
 }
 
 /* An attachment of vertex `vertex` of `body`, stiffness k and damping c, to the origin. */
@@ -273,7 +279,7 @@ static void test_external_zero_skipped(void **state)
     (void)state;
     defsim_world *ref, *w = twins("symplectic_euler", -9.81, 1e-6,
                                   DEFSIM_MODEL_STABLE_NEOHOOKEAN, &ref);
-    const defsim_body_id b = {1, 1}, rb = {1, 1};
+    const defsim_body_id b = body_k(w, 0), rb = body_k(ref, 0);
     tu_pin_below(w, b, 0, 0.0);
     tu_pin_below(ref, rb, 0, 0.0);
     const int n = defsim_world_vertex_count(w);
@@ -465,7 +471,7 @@ static void test_callback_implicit_jacobian(void **state)
         if (!available(implicit_backends[b])) continue;
         defsim_world *ref, *w = twins(implicit_backends[b], -9.81, 1e-8,
                                       DEFSIM_MODEL_STABLE_NEOHOOKEAN, &ref);
-        const defsim_body_id rb = {1, 1};
+        const defsim_body_id rb = body_k(ref, 0);
         const int n = defsim_world_vertex_count(w);
         cb_data d = {.k = k};
         TU_OK(defsim_world_set_force_callback(w, cb_force, cb_jacobian, &d));
@@ -947,7 +953,7 @@ static void test_attachment_bad_input(void **state)
     (void)state;
     defsim_attachment_id ids[4];
     defsim_world *w = stitched("symplectic_euler", -9.81, ids);
-    defsim_body_id a = {1, 1}, b = {2, 1};
+    defsim_body_id a = body_k(w, 0), b = body_k(w, 1);
     snapshot s = snap(w);
     defsim_attachment_def d = attachment(a, 1, -1.0, 0.0);
     assert_int_equal(defsim_world_add_attachment(w, &d, NULL), DEFSIM_ERR_INVALID_ARGUMENT);

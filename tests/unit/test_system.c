@@ -156,7 +156,7 @@ static void test_matrix_matches_forces(void **state)
     for (int mi = 0; mi < 4; ++mi) {
         defsim_world *w = deformed_world(MODELS[mi], 2, 0.05, 21 + mi);
         int32_t pin[3] = {0, 1, 2};
-        defsim_body_id b0 = {1, 1};
+        defsim_body_id b0 = {defsim__world_id_index(w, 0), 1};
         TU_OK(defsim_body_pin(w, b0, pin, 3));
         TU_OK(defsim__world_plan(w));
         TU_OK(defsim__pattern_build(&w->sys));

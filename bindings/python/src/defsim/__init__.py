@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Tuple
 
+from ._collider import Collider, Pose, Shape
 from ._coupling import Attachment, ElementStress, StepError
 from ._errors import (BackendUnavailableError, CallbackError, ConflictError, Error, FileError,
                       InvalidArgumentError, InvalidMaterialError, InvalidMeshError, LockedError,
@@ -56,7 +57,7 @@ def header_version() -> Tuple[int, int, int]:
 
 
 __all__ = [
-    "World", "Body", "Attachment", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
+    "World", "Body", "Attachment", "Collider", "Shape", "Pose", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
     "Material", "Model", "MaterialEval", "material_eval",
     "Mesh", "SpringKind", "Topology", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",

@@ -9,6 +9,7 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Opt
 import numpy as np
 
 from . import _arrays
+from ._collider import WorldColliders
 from ._coupling import BodyCoupling, WorldCoupling
 from ._handle import Handle
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
@@ -172,7 +173,7 @@ class Body(Handle, BodyCoupling):
         return error_from_status(status, f"body {self.id} is removed or its world is closed")
 
 
-class World(WorldCoupling):
+class World(WorldCoupling, WorldColliders):
     """A simulation world (``defsim_world``): bodies, their state, and a backend that steps it.
 
     Args:
@@ -226,6 +227,7 @@ class World(WorldCoupling):
         # springs drawn as lines), for element_stress, defsim.io and the display.
         self._topology: Dict[Tuple[int, int], Topology] = {}
         self._log_cb: Any = None
+        self._sdfs: Dict[Tuple[int, int], Any] = {}   # Python SDF trampolines, by collider id
         d = ffi.new("defsim_world_def *")
         lib.defsim_world_def_init(d, ffi.sizeof("defsim_world_def"))
         name_buf = None
@@ -286,6 +288,7 @@ class World(WorldCoupling):
         by id with what they were made of."""
         self = cls.__new__(cls)
         self._log_cb = None
+        self._sdfs = {}
         self._ptr = ffi.gc(ptr, lib.defsim_world_destroy)
         self._backend = backend
         self._gravity = gravity

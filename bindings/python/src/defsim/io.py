@@ -233,7 +233,7 @@ def read_mesh(path: PathLike, file_format: Optional[str] = None) -> Mesh:
     meshio = _meshio()
     try:
         m = meshio.read(os.fspath(path), file_format=file_format)
-    except Exception as exc:   # meshio raises ReadError, KeyError, ValueError, OSError ...
+    except (Exception, SystemExit) as exc:   # meshio raises ReadError, ValueError ..., or exits
         raise FileError(f"{os.fspath(path)}: meshio cannot read it: {exc}", Status.IO) from exc
     blocks: Dict[str, List[np.ndarray]] = {}
     for block in m.cells:
@@ -366,13 +366,14 @@ class Scene:
 
     def run(self, out: Optional[PathLike] = None, *, duration: Optional[float] = None,
             progress: Any = None) -> World:
-        """Runs the scene for `duration` (default the scene's) in frames of ``frame_steps``
-        steps; with `out`, writes the initial state and every frame as a Series
+        """Runs the scene in frames of ``frame_steps`` steps: ``frames`` of them as ``defsim
+        run`` does (its duration rounded up to whole frames), or round(duration / h) steps; with `out`, writes the initial state and every frame as a Series
         (``<out>/<name>.pvd``). `progress` counts steps, as in ``World.step``. Returns the
         world."""
         world = self.world
-        total = self.duration if duration is None else float(duration)
-        steps = int(round(total / self.step_size))
+        # As `defsim run`: whole frames, frames * frame_steps steps for the scene's duration.
+        steps = (self.frames * self.frame_steps if duration is None
+                 else int(round(_arrays.c_double(duration, "duration") / self.step_size)))
         series = Series(out, self.name) if out is not None else None
         if series is not None:
             series.write(world)

@@ -28,10 +28,11 @@ typedef struct defsim_render_part {
 /// pixels at `path` (written atomically), with the automatic camera of `defsim run` (fitted to
 /// the bounds of x, looking down 20 degrees from 35 degrees azimuth), a ground grid below, and
 /// "up" against `gravity` (m/s^2; +y when zero). Each call creates and destroys its own
-/// off-screen context: thread-safe, about a tenth of a second. Returns DEFSIM_OK;
-/// DEFSIM_ERR_INVALID_ARGUMENT (NULL, sizes outside 16..8192, an index out of range, no
-/// vertex); DEFSIM_ERR_BACKEND_UNAVAILABLE (no OSMesa GL 3.3 context);
-/// DEFSIM_ERR_IO (cannot write the file), with the reason in `err` (may be NULL).
+/// off-screen context (median 0.23 s for 640 x 400 on the loaded 2-core build machine), so
+/// calls are independent and thread-safe. Returns DEFSIM_OK; DEFSIM_ERR_INVALID_ARGUMENT (NULL,
+/// sizes outside 16..8192, an index out of range, a non-finite or no vertex);
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE (no OSMesa GL 3.3 context); DEFSIM_ERR_IO (cannot write the
+/// file); with the reason in `err` (may be NULL).
 DEFSIM_API defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
                                            int32_t nv, const double *x,
                                            const defsim_render_part *parts, int32_t count,

@@ -29,7 +29,7 @@ typedef struct defsim_render_part {
 /// the bounds of x, looking down 20 degrees from 35 degrees azimuth), a ground grid below, and
 /// "up" against `gravity` (m/s^2; +y when zero). Each call creates and destroys its own
 /// off-screen context (median 0.23 s for 640 x 400 on the loaded 2-core build machine), so
-/// calls are independent and thread-safe. Returns DEFSIM_OK; DEFSIM_ERR_INVALID_ARGUMENT (NULL,
+/// calls keep no state between them. Returns DEFSIM_OK; DEFSIM_ERR_INVALID_ARGUMENT (NULL,
 /// sizes outside 16..8192, an index out of range, a non-finite or no vertex);
 /// DEFSIM_ERR_BACKEND_UNAVAILABLE (no OSMesa GL 3.3 context); DEFSIM_ERR_IO (cannot write the
 /// file); with the reason in `err` (may be NULL).

@@ -63,9 +63,9 @@ def main() -> int:
         failures.append(f"the centre is not on top of the sphere: y = {x[centre, 1]}")
     if abs(support - MASS * G) > 0.1 * MASS * G:
         failures.append(f"contact forces {support} N do not carry the weight {MASS * G} N")
-    for msg in failures:
-        print("FAILED:", msg, file=sys.stderr)
-    return 1 if failures else 0
+    if failures:
+        sys.exit("FAILED: " + "\n        ".join(failures))
+    return 0
 
 
 if __name__ == "__main__":

@@ -94,9 +94,9 @@ def main() -> int:
             failures.append(f"{m}: not linear at small loads ({d[m][0]}, {d[m][1]})")
         if not d[m][-1] / loads[-1] < 0.97 * d[m][0] / loads[0]:
             failures.append(f"{m}: no geometric stiffening at {loads[-1]} N")
-    for msg in failures:
-        print("FAILED:", msg, file=sys.stderr)
-    return 1 if failures else 0
+    if failures:
+        sys.exit("FAILED: " + "\n        ".join(failures))
+    return 0
 
 
 if __name__ == "__main__":

@@ -95,9 +95,9 @@ def main() -> int:
         failures.append(f"deflections {deflection}")
     if abs(int(np.argmax(vm)) - int(np.argmax(deflection))) > 1:
         failures.append("stress and deflection peak at different frames")
-    for msg in failures:
-        print("FAILED:", msg, file=sys.stderr)
-    return 1 if failures else 0
+    if failures:
+        sys.exit("FAILED: " + "\n        ".join(failures))
+    return 0
 
 
 if __name__ == "__main__":

@@ -2,26 +2,15 @@
 /* libdefsim_render (include/defsim/render.h): one checked call over the tools' OSMesa renderer. */
 #include <defsim/render.h>
 
+#include "api_error.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "scene_json.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static defsim_status fail(char *err, size_t errsz, defsim_status st, const char *fmt, ...)
-{
-    if (err && errsz > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errsz, fmt, ap);
-        va_end(ap);
-    }
-    return st;
-}
 
 static int in_range(const int32_t *idx, int64_t n, int32_t nv)
 {
@@ -38,7 +27,7 @@ defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
     if (err && errsz > 0) err[0] = '\0';
     if (!path || !x || nv < 1 || count < 0 || (count > 0 && !parts) || !gravity ||
         width < 16 || height < 16 || width > 8192 || height > 8192)
-        return fail(err, errsz, bad, "defsim_render_png: NULL argument, no vertex, or a size "
+        return api_fail(err, errsz, bad, "defsim_render_png: NULL argument, no vertex, or a size "
                                      "outside 16..8192");
     for (int32_t i = 0; i < count; ++i) {
         const defsim_render_part *p = &parts[i];
@@ -46,7 +35,7 @@ defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
             (p->triangle_count > 0 && !p->triangles) || (p->line_count > 0 && !p->lines) ||
             (p->triangles && !in_range(p->triangles, 3 * (int64_t)p->triangle_count, nv)) ||
             (p->lines && !in_range(p->lines, 2 * (int64_t)p->line_count, nv)))
-            return fail(err, errsz, bad, "part %d: negative count, NULL array, or an index "
+            return api_fail(err, errsz, bad, "part %d: negative count, NULL array, or an index "
                                          "outside [0, %d)", (int)i, (int)nv);
     }
     double lo[3], hi[3];
@@ -54,7 +43,7 @@ defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
     for (int64_t i = 0; i < nv; ++i)
         for (int k = 0; k < 3; ++k) {
             const double c = x[3 * i + k];
-            if (!isfinite(c)) return fail(err, errsz, bad, "vertex %lld is not finite", (long long)i);
+            if (!isfinite(c)) return api_fail(err, errsz, bad, "vertex %lld is not finite", (long long)i);
             lo[k] = fmin(lo[k], c);
             hi[k] = fmax(hi[k], c);
         }
@@ -64,7 +53,7 @@ defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
     image im = {width, height, malloc((size_t)width * height * 3)};
     if (!defaults || !rp || !im.rgb) {
         free(defaults); free(rp); free(im.rgb);
-        return fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+        return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
     }
     scene_output_defaults(defaults);
     rd_view view;
@@ -84,11 +73,11 @@ defsim_status defsim_render_png(const char *path, int32_t width, int32_t height,
     defsim_status st = DEFSIM_OK;
     rd_renderer *r = rd_create(width, height, supersample, msg, sizeof msg);
     if (!r)
-        st = fail(err, errsz, DEFSIM_ERR_BACKEND_UNAVAILABLE, "renderer: %s", msg);
+        st = api_fail(err, errsz, DEFSIM_ERR_BACKEND_UNAVAILABLE, "renderer: %s", msg);
     else if (rd_render(r, &view, x, rp, count, im.rgb, msg, sizeof msg))
-        st = fail(err, errsz, DEFSIM_ERR_BACKEND_UNAVAILABLE, "renderer: %s", msg);
+        st = api_fail(err, errsz, DEFSIM_ERR_BACKEND_UNAVAILABLE, "renderer: %s", msg);
     else if (image_write_png(path, &im, msg, sizeof msg))
-        st = fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+        st = api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
     rd_destroy(r);
     free(rp);
     free(im.rgb);

@@ -3,10 +3,10 @@
  * checked C API, so that bindings reuse them instead of re-implementing them. */
 #include <defsim/scene.h>
 
+#include "api_error.h"
 #include "scene.h"
 #include "vtk.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,33 +17,22 @@ struct defsim_scene {
     char error[4096];
 };
 
-static defsim_status fail(char *err, size_t errsz, defsim_status st, const char *fmt, ...)
-{
-    if (err && errsz > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errsz, fmt, ap);
-        va_end(ap);
-    }
-    return st;
-}
-
 defsim_status defsim_scene_load(const char *path, const char *const *overrides, int32_t count,
                                 defsim_scene **out, char *err, size_t errsz)
 {
     if (err && errsz > 0) err[0] = '\0';
     if (out) *out = NULL;
     if (!path || !out || count < 0 || (count > 0 && !overrides))
-        return fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
                     "defsim_scene_load: NULL path or out, or count < 0 with no overrides");
     for (int32_t i = 0; i < count; ++i)
         if (!overrides[i])
-            return fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
                         "defsim_scene_load: override %d is NULL", (int)i);
     defsim_scene *sc = calloc(1, sizeof *sc);
-    if (!sc) return fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+    if (!sc) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
     if (scene_load(&sc->s, path, overrides, count) != 0) {
-        fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", sc->s.error);
+        api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", sc->s.error);
         free(sc);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
@@ -165,20 +154,20 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
     if (!path || nv < 0 || (nv > 0 && !x) || ncells < 0 ||
         (ncells > 0 && (!types || !offsets || !conn)) || count < 0 || count > MAX_ARRAYS ||
         (count > 0 && !arrays))
-        return fail(err, errsz, bad, "defsim_vtk_write_vtu: NULL argument or negative count "
+        return api_fail(err, errsz, bad, "defsim_vtk_write_vtu: NULL argument or negative count "
                                      "(at most %d arrays)", MAX_ARRAYS);
     int64_t prev = 0;
     for (int64_t c = 0; c < ncells; ++c) {
         const int k = types[c] == DEFSIM_VTK_LINE ? 2 : types[c] == DEFSIM_VTK_TRIANGLE ? 3
                       : types[c] == DEFSIM_VTK_TETRA ? 4 : 0;
-        if (!k) return fail(err, errsz, bad, "cell %lld: type %d is not a line (3), triangle (5) "
+        if (!k) return api_fail(err, errsz, bad, "cell %lld: type %d is not a line (3), triangle (5) "
                                              "or tet (10)", (long long)c, (int)types[c]);
         if (offsets[c] - prev != k)
-            return fail(err, errsz, bad, "cell %lld: offsets give %lld vertices, its type %d",
+            return api_fail(err, errsz, bad, "cell %lld: offsets give %lld vertices, its type %d",
                         (long long)c, (long long)(offsets[c] - prev), k);
         for (int64_t j = prev; j < offsets[c]; ++j)
             if (conn[j] < 0 || conn[j] >= nv)
-                return fail(err, errsz, bad, "cell %lld: vertex %lld out of range [0, %d)",
+                return api_fail(err, errsz, bad, "cell %lld: vertex %lld out of range [0, %d)",
                             (long long)c, (long long)conn[j], (int)nv);
         prev = offsets[c];
     }
@@ -187,7 +176,7 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
         const defsim_vtk_array *a = &arrays[k];
         if (!good_name(a->name) || !a->data || (a->cell != 0 && a->cell != 1) ||
             (a->components != 1 && a->components != 3 && a->components != 6 && a->components != 9))
-            return fail(err, errsz, bad, "array %d: needs a name of letters, digits and '_', "
+            return api_fail(err, errsz, bad, "array %d: needs a name of letters, digits and '_', "
                                          "data, cell 0 or 1 and 1, 3, 6 or 9 components", (int)k);
         extra[k].name = a->name;
         extra[k].components = a->components;
@@ -197,7 +186,7 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
     int32_t *zeros = NULL;
     if (!body) {
         zeros = calloc((size_t)(ncells > 0 ? ncells : 1), sizeof *zeros);
-        if (!zeros) return fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+        if (!zeros) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
     }
     /* The writer only reads the cells; the casts drop const for its struct. */
     vtk_cells cells;
@@ -210,7 +199,7 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
     char msg[1024] = "";
     const int rc = vtk_write_vtu(path, nv, x, v, &cells, time, extra, count, msg, sizeof msg);
     free(zeros);
-    if (rc != 0) return fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+    if (rc != 0) return api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
     return DEFSIM_OK;
 }
 
@@ -219,15 +208,15 @@ defsim_status defsim_vtk_write_pvd(const char *path, int32_t count, const double
 {
     if (err && errsz > 0) err[0] = '\0';
     if (!path || count < 0 || (count > 0 && (!times || !files)))
-        return fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
                     "defsim_vtk_write_pvd: NULL argument or count < 0");
     for (int32_t i = 0; i < count; ++i)
         if (!files[i] || strpbrk(files[i], "\"<>&"))
-            return fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
                         "defsim_vtk_write_pvd: file %d is NULL or has '\"', '<', '>' or '&'",
                         (int)i);
     char msg[1024] = "";
     if (vtk_write_pvd(path, count, times, files, msg, sizeof msg) != 0)
-        return fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+        return api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
     return DEFSIM_OK;
 }

@@ -170,20 +170,15 @@ class WorldColliders:
         d = ffi.new("defsim_collider_def *")
         lib.defsim_collider_def_init(d, ffi.sizeof("defsim_collider_def"))
         d.shape = int(s)
-        if position is not None:
-            d.position = list(_arrays.triple(position, "position"))
-        if rotation is not None:
-            d.rotation = _quat(rotation)
-        if normal is not None:
-            d.normal = list(_arrays.triple(normal, "normal"))
-        if radius is not None:
-            d.radius = _arrays.c_double(radius, "radius")
-        if half_extents is not None:
-            d.half_extents = list(_arrays.triple(half_extents, "half_extents"))
-        if half_height is not None:
-            d.half_height = _arrays.c_double(half_height, "half_height")
-        if friction is not None:
-            d.friction = _arrays.c_double(friction, "friction")
+        vector = lambda v, name: list(_arrays.triple(v, name))   # noqa: E731
+        given = (("position", position, vector), ("rotation", rotation, lambda v, _: _quat(v)),
+                 ("normal", normal, vector), ("radius", radius, _arrays.c_double),
+                 ("half_extents", half_extents, vector),
+                 ("half_height", half_height, _arrays.c_double),
+                 ("friction", friction, _arrays.c_double))
+        for name, value, convert in given:
+            if value is not None:
+                setattr(d, name, convert(value, name))
         keep: List[Any] = []
         if vertices is not None or triangles is not None:
             vx = _arrays.points(vertices, "vertices")
@@ -248,9 +243,4 @@ class WorldColliders:
     def contact_forces(self) -> np.ndarray:
         """The total contact force (normal + friction, N) the colliders applied to each vertex
         during the last step, (n, 3); zero before any step and away from contact."""
-        w = self._live()
-        n = int(lib.defsim_world_vertex_count(w))
-        out = np.zeros((n, 3))
-        if n > 0:
-            self._check(lib.defsim_world_get_contact_forces(w, _arrays.dptr(out), n))
-        return out
+        return self._get(lib.defsim_world_get_contact_forces, None, 3, "out")   # type: ignore[attr-defined]

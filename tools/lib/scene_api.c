@@ -172,6 +172,7 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
         prev = offsets[c];
     }
     vtk_array extra[MAX_ARRAYS];
+    memset(extra, 0, sizeof extra);   /* fields the tools' struct may grow stay zero */
     for (int32_t k = 0; k < count; ++k) {
         const defsim_vtk_array *a = &arrays[k];
         if (!good_name(a->name) || !a->data || (a->cell != 0 && a->cell != 1) ||

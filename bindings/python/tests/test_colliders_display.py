@@ -135,3 +135,20 @@ def test_display_png():
         with pytest.raises(defsim.InvalidArgumentError):
             defsim.display.render_png(w, 4, 4)
     assert w._repr_png_() is None                                # closed
+
+
+def test_sdf_trampoline():
+    """A Python SDF as the library calls it: distance returned, gradient written, and an
+    exception turned into NaN (which fails the step) and kept for StepError's __cause__."""
+    from defsim._collider import _Sdf
+    from defsim._native import ffi
+    cb = _Sdf(lambda p: (p[1] - 0.5, (0.0, 2.0 * p[1], 0.0)))
+    p = ffi.new("double[3]", [1.0, 2.0, 3.0])
+    grad = ffi.new("double[3]")
+    assert cb.c_fn(ffi.NULL, p, grad) == 1.5
+    assert list(grad) == [0.0, 4.0, 0.0]
+    boom = _Sdf(lambda p: 1 / 0)
+    assert np.isnan(boom.c_fn(ffi.NULL, p, grad))
+    assert isinstance(boom.error, ZeroDivisionError)
+    short = _Sdf(lambda p: (0.0, (1.0, 0.0)))        # a gradient of two numbers
+    assert np.isnan(short.c_fn(ffi.NULL, p, grad)) and short.error is not None

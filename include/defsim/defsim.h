@@ -198,14 +198,6 @@ typedef struct defsim_body_id {
     uint32_t generation;
 } defsim_body_id;
 
-/// What a spring of a cloth or rope mesh resists (defsim_mesh.spring_kinds), so that each kind
-/// can be given its own stiffness (defsim_body_def.spring_kinds).
-typedef enum defsim_spring_kind {
-    DEFSIM_SPRING_STRETCH = 0,  ///< Structural: neighbours along the grid or the rope.
-    DEFSIM_SPRING_SHEAR = 1,    ///< Cell diagonals of a cloth.
-    DEFSIM_SPRING_BEND = 2      ///< Between every second vertex: resists folding.
-} defsim_spring_kind;
-
 /// Creation parameters of a body. All arrays are copied by defsim_world_add_body.
 typedef struct defsim_body_def {
     uint32_t size;                      ///< sizeof(defsim_body_def), set by defsim_body_def_init.
@@ -815,6 +807,19 @@ DEFSIM_API defsim_status defsim_world_get_collider(const defsim_world *world, in
 /// for vertices not in contact). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
 DEFSIM_API defsim_status defsim_world_get_contact_forces(const defsim_world *world, double *out,
                                                          int32_t n);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Spring kinds (issue 16): cloth and rope meshes tell each spring's kind                     */
+/* (defsim_mesh.spring_kinds); a body def takes a stiffness per kind                          */
+/* (defsim_body_def.spring_kinds, shear_stiffness, bend_stiffness).                           */
+
+/// What a spring of a cloth or rope mesh resists (defsim_mesh.spring_kinds), so that each kind
+/// can be given its own stiffness (defsim_body_def.spring_kinds).
+typedef enum defsim_spring_kind {
+    DEFSIM_SPRING_STRETCH = 0,  ///< Structural: neighbours along the grid or the rope.
+    DEFSIM_SPRING_SHEAR = 1,    ///< Cell diagonals of a cloth.
+    DEFSIM_SPRING_BEND = 2      ///< Between every second vertex: resists folding.
+} defsim_spring_kind;
 
 #ifdef __cplusplus
 }

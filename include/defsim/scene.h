@@ -5,9 +5,9 @@
  * A second, optional library built from the tools' own code (tools/scene.c, tools/vtk.c), so
  * that Python and other hosts load the same JSON with the same parser and write the same .vtu
  * / .pvd files as `defsim run`. It links libdefsim and cJSON. The scene format is documented in
- * docs/scene-format.md (tools/README.md until then). Plain C11 that cffi can parse: explicit
- * types, no macros or inline functions needed to call it. Thread safety: a scene is used from
- * one thread at a time; different scenes are independent.
+ * tools/README.md. Plain C11 that cffi can parse: explicit types, no macros or inline functions
+ * needed to call it. Thread safety: a scene is used from one thread at a time; different scenes
+ * are independent.
  */
 #ifndef DEFSIM_SCENE_H
 #define DEFSIM_SCENE_H

@@ -135,6 +135,11 @@ def test_display_png():
         with pytest.raises(defsim.InvalidArgumentError):
             defsim.display.render_png(w, 4, 4)
     assert w._repr_png_() is None                                # closed
+    import os
+    import defsim.io
+    scene = defsim.io.load_scene(os.path.join(os.path.dirname(__file__), "..", "..", "..",
+                                              "tests", "scenes", "rope.json"))
+    assert _png_size(scene._repr_png_()) == (640, 400)           # a scene shows its world
 
 
 def test_sdf_trampoline():

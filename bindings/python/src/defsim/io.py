@@ -396,6 +396,10 @@ class Scene:
                 close()
         return world
 
+    def _repr_png_(self) -> Optional[bytes]:
+        """The scene's world as a picture for Jupyter (``World._repr_png_``)."""
+        return self.world._repr_png_()
+
     def __repr__(self) -> str:
         return (f"<defsim.io.Scene {self.name!r}: {self._body_count} bodies, backend "
                 f"{self.backend}, h={self.step_size:g} s, duration={self.duration:g} s>")

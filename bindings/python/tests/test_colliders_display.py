@@ -2,6 +2,7 @@
 """Colliders from Python, cloth stiffness by spring kind, and the rendered display."""
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 
@@ -10,6 +11,7 @@ import pytest
 
 import defsim
 import defsim.display
+import defsim.io
 
 
 def test_collider_api(world):
@@ -135,8 +137,6 @@ def test_display_png():
         with pytest.raises(defsim.InvalidArgumentError):
             defsim.display.render_png(w, 4, 4)
     assert w._repr_png_() is None                                # closed
-    import os
-    import defsim.io
     scene = defsim.io.load_scene(os.path.join(os.path.dirname(__file__), "..", "..", "..",
                                               "tests", "scenes", "rope.json"))
     assert _png_size(scene._repr_png_()) == (640, 400)           # a scene shows its world

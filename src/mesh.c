@@ -13,9 +13,24 @@ void defsim_mesh_free(defsim_mesh *m)
 {
     if (!m) return;
     free(m->positions); free(m->tets); free(m->triangles); free(m->springs);
+    if (m->size >= offsetof(defsim_mesh, spring_kinds) + sizeof m->spring_kinds) {
+        free(m->spring_kinds);
+        m->spring_kinds = NULL;
+    }
     m->positions = NULL;
     m->tets = m->triangles = m->springs = NULL;
     m->vertex_count = m->tet_count = m->triangle_count = m->spring_count = 0;
+}
+
+void defsim__mesh_deliver(defsim_mesh *dst, defsim_mesh *src)
+{
+    const size_t n = dst->size < sizeof *src ? dst->size : sizeof *src;
+    src->size = dst->size;
+    if (n < offsetof(defsim_mesh, spring_kinds) + sizeof src->spring_kinds) {
+        free(src->spring_kinds);
+        src->spring_kinds = NULL;
+    }
+    memcpy(dst, src, n);
 }
 
 typedef struct face { int32_t key[3]; int32_t v[3]; int32_t opposite; } face;
@@ -77,15 +92,17 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
 /* A zeroed mesh with room for nv vertices and nt tets, ntri triangles, ns springs (arrays of
  * zero items stay NULL). On failure nothing is left allocated. */
 static defsim_status mesh_alloc(defsim_mesh *out, int64_t nv, int64_t nt, int64_t ntri,
-                                int64_t ns)
+                                int64_t ns, int kinds)
 {
     memset(out, 0, sizeof *out);
+    out->size = sizeof *out;
+    if (kinds && ns > 0) out->spring_kinds = malloc((size_t)ns * sizeof *out->spring_kinds);
     out->positions = malloc((size_t)nv * 3 * sizeof *out->positions);
     if (nt > 0) out->tets = malloc((size_t)nt * 4 * sizeof *out->tets);
     if (ntri > 0) out->triangles = malloc((size_t)ntri * 3 * sizeof *out->triangles);
     if (ns > 0) out->springs = malloc((size_t)ns * 2 * sizeof *out->springs);
     if (!out->positions || (nt > 0 && !out->tets) || (ntri > 0 && !out->triangles) ||
-        (ns > 0 && !out->springs)) {
+        (ns > 0 && !out->springs) || (kinds && ns > 0 && !out->spring_kinds)) {
         defsim_mesh_free(out);
         defsim__set_last_error("out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -96,7 +113,7 @@ static defsim_status mesh_alloc(defsim_mesh *out, int64_t nv, int64_t nt, int64_
 defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx, int32_t ny,
                               int32_t nz, defsim_mesh *m)
 {
-    if (!lo || !hi || !m || m->size < sizeof(defsim_mesh)) {
+    if (!lo || !hi || !m || m->size < DEFSIM__MESH_SIZE_V1) {
         defsim__set_last_error("defsim_mesh_box: NULL argument or mesh->size not "
                                "sizeof(defsim_mesh)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -114,7 +131,7 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
     const int64_t nv = (int64_t)(nx + 1) * (ny + 1) * (nz + 1);
     const int64_t nt = 6 * (int64_t)nx * ny * nz;
     defsim_mesh out;
-    defsim_status st = mesh_alloc(&out, nv, nt, 0, 0);
+    defsim_status st = mesh_alloc(&out, nv, nt, 0, 0, 0);
     if (st != DEFSIM_OK) return st;
     const int32_t n[3] = {nx, ny, nz};
     for (int32_t k = 0; k <= nz; ++k)
@@ -155,8 +172,7 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
         defsim__set_last_error("out of memory");
         return st;
     }
-    out.size = m->size;
-    *m = out;
+    defsim__mesh_deliver(m, &out);
     return DEFSIM_OK;
 }
 
@@ -168,7 +184,7 @@ static int finite3(const double *p)
 defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const double v[3],
                                 int32_t nu, int32_t nv, defsim_mesh *m)
 {
-    if (!origin || !u || !v || !m || m->size < sizeof(defsim_mesh)) {
+    if (!origin || !u || !v || !m || m->size < DEFSIM__MESH_SIZE_V1) {
         defsim__set_last_error("defsim_mesh_cloth: NULL argument or mesh->size not "
                                "sizeof(defsim_mesh)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -193,7 +209,7 @@ defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const
     const int64_t nbend = (int64_t)(nu - 1) * (nv + 1) + (int64_t)(nu + 1) * (nv - 1);
     const int64_t ns = nstruct + nshear + nbend, ntri = 2 * (int64_t)nu * nv;
     defsim_mesh out;
-    defsim_status st = mesh_alloc(&out, nvert, 0, ntri, ns);
+    defsim_status st = mesh_alloc(&out, nvert, 0, ntri, ns, 1);
     if (st != DEFSIM_OK) return st;
     for (int32_t j = 0; j <= nv; ++j)
         for (int32_t i = 0; i <= nu; ++i) {
@@ -223,18 +239,20 @@ defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const
         for (int32_t i = 0; i + 2 <= nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + 2 + W * j); }
     for (int32_t j = 0; j + 2 <= nv; ++j)
         for (int32_t i = 0; i <= nu; ++i) { *s++ = (int32_t)(i + W * j); *s++ = (int32_t)(i + W * (j + 2)); }
+    for (int64_t k = 0; k < ns; ++k)
+        out.spring_kinds[k] = k < nstruct ? DEFSIM_SPRING_STRETCH
+                              : k < nstruct + nshear ? DEFSIM_SPRING_SHEAR : DEFSIM_SPRING_BEND;
     out.vertex_count = (int32_t)nvert;
     out.triangle_count = (int32_t)ntri;
     out.spring_count = (int32_t)ns;
-    out.size = m->size;
-    *m = out;
+    defsim__mesh_deliver(m, &out);
     return DEFSIM_OK;
 }
 
 defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t segments,
                                defsim_mesh *m)
 {
-    if (!a || !b || !m || m->size < sizeof(defsim_mesh)) {
+    if (!a || !b || !m || m->size < DEFSIM__MESH_SIZE_V1) {
         defsim__set_last_error("defsim_mesh_rope: NULL argument or mesh->size not "
                                "sizeof(defsim_mesh)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -250,7 +268,7 @@ defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t seg
     }
     const int64_t nvert = (int64_t)segments + 1, ns = 2 * (int64_t)segments - 1;
     defsim_mesh out;
-    defsim_status st = mesh_alloc(&out, nvert, 0, 0, ns);
+    defsim_status st = mesh_alloc(&out, nvert, 0, 0, ns, 1);
     if (st != DEFSIM_OK) return st;
     for (int64_t i = 0; i < nvert; ++i)
         for (int c = 0; c < 3; ++c)
@@ -258,9 +276,10 @@ defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t seg
     int32_t *s = out.springs;
     for (int32_t i = 0; i < segments; ++i) { *s++ = i; *s++ = i + 1; }
     for (int32_t i = 0; i + 2 <= segments; ++i) { *s++ = i; *s++ = i + 2; }
+    for (int64_t k = 0; k < ns; ++k)
+        out.spring_kinds[k] = k < segments ? DEFSIM_SPRING_STRETCH : DEFSIM_SPRING_BEND;
     out.vertex_count = (int32_t)nvert;
     out.spring_count = (int32_t)ns;
-    out.size = m->size;
-    *m = out;
+    defsim__mesh_deliver(m, &out);
     return DEFSIM_OK;
 }

@@ -5,6 +5,15 @@
 
 #include "defsim/defsim.h"
 
+#include <stddef.h>
+
+/* The smallest defsim_mesh.size accepted: the struct before spring_kinds was appended. */
+#define DEFSIM__MESH_SIZE_V1 offsetof(defsim_mesh, spring_kinds)
+
+/* Hands a finished mesh to the caller's struct, copying only the fields its size covers (an
+ * older caller's struct lacks spring_kinds, which is then freed). */
+void defsim__mesh_deliver(defsim_mesh *dst, defsim_mesh *src);
+
 /* Outward-oriented boundary triangles of a tet mesh (faces used by exactly one tet).
  * *tris_out is malloc'd (3 * *ntris_out indices). */
 defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,

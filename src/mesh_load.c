@@ -237,8 +237,7 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
         res.spring_count = (int32_t)nu;
         free(E);
     }
-    res.size = out->size;
-    *out = res;
+    defsim__mesh_deliver(out, &res);
     memset(&res, 0, sizeof res);
     st = DEFSIM_OK;
 done:
@@ -263,7 +262,7 @@ static int ends_with(const char *s, const char *suffix)
 
 defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh)
 {
-    if (!path || !mesh || mesh->size < sizeof(defsim_mesh)) {
+    if (!path || !mesh || mesh->size < DEFSIM__MESH_SIZE_V1) {
         defsim__set_last_error("defsim_mesh_load: NULL argument or mesh->size not "
                                "sizeof(defsim_mesh)");
         return DEFSIM_ERR_INVALID_ARGUMENT;

@@ -304,6 +304,7 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     memset(&d, 0, sizeof d);
     d.size = (uint32_t)sizeof d;
     defsim_material_init(&d.material, sizeof d.material, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    d.shear_stiffness = d.bend_stiffness = -1.0;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -432,6 +433,10 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__error(w->msg, "add_body: %s", msg);
         return st;
     }
+    if (d.spring_kinds && d.spring_stiffness) {
+        defsim__error(w->msg, "add_body: give spring_stiffness or spring_kinds, not both");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
     st = validate_array(w, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
     if (st == DEFSIM_OK && d.initial_positions)
@@ -506,6 +511,18 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
             goto fail;
         }
         double k = d.spring_stiffness ? d.spring_stiffness[s] : b.mat.stiffness;
+        if (d.spring_kinds) {
+            const int32_t kind = d.spring_kinds[s];
+            if (kind < DEFSIM_SPRING_STRETCH || kind > DEFSIM_SPRING_BEND) {
+                defsim__error(w->msg, "add_body: spring %d has kind %d (not a defsim_spring_kind)",
+                              (int)s, (int)kind);
+                st = DEFSIM_ERR_INVALID_MESH;
+                goto fail;
+            }
+            const double by_kind = kind == DEFSIM_SPRING_SHEAR ? d.shear_stiffness
+                                   : kind == DEFSIM_SPRING_BEND ? d.bend_stiffness : -1.0;
+            if (by_kind >= 0.0 || isnan(by_kind)) k = by_kind;
+        }
         if (!isfinite(k) || k < 0.0) {
             defsim__error(w->msg, "add_body: spring %d stiffness %g must be finite and >= 0",
                           (int)s, k);

@@ -233,6 +233,14 @@ typedef struct defsim_body_def {
     const double *initial_positions;    ///< Optional, 3 * vertex_count; NULL: rest positions.
     const double *initial_velocities;   ///< Optional, 3 * vertex_count; NULL: zero.
     defsim_material material;           ///< Default: stable neo-Hookean defaults.
+    /* Stiffness by spring kind (appended). */
+    /// Optional: one defsim_spring_kind per spring (e.g. defsim_mesh.spring_kinds), copied.
+    /// Stretch springs get material.stiffness, shear and bend springs shear_stiffness and
+    /// bend_stiffness. Cannot be combined with spring_stiffness (DEFSIM_ERR_INVALID_ARGUMENT);
+    /// a value outside the enum is DEFSIM_ERR_INVALID_MESH.
+    const int32_t *spring_kinds;
+    double shear_stiffness;             ///< N/m of DEFSIM_SPRING_SHEAR springs; < 0 (default): material.stiffness.
+    double bend_stiffness;              ///< N/m of DEFSIM_SPRING_BEND springs; < 0 (default): material.stiffness.
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
@@ -498,6 +506,9 @@ typedef struct defsim_mesh {
     int32_t triangle_count;
     int32_t *springs;        ///< 2 per spring (edges of cloth, rope links).
     int32_t spring_count;
+    /// One defsim_spring_kind per spring (cloth and rope meshes), or NULL: every spring is a
+    /// stretch spring. Only written when `size` covers this field (older callers keep working).
+    int32_t *spring_kinds;
 } defsim_mesh;
 
 /// Makes a box of nx * ny * nz hexahedra on [lo, hi], each split into 6 positively oriented tets
@@ -536,8 +547,9 @@ DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);
 /// (i, j) to (i + 1, j + 1), normals along u x v) and springs in this order:
 /// structural along u (nu (nv + 1)), structural along v ((nu + 1) nv), shear (both diagonals of
 /// every cell, 2 nu nv), then bending between every second vertex along u ((nu - 1)(nv + 1)) and
-/// along v ((nu + 1)(nv - 1)). Hosts that want other bending or shear stiffnesses pass
-/// defsim_body_def.spring_stiffness ordered the same way.
+/// along v ((nu + 1)(nv - 1)). mesh->spring_kinds tells each spring's kind (stretch, shear,
+/// bend): pass it as defsim_body_def.spring_kinds with shear_stiffness and bend_stiffness to
+/// give each kind its stiffness (or defsim_body_def.spring_stiffness, one k per spring).
 /// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, nu or nv < 1, too large, u and v not spanning a
 /// plane, non-finite input), DEFSIM_ERR_OUT_OF_MEMORY.
@@ -547,7 +559,8 @@ DEFSIM_API defsim_status defsim_mesh_cloth(const double origin[3], const double 
 
 /// Makes a rope from a to b (m): segments + 1 equally spaced vertices, `segments` springs
 /// between neighbours (vertex i to i + 1, in order), then segments - 1 bending springs between
-/// every second vertex (i to i + 2). No tets or triangles.
+/// every second vertex (i to i + 2), with spring_kinds DEFSIM_SPRING_STRETCH and
+/// DEFSIM_SPRING_BEND. No tets or triangles.
 /// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, segments < 1 or too large, a == b, non-finite
 /// input), DEFSIM_ERR_OUT_OF_MEMORY.
@@ -832,6 +845,19 @@ DEFSIM_API defsim_status defsim_world_get_collider(const defsim_world *world, in
 /// for vertices not in contact). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
 DEFSIM_API defsim_status defsim_world_get_contact_forces(const defsim_world *world, double *out,
                                                          int32_t n);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Spring kinds (issue 16): cloth and rope meshes tell each spring's kind                     */
+/* (defsim_mesh.spring_kinds); a body def takes a stiffness per kind                          */
+/* (defsim_body_def.spring_kinds, shear_stiffness, bend_stiffness).                           */
+
+/// What a spring of a cloth or rope mesh resists (defsim_mesh.spring_kinds), so that each kind
+/// can be given its own stiffness (defsim_body_def.spring_kinds).
+typedef enum defsim_spring_kind {
+    DEFSIM_SPRING_STRETCH = 0,  ///< Structural: neighbours along the grid or the rope.
+    DEFSIM_SPRING_SHEAR = 1,    ///< Cell diagonals of a cloth.
+    DEFSIM_SPRING_BEND = 2      ///< Between every second vertex: resists folding.
+} defsim_spring_kind;
 
 #ifdef __cplusplus
 }

@@ -6,6 +6,7 @@
 #include "test_util.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -596,6 +597,98 @@ static void test_rope(void **state)
     defsim_mesh_free(&m);
 }
 
+/* Spring kinds: the cloth and rope report each spring's kind in the documented order, a body
+ * takes a stiffness per kind, and a uniform stretch by (1 + e) stores
+ * e^2 / 2 sum_kind k_kind sum l0^2 (computed here from the rest lengths by kind). */
+static void test_spring_kinds(void **state)
+{
+    (void)state;
+    const double o[3] = {0, 0, 0}, u[3] = {0.6, 0, 0}, v[3] = {0, 0, -0.4};
+    const int nu = 3, nv = 4;
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_cloth(o, u, v, nu, nv, &m));
+    assert_non_null(m.spring_kinds);
+    const int ns_u = nu * (nv + 1), ns_v = (nu + 1) * nv, nsh = 2 * nu * nv;
+    const double du = 0.2, dv = 0.1;
+    double sum_l2[3] = {0, 0, 0};
+    for (int s = 0; s < m.spring_count; ++s) {
+        const int32_t kind = m.spring_kinds[s];
+        assert_int_equal(kind, s < ns_u + ns_v ? DEFSIM_SPRING_STRETCH
+                               : s < ns_u + ns_v + nsh ? DEFSIM_SPRING_SHEAR : DEFSIM_SPRING_BEND);
+        const double l = len(&m, s);
+        /* Kinds agree with the geometry: bending springs span two cells, shear ones a diagonal. */
+        if (kind == DEFSIM_SPRING_BEND) assert_true(fabs(l - 2 * du) < 1e-12 || fabs(l - 2 * dv) < 1e-12);
+        if (kind == DEFSIM_SPRING_SHEAR) assert_near(l, sqrt(du * du + dv * dv), 1e-12);
+        sum_l2[kind] += l * l;
+    }
+    const double k[3] = {300.0, 40.0, 5.0}, e = 0.01;
+    defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    assert_true(bd.shear_stiffness < 0.0 && bd.bend_stiffness < 0.0 && bd.spring_kinds == NULL);
+    bd.rest_positions = m.positions;
+    bd.vertex_count = m.vertex_count;
+    bd.springs = m.springs;
+    bd.spring_count = m.spring_count;
+    bd.spring_kinds = m.spring_kinds;
+    bd.shear_stiffness = k[DEFSIM_SPRING_SHEAR];
+    bd.bend_stiffness = k[DEFSIM_SPRING_BEND];
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.material.stiffness = k[DEFSIM_SPRING_STRETCH];
+    bd.material.vertex_mass = 0.01;
+    TU_OK(defsim_world_add_body(w, &bd, NULL));
+    double *x = malloc(3 * (size_t)m.vertex_count * sizeof *x);
+    assert_non_null(x);
+    for (int i = 0; i < 3 * m.vertex_count; ++i) x[i] = (1.0 + e) * m.positions[i];
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    defsim_energy en;
+    TU_OK(defsim_world_energy(w, &en));
+    const double want = 0.5 * e * e * (k[0] * sum_l2[0] + k[1] * sum_l2[1] + k[2] * sum_l2[2]);
+    assert_near(en.elastic, want, 1e-12 * want);
+
+    /* Kinds left at their default stiffness take material.stiffness. */
+    bd.shear_stiffness = bd.bend_stiffness = -1.0;
+    TU_OK(defsim_world_add_body(w, &bd, NULL));
+    /* Misuse: both per-spring stiffness and kinds; a kind outside the enum. */
+    const int32_t nw = defsim_world_vertex_count(w);
+    bd.spring_stiffness = x;
+    assert_int_equal(defsim_world_add_body(w, &bd, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    bd.spring_stiffness = NULL;
+    int32_t *bad = malloc((size_t)m.spring_count * sizeof *bad);
+    assert_non_null(bad);
+    memcpy(bad, m.spring_kinds, (size_t)m.spring_count * sizeof *bad);
+    bad[m.spring_count - 1] = 7;
+    bd.spring_kinds = bad;
+    assert_int_equal(defsim_world_add_body(w, &bd, NULL), DEFSIM_ERR_INVALID_MESH);
+    assert_int_equal(defsim_world_vertex_count(w), nw);
+    free(bad);
+    free(x);
+    defsim_world_destroy(w);
+    defsim_mesh_free(&m);
+    assert_null(m.spring_kinds);
+
+    /* Rope: links then bending springs. */
+    const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0};
+    TU_OK(defsim_mesh_rope(a, b, 5, &m));
+    for (int s = 0; s < m.spring_count; ++s)
+        assert_int_equal(m.spring_kinds[s], s < 5 ? DEFSIM_SPRING_STRETCH : DEFSIM_SPRING_BEND);
+    defsim_mesh_free(&m);
+
+    /* A caller compiled before spring_kinds existed passes the older, smaller size: the mesh is
+     * made and nothing past its struct is written. */
+    unsigned char buf[sizeof(defsim_mesh) + 16];
+    memset(buf, 0xAB, sizeof buf);
+    defsim_mesh *old = (defsim_mesh *)(void *)buf;
+    old->size = (uint32_t)offsetof(defsim_mesh, spring_kinds);
+    TU_OK(defsim_mesh_cloth(o, u, v, 2, 2, old));
+    assert_int_equal(old->spring_count, 2 * 3 + 3 * 2 + 8 + 3 + 3);
+    for (size_t i = offsetof(defsim_mesh, spring_kinds); i < sizeof buf; ++i)
+        assert_int_equal(buf[i], 0xAB);
+    defsim_mesh_free(old);
+    for (size_t i = offsetof(defsim_mesh, spring_kinds); i < sizeof buf; ++i)
+        assert_int_equal(buf[i], 0xAB);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -608,6 +701,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_obj_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test(test_cloth),
         cmocka_unit_test(test_rope),
+        cmocka_unit_test(test_spring_kinds),
     };
     return cmocka_run_group_tests_name("mesh_io", tests, NULL, NULL);
 }

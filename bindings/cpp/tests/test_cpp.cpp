@@ -71,7 +71,7 @@ static void test_mesh()
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 0, 1, 1); }));
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {0, 1, 1}, 1, 1, 1); }));
 
-    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
+    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 2, 3};
     CHECK(defsim_mesh_box(lo, hi, 1, 1, 1, &raw) == DEFSIM_OK);
     defsim::Mesh adopted = defsim::Mesh::adopt(raw);
@@ -112,7 +112,7 @@ static std::vector<double> beam_c(int steps)
     wd.num_threads = 2;
     defsim_world *w = nullptr;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return {};
-    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
+    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.8, 0.2, 0.2};
     defsim_mesh_box(lo, hi, 4, 1, 1, &m);
     defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
@@ -547,6 +547,66 @@ static void test_element_stress()
     }
 }
 
+// Stiffness by spring kind: a cloth stretched uniformly by (1 + e) stores e^2/2 sum k_kind l0^2,
+// with the rest lengths summed by kind here from the mesh.
+static void test_spring_kinds()
+{
+    const auto cloth = defsim::Mesh::cloth({0, 0, 0}, {0.6, 0, 0}, {0, 0, -0.4}, 3, 4);
+    CHECK(cloth.spring_kinds().size() == static_cast<std::size_t>(cloth.spring_count()));
+    const double k[3] = {300.0, 40.0, 5.0}, e = 0.02;
+    double sum[3] = {0, 0, 0};
+    const auto x0 = cloth.positions();
+    for (int32_t s = 0; s < cloth.spring_count(); ++s) {
+        const int32_t a = cloth.springs()[2 * s], b = cloth.springs()[2 * s + 1];
+        double l2 = 0.0;
+        for (int c = 0; c < 3; ++c) l2 += (x0[3 * a + c] - x0[3 * b + c]) * (x0[3 * a + c] - x0[3 * b + c]);
+        sum[cloth.spring_kinds()[s]] += l2;
+    }
+    defsim::WorldDef wd;
+    wd.gravity(0, 0, 0);
+    defsim::World w(wd);
+    w.add_body(defsim::BodyDef(cloth)
+                   .material(defsim::Material(defsim::Model::spring).stiffness(k[0]).vertex_mass(0.01))
+                   .shear_stiffness(k[1])
+                   .bend_stiffness(k[2]));
+    std::vector<double> x(x0.begin(), x0.end());
+    for (double &c : x) c *= 1.0 + e;
+    w.set_state(x, {});
+    const double want = 0.5 * e * e * (k[0] * sum[0] + k[1] * sum[1] + k[2] * sum[2]);
+    CHECK(std::fabs(w.energy().elastic - want) < 1e-12 * want);
+    // Per-spring stiffness replaces the kinds instead of conflicting with them.
+    std::vector<double> ks(static_cast<std::size_t>(cloth.spring_count()), 7.0);
+    w.add_body(defsim::BodyDef(cloth).spring_stiffness(ks).material(
+        defsim::Material(defsim::Model::spring).vertex_mass(0.01)));
+    CHECK(w.vertex_count() == 2 * cloth.vertex_count());
+}
+
+// Colliders: add, list, pose, remove, contact forces' shape, and errors as exceptions.
+static void test_colliders()
+{
+    defsim::World w;
+    const std::vector<double> p = {0, 1, 0};
+    w.add_body(defsim::BodyDef().rest_positions(p).material(
+        defsim::Material(defsim::Model::spring).vertex_mass(1.0)));
+    const auto ball = w.add_collider(defsim::ColliderDef(defsim::Shape::sphere).radius(0.5)
+                                         .position({0, -1, 0}).friction(0.2));
+    const auto ground = w.add_collider(defsim::ColliderDef());
+    CHECK(!ball.is_null() && !(ball == ground));
+    CHECK(w.colliders().size() == 2 && w.colliders()[0] == ball);
+    const defsim_collider_def d = w.collider_def(ball);
+    CHECK(d.shape == DEFSIM_SHAPE_SPHERE && d.radius == 0.5 && d.position[1] == -1.0 && d.friction == 0.2);
+    w.set_collider_pose(ball, {0, -0.5, 0});
+    CHECK(w.contact_forces().size() == 3);
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] {
+        w.add_collider(defsim::ColliderDef(defsim::Shape::sphere).radius(-1.0));
+    }));
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_collider_pose(ball, {0, 0, 0}, {2, 0, 0, 0}); }));
+    w.remove_collider(ball);
+    CHECK(w.colliders().size() == 1);
+    CHECK(throws_status(DEFSIM_ERR_STALE_ID, [&] { w.remove_collider(ball); }));
+    CHECK(throws_status(DEFSIM_ERR_STALE_ID, [&] { w.collider_def(ball); }));
+}
+
 int main()
 {
     test_version();
@@ -564,6 +624,8 @@ int main()
     test_driven_pins();
     test_pin_and_attachment_forces();
     test_element_stress();
+    test_spring_kinds();
+    test_colliders();
     if (failures) std::fprintf(stderr, "%d check(s) failed\n", failures);
     return failures ? 1 : 0;
 }

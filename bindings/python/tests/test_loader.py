@@ -103,15 +103,16 @@ def test_library_from_the_loader_search_path() -> None:
 
 
 def test_bundled_modules_are_added_to_the_backend_path(tmp_path, monkeypatch) -> None:
-    # Simulate an installed package: a library beside the package files and a modules folder.
-    (tmp_path / "modules").mkdir()
+    # Simulate an installed package: a library beside the package files and its modules in
+    # defsim/ beside it (<libdir>/defsim, where the core also looks relative to itself).
+    (tmp_path / "defsim").mkdir()
     monkeypatch.setattr(_native, "_PKG_DIR", str(tmp_path))
     monkeypatch.setattr(_native, "library_path", str(tmp_path / "libdefsim.so"))
     monkeypatch.setenv("DEFSIM_BACKEND_PATH", "/first:/second")
     _native._add_bundled_modules()
-    assert os.environ["DEFSIM_BACKEND_PATH"] == f"/first:/second:{tmp_path / 'modules'}"
+    assert os.environ["DEFSIM_BACKEND_PATH"] == f"/first:/second:{tmp_path / 'defsim'}"
     _native._add_bundled_modules()   # idempotent
-    assert os.environ["DEFSIM_BACKEND_PATH"].split(":").count(str(tmp_path / "modules")) == 1
+    assert os.environ["DEFSIM_BACKEND_PATH"].split(":").count(str(tmp_path / "defsim")) == 1
     # A library from elsewhere does not get the bundled modules.
     monkeypatch.setattr(_native, "library_path", "/usr/lib/libdefsim.so")
     monkeypatch.setenv("DEFSIM_BACKEND_PATH", "/first")

@@ -264,6 +264,25 @@ public:
         return r;
     }
 
+    /// A cloth grid (defsim_mesh_cloth): (nu + 1) x (nv + 1) vertices at origin + i/nu u + j/nv v
+    /// (m), triangles, and stretch, shear and bend springs (spring_kinds()). Throws Error
+    /// (DEFSIM_ERR_INVALID_ARGUMENT, DEFSIM_ERR_OUT_OF_MEMORY).
+    static Mesh cloth(const std::array<double, 3> &origin, const std::array<double, 3> &u,
+                      const std::array<double, 3> &v, int32_t nu, int32_t nv)
+    {
+        Mesh r;
+        detail::check(defsim_mesh_cloth(origin.data(), u.data(), v.data(), nu, nv, &r.m_));
+        return r;
+    }
+    /// A rope from a to b (defsim_mesh_rope): links, then bending springs. Throws Error.
+    static Mesh rope(const std::array<double, 3> &a, const std::array<double, 3> &b,
+                     int32_t segments)
+    {
+        Mesh r;
+        detail::check(defsim_mesh_rope(a.data(), b.data(), segments, &r.m_));
+        return r;
+    }
+
     int32_t vertex_count() const noexcept { return m_.vertex_count; }
     int32_t tet_count() const noexcept { return m_.tet_count; }
     int32_t triangle_count() const noexcept { return m_.triangle_count; }
@@ -287,6 +306,12 @@ public:
     Span<const int32_t> springs() const noexcept
     {
         return {m_.springs, 2 * static_cast<std::size_t>(m_.spring_count)};
+    }
+    /// One defsim_spring_kind per spring (cloth and rope meshes); empty: all stretch springs.
+    Span<const int32_t> spring_kinds() const noexcept
+    {
+        if (!m_.spring_kinds) return {};
+        return {m_.spring_kinds, static_cast<std::size_t>(m_.spring_count)};
     }
     /// The C struct (still owned by this Mesh).
     const defsim_mesh &c_struct() const noexcept { return m_; }
@@ -343,6 +368,7 @@ public:
         rest_positions(mesh.positions());
         tets(mesh.tets());
         springs(mesh.springs());
+        spring_kinds(mesh.spring_kinds());
     }
 
     /// Rest positions, 3 per vertex (m). Sets the vertex count.
@@ -369,13 +395,31 @@ public:
         d_.spring_count = detail::count(idx.size() / 2, "springs");
         return *this;
     }
-    /// One stiffness (N/m) per spring; empty: material.stiffness for all.
+    /// One stiffness (N/m) per spring; empty: material.stiffness for all. A non-empty one
+    /// replaces the spring kinds (a mesh's, or spring_kinds()).
     BodyDef &spring_stiffness(Span<const double> k) noexcept
     {
         d_.spring_stiffness = k.empty() ? nullptr : k.data();
         n_k_ = k.size();
+        if (!k.empty()) {
+            d_.spring_kinds = nullptr;
+            n_kinds_ = 0;
+        }
         return *this;
     }
+    /// One defsim_spring_kind per spring (a cloth or rope Mesh sets them); stretch springs take
+    /// material.stiffness, shear and bend springs shear_stiffness() and bend_stiffness().
+    /// Not together with spring_stiffness (add_body throws DEFSIM_ERR_INVALID_ARGUMENT).
+    BodyDef &spring_kinds(Span<const int32_t> kinds) noexcept
+    {
+        d_.spring_kinds = kinds.empty() ? nullptr : kinds.data();
+        n_kinds_ = kinds.size();
+        return *this;
+    }
+    /// Stiffness of shear springs (N/m); negative (the default): material.stiffness.
+    BodyDef &shear_stiffness(double k) noexcept { d_.shear_stiffness = k; return *this; }
+    /// Stiffness of bend springs (N/m); negative (the default): material.stiffness.
+    BodyDef &bend_stiffness(double k) noexcept { d_.bend_stiffness = k; return *this; }
     /// One mass (kg) per vertex; empty: lumped from density plus material.vertex_mass.
     BodyDef &vertex_mass(Span<const double> m) noexcept
     {
@@ -410,6 +454,8 @@ public:
         const std::size_t nv = static_cast<std::size_t>(d_.vertex_count);
         if (d_.spring_stiffness && n_k_ != static_cast<std::size_t>(d_.spring_count))
             detail::invalid("spring_stiffness: needs one value per spring");
+        if (d_.spring_kinds && n_kinds_ != static_cast<std::size_t>(d_.spring_count))
+            detail::invalid("spring_kinds: needs one value per spring");
         if (d_.vertex_mass && n_m_ != nv) detail::invalid("vertex_mass: needs one value per vertex");
         if (d_.initial_positions && n_x_ != 3 * nv)
             detail::invalid("initial_positions: needs 3 values per vertex");
@@ -421,7 +467,7 @@ public:
 
 private:
     defsim_body_def d_;
-    std::size_t n_k_ = 0, n_m_ = 0, n_x_ = 0, n_v_ = 0;
+    std::size_t n_k_ = 0, n_m_ = 0, n_x_ = 0, n_v_ = 0, n_kinds_ = 0;
 };
 
 /// A log sink: level 0 error, 1 warning, 2 info, 3 debug; the message is borrowed for the call.
@@ -501,6 +547,67 @@ private:
 class Attachment : public detail::Handle<defsim_attachment_id, Attachment> {
 public:
     using Handle::Handle;
+};
+
+/// A collider handle (defsim_collider_id): a small value like Body. The default is null.
+class Collider : public detail::Handle<defsim_collider_id, Collider> {
+public:
+    using Handle::Handle;
+};
+
+/// Collider shapes (defsim_shape).
+enum class Shape : int {
+    plane = DEFSIM_SHAPE_PLANE,
+    sphere = DEFSIM_SHAPE_SPHERE,
+    box = DEFSIM_SHAPE_BOX,
+    capsule = DEFSIM_SHAPE_CAPSULE,
+    mesh = DEFSIM_SHAPE_MESH,
+    sdf = DEFSIM_SHAPE_SDF
+};
+
+/// Creation parameters of a collider (defsim_collider_def), from the library's defaults (a
+/// ground plane through the origin, normal +y, no friction). Mesh arrays are NOT copied here:
+/// they must stay alive until World::add_collider returns. Setters return *this.
+class ColliderDef {
+public:
+    explicit ColliderDef(Shape shape = Shape::plane) noexcept
+    {
+        defsim_collider_def_init(&d_, sizeof d_);
+        d_.shape = static_cast<defsim_shape>(shape);
+    }
+    /// Origin of the collider's frame in the world (m).
+    ColliderDef &position(const std::array<double, 3> &p) noexcept { set3(d_.position, p); return *this; }
+    /// Unit quaternion (w, x, y, z) from the local frame to the world.
+    ColliderDef &rotation(const std::array<double, 4> &q) noexcept
+    {
+        for (int i = 0; i < 4; ++i) d_.rotation[i] = q[static_cast<std::size_t>(i)];
+        return *this;
+    }
+    ColliderDef &normal(const std::array<double, 3> &n) noexcept { set3(d_.normal, n); return *this; }   ///< plane
+    ColliderDef &radius(double r) noexcept { d_.radius = r; return *this; }              ///< sphere, capsule (m)
+    ColliderDef &half_extents(const std::array<double, 3> &h) noexcept { set3(d_.half_extents, h); return *this; }  ///< box (m)
+    ColliderDef &half_height(double h) noexcept { d_.half_height = h; return *this; }    ///< capsule (m)
+    ColliderDef &friction(double mu) noexcept { d_.friction = mu; return *this; }        ///< Coulomb mu >= 0
+    /// A mesh collider's vertices (3 per vertex, m, local frame) and triangles (3 indices each).
+    ColliderDef &mesh(Span<const double> vertices, Span<const int32_t> triangles)
+    {
+        if (vertices.size() % 3 != 0 || triangles.size() % 3 != 0)
+            detail::invalid("collider mesh: sizes are not multiples of 3");
+        d_.vertices = vertices.empty() ? nullptr : vertices.data();
+        d_.vertex_count = detail::count(vertices.size() / 3, "collider vertices");
+        d_.triangles = triangles.empty() ? nullptr : triangles.data();
+        d_.triangle_count = detail::count(triangles.size() / 3, "collider triangles");
+        return *this;
+    }
+    /// The C struct (pointing into the caller's arrays).
+    const defsim_collider_def &c_struct() const noexcept { return d_; }
+
+private:
+    static void set3(double *dst, const std::array<double, 3> &a) noexcept
+    {
+        dst[0] = a[0]; dst[1] = a[1]; dst[2] = a[2];
+    }
+    defsim_collider_def d_;
 };
 
 /// Creation parameters of an attachment (defsim_attachment_def), from the library's defaults.
@@ -739,6 +846,61 @@ public:
         check(defsim_world_get_attachment_force(w_, a.id(), f.data()));
         return f;
     }
+    /// Adds a collider (defsim_world_add_collider). Throws DEFSIM_ERR_INVALID_ARGUMENT (bad
+    /// values, an unsupported shape), DEFSIM_ERR_LOCKED, DEFSIM_ERR_OUT_OF_MEMORY.
+    Collider add_collider(const ColliderDef &def)
+    {
+        defsim_collider_id id{0, 0};
+        check(defsim_world_add_collider(w_, &def.c_struct(), &id));
+        return Collider(id);
+    }
+    /// Removes a collider. Throws DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+    void remove_collider(Collider c) { check(defsim_world_remove_collider(w_, c.id())); }
+    /// Sets the pose (m; quaternion w, x, y, z) the collider reaches at the end of the next step.
+    /// Throws DEFSIM_ERR_INVALID_ARGUMENT (non-finite, not a unit quaternion), DEFSIM_ERR_STALE_ID.
+    void set_collider_pose(Collider c, const std::array<double, 3> &position,
+                           const std::array<double, 4> &rotation = {1.0, 0.0, 0.0, 0.0})
+    {
+        check(defsim_collider_set_pose(w_, c.id(), position.data(), rotation.data()));
+    }
+    /// The live colliders, in order of creation.
+    std::vector<Collider> colliders() const
+    {
+        std::vector<Collider> r;
+        const int32_t n = defsim_world_collider_count(w_);
+        for (int32_t i = 0; i < n; ++i) {
+            defsim_collider_id id{0, 0};
+            check(defsim_world_get_collider(w_, i, &id, nullptr));
+            r.push_back(Collider(id));
+        }
+        return r;
+    }
+    /// The def of a live collider with its current pose. Throws DEFSIM_ERR_STALE_ID.
+    defsim_collider_def collider_def(Collider c) const
+    {
+        const int32_t n = defsim_world_collider_count(w_);
+        for (int32_t i = 0; i < n; ++i) {
+            defsim_collider_id id{0, 0};
+            defsim_collider_def d;
+            defsim_collider_def_init(&d, sizeof d);
+            check(defsim_world_get_collider(w_, i, &id, &d));
+            if (Collider(id) == c) return d;
+        }
+        throw Error(DEFSIM_ERR_STALE_ID, "collider is removed or of another world");
+    }
+    /// Contact forces (N) of the last step into out (3 * vertex_count()); zero off contact.
+    void contact_forces(Span<double> out) const
+    {
+        check_size(out.size(), 3, "contact forces");
+        check(defsim_world_get_contact_forces(w_, out.data(), vertex_count()));
+    }
+    std::vector<double> contact_forces() const
+    {
+        std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
+        contact_forces(Span<double>(f));
+        return f;
+    }
+
     /// Reaction forces of the pins (N) into out (3 * vertex_count()); zero for free vertices.
     void pin_forces(Span<double> out)
     {

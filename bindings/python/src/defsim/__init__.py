@@ -22,18 +22,19 @@ from __future__ import annotations
 
 from typing import Tuple
 
+from ._collider import Collider, Pose, Shape
 from ._coupling import Attachment, ElementStress, StepError
 from ._errors import (BackendUnavailableError, CallbackError, ConflictError, Error, FileError,
                       InvalidArgumentError, InvalidMaterialError, InvalidMeshError, LockedError,
                       NotConvergedError, OutOfMemoryError, StaleIdError, Status, UnstableError,
                       UnsupportedError, error_from_status)
 from ._material import Material, MaterialEval, Model, material_eval
-from ._mesh import Mesh, mesh_box, mesh_cloth, mesh_load, mesh_rope
+from ._mesh import Mesh, SpringKind, mesh_box, mesh_cloth, mesh_load, mesh_rope
 from ._native import header_version_number as _header_version
 from ._native import header_version_string as _header_version_string
 from ._native import lib as _lib
 from ._native import library_path as _library_path
-from ._world import Body, Energy, LogCallback, Pass, Projection, Stats, World
+from ._world import Body, Energy, LogCallback, Pass, Projection, Stats, Topology, World
 
 #: Version of the C header this package was built for (also the package's version).
 __version__: str = _header_version_string
@@ -56,9 +57,9 @@ def header_version() -> Tuple[int, int, int]:
 
 
 __all__ = [
-    "World", "Body", "Attachment", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
+    "World", "Body", "Attachment", "Collider", "Shape", "Pose", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
     "Material", "Model", "MaterialEval", "material_eval",
-    "Mesh", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
+    "Mesh", "SpringKind", "Topology", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
     "FileError", "StaleIdError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",

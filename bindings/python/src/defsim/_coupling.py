@@ -150,6 +150,10 @@ class WorldCoupling:
         cb = self._force_callback
         if cb is not None and status == Status.CALLBACK:
             cb.reraise(status, message)
+        exc = self._sdf_failed() if status == Status.CALLBACK else None   # type: ignore[attr-defined]
+        if exc is not None:
+            raise StepError(f"a collider's sdf raised {type(exc).__name__}: {exc} ({message})",
+                            Status.CALLBACK) from exc
 
     def set_external_forces(self, forces: Any) -> None:
         """Holds one external force per vertex, (n, 3) in N in world vertex order (copied),

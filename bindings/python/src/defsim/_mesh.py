@@ -2,9 +2,10 @@
 """Meshes made or loaded by the library, as numpy arrays."""
 from __future__ import annotations
 
+import enum
 import os
 from dataclasses import dataclass, field
-from typing import Any, Sequence, Union
+from typing import Any, Optional, Sequence, Union
 
 import numpy as np
 
@@ -12,7 +13,17 @@ from . import _arrays
 from ._errors import check, function
 from ._native import ffi, lib
 
-__all__ = ["Mesh", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load"]
+__all__ = ["Mesh", "SpringKind", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load"]
+
+
+class SpringKind(enum.IntEnum):
+    """What a spring of a cloth or rope resists (``defsim_spring_kind``, ``Mesh.spring_kinds``).
+    ``World.add_body(mesh, shear_stiffness=..., bend_stiffness=...)`` sets each kind's
+    stiffness; stretch springs take the material's."""
+
+    STRETCH = 0   #: structural: neighbours along the grid or the rope
+    SHEAR = 1     #: cell diagonals of a cloth
+    BEND = 2      #: between every second vertex: resists folding
 
 
 def _empty(width: int) -> np.ndarray:
@@ -29,14 +40,18 @@ class Mesh:
         tets: (m, 4) int32, positively oriented.
         triangles: (k, 3) int32: cloth faces, or the outward boundary of the tets.
         springs: (s, 2) int32: cloth edges, rope links.
+        spring_kinds: (s,) int32 SpringKind of each spring (cloth and rope meshes), or None:
+            all stretch springs.
 
-    ``World.add_body(mesh, material=...)`` takes its positions, tets and springs.
+    ``World.add_body(mesh, material=...)`` takes its positions, tets, springs (with their
+    kinds) and triangles (for output and display).
     """
 
     positions: np.ndarray
     tets: np.ndarray = field(default_factory=lambda: _empty(4))
     triangles: np.ndarray = field(default_factory=lambda: _empty(3))
     springs: np.ndarray = field(default_factory=lambda: _empty(2))
+    spring_kinds: Optional[np.ndarray] = None
 
     @property
     def vertex_count(self) -> int:
@@ -67,7 +82,10 @@ def _from_c(m: Any) -> Mesh:
         triangles=_arrays.copy_array(m.triangles, 3 * m.triangle_count, np.int32,
                                      (m.triangle_count, 3)),
         springs=_arrays.copy_array(m.springs, 2 * m.spring_count, np.int32,
-                                   (m.spring_count, 2)))
+                                   (m.spring_count, 2)),
+        spring_kinds=(_arrays.copy_array(m.spring_kinds, m.spring_count, np.int32,
+                                         (m.spring_count,))
+                      if m.spring_kinds != ffi.NULL and m.spring_count > 0 else None))
 
 
 def _make(name: str, *args: Any) -> Mesh:
@@ -115,8 +133,9 @@ def mesh_box(lo: Any = (0.0, 0.0, 0.0), hi: Any = (1.0, 1.0, 1.0),
 
 def mesh_cloth(origin: Any, u: Any, v: Any, nu: int, nv: int) -> Mesh:
     """A rectangular cloth sheet spanned by the edge vectors u and v from `origin` (m), with
-    resolution nu along u and nv along v, as ``defsim_mesh_cloth`` defines them: triangles
-    and the springs along their edges.
+    resolution nu along u and nv along v, as ``defsim_mesh_cloth`` defines them: triangles,
+    springs (stretch, shear, bend; ``spring_kinds`` tells which, so that
+    ``World.add_body(cloth, shear_stiffness=..., bend_stiffness=...)`` sets them by kind).
 
     Raises UnsupportedError if the loaded library has no ``defsim_mesh_cloth``, and the Error
     subclass of the library's status otherwise (InvalidArgumentError for bad sizes).
@@ -128,7 +147,8 @@ def mesh_cloth(origin: Any, u: Any, v: Any, nu: int, nv: int) -> Mesh:
 
 def mesh_rope(a: Any, b: Any, segments: int) -> Mesh:
     """A rope from point a to point b (m) of `segments` links: segments + 1 vertices and a
-    spring per link (``defsim_mesh_rope``).
+    spring per link, then bending springs between every second vertex (``defsim_mesh_rope``;
+    ``spring_kinds`` tells which).
 
     Raises UnsupportedError if the loaded library has no ``defsim_mesh_rope``, and the Error
     subclass of the library's status otherwise.

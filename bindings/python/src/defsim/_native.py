@@ -28,9 +28,18 @@ _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
 
 
 def _bundled_library() -> Optional[str]:
-    name = {"darwin": "libdefsim.dylib", "win32": "defsim.dll"}.get(sys.platform, "libdefsim.so")
-    path = os.path.join(_PKG_DIR, name)
-    return path if os.path.isfile(path) else None
+    # A wheel holds libdefsim under its SONAME (libdefsim.so.<major>), which the bundled
+    # libdefsim_scene names as its dependency; a development install may hold libdefsim.so.
+    if sys.platform in ("darwin", "win32"):
+        names = ["libdefsim.dylib" if sys.platform == "darwin" else "defsim.dll"]
+    else:
+        names = sorted(n for n in os.listdir(_PKG_DIR) if n.startswith("libdefsim.so."))
+        names.append("libdefsim.so")
+    for name in names:
+        path = os.path.join(_PKG_DIR, name)
+        if os.path.isfile(path):
+            return path
+    return None
 
 
 def _system_names(major: int) -> List[str]:
@@ -107,9 +116,51 @@ ffi, lib, library_path, header_version_string, header_version_number, declaratio
 
 
 def bundled_module_dir() -> Optional[str]:
-    """The directory of backend modules bundled with the package, or None."""
-    d = os.path.join(_PKG_DIR, "modules")
+    """The directory of backend modules bundled with the package, or None: ``defsim/`` beside
+    the bundled libdefsim (``<libdir>/defsim``, where the core also looks by itself)."""
+    d = os.path.join(_PKG_DIR, "defsim")
     return d if os.path.isdir(d) else None
+
+
+_extra: dict = {}
+_declared: set = set()
+
+
+def open_extra(name: str) -> Any:
+    """Opens one of the optional libraries over the tools' code, declaring its header to the
+    same ffi: "scene" (libdefsim_scene, include/defsim/scene.h: scene files and VTK frames) or
+    "render" (libdefsim_render, include/defsim/render.h: the OSMesa renderer). Searched in
+    ``DEFSIM_SCENE_LIBRARY`` / ``DEFSIM_RENDER_LIBRARY``, beside the loaded libdefsim (a
+    build tree, an install prefix, the package), then the loader's path. Raises OSError with
+    every place tried when it is not there. The result is cached."""
+    if name in _extra:
+        return _extra[name]
+    env = os.environ.get(f"DEFSIM_{name.upper()}_LIBRARY") or None
+    file = f"libdefsim_{name}.so" if sys.platform != "darwin" else f"libdefsim_{name}.dylib"
+    here = os.path.dirname(os.path.abspath(library_path)) if os.path.sep in library_path else None
+    candidates = [env] if env else [os.path.join(d, file) for d in (here, _PKG_DIR) if d] + [file]
+    header = os.path.join("defsim", f"{name}.h")
+    include = _include_path(library_path)
+    try:
+        # defsim.h is declared already: its include guard and DEFSIM_API are predefined so that
+        # only the extra header's own declarations reach cdef.
+        decls, _ = preprocess(header, include, {"DEFSIM_DEFSIM_H": "1", "DEFSIM_API": ""})
+    except (HeaderError, OSError) as exc:
+        raise OSError(f"defsim: cannot read {header} (searched {include}): {exc}") from exc
+    if name not in _declared:
+        ffi.cdef(decls)
+        _declared.add(name)
+    errors = []
+    for cand in candidates:
+        try:
+            extra = ffi.dlopen(cand)
+            break
+        except OSError as exc:
+            errors.append(f"{cand}: {exc}")
+    else:
+        raise OSError(f"defsim: libdefsim_{name} not found: " + "; ".join(errors))
+    _extra[name] = extra
+    return extra
 
 
 def _add_bundled_modules() -> None:

@@ -9,12 +9,13 @@ from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Opt
 import numpy as np
 
 from . import _arrays
+from ._collider import WorldColliders
 from ._coupling import BodyCoupling, WorldCoupling
 from ._handle import Handle
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
                       error_from_status)
 from ._material import Material
-from ._mesh import Mesh
+from ._mesh import Mesh, SpringKind
 from ._native import ffi, lib
 
 __all__ = ["World", "Body", "Energy", "Stats", "Pass", "Projection", "LogCallback"]
@@ -172,7 +173,7 @@ class Body(Handle, BodyCoupling):
         return error_from_status(status, f"body {self.id} is removed or its world is closed")
 
 
-class World(WorldCoupling):
+class World(WorldCoupling, WorldColliders):
     """A simulation world (``defsim_world``): bodies, their state, and a backend that steps it.
 
     Args:
@@ -222,8 +223,11 @@ class World(WorldCoupling):
                  options: Optional[Mapping[str, Any]] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
-        self._tets: dict = {}   # tet count of each body, by id (element_stress)
+        # What each body was made of, by id: rest positions, tets, triangles, springs (and the
+        # springs drawn as lines), for element_stress, defsim.io and the display.
+        self._topology: Dict[Tuple[int, int], Topology] = {}
         self._log_cb: Any = None
+        self._sdfs: Dict[Tuple[int, int], Any] = {}   # Python SDF trampolines, by collider id
         d = ffi.new("defsim_world_def *")
         lib.defsim_world_def_init(d, ffi.sizeof("defsim_world_def"))
         name_buf = None
@@ -276,6 +280,21 @@ class World(WorldCoupling):
             except Exception:
                 self.close()
                 raise
+
+    @classmethod
+    def _adopt(cls, ptr: Any, backend: str, gravity: Tuple[float, float, float],
+               bodies: List[Tuple[Tuple[int, int], "Topology"]]) -> "World":
+        """Wraps a world that C code created (defsim_scene_build), taking ownership: its bodies
+        by id with what they were made of."""
+        self = cls.__new__(cls)
+        self._log_cb = None
+        self._sdfs = {}
+        self._ptr = ffi.gc(ptr, lib.defsim_world_destroy)
+        self._backend = backend
+        self._gravity = gravity
+        self._bodies = [Body(self, i, g) for (i, g), _ in bodies]
+        self._topology = {bid: topo for bid, topo in bodies}
+        return self
 
     # -- lifetime --------------------------------------------------------------------------
 
@@ -364,8 +383,10 @@ class World(WorldCoupling):
 
     def add_body(self, vertices: Union[Mesh, Any], tets: Any = None, springs: Any = None,
                  material: Optional[Material] = None, *, spring_stiffness: Any = None,
+                 spring_kinds: Any = None, shear_stiffness: Optional[float] = None,
+                 bend_stiffness: Optional[float] = None,
                  vertex_mass: Any = None, initial_positions: Any = None,
-                 initial_velocities: Any = None) -> Body:
+                 initial_velocities: Any = None, triangles: Any = None) -> Body:
         """Adds a body; its vertices follow those of the bodies added before it. All arrays are
         copied.
 
@@ -376,9 +397,17 @@ class World(WorldCoupling):
             springs: (s, 2) vertex indices, or None.
             material: a Material; None: the library's default (stable neo-Hookean).
             spring_stiffness: optional (s,) k per spring in N/m (else material.stiffness).
+            spring_kinds: optional (s,) SpringKind per spring; a Mesh from ``mesh_cloth`` or
+                ``mesh_rope`` brings its own. Stretch springs take material.stiffness, shear and
+                bend springs `shear_stiffness` and `bend_stiffness` (N/m; None: also
+                material.stiffness). Not together with spring_stiffness.
+            shear_stiffness, bend_stiffness: N/m for the springs of those kinds.
             vertex_mass: optional (n,) kg per vertex (else lumped from density plus
                 material.vertex_mass).
             initial_positions, initial_velocities: optional (n, 3); default rest and zero.
+            triangles: optional (k, 3) surface triangles, used only for output and display
+                (``defsim.io``, ``_repr_png_``); a Mesh brings its own; for tets without them
+                the boundary is computed.
 
         Returns the new Body. Raises InvalidArgumentError (shapes, counts), InvalidMeshError
         (index out of range, degenerate tet, zero-length spring, non-finite coordinate, vertex
@@ -387,10 +416,16 @@ class World(WorldCoupling):
         """
         w = self._live()
         if isinstance(vertices, Mesh):
+            mesh_springs = springs is None
             if tets is None:
                 tets = vertices.tets
             if springs is None:
                 springs = vertices.springs
+            if triangles is None:
+                triangles = vertices.triangles
+            if (spring_kinds is None and spring_stiffness is None and mesh_springs and
+                    vertices.spring_kinds is not None):
+                spring_kinds = vertices.spring_kinds
             vertices = vertices.positions
         rest = _arrays.points(vertices, "vertices")
         n = rest.shape[0]
@@ -398,6 +433,18 @@ class World(WorldCoupling):
         s = _arrays.indices(springs, "springs", 2)
         k = None if spring_stiffness is None else _arrays.vector(
             spring_stiffness, "spring_stiffness", s.shape[0])
+        if spring_kinds is not None:
+            kinds = np.ascontiguousarray(spring_kinds).reshape(-1)
+            if kinds.shape[0] != s.shape[0]:
+                raise InvalidArgumentError(f"spring_kinds: expected {s.shape[0]} values, got "
+                                           f"{kinds.shape[0]}")
+            kinds = _arrays.indices(kinds.reshape(-1, 1), "spring_kinds", 1).reshape(-1)
+        else:
+            kinds = None
+            if shear_stiffness is not None or bend_stiffness is not None:
+                raise InvalidArgumentError("shear_stiffness / bend_stiffness need spring_kinds "
+                                           "(a Mesh from mesh_cloth or mesh_rope has them)")
+        tri = _arrays.indices(triangles, "triangles", 3)
         m = None if vertex_mass is None else _arrays.vector(vertex_mass, "vertex_mass", n)
         x0 = None if initial_positions is None else _arrays.points(
             initial_positions, "initial_positions", n)
@@ -409,10 +456,16 @@ class World(WorldCoupling):
         lib.defsim_body_def_init(d, ffi.sizeof("defsim_body_def"))
         # Keep every buffer referenced until the call returns (the library copies them).
         keep = [_arrays.dptr(rest), _arrays.iptr(t), _arrays.iptr(s), _arrays.dptr(k),
-                _arrays.dptr(m), _arrays.dptr(x0), _arrays.dptr(v0)]
+                _arrays.dptr(m), _arrays.dptr(x0), _arrays.dptr(v0), _arrays.iptr(kinds)]
         d.rest_positions, d.tets, d.springs = keep[0], keep[1], keep[2]
         d.spring_stiffness, d.vertex_mass = keep[3], keep[4]
         d.initial_positions, d.initial_velocities = keep[5], keep[6]
+        if kinds is not None:
+            d.spring_kinds = keep[7]
+            if shear_stiffness is not None:
+                d.shear_stiffness = _arrays.c_double(shear_stiffness, "shear_stiffness")
+            if bend_stiffness is not None:
+                d.bend_stiffness = _arrays.c_double(bend_stiffness, "bend_stiffness")
         d.vertex_count = _arrays.c_int(n, "vertex count")
         d.tet_count = _arrays.c_int(t.shape[0], "tet count")
         d.spring_count = _arrays.c_int(s.shape[0], "spring count")
@@ -423,17 +476,34 @@ class World(WorldCoupling):
         del keep
         body = Body(self, int(out.index), int(out.generation))
         self._bodies.append(body)
-        self._tets[body.id] = int(t.shape[0])
+        if not t.size and not tri.size:
+            lines = s if kinds is None else s[kinds == SpringKind.STRETCH]
+        else:
+            lines = s[:0]
+        self._topology[body.id] = Topology(rest, t, tri if tri.size or not t.size
+                                           else tet_boundary(rest, t), s, lines)
         return body
 
     def _tet_count(self, body: Body) -> int:
-        return self._tets.get(body.id, 0)
+        topo = self._topology.get(body.id)
+        return 0 if topo is None else int(topo.tets.shape[0])
+
+    def topology(self, body: Body) -> "Topology":
+        """What `body` was made of: rest positions (n, 3), tets (m, 4), triangles (k, 3: the
+        given surface, or the tets' boundary) and springs (s, 2), body-local indices. Used by
+        ``defsim.io`` and the display. Raises StaleIdError for a removed body."""
+        self._own(body)
+        try:
+            return self._topology[body.id]
+        except KeyError:
+            raise StaleIdError(f"body {body.id} is removed", Status.STALE_ID) from None
 
     def remove_body(self, body: Body) -> None:
         """Removes a body; the vertices of later bodies move down and its handle goes stale.
         Raises StaleIdError for a removed body or one of another world."""
         self._check(lib.defsim_world_remove_body(self._live(), self._own(body)))
         self._bodies = [b for b in self._bodies if b != body]
+        self._topology.pop(body.id, None)
 
     def _vertex_list(self, body: Body, vertices: Any) -> np.ndarray:
         a = np.asarray(vertices)
@@ -462,8 +532,14 @@ class World(WorldCoupling):
 
     # -- simulation ------------------------------------------------------------------------
 
-    def step(self, h: float, steps: int = 1) -> None:
+    def step(self, h: float, steps: int = 1, *,
+             progress: Union[None, bool, Callable[[int, int], Any], Any] = None) -> None:
         """Advances the world by `steps` steps of h seconds each with its backend.
+
+        progress: None (default) reports nothing; True shows a tqdm bar (``pip install tqdm``;
+            ImportError without it); a tqdm bar you made is advanced by one per step; a
+            callable ``fn(done, total)`` is called after every step (return value ignored; an
+            exception it raises stops the loop after that step and propagates).
 
         Raises InvalidArgumentError (h not finite or <= 0), UnstableError (the state became
         non-finite), NotConvergedError (implicit backends). A failed step leaves positions,
@@ -474,10 +550,26 @@ class World(WorldCoupling):
         n = _arrays.c_int(steps, "steps")
         if n < 0:
             raise InvalidArgumentError("steps must be >= 0")
-        for _ in range(n):
-            st = lib.defsim_world_step(w, hh)
-            if st < 0:
-                self._check(st)
+        self._step_loop(n, lambda: lib.defsim_world_step(w, hh), progress)
+
+    def _step_loop(self, n: int, one: Callable[[], int], progress: Any) -> None:
+        report, close = _progress(progress, n)
+        try:
+            for i in range(n):
+                st = one()
+                if st < 0:
+                    self._check(st)
+                if report is not None:
+                    report(i + 1, n)
+        finally:
+            if close is not None:
+                close()
+
+    def _repr_png_(self) -> Optional[bytes]:
+        """A rendered PNG of the current state for Jupyter (``defsim.display.render_png``), or
+        None (Jupyter then shows the text repr) when libdefsim_render is not available."""
+        from .display import png_or_none
+        return png_or_none(self)
 
     def get_positions(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Positions (n, 3) in m, written into `out` (a C-contiguous float64 array of n*3
@@ -658,3 +750,45 @@ class World(WorldCoupling):
             return "<defsim.World closed>"
         return (f"<defsim.World backend={self._backend!r} bodies={len(self._bodies)} "
                 f"vertices={self.vertex_count} t={self.time:g}>")
+
+
+class Topology(NamedTuple):
+    """What a body was made of (``World.topology``): body-local indices."""
+
+    rest: np.ndarray        #: (n, 3) rest positions, m
+    tets: np.ndarray        #: (m, 4)
+    triangles: np.ndarray   #: (k, 3): given surface triangles, or the tets' boundary
+    springs: np.ndarray     #: (s, 2)
+    lines: np.ndarray       #: (l, 2): springs drawn and written as lines (a body without
+                            #: tets or triangles: its stretch springs)
+
+
+def tet_boundary(rest: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Faces used by exactly one tet, oriented outward (away from the tet's fourth vertex)."""
+    faces = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]],
+                            tets[:, [0, 1, 2]]])
+    opposite = np.concatenate([tets[:, 0], tets[:, 1], tets[:, 2], tets[:, 3]])
+    _, inverse, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                                   return_counts=True)
+    once = counts[inverse.reshape(-1)] == 1
+    f, o = faces[once], opposite[once]
+    a, b, c = rest[f[:, 0]], rest[f[:, 1]], rest[f[:, 2]]
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), a - rest[o]) < 0
+    f[inward] = f[inward][:, [0, 2, 1]]
+    return np.ascontiguousarray(f, dtype=np.int32)
+
+
+def _progress(progress: Any, total: int) -> Tuple[Optional[Callable[[int, int], Any]],
+                                                  Optional[Callable[[], Any]]]:
+    """(report(done, total), close) for World.step's progress argument."""
+    if progress is None or progress is False:
+        return None, None
+    if progress is True:
+        from tqdm.auto import tqdm   # optional: ImportError tells the user what to install
+        bar = tqdm(total=total, unit="step")
+        return (lambda done, n: bar.update(1)), bar.close
+    if hasattr(progress, "update"):
+        return (lambda done, n: progress.update(1)), None
+    if callable(progress):
+        return progress, None
+    raise InvalidArgumentError("progress must be None, True, a tqdm bar or callable(done, total)")

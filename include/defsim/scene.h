@@ -1,0 +1,137 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * libdefsim_scene: the scene files of `defsim run` and its VTK frames, for bindings and hosts.
+ *
+ * A second, optional library built from the tools' own code (tools/scene.c, tools/vtk.c), so
+ * that Python and other hosts load the same JSON with the same parser and write the same .vtu
+ * / .pvd files as `defsim run`. It links libdefsim and cJSON. The scene format is documented in
+ * tools/README.md. Plain C11 that cffi can parse: explicit types, no macros or inline functions
+ * needed to call it. Thread safety: a scene is used from one thread at a time; different scenes
+ * are independent.
+ */
+#ifndef DEFSIM_SCENE_H
+#define DEFSIM_SCENE_H
+
+#include "defsim/defsim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/// A scene file loaded into memory: world settings, bodies (meshes, materials, pins, forces,
+/// driven pins, attachments) and output settings. Opaque; made by defsim_scene_load.
+typedef struct defsim_scene defsim_scene;
+
+/// Reads and checks a scene file. `overrides` are `count` strings "key.path=JSON" applied before
+/// the checks, as `defsim run --set` does (a value that is not JSON is taken as a string); it
+/// may be NULL when count is 0. Relative mesh paths are taken from the scene file's folder.
+/// On success *out receives the scene (free it with defsim_scene_free). On failure *out is NULL
+/// and `err` (may be NULL; errsz bytes, always terminated) receives "file:line:col: what".
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL path or out, count < 0, a NULL override, or a
+/// scene the parser rejects), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_scene_load(const char *path, const char *const *overrides,
+                                           int32_t count, defsim_scene **out, char *err,
+                                           size_t errsz);
+
+/// Frees a scene (NULL is ignored). A world it built stays valid and remains the caller's.
+DEFSIM_API void defsim_scene_free(defsim_scene *scene);
+
+/// Detail of the last failure of defsim_scene_build or defsim_scene_step on this scene, or "".
+/// Borrowed: valid until the next call on the scene.
+DEFSIM_API const char *defsim_scene_last_error(const defsim_scene *scene);
+
+/// Creates the scene's world (backend, gravity, options), adds its bodies with their pins,
+/// external forces, driven pins and attachments, exactly as `defsim run` does. Once per scene.
+/// On success *out receives the world, owned by the caller (defsim_world_destroy); it must
+/// outlive every defsim_scene_step on it. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, built
+/// before), or the library's status for the option, body or attachment that failed (named by
+/// defsim_scene_last_error).
+DEFSIM_API defsim_status defsim_scene_build(defsim_scene *scene, defsim_world **out);
+
+/// One step of h seconds: moves driven pins and keyframed attachment points to where their
+/// paths are at t + h, then defsim_world_step. `world` must be the one this scene built.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, not built, another world), or the step's status
+/// (the world is then as before the step, as defsim_world_step guarantees).
+DEFSIM_API defsim_status defsim_scene_step(defsim_scene *scene, defsim_world *world, double h);
+
+/// What a scene sets up. Strings are borrowed from the scene (valid until defsim_scene_free).
+typedef struct defsim_scene_info {
+    uint32_t size;          ///< Set by the caller to sizeof(defsim_scene_info).
+    const char *name;       ///< File name without folder and ".json".
+    const char *backend;    ///< Backend name.
+    double step;            ///< Step size h, s.
+    double duration;        ///< Simulated time of a run, s.
+    int32_t frame_steps;    ///< Steps per output frame.
+    int32_t frames;         ///< Frames after the initial state.
+    int32_t body_count;
+    int32_t vertex_count;   ///< Sum over bodies.
+    double gravity[3];      ///< m/s^2.
+} defsim_scene_info;
+
+/// Fills *out (whose size must be set; fields beyond it are not written).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size too small).
+DEFSIM_API defsim_status defsim_scene_get_info(const defsim_scene *scene, defsim_scene_info *out);
+
+/// One body of a scene. Pointers are borrowed from the scene (valid until defsim_scene_free).
+typedef struct defsim_scene_body {
+    uint32_t size;              ///< Set by the caller to sizeof(defsim_scene_body).
+    const char *name;           ///< "body<i>" unless the scene names it.
+    const defsim_mesh *mesh;    ///< Rest mesh after "transform": positions, tets, triangles, springs.
+    int32_t line_count;         ///< Springs drawn as lines: the first line_count of mesh->springs.
+    float color[3];             ///< RGB in [0, 1].
+    defsim_body_id id;          ///< After defsim_scene_build; {0, 0} before.
+    int32_t vertex_offset;      ///< First vertex in the world, after defsim_scene_build; else 0.
+} defsim_scene_body;
+
+/// Fills *out with body i (0 <= i < body_count; out->size must be set).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size too small, i out of range).
+DEFSIM_API defsim_status defsim_scene_get_body(const defsim_scene *scene, int32_t i,
+                                               defsim_scene_body *out);
+
+/* VTK frames: the writer of `defsim run`, for frames a host assembles itself. */
+
+/// VTK cell types accepted by defsim_vtk_write_vtu.
+typedef enum defsim_vtk_cell {
+    DEFSIM_VTK_LINE = 3,
+    DEFSIM_VTK_TRIANGLE = 5,
+    DEFSIM_VTK_TETRA = 10
+} defsim_vtk_cell;
+
+/// An extra Float64 array of a frame: point data (cell 0: one tuple per vertex) or cell data
+/// (cell 1: one tuple per cell). Borrowed for the call.
+typedef struct defsim_vtk_array {
+    const char *name;       ///< Letters, digits and '_' only.
+    int32_t components;     ///< 1, 3, 6 or 9.
+    int32_t cell;           ///< 0: per point, 1: per cell.
+    const double *data;     ///< components * tuples doubles.
+} defsim_vtk_array;
+
+/// Writes one .vtu frame (an unstructured grid that ParaView and meshio read) atomically (a
+/// temporary file renamed into place): `nv` points x (3 nv doubles, m), optional velocities v
+/// (3 nv or NULL) as point data "velocity", `ncells` cells given by `types` (defsim_vtk_cell
+/// per cell), `offsets` (the end of each cell in `conn`, VTK's convention) and `conn` (vertex
+/// indices in [0, nv)), `body` (an int32 per cell, cell data "body"; NULL: all 0), the time t
+/// (field data "TimeValue", s) and `count` extra arrays. Every argument is checked before the
+/// file is opened. Returns DEFSIM_OK; DEFSIM_ERR_INVALID_ARGUMENT (NULL, counts, a cell whose
+/// size does not match its type, an index out of range, a bad array) or DEFSIM_ERR_IO (cannot
+/// write) with the reason in `err` (may be NULL).
+DEFSIM_API defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x,
+                                              const double *v, int64_t ncells,
+                                              const uint8_t *types, const int64_t *offsets,
+                                              const int64_t *conn, const int32_t *body,
+                                              double time, const defsim_vtk_array *arrays,
+                                              int32_t count, char *err, size_t errsz);
+
+/// Writes a .pvd collection (ParaView's time series) of `count` datasets: file names as they are
+/// to appear in it (relative to the .pvd's folder) and their times (s). Atomic like the .vtu.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, count < 0, a name with '"', '<', '&'),
+/// DEFSIM_ERR_IO, with the reason in `err`.
+DEFSIM_API defsim_status defsim_vtk_write_pvd(const char *path, int32_t count,
+                                              const double *times, const char *const *files,
+                                              char *err, size_t errsz);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

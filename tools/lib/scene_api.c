@@ -1,0 +1,223 @@
+/* SPDX-License-Identifier: MIT */
+/* libdefsim_scene (include/defsim/scene.h): the tools' scene loader and VTK writer behind a small
+ * checked C API, so that bindings reuse them instead of re-implementing them. */
+#include <defsim/scene.h>
+
+#include "api_error.h"
+#include "scene.h"
+#include "vtk.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct defsim_scene {
+    scene s;
+    defsim_world *world;    /* the world scene_build made (owned by the caller), or NULL */
+    char error[4096];
+};
+
+defsim_status defsim_scene_load(const char *path, const char *const *overrides, int32_t count,
+                                defsim_scene **out, char *err, size_t errsz)
+{
+    if (err && errsz > 0) err[0] = '\0';
+    if (out) *out = NULL;
+    if (!path || !out || count < 0 || (count > 0 && !overrides))
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                    "defsim_scene_load: NULL path or out, or count < 0 with no overrides");
+    for (int32_t i = 0; i < count; ++i)
+        if (!overrides[i])
+            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                        "defsim_scene_load: override %d is NULL", (int)i);
+    defsim_scene *sc = calloc(1, sizeof *sc);
+    if (!sc) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+    if (scene_load(&sc->s, path, overrides, count) != 0) {
+        api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", sc->s.error);
+        free(sc);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    *out = sc;
+    return DEFSIM_OK;
+}
+
+void defsim_scene_free(defsim_scene *sc)
+{
+    if (!sc) return;
+    scene_free(&sc->s);
+    free(sc);
+}
+
+const char *defsim_scene_last_error(const defsim_scene *sc)
+{
+    return sc ? sc->error : "";
+}
+
+defsim_status defsim_scene_build(defsim_scene *sc, defsim_world **out)
+{
+    if (out) *out = NULL;
+    if (!sc || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
+    sc->error[0] = '\0';
+    if (sc->world) {
+        snprintf(sc->error, sizeof sc->error, "defsim_scene_build: the scene was built before "
+                                              "(load it again for a second world)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    sc->s.error[0] = '\0';
+    const defsim_status st = scene_build(&sc->s, &sc->world);
+    if (st != DEFSIM_OK) {
+        snprintf(sc->error, sizeof sc->error, "%s", sc->s.error);
+        sc->world = NULL;
+        return st;
+    }
+    *out = sc->world;
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_scene_step(defsim_scene *sc, defsim_world *w, double h)
+{
+    if (!sc) return DEFSIM_ERR_INVALID_ARGUMENT;
+    sc->error[0] = '\0';
+    if (!w || w != sc->world) {
+        snprintf(sc->error, sizeof sc->error, "defsim_scene_step: %s",
+                 !w ? "world is NULL" : sc->world ? "not the world this scene built"
+                                                  : "the scene is not built");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const defsim_status st = scene_step(&sc->s, w, h);
+    if (st != DEFSIM_OK) snprintf(sc->error, sizeof sc->error, "%s", defsim_world_last_error(w));
+    return st;
+}
+
+defsim_status defsim_scene_get_info(const defsim_scene *sc, defsim_scene_info *out)
+{
+    if (!sc || !out || out->size < offsetof(defsim_scene_info, gravity) + sizeof out->gravity)
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_scene_info r;
+    memset(&r, 0, sizeof r);
+    r.name = sc->s.name;
+    r.backend = sc->s.def.backend ? sc->s.def.backend : sc->s.backend;
+    r.step = sc->s.h;
+    r.duration = sc->s.duration;
+    r.frame_steps = sc->s.frame_steps;
+    r.frames = sc->s.frames;
+    r.body_count = sc->s.nbodies;
+    r.vertex_count = sc->s.vertex_count;
+    memcpy(r.gravity, sc->s.def.gravity, sizeof r.gravity);
+    r.size = out->size;
+    memcpy(out, &r, out->size < sizeof r ? out->size : sizeof r);
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_scene_get_body(const defsim_scene *sc, int32_t i, defsim_scene_body *out)
+{
+    if (!sc || !out || i < 0 || i >= sc->s.nbodies ||
+        out->size < offsetof(defsim_scene_body, vertex_offset) + sizeof out->vertex_offset)
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    const scene_body *b = &sc->s.bodies[i];
+    defsim_scene_body r;
+    memset(&r, 0, sizeof r);
+    r.name = b->name;
+    r.mesh = &b->mesh;
+    r.line_count = b->line_count;
+    memcpy(r.color, b->color, sizeof r.color);
+    if (sc->world) {
+        r.id = b->id;
+        r.vertex_offset = b->offset;
+    }
+    r.size = out->size;
+    memcpy(out, &r, out->size < sizeof r ? out->size : sizeof r);
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* VTK */
+
+static int good_name(const char *s)
+{
+    if (!s || !*s) return 0;
+    for (; *s; ++s)
+        if (!((*s >= 'a' && *s <= 'z') || (*s >= 'A' && *s <= 'Z') || (*s >= '0' && *s <= '9') ||
+              *s == '_'))
+            return 0;
+    return 1;
+}
+
+defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
+                                   int64_t ncells, const uint8_t *types, const int64_t *offsets,
+                                   const int64_t *conn, const int32_t *body, double time,
+                                   const defsim_vtk_array *arrays, int32_t count, char *err,
+                                   size_t errsz)
+{
+    enum { MAX_ARRAYS = 16 };
+    const defsim_status bad = DEFSIM_ERR_INVALID_ARGUMENT;
+    if (err && errsz > 0) err[0] = '\0';
+    if (!path || nv < 0 || (nv > 0 && !x) || ncells < 0 ||
+        (ncells > 0 && (!types || !offsets || !conn)) || count < 0 || count > MAX_ARRAYS ||
+        (count > 0 && !arrays))
+        return api_fail(err, errsz, bad, "defsim_vtk_write_vtu: NULL argument or negative count "
+                                     "(at most %d arrays)", MAX_ARRAYS);
+    int64_t prev = 0;
+    for (int64_t c = 0; c < ncells; ++c) {
+        const int k = types[c] == DEFSIM_VTK_LINE ? 2 : types[c] == DEFSIM_VTK_TRIANGLE ? 3
+                      : types[c] == DEFSIM_VTK_TETRA ? 4 : 0;
+        if (!k) return api_fail(err, errsz, bad, "cell %lld: type %d is not a line (3), triangle (5) "
+                                             "or tet (10)", (long long)c, (int)types[c]);
+        if (offsets[c] - prev != k)
+            return api_fail(err, errsz, bad, "cell %lld: offsets give %lld vertices, its type %d",
+                        (long long)c, (long long)(offsets[c] - prev), k);
+        for (int64_t j = prev; j < offsets[c]; ++j)
+            if (conn[j] < 0 || conn[j] >= nv)
+                return api_fail(err, errsz, bad, "cell %lld: vertex %lld out of range [0, %d)",
+                            (long long)c, (long long)conn[j], (int)nv);
+        prev = offsets[c];
+    }
+    vtk_array extra[MAX_ARRAYS];
+    memset(extra, 0, sizeof extra);   /* fields the tools' struct may grow stay zero */
+    for (int32_t k = 0; k < count; ++k) {
+        const defsim_vtk_array *a = &arrays[k];
+        if (!good_name(a->name) || !a->data || (a->cell != 0 && a->cell != 1) ||
+            (a->components != 1 && a->components != 3 && a->components != 6 && a->components != 9))
+            return api_fail(err, errsz, bad, "array %d: needs a name of letters, digits and '_', "
+                                         "data, cell 0 or 1 and 1, 3, 6 or 9 components", (int)k);
+        extra[k].name = a->name;
+        extra[k].components = a->components;
+        extra[k].cell = a->cell;
+        extra[k].data = a->data;
+    }
+    int32_t *zeros = NULL;
+    if (!body) {
+        zeros = calloc((size_t)(ncells > 0 ? ncells : 1), sizeof *zeros);
+        if (!zeros) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    /* The writer only reads the cells; the casts drop const for its struct. */
+    vtk_cells cells;
+    cells.conn = (int64_t *)conn;
+    cells.offsets = (int64_t *)offsets;
+    cells.types = (uint8_t *)types;
+    cells.body = body ? (int32_t *)body : zeros;
+    cells.ncells = ncells;
+    cells.nconn = prev;
+    char msg[1024] = "";
+    const int rc = vtk_write_vtu(path, nv, x, v, &cells, time, extra, count, msg, sizeof msg);
+    free(zeros);
+    if (rc != 0) return api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+    return DEFSIM_OK;
+}
+
+defsim_status defsim_vtk_write_pvd(const char *path, int32_t count, const double *times,
+                                   const char *const *files, char *err, size_t errsz)
+{
+    if (err && errsz > 0) err[0] = '\0';
+    if (!path || count < 0 || (count > 0 && (!times || !files)))
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                    "defsim_vtk_write_pvd: NULL argument or count < 0");
+    for (int32_t i = 0; i < count; ++i)
+        if (!files[i] || strpbrk(files[i], "\"<>&"))
+            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                        "defsim_vtk_write_pvd: file %d is NULL or has '\"', '<', '>' or '&'",
+                        (int)i);
+    char msg[1024] = "";
+    if (vtk_write_pvd(path, count, times, files, msg, sizeof msg) != 0)
+        return api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+    return DEFSIM_OK;
+}

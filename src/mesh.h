@@ -5,6 +5,10 @@
 
 #include "defsim/defsim.h"
 
+/* The largest |coordinate| (m) the generators and loaders accept: differences of coordinates,
+ * their squares (lengths) and products of three (volumes) all stay finite below it. */
+#define DEFSIM__COORD_MAX 1e100
+
 /* Outward-oriented boundary triangles of a tet mesh (faces used by exactly one tet).
  * *tris_out is malloc'd (3 * *ntris_out indices). */
 defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,

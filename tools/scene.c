@@ -121,7 +121,7 @@ static int parse_world(sj_ctx *c, const cJSON *w)
     const double steps = (double)s->frames * s->frame_steps;
     if (steps > (double)s->limits.max_steps)
         return sj_fail(c, dj, "world.duration = %g s at h = %g s (%d frames of %d steps) takes "
-                       "%.4g steps, more than the limit of %lld (defsim run --max-steps N raises "
+                       "%.0f steps, more than the limit of %lld (defsim run --max-steps N raises "
                        "it)", s->duration, s->h, (int)s->frames, (int)s->frame_steps, steps,
                        (long long)s->limits.max_steps);
     if (sj_vec3(c, w, "gravity", "world", s->def.gravity) ||

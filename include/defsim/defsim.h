@@ -695,7 +695,7 @@ DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
                                                     int32_t tet_count);
 
 /* ------------------------------------------------------------------------------------------ */
-/* Input limits (issue 17)                                                                    */
+/* Input limits; replacing the log sink (issue 17)                                            */
 /*                                                                                            */
 /* What a mesh file may make defsim_mesh_load read and allocate, so that a hostile or runaway */
 /* file ends with a clear error instead of exhausting memory. docs/limits.md lists them.      */
@@ -717,6 +717,12 @@ DEFSIM_API defsim_status defsim_set_limit(defsim_limit limit, int64_t value);
 
 /// The current value of a limit, or -1 for an unknown one. Thread-safe.
 DEFSIM_API int64_t defsim_get_limit(defsim_limit limit);
+
+/// Replaces the world's log sink (given first in defsim_world_def.log and log_user); fn NULL:
+/// silent. A host that owns the memory behind `user` detaches it this way before freeing it
+/// (the C++ wrapper does so in World::release).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world).
+DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn fn, void *user);
 
 #ifdef __cplusplus
 }

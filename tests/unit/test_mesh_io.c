@@ -601,7 +601,9 @@ static void test_rope(void **state)
 /* ------------------------------------------------------------------------------------------ */
 /* Input bounds (issue 17): regular files only, limits, coordinates */
 
-/* The load fails with `want` and a message containing `text`. */
+/* The load fails with `want` and a message containing `text`. Only for files that are not
+ * regular, where the status (DEFSIM_ERR_IO) was the same before the check: the old reader read
+ * /dev/zero up to its 1 GiB limit and a folder until fread failed. */
 static void expect_message(const char *path, defsim_status want, const char *text)
 {
     defsim_mesh m = empty_mesh();
@@ -659,30 +661,30 @@ static void test_limits(void **state)
     TU_OK(defsim_mesh_load(quad, &m));   /* exactly at the limit */
     defsim_mesh_free(&m);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES, 41));
-    expect_message(quad, DEFSIM_ERR_IO, "DEFSIM_LIMIT_FILE_BYTES");
+    expect_error(quad, DEFSIM_ERR_IO, 0);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES, 1 << 30));
 
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 4));
     TU_OK(defsim_mesh_load(quad, &m));
     defsim_mesh_free(&m);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 3));
-    expect_message(quad, DEFSIM_ERR_INVALID_MESH, "more than 3 vertices");
+    expect_error(quad, DEFSIM_ERR_INVALID_MESH, 4);   /* the fourth vertex */
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 10000000));
 
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 2));
     TU_OK(defsim_mesh_load(quad, &m));
     defsim_mesh_free(&m);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 1));
-    expect_message(quad, DEFSIM_ERR_INVALID_MESH, "more than 1 elements");
+    expect_error(quad, DEFSIM_ERR_INVALID_MESH, 5);   /* the quad's second triangle */
     /* The same for tets (TetGen) and for Gmsh nodes. */
     tu_write_file("lim.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0 0 -1\n");
-    expect_message(tu_write_file("lim.ele", "2 4 0\n1 1 2 3 4\n2 1 3 2 5\n"),
-                   DEFSIM_ERR_INVALID_MESH, "DEFSIM_LIMIT_ELEMENTS");
+    expect_error(tu_write_file("lim.ele", "2 4 0\n1 1 2 3 4\n2 1 3 2 5\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 50000000));
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 4));
-    expect_message(tu_write_file("lim.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n"
-                                 "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0 0 -1\n$EndNodes\n"),
-                   DEFSIM_ERR_INVALID_MESH, "DEFSIM_LIMIT_VERTICES");
+    expect_error(tu_write_file("lim.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n"
+                               "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0 0 -1\n$EndNodes\n"),
+                 DEFSIM_ERR_INVALID_MESH, 10);
     TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 10000000));
 }
 
@@ -692,8 +694,8 @@ static void test_huge_coordinates(void **state)
     /* +-1e308 used to load and fail only at the first step (differences overflow to inf). */
     expect_error(tu_write_file("far.obj", "v -1e308 0 0\nv 1e308 0 0\nv 0 1 0\nf 1 2 3\n"),
                  DEFSIM_ERR_INVALID_MESH, 1);
-    expect_message(tu_write_file("far2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 -2e100\nf 1 2 3\n"),
-                   DEFSIM_ERR_INVALID_MESH, "z = -2e+100");
+    expect_error(tu_write_file("far2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 -2e100\nf 1 2 3\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
     tu_write_file("far.node", "4 3 0 0\n1 0 0 0\n2 1e101 0 0\n3 0 1 0\n4 0 0 1\n");
     expect_error(tu_write_file("far.ele", "1 4 0\n1 1 2 3 4\n"), DEFSIM_ERR_INVALID_MESH, 3);
     expect_error(tu_write_file("far.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n"

@@ -22,7 +22,8 @@ static int open_regular(const char *path, FILE **out)
     else if (S_ISDIR(st.st_mode)) err = EISDIR;
     else if (!S_ISREG(st.st_mode)) err = DEFSIM__ENOTREG;
     /* Blocking reads from here on (a regular file never blocks; this is for clarity). */
-    else if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK) != 0) err = errno ? errno : EIO;
+    else if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK) != 0)
+        err = errno ? errno : EIO;
     FILE *f = err ? NULL : fdopen(fd, "rb");
     if (!f) {
         if (!err) err = errno ? errno : EIO;

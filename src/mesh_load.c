@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* defsim_mesh_load: picks the loader by extension; the post-processing all loaders share. */
+/* defsim_mesh_load: its input limits, picks the loader by extension; the post-processing all
+ * loaders share. */
 #include "mesh_load.h"
 
 #include "mesh.h"

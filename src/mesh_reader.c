@@ -56,7 +56,8 @@ defsim_status defsim__rd_open(defsim__reader *r, const char *path, int hash_comm
         return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "larger than %lld bytes, the limit for mesh "
                                "files (defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES) raises it)",
                                (long long)max);
-    if (err) return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "cannot read: %s", defsim__read_strerror(err));
+    if (err)
+        return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "cannot read: %s", defsim__read_strerror(err));
     return DEFSIM_OK;
 }
 

@@ -89,6 +89,9 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
     return DEFSIM_OK;
 }
 
+/* Finite and within +-DEFSIM__COORD_MAX (NaN fails). */
+static int coord_ok(double x) { return fabs(x) <= DEFSIM__COORD_MAX; }
+
 /* A zeroed mesh with room for nv vertices and nt tets, ntri triangles, ns springs (arrays of
  * zero items stay NULL). On failure nothing is left allocated. */
 static defsim_status mesh_alloc(defsim_mesh *out, int64_t nv, int64_t nt, int64_t ntri,
@@ -124,8 +127,9 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     for (int i = 0; i < 3; ++i)
-        if (!isfinite(lo[i]) || !isfinite(hi[i]) || !(hi[i] > lo[i])) {
-            defsim__set_last_error("defsim_mesh_box: empty or non-finite box along axis %d", i);
+        if (!coord_ok(lo[i]) || !coord_ok(hi[i]) || !(hi[i] > lo[i])) {
+            defsim__set_last_error("defsim_mesh_box: empty box, or a corner beyond +-%g m, "
+                                   "along axis %d", DEFSIM__COORD_MAX, i);
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
     const int64_t nv = (int64_t)(nx + 1) * (ny + 1) * (nz + 1);
@@ -178,7 +182,7 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
 
 static int finite3(const double *p)
 {
-    return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
+    return coord_ok(p[0]) && coord_ok(p[1]) && coord_ok(p[2]);
 }
 
 defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const double v[3],
@@ -189,7 +193,8 @@ defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const
                                "sizeof(defsim_mesh)");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    if (nu < 1 || nv < 1 || (int64_t)(nu + 1) * (nv + 1) > 20000000) {
+    /* 64-bit before adding 1: nu + 1 overflows for nu = INT32_MAX. */
+    if (nu < 1 || nv < 1 || ((int64_t)nu + 1) * ((int64_t)nv + 1) > 20000000) {
         defsim__set_last_error("defsim_mesh_cloth: cells %d x %d out of range", (int)nu, (int)nv);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
@@ -198,9 +203,13 @@ defsim_status defsim_mesh_cloth(const double origin[3], const double u[3], const
     const double area = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     const double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
     const double lv = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!finite3(origin) || !finite3(u) || !finite3(v) || !(area > 1e-12 * lu * lv)) {
-        defsim__set_last_error("defsim_mesh_cloth: origin, u and v must be finite, u and v "
-                               "non-zero and not parallel");
+    const double far[3] = {origin[0] + u[0] + v[0], origin[1] + u[1] + v[1],
+                           origin[2] + u[2] + v[2]};
+    if (!finite3(origin) || !finite3(u) || !finite3(v) || !finite3(far) ||
+        !(area > 1e-12 * lu * lv)) {
+        defsim__set_last_error("defsim_mesh_cloth: origin, u and v must be finite with every "
+                               "corner within +-%g m, u and v non-zero and not parallel",
+                               DEFSIM__COORD_MAX);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const int64_t W = nu + 1, nvert = W * (nv + 1);
@@ -263,7 +272,8 @@ defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t seg
     }
     const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     if (!finite3(a) || !finite3(b) || !(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0)) {
-        defsim__set_last_error("defsim_mesh_rope: ends must be finite and distinct");
+        defsim__set_last_error("defsim_mesh_rope: ends must be distinct and finite, within "
+                               "+-%g m", DEFSIM__COORD_MAX);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const int64_t nvert = (int64_t)segments + 1, ns = 2 * (int64_t)segments - 1;

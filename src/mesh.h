@@ -13,6 +13,9 @@
 /* Hands a finished mesh to the caller's struct, copying only the fields its size covers (an
  * older caller's struct lacks spring_kinds, which is then freed). */
 void defsim__mesh_deliver(defsim_mesh *dst, defsim_mesh *src);
+/* The largest |coordinate| (m) the generators and loaders accept: differences of coordinates,
+ * their squares (lengths) and products of three (volumes) all stay finite below it. */
+#define DEFSIM__COORD_MAX 1e100
 
 /* Outward-oriented boundary triangles of a tet mesh (faces used by exactly one tet).
  * *tris_out is malloc'd (3 * *ntris_out indices). */

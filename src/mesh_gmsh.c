@@ -71,6 +71,7 @@ static void gmsh_expect_end(defsim__reader *r, const char *end)
 
 static int gmsh_push_node(defsim__reader *r, defsim__raw_mesh *m, long long tag, const double p[3])
 {
+    if (!defsim__raw_room(r, m, 1)) return 0;
     if (!defsim__vec_push(&m->pos, p, 1) || !defsim__vec_push(&m->tag, &tag, 1)) {
         r->st = defsim__mesh_oom(r->path);
         return 0;
@@ -87,6 +88,7 @@ static void gmsh_element(defsim__reader *r, defsim__raw_mesh *m, long long type,
     gmsh_type(type, &tn, &dim, &name);
     if (dim < 0) dim = dim_hint;
     if (type == 4) {
+        if (!defsim__raw_room(r, m, 0)) return;
         if (!defsim__vec_push(&m->tets, nodes, 1) || !defsim__vec_push(&m->tet_line, &line, 1))
             r->st = defsim__mesh_oom(r->path);
     } else if (dim == 3) {
@@ -132,8 +134,8 @@ static void gmsh_nodes_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
     for (long long i = 0; i < nn; ++i) {
         long long tag;
         double p[3];
-        if (!defsim__rd_i64(r, "node number", &tag) || !defsim__rd_f64(r, "x", &p[0]) ||
-            !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
+        if (!defsim__rd_i64(r, "node number", &tag) || !defsim__rd_coord(r, "x", &p[0]) ||
+            !defsim__rd_coord(r, "y", &p[1]) || !defsim__rd_coord(r, "z", &p[2]))
             return;
         if (!gmsh_push_node(r, m, tag, p)) return;
     }
@@ -202,8 +204,8 @@ static void gmsh_nodes_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
             double *P = m->pos.p;
             for (long long i = 0; i < cnt; ++i) {
                 double *p = P + 3 * (first + (size_t)i), u;
-                if (!defsim__rd_f64(r, "x", &p[0]) || !defsim__rd_f64(r, "y", &p[1]) ||
-                    !defsim__rd_f64(r, "z", &p[2]))
+                if (!defsim__rd_coord(r, "x", &p[0]) || !defsim__rd_coord(r, "y", &p[1]) ||
+                    !defsim__rd_coord(r, "z", &p[2]))
                     return;
                 for (long long k = 0; k < npar; ++k)
                     if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
@@ -213,8 +215,8 @@ static void gmsh_nodes_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
                 long long tag;
                 double p[3], u;
                 if (!defsim__rd_i64(r, "node tag", &tag) ||
-                    !defsim__rd_f64(r, "x", &p[0]) ||
-                    !defsim__rd_f64(r, "y", &p[1]) || !defsim__rd_f64(r, "z", &p[2]))
+                    !defsim__rd_coord(r, "x", &p[0]) ||
+                    !defsim__rd_coord(r, "y", &p[1]) || !defsim__rd_coord(r, "z", &p[2]))
                     return;
                 for (long long k = 0; k < npar; ++k)
                     if (!defsim__rd_f64(r, "parametric coordinate", &u)) return;
@@ -307,7 +309,10 @@ defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
                         "(Mesh.Binary = 0, the default)");
         goto done;
     }
-    int major = (int)floor(version), minor = (int)lround((version - major) * 10.0);
+    /* Range first: converting a huge version to int would be undefined. */
+    const int known = version >= 2.0 && version < 5.0;
+    const int major = known ? (int)floor(version) : 0;
+    const int minor = known ? (int)lround((version - major) * 10.0) : 0;
     if (!(major == 2 || (major == 4 && minor <= 1))) {
         defsim__rd_fail(&r, DEFSIM_ERR_IO, vline, "Gmsh format %g is not supported (2.x and 4.0, "
                         "4.1 ASCII are)", version);

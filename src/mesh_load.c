@@ -1,14 +1,50 @@
 /* SPDX-License-Identifier: MIT */
-/* defsim_mesh_load: picks the loader by extension; the post-processing all loaders share. */
+/* defsim_mesh_load: its input limits, picks the loader by extension; the post-processing all
+ * loaders share. */
 #include "mesh_load.h"
 
 #include "mesh.h"
 #include "tet_rest.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* ---- Input limits (defsim_set_limit) ------------------------------------------------------ */
+
+static _Atomic int64_t limits[3] = {(int64_t)1 << 30, 10000000, 50000000};
+static const int64_t limit_max[3] = {(int64_t)1 << 62, INT32_MAX / 3, INT32_MAX / 6};
+
+defsim_status defsim_set_limit(defsim_limit limit, int64_t value)
+{
+    if ((unsigned)limit > DEFSIM_LIMIT_ELEMENTS || value < 1 || value > limit_max[limit]) {
+        defsim__set_last_error("defsim_set_limit: limit %d = %lld is out of range", (int)limit,
+                               (long long)value);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    atomic_store(&limits[limit], value);
+    return DEFSIM_OK;
+}
+
+int64_t defsim_get_limit(defsim_limit limit)
+{
+    return (unsigned)limit > DEFSIM_LIMIT_ELEMENTS ? -1 : atomic_load(&limits[limit]);
+}
+
+int defsim__raw_room(defsim__reader *r, const defsim__raw_mesh *m, int vertex)
+{
+    if (r->st != DEFSIM_OK) return 0;
+    const size_t have = vertex ? m->pos.n : m->tets.n + m->tris.n + m->segs.n;
+    const int64_t max = vertex ? m->max_vertices : m->max_elements;
+    if ((int64_t)have < max) return 1;
+    defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, r->line, "more than %lld %s, the limit "
+                    "(defsim_set_limit(%s) raises it)", (long long)max,
+                    vertex ? "vertices" : "elements",
+                    vertex ? "DEFSIM_LIMIT_VERTICES" : "DEFSIM_LIMIT_ELEMENTS");
+    return 0;
+}
 
 void defsim__raw_init(defsim__raw_mesh *m)
 {
@@ -19,6 +55,8 @@ void defsim__raw_init(defsim__raw_mesh *m)
     m->tris.elem = 3 * sizeof(long long);
     m->segs.elem = 2 * sizeof(long long);
     m->tet_line.elem = m->tri_line.elem = m->seg_line.elem = sizeof(int);
+    m->max_vertices = defsim_get_limit(DEFSIM_LIMIT_VERTICES);
+    m->max_elements = defsim_get_limit(DEFSIM_LIMIT_ELEMENTS);
 }
 
 defsim_status defsim__raw_open(defsim__raw_mesh *m, defsim__reader *r, const char *path,

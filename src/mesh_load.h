@@ -21,6 +21,7 @@ typedef struct defsim__raw_mesh {
     defsim__vec segs;     /* long long x2: explicit springs (OBJ 'l') */
     defsim__vec seg_line; /* int */
     int tags_are_indices; /* tags are 0-based indices already (OBJ) */
+    int64_t max_vertices, max_elements;   /* the limits when the load started */
 } defsim__raw_mesh;
 
 void defsim__raw_init(defsim__raw_mesh *m);
@@ -28,6 +29,10 @@ void defsim__raw_init(defsim__raw_mesh *m);
 defsim_status defsim__raw_open(defsim__raw_mesh *m, defsim__reader *r, const char *path,
                                int hash_comments);
 void defsim__raw_free(defsim__raw_mesh *m);
+
+/* 1 if m may take one more vertex (`vertex`) or element (tet, triangle or segment); else 0 with
+ * the error "more than N vertices, the limit ..." recorded in r (0 at once after an error). */
+int defsim__raw_room(defsim__reader *r, const defsim__raw_mesh *m, int vertex);
 
 /* Sets "path: out of memory" and returns DEFSIM_ERR_OUT_OF_MEMORY. */
 defsim_status defsim__mesh_oom(const char *path);

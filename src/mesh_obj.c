@@ -91,14 +91,17 @@ defsim_status defsim__load_obj(const char *path, defsim_mesh *out)
             static const char *axis[3] = {"x", "y", "z"};
             for (int c = 0; c < 3 && r.st == DEFSIM_OK; ++c) {
                 tn = obj_token(&r, &tok);
-                if (defsim__parse_f64(tok, tn, &p[c])) continue;
+                if (defsim__parse_f64(tok, tn, &p[c])) {
+                    defsim__coord_check(&r, line, axis[c], p[c]);
+                    continue;
+                }
                 char shown[64];
                 defsim__rd_show(shown, sizeof shown, tok, tn);
                 if (tn == 0) snprintf(shown, sizeof shown, "end of line");
                 defsim__rd_fail(&r, DEFSIM_ERR_IO, line, "vertex: expected %s (a finite number), "
                                 "found %s", axis[c], shown);
             }
-            if (r.st != DEFSIM_OK) break;
+            if (!defsim__raw_room(&r, &m, 1)) break;
             long long tag = (long long)m.pos.n;
             if (!defsim__vec_push(&m.pos, p, 1) || !defsim__vec_push(&m.tag, &tag, 1))
                 st = defsim__mesh_oom(path);
@@ -120,6 +123,7 @@ defsim_status defsim__load_obj(const char *path, defsim_mesh *out)
             /* Polygons are fan-triangulated; polylines give one segment per pair. */
             for (size_t k = face ? 1 : 0; k + 1 < poly.n && st == DEFSIM_OK; ++k) {
                 long long t[3] = {v[0], v[k], v[k + 1]}, s[2] = {v[k], v[k + 1]};
+                if (!defsim__raw_room(&r, &m, 0)) break;
                 if (face ? !defsim__vec_push(&m.tris, t, 1) ||
                                !defsim__vec_push(&m.tri_line, &line, 1)
                          : !defsim__vec_push(&m.segs, s, 1) ||

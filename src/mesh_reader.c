@@ -2,6 +2,7 @@
 #include "mesh_reader.h"
 
 #include "file_read.h"
+#include "mesh.h"
 
 #include <errno.h>
 #include <math.h>
@@ -45,15 +46,18 @@ defsim_status defsim__rd_open(defsim__reader *r, const char *path, int hash_comm
     r->path = path;
     r->line = 1;
     r->hash_comments = hash_comments;
-    int err = defsim__read_file(path, DEFSIM__FILE_MAX, &r->buf, &r->len);
+    const int64_t max = defsim_get_limit(DEFSIM_LIMIT_FILE_BYTES);
+    int err = defsim__read_file(path, (size_t)max, &r->buf, &r->len);
     if (err == ENOMEM) {
         defsim__set_last_error("%s: out of memory", path);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (err == EFBIG)
-        return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "larger than %zu bytes, the limit for "
-                               "mesh files", DEFSIM__FILE_MAX);
-    if (err) return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "cannot read: %s", strerror(err));
+        return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "larger than %lld bytes, the limit for mesh "
+                               "files (defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES) raises it)",
+                               (long long)max);
+    if (err)
+        return defsim__rd_fail(r, DEFSIM_ERR_IO, 0, "cannot read: %s", defsim__read_strerror(err));
     return DEFSIM_OK;
 }
 
@@ -177,3 +181,17 @@ int defsim__rd_count(defsim__reader *r, const char *what, long long lo, long lon
     return 1;
 }
 
+
+int defsim__coord_check(defsim__reader *r, int line, const char *what, double x)
+{
+    if (fabs(x) <= DEFSIM__COORD_MAX) return 1;
+    defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line, "%s = %g is beyond +-%g m, the largest "
+                    "coordinate accepted (lengths and volumes would overflow)", what, x,
+                    DEFSIM__COORD_MAX);
+    return 0;
+}
+
+int defsim__rd_coord(defsim__reader *r, const char *what, double *out)
+{
+    return defsim__rd_f64(r, what, out) && defsim__coord_check(r, r->line, what, *out);
+}

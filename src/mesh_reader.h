@@ -32,7 +32,7 @@ typedef struct defsim__reader {
 /* A continued newline (OBJ, see mesh_obj.c): counts as a line, not as the end of a statement. */
 #define DEFSIM__RD_CONT '\x01'
 
-/* Reads the file at `path` (at most DEFSIM__FILE_MAX bytes, see file_read.h) into r. */
+/* Reads the file at `path` (a regular file of at most DEFSIM_LIMIT_FILE_BYTES bytes) into r. */
 defsim_status defsim__rd_open(defsim__reader *r, const char *path, int hash_comments);
 void defsim__rd_close(defsim__reader *r);
 
@@ -72,5 +72,11 @@ int defsim__rd_i64(defsim__reader *r, const char *what, long long *out);
 int defsim__rd_f64(defsim__reader *r, const char *what, double *out);
 int defsim__rd_count(defsim__reader *r, const char *what, long long lo, long long hi,
                        long long *out);
+/* The next token as a coordinate: a finite number within +-DEFSIM__COORD_MAX (mesh.h); else 0
+ * with an error naming `what` (a malformed number is DEFSIM_ERR_IO, one out of range
+ * DEFSIM_ERR_INVALID_MESH). */
+int defsim__rd_coord(defsim__reader *r, const char *what, double *out);
+/* 1 if |x| <= DEFSIM__COORD_MAX; else 0 with the error "WHAT = x is beyond ..." at `line`. */
+int defsim__coord_check(defsim__reader *r, int line, const char *what, double x);
 
 #endif

@@ -34,8 +34,8 @@ defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out)
         int line;
         defsim__rd_skip_ws(&r);
         line = r.line;
-        if (!defsim__rd_i64(&r, "point number", &tag) || !defsim__rd_f64(&r, "x", &p[0]) ||
-            !defsim__rd_f64(&r, "y", &p[1]) || !defsim__rd_f64(&r, "z", &p[2]))
+        if (!defsim__rd_i64(&r, "point number", &tag) || !defsim__rd_coord(&r, "x", &p[0]) ||
+            !defsim__rd_coord(&r, "y", &p[1]) || !defsim__rd_coord(&r, "z", &p[2]))
             break;
         for (long long a = 0; a < nattr + nmark; ++a) {
             double skip;
@@ -44,7 +44,7 @@ defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out)
         if (r.st == DEFSIM_OK && r.line != line)
             defsim__rd_fail(&r, DEFSIM_ERR_IO, line, "point %lld: expected %lld values on the line",
                             tag, 4 + nattr + nmark);
-        if (r.st == DEFSIM_OK &&
+        if (defsim__raw_room(&r, &m, 1) &&
             (!defsim__vec_push(&m.pos, p, 1) || !defsim__vec_push(&m.tag, &tag, 1)))
             st = defsim__mesh_oom(node_path);
     }
@@ -78,7 +78,7 @@ defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out)
         if (r.st == DEFSIM_OK && r.line != line)
             defsim__rd_fail(&r, DEFSIM_ERR_IO, line, "tet %lld: expected %lld values on the line",
                             tag, 5 + nattr);
-        if (r.st == DEFSIM_OK &&
+        if (defsim__raw_room(&r, &m, 0) &&
             (!defsim__vec_push(&m.tets, v, 1) || !defsim__vec_push(&m.tet_line, &line, 1)))
             st = defsim__mesh_oom(ele_path);
     }

@@ -1078,3 +1078,14 @@ defsim_status defsim_world_stat(const defsim_world *w, const char *name, double 
     return defsim__world_live(w) ? defsim__options_stat(&w->options, w->msg, &w->stats, name, value)
              : DEFSIM_ERR_INVALID_ARGUMENT;
 }
+
+defsim_status defsim_world_set_log(defsim_world *w, defsim_log_fn fn, void *user)
+{
+    if (!w) {
+        defsim__set_last_error("defsim_world_set_log: NULL world");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    w->msg->log = w->def.log = fn;
+    w->msg->log_user = w->def.log_user = user;
+    return DEFSIM_OK;
+}

@@ -7,9 +7,12 @@
 #   tools/dev.sh tsan    build and run the thread test under ThreadSanitizer (build-tsan)
 #   tools/dev.sh deps    only install (as root) or print the apt-get line (otherwise)
 #   tools/dev.sh build   only configure and build
+#   tools/dev.sh sanitize  build with ASan + UBSan in ./build-asan, run the tests labelled
+#                        "sanitize" (unit, conformance, tool and fuzz-regression tests)
 #
-# Environment: DEFSIM_BUILD_DIR (default ./build), DEFSIM_JOBS (default nproc),
-# DEFSIM_CMAKE_ARGS (extra cmake arguments), DEFSIM_TSAN_BUILD_DIR (default ./build-tsan).
+# Environment: DEFSIM_BUILD_DIR (default ./build), DEFSIM_SANITIZE_BUILD_DIR (default
+# ./build-asan), DEFSIM_TSAN_BUILD_DIR (default ./build-tsan), DEFSIM_JOBS (default nproc),
+# DEFSIM_CMAKE_ARGS (extra cmake arguments).
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -72,6 +75,18 @@ tsan() {
     ctest --test-dir "$tb" -R '^test_threads$' --output-on-failure
 }
 
+# The sanitizer stage of CI (issue 17, docs/fuzzing.md): a second build with
+# -DDEFSIM_SANITIZE=ON (ASan, UBSan, float-cast-overflow; every report aborts) without the
+# renderer, and the tests labelled "sanitize" in it (tests/CMakeLists.txt says which and why).
+sanitize() {
+    local sbuild=${DEFSIM_SANITIZE_BUILD_DIR:-$root/build-asan}
+    cmake -S "$root" -B "$sbuild" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDEFSIM_SANITIZE=ON \
+        -DDEFSIM_WITH_OSMESA=OFF ${DEFSIM_CMAKE_ARGS:-}
+    cmake --build "$sbuild" -j "$jobs"
+    ASAN_OPTIONS=detect_leaks=1:check_initialization_order=1 UBSAN_OPTIONS=print_stacktrace=1 \
+        ctest --test-dir "$sbuild" -L sanitize --output-on-failure -j "$jobs" --timeout 900
+}
+
 python_arg=""
 case "${1:-}" in
 deps) deps ;;
@@ -84,6 +99,10 @@ test)
     tsan
     ;;
 tsan) deps; tsan ;;
+sanitize)
+    deps
+    sanitize
+    ;;
 demo)
     deps
     configure_and_build
@@ -93,7 +112,7 @@ demo)
         --out "$build/cantilever"
     ;;
 *)
-    sed -n '3,12p' "${BASH_SOURCE[0]}"
+    sed -n '3,15p' "${BASH_SOURCE[0]}"
     exit 2
     ;;
 esac

@@ -11,6 +11,7 @@
 #include "scene_json.h"
 
 #include "fileio.h"
+#include "../src/file_read.h"
 
 #include <errno.h>
 #include <math.h>
@@ -97,6 +98,9 @@ static int parse_world(sj_ctx *c, const cJSON *w)
         double f = 0.0;
         if (sj_number(c, w, "fps", "world", 0.0, 1e300, 1, &f)) return -1;
         const double steps = 1.0 / (f * s->h);
+        if (!(steps <= 1e9))
+            return sj_fail(c, fps, "world.fps = %g: 1 / (fps h) = %.3g steps per frame, more "
+                           "than 1e9", f, steps);
         s->frame_steps = (int32_t)lround(steps);
         if (s->frame_steps < 1 || fabs(steps - s->frame_steps) > 1e-6 * steps)
             return sj_fail(c, fps, "world.fps = %g: 1 / (fps h) = %.6g steps per frame is not a "
@@ -104,12 +108,22 @@ static int parse_world(sj_ctx *c, const cJSON *w)
     }
     if (s->frame_steps == 0) {
         const double steps = 1.0 / (30.0 * s->h);   /* about 30 frames per second */
+        /* Bounded before the conversion, which wraps for a tiny h. */
+        if (steps > 1e9)
+            return sj_fail(c, hj, "world.h = %g: a frame of 1/30 s would take %.3g steps (at "
+                           "most 1e9); give a larger h, or \"frame_steps\"", s->h, steps);
         s->frame_steps = steps < 1.0 ? 1 : (int32_t)lround(steps);
     }
     const double frames = ceil(s->duration / (s->h * s->frame_steps) - 1e-9);
     if (frames > 1e8 || frames * s->frame_steps > 9e15)
         return sj_fail(c, dj, "world.duration gives %g frames: too many", frames);
     s->frames = frames < 1 ? 1 : (int32_t)frames;
+    const double steps = (double)s->frames * s->frame_steps;
+    if (steps > (double)s->limits.max_steps)
+        return sj_fail(c, dj, "world.duration = %g s at h = %g s (%d frames of %d steps) takes "
+                       "%.0f steps, more than the limit of %lld (defsim run --max-steps N raises "
+                       "it)", s->duration, s->h, (int)s->frames, (int)s->frame_steps, steps,
+                       (long long)s->limits.max_steps);
     if (sj_vec3(c, w, "gravity", "world", s->def.gravity) ||
         sj_int(c, w, "threads", "world", 0, 4096, &s->def.num_threads) ||
         sj_number(c, w, "tolerance", "world", 0.0, 1e300, 1, &s->def.tolerance) ||
@@ -202,6 +216,17 @@ static int parse_transform(sj_ctx *c, const cJSON *j, const char *what,
 
 enum { MESH_FILE, MESH_BOX, MESH_CLOTH, MESH_ROPE };
 
+/* A mesh of n more vertices must fit within limits.max_vertices with the bodies before it:
+ * checked before a generator makes it. */
+static int vertex_budget(sj_ctx *c, const cJSON *where, const char *what, double n)
+{
+    const double total = (double)c->s->vertex_count + n;
+    if (total <= (double)c->s->limits.max_vertices) return 0;
+    return sj_fail(c, where, "%s: %.0f vertices would make %.0f in the scene, more than the "
+                   "limit of %lld (defsim run --max-vertices N raises it)", what, n, total,
+                   (long long)c->s->limits.max_vertices);
+}
+
 static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, int *kind,
                       int32_t *bending, int32_t *shear_first, int32_t *shear_count)
 {
@@ -236,6 +261,9 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
                     return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "hi"),
                                    "%s: hi must be above lo on every axis", w);
             }
+            if (vertex_budget(c, cJSON_GetObjectItemCaseSensitive(j, "cells"), w,
+                              (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1)))
+                return -1;
             *kind = MESH_BOX;
             st = defsim_mesh_box(lo, hi, (int32_t)cells[0], (int32_t)cells[1], (int32_t)cells[2], m);
         } else if (!strcmp(ty, "cloth")) {
@@ -250,6 +278,7 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
             if (cells[0] != floor(cells[0]) || cells[1] != floor(cells[1]) || cells[0] < 1 ||
                 cells[1] < 1 || cells[0] * cells[1] > 1e7)
                 return sj_fail(c, cj, "%s.cells must be 2 integers >= 1", w);
+            if (vertex_budget(c, cj, w, (cells[0] + 1) * (cells[1] + 1))) return -1;
             const int32_t nu = (int32_t)cells[0], nv = (int32_t)cells[1];
             *kind = MESH_CLOTH;
             st = defsim_mesh_cloth(o, u, v, nu, nv, m);
@@ -262,7 +291,9 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
             int32_t seg = 0;
             if (sj_keys(c, j, w, keys) || !sj_require(c, j, "a", w) || !sj_require(c, j, "b", w) ||
                 !sj_require(c, j, "segments", w) || sj_vec3(c, j, "a", w, a) ||
-                sj_vec3(c, j, "b", w, bb) || sj_int(c, j, "segments", w, 1, 10000000, &seg))
+                sj_vec3(c, j, "b", w, bb) || sj_int(c, j, "segments", w, 1, 10000000, &seg) ||
+                vertex_budget(c, cJSON_GetObjectItemCaseSensitive(j, "segments"), w,
+                              (double)seg + 1))
                 return -1;
             *kind = MESH_ROPE;
             st = defsim_mesh_rope(a, bb, seg, m);
@@ -290,6 +321,7 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
         if (st != DEFSIM_OK)
             return sj_fail(c, where_node, "%s: %s: %s", w, defsim_status_string(st),
                            defsim_last_error());
+        if (vertex_budget(c, where_node, w, m->vertex_count)) return -1;
     }
     return 0;
 }
@@ -574,7 +606,15 @@ void scene_free(scene *s)
 
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides)
 {
+    return scene_load_limited(s, path, overrides, noverrides, NULL);
+}
+
+int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
+                       const scene_limits *limits)
+{
     memset(s, 0, sizeof *s);
+    s->limits.max_vertices = limits ? limits->max_vertices : SCENE_MAX_VERTICES;
+    s->limits.max_steps = limits ? limits->max_steps : SCENE_MAX_STEPS;
     snprintf(s->path, sizeof s->path, "%s", path);
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
@@ -591,7 +631,7 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     char *text = tools_read_file(path, &len);
     if (!text) {
         snprintf(s->error, sizeof s->error, "%s: cannot read the scene file: %s", path,
-                 strerror(errno));
+                 defsim__read_strerror(errno));
         return -1;
     }
     c.text = text;

@@ -105,6 +105,17 @@ typedef struct scene_body {
     int32_t ndrives;
 } scene_body;
 
+/* What a scene file may ask for at most, checked by scene_load before anything large is made
+ * (docs/limits.md): a scene past a limit is refused with a message that names the option that
+ * raises it (defsim run --max-vertices, --max-steps). */
+typedef struct scene_limits {
+    int64_t max_vertices;   /* over all bodies; default SCENE_MAX_VERTICES */
+    int64_t max_steps;      /* time steps of the whole run (frames x steps per frame);
+                               default SCENE_MAX_STEPS */
+} scene_limits;
+#define SCENE_MAX_VERTICES 2000000
+#define SCENE_MAX_STEPS 10000000
+
 typedef struct scene {
     char path[1024];
     char name[256];         /* file name without directory and .json */
@@ -130,6 +141,7 @@ typedef struct scene {
     double color_range[2];  /* fixed colour scale (Pa or m); else each frame 0 .. its maximum */
     unsigned fields;        /* SCENE_FIELD_* written into VTK frames */
     int32_t vertex_count;   /* sum over bodies */
+    scene_limits limits;    /* those scene_load checked */
     char error[4096];       /* "file:line:col: what" of the last failure */
 } scene;
 
@@ -137,6 +149,9 @@ typedef struct scene {
  * checks (a value that is not JSON is taken as a string). Returns 0, or -1 with s->error set
  * (the scene is then freed). Relative mesh paths are taken from the scene file's folder. */
 int scene_load(scene *s, const char *path, const char *const *overrides, int noverrides);
+/* scene_load with limits other than the defaults (NULL: the defaults). */
+int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
+                       const scene_limits *limits);
 
 /* Creates the world, sets world.options (those of another backend than the world's are skipped
  * with a warning on stderr) and adds the bodies with their pins, external forces, driven pins

@@ -514,7 +514,8 @@ typedef struct defsim_mesh {
 /// Makes a box of nx * ny * nz hexahedra on [lo, hi], each split into 6 positively oriented tets
 /// (Kuhn split along the cell diagonal; conforming), vertex index i + (nx+1)(j + (ny+1) k).
 /// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 1, empty box), DEFSIM_ERR_OUT_OF_MEMORY.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n < 1, empty box, a corner beyond +-1e100 m),
+/// DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx,
                                          int32_t ny, int32_t nz, defsim_mesh *mesh);
 
@@ -535,11 +536,16 @@ DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 /// Vertices that no element uses are dropped; the others keep their order in the file. Tets are
 /// reordered to positive orientation and `triangles` receives their outward boundary (for OBJ,
 /// the faces as given). mesh->size must be set; on success the arrays are allocated (free with
-/// defsim_mesh_free), on failure *mesh is unchanged.
+/// defsim_mesh_free), on failure *mesh is unchanged. Only regular files are read (a FIFO,
+/// device or socket is refused without blocking), within the limits of defsim_set_limit (file
+/// size, vertex and element counts); coordinates must lie within +-1e100 m (so that lengths
+/// and volumes stay finite).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, mesh->size, unknown extension), DEFSIM_ERR_IO
-/// (cannot read, malformed or binary file), DEFSIM_ERR_INVALID_MESH (unsupported element,
-/// undefined or repeated vertex, degenerate tet, zero-length edge, no elements),
-/// DEFSIM_ERR_OUT_OF_MEMORY; defsim_last_error() says "file:line: ...". Thread-safe.
+/// (cannot read, not a regular file, larger than DEFSIM_LIMIT_FILE_BYTES, malformed or binary
+/// file), DEFSIM_ERR_INVALID_MESH (unsupported element, undefined or repeated vertex, degenerate
+/// tet, zero-length edge, no elements, a coordinate beyond +-1e100 m, more vertices or elements
+/// than their limit), DEFSIM_ERR_OUT_OF_MEMORY; defsim_last_error() says "file:line: ...".
+/// Thread-safe.
 DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);
 
 /// Makes a cloth grid of (nu + 1) x (nv + 1) vertices at origin + i/nu * u + j/nv * v (m),
@@ -552,7 +558,7 @@ DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);
 /// give each kind its stiffness (or defsim_body_def.spring_stiffness, one k per spring).
 /// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, nu or nv < 1, too large, u and v not spanning a
-/// plane, non-finite input), DEFSIM_ERR_OUT_OF_MEMORY.
+/// plane, non-finite input or a corner beyond +-1e100 m), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_mesh_cloth(const double origin[3], const double u[3],
                                            const double v[3], int32_t nu, int32_t nv,
                                            defsim_mesh *mesh);
@@ -563,7 +569,7 @@ DEFSIM_API defsim_status defsim_mesh_cloth(const double origin[3], const double 
 /// DEFSIM_SPRING_BEND. No tets or triangles.
 /// mesh->size must be set; on success the arrays are allocated (free with defsim_mesh_free).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, segments < 1 or too large, a == b, non-finite
-/// input), DEFSIM_ERR_OUT_OF_MEMORY.
+/// input or an end beyond +-1e100 m), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_mesh_rope(const double a[3], const double b[3], int32_t segments,
                                           defsim_mesh *mesh);
 
@@ -858,6 +864,36 @@ typedef enum defsim_spring_kind {
     DEFSIM_SPRING_SHEAR = 1,    ///< Cell diagonals of a cloth.
     DEFSIM_SPRING_BEND = 2      ///< Between every second vertex: resists folding.
 } defsim_spring_kind;
+
+/* ------------------------------------------------------------------------------------------ */
+/* Input limits; replacing the log sink (issue 17)                                            */
+/*                                                                                            */
+/* What a mesh file may make defsim_mesh_load read and allocate, so that a hostile or runaway */
+/* file ends with a clear error instead of exhausting memory. docs/limits.md lists them.      */
+
+/// The limits of defsim_mesh_load. Process-wide: one value each for every thread and world.
+typedef enum defsim_limit {
+    DEFSIM_LIMIT_FILE_BYTES = 0,   ///< Bytes in one mesh file. Default 2^30 (1 GiB).
+    DEFSIM_LIMIT_VERTICES = 1,     ///< Vertices one mesh file may define. Default 10,000,000.
+    DEFSIM_LIMIT_ELEMENTS = 2      ///< Tets + triangles + line segments of one mesh file.
+                                   ///< Default 50,000,000.
+} defsim_limit;
+
+/// Sets a limit: value >= 1 and at most 2^62 bytes, 715,827,882 (INT32_MAX / 3) vertices or
+/// 357,913,941 (INT32_MAX / 6) elements, the most that 32-bit indices can address. A load over
+/// a limit fails with DEFSIM_ERR_IO (file size) or DEFSIM_ERR_INVALID_MESH (counts) and a
+/// message that names the limit. Thread-safe; loads that have started keep the value they read.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (unknown limit, value out of range; nothing changes).
+DEFSIM_API defsim_status defsim_set_limit(defsim_limit limit, int64_t value);
+
+/// The current value of a limit, or -1 for an unknown one. Thread-safe.
+DEFSIM_API int64_t defsim_get_limit(defsim_limit limit);
+
+/// Replaces the world's log sink (given first in defsim_world_def.log and log_user); fn NULL:
+/// silent. A host that owns the memory behind `user` detaches it this way before freeing it
+/// (the C++ wrapper does so in World::release).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world).
+DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn fn, void *user);
 
 #ifdef __cplusplus
 }

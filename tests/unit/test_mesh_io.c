@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 /* |a - b| <= tol, printing both values when not. */
@@ -687,6 +688,145 @@ static void test_spring_kinds(void **state)
     defsim_mesh_free(old);
     for (size_t i = offsetof(defsim_mesh, spring_kinds); i < sizeof buf; ++i)
         assert_int_equal(buf[i], 0xAB);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Input bounds (issue 17): regular files only, limits, coordinates */
+
+/* The load fails with `want` and a message containing `text`. Only for files that are not
+ * regular, where the status (DEFSIM_ERR_IO) was the same before the check: the old reader read
+ * /dev/zero up to its 1 GiB limit and a folder until fread failed. */
+static void expect_message(const char *path, defsim_status want, const char *text)
+{
+    defsim_mesh m = empty_mesh();
+    assert_int_equal(defsim_mesh_load(path, &m), want);
+    print_message("    %s\n", defsim_last_error());
+    assert_non_null(strstr(defsim_last_error(), text));
+    assert_null(m.positions);
+}
+
+static void test_not_regular_files(void **state)
+{
+    (void)state;
+    char p[300];
+    /* A file that never ends: refused before reading a byte (it used to read up to 1 GiB). */
+    snprintf(p, sizeof p, "%s/zero.obj", tu_tmpdir);
+    assert_int_equal(symlink("/dev/zero", p), 0);
+    expect_message(p, DEFSIM_ERR_IO, "not a regular file");
+    /* A FIFO without a writer: opening it used to block for ever (the alarm fails the test). */
+    snprintf(p, sizeof p, "%s/fifo.msh", tu_tmpdir);
+    assert_int_equal(mkfifo(p, 0600), 0);
+    alarm(20);
+    expect_message(p, DEFSIM_ERR_IO, "not a regular file");
+    /* TetGen: the .ele of the pair is a FIFO. */
+    tu_write_file("pair.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+    snprintf(p, sizeof p, "%s/pair.ele", tu_tmpdir);
+    assert_int_equal(mkfifo(p, 0600), 0);
+    expect_message(p, DEFSIM_ERR_IO, "not a regular file");
+    alarm(0);
+    /* A folder named like a mesh. */
+    snprintf(p, sizeof p, "%s/dir.obj", tu_tmpdir);
+    assert_int_equal(mkdir(p, 0700), 0);
+    expect_message(p, DEFSIM_ERR_IO, "directory");
+}
+
+static void test_limits(void **state)
+{
+    (void)state;
+    assert_int_equal(defsim_get_limit(DEFSIM_LIMIT_FILE_BYTES), 1 << 30);
+    assert_int_equal(defsim_get_limit(DEFSIM_LIMIT_VERTICES), 10000000);
+    assert_int_equal(defsim_get_limit(DEFSIM_LIMIT_ELEMENTS), 50000000);
+    assert_int_equal(defsim_get_limit((defsim_limit)7), -1);
+    /* Out of range: refused, nothing changes. */
+    assert_int_equal(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 0), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_set_limit(DEFSIM_LIMIT_VERTICES, INT32_MAX / 3 + 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, INT32_MAX / 6 + 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_set_limit((defsim_limit)-1, 5), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_get_limit(DEFSIM_LIMIT_VERTICES), 10000000);
+
+    /* 4 vertices and a quad (2 triangles) in 42 bytes. */
+    const char *quad = tu_write_file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES, 42));
+    TU_OK(defsim_mesh_load(quad, &m));   /* exactly at the limit */
+    defsim_mesh_free(&m);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES, 41));
+    expect_error(quad, DEFSIM_ERR_IO, 0);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_FILE_BYTES, 1 << 30));
+
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 4));
+    TU_OK(defsim_mesh_load(quad, &m));
+    defsim_mesh_free(&m);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 3));
+    expect_error(quad, DEFSIM_ERR_INVALID_MESH, 4);   /* the fourth vertex */
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 10000000));
+
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 2));
+    TU_OK(defsim_mesh_load(quad, &m));
+    defsim_mesh_free(&m);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 1));
+    expect_error(quad, DEFSIM_ERR_INVALID_MESH, 5);   /* the quad's second triangle */
+    /* The same for tets (TetGen) and for Gmsh nodes. */
+    tu_write_file("lim.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0 0 -1\n");
+    expect_error(tu_write_file("lim.ele", "2 4 0\n1 1 2 3 4\n2 1 3 2 5\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_ELEMENTS, 50000000));
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 4));
+    expect_error(tu_write_file("lim.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n"
+                               "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0 0 -1\n$EndNodes\n"),
+                 DEFSIM_ERR_INVALID_MESH, 10);
+    TU_OK(defsim_set_limit(DEFSIM_LIMIT_VERTICES, 10000000));
+}
+
+static void test_huge_coordinates(void **state)
+{
+    (void)state;
+    /* +-1e308 used to load and fail only at the first step (differences overflow to inf). */
+    expect_error(tu_write_file("far.obj", "v -1e308 0 0\nv 1e308 0 0\nv 0 1 0\nf 1 2 3\n"),
+                 DEFSIM_ERR_INVALID_MESH, 1);
+    expect_error(tu_write_file("far2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 -2e100\nf 1 2 3\n"),
+                 DEFSIM_ERR_INVALID_MESH, 3);
+    tu_write_file("far.node", "4 3 0 0\n1 0 0 0\n2 1e101 0 0\n3 0 1 0\n4 0 0 1\n");
+    expect_error(tu_write_file("far.ele", "1 4 0\n1 1 2 3 4\n"), DEFSIM_ERR_INVALID_MESH, 3);
+    expect_error(tu_write_file("far.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n"
+                               "1 0 0 0\n2 1 0 0\n3 0 -1e300 0\n4 0 0 1\n$EndNodes\n"),
+                 DEFSIM_ERR_INVALID_MESH, 8);
+    /* At the bound the mesh loads and its volume is finite: (1e100)^3 / 6. */
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("big.obj", "v 0 0 0\nv 1e100 0 0\nv 0 1e100 0\n"
+                                         "f 1 2 3\n"), &m));
+    assert_near(m.positions[3], 1e100, 0.0);
+    defsim_mesh_free(&m);
+    tu_write_file("big.node", "4 3 0 0\n1 0 0 0\n2 1e100 0 0\n3 0 1e100 0\n4 0 0 -1e100\n");
+    TU_OK(defsim_mesh_load(tu_write_file("big.ele", "1 4 0\n1 1 2 3 4\n"), &m));
+    const double v = tet_volume(m.positions, m.tets);
+    assert_true(isfinite(v) && fabs(v / (1e300 / 6.0) - 1.0) < 1e-12);
+    defsim_mesh_free(&m);
+}
+
+/* The generators refuse what would give non-finite vertices or overflow their counts. */
+static void test_generator_bounds(void **state)
+{
+    (void)state;
+    defsim_mesh m = empty_mesh();
+    const double lo[3] = {-1e308, 0, 0}, hi[3] = {1e308, 1, 1};
+    /* These used to return DEFSIM_OK with NaN vertices (hi - lo = inf). */
+    assert_int_equal(defsim_mesh_rope(lo, hi, 4, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_box(lo, hi, 1, 1, 1, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    const double o[3] = {0, 0, 0}, u[3] = {1e308, 0, 0}, v[3] = {0, 1, 0}, uu[3] = {1, 0, 0};
+    assert_int_equal(defsim_mesh_cloth(o, u, v, 2, 2, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(m.positions);
+    /* (nu + 1) (nv + 1) overflowed int32 for nu = INT32_MAX and passed the size guard. */
+    assert_int_equal(defsim_mesh_cloth(o, uu, v, INT32_MAX, 1, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_mesh_cloth(o, uu, v, 1, INT32_MAX, &m), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(m.positions);
+    /* Within the bound: finite vertices. */
+    const double a[3] = {-1e100, 0, 0}, b[3] = {1e100, 0, 0};
+    TU_OK(defsim_mesh_rope(a, b, 4, &m));
+    for (int i = 0; i < 3 * m.vertex_count; ++i) assert_true(isfinite(m.positions[i]));
+    assert_near(m.positions[3 * 2], 0.0, 0.0);
+    defsim_mesh_free(&m);
 }
 
 int main(void)
@@ -702,6 +842,10 @@ int main(void)
         cmocka_unit_test(test_cloth),
         cmocka_unit_test(test_rope),
         cmocka_unit_test(test_spring_kinds),
+        cmocka_unit_test_setup_teardown(test_not_regular_files, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_limits, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_huge_coordinates, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test(test_generator_bounds),
     };
     return cmocka_run_group_tests_name("mesh_io", tests, NULL, NULL);
 }

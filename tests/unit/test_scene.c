@@ -220,6 +220,74 @@ static void test_control_bytes_as_whitespace(void **state)
         }
 }
 
+
+/* What a scene may ask for (issue 17): steps and vertices within the limits, checked before
+ * anything large is made; the messages name the option that raises them. */
+static void expect_refused(const char *text, const scene_limits *lim, int line)
+{
+    const char *path = tu_write_file("lim.json", text);
+    scene s;
+    assert_int_equal(scene_load_limited(&s, path, NULL, 0, lim), -1);
+    print_message("    %s\n", s.error);
+    assert_int_equal(error_line(&s, path), line);
+}
+
+static void test_limits(void **state)
+{
+    (void)state;
+    /* 1 / (30 h) for h = 1e-12 used to wrap to -1026405035 steps per frame: 0 steps, exit 0. */
+    expect_refused("{\"world\": {\"h\": 1e-12,\n \"duration\": 1},\n \"bodies\": [{\"mesh\": "
+                   "{\"type\": \"rope\", \"a\": [0,0,0], \"b\": [1,0,0], \"segments\": 2}}]}",
+                   NULL, 1);
+    expect_refused(scene_text("\"fps\": 1e-20", "\"name\": \"b\""), NULL, 3);
+    /* 2e7 steps: past the default limit, within a raised one. */
+    const char *long_run = scene_text("\"h\": 1e-5, \"duration\": 200, \"frame_steps\": 1000",
+                                      "\"name\": \"b\"");
+    char text[2048];
+    snprintf(text, sizeof text, "%s", long_run);
+    /* scene_text has its own h and duration; this one replaces them. */
+    char *dup = strstr(text, "\"h\": 1e-3, \"duration\": 0.01,");
+    memcpy(dup, "                            ", strlen("\"h\": 1e-3, \"duration\": 0.01,"));
+    expect_refused(text, NULL, 3);
+    const scene_limits more_steps = {SCENE_MAX_VERTICES, 20000000};
+    scene s;
+    if (scene_load_limited(&s, tu_write_file("long.json", text), NULL, 0, &more_steps))
+        fail_msg("%s", s.error);
+    assert_int_equal((int64_t)s.frames * s.frame_steps, 20000000);
+    scene_free(&s);
+
+    /* 201 x 201 x 101 vertices: refused before the box is made (it used to take 3 GB). */
+    expect_refused("{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n \"bodies\": [{\"mesh\": "
+                   "{\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1],\n \"cells\": [200,200,100]}}]}",
+                   NULL, 3);
+    /* Copies of a body: 64 vertices each, the third passes 150. */
+    const char *copies =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n \"bodies\": [\n"
+        "  {\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [3,3,3]}},\n"
+        "  {\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [3,3,3]}},\n"
+        "  {\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [3,3,3]}}]}\n";
+    const scene_limits few = {150, SCENE_MAX_STEPS};
+    expect_refused(copies, &few, 5);
+    /* Mesh files, cloth and rope count as well. */
+    tu_write_file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    const scene_limits three = {3, SCENE_MAX_STEPS};
+    expect_refused("{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n \"bodies\": [{\"mesh\": "
+                   "\"quad.obj\"}]}", &three, 2);
+    expect_refused("{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n \"bodies\": [{\"mesh\": "
+                   "{\"type\": \"cloth\", \"origin\": [0,0,0], \"u\": [1,0,0], \"v\": [0,1,0],\n"
+                   "\"cells\": [1, 1]}}]}", &three, 3);
+    expect_refused("{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n \"bodies\": [{\"mesh\": "
+                   "{\"type\": \"rope\", \"a\": [0,0,0], \"b\": [1,0,0],\n\"segments\": 3}}]}",
+                   &three, 3);
+    const scene_limits four = {4, SCENE_MAX_STEPS};
+    if (scene_load_limited(&s, tu_write_file("q.json", "{\"world\": {\"h\": 1e-3, \"duration\": "
+                                             "0.01}, \"bodies\": [{\"mesh\": \"quad.obj\"}]}"),
+                           NULL, 0, &four))
+        fail_msg("%s", s.error);
+    assert_int_equal(s.vertex_count, 4);
+    scene_free(&s);
+}
+
 static void test_mesh_file_and_transform(void **state)
 {
     (void)state;
@@ -449,6 +517,7 @@ int main(void)
         cmocka_unit_test(test_shipped_scenes),
         cmocka_unit_test(test_overrides),
         cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_limits, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),

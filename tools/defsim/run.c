@@ -60,6 +60,8 @@ static int usage(FILE *f)
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
         "  --summary-json FILE  write how the run ended (status, steps, energies, probes,\n"
         "                     stable-step estimate) as JSON\n"
+        "  --max-vertices N   refuse scenes of more vertices (default 2000000)\n"
+        "  --max-steps N      refuse runs of more time steps (default 10000000)\n"
         "  -h, --help         this text\n");
     return f == stderr ? 2 : 0;
 }
@@ -75,6 +77,7 @@ typedef struct run_opts {
     int nopts;
     int *list, nlist;    /* --frames */
     char backend_set[128], threads_set[64], color_set[128];
+    scene_limits limits;   /* --max-vertices, --max-steps */
 } run_opts;
 
 static void opts_free(run_opts *o)
@@ -102,11 +105,27 @@ static int parse_frame_list(run_opts *o, char *s)
     return 2;
 }
 
+/* --max-vertices / --max-steps N: a whole number >= 1 into *out; else 0. */
+static int parse_limit(const char *flag, const char *arg, int64_t *out)
+{
+    char *end;
+    errno = 0;
+    const long long v = strtoll(arg, &end, 10);
+    if (end == arg || *end != '\0' || errno != 0 || v < 1) {
+        fprintf(stderr, "defsim run: %s: expected a whole number >= 1, got %s\n", flag, arg);
+        return 0;
+    }
+    *out = v;
+    return 1;
+}
+
 /* Returns -1 to go on, or the exit status (usage, help, bad options). */
 static int parse_args(int argc, char **argv, run_opts *o)
 {
     memset(o, 0, sizeof *o);
     o->vtk = 1;
+    o->limits.max_vertices = SCENE_MAX_VERTICES;
+    o->limits.max_steps = SCENE_MAX_STEPS;
     o->sets = calloc((size_t)argc + 4, sizeof *o->sets);
     o->list = calloc((size_t)argc + 1, sizeof *o->list);
     o->opts = calloc((size_t)argc + 1, sizeof *o->opts);
@@ -123,6 +142,11 @@ static int parse_args(int argc, char **argv, run_opts *o)
         else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
         else if (!strcmp(a, "--option") && has) o->opts[o->nopts++] = argv[++i];
         else if (!strcmp(a, "--summary-json") && has) o->summary_path = argv[++i];
+        else if (!strcmp(a, "--max-vertices") && has) {
+            if (!parse_limit(a, argv[++i], &o->limits.max_vertices)) return 2;
+        } else if (!strcmp(a, "--max-steps") && has) {
+            if (!parse_limit(a, argv[++i], &o->limits.max_steps)) return 2;
+        }
         else if (!strcmp(a, "--backend") && has) {
             snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
             o->sets[o->nsets++] = o->backend_set;
@@ -545,7 +569,7 @@ static int set_cli_options(defsim_world *w, const char *const *opts, int n)
  * on (world built), or the exit status. */
 static int load(const run_opts *o, scene *s, defsim_world **w)
 {
-    if (scene_load(s, o->scene_path, o->sets, o->nsets)) {
+    if (scene_load_limited(s, o->scene_path, o->sets, o->nsets, &o->limits)) {
         fprintf(stderr, "defsim run: %s\n", s->error);
         return 1;
     }

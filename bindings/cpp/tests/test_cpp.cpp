@@ -252,6 +252,17 @@ static void test_moves_and_log()
     CHECK(errors_logged == 2);
     defsim_world *released = c.release();
     CHECK(!c && released == raw);
+    // Released: the wrapper's sink is detached and freed (it used to be leaked), so the world
+    // logs nowhere; a sink set with the C API is called.
+    CHECK(defsim_world_step(released, -1.0) == DEFSIM_ERR_INVALID_ARGUMENT);
+    CHECK(errors_logged == 2);
+    int c_logged = 0;
+    CHECK(defsim_world_set_log(released, [](void *user, int, const char *) {
+        ++*static_cast<int *>(user);
+    }, &c_logged) == DEFSIM_OK);
+    CHECK(defsim_world_step(released, -1.0) == DEFSIM_ERR_INVALID_ARGUMENT);
+    CHECK(c_logged == 1 && errors_logged == 2);
+    CHECK(defsim_world_set_log(nullptr, nullptr, nullptr) == DEFSIM_ERR_INVALID_ARGUMENT);
     defsim_world_destroy(released);
 }
 

@@ -709,13 +709,17 @@ public:
     /// The C handle (still owned by this World), or nullptr if empty.
     defsim_world *get() const noexcept { return w_; }
     /// Gives up ownership: the caller destroys the returned world with defsim_world_destroy.
-    /// A log sink, if any, is deliberately leaked so that it stays valid for that world.
+    /// The wrapper's log sink and force callback, which this World owns, are detached from the
+    /// world and freed: the returned world is silent and has no force callback (set new ones
+    /// with defsim_world_set_log and defsim_world_set_force_callback).
     defsim_world *release() noexcept
     {
         defsim_world *w = w_;
         w_ = nullptr;
-        (void)log_.release();
-        (void)force_.release();
+        if (w && log_) (void)defsim_world_set_log(w, nullptr, nullptr);
+        if (w && force_) (void)defsim_world_set_force_callback(w, nullptr, nullptr, nullptr);
+        log_.reset();
+        force_.reset();
         return w;
     }
     explicit operator bool() const noexcept { return w_ != nullptr; }

@@ -1081,10 +1081,8 @@ defsim_status defsim_world_stat(const defsim_world *w, const char *name, double 
 
 defsim_status defsim_world_set_log(defsim_world *w, defsim_log_fn fn, void *user)
 {
-    if (!w) {
-        defsim__set_last_error("defsim_world_set_log: NULL world");
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
+    const defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
     w->msg->log = w->def.log = fn;
     w->msg->log_user = w->def.log_user = user;
     return DEFSIM_OK;

@@ -892,7 +892,8 @@ DEFSIM_API int64_t defsim_get_limit(defsim_limit limit);
 /// Replaces the world's log sink (given first in defsim_world_def.log and log_user); fn NULL:
 /// silent. A host that owns the memory behind `user` detaches it this way before freeing it
 /// (the C++ wrapper does so in World::release).
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL or destroyed world), DEFSIM_ERR_LOCKED (from inside
+/// a host callback).
 DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn fn, void *user);
 
 #ifdef __cplusplus

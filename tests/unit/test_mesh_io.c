@@ -688,6 +688,7 @@ static void test_spring_kinds(void **state)
     defsim_mesh_free(old);
     for (size_t i = offsetof(defsim_mesh, spring_kinds); i < sizeof buf; ++i)
         assert_int_equal(buf[i], 0xAB);
+}
 
 /* ------------------------------------------------------------------------------------------ */
 /* Input bounds (issue 17): regular files only, limits, coordinates */

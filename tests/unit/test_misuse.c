@@ -374,7 +374,14 @@ static uint64_t alien_bytes[64];
     BADW(X, defsim_world_get_contact_forces, INVALID, f->buf, f->nv)                            \
     X(CTX_DIRECT, 0, defsim_world_get_contact_forces, INVALID, defsim_world_get_contact_forces(f->w, NULL, f->nv)) \
     X(CTX_DIRECT, 0, defsim_world_get_contact_forces, INVALID, defsim_world_get_contact_forces(f->w, f->buf, f->nv - 1)) \
-    X(CTX_FORCE, 0, defsim_world_get_contact_forces, OK, defsim_world_get_contact_forces(f->w, f->buf, f->nv))
+    X(CTX_FORCE, 0, defsim_world_get_contact_forces, OK, defsim_world_get_contact_forces(f->w, f->buf, f->nv)) \
+    /* input limits, log sink */                                                                \
+    X(CTX_DIRECT, 0, defsim_set_limit, INVALID, defsim_set_limit((defsim_limit)7, 1))           \
+    X(CTX_DIRECT, 0, defsim_set_limit, INVALID, defsim_set_limit(DEFSIM_LIMIT_VERTICES, 0))     \
+    X(CTX_DIRECT, 0, defsim_set_limit, INVALID, defsim_set_limit(DEFSIM_LIMIT_VERTICES, INT64_MAX)) \
+    X(CTX_DIRECT, F_VALUE, defsim_get_limit, 1, defsim_get_limit((defsim_limit)-1) == -1)       \
+    BADW(X, defsim_world_set_log, INVALID, NULL, NULL)                                          \
+    LOCKED(X, defsim_world_set_log, NULL, NULL)
 
 typedef struct row {
     int ctx, flags;

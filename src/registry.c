@@ -67,6 +67,10 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
         defsim__set_last_error("backend '%s': %s", b->name, why);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
+    if (!full.save_state != !full.load_state) {
+        defsim__set_last_error("backend '%s': save_state and load_state come together", b->name);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     if (strcmp(b->name, "core") == 0) {
         defsim__set_last_error("the backend name 'core' is reserved for the world's options");
         return DEFSIM_ERR_INVALID_ARGUMENT;

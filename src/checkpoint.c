@@ -240,6 +240,10 @@ static void write_state(bw *b, const defsim_world *w)
     put_f64s(b, w->state.v, 3 * (int64_t)w->nv);
     put_f64(b, w->state.t);
     put_i32(b, w->drove);
+    /* Version 2: auto_substep's cached stable step and its age, which set the substeps. */
+    const int kept = w->planned && !w->options.reinit;   /* else the next step drops it */
+    put_f64(b, kept ? w->h_stable : 0.0);
+    put_i32(b, kept ? w->steps_since_estimate : 0);
     chunk_end(b, c);
 
     c = chunk_begin(b, "STCS");
@@ -792,10 +796,14 @@ static defsim_status load_targets(defsim_world *w, const chunk *c)
     return DEFSIM_OK;
 }
 
-static defsim_status load_state(defsim_world *w, const chunk *c)
+/* The state; the auto_substep cache goes to *h_stable and *age (set once the world is planned,
+ * since planning clears it). */
+static defsim_status load_state(defsim_world *w, const chunk *c, uint32_t version,
+                                double *h_stable, int32_t *age)
 {
     br r = chunk_reader(c);
-    if (get_i32(&r) != w->nv || c->len != 4 + 48 * (size_t)w->nv + 8 + 4)
+    const size_t tail = version >= 2 ? 12 : 0;
+    if (get_i32(&r) != w->nv || c->len != 4 + 48 * (size_t)w->nv + 8 + 4 + tail)
         return malformed(c, "the vertex count does not match the bodies");
     const int64_t ndof = 3 * (int64_t)w->nv;
     double *x = malloc(2 * (size_t)(ndof > 0 ? ndof : 1) * sizeof *x);
@@ -806,6 +814,13 @@ static defsim_status load_state(defsim_world *w, const chunk *c)
     get_f64s(&r, x, 2 * ndof);
     const double t = get_f64(&r);
     const int32_t drove = get_i32(&r);
+    /* Version 1 files lack the auto_substep cache: the first step estimates it again. */
+    *h_stable = version >= 2 ? get_f64(&r) : 0.0;
+    *age = version >= 2 ? get_i32(&r) : 0;
+    if (!(*h_stable >= 0.0) || *age < 0) {
+        free(x);
+        return malformed(c, "a bad stable-step cache");
+    }
     for (int64_t i = 0; i < 2 * ndof; ++i)
         if (!isfinite(x[i])) {
             free(x);
@@ -926,8 +941,19 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
         defsim__set_last_error("load: checkpoint has no STAT chunk");
         st = DEFSIM_ERR_IO;
     }
-    if (st == DEFSIM_OK) st = load_state(w, state);
+    double h_stable = 0.0;
+    int32_t age = 0;
+    if (st == DEFSIM_OK) st = load_state(w, state, k->version, &h_stable, &age);
     if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
+    /* Planned now, with the options taken as the backend's initial ones, as the saved world
+     * was: its first step keeps the cache. */
+    if (st == DEFSIM_OK && (st = defsim__world_plan(w)) != DEFSIM_OK)
+        st = world_failed(w, st, "planning");
+    if (st == DEFSIM_OK) {
+        (void)defsim__options_take_reinit(&w->options);
+        w->h_stable = h_stable;
+        w->steps_since_estimate = age;
+    }
     /* Statistics last: planning and the backend's load count nothing the run did. */
     if (st == DEFSIM_OK && stats) st = load_stats(w, stats);
     free(map);

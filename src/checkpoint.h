@@ -12,8 +12,9 @@
 /* "DEFSIMCK", then the format version (u32) and flags (u32, 0), all little-endian. */
 #define DEFSIM__CKPT_MAGIC "DEFSIMCK"
 #define DEFSIM__CKPT_HEADER 16
-/* The version this library writes; it reads 1 .. this. */
-#define DEFSIM__CKPT_VERSION 1u
+/* The version this library writes; it reads 1 .. this. Version 2 added the auto_substep cache
+ * (the stable-step estimate and its age) to the STAT chunk. */
+#define DEFSIM__CKPT_VERSION 2u
 
 /* CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) of n bytes, continuing from crc (0 to
  * start). */

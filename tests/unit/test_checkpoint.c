@@ -28,9 +28,12 @@ static const double H = 1e-3;
  * attached to the beam's tip, one to a world point); held external forces on the ladder; a
  * removed body before them, so that saved ids have a gap. Returns NULL when the backend is not
  * available here. */
+static int substep = 0;   /* core.auto_substep in the scene */
+
 static defsim_world *scene(const char *backend, const char *linear_solver)
 {
     defsim_world_def d = tu_world_def(backend, -9.81, 1);
+    d.auto_substep = substep;
     defsim_world *w = NULL;
     defsim_status st = defsim_world_create(&d, &w);
     if (st == DEFSIM_ERR_BACKEND_UNAVAILABLE) return NULL;
@@ -190,6 +193,9 @@ static double round_trip(const char *backend, const char *linear_solver, int via
     if (d == 0.0) {
         assert_int_equal(sb.internal_steps, sa.internal_steps);
         assert_int_equal(sb.newton_iterations, sa.newton_iterations);
+        assert_int_equal(sb.force_evals, sa.force_evals);
+        assert_int_equal(sb.substeps, sa.substeps);
+        assert_true(sb.stable_step == sa.stable_step);   /* no estimate made afresh */
     }
     printf("  %-18s %-8s %s %s: max |difference| after %d more steps = %.3g\n", backend,
            linear_solver ? linear_solver : "", via_file ? "file  " : "buffer",
@@ -216,6 +222,11 @@ static void test_bit_exact_backends(void **state)
         }
     driven = 1;
     assert_true(ran >= 6);   /* the built-in backends at least */
+    /* auto_substep: the cached stable step (format version 2) keeps the substeps the same. */
+    substep = 1;
+    assert_true(round_trip("symplectic_euler", NULL, 0) == 0.0);
+    assert_true(round_trip("velocity_verlet", NULL, 1) == 0.0);
+    substep = 0;
 }
 
 /* Measured differences (docs/checkpoints.md): sundials_ida with KLU re-pivots its restored Newton
@@ -443,6 +454,13 @@ static void test_version_1_file(void **state)
     run(old, 20, 5);
     run(now, 20, 5);
     assert_true(state_diff(old, now) < 1e-9);
+    /* Version 1 held no auto_substep cache: the loaded world estimated the stable step afresh at
+     * its first step, where the uninterrupted run kept its estimate from step 1. */
+    defsim_stats sn;
+    sn.size = sizeof sn;
+    TU_OK(defsim_world_stats(old, &s));
+    TU_OK(defsim_world_stats(now, &sn));
+    assert_true(s.stable_step > 0.0 && sn.stable_step > 0.0 && s.stable_step != sn.stable_step);
     defsim_world_destroy(old);
     defsim_world_destroy(now);
 }

@@ -232,6 +232,47 @@ static void write_coupling(bw *b, const defsim_world *w)
     }
 }
 
+/* Colliders (version 3): each live one in slot order with its pose now and at the end of the
+ * next step, as stored (normalised), so that the loaded world has the same bits. */
+static void write_colliders(bw *b, const defsim_world *w)
+{
+    for (int32_t i = 0; i < w->ncol; ++i) {
+        const defsim__collider *c = &w->col[i];
+        if (!(c->generation & 1u)) continue;
+        const defsim_collider_def *d = &c->def;
+        const size_t at = chunk_begin(b, "COLL");
+        put_i32(b, (int32_t)d->shape);
+        put_f64s(b, c->pos, 3);
+        put_f64s(b, c->rot, 4);
+        put_f64s(b, c->pos1, 3);
+        put_f64s(b, c->rot1, 4);
+        put_f64s(b, d->normal, 3);
+        put_f64(b, d->radius);
+        put_f64s(b, d->half_extents, 3);
+        put_f64(b, d->half_height);
+        put_f64(b, d->friction);
+        put_f64s(b, d->sdf_bounds, 6);
+        const int mesh = d->shape == DEFSIM_SHAPE_MESH;
+        put_i32(b, mesh ? d->vertex_count : 0);
+        put_i32(b, mesh ? d->triangle_count : 0);
+        if (mesh) {
+            put_f64s(b, d->vertices, 3 * (int64_t)d->vertex_count);
+            put_i32s(b, d->triangles, 3 * (int64_t)d->triangle_count);
+        }
+        chunk_end(b, at);
+    }
+    /* Whether the colliders changed since the last step, and that step's contact forces (the
+     * read-back) when they are still of these vertices. */
+    const int forces = w->contact_force && w->contact_nv == w->nv;
+    if (w->ncol > 0 || forces) {
+        const size_t at = chunk_begin(b, "CFRC");
+        put_i32(b, w->colliders_changed);
+        put_i32(b, forces);
+        if (forces) put_f64s(b, w->contact_force, 3 * (int64_t)w->nv);
+        chunk_end(b, at);
+    }
+}
+
 static void write_state(bw *b, const defsim_world *w)
 {
     size_t c = chunk_begin(b, "STAT");
@@ -288,6 +329,7 @@ static defsim_status save_to(const defsim_world *w, bw *b)
     write_world(b, w);
     write_bodies(b, w);
     write_coupling(b, w);
+    write_colliders(b, w);
     write_state(b, w);
     defsim_status st = write_backend(b, w);
     if (st != DEFSIM_OK) return st;
@@ -798,6 +840,103 @@ static defsim_status load_targets(defsim_world *w, const chunk *c)
 
 /* The state; the auto_substep cache goes to *h_stable and *age (set once the world is planned,
  * since planning clears it). */
+/* Stands in for an SDF collider's function until the host installs it again
+ * (defsim_collider_set_sdf): a step that queries it fails with DEFSIM_ERR_CALLBACK. */
+static double sdf_missing(void *user, const double p[3], double grad[3])
+{
+    (void)user;
+    (void)p;
+    grad[0] = grad[1] = grad[2] = NAN;
+    return NAN;
+}
+
+static int finite4(const double *q)
+{
+    return isfinite(q[0]) && isfinite(q[1]) && isfinite(q[2]) && isfinite(q[3]);
+}
+
+static defsim_status load_collider(defsim_world *w, const chunk *c)
+{
+    br r = chunk_reader(c);
+    defsim_collider_def d;
+    defsim_collider_def_init(&d, sizeof d);
+    d.shape = (defsim_shape)get_i32(&r);
+    double pos1[3], rot1[4];
+    get_f64s(&r, d.position, 3);
+    get_f64s(&r, d.rotation, 4);
+    get_f64s(&r, pos1, 3);
+    get_f64s(&r, rot1, 4);
+    get_f64s(&r, d.normal, 3);
+    d.radius = get_f64(&r);
+    get_f64s(&r, d.half_extents, 3);
+    d.half_height = get_f64(&r);
+    d.friction = get_f64(&r);
+    get_f64s(&r, d.sdf_bounds, 6);
+    const int32_t nv = get_i32(&r), nt = get_i32(&r);
+    if (nv < 0 || nt < 0 || !fits(&r, nv, 24) || !fits(&r, nt, 12))
+        return malformed(c, "mesh counts out of range");
+    double *xv = malloc(3 * (size_t)(nv + 1) * sizeof *xv);
+    int32_t *tv = malloc(3 * (size_t)(nt + 1) * sizeof *tv);
+    if (!xv || !tv) {
+        free(xv);
+        free(tv);
+        defsim__set_last_error("load: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    get_f64s(&r, xv, 3 * (int64_t)nv);
+    get_i32s(&r, tv, 3 * (int64_t)nt);
+    defsim_status st = DEFSIM_OK;
+    if (r.bad || r.at != r.n || !finite4(rot1)) {
+        st = malformed(c, "wrong length or a bad pose");
+    } else {
+        d.vertices = xv;
+        d.vertex_count = nv;
+        d.triangles = tv;
+        d.triangle_count = nt;
+        if (d.shape == DEFSIM_SHAPE_SDF) d.sdf = sdf_missing;
+        defsim_collider_id id;
+        if ((st = defsim_world_add_collider(w, &d, &id)) != DEFSIM_OK) {
+            st = world_failed(w, st, "collider");
+        } else if ((st = defsim_collider_set_pose(w, id, pos1, rot1)) != DEFSIM_OK) {
+            st = world_failed(w, st, "collider pose");
+        } else {
+            /* The stored bits, not their normalisation again (which may move the last bit). */
+            defsim__collider *col = &w->col[id.index - 1];
+            memcpy(col->pos, d.position, sizeof col->pos);
+            memcpy(col->rot, d.rotation, sizeof col->rot);
+            memcpy(col->pos1, pos1, sizeof col->pos1);
+            memcpy(col->rot1, rot1, sizeof col->rot1);
+            memcpy(col->def.position, d.position, sizeof d.position);
+            memcpy(col->def.rotation, d.rotation, sizeof d.rotation);
+            memcpy(col->def.normal, d.normal, sizeof d.normal);
+        }
+    }
+    free(xv);
+    free(tv);
+    return st;
+}
+
+static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
+{
+    br r = chunk_reader(c);
+    const int32_t changed = get_i32(&r), forces = get_i32(&r);
+    if (c->len != 8 + (forces ? 24 * (size_t)w->nv : 0) || (changed != 0 && changed != 1) ||
+        (forces != 0 && forces != 1))
+        return malformed(c, "length does not match the vertices, or a bad flag");
+    w->colliders_changed = changed;
+    if (!forces) return DEFSIM_OK;
+    double *f = malloc(3 * (size_t)(w->nv > 0 ? w->nv : 1) * sizeof *f);
+    if (!f) {
+        defsim__set_last_error("load: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    get_f64s(&r, f, 3 * (int64_t)w->nv);
+    free(w->contact_force);
+    w->contact_force = f;
+    w->contact_nv = w->nv;
+    return DEFSIM_OK;
+}
+
 static defsim_status load_state(defsim_world *w, const chunk *c, uint32_t version,
                                 double *h_stable, int32_t *age)
 {
@@ -905,7 +1044,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     if (st != DEFSIM_OK) return st;
     id_map *map = calloc((size_t)k->n, sizeof *map);
     int32_t nmap = 0;
-    const chunk *state = NULL, *stats = NULL, *backend = NULL;
+    const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL;
     if (!map) {
         defsim__set_last_error("load: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -922,6 +1061,10 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
             st = load_fext(w, c);
         } else if (strcmp(c->tag, "PTGT") == 0) {
             st = load_targets(w, c);
+        } else if (strcmp(c->tag, "COLL") == 0 && k->version >= 3) {
+            st = load_collider(w, c);
+        } else if (strcmp(c->tag, "CFRC") == 0 && k->version >= 3) {
+            contact = c;
         } else if (strcmp(c->tag, "STAT") == 0) {
             state = c;
         } else if (strcmp(c->tag, "STCS") == 0) {
@@ -944,6 +1087,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     double h_stable = 0.0;
     int32_t age = 0;
     if (st == DEFSIM_OK) st = load_state(w, state, k->version, &h_stable, &age);
+    if (st == DEFSIM_OK && contact) st = load_contact_forces(w, contact);
     if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
     /* Planned now, with the options taken as the backend's initial ones, as the saved world
      * was: its first step keeps the cache. */
@@ -1043,4 +1187,32 @@ defsim_status defsim_world_attachment_at(const defsim_world *w, int32_t i,
     defsim__error(w->msg, "attachment_at: index out of range [0, %d)",
                   (int)defsim_world_attachment_count(w));
     return DEFSIM_ERR_INVALID_ARGUMENT;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* SDF colliders of a loaded world */
+
+defsim_status defsim_collider_set_sdf(defsim_world *w, defsim_collider_id id, defsim_sdf_fn sdf,
+                                      void *user)
+{
+    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim_status st = defsim__world_check_unlocked(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__collider *c = NULL;
+    if (id.index >= 1 && id.index <= (uint32_t)w->ncol && w->col[id.index - 1].generation == id.generation &&
+        (id.generation & 1u))
+        c = &w->col[id.index - 1];
+    if (!c) {
+        defsim__error(w->msg, "collider id {%u, %u} is null, removed or not of this world",
+                      (unsigned)id.index, (unsigned)id.generation);
+        return DEFSIM_ERR_STALE_ID;
+    }
+    if (!sdf || c->def.shape != DEFSIM_SHAPE_SDF) {
+        defsim__error(w->msg, "collider_set_sdf: %s", !sdf ? "sdf is NULL"
+                                                          : "the collider is not an SDF");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    c->def.sdf = sdf;
+    c->def.sdf_user = user;
+    return DEFSIM_OK;
 }

@@ -804,8 +804,9 @@ DEFSIM_API defsim_status defsim_world_get_contact_forces(const defsim_world *wor
 /* pins and driven-pin targets, attachments, held external forces, the state x, v, t, the     */
 /* statistics and the backend's history. A world loaded from it and stepped gives the same    */
 /* bits as the world that was saved, stepped the same way (with the same thread count). Not   */
-/* saved: the log callback (given to the load call) and the force callback, which the host    */
-/* installs again with defsim_world_set_force_callback.                                       */
+/* saved: the log callback (given to the load call), the force callback and SDF colliders'    */
+/* functions, which the host installs again (defsim_world_set_force_callback,                 */
+/* defsim_collider_set_sdf).                                                                  */
 
 /// Writes a checkpoint of the world to `path`, atomically: into a temporary file in the same
 /// directory, flushed to disk (fsync), then renamed over `path`; on failure `path` is as it was.
@@ -840,6 +841,15 @@ DEFSIM_API defsim_status defsim_world_load(const char *path, defsim_log_fn log, 
 /// defsim_world_load from `size` bytes at `data` (copied; the caller keeps them).
 DEFSIM_API defsim_status defsim_world_load_buffer(const void *data, size_t size, defsim_log_fn log,
                                                   void *log_user, defsim_world **out);
+
+/// Installs the distance function of an SDF collider again (checkpoints cannot hold host
+/// functions: in a loaded world every SDF collider has a stand-in that fails the first step
+/// that queries it with DEFSIM_ERR_CALLBACK until this is called). `user` as in
+/// defsim_collider_def.sdf_user. Colliders of a loaded world: defsim_world_get_collider.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or sdf, a collider of another shape),
+/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+DEFSIM_API defsim_status defsim_collider_set_sdf(defsim_world *world, defsim_collider_id collider,
+                                                 defsim_sdf_fn sdf, void *user);
 
 /// Number of live bodies of the world (0 for NULL).
 DEFSIM_API int32_t defsim_world_body_count(const defsim_world *world);

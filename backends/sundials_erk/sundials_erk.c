@@ -455,9 +455,8 @@ static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const
     (void)host;
     (void)sys;
     erk_state *s = (erk_state *)state;   /* ERKStep's getters take a non-const memory */
-    const int history = s->n > 0 && s->mem && !s->sun.need_reinit;
-    const int64_t flags[2] = {history, s->sun.drove};
-    defsim_status st = wr->i64(wr->ctx, flags, 2);
+    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n);
+    defsim_status st = defsim__sun_save_flags(&s->sun, history, wr);
     if (st != DEFSIM_OK || !history) return st;
     realtype h = 0.0;
     ERKStepGetCurrentStep(s->mem, &h);
@@ -471,12 +470,9 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     (void)host;
     (void)sys;
     erk_state *s = state;
-    int64_t flags[2];
-    defsim_status st = rd->i64(rd->ctx, flags, 2);
-    if (st != DEFSIM_OK) return st;
-    if ((flags[0] != 0 && flags[0] != 1) || (flags[1] != 0 && flags[1] != 1)) return DEFSIM_ERR_IO;
-    s->sun.drove = (int)flags[1];
-    if (!flags[0]) return DEFSIM_OK;
+    int history = 0;
+    defsim_status st = defsim__sun_load_flags(&s->sun, rd, &history);
+    if (st != DEFSIM_OK || !history) return st;   /* without one, the next step restarts */
     double reals[3];
     if (s->n == 0 || (st = rd->f64(rd->ctx, reals, 3)) != DEFSIM_OK) return DEFSIM_ERR_IO;
     if (!(reals[0] > 0.0) || !isfinite(reals[0]) || !(reals[2] >= 0.0)) return DEFSIM_ERR_IO;

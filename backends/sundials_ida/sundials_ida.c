@@ -703,6 +703,16 @@ static int ida_vector_count(const IDAMem im)
     return k;
 }
 
+/* The vectors of the history: phi[0 ..] and the estimated local error ee (ida_yy and ida_yp
+ * alias the caller's vectors inside IDASolve: not history). */
+static int ida_history_vectors(const IDAMem im, N_Vector vs[MXORDP1 + 1])
+{
+    int n = 0;
+    for (int k = 0; k < ida_vector_count(im); ++k) vs[n++] = im->ida_phi[k];
+    vs[n++] = im->ida_ee;
+    return n;
+}
+
 /* IDA's counters now and at the last read (s->base), as arrays in ida_counts' order. */
 static void ida_counts_now(ida_state *s, long c[7], long b[7])
 {
@@ -734,10 +744,11 @@ static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const
     (void)host;
     (void)sys;
     ida_state *s = (ida_state *)state;   /* IDA's getters take a non-const memory */
-    const int history = s->n > 0 && s->mem && !s->sun.need_reinit;
-    const int64_t flags[3] = {history, s->sun.drove, s->solver};
-    defsim_status st = wr->i64(wr->ctx, flags, 3);
+    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n);
+    defsim_status st = defsim__sun_save_flags(&s->sun, history, wr);
     if (st != DEFSIM_OK || !history) return st;
+    const int64_t solver = s->solver;
+    if ((st = wr->i64(wr->ctx, &solver, 1)) != DEFSIM_OK) return st;
     const IDAMem im = s->mem;
     int64_t ints[IDA_HIST_INTS];
     double reals[IDA_HIST_REALS];
@@ -764,13 +775,10 @@ static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const
     ida_counts_now(s, c, b);
     for (int k = 0; k < 7; ++k) since[k] = c[k] - b[k];
     if ((st = wr->i64(wr->ctx, since, 7)) != DEFSIM_OK) return st;
-    const int64_t len = 2 * s->n;
     N_Vector vs[MXORDP1 + 1];
-    int nv = 0;
-    for (int k = 0; k < ida_vector_count(im); ++k) vs[nv++] = im->ida_phi[k];
-    vs[nv++] = im->ida_ee;   /* (ida_yy and ida_yp alias the caller's vectors in IDASolve) */
+    const int nv = ida_history_vectors(im, vs);
     for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
-        st = wr->f64(wr->ctx, N_VGetArrayPointer(vs[k]), len);
+        st = wr->f64(wr->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
     if (st != DEFSIM_OK) return st;
 #ifdef DEFSIM_IDA_CHOLMOD
     if (s->solver == LS_CHOLMOD) {
@@ -790,13 +798,12 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
     (void)host;
     (void)sys;
     ida_state *s = state;
-    int64_t flags[3];
-    defsim_status st = rd->i64(rd->ctx, flags, 3);
-    if (st != DEFSIM_OK) return st;
-    if ((flags[0] != 0 && flags[0] != 1) || (flags[1] != 0 && flags[1] != 1)) return DEFSIM_ERR_IO;
-    s->sun.drove = (int)flags[1];
-    if (!flags[0]) return DEFSIM_OK;   /* the next step restarts, as the saved world's would */
-    if (s->n == 0 || flags[2] != s->solver) return DEFSIM_ERR_IO;
+    int history = 0;
+    int64_t solver = -1;
+    defsim_status st = defsim__sun_load_flags(&s->sun, rd, &history);
+    if (st != DEFSIM_OK || !history) return st;   /* without one, the next step restarts */
+    if ((st = rd->i64(rd->ctx, &solver, 1)) != DEFSIM_OK) return st;
+    if (s->n == 0 || solver != s->solver) return DEFSIM_ERR_IO;
     if ((st = ida_restart(s)) != DEFSIM_OK) return st;
     IDAMem im = s->mem;
     int64_t ints[IDA_HIST_INTS];
@@ -824,13 +831,10 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
         im->ida_gamma[k] = reals[nr++];
     }
     s->t = reals[nr++];
-    const int64_t len = 2 * s->n;
     N_Vector vs[MXORDP1 + 1];
-    int nv = 0;
-    for (int k = 0; k < ida_vector_count(im); ++k) vs[nv++] = im->ida_phi[k];
-    vs[nv++] = im->ida_ee;   /* (ida_yy and ida_yp alias the caller's vectors in IDASolve) */
+    const int nv = ida_history_vectors(im, vs);
     for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
-        st = rd->f64(rd->ctx, N_VGetArrayPointer(vs[k]), len);
+        st = rd->f64(rd->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
     if (st != DEFSIM_OK) return st;
     /* IDASolve runs its initial set-up only before the first step (nst == 0): do its part that
      * a restored history needs (the error weights' user data, the linear and nonlinear

@@ -95,6 +95,17 @@ class Stats:
     counters: Dict[str, float] = dataclasses.field(default_factory=dict)
 
 
+def _log_callback(log: LogCallback) -> Any:
+    """The C trampoline of a log sink (kept alive by the World that uses it)."""
+    if not callable(log):
+        raise InvalidArgumentError("log must be callable(level, message)")
+
+    def _sink(user: Any, level: int, message: Any) -> None:
+        log(int(level), ffi.string(message).decode("utf-8", "replace"))
+
+    return ffi.callback("defsim_log_fn", _sink)
+
+
 def _projection(value: Union[str, int, Projection]) -> int:
     if isinstance(value, str):
         try:
@@ -257,13 +268,7 @@ class World(WorldCoupling):
         if substep_safety is not None:
             d.substep_safety = _arrays.c_double(substep_safety, "substep_safety")
         if log is not None:
-            if not callable(log):
-                raise InvalidArgumentError("log must be callable(level, message)")
-
-            def _sink(user: Any, level: int, message: Any) -> None:
-                log(int(level), ffi.string(message).decode("utf-8", "replace"))
-
-            self._log_cb = ffi.callback("defsim_log_fn", _sink)
+            self._log_cb = _log_callback(log)
             d.log = self._log_cb
         out = ffi.new("defsim_world **")
         check(lib.defsim_world_create(d, out))
@@ -705,13 +710,7 @@ class World(WorldCoupling):
         self._tets = {}
         self._log_cb = None
         if log is not None:
-            if not callable(log):
-                raise InvalidArgumentError("log must be callable(level, message)")
-
-            def _sink(user: Any, level: int, message: Any) -> None:
-                log(int(level), ffi.string(message).decode("utf-8", "replace"))
-
-            self._log_cb = ffi.callback("defsim_log_fn", _sink)
+            self._log_cb = _log_callback(log)
         out = ffi.new("defsim_world **")
         buf = ffi.from_buffer(data)
         check(lib.defsim_world_load_buffer(buf, len(data), self._log_cb or ffi.NULL, ffi.NULL,

@@ -311,7 +311,7 @@ static defsim_status write_backend(bw *b, const defsim_world *w)
     defsim_world *mw = (defsim_world *)w;   /* host services take a mutable system */
     const defsim_status st = be->save_state(&defsim__host, &mw->handle, w->bstate, &wr);
     if (st != DEFSIM_OK) {
-        if (!w->msg->error[0] || st == DEFSIM_ERR_OUT_OF_MEMORY)
+        if (!w->msg->error[0])
             defsim__error(w->msg, "save: backend %s could not save its history (%s)", be->name,
                           defsim_status_string(st));
         return st;

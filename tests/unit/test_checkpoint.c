@@ -8,6 +8,8 @@
  */
 #include "test_util.h"
 
+#include <defsim/backend.h>
+
 #include "checkpoint.h"
 
 #include <dirent.h>
@@ -548,6 +550,42 @@ static void test_colliders(void **state)
     defsim_world_destroy(b);
 }
 
+/* A backend table with save_state but no load_state is refused at registration (ABI 5). */
+static defsim_status nop_init(const defsim_host *h, defsim_system *s, void *st)
+{
+    (void)h; (void)s; (void)st;
+    return DEFSIM_OK;
+}
+
+static defsim_status nop_step(const defsim_host *h, defsim_system *s, void *st, double dt)
+{
+    (void)h; (void)s; (void)st; (void)dt;
+    return DEFSIM_OK;
+}
+
+static void nop_fini(const defsim_host *h, defsim_system *s, void *st)
+{
+    (void)h; (void)s; (void)st;
+}
+
+static defsim_status nop_save(const defsim_host *h, defsim_system *s, const void *st,
+                              const defsim_state_writer *w)
+{
+    (void)h; (void)s; (void)st; (void)w;
+    return DEFSIM_OK;
+}
+
+static void test_register_half_pair(void **state)
+{
+    (void)state;
+    defsim_backend b = {.abi_version = DEFSIM_BACKEND_ABI_VERSION,
+                        .struct_size = sizeof(defsim_backend), .name = "ckpt_half",
+                        .init = nop_init, .step = nop_step, .fini = nop_fini,
+                        .save_state = nop_save};
+    assert_int_equal(defsim_register_backend(&b), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(defsim_last_error(), "save_state and load_state"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -561,6 +599,7 @@ int main(void)
         cmocka_unit_test(test_version_1_file),
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_colliders),
+        cmocka_unit_test(test_register_half_pair),
     };
     return cmocka_run_group_tests(tests, tu_tmpdir_setup, tu_tmpdir_teardown);
 }

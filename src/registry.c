@@ -58,7 +58,7 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     /* Older tables are shorter (version 1 ends before `options`, 2 and 3 before
-     * `stable_step_options`): the fields they lack read as NULL / 0. */
+     * `stable_step_options`, 4 before `save_state`): the fields they lack read as NULL / 0. */
     defsim_backend full;
     memset(&full, 0, sizeof full);
     memcpy(&full, b, b->struct_size < sizeof full ? b->struct_size : sizeof full);

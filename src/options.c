@@ -577,8 +577,8 @@ void defsim__options_stat_write(defsim__options *o, defsim_stats *stats, int32_t
 {
     if (i < 0 || i >= defsim__options_stat_count(o)) return;
     const int32_t k = i - NSTATS;
-    if (k >= 0) {
-        o->counters[k] = value;
+    if (k >= 0) {   /* the backend's counters (statistics listed after them are not ours) */
+        if (k < o->backend->counter_count) o->counters[k] = value;
         return;
     }
     char *p = (char *)stats + STATS[i].offset;

@@ -573,6 +573,23 @@ defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_s
     return DEFSIM_OK;
 }
 
+void defsim__options_stat_write(defsim__options *o, defsim_stats *stats, int32_t i, double value)
+{
+    if (i < 0 || i >= defsim__options_stat_count(o)) return;
+    const int32_t k = i - NSTATS;
+    if (k >= 0) {   /* the backend's counters (statistics listed after them are not ours) */
+        if (k < o->backend->counter_count) o->counters[k] = value;
+        return;
+    }
+    char *p = (char *)stats + STATS[i].offset;
+    switch (STATS[i].kind) {
+    case ST_U32: { uint32_t v = (uint32_t)value; memcpy(p, &v, sizeof v); break; }
+    case ST_I32: { int32_t v = (int32_t)value; memcpy(p, &v, sizeof v); break; }
+    case ST_I64: { int64_t v = (int64_t)value; memcpy(p, &v, sizeof v); break; }
+    case ST_F64: memcpy(p, &value, sizeof value); break;
+    }
+}
+
 defsim_status defsim__options_stat(const defsim__options *o, defsim__messages *msg,
                                    const defsim_stats *stats, const char *name, double *value)
 {

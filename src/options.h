@@ -72,6 +72,9 @@ defsim_status defsim__options_info(const defsim__options *o, int32_t i, defsim_o
 int32_t defsim__options_stat_count(const defsim__options *o);
 defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_stats *stats,
                                         int32_t i, const char **name, double *value);
+/* Sets statistic i (as stat_info numbers them) to value, converted to the field's type
+ * (checkpoints restore them; the caller checks the range of integer fields). */
+void defsim__options_stat_write(defsim__options *o, defsim_stats *stats, int32_t i, double value);
 defsim_status defsim__options_stat(const defsim__options *o, defsim__messages *msg,
                                    const defsim_stats *stats, const char *name, double *value);
 

@@ -58,13 +58,17 @@ static defsim_status add_locked(const defsim_backend *b, const defsim_backend **
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     /* Older tables are shorter (version 1 ends before `options`, 2 and 3 before
-     * `stable_step_options`): the fields they lack read as NULL / 0. */
+     * `stable_step_options`, 4 before `save_state`): the fields they lack read as NULL / 0. */
     defsim_backend full;
     memset(&full, 0, sizeof full);
     memcpy(&full, b, b->struct_size < sizeof full ? b->struct_size : sizeof full);
     char why[200];
     if (!defsim__options_check_table(&full, why, sizeof why)) {
         defsim__set_last_error("backend '%s': %s", b->name, why);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!full.save_state != !full.load_state) {
+        defsim__set_last_error("backend '%s': save_state and load_state come together", b->name);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (strcmp(b->name, "core") == 0) {

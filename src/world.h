@@ -81,6 +81,10 @@ struct defsim_world {
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).
  * Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (with the world's error set). */
 defsim_status defsim__world_plan(defsim_world *w);
+/* Initialises the backend for the current plan (backend_ready); on failure finalises what init
+ * made, sets the world's error and returns the status. Stop finalises it (history dropped). */
+defsim_status defsim__world_backend_start(defsim_world *w);
+void defsim__world_backend_stop(defsim_world *w);
 /* Drops the compiled system; the next step or query plans again. */
 void defsim__world_unplan(defsim_world *w);
 

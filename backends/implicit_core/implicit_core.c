@@ -361,6 +361,40 @@ static defsim_status ic_reset(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
+/* Checkpoints: the scheme's history (x_{n-1}, v_{n-1} and h_{n-1} for bdf2; nothing that
+ * outlives a step for backward Euler and Newmark, which save only the empty flag). */
+static defsim_status ic_save(const defsim_host *host, defsim_system *sys, const void *state,
+                             const defsim_state_writer *wr)
+{
+    (void)host;
+    (void)sys;
+    const defsim__ic_solver *p = &(*(ic_solver *const *)state)->pub;
+    const int64_t valid = p->history_valid && p->scheme->history_vectors > 0;
+    defsim_status st = wr->i64(wr->ctx, &valid, 1);
+    if (st == DEFSIM_OK && valid) st = wr->f64(wr->ctx, &p->history_h, 1);
+    for (int k = 0; st == DEFSIM_OK && valid && k < p->scheme->history_vectors; ++k)
+        st = wr->f64(wr->ctx, p->work[k], p->ndof);
+    return st;
+}
+
+static defsim_status ic_load(const defsim_host *host, defsim_system *sys, void *state,
+                             const defsim_state_reader *rd)
+{
+    (void)host;
+    (void)sys;
+    defsim__ic_solver *p = &(*(ic_solver **)state)->pub;
+    int64_t valid = 0;
+    defsim_status st = rd->i64(rd->ctx, &valid, 1);
+    if (st != DEFSIM_OK) return st;
+    if (valid != 0 && (valid != 1 || p->scheme->history_vectors == 0)) return DEFSIM_ERR_IO;
+    if (valid && (st = rd->f64(rd->ctx, &p->history_h, 1)) != DEFSIM_OK) return st;
+    for (int k = 0; valid && k < p->scheme->history_vectors; ++k)
+        if ((st = rd->f64(rd->ctx, p->work[k], p->ndof)) != DEFSIM_OK) return st;
+    if (valid && !(p->history_h > 0.0)) return DEFSIM_ERR_IO;
+    p->history_valid = (int)valid;
+    return DEFSIM_OK;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* The incremental potential, its gradient and Hessian, over the free DOFs. */
 
@@ -734,6 +768,8 @@ __attribute__((visibility("default"))) defsim_status defsim_module_init(
         .step = ic_step,
         .fini = ic_fini,
         .reset = ic_reset,
+        .save_state = ic_save,
+        .load_state = ic_load,
         .options = ic_options,
         .option_count = OPT_COUNT,
         .counters = ic_counters,

@@ -40,6 +40,9 @@ typedef struct defsim__ic_scheme {
                              double h, defsim__ic_targets *st);
     /* Optional: after a converged step (x0, v0 still hold the start of the step). */
     void (*accept)(defsim__ic_solver *s, double h);
+    /* The first history_vectors of the work vectors hold the scheme's history while
+     * history_valid is set (checkpoints save them with history_h). */
+    int history_vectors;
     /* The scheme's own counters, after the core's (DEFSIM__IC_COUNTERS of them). */
     const defsim_counter_spec *counters;
     int32_t counter_count;

@@ -199,3 +199,26 @@ defsim_status defsim__sun_forces(const defsim__sun *s, const double *x, const do
     if (!s->coupled) return s->host->forces(s->sys, x, v, which, f);
     return s->host->forces_at(s->sys, x, v, t, which, f);
 }
+
+int defsim__sun_has_history(const defsim__sun *s, const void *mem, int64_t n)
+{
+    return n > 0 && mem && !s->need_reinit;
+}
+
+defsim_status defsim__sun_save_flags(const defsim__sun *s, int history,
+                                     const defsim_state_writer *wr)
+{
+    const int64_t flags[2] = {history != 0, s->drove != 0};
+    return wr->i64(wr->ctx, flags, 2);
+}
+
+defsim_status defsim__sun_load_flags(defsim__sun *s, const defsim_state_reader *rd, int *history)
+{
+    int64_t flags[2];
+    defsim_status st = rd->i64(rd->ctx, flags, 2);
+    if (st != DEFSIM_OK) return st;
+    if ((flags[0] != 0 && flags[0] != 1) || (flags[1] != 0 && flags[1] != 1)) return DEFSIM_ERR_IO;
+    s->drove = (int)flags[1];
+    *history = (int)flags[0];
+    return DEFSIM_OK;
+}

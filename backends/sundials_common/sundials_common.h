@@ -94,6 +94,15 @@ void defsim__sun_gather(const int64_t *free_dofs, int64_t n, const double *x, co
  * the state, so the integrator's history goes (need_reinit). */
 defsim_status defsim__sun_reset(const defsim_host *host, defsim_system *sys, void *state);
 
+/* Checkpoints of the adaptive modules begin with two flags: the integrator has a history to
+ * continue (has_history: a module's integrator exists and need not restart), and the last step
+ * drove pins. save writes them; load reads them, restores s->drove and sets *history, or
+ * returns DEFSIM_ERR_IO for a value other than 0 or 1. */
+int defsim__sun_has_history(const defsim__sun *s, const void *mem, int64_t n);
+defsim_status defsim__sun_save_flags(const defsim__sun *s, int history,
+                                     const defsim_state_writer *wr);
+defsim_status defsim__sun_load_flags(defsim__sun *s, const defsim_state_reader *rd, int *history);
+
 /* Allocation through the host (zeroed; NULL on failure). */
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);
 

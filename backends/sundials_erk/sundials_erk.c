@@ -445,6 +445,45 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
+/* Checkpoints. ERKStep's public API can set the next step size (ERKStepSetInitStep) but not
+ * the error controller's history of past errors and steps, so a loaded world continues with the
+ * saved step size and a fresh controller: close to the saved run, not bit for bit (README
+ * "Checkpoints" gives the measured difference). */
+static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const void *state,
+                              const defsim_state_writer *wr)
+{
+    (void)host;
+    (void)sys;
+    erk_state *s = (erk_state *)state;   /* ERKStep's getters take a non-const memory */
+    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n);
+    defsim_status st = defsim__sun_save_flags(&s->sun, history, wr);
+    if (st != DEFSIM_OK || !history) return st;
+    realtype h = 0.0;
+    ERKStepGetCurrentStep(s->mem, &h);
+    const double reals[3] = {h, s->t, s->h_stab};
+    return wr->f64(wr->ctx, reals, 3);
+}
+
+static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void *state,
+                              const defsim_state_reader *rd)
+{
+    (void)host;
+    (void)sys;
+    erk_state *s = state;
+    int history = 0;
+    defsim_status st = defsim__sun_load_flags(&s->sun, rd, &history);
+    if (st != DEFSIM_OK || !history) return st;   /* without one, the next step restarts */
+    double reals[3];
+    if (s->n == 0 || (st = rd->f64(rd->ctx, reals, 3)) != DEFSIM_OK) return DEFSIM_ERR_IO;
+    if (!(reals[0] > 0.0) || !isfinite(reals[0]) || !(reals[2] >= 0.0)) return DEFSIM_ERR_IO;
+    if ((st = erk_restart(s)) != DEFSIM_OK) return st;
+    int flag = ERKStepSetInitStep(s->mem, reals[0]);
+    if (flag < 0) return erk_fail(s, "ERKStepSetInitStep", flag);
+    s->t = reals[1];
+    s->h_stab = reals[2];
+    return DEFSIM_OK;
+}
+
 static const defsim_backend erk_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
@@ -455,6 +494,8 @@ static const defsim_backend erk_backend = {
     .step = erk_step,
     .fini = erk_fini,
     .reset = defsim__sun_reset,
+    .save_state = erk_save,
+    .load_state = erk_load,
     .stable_step = erk_stable_step,
     .options = erk_options,
     .option_count = O_COUNT,

@@ -32,6 +32,9 @@
 #include "sundials_common.h"
 
 #include <ida/ida.h>
+/* IDA's memory layout (installed by SUNDIALS 6.x with its headers): checkpoints save and restore
+ * the BDF history that IDA's public API can read in part but not set. */
+#include <ida/ida_impl.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
 #ifdef DEFSIM_IDA_CHOLMOD
@@ -684,6 +687,195 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* Checkpoints: IDA's whole step history (the divided differences phi, the coefficients, step
+ * size, order and the counters its heuristics read), and the Newton matrix of the last set-up,
+ * which is factorised again on load. CHOLMOD factorises the same values into the same bits;
+ * KLU's first factorisation after a restart chooses pivots that later refactorisations keep, so
+ * a KLU run loaded mid-history pivots from the restored matrix instead (README "Checkpoints"). */
+
+enum { IDA_HIST_INTS = 15, IDA_HIST_REALS = 5 * MXORDP1 + 18 };
+
+static int ida_vector_count(const IDAMem im)
+{
+    int k = 0;
+    while (k < MXORDP1 && im->ida_phi[k]) ++k;
+    return k;
+}
+
+/* The vectors of the history: phi[0 ..] and the estimated local error ee (ida_yy and ida_yp
+ * alias the caller's vectors inside IDASolve: not history). */
+static int ida_history_vectors(const IDAMem im, N_Vector vs[MXORDP1 + 1])
+{
+    int n = 0;
+    for (int k = 0; k < ida_vector_count(im); ++k) vs[n++] = im->ida_phi[k];
+    vs[n++] = im->ida_ee;
+    return n;
+}
+
+/* IDA's counters now and at the last read (s->base), as arrays in ida_counts' order. */
+static void ida_counts_now(ida_state *s, long c[7], long b[7])
+{
+    IDAGetNumSteps(s->mem, &c[0]);
+    IDAGetNumResEvals(s->mem, &c[1]);
+    IDAGetNumJacEvals(s->mem, &c[2]);
+    IDAGetNumErrTestFails(s->mem, &c[3]);
+    IDAGetNumNonlinSolvConvFails(s->mem, &c[4]);
+    IDAGetNumNonlinSolvIters(s->mem, &c[5]);
+    IDAGetNumLinSolvSetups(s->mem, &c[6]);
+    const ida_counts *o = &s->base;
+    const long base[7] = {o->steps, o->res, o->jac, o->etf, o->ncf, o->nni, o->setups};
+    memcpy(b, base, sizeof base);
+}
+
+/* The scalars, in one order for both directions: ints (as int64) then reals. */
+#define IDA_INT_FIELDS(X)                                                                       \
+    X(ida_kk) X(ida_kused) X(ida_knew) X(ida_phase) X(ida_ns) X(ida_nst) X(ida_nre)           \
+    X(ida_ncfn) X(ida_netf) X(ida_nni) X(ida_nnf) X(ida_nsetups) X(ida_tstopset)              \
+    X(ida_maxord_alloc)
+#define IDA_REAL_FIELDS(X)                                                                      \
+    X(ida_hin) X(ida_h0u) X(ida_hh) X(ida_hused) X(ida_eta) X(ida_tn) X(ida_tretlast)          \
+    X(ida_cj) X(ida_cjlast) X(ida_cjold) X(ida_cjratio) X(ida_ss) X(ida_oldnrm)               \
+    X(ida_epsNewt) X(ida_toldel) X(ida_tstop) X(ida_tolsf)
+
+static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const void *state,
+                              const defsim_state_writer *wr)
+{
+    (void)host;
+    (void)sys;
+    ida_state *s = (ida_state *)state;   /* IDA's getters take a non-const memory */
+    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n);
+    defsim_status st = defsim__sun_save_flags(&s->sun, history, wr);
+    if (st != DEFSIM_OK || !history) return st;
+    const int64_t solver = s->solver;
+    if ((st = wr->i64(wr->ctx, &solver, 1)) != DEFSIM_OK) return st;
+    const IDAMem im = s->mem;
+    int64_t ints[IDA_HIST_INTS];
+    double reals[IDA_HIST_REALS];
+    int ni = 0, nr = 0;
+#define PUT_INT(f) ints[ni++] = (int64_t)im->f;
+#define PUT_REAL(f) reals[nr++] = im->f;
+    IDA_INT_FIELDS(PUT_INT)
+    IDA_REAL_FIELDS(PUT_REAL)
+#undef PUT_INT
+#undef PUT_REAL
+    ints[ni++] = ida_vector_count(im);
+    for (int k = 0; k < MXORDP1; ++k) {
+        reals[nr++] = im->ida_psi[k];
+        reals[nr++] = im->ida_alpha[k];
+        reals[nr++] = im->ida_beta[k];
+        reals[nr++] = im->ida_sigma[k];
+        reals[nr++] = im->ida_gamma[k];
+    }
+    reals[nr++] = s->t;
+    if ((st = wr->i64(wr->ctx, ints, ni)) != DEFSIM_OK) return st;
+    if ((st = wr->f64(wr->ctx, reals, nr)) != DEFSIM_OK) return st;
+    long c[7], b[7];
+    int64_t since[7];
+    ida_counts_now(s, c, b);
+    for (int k = 0; k < 7; ++k) since[k] = c[k] - b[k];
+    if ((st = wr->i64(wr->ctx, since, 7)) != DEFSIM_OK) return st;
+    N_Vector vs[MXORDP1 + 1];
+    const int nv = ida_history_vectors(im, vs);
+    for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
+        st = wr->f64(wr->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
+    if (st != DEFSIM_OK) return st;
+#ifdef DEFSIM_IDA_CHOLMOD
+    if (s->solver == LS_CHOLMOD) {
+        const ida_chol *ch = s->chol;
+        st = wr->f64(wr->ctx, &ch->cj, 1);
+        if (st == DEFSIM_OK) st = wr->f64(wr->ctx, ch->sval, ch->upat.nnz);
+        if (st == DEFSIM_OK && s->damp_b) st = wr->f64(wr->ctx, ch->bval, ch->upat.nnz);
+        return st;
+    }
+#endif
+    return wr->f64(wr->ctx, SUNSparseMatrix_Data(s->sun.J), s->jnnz);
+}
+
+static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void *state,
+                              const defsim_state_reader *rd)
+{
+    (void)host;
+    (void)sys;
+    ida_state *s = state;
+    int history = 0;
+    int64_t solver = -1;
+    defsim_status st = defsim__sun_load_flags(&s->sun, rd, &history);
+    if (st != DEFSIM_OK || !history) return st;   /* without one, the next step restarts */
+    if ((st = rd->i64(rd->ctx, &solver, 1)) != DEFSIM_OK) return st;
+    if (s->n == 0 || solver != s->solver) return DEFSIM_ERR_IO;
+    if ((st = ida_restart(s)) != DEFSIM_OK) return st;
+    IDAMem im = s->mem;
+    int64_t ints[IDA_HIST_INTS];
+    double reals[IDA_HIST_REALS];
+    int64_t since[7];
+    if ((st = rd->i64(rd->ctx, ints, IDA_HIST_INTS)) != DEFSIM_OK ||
+        (st = rd->f64(rd->ctx, reals, IDA_HIST_REALS)) != DEFSIM_OK ||
+        (st = rd->i64(rd->ctx, since, 7)) != DEFSIM_OK)
+        return st;
+    if (ints[13] != im->ida_maxord_alloc || ints[14] != ida_vector_count(im) || ints[0] < 0 ||
+        ints[0] > im->ida_maxord || ints[5] < 1)
+        return DEFSIM_ERR_IO;
+    int ni = 0, nr = 0;
+#define GET_INT(f) im->f = ints[ni++];
+#define GET_REAL(f) im->f = reals[nr++];
+    IDA_INT_FIELDS(GET_INT)
+    IDA_REAL_FIELDS(GET_REAL)
+#undef GET_INT
+#undef GET_REAL
+    for (int k = 0; k < MXORDP1; ++k) {
+        im->ida_psi[k] = reals[nr++];
+        im->ida_alpha[k] = reals[nr++];
+        im->ida_beta[k] = reals[nr++];
+        im->ida_sigma[k] = reals[nr++];
+        im->ida_gamma[k] = reals[nr++];
+    }
+    s->t = reals[nr++];
+    N_Vector vs[MXORDP1 + 1];
+    const int nv = ida_history_vectors(im, vs);
+    for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
+        st = rd->f64(rd->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
+    if (st != DEFSIM_OK) return st;
+    /* IDASolve runs its initial set-up only before the first step (nst == 0): do its part that
+     * a restored history needs (the error weights' user data, the linear and nonlinear
+     * solvers' initialisation), then factorise the saved Newton matrix. */
+    im->ida_edata = im->ida_user_data;
+    if ((im->ida_linit && im->ida_linit(im) != 0) || idaNlsInit(im) != IDA_SUCCESS) {
+        host->set_error(sys, "sundials_ida: IDA's solvers did not initialise");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    im->ida_SetupDone = SUNTRUE;
+#ifdef DEFSIM_IDA_CHOLMOD
+    if (s->solver == LS_CHOLMOD) {
+        ida_chol *ch = s->chol;
+        if ((st = rd->f64(rd->ctx, &ch->cj, 1)) != DEFSIM_OK ||
+            (st = rd->f64(rd->ctx, ch->sval, ch->upat.nnz)) != DEFSIM_OK ||
+            (s->damp_b && (st = rd->f64(rd->ctx, ch->bval, ch->upat.nnz)) != DEFSIM_OK))
+            return st;
+        if (chol_setup(s->cls, s->token) != SUNLS_SUCCESS) {
+            host->set_error(sys, "sundials_ida: the saved Newton matrix does not factorise");
+            return DEFSIM_ERR_IO;
+        }
+    }
+#endif
+    if (s->solver == LS_KLU) {
+        SUNMatrix J = s->sun.J;
+        memcpy(SUNSparseMatrix_IndexPointers(J), s->jcp, (size_t)(2 * s->n + 1) * sizeof *s->jcp);
+        memcpy(SUNSparseMatrix_IndexValues(J), s->jri, (size_t)s->jnnz * sizeof *s->jri);
+        if ((st = rd->f64(rd->ctx, SUNSparseMatrix_Data(J), s->jnnz)) != DEFSIM_OK) return st;
+        if (SUNLinSolSetup(s->sun.LS, J) != SUNLS_SUCCESS) {
+            host->set_error(sys, "sundials_ida: the saved Newton matrix does not factorise");
+            return DEFSIM_ERR_IO;
+        }
+    }
+    /* Counters restart from IDA's restored ones, less what the saved world had not yet read. */
+    long c[7], b[7];
+    ida_counts_now(s, c, b);
+    for (int k = 0; k < 7; ++k) b[k] = c[k] - (long)since[k];
+    s->base = (ida_counts){b[0], b[1], b[2], b[3], b[4], b[5], b[6]};
+    return DEFSIM_OK;
+}
+
 static const defsim_backend ida_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION,
     .struct_size = sizeof(defsim_backend),
@@ -695,6 +887,8 @@ static const defsim_backend ida_backend = {
     .step = ida_step,
     .fini = ida_fini,
     .reset = defsim__sun_reset,
+    .save_state = ida_save,
+    .load_state = ida_load,
     .options = ida_options,
     .option_count = O_COUNT,
     .counters = ida_counters,

@@ -97,6 +97,31 @@ static void vv_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->carried = 0;
 }
 
+/* History: the carried force F_n (when valid) and whether the last step drove pins. */
+static defsim_status vv_save(const defsim_host *host, defsim_system *sys, const void *state,
+                             const defsim_state_writer *wr)
+{
+    const vv_state *s = state;
+    const int64_t flags[2] = {s->carried, s->drove};
+    defsim_status st = wr->i64(wr->ctx, flags, 2);
+    if (st == DEFSIM_OK && s->carried) st = wr->f64(wr->ctx, s->f, host->dof_count(sys));
+    return st;
+}
+
+static defsim_status vv_load(const defsim_host *host, defsim_system *sys, void *state,
+                             const defsim_state_reader *rd)
+{
+    vv_state *s = state;
+    int64_t flags[2];
+    defsim_status st = rd->i64(rd->ctx, flags, 2);
+    if (st != DEFSIM_OK) return st;
+    if ((flags[0] != 0 && flags[0] != 1) || (flags[1] != 0 && flags[1] != 1)) return DEFSIM_ERR_IO;
+    if (flags[0] && (st = rd->f64(rd->ctx, s->f, host->dof_count(sys))) != DEFSIM_OK) return st;
+    s->carried = (int)flags[0];
+    s->drove = (int)flags[1];
+    return DEFSIM_OK;
+}
+
 /* For x'' = -omega^2 x - c x' the step is linear in (x, v, w) with characteristic polynomial
  * z^3 + (h^2 omega^2 + 3/2 c h - 2) z^2 + (1 - 2 c h) z + c h / 2; by Jury's test all roots lie
  * in the unit disc iff h^2 omega^2 + 4 c h < 4, i.e. h < 2 / (c + sqrt(c^2 + omega^2)). */
@@ -115,4 +140,5 @@ const defsim_backend defsim__velocity_verlet_backend = {
     .abi_version = DEFSIM_BACKEND_ABI_VERSION, .struct_size = sizeof(defsim_backend),
     .name = "velocity_verlet", .flags = DEFSIM_BACKEND_CONSERVATIVE,
     .state_size = sizeof(vv_state), .init = vv_init, .step = vv_step, .fini = vv_fini,
-    .reset = vv_reset, .stable_step = vv_stable_step, .counters = vv_counters, .counter_count = 1};
+    .reset = vv_reset, .stable_step = vv_stable_step, .counters = vv_counters, .counter_count = 1,
+    .save_state = vv_save, .load_state = vv_load};

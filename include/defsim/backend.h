@@ -26,10 +26,11 @@ extern "C" {
 /// Version 2 appended options and counters (defsim_backend.options ... counter_count,
 /// defsim_host.option_values and counters, and defsim_host.omega_max); version 3 the host's
 /// coupling services (defsim_host.forces_at, pin_positions, pin_velocities,
-/// applied_forces_vary); version 4 defsim_backend.stable_step_options. The core accepts backends
-/// built against 1 to 4 (a table's struct_size says which fields it has); a backend checks
-/// host->size before using a later field.
-#define DEFSIM_BACKEND_ABI_VERSION 4u
+/// applied_forces_vary); version 4 defsim_backend.stable_step_options; version 5
+/// defsim_backend.save_state and load_state (checkpoints, with defsim_state_writer and
+/// defsim_state_reader). The core accepts backends built against 1 to 5 (a table's struct_size
+/// says which fields it has); a backend checks host->size before using a later field.
+#define DEFSIM_BACKEND_ABI_VERSION 5u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -236,6 +237,27 @@ enum {
                                             ///< their stability limit).
 };
 
+/// Where a backend's save_state op writes its history (checkpoints, ABI version 5). The core
+/// stores every value little-endian (doubles as IEEE 754 binary64), so a backend writes numbers,
+/// never raw structs. Each call returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (then the save
+/// fails); `n` may be 0. Valid only during the op.
+typedef struct defsim_state_writer {
+    void *ctx;                ///< The core's; passed back to every function.
+    defsim_status (*f64)(void *ctx, const double *values, int64_t n);
+    defsim_status (*i64)(void *ctx, const int64_t *values, int64_t n);
+} defsim_state_writer;
+
+/// Where a backend's load_state op reads back what its save_state wrote, in the same order and
+/// counts. Each call returns DEFSIM_OK, or DEFSIM_ERR_IO when fewer values remain than asked
+/// for (a malformed checkpoint: the op then fails with DEFSIM_ERR_IO too). `remaining` gives the
+/// number of 8-byte values left. Valid only during the op.
+typedef struct defsim_state_reader {
+    void *ctx;
+    defsim_status (*f64)(void *ctx, double *values, int64_t n);
+    defsim_status (*i64)(void *ctx, int64_t *values, int64_t n);
+    int64_t (*remaining)(void *ctx);
+} defsim_state_reader;
+
 /// A backend: a const table. The host allocates `state_size` zeroed bytes per world and passes
 /// them to every op, so snapshots and resets stay generic.
 typedef struct defsim_backend {
@@ -278,6 +300,21 @@ typedef struct defsim_backend {
     /// stable_step for defsim_world_stable_step and auto_substep; keep stable_step (for the
     /// defaults) as well, so that a backend without this op still has a limit.
     double (*stable_step_options)(const double *option_values, double omega, double c);
+
+    /* ABI version 5: tables built against 1 to 4 (smaller struct_size) have none of these. */
+
+    /// Optional (NULL: the backend keeps no history between steps, or cannot save it; a
+    /// checkpoint then restores such a backend as after defsim_world_set_state): writes what the
+    /// next step needs beyond the world's state (x, v, t), so that a world loaded from the
+    /// checkpoint continues bit for bit. Called between steps, only after a successful init and
+    /// with the bodies, pins and options unchanged since. Must not change the state.
+    defsim_status (*save_state)(const defsim_host *host, defsim_system *sys, const void *state,
+                                const defsim_state_writer *writer);
+    /// Reads what save_state wrote (same backend name, same bodies, pins and options), right
+    /// after init on a world whose x, v and t are those of the checkpoint. On an error the core
+    /// calls fini and fails the load. Required when save_state is present.
+    defsim_status (*load_state)(const defsim_host *host, defsim_system *sys, void *state,
+                                const defsim_state_reader *reader);
 } defsim_backend;
 
 /// Registers a backend for all worlds created after the call. The table (and its options and

@@ -329,7 +329,9 @@ DEFSIM_API defsim_status defsim_world_get_masses(const defsim_world *world, doub
 
 /// Sets positions and velocities, each 3 * vertex_count doubles (either may be NULL: unchanged).
 /// Pinned vertices take the given positions as their new targets and zero velocity. Backends
-/// with internal history (adaptive BDF) restart from this state.
+/// with internal history (adaptive BDF) restart from this state, unless every value given is
+/// bitwise equal to the current one (a get/set round trip, or x and v both NULL): then nothing
+/// changes and the run continues bit for bit.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, non-finite value), DEFSIM_ERR_LOCKED (from
 /// inside a host callback).
 DEFSIM_API defsim_status defsim_world_set_state(defsim_world *world, const double *x,
@@ -895,6 +897,74 @@ DEFSIM_API int64_t defsim_get_limit(defsim_limit limit);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL or destroyed world), DEFSIM_ERR_LOCKED (from inside
 /// a host callback).
 DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn fn, void *user);
+/* Checkpoints (docs/checkpoints.md)                                                          */
+/*                                                                                            */
+/* A checkpoint holds everything a run needs to continue: the world def and options, bodies,  */
+/* pins and driven-pin targets, attachments, held external forces, the state x, v, t, the     */
+/* statistics and the backend's history. A world loaded from it and stepped gives the same    */
+/* bits as the world that was saved, stepped the same way (with the same thread count). Not   */
+/* saved: the log callback (given to the load call), the force callback and SDF colliders'    */
+/* functions, which the host installs again (defsim_world_set_force_callback,                 */
+/* defsim_collider_set_sdf).                                                                  */
+
+/// Writes a checkpoint of the world to `path`, atomically: into a temporary file in the same
+/// directory, flushed to disk (fsync), then renamed over `path`; on failure `path` is as it was.
+/// The world is not changed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL), DEFSIM_ERR_LOCKED
+/// (called from inside the force callback), DEFSIM_ERR_IO (the file could not be written: the
+/// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_world_save(const defsim_world *world, const char *path);
+
+/// Writes a checkpoint into a buffer that the library allocates: on success *data receives it
+/// (the caller owns it and releases it with defsim_buffer_free) and *size its length in bytes;
+/// on failure *data is NULL and *size 0. Same contents and errors as defsim_world_save, without
+/// DEFSIM_ERR_IO.
+DEFSIM_API defsim_status defsim_world_save_buffer(const defsim_world *world, void **data,
+                                                  size_t *size);
+
+/// Releases a buffer from defsim_world_save_buffer. NULL is ignored.
+DEFSIM_API void defsim_buffer_free(void *data);
+
+/// Creates a new world from a checkpoint file (any format version up to the library's). On
+/// success *out receives a world the caller owns (release with defsim_world_destroy); its log
+/// sink is `log` with `log_user` (both may be NULL). Body and attachment ids are those of the
+/// new world: the i-th live body of the saved world, in vertex order, is
+/// defsim_world_body_at(*out, i), and likewise for attachments. The file is checked whole (a
+/// CRC-32 per chunk, an end marker) before anything is built.
+/// Errors (on failure *out is NULL and defsim_last_error() says why): DEFSIM_ERR_INVALID_ARGUMENT
+/// (NULL), DEFSIM_ERR_IO (unreadable, not a checkpoint, truncated, corrupted, or of a newer
+/// format version), DEFSIM_ERR_BACKEND_UNAVAILABLE (its backend is not registered), and the
+/// errors of defsim_world_create and defsim_world_add_body for contents that do not validate.
+DEFSIM_API defsim_status defsim_world_load(const char *path, defsim_log_fn log, void *log_user,
+                                           defsim_world **out);
+
+/// defsim_world_load from `size` bytes at `data` (copied; the caller keeps them).
+DEFSIM_API defsim_status defsim_world_load_buffer(const void *data, size_t size, defsim_log_fn log,
+                                                  void *log_user, defsim_world **out);
+
+/// Installs the distance function of an SDF collider again (checkpoints cannot hold host
+/// functions: in a loaded world every SDF collider has a stand-in that fails the first step
+/// that queries it with DEFSIM_ERR_CALLBACK until this is called). `user` as in
+/// defsim_collider_def.sdf_user. Colliders of a loaded world: defsim_world_get_collider.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or sdf, a collider of another shape),
+/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+DEFSIM_API defsim_status defsim_collider_set_sdf(defsim_world *world, defsim_collider_id collider,
+                                                 defsim_sdf_fn sdf, void *user);
+
+/// Number of live bodies of the world (0 for NULL).
+DEFSIM_API int32_t defsim_world_body_count(const defsim_world *world);
+
+/// Id of the i-th live body in vertex order (0 <= i < defsim_world_body_count).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, i out of range).
+DEFSIM_API defsim_status defsim_world_body_at(const defsim_world *world, int32_t i,
+                                              defsim_body_id *out);
+
+/// Number of live attachments of the world (0 for NULL).
+DEFSIM_API int32_t defsim_world_attachment_count(const defsim_world *world);
+
+/// Id of the i-th live attachment in the order they were added (0 <= i < the count).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, i out of range).
+DEFSIM_API defsim_status defsim_world_attachment_at(const defsim_world *world, int32_t i,
+                                                    defsim_attachment_id *out);
 
 #ifdef __cplusplus
 }

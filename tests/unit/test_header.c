@@ -15,7 +15,7 @@ int main(void)
     defsim_world *w = NULL;
     defsim_option_info info = {sizeof info, NULL, DEFSIM_OPTION_REAL, 0, 0, 0, 0, NULL, NULL};
     double steps = -1.0;
-    if (DEFSIM_BACKEND_ABI_VERSION != 4u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
+    if (DEFSIM_BACKEND_ABI_VERSION != 5u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
         defsim_world_create(&def, &w) != DEFSIM_OK || defsim_world_option_count(w) != 3 ||
         defsim_world_option_info(w, 2, &info) != DEFSIM_OK || info.value != 0.8 ||
         defsim_world_stat(w, "steps", &steps) != DEFSIM_OK || steps != 0.0)
@@ -27,6 +27,19 @@ int main(void)
     if (ad.size != sizeof ad || ad.stiffness != 1e3 || ad.target_vertex_count != 0 ||
         sizeof(((defsim_host *)0)->applied_forces_vary) != sizeof(void (*)(void)))
         return 5;
+    /* Checkpoints (ABI version 5 backend ops; public declarations). */
+    void *buf = NULL;
+    size_t bytes = 0;
+    defsim_world *w2 = NULL;
+    if (sizeof(((defsim_backend *)0)->load_state) != sizeof(void (*)(void)) ||
+        defsim_world_create(&def, &w) != DEFSIM_OK ||
+        defsim_world_save_buffer(w, &buf, &bytes) != DEFSIM_OK ||
+        defsim_world_load_buffer(buf, bytes, NULL, NULL, &w2) != DEFSIM_OK ||
+        defsim_world_body_count(w2) != 0)
+        return 6;
+    defsim_buffer_free(buf);
+    defsim_world_destroy(w);
+    defsim_world_destroy(w2);
     if (strcmp(defsim_status_string(DEFSIM_ERR_STALE_ID), "stale id") != 0) return 2;
     return defsim_version_number() == DEFSIM_VERSION_NUMBER ? 0 : 3;
 }

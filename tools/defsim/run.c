@@ -3,6 +3,9 @@
  * `defsim run SCENE.json`: runs a scene, shows progress, writes VTK frames (.vtu + .pvd), an
  * energy log and the final state, and with --render PNG frames and a contact sheet.
  * Ctrl-C stops after the current frame; everything written so far stays valid.
+ * --checkpoint-every N writes checkpoint.dfck into the output folder every N frames (and when
+ * interrupted); --resume DIR continues the run whose output folder is DIR from its checkpoint,
+ * bit for bit, appending to its outputs.
  *
  * Contents: options; frame output (energy.csv, VTK); PNG output (renderer, contact sheet);
  * progress and summary; run_main (the frame loop).
@@ -19,6 +22,7 @@
 #include "render/render.h"
 #endif
 
+#include "../src/file_read.h"
 #include "fileio.h"
 #include "run_summary.h"
 
@@ -58,6 +62,9 @@ static int usage(FILE *f)
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
         "                     (sundials_ida.rtol=1e-6, core.simd=generic); repeatable\n"
         "  --progress MODE    auto (bar on a terminal, lines otherwise), bar, lines, none\n"
+        "  --checkpoint-every N  write OUT/checkpoint.dfck every N frames and when interrupted\n"
+        "  --resume DIR       continue the run whose output folder is DIR from its\n"
+        "                     checkpoint (same scene; outputs are appended there)\n"
         "  --summary-json FILE  write how the run ended (status, steps, energies, probes,\n"
         "                     stable-step estimate) as JSON\n"
         "  --max-vertices N   refuse scenes of more vertices (default 2000000)\n"
@@ -69,8 +76,9 @@ static int usage(FILE *f)
 enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
 
 typedef struct run_opts {
-    const char *scene_path, *out_dir, *summary_path;
+    const char *scene_path, *out_dir, *summary_path, *resume_dir;
     int render, vtk, progress;
+    int checkpoint_every;   /* frames; 0: none */
     const char **sets;   /* --set, --backend and --threads as scene overrides */
     int nsets;
     const char **opts;   /* --option NAME=VALUE, set after the scene's world.options */
@@ -146,6 +154,16 @@ static int parse_args(int argc, char **argv, run_opts *o)
             if (!parse_limit(a, argv[++i], &o->limits.max_vertices)) return 2;
         } else if (!strcmp(a, "--max-steps") && has) {
             if (!parse_limit(a, argv[++i], &o->limits.max_steps)) return 2;
+        } else if (!strcmp(a, "--resume") && has) o->resume_dir = argv[++i];
+        else if (!strcmp(a, "--checkpoint-every") && has) {
+            char *end;
+            const long n = strtol(argv[++i], &end, 10);
+            if (*end || end == argv[i] || n < 1 || n > 1000000000) {
+                fprintf(stderr, "defsim run: --checkpoint-every: expected a number of frames "
+                                ">= 1\n");
+                return 2;
+            }
+            o->checkpoint_every = (int)n;
         }
         else if (!strcmp(a, "--backend") && has) {
             snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
@@ -169,6 +187,11 @@ static int parse_args(int argc, char **argv, run_opts *o)
         }
     }
     if (!o->scene_path) return usage(stderr);
+    if (o->resume_dir && o->out_dir && strcmp(o->resume_dir, o->out_dir) != 0) {
+        fprintf(stderr, "defsim run: --resume writes into the folder it resumes; --out differs\n");
+        return 2;
+    }
+    if (o->resume_dir) o->out_dir = o->resume_dir;
     if (!strcmp(progress, "auto"))
         o->progress = isatty(STDOUT_FILENO) ? PROGRESS_BAR : PROGRESS_LINES;
     else if (!strcmp(progress, "bar")) o->progress = PROGRESS_BAR;
@@ -222,8 +245,59 @@ static int pvd_add(frame_out *o, const char *file, double t)
     return 0;
 }
 
-/* Creates the folder, the VTK cells of all bodies and energy.csv with its header. */
-static int out_open(frame_out *o, const scene *s, const char *dir)
+/* Resuming after frame f0: keeps energy.csv's header and rows of frames 0 .. f0 (a run that
+ * went on past its last checkpoint wrote more), reads frame 0's energies into *e0, and lists the
+ * VTK frames up to f0 that exist for the .pvd, at the times the run had then (h added step by
+ * step, as the world adds it). */
+static int out_resume(frame_out *o, const scene *s, int f0, const run_opts *ro,
+                      defsim_energy *e0)
+{
+    char *text = NULL;
+    size_t len = 0;
+    if (defsim__read_file(o->path, DEFSIM__FILE_MAX, &text, &len) != 0) {
+        fprintf(stderr, "defsim run: --resume: cannot read %s\n", o->path);
+        return -1;
+    }
+    char *line = text, *keep_end = text;
+    for (int row = 0; *line; ++row) {
+        char *nl = strchr(line, '\n');
+        char *next = nl ? nl + 1 : line + strlen(line);
+        if (row > 0) {
+            const int f = atoi(line);
+            if (f > f0) break;
+            if (f == 0)
+                sscanf(line, "%*d,%*g,%lg,%lg,%lg,%lg", &e0->kinetic, &e0->elastic,
+                       &e0->gravitational, &e0->total);
+        }
+        keep_end = line = next;
+    }
+    o->csv = fopen(o->path, "w");
+    const int bad = !o->csv || fwrite(text, 1, (size_t)(keep_end - text), o->csv) !=
+                                   (size_t)(keep_end - text);
+    free(text);
+    if (bad) {
+        fprintf(stderr, "defsim run: cannot write %s\n", o->path);
+        return -1;
+    }
+    double t = 0.0;
+    for (int f = 0; f <= f0; ++f) {
+        for (int32_t k = 0; f > 0 && k < s->frame_steps; ++k) t += s->h;
+        char name[64];
+        snprintf(name, sizeof name, "frame_%05d.vtu", f);
+        snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
+        if (s->write_vtk && wanted(f, s->frames, s->every, ro->list, ro->nlist) &&
+            access(o->path, R_OK) == 0 && pvd_add(o, name, t)) {
+            fprintf(stderr, "defsim run: out of memory\n");
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Creates the folder, the VTK cells of all bodies and energy.csv with its header (when resuming
+ * after frame f0 >= 0, keeps what the run wrote up to it: out_resume). */
+static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const run_opts *ro,
+                    defsim_energy *e0)
 {
     snprintf(o->dir, sizeof o->dir, "%s", dir);
     if (tools_make_dirs(o->dir)) {
@@ -250,6 +324,7 @@ static int out_open(frame_out *o, const scene *s, const char *dir)
         }
     }
     snprintf(o->path, sizeof o->path, "%s/energy.csv", o->dir);
+    if (f0 >= 0) return out_resume(o, s, f0, ro, e0);
     o->csv = fopen(o->path, "w");
     if (!o->csv) {
         fprintf(stderr, "defsim run: cannot write %s\n", o->path);
@@ -565,10 +640,56 @@ static int set_cli_options(defsim_world *w, const char *const *opts, int n)
     return 0;
 }
 
-/* Loads the scene with the options applied and checks what needs the scene. Returns -1 to go
- * on (world built), or the exit status. */
-static int load(const run_opts *o, scene *s, defsim_world **w)
+/* The checkpoint of a run's output folder. */
+static void checkpoint_path(const char *dir, char *path, size_t size)
 {
+    snprintf(path, size, "%s/checkpoint.dfck", dir);
+}
+
+/* --resume: the world from the checkpoint instead of the scene's, with the scene's body and
+ * attachment ids pointing into it; *f0 receives the frame it was written after. Returns 0, or
+ * -1 with the reason printed. */
+static int resume_world(const run_opts *o, scene *s, defsim_world **w, int *f0)
+{
+    char path[4200];
+    checkpoint_path(o->resume_dir, path, sizeof path);
+    if (defsim_world_load(path, s->def.log, s->def.log_user, w) != DEFSIM_OK) {
+        fprintf(stderr, "defsim run: --resume: %s\n", defsim_last_error());
+        return -1;
+    }
+    defsim_stats st = {.size = sizeof st};
+    defsim_world_stats(*w, &st);
+    const char *why = NULL;
+    if (defsim_world_body_count(*w) != s->nbodies ||
+        defsim_world_attachment_count(*w) != s->nattachments)
+        why = "its bodies and attachments are not the scene's";
+    for (int32_t i = 0; !why && i < s->nbodies; ++i) {
+        scene_body *b = &s->bodies[i];
+        defsim_world_body_at(*w, i, &b->id);
+        b->offset = defsim_body_vertex_offset(*w, b->id);
+        if (defsim_body_vertex_count(*w, b->id) != b->mesh.vertex_count)
+            why = "a body's vertex count is not the scene's";
+    }
+    for (int32_t i = 0; !why && i < s->nattachments; ++i)
+        defsim_world_attachment_at(*w, i, &s->attachments[i].id);
+    if (!why && (st.steps % s->frame_steps != 0 || st.steps / s->frame_steps > s->frames))
+        why = "it was not written at a frame of this scene";
+    if (why) {
+        fprintf(stderr, "defsim run: --resume: %s: %s\n", path, why);
+        defsim_world_destroy(*w);
+        *w = NULL;
+        return -1;
+    }
+    *f0 = (int)(st.steps / s->frame_steps);
+    return 0;
+}
+
+/* Loads the scene with the options applied and checks what needs the scene. Returns -1 to go
+ * on (world built, or loaded when resuming after frame *f0; else *f0 = -1), or the exit
+ * status. */
+static int load(const run_opts *o, scene *s, defsim_world **w, int *f0)
+{
+    *f0 = -1;
     if (scene_load_limited(s, o->scene_path, o->sets, o->nsets, &o->limits)) {
         fprintf(stderr, "defsim run: %s\n", s->error);
         return 1;
@@ -590,8 +711,8 @@ static int load(const run_opts *o, scene *s, defsim_world **w)
         return 1;
     }
 #endif
-    if (scene_build(s, w) != DEFSIM_OK) {
-        fprintf(stderr, "defsim run: %s\n", s->error);
+    if (o->resume_dir ? resume_world(o, s, w, f0) : scene_build(s, w) != DEFSIM_OK) {
+        if (!o->resume_dir) fprintf(stderr, "defsim run: %s\n", s->error);
         scene_free(s);
         return 1;
     }
@@ -610,7 +731,8 @@ int run_main(int argc, char **argv)
     int rc = parse_args(argc, argv, &o);
     scene s;
     defsim_world *w = NULL;
-    if (rc < 0) rc = load(&o, &s, &w);
+    int f0 = -1;   /* resuming after this frame */
+    if (rc < 0) rc = load(&o, &s, &w, &f0);
     if (rc >= 0) {
         opts_free(&o);
         return rc;
@@ -621,6 +743,7 @@ int run_main(int argc, char **argv)
     memset(&out, 0, sizeof out);
     run_result r;
     memset(&r, 0, sizeof r);
+    defsim_energy e_start = {0};
 #ifdef DEFSIM_HAVE_RENDER
     png_out png;
     memset(&png, 0, sizeof png);
@@ -628,7 +751,7 @@ int run_main(int argc, char **argv)
     if (!x || !v) {
         fprintf(stderr, "defsim run: out of memory\n");
         r.rc = 1;
-    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name)) {
+    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name, f0, &o, &e_start)) {
         r.rc = 1;
     }
     /* The fields the VTK frames carry and what the renderer colours by. */
@@ -639,6 +762,12 @@ int run_main(int argc, char **argv)
     if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
         fprintf(stderr, "defsim run: %s\n", out.err);
         r.rc = 1;
+    }
+    /* Displacements stay measured from the start of the run, not from where it resumed. */
+    for (int32_t i = 0; r.rc == 0 && f0 >= 0 && i < s.nbodies; ++i) {
+        const scene_body *b = &s.bodies[i];
+        memcpy(out.fl.x0 + 3 * (int64_t)b->offset, b->initial ? b->initial : b->mesh.positions,
+               3 * (size_t)b->mesh.vertex_count * sizeof *out.fl.x0);
     }
 #ifdef DEFSIM_HAVE_RENDER
     if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl)) r.rc = 1;
@@ -654,17 +783,23 @@ int run_main(int argc, char **argv)
     /* The estimate costs some force evaluations, so only a summary asks for it. */
     double stable_step = 0.0;
     defsim_status run_st = DEFSIM_OK;
-    defsim_energy e_start = {0};
     if (o.summary_path) defsim_world_stable_step(w, &stable_step, NULL);
     progress pr = {o.progress, tools_now(), -1.0};
     const double h = s.h, t_start = tools_now();
-    int64_t steps = 0;
+    int64_t steps = f0 > 0 ? (int64_t)f0 * s.frame_steps : 0;
+    r.e0 = e_start.total;
+    r.last_frame = f0 > 0 ? f0 : 0;
+    char ckpt_path[4200];
+    checkpoint_path(out.dir, ckpt_path, sizeof ckpt_path);
     const int started = r.rc == 0;   /* else nothing was written: no final state, no summary */
-    if (started && pr.mode != PROGRESS_NONE)
+    if (started && pr.mode != PROGRESS_NONE) {
         printf("%s: %d bodies, %d vertices, backend %s, h = %g s, %d frames of %d steps\n",
                s.name, (int)s.nbodies, (int)nv, s.backend, h, (int)s.frames, (int)s.frame_steps);
+        if (f0 >= 0) printf("resumed from %s after frame %d (t = %g s)\n", ckpt_path, f0,
+                            defsim_world_time(w));
+    }
     fflush(stdout);
-    for (int f = 0; r.rc == 0 && f <= s.frames; ++f) {
+    for (int f = f0 + 1 > 0 ? f0 + 1 : 0; r.rc == 0 && f <= s.frames; ++f) {
         for (int32_t k = 0; f > 0 && k < s.frame_steps; ++k, ++steps) {
             defsim_status st = scene_step(&s, w, h);
             if (st != DEFSIM_OK) {
@@ -708,6 +843,14 @@ int run_main(int argc, char **argv)
         }
 #endif
         progress_frame(&pr, &s, f, written, t, steps, &r.e, x);
+        /* After the frame's output, so that a resumed run starts with the next frame. */
+        if (o.checkpoint_every > 0 && f > 0 &&
+            (f % o.checkpoint_every == 0 || interrupted) &&
+            defsim_world_save(w, ckpt_path) != DEFSIM_OK) {
+            fprintf(stderr, "defsim run: checkpoint: %s\n", defsim_world_last_error(w));
+            r.rc = 1;
+            break;
+        }
         if (interrupted) break;
     }
     sigaction(SIGINT, &old_sa, NULL);

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import os
+import struct
 from typing import Any, Callable, Dict, Iterator, List, Mapping, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
 from . import _arrays
 from ._collider import WorldColliders
-from ._coupling import BodyCoupling, WorldCoupling
+from ._coupling import Attachment, BodyCoupling, WorldCoupling
 from ._handle import Handle
 from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
                       error_from_status)
@@ -92,6 +94,17 @@ class Stats:
     stable_step: float              #: last stable-step estimate in s (0: none made)
     #: the backend's counters by full name ("sundials_ida.internal_steps": value)
     counters: Dict[str, float] = dataclasses.field(default_factory=dict)
+
+
+def _log_callback(log: LogCallback) -> Any:
+    """The C trampoline of a log sink (kept alive by the World that uses it)."""
+    if not callable(log):
+        raise InvalidArgumentError("log must be callable(level, message)")
+
+    def _sink(user: Any, level: int, message: Any) -> None:
+        log(int(level), ffi.string(message).decode("utf-8", "replace"))
+
+    return ffi.callback("defsim_log_fn", _sink)
 
 
 def _projection(value: Union[str, int, Projection]) -> int:
@@ -259,13 +272,7 @@ class World(WorldCoupling, WorldColliders):
         if substep_safety is not None:
             d.substep_safety = _arrays.c_double(substep_safety, "substep_safety")
         if log is not None:
-            if not callable(log):
-                raise InvalidArgumentError("log must be callable(level, message)")
-
-            def _sink(user: Any, level: int, message: Any) -> None:
-                log(int(level), ffi.string(message).decode("utf-8", "replace"))
-
-            self._log_cb = ffi.callback("defsim_log_fn", _sink)
+            self._log_cb = _log_callback(log)
             d.log = self._log_cb
         out = ffi.new("defsim_world **")
         check(lib.defsim_world_create(d, out))
@@ -744,6 +751,94 @@ class World(WorldCoupling, WorldColliders):
         value = ffi.new("double *")
         self._check(lib.defsim_world_stat(self._live(), str(name).encode("utf-8"), value))
         return float(value[0])
+
+    # -- checkpoints (docs/checkpoints.md) -------------------------------------------------
+
+    def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
+        """Writes a checkpoint of the world to `path`, atomically (a temporary file in the same
+        folder, flushed, then renamed over `path`). ``World.load(path)`` continues the run bit
+        for bit. Not saved: the log and force callbacks (install the force callback again).
+        Raises FileError (cannot write; the old file at `path` is kept)."""
+        self._check(lib.defsim_world_save(self._live(), os.fsencode(path)))
+
+    def to_bytes(self) -> bytes:
+        """The checkpoint as bytes (what ``save`` writes)."""
+        data = ffi.new("void **")
+        size = ffi.new("size_t *")
+        self._check(lib.defsim_world_save_buffer(self._live(), data, size))
+        try:
+            return bytes(ffi.buffer(data[0], size[0]))
+        finally:
+            lib.defsim_buffer_free(data[0])
+
+    @classmethod
+    def load(cls, path: Union[str, "os.PathLike[str]"], *,
+             log: Optional[LogCallback] = None) -> "World":
+        """A new world from a checkpoint file (see ``save``); `log` as for ``World()``. Bodies
+        are the saved world's live bodies in order (``bodies``), with new handles. Raises
+        FileError (unreadable, truncated, corrupted, not a checkpoint, newer format),
+        BackendUnavailableError."""
+        with open(os.fsencode(path), "rb") as f:
+            return cls.from_bytes(f.read(), log=log)
+
+    @classmethod
+    def from_bytes(cls, data: bytes, *, log: Optional[LogCallback] = None) -> "World":
+        """A new world from checkpoint bytes (``to_bytes``); as ``load``."""
+        self = cls.__new__(cls)
+        self._adopt(bytes(data), log)
+        return self
+
+    def __getstate__(self) -> Dict[str, Any]:
+        """Pickling saves the checkpoint; the log and force callbacks are not pickled."""
+        return {"checkpoint": self.to_bytes()}
+
+    def __setstate__(self, state: Mapping[str, Any]) -> None:
+        self._adopt(bytes(state["checkpoint"]), None)
+
+    def _adopt(self, data: bytes, log: Optional[LogCallback]) -> None:
+        """Builds this (new, empty) object's world from checkpoint bytes."""
+        self._ptr = None
+        self._bodies = []
+        self._tets = {}
+        self._log_cb = None
+        if log is not None:
+            self._log_cb = _log_callback(log)
+        out = ffi.new("defsim_world **")
+        buf = ffi.from_buffer(data)
+        check(lib.defsim_world_load_buffer(buf, len(data), self._log_cb or ffi.NULL, ffi.NULL,
+                                           out))
+        self._ptr = ffi.gc(out[0], lib.defsim_world_destroy)
+        # What the constructor knew: the backend, gravity and tet counts, from the file (the
+        # library checked it whole). WRLD comes first; BODY chunks hold nv, nt, ns at 8..20.
+        at = 16
+        tets = []
+        while at + 12 <= len(data):
+            tag, length = data[at:at + 4], struct.unpack_from("<Q", data, at + 4)[0]
+            payload = data[at + 12:at + 12 + length]
+            if tag == b"WRLD":
+                n = struct.unpack_from("<I", payload, 0)[0]
+                self._backend = payload[4:4 + n].decode("utf-8")
+                self._gravity = struct.unpack_from("<3d", payload, 4 + n)
+            elif tag == b"BODY":
+                tets.append(struct.unpack_from("<i", payload, 12)[0])
+            at += 16 + length
+        w = self._ptr
+        cid = ffi.new("defsim_body_id *")
+        for i in range(int(lib.defsim_world_body_count(w))):
+            check(lib.defsim_world_body_at(w, i, cid))
+            body = Body(self, int(cid.index), int(cid.generation))
+            self._bodies.append(body)
+            self._tets[body.id] = tets[i]
+
+    def attachments(self) -> List[Any]:
+        """The live attachments, in the order the world holds them (a new list of handles)."""
+        w = self._live()
+        cid = ffi.new("defsim_attachment_id *")
+        out = []
+        for i in range(int(lib.defsim_world_attachment_count(w))):
+            self._check(lib.defsim_world_attachment_at(w, i, cid))
+            out.append(Attachment(self, int(cid.index), int(cid.generation)))
+        return out
 
     def __repr__(self) -> str:
         if self._ptr is None:

@@ -168,13 +168,28 @@ static void write_world(bw *b, const defsim_world *w)
     chunk_end(b, c);
 }
 
+/* Saved ids are id slots + 1, without the world's tag (so that the same world saves the same
+ * bytes whatever world it was loaded into): the id of bodies[dense], and of a body id. */
+static uint32_t saved_body_index(const defsim_world *w, int32_t dense)
+{
+    for (int32_t s = 0; s < w->nslots; ++s)
+        if ((w->body_gen[s] & 1u) && w->body_dense[s] == dense) return (uint32_t)s + 1;
+    return 0;
+}
+
+static uint32_t saved_id_index(const defsim_world *w, uint32_t index)
+{
+    const int64_t slot = defsim__world_id_slot(w, index);
+    return slot < 0 ? 0 : (uint32_t)slot + 1;
+}
+
 static void write_bodies(bw *b, const defsim_world *w)
 {
     for (int32_t i = 0; i < w->nbodies; ++i) {
         const defsim__body *body = &w->bodies[i];
         if (!(body->generation & 1u)) continue;
         const size_t c = chunk_begin(b, "BODY");
-        put_u32(b, (uint32_t)i + 1);   /* the saved id, for the attachments that name it */
+        put_u32(b, saved_body_index(w, i));   /* the saved id, for the attachments naming it */
         put_u32(b, body->generation);
         put_i32(b, body->nv);
         put_i32(b, body->nt);
@@ -201,13 +216,13 @@ static void write_coupling(bw *b, const defsim_world *w)
         if (!(a->generation & 1u)) continue;
         const defsim_attachment_def *d = &a->def;
         const size_t c = chunk_begin(b, "ATCH");
-        put_u32(b, d->body.index);
+        put_u32(b, saved_id_index(w, d->body.index));
         put_u32(b, d->body.generation);
         put_i32(b, d->vertex);
         put_f64(b, d->stiffness);
         put_f64(b, d->damping);
         put_f64s(b, d->target, 3);
-        put_u32(b, d->target_body.index);
+        put_u32(b, d->target_body.index ? saved_id_index(w, d->target_body.index) : 0);
         put_u32(b, d->target_body.generation);
         put_i32(b, d->target_vertex_count);
         put_i32s(b, d->target_vertices, 4);
@@ -343,8 +358,10 @@ static defsim_status save_to(const defsim_world *w, bw *b)
 
 static defsim_status save_checks(const defsim_world *w)
 {
-    if (w->cpl.locked) {
-        defsim__error(w->msg, "save: called from inside the force callback");
+    /* Inside a host callback the state is mid-step: refuse, like every other call that would
+     * act on it. */
+    if (w->msg->locked) {
+        defsim__error(w->msg, "save: called from inside a host callback");
         return DEFSIM_ERR_LOCKED;
     }
     w->msg->error[0] = '\0';
@@ -355,7 +372,11 @@ defsim_status defsim_world_save_buffer(const defsim_world *w, void **data, size_
 {
     if (data) *data = NULL;
     if (size) *size = 0;
-    if (!w || !data || !size) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!data || !size) {
+        defsim__error(w->msg, "save_buffer: data or size is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     defsim_status st = save_checks(w);
     if (st != DEFSIM_OK) return st;
     bw b = {0};
@@ -425,7 +446,7 @@ static defsim_status write_atomic(const defsim_world *w, const char *path, const
 
 defsim_status defsim_world_save(const defsim_world *w, const char *path)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
     if (!path || !path[0]) {
         defsim__error(w->msg, "save: path is NULL or empty");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -900,7 +921,7 @@ static defsim_status load_collider(defsim_world *w, const chunk *c)
             st = world_failed(w, st, "collider pose");
         } else {
             /* The stored bits, not their normalisation again (which may move the last bit). */
-            defsim__collider *col = &w->col[id.index - 1];
+            defsim__collider *col = &w->col[defsim__world_id_slot(w, id.index)];
             memcpy(col->pos, d.position, sizeof col->pos);
             memcpy(col->rot, d.rotation, sizeof col->rot);
             memcpy(col->pos1, pos1, sizeof col->pos1);
@@ -1150,37 +1171,49 @@ defsim_status defsim_world_load(const char *path, defsim_log_fn log, void *log_u
 
 int32_t defsim_world_body_count(const defsim_world *w)
 {
+    if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
-    for (int32_t i = 0; w && i < w->nbodies; ++i) n += (w->bodies[i].generation & 1u) != 0;
+    for (int32_t s = 0; s < w->nslots; ++s) n += (w->body_gen[s] & 1u) != 0;
     return n;
 }
 
 defsim_status defsim_world_body_at(const defsim_world *w, int32_t i, defsim_body_id *out)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    for (int32_t k = 0; k < w->nbodies; ++k)
-        if ((w->bodies[k].generation & 1u) && i-- == 0) {
-            *out = (defsim_body_id){(uint32_t)k + 1, w->bodies[k].generation};
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out) {
+        defsim__error(w->msg, "body_at: out is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    /* The i-th body in vertex order is bodies[i]; find the id slot that holds it. */
+    for (int32_t s = 0; i >= 0 && i < w->nbodies && s < w->nslots; ++s)
+        if ((w->body_gen[s] & 1u) && w->body_dense[s] == i) {
+            *out = (defsim_body_id){defsim__world_id_index(w, s), w->body_gen[s]};
             return DEFSIM_OK;
         }
-    defsim__error(w->msg, "body_at: index out of range [0, %d)", (int)defsim_world_body_count(w));
+    defsim__error(w->msg, "body_at: index %d out of range [0, %d)", (int)i,
+                  (int)defsim_world_body_count(w));
     return DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
 int32_t defsim_world_attachment_count(const defsim_world *w)
 {
+    if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
-    for (int32_t i = 0; w && i < w->natt; ++i) n += (w->att[i].generation & 1u) != 0;
+    for (int32_t i = 0; i < w->natt; ++i) n += (w->att[i].generation & 1u) != 0;
     return n;
 }
 
 defsim_status defsim_world_attachment_at(const defsim_world *w, int32_t i,
                                          defsim_attachment_id *out)
 {
-    if (!w || !out) return DEFSIM_ERR_INVALID_ARGUMENT;
-    for (int32_t k = 0; k < w->natt; ++k)
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out) {
+        defsim__error(w->msg, "attachment_at: out is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    for (int32_t k = 0; i >= 0 && k < w->natt; ++k)
         if ((w->att[k].generation & 1u) && i-- == 0) {
-            *out = (defsim_attachment_id){(uint32_t)k + 1, w->att[k].generation};
+            *out = (defsim_attachment_id){defsim__world_id_index(w, k), w->att[k].generation};
             return DEFSIM_OK;
         }
     defsim__error(w->msg, "attachment_at: index out of range [0, %d)",
@@ -1194,16 +1227,14 @@ defsim_status defsim_world_attachment_at(const defsim_world *w, int32_t i,
 defsim_status defsim_collider_set_sdf(defsim_world *w, defsim_collider_id id, defsim_sdf_fn sdf,
                                       void *user)
 {
-    if (!w) return DEFSIM_ERR_INVALID_ARGUMENT;
-    defsim_status st = defsim__world_check_unlocked(w);
+    defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
-    defsim__collider *c = NULL;
-    if (id.index >= 1 && id.index <= (uint32_t)w->ncol && w->col[id.index - 1].generation == id.generation &&
-        (id.generation & 1u))
-        c = &w->col[id.index - 1];
-    if (!c) {
-        defsim__error(w->msg, "collider id {%u, %u} is null, removed or not of this world",
-                      (unsigned)id.index, (unsigned)id.generation);
+    const int64_t slot = defsim__world_id_slot(w, id.index);
+    defsim__collider *c = slot >= 0 && slot < w->ncol ? &w->col[slot] : NULL;
+    if (!c || c->generation != id.generation || !(id.generation & 1u)) {
+        defsim__error(w->msg, "collider id {%u, %u} is %s", (unsigned)id.index,
+                      (unsigned)id.generation,
+                      defsim__world_id_problem(w, id.index, id.generation));
         return DEFSIM_ERR_STALE_ID;
     }
     if (!sdf || c->def.shape != DEFSIM_SHAPE_SDF) {

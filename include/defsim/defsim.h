@@ -909,15 +909,16 @@ DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn
 
 /// Writes a checkpoint of the world to `path`, atomically: into a temporary file in the same
 /// directory, flushed to disk (fsync), then renamed over `path`; on failure `path` is as it was.
-/// The world is not changed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL), DEFSIM_ERR_LOCKED
-/// (called from inside the force callback), DEFSIM_ERR_IO (the file could not be written: the
+/// The world is not changed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, empty path),
+/// DEFSIM_ERR_LOCKED (called from inside a host callback), DEFSIM_ERR_IO (the file could not be written: the
 /// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_save(const defsim_world *world, const char *path);
 
 /// Writes a checkpoint into a buffer that the library allocates: on success *data receives it
 /// (the caller owns it and releases it with defsim_buffer_free) and *size its length in bytes;
-/// on failure *data is NULL and *size 0. Same contents and errors as defsim_world_save, without
-/// DEFSIM_ERR_IO.
+/// on failure *data is NULL and *size 0. The same contents as defsim_world_save writes.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL), DEFSIM_ERR_LOCKED (called from inside a host
+/// callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_save_buffer(const defsim_world *world, void **data,
                                                   size_t *size);
 
@@ -930,14 +931,17 @@ DEFSIM_API void defsim_buffer_free(void *data);
 /// new world: the i-th live body of the saved world, in vertex order, is
 /// defsim_world_body_at(*out, i), and likewise for attachments. The file is checked whole (a
 /// CRC-32 per chunk, an end marker) before anything is built.
-/// Errors (on failure *out is NULL and defsim_last_error() says why): DEFSIM_ERR_INVALID_ARGUMENT
+/// On failure *out is NULL and defsim_last_error() says why. Errors: DEFSIM_ERR_INVALID_ARGUMENT
 /// (NULL), DEFSIM_ERR_IO (unreadable, not a checkpoint, truncated, corrupted, or of a newer
-/// format version), DEFSIM_ERR_BACKEND_UNAVAILABLE (its backend is not registered), and the
-/// errors of defsim_world_create and defsim_world_add_body for contents that do not validate.
+/// format version), DEFSIM_ERR_BACKEND_UNAVAILABLE (its backend is not registered), and those of
+/// defsim_world_create and defsim_world_add_body for contents that do not validate
+/// (DEFSIM_ERR_INVALID_MESH, DEFSIM_ERR_INVALID_MATERIAL, DEFSIM_ERR_OUT_OF_MEMORY).
 DEFSIM_API defsim_status defsim_world_load(const char *path, defsim_log_fn log, void *log_user,
                                            defsim_world **out);
 
 /// defsim_world_load from `size` bytes at `data` (copied; the caller keeps them).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL), DEFSIM_ERR_IO (not a checkpoint, truncated,
+/// corrupted, or of a newer format version), and the others of defsim_world_load.
 DEFSIM_API defsim_status defsim_world_load_buffer(const void *data, size_t size, defsim_log_fn log,
                                                   void *log_user, defsim_world **out);
 

@@ -61,6 +61,11 @@ typedef struct fx {
         adef_size0, adef_badvertex;
     defsim_world_def wdef, wdef_size0, wdef_nan_g, wdef_backend, wdef_threads, wdef_nobackend;
     defsim_world *out_world;
+    void *data;
+    size_t size;
+    char junk[64];
+    defsim_body_id body_out;
+    defsim_attachment_id att_out;
     defsim_material mat, mat0, mat_spring, mat_bad, mat_nh;
     double F_id[9], F_nan[9], F_inv[9], P[9];
     defsim_mesh mesh, mesh0;
@@ -75,6 +80,15 @@ typedef struct fx {
 } fx;
 
 static fx *F;                      /* the fixture, for the callbacks */
+
+static double sdf_dummy(void *user, const double p[3], double grad[3])
+{
+    (void)user;
+    grad[0] = 0.0;
+    grad[1] = 1.0;
+    grad[2] = 0.0;
+    return p[1];
+}
 static defsim_world dead_world;    /* only its magic is ever read */
 static uint64_t alien_bytes[64];
 
@@ -381,7 +395,42 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_set_limit, INVALID, defsim_set_limit(DEFSIM_LIMIT_VERTICES, INT64_MAX)) \
     X(CTX_DIRECT, F_VALUE, defsim_get_limit, 1, defsim_get_limit((defsim_limit)-1) == -1)       \
     BADW(X, defsim_world_set_log, INVALID, NULL, NULL)                                          \
-    LOCKED(X, defsim_world_set_log, NULL, NULL)
+    LOCKED(X, defsim_world_set_log, NULL, NULL)                                                 \
+    /* checkpoints */                                                                           \
+    BADW(X, defsim_world_save, INVALID, "misuse.dfck")                                          \
+    X(CTX_DIRECT, 0, defsim_world_save, INVALID, defsim_world_save(f->w, NULL))                 \
+    X(CTX_DIRECT, 0, defsim_world_save, INVALID, defsim_world_save(f->w, ""))                   \
+    X(CTX_DIRECT, 0, defsim_world_save, DEFSIM_ERR_IO, defsim_world_save(f->w, "/nonexistent-dir/x.dfck")) \
+    LOCKED(X, defsim_world_save, "misuse.dfck")                                                 \
+    BADW(X, defsim_world_save_buffer, INVALID, &f->data, &f->size)                              \
+    X(CTX_DIRECT, 0, defsim_world_save_buffer, INVALID, defsim_world_save_buffer(f->w, NULL, &f->size)) \
+    X(CTX_DIRECT, 0, defsim_world_save_buffer, INVALID, defsim_world_save_buffer(f->w, &f->data, NULL)) \
+    LOCKED(X, defsim_world_save_buffer, &f->data, &f->size)                                     \
+    X(CTX_DIRECT, F_VALUE, defsim_buffer_free, 1, (defsim_buffer_free(NULL), 1))                \
+    X(CTX_DIRECT, 0, defsim_world_load, INVALID, defsim_world_load(NULL, NULL, NULL, &f->out_world)) \
+    X(CTX_DIRECT, 0, defsim_world_load, INVALID, defsim_world_load("x.dfck", NULL, NULL, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_load, DEFSIM_ERR_IO, defsim_world_load("/nonexistent-dir/x.dfck", NULL, NULL, &f->out_world)) \
+    X(CTX_DIRECT, 0, defsim_world_load_buffer, INVALID, defsim_world_load_buffer(NULL, 16, NULL, NULL, &f->out_world)) \
+    X(CTX_DIRECT, 0, defsim_world_load_buffer, INVALID, defsim_world_load_buffer(f->junk, sizeof f->junk, NULL, NULL, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_load_buffer, DEFSIM_ERR_IO, defsim_world_load_buffer(f->junk, sizeof f->junk, NULL, NULL, &f->out_world)) \
+    BADW(X, defsim_collider_set_sdf, INVALID, f->col, sdf_dummy, NULL)                          \
+    X(CTX_DIRECT, 0, defsim_collider_set_sdf, INVALID, defsim_collider_set_sdf(f->w, f->col, sdf_dummy, NULL)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_sdf, STALE, defsim_collider_set_sdf(f->w, f->col_stale, sdf_dummy, NULL)) \
+    X(CTX_DIRECT, 0, defsim_collider_set_sdf, STALE, defsim_collider_set_sdf(f->w, f->col_foreign, sdf_dummy, NULL)) \
+    LOCKED(X, defsim_collider_set_sdf, f->col, sdf_dummy, NULL)                                 \
+    BADW1(X, F_VALUE, defsim_world_body_count, 0)                                               \
+    X(CTX_LOG, F_VALUE, defsim_world_body_count, 1, defsim_world_body_count(f->w) >= 1)         \
+    BADW(X, defsim_world_body_at, INVALID, 0, &f->body_out)                                     \
+    X(CTX_DIRECT, 0, defsim_world_body_at, INVALID, defsim_world_body_at(f->w, -1, &f->body_out)) \
+    X(CTX_DIRECT, 0, defsim_world_body_at, INVALID, defsim_world_body_at(f->w, 1000, &f->body_out)) \
+    X(CTX_DIRECT, 0, defsim_world_body_at, INVALID, defsim_world_body_at(f->w, 0, NULL))        \
+    X(CTX_FORCE, 0, defsim_world_body_at, OK, defsim_world_body_at(f->w, 0, &f->body_out))      \
+    BADW1(X, F_VALUE, defsim_world_attachment_count, 0)                                         \
+    X(CTX_LOG, F_VALUE, defsim_world_attachment_count, 1, defsim_world_attachment_count(f->w) >= 1) \
+    BADW(X, defsim_world_attachment_at, INVALID, 0, &f->att_out)                                \
+    X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, -1, &f->att_out)) \
+    X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, 1000, &f->att_out)) \
+    X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, 0, NULL))
 
 typedef struct row {
     int ctx, flags;

@@ -785,7 +785,7 @@ class World(WorldCoupling, WorldColliders):
     def from_bytes(cls, data: bytes, *, log: Optional[LogCallback] = None) -> "World":
         """A new world from checkpoint bytes (``to_bytes``); as ``load``."""
         self = cls.__new__(cls)
-        self._adopt(bytes(data), log)
+        self._adopt_checkpoint(bytes(data), log)
         return self
 
     def __getstate__(self) -> Dict[str, Any]:
@@ -793,13 +793,14 @@ class World(WorldCoupling, WorldColliders):
         return {"checkpoint": self.to_bytes()}
 
     def __setstate__(self, state: Mapping[str, Any]) -> None:
-        self._adopt(bytes(state["checkpoint"]), None)
+        self._adopt_checkpoint(bytes(state["checkpoint"]), None)
 
-    def _adopt(self, data: bytes, log: Optional[LogCallback]) -> None:
+    def _adopt_checkpoint(self, data: bytes, log: Optional[LogCallback]) -> None:
         """Builds this (new, empty) object's world from checkpoint bytes."""
         self._ptr = None
         self._bodies = []
-        self._tets = {}
+        self._topology = {}
+        self._sdfs = {}
         self._log_cb = None
         if log is not None:
             self._log_cb = _log_callback(log)
@@ -808,10 +809,12 @@ class World(WorldCoupling, WorldColliders):
         check(lib.defsim_world_load_buffer(buf, len(data), self._log_cb or ffi.NULL, ffi.NULL,
                                            out))
         self._ptr = ffi.gc(out[0], lib.defsim_world_destroy)
-        # What the constructor knew: the backend, gravity and tet counts, from the file (the
-        # library checked it whole). WRLD comes first; BODY chunks hold nv, nt, ns at 8..20.
+        # What the constructor knew: the backend, gravity and each body's topology, from the
+        # file (the library checked it whole). WRLD comes first; a BODY chunk holds id,
+        # generation, nv, nt, ns, model, 7 material numbers, then rest positions, masses, tets,
+        # springs (docs/checkpoints.md).
         at = 16
-        tets = []
+        topologies = []
         while at + 12 <= len(data):
             tag, length = data[at:at + 4], struct.unpack_from("<Q", data, at + 4)[0]
             payload = data[at + 12:at + 12 + length]
@@ -820,7 +823,16 @@ class World(WorldCoupling, WorldColliders):
                 self._backend = payload[4:4 + n].decode("utf-8")
                 self._gravity = struct.unpack_from("<3d", payload, 4 + n)
             elif tag == b"BODY":
-                tets.append(struct.unpack_from("<i", payload, 12)[0])
+                nv, nt, ns = struct.unpack_from("<3i", payload, 8)
+                o = 24 + 7 * 8
+                rest = np.frombuffer(payload, "<f8", 3 * nv, o).reshape(nv, 3).copy()
+                o += 8 * 3 * nv + 8 * nv
+                tets = np.frombuffer(payload, "<i4", 4 * nt, o).reshape(nt, 4).copy()
+                o += 4 * 4 * nt
+                springs = np.frombuffer(payload, "<i4", 2 * ns, o).reshape(ns, 2).copy()
+                tri = tet_boundary(rest, tets) if nt else np.zeros((0, 3), np.int32)
+                lines = springs if not nt else springs[:0]
+                topologies.append(Topology(rest, tets, tri, springs, lines))
             at += 16 + length
         w = self._ptr
         cid = ffi.new("defsim_body_id *")
@@ -828,7 +840,7 @@ class World(WorldCoupling, WorldColliders):
             check(lib.defsim_world_body_at(w, i, cid))
             body = Body(self, int(cid.index), int(cid.generation))
             self._bodies.append(body)
-            self._tets[body.id] = tets[i]
+            self._topology[body.id] = topologies[i]
 
     def attachments(self) -> List[Any]:
         """The live attachments, in the order the world holds them (a new list of handles)."""

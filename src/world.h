@@ -13,6 +13,7 @@
 #include "status.h"
 #include "system.h"
 #include "options.h"
+#include "watchdog.h"
 
 #include <stdint.h>
 
@@ -57,6 +58,7 @@ struct defsim_world {
     int32_t ntargeted;
     int drove;                /* the last step moved pins: their velocities go back to zero */
     defsim__coupling cpl;     /* callback and drive workspaces, sized by the plan */
+    defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).

@@ -1,0 +1,251 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The stability watchdog: the envelope a successful step must stay in, and the diagnostics.
+ *
+ * The energy bound. Let E = K + U (kinetic over free vertices, elastic relative to rest with the
+ * attachment springs). Between a reference and now, the true motion satisfies
+ * E(now) = E(ref) + W - D, with W the work of gravity, held external forces and moved attachment
+ * targets (all known: the forces are constant within a step, so W = sum (m g + f_ext) . dx), and
+ * D >= 0 what damping took out. Every elastic energy here is >= 0 (stable neo-Hookean up to a
+ * small negative part far from rest, which the floor covers), so K(now) <= E(ref) + W. Only K
+ * and W are needed per step: both come from one pass over the vertices that also checks
+ * finiteness and body extents, and the elastic energy is evaluated once per reference, not per
+ * step. A step trips when K > growth (E(ref) + W) + floor. The growth factor covers the bounded
+ * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
+ * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
+ * geometrically and passes any factor within a few steps. Steps with a force callback or driven
+ * pins do work the core cannot account for cheaply: the energy check skips them and takes a new
+ * reference at the next step without.
+ */
+#include "watchdog.h"
+
+#include "energy.h"
+#include "element.h"
+#include "material.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static double det3(const double *x, const int32_t *id)
+{
+    const double *p3 = x + 3 * (int64_t)id[3];
+    double a[3], b[3], c[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = x[3 * (int64_t)id[0] + i] - p3[i];
+        b[i] = x[3 * (int64_t)id[1] + i] - p3[i];
+        c[i] = x[3 * (int64_t)id[2] + i] - p3[i];
+    }
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+           a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+/* Smallest volume ratio J = det Ds / det Dm of group g at x, and the count with J <= 0 (or not
+ * a number). Rest tets are positively oriented, so det Dm = 6 vol. */
+static int64_t volume_ratios(const defsim__group *g, const double *x, int nthreads, double *jmin)
+{
+    int64_t bad = 0;
+    double lo = INFINITY;
+#pragma omp parallel for schedule(static) num_threads(nthreads) if (g->n > 20000) \
+    reduction(+ : bad) reduction(min : lo)
+    for (int32_t e = 0; e < g->n; ++e) {
+        const double J = det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
+        bad += !(J > 0.0);
+        if (J < lo) lo = J;
+    }
+    *jmin = lo;
+    return bad;
+}
+
+static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
+{
+    const defsim__system *s = in->sys;
+    double mass = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) mass += s->mass[i];
+    const double *g = s->gravity;
+    const double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    wd->e_floor = mass * s->length_scale * (gn > 9.81 ? gn : 9.81);
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int32_t i = 0; (bd->generation & 1u) && i < bd->nv; ++i)
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = fmin(lo[k], bd->rest[3 * (int64_t)i + k]);
+                hi[k] = fmax(hi[k], bd->rest[3 * (int64_t)i + k]);
+            }
+        const double d = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
+        wd->rest_diag[b] = (bd->generation & 1u) && bd->nv > 1 ? d : 0.0;
+    }
+    wd->have_rest = 1;
+}
+
+static double kinetic_free(const defsim__system *s, const double *v)
+{
+    double ke = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (s->pinned[i]) continue;
+        const double *u = v + 3 * (int64_t)i;
+        ke += 0.5 * s->mass[i] * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    }
+    return ke;
+}
+
+defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
+                                     char *what, size_t size)
+{
+    const defsim__system *s = in->sys;
+    const double *x = in->x, *v = in->v, *x0 = in->x0;
+    const int64_t ndof = 3 * (int64_t)s->nv;
+    if (!in->on) {
+        wd->have_ref = 0;
+        int ok = 1;
+        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(x[i]) & isfinite(v[i]);
+        if (ok) return DEFSIM_OK;
+        snprintf(what, size, "the state became non-finite");
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    if (!wd->have_rest) {
+        if (wd->cap < in->nbodies) {
+            double *p = realloc(wd->rest_diag, (size_t)in->nbodies * sizeof *p);
+            if (!p) {
+                snprintf(what, size, "out of memory");
+                return DEFSIM_ERR_OUT_OF_MEMORY;
+            }
+            wd->rest_diag = p;
+            wd->cap = in->nbodies;
+        }
+        take_rest(wd, in);
+    }
+    const int energy = in->energy;
+    if (energy && !wd->have_ref) {
+        wd->e_ref = kinetic_free(s, in->v0) + defsim__elastic_energy(s, in->work, x0);
+        wd->work = 0.0;
+        wd->have_ref = 1;
+    }
+
+    /* One pass over the vertices, body by body: finiteness, extent, kinetic energy, work. */
+    const double *g = s->gravity, *fx = s->fext;
+    double ke = 0.0, work = 0.0;
+    int finite = 1;
+    int32_t stretched = -1;
+    double span = 0.0;
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        const int32_t i1 = bd->offset + bd->nv;
+        for (int32_t i = bd->offset; i < i1; ++i) {
+            const double *p = x + 3 * (int64_t)i, *u = v + 3 * (int64_t)i;
+            finite &= isfinite(p[0]) & isfinite(p[1]) & isfinite(p[2]) & isfinite(u[0]) &
+                      isfinite(u[1]) & isfinite(u[2]);
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = p[k] < lo[k] ? p[k] : lo[k];
+                hi[k] = p[k] > hi[k] ? p[k] : hi[k];
+            }
+            if (s->pinned[i]) continue;
+            const double m = s->mass[i];
+            const double *q = x0 + 3 * (int64_t)i;
+            ke += 0.5 * m * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+            double f[3] = {m * g[0], m * g[1], m * g[2]};
+            if (fx)
+                for (int k = 0; k < 3; ++k) f[k] += fx[3 * (int64_t)i + k];
+            work += f[0] * (p[0] - q[0]) + f[1] * (p[1] - q[1]) + f[2] * (p[2] - q[2]);
+        }
+        const double d = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
+        if (stretched < 0 && wd->rest_diag[b] > 0.0 && !(d <= in->max_stretch * wd->rest_diag[b])) {
+            stretched = b;
+            span = d;
+        }
+    }
+    if (!finite) {
+        snprintf(what, size, "the state became non-finite");
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    if (energy) {
+        const double budget = wd->e_ref + wd->work + work;
+        const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
+        if (!(ke <= limit)) {
+            snprintf(what, size, "the kinetic energy reached %.3g J, more than %g times what the "
+                     "scene can hold (%.3g J: the energy at the reference plus the work of "
+                     "gravity and applied forces since) plus %.3g J (core.watchdog_energy_growth)",
+                     ke, in->energy_growth, budget, wd->e_floor);
+            return DEFSIM_ERR_UNSTABLE;
+        }
+    }
+    if (stretched >= 0) {
+        snprintf(what, size, "body %d spans %.3g m, more than %g times its rest size %.3g m "
+                 "(core.watchdog_max_stretch)", (int)stretched, span, in->max_stretch,
+                 wd->rest_diag[stretched]);
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
+        const defsim__group *gr = &s->groups[m];
+        if (gr->n == 0 || !gr->law->needs_positive_det) continue;
+        double jmin;
+        const int64_t bad = volume_ratios(gr, x, s->nthreads, &jmin);
+        if (bad > 0) {
+            snprintf(what, size, "%lld %s element(s) inverted (smallest volume ratio J = %.3g; "
+                     "the model is undefined at J <= 0)", (long long)bad, gr->law->name, jmin);
+            return DEFSIM_ERR_UNSTABLE;
+        }
+    }
+    if (energy) wd->work += work;
+    else wd->have_ref = 0;
+    return DEFSIM_OK;
+}
+
+void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
+{
+    wd->have_ref = 0;
+    if (bodies) wd->have_rest = 0;
+}
+
+void defsim__watchdog_free(defsim__watchdog *wd)
+{
+    free(wd->rest_diag);
+    memset(wd, 0, sizeof *wd);
+}
+
+void defsim__watchdog_attachment_moved(defsim__watchdog *wd, const defsim__system *s, int32_t e,
+                                       const double *x, const double p[3])
+{
+    if (!wd->have_ref) return;
+    const defsim__attachments *at = &s->att;
+    double d[3];
+    attach_combine(at, e, x, 1, d);
+    double before = 0.0, after = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const double dn = d[k] + at->p[3 * (int64_t)e + k] - p[k];
+        before += d[k] * d[k];
+        after += dn * dn;
+    }
+    wd->work += 0.5 * at->k[e] * (after - before);
+}
+
+void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__system *s,
+                                  defsim__work *wk, const double *x, const double *v,
+                                  defsim_stats *out)
+{
+    double jmin = INFINITY;
+    int64_t bad = 0;
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
+        if (s->groups[m].n == 0) continue;
+        double j;
+        bad += volume_ratios(&s->groups[m], x, s->nthreads, &j);
+        if (j < jmin) jmin = j;
+    }
+    out->min_volume_ratio = isinf(jmin) ? 1.0 : jmin;
+    out->inverted_elements = bad;
+    out->energy_drift = wd->have_ref ? kinetic_free(s, v) + defsim__elastic_energy(s, wk, x) -
+                                           (wd->e_ref + wd->work)
+                                     : NAN;
+}
+
+int defsim__watchdog_is_diagnostic(const char *name)
+{
+    return !strcmp(name, "min_volume_ratio") || !strcmp(name, "inverted_elements") ||
+           !strcmp(name, "energy_drift");
+}

@@ -10,7 +10,15 @@
  * small negative part far from rest, which the floor covers), so K(now) <= E(ref) + W. Only K
  * and W are needed per step: both come from one pass over the vertices that also checks
  * finiteness and body extents, and the elastic energy is evaluated once per reference, not per
- * step. A step trips when K > growth (E(ref) + W) + floor. The growth factor covers the bounded
+ * step. A step trips when K > growth (E(ref) + W) + floor. K alone lags by a step where an
+ * instability shows first in the elastic energy (a stiff body stepped far beyond its limit
+ * stores 1e4 times the scene's energy while K is still small); so the full E = K + U is
+ * checked against the same limit (one energy evaluation, about the cost of a step of an
+ * explicit backend) in the steps where garbage can hide from K: the first step after a
+ * reference, a step in which K more than doubled (and exceeds a thousandth of the floor), a
+ * step that moved some vertex by more than MOVE_FRACTION of the smallest element size, and
+ * every ENERGY_EVERY-th step. A stable explicit run moves vertices by a small fraction of an
+ * element per step (its CFL condition), so it pays the evaluation in a few steps only. The growth factor covers the bounded
  * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
  * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
  * geometrically and passes any factor within a few steps. Steps with a force callback or driven
@@ -27,6 +35,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+enum { ENERGY_EVERY = 64 };
+static const double MOVE_FRACTION = 0.01;
 
 static double det3(const double *x, const int32_t *id)
 {
@@ -66,6 +77,17 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     const double *g = s->gravity;
     const double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     wd->e_floor = mass * s->length_scale * (gn > 9.81 ? gn : 9.81);
+    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), the
+     * rest length of a spring. */
+    double size = s->length_scale;
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        const defsim__group *gr = &s->groups[m];
+        for (int32_t e = 0; e < gr->n; ++e) {
+            const double l = gr->nodes == 4 ? cbrt(6.0 * gr->vol[e]) : gr->l0[e];
+            if (l > 0.0 && l < size) size = l;
+        }
+    }
+    wd->move2 = (MOVE_FRACTION * size) * (MOVE_FRACTION * size);
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -120,14 +142,16 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     }
     const int energy = in->energy;
     if (energy && !wd->have_ref) {
-        wd->e_ref = kinetic_free(s, in->v0) + defsim__elastic_energy(s, in->work, x0);
+        wd->k_prev = kinetic_free(s, in->v0);
+        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0);
         wd->work = 0.0;
+        wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
         wd->have_ref = 1;
     }
 
     /* One pass over the vertices, body by body: finiteness, extent, kinetic energy, work. */
     const double *g = s->gravity, *fx = s->fext;
-    double ke = 0.0, work = 0.0;
+    double ke = 0.0, work = 0.0, move2 = 0.0;
     int finite = 1;
     int32_t stretched = -1;
     double span = 0.0;
@@ -151,7 +175,10 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             double f[3] = {m * g[0], m * g[1], m * g[2]};
             if (fx)
                 for (int k = 0; k < 3; ++k) f[k] += fx[3 * (int64_t)i + k];
-            work += f[0] * (p[0] - q[0]) + f[1] * (p[1] - q[1]) + f[2] * (p[2] - q[2]);
+            const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+            work += f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
+            const double d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            move2 = d2 > move2 ? d2 : move2;
         }
         const double d = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                               (hi[2] - lo[2]) * (hi[2] - lo[2]));
@@ -167,11 +194,20 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     if (energy) {
         const double budget = wd->e_ref + wd->work + work;
         const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
-        if (!(ke <= limit)) {
-            snprintf(what, size, "the kinetic energy reached %.3g J, more than %g times what the "
-                     "scene can hold (%.3g J: the energy at the reference plus the work of "
-                     "gravity and applied forces since) plus %.3g J (core.watchdog_energy_growth)",
-                     ke, in->energy_growth, budget, wd->e_floor);
+        double e = ke;
+        const char *which = "kinetic";
+        if (ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor || !(move2 <= wd->move2) ||
+            ++wd->since_full >= ENERGY_EVERY) {
+            e = ke + defsim__elastic_energy(s, in->work, x);
+            which = "total";
+            wd->since_full = 0;
+        }
+        wd->k_prev = ke;
+        if (!(e <= limit)) {
+            snprintf(what, size, "the %s energy reached %.3g J, over %g x %.3g J (the energy at "
+                     "the reference plus the work of gravity and applied forces since) + %.3g J "
+                     "(core.watchdog_energy_growth)", which, e, in->energy_growth, budget,
+                     wd->e_floor);
             return DEFSIM_ERR_UNSTABLE;
         }
     }

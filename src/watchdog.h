@@ -22,6 +22,9 @@ typedef struct defsim__watchdog {
     double e_ref;         /* J: kinetic (free vertices) plus elastic energy at the reference */
     double work;          /* J: work of gravity, held forces and attachment targets since then */
     double e_floor;       /* J: total mass x its rest size x max(|g|, 9.81 m/s^2) */
+    double k_prev;        /* J: kinetic energy after the previous step */
+    int32_t since_full;   /* steps since the last check of the total energy */
+    double move2;         /* m^2: a step that moves a vertex further checks the total energy */
     double *rest_diag;    /* per body slot: diagonal of its rest bounding box (m) */
     int32_t cap;
 } defsim__watchdog;

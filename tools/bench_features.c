@@ -8,7 +8,8 @@
  * pin list, an extra body of another material without elements, external forces of zero, a
  * force callback or an attachment set and then removed): the planner must skip them,
  * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
- * when used.
+ * when used. The stability watchdog (core.watchdog) is on in every variant but one, "watchdog
+ * off": the ratio of the baseline to it is what the watchdog costs when nothing trips.
  *
  *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
  */
@@ -32,6 +33,7 @@ typedef struct variant {
     int external;            /* held external forces: 0 none, 1 all zero, 2 on (0.1 N down) */
     int callback;            /* force callback: 0 none, 1 set then cleared, 2 on */
     int attachments;         /* 0 none, 1 one added then removed, 2 on (free end to a point) */
+    int watchdog_off;        /* core.watchdog = false */
 } variant;
 
 static const variant variants[] = {
@@ -53,6 +55,8 @@ static const variant variants[] = {
      .attachments = 1},
     {.name = "attachments on (10, free end to points)", .gravity = 9.81, .pins = 1,
      .attachments = 2},
+    {.name = "watchdog off (core.watchdog = false)", .gravity = 9.81, .pins = 1,
+     .watchdog_off = 1},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
 
@@ -151,6 +155,8 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
         if (defsim_world_add_body(w, &sb, NULL) != DEFSIM_OK) return NULL;
     }
     if (couple(w, v, m, b) != 0) return NULL;
+    if (v->watchdog_off && defsim_world_set_option(w, "core.watchdog", "false") != DEFSIM_OK)
+        return NULL;
     return w;
 }
 

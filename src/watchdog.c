@@ -36,7 +36,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { ENERGY_EVERY = 64 };
+enum { ENERGY_EVERY = 256 };
 static const double MOVE_FRACTION = 0.01;
 
 static double det3(const double *x, const int32_t *id)

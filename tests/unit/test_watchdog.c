@@ -25,17 +25,6 @@ static defsim_world *cantilever(const char *backend, double E)
     return w;
 }
 
-static int available(const char *backend)
-{
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) return 0;
-    defsim_world_destroy(w);
-    return 1;
-}
-
 static double max_abs(const double *a, int n)
 {
     double m = 0.0;
@@ -113,7 +102,7 @@ static void test_no_false_trips(void **state)
         {"symplectic_euler", 1.0 / 1200}, {"velocity_verlet", 1.0 / 1200},
         {"newton_cholmod", 1.0 / 60}};
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; ++r) {
-        if (!available(runs[r].backend)) continue;
+        if (!tu_available(runs[r].backend)) continue;
         defsim_world *w = cantilever(runs[r].backend, 1e6);
         const int n = runs[r].h < 0.01 ? 300 : 30;
         for (int s = 0; s < n; ++s) TU_OK(defsim_world_step(w, runs[r].h));
@@ -319,7 +308,7 @@ static void test_material_eval_overflow(void **state)
 static void test_newton_tiny_step(void **state)
 {
     (void)state;
-    if (!available("newton_cholmod")) skip();
+    if (!tu_available("newton_cholmod")) skip();
     defsim_world *w = cantilever("newton_cholmod", 1e6);
     double *x0 = tu_positions(w);
     assert_int_equal(defsim_world_step(w, 4.9e-324), DEFSIM_ERR_INVALID_ARGUMENT);

@@ -377,7 +377,9 @@ typedef struct defsim_stats {
     double stable_step;            ///< Last estimate of the stable step (s), 0 if never made.
     /* Stability watchdog (docs/watchdog.md). The first three are computed from the current state
      * when the statistics are read (one pass over the tets and one energy evaluation), not by
-     * the step; the others are kept by the step. */
+     * the step, and only once the world is planned (by a step, defsim_world_forces or
+     * defsim_world_stable_step): before, min_volume_ratio and energy_drift are NaN and
+     * inverted_elements 0. The others are kept by the step. */
     double min_volume_ratio;       ///< Smallest J = det F over all tets now (1 without tets).
     int64_t inverted_elements;     ///< Tets with J <= 0 now (any model; neo-Hookean ones fail
                                    ///< the step that inverts them while the watchdog is on).

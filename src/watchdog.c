@@ -233,6 +233,27 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     return DEFSIM_OK;
 }
 
+void defsim__watchdog_message(char *out, size_t size, const char *what, double h, double t,
+                              const char *backend, int limited, double h_stable, int auto_substep)
+{
+    char advice[240];
+    if (!limited)
+        snprintf(advice, sizeof advice, "backend %s has no step-size limit: use a smaller step or "
+                 "a tighter tolerance, and check the scene's forces", backend);
+    else if (isnan(h_stable))
+        snprintf(advice, sizeof advice, "the stable step cannot be estimated at the start of the "
+                 "step (non-finite stiffness): use a smaller step or an implicit backend");
+    else if (auto_substep)
+        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s and "
+                 "core.auto_substep is on: lower core.substep_safety, or use an implicit backend",
+                 h_stable);
+    else
+        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s; use a smaller "
+                 "step, enable core.auto_substep, or an implicit backend", h_stable);
+    snprintf(out, size, "step: watchdog: %s, in the step of h = %g s from t = %g s (state "
+             "restored). %s (core.watchdog = false turns the watchdog off)", what, h, t, advice);
+}
+
 void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 {
     wd->have_ref = 0;

@@ -49,6 +49,12 @@ typedef struct defsim__watchdog_step {
 defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
                                      char *what, size_t size);
 
+/* The message of a trip: what tripped (from defsim__watchdog_check), the step, and what to do:
+ * for a backend with a step-size limit (`limited`) the stable step h_stable at the restored
+ * start (NaN: not estimable) and the way out, else a smaller step or tolerance. */
+void defsim__watchdog_message(char *out, size_t size, const char *what, double h, double t,
+                              const char *backend, int limited, double h_stable, int auto_substep);
+
 /* Drops the energy reference (the host changed the state or the model between steps); with
  * `bodies` set, the rest sizes too. The next check takes a new reference. */
 void defsim__watchdog_forget(defsim__watchdog *wd, int bodies);

@@ -828,7 +828,7 @@ static defsim_status watch_step(defsim_world *w, double h)
         .energy = !w->cpl.fn && !w->drove,
         .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
         .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
-    char what[400], advice[300];
+    char what[400];
     defsim_status st = defsim__watchdog_check(&w->wd, &in, what, sizeof what);
     if (st != DEFSIM_ERR_UNSTABLE) {
         if (st != DEFSIM_OK) defsim__error(w->msg, "step: %s", what);
@@ -838,23 +838,13 @@ static defsim_status watch_step(defsim_world *w, double h)
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
     memcpy(w->state.x, w->x_save, bytes);   /* the estimate is of the start */
     memcpy(w->state.v, w->v_save, bytes);
+    const int limited = w->backend->stable_step || w->backend->stable_step_options;
     double hs = INFINITY;
-    if (!(w->backend->stable_step || w->backend->stable_step_options))
-        snprintf(advice, sizeof advice, "backend %s has no step-size limit: use a smaller step or "
-                 "a tighter tolerance, and check the scene's forces", w->backend->name);
-    else if (estimate_stable_step(w, &hs, NULL) != DEFSIM_OK)
-        snprintf(advice, sizeof advice, "the stable step cannot be estimated at the start of the "
-                 "step (non-finite stiffness): use a smaller step or an implicit backend");
-    else if (defsim__options_auto_substep(o))
-        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s and "
-                 "core.auto_substep is on: lower core.substep_safety, or use an implicit backend",
-                 hs);
-    else
-        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s; use a smaller "
-                 "step, enable core.auto_substep, or an implicit backend", hs);
-    defsim__error(w->msg, "step: watchdog: %s, in the step of h = %g s from t = %g s (state "
-                  "restored). %s (core.watchdog = false turns the watchdog off)", what, h,
-                  w->state.t, advice);
+    const int estimated = limited && estimate_stable_step(w, &hs, NULL) == DEFSIM_OK;
+    char msg[sizeof w->msg->error];
+    defsim__watchdog_message(msg, sizeof msg, what, h, w->state.t, w->backend->name, limited,
+                             estimated ? hs : NAN, defsim__options_auto_substep(o));
+    defsim__error(w->msg, "%s", msg);
     return DEFSIM_ERR_UNSTABLE;
 }
 

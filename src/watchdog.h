@@ -25,6 +25,7 @@ typedef struct defsim__watchdog {
     double k_prev;        /* J: kinetic energy after the previous step */
     int32_t since_full;   /* steps since the last check of the total energy */
     double move2;         /* m^2: a step that moves a vertex further checks the total energy */
+    double jmin;          /* smallest J of the neo-Hookean elements at the last inversion check */
     double *rest_diag;    /* per body slot: diagonal of its rest bounding box (m) */
     int32_t cap;
 } defsim__watchdog;

@@ -76,6 +76,21 @@ static int64_t volume_ratios(const defsim__group *g, const double *x, int nthrea
     return bad;
 }
 
+/* Diagonal of the bounding box of points first .. first + n - 1 of x; NaN if a coordinate is
+ * not finite. */
+static double span(const double *x, int32_t first, int32_t n)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = first; i < first + n; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double c = x[3 * (int64_t)i + k];
+            lo[k] = c < lo[k] ? c : lo[k];
+            hi[k] = c > hi[k] ? c : hi[k];
+        }
+    return sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
 static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
 {
     const defsim__system *s = in->sys;
@@ -98,16 +113,9 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     wd->jmin = 0.0;   /* not measured yet: the first check measures it */
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
-        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (int32_t i = 0; (bd->generation & 1u) && i < bd->nv; ++i)
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = fmin(lo[k], bd->rest[3 * (int64_t)i + k]);
-                hi[k] = fmax(hi[k], bd->rest[3 * (int64_t)i + k]);
-            }
-        const double d = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
-        wd->rest_diag[b] = (bd->generation & 1u) && bd->nv > 1 ? d : 0.0;
+        wd->rest_diag[b] = (bd->generation & 1u) && bd->nv > 1 ? span(bd->rest, 0, bd->nv) : 0.0;
     }
+    for (int32_t i = 0; i < s->nv; ++i) wd->dof[i] = s->pinned[i] ? 0.0 : s->mass[i];
     wd->have_rest = 1;
 }
 
@@ -137,14 +145,16 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         return DEFSIM_ERR_UNSTABLE;
     }
     if (!wd->have_rest) {
-        if (wd->cap < in->nbodies) {
-            double *p = realloc(wd->rest_diag, (size_t)in->nbodies * sizeof *p);
-            if (!p) {
-                snprintf(what, size, "out of memory");
-                return DEFSIM_ERR_OUT_OF_MEMORY;
-            }
-            wd->rest_diag = p;
-            wd->cap = in->nbodies;
+        free(wd->rest_diag);
+        free(wd->dof);
+        wd->rest_diag = malloc(((size_t)in->nbodies + 1) * sizeof *wd->rest_diag);
+        wd->dof = malloc(((size_t)s->nv + 1) * sizeof *wd->dof);
+        if (!wd->rest_diag || !wd->dof) {
+            free(wd->rest_diag);
+            free(wd->dof);
+            wd->rest_diag = wd->dof = NULL;
+            snprintf(what, size, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
         }
         take_rest(wd, in);
     }
@@ -157,44 +167,33 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         wd->have_ref = 1;
     }
 
-    /* One pass over the vertices, body by body: finiteness, extent, kinetic energy, work. */
-    const double *g = s->gravity, *fx = s->fext;
-    double ke = 0.0, work = 0.0, move2 = 0.0;
-    int finite = 1;
-    int32_t stretched = -1;
-    double span = 0.0;
-    for (int32_t b = 0; b < in->nbodies; ++b) {
-        const defsim__body *bd = &in->bodies[b];
-        if (!(bd->generation & 1u)) continue;
-        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        const int32_t i1 = bd->offset + bd->nv;
-        for (int32_t i = bd->offset; i < i1; ++i) {
-            const double *p = x + 3 * (int64_t)i, *u = v + 3 * (int64_t)i;
-            finite &= isfinite(p[0]) & isfinite(p[1]) & isfinite(p[2]) & isfinite(u[0]) &
-                      isfinite(u[1]) & isfinite(u[2]);
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = p[k] < lo[k] ? p[k] : lo[k];
-                hi[k] = p[k] > hi[k] ? p[k] : hi[k];
-            }
-            if (s->pinned[i]) continue;
-            const double m = s->mass[i];
-            const double *q = x0 + 3 * (int64_t)i;
-            ke += 0.5 * m * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-            double f[3] = {m * g[0], m * g[1], m * g[2]};
-            if (fx)
-                for (int k = 0; k < 3; ++k) f[k] += fx[3 * (int64_t)i + k];
-            const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-            work += f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
-            const double d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            move2 = d2 > move2 ? d2 : move2;
+    /* One branch-free pass over the vertices (vectorised: it runs in every step): finiteness,
+     * kinetic energy and work of the free vertices, the largest move. x * 0 is NaN exactly when
+     * x is inf or NaN; mf is a vertex's mass, 0 if pinned. */
+    const double *mf = wd->dof, *fx = s->fext, *g = s->gravity;
+    double nan = 0.0, ke = 0.0, mdx0 = 0.0, mdx1 = 0.0, mdx2 = 0.0, wext = 0.0, move = 0.0;
+    const int32_t nv = s->nv;
+#pragma omp simd reduction(+ : nan, ke, mdx0, mdx1, mdx2, wext) reduction(max : move)
+    for (int32_t i = 0; i < nv; ++i) {
+        const double m = mf[i], fr = m > 0.0 ? 1.0 : 0.0;
+        const double *p = x + 3 * (int64_t)i, *q = x0 + 3 * (int64_t)i, *u = v + 3 * (int64_t)i;
+        const double d0 = p[0] - q[0], d1 = p[1] - q[1], d2 = p[2] - q[2];
+        nan += p[0] * 0.0 + p[1] * 0.0 + p[2] * 0.0 + u[0] * 0.0 + u[1] * 0.0 + u[2] * 0.0;
+        ke += m * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        mdx0 += m * d0;
+        mdx1 += m * d1;
+        mdx2 += m * d2;
+        if (fx) {
+            const double *f = fx + 3 * (int64_t)i;
+            wext += fr * (f[0] * d0 + f[1] * d1 + f[2] * d2);
         }
-        const double d = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
-        if (stretched < 0 && wd->rest_diag[b] > 0.0 && !(d <= in->max_stretch * wd->rest_diag[b])) {
-            stretched = b;
-            span = d;
-        }
+        const double a = fr * (d0 * d0 + d1 * d1 + d2 * d2);
+        move = a > move ? a : move;
     }
+    ke *= 0.5;
+    const double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
+    const int finite = nan == 0.0;
+    const double move2 = move;
     if (!finite) {
         snprintf(what, size, "the state became non-finite");
         return DEFSIM_ERR_UNSTABLE;
@@ -217,11 +216,15 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    if (stretched >= 0) {
-        snprintf(what, size, "body %d spans %.3g m, more than %g times its rest size %.3g m "
-                 "(core.watchdog_max_stretch)", (int)stretched, span, in->max_stretch,
-                 wd->rest_diag[stretched]);
-        return DEFSIM_ERR_UNSTABLE;
+    for (int32_t b = 0; full && b < in->nbodies; ++b) {
+        if (!(wd->rest_diag[b] > 0.0)) continue;   /* removed, or a single vertex */
+        const double d = span(x, in->bodies[b].offset, in->bodies[b].nv);
+        if (!(d <= in->max_stretch * wd->rest_diag[b])) {
+            snprintf(what, size, "body %d spans %.3g m, more than %g times its rest size %.3g m "
+                     "(core.watchdog_max_stretch)", (int)b, d, in->max_stretch,
+                     wd->rest_diag[b]);
+            return DEFSIM_ERR_UNSTABLE;
+        }
     }
     for (int m = 0; m < DEFSIM__TET_MODELS && (full || wd->jmin < JMIN_WATCH); ++m) {
         const defsim__group *gr = &s->groups[m];
@@ -270,6 +273,7 @@ void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 void defsim__watchdog_free(defsim__watchdog *wd)
 {
     free(wd->rest_diag);
+    free(wd->dof);
     memset(wd, 0, sizeof *wd);
 }
 

@@ -27,7 +27,7 @@ typedef struct defsim__watchdog {
     double move2;         /* m^2: a step that moves a vertex further checks the total energy */
     double jmin;          /* smallest J of the neo-Hookean elements at the last inversion check */
     double *rest_diag;    /* per body slot: diagonal of its rest bounding box (m) */
-    int32_t cap;
+    double *dof;          /* nv: a vertex's mass, 0 if pinned */
 } defsim__watchdog;
 
 /* What one check needs: the system, the bodies, the state after (x, v) and before (x0, v0) the

@@ -475,6 +475,7 @@ defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id
         /* The compiled attachments are the live ones in slot order. */
         int32_t e = 0;
         for (const defsim__attachment *o = w->att; o < a; ++o) e += (o->generation & 1u) != 0;
+        defsim__watchdog_attachment_moved(&w->wd, &w->sys, e, w->state.x, target);
         for (int k = 0; k < 3; ++k) w->sys.att.p[3 * (int64_t)e + k] = target[k];
     }
     return DEFSIM_OK;

@@ -182,17 +182,38 @@ defsim_status defsim_material_eval(const defsim_material *material, const double
     defsim__lame(material->youngs_modulus, material->poisson_ratio, &mu, &lambda);
     /* The check admits only tet models here. */
     const defsim__model *m = defsim__model_find((int)material->model);
+    double fmax = 0.0;
+    for (int i = 0; i < 9; ++i) fmax = fabs(F[i]) > fmax ? fabs(F[i]) : fmax;
     if (m->needs_positive_det) {
         double J = defsim__m3_det(F);
-        if (!(J > 0.0)) {
-            defsim__set_last_error("defsim_material_eval: %s is undefined at det F = %.17g <= 0",
-                                   m->name, J);
+        if (!(J > 0.0) || !isfinite(J)) {
+            defsim__set_last_error(isfinite(J) ? "defsim_material_eval: %s is undefined at det F "
+                                                 "= %.17g <= 0"
+                                               : "defsim_material_eval: %s: det F = %g overflows "
+                                                 "(max |F_ij| = %g)",
+                                   m->name, J, fmax);
             return DEFSIM_ERR_UNSTABLE;
         }
     }
+    /* Large F overflows the invariants (psi grows like |F|^2 to |F|^4): the outputs would be
+     * inf or NaN, which a status reports instead. */
     double e = 0.0, Pbuf[9];
-    if (psi != NULL || P != NULL) e = m->P(mu, lambda, F, P != NULL ? P : Pbuf);
-    if (dPdF != NULL) m->dPdF(mu, lambda, F, dPdF);
+    int finite = 1;
+    if (psi != NULL || P != NULL) {
+        double *p = P != NULL ? P : Pbuf;
+        e = m->P(mu, lambda, F, p);
+        finite &= psi == NULL || isfinite(e);
+        for (int i = 0; P != NULL && i < 9; ++i) finite &= isfinite(p[i]) != 0;
+    }
+    if (dPdF != NULL) {
+        m->dPdF(mu, lambda, F, dPdF);
+        for (int i = 0; i < 81; ++i) finite &= isfinite(dPdF[i]) != 0;
+    }
     if (psi != NULL) *psi = e;
+    if (!finite) {
+        defsim__set_last_error("defsim_material_eval: %s overflows at max |F_ij| = %g (the "
+                               "outputs are not finite)", m->name, fmax);
+        return DEFSIM_ERR_UNSTABLE;
+    }
     return DEFSIM_OK;
 }

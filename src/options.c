@@ -37,9 +37,18 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
     /* (0, 1]: DBL_MIN, the smallest normal double, stands for the open bound */
     {"substep_safety", DEFSIM_OPTION_REAL, 0.8, DBL_MIN, 1.0, NULL,
      "fraction of the stable step that auto_substep uses, in (0, 1]"},
+    {"watchdog", DEFSIM_OPTION_BOOL, 1.0, 0.0, 1.0, NULL,
+     "fail a step whose state leaves the envelope the scene explains (energy, extent, "
+     "inversion; docs/watchdog.md) with DEFSIM_ERR_UNSTABLE; non-finite states fail either way"},
+    {"watchdog_energy_growth", DEFSIM_OPTION_REAL, 10.0, 1.0, 1e300, NULL,
+     "kinetic energy may reach this multiple of the energy at the reference plus the work of "
+     "gravity and applied forces since (plus mass x size x max(|g|, 9.81 m/s^2))"},
+    {"watchdog_max_stretch", DEFSIM_OPTION_REAL, 100.0, 1.0, 1e300, NULL,
+     "a body's bounding-box diagonal may reach this multiple of its rest diagonal"},
 };
-static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {"core.simd", "core.auto_substep",
-                                                             "core.substep_safety"};
+static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {
+    "core.simd", "core.auto_substep", "core.substep_safety", "core.watchdog",
+    "core.watchdog_energy_growth", "core.watchdog_max_stretch"};
 
 typedef enum { ST_U32, ST_I32, ST_I64, ST_F64 } stat_kind;
 typedef struct stat_field {
@@ -59,11 +68,13 @@ static const stat_field STATS[] = {
     STAT(internal_steps, ST_I64), STAT(residual_evals, ST_I64), STAT(jacobian_evals, ST_I64),
     STAT(error_test_failures, ST_I64), STAT(convergence_failures, ST_I64),
     STAT(last_order, ST_I32), STAT(substeps, ST_I64), STAT(stable_step, ST_F64),
+    STAT(min_volume_ratio, ST_F64), STAT(inverted_elements, ST_I64), STAT(energy_drift, ST_F64),
+    STAT(nonlinear_residual, ST_F64), STAT(watchdog_trips, ST_I64),
 };
 #undef STAT
 enum { NSTATS = (int)(sizeof STATS / sizeof STATS[0]) };
 /* A field appended to defsim_stats must be added above (and here). */
-_Static_assert(offsetof(defsim_stats, stable_step) + sizeof(double) == sizeof(defsim_stats),
+_Static_assert(offsetof(defsim_stats, watchdog_trips) + sizeof(int64_t) == sizeof(defsim_stats),
                "options.c: STATS must name every field of defsim_stats");
 
 static double stat_read(const defsim_stats *s, const stat_field *f)
@@ -368,6 +379,11 @@ int defsim__options_auto_substep(const defsim__options *o)
 double defsim__options_substep_safety(const defsim__options *o)
 {
     return o->core[DEFSIM__OPT_SUBSTEP_SAFETY];
+}
+
+double defsim__options_core(const defsim__options *o, int k)
+{
+    return o->core[k];
 }
 
 int defsim__options_projection(const defsim__options *o, int def_projection)

@@ -16,7 +16,10 @@ enum {
     DEFSIM__OPT_SIMD = 0,          /* CHOICE auto|scalar|generic|avx2|avx512 */
     DEFSIM__OPT_AUTO_SUBSTEP = 1,  /* BOOL */
     DEFSIM__OPT_SUBSTEP_SAFETY = 2,/* REAL (0, 1] */
-    DEFSIM__CORE_OPTIONS = 3
+    DEFSIM__OPT_WATCHDOG = 3,      /* BOOL: the stability watchdog (watchdog.c) */
+    DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH = 4, /* REAL [1, 1e300] */
+    DEFSIM__OPT_WATCHDOG_MAX_STRETCH = 5,   /* REAL [1, 1e300] */
+    DEFSIM__CORE_OPTIONS = 6
 };
 
 typedef struct defsim__options {
@@ -45,6 +48,8 @@ int defsim__options_take_reinit(defsim__options *o);
 /* What the core reads of its options. */
 int defsim__options_auto_substep(const defsim__options *o);
 double defsim__options_substep_safety(const defsim__options *o);
+/* The core's value of option k (DEFSIM__OPT_*). */
+double defsim__options_core(const defsim__options *o, int k);
 /* The backend's "projection" option when it declares one, else `def_projection` (the world
  * def's, for backends that still read it there). */
 int defsim__options_projection(const defsim__options *o, int def_projection);

@@ -15,6 +15,7 @@
 #include "registry.h"
 #include "stability.h"
 #include "tet_rest.h"
+#include "watchdog.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -204,6 +205,7 @@ void defsim__world_unplan(defsim_world *w)
 {
     defsim__unplan(&w->sys, &w->work);
     w->planned = 0;
+    defsim__watchdog_forget(&w->wd, 1);
 }
 
 void defsim__world_invalidate(defsim_world *w)
@@ -290,6 +292,7 @@ void defsim_world_destroy(defsim_world *w)
     if (defsim__world_check_unlocked(w) != DEFSIM_OK) return;   /* the caller is inside it */
     backend_fini(w);
     defsim__world_unplan(w);
+    defsim__watchdog_free(&w->wd);
     for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
     free(w->bodies); free(w->body_gen); free(w->body_dense);
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
@@ -794,6 +797,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
     if (x) memcpy(w->state.x, x, bytes);
     if (v) memcpy(w->state.v, v, bytes);
     w->h_stable = 0.0;
+    defsim__watchdog_forget(&w->wd, 0);
     for (int32_t i = 0; i < w->nv; ++i)
         if (w->pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend_ready && w->backend->reset) {
@@ -847,7 +851,10 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
     out->gravitational = ge;
     out->total = ke + out->elastic + ge;
     if (!w->planned) defsim__unplan(&tmp, &tmpw);
-    return DEFSIM_OK;
+    if (isfinite(out->total)) return DEFSIM_OK;
+    defsim__error(w->msg, "energy: not finite (elastic %g J, kinetic %g J): an inverted neo-Hookean "
+                  "element has no energy, or the state overflowed", out->elastic, ke);
+    return DEFSIM_ERR_UNSTABLE;
 }
 
 defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_out)
@@ -860,12 +867,35 @@ defsim_status defsim_world_forces(defsim_world *w, const double *x, double *f_ou
     }
     st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
+    if (x)
+        for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i)
+            if (!isfinite(x[i])) {
+                defsim__error(w->msg, "forces: x[%lld] = %g is not finite", (long long)i, x[i]);
+                return DEFSIM_ERR_INVALID_ARGUMENT;
+            }
     const double t0 = defsim__now();
-    (void)defsim__forces(&w->sys, x ? x : w->state.x, NULL,
-                         DEFSIM_FORCE_ELASTIC | DEFSIM__FORCE_KEEP_PINNED, f_out, NULL);
+    st = defsim__forces(&w->sys, x ? x : w->state.x, NULL,
+                        DEFSIM_FORCE_ELASTIC | DEFSIM__FORCE_KEEP_PINNED, f_out, NULL);
     w->stats.force_evals++;
     w->stats.time_forces += defsim__now() - t0;
-    return DEFSIM_OK;
+    if (st != DEFSIM_OK)
+        defsim__error(w->msg, "forces: the elastic forces at these positions are not finite (an "
+                      "inverted neo-Hookean element, or an overflow); f_out holds them as computed");
+    return st;
+}
+
+/* The statistics with the watchdog's diagnostics of the current state filled in. */
+static defsim_stats stats_now(const defsim_world *w)
+{
+    defsim_stats s = w->stats;
+    s.min_volume_ratio = NAN;
+    s.inverted_elements = 0;
+    s.energy_drift = NAN;
+    if (w->planned) {
+        defsim__work work = w->work;   /* scratch only: the call changes nothing */
+        defsim__watchdog_diagnostics(&w->wd, &w->sys, &work, w->state.x, w->state.v, &s);
+    }
+    return s;
 }
 
 defsim_status defsim_world_stats(const defsim_world *w, defsim_stats *out)
@@ -877,7 +907,8 @@ defsim_status defsim_world_stats(const defsim_world *w, defsim_stats *out)
     }
     size_t n = out->size < sizeof w->stats ? out->size : sizeof w->stats;
     uint32_t size = out->size;
-    memcpy(out, &w->stats, n);
+    const defsim_stats now = stats_now(w);
+    memcpy(out, &now, n);
     out->size = size;
     return DEFSIM_OK;
 }
@@ -933,12 +964,50 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 /* ------------------------------------------------------------------------------------------ */
 /* Stepping */
 
+/* The stability watchdog over a step the backend finished; on a trip the message says what
+ * tripped and what to do, with the stable step at the restored start (docs/watchdog.md). */
+static defsim_status watch_step(defsim_world *w, double h)
+{
+    const defsim__options *o = &w->options;
+    const defsim__watchdog_step in = {
+        .sys = &w->sys, .work = &w->work, .bodies = w->bodies, .nbodies = w->nbodies,
+        .x = w->state.x, .v = w->state.v, .x0 = w->x_save, .v0 = w->v_save,
+        .on = defsim__options_core(o, DEFSIM__OPT_WATCHDOG) != 0.0,
+        .energy = !w->cpl.fn && !w->drove,
+        .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
+        .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
+    char what[400];
+    defsim_status st = defsim__watchdog_check(&w->wd, &in, what, sizeof what);
+    if (st != DEFSIM_ERR_UNSTABLE) {
+        if (st != DEFSIM_OK) defsim__error(w->msg, "step: %s", what);
+        return st;
+    }
+    w->stats.watchdog_trips++;
+    const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
+    memcpy(w->state.x, w->x_save, bytes);   /* the estimate is of the start */
+    memcpy(w->state.v, w->v_save, bytes);
+    const int limited = w->backend->stable_step || w->backend->stable_step_options;
+    double hs = INFINITY;
+    const int estimated = limited && estimate_stable_step(w, &hs, NULL) == DEFSIM_OK;
+    char msg[sizeof w->msg->error];
+    defsim__watchdog_message(msg, sizeof msg, what, h, w->state.t, w->backend->name, limited,
+                             estimated ? hs : NAN, defsim__options_auto_substep(o));
+    defsim__error(w->msg, "%s", msg);
+    return DEFSIM_ERR_UNSTABLE;
+}
+
 defsim_status defsim_world_step(defsim_world *w, double h)
 {
     defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     if (!isfinite(h) || !(h > 0.0)) {
         defsim__error(w->msg, "step: h = %g must be finite and > 0", h);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (w->state.t + h == w->state.t) {
+        defsim__error(w->msg, "step: h = %g s does not advance the time t = %.17g s (t + h rounds "
+                      "to t in double precision): use a larger step, or restart the clock",
+                      h, w->state.t);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     double t0 = defsim__now();
@@ -1001,16 +1070,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     }
     st = defsim__coupling_step_end(w, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
-    if (st == DEFSIM_OK) {
-        const int64_t ndof = 3 * (int64_t)w->nv;
-        int ok = 1;
-        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(w->state.x[i]) & isfinite(w->state.v[i]);
-        if (!ok) {
-            st = DEFSIM_ERR_UNSTABLE;
-            defsim__error(w->msg, "step: the state became non-finite (h = %g at t = %g); "
-                                  "state restored", h, w->state.t);
-        }
-    }
+    if (st == DEFSIM_OK) st = watch_step(w, h);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);
@@ -1083,14 +1143,22 @@ int32_t defsim_world_stat_count(const defsim_world *w)
 defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const char **name,
                                      double *value)
 {
-    return defsim__world_live(w) ? defsim__options_stat_info(&w->options, &w->stats, i, name, value)
-             : DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const char *n = NULL;
+    defsim_status st = defsim__options_stat_info(&w->options, &w->stats, i, &n, NULL);
+    if (st != DEFSIM_OK || !value || !defsim__watchdog_is_diagnostic(n))
+        return defsim__options_stat_info(&w->options, &w->stats, i, name, value);
+    const defsim_stats now = stats_now(w);
+    return defsim__options_stat_info(&w->options, &now, i, name, value);
 }
 
 defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
 {
-    return defsim__world_live(w) ? defsim__options_stat(&w->options, w->msg, &w->stats, name, value)
-             : DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!name || !defsim__watchdog_is_diagnostic(name))
+        return defsim__options_stat(&w->options, w->msg, &w->stats, name, value);
+    const defsim_stats now = stats_now(w);
+    return defsim__options_stat(&w->options, w->msg, &now, name, value);
 }
 
 defsim_status defsim_world_set_log(defsim_world *w, defsim_log_fn fn, void *user)

@@ -14,6 +14,7 @@
 #include "status.h"
 #include "system.h"
 #include "options.h"
+#include "watchdog.h"
 
 #include <stdint.h>
 
@@ -76,6 +77,7 @@ struct defsim_world {
     int colliders_changed;    /* a collider was added or removed since the last step */
     double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
     int32_t contact_nv;
+    defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).

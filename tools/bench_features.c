@@ -8,9 +8,13 @@
  * pin list, an extra body of another material without elements, external forces of zero, a
  * force callback or an attachment set and then removed): the planner must skip them,
  * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
- * when used.
+ * when used. The stability watchdog (core.watchdog) is on in every variant but the "watchdog
+ * off" ones: baseline over "watchdog off" is what the watchdog costs when nothing trips, and the
+ * neo-Hookean pair the same with its inversion check. --cpu measures process CPU time instead of
+ * the monotonic clock: on a shared, oversubscribed machine, time spent waiting for a core then
+ * does not count.
  *
- *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
+ *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T] [--cpu]
  */
 #include "bench_beam.h"
 #include "clock.h"
@@ -32,6 +36,8 @@ typedef struct variant {
     int external;            /* held external forces: 0 none, 1 all zero, 2 on (0.1 N down) */
     int callback;            /* force callback: 0 none, 1 set then cleared, 2 on */
     int attachments;         /* 0 none, 1 one added then removed, 2 on (free end to a point) */
+    int watchdog_off;        /* core.watchdog = false */
+    int neohookean;          /* the beam is neo-Hookean instead of stable neo-Hookean */
 } variant;
 
 static const variant variants[] = {
@@ -53,8 +59,23 @@ static const variant variants[] = {
      .attachments = 1},
     {.name = "attachments on (10, free end to points)", .gravity = 9.81, .pins = 1,
      .attachments = 2},
+    {.name = "watchdog off (core.watchdog = false)", .gravity = 9.81, .pins = 1,
+     .watchdog_off = 1},
+    {.name = "neo-Hookean beam, watchdog on", .gravity = 9.81, .pins = 1, .neohookean = 1},
+    {.name = "neo-Hookean beam, watchdog off", .gravity = 9.81, .pins = 1, .neohookean = 1,
+     .watchdog_off = 1},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
+
+static int use_cpu;   /* --cpu */
+
+static double now(void)
+{
+    if (!use_cpu) return tools_now();
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static int cmp(const void *a, const void *b)
 {
@@ -117,7 +138,8 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
     defsim_world *w;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
     defsim_material mat;
-    defsim_material_init(&mat, sizeof mat, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    defsim_material_init(&mat, sizeof mat,
+                         v->neohookean ? DEFSIM_MODEL_NEOHOOKEAN : DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     mat.mass_damping = v->alpha;
     mat.stiffness_damping = v->beta;
     defsim_body_id b;
@@ -151,6 +173,8 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
         if (defsim_world_add_body(w, &sb, NULL) != DEFSIM_OK) return NULL;
     }
     if (couple(w, v, m, b) != 0) return NULL;
+    if (v->watchdog_off && defsim_world_set_option(w, "core.watchdog", "false") != DEFSIM_OK)
+        return NULL;
     return w;
 }
 
@@ -170,7 +194,13 @@ static void passes(uint32_t p, char *out, size_t n)
 int main(int argc, char **argv)
 {
     int n = 12, steps = 20, rounds = 7, threads = 1;
-    for (int i = 1; i + 1 < argc; i += 2) {
+    for (int i = 1; i < argc; i += 2) {
+        if (!strcmp(argv[i], "--cpu")) {
+            use_cpu = 1;
+            --i;
+            continue;
+        }
+        if (i + 1 >= argc) { fprintf(stderr, "option %s needs a value\n", argv[i]); return 2; }
         if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
@@ -191,12 +221,12 @@ int main(int argc, char **argv)
     for (int v = 0; v < NV; ++v) defsim_world_step(w[v], h);   /* plan and warm up */
     for (int r = 0; r < rounds; ++r)
         for (int v = 0; v < NV; ++v) {
-            double t0 = tools_now();
+            double t0 = now();
             for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
-            t[v][r] = (tools_now() - t0) / steps;
+            t[v][r] = (now() - t0) / steps;
         }
-    printf("%d tets, %d threads, median of %d rounds x %d steps, variants interleaved\n\n",
-           m.tet_count, threads, rounds, steps);
+    printf("%d tets, %d threads, median of %d rounds x %d steps, variants interleaved, %s\n\n",
+           m.tet_count, threads, rounds, steps, use_cpu ? "process CPU time" : "monotonic clock");
     printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
     double base = 0;
     for (int v = 0; v < NV; ++v) {

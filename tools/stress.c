@@ -5,7 +5,11 @@
  * library's predicted stable step (defsim_world_stable_step). Writes a CSV that
  * tools/plot_stress.py turns into one stability map per backend, and prints a summary.
  * With --check it asserts the CI properties and exits non-zero on a violation:
- *   - no run ever leaves a non-finite state;
+ *   - no step of any backend returns DEFSIM_OK with a non-finite or an exploded state (energy
+ *     above EXPLODED times the run's energy scale, or a vertex beyond MAX_REACH from the origin:
+ *     the scenes are 1.5 m and 1 m long). A run goes on after it passes the blow-up ratio, until
+ *     the library refuses a step (the watchdog: docs/watchdog.md) or the run ends, so that the
+ *     check sees every state the library returns as a success;
  *   - implicit backends never blow up at any step size of the matrix (newmark excepted: the
  *     trapezoidal rule is unconditionally stable for linear problems only, and its energy
  *     growth on stiff nonlinear runs is listed); a nonlinear solve that does not converge is a
@@ -31,6 +35,7 @@ static const char *class_names[NCLS] = {"stable", "energy_blowup", "non_finite",
 
 typedef struct run_result {
     int cls;
+    int exploded;          /* a step returned OK with a non-finite or exploded state */
     int steps_done;
     double energy_ratio;   /* max (E(t) - E(0)) / energy scale */
     double h_pred;         /* predicted stable step at the start */
@@ -39,7 +44,10 @@ typedef struct run_result {
 
 /* The scene: a clamped beam of tets ("beam") or a rope of springs pinned at one end ("rope").
  * E sets the tet Young's modulus or, for the rope, the spring stiffness k = E * 1e-4 m. */
+enum { EXPLODED = 1000 };        /* energy ratio of an exploded state */
+static const double MAX_REACH = 100.0;   /* m */
 static int max_iterations_opt;   /* 0: the library's default */
+static int watchdog_off;         /* --no-watchdog: to see that the check catches garbage */
 static int max_internal_opt = 5000;   /* adaptive backends: internal steps per call */
 
 static defsim_world *make_world(const char *scene, const char *backend, double E, double nu,
@@ -124,10 +132,11 @@ fail:
 static run_result run_one(const char *scene, const char *backend, double h, double E, double nu,
                           int start, int max_steps, double T)
 {
-    run_result r = {CLS_STABLE, 0, 0.0, 0.0, DEFSIM_OK};
+    run_result r = {CLS_STABLE, 0, 0, 0.0, 0.0, DEFSIM_OK};
     int nv = 0;
     defsim_world *w = make_world(scene, backend, E, nu, start, &nv);
     if (!w) { r.cls = CLS_ERROR; r.status = DEFSIM_ERR_BACKEND_UNAVAILABLE; return r; }
+    if (watchdog_off) defsim_world_set_option(w, "core.watchdog", "off");
     defsim_world_stable_step(w, &r.h_pred, NULL);
     defsim_energy e0, e;
     defsim_world_energy(w, &e0);
@@ -140,21 +149,39 @@ static run_result run_one(const char *scene, const char *backend, double h, doub
     const double scale = fabs(e0.kinetic) + fabs(e0.elastic) + mass * 9.81 * 1.5 + 1e-12;
     int steps = (int)ceil(T / h);
     if (steps > max_steps) steps = max_steps;
-    double *x = malloc(3 * (size_t)nv * sizeof *x);
+    double *x = malloc(3 * (size_t)nv * sizeof *x), *v = malloc(3 * (size_t)nv * sizeof *v);
     for (int s = 0; s < steps; ++s) {
         defsim_status st = defsim_world_step(w, h);
-        if (st != DEFSIM_OK) { r.cls = CLS_ERROR; r.status = st; break; }
+        if (st != DEFSIM_OK) {
+            if (r.cls == CLS_STABLE) r.cls = CLS_ERROR;
+            r.status = st;
+            break;
+        }
         r.steps_done = s + 1;
         defsim_world_get_positions(w, x, nv);
+        defsim_world_get_velocities(w, v, nv);
         int finite = 1;
-        for (int i = 0; i < 3 * nv; ++i) finite &= isfinite(x[i]);
-        defsim_world_energy(w, &e);
-        if (!finite || !isfinite(e.total)) { r.cls = CLS_NONFINITE; break; }
+        double reach = 0.0;
+        for (int i = 0; i < 3 * nv; ++i) {
+            finite &= isfinite(x[i]) & isfinite(v[i]);
+            reach = fmax(reach, fabs(x[i]));
+        }
+        const int est = defsim_world_energy(w, &e);
+        if (!finite || est != DEFSIM_OK || !isfinite(e.total)) {
+            r.cls = CLS_NONFINITE;
+            r.exploded = 1;
+            break;
+        }
         double ratio = (e.total - e0.total) / scale;
         if (ratio > r.energy_ratio) r.energy_ratio = ratio;
-        if (ratio > 10.0) { r.cls = CLS_BLOWUP; break; }
+        if (ratio > 10.0) r.cls = CLS_BLOWUP;
+        if (ratio > EXPLODED || !(reach <= MAX_REACH)) {
+            r.exploded = 1;
+            break;
+        }
     }
     free(x);
+    free(v);
     defsim_world_destroy(w);
     return r;
 }
@@ -187,10 +214,12 @@ static int usage(void)
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
             "                     [--scenes beam,rope] [--steps N] [--time T]\n"
             "                     [--max-iterations N] [--max-internal-steps N]\n"
-            "                     [--list-variants | --variant K]\n"
+            "                     [--list-variants | --variant K] [--no-watchdog]\n"
             "  --list-variants    print the runs of the matrix as JSON lines (index and settings)\n"
             "  --variant K        run only run K of the matrix; print the CSV header and its row\n"
-            "                     (with --check, exit 1 if it is a violation)\n");
+            "                     (with --check, exit 1 if it is a violation)\n"
+            "  --no-watchdog      core.watchdog off in every run (to see that --check catches\n"
+            "                     the garbage the watchdog refuses)\n");
     return 2;
 }
 
@@ -207,6 +236,7 @@ int defsim_tool_stress(int argc, char **argv)
         if (!strcmp(argv[i], "--reduced")) reduced = 1;
         else if (!strcmp(argv[i], "--check")) check = 1;
         else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
+        else if (!strcmp(argv[i], "--no-watchdog")) watchdog_off = 1;
         else if (!strcmp(argv[i], "--variant") && i + 1 < argc) {
             char *end = NULL;
             variant = strtol(argv[++i], &end, 10);
@@ -286,7 +316,9 @@ int defsim_tool_stress(int argc, char **argv)
                                     defsim_status_string(r.status));
                             if (!check) continue;
                             const char *why = NULL;
-                            if (r.cls == CLS_NONFINITE) why = "non-finite state";
+                            if (r.exploded)
+                                why = r.cls == CLS_NONFINITE ? "non-finite state returned as success"
+                                                             : "exploded state returned as success";
                             else if ((flags & DEFSIM_BACKEND_IMPLICIT) && r.cls == CLS_BLOWUP &&
                                      !strcmp(b, "newmark"))
                                 /* The trapezoidal rule is A-stable for linear problems only; a

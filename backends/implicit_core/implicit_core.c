@@ -659,6 +659,9 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         stats->newton_iterations++;
         defsim_status st = gradient(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "non-finite forces");
+        double gmax = 0.0;
+        for (int64_t k = 0; k < p->n; ++k) gmax = fmax(gmax, fabs(s->grad[k]));
+        stats->nonlinear_residual = gmax;
         st = hessian(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
         double slope = 0.0;
@@ -717,6 +720,13 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
     defsim__ic_solver *p = &s->pub;
     double *xw = host->positions(sys), *vw = host->velocities(sys);
     if (p->n == 0) return DEFSIM_OK;   /* every vertex pinned: nothing moves */
+    if (!isfinite(1.0 / (h * h))) {
+        /* The merit's inertia term is M |x - y|^2 / (2 h^2): no other check names the cause. */
+        char msg[160];
+        snprintf(msg, sizeof msg, "h = %g s is too small for this backend: its Newton energy "
+                 "scales with 1/h^2, which overflows for h below about 1e-154 s", h);
+        return fail(s, host, sys, DEFSIM_ERR_INVALID_ARGUMENT, msg);
+    }
     const size_t bytes = (size_t)p->ndof * sizeof(double);
     memcpy(p->x0, xw, bytes);
     memcpy(p->v0, vw, bytes);

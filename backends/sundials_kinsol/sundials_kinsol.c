@@ -315,6 +315,8 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         s->sun.msg[0] = '\0';
         flag = kin_solve(s);
     }
+    double fnorm_last = 0.0;
+    if (KINGetFuncNorm(s->mem, &fnorm_last) == KIN_SUCCESS) st->nonlinear_residual = fnorm_last;
     if (kin_failed(flag)) {
         st->convergence_failures++;
         defsim__sun_count(host, sys, C_NCF, 1.0);

@@ -63,7 +63,8 @@ typedef enum defsim_status {
     DEFSIM_ERR_INVALID_MATERIAL = -3,     ///< Non-physical material parameters.
     DEFSIM_ERR_BACKEND_UNAVAILABLE = -4,  ///< No backend of that name, or its module failed to load.
     DEFSIM_ERR_NOT_CONVERGED = -5,        ///< A nonlinear or adaptive solve failed; state unchanged.
-    DEFSIM_ERR_UNSTABLE = -6,             ///< The step produced a non-finite state; state unchanged.
+    DEFSIM_ERR_UNSTABLE = -6,             ///< The step produced a non-finite state or one outside
+                                          ///< the watchdog's envelope; state unchanged.
     DEFSIM_ERR_OUT_OF_MEMORY = -7,        ///< An allocation failed; state unchanged.
     DEFSIM_ERR_IO = -8,                   ///< A file could not be read or written, or is malformed.
     DEFSIM_ERR_STALE_ID = -9,             ///< A body or attachment id that is null, removed, or
@@ -125,7 +126,9 @@ DEFSIM_API void defsim_material_init(defsim_material *material, size_t size, def
 /// rest has zero elastic energy, defsim_material_eval does not.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL material or F, a spring model, or non-finite F),
 /// DEFSIM_ERR_INVALID_MATERIAL (bad parameters), DEFSIM_ERR_UNSTABLE (the neo-Hookean model at
-/// det F <= 0, where it is undefined). Thread-safe.
+/// det F <= 0, where it is undefined, and any model when a requested output overflows: large F,
+/// e.g. StVK's energy grows like |F|^4 and is not finite beyond |F| ~ 1e77; the outputs are then
+/// written as computed, inf or NaN). Thread-safe.
 DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
                                               double *psi, double P[9], double dPdF[81]);
 
@@ -291,8 +294,11 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 
 /// Advances the world by h seconds with its backend. On any error the positions, velocities and
 /// time are exactly as before the call and the world stays usable.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (h not finite or <= 0, NULL world),
-/// DEFSIM_ERR_UNSTABLE (the result was not finite), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (h not finite or <= 0, NULL world, or h so small against
+/// the time that t + h rounds to t), DEFSIM_ERR_UNSTABLE (the result was not finite, or left the
+/// stability watchdog's envelope: energy beyond what the scene's forces explain, a body stretched
+/// far beyond its rest size, an inverted neo-Hookean element; see docs/watchdog.md and the
+/// core.watchdog options), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
 /// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made),
 /// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (from inside a host
 /// callback). A world without bodies only advances its time.
@@ -349,14 +355,18 @@ typedef struct defsim_energy {
 } defsim_energy;
 
 /// Computes the energies of the current state.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL); DEFSIM_ERR_UNSTABLE when the total is not finite
+/// (an inverted neo-Hookean element, whose energy is undefined, or an overflow): *out is still
+/// filled, with elastic and total +INFINITY for an inverted element.
 DEFSIM_API defsim_status defsim_world_energy(const defsim_world *world, defsim_energy *out);
 
 /// Elastic forces -dE/dx (N) at positions x (3 * vertex_count doubles; NULL: current positions),
 /// written to f_out (3 * vertex_count): springs, tets and attachment springs. No gravity,
 /// damping, external forces, callback or pinning is applied.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out), DEFSIM_ERR_LOCKED (from inside a
-/// host callback: it compiles the world and counts in its statistics), DEFSIM_ERR_OUT_OF_MEMORY.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or f_out, a non-finite entry of x: f_out
+/// untouched), DEFSIM_ERR_UNSTABLE (the forces are not finite: an inverted neo-Hookean element,
+/// an overflow; f_out holds them as computed), DEFSIM_ERR_LOCKED (from inside a host callback:
+/// it compiles the world and counts in its statistics), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_forces(defsim_world *world, const double *x, double *f_out);
 
 /// Passes the world ran in its last step (bits of defsim_stats.passes).
@@ -406,6 +416,24 @@ typedef struct defsim_stats {
     int32_t last_order;            ///< Adaptive BDF: order used in the last internal step.
     int64_t substeps;              ///< Backend steps taken by auto_substep (>= steps when on).
     double stable_step;            ///< Last estimate of the stable step (s), 0 if never made.
+    /* Stability watchdog (docs/watchdog.md). The first three are computed from the current state
+     * when the statistics are read (one pass over the tets and one energy evaluation), not by
+     * the step, and only once the world is planned (by a step, defsim_world_forces or
+     * defsim_world_stable_step): before, min_volume_ratio and energy_drift are NaN and
+     * inverted_elements 0. The others are kept by the step. */
+    double min_volume_ratio;       ///< Smallest J = det F over all tets now (1 without tets).
+    int64_t inverted_elements;     ///< Tets with J <= 0 now (any model; neo-Hookean ones fail
+                                   ///< the step that inverts them while the watchdog is on).
+    double energy_drift;           ///< J: total energy now (kinetic of free vertices plus
+                                   ///< elastic) minus the energy at the watchdog's reference and
+                                   ///< the work of gravity and applied forces since; negative
+                                   ///< when damping dissipates. NaN without a reference (the
+                                   ///< watchdog is off, or the last step had a force callback
+                                   ///< or driven pins, whose work is not tracked).
+    double nonlinear_residual;     ///< Implicit backends: the residual norm of the last Newton
+                                   ///< iteration of the last step (the backend's own measure;
+                                   ///< see its README); 0 for other backends.
+    int64_t watchdog_trips;        ///< Steps the watchdog failed with DEFSIM_ERR_UNSTABLE.
 } defsim_stats;
 
 /// Copies the world's statistics into *out; set out->size = sizeof *out first (a smaller size
@@ -444,8 +472,10 @@ typedef struct defsim_option_info {
 /// Sets an option of the world by name. `name` is "<backend>.<option>" for an option of the
 /// world's backend ("sundials_ida.max_order") or "core.<option>" for an option of the world
 /// itself: "core.simd" (auto|scalar|generic|avx2|avx512: the tet force kernels; the environment
-/// variable DEFSIM_SIMD, when set, overrides it), "core.auto_substep" (BOOL), and
-/// "core.substep_safety" (REAL in (0, 1]). `value` is text: a number ("3", "1e-6"), a BOOL word
+/// variable DEFSIM_SIMD, when set, overrides it), "core.auto_substep" (BOOL),
+/// "core.substep_safety" (REAL in (0, 1]), and the stability watchdog's "core.watchdog" (BOOL,
+/// default on), "core.watchdog_energy_growth" (REAL >= 1, default 10) and
+/// "core.watchdog_max_stretch" (REAL >= 1, default 100) (docs/watchdog.md). `value` is text: a number ("3", "1e-6"), a BOOL word
 /// ("true", "false", "on", "off", "1", "0") or a CHOICE name ("clamp"). Changing an option of the
 /// backend re-initialises the backend (fini, then init) before the next step: adaptive history
 /// is dropped as by defsim_world_set_state; counters are kept. Setting an option to its current
@@ -478,8 +508,9 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
 /// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
-/// of the world's backend ("sundials_ida.internal_steps"). Errors: DEFSIM_ERR_INVALID_ARGUMENT
-/// (NULL, unknown name).
+/// of the world's backend ("sundials_ida.internal_steps"). min_volume_ratio, inverted_elements
+/// and energy_drift are computed from the current state at this call (see defsim_stats).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
 DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
                                            double *value);
 

@@ -378,17 +378,6 @@ static const char *const implicit_backends[3] = {"newton_cholmod", "sundials_kin
                                                  "sundials_ida"};
 static const double implicit_agree[3] = {1e-6, 1e-6, 1e-4};
 
-static int available(const char *backend)
-{
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) return 0;
-    defsim_world_destroy(w);
-    return 1;
-}
-
 /* A force that varies in time, F sin(omega t) on every vertex: the momentum at T is
  * sum F (1 - cos omega T) / omega, and a backend that evaluates forces within its step must hand
  * the callback the time of each evaluation to get it to its order: velocity Verlet (second
@@ -406,7 +395,7 @@ static void test_callback_time(void **state)
     (void)state;
     const char *backends[2] = {"velocity_verlet", "sundials_erk"};
     for (int b = 0; b < 2; ++b) {
-        if (!available(backends[b])) continue;
+        if (!tu_available(backends[b])) continue;
         defsim_world *w = world_def(backends[b], 0.0, 1e-6);
         add_beam(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
         const int n = defsim_world_vertex_count(w);
@@ -431,7 +420,7 @@ static void test_callback_implicit_held(void **state)
 {
     (void)state;
     for (int b = 0; b < 3; ++b) {
-        if (!available(implicit_backends[b])) continue;
+        if (!tu_available(implicit_backends[b])) continue;
         defsim_world *ref, *w = twins(implicit_backends[b], 0.0, 1e-10,
                                       DEFSIM_MODEL_STABLE_NEOHOOKEAN, &ref);
         const int n = defsim_world_vertex_count(w);
@@ -468,7 +457,7 @@ static void test_callback_implicit_jacobian(void **state)
     (void)state;
     const double k = 400.0;
     for (int b = 0; b < 3; ++b) {
-        if (!available(implicit_backends[b])) continue;
+        if (!tu_available(implicit_backends[b])) continue;
         defsim_world *ref, *w = twins(implicit_backends[b], -9.81, 1e-8,
                                       DEFSIM_MODEL_STABLE_NEOHOOKEAN, &ref);
         const defsim_body_id rb = body_k(ref, 0);
@@ -622,7 +611,7 @@ static void test_driven_lands(void **state)
 static void test_driven_damped_implicit(void **state)
 {
     (void)state;
-    if (!available("sundials_kinsol")) skip();
+    if (!tu_available("sundials_kinsol")) skip();
     double *x[2];
     for (int b = 0; b < 2; ++b) {
         defsim_world_def wd;

@@ -123,17 +123,20 @@ static void test_types(void **state)
 {
     (void)state;
     defsim_world *w = beam_world("opt_test");
-    assert_int_equal(defsim_world_option_count(w), 3 + OPT_N);
-    const char *names[8] = {"core.simd", "core.auto_substep", "core.substep_safety",
-                            "opt_test.rtol", "opt_test.max_order", "opt_test.verbose",
+    assert_int_equal(defsim_world_option_count(w), 6 + OPT_N);
+    const char *names[11] = {"core.simd", "core.auto_substep", "core.substep_safety",
+                            "core.watchdog", "core.watchdog_energy_growth",
+                            "core.watchdog_max_stretch", "opt_test.rtol", "opt_test.max_order", "opt_test.verbose",
                             "opt_test.projection", "opt_test.max_iterations"};
-    const defsim_option_type types[8] = {DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_BOOL,
+    const defsim_option_type types[11] = {DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_BOOL,
+                                         DEFSIM_OPTION_REAL, DEFSIM_OPTION_BOOL,
                                          DEFSIM_OPTION_REAL, DEFSIM_OPTION_REAL,
+                                         DEFSIM_OPTION_REAL,
                                          DEFSIM_OPTION_INT, DEFSIM_OPTION_BOOL,
                                          DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_INT};
-    const double defaults[8] = {0, 0, 0.8, 1e-4, 4, 0, 1, 5};
-    const double maxima[8] = {4, 1, 1, 1, 4, 1, 2, 10};
-    for (int i = 0; i < 8; ++i) {
+    const double defaults[11] = {0, 0, 0.8, 1, 10, 100, 1e-4, 4, 0, 1, 5};
+    const double maxima[11] = {4, 1, 1, 1, 1e300, 1e300, 1, 4, 1, 2, 10};
+    for (int i = 0; i < 11; ++i) {
         defsim_option_info info = {.size = sizeof info};
         TU_OK(defsim_world_option_info(w, i, &info));
         assert_string_equal(info.name, names[i]);
@@ -145,11 +148,11 @@ static void test_types(void **state)
         assert_non_null(info.doc);
     }
     defsim_option_info info = {.size = sizeof info};
-    assert_int_equal(defsim_world_option_info(w, 8, &info), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_world_option_info(w, 11, &info), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_world_option_info(w, -1, &info), DEFSIM_ERR_INVALID_ARGUMENT);
     /* An older, shorter info struct receives the fields it knows. */
     struct { uint32_t size; const char *name; } small = {sizeof small, NULL};
-    TU_OK(defsim_world_option_info(w, 3, (defsim_option_info *)&small));
+    TU_OK(defsim_world_option_info(w, 6, (defsim_option_info *)&small));
     assert_string_equal(small.name, "opt_test.rtol");
 
     TU_OK(defsim_world_set_option(w, "opt_test.rtol", " 2.5e-7 "));
@@ -228,7 +231,7 @@ static void test_bad_input(void **state)
     assert_int_equal(defsim_world_option_count(NULL), 0);
     for (int i = 0; i < OPT_N; ++i) {
         defsim_option_info info = {.size = sizeof info};
-        TU_OK(defsim_world_option_info(w, 3 + i, &info));
+        TU_OK(defsim_world_option_info(w, 6 + i, &info));
         assert_true(info.value == OT_OPTIONS[i].default_value);
     }
     for (int k = 0; k < 3; ++k) {
@@ -301,7 +304,7 @@ static void test_def_fields_map(void **state)
     d.auto_substep = 1;
     d.rtol = 1e-7;
     TU_OK(defsim_world_create(&d, &w));
-    assert_int_equal(defsim_world_option_count(w), 3);
+    assert_int_equal(defsim_world_option_count(w), 6);
     assert_true(get(w, "core.auto_substep") == 1);
     double v;
     assert_int_equal(defsim_world_get_option(w, "symplectic_euler.rtol", &v),
@@ -409,7 +412,10 @@ static void test_stats_by_name(void **state)
         {"error_test_failures", (double)s.error_test_failures},
         {"convergence_failures", (double)s.convergence_failures},
         {"last_order", s.last_order}, {"substeps", (double)s.substeps},
-        {"stable_step", s.stable_step},
+        {"stable_step", s.stable_step}, {"min_volume_ratio", s.min_volume_ratio},
+        {"inverted_elements", (double)s.inverted_elements}, {"energy_drift", s.energy_drift},
+        {"nonlinear_residual", s.nonlinear_residual},
+        {"watchdog_trips", (double)s.watchdog_trips},
     };
     const int nf = (int)(sizeof fields / sizeof fields[0]);
     for (int i = 0; i < nf; ++i) assert_true(stat(w, fields[i].name) == fields[i].value);
@@ -482,8 +488,8 @@ static void test_registry_tables(void **state)
     defsim_status st = defsim_register_backend(&v1);
     assert_true(st == DEFSIM_OK || st == DEFSIM_ERR_CONFLICT);
     defsim_world *w = beam_world("opt_v1");
-    assert_int_equal(defsim_world_option_count(w), 3);
-    assert_int_equal(defsim_world_stat_count(w), 24);
+    assert_int_equal(defsim_world_option_count(w), 6);
+    assert_int_equal(defsim_world_stat_count(w), 29);
     TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
 

@@ -300,3 +300,14 @@ void tu_osc_exact(const tu_osc *o, double t, double *u, double *v)
     *u = e * (A * cs + B * sn);
     *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
 }
+
+int tu_available(const char *backend)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = backend;
+    defsim_world *w = NULL;
+    if (defsim_world_create(&d, &w) != DEFSIM_OK) return 0;
+    defsim_world_destroy(w);
+    return 1;
+}

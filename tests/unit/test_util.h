@@ -70,6 +70,9 @@ double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev);
 defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
                             double beta, double a, int pin, int auto_substep);
 
+/* 1 if a world with this backend can be created (built in, registered or loadable), else 0. */
+int tu_available(const char *backend);
+
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);
 

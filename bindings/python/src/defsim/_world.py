@@ -92,6 +92,12 @@ class Stats:
     last_order: int                 #: adaptive BDF: order of the last internal step
     substeps: int                   #: backend steps taken by auto_substep
     stable_step: float              #: last stable-step estimate in s (0: none made)
+    # The stability watchdog (docs/watchdog.md); the first three of the current state.
+    min_volume_ratio: float         #: smallest det F over all tets (1 without tets)
+    inverted_elements: int          #: tets with det F <= 0
+    energy_drift: float             #: J since the watchdog's reference (nan without one)
+    nonlinear_residual: float       #: implicit backends: last Newton residual (N)
+    watchdog_trips: int             #: steps the watchdog failed
     #: the backend's counters by full name ("sundials_ida.internal_steps": value)
     counters: Dict[str, float] = dataclasses.field(default_factory=dict)
 
@@ -671,7 +677,7 @@ class World(WorldCoupling, WorldColliders):
         values["passes"] = Pass(int(s.passes))
         for k, v in values.items():
             if k != "passes":
-                values[k] = float(v) if k.startswith("time_") or k == "stable_step" else int(v)
+                values[k] = float(v) if isinstance(v, float) else int(v)
         w = self._live()
         name = ffi.new("const char **")
         value = ffi.new("double *")

@@ -1,0 +1,319 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The stability watchdog: the envelope a successful step must stay in, and the diagnostics.
+ *
+ * The energy bound. Let E = K + U (kinetic over free vertices, elastic relative to rest with the
+ * attachment springs). Between a reference and now, the true motion satisfies
+ * E(now) = E(ref) + W - D, with W the work of gravity, held external forces and moved attachment
+ * targets (all known: the forces are constant within a step, so W = sum (m g + f_ext) . dx), and
+ * D >= 0 what damping took out. Every elastic energy here is >= 0 (stable neo-Hookean up to a
+ * small negative part far from rest, which the floor covers), so K(now) <= E(ref) + W. Only K
+ * and W are needed per step: both come from one pass over the vertices that also checks
+ * finiteness and body extents, and the elastic energy is evaluated once per reference, not per
+ * step. A step trips when K > growth (E(ref) + W) + floor. K alone lags by a step where an
+ * instability shows first in the elastic energy (a stiff body stepped far beyond its limit
+ * stores 1e4 times the scene's energy while K is still small); so the full E = K + U is
+ * checked against the same limit (one energy evaluation, about the cost of a step of an
+ * explicit backend) in the steps where garbage can hide from K: the first step after a
+ * reference, a step in which K more than doubled (and exceeds a thousandth of the floor), a
+ * step that moved some vertex by more than MOVE_FRACTION of the smallest element size, and
+ * every ENERGY_EVERY-th step. A stable explicit run moves vertices by a small fraction of an
+ * element per step (its CFL condition), so it pays the evaluation in a few steps only.
+ *
+ * Inversion of a neo-Hookean element (J = det F <= 0, where its energy is undefined) is checked
+ * by a pass over those elements in the same steps, and in every step while the smallest J seen
+ * is below JMIN_WATCH. Between, no vertex moved by more than MOVE_FRACTION of the smallest
+ * element size, which changes J of a tet of ordinary shape by about 4 x 3 x 1 % = 0.12 at most:
+ * from J >= JMIN_WATCH = 0.5 no step of that kind reaches J <= 0. (The pass alone costs about
+ * a fifth of an explicit step over the same elements.) The growth factor covers the bounded
+ * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
+ * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
+ * geometrically and passes any factor within a few steps. Steps with a force callback or driven
+ * pins do work the core cannot account for cheaply: the energy check skips them and takes a new
+ * reference at the next step without.
+ */
+#include "watchdog.h"
+
+#include "energy.h"
+#include "element.h"
+#include "material.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { ENERGY_EVERY = 256 };
+static const double MOVE_FRACTION = 0.01, JMIN_WATCH = 0.5;
+
+static double det3(const double *x, const int32_t *id)
+{
+    const double *p3 = x + 3 * (int64_t)id[3];
+    double a[3], b[3], c[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = x[3 * (int64_t)id[0] + i] - p3[i];
+        b[i] = x[3 * (int64_t)id[1] + i] - p3[i];
+        c[i] = x[3 * (int64_t)id[2] + i] - p3[i];
+    }
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+           a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+/* Smallest volume ratio J = det Ds / det Dm of group g at x, and the count with J <= 0 (or not
+ * a number). Rest tets are positively oriented, so det Dm = 6 vol. */
+static int64_t volume_ratios(const defsim__group *g, const double *x, int nthreads, double *jmin)
+{
+    int64_t bad = 0;
+    double lo = INFINITY;
+#pragma omp parallel for schedule(static) num_threads(nthreads) if (g->n > 20000) \
+    reduction(+ : bad) reduction(min : lo)
+    for (int32_t e = 0; e < g->n; ++e) {
+        const double J = det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
+        bad += !(J > 0.0);
+        if (J < lo) lo = J;
+    }
+    *jmin = lo;
+    return bad;
+}
+
+/* Diagonal of the bounding box of points first .. first + n - 1 of x; NaN if a coordinate is
+ * not finite. */
+static double span(const double *x, int32_t first, int32_t n)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = first; i < first + n; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double c = x[3 * (int64_t)i + k];
+            lo[k] = c < lo[k] ? c : lo[k];
+            hi[k] = c > hi[k] ? c : hi[k];
+        }
+    return sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
+static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
+{
+    const defsim__system *s = in->sys;
+    double mass = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) mass += s->mass[i];
+    const double *g = s->gravity;
+    const double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    wd->e_floor = mass * s->length_scale * (gn > 9.81 ? gn : 9.81);
+    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), the
+     * rest length of a spring. */
+    double size = s->length_scale;
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        const defsim__group *gr = &s->groups[m];
+        for (int32_t e = 0; e < gr->n; ++e) {
+            const double l = gr->nodes == 4 ? cbrt(6.0 * gr->vol[e]) : gr->l0[e];
+            if (l > 0.0 && l < size) size = l;
+        }
+    }
+    wd->move2 = (MOVE_FRACTION * size) * (MOVE_FRACTION * size);
+    wd->jmin = 0.0;   /* not measured yet: the first check measures it */
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        wd->rest_diag[b] = (bd->generation & 1u) && bd->nv > 1 ? span(bd->rest, 0, bd->nv) : 0.0;
+    }
+    for (int32_t i = 0; i < s->nv; ++i) wd->dof[i] = s->pinned[i] ? 0.0 : s->mass[i];
+    wd->have_rest = 1;
+}
+
+static double kinetic_free(const defsim__system *s, const double *v)
+{
+    double ke = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (s->pinned[i]) continue;
+        const double *u = v + 3 * (int64_t)i;
+        ke += 0.5 * s->mass[i] * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    }
+    return ke;
+}
+
+defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
+                                     char *what, size_t size)
+{
+    const defsim__system *s = in->sys;
+    const double *x = in->x, *v = in->v, *x0 = in->x0;
+    const int64_t ndof = 3 * (int64_t)s->nv;
+    if (!in->on) {
+        wd->have_ref = 0;
+        int ok = 1;
+        for (int64_t i = 0; i < ndof; ++i) ok &= isfinite(x[i]) & isfinite(v[i]);
+        if (ok) return DEFSIM_OK;
+        snprintf(what, size, "the state became non-finite");
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    if (!wd->have_rest) {
+        free(wd->rest_diag);
+        free(wd->dof);
+        wd->rest_diag = malloc(((size_t)in->nbodies + 1) * sizeof *wd->rest_diag);
+        wd->dof = malloc(((size_t)s->nv + 1) * sizeof *wd->dof);
+        if (!wd->rest_diag || !wd->dof) {
+            free(wd->rest_diag);
+            free(wd->dof);
+            wd->rest_diag = wd->dof = NULL;
+            snprintf(what, size, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        take_rest(wd, in);
+    }
+    const int energy = in->energy;
+    if (energy && !wd->have_ref) {
+        wd->k_prev = kinetic_free(s, in->v0);
+        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0);
+        wd->work = 0.0;
+        wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
+        wd->have_ref = 1;
+    }
+
+    /* One branch-free pass over the vertices (vectorised: it runs in every step): finiteness,
+     * kinetic energy and work of the free vertices, the largest move. x * 0 is NaN exactly when
+     * x is inf or NaN; mf is a vertex's mass, 0 if pinned. */
+    const double *mf = wd->dof, *fx = s->fext, *g = s->gravity;
+    double nan = 0.0, ke = 0.0, mdx0 = 0.0, mdx1 = 0.0, mdx2 = 0.0, wext = 0.0, move = 0.0;
+    const int32_t nv = s->nv;
+#pragma omp simd reduction(+ : nan, ke, mdx0, mdx1, mdx2, wext) reduction(max : move)
+    for (int32_t i = 0; i < nv; ++i) {
+        const double m = mf[i], fr = m > 0.0 ? 1.0 : 0.0;
+        const double *p = x + 3 * (int64_t)i, *q = x0 + 3 * (int64_t)i, *u = v + 3 * (int64_t)i;
+        const double d0 = p[0] - q[0], d1 = p[1] - q[1], d2 = p[2] - q[2];
+        nan += p[0] * 0.0 + p[1] * 0.0 + p[2] * 0.0 + u[0] * 0.0 + u[1] * 0.0 + u[2] * 0.0;
+        ke += m * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        mdx0 += m * d0;
+        mdx1 += m * d1;
+        mdx2 += m * d2;
+        if (fx) {
+            const double *f = fx + 3 * (int64_t)i;
+            wext += fr * (f[0] * d0 + f[1] * d1 + f[2] * d2);
+        }
+        const double a = fr * (d0 * d0 + d1 * d1 + d2 * d2);
+        move = a > move ? a : move;
+    }
+    ke *= 0.5;
+    const double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
+    const int finite = nan == 0.0;
+    const double move2 = move;
+    if (!finite) {
+        snprintf(what, size, "the state became non-finite");
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    /* The steps where garbage can hide from K and where an element can invert (header). */
+    const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor || !(move2 <= wd->move2) ||
+                     ++wd->since_full >= ENERGY_EVERY;
+    if (full) wd->since_full = 0;
+    wd->k_prev = ke;
+    if (energy) {
+        const double budget = wd->e_ref + wd->work + work;
+        const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
+        const double e = full ? ke + defsim__elastic_energy(s, in->work, x) : ke;
+        const char *which = full ? "total" : "kinetic";
+        if (!(e <= limit)) {
+            snprintf(what, size, "the %s energy reached %.3g J, over %g x %.3g J (the energy at "
+                     "the reference plus the work of gravity and applied forces since) + %.3g J "
+                     "(core.watchdog_energy_growth)", which, e, in->energy_growth, budget,
+                     wd->e_floor);
+            return DEFSIM_ERR_UNSTABLE;
+        }
+    }
+    for (int32_t b = 0; full && b < in->nbodies; ++b) {
+        if (!(wd->rest_diag[b] > 0.0)) continue;   /* removed, or a single vertex */
+        const double d = span(x, in->bodies[b].offset, in->bodies[b].nv);
+        if (!(d <= in->max_stretch * wd->rest_diag[b])) {
+            snprintf(what, size, "body %d spans %.3g m, more than %g times its rest size %.3g m "
+                     "(core.watchdog_max_stretch)", (int)b, d, in->max_stretch,
+                     wd->rest_diag[b]);
+            return DEFSIM_ERR_UNSTABLE;
+        }
+    }
+    for (int m = 0; m < DEFSIM__TET_MODELS && (full || wd->jmin < JMIN_WATCH); ++m) {
+        const defsim__group *gr = &s->groups[m];
+        if (gr->n == 0 || !gr->law->needs_positive_det) continue;
+        double jmin;
+        const int64_t bad = volume_ratios(gr, x, s->nthreads, &jmin);
+        wd->jmin = jmin;
+        if (bad > 0) {
+            snprintf(what, size, "%lld %s element(s) inverted (smallest volume ratio J = %.3g; "
+                     "the model is undefined at J <= 0)", (long long)bad, gr->law->name, jmin);
+            return DEFSIM_ERR_UNSTABLE;
+        }
+    }
+    if (energy) wd->work += work;
+    else wd->have_ref = 0;
+    return DEFSIM_OK;
+}
+
+void defsim__watchdog_message(char *out, size_t size, const char *what, double h, double t,
+                              const char *backend, int limited, double h_stable, int auto_substep)
+{
+    char advice[240];
+    if (!limited)
+        snprintf(advice, sizeof advice, "backend %s has no step-size limit: use a smaller step or "
+                 "a tighter tolerance, and check the scene's forces", backend);
+    else if (isnan(h_stable))
+        snprintf(advice, sizeof advice, "the stable step cannot be estimated at the start of the "
+                 "step (non-finite stiffness): use a smaller step or an implicit backend");
+    else if (auto_substep)
+        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s and "
+                 "core.auto_substep is on: lower core.substep_safety, or use an implicit backend",
+                 h_stable);
+    else
+        snprintf(advice, sizeof advice, "defsim_world_stable_step gives %.3g s; use a smaller "
+                 "step, enable core.auto_substep, or an implicit backend", h_stable);
+    snprintf(out, size, "step: watchdog: %s, in the step of h = %g s from t = %g s (state "
+             "restored). %s (core.watchdog = false turns the watchdog off)", what, h, t, advice);
+}
+
+void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
+{
+    wd->have_ref = 0;
+    if (bodies) wd->have_rest = 0;
+}
+
+void defsim__watchdog_free(defsim__watchdog *wd)
+{
+    free(wd->rest_diag);
+    free(wd->dof);
+    memset(wd, 0, sizeof *wd);
+}
+
+void defsim__watchdog_attachment_moved(defsim__watchdog *wd, const defsim__system *s, int32_t e,
+                                       const double *x, const double p[3])
+{
+    if (!wd->have_ref) return;
+    const defsim__attachments *at = &s->att;
+    double d[3];
+    attach_combine(at, e, x, 1, d);
+    double before = 0.0, after = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const double dn = d[k] + at->p[3 * (int64_t)e + k] - p[k];
+        before += d[k] * d[k];
+        after += dn * dn;
+    }
+    wd->work += 0.5 * at->k[e] * (after - before);
+}
+
+void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__system *s,
+                                  defsim__work *wk, const double *x, const double *v,
+                                  defsim_stats *out)
+{
+    double jmin = INFINITY;
+    int64_t bad = 0;
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
+        if (s->groups[m].n == 0) continue;
+        double j;
+        bad += volume_ratios(&s->groups[m], x, s->nthreads, &j);
+        if (j < jmin) jmin = j;
+    }
+    out->min_volume_ratio = isinf(jmin) ? 1.0 : jmin;
+    out->inverted_elements = bad;
+    out->energy_drift = wd->have_ref ? kinetic_free(s, v) + defsim__elastic_energy(s, wk, x) -
+                                           (wd->e_ref + wd->work)
+                                     : NAN;
+}
+
+int defsim__watchdog_is_diagnostic(const char *name)
+{
+    return !strcmp(name, "min_volume_ratio") || !strcmp(name, "inverted_elements") ||
+           !strcmp(name, "energy_drift");
+}

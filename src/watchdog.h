@@ -1,0 +1,81 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The stability watchdog (watchdog.c): after a backend's step succeeded, checks that the state
+ * stayed inside an envelope that the scene explains (finite; kinetic energy within a multiple
+ * of the energy at a reference plus the work of the applied forces since; every body within a
+ * multiple of its rest size; no inverted element in a model that cannot invert), and computes
+ * the per-step diagnostics that hosts read by name. It reads the compiled system and the bodies,
+ * never the world (world.c hands them in), so it depends on neither the world nor a backend.
+ * docs/watchdog.md describes the envelope and the thresholds.
+ */
+#ifndef DEFSIM_WATCHDOG_H
+#define DEFSIM_WATCHDOG_H
+
+#include "body.h"
+#include "system.h"
+
+#include <stddef.h>
+
+typedef struct defsim__watchdog {
+    int have_rest;        /* rest_diag and e_floor hold for the current bodies */
+    int have_ref;         /* e_ref and work hold since the last forget */
+    double e_ref;         /* J: kinetic (free vertices) plus elastic energy at the reference */
+    double work;          /* J: work of gravity, held forces and attachment targets since then */
+    double e_floor;       /* J: total mass x its rest size x max(|g|, 9.81 m/s^2) */
+    double k_prev;        /* J: kinetic energy after the previous step */
+    int32_t since_full;   /* steps since the last check of the total energy */
+    double move2;         /* m^2: a step that moves a vertex further checks the total energy */
+    double jmin;          /* smallest J of the neo-Hookean elements at the last inversion check */
+    double *rest_diag;    /* per body slot: diagonal of its rest bounding box (m) */
+    double *dof;          /* nv: a vertex's mass, 0 if pinned */
+} defsim__watchdog;
+
+/* What one check needs: the system, the bodies, the state after (x, v) and before (x0, v0) the
+ * step, and the thresholds (core.watchdog_* options). */
+typedef struct defsim__watchdog_step {
+    const defsim__system *sys;
+    defsim__work *work;
+    const defsim__body *bodies;
+    int32_t nbodies;
+    const double *x, *v, *x0, *v0;
+    int on;               /* core.watchdog; off: only the finiteness check runs */
+    int energy;           /* the applied work of the step is known (no callback, no driven pin) */
+    double energy_growth; /* core.watchdog_energy_growth */
+    double max_stretch;   /* core.watchdog_max_stretch */
+} defsim__watchdog_step;
+
+/* Checks the state after a successful step. Returns DEFSIM_OK, DEFSIM_ERR_UNSTABLE with what
+ * tripped written into `what` (one sentence without advice), or DEFSIM_ERR_OUT_OF_MEMORY. On OK
+ * the work of the step joins the budget. The finiteness check runs even when `on` is 0. */
+defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
+                                     char *what, size_t size);
+
+/* The message of a trip: what tripped (from defsim__watchdog_check), the step, and what to do:
+ * for a backend with a step-size limit (`limited`) the stable step h_stable at the restored
+ * start (NaN: not estimable) and the way out, else a smaller step or tolerance. */
+void defsim__watchdog_message(char *out, size_t size, const char *what, double h, double t,
+                              const char *backend, int limited, double h_stable, int auto_substep);
+
+/* Drops the energy reference (the host changed the state or the model between steps); with
+ * `bodies` set, the rest sizes too. The next check takes a new reference. */
+void defsim__watchdog_forget(defsim__watchdog *wd, int bodies);
+
+/* Frees the per-body sizes (at the world's destruction). */
+void defsim__watchdog_free(defsim__watchdog *wd);
+
+/* The host moves the world point of compiled attachment e to p (between steps): its spring's
+ * energy change at x joins the work. */
+void defsim__watchdog_attachment_moved(defsim__watchdog *wd, const defsim__system *s, int32_t e,
+                                       const double *x, const double p[3]);
+
+/* Fills the diagnostics of defsim_stats at the state (x, v) of a planned system: the smallest
+ * volume ratio J and the count of elements with J <= 0 over all tets, and the energy drift since
+ * the reference (NaN without one). One pass over the tets and one energy evaluation. */
+void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__system *s,
+                                  defsim__work *wk, const double *x, const double *v,
+                                  defsim_stats *out);
+
+/* True if `name` is a statistic that defsim__watchdog_diagnostics computes. */
+int defsim__watchdog_is_diagnostic(const char *name);
+
+#endif /* DEFSIM_WATCHDOG_H */

@@ -16,8 +16,15 @@ enum {
     DEFSIM__OPT_SIMD = 0,          /* CHOICE auto|scalar|generic|avx2|avx512 */
     DEFSIM__OPT_AUTO_SUBSTEP = 1,  /* BOOL */
     DEFSIM__OPT_SUBSTEP_SAFETY = 2,/* REAL (0, 1] */
-    DEFSIM__CORE_OPTIONS = 3
+    DEFSIM__OPT_CONTACT_DHAT = 3,  /* REAL: activation distance / length scale (contact.h) */
+    DEFSIM__OPT_CONTACT_KAPPA = 4, /* REAL: barrier stiffness per unit mass (1/s^2), 0: auto */
+    DEFSIM__OPT_CONTACT_FREQUENCY = 5, /* REAL: penalty frequency (rad/s), 0: auto */
+    DEFSIM__OPT_FRICTION_EPS_V = 6,/* REAL: friction's velocity threshold (m/s) */
+    DEFSIM__CORE_OPTIONS = 7
 };
+
+/* Contact's statistics ("contact.<name>"), in the order of contact.h's DEFSIM__CSTAT_*. */
+enum { DEFSIM__CONTACT_STATS = 6 };
 
 typedef struct defsim__options {
     double core[DEFSIM__CORE_OPTIONS];
@@ -27,6 +34,7 @@ typedef struct defsim__options {
     const char **names;      /* full names: core options, backend options, then counters */
     char *name_buf;          /* storage of the backend's full names */
     int reinit;              /* a backend option changed since the backend's last init */
+    const double *contact_stats; /* DEFSIM__CONTACT_STATS values (the world's contact), or NULL */
 } defsim__options;
 
 /* Allocates the values and counters of backend b (defaults, counters zero) and maps the
@@ -43,6 +51,7 @@ void defsim__options_reset_counters(defsim__options *o);
 int defsim__options_take_reinit(defsim__options *o);
 
 /* What the core reads of its options. */
+double defsim__options_core(const defsim__options *o, int which);
 int defsim__options_auto_substep(const defsim__options *o);
 double defsim__options_substep_safety(const defsim__options *o);
 /* The backend's "projection" option when it declares one, else `def_projection` (the world

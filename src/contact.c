@@ -120,8 +120,14 @@ static int reserve_pairs(defsim__contact *c, int32_t n)
     return 1;
 }
 
-/* Pairs vertex i with every live collider that its ball can bring within dhat, except those in
- * pairs [from, npair) of i already (skip_existing). */
+static int moves(const defsim__contact *c, int32_t j)
+{
+    return memcmp(c->pose0[j].p, c->pose1[j].p, sizeof c->pose0[j].p) != 0 ||
+           memcmp(c->pose0[j].q, c->pose1[j].q, sizeof c->pose0[j].q) != 0;
+}
+
+/* Pairs vertex i with every live collider that its ball can bring within dhat during the step,
+ * skipping colliders it is paired with already (skip_existing). */
 static void pair_vertex(defsim__contact *c, int32_t i, int skip_existing)
 {
     const double *x = c->xn + 3 * (int64_t)i, r = c->radius[i];
@@ -131,8 +137,22 @@ static void pair_vertex(defsim__contact *c, int32_t i, int skip_existing)
         if (x[0] + r < lo[0] || x[0] - r > hi[0] || x[1] + r < lo[1] || x[1] - r > hi[1] ||
             x[2] + r < lo[2] || x[2] - r > hi[2])
             continue;
-        /* The distance is 1-Lipschitz: within the ball it stays above d(xn) - r. */
-        const double d = distance(c, j, x, NULL, NULL);
+        /* The distance is 1-Lipschitz: within the ball it stays above d(xn) - r. A moving
+         * collider's surface near xn moves by about the displacement of its point at xn (exact
+         * for translations, first order for rotations). */
+        double d = distance(c, j, x, NULL, NULL);
+        if (isnan(d)) return;
+        if (moves(c, j)) {
+            double d0, g[3], moved[3];
+            if (defsim__collider_distance(&c->col[j], &c->pose0[j], x, &d0, g, NULL) != DEFSIM_OK ||
+                !isfinite(d0)) {
+                if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+                return;
+            }
+            carry(&c->pose0[j], &c->pose1[j], x, moved);
+            const double u[3] = {moved[0] - x[0], moved[1] - x[1], moved[2] - x[2]};
+            d = fmin(d, d0) - sqrt(dot3(u, u));
+        }
         if (!(d <= r + c->dhat)) continue;
         if (skip_existing) {
             int found = 0;
@@ -238,8 +258,14 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         if (!live(c, j)) continue;
         defsim__collider_pose_at(&col[j], 0.0, &c->pose0[j]);
         defsim__collider_pose_at(&col[j], 1.0, &c->pose1[j]);
-        defsim__collider_bounds(&col[j], &c->pose1[j], c->dhat, c->lo + 3 * (int64_t)j,
-                                c->hi + 3 * (int64_t)j);
+        /* over the step: the union of the bounds at both ends (exact for translations) */
+        double *lo = c->lo + 3 * (int64_t)j, *hi = c->hi + 3 * (int64_t)j, l0[3], h0[3];
+        defsim__collider_bounds(&col[j], &c->pose1[j], c->dhat, lo, hi);
+        defsim__collider_bounds(&col[j], &c->pose0[j], c->dhat, l0, h0);
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = fmin(lo[k], l0[k]);
+            hi[k] = fmax(hi[k], h0[k]);
+        }
         c->mu_max = fmax(c->mu_max, col[j].def.friction);
     }
     /* Each vertex's ball: twice its inertial motion in the step, plus dhat. */
@@ -283,6 +309,17 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         return c->failed;
     }
     return DEFSIM_OK;
+}
+
+void defsim__contact_substep(defsim__contact *c, double s0, double s1, double hsub)
+{
+    if (c->mode != DEFSIM__CONTACT_PENALTY) return;
+    for (int32_t j = 0; j < c->ncol; ++j) {
+        if (!live(c, j)) continue;
+        defsim__collider_pose_at(&c->col[j], s0, &c->pose0[j]);
+        defsim__collider_pose_at(&c->col[j], s1, &c->pose1[j]);
+    }
+    c->h = hsub;
 }
 
 /* ------------------------------------------------------------------------------------------ */

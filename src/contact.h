@@ -91,6 +91,10 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__contact_params *p, const double *x,
                                     const double *v, double h, defsim__messages *msg);
 
+/* PENALTY: the backend step under way covers the fraction [s0, s1] of the world's step, of
+ * length hsub: colliders sit at their pose at s1 and move at their velocity over [s0, s1]. */
+void defsim__contact_substep(defsim__contact *c, double s0, double s1, double hsub);
+
 /* The automatic barrier and penalty stiffness per unit mass (1/s^2) for these parameters. */
 double defsim__contact_khat(const defsim__contact_params *p, double dhat, double h,
                             const double gravity[3]);

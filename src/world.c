@@ -927,6 +927,9 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
             defsim__coupling_substep_before(w, i, n, h / (double)n);
+            if (w->sys.contact)
+                defsim__contact_substep(w->sys.contact, (double)i / (double)n,
+                                        (double)(i + 1) / (double)n, h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
             defsim__coupling_substep_after(w);
         }

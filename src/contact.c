@@ -126,13 +126,15 @@ static int moves(const defsim__contact *c, int32_t j)
            memcmp(c->pose0[j].q, c->pose1[j].q, sizeof c->pose0[j].q) != 0;
 }
 
-/* Pairs vertex i with every live collider that its ball can bring within dhat during the step,
- * skipping colliders it is paired with already (skip_existing). */
-static void pair_vertex(defsim__contact *c, int32_t i, int skip_existing)
+/* Pairs vertex i with every live collider (only those near all the balls, unless `grown`: the
+ * ball left the box the broad phase saw) that its ball can bring within dhat during the step,
+ * skipping colliders it is paired with already (grown). */
+static void pair_vertex(defsim__contact *c, int32_t i, int grown)
 {
     const double *x = c->xn + 3 * (int64_t)i, r = c->radius[i];
+    const int skip_existing = grown;
     for (int32_t j = 0; j < c->ncol; ++j) {
-        if (!live(c, j)) continue;
+        if (!live(c, j) || (!grown && !c->near[j])) continue;
         const double *lo = c->lo + 3 * (int64_t)j, *hi = c->hi + 3 * (int64_t)j;
         if (x[0] + r < lo[0] || x[0] - r > hi[0] || x[1] + r < lo[1] || x[1] - r > hi[1] ||
             x[2] + r < lo[2] || x[2] - r > hi[2])
@@ -173,6 +175,35 @@ static void pair_vertex(defsim__contact *c, int32_t i, int skip_existing)
     }
 }
 
+/* Whether collider j can come within dhat of a point of the box [lo, hi] in this step: its
+ * bounds meet the box, and its distance from the box's centre, less the box's half diagonal
+ * (the distance is 1-Lipschitz) and the collider's motion there, is within dhat. One query per
+ * collider: colliders far from every vertex cost nothing more. */
+static int near_box(defsim__contact *c, int32_t j, const double lo[3], const double hi[3])
+{
+    const double *cl = c->lo + 3 * (int64_t)j, *ch = c->hi + 3 * (int64_t)j;
+    for (int k = 0; k < 3; ++k)
+        if (hi[k] < cl[k] || lo[k] > ch[k]) return 0;
+    double m[3], half = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        m[k] = 0.5 * (lo[k] + hi[k]);
+        half += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    }
+    if (!isfinite(half)) return 1;
+    double d = distance(c, j, m, NULL, NULL);
+    if (isnan(d)) return 1;
+    if (moves(c, j)) {
+        double d0, g[3], moved[3];
+        if (defsim__collider_distance(&c->col[j], &c->pose0[j], m, &d0, g, NULL) != DEFSIM_OK ||
+            !isfinite(d0))
+            return 1;
+        carry(&c->pose0[j], &c->pose1[j], m, moved);
+        const double u[3] = {moved[0] - m[0], moved[1] - m[1], moved[2] - m[2]};
+        d = fmin(d, d0) - sqrt(dot3(u, u));
+    }
+    return d - sqrt(half) <= c->dhat;
+}
+
 /* Grows the ball of every vertex whose position in x left it, and pairs it again: a backend's
  * iterate may go anywhere, and no contact may be missed. */
 static void ensure(defsim__contact *c, const double *x)
@@ -191,7 +222,7 @@ static void ensure(defsim__contact *c, const double *x)
 void defsim__contact_free(defsim__contact *c)
 {
     const double om = c->omega_elastic;
-    free(c->pose0); free(c->pose1); free(c->lo); free(c->hi);
+    free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
     free(c->xn); free(c->radius); free(c->vel); free(c->blk);
     free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
     memset(c, 0, sizeof *c);
@@ -220,12 +251,13 @@ static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
         if (!c->cap_v) return 0;
     }
     if (ncol > c->cap_col) {
-        free(c->pose0); free(c->pose1); free(c->lo); free(c->hi);
+        free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
         c->pose0 = malloc((size_t)ncol * sizeof *c->pose0);
         c->pose1 = malloc((size_t)ncol * sizeof *c->pose1);
         c->lo = malloc(3 * (size_t)ncol * sizeof *c->lo);
         c->hi = malloc(3 * (size_t)ncol * sizeof *c->hi);
-        c->cap_col = c->pose0 && c->pose1 && c->lo && c->hi ? ncol : 0;
+        c->near = malloc((size_t)ncol * sizeof *c->near);
+        c->cap_col = c->pose0 && c->pose1 && c->lo && c->hi && c->near ? ncol : 0;
         if (!c->cap_col) return 0;
     }
     return 1;
@@ -268,16 +300,28 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         }
         c->mu_max = fmax(c->mu_max, col[j].def.friction);
     }
-    /* Each vertex's ball: twice its inertial motion in the step, plus dhat. */
+    /* Each vertex's ball: twice its inertial motion in the step, plus dhat; the colliders near
+     * the box around all balls, then the pairs. */
     const double g = sqrt(dot3(s->gravity, s->gravity));
     memcpy(c->xn, x, 3 * (size_t)s->nv * sizeof *x);
     c->npair = 0;
-    for (int32_t i = 0; i < s->nv && !c->failed; ++i) {
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = 0; i < s->nv; ++i) {
         if (s->pinned[i]) continue;
-        const double *vi = v + 3 * (int64_t)i;
-        c->radius[i] = 2.0 * h * sqrt(dot3(vi, vi)) + g * h * h + c->dhat;
-        pair_vertex(c, i, 0);
+        /* |v|_1 >= |v|: a cheap, larger ball */
+        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
+        const double r = c->radius[i] =
+            2.0 * h * (fabs(vi[0]) + fabs(vi[1]) + fabs(vi[2])) + g * h * h + c->dhat;
+        for (int k = 0; k < 3; ++k) {
+            const double a = xi[k] - r, b = xi[k] + r;
+            lo[k] = a < lo[k] ? a : lo[k];
+            hi[k] = b > hi[k] ? b : hi[k];
+        }
     }
+    int any = 0;
+    for (int32_t j = 0; j < ncol; ++j) any |= c->near[j] = live(c, j) && near_box(c, j, lo, hi);
+    for (int32_t i = 0; i < s->nv && !c->failed && any; ++i)
+        if (!s->pinned[i]) pair_vertex(c, i, 0);
     /* BARRIER: friction lagged from the start of the step (IPC): the normal force and normal at
      * x_n against the pose the collider had then, and the collider's motion at the vertex. */
     for (int32_t q = 0; q < c->npair && !c->failed && c->mode == DEFSIM__CONTACT_BARRIER; ++q) {
@@ -342,9 +386,19 @@ static double friction_tangent(const defsim__contact *c, int32_t q, const double
     return mul;
 }
 
+static double contact_energy(defsim__contact *c, const double *x);
+
 double defsim__contact_energy(defsim__contact *c, const double *x)
 {
+    const double t0 = defsim__now();
     ensure(c, x);
+    double e = contact_energy(c, x);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return e;
+}
+
+static double contact_energy(defsim__contact *c, const double *x)
+{
     double e = 0.0;
     const double dh = c->dhat, eps = c->eps_v * c->h;
     for (int32_t q = 0; q < c->npair; ++q) {
@@ -391,10 +445,22 @@ static double penalty_tangent(const defsim__contact *c, int32_t q, double d, con
     return mul;
 }
 
+static defsim_status contact_forces(defsim__contact *c, const double *x, const double *v,
+                                   uint32_t which, double *f);
+
 defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const double *v,
                                      uint32_t which, double *f)
 {
+    const double t0 = defsim__now();
     ensure(c, x);
+    const defsim_status st = contact_forces(c, x, v, which, f);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return st;
+}
+
+static defsim_status contact_forces(defsim__contact *c, const double *x, const double *v,
+                                   uint32_t which, double *f)
+{
     const int elastic = (which & DEFSIM_FORCE_ELASTIC) != 0;
     const int damping = (which & DEFSIM_FORCE_DAMPING) && v && c->mode == DEFSIM__CONTACT_PENALTY;
     if (damping) memcpy(c->vel, v, 3 * (size_t)c->nv * sizeof *v);
@@ -436,10 +502,22 @@ defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const 
     return c->failed;
 }
 
+static int contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                          double *blk);
+
 int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double kd,
                            double *blk)
 {
+    const double t0 = defsim__now();
     ensure(c, x);
+    const int any = contact_blocks(c, x, k, kd, blk);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return any;
+}
+
+static int contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                          double *blk)
+{
     memset(blk, 0, 9 * (size_t)c->nv * sizeof *blk);
     int any = 0;
     const double dh = c->dhat, eps = c->eps_v * c->h;
@@ -560,7 +638,8 @@ void defsim__contact_start(defsim__contact *c, double *x)
 void defsim__contact_end(defsim__contact *c, const double *x, const double *v, double *f)
 {
     memset(f, 0, 3 * (size_t)c->nv * sizeof *f);
-    (void)defsim__contact_forces(c, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING, f);
+    if (c->npair > 0)
+        (void)defsim__contact_forces(c, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING, f);
     double dmin = INFINITY;
     int32_t active = 0;
     for (int32_t q = 0; q < c->npair; ++q) {

@@ -30,6 +30,7 @@ enum {
     DEFSIM__CSTAT_TIME_BROAD,      /* broad phase, cumulative (s) */
     DEFSIM__CSTAT_TIME_CCD,        /* contact_max_step, cumulative (s) */
     DEFSIM__CSTAT_CCD_CALLS,       /* contact_max_step calls, cumulative */
+    DEFSIM__CSTAT_TIME_EVAL,       /* contact's energy, forces and matrix blocks, cumulative (s) */
     DEFSIM__CSTAT_COUNT
 };
 
@@ -39,7 +40,8 @@ typedef struct defsim__contact {
     const defsim__collider *col;/* the world's collider slots (live ones: odd generation) */
     int32_t ncol;
     defsim__pose *pose0, *pose1;/* per slot: the pose at the start and end of the step */
-    double *lo, *hi;            /* 3 per slot: bounds at pose1, grown by dhat */
+    double *lo, *hi;            /* 3 per slot: bounds over the step, grown by dhat */
+    uint8_t *near;              /* per slot: near the box of all vertex balls (broad phase) */
     int32_t cap_col;
 
     double dhat;                /* activation distance (m) */

@@ -53,7 +53,7 @@ static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {
     "core.contact_kappa", "core.contact_frequency", "core.friction_eps_v"};
 static const char *const CONTACT_STAT_NAMES[DEFSIM__CONTACT_STATS] = {
     "contact.active", "contact.pairs", "contact.min_distance", "contact.time_broad_phase",
-    "contact.time_ccd", "contact.ccd_calls"};
+    "contact.time_ccd", "contact.ccd_calls", "contact.time_eval"};
 
 typedef enum { ST_U32, ST_I32, ST_I64, ST_F64 } stat_kind;
 typedef struct stat_field {

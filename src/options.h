@@ -24,7 +24,7 @@ enum {
 };
 
 /* Contact's statistics ("contact.<name>"), in the order of contact.h's DEFSIM__CSTAT_*. */
-enum { DEFSIM__CONTACT_STATS = 6 };
+enum { DEFSIM__CONTACT_STATS = 7 };
 
 typedef struct defsim__options {
     double core[DEFSIM__CORE_OPTIONS];

@@ -6,11 +6,14 @@
  * alike; the median time per step of each is compared with the baseline. "zero" variants have
  * the feature present in the scene but with no effect (a damping coefficient of 0, an empty
  * pin list, an extra body of another material without elements, external forces of zero, a
- * force callback or an attachment set and then removed): the planner must skip them,
+ * force callback or an attachment set and then removed; colliders far away, which the contact
+ * broad phase leaves without pairs): the planner must skip them,
  * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
  * when used.
  *
- *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]
+ *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T] [--only WORD]
+ *
+ * --only keeps the baseline and the variants whose name contains WORD ("colliders").
  */
 #include "bench_beam.h"
 #include "clock.h"
@@ -32,6 +35,7 @@ typedef struct variant {
     int external;            /* held external forces: 0 none, 1 all zero, 2 on (0.1 N down) */
     int callback;            /* force callback: 0 none, 1 set then cleared, 2 on */
     int attachments;         /* 0 none, 1 one added then removed, 2 on (free end to a point) */
+    int colliders;           /* 0 none, 1 four far away (100 m), 2 a sphere under the free end */
 } variant;
 
 static const variant variants[] = {
@@ -53,6 +57,10 @@ static const variant variants[] = {
      .attachments = 1},
     {.name = "attachments on (10, free end to points)", .gravity = 9.81, .pins = 1,
      .attachments = 2},
+    {.name = "colliders far away (3 spheres, 1 plane)", .gravity = 9.81, .pins = 1,
+     .colliders = 1},
+    {.name = "collider on (sphere under the free end)", .gravity = 9.81, .pins = 1,
+     .colliders = 2},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
 
@@ -151,6 +159,16 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
         if (defsim_world_add_body(w, &sb, NULL) != DEFSIM_OK) return NULL;
     }
     if (couple(w, v, m, b) != 0) return NULL;
+    /* Colliders far away: the broad phase must make them free. One near: contact's cost. */
+    for (int k = 0; k < (v->colliders == 1 ? 4 : v->colliders == 2 ? 1 : 0); ++k) {
+        defsim_collider_def cd;
+        defsim_collider_def_init(&cd, sizeof cd);
+        cd.shape = k < 3 ? DEFSIM_SHAPE_SPHERE : DEFSIM_SHAPE_PLANE;
+        cd.radius = 0.5;
+        if (v->colliders == 1) cd.position[k < 3 ? k : 1] = k < 3 ? 100.0 : -100.0;
+        else cd.position[0] = 2.5, cd.position[1] = -0.5 - 1e-3;   /* 1 mm under the beam */
+        if (defsim_world_add_collider(w, &cd, NULL) != DEFSIM_OK) return NULL;
+    }
     return w;
 }
 
@@ -170,27 +188,32 @@ static void passes(uint32_t p, char *out, size_t n)
 int main(int argc, char **argv)
 {
     int n = 12, steps = 20, rounds = 7, threads = 1;
+    const char *only = NULL;
     for (int i = 1; i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--only")) only = argv[i + 1];
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
     if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0) return 2;
     defsim_mesh m;
     if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;
-    defsim_world *w[NV];
+    defsim_world *w[NV] = {0};
     for (int v = 0; v < NV; ++v)
-        if (!(w[v] = make(&variants[v], &m, threads))) {
+        if ((v == 0 || !only || strstr(variants[v].name, only)) &&
+            !(w[v] = make(&variants[v], &m, threads))) {
             fprintf(stderr, "variant %s: %s\n", variants[v].name, defsim_last_error());
             return 1;
         }
     double t[NV][100];
     const double h = 1e-5;
-    for (int v = 0; v < NV; ++v) defsim_world_step(w[v], h);   /* plan and warm up */
+    for (int v = 0; v < NV; ++v)
+        if (w[v]) defsim_world_step(w[v], h);   /* plan and warm up */
     for (int r = 0; r < rounds; ++r)
         for (int v = 0; v < NV; ++v) {
+            if (!w[v]) continue;
             double t0 = tools_now();
             for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
             t[v][r] = (tools_now() - t0) / steps;
@@ -200,6 +223,7 @@ int main(int argc, char **argv)
     printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
     double base = 0;
     for (int v = 0; v < NV; ++v) {
+        if (!w[v]) continue;
         qsort(t[v], (size_t)rounds, sizeof(double), cmp);
         double med = t[v][rounds / 2];
         if (v == 0) base = med;

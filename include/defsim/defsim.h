@@ -436,13 +436,13 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
 /// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
-/// of the world's backend ("sundials_ida.internal_steps"). Errors: DEFSIM_ERR_INVALID_ARGUMENT
-/// (NULL, unknown name).
+/// of the world's backend ("sundials_ida.internal_steps"), or contact's ("contact.active",
+/// docs/contact.md). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
 DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
                                            double *value);
 
 /// Number of statistics by name: the fields of defsim_stats (except size), then the backend's
-/// counters. 0 for a NULL world.
+/// counters, then contact's (contact.*). 0 for a NULL world.
 DEFSIM_API int32_t defsim_world_stat_count(const defsim_world *world);
 
 /// Name and value of statistic i (0 .. defsim_world_stat_count - 1). Either output may be NULL.

@@ -22,7 +22,8 @@ def test_core_options_by_name(box: defsim.Mesh) -> None:
         w.set_option("core.simd", 2)    # a choice by index
         assert w.option("core.simd") == "generic"
         assert w.options() == {"core.simd": "generic", "core.auto_substep": False,
-                               "core.substep_safety": 0.5}
+                               "core.substep_safety": 0.5, "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
 
 
 def test_bad_options_raise_and_change_nothing() -> None:
@@ -34,7 +35,8 @@ def test_bad_options_raise_and_change_nothing() -> None:
             with pytest.raises(defsim.InvalidArgumentError):
                 w.set_option(name, value)
         assert w.options() == {"core.simd": "auto", "core.auto_substep": False,
-                               "core.substep_safety": 0.8}
+                               "core.substep_safety": 0.8, "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
         with pytest.raises(defsim.InvalidArgumentError):
             w.option("core.nothing")
         with pytest.raises(defsim.InvalidArgumentError):
@@ -54,6 +56,8 @@ def test_backend_option_and_counter(box: defsim.Mesh) -> None:
     with defsim.World("testmod", gravity=(0, 0, 0), options={"testmod.damping": damping}) as w:
         assert w.option("testmod.damping") == damping
         assert set(w.options()) == {"core.simd", "core.auto_substep", "core.substep_safety",
+                                    "core.contact_dhat", "core.contact_kappa",
+                                    "core.contact_frequency", "core.friction_eps_v",
                                     "testmod.damping"}
         w.add_body(box)
         v0 = np.zeros((w.vertex_count, 3))

@@ -382,6 +382,20 @@ static void test_incline(void **state)
 /* ------------------------------------------------------------------------------------------ */
 /* Cloth draped on a sphere */
 
+/* Smallest |x - c| - r over the vertices: the independent check that none is inside. */
+static double sphere_gap(const defsim_world *w, const double c[3], double r)
+{
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), gap = INFINITY;
+    for (int i = 0; i < n; ++i) {
+        const double *p = x + 3 * i;
+        const double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+        gap = fmin(gap, sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - r);
+    }
+    free(x);
+    return gap;
+}
+
 static void cloth_on_sphere(const char *backend, int nu, double h, double t_end, int check)
 {
     defsim_world *w = world_or_skip(backend, -G);
@@ -411,13 +425,7 @@ static void cloth_on_sphere(const char *backend, int nu, double h, double t_end,
     for (int s = 0; s < (int)(t_end / h + 0.5); ++s) {
         if (defsim_world_step(w, h) != DEFSIM_OK)
             fail_msg("%s step %d: %s", backend, s, defsim_world_last_error(w));
-        double *x = tu_positions(w);
-        for (int i = 0; i < n; ++i) {
-            const double *p = x + 3 * i;
-            closest = fmin(closest, sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
-                                         (p[2] - c[2]) * (p[2] - c[2])) - r);
-        }
-        free(x);
+        closest = fmin(closest, sphere_gap(w, c, r));
         if (check) assert_true(barrier ? closest > 0.0 : closest > -0.01 * r);
     }
     const double elapsed = defsim__now() - t0;
@@ -460,7 +468,6 @@ static void pushed_beam(const char *backend)
     defsim_collider_id s = add_sphere(w, c, r, 0.0);
     auto_substep(w, backend);
     const double h = 0.01, q[4] = {1, 0, 0, 0};
-    const int n = defsim_world_vertex_count(w);
     double inside = INFINITY;
     const double x0 = centre(w, 0, 0);
     for (int k = 0; k < 100; ++k) {
@@ -468,13 +475,7 @@ static void pushed_beam(const char *backend)
         TU_OK(defsim_collider_set_pose(w, s, c, q));
         if (defsim_world_step(w, h) != DEFSIM_OK)
             fail_msg("%s step %d: %s", backend, k, defsim_world_last_error(w));
-        double *x = tu_positions(w);
-        for (int i = 0; i < n; ++i) {
-            const double *p = x + 3 * i;
-            inside = fmin(inside, sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
-                                       p[2] * p[2]) - r);
-        }
-        free(x);
+        inside = fmin(inside, sphere_gap(w, c, r));
     }
     const double moved = centre(w, 0, 0) - x0, vx = centre(w, 1, 0);
     printf("  %-16s beam pushed 0.5 m by a sphere on rough ground: moved %.3f m, speed %.3f m/s, "

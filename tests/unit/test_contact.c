@@ -289,6 +289,12 @@ static void resting_block(const char *backend)
         for (int i = 0; i < n; ++i)
             for (int k = 0; k < 3; ++k) sum[k] += f[3 * i + k] / last;
     }
+    /* vertices away from the ground get exactly nothing */
+    double *x = tu_positions(w);
+    for (int i = 0; i < n; ++i)
+        if (x[3 * i + 1] > 0.05)
+            assert_true(f[3 * i] == 0.0 && f[3 * i + 1] == 0.0 && f[3 * i + 2] == 0.0);
+    free(x);
     const double weight = total_mass(w) * G;
     printf("  %-16s %s: lowest vertex %+.3g m (bound %s%.3g), contact force %.5f weights "
            "(%.2g, %.2g), active %g, pairs %g\n", backend, barrier ? "barrier" : "penalty", lowest,

@@ -222,11 +222,13 @@ static void ensure(defsim__contact *c, const double *x)
 void defsim__contact_free(defsim__contact *c)
 {
     const double om = c->omega_elastic;
+    const int readback = c->readback_set;
     free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
     free(c->xn); free(c->radius); free(c->vel); free(c->blk);
     free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
     memset(c, 0, sizeof *c);
     c->omega_elastic = om;
+    c->readback_set = readback;
 }
 
 double defsim__contact_khat(const defsim__contact_params *p, double dhat, double h,

@@ -51,6 +51,7 @@ typedef struct defsim__contact {
     double omega_c;             /* penalty: sqrt(khat) (rad/s) */
     double mu_max;              /* largest friction coefficient of a live collider */
     double omega_elastic;       /* PENALTY's automatic omega_c: cached per plan, 0 when stale */
+    int readback_set;           /* the world's contact-force read-back may hold non-zeros */
 
     int32_t nv;
     const double *mass;         /* nv (the system's) */

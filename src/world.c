@@ -835,6 +835,15 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
 {
     defsim__contact *c = w->sys.contact;
     w->sys.contact = NULL;
+    if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
+        if (st == DEFSIM_OK && w->contact.readback_set) {
+            free(w->contact_force);
+            w->contact_force = NULL;
+            w->contact_nv = 0;
+            w->contact.readback_set = 0;
+        }
+        return st;
+    }
     if (st == DEFSIM_OK && (!w->contact_force || w->contact_nv != w->nv)) {
         free(w->contact_force);
         w->contact_nv = 0;
@@ -845,10 +854,6 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         }
         w->contact_nv = w->nv;
     }
-    if (!c) {
-        if (st == DEFSIM_OK) memset(w->contact_force, 0, 3 * (size_t)w->nv * sizeof(double));
-        return st;
-    }
     if (c->failed) {
         defsim__error(w->msg, c->failed == DEFSIM_ERR_CALLBACK
                                   ? "contact: a collider's SDF callback returned a non-finite "
@@ -858,6 +863,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     }
     if (st != DEFSIM_OK) return st;
     defsim__contact_end(c, w->state.x, w->state.v, w->contact_force);
+    c->readback_set = 1;
     for (int32_t j = 0; j < w->ncol; ++j) {
         memcpy(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos);
         memcpy(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot);

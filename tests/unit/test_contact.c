@@ -267,7 +267,7 @@ static void resting_block(const char *backend)
     const int barrier = is_barrier(backend);
     const double y0 = 0.005, lo[3] = {-0.1, y0, -0.1};
     add_block(w, lo, 0.2, 1e5, 10.0, 0.0, NULL);
-    add_plane(w, NULL, 0.0);
+    const defsim_collider_id ground = add_plane(w, NULL, 0.0);
     auto_substep(w, backend);
     const double omega_c = 1000.0;   /* penalty: the penetration bound uses it */
     TU_OK(defsim_world_set_option_number(w, "core.contact_frequency", omega_c));
@@ -304,6 +304,11 @@ static void resting_block(const char *backend)
     assert_true(fabs(sum[0]) <= 1e-3 * weight && fabs(sum[2]) <= 1e-3 * weight);
     assert_true(stat(w, "contact.active") >= 9.0);
     assert_true(stat(w, "contact.min_distance") == stat(w, "contact.min_distance"));
+    /* without the ground, the next step has no contact force at all */
+    TU_OK(defsim_world_remove_collider(w, ground));
+    TU_OK(defsim_world_step(w, h));
+    TU_OK(defsim_world_get_contact_forces(w, f, n));
+    for (int i = 0; i < 3 * n; ++i) assert_true(f[i] == 0.0);
     free(f);
     defsim_world_destroy(w);
 }

@@ -803,6 +803,24 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 static defsim_status contact_begin(defsim_world *w, double h)
 {
     w->sys.contact = NULL;
+    /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
+     * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
+     * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
+    const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    int jumped = w->colliders_changed;
+    for (int32_t j = 0; j < w->ncol && !jumped; ++j)
+        jumped = (w->col[j].generation & 1u) &&
+                 (memcmp(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos) != 0 ||
+                  memcmp(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot) != 0);
+    if (h > 0.0 && jumped && penalty && w->backend_ready && w->backend->reset) {
+        const defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
+        if (st != DEFSIM_OK) {
+            defsim__error(w->msg, "backend %s failed to reset for the colliders' change",
+                          w->backend->name);
+            return st;
+        }
+    }
+    if (h > 0.0) w->colliders_changed = 0;
     if (defsim_world_collider_count(w) == 0) return DEFSIM_OK;
     const defsim__options *o = &w->options;
     defsim__contact_params p = {
@@ -825,8 +843,9 @@ static defsim_status contact_begin(defsim_world *w, double h)
     p.omega_elastic = c->omega_elastic;
     defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p, w->state.x,
                                              w->state.v, h, w->msg);
-    if (st == DEFSIM_OK) w->sys.contact = c;
-    return st;
+    if (st != DEFSIM_OK) return st;
+    w->sys.contact = c;
+    return DEFSIM_OK;
 }
 
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the

@@ -49,6 +49,18 @@ void defsim__collider_pose_at(const defsim__collider *c, double s, defsim__pose 
 /* Makes a pose from a position and a unit quaternion. */
 void defsim__pose_set(defsim__pose *pose, const double p[3], const double q[4]);
 
+/* Triangle meshes (collider_mesh.c). check: the def's arrays (NULL, counts, finite coordinates,
+ * indices in range, no zero-area triangle), INVALID_ARGUMENT with the message. build: normals,
+ * pseudo-normals and the AABB tree over c->mesh_x / c->mesh_t (already copied), into c->bvh.
+ * distance: signed distance, gradient and (if h) Hessian of a local point, in the local frame.
+ * local_bounds: the mesh's local axis-aligned box. */
+defsim_status defsim__mesh_check(defsim__messages *msg, const defsim_collider_def *d);
+defsim_status defsim__mesh_build(defsim__collider *c);
+void defsim__mesh_free(defsim__collider *c);
+void defsim__mesh_distance(const defsim__collider *c, const double p[3], double *d, double g[3],
+                           double h[9]);
+void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double hi[3]);
+
 /* Signed distance (m, > 0 outside) of world point p to the collider at `pose`, its gradient
  * (the unit outward normal at the closest point, world frame) into grad, and if hess is not NULL
  * the Hessian of the distance (3x3 row-major, world frame; zero where the distance is not twice

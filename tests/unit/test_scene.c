@@ -443,6 +443,101 @@ static void test_coupling(void **state)
     free(x); free(v); free(m);
 }
 
+/* "colliders": every shape, rotations by quaternion and Euler angles, a mesh file, keyed poses,
+ * and errors that name the line (unknown key, a key of another shape, wrong type, bad path). */
+static void test_colliders(void **state)
+{
+    (void)state;
+    tu_write_file("cube.obj", "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\n"
+                              "v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+                              "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                              "f 3 4 8\nf 3 8 7\nf 2 3 7\nf 2 7 6\nf 1 5 8\nf 1 8 4\n");
+    const char *text =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,2,0], \"hi\": [1,3,1], \"cells\": [1,1,1]}}],\n"
+        " \"colliders\": [\n"
+        "   {\"shape\": \"plane\", \"normal\": [0, 2, 0], \"friction\": 0.5},\n"
+        "   {\"shape\": \"sphere\", \"position\": [3, 0, 0], \"radius\": 0.25},\n"
+        "   {\"shape\": \"box\", \"half_extents\": [1, 0.5, 0.25], \"euler_deg\": [0, 90, 0]},\n"
+        "   {\"shape\": \"capsule\", \"radius\": 0.1, \"half_height\": 0.3,\n"
+        "    \"rotation\": [0.7071067811865476, 0, 0, 0.7071067811865476]},\n"
+        "   {\"shape\": \"mesh\", \"mesh\": \"cube.obj\", \"position\": [0, -5, 0]},\n"
+        "   {\"shape\": \"box\", \"position\": [1, 2, 3], \"path\": [\n"
+        "      {\"t\": 0.5, \"position\": [0, 0, 0]},\n"
+        "      {\"t\": 1.5, \"position\": [2, 0, 0], \"euler_deg\": [0, 90, 0]}]}]}\n";
+    scene s;
+    load_ok("c.json", text, &s);
+    assert_int_equal(s.ncolliders, 6);
+    assert_int_equal(s.colliders[0].def.shape, DEFSIM_SHAPE_PLANE);
+    assert_true(s.colliders[0].def.normal[1] == 2.0 && s.colliders[0].def.friction == 0.5);
+    assert_true(s.colliders[1].def.radius == 0.25 && s.colliders[1].def.position[0] == 3.0);
+    /* 90 degrees about y: (cos 45, 0, sin 45, 0) */
+    const double *q = s.colliders[2].def.rotation;
+    assert_true(fabs(q[0] - sqrt(0.5)) < 1e-15 && fabs(q[2] - sqrt(0.5)) < 1e-15 && q[1] == 0.0 &&
+                fabs(q[3]) < 1e-15);
+    assert_true(s.colliders[3].def.half_height == 0.3);
+    assert_int_equal(s.colliders[4].def.triangle_count, 12);
+    assert_int_equal(s.colliders[4].def.vertex_count, 8);
+    /* keyed poses: held before the first key and after the last, linear and slerp between */
+    double p[3], r[4];
+    scene_collider_pose(&s.colliders[5], 0.0, p, r);
+    assert_true(p[0] == 0.0 && r[0] == 1.0);
+    scene_collider_pose(&s.colliders[5], 1.0, p, r);
+    assert_true(fabs(p[0] - 1.0) < 1e-15 && p[1] == 0.0);
+    assert_true(fabs(r[0] - cos(3.14159265358979 / 8)) < 1e-12 &&
+                fabs(r[2] - sin(3.14159265358979 / 8)) < 1e-12);
+    scene_collider_pose(&s.colliders[5], 9.0, p, r);
+    assert_true(p[0] == 2.0 && fabs(r[2] - sqrt(0.5)) < 1e-15);
+    assert_true(scene_has_paths(&s));
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    assert_int_equal(defsim_world_collider_count(w), 6);
+    defsim_collider_def d;
+    defsim_collider_def_init(&d, sizeof d);
+    TU_OK(defsim_world_get_collider(w, 4, NULL, &d));
+    assert_true(d.shape == DEFSIM_SHAPE_MESH && d.position[1] == -5.0 && d.triangle_count == 12);
+    TU_OK(defsim_world_get_collider(w, 0, NULL, &d));
+    assert_true(d.normal[1] == 1.0);   /* normalised by the library */
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    /* values the library rejects: the error names the collider's line */
+    const char *bad_value =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+        " \"colliders\": [{\"shape\": \"sphere\"},\n"
+        "   {\"shape\": \"sphere\", \"radius\": -1}]}\n";
+    const char *path = tu_write_file("v.json", bad_value);
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(w);
+    assert_int_equal(error_line(&s, path), 4);
+    scene_free(&s);
+
+    static const char *const bad[] = {
+        "{\"shape\": \"box\", \"radius\": 1}",                       /* a key of another shape */
+        "{\"shape\": \"sphere\", \"raduis\": 1}",                    /* unknown key */
+        "{\"shape\": \"cone\"}",                                      /* unknown shape */
+        "{\"radius\": 1}",                                            /* no shape */
+        "{\"shape\": \"sphere\", \"position\": \"here\"}",            /* wrong type */
+        "{\"shape\": \"sphere\", \"rotation\": [1, 0, 0]}",           /* wrong length */
+        "{\"shape\": \"box\", \"rotation\": [1, 0, 0, 0], \"euler_deg\": [0, 0, 0]}",
+        "{\"shape\": \"box\", \"path\": [{\"t\": 1}, {\"t\": 0.5}]}", /* times must increase */
+        "{\"shape\": \"box\", \"path\": [{\"t\": 1, \"speed\": 2}]}",
+        "{\"shape\": \"mesh\", \"mesh\": \"missing.obj\"}",
+        "{\"shape\": \"mesh\"}",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; ++i) {
+        char buf[1024];
+        snprintf(buf, sizeof buf,
+                 "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+                 " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+                 " \"colliders\": [{\"shape\": \"plane\"},\n"
+                 "   %s]}\n", bad[i]);
+        expect_line(buf, 4);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -452,6 +547,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_colliders, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_control_bytes_as_whitespace, tu_tmpdir_setup,
                                         tu_tmpdir_teardown),
     };

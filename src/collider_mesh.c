@@ -30,6 +30,8 @@ struct defsim__bvh {
     bvh_node *node;
     int32_t nnode;
     int32_t *order;        /* triangles in leaf order */
+    double *tx;            /* 9 nt: the corners of order[i] at 9 i, so that leaves read memory in
+                              sequence */
 };
 
 static void sub(const double *a, const double *b, double *o)
@@ -230,7 +232,8 @@ defsim_status defsim__mesh_build(defsim__collider *c)
     m->vn = calloc(3 * (size_t)nv, sizeof *m->vn);
     m->node = malloc(2 * (size_t)nt * sizeof *m->node);
     m->order = malloc((size_t)nt * sizeof *m->order);
-    if (!m->fn || !m->en || !m->vn || !m->node || !m->order || !normals(m, nv)) goto oom;
+    m->tx = malloc(9 * (size_t)nt * sizeof *m->tx);
+    if (!m->fn || !m->en || !m->vn || !m->node || !m->order || !m->tx || !normals(m, nv)) goto oom;
     for (int32_t t = 0; t < nt; ++t) {
         m->order[t] = t;
         for (int k = 0; k < 3; ++k)
@@ -239,6 +242,9 @@ defsim_status defsim__mesh_build(defsim__collider *c)
     }
     build(m, cen, 0, nt);
     free(cen);
+    for (int32_t i = 0; i < nt; ++i)
+        for (int c3 = 0; c3 < 3; ++c3)
+            memcpy(m->tx + 9 * i + 3 * c3, m->x + 3 * m->tri[3 * m->order[i] + c3], 3 * sizeof *m->tx);
     c->bvh = m;
     return DEFSIM_OK;
 oom:
@@ -257,15 +263,9 @@ void defsim__mesh_free(defsim__collider *c)
     free(m->vn);
     free(m->node);
     free(m->order);
+    free(m->tx);
     free(m);
     c->bvh = NULL;
-}
-
-void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double hi[3])
-{
-    const bvh_node *root = &c->bvh->node[0];
-    memcpy(lo, root->lo, 3 * sizeof *lo);
-    memcpy(hi, root->hi, 3 * sizeof *hi);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -334,6 +334,21 @@ static double box_dist2(const bvh_node *n, const double *p)
     return s;
 }
 
+double defsim__mesh_distance_brute(const defsim__collider *c, const double p[3])
+{
+    const struct defsim__bvh *m = c->bvh;
+    double best = INFINITY;
+    for (int32_t t = 0; t < m->nt; ++t) {
+        const int32_t *v = m->tri + 3 * t;
+        double r[3], e[3];
+        int f;
+        closest_on_triangle(p, m->x + 3 * v[0], m->x + 3 * v[1], m->x + 3 * v[2], r, &f);
+        sub(p, r, e);
+        if (dot(e, e) < best) best = dot(e, e);
+    }
+    return sqrt(best);
+}
+
 void defsim__mesh_distance(const defsim__collider *c, const double p[3], double *d, double g[3],
                            double h[9])
 {
@@ -349,16 +364,15 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
         if (box_dist2(n, p) >= best) continue;
         if (n->count > 0) {
             for (int32_t i = n->index; i < n->index + n->count; ++i) {
-                const int32_t t = m->order[i];
-                const int32_t *v = m->tri + 3 * t;
+                const double *tx = m->tx + 9 * (size_t)i;
                 double r[3], e[3];
                 int f;
-                closest_on_triangle(p, m->x + 3 * v[0], m->x + 3 * v[1], m->x + 3 * v[2], r, &f);
+                closest_on_triangle(p, tx, tx + 3, tx + 6, r, &f);
                 sub(p, r, e);
                 const double d2 = dot(e, e);
                 if (d2 < best) {
                     best = d2;
-                    best_t = t;
+                    best_t = m->order[i];
                     best_f = f;
                     memcpy(q, r, sizeof q);
                 }

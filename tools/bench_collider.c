@@ -3,8 +3,8 @@
  * defsim-bench-collider: the cost of a distance query against a triangle-mesh collider, through
  * its AABB tree and by a loop over every triangle (the reference), on a UV sphere of about 10k
  * triangles (radius 1, rotated) for points near its surface (|d| < 0.1) and far from it (up to
- * 3 radii). Also the cost of building the collider (copy, normals, tree) and, for comparison,
- * the box and SDF-free analytic shapes. Medians over rounds; a tool, not a test.
+ * 3 radii), with and without the Hessian, and the cost of building the collider (copy,
+ * normals, tree). Medians over rounds; a tool, not a test.
  *
  *   defsim-bench-collider [--segments N] [--points P] [--rounds R]
  */

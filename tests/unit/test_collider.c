@@ -362,6 +362,8 @@ static void test_mesh_brute_force(void **state)
             double g[3];
             const double d = dist(&c, &pose, p, g, NULL), b = brute(&ms[which], p);
             NEAR(fabs(d), b, 1e-12);
+            /* the tree finds what the loop over every triangle finds, to the last bit */
+            assert_true(fabs(d) == defsim__mesh_distance_brute(&c, p));
             if (which == 0) {   /* closed cube: negative exactly inside */
                 const int in = fabs(p[0]) < 0.5 && fabs(p[1]) < 0.5 && fabs(p[2]) < 0.5;
                 assert_true(in ? d < 0 : d > 0);

@@ -29,8 +29,9 @@ static void test_shipped_scenes(void **state)
 {
     (void)state;
     static const char *names[] = {"cantilever", "cloth", "rope", "stiff_block", "squash",
-                                  "driven_circle", "cantilever_stress"};
-    for (int i = 0; i < 7; ++i) {
+                                  "driven_circle", "cantilever_stress", "ground_box_sphere",
+                                  "cloth_sphere", "steps", "pushed_beam"};
+    for (int i = 0; i < 11; ++i) {
         scene s;
         shipped(names[i], &s);
         defsim_world *w = NULL;

@@ -71,15 +71,23 @@ defsim_status defsim__collider_distance(const defsim__collider *c, const defsim_
                                         const double p[3], double *d, double grad[3],
                                         double hess[9]);
 
-/* World axis-aligned bounds of the collider at `pose`, grown by margin (m). Unbounded directions
- * (planes, SDFs without bounds) get -inf / +inf. */
+/* World axis-aligned bounds of the collider at `pose`, grown by margin (m): every point with
+ * d <= margin lies inside (for an open mesh: every point with |d| <= margin; the region behind
+ * it, d < 0, is unbounded). Tight: the rotated box, capsule or mesh vertices. Unbounded
+ * directions (planes, except along a world axis normal; SDFs without bounds) get -inf / +inf. */
 void defsim__collider_bounds(const defsim__collider *c, const defsim__pose *pose, double margin,
                              double lo[3], double hi[3]);
 
 /* Conservative time of impact of a point moving from p0 to p1 (world, straight line) against the
  * collider held at `pose`: the largest t in [0, 1] such that the distance stays above
- * min_distance for every point of the segment up to t (1 if it never comes closer). Requires
- * the distance at p0 to exceed min_distance. Returns DEFSIM_OK or DEFSIM_ERR_CALLBACK. */
+ * min_distance for every point of the segment up to t (1 if it never comes closer); 0 when the
+ * distance at p0 does not exceed min_distance. Plane, sphere: exact (t is reduced by 1e-9 of
+ * the gap so that rounding cannot land closer); box, capsule: Newton from the left on the
+ * convex distance (slabs first for the box), exact to rounding; mesh, SDF: conservative
+ * advancement (the distance is 1-Lipschitz: for an SDF that is the host's promise), to 1e-6
+ * of the initial gap or after 256 samples (grazing paths). An open mesh's sign flip behind its border (docs/colliders.md) is caught
+ * where an advancement sample lands behind it, not between samples. Returns DEFSIM_OK or
+ * DEFSIM_ERR_CALLBACK. */
 defsim_status defsim__collider_toi(const defsim__collider *c, const defsim__pose *pose,
                                    const double p0[3], const double p1[3], double min_distance,
                                    double *t);

@@ -52,12 +52,14 @@ void defsim__pose_set(defsim__pose *pose, const double p[3], const double q[4]);
 /* Triangle meshes (collider_mesh.c). check: the def's arrays (NULL, counts, finite coordinates,
  * indices in range, no zero-area triangle), INVALID_ARGUMENT with the message. build: normals,
  * pseudo-normals and the AABB tree over c->mesh_x / c->mesh_t (already copied), into c->bvh.
- * distance: signed distance, gradient and (if h) Hessian of a local point, in the local frame. */
+ * distance: signed distance, gradient and (if h) Hessian of a local point, in the local frame.
+ * local_bounds: the mesh's local axis-aligned box (the tree's root). */
 defsim_status defsim__mesh_check(defsim__messages *msg, const defsim_collider_def *d);
 defsim_status defsim__mesh_build(defsim__collider *c);
 void defsim__mesh_free(defsim__collider *c);
 void defsim__mesh_distance(const defsim__collider *c, const double p[3], double *d, double g[3],
                            double h[9]);
+void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double hi[3]);
 /* The unsigned distance of a local point by a loop over every triangle: the reference that the
  * tree must match (test_collider, tools/bench_collider.c). */
 double defsim__mesh_distance_brute(const defsim__collider *c, const double p[3]);

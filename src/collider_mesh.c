@@ -268,6 +268,13 @@ void defsim__mesh_free(defsim__collider *c)
     c->bvh = NULL;
 }
 
+void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double hi[3])
+{
+    const bvh_node *root = &c->bvh->node[0];
+    memcpy(lo, root->lo, 3 * sizeof *lo);
+    memcpy(hi, root->hi, 3 * sizeof *hi);
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Queries */
 

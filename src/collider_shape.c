@@ -244,6 +244,14 @@ void defsim__collider_bounds(const defsim__collider *c, const defsim__pose *pose
         return;
     }
     case DEFSIM_SHAPE_MESH:
+        if (pose->q[0] == 1.0) {   /* not rotated: the tree's root box */
+            defsim__mesh_local_bounds(c, lo, hi);
+            for (int k = 0; k < 3; ++k) {
+                lo[k] += pose->p[k] - margin;
+                hi[k] += pose->p[k] + margin;
+            }
+            return;
+        }
         /* the rotated vertices: tight, one pass over them */
         for (int k = 0; k < 3; ++k) {
             lo[k] = INFINITY;

@@ -475,7 +475,7 @@ static void test_sdf(void **state)
 /* ------------------------------------------------------------------------------------------ */
 /* Bounds and time of impact over every shape */
 
-enum { NSHAPE = 9 };
+enum { NSHAPE = 10 };
 static tmesh g_cube, g_sphere, g_open;
 
 static defsim__collider shape_n(int n, defsim__pose *pose)
@@ -494,6 +494,7 @@ static defsim__collider shape_n(int n, defsim__pose *pose)
             d.sdf_bounds[0] = d.sdf_bounds[2] = -0.8; d.sdf_bounds[1] = -0.2;
             d.sdf_bounds[3] = d.sdf_bounds[5] = 0.8; d.sdf_bounds[4] = 0.2; break;
     case 8: d.shape = DEFSIM_SHAPE_CAPSULE; d.radius = 0.3; d.half_height = 0.0; break;
+    case 9: return mesh_collider(&g_sphere, pose, 0);   /* not rotated: the root box */
     }
     return make(&d, pose);
 }

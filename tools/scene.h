@@ -166,6 +166,15 @@ defsim_status scene_step(scene *s, defsim_world *w, double h);
  * shortest arc; held outside the keys). */
 void scene_collider_pose(const scene_collider *col, double t, double p[3], double q[4]);
 
+/* A triangle surface of a collider for drawing, in its local frame: positions (3 per vertex)
+ * and outward triangles, malloc'd (free both); none for planes and SDFs (0 and NULL). smooth:
+ * 1 for the curved shapes. Returns 0, or -1 when out of memory. */
+int scene_collider_surface(const scene_collider *col, double **x, int32_t *nv, int32_t **tri,
+                           int32_t *nt, int *smooth);
+/* The nv local points moved to the collider's pose at time t (its path's, else its own). */
+void scene_collider_place(const scene_collider *col, double t, const double *local, int32_t nv,
+                          double *out);
+
 /* 1 if the scene moves anything along a path (driven pins, keyframed attachments, colliders). */
 int scene_has_paths(const scene *s);
 

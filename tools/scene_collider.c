@@ -236,3 +236,113 @@ void scene_free_colliders(scene *s)
     s->colliders = NULL;
     s->ncolliders = 0;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Drawing */
+
+enum { SEG = 24, RINGS = 13 };   /* odd: no ring on a capsule's equator, which the cylinder spans */
+
+int scene_collider_surface(const scene_collider *col, double **x, int32_t *nv, int32_t **tri,
+                           int32_t *nt, int *smooth)
+{
+    const defsim_collider_def *d = &col->def;
+    *x = NULL;
+    *tri = NULL;
+    *nv = *nt = 0;
+    *smooth = 0;
+    switch (d->shape) {
+    case DEFSIM_SHAPE_SPHERE:
+    case DEFSIM_SHAPE_CAPSULE: {
+        const double hh = d->shape == DEFSIM_SHAPE_CAPSULE ? d->half_height : 0.0;
+        *nv = 2 + SEG * (RINGS - 1);
+        *nt = 2 * SEG * (RINGS - 1);
+        *x = malloc(3 * (size_t)*nv * sizeof **x);
+        *tri = malloc(3 * (size_t)*nt * sizeof **tri);
+        if (!*x || !*tri) break;
+        double *p = *x;
+        p[0] = 0; p[1] = d->radius + hh; p[2] = 0;
+        p[3] = 0; p[4] = -d->radius - hh; p[5] = 0;
+        for (int i = 1; i < RINGS; ++i)
+            for (int j = 0; j < SEG; ++j) {
+                const double th = 3.14159265358979323846 * i / RINGS;
+                const double ph = 2.0 * 3.14159265358979323846 * j / SEG;
+                double *q = p + 3 * (2 + (i - 1) * SEG + j);
+                q[0] = d->radius * sin(th) * cos(ph);
+                q[1] = d->radius * cos(th) + (2 * i < RINGS ? hh : -hh);
+                q[2] = -d->radius * sin(th) * sin(ph);
+            }
+        int32_t *t = *tri;
+        for (int j = 0; j < SEG; ++j) {
+            const int32_t a = 2 + j, b = 2 + (j + 1) % SEG;
+            const int32_t c = 2 + (RINGS - 2) * SEG + j, e = 2 + (RINGS - 2) * SEG + (j + 1) % SEG;
+            *t++ = 0; *t++ = a; *t++ = b;
+            *t++ = 1; *t++ = e; *t++ = c;
+        }
+        for (int i = 1; i < RINGS - 1; ++i)
+            for (int j = 0; j < SEG; ++j) {
+                const int32_t a = 2 + (i - 1) * SEG + j, b = 2 + (i - 1) * SEG + (j + 1) % SEG;
+                *t++ = a; *t++ = a + SEG; *t++ = b + SEG;
+                *t++ = a; *t++ = b + SEG; *t++ = b;
+            }
+        *smooth = 1;
+        return 0;
+    }
+    case DEFSIM_SHAPE_BOX: {
+        static const int32_t T[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                      2, 3, 7, 2, 7, 6, 1, 2, 6, 1, 6, 5, 0, 4, 7, 0, 7, 3};
+        *nv = 8;
+        *nt = 12;
+        *x = malloc(24 * sizeof **x);
+        *tri = malloc(sizeof T);
+        if (!*x || !*tri) break;
+        for (int i = 0; i < 8; ++i) {
+            /* corners 0-3 at -z, 4-7 at +z; T's triangles are counter-clockwise from outside */
+            const int sx = (i & 3) == 1 || (i & 3) == 2, sy = (i & 3) >= 2, sz = i >= 4;
+            (*x)[3 * i] = sx ? d->half_extents[0] : -d->half_extents[0];
+            (*x)[3 * i + 1] = sy ? d->half_extents[1] : -d->half_extents[1];
+            (*x)[3 * i + 2] = sz ? d->half_extents[2] : -d->half_extents[2];
+        }
+        memcpy(*tri, T, sizeof T);
+        return 0;
+    }
+    case DEFSIM_SHAPE_MESH:
+        *nv = d->vertex_count;
+        *nt = d->triangle_count;
+        *x = malloc(3 * (size_t)*nv * sizeof **x);
+        *tri = malloc(3 * (size_t)*nt * sizeof **tri);
+        if (!*x || !*tri) break;
+        memcpy(*x, d->vertices, 3 * (size_t)*nv * sizeof **x);
+        memcpy(*tri, d->triangles, 3 * (size_t)*nt * sizeof **tri);
+        return 0;
+    case DEFSIM_SHAPE_PLANE:
+    case DEFSIM_SHAPE_SDF:
+        return 0;
+    }
+    free(*x);
+    free(*tri);
+    *x = NULL;
+    *tri = NULL;
+    *nv = *nt = 0;
+    return -1;
+}
+
+void scene_collider_place(const scene_collider *col, double t, const double *local, int32_t nv,
+                          double *out)
+{
+    double p[3], q[4];
+    if (col->nkeys > 0) {
+        scene_collider_pose(col, t, p, q);
+    } else {
+        memcpy(p, col->def.position, sizeof p);
+        memcpy(q, col->def.rotation, sizeof q);
+    }
+    const double w = q[0], x = q[1], y = q[2], z = q[3];
+    const double R[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)};
+    for (int32_t v = 0; v < nv; ++v) {
+        const double *l = local + 3 * (int64_t)v;
+        for (int r = 0; r < 3; ++r)
+            out[3 * (int64_t)v + r] = p[r] + R[3 * r] * l[0] + R[3 * r + 1] * l[1] + R[3 * r + 2] * l[2];
+    }
+}

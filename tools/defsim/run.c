@@ -310,13 +310,9 @@ typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
     rd_part *parts;
-    int32_t nparts;           /* the bodies' parts first (coloured by the scene), then colliders' */
+    int32_t nparts;           /* the bodies' parts (coloured by the scene), then the colliders' */
     int32_t nbody_parts;
-    int32_t *col_of;          /* per collider part: its collider */
-    double **col_local;       /* per collider part: its surface in its local frame */
-    int32_t *col_nv;
-    double *xall;             /* the bodies' positions, then the colliders' surfaces */
-    int32_t nv_all;
+    rd_colliders cols;
     int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
     float **tri_rgb, *vertex_rgb;
     image frame;
@@ -329,17 +325,15 @@ typedef struct png_out {
 static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
-    const size_t np = (size_t)s->nbodies + (size_t)s->ncolliders;
-    p->parts = calloc(np, sizeof *p->parts);
-    p->tri_cell = calloc(np, sizeof *p->tri_cell);
-    p->tri_rgb = calloc(np, sizeof *p->tri_rgb);
-    p->col_of = calloc((size_t)s->ncolliders + 1, sizeof *p->col_of);
-    p->col_local = calloc((size_t)s->ncolliders + 1, sizeof *p->col_local);
-    p->col_nv = calloc((size_t)s->ncolliders + 1, sizeof *p->col_nv);
+    if (rd_colliders_make(s, fl->nv, &p->cols)) {
+        fprintf(stderr, "defsim run: renderer: out of memory\n");
+        return -1;
+    }
+    p->parts = calloc((size_t)s->nbodies + (size_t)p->cols.n, sizeof *p->parts);
+    p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
+    p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
     p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
-    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb && p->col_of &&
-                p->col_local && p->col_nv ? s->nbodies : 0;
-    p->nbody_parts = p->nparts;
+    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
@@ -349,20 +343,8 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     }
     double lo[3], hi[3];
     scene_bounds(s, lo, hi);
-    /* A plane collider facing up (against gravity) is the ground: the grid is drawn on it. */
     scene_camera cam = s->camera;
-    const double *g = s->def.gravity, gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-    for (int32_t c = 0; c < s->ncolliders && !cam.has_ground_height && gn > 0.0; ++c) {
-        const defsim_collider_def *d = &s->colliders[c].def;
-        double n[3], nn;
-        if (d->shape != DEFSIM_SHAPE_PLANE || s->colliders[c].nkeys > 0) continue;
-        scene_collider_place(&s->colliders[c], 0.0, d->normal, 1, n);
-        for (int k = 0; k < 3; ++k) n[k] -= d->position[k];   /* the rotated normal */
-        nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (fabs(-(n[0] * g[0] + n[1] * g[1] + n[2] * g[2]) / (nn * gn) - 1.0) > 1e-9) continue;
-        cam.has_ground_height = 1;
-        cam.ground_height = -(d->position[0] * g[0] + d->position[1] * g[1] + d->position[2] * g[2]) / gn;
-    }
+    rd_ground_from_colliders(s, &cam);
     rd_view_make(&cam, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
@@ -396,34 +378,8 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
                 if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
         }
     }
-    /* Colliders: their surfaces, grey, placed at each frame's time by png_frame. */
-    p->nv_all = fl->nv;
-    for (int32_t c = 0; c < s->ncolliders; ++c) {
-        double *lx;
-        int32_t nv, nt, *tri;
-        int smooth;
-        if (scene_collider_surface(&s->colliders[c], &lx, &nv, &tri, &nt, &smooth)) {
-            fprintf(stderr, "defsim run: renderer: out of memory\n");
-            return -1;
-        }
-        if (nt == 0) continue;
-        rd_part *part = &p->parts[p->nparts];
-        for (int64_t k = 0; k < 3 * (int64_t)nt; ++k) tri[k] += p->nv_all;
-        part->tris = tri;
-        part->ntris = nt;
-        part->color[0] = part->color[1] = 0.62f;
-        part->color[2] = 0.66f;
-        part->smooth = smooth;
-        const int32_t k = p->nparts++ - p->nbody_parts;
-        p->col_of[k] = c;
-        p->col_local[k] = lx;
-        p->col_nv[k] = nv;
-        p->nv_all += nv;
-    }
-    if (!(p->xall = malloc(3 * (size_t)p->nv_all * sizeof *p->xall))) {
-        fprintf(stderr, "defsim run: renderer: out of memory\n");
-        return -1;
-    }
+    p->nbody_parts = p->nparts;
+    memcpy(p->parts + p->nparts, p->cols.parts, (size_t)p->cols.n * sizeof *p->parts);
     /* Contact sheet: up to 12 of the written frames, evenly spread. */
     int written[4096], nw = 0;
     for (int f = 0; f <= s->frames && nw < 4096; ++f)
@@ -448,12 +404,8 @@ static int png_frame(png_out *p, const scene *s, const fields *fl, const char *d
     double range[2];
     rd_color_parts((scene_color)s->color, s, p->parts, p->nbody_parts, p->tri_cell,
                    fl->von_mises, fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
-    memcpy(p->xall, x, 3 * (size_t)fl->nv * sizeof *x);
-    for (int32_t k = 0, off = fl->nv; k < p->nparts - p->nbody_parts; off += p->col_nv[k++])
-        scene_collider_place(&s->colliders[p->col_of[k]], t, p->col_local[k], p->col_nv[k],
-                             p->xall + 3 * (int64_t)off);
-    const int bad = rd_render(p->rd, &p->view, p->xall, p->parts, p->nparts, p->frame.rgb, p->err,
-                              sizeof p->err);
+    const int bad = rd_render(p->rd, &p->view, rd_colliders_place(&p->cols, t, x), p->parts,
+                              p->nbody_parts + p->cols.n, p->frame.rgb, p->err, sizeof p->err);
     if (!bad)
         rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
     if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
@@ -488,15 +440,11 @@ static int png_close(png_out *p, const char *dir)
         free(p->tri_cell[i]);
         free(p->tri_rgb[i]);
     }
-    for (int32_t k = 0; k < p->nparts - p->nbody_parts; ++k) free(p->col_local[k]);
+    rd_colliders_free(&p->cols);
     free(p->parts);
     free(p->tri_cell);
     free(p->tri_rgb);
     free(p->vertex_rgb);
-    free(p->col_of);
-    free(p->col_local);
-    free(p->col_nv);
-    free(p->xall);
     rd_destroy(p->rd);
     return rc;
 }

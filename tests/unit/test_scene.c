@@ -2,6 +2,7 @@
 /* Scene files (tools/scene.c): the shipped scenes, overrides, and errors that name file:line. */
 #include "test_util.h"
 
+#include "collider.h"
 #include "scene.h"
 
 #include <math.h>
@@ -490,6 +491,44 @@ static void test_colliders(void **state)
     scene_collider_pose(&s.colliders[5], 9.0, p, r);
     assert_true(p[0] == 2.0 && fabs(r[2] - sqrt(0.5)) < 1e-15);
     assert_true(scene_has_paths(&s));
+    /* drawn surfaces: every vertex on the shape (at t = 1, on the path for the moving box),
+     * every triangle facing out; none for the plane */
+    for (int32_t i = 0; i < s.ncolliders; ++i) {
+        double *lx, *wx;
+        int32_t nv, nt, *tri;
+        int smooth;
+        assert_int_equal(scene_collider_surface(&s.colliders[i], &lx, &nv, &tri, &nt, &smooth), 0);
+        assert_true(i == 0 ? nt == 0 : nt >= 12);
+        wx = malloc(3 * (size_t)nv * sizeof *wx + 1);
+        scene_collider_place(&s.colliders[i], 1.0, lx, nv, wx);
+        defsim__messages msg;
+        defsim__collider col;
+        defsim_collider_def d = s.colliders[i].def;
+        if (s.colliders[i].nkeys) scene_collider_pose(&s.colliders[i], 1.0, d.position, d.rotation);
+        assert_int_equal(defsim__collider_make(&msg, &d, &col), DEFSIM_OK);
+        defsim__pose pose;
+        defsim__pose_set(&pose, col.pos, col.rot);
+        for (int32_t v = 0; v < nv; ++v) {
+            double dd, g[3];
+            TU_OK(defsim__collider_distance(&col, &pose, wx + 3 * v, &dd, g, NULL));
+            assert_true(fabs(dd) < 1e-12);
+        }
+        for (int32_t t = 0; t < nt; ++t) {
+            const double *a = wx + 3 * tri[3 * t], *b = wx + 3 * tri[3 * t + 1], *c = wx + 3 * tri[3 * t + 2];
+            double e1[3], e2[3], n[3], m[3], dd, g[3];
+            for (int k = 0; k < 3; ++k) { e1[k] = b[k] - a[k]; e2[k] = c[k] - a[k]; m[k] = (a[k] + b[k] + c[k]) / 3; }
+            n[0] = e1[1] * e2[2] - e1[2] * e2[1]; n[1] = e1[2] * e2[0] - e1[0] * e2[2]; n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            /* outward: the distance grows along the triangle's normal */
+            const double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            double m2[3], d2;
+            for (int k = 0; k < 3; ++k) m2[k] = m[k] + 1e-4 * n[k] / nn;
+            TU_OK(defsim__collider_distance(&col, &pose, m, &dd, g, NULL));
+            TU_OK(defsim__collider_distance(&col, &pose, m2, &d2, g, NULL));
+            assert_true(d2 > dd);
+        }
+        defsim__collider_free(&col);
+        free(lx); free(wx); free(tri);
+    }
     defsim_world *w = NULL;
     if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
     assert_int_equal(defsim_world_collider_count(w), 6);

@@ -8,7 +8,6 @@
 #include "collider.h"
 
 #include <math.h>
-#include <stdlib.h>
 #include <string.h>
 
 static void to_local(const defsim__pose *pose, const double p[3], double l[3])

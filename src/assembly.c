@@ -10,6 +10,7 @@
  */
 #include "assembly.h"
 
+#include "contact.h"
 #include "element.h"
 #include "mat3.h"
 #include "material.h"
@@ -307,15 +308,17 @@ static void add_attachments(const defsim__system *s, const defsim_matrix_coeffs 
     if (at->n > 0 && passes) *passes |= DEFSIM_PASS_HESSIAN | DEFSIM_PASS_ATTACHMENTS;
 }
 
-/* The force callback's stiffness blocks (symmetric, 3x3 per vertex) on the diagonal blocks. */
-static void add_callback(const defsim__system *s, double k, int upper, const int64_t *cp,
-                         double *values)
+/* Symmetric 3x3 blocks per vertex (9 nv, scaled by k) on the diagonal blocks: the force
+ * callback's stiffness, and contact's (which touches only its vertex's own block, so the pattern
+ * never grows for it). */
+static void add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,
+                         const int64_t *cp, double *values)
 {
     const int32_t *rank0 = s->pattern.upper_rank0;
     for (int32_t v = 0; v < s->nv; ++v) {
         const int32_t fv = s->vfree[v];
         if (fv < 0) continue;
-        const double *B = s->cb_stiffness + 9 * (int64_t)v;
+        const double *B = blocks + 9 * (int64_t)v;
         /* the diagonal block's rank: below-diagonal neighbours come first in both layouts */
         const int64_t r = rank0[fv];
         for (int cb = 0; cb < 3; ++cb)
@@ -369,7 +372,10 @@ defsim_status defsim__matrix_values(const defsim__system *s, const double *x,
         }
     }
     if (c->k != 0.0 || c->kd != 0.0) add_attachments(s, c, upper, cp, values, passes);
-    if (c->k != 0.0 && s->cb_stiffness) add_callback(s, c->k, upper, cp, values);
+    if (c->k != 0.0 && s->cb_stiffness) add_diagonal(s, s->cb_stiffness, c->k, upper, cp, values);
+    if (s->contact && (c->k != 0.0 || c->kd != 0.0) &&
+        defsim__contact_blocks(s->contact, x, c->k, c->kd, s->contact->blk))
+        add_diagonal(s, s->contact->blk, 1.0, upper, cp, values);
     if (c->m != 0.0 || c->md != 0.0) {
         const int32_t *rank0 = s->pattern.upper_rank0;
         for (int32_t fv = 0; fv < s->nfree_v; ++fv)
@@ -444,6 +450,18 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
     }
 }
 
+/* out += k B dx for 3x3 blocks B per vertex (9 nv) on the diagonal. */
+static void apply_diagonal(const defsim__system *s, const double *blocks, double k,
+                           const double *dx, double *out)
+{
+    for (int32_t v = 0; v < s->nv; ++v) {
+        if (s->pinned[v]) continue;
+        const double *B = blocks + 9 * (int64_t)v, *u = dx + 3 * (int64_t)v;
+        for (int i = 0; i < 3; ++i)
+            out[3 * (int64_t)v + i] += k * (B[3 * i] * u[0] + B[3 * i + 1] * u[1] + B[3 * i + 2] * u[2]);
+    }
+}
+
 void defsim__matrix_apply(const defsim__system *s, const double *x,
                           const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
 {
@@ -474,13 +492,10 @@ void defsim__matrix_apply(const defsim__system *s, const double *x,
                     for (int i = 0; i < 3; ++i) out[3 * (int64_t)nd[j] + i] += w * a[j] * d[i];
         }
     }
-    if (c->k != 0.0 && s->cb_stiffness)
-        for (int32_t v = 0; v < s->nv; ++v) {
-            if (s->pinned[v]) continue;
-            const double *B = s->cb_stiffness + 9 * (int64_t)v, *u = dx + 3 * (int64_t)v;
-            for (int i = 0; i < 3; ++i)
-                out[3 * (int64_t)v + i] += c->k * (B[3 * i] * u[0] + B[3 * i + 1] * u[1] + B[3 * i + 2] * u[2]);
-        }
+    if (c->k != 0.0 && s->cb_stiffness) apply_diagonal(s, s->cb_stiffness, c->k, dx, out);
+    if (s->contact && (c->k != 0.0 || c->kd != 0.0) &&
+        defsim__contact_blocks(s->contact, x, c->k, c->kd, s->contact->blk))
+        apply_diagonal(s, s->contact->blk, 1.0, dx, out);
     if (c->m != 0.0 || c->md != 0.0)
         for (int64_t i = 0; i < ndof; ++i)
             if (!s->pinned[i / 3]) out[i] += (c->m + c->md * s->alpha3[i]) * s->mass3[i] * dx[i];

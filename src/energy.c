@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /* Energies of a compiled system: elastic (with attachment springs) and potential (with
- * gravity), as deterministic blocked sums. */
+ * gravity and contact), as deterministic blocked sums. */
 #include "energy.h"
 
+#include "contact.h"
 #include "element.h"
 #include "material.h"
 
@@ -61,5 +62,6 @@ double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const
                                  gr[2] * x[3 * (int64_t)i + 2]);
         e += sum;
     }
+    if (s->contact) e += defsim__contact_energy(s->contact, x);
     return e;
 }

@@ -13,7 +13,7 @@ enum { DEFSIM__REDUCE_BLOCK = 2048 };
  * neo-Hookean element). */
 double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const double *x);
 
-/* Elastic plus gravitational energy at x (J). */
+/* Elastic plus gravitational plus contact energy at x (J; contact.h). */
 double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const double *x);
 
 #endif /* DEFSIM_ENERGY_H */

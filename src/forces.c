@@ -11,6 +11,7 @@
  */
 #include "forces.h"
 
+#include "contact.h"
 #include "element.h"
 #include "material.h"
 #include "tet_forces.h"
@@ -122,6 +123,10 @@ defsim_status defsim__forces(const defsim__system *s, const double *x, const dou
             forces_attachments(&s->att, x, v, el, dm, f);
             used |= DEFSIM_PASS_ATTACHMENTS;
         }
+    }
+    if (s->contact && (which & (DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING))) {
+        const defsim_status st = defsim__contact_forces(s->contact, x, v, which, f);
+        if (st != DEFSIM_OK) return st;
     }
     if ((which & DEFSIM_FORCE_DAMPING) && v) {
         if (s->has_stiffness_damping) {

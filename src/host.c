@@ -6,6 +6,7 @@
 
 #include "assembly.h"
 #include "clock.h"
+#include "contact.h"
 #include "energy.h"
 #include "forces.h"
 #include "mat3.h"
@@ -283,8 +284,22 @@ static defsim_status omega_max(defsim_system *s, const double *x, double *omega,
 {
     if (!x || !omega || !damping) return DEFSIM_ERR_INVALID_ARGUMENT;
     const defsim_status st = defsim__omega_max(s->sys, s->work, x, omega);
-    *damping = st == DEFSIM_OK ? defsim__damping_coeff(s->sys, *omega) : 0.0;
+    *damping = st == DEFSIM_OK ? defsim__damping_coeff(s->sys, x, *omega) : 0.0;
     return st;
+}
+
+/* Contact's services serve only barrier steps (contact.h); elsewhere they change nothing. */
+static double contact_max_step(defsim_system *s, const double *x, const double *dx)
+{
+    defsim__contact *c = s->sys->contact;
+    if (!c || c->mode != DEFSIM__CONTACT_BARRIER || !x || !dx) return 1.0;
+    return defsim__contact_max_step(c, x, dx, 0.2);
+}
+
+static void contact_start(defsim_system *s, double *x)
+{
+    defsim__contact *c = s->sys->contact;
+    if (c && c->mode == DEFSIM__CONTACT_BARRIER && x) defsim__contact_start(c, x);
 }
 
 static void *alloc(size_t bytes) { return malloc(bytes); }
@@ -324,4 +339,6 @@ const defsim_host defsim__host = {
     .pin_positions = pin_positions,
     .pin_velocities = pin_velocities,
     .applied_forces_vary = applied_forces_vary,
+    .contact_max_step = contact_max_step,
+    .contact_start = contact_start,
 };

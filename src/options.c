@@ -45,10 +45,24 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
      "gravity and applied forces since (plus mass x size x max(|g|, 9.81 m/s^2))"},
     {"watchdog_max_stretch", DEFSIM_OPTION_REAL, 100.0, 1.0, 1e300, NULL,
      "a body's bounding-box diagonal may reach this multiple of its rest diagonal"},
+    {"contact_dhat", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 0.1, NULL,
+     "contact activation distance dhat relative to the length scale (diagonal of the rest "
+     "bounding box), in (0, 0.1]"},
+    {"contact_kappa", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e20, NULL,
+     "barrier stiffness per unit vertex mass (1/s^2); 0: automatic, |g| / dhat + 1 / h^2"},
+    {"contact_frequency", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e12, NULL,
+     "penalty contact frequency omega_c (rad/s; stiffness m_i omega_c^2); 0: automatic, the "
+     "bodies' highest elastic frequency, at least sqrt(2 |g| / dhat)"},
+    {"friction_eps_v", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 1e3, NULL,
+     "friction's stick-slip threshold (m/s): below it friction is a smooth viscous law"},
 };
 static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {
     "core.simd", "core.auto_substep", "core.substep_safety", "core.watchdog",
-    "core.watchdog_energy_growth", "core.watchdog_max_stretch"};
+    "core.watchdog_energy_growth", "core.watchdog_max_stretch", "core.contact_dhat",
+    "core.contact_kappa", "core.contact_frequency", "core.friction_eps_v"};
+static const char *const CONTACT_STAT_NAMES[DEFSIM__CONTACT_STATS] = {
+    "contact.active", "contact.pairs", "contact.min_distance", "contact.time_broad_phase",
+    "contact.time_ccd", "contact.ccd_calls", "contact.time_eval"};
 
 typedef enum { ST_U32, ST_I32, ST_I64, ST_F64 } stat_kind;
 typedef struct stat_field {
@@ -371,6 +385,11 @@ int defsim__options_take_reinit(defsim__options *o)
     return r;
 }
 
+double defsim__options_core(const defsim__options *o, int which)
+{
+    return o->core[which];
+}
+
 int defsim__options_auto_substep(const defsim__options *o)
 {
     return o->core[DEFSIM__OPT_AUTO_SUBSTEP] != 0.0;
@@ -379,11 +398,6 @@ int defsim__options_auto_substep(const defsim__options *o)
 double defsim__options_substep_safety(const defsim__options *o)
 {
     return o->core[DEFSIM__OPT_SUBSTEP_SAFETY];
-}
-
-double defsim__options_core(const defsim__options *o, int k)
-{
-    return o->core[k];
 }
 
 int defsim__options_projection(const defsim__options *o, int def_projection)
@@ -575,14 +589,19 @@ defsim_status defsim__options_info(const defsim__options *o, int32_t i, defsim_o
 
 int32_t defsim__options_stat_count(const defsim__options *o)
 {
-    return NSTATS + o->backend->counter_count;
+    return NSTATS + o->backend->counter_count + DEFSIM__CONTACT_STATS;
 }
 
 defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_stats *stats,
                                         int32_t i, const char **name, double *value)
 {
     if (i < 0 || i >= defsim__options_stat_count(o)) return DEFSIM_ERR_INVALID_ARGUMENT;
-    const int32_t k = i - NSTATS;
+    const int32_t k = i - NSTATS, kc = k - o->backend->counter_count;
+    if (kc >= 0) {   /* contact's statistics come last */
+        if (name) *name = CONTACT_STAT_NAMES[kc];
+        if (value) *value = o->contact_stats ? o->contact_stats[kc] : 0.0;
+        return DEFSIM_OK;
+    }
     if (name)
         *name = k < 0 ? STATS[i].name : o->names[DEFSIM__CORE_OPTIONS + o->backend->option_count + k];
     if (value) *value = k < 0 ? stat_read(stats, &STATS[i]) : o->counters[k];

@@ -19,8 +19,15 @@ enum {
     DEFSIM__OPT_WATCHDOG = 3,      /* BOOL: the stability watchdog (watchdog.c) */
     DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH = 4, /* REAL [1, 1e300] */
     DEFSIM__OPT_WATCHDOG_MAX_STRETCH = 5,   /* REAL [1, 1e300] */
-    DEFSIM__CORE_OPTIONS = 6
+    DEFSIM__OPT_CONTACT_DHAT = 6,  /* REAL: activation distance / length scale (contact.h) */
+    DEFSIM__OPT_CONTACT_KAPPA = 7, /* REAL: barrier stiffness per unit mass (1/s^2), 0: auto */
+    DEFSIM__OPT_CONTACT_FREQUENCY = 8, /* REAL: penalty frequency (rad/s), 0: auto */
+    DEFSIM__OPT_FRICTION_EPS_V = 9,/* REAL: friction's velocity threshold (m/s) */
+    DEFSIM__CORE_OPTIONS = 10
 };
+
+/* Contact's statistics ("contact.<name>"), in the order of contact.h's DEFSIM__CSTAT_*. */
+enum { DEFSIM__CONTACT_STATS = 7 };
 
 typedef struct defsim__options {
     double core[DEFSIM__CORE_OPTIONS];
@@ -30,6 +37,7 @@ typedef struct defsim__options {
     const char **names;      /* full names: core options, backend options, then counters */
     char *name_buf;          /* storage of the backend's full names */
     int reinit;              /* a backend option changed since the backend's last init */
+    const double *contact_stats; /* DEFSIM__CONTACT_STATS values (the world's contact), or NULL */
 } defsim__options;
 
 /* Allocates the values and counters of backend b (defaults, counters zero) and maps the
@@ -45,11 +53,10 @@ void defsim__options_reset_counters(defsim__options *o);
 /* Returns 1 once after a backend option changed: the world re-initialises its backend. */
 int defsim__options_take_reinit(defsim__options *o);
 
-/* What the core reads of its options. */
+/* What the core reads of its options: the value of option `which` (DEFSIM__OPT_*). */
+double defsim__options_core(const defsim__options *o, int which);
 int defsim__options_auto_substep(const defsim__options *o);
 double defsim__options_substep_safety(const defsim__options *o);
-/* The core's value of option k (DEFSIM__OPT_*). */
-double defsim__options_core(const defsim__options *o, int k);
 /* The backend's "projection" option when it declares one, else `def_projection` (the world
  * def's, for backends that still read it there). */
 int defsim__options_projection(const defsim__options *o, int def_projection);

@@ -4,6 +4,7 @@
 #include "stability.h"
 
 #include "assembly.h"
+#include "contact.h"
 
 #include <math.h>
 
@@ -11,9 +12,13 @@
  * iteration from a fixed start, to 1e-4 relative in the Rayleigh quotient. If the dominant
  * eigenvalue is negative (a strongly compressed, unstable configuration), the iteration is
  * repeated with that shift to find the largest positive one. */
-defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const double *x,
+defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, const double *x,
                                 double *omega)
 {
+    /* The elastic part alone; contact's penalty is added below as a bound. */
+    defsim__system elastic = *sys;
+    elastic.contact = NULL;
+    const defsim__system *s = &elastic;
     const int64_t ndof = 3 * (int64_t)s->nv;
     double *z = wk->pz, *y = wk->py, *u = wk->pu;
     const defsim_matrix_coeffs ck = {1.0, 0.0, 0.0, 0.0};
@@ -48,11 +53,15 @@ defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const
         if (lambda >= 0.0 || pass == 1) break;
         shift = -lambda;   /* dominant eigenvalue negative: shift the spectrum up */
     }
+    /* Contact's penalty springs (diagonal, k_i = omega_c^2 m_i) raise the top of the spectrum by
+     * at most omega_c^2 (Weyl), whether or not a contact is active at x. */
+    if (sys->contact && sys->contact->mode == DEFSIM__CONTACT_PENALTY)
+        lambda = (lambda > 0.0 ? lambda : 0.0) + sys->contact->khat;
     *omega = lambda > 0.0 ? sqrt(lambda) : 0.0;
     return isfinite(*omega) ? DEFSIM_OK : DEFSIM_ERR_UNSTABLE;
 }
 
-double defsim__damping_coeff(const defsim__system *s, double omega)
+double defsim__damping_coeff(const defsim__system *s, const double *x, double omega)
 {
     double alpha = 0.0, beta = 0.0;
     for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i)
@@ -74,5 +83,6 @@ double defsim__damping_coeff(const defsim__system *s, double omega)
         }
         if (a2 > 0.0 && at->c[e] * a2 / mmin > alpha) alpha = at->c[e] * a2 / mmin;
     }
+    if (s->contact && x) alpha += defsim__contact_damping_rate(s->contact, x, s->gravity);
     return alpha + beta * omega * omega;
 }

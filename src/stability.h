@@ -6,13 +6,14 @@
 #include "system.h"
 
 /* omega_max = sqrt(largest eigenvalue of M^-1 K(x)) over the free DOFs (rad/s), by power
- * iteration in the planner's workspace (no allocation). DEFSIM_ERR_UNSTABLE if not finite. */
+ * iteration in the planner's workspace (no allocation); with penalty contact, sqrt(omega_el^2 +
+ * omega_c^2), its bound. DEFSIM_ERR_UNSTABLE if not finite. */
 defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const double *x,
                                 double *omega);
 
 /* The damping coefficient c = alpha + beta omega^2 of the stiffest mode (1/s): the largest
- * mass damping of a free DOF (or damping rate of an attachment's damper) and stiffness damping
- * of an element. */
-double defsim__damping_coeff(const defsim__system *s, double omega);
+ * mass damping of a free DOF (or damping rate of an attachment's damper, or of penalty
+ * contact's friction at positions x) and stiffness damping of an element. */
+double defsim__damping_coeff(const defsim__system *s, const double *x, double omega);
 
 #endif /* DEFSIM_STABILITY_H */

@@ -103,6 +103,10 @@ typedef struct defsim__system {
     int has_attachment_damping;
     const double *fext;       /* 3 nv held external forces, or NULL (none or all zero) */
     const double *cb_stiffness;   /* 9 nv: -dF/dx blocks of the force callback, or NULL */
+
+    /* Contact with the world's colliders (contact.h): set by the world for its steps while it
+     * has live colliders, else NULL. Evaluations may grow its candidate pairs. */
+    struct defsim__contact *contact;
 } defsim__system;
 
 /* Scratch that physics functions write (sized by the planner, so that no step allocates). */

@@ -173,6 +173,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
+    w->options.contact_stats = w->contact.stat;
     *out = w;
     return DEFSIM_OK;
 }
@@ -274,6 +275,7 @@ defsim_status defsim__world_plan(defsim_world *w)
         return st;
     }
     w->sys.fext = w->fext_nonzero ? w->fext : NULL;
+    w->contact.omega_elastic = 0.0;
     w->planned = 1;
     return DEFSIM_OK;
 }
@@ -300,6 +302,7 @@ void defsim_world_destroy(defsim_world *w)
     free(w->bstate);
     defsim__coupling_free(w);
     defsim__colliders_free(w);
+    defsim__contact_free(&w->contact);
     free(w->msg);
     defsim__options_free(&w->options);
     w->magic = DEFSIM__WORLD_DEAD;
@@ -924,10 +927,13 @@ void defsim_world_reset_stats(defsim_world *w)
     s.reordered_tets = w->stats.reordered_tets;
     w->stats = s;
     defsim__options_reset_counters(&w->options);
+    memset(w->contact.stat, 0, sizeof w->contact.stat);
 }
 
 /* ------------------------------------------------------------------------------------------ */
 /* Stability */
+
+static defsim_status contact_begin(defsim_world *w, double h);
 
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
 {
@@ -938,7 +944,7 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
                                                               : "stable step: non-finite stiffness");
         return st;
     }
-    const double c = defsim__damping_coeff(&w->sys, om);
+    const double c = defsim__damping_coeff(&w->sys, w->state.x, om);
     const defsim_backend *b = w->backend;
     *h = b->stable_step_options ? b->stable_step_options(defsim__options_values(&w->options), om, c)
          : b->stable_step       ? b->stable_step(om, c)
@@ -955,7 +961,13 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     st = defsim__world_plan(w);
     if (st != DEFSIM_OK) return st;
     double h = INFINITY, om = 0.0;
-    if (w->nv > 0 && (st = estimate_stable_step(w, &h, &om)) != DEFSIM_OK) return st;
+    /* Penalty contact stiffens the system (explicit backends' limit); the barrier's backends
+     * have no limit. */
+    const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    if (w->nv > 0 && penalty && (st = contact_begin(w, 0.0)) != DEFSIM_OK) return st;
+    if (w->nv > 0) st = estimate_stable_step(w, &h, &om);
+    w->sys.contact = NULL;
+    if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
     return DEFSIM_OK;
@@ -973,7 +985,7 @@ static defsim_status watch_step(defsim_world *w, double h)
         .sys = &w->sys, .work = &w->work, .bodies = w->bodies, .nbodies = w->nbodies,
         .x = w->state.x, .v = w->state.v, .x0 = w->x_save, .v0 = w->v_save,
         .on = defsim__options_core(o, DEFSIM__OPT_WATCHDOG) != 0.0,
-        .energy = !w->cpl.fn && !w->drove,
+        .energy = !w->cpl.fn && !w->drove && !w->colliders_moved,
         .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
         .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
     char what[400];
@@ -994,6 +1006,102 @@ static defsim_status watch_step(defsim_world *w, double h)
                              estimated ? hs : NAN, defsim__options_auto_substep(o));
     defsim__error(w->msg, "%s", msg);
     return DEFSIM_ERR_UNSTABLE;
+}
+
+/* Contact (contact.h) for a step of h (0: for the stable step): BARRIER for backends whose line
+ * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends. */
+static defsim_status contact_begin(defsim_world *w, double h)
+{
+    w->sys.contact = NULL;
+    /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
+     * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
+     * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
+    const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    int jumped = w->colliders_changed;
+    for (int32_t j = 0; j < w->ncol && !jumped; ++j)
+        jumped = (w->col[j].generation & 1u) &&
+                 (memcmp(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos) != 0 ||
+                  memcmp(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot) != 0);
+    if (h > 0.0 && jumped && penalty && w->backend_ready && w->backend->reset) {
+        const defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
+        if (st != DEFSIM_OK) {
+            defsim__error(w->msg, "backend %s failed to reset for the colliders' change",
+                          w->backend->name);
+            return st;
+        }
+    }
+    if (h > 0.0) {
+        /* A moving collider does work the watchdog does not track: no energy check this step. */
+        w->colliders_moved = jumped;
+        w->colliders_changed = 0;
+    }
+    if (defsim_world_collider_count(w) == 0) return DEFSIM_OK;
+    const defsim__options *o = &w->options;
+    defsim__contact_params p = {
+        .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
+                                                                 : DEFSIM__CONTACT_PENALTY,
+        .dhat_rel = defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
+        .kappa = defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
+        .frequency = defsim__options_core(o, DEFSIM__OPT_CONTACT_FREQUENCY),
+        .eps_v = defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V)};
+    defsim__contact *c = &w->contact;
+    if (p.mode == DEFSIM__CONTACT_PENALTY && p.frequency == 0.0 && c->omega_elastic == 0.0) {
+        double om = 0.0;   /* the bodies' own top frequency, without contact, once per plan */
+        defsim_status st = defsim__omega_max(&w->sys, &w->work, w->state.x, &om);
+        if (st != DEFSIM_OK) {
+            defsim__error(w->msg, "contact: the elastic frequency is not finite");
+            return st;
+        }
+        c->omega_elastic = om;
+    }
+    p.omega_elastic = c->omega_elastic;
+    defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p, w->state.x,
+                                             w->state.v, h, w->msg);
+    if (st != DEFSIM_OK) return st;
+    w->sys.contact = c;
+    return DEFSIM_OK;
+}
+
+/* Closes contact's part of a step: a callback's failure is the step's; after a success, the
+ * contact forces for the host and the colliders' poses at the end of the step. */
+static defsim_status contact_end(defsim_world *w, defsim_status st)
+{
+    defsim__contact *c = w->sys.contact;
+    w->sys.contact = NULL;
+    if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
+        if (st == DEFSIM_OK && w->contact.readback_set) {
+            free(w->contact_force);
+            w->contact_force = NULL;
+            w->contact_nv = 0;
+            w->contact.readback_set = 0;
+        }
+        return st;
+    }
+    if (st == DEFSIM_OK && (!w->contact_force || w->contact_nv != w->nv)) {
+        free(w->contact_force);
+        w->contact_nv = 0;
+        w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
+        if (!w->contact_force) {
+            defsim__error(w->msg, "out of memory for the contact forces");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        w->contact_nv = w->nv;
+    }
+    if (c->failed) {
+        defsim__error(w->msg, c->failed == DEFSIM_ERR_CALLBACK
+                                  ? "contact: a collider's SDF callback returned a non-finite "
+                                    "value; state restored"
+                                  : "out of memory for contact pairs; state restored");
+        return c->failed;
+    }
+    if (st != DEFSIM_OK) return st;
+    defsim__contact_end(c, w->state.x, w->state.v, w->contact_force);
+    c->readback_set = 1;
+    for (int32_t j = 0; j < w->ncol; ++j) {
+        memcpy(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos);
+        memcpy(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot);
+    }
+    return DEFSIM_OK;
 }
 
 defsim_status defsim_world_step(defsim_world *w, double h)
@@ -1034,6 +1142,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     const int substep = defsim__options_auto_substep(&w->options) &&
                         (w->backend->stable_step || w->backend->stable_step_options);
     st = defsim__coupling_step_begin(w, h);
+    if (st == DEFSIM_OK) st = contact_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -1056,6 +1165,9 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
             defsim__coupling_substep_before(w, i, n, h / (double)n);
+            if (w->sys.contact)
+                defsim__contact_substep(w->sys.contact, (double)i / (double)n,
+                                        (double)(i + 1) / (double)n, h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
             defsim__coupling_substep_after(w);
         }
@@ -1071,6 +1183,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     st = defsim__coupling_step_end(w, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
+    st = contact_end(w, st);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);

@@ -10,6 +10,7 @@
 
 #include "body.h"
 #include "collider.h"
+#include "contact.h"
 #include "host.h"
 #include "status.h"
 #include "system.h"
@@ -75,9 +76,11 @@ struct defsim_world {
     defsim__collider *col;
     int32_t ncol, cap_col;
     int colliders_changed;    /* a collider was added or removed since the last step */
+    int colliders_moved;      /* in this step a collider moves, or one came or went */
     double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
     int32_t contact_nv;
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
+    defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).

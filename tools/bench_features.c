@@ -6,7 +6,8 @@
  * alike; the median time per step of each is compared with the baseline. "zero" variants have
  * the feature present in the scene but with no effect (a damping coefficient of 0, an empty
  * pin list, an extra body of another material without elements, external forces of zero, a
- * force callback or an attachment set and then removed): the planner must skip them,
+ * force callback or an attachment set and then removed; colliders far away, which the contact
+ * broad phase leaves without pairs): the planner must skip them,
  * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
  * when used. The stability watchdog (core.watchdog) is on in every variant but the "watchdog
  * off" ones: baseline over "watchdog off" is what the watchdog costs when nothing trips, and the
@@ -14,7 +15,18 @@
  * the monotonic clock: on a shared, oversubscribed machine, time spent waiting for a core then
  * does not count.
  *
- *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T] [--cpu]
+ *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T] [--only WORD] [--cpu]
+ *
+ * --only keeps the baseline and the variants whose name contains WORD ("colliders"); --cpu
+ * times with process CPU time instead of the monotonic clock (for a loaded machine).
+ *
+ *   defsim-bench-features --cloth N [--threads T]
+ *
+ * instead drops an N x N cloth (1 m, springs) on a sphere for 1.5 s at h = 0.01 with
+ * newton_cholmod (barrier contact) and symplectic_euler (penalty contact, auto_substep,
+ * friction_eps_v 0.02 m/s) and
+ * prints the time per step and the share of it spent in contact (broad phase, CCD, contact
+ * energy, forces and blocks).
  */
 #include "bench_beam.h"
 #include "clock.h"
@@ -38,6 +50,7 @@ typedef struct variant {
     int attachments;         /* 0 none, 1 one added then removed, 2 on (free end to a point) */
     int watchdog_off;        /* core.watchdog = false */
     int neohookean;          /* the beam is neo-Hookean instead of stable neo-Hookean */
+    int colliders;           /* 0 none, 1 four far away (100 m), 2 a sphere under the free end */
 } variant;
 
 static const variant variants[] = {
@@ -64,6 +77,10 @@ static const variant variants[] = {
     {.name = "neo-Hookean beam, watchdog on", .gravity = 9.81, .pins = 1, .neohookean = 1},
     {.name = "neo-Hookean beam, watchdog off", .gravity = 9.81, .pins = 1, .neohookean = 1,
      .watchdog_off = 1},
+    {.name = "colliders far away (3 spheres, 1 plane)", .gravity = 9.81, .pins = 1,
+     .colliders = 1},
+    {.name = "collider on (sphere under the free end)", .gravity = 9.81, .pins = 1,
+     .colliders = 2},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
 
@@ -128,15 +145,22 @@ static int couple(defsim_world *w, const variant *v, const defsim_mesh *m, defsi
     return 0;
 }
 
-static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
+/* A world of `backend` with gravity -gy along y, or NULL. */
+static defsim_world *new_world(const char *backend, double gy, int threads)
 {
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
-    wd.backend = "symplectic_euler";
-    wd.gravity[1] = -v->gravity;
+    wd.backend = backend;
+    wd.gravity[1] = -gy;
     wd.num_threads = threads;
-    defsim_world *w;
-    if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
+    defsim_world *w = NULL;
+    return defsim_world_create(&wd, &w) == DEFSIM_OK ? w : NULL;
+}
+
+static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
+{
+    defsim_world *w = new_world("symplectic_euler", v->gravity, threads);
+    if (!w) return NULL;
     defsim_material mat;
     defsim_material_init(&mat, sizeof mat,
                          v->neohookean ? DEFSIM_MODEL_NEOHOOKEAN : DEFSIM_MODEL_STABLE_NEOHOOKEAN);
@@ -175,6 +199,16 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
     if (couple(w, v, m, b) != 0) return NULL;
     if (v->watchdog_off && defsim_world_set_option(w, "core.watchdog", "false") != DEFSIM_OK)
         return NULL;
+    /* Colliders far away: the broad phase must make them free. One near: contact's cost. */
+    for (int k = 0; k < (v->colliders == 1 ? 4 : v->colliders == 2 ? 1 : 0); ++k) {
+        defsim_collider_def cd;
+        defsim_collider_def_init(&cd, sizeof cd);
+        cd.shape = k < 3 ? DEFSIM_SHAPE_SPHERE : DEFSIM_SHAPE_PLANE;
+        cd.radius = 0.5;
+        if (v->colliders == 1) cd.position[k < 3 ? k : 1] = k < 3 ? 100.0 : -100.0;
+        else cd.position[0] = 2.5, cd.position[1] = -0.5 - 1e-3;   /* 1 mm under the beam */
+        if (defsim_world_add_collider(w, &cd, NULL) != DEFSIM_OK) return NULL;
+    }
     return w;
 }
 
@@ -191,9 +225,72 @@ static void passes(uint32_t p, char *out, size_t n)
         }
 }
 
+/* The cloth-on-sphere scene of test_contact, timed. */
+static int cloth(int nu, const char *backend, int threads)
+{
+    defsim_world *w = new_world(backend, 9.81, threads);
+    if (!w) {
+        printf("| %s | not available | | |\n", backend);
+        return 0;
+    }
+    char opt[96];
+    snprintf(opt, sizeof opt, "%s.max_iterations", backend);
+    defsim_world_set_option(w, opt, "200");   /* symplectic_euler has none: ignored */
+    /* Newton's last digits converge slowly against the barrier (docs/contact.md) */
+    snprintf(opt, sizeof opt, "%s.tolerance", backend);
+    defsim_world_set_option(w, opt, "1e-5");
+    /* Explicit friction's damping rate 2 mu lam / (m eps_v) bounds the explicit step: with the
+     * default eps_v (1e-3 m/s) symplectic_euler needs thousands of substeps per step here. */
+    if (!strcmp(backend, "symplectic_euler")) {
+        defsim_world_set_option(w, "core.auto_substep", "1");
+        defsim_world_set_option(w, "core.friction_eps_v", "0.02");
+    }
+    const double origin[3] = {-0.5, 0.4, -0.5}, u[3] = {1, 0, 0}, v[3] = {0, 0, 1};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    if (defsim_mesh_cloth(origin, u, v, nu, nu, &m) != DEFSIM_OK) return -1;
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.material.stiffness = 2e3;   /* the cloth of test_contact: 1 kg, springs of 2 kN/m */
+    bd.material.vertex_mass = 1.0 / ((nu + 1) * (nu + 1));
+    bd.material.mass_damping = 1.0;
+    bd.rest_positions = m.positions, bd.vertex_count = m.vertex_count;
+    bd.springs = m.springs, bd.spring_count = m.spring_count;
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.shape = DEFSIM_SHAPE_SPHERE;
+    cd.radius = 0.3;
+    cd.friction = 0.5;
+    if (defsim_world_add_body(w, &bd, NULL) != DEFSIM_OK ||
+        defsim_world_add_collider(w, &cd, NULL) != DEFSIM_OK)
+        return -1;
+    defsim_mesh_free(&m);
+    const int steps = 150;
+    for (int k = 0; k < steps; ++k)
+        if (defsim_world_step(w, 0.01) != DEFSIM_OK) {
+            printf("| %s | step %d failed: %s | | |\n", backend, k, defsim_world_last_error(w));
+            defsim_world_destroy(w);
+            return 0;
+        }
+    double t, broad, ccd, eval, it = 0.0, sub = 0.0;
+    defsim_world_stat(w, "time_step", &t);
+    defsim_world_stat(w, "contact.time_broad_phase", &broad);
+    defsim_world_stat(w, "contact.time_ccd", &ccd);
+    defsim_world_stat(w, "contact.time_eval", &eval);
+    defsim_world_stat(w, "newton_iterations", &it);
+    defsim_world_stat(w, "substeps", &sub);
+    printf("| %s | %.2f | %.1f %% | %.1f | %.0f |\n", backend, 1e3 * t / steps,
+           100.0 * (broad + ccd + eval) / t, it / steps, sub / steps);
+    defsim_world_destroy(w);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    int n = 12, steps = 20, rounds = 7, threads = 1;
+    int n = 12, steps = 20, rounds = 7, threads = 1, cloth_n = 0;
+    const char *only = NULL;
     for (int i = 1; i < argc; i += 2) {
         if (!strcmp(argv[i], "--cpu")) {
             use_cpu = 1;
@@ -205,22 +302,34 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--only")) only = argv[i + 1];
+        else if (!strcmp(argv[i], "--cloth")) cloth_n = atoi(argv[i + 1]);
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
-    if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0) return 2;
+    if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0 || cloth_n < 0) return 2;
+    if (cloth_n > 0) {
+        printf("%dx%d cloth on a sphere, 150 steps of 0.01 s, %d threads\n\n", cloth_n, cloth_n,
+               threads);
+        printf("| backend | ms/step | contact share | Newton its/step | substeps/step |\n"
+               "|---|---:|---:|---:|---:|\n");
+        return cloth(cloth_n, "newton_cholmod", threads) || cloth(cloth_n, "symplectic_euler", threads);
+    }
     defsim_mesh m;
     if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;
-    defsim_world *w[NV];
+    defsim_world *w[NV] = {0};
     for (int v = 0; v < NV; ++v)
-        if (!(w[v] = make(&variants[v], &m, threads))) {
+        if ((v == 0 || !only || strstr(variants[v].name, only)) &&
+            !(w[v] = make(&variants[v], &m, threads))) {
             fprintf(stderr, "variant %s: %s\n", variants[v].name, defsim_last_error());
             return 1;
         }
     double t[NV][100];
     const double h = 1e-5;
-    for (int v = 0; v < NV; ++v) defsim_world_step(w[v], h);   /* plan and warm up */
+    for (int v = 0; v < NV; ++v)
+        if (w[v]) defsim_world_step(w[v], h);   /* plan and warm up */
     for (int r = 0; r < rounds; ++r)
         for (int v = 0; v < NV; ++v) {
+            if (!w[v]) continue;
             double t0 = now();
             for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
             t[v][r] = (now() - t0) / steps;
@@ -230,6 +339,7 @@ int main(int argc, char **argv)
     printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
     double base = 0;
     for (int v = 0; v < NV; ++v) {
+        if (!w[v]) continue;
         qsort(t[v], (size_t)rounds, sizeof(double), cmp);
         double med = t[v][rounds / 2];
         if (v == 0) base = med;

@@ -79,5 +79,6 @@ static const defsim_counter_spec bdf2_counters[1] = {
 };
 
 const defsim__ic_scheme defsim__ic_module_scheme = {
-    .name = "bdf2", .flags = DEFSIM_BACKEND_DISSIPATIVE, .work_vectors = 4, .history_vectors = 2,
+    .name = "bdf2", .flags = DEFSIM_BACKEND_DISSIPATIVE | DEFSIM_BACKEND_CONTACT_CCD,
+    .work_vectors = 4, .history_vectors = 2,
     .prepare = bdf2_prepare, .accept = bdf2_accept, .counters = bdf2_counters, .counter_count = 1};

@@ -138,6 +138,8 @@ typedef struct ic_solver {
     double *x, *xt;            /* dof_count */
     double *grad, *dx;         /* free DOFs */
     int coupled;               /* the host has the coupling services (pin_positions, ...) */
+    int contact;               /* the host has the contact services (ABI 5) */
+    double *dxf;               /* the Newton update over all DOFs (contact_max_step) */
     const int64_t *dof_free;   /* DOF -> free index or -1 */
     double *dpin, *fpd;        /* driven pins: x_p - z_p, and -B(x_b) (x_p - z_p) on free DOFs */
     int fpd_on;                /* this step's g has the pins' damping cross term */
@@ -163,7 +165,7 @@ static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
     }
     defsim__ic_solver *p = &s->pub;
     double *owned[] = {s->hval, p->bval, p->x0, p->v0, p->y, p->z, s->x, s->xt, p->f,
-                       s->grad, s->dx, p->e, p->be, s->dpin, s->fpd};
+                       s->grad, s->dx, p->e, p->be, s->dpin, s->fpd, s->dxf};
     for (size_t k = 0; k < sizeof owned / sizeof *owned; ++k) host->release(owned[k]);
     for (int k = 0; k < DEFSIM__IC_MAX_WORK; ++k) host->release(p->work[k]);
     host->release(s);
@@ -295,6 +297,12 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->coupled = host->size >= offsetof(defsim_host, applied_forces_vary) +
                                    sizeof host->applied_forces_vary;
     s->dof_free = host->dof_to_free(sys);
+    s->contact = host->size >= offsetof(defsim_host, contact_start) + sizeof host->contact_start;
+    if (s->contact) {
+        s->dxf = alloc_doubles(host, p->ndof);
+        if (!s->dxf) return DEFSIM_ERR_OUT_OF_MEMORY;
+        memset(s->dxf, 0, (size_t)p->ndof * sizeof *s->dxf);
+    }
     if (s->coupled && s->stiffness_damping) {
         s->dpin = alloc_doubles(host, p->ndof);
         s->fpd = alloc_doubles(host, p->ndof);
@@ -638,6 +646,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     const double t_end = s->coupled ? host->time(sys) + h : 0.0;
     memcpy(s->x, stp->guess, bytes);
     if (p->pin_vel) host->pin_positions(sys, t_end, s->x);
+    if (s->contact) host->contact_start(sys, s->x);
     defsim_status pst = pin_damping(s, stp, host, sys);
     if (pst != DEFSIM_OK) return fail(s, host, sys, pst, "non-finite damping of the driven pins");
     double scale = 0.0;
@@ -645,6 +654,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     if (!isfinite(gx)) {
         memcpy(s->x, p->x0, bytes);
         if (p->pin_vel) host->pin_positions(sys, t_end, s->x);
+        if (s->contact) host->contact_start(sys, s->x);
         gx = merit(s, stp, host, sys, s->x, h, &scale);
         if (!isfinite(gx))
             return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED,
@@ -673,17 +683,30 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         double dxmax = 0.0;
         for (int64_t k = 0; k < p->n; ++k) dxmax = fmax(dxmax, fabs(s->dx[k]));
 
+        /* Contact: no step goes further than continuous collision detection allows, so every
+         * iterate stays strictly outside the colliders (the barrier is +inf on them). */
+        double alpha_max = 1.0;
+        if (s->contact) {
+            for (int64_t k = 0; k < p->n; ++k) s->dxf[p->fdof[k]] = s->dx[k];
+            alpha_max = host->contact_max_step(sys, s->x, s->dxf);
+            if (!(alpha_max > 0.0)) {
+                snprintf(msg, sizeof msg, "contact: no feasible step at Newton iteration %d", it);
+                return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
+            }
+        }
+
         /* Converged: the update moves no DOF by more than tol. The update is still applied;
          * for exact Newton it squares the remaining error. */
         if (dxmax <= tol) {
-            for (int64_t k = 0; k < p->n; ++k) s->x[p->fdof[k]] += s->dx[k];
+            for (int64_t k = 0; k < p->n; ++k) s->x[p->fdof[k]] += alpha_max * s->dx[k];
             return DEFSIM_OK;
         }
 
-        /* Backtracking line search: Armijo decrease of g. A full step whose predicted decrease
-         * is below g's resolution is taken if g does not rise beyond that resolution either. */
+        /* Backtracking line search: Armijo decrease of g from the largest feasible step. A full
+         * step whose predicted decrease is below g's resolution is taken if g does not rise
+         * beyond that resolution either. */
         const double resolution = IC_G_RESOLUTION * scale;
-        double alpha = 1.0, gt = INFINITY, tscale = 0.0;
+        double alpha = alpha_max, gt = INFINITY, tscale = 0.0;
         int accepted = 0;
         for (int b = 0; b <= IC_MAX_BACKTRACKS; ++b) {
             for (int64_t k = 0; k < p->n; ++k) {

@@ -55,5 +55,6 @@ static defsim_status nm_prepare(defsim__ic_solver *s, const defsim_host *host,
 
 /* Without damping it conserves the energy of linear problems: CONSERVATIVE, not DISSIPATIVE. */
 const defsim__ic_scheme defsim__ic_module_scheme = {
-    .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE, .work_vectors = 2,
+    .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE | DEFSIM_BACKEND_CONTACT_CCD,
+    .work_vectors = 2,
     .prepare = nm_prepare};

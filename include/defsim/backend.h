@@ -28,8 +28,9 @@ extern "C" {
 /// coupling services (defsim_host.forces_at, pin_positions, pin_velocities,
 /// applied_forces_vary); version 4 defsim_backend.stable_step_options; version 5
 /// defsim_backend.save_state and load_state (checkpoints, with defsim_state_writer and
-/// defsim_state_reader). The core accepts backends built against 1 to 5 (a table's struct_size
-/// says which fields it has); a backend checks host->size before using a later field.
+/// defsim_state_reader), the contact services (defsim_host.contact_max_step, contact_start) and
+/// DEFSIM_BACKEND_CONTACT_CCD. The core accepts backends built against 1 to 5 (a table's
+/// struct_size says which fields it has); a backend checks host->size before using a later field.
 #define DEFSIM_BACKEND_ABI_VERSION 5u
 
 /// Name of the one symbol a module exports.
@@ -222,6 +223,19 @@ typedef struct defsim_host {
     /// forces once per step (at x_n) must then evaluate them at every iterate instead, to match
     /// the callback's stiffness that matrix_values adds to K.
     int (*applied_forces_vary)(const defsim_system *sys);
+
+    /* ABI version 5: contact with the world's colliders (docs/contact.md). */
+
+    /// Continuous collision detection for line searches: the largest alpha in (0, 1] such that
+    /// along x + t dx, 0 <= t <= alpha (x and dx over all DOFs), no vertex comes closer to any
+    /// collider (at its end-of-step pose) than 0.2 times its distance at x. 1 when the world has
+    /// no colliders or in a step of a backend without DEFSIM_BACKEND_CONTACT_CCD; 0 when x is not
+    /// feasible or a collider's SDF callback failed (the core then fails the step).
+    double (*contact_max_step)(defsim_system *sys, const double *x, const double *dx);
+    /// Makes a Newton start x (all DOFs) feasible for the barrier: every vertex that a moving
+    /// collider comes within the activation distance of in this step is carried rigidly with
+    /// the collider's motion. No-op without colliders or without DEFSIM_BACKEND_CONTACT_CCD.
+    void (*contact_start)(defsim_system *sys, double *x);
 } defsim_host;
 
 /// Capability flags of a backend.
@@ -230,11 +244,18 @@ enum {
     DEFSIM_BACKEND_ADAPTIVE = 1u << 1,      ///< Takes internal steps under an error tolerance.
     DEFSIM_BACKEND_IMPLICIT = 1u << 2,      ///< Stable at any step size for dissipative scenes.
     DEFSIM_BACKEND_DISSIPATIVE = 1u << 3,   ///< Total energy never grows without external work.
-    DEFSIM_BACKEND_CONSERVATIVE = 1u << 4   ///< Without damping, the total energy stays in a
+    DEFSIM_BACKEND_CONSERVATIVE = 1u << 4,  ///< Without damping, the total energy stays in a
                                             ///< bounded band around its start: no drift, no
                                             ///< numerical dissipation (symplectic or
                                             ///< energy-conserving schemes; explicit ones inside
                                             ///< their stability limit).
+    DEFSIM_BACKEND_CONTACT_CCD = 1u << 5    ///< (ABI 5) Minimises the potential_energy with a line
+                                            ///< search that starts each step's Newton iterate with
+                                            ///< contact_start and never goes beyond
+                                            ///< contact_max_step: contact is then a log barrier
+                                            ///< (+inf on contact) with lagged friction in the
+                                            ///< potential. Without the flag it is a penalty with
+                                            ///< friction among the damping forces.
 };
 
 /// Where a backend's save_state op writes its history (checkpoints, ABI version 5). The core

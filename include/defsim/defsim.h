@@ -508,14 +508,15 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
 /// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
-/// of the world's backend ("sundials_ida.internal_steps"). min_volume_ratio, inverted_elements
-/// and energy_drift are computed from the current state at this call (see defsim_stats).
+/// of the world's backend ("sundials_ida.internal_steps"), or contact's ("contact.active",
+/// docs/contact.md). min_volume_ratio, inverted_elements and energy_drift are computed from the
+/// current state at this call (see defsim_stats).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
 DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
                                            double *value);
 
 /// Number of statistics by name: the fields of defsim_stats (except size), then the backend's
-/// counters. 0 for a NULL world.
+/// counters, then contact's (contact.*). 0 for a NULL world.
 DEFSIM_API int32_t defsim_world_stat_count(const defsim_world *world);
 
 /// Name and value of statistic i (0 .. defsim_world_stat_count - 1). Either output may be NULL.
@@ -798,7 +799,11 @@ typedef enum defsim_shape {
 /// A host signed-distance function: returns the signed distance (m, < 0 inside) of the point
 /// p (m, in the collider's local frame) and writes its gradient (unit outward normal, local
 /// frame) into grad. Called during steps, from the stepping thread only; a non-finite return
-/// or gradient fails the step with DEFSIM_ERR_CALLBACK and the state unchanged.
+/// or gradient, or a gradient of zero length, fails the step with DEFSIM_ERR_CALLBACK and the
+/// state unchanged. The gradient need not be unit (defsim normalises it). The value must be a
+/// true distance bound: |sdf(p) - sdf(q)| <= |p - q| (|grad| <= 1), which continuous collision
+/// detection relies on to never step a vertex through the surface. The Hessian is taken by
+/// central differences (1e-5 m) of the normalised gradient: 6 more calls where contact needs it.
 typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
 
 /// A collider handle: a small value like defsim_body_id (tagged with its world, slots reused).
@@ -844,8 +849,9 @@ DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 /// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
 /// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
-/// 1e-6 of unit length, a mesh with too few vertices or triangles or an index out of range, an
-/// SDF without a callback), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, non-finite
+/// coordinates, an index out of range or a zero-area triangle, an SDF without a callback or
+/// with sdf_bounds lo > hi), DEFSIM_ERR_LOCKED (from inside a host callback),
 /// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most colliders it can). On error
 /// nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,

@@ -399,7 +399,8 @@ static void out_close(frame_out *o)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* PNG output: a renderer with one part per body, frames, and a contact sheet of up to 12 */
+/* PNG output: a renderer with one part per body and one per drawn collider, frames, and a
+ * contact sheet of up to 12 */
 
 #ifdef DEFSIM_HAVE_RENDER
 enum { SHEET_MAX = 12 };
@@ -408,7 +409,9 @@ typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
     rd_part *parts;
-    int32_t nparts;
+    int32_t nparts;           /* the bodies' parts (coloured by the scene), then the colliders' */
+    int32_t nbody_parts;
+    rd_colliders cols;
     int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
     float **tri_rgb, *vertex_rgb;
     image frame;
@@ -421,7 +424,11 @@ typedef struct png_out {
 static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
-    p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
+    if (rd_colliders_make(s, fl->nv, &p->cols)) {
+        fprintf(stderr, "defsim run: renderer: out of memory\n");
+        return -1;
+    }
+    p->parts = calloc((size_t)s->nbodies + (size_t)p->cols.n, sizeof *p->parts);
     p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
     p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
     p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
@@ -435,7 +442,9 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     }
     double lo[3], hi[3];
     scene_bounds(s, lo, hi);
-    rd_view_make(&s->camera, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
+    scene_camera cam = s->camera;
+    rd_ground_from_colliders(s, &cam);
+    rd_view_make(&cam, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
@@ -468,6 +477,8 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
                 if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
         }
     }
+    p->nbody_parts = p->nparts;
+    memcpy(p->parts + p->nparts, p->cols.parts, (size_t)p->cols.n * sizeof *p->parts);
     /* Contact sheet: up to 12 of the written frames, evenly spread. */
     int written[4096], nw = 0;
     for (int f = 0; f <= s->frames && nw < 4096; ++f)
@@ -490,10 +501,10 @@ static int png_frame(png_out *p, const scene *s, const fields *fl, const char *d
     char path[4200];
     snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
     double range[2];
-    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, fl->von_mises,
-                   fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
-    const int bad = rd_render(p->rd, &p->view, x, p->parts, p->nparts, p->frame.rgb, p->err,
-                              sizeof p->err);
+    rd_color_parts((scene_color)s->color, s, p->parts, p->nbody_parts, p->tri_cell,
+                   fl->von_mises, fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
+    const int bad = rd_render(p->rd, &p->view, rd_colliders_place(&p->cols, t, x), p->parts,
+                              p->nbody_parts + p->cols.n, p->frame.rgb, p->err, sizeof p->err);
     if (!bad)
         rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
     if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
@@ -528,6 +539,7 @@ static int png_close(png_out *p, const char *dir)
         free(p->tri_cell[i]);
         free(p->tri_rgb[i]);
     }
+    rd_colliders_free(&p->cols);
     free(p->parts);
     free(p->tri_cell);
     free(p->tri_rgb);

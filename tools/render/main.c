@@ -210,6 +210,8 @@ int main(int argc, char **argv)
     double tt[12];
     int nthumbs = 0, rc = 0, have_view = 0;
     rd_view view;
+    rd_colliders cols;   /* the scene's colliders, drawn after the frame's bodies */
+    memset(&cols, 0, sizeof cols);
     for (int i = 0; i < nfiles && rc == 0; ++i) {
         vtk_frame fr;
         if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
@@ -227,8 +229,15 @@ int main(int argc, char **argv)
                         lo[c] = fmin(lo[c], fr.x[3 * k + c]);
                         hi[c] = fmax(hi[c], fr.x[3 * k + c]);
                     }
+            if (have_scene) rd_ground_from_colliders(&s, &s.camera);
             rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
             have_view = 1;
+            if (have_scene && rd_colliders_make(&s, fr.nv, &cols)) {
+                fprintf(stderr, "defsim-render: out of memory\n");
+                rc = 1;
+                vtk_frame_free(&fr);
+                break;
+            }
         }
         const char *base = strrchr(files[i], '/');
         base = base ? base + 1 : files[i];
@@ -266,7 +275,23 @@ int main(int argc, char **argv)
                     rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
                                    fr.displacement, fr.nv, vrgb, trgb, range);
             }
-            if (!bad) bad = rd_render(rd, &view, fr.x, parts, np, img.rgb, err, sizeof err);
+            /* the colliders, after the bodies (of a frame with as many vertices as the first) */
+            rd_part *all = parts;
+            const double *xall = fr.x;
+            int nall = np;
+            if (!bad && cols.n > 0 && fr.nv == cols.nv_bodies) {
+                if (!(all = malloc((size_t)(np + cols.n) * sizeof *all))) {
+                    snprintf(err, sizeof err, "out of memory");
+                    bad = 1;
+                } else {
+                    memcpy(all, parts, (size_t)np * sizeof *all);
+                    memcpy(all + np, cols.parts, (size_t)cols.n * sizeof *all);
+                    xall = rd_colliders_place(&cols, fr.time, fr.x);
+                    nall = np + cols.n;
+                }
+            }
+            if (!bad) bad = rd_render(rd, &view, xall, all, nall, img.rgb, err, sizeof err);
+            if (all != parts) free(all);
             if (!bad) rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
             for (int k = 0; trgb && k < np; ++k) free(trgb[k]);
             free(trgb);
@@ -292,6 +317,7 @@ int main(int argc, char **argv)
         }
     }
     for (int k = 0; k < nthumbs; ++k) image_free(&thumbs[k]);
+    rd_colliders_free(&cols);
     for (int i = 0; i < nfiles; ++i) free(files[i]);
     free(files);
     free(times);

@@ -65,6 +65,28 @@ int32_t *rd_tet_surface(const int64_t *tets, int64_t ntets, int32_t *ntris);
 int rd_triangle_tets(const int32_t *tets, int64_t ntets, const int32_t *tris, int32_t ntris,
                      int32_t *tet_of);
 
+/* The colliders of a scene as parts (colliders.c): grey surfaces of its spheres, capsules, boxes
+ * and meshes (planes and SDFs are not drawn), whose vertices come after the bodies' nv_bodies
+ * positions. make: 0, or -1 when out of memory (free in either case). place: the bodies'
+ * positions followed by the colliders' surfaces at their poses of time t (a buffer of c).
+ * ground_from_colliders: a camera without a ground height gets the height of a static plane
+ * collider whose normal points against gravity, so that the grid is drawn on it. */
+typedef struct rd_colliders {
+    const scene *s;
+    rd_part *parts;           /* n of them */
+    int32_t n;
+    int32_t *col;             /* the collider of each part */
+    double **local;           /* each part's surface in its collider's frame */
+    int32_t *nv;              /* its vertex count */
+    int32_t nv_bodies;        /* the bodies' vertices, first in x */
+    int32_t nv_all;           /* the bodies' vertices and all the parts' */
+    double *x;                /* 3 nv_all */
+} rd_colliders;
+int rd_colliders_make(const scene *s, int32_t nv_bodies, rd_colliders *c);
+const double *rd_colliders_place(rd_colliders *c, double t, const double *x_bodies);
+void rd_colliders_free(rd_colliders *c);
+void rd_ground_from_colliders(const scene *s, scene_camera *cam);
+
 /* Colour scales (scene_color): the colour of a value, and the bar drawn into a finished image
  * (right edge: the scale, its range with units, and a label). */
 

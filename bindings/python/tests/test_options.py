@@ -23,7 +23,9 @@ def test_core_options_by_name(box: defsim.Mesh) -> None:
         assert w.option("core.simd") == "generic"
         assert w.options() == {"core.simd": "generic", "core.auto_substep": False,
                                "core.substep_safety": 0.5, "core.watchdog": True,
-                               "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0}
+                               "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0,
+                               "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
 
 
 def test_bad_options_raise_and_change_nothing() -> None:
@@ -36,7 +38,9 @@ def test_bad_options_raise_and_change_nothing() -> None:
                 w.set_option(name, value)
         assert w.options() == {"core.simd": "auto", "core.auto_substep": False,
                                "core.substep_safety": 0.8, "core.watchdog": True,
-                               "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0}
+                               "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0,
+                               "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
         with pytest.raises(defsim.InvalidArgumentError):
             w.option("core.nothing")
         with pytest.raises(defsim.InvalidArgumentError):
@@ -57,7 +61,9 @@ def test_backend_option_and_counter(box: defsim.Mesh) -> None:
         assert w.option("testmod.damping") == damping
         assert set(w.options()) == {"core.simd", "core.auto_substep", "core.substep_safety",
                                     "core.watchdog", "core.watchdog_energy_growth",
-                                    "core.watchdog_max_stretch", "testmod.damping"}
+                                    "core.watchdog_max_stretch", "core.contact_dhat",
+                                    "core.contact_kappa", "core.contact_frequency",
+                                    "core.friction_eps_v", "testmod.damping"}
         w.add_body(box)
         v0 = np.zeros((w.vertex_count, 3))
         v0[:, 0] = 1.0

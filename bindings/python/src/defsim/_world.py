@@ -685,7 +685,9 @@ class World(WorldCoupling, WorldColliders):
         for i in range(int(lib.defsim_world_stat_count(w))):
             self._check(lib.defsim_world_stat_info(w, i, name, value))
             key = ffi.string(name[0]).decode("utf-8")
-            if "." in key:   # "<backend>.<counter>"; the stats' own fields have no dot
+            # "<backend>.<counter>"; the stats' own fields have no dot, and contact's
+            # ("contact.*", docs/contact.md) are the core's: read them with stat()
+            if "." in key and not key.startswith("contact."):
                 counters[key] = float(value[0])
         return Stats(counters=counters, **values)
 

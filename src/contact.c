@@ -1,0 +1,667 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Contact between vertices and colliders (contact.h; the method and its parameters are in
+ * docs/contact.md). Geometry comes only from the collider queries (collider.h), never per shape.
+ *
+ * Contents: the scalar functions (barrier, friction smoothing); pairs and the broad phase;
+ * energy, forces and blocks; continuous collision detection and the feasible start; the end of a
+ * step.
+ */
+#include "contact.h"
+
+#include "clock.h"
+#include "mat3.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------------------------ */
+/* Scalar functions */
+
+/* IPC's barrier b(d) = -(d - dhat)^2 ln(d / dhat) for 0 < d < dhat, and its derivatives. */
+static double barrier(double d, double dh)
+{
+    const double r = d - dh;
+    return -r * r * log(d / dh);
+}
+
+static double barrier_d1(double d, double dh)
+{
+    const double r = d - dh;
+    return -2.0 * r * log(d / dh) - r * r / d;
+}
+
+static double barrier_d2(double d, double dh)
+{
+    const double r = d - dh;
+    return -2.0 * log(d / dh) - 4.0 * r / d + r * r / (d * d);
+}
+
+/* IPC's smoothed friction magnitude f0(y) (f0' = f1: 2y/eps - y^2/eps^2 below eps, then 1). */
+static double friction_f0(double y, double eps)
+{
+    return y >= eps ? y : -y * y * y / (3.0 * eps * eps) + y * y / eps + eps / 3.0;
+}
+
+/* f1(y) / y, finite at y = 0. */
+static double friction_f1_over_y(double y, double eps)
+{
+    return y >= eps ? 1.0 / y : 2.0 / eps - y / (eps * eps);
+}
+
+/* Adds s * Hessian of f0(|P u|) with respect to u (P = I - n n^T, ut = P u, y = |ut|) into B:
+ * (f1/y) P + (f1/y)' ut ut^T / y, positive semi-definite for every y. */
+static void friction_block(double s, const double n[3], const double ut[3], double y, double eps,
+                           double B[9])
+{
+    const double a = friction_f1_over_y(y, eps);
+    const double b = y >= eps ? -1.0 / (y * y * y) : (y > 0.0 ? -1.0 / (eps * eps * y) : 0.0);
+    for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q)
+            B[3 * r + q] += s * (a * ((r == q) - n[r] * n[q]) + b * ut[r] * ut[q]);
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* The point that x becomes when carried rigidly from pose a to pose b. */
+static void carry(const defsim__pose *a, const defsim__pose *b, const double x[3], double out[3])
+{
+    const double d[3] = {x[0] - a->p[0], x[1] - a->p[1], x[2] - a->p[2]};
+    double l[3];
+    for (int i = 0; i < 3; ++i) l[i] = a->R[i] * d[0] + a->R[3 + i] * d[1] + a->R[6 + i] * d[2];
+    for (int i = 0; i < 3; ++i)
+        out[i] = b->p[i] + b->R[3 * i] * l[0] + b->R[3 * i + 1] * l[1] + b->R[3 * i + 2] * l[2];
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Pairs and the broad phase */
+
+static int live(const defsim__contact *c, int32_t j) { return (c->col[j].generation & 1u) != 0; }
+
+static double kfac(const defsim__contact *c, int32_t i) { return c->khat * c->mass[i]; }
+
+/* Distance of x to collider slot j at its end-of-step pose; on a callback failure records it
+ * and returns NaN. */
+static double distance(defsim__contact *c, int32_t j, const double x[3], double n[3],
+                       double H[9])
+{
+    double d, g[3];
+    if (defsim__collider_distance(&c->col[j], &c->pose1[j], x, &d, n ? n : g, H) != DEFSIM_OK ||
+        !isfinite(d)) {
+        if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+        return NAN;
+    }
+    return d;
+}
+
+static int reserve_pairs(defsim__contact *c, int32_t n)
+{
+    if (n <= c->cap_pair) return 1;
+    int32_t cap = c->cap_pair ? c->cap_pair : 64;
+    while (cap < n) cap *= 2;
+    int32_t *pv = realloc(c->pv, (size_t)cap * sizeof *pv);
+    if (pv) c->pv = pv;
+    int32_t *pc = realloc(c->pc, (size_t)cap * sizeof *pc);
+    if (pc) c->pc = pc;
+    double *lam = realloc(c->lam, (size_t)cap * sizeof *lam);
+    if (lam) c->lam = lam;
+    double *nrm = realloc(c->nrm, 3 * (size_t)cap * sizeof *nrm);
+    if (nrm) c->nrm = nrm;
+    double *uc = realloc(c->uc, 3 * (size_t)cap * sizeof *uc);
+    if (uc) c->uc = uc;
+    uint8_t *off = realloc(c->off, (size_t)cap * sizeof *off);
+    if (off) c->off = off;
+    if (!pv || !pc || !lam || !nrm || !uc || !off) return 0;
+    c->cap_pair = cap;
+    return 1;
+}
+
+static int moves(const defsim__contact *c, int32_t j)
+{
+    return memcmp(c->pose0[j].p, c->pose1[j].p, sizeof c->pose0[j].p) != 0 ||
+           memcmp(c->pose0[j].q, c->pose1[j].q, sizeof c->pose0[j].q) != 0;
+}
+
+/* Pairs vertex i with every live collider (only those near all the balls, unless `grown`: the
+ * ball left the box the broad phase saw) that its ball can bring within dhat during the step,
+ * skipping colliders it is paired with already (grown). */
+static void pair_vertex(defsim__contact *c, int32_t i, int grown)
+{
+    const double *x = c->xn + 3 * (int64_t)i, r = c->radius[i];
+    const int skip_existing = grown;
+    for (int32_t j = 0; j < c->ncol; ++j) {
+        if (!live(c, j) || (!grown && !c->near[j])) continue;
+        const double *lo = c->lo + 3 * (int64_t)j, *hi = c->hi + 3 * (int64_t)j;
+        if (x[0] + r < lo[0] || x[0] - r > hi[0] || x[1] + r < lo[1] || x[1] - r > hi[1] ||
+            x[2] + r < lo[2] || x[2] - r > hi[2])
+            continue;
+        /* The distance is 1-Lipschitz: within the ball it stays above d(xn) - r. A moving
+         * collider's surface near xn moves by about the displacement of its point at xn (exact
+         * for translations, first order for rotations). */
+        double d = distance(c, j, x, NULL, NULL);
+        if (isnan(d)) return;
+        if (moves(c, j)) {
+            double d0, g[3], moved[3];
+            if (defsim__collider_distance(&c->col[j], &c->pose0[j], x, &d0, g, NULL) != DEFSIM_OK ||
+                !isfinite(d0)) {
+                if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+                return;
+            }
+            carry(&c->pose0[j], &c->pose1[j], x, moved);
+            const double u[3] = {moved[0] - x[0], moved[1] - x[1], moved[2] - x[2]};
+            d = fmin(d, d0) - sqrt(dot3(u, u));
+        }
+        if (!(d <= r + c->dhat)) continue;
+        if (skip_existing) {
+            int found = 0;
+            for (int32_t p = 0; p < c->npair && !found; ++p) found = c->pv[p] == i && c->pc[p] == j;
+            if (found) continue;
+        }
+        if (!reserve_pairs(c, c->npair + 1)) {
+            if (!c->failed) c->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+            return;
+        }
+        const int32_t p = c->npair++;
+        c->pv[p] = i;
+        c->pc[p] = j;
+        c->lam[p] = 0.0;
+        c->off[p] = 0;
+        memset(c->nrm + 3 * (int64_t)p, 0, 3 * sizeof(double));
+        memset(c->uc + 3 * (int64_t)p, 0, 3 * sizeof(double));
+    }
+}
+
+/* Whether collider j can come within dhat of a point of the box [lo, hi] in this step: its
+ * bounds meet the box, and its distance from the box's centre, less the box's half diagonal
+ * (the distance is 1-Lipschitz) and the collider's motion there, is within dhat. One query per
+ * collider: colliders far from every vertex cost nothing more. */
+static int near_box(defsim__contact *c, int32_t j, const double lo[3], const double hi[3])
+{
+    const double *cl = c->lo + 3 * (int64_t)j, *ch = c->hi + 3 * (int64_t)j;
+    for (int k = 0; k < 3; ++k)
+        if (hi[k] < cl[k] || lo[k] > ch[k]) return 0;
+    double m[3], half = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        m[k] = 0.5 * (lo[k] + hi[k]);
+        half += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    }
+    if (!isfinite(half)) return 1;
+    double d = distance(c, j, m, NULL, NULL);
+    if (isnan(d)) return 1;
+    if (moves(c, j)) {
+        double d0, g[3], moved[3];
+        if (defsim__collider_distance(&c->col[j], &c->pose0[j], m, &d0, g, NULL) != DEFSIM_OK ||
+            !isfinite(d0))
+            return 1;
+        carry(&c->pose0[j], &c->pose1[j], m, moved);
+        const double u[3] = {moved[0] - m[0], moved[1] - m[1], moved[2] - m[2]};
+        d = fmin(d, d0) - sqrt(dot3(u, u));
+    }
+    return d - sqrt(half) <= c->dhat;
+}
+
+/* Grows the ball of every vertex whose position in x left it, and pairs it again: a backend's
+ * iterate may go anywhere, and no contact may be missed. */
+static void ensure(defsim__contact *c, const double *x)
+{
+    for (int32_t i = 0; i < c->nv; ++i) {
+        if (c->pinned[i]) continue;
+        const double *a = x + 3 * (int64_t)i, *b = c->xn + 3 * (int64_t)i;
+        const double d2 = (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                          (a[2] - b[2]) * (a[2] - b[2]);
+        if (d2 <= c->radius[i] * c->radius[i]) continue;
+        c->radius[i] = 2.0 * sqrt(d2);
+        pair_vertex(c, i, 1);
+    }
+}
+
+void defsim__contact_free(defsim__contact *c)
+{
+    const double om = c->omega_elastic;
+    const int readback = c->readback_set;
+    free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
+    free(c->xn); free(c->radius); free(c->vel); free(c->blk);
+    free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
+    memset(c, 0, sizeof *c);
+    c->omega_elastic = om;
+    c->readback_set = readback;
+}
+
+double defsim__contact_khat(const defsim__contact_params *p, double dhat, double h,
+                            const double gravity[3])
+{
+    const double g = sqrt(dot3(gravity, gravity));
+    if (p->mode == DEFSIM__CONTACT_BARRIER)
+        return p->kappa > 0.0 ? p->kappa : g / dhat + 1.0 / (h * h);
+    const double w = p->frequency > 0.0 ? p->frequency : fmax(p->omega_elastic, sqrt(2.0 * g / dhat));
+    return w * w;
+}
+
+static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
+{
+    if (nv > c->cap_v) {
+        free(c->xn); free(c->radius); free(c->vel); free(c->blk);
+        c->xn = malloc(3 * (size_t)nv * sizeof *c->xn);
+        c->radius = malloc((size_t)nv * sizeof *c->radius);
+        c->vel = calloc(3 * (size_t)nv, sizeof *c->vel);
+        c->blk = malloc(9 * (size_t)nv * sizeof *c->blk);
+        c->cap_v = c->xn && c->radius && c->vel && c->blk ? nv : 0;
+        if (!c->cap_v) return 0;
+    }
+    if (ncol > c->cap_col) {
+        free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
+        c->pose0 = malloc((size_t)ncol * sizeof *c->pose0);
+        c->pose1 = malloc((size_t)ncol * sizeof *c->pose1);
+        c->lo = malloc(3 * (size_t)ncol * sizeof *c->lo);
+        c->hi = malloc(3 * (size_t)ncol * sizeof *c->hi);
+        c->near = malloc((size_t)ncol * sizeof *c->near);
+        c->cap_col = c->pose0 && c->pose1 && c->lo && c->hi && c->near ? ncol : 0;
+        if (!c->cap_col) return 0;
+    }
+    return 1;
+}
+
+defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
+                                    const defsim__collider *col, int32_t ncol,
+                                    const defsim__contact_params *p, const double *x,
+                                    const double *v, double h, defsim__messages *msg)
+{
+    const double t0 = defsim__now();
+    if (!reserve(c, s->nv, ncol)) {
+        defsim__error(msg, "out of memory for contact");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    c->mode = p->mode;
+    c->failed = DEFSIM_OK;
+    c->col = col;
+    c->ncol = ncol;
+    c->nv = s->nv;
+    c->mass = s->mass;
+    c->pinned = s->pinned;
+    c->h = h;
+    c->dhat = p->dhat_rel * s->length_scale;
+    c->eps_v = p->eps_v;
+    c->khat = defsim__contact_khat(p, c->dhat, h, s->gravity);
+    c->omega_c = sqrt(c->khat);
+    c->mu_max = 0.0;
+    for (int32_t j = 0; j < ncol; ++j) {
+        if (!live(c, j)) continue;
+        defsim__collider_pose_at(&col[j], 0.0, &c->pose0[j]);
+        defsim__collider_pose_at(&col[j], 1.0, &c->pose1[j]);
+        /* over the step: the union of the bounds at both ends (exact for translations) */
+        double *lo = c->lo + 3 * (int64_t)j, *hi = c->hi + 3 * (int64_t)j, l0[3], h0[3];
+        defsim__collider_bounds(&col[j], &c->pose1[j], c->dhat, lo, hi);
+        defsim__collider_bounds(&col[j], &c->pose0[j], c->dhat, l0, h0);
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = fmin(lo[k], l0[k]);
+            hi[k] = fmax(hi[k], h0[k]);
+        }
+        c->mu_max = fmax(c->mu_max, col[j].def.friction);
+    }
+    /* Each vertex's ball: twice its inertial motion in the step, plus dhat; the colliders near
+     * the box around all balls, then the pairs. */
+    const double g = sqrt(dot3(s->gravity, s->gravity));
+    memcpy(c->xn, x, 3 * (size_t)s->nv * sizeof *x);
+    c->npair = 0;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (s->pinned[i]) continue;
+        /* |v|_1 >= |v|: a cheap, larger ball */
+        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
+        const double r = c->radius[i] =
+            2.0 * h * (fabs(vi[0]) + fabs(vi[1]) + fabs(vi[2])) + g * h * h + c->dhat;
+        for (int k = 0; k < 3; ++k) {
+            const double a = xi[k] - r, b = xi[k] + r;
+            lo[k] = a < lo[k] ? a : lo[k];
+            hi[k] = b > hi[k] ? b : hi[k];
+        }
+    }
+    int any = 0;
+    for (int32_t j = 0; j < ncol; ++j) any |= c->near[j] = live(c, j) && near_box(c, j, lo, hi);
+    for (int32_t i = 0; i < s->nv && !c->failed && any; ++i)
+        if (!s->pinned[i]) pair_vertex(c, i, 0);
+    /* BARRIER: friction lagged from the start of the step (IPC): the normal force and normal at
+     * x_n against the pose the collider had then, and the collider's motion at the vertex. */
+    for (int32_t q = 0; q < c->npair && !c->failed && c->mode == DEFSIM__CONTACT_BARRIER; ++q) {
+        const int32_t i = c->pv[q], j = c->pc[q];
+        const double *xi = x + 3 * (int64_t)i;
+        double d0, d1, n0[3], g1[3], moved[3];
+        if (defsim__collider_distance(&col[j], &c->pose0[j], xi, &d0, n0, NULL) != DEFSIM_OK ||
+            !isfinite(d0)) {
+            c->failed = DEFSIM_ERR_CALLBACK;
+            break;
+        }
+        d1 = distance(c, j, xi, g1, NULL);
+        c->off[q] = d0 <= 0.0 && d1 <= 0.0;
+        carry(&c->pose0[j], &c->pose1[j], xi, moved);
+        for (int k = 0; k < 3; ++k) {
+            c->uc[3 * (int64_t)q + k] = moved[k] - xi[k];
+            c->nrm[3 * (int64_t)q + k] = n0[k];
+        }
+        c->lam[q] = d0 > 0.0 && d0 < c->dhat ? -kfac(c, i) * barrier_d1(d0, c->dhat) : 0.0;
+    }
+    c->stat[DEFSIM__CSTAT_PAIRS] = c->npair;
+    c->stat[DEFSIM__CSTAT_TIME_BROAD] += defsim__now() - t0;
+    if (c->failed == DEFSIM_ERR_CALLBACK) {
+        defsim__error(msg, "contact: a collider's SDF callback returned a non-finite value");
+        return DEFSIM_ERR_CALLBACK;
+    }
+    if (c->failed) {
+        defsim__error(msg, "out of memory for contact pairs");
+        return c->failed;
+    }
+    return DEFSIM_OK;
+}
+
+void defsim__contact_substep(defsim__contact *c, double s0, double s1, double hsub)
+{
+    if (c->mode != DEFSIM__CONTACT_PENALTY) return;
+    for (int32_t j = 0; j < c->ncol; ++j) {
+        if (!live(c, j)) continue;
+        defsim__collider_pose_at(&c->col[j], s0, &c->pose0[j]);
+        defsim__collider_pose_at(&c->col[j], s1, &c->pose1[j]);
+    }
+    c->h = hsub;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Energy, forces and blocks */
+
+/* BARRIER friction of pair q at x: ut = P (x_i - xn_i - uc) with the lagged normal; returns
+ * mu lam (0 when the pair has no friction). */
+static double friction_tangent(const defsim__contact *c, int32_t q, const double *x, double ut[3],
+                               double *y)
+{
+    const double mul = c->col[c->pc[q]].def.friction * c->lam[q];
+    if (!(mul > 0.0)) return 0.0;
+    const int32_t i = c->pv[q];
+    const double *n = c->nrm + 3 * (int64_t)q, *uc = c->uc + 3 * (int64_t)q;
+    double u[3];
+    for (int k = 0; k < 3; ++k) u[k] = x[3 * (int64_t)i + k] - c->xn[3 * (int64_t)i + k] - uc[k];
+    const double un = dot3(u, n);
+    for (int k = 0; k < 3; ++k) ut[k] = u[k] - un * n[k];
+    *y = sqrt(dot3(ut, ut));
+    return mul;
+}
+
+static double contact_energy(defsim__contact *c, const double *x);
+
+double defsim__contact_energy(defsim__contact *c, const double *x)
+{
+    const double t0 = defsim__now();
+    ensure(c, x);
+    double e = contact_energy(c, x);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return e;
+}
+
+static double contact_energy(defsim__contact *c, const double *x)
+{
+    double e = 0.0;
+    const double dh = c->dhat, eps = c->eps_v * c->h;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q];
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, NULL, NULL);
+        if (isnan(d)) return INFINITY;
+        if (c->mode == DEFSIM__CONTACT_BARRIER) {
+            if (d <= 0.0) return INFINITY;
+            if (d < dh) e += kfac(c, i) * barrier(d, dh);
+            double ut[3], y;
+            const double mul = friction_tangent(c, q, x, ut, &y);
+            if (mul > 0.0) e += mul * friction_f0(y, eps);
+        } else if (d < dh) {
+            e += 0.5 * kfac(c, i) * (dh - d) * (dh - d);
+        }
+    }
+    return c->failed ? INFINITY : e;
+}
+
+/* The collider's velocity at world point x over the step (m/s). */
+static void collider_velocity(const defsim__contact *c, int32_t j, const double x[3],
+                              double vc[3])
+{
+    double back[3];
+    carry(&c->pose1[j], &c->pose0[j], x, back);
+    for (int k = 0; k < 3; ++k) vc[k] = c->h > 0.0 ? (x[k] - back[k]) / c->h : 0.0;
+}
+
+/* PENALTY friction of pair q: the tangential relative velocity vt (relative to the collider's
+ * surface) and mu lam, lam the penalty's normal force at distance d. */
+static double penalty_tangent(const defsim__contact *c, int32_t q, double d, const double n[3],
+                              const double *v, double vt[3], double *y)
+{
+    const int32_t i = c->pv[q], j = c->pc[q];
+    const double mul = c->col[j].def.friction * kfac(c, i) * (c->dhat - d);
+    if (!(mul > 0.0)) return 0.0;
+    double vc[3], vr[3];
+    collider_velocity(c, j, c->xn + 3 * (int64_t)i, vc);
+    for (int k = 0; k < 3; ++k) vr[k] = v[3 * (int64_t)i + k] - vc[k];
+    const double vn = dot3(vr, n);
+    for (int k = 0; k < 3; ++k) vt[k] = vr[k] - vn * n[k];
+    *y = sqrt(dot3(vt, vt));
+    return mul;
+}
+
+static defsim_status contact_forces(defsim__contact *c, const double *x, const double *v,
+                                   uint32_t which, double *f);
+
+defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const double *v,
+                                     uint32_t which, double *f)
+{
+    const double t0 = defsim__now();
+    ensure(c, x);
+    const defsim_status st = contact_forces(c, x, v, which, f);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return st;
+}
+
+static defsim_status contact_forces(defsim__contact *c, const double *x, const double *v,
+                                   uint32_t which, double *f)
+{
+    const int elastic = (which & DEFSIM_FORCE_ELASTIC) != 0;
+    const int damping = (which & DEFSIM_FORCE_DAMPING) && v && c->mode == DEFSIM__CONTACT_PENALTY;
+    if (damping) memcpy(c->vel, v, 3 * (size_t)c->nv * sizeof *v);
+    if (!elastic && !damping) return DEFSIM_OK;
+    const double dh = c->dhat, eps = c->eps_v * c->h;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q];
+        double *fi = f + 3 * (int64_t)i, n[3];
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, NULL);
+        if (isnan(d)) return c->failed;
+        if (c->mode == DEFSIM__CONTACT_BARRIER) {
+            if (!elastic) continue;
+            if (d <= 0.0) return DEFSIM_ERR_UNSTABLE;
+            if (d < dh) {
+                const double s = -kfac(c, i) * barrier_d1(d, dh);
+                for (int k = 0; k < 3; ++k) fi[k] += s * n[k];
+            }
+            double ut[3], y;
+            const double mul = friction_tangent(c, q, x, ut, &y);
+            if (mul > 0.0) {
+                const double s = mul * friction_f1_over_y(y, eps);
+                for (int k = 0; k < 3; ++k) fi[k] -= s * ut[k];
+            }
+            continue;
+        }
+        if (!(d < dh)) continue;
+        if (elastic)
+            for (int k = 0; k < 3; ++k) fi[k] += kfac(c, i) * (dh - d) * n[k];
+        if (damping) {
+            double vt[3], y;
+            const double mul = penalty_tangent(c, q, d, n, v, vt, &y);
+            if (mul > 0.0) {
+                const double s = mul * friction_f1_over_y(y, c->eps_v);
+                for (int k = 0; k < 3; ++k) fi[k] -= s * vt[k];
+            }
+        }
+    }
+    return c->failed;
+}
+
+static int contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                          double *blk);
+
+int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                           double *blk)
+{
+    const double t0 = defsim__now();
+    ensure(c, x);
+    const int any = contact_blocks(c, x, k, kd, blk);
+    c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
+    return any;
+}
+
+static int contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                          double *blk)
+{
+    memset(blk, 0, 9 * (size_t)c->nv * sizeof *blk);
+    int any = 0;
+    const double dh = c->dhat, eps = c->eps_v * c->h;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q];
+        double n[3], H[9], B[9] = {0};
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, H);
+        if (isnan(d)) return any;
+        int add = 0;
+        if (c->mode == DEFSIM__CONTACT_BARRIER) {
+            if (k == 0.0) continue;
+            if (d > 0.0 && d < dh) {
+                const double b1 = barrier_d1(d, dh), b2 = barrier_d2(d, dh), kap = kfac(c, i);
+                for (int r = 0; r < 9; ++r) B[r] = kap * (b2 * n[r / 3] * n[r % 3] + b1 * H[r]);
+                defsim__project_psd(3, B, DEFSIM_PROJECTION_CLAMP);
+                for (int r = 0; r < 9; ++r) B[r] *= k;
+                add = 1;
+            }
+            double ut[3], y;
+            const double mul = friction_tangent(c, q, x, ut, &y);
+            if (mul > 0.0) {
+                friction_block(k * mul, c->nrm + 3 * (int64_t)q, ut, y, eps, B);
+                add = 1;
+            }
+        } else if (d < dh) {
+            if (k != 0.0) {
+                const double kp = kfac(c, i);
+                for (int r = 0; r < 9; ++r) B[r] = kp * (n[r / 3] * n[r % 3] - (dh - d) * H[r]);
+                defsim__project_psd(3, B, DEFSIM_PROJECTION_CLAMP);
+                for (int r = 0; r < 9; ++r) B[r] *= k;
+                add = 1;
+            }
+            double vt[3], y;
+            const double mul = kd != 0.0 ? penalty_tangent(c, q, d, n, c->vel, vt, &y) : 0.0;
+            if (mul > 0.0) {
+                friction_block(kd * mul, n, vt, y, c->eps_v, B);
+                add = 1;
+            }
+        }
+        if (!add) continue;
+        for (int r = 0; r < 9; ++r) blk[9 * (int64_t)i + r] += B[r];
+        any = 1;
+    }
+    return any;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Continuous collision detection and the feasible start */
+
+double defsim__contact_max_step(defsim__contact *c, const double *x, const double *dx,
+                                double fraction)
+{
+    const double t0 = defsim__now();
+    /* Balls are convex and hold x: covering the step's end covers the whole segment. */
+    for (int32_t i = 0; i < c->nv; ++i) {
+        if (c->pinned[i]) continue;
+        const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i, *b = c->xn + 3 * (int64_t)i;
+        double d2 = 0.0;
+        for (int k = 0; k < 3; ++k) d2 += (a[k] + u[k] - b[k]) * (a[k] + u[k] - b[k]);
+        if (d2 <= c->radius[i] * c->radius[i]) continue;
+        c->radius[i] = 2.0 * sqrt(d2);
+        pair_vertex(c, i, 1);
+    }
+    double alpha = 1.0;
+    for (int32_t q = 0; q < c->npair && alpha > 0.0; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q], j = c->pc[q];
+        const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i;
+        const double len = sqrt(dot3(u, u));
+        if (len == 0.0) continue;
+        const double d = distance(c, j, a, NULL, NULL);
+        if (isnan(d) || d <= 0.0) {
+            alpha = 0.0;
+            break;
+        }
+        if (len <= (1.0 - fraction) * d) continue;   /* cannot come closer than fraction d */
+        const double b[3] = {a[0] + u[0], a[1] + u[1], a[2] + u[2]};
+        double t = 1.0;
+        if (defsim__collider_toi(&c->col[j], &c->pose1[j], a, b, fraction * d, &t) != DEFSIM_OK) {
+            c->failed = DEFSIM_ERR_CALLBACK;
+            alpha = 0.0;
+            break;
+        }
+        if (t < alpha) alpha = t;
+    }
+    if (c->failed) alpha = 0.0;
+    c->stat[DEFSIM__CSTAT_TIME_CCD] += defsim__now() - t0;
+    c->stat[DEFSIM__CSTAT_CCD_CALLS] += 1.0;
+    return alpha;
+}
+
+void defsim__contact_start(defsim__contact *c, double *x)
+{
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q], j = c->pc[q];
+        double *xi = x + 3 * (int64_t)i, d0, g[3];
+        const double d1 = distance(c, j, xi, NULL, NULL);
+        if (isnan(d1) ||
+            defsim__collider_distance(&c->col[j], &c->pose0[j], xi, &d0, g, NULL) != DEFSIM_OK ||
+            !isfinite(d0)) {
+            if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+            return;
+        }
+        if (d1 < c->dhat && d1 < d0 && d0 > 0.0) {
+            double moved[3];
+            carry(&c->pose0[j], &c->pose1[j], xi, moved);
+            memcpy(xi, moved, sizeof moved);
+        }
+    }
+    ensure(c, x);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The end of a step */
+
+void defsim__contact_end(defsim__contact *c, const double *x, const double *v, double *f)
+{
+    memset(f, 0, 3 * (size_t)c->nv * sizeof *f);
+    if (c->npair > 0)
+        (void)defsim__contact_forces(c, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING, f);
+    double dmin = INFINITY;
+    int32_t active = 0;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
+        if (d < dmin) dmin = d;
+        active += d < c->dhat;
+    }
+    c->stat[DEFSIM__CSTAT_ACTIVE] = active;
+    c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = dmin;
+}
+
+double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3])
+{
+    if (c->mode != DEFSIM__CONTACT_PENALTY || !(c->eps_v > 0.0) || c->mu_max == 0.0) return 0.0;
+    /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d). */
+    double depth = sqrt(dot3(gravity, gravity)) / c->khat;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
+        if (d < c->dhat && c->col[c->pc[q]].def.friction > 0.0) depth = fmax(depth, c->dhat - d);
+    }
+    return 2.0 * c->mu_max * c->khat * depth / c->eps_v;
+}

@@ -1,0 +1,138 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Contact between the bodies' vertices and the world's colliders (contact.c; docs/contact.md).
+ * Every vertex-collider pair is a term of the system: a log barrier (BARRIER mode, for backends
+ * whose line search is filtered by contact_max_step) or a quadratic penalty (PENALTY mode, every
+ * other backend) on the signed distance d to the collider at its end-of-step pose, active for
+ * d < dhat, with Coulomb friction: lagged and smoothed in the potential (BARRIER, as in IPC) or a
+ * regularised force on the tangential velocity among the damping forces (PENALTY). Each term
+ * touches only its vertex's own 3x3 block of the matrices.
+ *
+ * A step begins with a broad phase: each free vertex gets a ball about its start position (the
+ * motion it may make in the step) and pairs with the colliders whose bounds (grown by dhat) meet
+ * it and whose distance allows contact in it. Evaluations at a point outside a vertex's ball grow
+ * the ball and pair again, so no contact is missed whatever the backend's iterates do.
+ */
+#ifndef DEFSIM_CONTACT_H
+#define DEFSIM_CONTACT_H
+
+#include "collider.h"
+#include "system.h"
+
+enum { DEFSIM__CONTACT_OFF = 0, DEFSIM__CONTACT_BARRIER = 1, DEFSIM__CONTACT_PENALTY = 2 };
+
+/* Statistics by name ("contact.<name>", options.c lists them). */
+enum {
+    DEFSIM__CSTAT_ACTIVE = 0,      /* pairs with d < dhat at the end of the last step */
+    DEFSIM__CSTAT_PAIRS,           /* candidate pairs of the last step (after the broad phase) */
+    DEFSIM__CSTAT_MIN_DISTANCE,    /* smallest vertex-collider distance at the end of the last
+                                      step over the candidate pairs (m; inf without any) */
+    DEFSIM__CSTAT_TIME_BROAD,      /* broad phase, cumulative (s) */
+    DEFSIM__CSTAT_TIME_CCD,        /* contact_max_step, cumulative (s) */
+    DEFSIM__CSTAT_CCD_CALLS,       /* contact_max_step calls, cumulative */
+    DEFSIM__CSTAT_TIME_EVAL,       /* contact's energy, forces and matrix blocks, cumulative (s) */
+    DEFSIM__CSTAT_COUNT
+};
+
+typedef struct defsim__contact {
+    int mode;                   /* DEFSIM__CONTACT_*; OFF: no live collider */
+    int failed;                 /* an SDF callback failed in this step */
+    const defsim__collider *col;/* the world's collider slots (live ones: odd generation) */
+    int32_t ncol;
+    defsim__pose *pose0, *pose1;/* per slot: the pose at the start and end of the step */
+    double *lo, *hi;            /* 3 per slot: bounds over the step, grown by dhat */
+    uint8_t *near;              /* per slot: near the box of all vertex balls (broad phase) */
+    int32_t cap_col;
+
+    double dhat;                /* activation distance (m) */
+    double khat;                /* barrier kappa / m_i or penalty k_i / m_i (1/s^2) */
+    double eps_v;               /* friction's stick-slip velocity threshold (m/s) */
+    double h;                   /* the world's step (s) */
+    double omega_c;             /* penalty: sqrt(khat) (rad/s) */
+    double mu_max;              /* largest friction coefficient of a live collider */
+    double omega_elastic;       /* PENALTY's automatic omega_c: cached per plan, 0 when stale */
+    int readback_set;           /* the world's contact-force read-back may hold non-zeros */
+
+    int32_t nv;
+    const double *mass;         /* nv (the system's) */
+    const uint8_t *pinned;      /* nv */
+    double *xn;                 /* 3 nv: positions at the start of the step */
+    double *radius;             /* nv: each vertex's ball about xn (m) */
+    double *vel;                /* 3 nv: velocities of the latest damping evaluation (PENALTY) */
+    double *blk;                /* 9 nv: scratch for the matrices' diagonal blocks */
+    int32_t cap_v;
+
+    /* Candidate pairs: vertex, collider slot, and per pair the lagged friction data (BARRIER):
+     * the normal force lam (N) and normal n at the start of the step, the collider's surface
+     * displacement uc over the step at the vertex (m); off = 1 for a vertex that starts the step
+     * inside the collider (BARRIER leaves such pairs out). */
+    int32_t npair, cap_pair;
+    int32_t *pv, *pc;
+    double *lam, *nrm, *uc;
+    uint8_t *off;
+
+    double stat[DEFSIM__CSTAT_COUNT];
+} defsim__contact;
+
+/* Parameters of a step, read from the world's options by the caller. */
+typedef struct defsim__contact_params {
+    int mode;
+    double dhat_rel;            /* dhat / length scale */
+    double kappa;               /* khat (1/s^2) or 0 for automatic */
+    double frequency;           /* PENALTY omega_c (rad/s) or 0 for automatic */
+    double omega_elastic;       /* PENALTY automatic omega_c: the system's omega_max */
+    double eps_v;
+} defsim__contact_params;
+
+void defsim__contact_free(defsim__contact *c);
+
+/* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
+ * and (BARRIER) the lagged friction. col/ncol are the world's slots. Returns DEFSIM_OK,
+ * DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (message in msg). */
+defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
+                                    const defsim__collider *col, int32_t ncol,
+                                    const defsim__contact_params *p, const double *x,
+                                    const double *v, double h, defsim__messages *msg);
+
+/* PENALTY: the backend step under way covers the fraction [s0, s1] of the world's step, of
+ * length hsub: colliders sit at their pose at s1 and move at their velocity over [s0, s1]. */
+void defsim__contact_substep(defsim__contact *c, double s0, double s1, double hsub);
+
+/* The automatic barrier and penalty stiffness per unit mass (1/s^2) for these parameters. */
+double defsim__contact_khat(const defsim__contact_params *p, double dhat, double h,
+                            const double gravity[3]);
+
+/* Contact energy at x (J): barrier or penalty, plus BARRIER's friction potential; +inf where a
+ * barrier pair has d <= 0 or a callback failed. */
+double defsim__contact_energy(defsim__contact *c, const double *x);
+
+/* Adds the contact forces at x (and v) to f: which & DEFSIM_FORCE_ELASTIC: -grad of the energy;
+ * which & DEFSIM_FORCE_DAMPING (PENALTY, v not NULL): friction. Pinned vertices get nothing.
+ * Returns DEFSIM_ERR_UNSTABLE for an infeasible barrier point, DEFSIM_ERR_CALLBACK. */
+defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const double *v,
+                                     uint32_t which, double *f);
+
+/* The 3x3 block (row-major, PSD) that contact adds to vertex i's diagonal block of
+ * k K + kd B at x, accumulated over i's pairs into blk (9 nv, zeroed first). Returns 1 if any
+ * block is not zero. */
+int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double kd,
+                           double *blk);
+
+/* Largest alpha in (0, 1] such that no vertex comes closer to a collider than `fraction` of
+ * its distance at x along x + t dx, t <= alpha (all DOFs). 0 on a callback failure. */
+double defsim__contact_max_step(defsim__contact *c, const double *x, const double *dx,
+                                double fraction);
+
+/* Carries the vertices of a Newton start x that a collider approaches within dhat rigidly with
+ * the collider's motion over the step, so that x is feasible for the end-of-step poses. */
+void defsim__contact_start(defsim__contact *c, double *x);
+
+/* Ends a successful step at (x, v): the total contact force per vertex into f (3 nv) and the
+ * statistics. */
+void defsim__contact_end(defsim__contact *c, const double *x, const double *v, double *f);
+
+/* The damping rate (1/s) that PENALTY friction adds at x: 2 mu lam / (eps_v m_i) at the deepest
+ * contact, lam / m_i = khat (dhat - d), and at least 2 mu_max |g| / eps_v (resting contact). */
+double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3]);
+
+#endif /* DEFSIM_CONTACT_H */

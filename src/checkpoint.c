@@ -1011,7 +1011,8 @@ static defsim_status load_stats(defsim_world *w, const chunk *c)
         get_str(&r, name, sizeof name);
         const double value = get_f64(&r);
         if (r.bad) break;
-        if (!isfinite(value)) return malformed(c, "a statistic is not finite");
+        /* +inf is a value (contact.min_distance without candidates); NaN never is. */
+        if (isnan(value) || value == -INFINITY) return malformed(c, "a statistic is NaN or -inf");
         for (int32_t k = 0; k < known; ++k) {
             const char *s;
             defsim__options_stat_info(&w->options, &w->stats, k, &s, NULL);

@@ -1087,6 +1087,9 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         }
         w->contact_nv = w->nv;
     }
+    /* The read-back goes to scratch first: a callback failing there fails the step too, and
+     * a failed step changes neither the read-back nor the poses. */
+    if (st == DEFSIM_OK && !c->failed) defsim__contact_end(c, w->state.x, w->state.v, c->blk);
     if (c->failed) {
         defsim__error(w->msg, c->failed == DEFSIM_ERR_CALLBACK
                                   ? "contact: a collider's SDF callback returned a non-finite "
@@ -1095,7 +1098,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         return c->failed;
     }
     if (st != DEFSIM_OK) return st;
-    defsim__contact_end(c, w->state.x, w->state.v, w->contact_force);
+    memcpy(w->contact_force, c->blk, 3 * (size_t)w->nv * sizeof *w->contact_force);
     c->readback_set = 1;
     for (int32_t j = 0; j < w->ncol; ++j) {
         memcpy(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos);

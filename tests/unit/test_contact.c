@@ -468,18 +468,49 @@ static void test_cloth_on_sphere(void **state)
 /* ------------------------------------------------------------------------------------------ */
 /* A beam carried by a moving sphere */
 
-static void pushed_beam(const char *backend)
+/* Signed distance of p to the axis-aligned box [c - e, c + e] (negative inside). */
+static double box_distance(const double p[3], const double c[3], const double e[3])
+{
+    double out = 0.0, in = -INFINITY;
+    for (int k = 0; k < 3; ++k) {
+        const double q = fabs(p[k] - c[k]) - e[k];
+        out += q > 0.0 ? q * q : 0.0;
+        in = fmax(in, q);
+    }
+    return out > 0.0 ? sqrt(out) : in;
+}
+
+/* Smallest distance of the world's vertices to that box: the independent check. */
+static double box_gap(const defsim_world *w, const double c[3], const double e[3])
+{
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), gap = INFINITY;
+    for (int i = 0; i < n; ++i) gap = fmin(gap, box_distance(x + 3 * i, c, e));
+    free(x);
+    return gap;
+}
+
+/* A beam lying on rough ground (mu 0.5), its end pushed along x at 0.5 m/s for 1 s by a sphere
+ * (touching the end face's four vertices, 0.05 sqrt(2) off its axis) or a box (its face on the
+ * end face): carried along, no vertex inside the pusher. */
+static void pushed_beam(const char *backend, defsim_shape shape)
 {
     defsim_world *w = world_or_skip(backend, -G);
     if (!w) return;
-    /* A beam lying on rough ground; a sphere at half its height pushes its end along x. */
     const double lo[3] = {0.0, 5e-4, -0.05}, hi[3] = {0.6, 0.1005, 0.05};
     tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 6, 1, 1, lo, hi, 1e5, 0.3, 1000.0);
     add_plane(w, NULL, 0.5);
-    /* The sphere touches the end face's four vertices, 0.05 sqrt(2) off its axis. */
-    const double r = 0.1, speed = 0.5, gap = 0.01;
-    double c[3] = {-sqrt(r * r - 0.005) - gap, 0.05, 0.0};
-    defsim_collider_id s = add_sphere(w, c, r, 0.0);
+    const double r = 0.1, e[3] = {0.05, 0.1, 0.1}, speed = 0.5, gap = 0.01;
+    double c[3] = {-gap, 0.05, 0.0};
+    c[0] -= shape == DEFSIM_SHAPE_BOX ? e[0] : sqrt(r * r - 0.005);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.shape = shape;
+    memcpy(cd.position, c, sizeof cd.position);
+    cd.radius = r;
+    memcpy(cd.half_extents, e, sizeof cd.half_extents);
+    defsim_collider_id s;
+    TU_OK(defsim_world_add_collider(w, &cd, &s));
     auto_substep(w, backend);
     const double h = 0.01, q[4] = {1, 0, 0, 0};
     double inside = INFINITY;
@@ -489,11 +520,12 @@ static void pushed_beam(const char *backend)
         TU_OK(defsim_collider_set_pose(w, s, c, q));
         if (defsim_world_step(w, h) != DEFSIM_OK)
             fail_msg("%s step %d: %s", backend, k, defsim_world_last_error(w));
-        inside = fmin(inside, sphere_gap(w, c, r));
+        inside = fmin(inside, shape == DEFSIM_SHAPE_BOX ? box_gap(w, c, e) : sphere_gap(w, c, r));
     }
     const double moved = centre(w, 0, 0) - x0, vx = centre(w, 1, 0);
-    printf("  %-16s beam pushed 0.5 m by a sphere on rough ground: moved %.3f m, speed %.3f m/s, "
-           "closest %.3g m\n", backend, moved, vx, inside);
+    printf("  %-16s beam pushed 0.5 m by a %s on rough ground: moved %.3f m, speed %.3f m/s, "
+           "closest %.3g m\n", backend, shape == DEFSIM_SHAPE_BOX ? "box" : "sphere", moved, vx,
+           inside);
     assert_true(inside > (is_barrier(backend) ? 0.0 : -0.005));
     assert_true(moved > 0.5 - gap - 0.03 && moved < 0.5 - gap + 0.01);
     defsim_world_destroy(w);
@@ -502,8 +534,10 @@ static void pushed_beam(const char *backend)
 static void test_pushed_beam(void **state)
 {
     (void)state;
-    pushed_beam("newton_cholmod");
-    pushed_beam("symplectic_euler");
+    pushed_beam("newton_cholmod", DEFSIM_SHAPE_SPHERE);
+    pushed_beam("symplectic_euler", DEFSIM_SHAPE_SPHERE);
+    pushed_beam("newton_cholmod", DEFSIM_SHAPE_BOX);
+    pushed_beam("symplectic_euler", DEFSIM_SHAPE_BOX);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -642,6 +676,82 @@ static void test_no_reanalysis(void **state)
     defsim_world_destroy(w);
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* Bad input: an SDF returning NaN fails the step with DEFSIM_ERR_CALLBACK, nothing changed */
+
+typedef struct sdf_ground {
+    int calls_left;   /* < 0: always finite */
+    int calls;        /* counted */
+} sdf_ground;
+
+static double ground_sdf(void *user, const double p[3], double grad[3])
+{
+    sdf_ground *g = user;
+    grad[0] = 0.0, grad[1] = 1.0, grad[2] = 0.0;
+    g->calls++;
+    if (g->calls_left == 0) return NAN;
+    if (g->calls_left > 0) g->calls_left--;
+    return p[1];
+}
+
+static void sdf_nan(const char *backend)
+{
+    defsim_world *w = world_or_skip(backend, -G);
+    if (!w) return;
+    const double lo[3] = {-0.1, 0.001, -0.1};
+    add_block(w, lo, 0.2, 1e5, 10.0, 0.0, NULL);
+    sdf_ground g = {-1, 0};
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.shape = DEFSIM_SHAPE_SDF;
+    cd.sdf = ground_sdf;
+    cd.sdf_user = &g;
+    cd.friction = 0.3;
+    defsim_collider_id id;
+    TU_OK(defsim_world_add_collider(w, &cd, &id));
+    const double h = 0.002;
+    for (int k = 0; k < 20; ++k) TU_OK(defsim_world_step(w, h));
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w), *f = malloc(3 * (size_t)n * sizeof *f);
+    double *f2 = malloc(3 * (size_t)n * sizeof *f2);
+    TU_OK(defsim_world_get_contact_forces(w, f, n));
+    /* NaN at the first query of a step (the broad phase) and at its last (the solve's end) */
+    g.calls = 0;
+    TU_OK(defsim_world_step(w, h));
+    const int per_step = g.calls;
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_step(w, h));   /* the same step again: the read-back as before it */
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_get_contact_forces(w, f, n));
+    const double t = defsim_world_time(w);
+    const int when[2] = {0, per_step - 1};
+    for (int k = 0; k < 2; ++k) {
+        g.calls_left = when[k];
+        assert_int_equal(defsim_world_step(w, h), DEFSIM_ERR_CALLBACK);
+        double *x2 = tu_positions(w), *v2 = tu_velocities(w);
+        TU_OK(defsim_world_get_contact_forces(w, f2, n));
+        assert_memory_equal(x, x2, 3 * (size_t)n * sizeof *x);
+        assert_memory_equal(v, v2, 3 * (size_t)n * sizeof *v);
+        assert_memory_equal(f, f2, 3 * (size_t)n * sizeof *f);
+        assert_true(defsim_world_time(w) == t);
+        free(x2);
+        free(v2);
+    }
+    printf("  %-16s SDF returning NaN at query 1 or %d of a step: DEFSIM_ERR_CALLBACK, state "
+           "and contact forces unchanged (%s)\n", backend, per_step, defsim_world_last_error(w));
+    g.calls_left = -1;
+    TU_OK(defsim_world_step(w, h));
+    free(x); free(v); free(f); free(f2);
+    defsim_world_destroy(w);
+}
+
+static void test_sdf_nan(void **state)
+{
+    (void)state;
+    sdf_nan("newton_cholmod");
+    sdf_nan("symplectic_euler");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -654,6 +764,7 @@ int main(void)
         cmocka_unit_test(test_large_steps),
         cmocka_unit_test(test_stable_step),
         cmocka_unit_test(test_no_reanalysis),
+        cmocka_unit_test(test_sdf_nan),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

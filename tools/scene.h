@@ -154,6 +154,11 @@ int scene_has_paths(const scene *s);
 
 void scene_free(scene *s);
 
+/* The material model a scene's "model" names: case, '-', '_', '.' and spaces are ignored, so
+ * "co-rotated", "Corotated" and "stable neo-Hookean" are accepted, as are "StVK",
+ * "St. Venant-Kirchhoff" and "mass-spring". Returns 1 and sets *out, or 0 for an unknown name. */
+int scene_model_from_name(const char *name, defsim_model *out);
+
 /* The default colour of body i. */
 void scene_palette(int i, float rgb[3]);
 

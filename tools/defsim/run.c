@@ -22,6 +22,7 @@
 #include "fileio.h"
 #include "run_summary.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -45,9 +46,13 @@ static int usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim run SCENE.json [options]\n"
-        "  --out DIR          output folder (default: the scene's name)\n"
+        "  --out DIR          output folder (default: the scene's name); what an earlier run\n"
+        "                     left there (frame_*.vtu/png, *.pvd, final.vtu, contact_sheet.png)\n"
+        "                     is removed first\n"
         "  --render           also write PNG frames and a contact sheet (needs OSMesa)\n"
-        "  --no-vtk           do not write .vtu/.pvd frames\n"
+        "  --vtk MODE         all: .vtu frames, .pvd and final.vtu (default when the scene's\n"
+        "                     output.formats has \"vtk\"); final: only final.vtu; none: no VTK\n"
+        "  --no-vtk           the same as --vtk none\n"
         "  --frames LIST      write only these frames (comma-separated numbers, 0 = start)\n"
         "  --backend NAME     override world.backend\n"
         "  --threads N        override world.threads\n"
@@ -65,10 +70,11 @@ static int usage(FILE *f)
 }
 
 enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
+enum { VTK_NONE = 0, VTK_FINAL = 1, VTK_ALL = 2 };
 
 typedef struct run_opts {
     const char *scene_path, *out_dir, *summary_path;
-    int render, vtk, progress;
+    int render, vtk, progress;   /* vtk: -1 as the scene says, else VTK_NONE, _FINAL, _ALL */
     const char **sets;   /* --set, --backend and --threads as scene overrides */
     int nsets;
     const char **opts;   /* --option NAME=VALUE, set after the scene's world.options */
@@ -106,7 +112,7 @@ static int parse_frame_list(run_opts *o, char *s)
 static int parse_args(int argc, char **argv, run_opts *o)
 {
     memset(o, 0, sizeof *o);
-    o->vtk = 1;
+    o->vtk = -1;
     o->sets = calloc((size_t)argc + 4, sizeof *o->sets);
     o->list = calloc((size_t)argc + 1, sizeof *o->list);
     o->opts = calloc((size_t)argc + 1, sizeof *o->opts);
@@ -118,7 +124,16 @@ static int parse_args(int argc, char **argv, run_opts *o)
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
         else if (!strcmp(a, "--out") && has) o->out_dir = argv[++i];
         else if (!strcmp(a, "--render")) o->render = 1;
-        else if (!strcmp(a, "--no-vtk")) o->vtk = 0;
+        else if (!strcmp(a, "--no-vtk")) o->vtk = VTK_NONE;
+        else if (!strcmp(a, "--vtk") && has) {
+            const char *m = argv[++i];
+            o->vtk = !strcmp(m, "all") ? VTK_ALL : !strcmp(m, "final") ? VTK_FINAL
+                     : !strcmp(m, "none") ? VTK_NONE : -2;
+            if (o->vtk == -2) {
+                fprintf(stderr, "defsim run: --vtk must be all, final or none\n");
+                return 2;
+            }
+        }
         else if (!strcmp(a, "--progress") && has) progress = argv[++i];
         else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
         else if (!strcmp(a, "--option") && has) o->opts[o->nopts++] = argv[++i];
@@ -198,8 +213,46 @@ static int pvd_add(frame_out *o, const char *file, double t)
     return 0;
 }
 
-/* Creates the folder, the VTK cells of all bodies and energy.csv with its header. */
-static int out_open(frame_out *o, const scene *s, const char *dir)
+/* 1 for the names defsim run writes: frame_<digits>.vtu / .png, *.pvd, final.vtu,
+ * contact_sheet.png, and their ".tmp" files. */
+static int own_output(const char *name)
+{
+    size_t n = strlen(name);
+    if (n > 4 && !strcmp(name + n - 4, ".tmp")) n -= 4;
+    if ((n == 9 && !strncmp(name, "final.vtu", 9)) ||
+        (n == 17 && !strncmp(name, "contact_sheet.png", 17)) ||
+        (n > 4 && !strncmp(name + n - 4, ".pvd", 4)))
+        return 1;
+    if (n < 11 || strncmp(name, "frame_", 6) ||
+        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".png", 4)))
+        return 0;
+    for (size_t i = 6; i < n - 4; ++i)
+        if (name[i] < '0' || name[i] > '9') return 0;
+    return 1;
+}
+
+/* Removes what an earlier run wrote into dir, so that a reused --out holds only this run's
+ * frames (a shorter run would otherwise leave later frames, and a .pvd listing them). Other
+ * files are left alone. Returns the number removed, or -1. */
+static int clear_stale(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT ? 0 : -1;
+    int n = 0, rc = 0;
+    char path[4200];
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!own_output(e->d_name)) continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        if (unlink(path) == 0) ++n;
+        else if (errno != ENOENT) rc = -1;
+    }
+    closedir(d);
+    return rc ? -1 : n;
+}
+
+/* Creates the folder (clearing an earlier run's outputs), the VTK cells of all bodies and
+ * energy.csv with its header. */
+static int out_open(frame_out *o, const scene *s, const char *dir, int verbose)
 {
     snprintf(o->dir, sizeof o->dir, "%s", dir);
     if (tools_make_dirs(o->dir)) {
@@ -207,6 +260,14 @@ static int out_open(frame_out *o, const scene *s, const char *dir)
                 strerror(errno));
         return -1;
     }
+    const int stale = clear_stale(o->dir);
+    if (stale < 0) {
+        fprintf(stderr, "defsim run: cannot clear the earlier outputs from %s: %s\n", o->dir,
+                strerror(errno));
+        return -1;
+    }
+    if (stale > 0 && verbose)
+        printf("%s/: removed %d files of an earlier run\n", o->dir, stale);
     snprintf(o->pvd_path, sizeof o->pvd_path, "%s/%s.pvd", o->dir, s->name);
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
@@ -477,7 +538,7 @@ static void progress_frame(progress *pr, const scene *s, int f, int written, dou
 }
 
 typedef struct run_result {
-    int rc, last_frame, vtk_frames;
+    int rc, last_frame, vtk_frames, png_frames, final_vtu;
     double e0, t_out, t_render;
     defsim_energy e;
 } run_result;
@@ -515,8 +576,8 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
             printf("  probe of %s (vertex %d): (%.6f, %.6f, %.6f)\n", s->bodies[i].name,
                    (int)s->bodies[i].probe, p[0], p[1], p[2]);
         }
-    printf("  output: %s/ (%s%d frames%s, final.vtu, energy.csv)\n", dir,
-           s->write_vtk ? "" : "no VTK, ", r->vtk_frames, s->write_png ? ", PNG" : "");
+    printf("  output: %s/ (%d VTK frames, %d PNG frames%s, energy.csv)\n", dir, r->vtk_frames,
+           r->png_frames, r->final_vtu ? ", final.vtu" : "");
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -550,7 +611,7 @@ static int load(const run_opts *o, scene *s, defsim_world **w)
         return 1;
     }
     if (o->render) s->write_png = 1;
-    if (!o->vtk) s->write_vtk = 0;
+    if (o->vtk >= 0) s->write_vtk = o->vtk == VTK_ALL;
     for (int i = 0; i < o->nlist; ++i)
         if (o->list[i] > s->frames) {
             fprintf(stderr, "defsim run: --frames: frame %d is past the last frame (%d)\n",
@@ -591,6 +652,8 @@ int run_main(int argc, char **argv)
         opts_free(&o);
         return rc;
     }
+    /* final.vtu: with the frames, or alone with --vtk final. */
+    const int write_final = o.vtk < 0 ? s.write_vtk : o.vtk >= VTK_FINAL;
     const int32_t nv = defsim_world_vertex_count(w);
     double *x = malloc(3 * (size_t)nv * sizeof *x), *v = malloc(3 * (size_t)nv * sizeof *v);
     frame_out out;
@@ -604,12 +667,12 @@ int run_main(int argc, char **argv)
     if (!x || !v) {
         fprintf(stderr, "defsim run: out of memory\n");
         r.rc = 1;
-    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name)) {
+    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name, o.progress != PROGRESS_NONE)) {
         r.rc = 1;
     }
     /* The fields the VTK frames carry and what the renderer colours by. */
     const unsigned need =
-        (s.write_vtk ? s.fields : 0u) |
+        (s.write_vtk || write_final ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
         (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
     if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
@@ -680,6 +743,7 @@ int run_main(int argc, char **argv)
         if (written && s.write_png) {
             const double t0 = tools_now();
             if (png_frame(&png, &s, &out.fl, out.dir, f, t, x)) { r.rc = 1; break; }
+            ++r.png_frames;
             r.t_render += tools_now() - t0;
         }
 #endif
@@ -693,7 +757,8 @@ int run_main(int argc, char **argv)
         /* The final state, whatever stopped the run. */
         defsim_world_get_positions(w, x, nv);
         defsim_world_get_velocities(w, v, nv);
-        if (out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        if (write_final && out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        r.final_vtu = write_final && r.rc == 0;
     }
 #ifdef DEFSIM_HAVE_RENDER
     if (png_close(&png, out.dir)) r.rc = 1;

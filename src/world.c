@@ -239,6 +239,7 @@ void defsim_world_destroy(defsim_world *w)
     free(w->x_save); free(w->v_save);
     free(w->bstate);
     defsim__coupling_free(w);
+    defsim__colliders_free(w);
     free(w->msg);
     defsim__options_free(&w->options);
     free(w);

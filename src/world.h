@@ -9,6 +9,7 @@
 #define DEFSIM_WORLD_H
 
 #include "body.h"
+#include "collider.h"
 #include "host.h"
 #include "status.h"
 #include "system.h"
@@ -57,6 +58,13 @@ struct defsim_world {
     int32_t ntargeted;
     int drove;                /* the last step moved pins: their velocities go back to zero */
     defsim__coupling cpl;     /* callback and drive workspaces, sized by the plan */
+
+    /* Colliders (collider.c): slots in creation order, live ones with odd generations. */
+    defsim__collider *col;
+    int32_t ncol, cap_col;
+    int colliders_changed;    /* a collider was added or removed since the last step */
+    double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
+    int32_t contact_nv;
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).
@@ -91,5 +99,8 @@ defsim_status defsim__coupling_step_begin(defsim_world *w, double h);
 void defsim__coupling_substep_before(defsim_world *w, int64_t i, int64_t n, double hsub);
 void defsim__coupling_substep_after(defsim_world *w);
 defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st);
+
+/* Frees the colliders and the contact read-back (at destruction; collider.c). */
+void defsim__colliders_free(defsim_world *w);
 
 #endif

@@ -688,6 +688,113 @@ DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
                                                     double *von_mises, double *energy_density,
                                                     int32_t tet_count);
 
+
+/* ------------------------------------------------------------------------------------------ */
+/* Colliders: shapes the host places and moves. They push on the bodies (contact with Coulomb */
+/* friction) and are not pushed back: the host reads the contact forces                        */
+/* (defsim_world_get_contact_forces) to move its own rigid bodies.                             */
+
+/// Shape of a collider. Every shape is given in its own frame and placed by the collider's pose
+/// (position, rotation). The y axis is "up" by default (the default gravity is -y).
+typedef enum defsim_shape {
+    DEFSIM_SHAPE_PLANE = 0,    ///< The half-space below the plane through the origin with
+                               ///< outward normal `normal` (local frame).
+    DEFSIM_SHAPE_SPHERE = 1,   ///< A ball of `radius` about the origin.
+    DEFSIM_SHAPE_BOX = 2,      ///< A box with `half_extents` about the origin.
+    DEFSIM_SHAPE_CAPSULE = 3,  ///< The points within `radius` of the segment from
+                               ///< (0, -half_height, 0) to (0, half_height, 0).
+    DEFSIM_SHAPE_MESH = 4,     ///< A static triangle mesh (closed or open; copied at creation).
+    DEFSIM_SHAPE_SDF = 5       ///< A signed distance given by the host's callback `sdf`.
+} defsim_shape;
+
+/// A host signed-distance function: returns the signed distance (m, < 0 inside) of the point
+/// p (m, in the collider's local frame) and writes its gradient (unit outward normal, local
+/// frame) into grad. Called during steps, from the stepping thread only; a non-finite return
+/// or gradient fails the step with DEFSIM_ERR_CALLBACK and the state unchanged.
+typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
+
+/// A collider handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of removed
+/// colliders become stale and are rejected with DEFSIM_ERR_STALE_ID.
+typedef struct defsim_collider_id {
+    uint32_t index;
+    uint32_t generation;
+} defsim_collider_id;
+
+/// Creation parameters of a collider. Fill with defsim_collider_def_init, then change what the
+/// shape needs; fields of other shapes are ignored.
+typedef struct defsim_collider_def {
+    uint32_t size;              ///< sizeof(defsim_collider_def), set by the init function.
+    defsim_shape shape;         ///< Default DEFSIM_SHAPE_PLANE.
+    double position[3];         ///< Origin of the collider's frame in the world (m). Default 0.
+    double rotation[4];         ///< Unit quaternion (w, x, y, z) from the local frame to the
+                                ///< world. Default (1, 0, 0, 0). A quaternion within 1e-6 of unit
+                                ///< length is normalised; others are rejected.
+    double normal[3];           ///< PLANE: outward normal (local frame; normalised, not zero).
+                                ///< Default (0, 1, 0).
+    double radius;              ///< SPHERE, CAPSULE: radius (m, > 0). Default 0.5.
+    double half_extents[3];     ///< BOX: half side lengths (m, > 0). Default (0.5, 0.5, 0.5).
+    double half_height;         ///< CAPSULE: half length of its axis segment (m, >= 0).
+                                ///< Default 0.5.
+    double friction;            ///< Coulomb friction coefficient mu (>= 0). Default 0.
+    const double *vertices;     ///< MESH: 3 * vertex_count coordinates (m, local frame). Copied.
+    int32_t vertex_count;       ///< MESH: >= 3.
+    const int32_t *triangles;   ///< MESH: 3 * triangle_count vertex indices. Copied.
+    int32_t triangle_count;     ///< MESH: >= 1.
+    defsim_sdf_fn sdf;          ///< SDF: the distance function. Required for SDF.
+    void *sdf_user;             ///< SDF: passed to sdf. Borrowed: must outlive the collider.
+    double sdf_bounds[6];       ///< SDF: local box (lo xyz, hi xyz, m) outside which the
+                                ///< distance is at least the distance to that box, so that
+                                ///< vertices far away are never queried. Default: all zero,
+                                ///< meaning unbounded (every vertex is queried every step).
+} defsim_collider_def;
+
+/// Fills *def with defaults (a ground plane through the origin, normal +y, no friction).
+/// `size` must be sizeof *def. Does nothing if def is NULL.
+DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
+
+/// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
+/// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
+/// 1e-6 of unit length, a mesh with too few vertices or triangles or an index out of range, an
+/// SDF without a callback), DEFSIM_ERR_LOCKED (called from inside a callback),
+/// DEFSIM_ERR_OUT_OF_MEMORY. On error nothing changes.
+DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,
+                                                   const defsim_collider_def *def,
+                                                   defsim_collider_id *out);
+
+/// Removes a collider; its id becomes stale. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world),
+/// DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED.
+DEFSIM_API defsim_status defsim_world_remove_collider(defsim_world *world,
+                                                      defsim_collider_id collider);
+
+/// Sets the pose the collider reaches at the end of the next step (position in m, rotation a
+/// quaternion w x y z, normalised as for defsim_collider_def). During that step it moves from
+/// its current pose at constant velocity (position linearly, rotation along the shortest arc),
+/// so friction carries bodies along. Calling it again before the step replaces the target.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, non-finite, a quaternion not within 1e-6 of unit
+/// length), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED. On error nothing changes.
+DEFSIM_API defsim_status defsim_collider_set_pose(defsim_world *world,
+                                                  defsim_collider_id collider,
+                                                  const double position[3],
+                                                  const double rotation[4]);
+
+/// Number of live colliders of the world (0 for NULL).
+DEFSIM_API int32_t defsim_world_collider_count(const defsim_world *world);
+
+/// The i-th live collider (0 <= i < count, in order of creation): its id (may be NULL) and its
+/// def with the current pose (may be NULL). A mesh def's vertices and triangles point into the
+/// world's copies, valid until the collider is removed. Errors: DEFSIM_ERR_INVALID_ARGUMENT
+/// (NULL world, i out of range, def->size too small).
+DEFSIM_API defsim_status defsim_world_get_collider(const defsim_world *world, int32_t i,
+                                                   defsim_collider_id *id,
+                                                   defsim_collider_def *def);
+
+/// The total contact force (normal + friction, N) that the colliders applied to each vertex
+/// during the last step, 3 * n doubles, n = the world's vertex count (zero before any step and
+/// for vertices not in contact). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
+DEFSIM_API defsim_status defsim_world_get_contact_forces(const defsim_world *world, double *out,
+                                                         int32_t n);
+
 #ifdef __cplusplus
 }
 #endif

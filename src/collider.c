@@ -1,0 +1,146 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Colliders: validation of the host's defs, and poses (quaternions, their interpolation over a
+ * step). The public API is in collider_api.c, the shapes' geometry in collider_shape.c.
+ */
+#include "collider.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------------------------ */
+/* Poses */
+
+void defsim__pose_set(defsim__pose *pose, const double p[3], const double q[4])
+{
+    const double w = q[0], x = q[1], y = q[2], z = q[3];
+    for (int k = 0; k < 3; ++k) pose->p[k] = p[k];
+    for (int k = 0; k < 4; ++k) pose->q[k] = q[k];
+    double *R = pose->R;
+    R[0] = 1 - 2 * (y * y + z * z); R[1] = 2 * (x * y - w * z);     R[2] = 2 * (x * z + w * y);
+    R[3] = 2 * (x * y + w * z);     R[4] = 1 - 2 * (x * x + z * z); R[5] = 2 * (y * z - w * x);
+    R[6] = 2 * (x * z - w * y);     R[7] = 2 * (y * z + w * x);     R[8] = 1 - 2 * (x * x + y * y);
+}
+
+void defsim__collider_pose_at(const defsim__collider *c, double s, defsim__pose *out)
+{
+    double p[3], q[4];
+    for (int k = 0; k < 3; ++k) p[k] = s >= 1.0 ? c->pos1[k] : c->pos[k] + s * (c->pos1[k] - c->pos[k]);
+    const double *q0 = c->rot, *q1 = c->rot1;
+    double dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3];
+    const double sign = dot < 0.0 ? -1.0 : 1.0;   /* the shortest arc */
+    dot *= sign;
+    if (s <= 0.0) {
+        memcpy(q, q0, sizeof q);
+    } else if (s >= 1.0) {
+        memcpy(q, q1, sizeof q);
+    } else {
+        double a = 1.0 - s, b = s * sign;
+        if (dot < 1.0 - 1e-12) {
+            const double th = acos(dot > 1.0 ? 1.0 : dot), sn = sin(th);
+            a = sin((1.0 - s) * th) / sn;
+            b = sin(s * th) / sn * sign;
+        }
+        double n = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            q[k] = a * q0[k] + b * q1[k];
+            n += q[k] * q[k];
+        }
+        n = sqrt(n);
+        for (int k = 0; k < 4; ++k) q[k] /= n;
+    }
+    defsim__pose_set(out, p, q);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Validation */
+
+static int all_finite(const double *a, int n)
+{
+    for (int i = 0; i < n; ++i)
+        if (!isfinite(a[i])) return 0;
+    return 1;
+}
+
+/* Normalises a quaternion within 1e-6 of unit length; returns 0 for any other. */
+int defsim__unit_quaternion(const double *in, double out[4])
+{
+    if (!all_finite(in, 4)) return 0;
+    const double n = sqrt(in[0] * in[0] + in[1] * in[1] + in[2] * in[2] + in[3] * in[3]);
+    if (!(fabs(n - 1.0) <= 1e-6)) return 0;
+    for (int k = 0; k < 4; ++k) out[k] = in[k] / n;
+    return 1;
+}
+
+void defsim_collider_def_init(defsim_collider_def *def, size_t size)
+{
+    if (!def || size < sizeof(uint32_t)) return;
+    defsim_collider_def d;
+    memset(&d, 0, sizeof d);
+    d.size = (uint32_t)sizeof d;
+    d.shape = DEFSIM_SHAPE_PLANE;
+    d.rotation[0] = 1.0;
+    d.normal[1] = 1.0;
+    d.radius = 0.5;
+    for (int k = 0; k < 3; ++k) d.half_extents[k] = 0.5;
+    d.half_height = 0.5;
+    if (size > sizeof d) size = sizeof d;
+    memcpy(def, &d, size);
+    def->size = (uint32_t)size;
+}
+
+#define BAD(...) do { defsim__error(msg, __VA_ARGS__); return DEFSIM_ERR_INVALID_ARGUMENT; } while (0)
+
+defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider_def *def,
+                                    defsim__collider *c)
+{
+    memset(c, 0, sizeof *c);
+    if (!def || def->size < offsetof(defsim_collider_def, friction) + sizeof(double))
+        BAD("add_collider: def is NULL or def->size is too small (use defsim_collider_def_init)");
+    defsim_collider_def *d = &c->def;
+    defsim_collider_def_init(d, sizeof *d);
+    memcpy(d, def, def->size < sizeof *d ? def->size : sizeof *d);
+    d->size = sizeof *d;
+    if ((unsigned)d->shape > (unsigned)DEFSIM_SHAPE_SDF)
+        BAD("add_collider: unknown shape %d", (int)d->shape);
+    if (!all_finite(d->position, 3)) BAD("add_collider: position is not finite");
+    if (!defsim__unit_quaternion(def->rotation, d->rotation))
+        BAD("add_collider: rotation (%g, %g, %g, %g) is not a unit quaternion (w, x, y, z) "
+            "within 1e-6", def->rotation[0], def->rotation[1], def->rotation[2],
+            def->rotation[3]);
+    if (!isfinite(d->friction) || d->friction < 0.0)
+        BAD("add_collider: friction %g must be finite and >= 0", d->friction);
+    switch (d->shape) {
+    case DEFSIM_SHAPE_PLANE: {
+        const double n = sqrt(d->normal[0] * d->normal[0] + d->normal[1] * d->normal[1] +
+                              d->normal[2] * d->normal[2]);
+        if (!all_finite(d->normal, 3) || !(n > 0.0) || !isfinite(n))
+            BAD("add_collider: plane normal (%g, %g, %g) must be finite and not zero",
+                d->normal[0], d->normal[1], d->normal[2]);
+        for (int k = 0; k < 3; ++k) d->normal[k] /= n;
+        break;
+    }
+    case DEFSIM_SHAPE_SPHERE:
+        if (!isfinite(d->radius) || !(d->radius > 0.0))
+            BAD("add_collider: sphere radius %g must be finite and > 0", d->radius);
+        break;
+    default:
+        BAD("add_collider: shape %d is not supported yet", (int)d->shape);
+    }
+    memcpy(c->pos, d->position, sizeof c->pos);
+    memcpy(c->rot, d->rotation, sizeof c->rot);
+    memcpy(c->pos1, c->pos, sizeof c->pos);
+    memcpy(c->rot1, c->rot, sizeof c->rot);
+    return DEFSIM_OK;
+}
+
+void defsim__collider_free(defsim__collider *c)
+{
+    free(c->mesh_x);
+    free(c->mesh_t);
+    c->mesh_x = NULL;
+    c->mesh_t = NULL;
+}
+

@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Colliders (collider.c, collider_shape.c): shapes the host places and moves, stored by the world
+ * as the host gave them (validated, normalised), with the pose they have now and the pose they
+ * reach at the end of the next step. The geometric queries here are what contact (contact.c)
+ * needs: signed distance with its gradient and Hessian, world bounds, and a conservative time of
+ * impact for a moving point.
+ */
+#ifndef DEFSIM_COLLIDER_H
+#define DEFSIM_COLLIDER_H
+
+#include "defsim/defsim.h"
+#include "status.h"
+
+#include <stdint.h>
+
+struct defsim__bvh;
+
+typedef struct defsim__collider {
+    uint32_t generation;      /* odd while alive; bumped on removal */
+    defsim_collider_def def;  /* validated: unit rotation and normal; mesh arrays point below */
+    double *mesh_x;           /* MESH: 3 vertex_count, owned */
+    int32_t *mesh_t;          /* MESH: 3 triangle_count, owned */
+    struct defsim__bvh *bvh;  /* MESH: bounding volume hierarchy over the triangles, owned */
+    double pos[3], rot[4];    /* pose now (the start of the next step) */
+    double pos1[3], rot1[4];  /* pose at the end of the next step (== pos, rot if not moved) */
+} defsim__collider;
+
+/* A pose: position (m) and unit quaternion (w, x, y, z), with its rotation matrix (row-major,
+ * local to world). */
+typedef struct defsim__pose {
+    double p[3], q[4], R[9];
+} defsim__pose;
+
+/* Validates a def into *out (defaults for fields an older def lacks; rotation and normal
+ * normalised) and copies mesh arrays into c. Returns DEFSIM_OK, or INVALID_ARGUMENT /
+ * OUT_OF_MEMORY with the message in msg. */
+defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider_def *def,
+                                    defsim__collider *c);
+void defsim__collider_free(defsim__collider *c);
+
+/* Normalises a quaternion (w, x, y, z) within 1e-6 of unit length into out; returns 0 (out
+ * unchanged) for any other, or a non-finite one. */
+int defsim__unit_quaternion(const double *in, double out[4]);
+
+/* The pose at fraction s in [0, 1] of the next step: position linear, rotation along the
+ * shortest arc (slerp) from (pos, rot) to (pos1, rot1). */
+void defsim__collider_pose_at(const defsim__collider *c, double s, defsim__pose *out);
+/* Makes a pose from a position and a unit quaternion. */
+void defsim__pose_set(defsim__pose *pose, const double p[3], const double q[4]);
+
+/* Signed distance (m, > 0 outside) of world point p to the collider at `pose`, its gradient
+ * (the unit outward normal at the closest point, world frame) into grad, and if hess is not NULL
+ * the Hessian of the distance (3x3 row-major, world frame; zero where the distance is not twice
+ * differentiable in a useful sense, e.g. the planar faces of a box). Returns DEFSIM_OK, or
+ * DEFSIM_ERR_CALLBACK when an SDF callback returned a non-finite value. */
+defsim_status defsim__collider_distance(const defsim__collider *c, const defsim__pose *pose,
+                                        const double p[3], double *d, double grad[3],
+                                        double hess[9]);
+
+/* World axis-aligned bounds of the collider at `pose`, grown by margin (m). Unbounded directions
+ * (planes, SDFs without bounds) get -inf / +inf. */
+void defsim__collider_bounds(const defsim__collider *c, const defsim__pose *pose, double margin,
+                             double lo[3], double hi[3]);
+
+/* Conservative time of impact of a point moving from p0 to p1 (world, straight line) against the
+ * collider held at `pose`: the largest t in [0, 1] such that the distance stays above
+ * min_distance for every point of the segment up to t (1 if it never comes closer). Requires
+ * the distance at p0 to exceed min_distance. Returns DEFSIM_OK or DEFSIM_ERR_CALLBACK. */
+defsim_status defsim__collider_toi(const defsim__collider *c, const defsim__pose *pose,
+                                   const double p0[3], const double p1[3], double min_distance,
+                                   double *t);
+
+#endif /* DEFSIM_COLLIDER_H */

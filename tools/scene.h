@@ -30,10 +30,11 @@ typedef struct scene_camera {
 typedef enum scene_color {
     SCENE_COLOR_BODY = 0,          /* each body its colour */
     SCENE_COLOR_STRESS = 1,        /* von Mises stress per tet, Pa */
-    SCENE_COLOR_DISPLACEMENT = 2   /* |x - x(0)| per vertex, m */
+    SCENE_COLOR_DISPLACEMENT = 2,  /* |x - x(0)| per vertex, m */
+    SCENE_COLOR_SPEED = 3          /* |v| per vertex, m/s */
 } scene_color;
 
-/* "body", "stress", "displacement" -> scene_color, or -1. */
+/* "body", "stress", "displacement", "speed" -> scene_color, or -1. */
 int scene_color_parse(const char *name);
 
 /* Fields of the VTK frames beyond positions, velocities and body (output.fields). */

@@ -366,6 +366,9 @@ static void out_close(frame_out *o)
 #ifdef DEFSIM_HAVE_RENDER
 enum { SHEET_MAX = 12 };
 
+/* Frames are spooled while the run goes (positions, the colour field, collider poses) and
+ * rendered when it ends, so that the camera, the ground and the colour scale come from the
+ * whole motion rather than from the first frame. */
 typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
@@ -373,6 +376,12 @@ typedef struct png_out {
     int32_t nparts;
     int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
     float **tri_rgb, *vertex_rgb;
+    rd_overlay overlay;   /* pinned markers and colliders */
+    FILE *spool;          /* unlinked scratch file in the output folder */
+    int nspooled;
+    double lo[3], hi[3], top;   /* bounds of the bodies and largest colour value over the run */
+    double *x, *vec, *cell;     /* one spooled frame: positions, |vec| colours, cell colours */
+    double *poses;              /* 7 per collider: position, rotation */
     image frame;
     image thumbs[SHEET_MAX];
     double thumb_t[SHEET_MAX];
@@ -380,14 +389,20 @@ typedef struct png_out {
     char err[1024];
 } png_out;
 
-static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
+static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl,
+                    const char *dir, defsim_world *w)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
     p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
     p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
     p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
     p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
-    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb ? s->nbodies : 0;
+    p->x = malloc(3 * (size_t)fl->nv * sizeof *p->x + 1);
+    p->vec = malloc(3 * (size_t)fl->nv * sizeof *p->vec + 1);
+    p->cell = malloc((size_t)(fl->ncells + 1) * sizeof *p->cell);
+    p->poses = malloc(7 * (size_t)(defsim_world_collider_count(w) + 1) * sizeof *p->poses);
+    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb && p->x && p->vec &&
+                p->cell && p->poses ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
@@ -395,9 +410,18 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
         fprintf(stderr, "defsim run: renderer: %s\n", p->rd ? "out of memory" : p->err);
         return -1;
     }
-    double lo[3], hi[3];
-    scene_bounds(s, lo, hi);
-    rd_view_make(&s->camera, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/.render_spool.tmp", dir);
+    p->spool = fopen(path, "w+b");
+    if (!p->spool) {
+        fprintf(stderr, "defsim run: cannot write %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    remove(path);   /* the open stream keeps it; nothing is left behind however the run ends */
+    for (int c = 0; c < 3; ++c) {
+        p->lo[c] = INFINITY;
+        p->hi[c] = -INFINITY;
+    }
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
@@ -444,36 +468,139 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     return 0;
 }
 
-/* frame_NNNNN.png (coloured as the scene says, with its colour bar), kept as a thumbnail when
- * the contact sheet shows frame f. */
-static int png_frame(png_out *p, const scene *s, const fields *fl, const char *dir, int f,
+/* Spools frame f: its number and time, positions, the vector coloured by its length
+ * (displacement or velocity) or the cells' von Mises stress, and the colliders' poses. */
+static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world *w, int f,
                      double t, const double *x)
 {
-    char path[4200];
-    snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
-    double range[2];
-    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, fl->von_mises,
-                   fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
-    const int bad = rd_render(p->rd, &p->view, x, p->parts, p->nparts, p->frame.rgb, p->err,
-                              sizeof p->err);
-    if (!bad)
-        rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
-    if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
-        fprintf(stderr, "defsim run: render: %s\n", p->err);
+    const int32_t nv = fl->nv, nc = defsim_world_collider_count(w);
+    const double *vec = NULL;
+    if (s->color == SCENE_COLOR_DISPLACEMENT) vec = fl->displacement;
+    if (s->color == SCENE_COLOR_SPEED) {
+        defsim_world_get_velocities(w, p->vec, nv);
+        vec = p->vec;
+    }
+    for (int32_t i = 0; i < nc; ++i) {
+        defsim_collider_def c = {.size = sizeof c};
+        defsim_world_get_collider(w, i, NULL, &c);
+        memcpy(p->poses + 7 * i, c.position, 3 * sizeof(double));
+        memcpy(p->poses + 7 * i + 3, c.rotation, 4 * sizeof(double));
+    }
+    for (int32_t k = 0; k < nv; ++k)
+        for (int c = 0; c < 3; ++c) {
+            p->lo[c] = fmin(p->lo[c], x[3 * k + c]);
+            p->hi[c] = fmax(p->hi[c], x[3 * k + c]);
+        }
+    p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->parts, p->nparts, p->tri_cell,
+                                       fl->von_mises, vec, nv));
+    int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
+             fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
+             fwrite(x, sizeof *x, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv &&
+             (nc == 0 || fwrite(p->poses, sizeof *p->poses, 7 * (size_t)nc, p->spool) ==
+                             7 * (size_t)nc);
+    if (ok && vec) ok = fwrite(vec, sizeof *vec, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
+    if (ok && s->color == SCENE_COLOR_STRESS && fl->von_mises)
+        ok = fwrite(fl->von_mises, sizeof(double), (size_t)fl->ncells, p->spool) ==
+             (size_t)fl->ncells;
+    if (!ok) {
+        fprintf(stderr, "defsim run: render: cannot write the frame spool: %s\n", strerror(errno));
         return -1;
     }
-    for (int k = 0; k < p->nsheet; ++k)
-        if (p->sheet_frames[k] == f && p->nthumbs < SHEET_MAX &&
-            image_downscale(&p->frame, 2, &p->thumbs[p->nthumbs]) == 0)
-            p->thumb_t[p->nthumbs++] = t;
+    ++p->nspooled;
     return 0;
 }
 
-/* Writes the contact sheet (if two or more thumbnails) and frees everything. */
-static int png_close(png_out *p, const char *dir)
+/* Renders one spooled frame into p->frame: bodies coloured on the run's scale, pinned
+ * markers, colliders at the frame's poses, the colour bar and the time. */
+static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *w,
+                    const double *x, const double *vec, const double *cell, int32_t nc,
+                    const double *poses, double t)
 {
-    int rc = 0;
-    if (p->nthumbs > 1) {
+    double range[2];
+    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, cell, vec, fl->nv,
+                   p->top, p->vertex_rgb, p->tri_rgb, range);
+    rd_view view = p->view;
+    int ground_plane = -1;
+    static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
+    if (rd_overlay_begin(&p->overlay, x, fl->nv) ||
+        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb))
+        goto oom;
+    for (int32_t i = 0; i < nc && i < defsim_world_collider_count(w); ++i) {
+        defsim_collider_def c = {.size = sizeof c};
+        defsim_world_get_collider(w, i, NULL, &c);
+        memcpy(c.position, poses + 7 * i, 3 * sizeof(double));
+        memcpy(c.rotation, poses + 7 * i + 3, 4 * sizeof(double));
+        /* The first plane is the ground: the grid is drawn on it. */
+        if (ground_plane < 0 && rd_view_ground_plane(&view, &c)) ground_plane = i;
+        if (rd_overlay_collider(&p->overlay, &c, &view, ground_plane == i, collider_rgb)) goto oom;
+    }
+    const int n = p->nparts + p->overlay.nparts;
+    rd_part *all = malloc((size_t)n * sizeof *all);
+    if (!all) goto oom;
+    memcpy(all, p->parts, (size_t)p->nparts * sizeof *all);
+    memcpy(all + p->nparts, p->overlay.parts, (size_t)p->overlay.nparts * sizeof *all);
+    const int bad = rd_render(p->rd, &view, p->overlay.x, all, n, p->frame.rgb, p->err,
+                              sizeof p->err);
+    free(all);
+    if (bad) return -1;
+    rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
+    rd_timestamp(p->frame.rgb, s->width, s->height, t);
+    return 0;
+oom:
+    snprintf(p->err, sizeof p->err, "out of memory");
+    return -1;
+}
+
+/* Renders the spooled frames (frame_NNNNN.png and the contact sheet) and frees everything.
+ * Returns the number of PNG frames written, or -1. */
+static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world *w,
+                     const char *dir)
+{
+    int rc = 0, written = 0;
+    if (p->spool && p->nspooled > 0) {
+        rd_view_make(&s->camera, p->lo, p->hi, s->def.gravity, (double)s->width / s->height,
+                     &p->view);
+        rewind(p->spool);
+    }
+    const int32_t nv = fl->nv;
+    for (int k = 0; p->spool && k < p->nspooled && rc == 0; ++k) {
+        int f = 0;
+        int32_t nc = 0;
+        double t = 0.0;
+        const int vec = s->color == SCENE_COLOR_DISPLACEMENT || s->color == SCENE_COLOR_SPEED;
+        const int cell = s->color == SCENE_COLOR_STRESS && fl->von_mises;
+        int ok = fread(&f, sizeof f, 1, p->spool) == 1 && fread(&t, sizeof t, 1, p->spool) == 1 &&
+                 fread(&nc, sizeof nc, 1, p->spool) == 1 && nc >= 0 &&
+                 nc <= defsim_world_collider_count(w) &&
+                 fread(p->x, sizeof *p->x, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv &&
+                 (nc == 0 || fread(p->poses, sizeof *p->poses, 7 * (size_t)nc, p->spool) ==
+                                 7 * (size_t)nc);
+        if (ok && vec && (s->color == SCENE_COLOR_SPEED || fl->displacement))
+            ok = fread(p->vec, sizeof *p->vec, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
+        if (ok && cell)
+            ok = fread(p->cell, sizeof *p->cell, (size_t)fl->ncells, p->spool) ==
+                 (size_t)fl->ncells;
+        char path[4200];
+        snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
+        if (!ok) {
+            snprintf(p->err, sizeof p->err, "the frame spool is short");
+            rc = -1;
+        } else if (png_draw(p, s, fl, w, p->x,
+                            vec && (s->color == SCENE_COLOR_SPEED || fl->displacement) ? p->vec
+                                                                                        : NULL,
+                            cell ? p->cell : NULL, nc, p->poses, t) ||
+                   image_write_png(path, &p->frame, p->err, sizeof p->err)) {
+            rc = -1;
+        } else {
+            ++written;
+            for (int j = 0; j < p->nsheet; ++j)
+                if (p->sheet_frames[j] == f && p->nthumbs < SHEET_MAX &&
+                    image_downscale(&p->frame, 2, &p->thumbs[p->nthumbs]) == 0)
+                    p->thumb_t[p->nthumbs++] = t;
+        }
+        if (rc) fprintf(stderr, "defsim run: render: %s\n", p->err);
+    }
+    if (rc == 0 && p->nthumbs > 1) {
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", dir);
         if (image_write_contact_sheet(path, p->thumbs, p->thumb_t, p->nthumbs, 4, p->err,
@@ -482,6 +609,7 @@ static int png_close(png_out *p, const char *dir)
             rc = -1;
         }
     }
+    if (p->spool) fclose(p->spool);
     for (int k = 0; k < p->nthumbs; ++k) image_free(&p->thumbs[k]);
     image_free(&p->frame);
     for (int32_t i = 0; i < p->nparts; ++i) {
@@ -494,8 +622,13 @@ static int png_close(png_out *p, const char *dir)
     free(p->tri_cell);
     free(p->tri_rgb);
     free(p->vertex_rgb);
+    free(p->x);
+    free(p->vec);
+    free(p->cell);
+    free(p->poses);
+    rd_overlay_free(&p->overlay);
     rd_destroy(p->rd);
-    return rc;
+    return rc ? -1 : written;
 }
 #endif
 
@@ -680,7 +813,7 @@ int run_main(int argc, char **argv)
         r.rc = 1;
     }
 #ifdef DEFSIM_HAVE_RENDER
-    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl)) r.rc = 1;
+    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl, out.dir, w)) r.rc = 1;
 #endif
 
     struct sigaction sa, old_sa;
@@ -742,8 +875,7 @@ int run_main(int argc, char **argv)
 #ifdef DEFSIM_HAVE_RENDER
         if (written && s.write_png) {
             const double t0 = tools_now();
-            if (png_frame(&png, &s, &out.fl, out.dir, f, t, x)) { r.rc = 1; break; }
-            ++r.png_frames;
+            if (png_spool(&png, &s, &out.fl, w, f, t, x)) { r.rc = 1; break; }
             r.t_render += tools_now() - t0;
         }
 #endif
@@ -761,7 +893,15 @@ int run_main(int argc, char **argv)
         r.final_vtu = write_final && r.rc == 0;
     }
 #ifdef DEFSIM_HAVE_RENDER
-    if (png_close(&png, out.dir)) r.rc = 1;
+    {
+        const double t0 = tools_now();
+        r.png_frames = png_close(&png, &s, &out.fl, w, out.dir);
+        if (r.png_frames < 0) {
+            r.png_frames = 0;
+            r.rc = 1;
+        }
+        r.t_render += tools_now() - t0;
+    }
 #endif
     if (started && pr.mode != PROGRESS_NONE) print_summary(&pr, &s, w, &r, x, out.dir);
     if (o.summary_path) {

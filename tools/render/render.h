@@ -43,6 +43,33 @@ typedef struct rd_part {
     const float *tri_colors;      /* NULL, or RGB per triangle (flat): replaces color */
 } rd_part;
 
+/* Geometry drawn besides the bodies (render/overlay.c): markers on pinned vertices and the
+ * world's colliders, as parts whose vertices follow the bodies' in `x`. Render with x and the
+ * bodies' parts followed by `parts`. Zero-initialise; rd_overlay_begin starts each frame. */
+typedef struct rd_overlay {
+    double *x;            /* 3 nx: the bodies' nbody positions, then the overlay's vertices */
+    int32_t nx, cap, nbody;
+    rd_part *parts;       /* nparts parts of the overlay (they own their index arrays) */
+    int nparts, pcap;
+} rd_overlay;
+
+/* Starts a frame: copies the bodies' nv positions and drops the previous frame's parts.
+ * Returns 0, or -1 when out of memory (as do the functions below). */
+int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv);
+/* A small octahedron (half-diagonal `size`, m) on each body vertex whose flag is non-zero. */
+int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const float rgb[3]);
+/* A collider at its pose: spheres and capsules as smooth latitude-longitude meshes, boxes and
+ * mesh colliders by their faces, a plane as a square patch around the view's target (nothing
+ * when `as_ground`: rd_view_ground_plane made it the ground), an SDF as the edges of its
+ * sdf_bounds box (nothing when unbounded). */
+int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
+                        int as_ground, const float rgb[3]);
+void rd_overlay_free(rd_overlay *o);
+
+/* Puts the view's ground grid on a plane collider (its point and normal at the current pose).
+ * Returns 1 if c is a plane, else 0 (the view is unchanged). */
+int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c);
+
 typedef struct rd_renderer rd_renderer;
 
 /* Creates a context for width x height output images, rendered at supersample x that size.
@@ -71,18 +98,29 @@ int rd_triangle_tets(const int32_t *tets, int64_t ntets, const int32_t *tris, in
 /* RGB of s in [0, 1] (clamped) on a perceptually ordered scale (dark blue, teal, green, yellow). */
 void rd_colormap(double s, float rgb[3]);
 
+/* The largest value that `mode` colours by in one frame: von Mises over the cells that colour
+ * the parts' triangles (stress), or |vertex_vec| over the nv vertices (displacement, speed);
+ * 0 for body colours or a missing array. */
+double rd_color_top(scene_color mode, const rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv);
+
 /* Colours the parts of one frame by `mode`: stress sets the tri_colors (in tbuf[i], 3 per
  * triangle) of each part i whose tri_cell[i] (the cell of each triangle, -1 for none) is not
- * NULL, from cell_value (von Mises per cell, Pa); displacement sets every part's vertex_colors
- * (vbuf, 3 per vertex) from |displacement|. range receives the scale: the scene's color_range,
- * else 0 .. the frame's largest value. Body mode, a missing array or no tets (for stress)
- * clears both and gives the range [0, 0]. */
+ * NULL, from cell_value (von Mises per cell, Pa); displacement and speed set every part's
+ * vertex_colors (vbuf, 3 per vertex) from |vertex_vec| (displacement, m, or velocity, m/s).
+ * range receives the scale: the scene's color_range, else 0 .. top when top > 0 (the largest
+ * value over the run, so that every frame shares one scale), else 0 .. the frame's largest
+ * value. Body mode, a missing array or no tets (for stress) clears both and gives [0, 0]. */
 void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
-                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
-                    int32_t nv, float *vbuf, float *const *tbuf, double range[2]);
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv, double top, float *vbuf, float *const *tbuf, double range[2]);
 
 /* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image; nothing for
  * body colours or an empty range (hi <= lo). */
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
+
+/* Stamps "t = 1.234 s" (simulated time t) at the top left of the width x height RGB8 image. */
+void rd_timestamp(uint8_t *rgb, int width, int height, double t);
 
 #endif

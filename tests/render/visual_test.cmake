@@ -33,14 +33,16 @@ string(SUBSTRING "00000${FRAME}" ${start} 5 padded)
 set(image "${OUT}/frame_${padded}.png")
 # One thread: the simulation is bit-identical for a fixed thread count.
 if(MODE STREQUAL "frames")
-  execute_process(COMMAND "${DEFSIM}" run "${SCENE}" --frames ${FRAME} --threads 1 --progress none
+  # Every frame: the renderer frames the camera and the colour scale over all of them, as
+  # rendering while running does.
+  execute_process(COMMAND "${DEFSIM}" run "${SCENE}" --threads 1 --progress none
                           --out "${OUT}" ${args} RESULT_VARIABLE rc)
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "defsim run failed (${rc})")
   endif()
   get_filename_component(name "${SCENE}" NAME_WE)
   execute_process(COMMAND "${RENDER}" "${OUT}/${name}.pvd" --scene "${SCENE}" --out "${OUT}"
-                  RESULT_VARIABLE rc)
+                          --frames ${FRAME} RESULT_VARIABLE rc)
 else()
   execute_process(COMMAND "${RENDER}" "${SCENE}" --frames ${FRAME} --threads 1 --progress none
                           --out "${OUT}" ${args} RESULT_VARIABLE rc)

@@ -468,10 +468,12 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     return 0;
 }
 
-/* Spools frame f: its number and time, positions, the vector coloured by its length
- * (displacement or velocity) or the cells' von Mises stress, and the colliders' poses. */
+/* Takes frame f into the bounds and the colour scale of the run (every frame, written or
+ * not, so that a frame looks the same whichever frames are written) and, when `keep`, spools
+ * it: its number and time, positions, the vector coloured by its length (displacement or
+ * velocity) or the cells' von Mises stress, and the colliders' poses. */
 static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world *w, int f,
-                     double t, const double *x)
+                     double t, const double *x, int keep)
 {
     const int32_t nv = fl->nv, nc = defsim_world_collider_count(w);
     const double *vec = NULL;
@@ -493,6 +495,7 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
         }
     p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->parts, p->nparts, p->tri_cell,
                                        fl->von_mises, vec, nv));
+    if (!keep) return 0;
     int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
              fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
              fwrite(x, sizeof *x, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv &&
@@ -860,7 +863,8 @@ int run_main(int argc, char **argv)
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
-        if (written && (s.write_vtk || s.write_png) &&
+        const int colours = s.write_png && s.color != SCENE_COLOR_BODY;
+        if ((written || colours) && (s.write_vtk || s.write_png) &&
             fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
             fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
             r.rc = 1;
@@ -873,9 +877,9 @@ int run_main(int argc, char **argv)
             r.t_out += tools_now() - t0;
         }
 #ifdef DEFSIM_HAVE_RENDER
-        if (written && s.write_png) {
+        if (s.write_png) {
             const double t0 = tools_now();
-            if (png_spool(&png, &s, &out.fl, w, f, t, x)) { r.rc = 1; break; }
+            if (png_spool(&png, &s, &out.fl, w, f, t, x, written)) { r.rc = 1; break; }
             r.t_render += tools_now() - t0;
         }
 #endif

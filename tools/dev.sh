@@ -35,16 +35,17 @@ deps() {
 }
 
 # A virtual environment with what the Python binding's tests need (numpy, cffi, pytest, and the
-# sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm).
+# sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm), and
+# meshio for test_vtu_readers (the .vtu frames read by a reader other than ours).
 # Without network access the Python tests are left out (CMake says so) and the rest runs.
 pyenv() {
     local venv=$build/pyenv
-    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm"
+    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm, meshio"
     if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import $imports" 2>/dev/null; then
         mkdir -p "$build"
         [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || true
         "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy cffi pytest \
-            "dask[distributed]" pandas pyarrow matplotlib tqdm || echo "== pip failed"
+            "dask[distributed]" pandas pyarrow matplotlib tqdm meshio || echo "== pip failed"
         # Without the sweep extras the binding's own tests still run (CMake says what it skipped).
         "$venv/bin/python" -c "import numpy, cffi, pytest" 2>/dev/null ||
             { echo "== no Python test environment"; return 0; }

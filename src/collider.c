@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Colliders: validation of the host's defs, and poses (quaternions, their interpolation over a
- * step). The public API is in collider_api.c, the shapes' geometry in collider_shape.c.
+ * step). The public API is in collider_api.c, the shapes' geometry in collider_shape.c and
+ * collider_mesh.c.
  */
 #include "collider.h"
 
@@ -126,8 +127,52 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
         if (!isfinite(d->radius) || !(d->radius > 0.0))
             BAD("add_collider: sphere radius %g must be finite and > 0", d->radius);
         break;
-    default:
-        BAD("add_collider: shape %d is not supported yet", (int)d->shape);
+    case DEFSIM_SHAPE_BOX:
+        for (int k = 0; k < 3; ++k)
+            if (!isfinite(d->half_extents[k]) || !(d->half_extents[k] > 0.0))
+                BAD("add_collider: box half_extents (%g, %g, %g) must be finite and > 0",
+                    d->half_extents[0], d->half_extents[1], d->half_extents[2]);
+        break;
+    case DEFSIM_SHAPE_CAPSULE:
+        if (!isfinite(d->radius) || !(d->radius > 0.0))
+            BAD("add_collider: capsule radius %g must be finite and > 0", d->radius);
+        if (!isfinite(d->half_height) || !(d->half_height >= 0.0))
+            BAD("add_collider: capsule half_height %g must be finite and >= 0", d->half_height);
+        break;
+    case DEFSIM_SHAPE_MESH: {
+        defsim_status st = defsim__mesh_check(msg, d);
+        if (st != DEFSIM_OK) return st;
+        const size_t nx = 3 * (size_t)d->vertex_count, nt = 3 * (size_t)d->triangle_count;
+        c->mesh_x = malloc(nx * sizeof *c->mesh_x);
+        c->mesh_t = malloc(nt * sizeof *c->mesh_t);
+        if (!c->mesh_x || !c->mesh_t) {
+            defsim__collider_free(c);
+            defsim__error(msg, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        memcpy(c->mesh_x, d->vertices, nx * sizeof *c->mesh_x);
+        memcpy(c->mesh_t, d->triangles, nt * sizeof *c->mesh_t);
+        d->vertices = c->mesh_x;
+        d->triangles = c->mesh_t;
+        if ((st = defsim__mesh_build(c)) != DEFSIM_OK) {
+            defsim__collider_free(c);
+            defsim__error(msg, "out of memory");
+            return st;
+        }
+        break;
+    }
+    case DEFSIM_SHAPE_SDF: {
+        if (!d->sdf) BAD("add_collider: an SDF collider needs its callback sdf (NULL given)");
+        if (!all_finite(d->sdf_bounds, 6)) BAD("add_collider: sdf_bounds are not finite");
+        int any = 0;
+        for (int k = 0; k < 6; ++k) any |= d->sdf_bounds[k] != 0.0;
+        for (int k = 0; any && k < 3; ++k)
+            if (!(d->sdf_bounds[k] <= d->sdf_bounds[3 + k]))
+                BAD("add_collider: sdf_bounds lo (%g, %g, %g) must not exceed hi (%g, %g, %g)",
+                    d->sdf_bounds[0], d->sdf_bounds[1], d->sdf_bounds[2], d->sdf_bounds[3],
+                    d->sdf_bounds[4], d->sdf_bounds[5]);
+        break;
+    }
     }
     memcpy(c->pos, d->position, sizeof c->pos);
     memcpy(c->rot, d->rotation, sizeof c->rot);
@@ -138,6 +183,7 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
 
 void defsim__collider_free(defsim__collider *c)
 {
+    defsim__mesh_free(c);
     free(c->mesh_x);
     free(c->mesh_t);
     c->mesh_x = NULL;

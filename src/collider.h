@@ -49,6 +49,21 @@ void defsim__collider_pose_at(const defsim__collider *c, double s, defsim__pose 
 /* Makes a pose from a position and a unit quaternion. */
 void defsim__pose_set(defsim__pose *pose, const double p[3], const double q[4]);
 
+/* Triangle meshes (collider_mesh.c). check: the def's arrays (NULL, counts, finite coordinates,
+ * indices in range, no zero-area triangle), INVALID_ARGUMENT with the message. build: normals,
+ * pseudo-normals and the AABB tree over c->mesh_x / c->mesh_t (already copied), into c->bvh.
+ * distance: signed distance, gradient and (if h) Hessian of a local point, in the local frame.
+ * local_bounds: the mesh's local axis-aligned box (the tree's root). */
+defsim_status defsim__mesh_check(defsim__messages *msg, const defsim_collider_def *d);
+defsim_status defsim__mesh_build(defsim__collider *c);
+void defsim__mesh_free(defsim__collider *c);
+void defsim__mesh_distance(const defsim__collider *c, const double p[3], double *d, double g[3],
+                           double h[9]);
+void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double hi[3]);
+/* The unsigned distance of a local point by a loop over every triangle: the reference that the
+ * tree must match (test_collider, tools/bench_collider.c). */
+double defsim__mesh_distance_brute(const defsim__collider *c, const double p[3]);
+
 /* Signed distance (m, > 0 outside) of world point p to the collider at `pose`, its gradient
  * (the unit outward normal at the closest point, world frame) into grad, and if hess is not NULL
  * the Hessian of the distance (3x3 row-major, world frame; zero where the distance is not twice
@@ -58,15 +73,23 @@ defsim_status defsim__collider_distance(const defsim__collider *c, const defsim_
                                         const double p[3], double *d, double grad[3],
                                         double hess[9]);
 
-/* World axis-aligned bounds of the collider at `pose`, grown by margin (m). Unbounded directions
- * (planes, SDFs without bounds) get -inf / +inf. */
+/* World axis-aligned bounds of the collider at `pose`, grown by margin (m): every point with
+ * d <= margin lies inside (for an open mesh: every point with |d| <= margin; the region behind
+ * it, d < 0, is unbounded). Tight: the rotated box, capsule or mesh vertices. Unbounded
+ * directions (planes, except along a world axis normal; SDFs without bounds) get -inf / +inf. */
 void defsim__collider_bounds(const defsim__collider *c, const defsim__pose *pose, double margin,
                              double lo[3], double hi[3]);
 
 /* Conservative time of impact of a point moving from p0 to p1 (world, straight line) against the
  * collider held at `pose`: the largest t in [0, 1] such that the distance stays above
- * min_distance for every point of the segment up to t (1 if it never comes closer). Requires
- * the distance at p0 to exceed min_distance. Returns DEFSIM_OK or DEFSIM_ERR_CALLBACK. */
+ * min_distance for every point of the segment up to t (1 if it never comes closer); 0 when the
+ * distance at p0 does not exceed min_distance. Plane, sphere: exact (t is reduced by 1e-9 of
+ * the gap so that rounding cannot land closer); box, capsule: Newton from the left on the
+ * convex distance (slabs first for the box), exact to rounding; mesh, SDF: conservative
+ * advancement (the distance is 1-Lipschitz: for an SDF that is the host's promise), to 1e-6
+ * of the initial gap or after 256 samples (grazing paths). An open mesh's sign flip behind its border (docs/colliders.md) is caught
+ * where an advancement sample lands behind it, not between samples. Returns DEFSIM_OK or
+ * DEFSIM_ERR_CALLBACK. */
 defsim_status defsim__collider_toi(const defsim__collider *c, const defsim__pose *pose,
                                    const double p0[3], const double p1[3], double min_distance,
                                    double *t);

@@ -595,6 +595,7 @@ void scene_free(scene *s)
         free(b->initial); free(b->velocity); free(b->spring_k); free(b->pins);
     }
     scene_free_coupling(s);
+    scene_free_colliders(s);
     free(s->bodies);
     s->bodies = NULL;
     s->nbodies = 0;
@@ -634,7 +635,7 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
         if (sj_override(s, root, overrides[i])) goto done;
 
     static const char *const keys[] = {"description", "world", "bodies", "attachments", "output",
-                                       NULL};
+                                       "colliders", NULL};
     if (sj_keys(&c, root, "the scene", keys)) goto done;
     const cJSON *desc = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (desc && !cJSON_IsString(desc)) { sj_fail(&c, desc, "description must be a string"); goto done; }
@@ -663,6 +664,8 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     }
     const cJSON *att = cJSON_GetObjectItemCaseSensitive(root, "attachments");
     if (att && scene_parse_attachments(&c, att)) goto done;
+    const cJSON *col = cJSON_GetObjectItemCaseSensitive(root, "colliders");
+    if (col && scene_parse_colliders(&c, col)) goto done;
     rc = 0;
 done:
     free(c.pos);
@@ -716,6 +719,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
         b->offset = defsim_body_vertex_offset(w, b->id);
     }
     st = scene_build_coupling(s, w);
+    if (st == DEFSIM_OK) st = scene_build_colliders(s, w);
     if (st != DEFSIM_OK) {
         defsim_world_destroy(w);
         return st;

@@ -85,6 +85,17 @@ typedef struct scene_attachment {
     defsim_attachment_id id;   /* after scene_build */
 } scene_attachment;
 
+/* A collider of the scene ("colliders"): its def (a mesh's arrays point into `mesh`) and, when
+ * it moves, keyed poses (t, position, rotation w x y z) that scene_step follows. */
+typedef struct scene_collider {
+    int line;               /* of its object in the scene file */
+    defsim_collider_def def;
+    defsim_mesh mesh;       /* MESH: the loaded .obj */
+    int32_t nkeys;          /* 0: it stays where it is */
+    double *key;            /* 8 per key */
+    defsim_collider_id id;  /* after scene_build */
+} scene_collider;
+
 typedef struct scene_body {
     char name[64];
     int line;               /* of the body object in the scene file */
@@ -130,6 +141,8 @@ typedef struct scene {
     int has_color_range;
     double color_range[2];  /* fixed colour scale (Pa or m); else each frame 0 .. its maximum */
     unsigned fields;        /* SCENE_FIELD_* written into VTK frames */
+    scene_collider *colliders;
+    int32_t ncolliders;
     int32_t vertex_count;   /* sum over bodies */
     char error[4096];       /* "file:line:col: what" of the last failure */
 } scene;
@@ -150,7 +163,20 @@ defsim_status scene_build(scene *s, defsim_world **out);
  * in the world's last error. */
 defsim_status scene_step(scene *s, defsim_world *w, double h);
 
-/* 1 if the scene moves anything along a path (driven pins, keyframed attachments). */
+/* The pose of a collider's path at time t (position linear between keys, rotation along the
+ * shortest arc; held outside the keys). */
+void scene_collider_pose(const scene_collider *col, double t, double p[3], double q[4]);
+
+/* A triangle surface of a collider for drawing, in its local frame: positions (3 per vertex)
+ * and outward triangles, malloc'd (free both); none for planes and SDFs (0 and NULL). smooth:
+ * 1 for the curved shapes. Returns 0, or -1 when out of memory. */
+int scene_collider_surface(const scene_collider *col, double **x, int32_t *nv, int32_t **tri,
+                           int32_t *nt, int *smooth);
+/* The nv local points moved to the collider's pose at time t (its path's, else its own). */
+void scene_collider_place(const scene_collider *col, double t, const double *local, int32_t nv,
+                          double *out);
+
+/* 1 if the scene moves anything along a path (driven pins, keyframed attachments, colliders). */
 int scene_has_paths(const scene *s);
 
 void scene_free(scene *s);

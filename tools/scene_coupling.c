@@ -511,6 +511,8 @@ int scene_has_paths(const scene *s)
 {
     for (int32_t i = 0; i < s->nbodies; ++i)
         if (s->bodies[i].ndrives > 0) return 1;
+    for (int32_t i = 0; i < s->ncolliders; ++i)
+        if (s->colliders[i].nkeys > 0) return 1;
     return s->npaths > 0;
 }
 
@@ -534,6 +536,8 @@ defsim_status scene_step(scene *s, defsim_world *w, double h)
         const defsim_status st = defsim_attachment_set_target(w, a->id, p);
         if (st != DEFSIM_OK) return st;
     }
+    const defsim_status st = scene_move_colliders(s, w, t);
+    if (st != DEFSIM_OK) return st;
     return defsim_world_step(w, h);
 }
 

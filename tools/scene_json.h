@@ -78,6 +78,13 @@ int scene_parse_attachments(sj_ctx *c, const cJSON *j);
 defsim_status scene_build_coupling(scene *s, defsim_world *w);
 void scene_free_coupling(scene *s);
 
+/* scene_collider.c: the "colliders" array; adding them to a world (after the bodies); setting
+ * the poses of moving ones for the end of a step at time t; freeing them. */
+int scene_parse_colliders(sj_ctx *c, const cJSON *j);
+defsim_status scene_build_colliders(scene *s, defsim_world *w);
+defsim_status scene_move_colliders(scene *s, defsim_world *w, double t);
+void scene_free_colliders(scene *s);
+
 /* scene_output.c: defaults of the output settings, and the "output" section. */
 void scene_output_defaults(scene *s);
 int scene_parse_output(sj_ctx *c, const cJSON *o);

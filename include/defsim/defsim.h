@@ -710,7 +710,11 @@ typedef enum defsim_shape {
 /// A host signed-distance function: returns the signed distance (m, < 0 inside) of the point
 /// p (m, in the collider's local frame) and writes its gradient (unit outward normal, local
 /// frame) into grad. Called during steps, from the stepping thread only; a non-finite return
-/// or gradient fails the step with DEFSIM_ERR_CALLBACK and the state unchanged.
+/// or gradient, or a gradient of zero length, fails the step with DEFSIM_ERR_CALLBACK and the
+/// state unchanged. The gradient need not be unit (defsim normalises it). The value must be a
+/// true distance bound: |sdf(p) - sdf(q)| <= |p - q| (|grad| <= 1), which continuous collision
+/// detection relies on to never step a vertex through the surface. The Hessian is taken by
+/// central differences (1e-5 m) of the normalised gradient: 6 more calls where contact needs it.
 typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
 
 /// A collider handle: a small value like defsim_body_id. {0, 0} is the null id. Ids of removed
@@ -755,8 +759,9 @@ DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 /// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
 /// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
-/// 1e-6 of unit length, a mesh with too few vertices or triangles or an index out of range, an
-/// SDF without a callback), DEFSIM_ERR_LOCKED (called from inside a callback),
+/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, non-finite
+/// coordinates, an index out of range or a zero-area triangle, an SDF without a callback or
+/// with sdf_bounds lo > hi), DEFSIM_ERR_LOCKED (called from inside a callback),
 /// DEFSIM_ERR_OUT_OF_MEMORY. On error nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,
                                                    const defsim_collider_def *def,

@@ -2,6 +2,7 @@
 /* Scene files (tools/scene.c): the shipped scenes, overrides, and errors that name file:line. */
 #include "test_util.h"
 
+#include "collider.h"
 #include "scene.h"
 
 #include <math.h>
@@ -29,8 +30,9 @@ static void test_shipped_scenes(void **state)
 {
     (void)state;
     static const char *names[] = {"cantilever", "cloth", "rope", "stiff_block", "squash",
-                                  "driven_circle", "cantilever_stress"};
-    for (int i = 0; i < 7; ++i) {
+                                  "driven_circle", "cantilever_stress", "ground_box_sphere",
+                                  "cloth_sphere", "steps", "pushed_beam"};
+    for (int i = 0; i < 11; ++i) {
         scene s;
         shipped(names[i], &s);
         defsim_world *w = NULL;
@@ -491,6 +493,139 @@ static void test_coupling(void **state)
     free(x); free(v); free(m);
 }
 
+/* "colliders": every shape, rotations by quaternion and Euler angles, a mesh file, keyed poses,
+ * and errors that name the line (unknown key, a key of another shape, wrong type, bad path). */
+static void test_colliders(void **state)
+{
+    (void)state;
+    tu_write_file("cube.obj", "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\n"
+                              "v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+                              "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                              "f 3 4 8\nf 3 8 7\nf 2 3 7\nf 2 7 6\nf 1 5 8\nf 1 8 4\n");
+    const char *text =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,2,0], \"hi\": [1,3,1], \"cells\": [1,1,1]}}],\n"
+        " \"colliders\": [\n"
+        "   {\"shape\": \"plane\", \"normal\": [0, 2, 0], \"friction\": 0.5},\n"
+        "   {\"shape\": \"sphere\", \"position\": [3, 0, 0], \"radius\": 0.25},\n"
+        "   {\"shape\": \"box\", \"half_extents\": [1, 0.5, 0.25], \"euler_deg\": [0, 90, 0]},\n"
+        "   {\"shape\": \"capsule\", \"radius\": 0.1, \"half_height\": 0.3,\n"
+        "    \"rotation\": [0.7071067811865476, 0, 0, 0.7071067811865476]},\n"
+        "   {\"shape\": \"mesh\", \"mesh\": \"cube.obj\", \"position\": [0, -5, 0]},\n"
+        "   {\"shape\": \"box\", \"position\": [1, 2, 3], \"path\": [\n"
+        "      {\"t\": 0.5, \"position\": [0, 0, 0]},\n"
+        "      {\"t\": 1.5, \"position\": [2, 0, 0], \"euler_deg\": [0, 90, 0]}]}]}\n";
+    scene s;
+    load_ok("c.json", text, &s);
+    assert_int_equal(s.ncolliders, 6);
+    assert_int_equal(s.colliders[0].def.shape, DEFSIM_SHAPE_PLANE);
+    assert_true(s.colliders[0].def.normal[1] == 2.0 && s.colliders[0].def.friction == 0.5);
+    assert_true(s.colliders[1].def.radius == 0.25 && s.colliders[1].def.position[0] == 3.0);
+    /* 90 degrees about y: (cos 45, 0, sin 45, 0) */
+    const double *q = s.colliders[2].def.rotation;
+    assert_true(fabs(q[0] - sqrt(0.5)) < 1e-15 && fabs(q[2] - sqrt(0.5)) < 1e-15 && q[1] == 0.0 &&
+                fabs(q[3]) < 1e-15);
+    assert_true(s.colliders[3].def.half_height == 0.3);
+    assert_int_equal(s.colliders[4].def.triangle_count, 12);
+    assert_int_equal(s.colliders[4].def.vertex_count, 8);
+    /* keyed poses: held before the first key and after the last, linear and slerp between */
+    double p[3], r[4];
+    scene_collider_pose(&s.colliders[5], 0.0, p, r);
+    assert_true(p[0] == 0.0 && r[0] == 1.0);
+    scene_collider_pose(&s.colliders[5], 1.0, p, r);
+    assert_true(fabs(p[0] - 1.0) < 1e-15 && p[1] == 0.0);
+    assert_true(fabs(r[0] - cos(3.14159265358979 / 8)) < 1e-12 &&
+                fabs(r[2] - sin(3.14159265358979 / 8)) < 1e-12);
+    scene_collider_pose(&s.colliders[5], 9.0, p, r);
+    assert_true(p[0] == 2.0 && fabs(r[2] - sqrt(0.5)) < 1e-15);
+    assert_true(scene_has_paths(&s));
+    /* drawn surfaces: every vertex on the shape (at t = 1, on the path for the moving box),
+     * every triangle facing out; none for the plane */
+    for (int32_t i = 0; i < s.ncolliders; ++i) {
+        double *lx, *wx;
+        int32_t nv, nt, *tri;
+        int smooth;
+        assert_int_equal(scene_collider_surface(&s.colliders[i], &lx, &nv, &tri, &nt, &smooth), 0);
+        assert_true(i == 0 ? nt == 0 : nt >= 12);
+        wx = malloc(3 * (size_t)nv * sizeof *wx + 1);
+        scene_collider_place(&s.colliders[i], 1.0, lx, nv, wx);
+        defsim__messages msg;
+        defsim__collider col;
+        defsim_collider_def d = s.colliders[i].def;
+        if (s.colliders[i].nkeys) scene_collider_pose(&s.colliders[i], 1.0, d.position, d.rotation);
+        assert_int_equal(defsim__collider_make(&msg, &d, &col), DEFSIM_OK);
+        defsim__pose pose;
+        defsim__pose_set(&pose, col.pos, col.rot);
+        for (int32_t v = 0; v < nv; ++v) {
+            double dd, g[3];
+            TU_OK(defsim__collider_distance(&col, &pose, wx + 3 * v, &dd, g, NULL));
+            assert_true(fabs(dd) < 1e-12);
+        }
+        for (int32_t t = 0; t < nt; ++t) {
+            const double *a = wx + 3 * tri[3 * t], *b = wx + 3 * tri[3 * t + 1], *c = wx + 3 * tri[3 * t + 2];
+            double e1[3], e2[3], n[3], m[3], dd, g[3];
+            for (int k = 0; k < 3; ++k) { e1[k] = b[k] - a[k]; e2[k] = c[k] - a[k]; m[k] = (a[k] + b[k] + c[k]) / 3; }
+            n[0] = e1[1] * e2[2] - e1[2] * e2[1]; n[1] = e1[2] * e2[0] - e1[0] * e2[2]; n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            /* outward: the distance grows along the triangle's normal */
+            const double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            double m2[3], d2;
+            for (int k = 0; k < 3; ++k) m2[k] = m[k] + 1e-4 * n[k] / nn;
+            TU_OK(defsim__collider_distance(&col, &pose, m, &dd, g, NULL));
+            TU_OK(defsim__collider_distance(&col, &pose, m2, &d2, g, NULL));
+            assert_true(d2 > dd);
+        }
+        defsim__collider_free(&col);
+        free(lx); free(wx); free(tri);
+    }
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    assert_int_equal(defsim_world_collider_count(w), 6);
+    defsim_collider_def d;
+    defsim_collider_def_init(&d, sizeof d);
+    TU_OK(defsim_world_get_collider(w, 4, NULL, &d));
+    assert_true(d.shape == DEFSIM_SHAPE_MESH && d.position[1] == -5.0 && d.triangle_count == 12);
+    TU_OK(defsim_world_get_collider(w, 0, NULL, &d));
+    assert_true(d.normal[1] == 1.0);   /* normalised by the library */
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    /* values the library rejects: the error names the collider's line */
+    const char *bad_value =
+        "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+        " \"colliders\": [{\"shape\": \"sphere\"},\n"
+        "   {\"shape\": \"sphere\", \"radius\": -1}]}\n";
+    const char *path = tu_write_file("v.json", bad_value);
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(w);
+    assert_int_equal(error_line(&s, path), 4);
+    scene_free(&s);
+
+    static const char *const bad[] = {
+        "{\"shape\": \"box\", \"radius\": 1}",                       /* a key of another shape */
+        "{\"shape\": \"sphere\", \"raduis\": 1}",                    /* unknown key */
+        "{\"shape\": \"cone\"}",                                      /* unknown shape */
+        "{\"radius\": 1}",                                            /* no shape */
+        "{\"shape\": \"sphere\", \"position\": \"here\"}",            /* wrong type */
+        "{\"shape\": \"sphere\", \"rotation\": [1, 0, 0]}",           /* wrong length */
+        "{\"shape\": \"box\", \"rotation\": [1, 0, 0, 0], \"euler_deg\": [0, 0, 0]}",
+        "{\"shape\": \"box\", \"path\": [{\"t\": 1}, {\"t\": 0.5}]}", /* times must increase */
+        "{\"shape\": \"box\", \"path\": [{\"t\": 1, \"speed\": 2}]}",
+        "{\"shape\": \"mesh\", \"mesh\": \"missing.obj\"}",
+        "{\"shape\": \"mesh\"}",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; ++i) {
+        char buf[1024];
+        snprintf(buf, sizeof buf,
+                 "{\"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+                 " \"bodies\": [{\"mesh\": {\"type\": \"box\", \"lo\": [0,0,0], \"hi\": [1,1,1], \"cells\": [1,1,1]}}],\n"
+                 " \"colliders\": [{\"shape\": \"plane\"},\n"
+                 "   %s]}\n", bad[i]);
+        expect_line(buf, 4);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -502,6 +637,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_colliders, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_control_bytes_as_whitespace, tu_tmpdir_setup,
                                         tu_tmpdir_teardown),
     };

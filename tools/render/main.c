@@ -292,19 +292,29 @@ int main(int argc, char **argv)
             rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
                            s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement, fr.nv,
                            top, vrgb, trgb, range);
-        /* Pinned vertices (the frames' "pinned" array) as markers; colliders are not in the
-         * frames, so they are drawn only when rendering while running. */
+        /* Pinned vertices (the frames' "pinned" array) as markers, and with --scene the
+         * scene's colliders at their poses of the frame's time (the first plane carries the
+         * ground grid). */
         static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f};
+        static const float collider_rgb[3] = {0.6f, 0.6f, 0.64f};
+        rd_view fview = view;
         rd_part *all = NULL;
         if (!bad)
             bad = rd_overlay_begin(&overlay, fr.x, fr.nv) ||
-                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb) ||
-                  !(all = malloc((size_t)(np + overlay.nparts + 1) * sizeof *all));
+                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb);
+        for (int32_t k = 0, ground = -1; have_scene && !bad && k < s.ncolliders; ++k) {
+            defsim_collider_def c = s.colliders[k].def;
+            if (s.colliders[k].nkeys > 0)
+                scene_collider_pose(&s.colliders[k], fr.time, c.position, c.rotation);
+            if (ground < 0 && rd_view_ground_plane(&fview, &c)) ground = k;
+            bad = rd_overlay_collider(&overlay, &c, &fview, ground == k, collider_rgb);
+        }
+        if (!bad) bad = !(all = malloc((size_t)(np + overlay.nparts + 1) * sizeof *all));
         if (bad) snprintf(err, sizeof err, "out of memory");
         if (!bad) {
             memcpy(all, parts, (size_t)np * sizeof *all);
             memcpy(all + np, overlay.parts, (size_t)overlay.nparts * sizeof *all);
-            bad = rd_render(rd, &view, overlay.x, all, np + overlay.nparts, img.rgb, err,
+            bad = rd_render(rd, &fview, overlay.x, all, np + overlay.nparts, img.rgb, err,
                             sizeof err);
         }
         free(all);

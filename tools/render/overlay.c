@@ -9,9 +9,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
 
 static void qrotate(const double q[4], const double v[3], double out[3])
 {
@@ -149,80 +146,29 @@ int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const fl
     return 0;
 }
 
-/* A latitude-longitude sphere of radius r about the local origin, its upper half moved up by
- * h and its lower half down by h along local y (h = 0: a sphere; h > 0: a capsule). */
-static int add_round(rd_overlay *o, const defsim_collider_def *c, double r, double h,
-                     const float rgb[3])
+/* A closed or open surface (sphere, capsule, box, mesh): the scene's tessellation of the
+ * collider (scene_collider_surface, in its local frame) at the def's pose. */
+static int add_surface(rd_overlay *o, const defsim_collider_def *c, const float rgb[3])
 {
-    enum { NLAT = 12, NLON = 24 };
-    const int rows = NLAT + 2;   /* the equator twice: the capsule's cylinder between */
-    rd_part *p = add_part(o, 2 * NLON * (rows - 1), 0, rgb, 1);
-    if (!p) return -1;
+    scene_collider sc;
+    memset(&sc, 0, sizeof sc);
+    sc.def = *c;
+    double *lx = NULL;
+    int32_t nv = 0, nt = 0, *tri = NULL;
+    int smooth = 0, rc = scene_collider_surface(&sc, &lx, &nv, &tri, &nt, &smooth);
+    rd_part *p = rc || nt == 0 ? NULL : add_part(o, nt, 0, rgb, smooth);
+    if (!rc && nt > 0 && !p) rc = -1;
     const int32_t first = o->nx;
-    for (int i = 0; i < rows; ++i) {
-        const int lat = i <= NLAT / 2 ? i : i - 1;
-        const double th = M_PI * lat / NLAT, y = r * cos(th) + (i <= NLAT / 2 ? h : -h);
-        for (int j = 0; j < NLON; ++j) {
-            const double ph = 2.0 * M_PI * j / NLON;
-            const double local[3] = {r * sin(th) * cos(ph), y, r * sin(th) * sin(ph)};
-            double w[3];
-            to_world(c, local, w);
-            if (add_vertex(o, w) < 0) return -1;
-        }
-    }
-    for (int i = 0; i + 1 < rows; ++i)
-        for (int j = 0; j < NLON; ++j) {
-            const int32_t a = first + i * NLON + j, b = first + i * NLON + (j + 1) % NLON;
-            const int32_t cc = a + NLON, d = b + NLON;
-            add_tri(o, p, a, b, d, c->position);
-            add_tri(o, p, a, d, cc, c->position);
-        }
-    return 0;
-}
-
-static int add_box(rd_overlay *o, const defsim_collider_def *c, const float rgb[3])
-{
-    rd_part *p = add_part(o, 12, 0, rgb, 0);
-    if (!p) return -1;
-    const int32_t first = o->nx;
-    for (int k = 0; k < 8; ++k) {
-        const double local[3] = {(k & 1 ? 1 : -1) * c->half_extents[0],
-                                 (k & 2 ? 1 : -1) * c->half_extents[1],
-                                 (k & 4 ? 1 : -1) * c->half_extents[2]};
+    for (int32_t k = 0; p && rc == 0 && k < nv; ++k) {
         double w[3];
-        to_world(c, local, w);
-        if (add_vertex(o, w) < 0) return -1;
+        to_world(c, lx + 3 * (int64_t)k, w);
+        if (add_vertex(o, w) < 0) rc = -1;
     }
-    /* Each face: the four corners with bit `axis` equal to `side`, in cyclic order. */
-    for (int axis = 0; axis < 3; ++axis)
-        for (int side = 0; side < 2; ++side) {
-            const int u = 1 << ((axis + 1) % 3), v = 1 << ((axis + 2) % 3), s = side << axis;
-            const int32_t q[4] = {first + s, first + s + u, first + s + u + v, first + s + v};
-            add_tri(o, p, q[0], q[1], q[2], c->position);
-            add_tri(o, p, q[0], q[2], q[3], c->position);
-        }
-    return 0;
-}
-
-static int add_mesh(rd_overlay *o, const defsim_collider_def *c, const float rgb[3])
-{
-    if (!c->vertices || !c->triangles || c->vertex_count < 3 || c->triangle_count < 1) return 0;
-    rd_part *p = add_part(o, c->triangle_count, 0, rgb, 1);
-    if (!p) return -1;
-    const int32_t first = o->nx;
-    for (int32_t k = 0; k < c->vertex_count; ++k) {
-        double w[3];
-        to_world(c, c->vertices + 3 * (int64_t)k, w);
-        if (add_vertex(o, w) < 0) return -1;
-    }
-    for (int32_t t = 0; t < c->triangle_count; ++t) {
-        const int32_t *q = c->triangles + 3 * (int64_t)t;
-        if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= c->vertex_count ||
-            q[1] >= c->vertex_count || q[2] >= c->vertex_count)
-            continue;
-        add_tri(o, p, first + q[0], first + q[1], first + q[2], NULL);
-    }
-    return 0;
+    for (int32_t t = 0; p && rc == 0 && t < nt; ++t)
+        add_tri(o, p, first + tri[3 * t], first + tri[3 * t + 1], first + tri[3 * t + 2], NULL);
+    free(lx);
+    free(tri);
+    return rc;
 }
 
 /* The 12 edges of the SDF's bounding box, drawn as tubes (the distance field itself is not
@@ -307,10 +253,10 @@ int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_vi
 {
     switch (c->shape) {
     case DEFSIM_SHAPE_PLANE: return as_ground ? 0 : add_plane(o, c, v, rgb);
-    case DEFSIM_SHAPE_SPHERE: return add_round(o, c, c->radius, 0.0, rgb);
-    case DEFSIM_SHAPE_CAPSULE: return add_round(o, c, c->radius, c->half_height, rgb);
-    case DEFSIM_SHAPE_BOX: return add_box(o, c, rgb);
-    case DEFSIM_SHAPE_MESH: return add_mesh(o, c, rgb);
+    case DEFSIM_SHAPE_SPHERE:
+    case DEFSIM_SHAPE_CAPSULE:
+    case DEFSIM_SHAPE_BOX:
+    case DEFSIM_SHAPE_MESH: return add_surface(o, c, rgb);
     case DEFSIM_SHAPE_SDF: return add_sdf_bounds(o, c, rgb);
     }
     return 0;

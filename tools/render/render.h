@@ -58,8 +58,8 @@ typedef struct rd_overlay {
 int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv);
 /* A small octahedron (half-diagonal `size`, m) on each body vertex whose flag is non-zero. */
 int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const float rgb[3]);
-/* A collider at its pose: spheres and capsules as smooth latitude-longitude meshes, boxes and
- * mesh colliders by their faces, a plane as a square patch around the view's target (nothing
+/* A collider at its pose: spheres, capsules, boxes and mesh colliders by the scene code's
+ * tessellation (scene_collider_surface), a plane as a square patch around the view's target (nothing
  * when `as_ground`: rd_view_ground_plane made it the ground), an SDF as the edges of its
  * sdf_bounds box (nothing when unbounded). */
 int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,

@@ -4,7 +4,13 @@
  * dlopen on first use. Entries live for the life of the process (worlds point at them), and
  * every table is copied into a full-size, zero-filled entry so that optional ops appended after
  * the backend was built read as NULL.
+ *
+ * Modules are searched, in order, in DEFSIM_BACKEND_PATH (a colon-separated override), then
+ * beside the loaded library: <libdir>/defsim (an installed tree) and <libdir>/modules (the build
+ * tree, and the Python package's layout), then the configure-time DEFSIM_MODULE_DIR (for
+ * programs linked with the static library, whose "library" is the executable itself).
  */
+#define _GNU_SOURCE 1   /* dladdr */
 #include "registry.h"
 
 #include "builtin_backends.h"
@@ -12,7 +18,9 @@
 #include "host.h"
 #include "status.h"
 
+#include <dirent.h>
 #include <dlfcn.h>
+#include <limits.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,13 +40,17 @@ static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static pthread_once_t builtins_once = PTHREAD_ONCE_INIT;
 static entry *entries;
 
-static int valid_name(const char *name)
+static int valid_name_n(const char *name, size_t len)
 {
-    if (!name || !name[0] || strlen(name) >= 64) return 0;
-    for (const char *p = name; *p; ++p)
-        if (!((*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') || *p == '_')) return 0;
+    if (len == 0 || len >= 64) return 0;
+    for (size_t i = 0; i < len; ++i) {
+        const char c = name[i];
+        if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return 0;
+    }
     return 1;
 }
+
+static int valid_name(const char *name) { return name && valid_name_n(name, strlen(name)); }
 
 static entry *find_locked(const char *name)
 {
@@ -162,12 +174,131 @@ static int search_path(const char *list, const char *name, defsim_status *st,
     return 0;
 }
 
+/* "<dir of the file holding this code>/defsim:<same>/modules", computed once: the library's own
+ * directory, so an installed or relocated tree finds its modules without configuration. */
+static pthread_once_t self_once = PTHREAD_ONCE_INIT;
+static char self_dirs[2 * PATH_MAX + 32];
+
+static void find_self_dirs(void)
+{
+    static const char anchor = 0;
+    Dl_info info;
+    char real[PATH_MAX];
+    if (!dladdr(&anchor, &info) || !info.dli_fname || !strchr(info.dli_fname, '/') ||
+        !realpath(info.dli_fname, real))
+        return;
+    char *slash = strrchr(real, '/');
+    *slash = '\0';
+    const char *dir = slash == real ? "" : real;
+    snprintf(self_dirs, sizeof self_dirs, "%s/defsim:%s/modules", dir, dir);
+}
+
+/* The module directories in search order, colon-separated, into buf. */
+static const char *module_dirs(char *buf, size_t size)
+{
+    pthread_once(&self_once, find_self_dirs);
+    const char *env = getenv("DEFSIM_BACKEND_PATH");
+    snprintf(buf, size, "%s%s%s%s%s", env && env[0] ? env : "", env && env[0] ? ":" : "",
+             self_dirs, self_dirs[0] && DEFSIM_MODULE_DIR[0] ? ":" : "", DEFSIM_MODULE_DIR);
+    return buf;
+}
+
+/* Levenshtein distance of two names (both shorter than 64). */
+static int edit_distance(const char *a, const char *b)
+{
+    int row[65];
+    const int nb = (int)strlen(b);
+    for (int j = 0; j <= nb; ++j) row[j] = j;
+    for (const char *p = a; *p; ++p) {
+        int diag = row[0];
+        row[0] = (int)(p - a) + 1;
+        for (int j = 1; j <= nb; ++j) {
+            const int up = row[j];
+            int best = diag + (*p != b[j - 1]);
+            if (up + 1 < best) best = up + 1;
+            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+            row[j] = best;
+            diag = up;
+        }
+    }
+    return row[nb];
+}
+
+typedef struct name_list {
+    char names[64][64];
+    int n;
+} name_list;
+
+static void add_name(name_list *l, const char *name, size_t len)
+{
+    if (len == 0 || len >= 64 || l->n == 64) return;
+    for (int i = 0; i < l->n; ++i)
+        if (strlen(l->names[i]) == len && strncmp(l->names[i], name, len) == 0) return;
+    memcpy(l->names[l->n], name, len);
+    l->names[l->n++][len] = '\0';
+}
+
+static int cmp_names(const void *a, const void *b) { return strcmp(a, b); }
+
+/* Every backend name a lookup could succeed with: the registered ones and the defsim_*.so files
+ * of the module directories (caller holds the lock). */
+static void available_locked(const char *dirs, name_list *l)
+{
+    l->n = 0;
+    for (entry *e = entries; e; e = e->next) add_name(l, e->name, strlen(e->name));
+    for (const char *p = dirs; p && *p;) {
+        const char *end = strchr(p, ':');
+        char dir[PATH_MAX];
+        snprintf(dir, sizeof dir, "%.*s", (int)(end ? (size_t)(end - p) : strlen(p)), p);
+        DIR *d = dir[0] ? opendir(dir) : NULL;
+        for (struct dirent *de; d && (de = readdir(d));) {
+            const size_t len = strlen(de->d_name);
+            if (len > 10 && strncmp(de->d_name, "defsim_", 7) == 0 &&
+                strcmp(de->d_name + len - 3, ".so") == 0 && valid_name_n(de->d_name + 7, len - 10))
+                add_name(l, de->d_name + 7, len - 10);
+        }
+        if (d) closedir(d);
+        p = end ? end + 1 : NULL;
+    }
+    qsort(l->names, (size_t)l->n, sizeof l->names[0], cmp_names);
+}
+
+/* The error for a name that names no backend: the available ones, and "did you mean 'x'?" when
+ * one is within a third of the name's length (at least 2 edits) of it (caller holds the lock). */
+static void unknown_name_error(const char *name, const char *why_not, const char *dirs)
+{
+    name_list l;
+    available_locked(dirs, &l);
+    int best = -1, best_d = 0;
+    for (int i = 0; i < l.n && strlen(name) < 64; ++i) {
+        const int d = edit_distance(name, l.names[i]);
+        if (best < 0 || d < best_d) { best = i; best_d = d; }
+    }
+    const int limit = (int)strlen(name) / 3 > 2 ? (int)strlen(name) / 3 : 2;
+    char hint[96] = "", list[1024] = "";
+    if (best >= 0 && best_d <= limit)
+        snprintf(hint, sizeof hint, "did you mean '%s'? ", l.names[best]);
+    size_t used = 0;
+    for (int i = 0; i < l.n && used < sizeof list; ++i)
+        used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", i ? ", " : "",
+                                 l.names[i]);
+    defsim__set_last_error("no backend '%.64s'%s: %savailable: %s (modules searched in %.200s)",
+                           name, why_not, hint, l.n ? list : "(none)",
+                           dirs[0] ? dirs : "no directory");
+}
+
 defsim_status defsim__find_backend(const char *name, const defsim_backend **out)
 {
     pthread_once(&builtins_once, register_builtins);
+    char why[600] = "", dirs[3 * PATH_MAX + 64];
+    if (!name) {
+        defsim__set_last_error("backend name is NULL");
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    }
     if (!valid_name(name)) {
-        defsim__set_last_error("backend name '%s' is not of the form [a-z0-9_]{1,63}",
-                               name ? name : "(null)");
+        pthread_mutex_lock(&lock);
+        unknown_name_error(name, " (a name is [a-z0-9_]{1,63})", module_dirs(dirs, sizeof dirs));
+        pthread_mutex_unlock(&lock);
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     }
     pthread_mutex_lock(&lock);
@@ -178,15 +309,11 @@ defsim_status defsim__find_backend(const char *name, const defsim_backend **out)
         return DEFSIM_OK;
     }
     defsim_status st = DEFSIM_ERR_BACKEND_UNAVAILABLE;
-    char why[600] = "";
-    int found = search_path(getenv("DEFSIM_BACKEND_PATH"), name, &st, out, why, sizeof why) ||
-                search_path(DEFSIM_MODULE_DIR, name, &st, out, why, sizeof why);
+    module_dirs(dirs, sizeof dirs);
+    const int found = search_path(dirs, name, &st, out, why, sizeof why);
+    if (!found) unknown_name_error(name, "", dirs);
     pthread_mutex_unlock(&lock);
-    if (!found)
-        defsim__set_last_error("no backend '%s': not built in or registered, and no "
-                               "defsim_%s.so in DEFSIM_BACKEND_PATH or %s",
-                               name, name, DEFSIM_MODULE_DIR[0] ? DEFSIM_MODULE_DIR : "(none)");
-    else if (st != DEFSIM_OK)
+    if (found && st != DEFSIM_OK)
         defsim__set_last_error("backend '%s' failed to load: %s", name, why);
     return st;
 }

@@ -59,7 +59,7 @@ def main() -> int:
             t0 = time.perf_counter()
             for i, v in enumerate(variants):
                 cmd = [exe, "run", scene, "--out", str(tmp / f"serial{i}"), "--progress", "none",
-                       "--no-vtk", "--threads", "1"]
+                       "--vtk", "final", "--threads", "1"]
                 for k, x in v.items():
                     cmd += ["--set", f"{k}={json.dumps(x)}"]
                 subprocess.run(cmd, check=True, capture_output=True, env=env)

@@ -39,8 +39,8 @@ deps() {
 }
 
 # A virtual environment with what the Python binding's tests need (numpy, cffi, pytest, and the
-# sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm; meshio for
-# the io extra and the examples).
+# sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm), and
+# meshio for the io extra, the examples and test_vtu_readers (frames read by another reader).
 # Without network access the Python tests are left out (CMake says so) and the rest runs.
 pyenv() {
     local venv=$build/pyenv

@@ -37,23 +37,36 @@ int fields_init(fields *f, const scene *s, defsim_world *w, unsigned which, char
         f->von_mises = calloc(nc, sizeof *f->von_mises);
         f->energy_density = calloc(nc, sizeof *f->energy_density);
         if (!f->cauchy || !f->von_mises || !f->energy_density) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"cauchy_stress", 9, 1, f->cauchy};
-        f->arrays[f->narrays++] = (vtk_array){"von_mises", 1, 1, f->von_mises};
-        f->arrays[f->narrays++] = (vtk_array){"energy_density", 1, 1, f->energy_density};
+        f->arrays[f->narrays++] = (vtk_array){"cauchy_stress", 9, 1, f->cauchy, NULL};
+        f->arrays[f->narrays++] = (vtk_array){"von_mises", 1, 1, f->von_mises, NULL};
+        f->arrays[f->narrays++] = (vtk_array){"energy_density", 1, 1, f->energy_density, NULL};
     }
     f->x0 = malloc(n3 * sizeof *f->x0 + 1);
     if (!f->x0 || defsim_world_get_positions(w, f->x0, f->nv) != DEFSIM_OK) goto oom;
     if (which & SCENE_FIELD_DISPLACEMENT) {
         if (!(f->displacement = calloc(n3 + 1, sizeof *f->displacement))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"displacement", 3, 0, f->displacement};
+        f->arrays[f->narrays++] = (vtk_array){"displacement", 3, 0, f->displacement, NULL};
     }
     if (which & SCENE_FIELD_PIN_FORCES) {
         if (!(f->pin_force = calloc(n3 + 1, sizeof *f->pin_force))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"pin_force", 3, 0, f->pin_force};
+        f->arrays[f->narrays++] = (vtk_array){"pin_force", 3, 0, f->pin_force, NULL};
     }
     if (which & SCENE_FIELD_ATTACHMENT_FORCES) {
         if (!(f->attachment_force = calloc(n3 + 1, sizeof *f->attachment_force))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"attachment_force", 3, 0, f->attachment_force};
+        f->arrays[f->narrays++] = (vtk_array){"attachment_force", 3, 0, f->attachment_force, NULL};
+    }
+    /* The pinned flag is part of the model, not of the state: set once, written with every
+     * frame of a scene that pins or drives anything. */
+    if (pins) {
+        if (!(f->pinned = calloc((size_t)f->nv + 1, 1))) goto oom;
+        for (int32_t i = 0; i < s->nbodies; ++i) {
+            const scene_body *b = &s->bodies[i];
+            for (int32_t k = 0; k < b->npins; ++k) f->pinned[b->offset + b->pins[k]] = 1;
+            for (int32_t d = 0; d < b->ndrives; ++d)
+                for (int32_t k = 0; k < b->drives[d].n; ++k)
+                    f->pinned[b->offset + b->drives[d].verts[k]] = 1;
+        }
+        f->arrays[f->narrays++] = (vtk_array){"pinned", 1, 0, NULL, f->pinned};
     }
     return 0;
 oom:
@@ -106,5 +119,6 @@ void fields_free(fields *f)
 {
     free(f->cell_offset); free(f->x0); free(f->cauchy); free(f->von_mises);
     free(f->energy_density); free(f->displacement); free(f->pin_force); free(f->attachment_force);
+    free(f->pinned);
     memset(f, 0, sizeof *f);
 }

@@ -3,8 +3,8 @@
  * The fields of a frame beyond positions and velocities, evaluated from a world built by
  * scene_build: per-tet Cauchy stress, von Mises stress and strain energy density (cell data, in
  * the cell order of the frame: each body's tets, triangles or lines in body order), and per
- * vertex the displacement from the initial state, the pins' reaction forces and the attachment
- * forces (point data). Shared by defsim run (VTK frames) and the renderer (colours).
+ * vertex the displacement from the initial state, the pins' reaction forces, the attachment
+ * forces and the pinned flag (point data). Shared by defsim run (VTK frames) and the renderer (colours).
  */
 #ifndef DEFSIM_TOOLS_FIELDS_H
 #define DEFSIM_TOOLS_FIELDS_H
@@ -27,7 +27,8 @@ typedef struct fields {
     double *displacement;    /* 3 nv, m */
     double *pin_force;       /* 3 nv, N: zero for free vertices */
     double *attachment_force;/* 3 nv, N: sum of the attachment forces on each vertex */
-    vtk_array arrays[6];     /* what fields_eval filled, for vtk_write_vtu */
+    uint8_t *pinned;         /* nv: 1 for pinned and driven vertices (NULL: the scene pins none) */
+    vtk_array arrays[7];     /* what fields_eval filled, for vtk_write_vtu */
     int narrays;
 } fields;
 

@@ -48,10 +48,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef DEFSIM_REFERENCE_MODULE_DIR
-#define DEFSIM_REFERENCE_MODULE_DIR ""
-#endif
-
 static int usage(void)
 {
     fprintf(stderr,
@@ -116,10 +112,6 @@ int main(int argc, char **argv)
     char default_out[64];
     snprintf(default_out, sizeof default_out, "reference_%s_n%d.txt", model_name, n);
     if (!out_path) out_path = default_out;
-    /* Run from the build tree, the module sits beside the tools unless the user says otherwise. */
-    if (!getenv("DEFSIM_BACKEND_PATH") && DEFSIM_REFERENCE_MODULE_DIR[0])
-        setenv("DEFSIM_BACKEND_PATH", DEFSIM_REFERENCE_MODULE_DIR, 0);
-
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;

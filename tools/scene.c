@@ -326,6 +326,33 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
     return 0;
 }
 
+int scene_model_from_name(const char *name, defsim_model *out)
+{
+    /* The name folded to lower case without separators, so that the README's spellings
+     * ("co-rotated", "stable neo-Hookean", "St. Venant-Kirchhoff") all name their model. */
+    char key[64];
+    size_t n = 0;
+    for (const char *p = name; *p; ++p) {
+        if (*p == '-' || *p == '_' || *p == ' ' || *p == '.') continue;
+        if (n + 1 >= sizeof key) return 0;
+        key[n++] = (char)(*p >= 'A' && *p <= 'Z' ? *p - 'A' + 'a' : *p);
+    }
+    key[n] = '\0';
+    static const struct { const char *key; defsim_model m; } models[] = {
+        {"spring", DEFSIM_MODEL_SPRING}, {"springs", DEFSIM_MODEL_SPRING},
+        {"massspring", DEFSIM_MODEL_SPRING}, {"stvk", DEFSIM_MODEL_STVK},
+        {"stvenantkirchhoff", DEFSIM_MODEL_STVK}, {"saintvenantkirchhoff", DEFSIM_MODEL_STVK},
+        {"corotated", DEFSIM_MODEL_COROTATED}, {"corotational", DEFSIM_MODEL_COROTATED},
+        {"neohookean", DEFSIM_MODEL_NEOHOOKEAN},
+        {"stableneohookean", DEFSIM_MODEL_STABLE_NEOHOOKEAN}};
+    for (size_t i = 0; i < sizeof models / sizeof models[0]; ++i)
+        if (strcmp(key, models[i].key) == 0) {
+            *out = models[i].m;
+            return 1;
+        }
+    return 0;
+}
+
 static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, int kind,
                           int32_t bending, int32_t shear_first, int32_t shear_count)
 {
@@ -338,22 +365,25 @@ static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_bod
                                        "vertex_mass", "total_mass", "mass_damping",
                                        "stiffness_damping", NULL};
     if (j && sj_keys(c, j, w, keys)) return -1;
-    const cJSON *mj = j ? cJSON_GetObjectItemCaseSensitive(j, "model") : NULL;
-    if (mj) {
-        static const struct { const char *name; defsim_model m; } models[] = {
-            {"spring", DEFSIM_MODEL_SPRING}, {"stvk", DEFSIM_MODEL_STVK},
-            {"corotated", DEFSIM_MODEL_COROTATED}, {"neohookean", DEFSIM_MODEL_NEOHOOKEAN},
-            {"stable_neohookean", DEFSIM_MODEL_STABLE_NEOHOOKEAN}};
-        int found = 0;
-        for (size_t i = 0; i < sizeof models / sizeof models[0]; ++i)
-            if (cJSON_IsString(mj) && !strcmp(mj->valuestring, models[i].name)) {
-                model = models[i].m;
-                found = 1;
-            }
-        if (!found)
-            return sj_fail(c, mj, "%s.model must be one of spring, stvk, corotated, neohookean, "
-                           "stable_neohookean", w);
+    /* A key of the other kind of body would be silently ignored by the library: refuse it. */
+    static const char *const tet_only[] = {"youngs_modulus", "poisson_ratio", "density", NULL};
+    static const char *const spring_only[] = {"stiffness", "shear_stiffness", "bending_stiffness",
+                                              NULL};
+    for (const char *const *k = tets ? spring_only : tet_only; j && *k; ++k) {
+        const cJSON *bad = cJSON_GetObjectItemCaseSensitive(j, *k);
+        if (bad)
+            return sj_fail(c, bad, tets ? "%s.%s applies to spring bodies (cloth, rope), not to "
+                                          "this body of tets (use youngs_modulus, poisson_ratio, "
+                                          "density)"
+                                        : "%s.%s applies to tet bodies, not to this spring body "
+                                          "(cloth, rope: use stiffness, vertex_mass or total_mass)",
+                           w, *k);
     }
+    const cJSON *mj = j ? cJSON_GetObjectItemCaseSensitive(j, "model") : NULL;
+    if (mj && !(cJSON_IsString(mj) && scene_model_from_name(mj->valuestring, &model)))
+        return sj_fail(c, mj, "%s.model must be one of spring, stvk, corotated, neohookean, "
+                       "stable_neohookean (case, '-', '_', '.' and spaces are ignored: "
+                       "\"co-rotated\", \"stable neo-Hookean\" and \"StVK\" are accepted)", w);
     defsim_material *m = &b->material;
     defsim_material_init(m, sizeof *m, model);
     if (!j) return 0;

@@ -30,10 +30,11 @@ typedef struct scene_camera {
 typedef enum scene_color {
     SCENE_COLOR_BODY = 0,          /* each body its colour */
     SCENE_COLOR_STRESS = 1,        /* von Mises stress per tet, Pa */
-    SCENE_COLOR_DISPLACEMENT = 2   /* |x - x(0)| per vertex, m */
+    SCENE_COLOR_DISPLACEMENT = 2,  /* |x - x(0)| per vertex, m */
+    SCENE_COLOR_SPEED = 3          /* |v| per vertex, m/s */
 } scene_color;
 
-/* "body", "stress", "displacement" -> scene_color, or -1. */
+/* "body", "stress", "displacement", "speed" -> scene_color, or -1. */
 int scene_color_parse(const char *name);
 
 /* Fields of the VTK frames beyond positions, velocities and body (output.fields). */
@@ -194,6 +195,11 @@ void scene_collider_place(const scene_collider *col, double t, const double *loc
 int scene_has_paths(const scene *s);
 
 void scene_free(scene *s);
+
+/* The material model a scene's "model" names: case, '-', '_', '.' and spaces are ignored, so
+ * "co-rotated", "Corotated" and "stable neo-Hookean" are accepted, as are "StVK",
+ * "St. Venant-Kirchhoff" and "mass-spring". Returns 1 and sets *out, or 0 for an unknown name. */
+int scene_model_from_name(const char *name, defsim_model *out);
 
 /* The default colour of body i. */
 void scene_palette(int i, float rgb[3]);

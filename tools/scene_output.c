@@ -14,8 +14,8 @@ void scene_palette(int i, float rgb[3]) { memcpy(rgb, palette[(i % 6 + 6) % 6], 
 
 int scene_color_parse(const char *name)
 {
-    static const char *const names[] = {"body", "stress", "displacement"};
-    for (int i = 0; name && i < 3; ++i)
+    static const char *const names[] = {"body", "stress", "displacement", "speed"};
+    for (int i = 0; name && i < 4; ++i)
         if (!strcmp(name, names[i])) return i;
     return -1;
 }
@@ -124,7 +124,8 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     if (col) {
         s->color = cJSON_IsString(col) ? scene_color_parse(col->valuestring) : -1;
         if (s->color < 0)
-            return sj_fail(c, col, "output.color must be \"body\", \"stress\" or \"displacement\"");
+            return sj_fail(c, col, "output.color must be \"body\", \"stress\", \"displacement\" "
+                           "or \"speed\"");
     }
     const cJSON *cr = cJSON_GetObjectItemCaseSensitive(o, "color_range");
     if (cr) {

@@ -208,20 +208,33 @@ static int backend_flags(const char *name, uint32_t *flags)
     return 1;
 }
 
-static int usage(void)
+/* The help: on stdout with status 0 when asked for (-h, --help), else on stderr with 2. */
+static int usage_to(FILE *f)
 {
-    fprintf(stderr,
+    fprintf(f,
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
             "                     [--scenes beam,rope] [--steps N] [--time T]\n"
             "                     [--max-iterations N] [--max-internal-steps N]\n"
             "                     [--list-variants | --variant K] [--no-watchdog]\n"
+            "Runs the stability matrix: scenes x backends x h x E x nu x starts, one CSV row each.\n"
+            "  --reduced          the smaller matrix (fewer h, E and nu; 200 steps)\n"
+            "  --check            exit 1 if a run violates what is expected of its backend\n"
+            "  --csv FILE         where to write the rows (default stress.csv)\n"
+            "  --backends LIST    comma-separated backend names (default all nine)\n"
+            "  --scenes LIST      beam, rope or both (default beam,rope)\n"
+            "  --steps N          at most N steps per run (default 1000, 200 with --reduced)\n"
+            "  --time T           simulated time per run, s (default 0.5)\n"
+            "  --max-iterations N, --max-internal-steps N  limits of the implicit backends\n"
             "  --list-variants    print the runs of the matrix as JSON lines (index and settings)\n"
             "  --variant K        run only run K of the matrix; print the CSV header and its row\n"
             "                     (with --check, exit 1 if it is a violation)\n"
             "  --no-watchdog      core.watchdog off in every run (to see that --check catches\n"
-            "                     the garbage the watchdog refuses)\n");
-    return 2;
+            "                     the garbage the watchdog refuses)\n"
+            "  -h, --help         this text\n");
+    return f == stdout ? 0 : 2;
 }
+
+static int usage(void) { return usage_to(stderr); }
 
 int defsim_tool_stress(int argc, char **argv)
 {
@@ -233,7 +246,8 @@ int defsim_tool_stress(int argc, char **argv)
                              "newmark,bdf2,sundials_kinsol,sundials_ida,sundials_erk";
     char scenes_buf[128] = "beam,rope";
     for (int i = 0; i < argc; ++i) {
-        if (!strcmp(argv[i], "--reduced")) reduced = 1;
+        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) return usage_to(stdout);
+        else if (!strcmp(argv[i], "--reduced")) reduced = 1;
         else if (!strcmp(argv[i], "--check")) check = 1;
         else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
         else if (!strcmp(argv[i], "--no-watchdog")) watchdog_off = 1;

@@ -64,19 +64,51 @@ static int little_endian(void)
     return *(const uint8_t *)&one == 1;
 }
 
-/* Raw appended blocks: a UInt64 byte count, then the bytes. */
-static int put_block(FILE *f, const void *data, uint64_t bytes)
+/* Appended data is base64 (VTK's encoding="base64"): each block is a UInt64 byte count
+ * encoded on its own (12 characters) followed by the bytes encoded on their own, and offsets
+ * count characters. Raw binary would be smaller, but text readers (meshio) strip or split it at
+ * bytes that look like whitespace, which small meshes hit. */
+static const char b64_chars[] =
+    "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+static uint64_t b64_len(uint64_t bytes) { return 4 * ((bytes + 2) / 3); }
+
+/* Encoded size of a block: header and data. */
+static uint64_t block_len(uint64_t bytes) { return b64_len(8) + b64_len(bytes); }
+
+static int put_b64(FILE *f, const uint8_t *p, uint64_t n)
 {
-    return fwrite(&bytes, sizeof bytes, 1, f) == 1 &&
-           (bytes == 0 || fwrite(data, 1, (size_t)bytes, f) == (size_t)bytes);
+    char out[4 * 1024];
+    size_t k = 0;
+    for (uint64_t i = 0; i < n; i += 3) {
+        const uint32_t a = p[i], b = i + 1 < n ? p[i + 1] : 0, c = i + 2 < n ? p[i + 2] : 0;
+        const uint32_t v = a << 16 | b << 8 | c;
+        out[k++] = b64_chars[v >> 18 & 63];
+        out[k++] = b64_chars[v >> 12 & 63];
+        out[k++] = i + 1 < n ? b64_chars[v >> 6 & 63] : '=';
+        out[k++] = i + 2 < n ? b64_chars[v & 63] : '=';
+        if (k == sizeof out) {
+            if (fwrite(out, 1, k, f) != k) return 0;
+            k = 0;
+        }
+    }
+    return k == 0 || fwrite(out, 1, k, f) == k;
 }
 
-static void array_tag(FILE *f, const char *name, int components, uint64_t offset)
+static int put_block(FILE *f, const void *data, uint64_t bytes)
 {
-    fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"%d\" "
-               "format=\"appended\" offset=\"%llu\"/>\n", name, components,
+    return put_b64(f, (const uint8_t *)&bytes, sizeof bytes) && put_b64(f, data, bytes);
+}
+
+static void array_tag(FILE *f, const char *type, const char *name, int components,
+                      uint64_t offset)
+{
+    fprintf(f, "        <DataArray type=\"%s\" Name=\"%s\" NumberOfComponents=\"%d\" "
+               "format=\"appended\" offset=\"%llu\"/>\n", type, name, components,
             (unsigned long long)offset);
 }
+
+static const char *array_type(const vtk_array *a) { return a->u8 ? "UInt8" : "Float64"; }
 
 int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
                   const vtk_cells *c, double time, const vtk_array *extra, int n_extra,
@@ -94,19 +126,19 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
     const uint64_t btyp = (uint64_t)c->ncells;
     const uint64_t bbody = (uint64_t)c->ncells * sizeof(int32_t);
     uint64_t o = 0, o_v = 0, o_body, o_x, o_conn, o_off, o_typ, o_extra[MAX_EXTRA], b_extra[MAX_EXTRA];
-    if (v) { o_v = o; o += 8 + bx; }
+    if (v) { o_v = o; o += block_len(bx); }
     int point_extra = 0;
     for (int k = 0; k < n_extra; ++k) {
-        b_extra[k] = (uint64_t)extra[k].components * sizeof(double) *
+        b_extra[k] = (uint64_t)extra[k].components * (extra[k].u8 ? 1 : sizeof(double)) *
                      (extra[k].cell ? (uint64_t)c->ncells : (uint64_t)nv);
         o_extra[k] = o;
-        o += 8 + b_extra[k];
+        o += block_len(b_extra[k]);
         point_extra += !extra[k].cell;
     }
-    o_body = o; o += 8 + bbody;
-    o_x = o; o += 8 + bx;
-    o_conn = o; o += 8 + bconn;
-    o_off = o; o += 8 + boff;
+    o_body = o; o += block_len(bbody);
+    o_x = o; o += block_len(bx);
+    o_conn = o; o += block_len(bconn);
+    o_off = o; o += block_len(boff);
     o_typ = o;
     fprintf(f, "<?xml version=\"1.0\"?>\n"
                "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"%s\" "
@@ -120,16 +152,18 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
             little_endian() ? "LittleEndian" : "BigEndian", time, (int)nv, (long long)c->ncells);
     if (v || point_extra) {
         fprintf(f, v ? "      <PointData Vectors=\"velocity\">\n" : "      <PointData>\n");
-        if (v) array_tag(f, "velocity", 3, o_v);
+        if (v) array_tag(f, "Float64", "velocity", 3, o_v);
         for (int k = 0; k < n_extra; ++k)
-            if (!extra[k].cell) array_tag(f, extra[k].name, extra[k].components, o_extra[k]);
+            if (!extra[k].cell)
+                array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
         fprintf(f, "      </PointData>\n");
     }
     fprintf(f, "      <CellData Scalars=\"body\">\n"
                "        <DataArray type=\"Int32\" Name=\"body\" format=\"appended\" "
                "offset=\"%llu\"/>\n", (unsigned long long)o_body);
     for (int k = 0; k < n_extra; ++k)
-        if (extra[k].cell) array_tag(f, extra[k].name, extra[k].components, o_extra[k]);
+        if (extra[k].cell)
+            array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
     fprintf(f, "      </CellData>\n"
                "      <Points>\n"
                "        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" "
@@ -145,11 +179,13 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
                "      </Cells>\n"
                "    </Piece>\n"
                "  </UnstructuredGrid>\n"
-               "  <AppendedData encoding=\"raw\">\n   _",
+               "  <AppendedData encoding=\"base64\">\n   _",
             (unsigned long long)o_x, (unsigned long long)o_conn,
             (unsigned long long)o_off, (unsigned long long)o_typ);
     int ok = !v || put_block(f, v, bx);
-    for (int k = 0; k < n_extra && ok; ++k) ok = put_block(f, extra[k].data, b_extra[k]);
+    for (int k = 0; k < n_extra && ok; ++k)
+        ok = put_block(f, extra[k].u8 ? (const void *)extra[k].u8 : (const void *)extra[k].data,
+                       b_extra[k]);
     ok = ok && put_block(f, c->body, bbody) && put_block(f, x, bx) &&
          put_block(f, c->conn, bconn) && put_block(f, c->offsets, boff) &&
          put_block(f, c->types, btyp);
@@ -193,9 +229,39 @@ static int attr(const char *tag, const char *name, char *out, size_t size)
     return 0;
 }
 
-/* The appended block of the DataArray named `name`: pointer and byte count. */
-static const uint8_t *block(const char *xml, const uint8_t *data, const uint8_t *data_end,
-                            const char *name, uint64_t *bytes)
+static int b64_value(uint8_t ch)
+{
+    if (ch >= 'A' && ch <= 'Z') return ch - 'A';
+    if (ch >= 'a' && ch <= 'z') return ch - 'a' + 26;
+    if (ch >= '0' && ch <= '9') return ch - '0' + 52;
+    return ch == '+' ? 62 : ch == '/' ? 63 : -1;
+}
+
+/* Decodes `chars` characters (a multiple of 4, '=' padding at the end only) at p into out,
+ * which has room for 3 chars / 4 bytes. Returns the byte count, or -1 for bad input. */
+static int64_t b64_decode(const uint8_t *p, uint64_t chars, uint8_t *out)
+{
+    uint64_t n = 0;
+    for (uint64_t i = 0; i + 4 <= chars; i += 4) {
+        int v[4], pad = 0;
+        for (int k = 0; k < 4; ++k) {
+            v[k] = p[i + k] == '=' && k >= 2 ? (++pad, 0) : b64_value(p[i + k]);
+            if (v[k] < 0 || (pad && p[i + k] != '=')) return -1;
+        }
+        if (pad && i + 4 != chars) return -1;
+        const uint32_t w = (uint32_t)v[0] << 18 | (uint32_t)v[1] << 12 | (uint32_t)v[2] << 6 |
+                           (uint32_t)v[3];
+        out[n++] = (uint8_t)(w >> 16);
+        if (pad < 2) out[n++] = (uint8_t)(w >> 8);
+        if (pad < 1) out[n++] = (uint8_t)w;
+    }
+    return (int64_t)n;
+}
+
+/* The appended block of the DataArray named `name` in `section` ("" for any): a malloc'd copy
+ * of its bytes and their count; NULL when absent or malformed (*bad set when malformed). */
+static uint8_t *block(const char *xml, const uint8_t *data, const uint8_t *data_end, int base64,
+                      const char *name, uint64_t *bytes, int *bad)
 {
     char want[80], val[64];
     snprintf(want, sizeof want, "Name=\"%s\"", name);
@@ -203,13 +269,34 @@ static const uint8_t *block(const char *xml, const uint8_t *data, const uint8_t 
     if (!p) return NULL;
     while (p > xml && *p != '<') --p;
     if (!attr(p, "offset", val, sizeof val) || !attr(p, "format", want, sizeof want) ||
-        strcmp(want, "appended") != 0)
+        strcmp(want, "appended") != 0) {
+        *bad = 1;
         return NULL;
-    const uint64_t off = strtoull(val, NULL, 10);
-    if (off + 8 > (uint64_t)(data_end - data)) return NULL;
-    memcpy(bytes, data + off, 8);
-    if (*bytes > (uint64_t)(data_end - data) - off - 8) return NULL;
-    return data + off + 8;
+    }
+    const uint64_t off = strtoull(val, NULL, 10), avail = (uint64_t)(data_end - data);
+    uint8_t head[9];
+    if (base64) {
+        if (off > avail || avail - off < b64_len(8) || b64_decode(data + off, b64_len(8), head) != 8)
+            goto malformed;
+    } else {
+        if (off > avail || avail - off < 8) goto malformed;
+        memcpy(head, data + off, 8);
+    }
+    memcpy(bytes, head, 8);
+    const uint64_t start = off + (base64 ? b64_len(8) : 8);
+    const uint64_t len = base64 ? b64_len(*bytes) : *bytes;
+    if (*bytes > avail || len > avail - start) goto malformed;
+    uint8_t *out = malloc(*bytes + 3);
+    if (!out) goto malformed;
+    if (base64 ? b64_decode(data + start, len, out) != (int64_t)*bytes
+               : (memcpy(out, data + start, *bytes), 0)) {
+        free(out);
+        goto malformed;
+    }
+    return out;
+malformed:
+    *bad = 1;
+    return NULL;
 }
 
 int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
@@ -218,13 +305,17 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     size_t len;
     char *buf = tools_read_file(path, &len);
     if (!buf) return set_err(err, errsz, "%s: cannot read: %s", path, strerror(errno));
-    int rc = -1;
-    char *app = strstr(buf, "<AppendedData encoding=\"raw\">");
+    int rc = -1, bad = 0;
+    uint8_t *px = NULL, *pconn = NULL, *poff = NULL, *ptyp = NULL, *pbody = NULL;
+    /* base64 (written since issue 16) or raw (earlier files). */
+    char *app = strstr(buf, "<AppendedData encoding=\"base64\">");
+    const int base64 = app != NULL;
+    if (!app) app = strstr(buf, "<AppendedData encoding=\"raw\">");
     char *us = app ? strchr(app, '_') : NULL;
     if (!us || !strstr(buf, "header_type=\"UInt64\"") ||
         !strstr(buf, little_endian() ? "LittleEndian" : "BigEndian")) {
-        set_err(err, errsz, "%s: not a .vtu written by defsim (raw appended, UInt64 headers, "
-                            "this machine's byte order)", path);
+        set_err(err, errsz, "%s: not a .vtu written by defsim (appended base64 or raw data, "
+                            "UInt64 headers, this machine's byte order)", path);
         goto done;
     }
     *app = '\0';   /* the XML part ends here */
@@ -243,15 +334,15 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     const long long nc = strtoll(val, NULL, 10);
     const char *tv = strstr(buf, "Name=\"TimeValue\"");
     if (tv && (tv = strchr(tv, '>'))) out->time = strtod(tv + 1, NULL);
-    uint64_t bx, bconn, boff, btyp, bbody;
-    const uint8_t *px = block(buf, data, end, "Points", &bx);
-    const uint8_t *pconn = block(buf, data, end, "connectivity", &bconn);
-    const uint8_t *poff = block(buf, data, end, "offsets", &boff);
-    const uint8_t *ptyp = block(buf, data, end, "types", &btyp);
-    const uint8_t *pbody = block(buf, data, end, "body", &bbody);
-    if (nv < 0 || nv > INT32_MAX / 3 || nc < 0 || !px || !pconn || !poff || !ptyp || !pbody ||
-        bx != 3 * (uint64_t)nv * 8 || boff != (uint64_t)nc * 8 || btyp != (uint64_t)nc ||
-        bbody != (uint64_t)nc * 4 || bconn % 8) {
+    uint64_t bx = 0, bconn = 0, boff = 0, btyp = 0, bbody = 0;
+    px = block(buf, data, end, base64, "Points", &bx, &bad);
+    pconn = block(buf, data, end, base64, "connectivity", &bconn, &bad);
+    poff = block(buf, data, end, base64, "offsets", &boff, &bad);
+    ptyp = block(buf, data, end, base64, "types", &btyp, &bad);
+    pbody = block(buf, data, end, base64, "body", &bbody, &bad);
+    if (bad || nv < 0 || nv > INT32_MAX / 3 || nc < 0 || !px || !pconn || !poff || !ptyp ||
+        !pbody || bx != 3 * (uint64_t)nv * 8 || boff != (uint64_t)nc * 8 ||
+        btyp != (uint64_t)nc || bbody != (uint64_t)nc * 4 || bconn % 8) {
         set_err(err, errsz, "%s: missing or inconsistent data arrays", path);
         goto done;
     }
@@ -259,29 +350,26 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     vtk_cells *c = &out->cells;
     c->ncells = nc;
     c->nconn = (int64_t)(bconn / 8);
-    out->x = malloc(bx ? bx : 1);
-    c->conn = malloc(bconn ? bconn : 1);
-    c->offsets = malloc(boff ? boff : 1);
-    c->types = malloc(btyp ? btyp : 1);
-    c->body = malloc(bbody ? bbody : 1);
-    if (!out->x || !c->conn || !c->offsets || !c->types || !c->body) goto oom;
-    memcpy(out->x, px, bx);
-    memcpy(c->conn, pconn, bconn);
-    memcpy(c->offsets, poff, boff);
-    memcpy(c->types, ptyp, btyp);
-    memcpy(c->body, pbody, bbody);
-    /* Optional arrays the renderer colours by; a wrong size is an error, absence is not. */
-    uint64_t bvm = 0, bdisp = 0;
-    const uint8_t *pvm = block(buf, data, end, "von_mises", &bvm);
-    const uint8_t *pdisp = block(buf, data, end, "displacement", &bdisp);
-    if ((pvm && bvm != (uint64_t)nc * 8) || (pdisp && bdisp != bx)) {
-        set_err(err, errsz, "%s: von_mises or displacement has the wrong size", path);
+    out->x = (double *)px;
+    c->conn = (int64_t *)pconn;
+    c->offsets = (int64_t *)poff;
+    c->types = ptyp;
+    c->body = (int32_t *)pbody;
+    px = pconn = poff = ptyp = pbody = NULL;
+    /* Optional arrays the renderer colours by or draws; a wrong size is an error, absence is
+     * not. */
+    uint64_t bvm = 0, bdisp = 0, bvel = 0, bpin = 0;
+    out->von_mises = (double *)block(buf, data, end, base64, "von_mises", &bvm, &bad);
+    out->displacement = (double *)block(buf, data, end, base64, "displacement", &bdisp, &bad);
+    out->velocity = (double *)block(buf, data, end, base64, "velocity", &bvel, &bad);
+    out->pinned = block(buf, data, end, base64, "pinned", &bpin, &bad);
+    if (bad || (out->von_mises && bvm != (uint64_t)nc * 8) ||
+        (out->displacement && bdisp != bx) || (out->velocity && bvel != bx) ||
+        (out->pinned && bpin != (uint64_t)nv)) {
+        set_err(err, errsz, "%s: von_mises, displacement, velocity or pinned is malformed or "
+                            "has the wrong size", path);
         goto done;
     }
-    if (pvm && !(out->von_mises = malloc(bvm ? bvm : 1))) goto oom;
-    if (pdisp && !(out->displacement = malloc(bdisp ? bdisp : 1))) goto oom;
-    if (pvm) memcpy(out->von_mises, pvm, bvm);
-    if (pdisp) memcpy(out->displacement, pdisp, bdisp);
     int64_t prev = 0;
     for (int64_t i = 0; i < nc; ++i) {
         const int64_t k = c->offsets[i] - prev;
@@ -301,10 +389,8 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
         prev = c->offsets[i];
     }
     rc = 0;
-    goto done;
-oom:
-    set_err(err, errsz, "%s: out of memory", path);
 done:
+    free(px); free(pconn); free(poff); free(ptyp); free(pbody);
     free(buf);
     if (rc) vtk_frame_free(out);
     return rc;
@@ -315,6 +401,8 @@ void vtk_frame_free(vtk_frame *f)
     free(f->x);
     free(f->von_mises);
     free(f->displacement);
+    free(f->velocity);
+    free(f->pinned);
     vtk_cells_free(&f->cells);
     memset(f, 0, sizeof *f);
 }

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * VTK XML output that ParaView opens: one .vtu (unstructured grid, raw appended binary) per frame
- * and a .pvd collection listing them with their times. The reader reads back the .vtu files
+ * VTK XML output that ParaView, VTK and meshio open: one .vtu (unstructured grid, appended data
+ * in base64) per frame and a .pvd collection listing them with their times. The reader reads back the .vtu files
  * that vtk_write_vtu wrote (for defsim-render), not arbitrary VTK files.
  */
 #ifndef DEFSIM_TOOLS_VTK_H
@@ -29,14 +29,18 @@ typedef struct vtk_frame {
     vtk_cells cells;
     double *von_mises;      /* NULL, or one per cell (cell data "von_mises", Pa) */
     double *displacement;   /* NULL, or 3 nv (point data "displacement", m) */
+    double *velocity;       /* NULL, or 3 nv (point data "velocity", m/s) */
+    uint8_t *pinned;        /* NULL, or nv (point data "pinned": 1 pinned or driven, 0 free) */
 } vtk_frame;
 
-/* An extra Float64 data array of a frame: per point (`cell` 0, nv tuples) or per cell. */
+/* An extra data array of a frame: per point (`cell` 0, nv tuples) or per cell; Float64 from
+ * `data`, or UInt8 from `u8` when that is set. */
 typedef struct vtk_array {
     const char *name;
     int components;         /* 1, 3, 6 or 9 */
     int cell;
     const double *data;     /* components * tuples */
+    const uint8_t *u8;      /* NULL, or components * tuples bytes (flags) */
 } vtk_array;
 
 /* Appends cells of one type (k vertices each, body-local indices + offset) for a body. */
@@ -54,7 +58,8 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
 int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
                   char *err, size_t errsz);
 
-/* Reads a .vtu written by vtk_write_vtu. Returns 0, or -1 with a message in err. */
+/* Reads a .vtu written by vtk_write_vtu (or by earlier versions, whose appended data was raw).
+ * Returns 0, or -1 with a message in err. */
 int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz);
 void vtk_frame_free(vtk_frame *f);
 

@@ -69,6 +69,44 @@ static void test_missing_module(void **state)
     assert_non_null(strstr(defsim_last_error(), "no_such_module"));
 }
 
+/* Counts the quoted names in the last error: the unknown name itself, and the suggestion. */
+static int quoted_names(const char *msg)
+{
+    int n = 0;
+    for (const char *p = msg; *p; ++p) n += *p == '\'';
+    return n / 2;
+}
+
+static const char *create_error(const char *backend)
+{
+    defsim_world_def d;
+    defsim_world_def_init(&d, sizeof d);
+    d.backend = backend;
+    defsim_world *w = NULL;
+    assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_BACKEND_UNAVAILABLE);
+    assert_null(w);
+    return defsim_last_error();
+}
+
+/* An unknown name lists what is available, modules not yet loaded included, and suggests the
+ * nearest name by edit distance, also for names outside [a-z0-9_]; a name far from every
+ * backend gets no suggestion. */
+static void test_unknown_name_suggests(void **state)
+{
+    (void)state;
+    const char *msg = create_error("symplectc_euler");
+    assert_non_null(strstr(msg, "'symplectic_euler'"));
+    assert_non_null(strstr(msg, "testmod"));          /* listed from DEFSIM_BACKEND_PATH */
+    assert_non_null(strstr(msg, "velocity_verlet"));
+    msg = create_error("Symplectic-Euler");
+    assert_non_null(strstr(msg, "'symplectic_euler'"));
+    msg = create_error("testmdo");
+    assert_non_null(strstr(msg, "'testmod'"));
+    msg = create_error("qqqqqqqqqqqq");
+    assert_int_equal(quoted_names(msg), 1);
+    assert_non_null(strstr(msg, "explicit_euler"));
+}
+
 static int host_steps;
 static defsim_status my_init(const defsim_host *h, defsim_system *s, void *st)
 {
@@ -155,6 +193,7 @@ int main(void)
         cmocka_unit_test(test_builtins_load_nothing),
         cmocka_unit_test(test_module_loads_and_matches),
         cmocka_unit_test(test_missing_module),
+        cmocka_unit_test(test_unknown_name_suggests),
         cmocka_unit_test(test_register),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -185,6 +185,54 @@ static void test_errors(void **state)
     assert_int_equal(scene_load(&s, obj, NULL, 0), -1);
 }
 
+/* Issue 16: material names in the README's spellings name their model; a misspelt one and a
+ * key of the other kind of body (youngs_modulus on a rope, stiffness on tets) are errors at
+ * their line, like unknown keys. */
+static void test_model_spellings_and_kind_keys(void **state)
+{
+    (void)state;
+    static const struct { const char *name; defsim_model m; } ok[] = {
+        {"co-rotated", DEFSIM_MODEL_COROTATED}, {"Corotated", DEFSIM_MODEL_COROTATED},
+        {"corotated", DEFSIM_MODEL_COROTATED}, {"co_rotated", DEFSIM_MODEL_COROTATED},
+        {"stable neo-Hookean", DEFSIM_MODEL_STABLE_NEOHOOKEAN},
+        {"stable-neohookean", DEFSIM_MODEL_STABLE_NEOHOOKEAN},
+        {"stable_neohookean", DEFSIM_MODEL_STABLE_NEOHOOKEAN},
+        {"neo-Hookean", DEFSIM_MODEL_NEOHOOKEAN}, {"StVK", DEFSIM_MODEL_STVK},
+        {"St. Venant-Kirchhoff", DEFSIM_MODEL_STVK}};
+    char line6[200];
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; ++i) {
+        snprintf(line6, sizeof line6, "\"material\": {\"model\": \"%s\"}", ok[i].name);
+        scene s;
+        load_ok("m.json", scene_text("\"threads\": 1", line6), &s);
+        assert_int_equal(s.bodies[0].material.model, ok[i].m);
+        scene_free(&s);
+    }
+    expect_line(scene_text("\"threads\": 1", "\"material\": {\"model\": \"co-rotatd\"}"), 6);
+    expect_line(scene_text("\"threads\": 1", "\"material\": {\"stiffness\": 100}"), 6);
+    /* A rope: spring keys are fine, tet keys are not. */
+    const char *rope = "{\n"
+                       "  \"world\": {\"h\": 1e-3, \"duration\": 0.01},\n"
+                       "  \"bodies\": [\n"
+                       "    {\"mesh\": {\"type\": \"rope\", \"a\": [0,0,0], \"b\": [1,0,0], \"segments\": 4},\n"
+                       "     \"material\": {\"model\": \"mass-spring\", \"stiffness\": 100,\n"
+                       "                  %s}}\n"
+                       "  ]\n"
+                       "}\n";
+    char text[1024];
+    snprintf(text, sizeof text, rope, "\"bending_stiffness\": 1");
+    scene s;
+    load_ok("r.json", text, &s);
+    assert_int_equal(s.bodies[0].material.model, DEFSIM_MODEL_SPRING);
+    assert_true(s.bodies[0].material.stiffness == 100.0);
+    scene_free(&s);
+    const char *tet_keys[] = {"\"youngs_modulus\": 1e5", "\"poisson_ratio\": 0.3",
+                              "\"density\": 500"};
+    for (int i = 0; i < 3; ++i) {
+        snprintf(text, sizeof text, rope, tet_keys[i]);
+        expect_line(text, 6);
+    }
+}
+
 /* cJSON takes every byte up to 0x20 as whitespace, the position scanner must too (issue 17: a
  * 0x0C or NUL after '[' or in an object overflowed its table, 0x0B gave an internal error).
  * Each '@' of a template becomes the byte; valid scenes load, invalid ones name the right line. */
@@ -653,6 +701,8 @@ int main(void)
         cmocka_unit_test(test_overrides),
         cmocka_unit_test_setup_teardown(test_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_limits, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_model_spellings_and_kind_keys, tu_tmpdir_setup,
+                                        tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),

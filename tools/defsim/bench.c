@@ -34,9 +34,6 @@
 
 extern char **environ;
 
-#ifndef DEFSIM_BENCH_MODULE_DIR
-#define DEFSIM_BENCH_MODULE_DIR ""
-#endif
 #ifndef DEFSIM_BENCH_PLOT_SCRIPT
 #define DEFSIM_BENCH_PLOT_SCRIPT ""
 #endif
@@ -741,10 +738,6 @@ int defsim_tool_bench(int argc, char **argv)
         for (size_t k = 0; k < sizeof all_backends / sizeof *all_backends; ++k)
             backends[nb++] = all_backends[k];
     }
-    /* From the build tree the modules sit beside the tools unless the user says otherwise. */
-    if (!getenv("DEFSIM_BACKEND_PATH") && DEFSIM_BENCH_MODULE_DIR[0])
-        setenv("DEFSIM_BACKEND_PATH", DEFSIM_BENCH_MODULE_DIR, 0);
-
     if (scene_load(&b.s, scene_path, b.sets, b.nsets) != 0) {
         fprintf(stderr, "defsim bench: %s\n", b.s.error);
         return 1;

@@ -26,6 +26,7 @@
 #include "fileio.h"
 #include "run_summary.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -49,14 +50,19 @@ static int usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim run SCENE.json [options]\n"
-        "  --out DIR          output folder (default: the scene's name)\n"
+        "  --out DIR          output folder (default: the scene's name); what an earlier run\n"
+        "                     left there (frame_*.vtu/png, *.pvd, final.vtu, contact_sheet.png)\n"
+        "                     is removed first\n"
         "  --render           also write PNG frames and a contact sheet (needs OSMesa)\n"
-        "  --no-vtk           do not write .vtu/.pvd frames\n"
+        "  --vtk MODE         all: .vtu frames, .pvd and final.vtu (default when the scene's\n"
+        "                     output.formats has \"vtk\"); final: only final.vtu; none: no VTK\n"
+        "  --no-vtk           the same as --vtk none\n"
         "  --frames LIST      write only these frames (comma-separated numbers, 0 = start)\n"
         "  --backend NAME     override world.backend\n"
         "  --threads N        override world.threads\n"
-        "  --color MODE       colour rendered bodies by body (default), stress (von Mises) or\n"
-        "                     displacement, with a colour bar (= --set output.color=MODE)\n"
+        "  --color MODE       colour rendered bodies by body (default), stress (von Mises),\n"
+        "                     displacement or speed, with a colour bar on one scale for the\n"
+        "                     whole run (= --set output.color=MODE)\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
@@ -74,10 +80,11 @@ static int usage(FILE *f)
 }
 
 enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
+enum { VTK_NONE = 0, VTK_FINAL = 1, VTK_ALL = 2 };
 
 typedef struct run_opts {
     const char *scene_path, *out_dir, *summary_path, *resume_dir;
-    int render, vtk, progress;
+    int render, vtk, progress;   /* vtk: -1 as the scene says, else VTK_NONE, _FINAL, _ALL */
     int checkpoint_every;   /* frames; 0: none */
     const char **sets;   /* --set, --backend and --threads as scene overrides */
     int nsets;
@@ -131,7 +138,7 @@ static int parse_limit(const char *flag, const char *arg, int64_t *out)
 static int parse_args(int argc, char **argv, run_opts *o)
 {
     memset(o, 0, sizeof *o);
-    o->vtk = 1;
+    o->vtk = -1;
     o->limits.max_vertices = SCENE_MAX_VERTICES;
     o->limits.max_steps = SCENE_MAX_STEPS;
     o->sets = calloc((size_t)argc + 4, sizeof *o->sets);
@@ -145,7 +152,16 @@ static int parse_args(int argc, char **argv, run_opts *o)
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
         else if (!strcmp(a, "--out") && has) o->out_dir = argv[++i];
         else if (!strcmp(a, "--render")) o->render = 1;
-        else if (!strcmp(a, "--no-vtk")) o->vtk = 0;
+        else if (!strcmp(a, "--no-vtk")) o->vtk = VTK_NONE;
+        else if (!strcmp(a, "--vtk") && has) {
+            const char *m = argv[++i];
+            o->vtk = !strcmp(m, "all") ? VTK_ALL : !strcmp(m, "final") ? VTK_FINAL
+                     : !strcmp(m, "none") ? VTK_NONE : -2;
+            if (o->vtk == -2) {
+                fprintf(stderr, "defsim run: --vtk must be all, final or none\n");
+                return 2;
+            }
+        }
         else if (!strcmp(a, "--progress") && has) progress = argv[++i];
         else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
         else if (!strcmp(a, "--option") && has) o->opts[o->nopts++] = argv[++i];
@@ -294,10 +310,48 @@ static int out_resume(frame_out *o, const scene *s, int f0, const run_opts *ro,
     return 0;
 }
 
-/* Creates the folder, the VTK cells of all bodies and energy.csv with its header (when resuming
- * after frame f0 >= 0, keeps what the run wrote up to it: out_resume). */
+/* 1 for the names defsim run writes: frame_<digits>.vtu / .png, *.pvd, final.vtu,
+ * contact_sheet.png, and their ".tmp" files. */
+static int own_output(const char *name)
+{
+    size_t n = strlen(name);
+    if (n > 4 && !strcmp(name + n - 4, ".tmp")) n -= 4;
+    if ((n == 9 && !strncmp(name, "final.vtu", 9)) ||
+        (n == 17 && !strncmp(name, "contact_sheet.png", 17)) ||
+        (n > 4 && !strncmp(name + n - 4, ".pvd", 4)))
+        return 1;
+    if (n < 11 || strncmp(name, "frame_", 6) ||
+        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".png", 4)))
+        return 0;
+    for (size_t i = 6; i < n - 4; ++i)
+        if (name[i] < '0' || name[i] > '9') return 0;
+    return 1;
+}
+
+/* Removes what an earlier run wrote into dir, so that a reused --out holds only this run's
+ * frames (a shorter run would otherwise leave later frames, and a .pvd listing them). Other
+ * files are left alone. Returns the number removed, or -1. */
+static int clear_stale(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT ? 0 : -1;
+    int n = 0, rc = 0;
+    char path[4200];
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!own_output(e->d_name)) continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        if (unlink(path) == 0) ++n;
+        else if (errno != ENOENT) rc = -1;
+    }
+    closedir(d);
+    return rc ? -1 : n;
+}
+
+/* Creates the folder (clearing an earlier run's outputs), the VTK cells of all bodies and
+ * energy.csv with its header; when resuming after frame f0 >= 0, keeps what the run wrote up to
+ * it instead (out_resume). */
 static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const run_opts *ro,
-                    defsim_energy *e0)
+                    defsim_energy *e0, int verbose)
 {
     snprintf(o->dir, sizeof o->dir, "%s", dir);
     if (tools_make_dirs(o->dir)) {
@@ -305,6 +359,14 @@ static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const
                 strerror(errno));
         return -1;
     }
+    const int stale = f0 >= 0 ? 0 : clear_stale(o->dir);
+    if (stale < 0) {
+        fprintf(stderr, "defsim run: cannot clear the earlier outputs from %s: %s\n", o->dir,
+                strerror(errno));
+        return -1;
+    }
+    if (stale > 0 && verbose)
+        printf("%s/: removed %d files of an earlier run\n", o->dir, stale);
     snprintf(o->pvd_path, sizeof o->pvd_path, "%s/%s.pvd", o->dir, s->name);
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
@@ -399,21 +461,27 @@ static void out_close(frame_out *o)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* PNG output: a renderer with one part per body and one per drawn collider, frames, and a
- * contact sheet of up to 12 */
+/* PNG output: a renderer with one part per body, frames, and a contact sheet of up to 12 */
 
 #ifdef DEFSIM_HAVE_RENDER
 enum { SHEET_MAX = 12 };
 
+/* Frames are spooled while the run goes (positions, the colour field, collider poses) and
+ * rendered when it ends, so that the camera, the ground and the colour scale come from the
+ * whole motion rather than from the first frame. */
 typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
     rd_part *parts;
-    int32_t nparts;           /* the bodies' parts (coloured by the scene), then the colliders' */
-    int32_t nbody_parts;
-    rd_colliders cols;
+    int32_t nparts;
     int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
     float **tri_rgb, *vertex_rgb;
+    rd_overlay overlay;   /* pinned markers and colliders */
+    FILE *spool;          /* unlinked scratch file in the output folder */
+    int nspooled;
+    double lo[3], hi[3], top;   /* bounds of the bodies and largest colour value over the run */
+    double *x, *vec, *cell;     /* one spooled frame: positions, |vec| colours, cell colours */
+    double *poses;              /* 7 per collider: position, rotation */
     image frame;
     image thumbs[SHEET_MAX];
     double thumb_t[SHEET_MAX];
@@ -421,18 +489,20 @@ typedef struct png_out {
     char err[1024];
 } png_out;
 
-static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl)
+static int png_open(png_out *p, const scene *s, const run_opts *o, const fields *fl,
+                    const char *dir, defsim_world *w)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
-    if (rd_colliders_make(s, fl->nv, &p->cols)) {
-        fprintf(stderr, "defsim run: renderer: out of memory\n");
-        return -1;
-    }
-    p->parts = calloc((size_t)s->nbodies + (size_t)p->cols.n, sizeof *p->parts);
+    p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
     p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
     p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
     p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
-    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb ? s->nbodies : 0;
+    p->x = malloc(3 * (size_t)fl->nv * sizeof *p->x + 1);
+    p->vec = malloc(3 * (size_t)fl->nv * sizeof *p->vec + 1);
+    p->cell = malloc((size_t)(fl->ncells + 1) * sizeof *p->cell);
+    p->poses = malloc(7 * (size_t)(defsim_world_collider_count(w) + 1) * sizeof *p->poses);
+    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb && p->x && p->vec &&
+                p->cell && p->poses ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
@@ -440,11 +510,18 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
         fprintf(stderr, "defsim run: renderer: %s\n", p->rd ? "out of memory" : p->err);
         return -1;
     }
-    double lo[3], hi[3];
-    scene_bounds(s, lo, hi);
-    scene_camera cam = s->camera;
-    rd_ground_from_colliders(s, &cam);
-    rd_view_make(&cam, lo, hi, s->def.gravity, (double)s->width / s->height, &p->view);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/.render_spool.tmp", dir);
+    p->spool = fopen(path, "w+b");
+    if (!p->spool) {
+        fprintf(stderr, "defsim run: cannot write %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    remove(path);   /* the open stream keeps it; nothing is left behind however the run ends */
+    for (int c = 0; c < 3; ++c) {
+        p->lo[c] = INFINITY;
+        p->hi[c] = -INFINITY;
+    }
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
@@ -477,8 +554,6 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
                 if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
         }
     }
-    p->nbody_parts = p->nparts;
-    memcpy(p->parts + p->nparts, p->cols.parts, (size_t)p->cols.n * sizeof *p->parts);
     /* Contact sheet: up to 12 of the written frames, evenly spread. */
     int written[4096], nw = 0;
     for (int f = 0; f <= s->frames && nw < 4096; ++f)
@@ -493,36 +568,142 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     return 0;
 }
 
-/* frame_NNNNN.png (coloured as the scene says, with its colour bar), kept as a thumbnail when
- * the contact sheet shows frame f. */
-static int png_frame(png_out *p, const scene *s, const fields *fl, const char *dir, int f,
-                     double t, const double *x)
+/* Takes frame f into the bounds and the colour scale of the run (every frame, written or
+ * not, so that a frame looks the same whichever frames are written) and, when `keep`, spools
+ * it: its number and time, positions, the vector coloured by its length (displacement or
+ * velocity) or the cells' von Mises stress, and the colliders' poses. */
+static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world *w, int f,
+                     double t, const double *x, int keep)
 {
-    char path[4200];
-    snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
-    double range[2];
-    rd_color_parts((scene_color)s->color, s, p->parts, p->nbody_parts, p->tri_cell,
-                   fl->von_mises, fl->displacement, fl->nv, p->vertex_rgb, p->tri_rgb, range);
-    const int bad = rd_render(p->rd, &p->view, rd_colliders_place(&p->cols, t, x), p->parts,
-                              p->nbody_parts + p->cols.n, p->frame.rgb, p->err, sizeof p->err);
-    if (!bad)
-        rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
-    if (bad || image_write_png(path, &p->frame, p->err, sizeof p->err)) {
-        fprintf(stderr, "defsim run: render: %s\n", p->err);
+    const int32_t nv = fl->nv, nc = defsim_world_collider_count(w);
+    const double *vec = NULL;
+    if (s->color == SCENE_COLOR_DISPLACEMENT) vec = fl->displacement;
+    if (s->color == SCENE_COLOR_SPEED) {
+        defsim_world_get_velocities(w, p->vec, nv);
+        vec = p->vec;
+    }
+    for (int32_t i = 0; i < nc; ++i) {
+        defsim_collider_def c = {.size = sizeof c};
+        defsim_world_get_collider(w, i, NULL, &c);
+        memcpy(p->poses + 7 * i, c.position, 3 * sizeof(double));
+        memcpy(p->poses + 7 * i + 3, c.rotation, 4 * sizeof(double));
+    }
+    for (int32_t k = 0; k < nv; ++k)
+        for (int c = 0; c < 3; ++c) {
+            p->lo[c] = fmin(p->lo[c], x[3 * k + c]);
+            p->hi[c] = fmax(p->hi[c], x[3 * k + c]);
+        }
+    p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->parts, p->nparts, p->tri_cell,
+                                       fl->von_mises, vec, nv));
+    if (!keep) return 0;
+    int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
+             fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
+             fwrite(x, sizeof *x, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv &&
+             (nc == 0 || fwrite(p->poses, sizeof *p->poses, 7 * (size_t)nc, p->spool) ==
+                             7 * (size_t)nc);
+    if (ok && vec) ok = fwrite(vec, sizeof *vec, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
+    if (ok && s->color == SCENE_COLOR_STRESS && fl->von_mises)
+        ok = fwrite(fl->von_mises, sizeof(double), (size_t)fl->ncells, p->spool) ==
+             (size_t)fl->ncells;
+    if (!ok) {
+        fprintf(stderr, "defsim run: render: cannot write the frame spool: %s\n", strerror(errno));
         return -1;
     }
-    for (int k = 0; k < p->nsheet; ++k)
-        if (p->sheet_frames[k] == f && p->nthumbs < SHEET_MAX &&
-            image_downscale(&p->frame, 2, &p->thumbs[p->nthumbs]) == 0)
-            p->thumb_t[p->nthumbs++] = t;
+    ++p->nspooled;
     return 0;
 }
 
-/* Writes the contact sheet (if two or more thumbnails) and frees everything. */
-static int png_close(png_out *p, const char *dir)
+/* Renders one spooled frame into p->frame: bodies coloured on the run's scale, pinned
+ * markers, colliders at the frame's poses, the colour bar and the time. */
+static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *w,
+                    const double *x, const double *vec, const double *cell, int32_t nc,
+                    const double *poses, double t)
 {
-    int rc = 0;
-    if (p->nthumbs > 1) {
+    double range[2];
+    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, cell, vec, fl->nv,
+                   p->top, p->vertex_rgb, p->tri_rgb, range);
+    rd_view view = p->view;
+    int ground_plane = -1;
+    static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
+    if (rd_overlay_begin(&p->overlay, x, fl->nv) ||
+        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb))
+        goto oom;
+    for (int32_t i = 0; i < nc && i < defsim_world_collider_count(w); ++i) {
+        defsim_collider_def c = {.size = sizeof c};
+        defsim_world_get_collider(w, i, NULL, &c);
+        memcpy(c.position, poses + 7 * i, 3 * sizeof(double));
+        memcpy(c.rotation, poses + 7 * i + 3, 4 * sizeof(double));
+        /* The first plane is the ground: the grid is drawn on it. */
+        if (ground_plane < 0 && rd_view_ground_plane(&view, &c)) ground_plane = i;
+        if (rd_overlay_collider(&p->overlay, &c, &view, ground_plane == i, collider_rgb)) goto oom;
+    }
+    const int n = p->nparts + p->overlay.nparts;
+    rd_part *all = malloc((size_t)n * sizeof *all);
+    if (!all) goto oom;
+    memcpy(all, p->parts, (size_t)p->nparts * sizeof *all);
+    memcpy(all + p->nparts, p->overlay.parts, (size_t)p->overlay.nparts * sizeof *all);
+    const int bad = rd_render(p->rd, &view, p->overlay.x, all, n, p->frame.rgb, p->err,
+                              sizeof p->err);
+    free(all);
+    if (bad) return -1;
+    rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
+    rd_timestamp(p->frame.rgb, s->width, s->height, t);
+    return 0;
+oom:
+    snprintf(p->err, sizeof p->err, "out of memory");
+    return -1;
+}
+
+/* Renders the spooled frames (frame_NNNNN.png and the contact sheet) and frees everything.
+ * Returns the number of PNG frames written, or -1. */
+static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world *w,
+                     const char *dir)
+{
+    int rc = 0, written = 0;
+    if (p->spool && p->nspooled > 0) {
+        rd_view_make(&s->camera, p->lo, p->hi, s->def.gravity, (double)s->width / s->height,
+                     &p->view);
+        rewind(p->spool);
+    }
+    const int32_t nv = fl->nv;
+    for (int k = 0; p->spool && k < p->nspooled && rc == 0; ++k) {
+        int f = 0;
+        int32_t nc = 0;
+        double t = 0.0;
+        const int vec = s->color == SCENE_COLOR_DISPLACEMENT || s->color == SCENE_COLOR_SPEED;
+        const int cell = s->color == SCENE_COLOR_STRESS && fl->von_mises;
+        int ok = fread(&f, sizeof f, 1, p->spool) == 1 && fread(&t, sizeof t, 1, p->spool) == 1 &&
+                 fread(&nc, sizeof nc, 1, p->spool) == 1 && nc >= 0 &&
+                 nc <= defsim_world_collider_count(w) &&
+                 fread(p->x, sizeof *p->x, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv &&
+                 (nc == 0 || fread(p->poses, sizeof *p->poses, 7 * (size_t)nc, p->spool) ==
+                                 7 * (size_t)nc);
+        if (ok && vec && (s->color == SCENE_COLOR_SPEED || fl->displacement))
+            ok = fread(p->vec, sizeof *p->vec, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
+        if (ok && cell)
+            ok = fread(p->cell, sizeof *p->cell, (size_t)fl->ncells, p->spool) ==
+                 (size_t)fl->ncells;
+        char path[4200];
+        snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
+        if (!ok) {
+            snprintf(p->err, sizeof p->err, "the frame spool is short");
+            rc = -1;
+        } else if (png_draw(p, s, fl, w, p->x,
+                            vec && (s->color == SCENE_COLOR_SPEED || fl->displacement) ? p->vec
+                                                                                        : NULL,
+                            cell ? p->cell : NULL, nc, p->poses, t) ||
+                   image_write_png(path, &p->frame, p->err, sizeof p->err)) {
+            rc = -1;
+        } else {
+            ++written;
+            for (int j = 0; j < p->nsheet; ++j)
+                if (p->sheet_frames[j] == f && p->nthumbs < SHEET_MAX &&
+                    image_downscale(&p->frame, 2, &p->thumbs[p->nthumbs]) == 0)
+                    p->thumb_t[p->nthumbs++] = t;
+        }
+        if (rc) fprintf(stderr, "defsim run: render: %s\n", p->err);
+    }
+    if (rc == 0 && p->nthumbs > 1) {
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", dir);
         if (image_write_contact_sheet(path, p->thumbs, p->thumb_t, p->nthumbs, 4, p->err,
@@ -531,6 +712,7 @@ static int png_close(png_out *p, const char *dir)
             rc = -1;
         }
     }
+    if (p->spool) fclose(p->spool);
     for (int k = 0; k < p->nthumbs; ++k) image_free(&p->thumbs[k]);
     image_free(&p->frame);
     for (int32_t i = 0; i < p->nparts; ++i) {
@@ -539,13 +721,17 @@ static int png_close(png_out *p, const char *dir)
         free(p->tri_cell[i]);
         free(p->tri_rgb[i]);
     }
-    rd_colliders_free(&p->cols);
     free(p->parts);
     free(p->tri_cell);
     free(p->tri_rgb);
     free(p->vertex_rgb);
+    free(p->x);
+    free(p->vec);
+    free(p->cell);
+    free(p->poses);
+    rd_overlay_free(&p->overlay);
     rd_destroy(p->rd);
-    return rc;
+    return rc ? -1 : written;
 }
 #endif
 
@@ -588,7 +774,7 @@ static void progress_frame(progress *pr, const scene *s, int f, int written, dou
 }
 
 typedef struct run_result {
-    int rc, last_frame, vtk_frames;
+    int rc, last_frame, vtk_frames, png_frames, final_vtu;
     double e0, t_out, t_render;
     defsim_energy e;
 } run_result;
@@ -626,8 +812,8 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
             printf("  probe of %s (vertex %d): (%.6f, %.6f, %.6f)\n", s->bodies[i].name,
                    (int)s->bodies[i].probe, p[0], p[1], p[2]);
         }
-    printf("  output: %s/ (%s%d frames%s, final.vtu, energy.csv)\n", dir,
-           s->write_vtk ? "" : "no VTK, ", r->vtk_frames, s->write_png ? ", PNG" : "");
+    printf("  output: %s/ (%d VTK frames, %d PNG frames%s, energy.csv)\n", dir, r->vtk_frames,
+           r->png_frames, r->final_vtu ? ", final.vtu" : "");
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -707,7 +893,7 @@ static int load(const run_opts *o, scene *s, defsim_world **w, int *f0)
         return 1;
     }
     if (o->render) s->write_png = 1;
-    if (!o->vtk) s->write_vtk = 0;
+    if (o->vtk >= 0) s->write_vtk = o->vtk == VTK_ALL;
     for (int i = 0; i < o->nlist; ++i)
         if (o->list[i] > s->frames) {
             fprintf(stderr, "defsim run: --frames: frame %d is past the last frame (%d)\n",
@@ -749,6 +935,8 @@ int run_main(int argc, char **argv)
         opts_free(&o);
         return rc;
     }
+    /* final.vtu: with the frames, or alone with --vtk final. */
+    const int write_final = o.vtk < 0 ? s.write_vtk : o.vtk >= VTK_FINAL;
     const int32_t nv = defsim_world_vertex_count(w);
     double *x = malloc(3 * (size_t)nv * sizeof *x), *v = malloc(3 * (size_t)nv * sizeof *v);
     frame_out out;
@@ -763,12 +951,13 @@ int run_main(int argc, char **argv)
     if (!x || !v) {
         fprintf(stderr, "defsim run: out of memory\n");
         r.rc = 1;
-    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name, f0, &o, &e_start)) {
+    } else if (out_open(&out, &s, o.out_dir ? o.out_dir : s.name, f0, &o, &e_start,
+                        o.progress != PROGRESS_NONE)) {
         r.rc = 1;
     }
     /* The fields the VTK frames carry and what the renderer colours by. */
     const unsigned need =
-        (s.write_vtk ? s.fields : 0u) |
+        (s.write_vtk || write_final ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
         (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
     if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
@@ -782,7 +971,7 @@ int run_main(int argc, char **argv)
                3 * (size_t)b->mesh.vertex_count * sizeof *out.fl.x0);
     }
 #ifdef DEFSIM_HAVE_RENDER
-    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl)) r.rc = 1;
+    if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl, out.dir, w)) r.rc = 1;
 #endif
 
     struct sigaction sa, old_sa;
@@ -835,7 +1024,8 @@ int run_main(int argc, char **argv)
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
-        if (written && (s.write_vtk || s.write_png) &&
+        const int colours = s.write_png && s.color != SCENE_COLOR_BODY;
+        if ((written || colours) && (s.write_vtk || s.write_png) &&
             fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
             fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
             r.rc = 1;
@@ -848,9 +1038,9 @@ int run_main(int argc, char **argv)
             r.t_out += tools_now() - t0;
         }
 #ifdef DEFSIM_HAVE_RENDER
-        if (written && s.write_png) {
+        if (s.write_png) {
             const double t0 = tools_now();
-            if (png_frame(&png, &s, &out.fl, out.dir, f, t, x)) { r.rc = 1; break; }
+            if (png_spool(&png, &s, &out.fl, w, f, t, x, written)) { r.rc = 1; break; }
             r.t_render += tools_now() - t0;
         }
 #endif
@@ -872,10 +1062,19 @@ int run_main(int argc, char **argv)
         /* The final state, whatever stopped the run. */
         defsim_world_get_positions(w, x, nv);
         defsim_world_get_velocities(w, v, nv);
-        if (out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        if (write_final && out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        r.final_vtu = write_final && r.rc == 0;
     }
 #ifdef DEFSIM_HAVE_RENDER
-    if (png_close(&png, out.dir)) r.rc = 1;
+    {
+        const double t0 = tools_now();
+        r.png_frames = png_close(&png, &s, &out.fl, w, out.dir);
+        if (r.png_frames < 0) {
+            r.png_frames = 0;
+            r.rc = 1;
+        }
+        r.t_render += tools_now() - t0;
+    }
 #endif
     if (started && pr.mode != PROGRESS_NONE) print_summary(&pr, &s, w, &r, x, out.dir);
     if (o.summary_path) {

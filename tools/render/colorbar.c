@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Colour scales for stress and displacement, and the colour bar drawn into finished images. */
+/* Colour scales for stress, displacement and speed, the colour bar drawn into finished images,
+ * and the time stamp. */
 #include "image.h"
 #include "render.h"
 
@@ -54,35 +55,47 @@ void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double l
             if (x0 + bar_w + x < width) memset(rgb + 3 * ((size_t)(y0 + i * (bar_h - 1) / 2) * width + x0 + bar_w + x), 40, 3);
         image_draw_text(&im, x0 + bar_w + 4 * scale, ty, scale, 40, text);
     }
-    const char *label = mode == SCENE_COLOR_STRESS ? "VON MISES (Pa)" : "DISPLACEMENT (m)";
+    const char *label = mode == SCENE_COLOR_STRESS ? "VON MISES (Pa)"
+                        : mode == SCENE_COLOR_SPEED ? "SPEED (m/s)" : "DISPLACEMENT (m)";
     int lx = width - (int)strlen(label) * ch - 6;
     if (lx > x0) lx = x0;
     image_draw_text(&im, lx, y0 - 7 * scale - 4, scale, 40, label);
 }
 
+static double vec_norm(const double *d) { return sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]); }
+
+double rd_color_top(scene_color mode, const rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv)
+{
+    double top = 0.0;
+    if (mode == SCENE_COLOR_DISPLACEMENT || mode == SCENE_COLOR_SPEED) {
+        for (int32_t v = 0; vertex_vec && v < nv; ++v)
+            top = fmax(top, vec_norm(vertex_vec + 3 * (int64_t)v));
+    } else if (mode == SCENE_COLOR_STRESS && cell_value) {
+        for (int i = 0; i < nparts; ++i)
+            for (int32_t t = 0; tri_cell[i] && t < parts[i].ntris; ++t)
+                if (tri_cell[i][t] >= 0) top = fmax(top, cell_value[tri_cell[i][t]]);
+    }
+    return top;
+}
+
 void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
-                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
-                    int32_t nv, float *vbuf, float *const *tbuf, double range[2])
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv, double top, float *vbuf, float *const *tbuf, double range[2])
 {
     range[0] = 0.0;
     range[1] = 0.0;
     for (int i = 0; i < nparts; ++i) parts[i].vertex_colors = parts[i].tri_colors = NULL;
     if (mode == SCENE_COLOR_BODY) return;
-    if (mode == SCENE_COLOR_DISPLACEMENT && !displacement) return;
-    int any = mode == SCENE_COLOR_DISPLACEMENT;
+    const int per_vertex = mode == SCENE_COLOR_DISPLACEMENT || mode == SCENE_COLOR_SPEED;
+    if (per_vertex && !vertex_vec) return;
+    int any = per_vertex;
     for (int i = 0; i < nparts; ++i) any |= tri_cell[i] != NULL;
     if (mode == SCENE_COLOR_STRESS && (!cell_value || !any)) return;   /* no tets: no bar */
-    /* The scale: fixed by the scene, else from zero to this frame's largest value. */
-    double top = 0.0;
-    if (mode == SCENE_COLOR_DISPLACEMENT)
-        for (int32_t v = 0; v < nv; ++v) {
-            const double *d = displacement + 3 * (int64_t)v;
-            top = fmax(top, sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
-        }
-    else
-        for (int i = 0; i < nparts; ++i)
-            for (int32_t t = 0; tri_cell[i] && t < parts[i].ntris; ++t)
-                if (tri_cell[i][t] >= 0) top = fmax(top, cell_value[tri_cell[i][t]]);
+    /* The scale: fixed by the scene, else from zero to `top` (the run's largest value), else
+     * to this frame's largest. */
+    if (!(top > 0.0)) top = rd_color_top(mode, parts, nparts, tri_cell, cell_value, vertex_vec, nv);
     if (s && s->has_color_range) {
         range[0] = s->color_range[0];
         range[1] = s->color_range[1];
@@ -90,11 +103,11 @@ void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts
         range[1] = top > 0.0 ? top : 1.0;
     }
     const double span = range[1] - range[0];
-    if (mode == SCENE_COLOR_DISPLACEMENT) {
-        for (int32_t v = 0; v < nv; ++v) {
-            const double *d = displacement + 3 * (int64_t)v;
-            rd_colormap((sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - range[0]) / span, vbuf + 3 * (int64_t)v);
-        }
+    if (per_vertex) {
+        for (int32_t v = 0; v < nv; ++v)
+            rd_colormap((vec_norm(vertex_vec + 3 * (int64_t)v) - range[0]) / span,
+                        vbuf + 3 * (int64_t)v);
+        /* Only the bodies' parts: overlays (markers, colliders) keep their colours. */
         for (int i = 0; i < nparts; ++i) parts[i].vertex_colors = vbuf;
         return;
     }
@@ -106,4 +119,13 @@ void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts
         }
         parts[i].tri_colors = tbuf[i];
     }
+}
+
+void rd_timestamp(uint8_t *rgb, int width, int height, double t)
+{
+    image im = {width, height, rgb};
+    const int scale = height >= 300 ? 2 : 1;
+    char text[48];
+    snprintf(text, sizeof text, "t = %.3f s", t);
+    image_draw_text(&im, 6 * scale, 6 * scale, scale, 40, text);
 }

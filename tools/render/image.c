@@ -153,7 +153,8 @@ int image_downscale(const image *in, int k, image *out)
 }
 
 /* A 3x5 pixel font for labels: digits, capitals, and '.', ' ', '-', '+', '(', ')', ',', 'e'
- * (exponents), 's', 'a' and 'm' (units). Unknown characters are blank. */
+ * (exponents), 's', 'a', 'm' and '/' (units), 't' and '=' (the time stamp). Unknown characters
+ * are blank. */
 static const char *glyph(char ch)
 {
     switch (ch) {
@@ -177,6 +178,9 @@ static const char *glyph(char ch)
     case 'e': return "000111111100111";
     case 'a': return "000110011101111";
     case 'm': return "000110111101101";
+    case 't': return "010111010010011";
+    case '=': return "000111000111000";
+    case '/': return "001001010100100";
     case 'A': return "010101111101101";
     case 'C': return "111100100100111";
     case 'D': return "110101101101110";

@@ -5,13 +5,15 @@
  *   defsim-render SCENE.json [defsim run options]
  *       runs the scene and renders while running (same as defsim run --render --no-vtk)
  *   defsim-render RUN.pvd | FRAME.vtu ... [--scene SCENE.json] [--out DIR] [--frames LIST]
- *                 [--color body|stress|displacement]
- *       renders frames written by defsim run; the camera, size and colours come from the
- *       scene when given, else the camera is fitted to the first frame
+ *                 [--color body|stress|displacement|speed]
+ *       renders frames written by defsim run; size, colours and camera settings come from the
+ *       scene when given; the camera and ground are fitted to the bodies over all frames, and
+ *       the colour scale to the largest value over all frames
  */
 #include "image.h"
 #include "render.h"
 #include "../defsim/run.h"
+#include "../fileio.h"
 #include "../scene.h"
 #include "../vtk.h"
 
@@ -31,7 +33,7 @@ static int usage(FILE *f)
 {
     fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
                "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR] "
-               "[--frames LIST] [--color body|stress|displacement]\n");
+               "[--frames LIST] [--color body|stress|displacement|speed]\n");
     return f == stderr ? 2 : 0;
 }
 
@@ -199,19 +201,23 @@ int main(int argc, char **argv)
         s.def.gravity[1] = -9.81;
     }
     if (color && (s.color = scene_color_parse(color)) < 0) {
-        fprintf(stderr, "defsim-render: --color must be body, stress or displacement\n");
+        fprintf(stderr, "defsim-render: --color must be body, stress, displacement or speed\n");
         return 2;
     }
     const char *od = out_dir ? out_dir : dir;
-    rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
-    if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
-    image img = {s.width, s.height, malloc((size_t)s.width * s.height * 3)};
-    image thumbs[12];
-    double tt[12];
-    int nthumbs = 0, rc = 0, have_view = 0;
-    rd_view view;
-    rd_colliders cols;   /* the scene's colliders, drawn after the frame's bodies */
-    memset(&cols, 0, sizeof cols);
+    if (tools_make_dirs(od)) {
+        fprintf(stderr, "defsim-render: cannot create the output folder %s: %s\n", od,
+                strerror(errno));
+        return 1;
+    }
+    /* First pass: the bounds of the whole motion (camera and ground) and the largest value of
+     * the colour field over every frame (one scale for all), with the parts of the first
+     * frame (the cells do not change between frames). */
+    rd_part *parts = NULL;
+    int32_t **tri_cell = NULL;
+    int np = 0, rc = 0;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double top = 0.0;
     for (int i = 0; i < nfiles && rc == 0; ++i) {
         vtk_frame fr;
         if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
@@ -219,95 +225,118 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        /* The view is fixed by the first frame read (or the scene's initial state). */
-        if (!have_view) {
-            double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-            if (have_scene) scene_bounds(&s, lo, hi);
-            else
-                for (int32_t k = 0; k < fr.nv; ++k)
-                    for (int c = 0; c < 3; ++c) {
-                        lo[c] = fmin(lo[c], fr.x[3 * k + c]);
-                        hi[c] = fmax(hi[c], fr.x[3 * k + c]);
-                    }
-            if (have_scene) rd_ground_from_colliders(&s, &s.camera);
-            rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
-            have_view = 1;
-            if (have_scene && rd_colliders_make(&s, fr.nv, &cols)) {
-                fprintf(stderr, "defsim-render: out of memory\n");
-                rc = 1;
-                vtk_frame_free(&fr);
-                break;
-            }
+        if (!parts && parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
+            fprintf(stderr, "defsim-render: out of memory\n");
+            rc = 1;
         }
+        const double *vec = s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement;
+        if (rc == 0 && s.color != SCENE_COLOR_BODY &&
+            !(s.color == SCENE_COLOR_STRESS ? fr.von_mises != NULL : vec != NULL)) {
+            fprintf(stderr, "defsim-render: %s: no %s array to colour by (written by defsim run "
+                    "with output.fields)\n", files[i],
+                    s.color == SCENE_COLOR_STRESS ? "von_mises"
+                    : s.color == SCENE_COLOR_SPEED ? "velocity" : "displacement");
+            rc = 1;
+        }
+        if (rc == 0) {
+            top = fmax(top, rd_color_top((scene_color)s.color, parts, np, tri_cell, fr.von_mises,
+                                         vec, fr.nv));
+            for (int32_t k = 0; k < fr.nv; ++k)
+                for (int c = 0; c < 3; ++c) {
+                    lo[c] = fmin(lo[c], fr.x[3 * k + c]);
+                    hi[c] = fmax(hi[c], fr.x[3 * k + c]);
+                }
+        }
+        vtk_frame_free(&fr);
+    }
+    if (rc) {
+        parts_free(parts, np, tri_cell);
+        return rc;
+    }
+    rd_view view;
+    rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
+    rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
+    if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
+    image img = {s.width, s.height, malloc((size_t)s.width * s.height * 3)};
+    image thumbs[12];
+    double tt[12];
+    int nthumbs = 0;
+    rd_overlay overlay;
+    memset(&overlay, 0, sizeof overlay);
+    float **trgb = calloc((size_t)np + 1, sizeof *trgb);
+    float *vrgb = NULL;
+    for (int k = 0; trgb && k < np; ++k)
+        if (!(trgb[k] = malloc(3 * (size_t)(parts[k].ntris + 1) * sizeof **trgb))) rc = 1;
+    if (!trgb || !img.rgb) rc = 1;
+    for (int i = 0; i < nfiles && rc == 0; ++i) {
         const char *base = strrchr(files[i], '/');
         base = base ? base + 1 : files[i];
         int fnum = -1;
         if (sscanf(base, "frame_%d.vtu", &fnum) != 1) fnum = -1;
         int want = nlist == 0;
         for (int k = 0; k < nlist; ++k) want |= list[k] == fnum;
-        if (want) {
-            rd_part *parts = NULL;
-            int32_t **tri_cell = NULL;
-            int np = 0, bad = 0;
-            char path[4200];
-            snprintf(path, sizeof path, "%s/%.*s.png", od, (int)(strlen(base) - 4), base);
-            if (parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
-                snprintf(err, sizeof err, "out of memory");
-                bad = 1;
-            }
-            /* Colours from the frame's von_mises and displacement arrays. */
-            float *vrgb = NULL, **trgb = NULL;
-            double range[2] = {0.0, 0.0};
-            if (!bad && s.color != SCENE_COLOR_BODY) {
-                if ((s.color == SCENE_COLOR_STRESS && !fr.von_mises) ||
-                    (s.color == SCENE_COLOR_DISPLACEMENT && !fr.displacement)) {
-                    snprintf(err, sizeof err, "no %s array to colour by (written by defsim run "
-                             "with output.fields)", s.color == SCENE_COLOR_STRESS ? "von_mises"
-                                                                                   : "displacement");
-                    bad = 1;
-                }
-                vrgb = malloc(3 * (size_t)fr.nv * sizeof *vrgb + 1);
-                trgb = calloc((size_t)np + 1, sizeof *trgb);
-                for (int k = 0; !bad && trgb && k < np; ++k)
-                    if (!(trgb[k] = malloc(3 * (size_t)(parts[k].ntris + 1) * sizeof **trgb))) bad = 1;
-                if (!vrgb || !trgb) bad = 1;
-                if (!bad)
-                    rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
-                                   fr.displacement, fr.nv, vrgb, trgb, range);
-            }
-            /* the colliders, after the bodies (of a frame with as many vertices as the first) */
-            rd_part *all = parts;
-            const double *xall = fr.x;
-            int nall = np;
-            if (!bad && cols.n > 0 && fr.nv == cols.nv_bodies) {
-                if (!(all = malloc((size_t)(np + cols.n) * sizeof *all))) {
-                    snprintf(err, sizeof err, "out of memory");
-                    bad = 1;
-                } else {
-                    memcpy(all, parts, (size_t)np * sizeof *all);
-                    memcpy(all + np, cols.parts, (size_t)cols.n * sizeof *all);
-                    xall = rd_colliders_place(&cols, fr.time, fr.x);
-                    nall = np + cols.n;
-                }
-            }
-            if (!bad) bad = rd_render(rd, &view, xall, all, nall, img.rgb, err, sizeof err);
-            if (all != parts) free(all);
-            if (!bad) rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
-            for (int k = 0; trgb && k < np; ++k) free(trgb[k]);
-            free(trgb);
-            free(vrgb);
-            if (bad || image_write_png(path, &img, err, sizeof err)) {
-                fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
-                rc = 1;
-            } else {
-                printf("%s\n", path);
-                if (nthumbs < 12 && image_downscale(&img, 2, &thumbs[nthumbs]) == 0)
-                    tt[nthumbs++] = fr.time;
-            }
-            parts_free(parts, np, tri_cell);
+        if (!want) continue;
+        vtk_frame fr;
+        if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
+            fprintf(stderr, "defsim-render: %s\n", err);
+            rc = 1;
+            break;
+        }
+        char path[4200];
+        snprintf(path, sizeof path, "%s/%.*s.png", od, (int)(strlen(base) - 4), base);
+        double range[2] = {0.0, 0.0};
+        float *nv_rgb = realloc(vrgb, 3 * (size_t)fr.nv * sizeof *vrgb + 1);
+        int bad = !nv_rgb;
+        if (nv_rgb) vrgb = nv_rgb;
+        if (!bad)
+            rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
+                           s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement, fr.nv,
+                           top, vrgb, trgb, range);
+        /* Pinned vertices (the frames' "pinned" array) as markers, and with --scene the
+         * scene's colliders at their poses of the frame's time (the first plane carries the
+         * ground grid). */
+        static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f};
+        static const float collider_rgb[3] = {0.6f, 0.6f, 0.64f};
+        rd_view fview = view;
+        rd_part *all = NULL;
+        if (!bad)
+            bad = rd_overlay_begin(&overlay, fr.x, fr.nv) ||
+                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb);
+        for (int32_t k = 0, ground = -1; have_scene && !bad && k < s.ncolliders; ++k) {
+            defsim_collider_def c = s.colliders[k].def;
+            if (s.colliders[k].nkeys > 0)
+                scene_collider_pose(&s.colliders[k], fr.time, c.position, c.rotation);
+            if (ground < 0 && rd_view_ground_plane(&fview, &c)) ground = k;
+            bad = rd_overlay_collider(&overlay, &c, &fview, ground == k, collider_rgb);
+        }
+        if (!bad) bad = !(all = malloc((size_t)(np + overlay.nparts + 1) * sizeof *all));
+        if (bad) snprintf(err, sizeof err, "out of memory");
+        if (!bad) {
+            memcpy(all, parts, (size_t)np * sizeof *all);
+            memcpy(all + np, overlay.parts, (size_t)overlay.nparts * sizeof *all);
+            bad = rd_render(rd, &fview, overlay.x, all, np + overlay.nparts, img.rgb, err,
+                            sizeof err);
+        }
+        free(all);
+        if (!bad) {
+            rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
+            rd_timestamp(img.rgb, s.width, s.height, fr.time);
+        }
+        if (bad || image_write_png(path, &img, err, sizeof err)) {
+            fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
+            rc = 1;
+        } else {
+            printf("%s\n", path);
+            if (nthumbs < 12 && image_downscale(&img, 2, &thumbs[nthumbs]) == 0)
+                tt[nthumbs++] = fr.time;
         }
         vtk_frame_free(&fr);
     }
+    for (int k = 0; trgb && k < np; ++k) free(trgb[k]);
+    free(trgb);
+    free(vrgb);
+    rd_overlay_free(&overlay);
+    parts_free(parts, np, tri_cell);
     if (rc == 0 && nthumbs > 1) {
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", od);
@@ -317,7 +346,6 @@ int main(int argc, char **argv)
         }
     }
     for (int k = 0; k < nthumbs; ++k) image_free(&thumbs[k]);
-    rd_colliders_free(&cols);
     for (int i = 0; i < nfiles; ++i) free(files[i]);
     free(files);
     free(times);

@@ -43,6 +43,33 @@ typedef struct rd_part {
     const float *tri_colors;      /* NULL, or RGB per triangle (flat): replaces color */
 } rd_part;
 
+/* Geometry drawn besides the bodies (render/overlay.c): markers on pinned vertices and the
+ * world's colliders, as parts whose vertices follow the bodies' in `x`. Render with x and the
+ * bodies' parts followed by `parts`. Zero-initialise; rd_overlay_begin starts each frame. */
+typedef struct rd_overlay {
+    double *x;            /* 3 nx: the bodies' nbody positions, then the overlay's vertices */
+    int32_t nx, cap, nbody;
+    rd_part *parts;       /* nparts parts of the overlay (they own their index arrays) */
+    int nparts, pcap;
+} rd_overlay;
+
+/* Starts a frame: copies the bodies' nv positions and drops the previous frame's parts.
+ * Returns 0, or -1 when out of memory (as do the functions below). */
+int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv);
+/* A small octahedron (half-diagonal `size`, m) on each body vertex whose flag is non-zero. */
+int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const float rgb[3]);
+/* A collider at its pose: spheres, capsules, boxes and mesh colliders by the scene code's
+ * tessellation (scene_collider_surface), a plane as a square patch around the view's target (nothing
+ * when `as_ground`: rd_view_ground_plane made it the ground), an SDF as the edges of its
+ * sdf_bounds box (nothing when unbounded). */
+int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
+                        int as_ground, const float rgb[3]);
+void rd_overlay_free(rd_overlay *o);
+
+/* Puts the view's ground grid on a plane collider (its point and normal at the current pose).
+ * Returns 1 if c is a plane, else 0 (the view is unchanged). */
+int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c);
+
 typedef struct rd_renderer rd_renderer;
 
 /* Creates a context for width x height output images, rendered at supersample x that size.
@@ -65,46 +92,35 @@ int32_t *rd_tet_surface(const int64_t *tets, int64_t ntets, int32_t *ntris);
 int rd_triangle_tets(const int32_t *tets, int64_t ntets, const int32_t *tris, int32_t ntris,
                      int32_t *tet_of);
 
-/* The colliders of a scene as parts (colliders.c): grey surfaces of its spheres, capsules, boxes
- * and meshes (planes and SDFs are not drawn), whose vertices come after the bodies' nv_bodies
- * positions. make: 0, or -1 when out of memory (free in either case). place: the bodies'
- * positions followed by the colliders' surfaces at their poses of time t (a buffer of c).
- * ground_from_colliders: a camera without a ground height gets the height of a static plane
- * collider whose normal points against gravity, so that the grid is drawn on it. */
-typedef struct rd_colliders {
-    const scene *s;
-    rd_part *parts;           /* n of them */
-    int32_t n;
-    int32_t *col;             /* the collider of each part */
-    double **local;           /* each part's surface in its collider's frame */
-    int32_t *nv;              /* its vertex count */
-    int32_t nv_bodies;        /* the bodies' vertices, first in x */
-    int32_t nv_all;           /* the bodies' vertices and all the parts' */
-    double *x;                /* 3 nv_all */
-} rd_colliders;
-int rd_colliders_make(const scene *s, int32_t nv_bodies, rd_colliders *c);
-const double *rd_colliders_place(rd_colliders *c, double t, const double *x_bodies);
-void rd_colliders_free(rd_colliders *c);
-void rd_ground_from_colliders(const scene *s, scene_camera *cam);
-
 /* Colour scales (scene_color): the colour of a value, and the bar drawn into a finished image
  * (right edge: the scale, its range with units, and a label). */
 
 /* RGB of s in [0, 1] (clamped) on a perceptually ordered scale (dark blue, teal, green, yellow). */
 void rd_colormap(double s, float rgb[3]);
 
+/* The largest value that `mode` colours by in one frame: von Mises over the cells that colour
+ * the parts' triangles (stress), or |vertex_vec| over the nv vertices (displacement, speed);
+ * 0 for body colours or a missing array. */
+double rd_color_top(scene_color mode, const rd_part *parts, int nparts,
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv);
+
 /* Colours the parts of one frame by `mode`: stress sets the tri_colors (in tbuf[i], 3 per
  * triangle) of each part i whose tri_cell[i] (the cell of each triangle, -1 for none) is not
- * NULL, from cell_value (von Mises per cell, Pa); displacement sets every part's vertex_colors
- * (vbuf, 3 per vertex) from |displacement|. range receives the scale: the scene's color_range,
- * else 0 .. the frame's largest value. Body mode, a missing array or no tets (for stress)
- * clears both and gives the range [0, 0]. */
+ * NULL, from cell_value (von Mises per cell, Pa); displacement and speed set every part's
+ * vertex_colors (vbuf, 3 per vertex) from |vertex_vec| (displacement, m, or velocity, m/s).
+ * range receives the scale: the scene's color_range, else 0 .. top when top > 0 (the largest
+ * value over the run, so that every frame shares one scale), else 0 .. the frame's largest
+ * value. Body mode, a missing array or no tets (for stress) clears both and gives [0, 0]. */
 void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts,
-                    int32_t *const *tri_cell, const double *cell_value, const double *displacement,
-                    int32_t nv, float *vbuf, float *const *tbuf, double range[2]);
+                    int32_t *const *tri_cell, const double *cell_value, const double *vertex_vec,
+                    int32_t nv, double top, float *vbuf, float *const *tbuf, double range[2]);
 
 /* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image; nothing for
  * body colours or an empty range (hi <= lo). */
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
+
+/* Stamps "t = 1.234 s" (simulated time t) at the top left of the width x height RGB8 image. */
+void rd_timestamp(uint8_t *rgb, int width, int height, double t);
 
 #endif

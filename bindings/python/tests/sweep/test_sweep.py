@@ -71,7 +71,7 @@ def test_a_tool_run_numbered_otherwise_on_a_worker_is_refused(exe):
 
 def _serial_tip(exe, scene, overrides, out):
     """The probe (tip) of `defsim run` with the same overrides and threads, from its final.vtu."""
-    cmd = [exe, "run", str(scene), "--out", str(out), "--progress", "none", "--no-vtk",
+    cmd = [exe, "run", str(scene), "--out", str(out), "--progress", "none", "--vtk", "final",
            "--threads", "1"]
     for k, v in overrides.items():
         cmd += ["--set", f"{k}={json.dumps(v)}"]

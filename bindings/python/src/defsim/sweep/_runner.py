@@ -7,6 +7,7 @@ worker) and hangs (a per-variant timeout kills it), and it runs exactly the code
 """
 from __future__ import annotations
 
+import base64
 import json
 import math
 import os
@@ -80,10 +81,14 @@ _TIME = re.compile(rb'Name="TimeValue"[^>]*>([^<]+)<')
 
 
 def read_vtu(path: str) -> Dict[str, Any]:
-    """Points, velocity and time of a .vtu written by `defsim run` (raw appended Float64 blocks
-    with UInt64 byte counts, little-endian, as tools/vtk.c writes them)."""
+    """Points, velocity and time of a .vtu written by `defsim run`: appended Float64 blocks with
+    UInt64 byte counts, little-endian, in base64 (each count and each block encoded on its own,
+    offsets in characters; as tools/vtk.c writes them) or raw (files of earlier versions)."""
     data = Path(path).read_bytes()
-    mark = data.find(b'<AppendedData encoding="raw">')
+    mark = data.find(b'<AppendedData encoding="base64">')
+    encoded = mark >= 0
+    if not encoded:
+        mark = data.find(b'<AppendedData encoding="raw">')
     if mark < 0 or b'header_type="UInt64"' not in data[:mark]:
         raise ValueError(f"{path}: not a .vtu written by defsim run")
     base = data.index(b"_", mark) + 1
@@ -92,11 +97,18 @@ def read_vtu(path: str) -> Dict[str, Any]:
         raise ValueError(f"{path}: only little-endian files are read")
     out: Dict[str, Any] = {}
     for name, off in _ARRAY.findall(head):
-        if name in (b"Points", b"velocity"):
-            start = base + int(off)
+        if name not in (b"Points", b"velocity"):
+            continue
+        start = base + int(off)
+        if encoded:
+            nbytes = int(np.frombuffer(base64.b64decode(data[start:start + 12]), "<u8")[0])
+            chars = 4 * ((nbytes + 2) // 3)
+            block = base64.b64decode(data[start + 12:start + 12 + chars])
+            arr = np.frombuffer(block, dtype="<f8", count=nbytes // 8)
+        else:
             nbytes = int(np.frombuffer(data, dtype="<u8", count=1, offset=start)[0])
             arr = np.frombuffer(data, dtype="<f8", count=nbytes // 8, offset=start + 8)
-            out[name.decode()] = arr.reshape(-1, 3).copy()
+        out[name.decode()] = arr.reshape(-1, 3).copy()
     m = _TIME.search(head)
     out["time"] = float(m.group(1)) if m else math.nan
     if "Points" not in out:
@@ -115,7 +127,7 @@ class SceneTask:
     threads: int = 1
     timeout: Optional[float] = None
     keep_output: bool = False
-    vtk: bool = False               # all VTK frames too (final.vtu is always written)
+    vtk: bool = False               # all VTK frames too (final.vtu is always written: --vtk final)
     metrics: Optional[Callable[[FinalState], Any]] = None
 
 
@@ -170,7 +182,7 @@ def run_scene_variant(task: SceneTask) -> Dict[str, Any]:
     cmd = [exe, "run", task.scene, "--out", str(work), "--progress", "none",
            "--summary-json", str(summary_path), "--threads", str(int(task.threads))]
     if not task.vtk:
-        cmd.append("--no-vtk")
+        cmd += ["--vtk", "final"]
     for key, value in task.overrides.items():
         cmd += ["--set", f"{key}={json.dumps(value)}"]
     t0 = time.perf_counter()

@@ -1098,6 +1098,17 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         return c->failed;
     }
     if (st != DEFSIM_OK) return st;
+    if (c->mode == DEFSIM__CONTACT_BARRIER &&
+        defsim__options_core(&w->options, DEFSIM__OPT_WATCHDOG) != 0.0 &&
+        !(c->stat[DEFSIM__CSTAT_MIN_DISTANCE] > 0.0)) {
+        /* The watchdog's contact check: the barrier is infinite at zero distance and the line
+         * search keeps every vertex out, so a vertex at d <= 0 means that guarantee broke. */
+        w->stats.watchdog_trips++;
+        defsim__error(w->msg, "step: watchdog: a vertex crossed a collider's surface (distance "
+                      "%g m) although the contact barrier forbids it; state restored. This is a "
+                      "defect: please report it with the scene", c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
+        return DEFSIM_ERR_UNSTABLE;
+    }
     memcpy(w->contact_force, c->blk, 3 * (size_t)w->nv * sizeof *w->contact_force);
     c->readback_set = 1;
     for (int32_t j = 0; j < w->ncol; ++j) {

@@ -752,9 +752,87 @@ static void test_sdf_nan(void **state)
     sdf_nan("symplectic_euler");
 }
 
+/* A backend that claims DEFSIM_BACKEND_CONTACT_CCD but steps like symplectic Euler without
+ * calling contact_max_step: its vertices can jump through a collider. The watchdog's contact
+ * check must refuse such a step (state restored), and let it through with core.watchdog off. */
+static defsim_status liar_init(const defsim_host *host, defsim_system *sys, void *state)
+{
+    double **f = state;
+    *f = host->alloc((size_t)host->dof_count(sys) * sizeof(double));
+    return *f ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+static defsim_status liar_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+{
+    double *f = *(double **)state, *x = host->positions(sys), *v = host->velocities(sys);
+    const double *m = host->mass(sys);
+    const int64_t n = host->dof_count(sys);
+    /* Gravity only: the barrier's force would be +-inf or NaN behind the surface. */
+    defsim_status st = host->forces(sys, x, v, DEFSIM_FORCE_GRAVITY, f);
+    if (st != DEFSIM_OK) return st;
+    for (int64_t i = 0; i < n; ++i) {
+        v[i] += h * f[i] / m[i];
+        x[i] += h * v[i];
+    }
+    return DEFSIM_OK;
+}
+
+static void liar_fini(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)sys;
+    host->release(*(double **)state);
+    *(double **)state = NULL;
+}
+
+static const defsim_backend LIAR = {
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION, .struct_size = sizeof(defsim_backend),
+    .name = "contact_liar", .flags = DEFSIM_BACKEND_CONTACT_CCD, .state_size = sizeof(double *),
+    .init = liar_init, .step = liar_step, .fini = liar_fini};
+
+static void test_watchdog_barrier_crossed(void **state)
+{
+    (void)state;
+    TU_OK(defsim_register_backend(&LIAR));
+    for (int on = 1; on >= 0; --on) {
+        defsim_world *w = world_or_skip("contact_liar", -G);
+        TU_OK(defsim_world_set_option(w, "core.watchdog", on ? "true" : "false"));
+        add_plane(w, NULL, 0.0);
+        const double lo[3] = {0, 0.05, 0};
+        add_block(w, lo, 0.1, 1e5, 0.0, 0.0, NULL);
+        const int32_t n = defsim_world_vertex_count(w);
+        double *v = calloc(3 * (size_t)n, sizeof *v);
+        assert_non_null(v);
+        for (int32_t i = 0; i < n; ++i) v[3 * i + 1] = -10.0;   /* 0.1 m per 10 ms step */
+        TU_OK(defsim_world_set_state(w, NULL, v));
+        defsim_status st = DEFSIM_OK;
+        int steps = 0;
+        for (; steps < 10 && st == DEFSIM_OK; ++steps) {
+            double *before = tu_positions(w);
+            st = defsim_world_step(w, 0.01);
+            if (st != DEFSIM_OK) {
+                double *after = tu_positions(w);
+                assert_memory_equal(before, after, 3 * (size_t)n * sizeof *before);
+                free(after);
+            }
+            free(before);
+        }
+        if (on) {
+            /* Refused at the first step that ends below the plane, with the state restored. */
+            assert_int_equal(st, DEFSIM_ERR_UNSTABLE);
+            assert_non_null(strstr(defsim_world_last_error(w), "crossed a collider"));
+            assert_true(min_y(w) > 0.0);
+        } else {
+            assert_true(min_y(w) < 0.0);   /* without the watchdog the lie goes through */
+        }
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_watchdog_barrier_crossed),
         cmocka_unit_test(test_derivatives),
         cmocka_unit_test(test_resting_block),
         cmocka_unit_test(test_incline),

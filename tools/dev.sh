@@ -110,6 +110,10 @@ demo)
     # position on the terminal and in energy.csv; VTK frames, PNGs and a contact sheet.
     "$build/bin/defsim" run "$root/tests/scenes/cantilever.json" --render --progress lines \
         --out "$build/cantilever"
+    # Contact: a soft block lands among a ground plane, a box and a sphere (newton_cholmod,
+    # barrier contact with friction); the colliders are drawn in the PNGs.
+    "$build/bin/defsim" run "$root/tests/scenes/ground_box_sphere.json" --render \
+        --progress lines --out "$build/ground_box_sphere"
     ;;
 *)
     sed -n '3,15p' "${BASH_SOURCE[0]}"

@@ -990,8 +990,10 @@ static defsim_status load_state(defsim_world *w, const chunk *c, uint32_t versio
         return malformed(c, "time not finite, or a bad flag");
     }
     /* Written directly: set_state would zero the velocities of driven pins. */
-    memcpy(w->state.x, x, (size_t)ndof * sizeof *x);
-    memcpy(w->state.v, x + ndof, (size_t)ndof * sizeof *x);
+    if (ndof > 0) {   /* an empty world has no state arrays */
+        memcpy(w->state.x, x, (size_t)ndof * sizeof *x);
+        memcpy(w->state.v, x + ndof, (size_t)ndof * sizeof *x);
+    }
     free(x);
     w->state.t = t;
     w->drove = drove;

@@ -608,6 +608,9 @@ defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_s
     return DEFSIM_OK;
 }
 
+/* v within [lo, hi]; NaN gives lo. */
+static double clamp(double v, double lo, double hi) { return v >= lo ? (v <= hi ? v : hi) : lo; }
+
 void defsim__options_stat_write(defsim__options *o, defsim_stats *stats, int32_t i, double value)
 {
     if (i < 0 || i >= defsim__options_stat_count(o)) return;
@@ -618,9 +621,23 @@ void defsim__options_stat_write(defsim__options *o, defsim_stats *stats, int32_t
     }
     char *p = (char *)stats + STATS[i].offset;
     switch (STATS[i].kind) {
-    case ST_U32: { uint32_t v = (uint32_t)value; memcpy(p, &v, sizeof v); break; }
-    case ST_I32: { int32_t v = (int32_t)value; memcpy(p, &v, sizeof v); break; }
-    case ST_I64: { int64_t v = (int64_t)value; memcpy(p, &v, sizeof v); break; }
+    /* Clamped before the conversion: a value out of the type's range (a damaged checkpoint)
+     * would be undefined behaviour. */
+    case ST_U32: {
+        const uint32_t v = (uint32_t)clamp(value, 0.0, 4294967295.0);
+        memcpy(p, &v, sizeof v);
+        break;
+    }
+    case ST_I32: {
+        const int32_t v = (int32_t)clamp(value, -2147483648.0, 2147483647.0);
+        memcpy(p, &v, sizeof v);
+        break;
+    }
+    case ST_I64: {
+        const int64_t v = (int64_t)clamp(value, -9223372036854774784.0, 9223372036854774784.0);
+        memcpy(p, &v, sizeof v);
+        break;
+    }
     case ST_F64: memcpy(p, &value, sizeof value); break;
     }
 }

@@ -465,7 +465,8 @@ static defsim_status contact_forces(defsim__contact *c, const double *x, const d
 {
     const int elastic = (which & DEFSIM_FORCE_ELASTIC) != 0;
     const int damping = (which & DEFSIM_FORCE_DAMPING) && v && c->mode == DEFSIM__CONTACT_PENALTY;
-    if (damping) memcpy(c->vel, v, 3 * (size_t)c->nv * sizeof *v);
+    /* The velocities for the friction blocks of the matrices; no pair, no block. */
+    if (damping && c->npair > 0) memcpy(c->vel, v, 3 * (size_t)c->nv * sizeof *v);
     if (!elastic && !damping) return DEFSIM_OK;
     const double dh = c->dhat, eps = c->eps_v * c->h;
     for (int32_t q = 0; q < c->npair; ++q) {

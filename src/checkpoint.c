@@ -954,6 +954,7 @@ static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
     free(w->contact_force);
     w->contact_force = f;
     w->contact_nv = w->nv;
+    w->contact_zero = 0;
     return DEFSIM_OK;
 }
 

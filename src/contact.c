@@ -224,7 +224,7 @@ void defsim__contact_free(defsim__contact *c)
     const double om = c->omega_elastic;
     const int readback = c->readback_set;
     free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
-    free(c->xn); free(c->radius); free(c->vel); free(c->blk);
+    free(c->radius); free(c->vel); free(c->blk);
     free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
     memset(c, 0, sizeof *c);
     c->omega_elastic = om;
@@ -244,12 +244,11 @@ double defsim__contact_khat(const defsim__contact_params *p, double dhat, double
 static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
 {
     if (nv > c->cap_v) {
-        free(c->xn); free(c->radius); free(c->vel); free(c->blk);
-        c->xn = malloc(3 * (size_t)nv * sizeof *c->xn);
+        free(c->radius); free(c->vel); free(c->blk);
         c->radius = malloc((size_t)nv * sizeof *c->radius);
         c->vel = calloc(3 * (size_t)nv, sizeof *c->vel);
         c->blk = malloc(9 * (size_t)nv * sizeof *c->blk);
-        c->cap_v = c->xn && c->radius && c->vel && c->blk ? nv : 0;
+        c->cap_v = c->radius && c->vel && c->blk ? nv : 0;
         if (!c->cap_v) return 0;
     }
     if (ncol > c->cap_col) {
@@ -305,7 +304,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
     /* Each vertex's ball: twice its inertial motion in the step, plus dhat; the colliders near
      * the box around all balls, then the pairs. */
     const double g = sqrt(dot3(s->gravity, s->gravity));
-    memcpy(c->xn, x, 3 * (size_t)s->nv * sizeof *x);
+    c->xn = x;
     c->npair = 0;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int32_t i = 0; i < s->nv; ++i) {

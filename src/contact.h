@@ -56,7 +56,8 @@ typedef struct defsim__contact {
     int32_t nv;
     const double *mass;         /* nv (the system's) */
     const uint8_t *pinned;      /* nv */
-    double *xn;                 /* 3 nv: positions at the start of the step */
+    const double *xn;           /* 3 nv: positions at the start of the step (the caller's, held
+                                   unchanged until the step ends) */
     double *radius;             /* nv: each vertex's ball about xn (m) */
     double *vel;                /* 3 nv: velocities of the latest damping evaluation (PENALTY) */
     double *blk;                /* 9 nv: scratch for the matrices' diagonal blocks */
@@ -87,7 +88,8 @@ typedef struct defsim__contact_params {
 void defsim__contact_free(defsim__contact *c);
 
 /* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
- * and (BARRIER) the lagged friction. col/ncol are the world's slots. Returns DEFSIM_OK,
+ * and (BARRIER) the lagged friction. col/ncol are the world's slots. x is borrowed until the
+ * step ends and must not change meanwhile (the world passes its copy of the step's start). Returns DEFSIM_OK,
  * DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (message in msg). */
 defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__collider *col, int32_t ncol,

@@ -1055,8 +1055,10 @@ static defsim_status contact_begin(defsim_world *w, double h)
         c->omega_elastic = om;
     }
     p.omega_elastic = c->omega_elastic;
-    defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p, w->state.x,
-                                             w->state.v, h, w->msg);
+    /* A step's start positions: the world's copy, which nothing changes until the step ends. */
+    defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p,
+                                             h > 0.0 ? w->x_save : w->state.x, w->state.v, h,
+                                             w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
     return DEFSIM_OK;
@@ -1086,10 +1088,18 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
         w->contact_nv = w->nv;
+        w->contact_zero = 1;
     }
     /* The read-back goes to scratch first: a callback failing there fails the step too, and
-     * a failed step changes neither the read-back nor the poses. */
-    if (st == DEFSIM_OK && !c->failed) defsim__contact_end(c, w->state.x, w->state.v, c->blk);
+     * a failed step changes neither the read-back nor the poses. Without pairs (colliders far
+     * away) the forces are zero: nothing to compute or copy when the read-back is zero already. */
+    const int none = c->npair == 0 && w->contact_zero;
+    if (st == DEFSIM_OK && !c->failed && none) {
+        c->stat[DEFSIM__CSTAT_ACTIVE] = 0;
+        c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = INFINITY;
+    } else if (st == DEFSIM_OK && !c->failed) {
+        defsim__contact_end(c, w->state.x, w->state.v, c->blk);
+    }
     if (c->failed) {
         defsim__error(w->msg, c->failed == DEFSIM_ERR_CALLBACK
                                   ? "contact: a collider's SDF callback returned a non-finite "
@@ -1109,7 +1119,8 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
                       "defect: please report it with the scene", c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
         return DEFSIM_ERR_UNSTABLE;
     }
-    memcpy(w->contact_force, c->blk, 3 * (size_t)w->nv * sizeof *w->contact_force);
+    if (!none) memcpy(w->contact_force, c->blk, 3 * (size_t)w->nv * sizeof *w->contact_force);
+    w->contact_zero = c->npair == 0;
     c->readback_set = 1;
     for (int32_t j = 0; j < w->ncol; ++j) {
         memcpy(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos);

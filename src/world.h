@@ -79,6 +79,7 @@ struct defsim_world {
     int colliders_moved;      /* in this step a collider moves, or one came or went */
     double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
     int32_t contact_nv;
+    int contact_zero;         /* contact_force is known to be all zero */
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
     defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
 };

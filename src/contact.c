@@ -175,39 +175,146 @@ static void pair_vertex(defsim__contact *c, int32_t i, int grown)
     }
 }
 
-/* Whether collider j can come within dhat of a point of the box [lo, hi] in this step: its
- * bounds meet the box, and its distance from the box's centre, less the box's half diagonal
- * (the distance is 1-Lipschitz) and the collider's motion there, is within dhat. One query per
- * collider: colliders far from every vertex cost nothing more. */
-static int near_box(defsim__contact *c, int32_t j, const double lo[3], const double hi[3])
+/* How far each side of the box [lo, hi] may move out with collider j still unable to come within
+ * dhat of a point of it in this step (> 0), or <= 0 when it may come within dhat already: the
+ * gap along an axis that separates the box from the collider's bounds (grown by dhat), or else
+ * the distance from the box's centre, less the box's half diagonal (the distance is
+ * 1-Lipschitz), the collider's motion there and dhat, over sqrt(3) (moving each side out by t
+ * grows the half diagonal by at most sqrt(3) t). At most one query per collider. */
+static double box_clearance(defsim__contact *c, int32_t j, const double lo[3], const double hi[3])
 {
     const double *cl = c->lo + 3 * (int64_t)j, *ch = c->hi + 3 * (int64_t)j;
-    for (int k = 0; k < 3; ++k)
-        if (hi[k] < cl[k] || lo[k] > ch[k]) return 0;
+    double gap = -INFINITY;
+    for (int k = 0; k < 3; ++k) gap = fmax(gap, fmax(cl[k] - hi[k], lo[k] - ch[k]));
+    if (gap > 0.0) return gap;
     double m[3], half = 0.0;
     for (int k = 0; k < 3; ++k) {
         m[k] = 0.5 * (lo[k] + hi[k]);
         half += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
-    if (!isfinite(half)) return 1;
+    if (!isfinite(half)) return -INFINITY;
     double d = distance(c, j, m, NULL, NULL);
-    if (isnan(d)) return 1;
+    if (isnan(d)) return -INFINITY;
     if (moves(c, j)) {
         double d0, g[3], moved[3];
         if (defsim__collider_distance(&c->col[j], &c->pose0[j], m, &d0, g, NULL) != DEFSIM_OK ||
             !isfinite(d0))
-            return 1;
+            return -INFINITY;
         carry(&c->pose0[j], &c->pose1[j], m, moved);
         const double u[3] = {moved[0] - m[0], moved[1] - m[1], moved[2] - m[2]};
         d = fmin(d, d0) - sqrt(dot3(u, u));
     }
-    return d - sqrt(half) <= c->dhat;
+    return (d - sqrt(half) - c->dhat) / sqrt(3.0);
+}
+
+/* Whether collider j can come within dhat of a point of the box [lo, hi] in this step. */
+static int near_box(defsim__contact *c, int32_t j, const double lo[3], const double hi[3])
+{
+    return !(box_clearance(c, j, lo, hi) > 0.0);
+}
+
+/* Each free vertex's ball about xn: twice its inertial motion in the step, plus dhat; and the
+ * box around all balls. */
+static void vertex_balls(defsim__contact *c)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    const double h = c->hstep, base = c->g * h * h + c->dhat;
+    for (int32_t i = 0; i < c->nv; ++i) {
+        if (c->pinned[i]) continue;
+        /* |v|_1 >= |v|: a cheap, larger ball */
+        const double *vi = c->vn + 3 * (int64_t)i, *xi = c->xn + 3 * (int64_t)i;
+        const double r = c->radius[i] = 2.0 * h * (fabs(vi[0]) + fabs(vi[1]) + fabs(vi[2])) + base;
+        for (int k = 0; k < 3; ++k) {
+            const double a = xi[k] - r, b = xi[k] + r;
+            lo[k] = a < lo[k] ? a : lo[k];
+            hi[k] = b > hi[k] ? b : hi[k];
+        }
+    }
+    memcpy(c->ball_lo, lo, sizeof lo);
+    memcpy(c->ball_hi, hi, sizeof hi);
+    c->balls = 1;
+}
+
+/* The per-vertex broad phase from the balls: the colliders near the box around all balls, then
+ * each free vertex against those. Returns whether any collider is near. */
+static int pair_balls(defsim__contact *c)
+{
+    int any = 0;
+    for (int32_t j = 0; j < c->ncol; ++j)
+        any |= c->near[j] = live(c, j) && near_box(c, j, c->ball_lo, c->ball_hi);
+    for (int32_t i = 0; i < c->nv && !c->failed && any; ++i)
+        if (!c->pinned[i]) pair_vertex(c, i, 0);
+    return any;
+}
+
+/* The safe box after a broad phase that found no collider near the balls: their box grown on
+ * each side by half the smallest clearance, so that it also holds the vertices of the steps
+ * that follow while the colliders keep clear of it (then no step needs the balls). */
+static void set_safe(defsim__contact *c)
+{
+    double t = INFINITY;
+    for (int32_t j = 0; j < c->ncol; ++j)
+        if (live(c, j)) t = fmin(t, box_clearance(c, j, c->ball_lo, c->ball_hi));
+    t = 0.5 * t;
+    if (!(t > 0.0 && t < INFINITY)) t = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        c->safe_lo[k] = c->ball_lo[k] - t;
+        c->safe_hi[k] = c->ball_hi[k] + t;
+    }
+    /* by construction clear; rounding must not make it otherwise */
+    for (int32_t j = 0; j < c->ncol && t > 0.0; ++j)
+        if (live(c, j) && near_box(c, j, c->safe_lo, c->safe_hi)) {
+            memcpy(c->safe_lo, c->ball_lo, sizeof c->safe_lo);
+            memcpy(c->safe_hi, c->ball_hi, sizeof c->safe_hi);
+            break;
+        }
+    c->safe_set = 1;
+}
+
+static int outside(const double lo[3], const double hi[3], const double p[3])
+{
+    return !((p[0] >= lo[0]) & (p[0] <= hi[0]) & (p[1] >= lo[1]) & (p[1] <= hi[1]) &
+             (p[2] >= lo[2]) & (p[2] <= hi[2]));
+}
+
+/* Whether every free vertex of x (of x + dx when dx is not NULL) lies in the safe box; a
+ * coordinate that is not a number lies outside. Branch-free: it runs at every evaluation. */
+static int in_safe(const defsim__contact *c, const double *x, const double *dx)
+{
+    const double *lo = c->safe_lo, *hi = c->safe_hi;
+    const uint8_t *pin = c->pinned;
+    int out = 0;
+    if (!dx) {
+        for (int32_t i = 0; i < c->nv; ++i) out |= outside(lo, hi, x + 3 * (int64_t)i) & !pin[i];
+    } else {
+        for (int32_t i = 0; i < c->nv; ++i) {
+            const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i;
+            const double p[3] = {a[0] + u[0], a[1] + u[1], a[2] + u[2]};
+            out |= outside(lo, hi, p) & !pin[i];
+        }
+    }
+    return !out;
+}
+
+/* A point left the safe box: the per-vertex broad phase after all, for the rest of the step,
+ * and a new safe box at the next. The start positions were in the box (BARRIER checks them; a
+ * PENALTY pair acts only at evaluated points), so no new pair has friction lagged from them. */
+static void leave_far(defsim__contact *c)
+{
+    c->far = 0;
+    c->safe_set = 0;
+    if (!c->balls) vertex_balls(c);
+    (void)pair_balls(c);
 }
 
 /* Grows the ball of every vertex whose position in x left it, and pairs it again: a backend's
  * iterate may go anywhere, and no contact may be missed. */
 static void ensure(defsim__contact *c, const double *x)
 {
+    if (c->far) {
+        if (in_safe(c, x, NULL)) return;
+        leave_far(c);
+    }
     for (int32_t i = 0; i < c->nv; ++i) {
         if (c->pinned[i]) continue;
         const double *a = x + 3 * (int64_t)i, *b = c->xn + 3 * (int64_t)i;
@@ -301,28 +408,28 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         }
         c->mu_max = fmax(c->mu_max, col[j].def.friction);
     }
-    /* Each vertex's ball: twice its inertial motion in the step, plus dhat; the colliders near
-     * the box around all balls, then the pairs. */
-    const double g = sqrt(dot3(s->gravity, s->gravity));
+    c->g = sqrt(dot3(s->gravity, s->gravity));
+    c->hstep = h;
     c->xn = x;
+    c->vn = v;
     c->npair = 0;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int32_t i = 0; i < s->nv; ++i) {
-        if (s->pinned[i]) continue;
-        /* |v|_1 >= |v|: a cheap, larger ball */
-        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
-        const double r = c->radius[i] =
-            2.0 * h * (fabs(vi[0]) + fabs(vi[1]) + fabs(vi[2])) + g * h * h + c->dhat;
-        for (int k = 0; k < 3; ++k) {
-            const double a = xi[k] - r, b = xi[k] + r;
-            lo[k] = a < lo[k] ? a : lo[k];
-            hi[k] = b > hi[k] ? b : hi[k];
+    c->balls = 0;
+    /* The safe box of an earlier step serves while every collider keeps clear of it (O(colliders)
+     * per step) and, for BARRIER, whose friction is lagged from xn, it holds xn; every evaluated
+     * point is tested against it (ensure). Otherwise the balls; none near: a new safe box. */
+    int keep = c->safe_set;
+    for (int32_t j = 0; j < ncol && keep; ++j)
+        keep = !live(c, j) || !near_box(c, j, c->safe_lo, c->safe_hi);
+    if (keep && c->mode == DEFSIM__CONTACT_BARRIER) keep = in_safe(c, x, NULL);
+    c->far = keep;
+    if (!keep) {
+        vertex_balls(c);
+        c->safe_set = 0;
+        if (!pair_balls(c) && !c->failed) {
+            set_safe(c);
+            c->far = 1;
         }
     }
-    int any = 0;
-    for (int32_t j = 0; j < ncol; ++j) any |= c->near[j] = live(c, j) && near_box(c, j, lo, hi);
-    for (int32_t i = 0; i < s->nv && !c->failed && any; ++i)
-        if (!s->pinned[i]) pair_vertex(c, i, 0);
     /* BARRIER: friction lagged from the start of the step (IPC): the normal force and normal at
      * x_n against the pose the collider had then, and the collider's motion at the vertex. */
     for (int32_t q = 0; q < c->npair && !c->failed && c->mode == DEFSIM__CONTACT_BARRIER; ++q) {
@@ -574,8 +681,13 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
                                 double fraction)
 {
     const double t0 = defsim__now();
-    /* Balls are convex and hold x: covering the step's end covers the whole segment. */
-    for (int32_t i = 0; i < c->nv; ++i) {
+    /* The safe box and the balls are convex: holding both ends covers the whole segment (an
+     * evaluated x is in its balls). */
+    if (c->far && !(in_safe(c, x, NULL) && in_safe(c, x, dx))) {
+        leave_far(c);
+        ensure(c, x);
+    }
+    for (int32_t i = 0; i < c->nv && !c->far; ++i) {
         if (c->pinned[i]) continue;
         const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i, *b = c->xn + 3 * (int64_t)i;
         double d2 = 0.0;
@@ -637,6 +749,14 @@ void defsim__contact_start(defsim__contact *c, double *x)
 /* ------------------------------------------------------------------------------------------ */
 /* The end of a step */
 
+int defsim__contact_none(defsim__contact *c, const double *x)
+{
+    const double t0 = defsim__now();
+    ensure(c, x);
+    c->stat[DEFSIM__CSTAT_TIME_BROAD] += defsim__now() - t0;
+    return c->npair == 0 && !c->failed;
+}
+
 void defsim__contact_end(defsim__contact *c, const double *x, const double *v, double *f)
 {
     memset(f, 0, 3 * (size_t)c->nv * sizeof *f);
@@ -657,6 +777,7 @@ void defsim__contact_end(defsim__contact *c, const double *x, const double *v, d
 double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3])
 {
     if (c->mode != DEFSIM__CONTACT_PENALTY || !(c->eps_v > 0.0) || c->mu_max == 0.0) return 0.0;
+    ensure(c, x);
     /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d). */
     double depth = sqrt(dot3(gravity, gravity)) / c->khat;
     for (int32_t q = 0; q < c->npair; ++q) {

@@ -12,6 +12,12 @@
  * motion it may make in the step) and pairs with the colliders whose bounds (grown by dhat) meet
  * it and whose distance allows contact in it. Evaluations at a point outside a vertex's ball grow
  * the ball and pair again, so no contact is missed whatever the backend's iterates do.
+ *
+ * Far colliders cost no per-vertex work: when every collider stays clear of a box (the safe box)
+ * that holds all free vertices, a step pairs nothing and each evaluation only tests that the
+ * free vertices are still in the box (a few compares per vertex); the first point outside it
+ * runs the per-vertex broad phase after all. The box is kept from step to step while it holds
+ * the vertices and the colliders keep clear of it.
  */
 #ifndef DEFSIM_CONTACT_H
 #define DEFSIM_CONTACT_H
@@ -58,7 +64,16 @@ typedef struct defsim__contact {
     const uint8_t *pinned;      /* nv */
     const double *xn;           /* 3 nv: positions at the start of the step (the caller's, held
                                    unchanged until the step ends) */
-    double *radius;             /* nv: each vertex's ball about xn (m) */
+    const double *vn;           /* 3 nv: velocities at the start of the step (likewise) */
+    double g;                   /* |gravity| (m/s^2) */
+    double hstep;               /* the world's step (s): the balls' horizon (h is a substep's) */
+    double *radius;             /* nv: each vertex's ball about xn (m), when `balls` */
+    int balls;                  /* radius and ball_lo/hi hold this step's balls */
+    double ball_lo[3], ball_hi[3]; /* the box around this step's balls */
+    int far;                    /* this step runs without balls: every point evaluated so far
+                                   had its free vertices inside the safe box */
+    int safe_set;               /* safe_lo/hi hold a box (kept from step to step) */
+    double safe_lo[3], safe_hi[3]; /* the safe box: no collider comes within dhat of it */
     double *vel;                /* 3 nv: velocities of the latest damping evaluation (PENALTY) */
     double *blk;                /* 9 nv: scratch for the matrices' diagonal blocks */
     int32_t cap_v;
@@ -88,9 +103,9 @@ typedef struct defsim__contact_params {
 void defsim__contact_free(defsim__contact *c);
 
 /* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
- * and (BARRIER) the lagged friction. col/ncol are the world's slots. x is borrowed until the
- * step ends and must not change meanwhile (the world passes its copy of the step's start). Returns DEFSIM_OK,
- * DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (message in msg). */
+ * and (BARRIER) the lagged friction. col/ncol are the world's slots. x and v are borrowed until
+ * the step ends and must not change meanwhile (the world passes its copies of the step's start).
+ * Returns DEFSIM_OK, DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (message in msg). */
 defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__collider *col, int32_t ncol,
                                     const defsim__contact_params *p, const double *x,
@@ -128,6 +143,10 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
 /* Carries the vertices of a Newton start x that a collider approaches within dhat rigidly with
  * the collider's motion over the step, so that x is feasible for the end-of-step poses. */
 void defsim__contact_start(defsim__contact *c, double *x);
+
+/* Whether no pair can be active at x (a point no evaluation may have seen: the end of a step):
+ * the broad phase's check at x, then no candidate pair. */
+int defsim__contact_none(defsim__contact *c, const double *x);
 
 /* Ends a successful step at (x, v): the total contact force per vertex into f (3 nv) and the
  * statistics. */

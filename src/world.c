@@ -1055,10 +1055,10 @@ static defsim_status contact_begin(defsim_world *w, double h)
         c->omega_elastic = om;
     }
     p.omega_elastic = c->omega_elastic;
-    /* A step's start positions: the world's copy, which nothing changes until the step ends. */
+    /* A step's start: the world's copies, which nothing changes until the step ends. */
     defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p,
-                                             h > 0.0 ? w->x_save : w->state.x, w->state.v, h,
-                                             w->msg);
+                                             h > 0.0 ? w->x_save : w->state.x,
+                                             h > 0.0 ? w->v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
     return DEFSIM_OK;
@@ -1093,7 +1093,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     /* The read-back goes to scratch first: a callback failing there fails the step too, and
      * a failed step changes neither the read-back nor the poses. Without pairs (colliders far
      * away) the forces are zero: nothing to compute or copy when the read-back is zero already. */
-    const int none = c->npair == 0 && w->contact_zero;
+    const int none = st == DEFSIM_OK && w->contact_zero && defsim__contact_none(c, w->state.x);
     if (st == DEFSIM_OK && !c->failed && none) {
         c->stat[DEFSIM__CSTAT_ACTIVE] = 0;
         c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = INFINITY;

@@ -1,24 +1,26 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * defsim-bench-features: what an unused feature costs. The same box beam (default 36x12x12
- * cells, 31104 tets, stable neo-Hookean, x = 0 clamped) is stepped with symplectic Euler in
- * variants that differ in one feature, interleaved round-robin so that machine noise hits all
- * alike; the median time per step of each is compared with the baseline. "zero" variants have
- * the feature present in the scene but with no effect (a damping coefficient of 0, an empty
- * pin list, an extra body of another material without elements, external forces of zero, a
- * force callback or an attachment set and then removed; colliders far away, which the contact
- * broad phase leaves without pairs): the planner must skip them,
- * so their ratio to the baseline is 1 within noise. "on" variants show what the feature costs
- * when used. The stability watchdog (core.watchdog) is on in every variant but the "watchdog
- * off" ones: baseline over "watchdog off" is what the watchdog costs when nothing trips, and the
- * neo-Hookean pair the same with its inversion check. --cpu measures process CPU time instead of
- * the monotonic clock: on a shared, oversubscribed machine, time spent waiting for a core then
- * does not count.
+ * defsim-bench-features: what an unused feature costs. The same box beam (default 36x12x12 cells,
+ * 31104 tets, stable neo-Hookean, x = 0 clamped) is stepped with symplectic Euler (or --backend)
+ * in variants that differ in one feature, interleaved round-robin so that machine noise hits all
+ * alike; the median time per step of each is compared with the baseline. "zero" variants have the
+ * feature present in the scene but with no effect (a damping coefficient of 0, an empty pin list,
+ * an extra body of another material without elements, external forces of zero, a force callback or
+ * an attachment set and then removed; colliders far away, which the contact broad phase leaves
+ * without pairs): the planner must skip them, so their ratio to the baseline is 1 within noise.
+ * "on" variants show what the feature costs when used. The stability watchdog (core.watchdog) is
+ * on in every variant but the "watchdog off" ones: baseline over "watchdog off" is what the
+ * watchdog costs when nothing trips, and the neo-Hookean pair the same with its inversion check.
+ * --cpu measures process CPU time instead of the monotonic clock: on a shared, oversubscribed
+ * machine, time spent waiting for a core then does not count.
  *
  *   defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T] [--only WORD] [--cpu]
+ *                         [--backend NAME]
  *
  * --only keeps the baseline and the variants whose name contains WORD ("colliders"); --cpu
- * times with process CPU time instead of the monotonic clock (for a loaded machine).
+ * times with process CPU time instead of the monotonic clock (for a loaded machine); --backend
+ * steps every variant with another backend than symplectic_euler (e.g. newton_cholmod, whose
+ * colliders get the barrier instead of the penalty).
  *
  *   defsim-bench-features --cloth N [--threads T]
  *
@@ -85,6 +87,7 @@ static const variant variants[] = {
 enum { NV = sizeof variants / sizeof variants[0] };
 
 static int use_cpu;   /* --cpu */
+static const char *backend_name = "symplectic_euler";   /* --backend */
 
 static double now(void)
 {
@@ -159,7 +162,7 @@ static defsim_world *new_world(const char *backend, double gy, int threads)
 
 static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
 {
-    defsim_world *w = new_world("symplectic_euler", v->gravity, threads);
+    defsim_world *w = new_world(backend_name, v->gravity, threads);
     if (!w) return NULL;
     defsim_material mat;
     defsim_material_init(&mat, sizeof mat,
@@ -304,6 +307,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--only")) only = argv[i + 1];
         else if (!strcmp(argv[i], "--cloth")) cloth_n = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--backend")) backend_name = argv[i + 1];
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
     if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0 || cloth_n < 0) return 2;
@@ -334,8 +338,9 @@ int main(int argc, char **argv)
             for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
             t[v][r] = (now() - t0) / steps;
         }
-    printf("%d tets, %d threads, median of %d rounds x %d steps, variants interleaved, %s\n\n",
-           m.tet_count, threads, rounds, steps, use_cpu ? "process CPU time" : "monotonic clock");
+    printf("%s, %d tets, %d threads, median of %d rounds x %d steps, variants interleaved, %s\n\n",
+           backend_name, m.tet_count, threads, rounds, steps,
+           use_cpu ? "process CPU time" : "monotonic clock");
     printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
     double base = 0;
     for (int v = 0; v < NV; ++v) {

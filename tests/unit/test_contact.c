@@ -7,7 +7,7 @@
  * friction on a 30 degree incline (stick for mu 0.7, slide with g (sin 30 - 0.3 cos 30) for 0.3);
  * cloth draped on a sphere; a beam carried by a moving sphere; energy of a bouncing block; a
  * stiff block dropped at h = 1/30; the stable step with penalty contact; one CHOLMOD analysis
- * whatever contacts appear.
+ * whatever contacts appear; far colliders that cost no per-vertex work and miss nothing.
  */
 #include "test_util.h"
 
@@ -752,6 +752,180 @@ static void test_sdf_nan(void **state)
     sdf_nan("symplectic_euler");
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* Far colliders: no per-vertex work, and nothing missed when the bodies leave the safe box */
+
+/* Three spheres and a plane 100 m away. */
+static void add_far_colliders(defsim_world *w)
+{
+    for (int k = 0; k < 3; ++k) {
+        double c[3] = {0.0, 0.0, 0.0};
+        c[k] = 100.0;
+        add_sphere(w, c, 0.5, 0.5);
+    }
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.position[1] = -100.0;
+    cd.friction = 0.5;
+    TU_OK(defsim_world_add_collider(w, &cd, NULL));
+}
+
+/* Every vertex gets the force m_i a along -y (a uniform acceleration a, m/s^2). */
+static void push_down(defsim_world *w, double a)
+{
+    const int n = defsim_world_vertex_count(w);
+    double *m = malloc((size_t)n * sizeof *m), *f = calloc(3 * (size_t)n, sizeof *f);
+    TU_OK(defsim_world_get_masses(w, m, n));
+    for (int i = 0; i < n; ++i) f[3 * i + 1] = -m[i] * a;
+    TU_OK(defsim_world_set_external_forces(w, f, n));
+    free(m);
+    free(f);
+}
+
+/* Largest |contact force| of the read-back (N) and the lowest vertex's height. */
+static double readback_max(const defsim_world *w)
+{
+    const int n = defsim_world_vertex_count(w);
+    double *f = malloc(3 * (size_t)n * sizeof *f), big = 0.0;
+    TU_OK(defsim_world_get_contact_forces(w, f, n));
+    for (int i = 0; i < 3 * n; ++i) big = fmax(big, fabs(f[i]));
+    free(f);
+    return big;
+}
+
+/* A falling block with colliders 100 m away steps bit for bit as without them, pairs nothing,
+ * and after its first step runs without per-vertex balls (the safe box of an earlier step). */
+static void far_is_free(const char *backend)
+{
+    defsim_world *w[2] = {world_or_skip(backend, -G), world_or_skip(backend, -G)};
+    if (!w[0] || !w[1]) return;
+    const double lo[3] = {-0.1, 0.5, -0.1};
+    for (int k = 0; k < 2; ++k) add_block(w[k], lo, 0.2, 1e5, 1.0, 0.0, NULL);
+    add_far_colliders(w[1]);
+    const int n = defsim_world_vertex_count(w[0]), steps = 40;
+    int free_steps = 0;
+    for (int s = 0; s < steps; ++s) {
+        for (int k = 0; k < 2; ++k) TU_OK(defsim_world_step(w[k], 0.005));
+        assert_true(stat(w[1], "contact.pairs") == 0.0);
+        assert_true(readback_max(w[1]) == 0.0);
+        free_steps += w[1]->contact.far && !w[1]->contact.balls;
+    }
+    double *x0 = tu_positions(w[0]), *x1 = tu_positions(w[1]);
+    double *v0 = tu_velocities(w[0]), *v1 = tu_velocities(w[1]);
+    printf("  %-16s far colliders: %d of %d steps without per-vertex work, fell %.4f m, state "
+           "bit-identical to the world without colliders\n", backend, free_steps, steps,
+           lo[1] - min_y(w[1]));
+    assert_memory_equal(x0, x1, 3 * (size_t)n * sizeof *x0);
+    assert_memory_equal(v0, v1, 3 * (size_t)n * sizeof *v0);
+    assert_int_equal(free_steps, steps - 1);
+    assert_true(lo[1] - min_y(w[1]) > 0.01);   /* it fell: the vertices moved in the safe box */
+    free(x0); free(x1); free(v0); free(v1);
+    for (int k = 0; k < 2; ++k) defsim_world_destroy(w[k]);
+}
+
+/* No gravity: a block 5 cm above a collider runs without balls; then a force the broad phase
+ * does not foresee (held external forces) pushes it down by far more than the gap in one step.
+ * BARRIER: Newton's first update leaves the safe box and would carry the block right through a
+ * 1 cm slab (a box collider) under it, every vertex ending below it at finite energy: the line
+ * search must pair and stop the block on the slab. PENALTY: the step ends with the bottom
+ * within dhat of the ground, so the read-back of that step must hold the penalty forces (the
+ * end of the step is a point no evaluation saw). */
+static void far_then_pushed(const char *backend)
+{
+    defsim_world *w = world_or_skip(backend, 0.0);
+    if (!w) return;
+    const int barrier = is_barrier(backend);
+    const double y0 = 0.05, lo[3] = {-0.1, y0, -0.1}, dhat = 1e-3 * length_scale(0.2);
+    const double top = 0.005;   /* the slab's top face */
+    add_block(w, lo, 0.2, 1e5, 0.0, 0.0, NULL);
+    if (barrier) {
+        defsim_collider_def cd;
+        defsim_collider_def_init(&cd, sizeof cd);
+        cd.shape = DEFSIM_SHAPE_BOX;
+        cd.half_extents[0] = cd.half_extents[2] = 1.0;
+        cd.half_extents[1] = top;
+        TU_OK(defsim_world_add_collider(w, &cd, NULL));
+    } else {
+        add_plane(w, NULL, 0.0);
+    }
+    const double h = barrier ? 0.1 : 0.01;
+    for (int s = 0; s < 3; ++s) TU_OK(defsim_world_step(w, h));
+    assert_true(w->contact.far && !w->contact.balls);
+    /* BARRIER: a full update goes 0.2 m down; PENALTY: the bottom ends at dhat / 2 */
+    const double a = barrier ? 20.0 : (y0 - 0.5 * dhat) / (h * h);
+    push_down(w, a);
+    TU_OK(defsim_world_step(w, h));
+    const double low = min_y(w), active = stat(w, "contact.active"), f = readback_max(w);
+    printf("  %-16s pushed %.3g m/s^2 from %.2g m: lowest vertex %+.3g m above the %s, active "
+           "%g, largest contact force %.3g N\n", backend, a, y0, low - (barrier ? top : 0.0),
+           barrier ? "slab" : "ground", active, f);
+    if (barrier) {
+        assert_true(low > top && low < top + dhat);
+        assert_true(active == 9.0);
+    } else {
+        assert_true(fabs(low - 0.5 * dhat) < 1e-3 * dhat);
+        /* k_i (dhat - d) with k_i = m_i omega_c^2: positive on the bottom vertices */
+        assert_true(active == 9.0);
+    }
+    assert_true(f > 0.0);
+    defsim_world_destroy(w);
+}
+
+/* The safe box is kept from step to step only while it stays valid: a collider moved next to
+ * the block (PENALTY: it pushes the block in the first step), and a block set next to the ground by the host
+ * (BARRIER: its friction is lagged from the start of the step, so the start must be paired: a
+ * block sliding at 0.1 m/s slows down in that very step). */
+static void far_box_stale(const char *backend)
+{
+    defsim_world *w = world_or_skip(backend, 0.0);
+    if (!w) return;
+    const double y0 = 0.3, lo[3] = {-0.1, y0, -0.1}, dhat = 1e-3 * length_scale(0.2);
+    add_block(w, lo, 0.2, 1e5, 0.0, 0.0, NULL);
+    const defsim_collider_id ground = add_plane(w, NULL, 0.5);
+    const double h = 0.01;
+    for (int s = 0; s < 3; ++s) TU_OK(defsim_world_step(w, h));
+    assert_true(w->contact.far && !w->contact.balls);
+    if (!is_barrier(backend)) {
+        const double p[3] = {0.0, y0 - 0.5 * dhat, 0.0}, q[4] = {1.0, 0.0, 0.0, 0.0};
+        TU_OK(defsim_collider_set_pose(w, ground, p, q));
+        TU_OK(defsim_world_step(w, h));
+        const double up = centre(w, 1, 1);
+        printf("  %-16s ground moved under the block: pairs %g, pushed up to %.3g m/s\n",
+               backend, stat(w, "contact.pairs"), up);
+        assert_true(stat(w, "contact.pairs") >= 9.0);
+        assert_true(up > 0.0);
+        defsim_world_destroy(w);
+        return;
+    }
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = calloc(3 * (size_t)n, sizeof *v);
+    for (int i = 0; i < n; ++i) {
+        x[3 * i + 1] -= y0 - 0.5 * dhat;   /* the bottom at dhat / 2 */
+        v[3 * i] = 0.1;
+    }
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim_world_step(w, h));
+    const double u = centre(w, 1, 0);
+    printf("  %-16s block set sliding on the ground: pairs %g, speed 0.1 -> %.4f m/s in one "
+           "step\n", backend, stat(w, "contact.pairs"), u);
+    assert_true(stat(w, "contact.pairs") >= 9.0);
+    assert_true(u < 0.1 - 1e-3);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+}
+
+static void test_far_colliders(void **state)
+{
+    (void)state;
+    const char *const backends[] = {"symplectic_euler", "velocity_verlet", "newton_cholmod"};
+    for (int i = 0; i < 3; ++i) far_is_free(backends[i]);
+    far_then_pushed("newton_cholmod");
+    far_then_pushed("symplectic_euler");
+    far_box_stale("newton_cholmod");
+    far_box_stale("symplectic_euler");
+}
+
 /* A backend that claims DEFSIM_BACKEND_CONTACT_CCD but steps like symplectic Euler without
  * calling contact_max_step: its vertices can jump through a collider. The watchdog's contact
  * check must refuse such a step (state restored), and let it through with core.watchdog off. */
@@ -843,6 +1017,7 @@ int main(void)
         cmocka_unit_test(test_stable_step),
         cmocka_unit_test(test_no_reanalysis),
         cmocka_unit_test(test_sdf_nan),
+        cmocka_unit_test(test_far_colliders),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

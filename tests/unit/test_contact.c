@@ -872,9 +872,9 @@ static void far_then_pushed(const char *backend)
 }
 
 /* The safe box is kept from step to step only while it stays valid: a collider moved next to
- * the block (PENALTY: it pushes the block in the first step), and a block set next to the ground by the host
- * (BARRIER: its friction is lagged from the start of the step, so the start must be paired: a
- * block sliding at 0.1 m/s slows down in that very step). */
+ * the block (PENALTY: it pushes the block in the first step), and a block set next to the
+ * ground by the host (BARRIER: its friction is lagged from the start of the step, so the start
+ * must be paired: a block sliding at 0.1 m/s slows down in that very step). */
 static void far_box_stale(const char *backend)
 {
     defsim_world *w = world_or_skip(backend, 0.0);

@@ -213,6 +213,51 @@ static void test_set_state_reinit(void **state)
     defsim_world_destroy(w);
 }
 
+/* The oscillator's exact state after dt under a constant force F from (u, v): the equilibrium
+ * moves to F / k (the damping depends on v only). */
+static void osc_forced(const tu_osc *os, double F, double dt, double *u, double *v)
+{
+    tu_osc o = *os;
+    o.u0 = *u - F / os->k;
+    o.v0 = *v;
+    tu_osc_exact(&o, dt, u, v);
+    *u += F / os->k;
+}
+
+/* IDA steps past the end of each call and interpolates; forces the host changes between calls
+ * (here held external forces, at two successive calls and then held for eight) must still act
+ * from the call they were set at. A module that kept its state ahead would apply them one
+ * internal step late: about F / m dt^2 / 2 = 4e-4 m for the 5 ms steps of this tolerance. */
+static void test_force_change_between_calls(void **state)
+{
+    (void)state;
+    const double tol = 1e-8, h = 0.05, F[3] = {0.0, 30.0, -20.0};
+    defsim_world *w = ida_world(tol, tol, 5, 100000, 0.0);
+    tu_osc os[1] = {osc_set[0]};
+    tu_add_oscillator(w, &os[0], 0.0);
+    const int n = defsim_world_vertex_count(w);
+    double *f = calloc(3 * (size_t)n, sizeof *f);
+    double u = os[0].u0, v = os[0].v0;
+    for (int s = 0; s < 20; ++s) {
+        const double Fs = F[s < 10 ? 0 : s == 10 ? 1 : 2];
+        f[3 * os[0].vertex] = Fs;
+        TU_OK(defsim_world_set_external_forces(w, f, n));
+        TU_OK(defsim_world_step(w, h));
+        osc_forced(&os[0], Fs, h, &u, &v);
+    }
+    double *x = tu_positions(w);
+    const double err = fabs(x[3 * os[0].vertex] - 1.0 - u);
+    defsim_stats st = {.size = sizeof st};
+    TU_OK(defsim_world_stats(w, &st));
+    printf("ida force changes at t = 0.5 and 0.55 s: position error at 1 s %.3g m, %lld internal "
+           "steps\n", err, (long long)st.internal_steps);
+    /* The contract: 10 x tolerance per second (amplitude about 0.25 m, atol tol). */
+    assert_true(err <= 10.0 * 1.0 * (tol * 0.25 + tol));
+    free(x);
+    free(f);
+    defsim_world_destroy(w);
+}
+
 /* Pinning a moving vertex between steps stops it where it is; the other oscillator goes on
  * undisturbed; unpinning releases it from rest. */
 static void test_pin_changes(void **state)
@@ -518,6 +563,7 @@ int main(void)
         cmocka_unit_test(test_single_long_step),
         cmocka_unit_test(test_max_order),
         cmocka_unit_test(test_set_state_reinit),
+        cmocka_unit_test(test_force_change_between_calls),
         cmocka_unit_test(test_pin_changes),
         cmocka_unit_test(test_failure_leaves_state),
         cmocka_unit_test(test_beam_vs_leapfrog),

@@ -643,6 +643,7 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
     defsim_status st = defsim__sun_open(&s->sun, host, sys);
     if (st != DEFSIM_OK) return st;
     s->y = N_VNew_Serial((sunindextype)(2 * n), s->sun.ctx);
+    if (s->y) defsim__sun_fast_ops(s->y);   /* before IDA clones it */
     s->yp = s->y ? N_VClone(s->y) : NULL;
     if (!s->y || !s->yp) {
         host->set_error(sys, "sundials_ida: out of memory");

@@ -227,7 +227,7 @@ static void osc_forced(const tu_osc *os, double F, double dt, double *u, double 
 /* IDA steps past the end of each call and interpolates; forces the host changes between calls
  * (here held external forces, at two successive calls and then held for eight) must still act
  * from the call they were set at. A module that kept its state ahead would apply them one
- * internal step late: about F / m dt^2 / 2 = 4e-4 m for the 5 ms steps of this tolerance. */
+ * internal step late (measured: 3.0e-3 m at 1 s instead of 1.1e-8). */
 static void test_force_change_between_calls(void **state)
 {
     (void)state;

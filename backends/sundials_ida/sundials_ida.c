@@ -13,9 +13,10 @@
  *     [ K(x)        cj M + alpha M + B  ]
  * with K the elastic stiffness (projected as the world says), B = sum beta_e K_e (clamped), and
  * the derivative of the stiffness-damping force with respect to x left out (it only makes Newton
- * a little less than quadratic). One defsim_world_step(h) is one IDASolve to exactly t + h
- * (IDASetStopTime), with as many internal steps as the tolerances need; IDA's history is kept
- * between calls and dropped (IDAReInit) when the host changes the state or a step fails.
+ * a little less than quadratic). One defsim_world_step(h) is one IDASolve to t + h with as many
+ * internal steps as the tolerances need, stepping past t + h and handing the world IDA's
+ * interpolation there (ida_step); IDA's history is kept between calls, ahead of the world, and
+ * dropped (IDAReInit) when the host changes the state, pins or forces or a step fails.
  *
  * Tolerances are per second of simulated time, measured in positions (ida_weights): the local
  * position error of an internal step of length h_i is held to K (rtol |x| + atol) min(1, h_i/1 s)

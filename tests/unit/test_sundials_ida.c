@@ -258,6 +258,47 @@ static void test_force_change_between_calls(void **state)
     defsim_world_destroy(w);
 }
 
+/* A checkpoint taken while IDA is ahead of the world (no force change yet; the next one at the
+ * first call after the load) or while calls end exactly at t + h after one (force changes at
+ * calls 5 and 6, none at the load) carries what the next calls need: the forces they compare and
+ * the exact-end calls left. The loaded world, given the same force changes, continues bit for
+ * bit (dropping either field on load makes it differ). */
+static void test_checkpoint_ahead_and_bound(void **state)
+{
+    (void)state;
+    for (int variant = 0; variant < 2; ++variant) {
+        defsim_world *a = ida_world(1e-6, 1e-6, 5, 100000, 0.0), *b = NULL;
+        tu_osc os[1] = {osc_set[0]};
+        tu_add_oscillator(a, &os[0], 0.0);
+        const int n = defsim_world_vertex_count(a);
+        double *f = calloc(3 * (size_t)n, sizeof *f);
+        for (int s = 0; s < 16; ++s) {
+            if (s == 8) {
+                void *buf = NULL;
+                size_t size = 0;
+                TU_OK(defsim_world_save_buffer(a, &buf, &size));
+                TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &b));
+                defsim_buffer_free(buf);
+            }
+            const int change = s == 12 || (variant ? s == 5 || s == 6 : s == 8);
+            if (change) {
+                f[3 * os[0].vertex] = 10.0 + s;
+                TU_OK(defsim_world_set_external_forces(a, f, n));
+                if (b) TU_OK(defsim_world_set_external_forces(b, f, n));
+            }
+            TU_OK(defsim_world_step(a, 0.05));
+            if (b) TU_OK(defsim_world_step(b, 0.05));
+        }
+        double *xa = tu_positions(a), *xb = tu_positions(b);
+        double *va = tu_velocities(a), *vb = tu_velocities(b);
+        assert_memory_equal(xa, xb, 3 * (size_t)n * sizeof *xa);
+        assert_memory_equal(va, vb, 3 * (size_t)n * sizeof *va);
+        free(xa); free(xb); free(va); free(vb); free(f);
+        defsim_world_destroy(a);
+        defsim_world_destroy(b);
+    }
+}
+
 /* Pinning a moving vertex between steps stops it where it is; the other oscillator goes on
  * undisturbed; unpinning releases it from rest. */
 static void test_pin_changes(void **state)
@@ -564,6 +605,7 @@ int main(void)
         cmocka_unit_test(test_max_order),
         cmocka_unit_test(test_set_state_reinit),
         cmocka_unit_test(test_force_change_between_calls),
+        cmocka_unit_test(test_checkpoint_ahead_and_bound),
         cmocka_unit_test(test_pin_changes),
         cmocka_unit_test(test_failure_leaves_state),
         cmocka_unit_test(test_beam_vs_leapfrog),

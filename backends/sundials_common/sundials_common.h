@@ -103,6 +103,11 @@ defsim_status defsim__sun_save_flags(const defsim__sun *s, int history,
                                      const defsim_state_writer *wr);
 defsim_status defsim__sun_load_flags(defsim__sun *s, const defsim_state_reader *rd, int *history);
 
+/* Replaces the hot operations of serial vector v (linear sum, constant, scale, weighted RMS norm
+ * and its sum of squares) with ones compiled with this build's flags that give the same bits;
+ * vectors cloned from v afterwards (the integrator's) inherit them. */
+void defsim__sun_fast_ops(N_Vector v);
+
 /* Allocation through the host (zeroed; NULL on failure). */
 void *defsim__sun_calloc(const defsim_host *host, size_t count, size_t size);
 

@@ -23,6 +23,10 @@
  * h lambda stays in the region (ERKStepSetStabilityFn), so that on stiff scenes the step sits
  * just under the stability limit instead of being found by rejected steps.
  *
+ * Checkpoints: the module supplies ERKStep's PI controller (erk_adapt, ERKStep's own formula and
+ * gains) so that the error history survives a restart, and a loaded world replays the saved last
+ * internal step to bring ERKStep's internal state back (erk_load).
+ *
  * Contents: constants and tables offered; options and counters; stability function and stable
  * step of a table; ERKStep callbacks (right-hand side, error weights, stability limit); set-up,
  * stepping and the backend table.

@@ -150,7 +150,18 @@ typedef struct erk_state {
     double e_used;             /* the previous step's error the last controller call used */
     int after_fail;
     long fn_nst, fn_netf;      /* steps and failures at the first attempt of the current step */
+    /* The derivative the last step started from. ERKStep takes it from the step before when the
+     * table's last stage is at the step's end (Verner's and Fehlberg's last stage only feeds the
+     * embedding, and its state is not the step's result to the bit), so it is not f(t0, y0). */
+    N_Vector f0, f0_next;      /* the last step's last stage: the next step's f0 if reused */
+    const double *f_last;      /* the output of the last right-hand side call */
+    int f0_next_valid;         /* f0_next holds a stage of a step since the restart */
+    double t_end;              /* the last attempt's end time and state (ERKStep's ycur) */
+    const double *y_end;
+    int f0_valid;              /* f0 holds the previous step's last stage */
+    int f0_called;             /* the right-hand side ran at (t0, y0) after the weights */
     int replay;                /* replaying a checkpoint's last step: the saved stability limit */
+    int replay_f0;             /* the replay's first right-hand side call returns the saved f0 */
     double replay_wh;          /* and the saved weights' step length */
     int hin_set;               /* ERKStepSetInitStep holds a step length: cleared at a restart */
 } erk_state;
@@ -245,6 +256,17 @@ static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
     erk_state *s = user;
     const double *y = N_VGetArrayPointer(yy);
     double *d = N_VGetArrayPointer(yd);
+    s->f_last = d;
+    if (s->replay_f0) {
+        s->replay_f0 = 0;
+        N_VScale(1.0, s->f0, yd);
+        return 0;
+    }
+    const size_t bytes = 2 * (size_t)s->n * sizeof *y;
+    if (t == s->t0 && memcmp(y, N_VGetArrayPointer(s->y0), bytes) == 0)
+        s->f0_called = 1;   /* (t0, y0) itself, not a stage at c = 0 (Fehlberg's 12th) */
+    if (t == s->t_end && s->y_end && memcmp(y, s->y_end, bytes) == 0)
+        s->f0_next_valid = 0;   /* f at the step's result: the next f0 is computed, not reused */
     scatter(s, y);
     /* Driven pins are not unknowns: on their paths at the stage time (their velocities are in
      * s->v from the restart, which each step that drives pins makes). */
@@ -310,6 +332,16 @@ static int erk_weights(N_Vector yv, N_Vector ewt, void *user)
     s->w_h = h;
     N_VScale(1.0, yv, s->y0);
     ERKStepGetCurrentTime(s->mem, &s->t0);
+    if (s->f0_next_valid) {
+        N_Vector tmp = s->f0;
+        s->f0 = s->f0_next;
+        s->f0_next = tmp;
+        s->f0_valid = 1;
+    } else if (nst > 0) {
+        s->f0_valid = 0;
+    }
+    s->f0_next_valid = 0;
+    s->f0_called = 0;
     double f = h > 0.0 ? fabs(h) / ERK_TOL_TIME : 1.0;
     if (f > 1.0) f = 1.0;
     if (f * s->rtol < ERK_TOL_FLOOR) f = ERK_TOL_FLOOR / s->rtol;
@@ -336,6 +368,14 @@ static int erk_adapt(N_Vector y, realtype t, realtype h1, realtype h2, realtype 
         s->fn_netf = netf;
     }
     s->after_fail = netf > s->fn_netf;
+    /* The attempt's last stage (before any interpolation at the stop time calls the right-hand
+     * side): what a table whose last stage is at the step's end hands the next step as f0. */
+    if (s->f_last) {
+        memcpy(N_VGetArrayPointer(s->f0_next), s->f_last, 2 * (size_t)s->n * sizeof(double));
+        s->f0_next_valid = 1;
+    }
+    s->t_end = t;
+    s->y_end = N_VGetArrayPointer(y);
     const double ea = nst >= 1 ? e2 : s->prior_e;
     s->e_used = ea;
     const double k1 = -PI_K1 / p, k2 = PI_K2 / p;
@@ -398,7 +438,11 @@ static defsim_status erk_reinit(erk_state *s, double t0, N_Vector y0)
     s->prior_e = 1.0;
     s->fn_nst = -1;
     s->replay = 0;
+    s->replay_f0 = 0;
     s->replay_wh = 0.0;
+    s->f_last = NULL;
+    s->f0_next_valid = s->f0_valid = 0;
+    s->y_end = NULL;
     s->sun.need_reinit = 0;
     return DEFSIM_OK;
 }
@@ -424,6 +468,9 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->y = NULL;
     if (s->y0) N_VDestroy(s->y0);
     s->y0 = NULL;
+    if (s->f0) N_VDestroy(s->f0);
+    if (s->f0_next) N_VDestroy(s->f0_next);
+    s->f0 = s->f0_next = NULL;
     if (s->bt) ARKodeButcherTable_Free(s->bt);
     s->bt = NULL;
     defsim__sun_close(&s->sun);
@@ -473,12 +520,16 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     if (st != DEFSIM_OK) return st;
     s->y = N_VNew_Serial((sunindextype)(2 * s->n), s->sun.ctx);
     s->y0 = s->y ? N_VClone(s->y) : NULL;
-    if (!s->y || !s->y0) {
+    s->f0 = s->y ? N_VClone(s->y) : NULL;
+    s->f0_next = s->y ? N_VClone(s->y) : NULL;
+    if (!s->y || !s->y0 || !s->f0 || !s->f0_next) {
         host->set_error(sys, "sundials_erk: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     N_VConst(0.0, s->y);
     N_VConst(0.0, s->y0);
+    N_VConst(0.0, s->f0);
+    N_VConst(0.0, s->f0_next);
     s->mem = ERKStepCreate(erk_rhs, host->time(sys), s->y, s->sun.ctx);
     if (!s->mem) {
         host->set_error(sys, "sundials_erk: ERKStepCreate failed (out of memory)");
@@ -528,7 +579,7 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
  * weights used, the controller's error history and growth cap, and the stability limit. The
  * replayed step leaves ERKStep exactly where the saved run's was, and the next step continues bit
  * for bit (README "Checkpoints"). Layout 2; layout 1 (the next step length only) still loads. */
-enum { ERK_LAYOUT = 2, ERK_INTS = 5, ERK_REALS = 7 };
+enum { ERK_LAYOUT = 2, ERK_INTS = 6, ERK_REALS = 7 };
 
 static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const void *state,
                               const defsim_state_writer *wr)
@@ -548,11 +599,13 @@ static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const
     ERKStepGetNumExpSteps(s->mem, &nexp);
     ERKStepGetLastStep(s->mem, &h);
     const int64_t ints[ERK_INTS] = {ERK_LAYOUT, s->after_fail, nst - s->stab_step,
-                                    netf - s->stab_etf, nexp - s->stab_exp};
+                                    netf - s->stab_etf, nexp - s->stab_exp,
+                                    s->f0_valid && !s->f0_called};
     const double reals[ERK_REALS] = {s->t, s->t0, h, s->w_h, s->h_stab, s->e_used, 0.0};
     if ((st = wr->i64(wr->ctx, ints, ERK_INTS)) != DEFSIM_OK) return st;
     if ((st = wr->f64(wr->ctx, reals, ERK_REALS)) != DEFSIM_OK) return st;
-    return wr->f64(wr->ctx, N_VGetArrayPointer(s->y0), 2 * s->n);
+    if ((st = wr->f64(wr->ctx, N_VGetArrayPointer(s->y0), 2 * s->n)) != DEFSIM_OK) return st;
+    return wr->f64(wr->ctx, N_VGetArrayPointer(s->f0), 2 * s->n);
 }
 
 /* Layout 1 (before the replay): the next step length, the time, the stability limit. The world
@@ -585,12 +638,13 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     double reals[ERK_REALS];
     if (rd->i64(rd->ctx, ints, ERK_INTS) != DEFSIM_OK || ints[0] != ERK_LAYOUT ||
         rd->f64(rd->ctx, reals, ERK_REALS) != DEFSIM_OK ||
-        rd->f64(rd->ctx, N_VGetArrayPointer(s->y0), 2 * s->n) != DEFSIM_OK)
+        rd->f64(rd->ctx, N_VGetArrayPointer(s->y0), 2 * s->n) != DEFSIM_OK ||
+        rd->f64(rd->ctx, N_VGetArrayPointer(s->f0), 2 * s->n) != DEFSIM_OK)
         return DEFSIM_ERR_IO;
     const double tout = reals[0], t0 = reals[1], h = reals[2];
     if (!isfinite(tout) || !isfinite(t0) || !(h > 0.0) || !(t0 + h <= tout) ||
         !(reals[3] >= 0.0) || !(reals[4] >= 0.0) || !(reals[5] >= 0.0) ||
-        (ints[1] != 0 && ints[1] != 1))
+        (ints[1] != 0 && ints[1] != 1) || (ints[5] != 0 && ints[5] != 1))
         return DEFSIM_ERR_IO;
     /* A run that drove pins in its last step restarts at the next one anyway. */
     if (s->sun.drove) return erk_restart(s);
@@ -604,6 +658,7 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     s->h_stab = reals[4];
     s->prior_e = reals[5];
     s->replay = 1;
+    s->replay_f0 = (int)ints[5];
     s->replay_wh = reals[3];
     /* A step that followed a rejected attempt had its growth capped at 1 (any cap in (1, 2)
      * gives the same length then: the no-change band makes it exactly 1). */
@@ -614,6 +669,7 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     realtype tret = t0;
     if (flag >= 0) flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
     s->replay = 0;
+    s->replay_f0 = 0;
     s->replay_wh = 0.0;
     if (flag < 0) return erk_fail(s, "ERKStepEvolve (replaying the saved step)", flag);
     long nst = 0;
@@ -637,6 +693,8 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     long netf = 0, nexp = 0;
     ERKStepGetNumErrTestFails(s->mem, &netf);
     ERKStepGetNumExpSteps(s->mem, &nexp);
+    s->f0_valid = 1;   /* what the replayed step started from, as saved */
+    s->f0_called = !ints[5];
     s->stab_step = nst - ints[2];
     s->stab_etf = netf - ints[3];
     s->stab_exp = nexp - ints[4];

@@ -579,7 +579,7 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
  * weights used, the controller's error history and growth cap, and the stability limit. The
  * replayed step leaves ERKStep exactly where the saved run's was, and the next step continues bit
  * for bit (README "Checkpoints"). Layout 2; layout 1 (the next step length only) still loads. */
-enum { ERK_LAYOUT = 2, ERK_INTS = 6, ERK_REALS = 7 };
+enum { ERK_LAYOUT = 2, ERK_INTS = 6, ERK_REALS = 6 };
 
 static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const void *state,
                               const defsim_state_writer *wr)
@@ -601,7 +601,7 @@ static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const
     const int64_t ints[ERK_INTS] = {ERK_LAYOUT, s->after_fail, nst - s->stab_step,
                                     netf - s->stab_etf, nexp - s->stab_exp,
                                     s->f0_valid && !s->f0_called};
-    const double reals[ERK_REALS] = {s->t, s->t0, h, s->w_h, s->h_stab, s->e_used, 0.0};
+    const double reals[ERK_REALS] = {s->t, s->t0, h, s->w_h, s->h_stab, s->e_used};
     if ((st = wr->i64(wr->ctx, ints, ERK_INTS)) != DEFSIM_OK) return st;
     if ((st = wr->f64(wr->ctx, reals, ERK_REALS)) != DEFSIM_OK) return st;
     if ((st = wr->f64(wr->ctx, N_VGetArrayPointer(s->y0), 2 * s->n)) != DEFSIM_OK) return st;
@@ -642,7 +642,7 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
         rd->f64(rd->ctx, N_VGetArrayPointer(s->f0), 2 * s->n) != DEFSIM_OK)
         return DEFSIM_ERR_IO;
     const double tout = reals[0], t0 = reals[1], h = reals[2];
-    if (!isfinite(tout) || !isfinite(t0) || !(h > 0.0) || !(t0 + h <= tout) ||
+    if (!isfinite(tout) || !isfinite(t0) || !(t0 < tout) || !(h > 0.0) || !isfinite(h) ||
         !(reals[3] >= 0.0) || !(reals[4] >= 0.0) || !(reals[5] >= 0.0) ||
         (ints[1] != 0 && ints[1] != 1) || (ints[5] != 0 && ints[5] != 1))
         return DEFSIM_ERR_IO;
@@ -664,7 +664,8 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
      * gives the same length then: the no-change band makes it exactly 1). */
     int flag = ERKStepSetInitStep(s->mem, h);
     s->hin_set = 1;
-    if (flag >= 0) flag = ERKStepSetMaxFirstGrowth(s->mem, ints[1] ? nextafter(1.0, 2.0) : ERK_GROWTH);
+    if (flag >= 0)
+        flag = ERKStepSetMaxFirstGrowth(s->mem, ints[1] ? nextafter(1.0, 2.0) : ERK_GROWTH);
     if (flag >= 0) flag = ERKStepSetStopTime(s->mem, tout);
     realtype tret = t0;
     if (flag >= 0) flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
@@ -680,7 +681,8 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     ERKStepSetMaxFirstGrowth(s->mem, 0.0);
     /* The replay must land on the saved state in one step; otherwise the file does not belong to
      * this build (another SUNDIALS, another machine): continue from the world's state. */
-    const double *x = host->positions(sys), *v = host->velocities(sys), *y = N_VGetArrayPointer(s->y);
+    const double *x = host->positions(sys), *v = host->velocities(sys);
+    const double *y = N_VGetArrayPointer(s->y);
     int same = nst == 1;
     for (int64_t i = 0; i < s->n && same; ++i)
         same = memcmp(&x[s->free_dofs[i]], &y[i], sizeof *y) == 0 &&

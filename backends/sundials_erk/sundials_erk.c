@@ -150,9 +150,9 @@ typedef struct erk_state {
     double e_used;             /* the previous step's error the last controller call used */
     int after_fail;
     long fn_nst, fn_netf;      /* steps and failures at the first attempt of the current step */
-    /* The derivative the last step started from. ERKStep takes it from the step before when the
-     * table's last stage is at the step's end (Verner's and Fehlberg's last stage only feeds the
-     * embedding, and its state is not the step's result to the bit), so it is not f(t0, y0). */
+    /* The derivative the last step's first stage used. With some tables (verner_6, fehlberg_8)
+     * ERKStep reuses the previous step's last evaluation, made at the step's end time but not at
+     * its result, so it is not f(t0, y0) and a replay must be handed it. */
     N_Vector f0, f0_next;      /* the last step's last stage: the next step's f0 if reused */
     const double *f_last;      /* the output of the last right-hand side call */
     int f0_next_valid;         /* f0_next holds a stage of a step since the restart */

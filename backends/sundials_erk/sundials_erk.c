@@ -142,14 +142,11 @@ typedef struct erk_state {
     erk_counts base;
     /* What a checkpoint needs to replay the last internal step (README "Checkpoints"): the state
      * it started from (the last error-weight evaluation's y and time) and the step length those
-     * weights used; the error history its controller used, and whether it followed a rejected
-     * attempt of the same step (ERKStep then caps its growth at 1). */
+     * weights used; the error history its controller used. */
     N_Vector y0;
     double t0, w_h;
     double prior_e;            /* error of the last step before the restart (ERKStep's 1) */
     double e_used;             /* the previous step's error the last controller call used */
-    int after_fail;
-    long fn_nst, fn_netf;      /* steps and failures at the first attempt of the current step */
     /* The derivative the last step's first stage used. With some tables (verner_6, fehlberg_8)
      * ERKStep reuses the previous step's last evaluation, made at the step's end time but not at
      * its result, so it is not f(t0, y0) and a replay must be handed it. */
@@ -358,16 +355,10 @@ static int erk_weights(N_Vector yv, N_Vector ewt, void *user)
 static int erk_adapt(N_Vector y, realtype t, realtype h1, realtype h2, realtype h3, realtype e1,
                      realtype e2, realtype e3, int q, int p, realtype *hnew, void *user)
 {
-    (void)y; (void)t; (void)h2; (void)h3; (void)e3; (void)q;
+    (void)h2; (void)h3; (void)e3; (void)q;
     erk_state *s = user;
-    long nst = 0, netf = 0;
+    long nst = 0;
     ERKStepGetNumSteps(s->mem, &nst);
-    ERKStepGetNumErrTestFails(s->mem, &netf);
-    if (nst != s->fn_nst) {
-        s->fn_nst = nst;
-        s->fn_netf = netf;
-    }
-    s->after_fail = netf > s->fn_netf;
     /* The attempt's last stage (before any interpolation at the stop time calls the right-hand
      * side): what a table whose last stage is at the step's end hands the next step as f0. */
     if (s->f_last) {
@@ -436,7 +427,6 @@ static defsim_status erk_reinit(erk_state *s, double t0, N_Vector y0)
     memset(&s->base, 0, sizeof s->base);
     s->h_stab = 0.0;
     s->prior_e = 1.0;
-    s->fn_nst = -1;
     s->replay = 0;
     s->replay_f0 = 0;
     s->replay_wh = 0.0;
@@ -575,11 +565,12 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
 /* Checkpoints. ERKStep's public API cannot set its internal state (the step-size history, the
  * growth factor, the next step length, the state it continues from, which is not the
  * interpolated one it returns at the stop time), so a checkpoint holds what lets a loaded world
- * replay the last internal step: the state it started from, its length, the length its error
- * weights used, the controller's error history and growth cap, and the stability limit. The
+ * replay the last internal step: the state it started from (and its first-stage derivative where
+ * ERKStep reused one), its length, the length its error weights used, the controller's error
+ * history, and the stability limit and its age. The
  * replayed step leaves ERKStep exactly where the saved run's was, and the next step continues bit
  * for bit (README "Checkpoints"). Layout 2; layout 1 (the next step length only) still loads. */
-enum { ERK_LAYOUT = 2, ERK_INTS = 6, ERK_REALS = 6 };
+enum { ERK_LAYOUT = 2, ERK_INTS = 5, ERK_REALS = 6 };
 
 static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const void *state,
                               const defsim_state_writer *wr)
@@ -598,9 +589,8 @@ static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const
     ERKStepGetNumErrTestFails(s->mem, &netf);
     ERKStepGetNumExpSteps(s->mem, &nexp);
     ERKStepGetLastStep(s->mem, &h);
-    const int64_t ints[ERK_INTS] = {ERK_LAYOUT, s->after_fail, nst - s->stab_step,
-                                    netf - s->stab_etf, nexp - s->stab_exp,
-                                    s->f0_valid && !s->f0_called};
+    const int64_t ints[ERK_INTS] = {ERK_LAYOUT, nst - s->stab_step, netf - s->stab_etf,
+                                    nexp - s->stab_exp, s->f0_valid && !s->f0_called};
     const double reals[ERK_REALS] = {s->t, s->t0, h, s->w_h, s->h_stab, s->e_used};
     if ((st = wr->i64(wr->ctx, ints, ERK_INTS)) != DEFSIM_OK) return st;
     if ((st = wr->f64(wr->ctx, reals, ERK_REALS)) != DEFSIM_OK) return st;
@@ -644,7 +634,7 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     const double tout = reals[0], t0 = reals[1], h = reals[2];
     if (!isfinite(tout) || !isfinite(t0) || !(t0 < tout) || !(h > 0.0) || !isfinite(h) ||
         !(reals[3] >= 0.0) || !(reals[4] >= 0.0) || !(reals[5] >= 0.0) ||
-        (ints[1] != 0 && ints[1] != 1) || (ints[5] != 0 && ints[5] != 1))
+        (ints[4] != 0 && ints[4] != 1))
         return DEFSIM_ERR_IO;
     /* A run that drove pins in its last step restarts at the next one anyway. */
     if (s->sun.drove) return erk_restart(s);
@@ -658,14 +648,15 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     s->h_stab = reals[4];
     s->prior_e = reals[5];
     s->replay = 1;
-    s->replay_f0 = (int)ints[5];
+    s->replay_f0 = (int)ints[4];
     s->replay_wh = reals[3];
-    /* A step that followed a rejected attempt had its growth capped at 1 (any cap in (1, 2)
-     * gives the same length then: the no-change band makes it exactly 1). */
+    /* The saved step grew by at most ERKStep's growth factor, not its first-step one. (Never by
+     * the cap of 1 that follows a rejected attempt: the last step of a call lands on the stop
+     * time, and a retry is no longer than the rejected attempt, which did not pass the stop time
+     * and failed, so a retried step is never the last one.) */
     int flag = ERKStepSetInitStep(s->mem, h);
     s->hin_set = 1;
-    if (flag >= 0)
-        flag = ERKStepSetMaxFirstGrowth(s->mem, ints[1] ? nextafter(1.0, 2.0) : ERK_GROWTH);
+    if (flag >= 0) flag = ERKStepSetMaxFirstGrowth(s->mem, ERK_GROWTH);
     if (flag >= 0) flag = ERKStepSetStopTime(s->mem, tout);
     realtype tret = t0;
     if (flag >= 0) flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
@@ -696,10 +687,10 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
     ERKStepGetNumErrTestFails(s->mem, &netf);
     ERKStepGetNumExpSteps(s->mem, &nexp);
     s->f0_valid = 1;   /* what the replayed step started from, as saved */
-    s->f0_called = !ints[5];
-    s->stab_step = nst - ints[2];
-    s->stab_etf = netf - ints[3];
-    s->stab_exp = nexp - ints[4];
+    s->f0_called = !ints[4];
+    s->stab_step = nst - ints[1];
+    s->stab_etf = netf - ints[2];
+    s->stab_exp = nexp - ints[3];
     s->t = tout;
     /* The replayed step is in the saved statistics already. */
     ERKStepGetNumSteps(s->mem, &s->base.steps);

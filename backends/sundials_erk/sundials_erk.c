@@ -23,6 +23,10 @@
  * h lambda stays in the region (ERKStepSetStabilityFn), so that on stiff scenes the step sits
  * just under the stability limit instead of being found by rejected steps.
  *
+ * Checkpoints: the module supplies ERKStep's PI controller (erk_adapt, ERKStep's own formula and
+ * gains) so that the error history survives a restart, and a loaded world replays the saved last
+ * internal step to bring ERKStep's internal state back (erk_load).
+ *
  * Contents: constants and tables offered; options and counters; stability function and stable
  * step of a table; ERKStep callbacks (right-hand side, error weights, stability limit); set-up,
  * stepping and the backend table.
@@ -53,6 +57,13 @@
  * such slow growth of an undamped mode: at 1.01 the internal steps are as long as the error
  * control alone would make them, without its rejected steps (README "Stability"). */
 #define STAB_GROWTH 1e-2
+/* ERKStep's PI controller, supplied by the module (erk_adapt) so that its error history can be
+ * carried across a restart: the gains, error floor and largest growth per step of ERKStep 6.4's
+ * default (erkStep_SetDefaults), so that the steps are those of ERKStep's own controller. */
+#define PI_K1 0.8
+#define PI_K2 0.31
+#define PI_TINY 1e-10
+#define ERK_GROWTH 25.0
 
 /* The tables offered (ARKODE's embedded explicit pairs whose stability region contains a
  * segment of the imaginary axis: an undamped elastic body has its spectrum there, so a pair
@@ -129,6 +140,27 @@ typedef struct erk_state {
     long stab_step, stab_etf, stab_exp;   /* ERKStep's step, error-test failure and
                                              stability-limited step counts at that estimate */
     erk_counts base;
+    /* What a checkpoint needs to replay the last internal step (README "Checkpoints"): the state
+     * it started from (the last error-weight evaluation's y and time) and the step length those
+     * weights used; the error history its controller used. */
+    N_Vector y0;
+    double t0, w_h;
+    double prior_e;            /* error of the last step before the restart (ERKStep's 1) */
+    double e_used;             /* the previous step's error the last controller call used */
+    /* The derivative the last step's first stage used. With some tables (verner_6, fehlberg_8)
+     * ERKStep reuses the previous step's last evaluation, made at the step's end time but not at
+     * its result, so it is not f(t0, y0) and a replay must be handed it. */
+    N_Vector f0, f0_next;      /* the last step's last stage: the next step's f0 if reused */
+    const double *f_last;      /* the output of the last right-hand side call */
+    int f0_next_valid;         /* f0_next holds a stage of a step since the restart */
+    double t_end;              /* the last attempt's end time and state (ERKStep's ycur) */
+    const double *y_end;
+    int f0_valid;              /* f0 holds the previous step's last stage */
+    int f0_called;             /* the right-hand side ran at (t0, y0) after the weights */
+    int replay;                /* replaying a checkpoint's last step: the saved stability limit */
+    int replay_f0;             /* the replay's first right-hand side call returns the saved f0 */
+    double replay_wh;          /* and the saved weights' step length */
+    int hin_set;               /* ERKStepSetInitStep holds a step length: cleared at a restart */
 } erk_state;
 
 /* ------------------------------------------------------------------------------------------ */
@@ -221,6 +253,17 @@ static int erk_rhs(realtype t, N_Vector yy, N_Vector yd, void *user)
     erk_state *s = user;
     const double *y = N_VGetArrayPointer(yy);
     double *d = N_VGetArrayPointer(yd);
+    s->f_last = d;
+    if (s->replay_f0) {
+        s->replay_f0 = 0;
+        N_VScale(1.0, s->f0, yd);
+        return 0;
+    }
+    const size_t bytes = 2 * (size_t)s->n * sizeof *y;
+    if (t == s->t0 && memcmp(y, N_VGetArrayPointer(s->y0), bytes) == 0)
+        s->f0_called = 1;   /* (t0, y0) itself, not a stage at c = 0 (Fehlberg's 12th) */
+    if (t == s->t_end && s->y_end && memcmp(y, s->y_end, bytes) == 0)
+        s->f0_next_valid = 0;   /* f at the step's result: the next f0 is computed, not reused */
     scatter(s, y);
     /* Driven pins are not unknowns: on their paths at the stage time (their velocities are in
      * s->v from the restart, which each step that drives pins makes). */
@@ -243,6 +286,10 @@ static int erk_stability(N_Vector yy, realtype t, realtype *hstab, void *user)
 {
     (void)t;
     erk_state *s = user;
+    if (s->replay) {
+        *hstab = isfinite(s->h_stab) ? s->h_stab : 0.0;
+        return 0;
+    }
     long nst = 0, netf = 0, nexp = 0;
     ERKStepGetNumSteps(s->mem, &nst);
     ERKStepGetNumErrTestFails(s->mem, &netf);
@@ -275,14 +322,55 @@ static int erk_weights(N_Vector yv, N_Vector ewt, void *user)
     long nst = 0;
     realtype h = 0.0;
     ERKStepGetNumSteps(s->mem, &nst);
-    if (nst > 0) ERKStepGetLastStep(s->mem, &h);
+    if (nst == 0 && s->replay_wh > 0.0) h = s->replay_wh;
+    else if (nst > 0) ERKStepGetLastStep(s->mem, &h);
     else if (s->h_stab > 0.0 && isfinite(s->h_stab)) h = s->h_stab;
+    /* ERKStep evaluates the weights at the start of every internal step: remember that start. */
+    s->w_h = h;
+    N_VScale(1.0, yv, s->y0);
+    ERKStepGetCurrentTime(s->mem, &s->t0);
+    if (s->f0_next_valid) {
+        N_Vector tmp = s->f0;
+        s->f0 = s->f0_next;
+        s->f0_next = tmp;
+        s->f0_valid = 1;
+    } else if (nst > 0) {
+        s->f0_valid = 0;
+    }
+    s->f0_next_valid = 0;
+    s->f0_called = 0;
     double f = h > 0.0 ? fabs(h) / ERK_TOL_TIME : 1.0;
     if (f > 1.0) f = 1.0;
     if (f * s->rtol < ERK_TOL_FLOOR) f = ERK_TOL_FLOOR / s->rtol;
     const double *y = N_VGetArrayPointer(yv);
     double *w = N_VGetArrayPointer(ewt);
     for (int64_t i = 0; i < 2 * s->n; ++i) w[i] = 1.0 / (f * (s->rtol * fabs(y[i]) + s->atol));
+    return 0;
+}
+
+/* ERKStep's PI controller (its formula and gains), with the error history continued across a
+ * restart: ERKStepReInit resets ERKStep's history to 1, and the error from before the restart
+ * (prior_e) stands in until the new run has accepted a step. e1 is the biased error estimate of
+ * this attempt, e2 that of the last accepted step. */
+static int erk_adapt(N_Vector y, realtype t, realtype h1, realtype h2, realtype h3, realtype e1,
+                     realtype e2, realtype e3, int q, int p, realtype *hnew, void *user)
+{
+    (void)h2; (void)h3; (void)e3; (void)q;
+    erk_state *s = user;
+    long nst = 0;
+    ERKStepGetNumSteps(s->mem, &nst);
+    /* The attempt's last stage (before any interpolation at the stop time calls the right-hand
+     * side): what a table whose last stage is at the step's end hands the next step as f0. */
+    if (s->f_last) {
+        memcpy(N_VGetArrayPointer(s->f0_next), s->f_last, 2 * (size_t)s->n * sizeof(double));
+        s->f0_next_valid = 1;
+    }
+    s->t_end = t;
+    s->y_end = N_VGetArrayPointer(y);
+    const double ea = nst >= 1 ? e2 : s->prior_e;
+    s->e_used = ea;
+    const double k1 = -PI_K1 / p, k2 = PI_K2 / p;
+    *hnew = h1 * pow(e1 > PI_TINY ? e1 : PI_TINY, k1) * pow(ea > PI_TINY ? ea : PI_TINY, k2);
     return 0;
 }
 
@@ -328,6 +416,27 @@ static defsim_status erk_fail(erk_state *s, const char *call, int flag)
     return DEFSIM_ERR_NOT_CONVERGED;
 }
 
+/* Restarts ERKStep at (t0, y0) with a fresh step-size history. */
+static defsim_status erk_reinit(erk_state *s, double t0, N_Vector y0)
+{
+    int flag = 0;
+    if (s->hin_set) flag = ERKStepSetInitStep(s->mem, 0.0);   /* estimate the first step again */
+    s->hin_set = 0;
+    if (flag >= 0) flag = ERKStepReInit(s->mem, erk_rhs, t0, y0);
+    if (flag < 0) return erk_fail(s, "ERKStepReInit", flag);
+    memset(&s->base, 0, sizeof s->base);
+    s->h_stab = 0.0;
+    s->prior_e = 1.0;
+    s->replay = 0;
+    s->replay_f0 = 0;
+    s->replay_wh = 0.0;
+    s->f_last = NULL;
+    s->f0_next_valid = s->f0_valid = 0;
+    s->y_end = NULL;
+    s->sun.need_reinit = 0;
+    return DEFSIM_OK;
+}
+
 /* Restarts ERKStep from the world's state (a fresh step-size history). */
 static defsim_status erk_restart(erk_state *s)
 {
@@ -336,12 +445,7 @@ static defsim_status erk_restart(erk_state *s)
     memcpy(s->v, s->host->velocities(s->sys), bytes);
     defsim__sun_gather(s->free_dofs, s->n, s->x, s->v, N_VGetArrayPointer(s->y));
     s->t = s->host->time(s->sys);
-    int flag = ERKStepReInit(s->mem, erk_rhs, s->t, s->y);
-    if (flag < 0) return erk_fail(s, "ERKStepReInit", flag);
-    memset(&s->base, 0, sizeof s->base);
-    s->h_stab = 0.0;
-    s->sun.need_reinit = 0;
-    return DEFSIM_OK;
+    return erk_reinit(s, s->t, s->y);
 }
 
 static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
@@ -352,6 +456,11 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->mem = NULL;
     if (s->y) N_VDestroy(s->y);
     s->y = NULL;
+    if (s->y0) N_VDestroy(s->y0);
+    s->y0 = NULL;
+    if (s->f0) N_VDestroy(s->f0);
+    if (s->f0_next) N_VDestroy(s->f0_next);
+    s->f0 = s->f0_next = NULL;
     if (s->bt) ARKodeButcherTable_Free(s->bt);
     s->bt = NULL;
     defsim__sun_close(&s->sun);
@@ -400,11 +509,17 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     defsim_status st = defsim__sun_open(&s->sun, host, sys);
     if (st != DEFSIM_OK) return st;
     s->y = N_VNew_Serial((sunindextype)(2 * s->n), s->sun.ctx);
-    if (!s->y) {
+    s->y0 = s->y ? N_VClone(s->y) : NULL;
+    s->f0 = s->y ? N_VClone(s->y) : NULL;
+    s->f0_next = s->y ? N_VClone(s->y) : NULL;
+    if (!s->y || !s->y0 || !s->f0 || !s->f0_next) {
         host->set_error(sys, "sundials_erk: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     N_VConst(0.0, s->y);
+    N_VConst(0.0, s->y0);
+    N_VConst(0.0, s->f0);
+    N_VConst(0.0, s->f0_next);
     s->mem = ERKStepCreate(erk_rhs, host->time(sys), s->y, s->sun.ctx);
     if (!s->mem) {
         host->set_error(sys, "sundials_erk: ERKStepCreate failed (out of memory)");
@@ -415,6 +530,8 @@ static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void 
     SET(ERKStepWFtolerances(s->mem, erk_weights));
     SET(ERKStepSetTableNum(s->mem, tables[s->table].id));
     SET(ERKStepSetMaxNumSteps(s->mem, (long)o[O_MAX_STEPS]));
+    SET(ERKStepSetAdaptivityFn(s->mem, erk_adapt, s));
+    SET(ERKStepSetMaxGrowth(s->mem, ERK_GROWTH));
     if (o[O_STAB_LIMIT] != 0.0) {
         SET(ERKStepSetStabilityFn(s->mem, erk_stability, s));
         SET(ERKStepSetCFLFraction(s->mem, o[O_STAB_SAFETY]));
@@ -445,42 +562,143 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
-/* Checkpoints. ERKStep's public API can set the next step size (ERKStepSetInitStep) but not
- * the error controller's history of past errors and steps, so a loaded world continues with the
- * saved step size and a fresh controller: close to the saved run, not bit for bit (README
- * "Checkpoints" gives the measured difference). */
+/* Checkpoints. ERKStep's public API cannot set its internal state (the step-size history, the
+ * growth factor, the next step length, the state it continues from, which is not the
+ * interpolated one it returns at the stop time), so a checkpoint holds what lets a loaded world
+ * replay the last internal step: the state it started from (and its first-stage derivative where
+ * ERKStep reused one), its length, the length its error weights used, the controller's error
+ * history, and the stability limit and its age. The
+ * replayed step leaves ERKStep exactly where the saved run's was, and the next step continues bit
+ * for bit (README "Checkpoints"). Layout 2; layout 1 (the next step length only) still loads. */
+enum { ERK_LAYOUT = 2, ERK_INTS = 5, ERK_REALS = 6 };
+
 static defsim_status erk_save(const defsim_host *host, defsim_system *sys, const void *state,
                               const defsim_state_writer *wr)
 {
     (void)host;
     (void)sys;
     erk_state *s = (erk_state *)state;   /* ERKStep's getters take a non-const memory */
-    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n);
+    long nst = 0;
+    if (s->mem) ERKStepGetNumSteps(s->mem, &nst);
+    /* No step since the restart: the next step restarts from the world's state anyway. */
+    const int history = defsim__sun_has_history(&s->sun, s->mem, s->n) && nst > 0;
     defsim_status st = defsim__sun_save_flags(&s->sun, history, wr);
     if (st != DEFSIM_OK || !history) return st;
+    long netf = 0, nexp = 0;
     realtype h = 0.0;
-    ERKStepGetCurrentStep(s->mem, &h);
-    const double reals[3] = {h, s->t, s->h_stab};
-    return wr->f64(wr->ctx, reals, 3);
+    ERKStepGetNumErrTestFails(s->mem, &netf);
+    ERKStepGetNumExpSteps(s->mem, &nexp);
+    ERKStepGetLastStep(s->mem, &h);
+    const int64_t ints[ERK_INTS] = {ERK_LAYOUT, nst - s->stab_step, netf - s->stab_etf,
+                                    nexp - s->stab_exp, s->f0_valid && !s->f0_called};
+    const double reals[ERK_REALS] = {s->t, s->t0, h, s->w_h, s->h_stab, s->e_used};
+    if ((st = wr->i64(wr->ctx, ints, ERK_INTS)) != DEFSIM_OK) return st;
+    if ((st = wr->f64(wr->ctx, reals, ERK_REALS)) != DEFSIM_OK) return st;
+    if ((st = wr->f64(wr->ctx, N_VGetArrayPointer(s->y0), 2 * s->n)) != DEFSIM_OK) return st;
+    return wr->f64(wr->ctx, N_VGetArrayPointer(s->f0), 2 * s->n);
+}
+
+/* Layout 1 (before the replay): the next step length, the time, the stability limit. The world
+ * restarts from its state with that step length: close to the saved run, not bit for bit. */
+static defsim_status erk_load_layout1(erk_state *s, const defsim_state_reader *rd)
+{
+    double reals[3];
+    if (rd->f64(rd->ctx, reals, 3) != DEFSIM_OK) return DEFSIM_ERR_IO;
+    if (!(reals[0] > 0.0) || !isfinite(reals[0]) || !(reals[2] >= 0.0)) return DEFSIM_ERR_IO;
+    defsim_status st = erk_restart(s);
+    if (st != DEFSIM_OK) return st;
+    int flag = ERKStepSetInitStep(s->mem, reals[0]);
+    if (flag < 0) return erk_fail(s, "ERKStepSetInitStep", flag);
+    s->hin_set = 1;
+    s->t = reals[1];
+    s->h_stab = reals[2];
+    return DEFSIM_OK;
 }
 
 static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void *state,
                               const defsim_state_reader *rd)
 {
-    (void)host;
-    (void)sys;
     erk_state *s = state;
     int history = 0;
     defsim_status st = defsim__sun_load_flags(&s->sun, rd, &history);
     if (st != DEFSIM_OK || !history) return st;   /* without one, the next step restarts */
-    double reals[3];
-    if (s->n == 0 || (st = rd->f64(rd->ctx, reals, 3)) != DEFSIM_OK) return DEFSIM_ERR_IO;
-    if (!(reals[0] > 0.0) || !isfinite(reals[0]) || !(reals[2] >= 0.0)) return DEFSIM_ERR_IO;
-    if ((st = erk_restart(s)) != DEFSIM_OK) return st;
-    int flag = ERKStepSetInitStep(s->mem, reals[0]);
-    if (flag < 0) return erk_fail(s, "ERKStepSetInitStep", flag);
-    s->t = reals[1];
-    s->h_stab = reals[2];
+    if (s->n == 0) return DEFSIM_ERR_IO;
+    if (rd->remaining(rd->ctx) == 3) return erk_load_layout1(s, rd);
+    int64_t ints[ERK_INTS];
+    double reals[ERK_REALS];
+    if (rd->i64(rd->ctx, ints, ERK_INTS) != DEFSIM_OK || ints[0] != ERK_LAYOUT ||
+        rd->f64(rd->ctx, reals, ERK_REALS) != DEFSIM_OK ||
+        rd->f64(rd->ctx, N_VGetArrayPointer(s->y0), 2 * s->n) != DEFSIM_OK ||
+        rd->f64(rd->ctx, N_VGetArrayPointer(s->f0), 2 * s->n) != DEFSIM_OK)
+        return DEFSIM_ERR_IO;
+    const double tout = reals[0], t0 = reals[1], h = reals[2];
+    if (!isfinite(tout) || !isfinite(t0) || !(t0 < tout) || !(h > 0.0) || !isfinite(h) ||
+        !(reals[3] >= 0.0) || !(reals[4] >= 0.0) || !(reals[5] >= 0.0) ||
+        (ints[4] != 0 && ints[4] != 1))
+        return DEFSIM_ERR_IO;
+    /* A run that drove pins in its last step restarts at the next one anyway. */
+    if (s->sun.drove) return erk_restart(s);
+    /* Replay the last internal step from where it started, with what decided its length (the
+     * pinned entries of x and v are the world's: they do not move without a drive). */
+    const size_t bytes = (size_t)s->ndof * sizeof(double);
+    memcpy(s->x, host->positions(sys), bytes);
+    memcpy(s->v, host->velocities(sys), bytes);
+    N_VScale(1.0, s->y0, s->y);
+    if ((st = erk_reinit(s, t0, s->y)) != DEFSIM_OK) return st;
+    s->h_stab = reals[4];
+    s->prior_e = reals[5];
+    s->replay = 1;
+    s->replay_f0 = (int)ints[4];
+    s->replay_wh = reals[3];
+    /* The saved step grew by at most ERKStep's growth factor, not its first-step one. (Never by
+     * the cap of 1 that follows a rejected attempt: the last step of a call lands on the stop
+     * time, and a retry is no longer than the rejected attempt, which did not pass the stop time
+     * and failed, so a retried step is never the last one.) */
+    int flag = ERKStepSetInitStep(s->mem, h);
+    s->hin_set = 1;
+    if (flag >= 0) flag = ERKStepSetMaxFirstGrowth(s->mem, ERK_GROWTH);
+    if (flag >= 0) flag = ERKStepSetStopTime(s->mem, tout);
+    realtype tret = t0;
+    if (flag >= 0) flag = ERKStepEvolve(s->mem, tout, s->y, &tret, ARK_NORMAL);
+    s->replay = 0;
+    s->replay_f0 = 0;
+    s->replay_wh = 0.0;
+    if (flag < 0) return erk_fail(s, "ERKStepEvolve (replaying the saved step)", flag);
+    long nst = 0;
+    ERKStepGetNumSteps(s->mem, &nst);
+    /* Back to ERKStep's first-step growth for later restarts. The initial step stays set until
+     * the next restart clears it (erk_reinit): ERKStepSetInitStep on a running integrator also
+     * resets its error history. */
+    ERKStepSetMaxFirstGrowth(s->mem, 0.0);
+    /* The replay must land on the saved state in one step; otherwise the file does not belong to
+     * this build (another SUNDIALS, another machine): continue from the world's state. */
+    const double *x = host->positions(sys), *v = host->velocities(sys);
+    const double *y = N_VGetArrayPointer(s->y);
+    int same = nst == 1;
+    for (int64_t i = 0; i < s->n && same; ++i)
+        same = memcmp(&x[s->free_dofs[i]], &y[i], sizeof *y) == 0 &&
+               memcmp(&v[s->free_dofs[i]], &y[s->n + i], sizeof *y) == 0;
+    if (!same) {
+        if ((st = erk_restart(s)) != DEFSIM_OK) return st;
+        s->h_stab = reals[4];
+        return DEFSIM_OK;
+    }
+    long netf = 0, nexp = 0;
+    ERKStepGetNumErrTestFails(s->mem, &netf);
+    ERKStepGetNumExpSteps(s->mem, &nexp);
+    s->f0_valid = 1;   /* what the replayed step started from, as saved */
+    s->f0_called = !ints[4];
+    s->stab_step = nst - ints[1];
+    s->stab_etf = netf - ints[2];
+    s->stab_exp = nexp - ints[3];
+    s->t = tout;
+    /* The replayed step is in the saved statistics already. */
+    ERKStepGetNumSteps(s->mem, &s->base.steps);
+    ERKStepGetNumStepAttempts(s->mem, &s->base.attempts);
+    ERKStepGetNumRhsEvals(s->mem, &s->base.rhs);
+    ERKStepGetNumErrTestFails(s->mem, &s->base.etf);
+    ERKStepGetNumExpSteps(s->mem, &s->base.stab);
+    ERKStepGetNumAccSteps(s->mem, &s->base.acc);
     return DEFSIM_OK;
 }
 

@@ -36,6 +36,7 @@
 /* IDA's memory layout (installed by SUNDIALS 6.x with its headers): checkpoints save and restore
  * the BDF history that IDA's public API can read in part but not set. */
 #include <ida/ida_impl.h>
+#include <sunlinsol/sunlinsol_klu.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
 #ifdef DEFSIM_IDA_CHOLMOD
@@ -145,6 +146,12 @@ typedef struct ida_state {
     double fcheck_t;           /* tn of fcheck */
     int fcheck_valid;
     int bound;                 /* calls left that end exactly at t + h (IDA_BOUND_CALLS) */
+    /* KLU keeps the pivots of its last fresh factorisation (the first after a restart, or one
+     * its condition estimate forced) through later refactorisations: the matrix values that
+     * chose them, the values of the last set-up, and how that set-up factorised. */
+    double *jpiv, *jlast;
+    int klu_first;             /* the last set-up was the solver's first since its init */
+    int klu_setups;            /* set-ups since the restart (0: jlast holds nothing) */
 } ida_state;
 
 static void scatter(ida_state *s, const double *y)
@@ -171,11 +178,28 @@ static int ida_residual(realtype t, N_Vector yy, N_Vector yp, N_Vector rr, void 
     return 0;
 }
 
+/* Whether KLU's last set-up factorised afresh (chose pivots): its first after an init, or a
+ * refactorisation whose condition estimates sent it to a new factorisation (SUNLinSol_KLU 6.4:
+ * rcond below eps^(2/3), then condest above its inverse). */
+static int klu_last_fresh(const ida_state *s)
+{
+    if (s->klu_first) return 1;
+    const sun_klu_common *c = SUNLinSol_KLUGetCommon(s->sun.LS);
+    const double u23 = pow(DBL_EPSILON, 2.0 / 3.0);
+    return c->rcond < u23 && c->condest > 1.0 / u23;
+}
+
 static int ida_jacobian(realtype t, realtype cj, N_Vector yy, N_Vector yp, N_Vector rr,
                         SUNMatrix J, void *user, N_Vector t1, N_Vector t2, N_Vector t3)
 {
     (void)t; (void)yp; (void)rr; (void)t1; (void)t2; (void)t3;
     ida_state *s = user;
+    /* The set-up before this one chose pivots: its matrix is what a checkpoint must save. */
+    if (s->klu_setups > 0 && !s->klu_first && klu_last_fresh(s)) {
+        double *tmp = s->jpiv;
+        s->jpiv = s->jlast;
+        s->jlast = tmp;
+    }
     const int64_t n = s->n;
     scatter(s, N_VGetArrayPointer(yy));
     const defsim_matrix_coeffs ck = {1.0, 0.0, 0.0, 0.0};
@@ -204,6 +228,11 @@ static int ida_jacobian(realtype t, realtype cj, N_Vector yy, N_Vector yp, N_Vec
         else
             a[p++] = (cj + s->af[j]) * s->mf[j];
     }
+    /* IDA calls the set-up next, with these values. */
+    memcpy(s->jlast, a, (size_t)s->jnnz * sizeof *a);
+    s->klu_first = ((SUNLinearSolverContent_KLU)s->sun.LS->content)->first_factorize != 0;
+    if (s->klu_first) memcpy(s->jpiv, a, (size_t)s->jnnz * sizeof *a);
+    ++s->klu_setups;
     return 0;
 }
 
@@ -521,6 +550,8 @@ static defsim_status ida_restart(ida_state *s)
     int flag = IDAReInit(s->mem, s->t, s->y, s->yp);
     if (flag < 0) return ida_fail(s, "IDAReInit", flag);
     memset(&s->base, 0, sizeof s->base);
+    s->klu_setups = 0;
+    s->klu_first = 0;
     s->sun.need_reinit = 0;
     s->fcheck_valid = 0;
     s->bound = 0;
@@ -546,6 +577,8 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
     defsim__sun_close(&s->sun);
     host->release(s->jcp); host->release(s->jri);
     host->release(s->kval); host->release(s->bval);
+    host->release(s->jpiv); host->release(s->jlast);
+    s->jpiv = s->jlast = NULL;
     host->release(s->mf); host->release(s->af);
     host->release(s->x); host->release(s->v); host->release(s->f);
     host->release(s->fcheck);
@@ -596,7 +629,9 @@ static defsim_status klu_create(ida_state *s)
     s->jri = defsim__sun_calloc(host, (size_t)s->jnnz, sizeof *s->jri);
     s->kval = defsim__sun_calloc(host, (size_t)knnz, sizeof *s->kval);
     s->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)knnz, sizeof *s->bval) : NULL;
-    if (!s->jcp || !s->jri || !s->kval || (s->damp_b && !s->bval)) {
+    s->jpiv = defsim__sun_calloc(host, (size_t)s->jnnz, sizeof *s->jpiv);
+    s->jlast = defsim__sun_calloc(host, (size_t)s->jnnz, sizeof *s->jlast);
+    if (!s->jcp || !s->jri || !s->kval || (s->damp_b && !s->bval) || !s->jpiv || !s->jlast) {
         host->set_error(s->sys, "sundials_ida: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -753,9 +788,10 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
 /* ------------------------------------------------------------------------------------------ */
 /* Checkpoints: IDA's whole step history (the divided differences phi, the coefficients, step
  * size, order and the counters its heuristics read), and the Newton matrix of the last set-up,
- * which is factorised again on load. CHOLMOD factorises the same values into the same bits;
- * KLU's first factorisation after a restart chooses pivots that later refactorisations keep, so
- * a KLU run loaded mid-history pivots from the restored matrix instead (README "Checkpoints"). */
+ * which is factorised again on load. CHOLMOD factorises the same values into the same bits.
+ * KLU's first factorisation after a restart chooses pivots that later refactorisations keep: a
+ * KLU checkpoint also holds the matrix that chose them (unless the last set-up did), which the
+ * load factorises before refactorising the last one (README "Checkpoints"). */
 
 enum { IDA_HIST_INTS = 15, IDA_HIST_REALS = 5 * MXORDP1 + 18 };
 
@@ -851,8 +887,15 @@ static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const
         if (st == DEFSIM_OK && s->damp_b) st = wr->f64(wr->ctx, ch->bval, ch->upat.nnz);
     }
 #endif
-    if (s->solver == LS_KLU) st = wr->f64(wr->ctx, SUNSparseMatrix_Data(s->sun.J), s->jnnz);
     if (st != DEFSIM_OK) return st;
+    if (s->solver == LS_KLU) {
+        if ((st = wr->f64(wr->ctx, SUNSparseMatrix_Data(s->sun.J), s->jnnz)) != DEFSIM_OK)
+            return st;
+        /* Whether that set-up chose its pivots, and if not, the matrix that did. */
+        const int64_t fresh = klu_last_fresh(s);
+        if ((st = wr->i64(wr->ctx, &fresh, 1)) != DEFSIM_OK) return st;
+        if (!fresh && (st = wr->f64(wr->ctx, s->jpiv, s->jnnz)) != DEFSIM_OK) return st;
+    }
     /* Appended last (payloads written before IDA stepped past the world's time end here): the
      * forces the next call compares (forces_changed) and the exact-end calls left. */
     const int64_t check[2] = {s->fcheck_valid, s->bound};
@@ -931,11 +974,32 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
         SUNMatrix J = s->sun.J;
         memcpy(SUNSparseMatrix_IndexPointers(J), s->jcp, (size_t)(2 * s->n + 1) * sizeof *s->jcp);
         memcpy(SUNSparseMatrix_IndexValues(J), s->jri, (size_t)s->jnnz * sizeof *s->jri);
-        if ((st = rd->f64(rd->ctx, SUNSparseMatrix_Data(J), s->jnnz)) != DEFSIM_OK) return st;
+        double *a = SUNSparseMatrix_Data(J);
+        if ((st = rd->f64(rd->ctx, a, s->jnnz)) != DEFSIM_OK) return st;
+        memcpy(s->jlast, a, (size_t)s->jnnz * sizeof *a);
+        /* Files before the pivot matrix was saved end here: pivots from the saved matrix. */
+        int64_t fresh = 1;
+        if (rd->remaining(rd->ctx) > 0 && (st = rd->i64(rd->ctx, &fresh, 1)) != DEFSIM_OK)
+            return st;
+        if (fresh != 0 && fresh != 1) return DEFSIM_ERR_IO;
+        /* The same pivots as the saved run: factorise the matrix that chose them, then
+         * refactorise the last set-up's values with them, as the saved run did. */
+        if (!fresh) {
+            if ((st = rd->f64(rd->ctx, s->jpiv, s->jnnz)) != DEFSIM_OK) return st;
+            memcpy(a, s->jpiv, (size_t)s->jnnz * sizeof *a);
+            if (SUNLinSolSetup(s->sun.LS, J) != SUNLS_SUCCESS) {
+                host->set_error(sys, "sundials_ida: the saved pivot matrix does not factorise");
+                return DEFSIM_ERR_IO;
+            }
+            memcpy(a, s->jlast, (size_t)s->jnnz * sizeof *a);
+        }
         if (SUNLinSolSetup(s->sun.LS, J) != SUNLS_SUCCESS) {
             host->set_error(sys, "sundials_ida: the saved Newton matrix does not factorise");
             return DEFSIM_ERR_IO;
         }
+        if (fresh) memcpy(s->jpiv, a, (size_t)s->jnnz * sizeof *a);
+        s->klu_first = (int)fresh;
+        s->klu_setups = 1;
     }
     if (rd->remaining(rd->ctx) > 0) {
         int64_t check[2];

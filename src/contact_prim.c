@@ -380,6 +380,12 @@ static double ee_d2(const double *x)
     return defsim__ee_dist2(x, x + 3, x + 6, x + 9, NULL, NULL, NULL);
 }
 
+/* x holds p, e0, e1 and a copy of e1 (accd's four vertices). */
+static double pe_d2(const double *x)
+{
+    return defsim__pe_dist2(x, x + 3, x + 6, NULL, NULL, NULL);
+}
+
 static double norm3(const double *a) { return sqrt(dot3(a, a)); }
 
 /* first: how many of the four vertices form the first primitive (1 for PT, 2 for EE). */
@@ -426,4 +432,17 @@ double defsim__ee_accd(const double x[12], const double dx[12], double s, double
                        int max_iterations)
 {
     return accd(ee_d2, 2, x, dx, s, tmax, max_iterations);
+}
+
+double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
+                       int max_iterations)
+{
+    /* The edge's end repeated as a fourth vertex: it moves with the edge, so the bound on the
+     * relative motion is unchanged. */
+    double x4[12], d4[12];
+    memcpy(x4, x, 9 * sizeof *x);
+    memcpy(d4, dx, 9 * sizeof *dx);
+    memcpy(x4 + 9, x + 6, 3 * sizeof *x);
+    memcpy(d4 + 9, dx + 6, 3 * sizeof *dx);
+    return accd(pe_d2, 1, x4, d4, s, tmax, max_iterations);
 }

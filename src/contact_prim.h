@@ -58,5 +58,8 @@ double defsim__pt_accd(const double x[12], const double dx[12], double s, double
                        int max_iterations);
 double defsim__ee_accd(const double x[12], const double dx[12], double s, double tmax,
                        int max_iterations);
+/* The same for a point p and a segment (e0, e1): x and dx hold p, e0, e1 (9 doubles). */
+double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
+                       int max_iterations);
 
 #endif /* DEFSIM_CONTACT_PRIM_H */

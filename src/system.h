@@ -55,6 +55,12 @@ typedef struct defsim__pattern {
     int64_t *upper_col_ptr, *upper_row_idx;
     int64_t full_nnz, upper_nnz;
     int32_t *upper_rank0;     /* per free vertex: neighbours ranked below it (for UPPER) */
+    /* Vertex pairs that body contact added (body_contact.h): (fa << 32 | fb), fa < fb free
+     * vertices, sorted, unique; kept until the plan changes. version counts the pattern's
+     * builds (the host's matrix_pattern_version). */
+    int64_t *extra;
+    int64_t nextra;
+    uint64_t version;
 } defsim__pattern;
 
 /* Attachments (attach.c): zero-rest-length springs on d = sum_j a_j x[node_j] - p, energy
@@ -107,6 +113,9 @@ typedef struct defsim__system {
     /* Contact with the world's colliders (contact.h): set by the world for its steps while it
      * has live colliders, else NULL. Evaluations may grow its candidate pairs. */
     struct defsim__contact *contact;
+    /* Body-body and self-contact (body_contact.h): set by the world for its steps while the
+     * option body_contact is on, else NULL. */
+    struct defsim__body_contact *body_contact;
 } defsim__system;
 
 /* Scratch that physics functions write (sized by the planner, so that no step allocates). */

@@ -173,7 +173,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
-    _Static_assert(DEFSIM__CSTAT_COUNT == DEFSIM__CONTACT_STATS,
+    _Static_assert((int)DEFSIM__CSTAT_COUNT == (int)DEFSIM__CONTACT_STATS,
                    "contact.h's statistics and options.c's names must agree");
     w->options.contact_stats = w->contact.stat;
     *out = w;
@@ -207,6 +207,7 @@ void defsim__world_backend_stop(defsim_world *w) { backend_fini(w); }
 void defsim__world_unplan(defsim_world *w)
 {
     defsim__unplan(&w->sys, &w->work);
+    defsim__body_contact_unplan(&w->body_contact);
     w->planned = 0;
     defsim__watchdog_forget(&w->wd, 1);
 }
@@ -306,6 +307,7 @@ void defsim_world_destroy(defsim_world *w)
     defsim__coupling_free(w);
     defsim__colliders_free(w);
     defsim__contact_free(&w->contact);
+    defsim__body_contact_free(&w->body_contact);
     free(w->msg);
     defsim__options_free(&w->options);
     w->magic = DEFSIM__WORLD_DEAD;
@@ -796,7 +798,10 @@ defsim_status defsim_body_set_collision(defsim_world *w, defsim_body_id id, int3
                       (int)self_contact);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    /* Body contact reads the filter at each step's start: no re-plan. */
+    /* Body contact reads the filter at each step's start: no re-plan; pairs it let in may
+     * cross already. */
+    if (b->self_contact != self_contact || b->group != group || b->mask != mask)
+        w->body_contact.fresh = 1;
     b->self_contact = self_contact;
     b->group = group;
     b->mask = mask;
@@ -870,6 +875,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
     if (v) memcpy(w->state.v, v, bytes);
     w->h_stable = 0.0;
     defsim__watchdog_forget(&w->wd, 0);
+    w->body_contact.fresh = 1;   /* the host's state may have crossing surfaces */
     for (int32_t i = 0; i < w->nv; ++i)
         if (w->pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend_ready && w->backend->reset) {
@@ -1198,6 +1204,72 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     return DEFSIM_OK;
 }
 
+/* Body contact (body_contact.h) for a step of h while the option is on (the step refused
+ * backends without contact CCD already). */
+static defsim_status body_begin(defsim_world *w, double h)
+{
+    w->sys.body_contact = NULL;
+    const defsim__options *o = &w->options;
+    if (defsim__options_core(o, DEFSIM__OPT_BODY_CONTACT) == 0.0) {
+        w->body_contact_last = 0;
+        return DEFSIM_OK;
+    }
+    if (!w->body_contact_last) w->body_contact.fresh = 1;
+    w->body_contact_last = 1;
+    const defsim_status st = defsim__body_contact_begin(
+        &w->body_contact, &w->sys, w->bodies, w->nbodies,
+        defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
+        defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
+        defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V), w->x_save, w->state.v, h,
+        w->contact.stat, w->msg);
+    if (st == DEFSIM_OK) w->sys.body_contact = &w->body_contact;
+    return st;
+}
+
+/* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
+ * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
+static defsim_status body_end(defsim_world *w, defsim_status st)
+{
+    defsim__body_contact *bc = w->sys.body_contact;
+    w->sys.body_contact = NULL;
+    if (!bc || st != DEFSIM_OK) return st;
+    if (bc->failed) {
+        defsim__error(w->msg, "out of memory for body contact pairs; state restored");
+        return bc->failed;
+    }
+    const double dmin = defsim__body_contact_end(bc, w->state.x, bc->scratch);
+    if (defsim__options_core(&w->options, DEFSIM__OPT_WATCHDOG) != 0.0 && !(dmin > 0.0)) {
+        w->stats.watchdog_trips++;
+        defsim__error(w->msg, "step: watchdog: two body surfaces touched (distance %g m) although "
+                      "the contact barrier forbids it; state restored. This is a defect: please "
+                      "report it with the scene", dmin);
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    return DEFSIM_OK;
+}
+
+/* Adds body contact's forces of a successful step to the read-back (after the colliders'). */
+static defsim_status body_readback(defsim_world *w, int colliders)
+{
+    if (!w->contact_force || w->contact_nv != w->nv) {
+        free(w->contact_force);
+        w->contact_nv = 0;
+        w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
+        if (!w->contact_force) {
+            defsim__error(w->msg, "out of memory for the contact forces");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        w->contact_nv = w->nv;
+    } else if (!colliders) {
+        memset(w->contact_force, 0, 3 * (size_t)w->nv * sizeof *w->contact_force);
+    }
+    const double *f = w->body_contact.scratch;
+    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i) w->contact_force[i] += f[i];
+    w->contact_zero = 0;
+    w->contact.readback_set = 1;
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_world_step(defsim_world *w, double h)
 {
     defsim_status st = defsim__world_enter(w);
@@ -1245,6 +1317,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                         (w->backend->stable_step || w->backend->stable_step_options);
     st = defsim__coupling_step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
+    if (st == DEFSIM_OK) st = body_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -1285,7 +1358,10 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     st = defsim__coupling_step_end(w, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
+    const int bodies = w->sys.body_contact != NULL, colliders = w->sys.contact != NULL;
+    st = body_end(w, st);
     st = contact_end(w, st);
+    if (st == DEFSIM_OK && bodies) st = body_readback(w, colliders);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);

@@ -173,6 +173,8 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
+    _Static_assert(DEFSIM__CSTAT_COUNT == DEFSIM__CONTACT_STATS,
+                   "contact.h's statistics and options.c's names must agree");
     w->options.contact_stats = w->contact.stat;
     *out = w;
     return DEFSIM_OK;
@@ -283,8 +285,9 @@ defsim_status defsim__world_plan(defsim_world *w)
 static void body_free(defsim__body *b)
 {
     free(b->rest); free(b->mass); free(b->tets); free(b->springs); free(b->k); free(b->pinned);
+    free(b->tris); free(b->edges);
     b->rest = b->mass = b->k = NULL;
-    b->tets = b->springs = NULL;
+    b->tets = b->springs = b->tris = b->edges = NULL;
     b->pinned = NULL;
 }
 
@@ -326,6 +329,10 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.size = (uint32_t)sizeof d;
     defsim_material_init(&d.material, sizeof d.material, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     d.shear_stiffness = d.bend_stiffness = -1.0;
+    d.self_contact = 1;
+    d.collision_group = 1u;
+    d.collision_mask = 0xFFFFFFFFu;
+    d.friction = 0.5;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -458,6 +465,17 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__error(w->msg, "add_body: give spring_stiffness or spring_kinds, not both");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
+    if (d.triangle_count < 0 || d.triangle_count > INT32_MAX / 6 ||
+        (d.triangle_count > 0 && !d.triangles) || (d.self_contact != 0 && d.self_contact != 1)) {
+        defsim__error(w->msg, "add_body: triangle_count %d must be >= 0 (with triangles for a "
+                              "non-zero count) and self_contact %d 0 or 1",
+                      (int)d.triangle_count, (int)d.self_contact);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!isfinite(d.friction) || d.friction < 0.0 || d.friction > 10.0) {
+        defsim__error(w->msg, "add_body: friction %g must be in [0, 10]", d.friction);
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
     st = validate_array(w, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
     if (st == DEFSIM_OK && d.initial_positions)
@@ -470,13 +488,27 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     memset(&b, 0, sizeof b);
     b.nv = nv; b.nt = nt; b.ns = ns;
     b.mat = d.material;
+    b.self_contact = d.self_contact;
+    b.group = d.collision_group;
+    b.mask = d.collision_mask;
+    b.friction = d.friction;
+    /* Contact edges of a rope: its stretch springs (all springs without kinds). */
+    int32_t nedge = 0;
+    if (nt == 0 && d.triangle_count == 0)
+        for (int32_t s = 0; s < ns; ++s)
+            nedge += !d.spring_kinds || d.spring_kinds[s] == DEFSIM_SPRING_STRETCH;
+    b.ntri = d.triangle_count;
+    b.nedge = nedge;
+    if (b.ntri > 0) b.tris = malloc(3 * (size_t)b.ntri * sizeof *b.tris);
+    if (nedge > 0) b.edges = malloc(2 * (size_t)nedge * sizeof *b.edges);
     b.rest = malloc(3 * (size_t)nv * sizeof *b.rest);
     b.mass = calloc((size_t)nv, sizeof *b.mass);
     b.pinned = calloc((size_t)nv, 1);
     b.tets = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *b.tets);
     b.springs = malloc((size_t)(ns > 0 ? ns : 1) * 2 * sizeof *b.springs);
     b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
-    if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k) {
+    if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k ||
+        (b.ntri > 0 && !b.tris) || (nedge > 0 && !b.edges)) {
         body_free(&b);
         defsim__error(w->msg, "out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -487,6 +519,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__lame(b.mat.youngs_modulus, b.mat.poisson_ratio, &b.mu, &b.lambda);
     }
     if (ns > 0) memcpy(b.springs, d.springs, 2 * (size_t)ns * sizeof *b.springs);
+    if (b.ntri > 0) memcpy(b.tris, d.triangles, 3 * (size_t)b.ntri * sizeof *b.tris);
+    for (int32_t s = 0, e = 0; e < nedge; ++s)
+        if (!d.spring_kinds || d.spring_kinds[s] == DEFSIM_SPRING_STRETCH) {
+            b.edges[2 * (int64_t)e] = d.springs[2 * (int64_t)s];
+            b.edges[2 * (int64_t)e + 1] = d.springs[2 * (int64_t)s + 1];
+            ++e;
+        }
 
     int32_t reordered = 0;
     st = DEFSIM_ERR_INVALID_MESH;
@@ -551,6 +590,17 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
             goto fail;
         }
         b.k[s] = k;
+    }
+    for (int32_t t = 0; t < b.ntri; ++t) {
+        const int32_t *tt = b.tris + 3 * (int64_t)t;
+        if (tt[0] < 0 || tt[0] >= nv || tt[1] < 0 || tt[1] >= nv || tt[2] < 0 || tt[2] >= nv ||
+            tt[0] == tt[1] || tt[1] == tt[2] || tt[0] == tt[2]) {
+            defsim__error(w->msg, "add_body: triangle %d (%d %d %d) has an index out of range "
+                                  "[0, %d) or repeats a vertex", (int)t, (int)tt[0], (int)tt[1],
+                          (int)tt[2], (int)nv);
+            st = DEFSIM_ERR_INVALID_MESH;
+            goto fail;
+        }
     }
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
@@ -732,6 +782,25 @@ defsim_status defsim_body_unpin(defsim_world *w, defsim_body_id id, const int32_
                                 int32_t n)
 {
     return set_pins(w, id, verts, n, 0);
+}
+
+defsim_status defsim_body_set_collision(defsim_world *w, defsim_body_id id, int32_t self_contact,
+                                        uint32_t group, uint32_t mask)
+{
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__body *b = defsim__world_body(w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (self_contact != 0 && self_contact != 1) {
+        defsim__error(w->msg, "body_set_collision: self_contact %d must be 0 or 1",
+                      (int)self_contact);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    /* Body contact reads the filter at each step's start: no re-plan. */
+    b->self_contact = self_contact;
+    b->group = group;
+    b->mask = mask;
+    return DEFSIM_OK;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -1142,6 +1211,14 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                       "to t in double precision): use a larger step, or restart the clock",
                       h, w->state.t);
         return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (defsim__options_core(&w->options, DEFSIM__OPT_BODY_CONTACT) != 0.0 &&
+        !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        defsim__error(w->msg, "step: body contact (core.body_contact) needs a backend with "
+                              "contact CCD (newton_cholmod, newmark or bdf2); backend %s has "
+                              "none: turn body_contact off or change the backend",
+                      w->backend->name);
+        return DEFSIM_ERR_UNSUPPORTED;
     }
     double t0 = defsim__now();
     st = defsim__world_plan(w);

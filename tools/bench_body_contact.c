@@ -135,8 +135,10 @@ int main(int argc, char **argv)
             if (run(path, b, cells, threads, &r[k]) != 0) return 1;
         qsort(r, (size_t)repeat, sizeof *r, by_ms);
         const result *m = &r[repeat / 2];
-        printf("| %s | %d | %d | %.2f | %.2f | %.2f | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
-               "%.0f | %.0f | %.0f | %.3g |\n", b, cells, m->steps, m->ms_step, m->its,
+        char cl[32] = "scene's";
+        if (cells > 0) snprintf(cl, sizeof cl, "%d x %d", cells, cells);
+        printf("| %s | %s | %d | %.2f | %.2f | %.2f | %.1f %% | %.1f %% | %.1f %% | %.1f %% | "
+               "%.0f | %.0f | %.0f | %.3g |\n", b, cl, m->steps, m->ms_step, m->its,
                m->ms_it, m->broad, m->ccd, m->eval, m->broad + m->ccd + m->eval, m->growths,
                m->candidates, m->active, m->min_d);
     }

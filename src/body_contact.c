@@ -25,7 +25,7 @@
 
 /* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
 #define BC_CCD_FRACTION 0.2
-#define BC_CCD_ITERATIONS 200
+#define BC_CCD_ITERATIONS 5000
 /* Pairs closer than this multiple of dhat join the matrix pattern (slack: the pattern grows
  * before they touch, not at each new contact). */
 #define BC_PATTERN_MARGIN 4.0
@@ -382,8 +382,8 @@ static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int
 }
 
 /* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
- * row-major) when g / H are not NULL (zero outside dhat). *n and idx receive its vertices.
- * +inf at distance 0. */
+ * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
+ * or at distance 0). *n and idx receive its vertices. */
 static double pair_barrier(const defsim__body_contact *bc, int32_t q, const double *x, int *n,
                            int32_t idx[4], double *g, double *H)
 {
@@ -392,12 +392,12 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
     const int nd = 3 * m;
     double X[12], gs[12], Hs[144];
     gather(x, idx, m, X);
-    const double s = dist2(kind, X, g || H ? gs : NULL, H ? Hs : NULL);
-    if (g) memset(g, 0, (size_t)nd * sizeof *g);
-    if (H) memset(H, 0, (size_t)nd * nd * sizeof *H);
     const double dh = bc->dhat;
+    /* the derivatives only for pairs within dhat (most candidates are not) */
+    double s = dist2(kind, X, NULL, NULL);
     if (!(s < dh * dh)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
+    if (g || H) s = dist2(kind, X, gs, H ? Hs : NULL);
     const double d = sqrt(s), kap = pair_kappa(bc, idx, m);
     const double e = kap * barrier(d, dh);
     double gd[12];
@@ -839,6 +839,8 @@ static int segment_crosses(const double *p, const double *q, const double *a, co
         const double e3[3] = {z[0] - u[0], z[1] - u[1], z[2] - u[2]};
         o[k] = e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
                e1[2] * (e2[0] * e3[1] - e2[1] * e3[0]);
+        /* below the rounding of the products: no sign (nearly coplanar points) */
+        if (fabs(o[k]) <= 1e-12 * sqrt(dot3(e1, e1) * dot3(e2, e2) * dot3(e3, e3))) o[k] = 0.0;
     }
     /* a coplanar pair is left to the distance check (only touching can happen there) */
     if ((o[0] >= 0.0 && o[1] >= 0.0) || (o[0] <= 0.0 && o[1] <= 0.0)) return 0;

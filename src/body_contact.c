@@ -381,6 +381,38 @@ static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int
     return bc->khat * m / n;
 }
 
+/* Makes the Hessian H (3n x 3n) of a function of the n vertices that only their differences
+ * enter (every distance here) positive semi-definite: in the coordinates y_i = x_i - x_0
+ * (i >= 1) it is T^T B T with B its (3n - 3)-square lower block; B is projected (clamped
+ * eigenvalues) and mapped back. A smaller eigenproblem than the full one (9 instead of 12), and
+ * translations stay in the null space exactly. */
+static void project_relative(int n, double *H)
+{
+    const int nd = 3 * n, r = nd - 3;
+    double B[81];
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) B[i * r + j] = H[(3 + i) * nd + 3 + j];
+    defsim__project_psd(r, B, DEFSIM_PROJECTION_CLAMP);
+    /* column sums per row (the x_0 column block of B T) */
+    double c[81][3];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) {
+            double sum = 0.0;
+            for (int b = 0; b < n - 1; ++b) sum += B[i * r + 3 * b + k];
+            c[i][k] = sum;
+        }
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) H[(3 + i) * nd + 3 + j] = B[i * r + j];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) H[(3 + i) * nd + k] = H[k * nd + 3 + i] = -c[i][k];
+    for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) {
+            double sum = 0.0;
+            for (int a = 0; a < n - 1; ++a) sum += c[3 * a + k][l];
+            H[k * nd + l] = sum;
+        }
+}
+
 /* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
  * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
  * or at distance 0). *n and idx receive its vertices. */
@@ -430,7 +462,7 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
             out = mo * e;
         }
     }
-    if (H) defsim__project_psd(nd, H, DEFSIM_PROJECTION_CLAMP);
+    if (H) project_relative(m, H);
     return out;
 }
 

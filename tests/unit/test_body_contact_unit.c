@@ -4,7 +4,8 @@
  *  - finite differences through the system: a probe backend evaluates the energy, forces and
  *    matrices that the host serves inside a step: the forces are -grad E (point-triangle,
  *    edge-edge, point-edge, friction), the Hessian of a single point-triangle pair is the PSD
- *    projection of the finite-difference Hessian, and the sparse matrix (whose pattern grew for
+ *    projection of the finite-difference Hessian (in the vertices' differences, as the engine
+ *    projects), and the sparse matrix (whose pattern grew for
  *    the pair's off-diagonal blocks) holds the same numbers as the product;
  *  - two boxes pressed together: no vertex of one inside a tet of the other (exact predicate),
  *    the body-body forces sum to zero (Newton's third law) and balance the load;
@@ -150,7 +151,27 @@ static defsim_status probe_step(const defsim_host *host, defsim_system *sys, voi
     for (int i = 0; i < m; ++i)
         for (int j = 0; j < i; ++j)
             Hfd[i * m + j] = Hfd[j * m + i] = 0.5 * (Hfd[i * m + j] + Hfd[j * m + i]);
-    project_psd(m, Hfd);
+    /* the engine projects in the coordinates x_i - x_0 (i >= 1): the pair's energy depends
+     * only on them; the same here */
+    {
+        const int r = m - 3;
+        double B[81];
+        for (int i = 0; i < r; ++i)
+            for (int j = 0; j < r; ++j) B[i * r + j] = Hfd[(3 + i) * m + 3 + j];
+        project_psd(r, B);
+        /* H = T^T B T, T: x -> (x_1 - x_0, ..., x_{n-1} - x_0) */
+        for (int i = 0; i < m; ++i)
+            for (int j = 0; j < m; ++j) {
+                double sum = 0.0;
+                for (int a = 0; a < r; ++a)
+                    for (int b = 0; b < r; ++b) {
+                        const double ti = (i >= 3 && i - 3 == a) ? 1.0 : (i < 3 && a % 3 == i) ? -1.0 : 0.0;
+                        const double tj = (j >= 3 && j - 3 == b) ? 1.0 : (j < 3 && b % 3 == j) ? -1.0 : 0.0;
+                        sum += ti * B[a * r + b] * tj;
+                    }
+                Hfd[i * m + j] = sum;
+            }
+    }
     const defsim_matrix_coeffs kc = {1.0, 0.0, 0.0, 0.0};
     probe.hess_err = probe.hess_scale = 0.0;
     for (int j = 0; j < m; ++j) {

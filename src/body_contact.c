@@ -25,7 +25,7 @@
 
 /* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
 #define BC_CCD_FRACTION 0.2
-#define BC_CCD_ITERATIONS 200
+#define BC_CCD_ITERATIONS 5000
 /* Pairs closer than this multiple of dhat join the matrix pattern (slack: the pattern grows
  * before they touch, not at each new contact). */
 #define BC_PATTERN_MARGIN 4.0
@@ -381,9 +381,41 @@ static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int
     return bc->khat * m / n;
 }
 
+/* Makes the Hessian H (3n x 3n) of a function of the n vertices that only their differences
+ * enter (every distance here) positive semi-definite: in the coordinates y_i = x_i - x_0
+ * (i >= 1) it is T^T B T with B its (3n - 3)-square lower block; B is projected (clamped
+ * eigenvalues) and mapped back. A smaller eigenproblem than the full one (9 instead of 12), and
+ * translations stay in the null space exactly. */
+static void project_relative(int n, double *H)
+{
+    const int nd = 3 * n, r = nd - 3;
+    double B[81];
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) B[i * r + j] = H[(3 + i) * nd + 3 + j];
+    defsim__project_psd(r, B, DEFSIM_PROJECTION_CLAMP);
+    /* column sums per row (the x_0 column block of B T) */
+    double c[81][3];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) {
+            double sum = 0.0;
+            for (int b = 0; b < n - 1; ++b) sum += B[i * r + 3 * b + k];
+            c[i][k] = sum;
+        }
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) H[(3 + i) * nd + 3 + j] = B[i * r + j];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) H[(3 + i) * nd + k] = H[k * nd + 3 + i] = -c[i][k];
+    for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) {
+            double sum = 0.0;
+            for (int a = 0; a < n - 1; ++a) sum += c[3 * a + k][l];
+            H[k * nd + l] = sum;
+        }
+}
+
 /* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
- * row-major) when g / H are not NULL (zero outside dhat). *n and idx receive its vertices.
- * +inf at distance 0. */
+ * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
+ * or at distance 0). *n and idx receive its vertices. */
 static double pair_barrier(const defsim__body_contact *bc, int32_t q, const double *x, int *n,
                            int32_t idx[4], double *g, double *H)
 {
@@ -392,12 +424,12 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
     const int nd = 3 * m;
     double X[12], gs[12], Hs[144];
     gather(x, idx, m, X);
-    const double s = dist2(kind, X, g || H ? gs : NULL, H ? Hs : NULL);
-    if (g) memset(g, 0, (size_t)nd * sizeof *g);
-    if (H) memset(H, 0, (size_t)nd * nd * sizeof *H);
     const double dh = bc->dhat;
+    /* the derivatives only for pairs within dhat (most candidates are not) */
+    double s = dist2(kind, X, NULL, NULL);
     if (!(s < dh * dh)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
+    if (g || H) s = dist2(kind, X, gs, H ? Hs : NULL);
     const double d = sqrt(s), kap = pair_kappa(bc, idx, m);
     const double e = kap * barrier(d, dh);
     double gd[12];
@@ -430,7 +462,7 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
             out = mo * e;
         }
     }
-    if (H) defsim__project_psd(nd, H, DEFSIM_PROJECTION_CLAMP);
+    if (H) project_relative(m, H);
     return out;
 }
 
@@ -839,6 +871,8 @@ static int segment_crosses(const double *p, const double *q, const double *a, co
         const double e3[3] = {z[0] - u[0], z[1] - u[1], z[2] - u[2]};
         o[k] = e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
                e1[2] * (e2[0] * e3[1] - e2[1] * e3[0]);
+        /* below the rounding of the products: no sign (nearly coplanar points) */
+        if (fabs(o[k]) <= 1e-12 * sqrt(dot3(e1, e1) * dot3(e2, e2) * dot3(e3, e3))) o[k] = 0.0;
     }
     /* a coplanar pair is left to the distance check (only touching can happen there) */
     if ((o[0] >= 0.0 && o[1] >= 0.0) || (o[0] <= 0.0 && o[1] <= 0.0)) return 0;

@@ -205,6 +205,15 @@ static void write_bodies(bw *b, const defsim_world *w)
         put_i32s(b, body->springs, 2 * (int64_t)body->ns);
         put_f64s(b, body->k, body->ns);
         put(b, body->pinned, (size_t)body->nv);
+        /* version 4: body contact */
+        put_i32(b, body->ntri);
+        put_i32(b, body->nedge);
+        put_i32s(b, body->tris, 3 * (int64_t)body->ntri);
+        put_i32s(b, body->edges, 2 * (int64_t)body->nedge);
+        put_i32(b, body->self_contact);
+        put_u32(b, body->group);
+        put_u32(b, body->mask);
+        put_f64(b, body->friction);
         chunk_end(b, c);
     }
 }
@@ -708,7 +717,7 @@ typedef struct id_map {
     defsim_body_id id;
 } id_map;
 
-static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
+static defsim_status load_body(defsim_world *w, const chunk *c, uint32_t version, id_map *map)
 {
     br r = chunk_reader(c);
     map->old_index = get_u32(&r);
@@ -751,7 +760,39 @@ static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
     const unsigned char *pinned = take(&r, (size_t)nv);
     for (int32_t i = 0; pinned && i < nv; ++i)
         if (pinned[i]) pins[npin++] = i;
+    /* Body contact (version 4); older files get the defaults. The contact edges (a rope's
+     * stretch springs) are restored as saved: the springs come back without their kinds. */
+    int32_t ntri = 0, nedge = 0, *tris = NULL, *edges = NULL;
+    if (version >= 4) {
+        ntri = get_i32(&r);
+        nedge = get_i32(&r);
+        if (ntri < 0 || nedge < 0 || !fits(&r, ntri, 12) || !fits(&r, nedge, 8)) {
+            st = malformed(c, "counts out of range");
+            goto done;
+        }
+        tris = malloc((3 * (size_t)ntri + 1) * sizeof *tris);
+        edges = malloc((2 * (size_t)nedge + 1) * sizeof *edges);
+        if (!tris || !edges) {
+            free(tris);
+            free(edges);
+            defsim__set_last_error("load: out of memory");
+            st = DEFSIM_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
+        get_i32s(&r, tris, 3 * (int64_t)ntri);
+        get_i32s(&r, edges, 2 * (int64_t)nedge);
+        d.self_contact = get_i32(&r);
+        d.collision_group = get_u32(&r);
+        d.collision_mask = get_u32(&r);
+        d.friction = get_f64(&r);
+        d.triangles = ntri > 0 ? tris : NULL;
+        d.triangle_count = ntri;
+    }
+    for (int32_t e = 0; e < 2 * nedge && !r.bad; ++e)
+        if (edges[e] < 0 || edges[e] >= nv) r.bad = 1;
     if (r.bad || r.at != r.n) {
+        free(tris);
+        free(edges);
         st = malformed(c, "wrong length");
         goto done;
     }
@@ -764,7 +805,18 @@ static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
     d.spring_count = ns;
     d.spring_stiffness = ns > 0 ? k : NULL;
     d.vertex_mass = mass;
-    if ((st = defsim_world_add_body(w, &d, &map->id)) != DEFSIM_OK) {
+    st = defsim_world_add_body(w, &d, &map->id);
+    free(tris);
+    if (st == DEFSIM_OK && version >= 4) {
+        defsim__body *bd = defsim__world_find_body(w, map->id);
+        free(bd->edges);
+        bd->edges = nedge > 0 ? edges : NULL;
+        bd->nedge = nedge;
+        if (nedge == 0) free(edges);
+    } else {
+        free(edges);
+    }
+    if (st != DEFSIM_OK) {
         st = world_failed(w, st, "body");
         goto done;
     }
@@ -1078,7 +1130,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
         const chunk *c = &k->c[i];
         if (strcmp(c->tag, "BODY") == 0) {
             if (state) st = malformed(c, "after the state");
-            else st = load_body(w, c, &map[nmap++]);
+            else st = load_body(w, c, k->version, &map[nmap++]);
         } else if (strcmp(c->tag, "ATCH") == 0) {
             st = load_attachment(w, c, map, nmap);
         } else if (strcmp(c->tag, "FEXT") == 0) {

@@ -38,6 +38,9 @@
 #define IC_MAX_BACKTRACKS 40
 /* Diagonal shifts tried (multiples of M / h^2) when an exact Hessian is not positive definite. */
 #define IC_MAX_SHIFTS 12
+/* Factorisations of fewer flops run the BLAS on one thread (bit-identical for any thread
+ * count); larger ones on the world's threads (bit-identical for a fixed count). */
+#define IC_BLAS_SERIAL_FLOPS 1e8
 /* Relative resolution of g: decreases smaller than this times |g|'s scale cannot be seen. */
 #define IC_G_RESOLUTION (1e3 * DBL_EPSILON)
 
@@ -599,7 +602,10 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
 #endif
     double shift = 0.0;
     defsim_status result = DEFSIM_OK;
-    blas_enter(threads);
+    /* OpenBLAS splits its work by thread count, which changes the rounding: a small
+     * factorisation, where a second thread gains nothing, runs its BLAS on one thread, so that
+     * its results are the same for every thread count. */
+    blas_enter(s->cc.fl < IC_BLAS_SERIAL_FLOPS ? 1 : threads);
     const omp_saved omp = omp_limit(threads);
     for (int attempt = 0;; ++attempt) {
         double t0 = host->wall_time();

@@ -56,6 +56,10 @@ void defsim__body_contact_unplan(defsim__body_contact *bc)
     free(bc->face_body); free(bc->edge_body); free(bc->vert_body); free(bc->edge_len2);
     free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu);
     free(bc->radius); free(bc->lo); free(bc->hi); free(bc->scratch);
+    free(bc->clo); free(bc->chi); free(bc->cmap); free(bc->blo); free(bc->bhi); free(bc->bactive);
+    bc->clo = bc->chi = bc->blo = bc->bhi = NULL;
+    bc->cmap = NULL;
+    bc->bactive = NULL;
     bc->face = bc->edge = bc->vert = bc->rope = NULL;
     bc->face_body = bc->edge_body = bc->vert_body = bc->self_contact = NULL;
     bc->edge_len2 = bc->mu = bc->radius = bc->lo = bc->hi = bc->scratch = NULL;
@@ -176,7 +180,15 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
                             (size_t)bc->nrope + 1;
         bc->lo = malloc(3 * nbox * sizeof *bc->lo);
         bc->hi = malloc(3 * nbox * sizeof *bc->hi);
-        if (!bc->vert || !bc->vert_body || !bc->lo || !bc->hi) st = DEFSIM_ERR_OUT_OF_MEMORY;
+        bc->clo = malloc(3 * nbox * sizeof *bc->clo);
+        bc->chi = malloc(3 * nbox * sizeof *bc->chi);
+        bc->cmap = malloc(nbox * sizeof *bc->cmap);
+        bc->blo = malloc(3 * nb * sizeof *bc->blo);
+        bc->bhi = malloc(3 * nb * sizeof *bc->bhi);
+        bc->bactive = malloc(nb);
+        if (!bc->vert || !bc->vert_body || !bc->lo || !bc->hi || !bc->clo || !bc->chi ||
+            !bc->cmap || !bc->blo || !bc->bhi || !bc->bactive)
+            st = DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (st == DEFSIM_OK) {
         int32_t k = 0, b = 0;
@@ -283,16 +295,36 @@ static void ball_box(const defsim__body_contact *bc, const int32_t *v, int n, do
     }
 }
 
-static void collect(defsim__body_contact *bc, uint8_t kind)
+/* Pairs from the hash's last query, mapped back from the compact lists (ma, mb). */
+static void collect(defsim__body_contact *bc, uint8_t kind, const int32_t *ma, const int32_t *mb)
 {
     const defsim__hash *h = &bc->hash;
     for (int64_t k = 0; k < h->npairs && !bc->failed; ++k) {
-        const int32_t a = (int32_t)(h->pairs[k] >> 32), b = (int32_t)(h->pairs[k] & 0xFFFFFFFF);
+        const int32_t a = ma[h->pairs[k] >> 32], b = mb[h->pairs[k] & 0xFFFFFFFF];
         add_pair(bc, kind, a, kind == DEFSIM__BC_PE ? bc->rope[b] : b);
     }
 }
 
-/* The candidate pairs for the current balls. */
+/* Copies the boxes of the primitives whose body takes part into the compact lists; returns
+ * their count. */
+static int32_t compact(const defsim__body_contact *bc, const int32_t *body, const int32_t *sel,
+                       int32_t n, const double *lo, const double *hi, double *clo, double *chi,
+                       int32_t *map)
+{
+    int32_t m = 0;
+    for (int32_t i = 0; i < n; ++i) {
+        const int32_t k = sel ? sel[i] : i;
+        if (!bc->bactive[body[k]]) continue;
+        memcpy(clo + 3 * (int64_t)m, lo + 3 * (int64_t)k, 3 * sizeof(double));
+        memcpy(chi + 3 * (int64_t)m, hi + 3 * (int64_t)k, 3 * sizeof(double));
+        map[m++] = i;
+    }
+    return m;
+}
+
+/* The candidate pairs for the current balls. Bodies that can meet nothing in this step (no
+ * self-contact, and no body they collide with whose box meets theirs) stay out of the hash: a
+ * scene whose bodies are far apart costs little more than the boxes. */
 static void broad(defsim__body_contact *bc)
 {
     const double t0 = defsim__now();
@@ -300,35 +332,65 @@ static void broad(defsim__body_contact *bc)
     double *vlo = bc->lo, *vhi = bc->hi;
     double *flo = vlo + 3 * nvb, *fhi = vhi + 3 * nvb;
     double *elo = flo + 3 * nfb, *ehi = fhi + 3 * nfb;
-    double *rlo = elo + 3 * neb, *rhi = ehi + 3 * neb;
     for (int64_t i = 0; i < nvb; ++i) ball_box(bc, bc->vert + i, 1, vlo + 3 * i, vhi + 3 * i);
     for (int64_t f = 0; f < nfb; ++f) ball_box(bc, bc->face + 3 * f, 3, flo + 3 * f, fhi + 3 * f);
     for (int64_t e = 0; e < neb; ++e) ball_box(bc, bc->edge + 2 * e, 2, elo + 3 * e, ehi + 3 * e);
-    for (int32_t r = 0; r < bc->nrope; ++r) {
-        memcpy(rlo + 3 * (int64_t)r, elo + 3 * (int64_t)bc->rope[r], 3 * sizeof(double));
-        memcpy(rhi + 3 * (int64_t)r, ehi + 3 * (int64_t)bc->rope[r], 3 * sizeof(double));
+    /* bodies' boxes (of their surface vertices' boxes) and which of them take part */
+    const int32_t nb = bc->nbody;
+    for (int32_t b = 0; b < nb; ++b)
+        for (int k = 0; k < 3; ++k) {
+            bc->blo[3 * (int64_t)b + k] = INFINITY;
+            bc->bhi[3 * (int64_t)b + k] = -INFINITY;
+        }
+    for (int64_t i = 0; i < nvb; ++i) {
+        const int32_t b = bc->vert_body[i];
+        for (int k = 0; k < 3; ++k) {
+            bc->blo[3 * (int64_t)b + k] = fmin(bc->blo[3 * (int64_t)b + k], vlo[3 * i + k]);
+            bc->bhi[3 * (int64_t)b + k] = fmax(bc->bhi[3 * (int64_t)b + k], vhi[3 * i + k]);
+        }
     }
+    for (int32_t b = 0; b < nb; ++b) {
+        int on = bc->self_contact[b] != 0;
+        for (int32_t c = 0; c < nb && !on; ++c) {
+            if (c == b || filtered(bc, b, c)) continue;
+            int meet = 1;
+            for (int k = 0; k < 3 && meet; ++k)
+                meet = bc->blo[3 * (int64_t)b + k] <= bc->bhi[3 * (int64_t)c + k] &&
+                       bc->blo[3 * (int64_t)c + k] <= bc->bhi[3 * (int64_t)b + k];
+            on = meet;
+        }
+        bc->bactive[b] = (uint8_t)on;
+    }
+    double *cvlo = bc->clo, *cvhi = bc->chi;
+    int32_t *vmap = bc->cmap;
+    const int32_t nv = compact(bc, bc->vert_body, NULL, bc->nvert, vlo, vhi, cvlo, cvhi, vmap);
+    double *cflo = cvlo + 3 * (int64_t)nv, *cfhi = cvhi + 3 * (int64_t)nv;
+    int32_t *fmap = vmap + nv;
+    const int32_t nf = compact(bc, bc->face_body, NULL, bc->nface, flo, fhi, cflo, cfhi, fmap);
+    double *celo = cflo + 3 * (int64_t)nf, *cehi = cfhi + 3 * (int64_t)nf;
+    int32_t *emap = fmap + nf;
+    const int32_t ne = compact(bc, bc->edge_body, NULL, bc->nedge, elo, ehi, celo, cehi, emap);
+    double *crlo = celo + 3 * (int64_t)ne, *crhi = cehi + 3 * (int64_t)ne;
+    int32_t *rmap = emap + ne;
+    const int32_t nr = compact(bc, bc->edge_body, bc->rope, bc->nrope, elo, ehi, crlo, crhi, rmap);
     bc->npair = 0;
-    if (nfb > 0 && nvb > 0) {
-        if (defsim__hash_pairs(&bc->hash, vlo, vhi, bc->nvert, flo, fhi, bc->nface, 0, 0.0) !=
-            DEFSIM_OK)
+    if (nf > 0 && nv > 0) {
+        if (defsim__hash_pairs(&bc->hash, cvlo, cvhi, nv, cflo, cfhi, nf, 0, 0.0) != DEFSIM_OK)
             bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
         else
-            collect(bc, DEFSIM__BC_PT);
+            collect(bc, DEFSIM__BC_PT, vmap, fmap);
     }
-    if (neb > 1 && !bc->failed) {
-        if (defsim__hash_pairs(&bc->hash, elo, ehi, bc->nedge, elo, ehi, bc->nedge, 1, 0.0) !=
-            DEFSIM_OK)
+    if (ne > 1 && !bc->failed) {
+        if (defsim__hash_pairs(&bc->hash, celo, cehi, ne, celo, cehi, ne, 1, 0.0) != DEFSIM_OK)
             bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
         else
-            collect(bc, DEFSIM__BC_EE);
+            collect(bc, DEFSIM__BC_EE, emap, emap);
     }
-    if (bc->nrope > 0 && nvb > 0 && !bc->failed) {
-        if (defsim__hash_pairs(&bc->hash, vlo, vhi, bc->nvert, rlo, rhi, bc->nrope, 0, 0.0) !=
-            DEFSIM_OK)
+    if (nr > 0 && nv > 0 && !bc->failed) {
+        if (defsim__hash_pairs(&bc->hash, cvlo, cvhi, nv, crlo, crhi, nr, 0, 0.0) != DEFSIM_OK)
             bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
         else
-            collect(bc, DEFSIM__BC_PE);
+            collect(bc, DEFSIM__BC_PE, vmap, rmap);
     }
     bc->stat[DEFSIM__CSTAT_BODY_CANDIDATES] = bc->npair;
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
@@ -961,12 +1023,12 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->khat = kappa > 0.0 ? kappa : gn / bc->dhat + 1.0 / (h * h);
     bc->npend = 0;
     bc->nfric = 0;
-    /* Each vertex's ball: its inertial motion over the step with room to spare; evaluations
-     * beyond it grow it (ensure). */
+    /* Each vertex's ball: its inertial motion over the step with room to spare (and dhat, so
+     * that Newton's small corrections stay inside); evaluations beyond it grow it (ensure). */
     for (int32_t k = 0; k < bc->nvert; ++k) {
         const int32_t i = bc->vert[k];
         const double *vi = v + 3 * (int64_t)i;
-        bc->radius[i] = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h;
+        bc->radius[i] = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat;
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
     broad(bc);

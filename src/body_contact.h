@@ -51,6 +51,10 @@ typedef struct defsim__body_contact {
     double *radius;           /* nv: each vertex's ball about xn (m) */
     double *lo, *hi;          /* 3 (nvert + nface + nedge + nrope): boxes */
     double *scratch;          /* 3 nv: contact_start's displacement, end's forces */
+    double *clo, *chi;        /* the boxes of the primitives of bodies that take part */
+    int32_t *cmap;            /* their indices in the full lists */
+    double *blo, *bhi;        /* 3 nbody: bodies' boxes */
+    uint8_t *bactive;         /* nbody: the body can meet something in this step */
     defsim__hash hash;
 
     /* Candidate pairs, in the hash's order: kind (DEFSIM__BC_*), a, b (vertex, face, edge

@@ -25,7 +25,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #ifndef DEFSIM_BENCH_SCENES
 #define DEFSIM_BENCH_SCENES "tests/scenes"
@@ -40,10 +39,7 @@ static int use_cpu;   /* --cpu */
 
 static double now(void)
 {
-    if (!use_cpu) return tools_now();
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return use_cpu ? tools_cpu_now() : tools_now();
 }
 
 static double stat(const defsim_world *w, const char *name)

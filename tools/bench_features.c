@@ -105,10 +105,7 @@ static int use_cpu;   /* --cpu */
 
 static double now(void)
 {
-    if (!use_cpu) return tools_now();
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return use_cpu ? tools_cpu_now() : tools_now();
 }
 
 static int cmp(const void *a, const void *b)

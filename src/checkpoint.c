@@ -11,6 +11,8 @@
  */
 #include "checkpoint.h"
 
+#include "assembly.h"
+
 #include "file_read.h"
 #include "world.h"
 
@@ -344,6 +346,17 @@ static defsim_status write_backend(bw *b, const defsim_world *w)
     return DEFSIM_OK;
 }
 
+/* The vertex pairs that body contact added to the matrix pattern (version 4): the loaded world
+ * starts from the same pattern, so its factorisations round alike. */
+static void write_pattern(bw *b, const defsim_world *w)
+{
+    if (!w->planned || w->sys.pattern.nextra == 0) return;
+    const size_t c = chunk_begin(b, "PEXT");
+    put_u32(b, (uint32_t)w->sys.pattern.nextra);
+    for (int64_t k = 0; k < w->sys.pattern.nextra; ++k) put_u64(b, (uint64_t)w->sys.pattern.extra[k]);
+    chunk_end(b, c);
+}
+
 static defsim_status save_to(const defsim_world *w, bw *b)
 {
     put(b, DEFSIM__CKPT_MAGIC, 8);
@@ -353,6 +366,7 @@ static defsim_status save_to(const defsim_world *w, bw *b)
     write_bodies(b, w);
     write_coupling(b, w);
     write_colliders(b, w);
+    write_pattern(b, w);
     write_state(b, w);
     defsim_status st = write_backend(b, w);
     if (st != DEFSIM_OK) return st;
@@ -988,6 +1002,31 @@ static defsim_status load_collider(defsim_world *w, const chunk *c)
     return st;
 }
 
+static defsim_status load_pattern(defsim_world *w, const chunk *c)
+{
+    br r = chunk_reader(c);
+    const uint32_t n = get_u32(&r);
+    if (!fits(&r, n, 8)) return malformed(c, "count out of range");
+    int64_t *pairs = malloc(((size_t)n + 1) * sizeof *pairs);
+    if (!pairs) {
+        defsim__set_last_error("load: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    const int64_t nfv = w->sys.nfree_v;
+    for (uint32_t k = 0; k < n && !r.bad; ++k) {
+        pairs[k] = (int64_t)get_u64(&r);
+        const int64_t fa = pairs[k] >> 32, fb = pairs[k] & 0xFFFFFFFF;
+        if (fa < 0 || fa >= fb || fb >= nfv) r.bad = 1;
+    }
+    defsim_status st = DEFSIM_OK;
+    int grew = 0;
+    if (r.bad || r.at != r.n) st = malformed(c, "wrong length or a pair out of range");
+    else if ((st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
+        defsim__set_last_error("load: out of memory");
+    free(pairs);
+    return st;
+}
+
 static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
 {
     br r = chunk_reader(c);
@@ -1120,7 +1159,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     if (st != DEFSIM_OK) return st;
     id_map *map = calloc((size_t)k->n, sizeof *map);
     int32_t nmap = 0;
-    const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL;
+    const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL, *pattern = NULL;
     if (!map) {
         defsim__set_last_error("load: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -1141,6 +1180,8 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
             st = load_collider(w, c);
         } else if (strcmp(c->tag, "CFRC") == 0 && k->version >= 3) {
             contact = c;
+        } else if (strcmp(c->tag, "PEXT") == 0 && k->version >= 4) {
+            pattern = c;
         } else if (strcmp(c->tag, "STAT") == 0) {
             state = c;
         } else if (strcmp(c->tag, "STCS") == 0) {
@@ -1169,6 +1210,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
      * was: its first step keeps the cache. */
     if (st == DEFSIM_OK && (st = defsim__world_plan(w)) != DEFSIM_OK)
         st = world_failed(w, st, "planning");
+    if (st == DEFSIM_OK && pattern) st = load_pattern(w, pattern);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
         w->h_stable = h_stable;

@@ -5,15 +5,18 @@
  * by this file's own closest-point code, never by the solver's statistics.
  *  - a cloth dropped upright onto the ground crumples onto itself: no two triangles that share
  *    no vertex intersect after any step, on newton_cholmod and newmark; the fold is real (the
- *    pile is low, and triangles far apart on the cloth end up within a few d_hat);
+ *    pile gets low, and triangles far apart on the cloth come within a few d_hat); a cloth that
+ *    is flat only up to rounding starts and steps;
  *  - a soft cube dropped onto a cube resting on the ground: no vertex of one inside a tet of
- *    the other (and no boundary triangles crossing) after any step; it ends resting on it;
+ *    the other (and no boundary triangles crossing) after any step; it ends resting on it (the
+ *    surfaces within a few d_hat, its weight carried through them);
  *  - three soft cubes stacked come to rest; the contact forces on each cube add up to its
  *    weight, the ground's to the total weight, and each interface carries what lies above it;
  *  - the cloth fold is bit-identical run twice and with 1 and 2 threads;
  *  - filtering: without self-contact the cloth passes through itself (the exact test finds it),
- *    cubes in groups that do not collide pass through each other (by the def and by
- *    defsim_body_set_collision); an explicit backend refuses body contact, state unchanged.
+ *    cubes in groups that do not collide pass through each other, and collide again when
+ *    defsim_body_set_collision says so; an explicit backend refuses body contact, state
+ *    unchanged. Figures: docs/body-contact-bench.md.
  */
 #include "test_util.h"
 

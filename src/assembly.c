@@ -30,16 +30,6 @@ static int cmp_i32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int32_t find_rank(const int32_t *list, int64_t n, int32_t key)
-{
-    int64_t lo = 0, hi = n;
-    while (lo < hi) {
-        int64_t mid = (lo + hi) / 2;
-        if (list[mid] < key) lo = mid + 1; else hi = mid;
-    }
-    return (int32_t)lo;
-}
-
 /* Free vertex of attachment e's node a, or -1 (unused node or pinned vertex). */
 static int32_t attach_free(const defsim__system *s, const defsim__attachments *at, int64_t e,
                            int a)
@@ -106,14 +96,6 @@ static void pattern_drop(defsim__system *s)
     free(s->att.blk);
     s->att.blk = NULL;
     p->built = 0;
-}
-
-int32_t defsim__pattern_rank(const defsim__system *s, int32_t fa, int32_t fb)
-{
-    const defsim__pattern *p = &s->pattern;
-    const int64_t b = p->adj_ptr[fb], n = p->adj_ptr[fb + 1] - b;
-    const int32_t r = find_rank(p->adj + b, n, fa);
-    return r < n && p->adj[b + r] == fa ? r : -1;
 }
 
 static int cmp_i64(const void *a, const void *b)
@@ -187,7 +169,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
         for (int64_t k = 0; k < n; ++k)
             if (k == 0 || l[k] != l[k - 1]) tmp[out++] = l[k];
         p->adj_ptr[i + 1] = out;
-        p->upper_rank0[i] = find_rank(tmp + start, out - start, i);
+        p->upper_rank0[i] = defsim__lower_rank(tmp + start, out - start, i);
     }
     free(cnt);
     free(fill);
@@ -207,7 +189,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
                     int32_t fa = s->vfree[g->idx[nn * e + a]], fb = s->vfree[g->idx[nn * e + b]];
                     int32_t r = -1;
                     if (fa >= 0 && fb >= 0)
-                        r = find_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
+                        r = defsim__lower_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
                     g->blk[(nn * e + a) * nn + b] = r;
                 }
     }
@@ -223,7 +205,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
                     int32_t fa = attach_free(s, at, e, a), fb = attach_free(s, at, e, b);
                     int32_t r = -1;
                     if (fa >= 0 && fb >= 0)
-                        r = find_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
+                        r = defsim__lower_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
                     blk[(an * e + a) * an + b] = r;
                 }
         s->att.blk = blk;

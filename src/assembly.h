@@ -16,9 +16,6 @@ defsim_status defsim__pattern_build(defsim__system *s);
 defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int64_t n,
                                    int *grew);
 
-/* The rank of free vertex fa in fb's neighbour list, or -1 if the pair is not in the pattern. */
-int32_t defsim__pattern_rank(const defsim__system *s, int32_t fa, int32_t fb);
-
 /* The pattern in compressed sparse columns (borrowed from s). DEFSIM_ERR_INVALID_ARGUMENT
  * for a bad triangle or before defsim__pattern_build. */
 defsim_status defsim__matrix_pattern(const defsim__system *s, defsim_triangle tri,

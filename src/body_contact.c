@@ -11,7 +11,6 @@
  */
 #include "body_contact.h"
 
-#include "assembly.h"
 #include "clock.h"
 #include "contact.h"
 #include "contact_barrier.h"
@@ -74,7 +73,7 @@ void defsim__body_contact_free(defsim__body_contact *bc)
 {
     defsim__body_contact_unplan(bc);
     free(bc->kind); free(bc->pa); free(bc->pb);
-    free(bc->fnode); free(bc->fw); free(bc->fnrm); free(bc->fmul);
+    free(bc->fric);
     free(bc->pend);
     defsim__hash_free(&bc->hash);
     memset(bc, 0, sizeof *bc);
@@ -533,9 +532,10 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
 static double pair_friction(const defsim__body_contact *bc, int32_t r, const double *x,
                             double *g, double *H)
 {
-    const int32_t *idx = bc->fnode + 4 * (int64_t)r;
-    const double *w = bc->fw + 4 * (int64_t)r, *nrm = bc->fnrm + 3 * (int64_t)r;
-    const double mul = bc->fmul[r], eps = bc->eps_v * bc->h;
+    const defsim__bc_friction *fr = &bc->fric[r];
+    const int32_t *idx = fr->node;
+    const double *w = fr->w, *nrm = fr->nrm;
+    const double mul = fr->mul, eps = bc->eps_v * bc->h;
     double u[3] = {0.0, 0.0, 0.0}, ut[3];
     for (int i = 0; i < 4; ++i) {
         if (idx[i] < 0) continue;
@@ -600,7 +600,7 @@ defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double
     }
     for (int32_t r = 0; r < bc->nfric && st == DEFSIM_OK; ++r) {
         pair_friction(bc, r, x, g, NULL);
-        const int32_t *fi = bc->fnode + 4 * (int64_t)r;
+        const int32_t *fi = bc->fric[r].node;
         for (int i = 0; i < 4; ++i)
             if (fi[i] >= 0 && !bc->pinned[fi[i]])
                 for (int k = 0; k < 3; ++k) f[3 * (int64_t)fi[i] + k] -= g[3 * i + k];
@@ -658,9 +658,11 @@ static void scatter(defsim__body_contact *bc, const defsim__system *s, const int
     if (missing) pend(bc, s, idx, n);
 }
 
-void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system *s,
-                                 const double *x, double k, int upper, const int64_t *cp,
-                                 double *values)
+/* Calls fn with every nonzero pair Hessian at x (barriers within dhat, friction pairs). */
+typedef void (*hessian_fn)(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                           const double *H);
+
+static void each_hessian(defsim__body_contact *bc, const double *x, hessian_fn fn, void *ctx)
 {
     const double t0 = defsim__now();
     ensure(bc, x, NULL);
@@ -670,29 +672,60 @@ void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system 
     for (int32_t q = 0; q < bc->npair; ++q) {
         const double e = pair_barrier(bc, q, x, &n, idx, NULL, H);
         if (e == 0.0 || !isfinite(e)) continue;
-        scatter(bc, s, idx, n, H, k, upper, cp, values);
+        fn(bc, ctx, idx, n, H);
     }
     for (int32_t r = 0; r < bc->nfric; ++r) {
         pair_friction(bc, r, x, NULL, H);
-        scatter(bc, s, bc->fnode + 4 * (int64_t)r, 4, H, k, upper, cp, values);
+        fn(bc, ctx, bc->fric[r].node, 4, H);
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
 }
 
-static void apply(const defsim__body_contact *bc, const int32_t *idx, int n, const double *H,
-                  double k, const double *dx, double *out)
+typedef struct values_ctx {
+    const defsim__system *s;
+    double k;
+    int upper;
+    const int64_t *cp;
+    double *values;
+} values_ctx;
+
+static void values_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                      const double *H)
 {
+    const values_ctx *c = ctx;
+    scatter(bc, c->s, idx, n, H, c->k, c->upper, c->cp, c->values);
+}
+
+void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system *s,
+                                 const double *x, double k, int upper, const int64_t *cp,
+                                 double *values)
+{
+    values_ctx c = {s, k, upper, cp, values};
+    each_hessian(bc, x, values_fn, &c);
+}
+
+typedef struct apply_ctx {
+    double k;
+    const double *dx;
+    double *out;
+} apply_ctx;
+
+/* out += k H dx over the pair's free vertices. */
+static void apply_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                     const double *H)
+{
+    const apply_ctx *a = ctx;
     const int nd = 3 * n;
     double u[12];
     for (int i = 0; i < n; ++i)
         for (int c = 0; c < 3; ++c)
-            u[3 * i + c] = idx[i] >= 0 && !bc->pinned[idx[i]] ? dx[3 * (int64_t)idx[i] + c] : 0.0;
+            u[3 * i + c] = idx[i] >= 0 && !bc->pinned[idx[i]] ? a->dx[3 * (int64_t)idx[i] + c] : 0.0;
     for (int i = 0; i < n; ++i) {
         if (idx[i] < 0 || bc->pinned[idx[i]]) continue;
         for (int c = 0; c < 3; ++c) {
             double sum = 0.0;
             for (int j = 0; j < nd; ++j) sum += H[(3 * i + c) * nd + j] * u[j];
-            out[3 * (int64_t)idx[i] + c] += k * sum;
+            a->out[3 * (int64_t)idx[i] + c] += a->k * sum;
         }
     }
 }
@@ -700,21 +733,8 @@ static void apply(const defsim__body_contact *bc, const int32_t *idx, int n, con
 void defsim__body_contact_apply(defsim__body_contact *bc, const double *x, double k,
                                 const double *dx, double *out)
 {
-    const double t0 = defsim__now();
-    ensure(bc, x, NULL);
-    int32_t idx[4];
-    double H[144];
-    int n;
-    for (int32_t q = 0; q < bc->npair; ++q) {
-        const double e = pair_barrier(bc, q, x, &n, idx, NULL, H);
-        if (e == 0.0 || !isfinite(e)) continue;
-        apply(bc, idx, n, H, k, dx, out);
-    }
-    for (int32_t r = 0; r < bc->nfric; ++r) {
-        pair_friction(bc, r, x, NULL, H);
-        apply(bc, bc->fnode + 4 * (int64_t)r, 4, H, k, dx, out);
-    }
-    bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
+    apply_ctx a = {k, dx, out};
+    each_hessian(bc, x, apply_fn, &a);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -809,16 +829,6 @@ void defsim__body_contact_start(defsim__body_contact *bc, double *x)
 /* ------------------------------------------------------------------------------------------ */
 /* The pattern */
 
-defsim_status defsim__body_contact_pattern(defsim__body_contact *bc, defsim__system *s, int *grew)
-{
-    *grew = 0;
-    if (bc->npend == 0) return DEFSIM_OK;
-    const defsim_status st = defsim__pattern_grow(s, bc->pend, bc->npend, grew);
-    bc->npend = 0;
-    if (*grew) bc->stat[DEFSIM__CSTAT_PATTERN_GROWTHS] += 1.0;
-    return st;
-}
-
 /* ------------------------------------------------------------------------------------------ */
 /* The start and end of a step */
 
@@ -896,18 +906,9 @@ static void closest_weights(uint8_t kind, const double *X, double w[4])
 
 static int reserve_fric(defsim__body_contact *bc, int32_t n)
 {
-    if (n <= bc->cap_fric) return 1;
-    const int32_t cap = bc->cap_fric ? 2 * bc->cap_fric : 64;
-    int32_t *fnode = realloc(bc->fnode, 4 * (size_t)cap * sizeof *fnode);
-    if (fnode) bc->fnode = fnode;
-    double *fw = realloc(bc->fw, 4 * (size_t)cap * sizeof *fw);
-    if (fw) bc->fw = fw;
-    double *fnrm = realloc(bc->fnrm, 3 * (size_t)cap * sizeof *fnrm);
-    if (fnrm) bc->fnrm = fnrm;
-    double *fmul = realloc(bc->fmul, (size_t)cap * sizeof *fmul);
-    if (fmul) bc->fmul = fmul;
-    if (!fnode || !fw || !fnrm || !fmul) return 0;
-    bc->cap_fric = cap;
+    int64_t cap = bc->cap_fric;
+    if (!grow((void **)&bc->fric, &cap, n, sizeof *bc->fric)) return 0;
+    bc->cap_fric = (int32_t)cap;
     return 1;
 }
 
@@ -1096,13 +1097,13 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
             defsim__error(msg, "out of memory for body contact friction");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
-        const int32_t r = bc->nfric++;
+        defsim__bc_friction *fr = &bc->fric[bc->nfric++];
         for (int i = 0; i < 4; ++i) {
-            bc->fnode[4 * (int64_t)r + i] = i < n ? idx[i] : -1;
-            bc->fw[4 * (int64_t)r + i] = i < n ? w[i] : 0.0;
+            fr->node[i] = i < n ? idx[i] : -1;
+            fr->w[i] = i < n ? w[i] : 0.0;
         }
-        for (int k = 0; k < 3; ++k) bc->fnrm[3 * (int64_t)r + k] = dv[k] / len;
-        bc->fmul[r] = mu * lam;
+        for (int k = 0; k < 3; ++k) fr->nrm[k] = dv[k] / len;
+        fr->mul = mu * lam;
     }
     if (bc->failed) {
         defsim__error(msg, "out of memory for body contact pairs");

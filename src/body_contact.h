@@ -24,6 +24,15 @@
 
 enum { DEFSIM__BC_PT = 0, DEFSIM__BC_EE = 1, DEFSIM__BC_PE = 2 };
 
+/* A lagged friction pair: its vertices (-1: unused), the weights of the relative displacement
+ * of its closest points, the normal at the step's start, and mu lambda (N). */
+typedef struct defsim__bc_friction {
+    int32_t node[4];
+    double w[4];
+    double nrm[3];
+    double mul;
+} defsim__bc_friction;
+
 typedef struct defsim__body_contact {
     /* Surfaces (per plan; global vertex indices). */
     int planned;
@@ -66,12 +75,10 @@ typedef struct defsim__body_contact {
     /* Lagged friction (IPC): pairs active at the step's start, with their nodes, the weights of
      * the relative displacement of the closest points, the normal at the start, and mu lam. */
     int32_t nfric, cap_fric;
-    int32_t *fnode;           /* 4 per pair, -1 unused */
-    double *fw;               /* 4 per pair */
-    double *fnrm;             /* 3 per pair */
-    double *fmul;
+    struct defsim__bc_friction *fric;
 
-    /* Free-vertex pairs (fa << 32 | fb, fa < fb) that candidates couple but the pattern lacks. */
+    /* Free-vertex pairs (fa << 32 | fb, fa < fb) that candidates couple but the pattern lacks:
+     * the host's matrix_pattern_version merges them (host.c). */
     int64_t *pend;
     int64_t npend, cap_pend;
 
@@ -115,9 +122,6 @@ double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, 
 /* Makes a Newton start x feasible: moves its free vertices back along the segment from the
  * step's start as far as CCD requires (to the start itself if needed). */
 void defsim__body_contact_start(defsim__body_contact *bc, double *x);
-/* Merges the pending pairs into the system's pattern (*grew = 1 if it grew). */
-defsim_status defsim__body_contact_pattern(defsim__body_contact *bc, defsim__system *s,
-                                           int *grew);
 /* Ends a successful step at x: the body contact force per vertex into f (3 nv, overwritten) and
  * the statistics; returns the smallest pair distance (m; inf without candidates). */
 double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f);

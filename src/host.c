@@ -316,12 +316,15 @@ static void contact_start(defsim_system *s, double *x)
 static uint64_t matrix_pattern_version(defsim_system *s)
 {
     defsim__body_contact *bc = s->sys->body_contact;
-    if (bc) {
+    if (bc && bc->npend > 0) {
         int grew = 0;
-        if (defsim__body_contact_pattern(bc, s->sys, &grew) != DEFSIM_OK) {
+        const defsim_status st = defsim__pattern_grow(s->sys, bc->pend, bc->npend, &grew);
+        bc->npend = 0;
+        if (st != DEFSIM_OK) {
             defsim__error(s->msg, "out of memory growing the matrix pattern for body contact");
             return 0;
         }
+        if (grew) bc->stat[DEFSIM__CSTAT_PATTERN_GROWTHS] += 1.0;
     }
     return s->sys->pattern.version;
 }

@@ -118,6 +118,29 @@ typedef struct defsim__system {
     struct defsim__body_contact *body_contact;
 } defsim__system;
 
+/* The first position in the sorted list[0 .. n) whose entry is not below key. */
+static inline int32_t defsim__lower_rank(const int32_t *list, int64_t n, int32_t key)
+{
+    int64_t lo = 0, hi = n;
+    while (lo < hi) {
+        const int64_t mid = (lo + hi) / 2;
+        if (list[mid] < key) lo = mid + 1;
+        else hi = mid;
+    }
+    return (int32_t)lo;
+}
+
+/* The rank of free vertex fa in fb's neighbour list of a built pattern, or -1 if the pair is
+ * not in it (the position of block (fa, fb) in column fb's blocks). */
+static inline int32_t defsim__pattern_rank(const defsim__system *s, int32_t fa, int32_t fb)
+{
+    const defsim__pattern *p = &s->pattern;
+    const int32_t *list = p->adj + p->adj_ptr[fb];
+    const int64_t n = p->adj_ptr[fb + 1] - p->adj_ptr[fb];
+    const int32_t r = defsim__lower_rank(list, n, fa);
+    return r < n && list[r] == fa ? r : -1;
+}
+
 /* Scratch that physics functions write (sized by the planner, so that no step allocates). */
 typedef struct defsim__work {
     double *partial;          /* per-block partial sums of deterministic reductions */

@@ -1139,6 +1139,20 @@ static defsim_status contact_begin(defsim_world *w, double h)
     return DEFSIM_OK;
 }
 
+/* A zeroed contact-force read-back of the world's vertex count. */
+static defsim_status readback_reserve(defsim_world *w)
+{
+    free(w->contact_force);
+    w->contact_nv = 0;
+    w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
+    if (!w->contact_force) {
+        defsim__error(w->msg, "out of memory for the contact forces");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    w->contact_nv = w->nv;
+    return DEFSIM_OK;
+}
+
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the
  * contact forces for the host and the colliders' poses at the end of the step. */
 static defsim_status contact_end(defsim_world *w, defsim_status st)
@@ -1155,14 +1169,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         return st;
     }
     if (st == DEFSIM_OK && (!w->contact_force || w->contact_nv != w->nv)) {
-        free(w->contact_force);
-        w->contact_nv = 0;
-        w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
-        if (!w->contact_force) {
-            defsim__error(w->msg, "out of memory for the contact forces");
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        w->contact_nv = w->nv;
+        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
         w->contact_zero = 1;
     }
     /* The read-back goes to scratch first: a callback failing there fails the step too, and
@@ -1252,14 +1259,7 @@ static defsim_status body_end(defsim_world *w, defsim_status st)
 static defsim_status body_readback(defsim_world *w, int colliders)
 {
     if (!w->contact_force || w->contact_nv != w->nv) {
-        free(w->contact_force);
-        w->contact_nv = 0;
-        w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
-        if (!w->contact_force) {
-            defsim__error(w->msg, "out of memory for the contact forces");
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        w->contact_nv = w->nv;
+        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
     } else if (!colliders) {
         memset(w->contact_force, 0, 3 * (size_t)w->nv * sizeof *w->contact_force);
     }

@@ -245,6 +245,8 @@ static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
     return !((bc->group[ba] & bc->mask[bb]) && (bc->group[bb] & bc->mask[ba]));
 }
 
+static double dist2(uint8_t kind, const double *X, double *g, double *H);
+
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
 {
     int32_t ba, bb;
@@ -261,6 +263,18 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
             if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     }
     if (!free_node) return;
+    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its
+     * ball (ensure), the pair's distance stays above its start distance less the largest ball
+     * of each side (the distance moves by at most the largest displacement of each primitive). */
+    double X[12], ra = 0.0, rb = 0.0;
+    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    for (int i = 0; i < n; ++i) {
+        memcpy(X + 3 * i, bc->xn + 3 * (int64_t)idx[i], 3 * sizeof(double));
+        if (i < first) ra = fmax(ra, bc->radius[idx[i]]);
+        else rb = fmax(rb, bc->radius[idx[i]]);
+    }
+    const double reach = ra + rb + bc->dhat;
+    if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {
         int64_t c1 = cap, c2 = cap, c3 = cap;

@@ -25,9 +25,10 @@
 /* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
 #define BC_CCD_FRACTION 0.2
 #define BC_CCD_ITERATIONS 5000
-/* Pairs closer than this multiple of dhat join the matrix pattern (slack: the pattern grows
- * before they touch, not at each new contact). */
-#define BC_PATTERN_MARGIN 4.0
+/* Pairs closer than this multiple of dhat join the matrix pattern. Not more than 1: beyond
+ * dhat, which pairs are candidates depends on the broad phase's history (its balls), and the
+ * pattern (so the factorisation's rounding) must not. */
+#define BC_PATTERN_MARGIN 1.0
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -54,7 +55,9 @@ void defsim__body_contact_unplan(defsim__body_contact *bc)
     free(bc->face); free(bc->edge); free(bc->vert); free(bc->rope);
     free(bc->face_body); free(bc->edge_body); free(bc->vert_body); free(bc->edge_len2);
     free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu);
-    free(bc->radius); free(bc->lo); free(bc->hi); free(bc->scratch);
+    free(bc->radius); free(bc->lo); free(bc->hi); free(bc->scratch); free(bc->center);
+    bc->center = NULL;
+    bc->have_pairs = 0;
     free(bc->clo); free(bc->chi); free(bc->cmap); free(bc->blo); free(bc->bhi); free(bc->bactive);
     bc->clo = bc->chi = bc->blo = bc->bhi = NULL;
     bc->cmap = NULL;
@@ -145,9 +148,10 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
         bc->mask = malloc(nb * sizeof *bc->mask);
         bc->mu = malloc(nb * sizeof *bc->mu);
         bc->radius = malloc((size_t)(nv > 0 ? nv : 1) * sizeof *bc->radius);
+        bc->center = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->center);
         bc->scratch = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->scratch);
         if (!mark || !bc->face_body || !bc->edge_body || !bc->edge_len2 || !bc->rope ||
-            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->radius ||
+            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->radius || !bc->center ||
             !bc->scratch)
             st = DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -245,6 +249,8 @@ static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
     return !((bc->group[ba] & bc->mask[bb]) && (bc->group[bb] & bc->mask[ba]));
 }
 
+static double dist2(uint8_t kind, const double *X, double *g, double *H);
+
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
 {
     int32_t ba, bb;
@@ -261,6 +267,18 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
             if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     }
     if (!free_node) return;
+    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its
+     * ball (ensure), the pair's distance stays above its start distance less the largest ball
+     * of each side (the distance moves by at most the largest displacement of each primitive). */
+    double X[12], ra = 0.0, rb = 0.0;
+    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    for (int i = 0; i < n; ++i) {
+        memcpy(X + 3 * i, bc->center + 3 * (int64_t)idx[i], 3 * sizeof(double));
+        if (i < first) ra = fmax(ra, bc->radius[idx[i]]);
+        else rb = fmax(rb, bc->radius[idx[i]]);
+    }
+    const double reach = ra + rb + bc->dhat;
+    if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {
         int64_t c1 = cap, c2 = cap, c3 = cap;
@@ -286,7 +304,7 @@ static void ball_box(const defsim__body_contact *bc, const int32_t *v, int n, do
         hi[k] = -INFINITY;
     }
     for (int i = 0; i < n; ++i) {
-        const double *x = bc->xn + 3 * (int64_t)v[i], r = bc->radius[v[i]] + 0.5 * bc->dhat;
+        const double *x = bc->center + 3 * (int64_t)v[i], r = bc->radius[v[i]] + 0.5 * bc->dhat;
         for (int k = 0; k < 3; ++k) {
             lo[k] = fmin(lo[k], x[k] - r);
             hi[k] = fmax(hi[k], x[k] + r);
@@ -391,6 +409,7 @@ static void broad(defsim__body_contact *bc)
         else
             collect(bc, DEFSIM__BC_PE, vmap, rmap);
     }
+    bc->have_pairs = !bc->failed;
     bc->stat[DEFSIM__CSTAT_BODY_CANDIDATES] = bc->npair;
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
 }
@@ -402,7 +421,7 @@ static void ensure(defsim__body_contact *bc, const double *x, const double *dx)
     int grew = 0;
     for (int32_t k = 0; k < bc->nvert; ++k) {
         const int32_t i = bc->vert[k];
-        const double *a = x + 3 * (int64_t)i, *b = bc->xn + 3 * (int64_t)i;
+        const double *a = x + 3 * (int64_t)i, *b = bc->center + 3 * (int64_t)i;
         double d2 = 0.0;
         for (int c = 0; c < 3; ++c) {
             const double u = a[c] + (dx ? dx[3 * (int64_t)i + c] : 0.0) - b[c];
@@ -763,6 +782,9 @@ static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *
     const double d = sqrt(dist2(kind, X, NULL, NULL));
     if (!(d > 0.0)) return 0.0;
     if ((la + lb) * tmax <= (1.0 - BC_CCD_FRACTION) * d) return tmax;
+    /* A pair that cannot come within dhat on the segment cannot cross, and limiting the step
+     * for it would make the result depend on which far pairs the broad phase kept. */
+    if (d - (la + lb) * tmax >= bc->dhat) return tmax;
     if (kind == DEFSIM__BC_PT)
         return defsim__pt_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
     if (kind == DEFSIM__BC_EE)
@@ -1026,13 +1048,30 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->nfric = 0;
     /* Each vertex's ball: its inertial motion over the step with room to spare (and dhat, so
      * that Newton's small corrections stay inside); evaluations beyond it grow it (ensure). */
-    for (int32_t k = 0; k < bc->nvert; ++k) {
+    /* The candidates of the last broad phase stay valid while every such ball lies in the ball
+     * they were found for (center, radius): quiet scenes skip the hash. A new broad phase
+     * takes the balls a quarter larger, so that the next steps of a scene at rest reuse it
+     * (larger would add candidates in moving scenes). */
+    int reuse = bc->have_pairs && !bc->fresh;
+    for (int32_t k = 0; k < bc->nvert && reuse; ++k) {
         const int32_t i = bc->vert[k];
-        const double *vi = v + 3 * (int64_t)i;
-        bc->radius[i] = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat;
+        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
+        const double *ci = bc->center + 3 * (int64_t)i;
+        const double r = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat;
+        const double d[3] = {xi[0] - ci[0], xi[1] - ci[1], xi[2] - ci[2]};
+        reuse = sqrt(dot3(d, d)) + r <= bc->radius[i];
+    }
+    if (!reuse) {
+        memcpy(bc->center, x, 3 * (size_t)bc->nv * sizeof *x);
+        for (int32_t k = 0; k < bc->nvert; ++k) {
+            const int32_t i = bc->vert[k];
+            const double *vi = v + 3 * (int64_t)i;
+            bc->radius[i] =
+                bc->pinned[i] ? 0.0 : 1.25 * (1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat);
+        }
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
-    broad(bc);
+    if (!reuse) broad(bc);
     if (bc->failed) {
         defsim__error(msg, "out of memory for body contact pairs");
         return bc->failed;

@@ -57,7 +57,9 @@ typedef struct defsim__body_contact {
     const uint8_t *pinned;    /* nv */
     const int32_t *vfree;     /* nv: free vertex index or -1 */
     const double *xn;         /* 3 nv: the step's start (borrowed) */
-    double *radius;           /* nv: each vertex's ball about xn (m) */
+    double *center, *radius;  /* 3 nv, nv: the balls the candidates were found for (m); the
+                                 centers are the start of the step that found them */
+    int have_pairs;           /* the candidates match the balls (a broad phase ran) */
     double *lo, *hi;          /* 3 (nvert + nface + nedge + nrope): boxes */
     double *scratch;          /* 3 nv: contact_start's displacement, end's forces */
     double *clo, *chi;        /* the boxes of the primitives of bodies that take part */

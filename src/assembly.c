@@ -10,6 +10,7 @@
  */
 #include "assembly.h"
 
+#include "body_contact.h"
 #include "contact.h"
 #include "element.h"
 #include "mat3.h"
@@ -27,16 +28,6 @@ static int cmp_i32(const void *a, const void *b)
 {
     int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
     return (x > y) - (x < y);
-}
-
-static int32_t find_rank(const int32_t *list, int64_t n, int32_t key)
-{
-    int64_t lo = 0, hi = n;
-    while (lo < hi) {
-        int64_t mid = (lo + hi) / 2;
-        if (list[mid] < key) lo = mid + 1; else hi = mid;
-    }
-    return (int32_t)lo;
 }
 
 /* Free vertex of attachment e's node a, or -1 (unused node or pinned vertex). */
@@ -77,6 +68,77 @@ static void element_pairs(const defsim__system *s, int64_t *pos, int32_t *list)
                 else pos[fa + 1]++;
             }
         }
+    const defsim__pattern *p = &s->pattern;
+    for (int64_t k = 0; k < p->nextra; ++k) {
+        const int32_t fa = (int32_t)(p->extra[k] >> 32), fb = (int32_t)(p->extra[k] & 0xFFFFFFFF);
+        if (list) {
+            list[pos[fa]++] = fb;
+            list[pos[fb]++] = fa;
+        } else {
+            pos[fa + 1]++;
+            pos[fb + 1]++;
+        }
+    }
+}
+
+/* Frees what defsim__pattern_build made (the extra pairs stay). */
+static void pattern_drop(defsim__system *s)
+{
+    defsim__pattern *p = &s->pattern;
+    free(p->adj_ptr); free(p->adj); free(p->upper_rank0);
+    free(p->full_col_ptr); free(p->full_row_idx); free(p->upper_col_ptr); free(p->upper_row_idx);
+    p->adj_ptr = p->full_col_ptr = p->full_row_idx = p->upper_col_ptr = p->upper_row_idx = NULL;
+    p->adj = p->upper_rank0 = NULL;
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        free(s->groups[m].blk);
+        s->groups[m].blk = NULL;
+    }
+    free(s->att.blk);
+    s->att.blk = NULL;
+    p->built = 0;
+}
+
+static int cmp_i64(const void *a, const void *b)
+{
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int64_t n, int *grew)
+{
+    defsim__pattern *p = &s->pattern;
+    *grew = 0;
+    if (!p->built || n == 0) return DEFSIM_OK;
+    int64_t nnew = 0;
+    int64_t *add = malloc((size_t)n * sizeof *add);
+    if (!add) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int64_t k = 0; k < n; ++k) {
+        const int32_t fa = (int32_t)(pairs[k] >> 32), fb = (int32_t)(pairs[k] & 0xFFFFFFFF);
+        if (defsim__pattern_rank(s, fa, fb) < 0) add[nnew++] = pairs[k];
+    }
+    if (nnew == 0) {
+        free(add);
+        return DEFSIM_OK;
+    }
+    int64_t *extra = realloc(p->extra, (size_t)(p->nextra + nnew) * sizeof *extra);
+    if (!extra) {
+        free(add);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    memcpy(extra + p->nextra, add, (size_t)nnew * sizeof *add);
+    free(add);
+    int64_t m = p->nextra + nnew;
+    qsort(extra, (size_t)m, sizeof *extra, cmp_i64);
+    int64_t u = 0;
+    for (int64_t k = 0; k < m; ++k)
+        if (k == 0 || extra[k] != extra[k - 1]) extra[u++] = extra[k];
+    p->extra = extra;
+    p->nextra = u;
+    pattern_drop(s);
+    const defsim_status st = defsim__pattern_build(s);
+    if (st != DEFSIM_OK) return st;
+    *grew = 1;
+    return DEFSIM_OK;
 }
 
 defsim_status defsim__pattern_build(defsim__system *s)
@@ -107,7 +169,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
         for (int64_t k = 0; k < n; ++k)
             if (k == 0 || l[k] != l[k - 1]) tmp[out++] = l[k];
         p->adj_ptr[i + 1] = out;
-        p->upper_rank0[i] = find_rank(tmp + start, out - start, i);
+        p->upper_rank0[i] = defsim__lower_rank(tmp + start, out - start, i);
     }
     free(cnt);
     free(fill);
@@ -127,7 +189,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
                     int32_t fa = s->vfree[g->idx[nn * e + a]], fb = s->vfree[g->idx[nn * e + b]];
                     int32_t r = -1;
                     if (fa >= 0 && fb >= 0)
-                        r = find_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
+                        r = defsim__lower_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
                     g->blk[(nn * e + a) * nn + b] = r;
                 }
     }
@@ -143,7 +205,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
                     int32_t fa = attach_free(s, at, e, a), fb = attach_free(s, at, e, b);
                     int32_t r = -1;
                     if (fa >= 0 && fb >= 0)
-                        r = find_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
+                        r = defsim__lower_rank(p->adj + p->adj_ptr[fb], p->adj_ptr[fb + 1] - p->adj_ptr[fb], fa);
                     blk[(an * e + a) * an + b] = r;
                 }
         s->att.blk = blk;
@@ -181,6 +243,7 @@ defsim_status defsim__pattern_build(defsim__system *s)
             }
         }
     p->built = 1;
+    p->version++;
     return DEFSIM_OK;
 }
 
@@ -376,6 +439,8 @@ defsim_status defsim__matrix_values(const defsim__system *s, const double *x,
     if (s->contact && (c->k != 0.0 || c->kd != 0.0) &&
         defsim__contact_blocks(s->contact, x, c->k, c->kd, s->contact->blk))
         add_diagonal(s, s->contact->blk, 1.0, upper, cp, values);
+    if (s->body_contact && c->k != 0.0)
+        defsim__body_contact_values(s->body_contact, s, x, c->k, upper, cp, values);
     if (c->m != 0.0 || c->md != 0.0) {
         const int32_t *rank0 = s->pattern.upper_rank0;
         for (int32_t fv = 0; fv < s->nfree_v; ++fv)
@@ -496,6 +561,8 @@ void defsim__matrix_apply(const defsim__system *s, const double *x,
     if (s->contact && (c->k != 0.0 || c->kd != 0.0) &&
         defsim__contact_blocks(s->contact, x, c->k, c->kd, s->contact->blk))
         apply_diagonal(s, s->contact->blk, 1.0, dx, out);
+    if (s->body_contact && c->k != 0.0)
+        defsim__body_contact_apply(s->body_contact, x, c->k, dx, out);
     if (c->m != 0.0 || c->md != 0.0)
         for (int64_t i = 0; i < ndof; ++i)
             if (!s->pinned[i / 3]) out[i] += (c->m + c->md * s->alpha3[i]) * s->mass3[i] * dx[i];

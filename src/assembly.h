@@ -9,6 +9,13 @@
  * DEFSIM_ERR_OUT_OF_MEMORY on failure (what was built is freed with the plan). */
 defsim_status defsim__pattern_build(defsim__system *s);
 
+/* Adds the free-vertex pairs (fa << 32 | fb, fa < fb) that are not in the pattern yet (body
+ * contact) and rebuilds it if any was new (*grew = 1; the version grows, every pointer into the
+ * pattern and the element ranks changes). Returns DEFSIM_ERR_OUT_OF_MEMORY on failure (then
+ * the pattern is not built: the plan must be dropped). */
+defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int64_t n,
+                                   int *grew);
+
 /* The pattern in compressed sparse columns (borrowed from s). DEFSIM_ERR_INVALID_ARGUMENT
  * for a bad triangle or before defsim__pattern_build. */
 defsim_status defsim__matrix_pattern(const defsim__system *s, defsim_triangle tri,

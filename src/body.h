@@ -28,6 +28,15 @@ typedef struct defsim__body {
     defsim_material mat;
     double mu, lambda;
     int32_t offset;           /* first vertex in the world arrays */
+    /* Body contact (body_contact.h): the host's triangles (a cloth's surface), or NULL; for a
+     * body of springs only without triangles, the springs that are its contact edges (a rope:
+     * the stretch springs), else NULL. Filter and friction as in defsim_body_def. */
+    int32_t ntri, nedge;
+    int32_t *tris;            /* 3 ntri, body-local */
+    int32_t *edges;           /* 2 nedge, body-local */
+    int32_t self_contact;
+    uint32_t group, mask;
+    double friction;
 } defsim__body;
 
 /* An attachment as the host gave it (coupling.c): validated; its bodies are live while it is. */

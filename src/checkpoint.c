@@ -11,6 +11,8 @@
  */
 #include "checkpoint.h"
 
+#include "assembly.h"
+
 #include "file_read.h"
 #include "world.h"
 
@@ -205,6 +207,15 @@ static void write_bodies(bw *b, const defsim_world *w)
         put_i32s(b, body->springs, 2 * (int64_t)body->ns);
         put_f64s(b, body->k, body->ns);
         put(b, body->pinned, (size_t)body->nv);
+        /* version 4: body contact */
+        put_i32(b, body->ntri);
+        put_i32(b, body->nedge);
+        put_i32s(b, body->tris, 3 * (int64_t)body->ntri);
+        put_i32s(b, body->edges, 2 * (int64_t)body->nedge);
+        put_i32(b, body->self_contact);
+        put_u32(b, body->group);
+        put_u32(b, body->mask);
+        put_f64(b, body->friction);
         chunk_end(b, c);
     }
 }
@@ -335,6 +346,17 @@ static defsim_status write_backend(bw *b, const defsim_world *w)
     return DEFSIM_OK;
 }
 
+/* The vertex pairs that body contact added to the matrix pattern (version 4): the loaded world
+ * starts from the same pattern, so its factorisations round alike. */
+static void write_pattern(bw *b, const defsim_world *w)
+{
+    if (!w->planned || w->sys.pattern.nextra == 0) return;
+    const size_t c = chunk_begin(b, "PEXT");
+    put_u32(b, (uint32_t)w->sys.pattern.nextra);
+    for (int64_t k = 0; k < w->sys.pattern.nextra; ++k) put_u64(b, (uint64_t)w->sys.pattern.extra[k]);
+    chunk_end(b, c);
+}
+
 static defsim_status save_to(const defsim_world *w, bw *b)
 {
     put(b, DEFSIM__CKPT_MAGIC, 8);
@@ -344,6 +366,7 @@ static defsim_status save_to(const defsim_world *w, bw *b)
     write_bodies(b, w);
     write_coupling(b, w);
     write_colliders(b, w);
+    write_pattern(b, w);
     write_state(b, w);
     defsim_status st = write_backend(b, w);
     if (st != DEFSIM_OK) return st;
@@ -708,7 +731,7 @@ typedef struct id_map {
     defsim_body_id id;
 } id_map;
 
-static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
+static defsim_status load_body(defsim_world *w, const chunk *c, uint32_t version, id_map *map)
 {
     br r = chunk_reader(c);
     map->old_index = get_u32(&r);
@@ -751,7 +774,39 @@ static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
     const unsigned char *pinned = take(&r, (size_t)nv);
     for (int32_t i = 0; pinned && i < nv; ++i)
         if (pinned[i]) pins[npin++] = i;
+    /* Body contact (version 4); older files get the defaults. The contact edges (a rope's
+     * stretch springs) are restored as saved: the springs come back without their kinds. */
+    int32_t ntri = 0, nedge = 0, *tris = NULL, *edges = NULL;
+    if (version >= 4) {
+        ntri = get_i32(&r);
+        nedge = get_i32(&r);
+        if (ntri < 0 || nedge < 0 || !fits(&r, ntri, 12) || !fits(&r, nedge, 8)) {
+            st = malformed(c, "counts out of range");
+            goto done;
+        }
+        tris = malloc((3 * (size_t)ntri + 1) * sizeof *tris);
+        edges = malloc((2 * (size_t)nedge + 1) * sizeof *edges);
+        if (!tris || !edges) {
+            free(tris);
+            free(edges);
+            defsim__set_last_error("load: out of memory");
+            st = DEFSIM_ERR_OUT_OF_MEMORY;
+            goto done;
+        }
+        get_i32s(&r, tris, 3 * (int64_t)ntri);
+        get_i32s(&r, edges, 2 * (int64_t)nedge);
+        d.self_contact = get_i32(&r);
+        d.collision_group = get_u32(&r);
+        d.collision_mask = get_u32(&r);
+        d.friction = get_f64(&r);
+        d.triangles = ntri > 0 ? tris : NULL;
+        d.triangle_count = ntri;
+    }
+    for (int32_t e = 0; e < 2 * nedge && !r.bad; ++e)
+        if (edges[e] < 0 || edges[e] >= nv) r.bad = 1;
     if (r.bad || r.at != r.n) {
+        free(tris);
+        free(edges);
         st = malformed(c, "wrong length");
         goto done;
     }
@@ -764,7 +819,18 @@ static defsim_status load_body(defsim_world *w, const chunk *c, id_map *map)
     d.spring_count = ns;
     d.spring_stiffness = ns > 0 ? k : NULL;
     d.vertex_mass = mass;
-    if ((st = defsim_world_add_body(w, &d, &map->id)) != DEFSIM_OK) {
+    st = defsim_world_add_body(w, &d, &map->id);
+    free(tris);
+    if (st == DEFSIM_OK && version >= 4) {
+        defsim__body *bd = defsim__world_find_body(w, map->id);
+        free(bd->edges);
+        bd->edges = nedge > 0 ? edges : NULL;
+        bd->nedge = nedge;
+        if (nedge == 0) free(edges);
+    } else {
+        free(edges);
+    }
+    if (st != DEFSIM_OK) {
         st = world_failed(w, st, "body");
         goto done;
     }
@@ -936,6 +1002,31 @@ static defsim_status load_collider(defsim_world *w, const chunk *c)
     return st;
 }
 
+static defsim_status load_pattern(defsim_world *w, const chunk *c)
+{
+    br r = chunk_reader(c);
+    const uint32_t n = get_u32(&r);
+    if (!fits(&r, n, 8)) return malformed(c, "count out of range");
+    int64_t *pairs = malloc(((size_t)n + 1) * sizeof *pairs);
+    if (!pairs) {
+        defsim__set_last_error("load: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    const int64_t nfv = w->sys.nfree_v;
+    for (uint32_t k = 0; k < n && !r.bad; ++k) {
+        pairs[k] = (int64_t)get_u64(&r);
+        const int64_t fa = pairs[k] >> 32, fb = pairs[k] & 0xFFFFFFFF;
+        if (fa < 0 || fa >= fb || fb >= nfv) r.bad = 1;
+    }
+    defsim_status st = DEFSIM_OK;
+    int grew = 0;
+    if (r.bad || r.at != r.n) st = malformed(c, "wrong length or a pair out of range");
+    else if ((st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
+        defsim__set_last_error("load: out of memory");
+    free(pairs);
+    return st;
+}
+
 static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
 {
     br r = chunk_reader(c);
@@ -1068,7 +1159,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     if (st != DEFSIM_OK) return st;
     id_map *map = calloc((size_t)k->n, sizeof *map);
     int32_t nmap = 0;
-    const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL;
+    const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL, *pattern = NULL;
     if (!map) {
         defsim__set_last_error("load: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -1078,7 +1169,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
         const chunk *c = &k->c[i];
         if (strcmp(c->tag, "BODY") == 0) {
             if (state) st = malformed(c, "after the state");
-            else st = load_body(w, c, &map[nmap++]);
+            else st = load_body(w, c, k->version, &map[nmap++]);
         } else if (strcmp(c->tag, "ATCH") == 0) {
             st = load_attachment(w, c, map, nmap);
         } else if (strcmp(c->tag, "FEXT") == 0) {
@@ -1089,6 +1180,8 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
             st = load_collider(w, c);
         } else if (strcmp(c->tag, "CFRC") == 0 && k->version >= 3) {
             contact = c;
+        } else if (strcmp(c->tag, "PEXT") == 0 && k->version >= 4) {
+            pattern = c;
         } else if (strcmp(c->tag, "STAT") == 0) {
             state = c;
         } else if (strcmp(c->tag, "STCS") == 0) {
@@ -1117,6 +1210,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
      * was: its first step keeps the cache. */
     if (st == DEFSIM_OK && (st = defsim__world_plan(w)) != DEFSIM_OK)
         st = world_failed(w, st, "planning");
+    if (st == DEFSIM_OK && pattern) st = load_pattern(w, pattern);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
         w->h_stable = h_stable;

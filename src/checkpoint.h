@@ -15,7 +15,7 @@
 /* The version this library writes; it reads 1 .. this. Version 2 added the auto_substep cache
  * (the stable-step estimate and its age) to the STAT chunk, version 3 the colliders (COLL
  * chunks, and CFRC for the contact forces of the last step). */
-#define DEFSIM__CKPT_VERSION 3u
+#define DEFSIM__CKPT_VERSION 4u
 
 /* CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) of n bytes, continuing from crc (0 to
  * start). */

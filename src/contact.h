@@ -37,6 +37,14 @@ enum {
     DEFSIM__CSTAT_TIME_CCD,        /* contact_max_step, cumulative (s) */
     DEFSIM__CSTAT_CCD_CALLS,       /* contact_max_step calls, cumulative */
     DEFSIM__CSTAT_TIME_EVAL,       /* contact's energy, forces and matrix blocks, cumulative (s) */
+    /* body contact (body_contact.h) */
+    DEFSIM__CSTAT_BODY_CANDIDATES, /* candidate primitive pairs of the last step */
+    DEFSIM__CSTAT_BODY_ACTIVE,     /* body pairs with d < dhat at the end of the last step */
+    DEFSIM__CSTAT_BODY_MIN_DISTANCE, /* smallest body pair distance then (m; inf without any) */
+    DEFSIM__CSTAT_TIME_BODY_BROAD, /* body broad phase, cumulative (s) */
+    DEFSIM__CSTAT_TIME_BODY_CCD,   /* body CCD, cumulative (s) */
+    DEFSIM__CSTAT_TIME_BODY_EVAL,  /* body barrier and friction terms, cumulative (s) */
+    DEFSIM__CSTAT_PATTERN_GROWTHS, /* times the matrix pattern grew, cumulative */
     DEFSIM__CSTAT_COUNT
 };
 

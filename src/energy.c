@@ -3,6 +3,7 @@
  * gravity and contact), as deterministic blocked sums. */
 #include "energy.h"
 
+#include "body_contact.h"
 #include "contact.h"
 #include "element.h"
 #include "material.h"
@@ -63,5 +64,6 @@ double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const
         e += sum;
     }
     if (s->contact) e += defsim__contact_energy(s->contact, x);
+    if (s->body_contact) e += defsim__body_contact_energy(s->body_contact, x);
     return e;
 }

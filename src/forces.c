@@ -11,6 +11,7 @@
  */
 #include "forces.h"
 
+#include "body_contact.h"
 #include "contact.h"
 #include "element.h"
 #include "material.h"
@@ -126,6 +127,10 @@ defsim_status defsim__forces(const defsim__system *s, const double *x, const dou
     }
     if (s->contact && (which & (DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING))) {
         const defsim_status st = defsim__contact_forces(s->contact, x, v, which, f);
+        if (st != DEFSIM_OK) return st;
+    }
+    if (s->body_contact && (which & DEFSIM_FORCE_ELASTIC)) {
+        const defsim_status st = defsim__body_contact_forces(s->body_contact, x, f);
         if (st != DEFSIM_OK) return st;
     }
     if ((which & DEFSIM_FORCE_DAMPING) && v) {

@@ -6,6 +6,7 @@
 
 #include "assembly.h"
 #include "clock.h"
+#include "body_contact.h"
 #include "contact.h"
 #include "energy.h"
 #include "forces.h"
@@ -288,18 +289,44 @@ static defsim_status omega_max(defsim_system *s, const double *x, double *omega,
     return st;
 }
 
-/* Contact's services serve only barrier steps (contact.h); elsewhere they change nothing. */
+/* Contact's services serve only barrier steps (contact.h, body_contact.h); elsewhere they
+ * change nothing. */
 static double contact_max_step(defsim_system *s, const double *x, const double *dx)
 {
     defsim__contact *c = s->sys->contact;
-    if (!c || c->mode != DEFSIM__CONTACT_BARRIER || !x || !dx) return 1.0;
-    return defsim__contact_max_step(c, x, dx, 0.2);
+    defsim__body_contact *bc = s->sys->body_contact;
+    if (!x || !dx) return 1.0;
+    double alpha = 1.0;
+    if (c && c->mode == DEFSIM__CONTACT_BARRIER) alpha = defsim__contact_max_step(c, x, dx, 0.2);
+    if (bc && alpha > 0.0) {
+        const double a = defsim__body_contact_max_step(bc, x, dx);
+        if (a < alpha) alpha = a;
+    }
+    return alpha;
 }
 
 static void contact_start(defsim_system *s, double *x)
 {
     defsim__contact *c = s->sys->contact;
     if (c && c->mode == DEFSIM__CONTACT_BARRIER && x) defsim__contact_start(c, x);
+    /* last: the start it leaves is feasible for the bodies whatever the colliders moved */
+    if (s->sys->body_contact && x) defsim__body_contact_start(s->sys->body_contact, x);
+}
+
+static uint64_t matrix_pattern_version(defsim_system *s)
+{
+    defsim__body_contact *bc = s->sys->body_contact;
+    if (bc && bc->npend > 0) {
+        int grew = 0;
+        const defsim_status st = defsim__pattern_grow(s->sys, bc->pend, bc->npend, &grew);
+        bc->npend = 0;
+        if (st != DEFSIM_OK) {
+            defsim__error(s->msg, "out of memory growing the matrix pattern for body contact");
+            return 0;
+        }
+        if (grew) bc->stat[DEFSIM__CSTAT_PATTERN_GROWTHS] += 1.0;
+    }
+    return s->sys->pattern.version;
 }
 
 static void *alloc(size_t bytes) { return malloc(bytes); }
@@ -341,4 +368,5 @@ const defsim_host defsim__host = {
     .applied_forces_vary = applied_forces_vary,
     .contact_max_step = contact_max_step,
     .contact_start = contact_start,
+    .matrix_pattern_version = matrix_pattern_version,
 };

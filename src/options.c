@@ -55,14 +55,19 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
      "bodies' highest elastic frequency, at least sqrt(2 |g| / dhat)"},
     {"friction_eps_v", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 1e3, NULL,
      "friction's stick-slip threshold (m/s): below it friction is a smooth viscous law"},
+    {"body_contact", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
+     "body-body and self-contact (barrier, CCD, lagged friction; docs/body-contact.md) on "
+     "backends with contact CCD (newton_cholmod, newmark, bdf2); other backends refuse to step"},
 };
 static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {
     "core.simd", "core.auto_substep", "core.substep_safety", "core.watchdog",
     "core.watchdog_energy_growth", "core.watchdog_max_stretch", "core.contact_dhat",
-    "core.contact_kappa", "core.contact_frequency", "core.friction_eps_v"};
+    "core.contact_kappa", "core.contact_frequency", "core.friction_eps_v", "core.body_contact"};
 static const char *const CONTACT_STAT_NAMES[DEFSIM__CONTACT_STATS] = {
     "contact.active", "contact.pairs", "contact.min_distance", "contact.time_broad_phase",
-    "contact.time_ccd", "contact.ccd_calls", "contact.time_eval"};
+    "contact.time_ccd", "contact.ccd_calls", "contact.time_eval", "contact.body_candidates",
+    "contact.body_active", "contact.body_min_distance", "contact.time_body_broad",
+    "contact.time_body_ccd", "contact.time_body_eval", "contact.pattern_growths"};
 
 typedef enum { ST_U32, ST_I32, ST_I64, ST_F64 } stat_kind;
 typedef struct stat_field {

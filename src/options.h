@@ -23,11 +23,12 @@ enum {
     DEFSIM__OPT_CONTACT_KAPPA = 7, /* REAL: barrier stiffness per unit mass (1/s^2), 0: auto */
     DEFSIM__OPT_CONTACT_FREQUENCY = 8, /* REAL: penalty frequency (rad/s), 0: auto */
     DEFSIM__OPT_FRICTION_EPS_V = 9,/* REAL: friction's velocity threshold (m/s) */
-    DEFSIM__CORE_OPTIONS = 10
+    DEFSIM__OPT_BODY_CONTACT = 10, /* BOOL: body-body and self-contact (body_contact.h) */
+    DEFSIM__CORE_OPTIONS = 11
 };
 
 /* Contact's statistics ("contact.<name>"), in the order of contact.h's DEFSIM__CSTAT_*. */
-enum { DEFSIM__CONTACT_STATS = 7 };
+enum { DEFSIM__CONTACT_STATS = 14 };
 
 typedef struct defsim__options {
     double core[DEFSIM__CORE_OPTIONS];

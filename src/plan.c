@@ -68,6 +68,7 @@ void defsim__unplan(defsim__system *s, defsim__work *wk)
     defsim__pattern *p = &s->pattern;
     free(p->adj_ptr); free(p->adj); free(p->upper_rank0);
     free(p->full_col_ptr); free(p->full_row_idx); free(p->upper_col_ptr); free(p->upper_row_idx);
+    free(p->extra);
     free(s->mass); free(s->mass3); free(s->alpha3); free(s->pinned);
     free(s->free_dofs); free(s->dof_to_free); free(s->vfree);
     memset(s, 0, sizeof *s);

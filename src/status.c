@@ -19,7 +19,8 @@
     X(DEFSIM_ERR_STALE_ID, "stale id")                          \
     X(DEFSIM_ERR_LOCKED, "locked")                              \
     X(DEFSIM_ERR_CONFLICT, "conflict")                          \
-    X(DEFSIM_ERR_CALLBACK, "host callback failed")
+    X(DEFSIM_ERR_CALLBACK, "host callback failed")                \
+    X(DEFSIM_ERR_UNSUPPORTED, "unsupported")
 
 const char *defsim_status_string(defsim_status status)
 {

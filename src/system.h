@@ -55,6 +55,12 @@ typedef struct defsim__pattern {
     int64_t *upper_col_ptr, *upper_row_idx;
     int64_t full_nnz, upper_nnz;
     int32_t *upper_rank0;     /* per free vertex: neighbours ranked below it (for UPPER) */
+    /* Vertex pairs that body contact added (body_contact.h): (fa << 32 | fb), fa < fb free
+     * vertices, sorted, unique; kept until the plan changes. version counts the pattern's
+     * builds (the host's matrix_pattern_version). */
+    int64_t *extra;
+    int64_t nextra;
+    uint64_t version;
 } defsim__pattern;
 
 /* Attachments (attach.c): zero-rest-length springs on d = sum_j a_j x[node_j] - p, energy
@@ -107,7 +113,33 @@ typedef struct defsim__system {
     /* Contact with the world's colliders (contact.h): set by the world for its steps while it
      * has live colliders, else NULL. Evaluations may grow its candidate pairs. */
     struct defsim__contact *contact;
+    /* Body-body and self-contact (body_contact.h): set by the world for its steps while the
+     * option body_contact is on, else NULL. */
+    struct defsim__body_contact *body_contact;
 } defsim__system;
+
+/* The first position in the sorted list[0 .. n) whose entry is not below key. */
+static inline int32_t defsim__lower_rank(const int32_t *list, int64_t n, int32_t key)
+{
+    int64_t lo = 0, hi = n;
+    while (lo < hi) {
+        const int64_t mid = (lo + hi) / 2;
+        if (list[mid] < key) lo = mid + 1;
+        else hi = mid;
+    }
+    return (int32_t)lo;
+}
+
+/* The rank of free vertex fa in fb's neighbour list of a built pattern, or -1 if the pair is
+ * not in it (the position of block (fa, fb) in column fb's blocks). */
+static inline int32_t defsim__pattern_rank(const defsim__system *s, int32_t fa, int32_t fb)
+{
+    const defsim__pattern *p = &s->pattern;
+    const int32_t *list = p->adj + p->adj_ptr[fb];
+    const int64_t n = p->adj_ptr[fb + 1] - p->adj_ptr[fb];
+    const int32_t r = defsim__lower_rank(list, n, fa);
+    return r < n && list[r] == fa ? r : -1;
+}
 
 /* Scratch that physics functions write (sized by the planner, so that no step allocates). */
 typedef struct defsim__work {

@@ -173,6 +173,8 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
+    _Static_assert((int)DEFSIM__CSTAT_COUNT == (int)DEFSIM__CONTACT_STATS,
+                   "contact.h's statistics and options.c's names must agree");
     w->options.contact_stats = w->contact.stat;
     *out = w;
     return DEFSIM_OK;
@@ -205,6 +207,7 @@ void defsim__world_backend_stop(defsim_world *w) { backend_fini(w); }
 void defsim__world_unplan(defsim_world *w)
 {
     defsim__unplan(&w->sys, &w->work);
+    defsim__body_contact_unplan(&w->body_contact);
     w->planned = 0;
     defsim__watchdog_forget(&w->wd, 1);
 }
@@ -283,8 +286,9 @@ defsim_status defsim__world_plan(defsim_world *w)
 static void body_free(defsim__body *b)
 {
     free(b->rest); free(b->mass); free(b->tets); free(b->springs); free(b->k); free(b->pinned);
+    free(b->tris); free(b->edges);
     b->rest = b->mass = b->k = NULL;
-    b->tets = b->springs = NULL;
+    b->tets = b->springs = b->tris = b->edges = NULL;
     b->pinned = NULL;
 }
 
@@ -303,6 +307,7 @@ void defsim_world_destroy(defsim_world *w)
     defsim__coupling_free(w);
     defsim__colliders_free(w);
     defsim__contact_free(&w->contact);
+    defsim__body_contact_free(&w->body_contact);
     free(w->msg);
     defsim__options_free(&w->options);
     w->magic = DEFSIM__WORLD_DEAD;
@@ -326,6 +331,10 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.size = (uint32_t)sizeof d;
     defsim_material_init(&d.material, sizeof d.material, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     d.shear_stiffness = d.bend_stiffness = -1.0;
+    d.self_contact = 1;
+    d.collision_group = 1u;
+    d.collision_mask = 0xFFFFFFFFu;
+    d.friction = 0.5;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -458,6 +467,17 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__error(w->msg, "add_body: give spring_stiffness or spring_kinds, not both");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
+    if (d.triangle_count < 0 || d.triangle_count > INT32_MAX / 6 ||
+        (d.triangle_count > 0 && !d.triangles) || (d.self_contact != 0 && d.self_contact != 1)) {
+        defsim__error(w->msg, "add_body: triangle_count %d must be >= 0 (with triangles for a "
+                              "non-zero count) and self_contact %d 0 or 1",
+                      (int)d.triangle_count, (int)d.self_contact);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!isfinite(d.friction) || d.friction < 0.0 || d.friction > 10.0) {
+        defsim__error(w->msg, "add_body: friction %g must be in [0, 10]", d.friction);
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
     st = validate_array(w, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
     if (st == DEFSIM_OK && d.initial_positions)
@@ -470,13 +490,27 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     memset(&b, 0, sizeof b);
     b.nv = nv; b.nt = nt; b.ns = ns;
     b.mat = d.material;
+    b.self_contact = d.self_contact;
+    b.group = d.collision_group;
+    b.mask = d.collision_mask;
+    b.friction = d.friction;
+    /* Contact edges of a rope: its stretch springs (all springs without kinds). */
+    int32_t nedge = 0;
+    if (nt == 0 && d.triangle_count == 0)
+        for (int32_t s = 0; s < ns; ++s)
+            nedge += !d.spring_kinds || d.spring_kinds[s] == DEFSIM_SPRING_STRETCH;
+    b.ntri = d.triangle_count;
+    b.nedge = nedge;
+    if (b.ntri > 0) b.tris = malloc(3 * (size_t)b.ntri * sizeof *b.tris);
+    if (nedge > 0) b.edges = malloc(2 * (size_t)nedge * sizeof *b.edges);
     b.rest = malloc(3 * (size_t)nv * sizeof *b.rest);
     b.mass = calloc((size_t)nv, sizeof *b.mass);
     b.pinned = calloc((size_t)nv, 1);
     b.tets = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *b.tets);
     b.springs = malloc((size_t)(ns > 0 ? ns : 1) * 2 * sizeof *b.springs);
     b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
-    if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k) {
+    if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k ||
+        (b.ntri > 0 && !b.tris) || (nedge > 0 && !b.edges)) {
         body_free(&b);
         defsim__error(w->msg, "out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -487,6 +521,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__lame(b.mat.youngs_modulus, b.mat.poisson_ratio, &b.mu, &b.lambda);
     }
     if (ns > 0) memcpy(b.springs, d.springs, 2 * (size_t)ns * sizeof *b.springs);
+    if (b.ntri > 0) memcpy(b.tris, d.triangles, 3 * (size_t)b.ntri * sizeof *b.tris);
+    for (int32_t s = 0, e = 0; e < nedge; ++s)
+        if (!d.spring_kinds || d.spring_kinds[s] == DEFSIM_SPRING_STRETCH) {
+            b.edges[2 * (int64_t)e] = d.springs[2 * (int64_t)s];
+            b.edges[2 * (int64_t)e + 1] = d.springs[2 * (int64_t)s + 1];
+            ++e;
+        }
 
     int32_t reordered = 0;
     st = DEFSIM_ERR_INVALID_MESH;
@@ -551,6 +592,17 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
             goto fail;
         }
         b.k[s] = k;
+    }
+    for (int32_t t = 0; t < b.ntri; ++t) {
+        const int32_t *tt = b.tris + 3 * (int64_t)t;
+        if (tt[0] < 0 || tt[0] >= nv || tt[1] < 0 || tt[1] >= nv || tt[2] < 0 || tt[2] >= nv ||
+            tt[0] == tt[1] || tt[1] == tt[2] || tt[0] == tt[2]) {
+            defsim__error(w->msg, "add_body: triangle %d (%d %d %d) has an index out of range "
+                                  "[0, %d) or repeats a vertex", (int)t, (int)tt[0], (int)tt[1],
+                          (int)tt[2], (int)nv);
+            st = DEFSIM_ERR_INVALID_MESH;
+            goto fail;
+        }
     }
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
@@ -734,6 +786,28 @@ defsim_status defsim_body_unpin(defsim_world *w, defsim_body_id id, const int32_
     return set_pins(w, id, verts, n, 0);
 }
 
+defsim_status defsim_body_set_collision(defsim_world *w, defsim_body_id id, int32_t self_contact,
+                                        uint32_t group, uint32_t mask)
+{
+    defsim_status st = defsim__world_enter(w);
+    if (st != DEFSIM_OK) return st;
+    defsim__body *b = defsim__world_body(w, id);
+    if (!b) return DEFSIM_ERR_STALE_ID;
+    if (self_contact != 0 && self_contact != 1) {
+        defsim__error(w->msg, "body_set_collision: self_contact %d must be 0 or 1",
+                      (int)self_contact);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    /* Body contact reads the filter at each step's start: no re-plan; pairs it let in may
+     * cross already. */
+    if (b->self_contact != self_contact || b->group != group || b->mask != mask)
+        w->body_contact.fresh = 1;
+    b->self_contact = self_contact;
+    b->group = group;
+    b->mask = mask;
+    return DEFSIM_OK;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* State */
 
@@ -801,6 +875,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
     if (v) memcpy(w->state.v, v, bytes);
     w->h_stable = 0.0;
     defsim__watchdog_forget(&w->wd, 0);
+    w->body_contact.fresh = 1;   /* the host's state may have crossing surfaces */
     for (int32_t i = 0; i < w->nv; ++i)
         if (w->pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend_ready && w->backend->reset) {
@@ -1064,6 +1139,20 @@ static defsim_status contact_begin(defsim_world *w, double h)
     return DEFSIM_OK;
 }
 
+/* A zeroed contact-force read-back of the world's vertex count. */
+static defsim_status readback_reserve(defsim_world *w)
+{
+    free(w->contact_force);
+    w->contact_nv = 0;
+    w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
+    if (!w->contact_force) {
+        defsim__error(w->msg, "out of memory for the contact forces");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    w->contact_nv = w->nv;
+    return DEFSIM_OK;
+}
+
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the
  * contact forces for the host and the colliders' poses at the end of the step. */
 static defsim_status contact_end(defsim_world *w, defsim_status st)
@@ -1080,14 +1169,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         return st;
     }
     if (st == DEFSIM_OK && (!w->contact_force || w->contact_nv != w->nv)) {
-        free(w->contact_force);
-        w->contact_nv = 0;
-        w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
-        if (!w->contact_force) {
-            defsim__error(w->msg, "out of memory for the contact forces");
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        w->contact_nv = w->nv;
+        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
         w->contact_zero = 1;
     }
     /* The read-back goes to scratch first: a callback failing there fails the step too, and
@@ -1129,6 +1211,65 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     return DEFSIM_OK;
 }
 
+/* Body contact (body_contact.h) for a step of h while the option is on (the step refused
+ * backends without contact CCD already). */
+static defsim_status body_begin(defsim_world *w, double h)
+{
+    w->sys.body_contact = NULL;
+    const defsim__options *o = &w->options;
+    if (defsim__options_core(o, DEFSIM__OPT_BODY_CONTACT) == 0.0) {
+        w->body_contact_last = 0;
+        return DEFSIM_OK;
+    }
+    if (!w->body_contact_last) w->body_contact.fresh = 1;
+    w->body_contact_last = 1;
+    const defsim_status st = defsim__body_contact_begin(
+        &w->body_contact, &w->sys, w->bodies, w->nbodies,
+        defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
+        defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
+        defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V), w->x_save, w->state.v, h,
+        w->contact.stat, w->msg);
+    if (st == DEFSIM_OK) w->sys.body_contact = &w->body_contact;
+    return st;
+}
+
+/* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
+ * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
+static defsim_status body_end(defsim_world *w, defsim_status st)
+{
+    defsim__body_contact *bc = w->sys.body_contact;
+    w->sys.body_contact = NULL;
+    if (!bc || st != DEFSIM_OK) return st;
+    if (bc->failed) {
+        defsim__error(w->msg, "out of memory for body contact pairs; state restored");
+        return bc->failed;
+    }
+    const double dmin = defsim__body_contact_end(bc, w->state.x, bc->scratch);
+    if (defsim__options_core(&w->options, DEFSIM__OPT_WATCHDOG) != 0.0 && !(dmin > 0.0)) {
+        w->stats.watchdog_trips++;
+        defsim__error(w->msg, "step: watchdog: two body surfaces touched (distance %g m) although "
+                      "the contact barrier forbids it; state restored. This is a defect: please "
+                      "report it with the scene", dmin);
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    return DEFSIM_OK;
+}
+
+/* Adds body contact's forces of a successful step to the read-back (after the colliders'). */
+static defsim_status body_readback(defsim_world *w, int colliders)
+{
+    if (!w->contact_force || w->contact_nv != w->nv) {
+        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
+    } else if (!colliders) {
+        memset(w->contact_force, 0, 3 * (size_t)w->nv * sizeof *w->contact_force);
+    }
+    const double *f = w->body_contact.scratch;
+    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i) w->contact_force[i] += f[i];
+    w->contact_zero = 0;
+    w->contact.readback_set = 1;
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_world_step(defsim_world *w, double h)
 {
     defsim_status st = defsim__world_enter(w);
@@ -1142,6 +1283,14 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                       "to t in double precision): use a larger step, or restart the clock",
                       h, w->state.t);
         return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (defsim__options_core(&w->options, DEFSIM__OPT_BODY_CONTACT) != 0.0 &&
+        !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        defsim__error(w->msg, "step: body contact (core.body_contact) needs a backend with "
+                              "contact CCD (newton_cholmod, newmark or bdf2); backend %s has "
+                              "none: turn body_contact off or change the backend",
+                      w->backend->name);
+        return DEFSIM_ERR_UNSUPPORTED;
     }
     double t0 = defsim__now();
     st = defsim__world_plan(w);
@@ -1168,6 +1317,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                         (w->backend->stable_step || w->backend->stable_step_options);
     st = defsim__coupling_step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
+    if (st == DEFSIM_OK) st = body_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -1208,7 +1358,10 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     st = defsim__coupling_step_end(w, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
+    const int bodies = w->sys.body_contact != NULL, colliders = w->sys.contact != NULL;
+    st = body_end(w, st);
     st = contact_end(w, st);
+    if (st == DEFSIM_OK && bodies) st = body_readback(w, colliders);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);

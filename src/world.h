@@ -9,6 +9,7 @@
 #define DEFSIM_WORLD_H
 
 #include "body.h"
+#include "body_contact.h"
 #include "collider.h"
 #include "contact.h"
 #include "host.h"
@@ -82,6 +83,8 @@ struct defsim_world {
     int contact_zero;         /* contact_force is known to be all zero */
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
     defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
+    defsim__body_contact body_contact;  /* body_contact.h: surfaces (per plan) and pairs */
+    int body_contact_last;    /* the last step had body contact on */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).

@@ -22,6 +22,12 @@
  * steps every variant with another backend than symplectic_euler (e.g. newton_cholmod, whose
  * colliders get the barrier instead of the penalty).
  *
+ * The body_contact variants (issue 13; --only body_contact) run newton_cholmod at h = 1e-3 on
+ * two clamped beams of --n-implicit N (default 4) placed 2 m apart, body contact off (their
+ * baseline), on, and on with self-contact off: nothing is ever near, so the ratio is what the
+ * broad phase costs when it finds nothing (target: within 10 %). They also print the candidate
+ * pairs and the share of the step in the body-contact broad phase, CCD and evaluation.
+ *
  *   defsim-bench-features --cloth N [--threads T]
  *
  * instead drops an N x N cloth (1 m, springs) on a sphere for 1.5 s at h = 0.01 with
@@ -53,6 +59,11 @@ typedef struct variant {
     int watchdog_off;        /* core.watchdog = false */
     int neohookean;          /* the beam is neo-Hookean instead of stable neo-Hookean */
     int colliders;           /* 0 none, 1 four far away (100 m), 2 a sphere under the free end */
+    /* Body contact (issue 13): newton_cholmod (h = 1e-3) with a second beam 2 m beside the
+     * first, compared with the variant marked own_base before it. */
+    int implicit;            /* newton_cholmod instead of symplectic_euler */
+    int own_base;            /* the baseline of the variants after it */
+    int body_contact;        /* 0 off, 1 on, 2 on with self_contact 0 on both beams */
 } variant;
 
 static const variant variants[] = {
@@ -83,6 +94,12 @@ static const variant variants[] = {
      .colliders = 1},
     {.name = "collider on (sphere under the free end)", .gravity = 9.81, .pins = 1,
      .colliders = 2},
+    {.name = "body_contact off, newton_cholmod, 2 beams 2 m apart (baseline of the next two)",
+     .gravity = 9.81, .pins = 1, .implicit = 1, .own_base = 1},
+    {.name = "body_contact on, 2 beams 2 m apart", .gravity = 9.81, .pins = 1, .implicit = 1,
+     .body_contact = 1},
+    {.name = "body_contact on, self_contact 0, 2 beams 2 m apart", .gravity = 9.81, .pins = 1,
+     .implicit = 1, .body_contact = 2},
 };
 enum { NV = sizeof variants / sizeof variants[0] };
 
@@ -91,10 +108,7 @@ static const char *backend_name = "symplectic_euler";   /* --backend */
 
 static double now(void)
 {
-    if (!use_cpu) return tools_now();
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return use_cpu ? tools_cpu_now() : tools_now();
 }
 
 static int cmp(const void *a, const void *b)
@@ -160,9 +174,27 @@ static defsim_world *new_world(const char *backend, double gy, int threads)
     return defsim_world_create(&wd, &w) == DEFSIM_OK ? w : NULL;
 }
 
+/* The beam again, 2 m beside the first (z + 3 m), for body contact with nothing near. */
+static int second_beam(defsim_world *w, const defsim_mesh *m, const defsim_material *mat,
+                       int self_contact)
+{
+    defsim_mesh far = *m;
+    far.positions = malloc(3 * (size_t)m->vertex_count * sizeof *far.positions);
+    if (!far.positions) return -1;
+    for (int i = 0; i < 3 * m->vertex_count; ++i)
+        far.positions[i] = m->positions[i] + (i % 3 == 2 ? 3.0 : 0.0);
+    defsim_body_id b;
+    int st = bench_add_beam(w, &far, mat, 1, &b);
+    free(far.positions);
+    if (st == DEFSIM_OK && !self_contact)
+        st = defsim_body_set_collision(w, b, 0, 1u, 0xFFFFFFFFu);
+    return st == DEFSIM_OK ? 0 : -1;
+}
+
 static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
 {
-    defsim_world *w = new_world(backend_name, v->gravity, threads);
+    defsim_world *w = new_world(v->implicit ? "newton_cholmod" : backend_name, v->gravity,
+                                threads);
     if (!w) return NULL;
     defsim_material mat;
     defsim_material_init(&mat, sizeof mat,
@@ -171,6 +203,13 @@ static defsim_world *make(const variant *v, const defsim_mesh *m, int threads)
     mat.stiffness_damping = v->beta;
     defsim_body_id b;
     if (bench_add_beam(w, m, &mat, v->pins >= 1, &b) != DEFSIM_OK) return NULL;
+    if (v->implicit) {
+        if (second_beam(w, m, &mat, v->body_contact != 2) != 0) return NULL;
+        if (v->body_contact == 2 && defsim_body_set_collision(w, b, 0, 1u, 0xFFFFFFFFu) != DEFSIM_OK)
+            return NULL;
+        if (v->body_contact && defsim_world_set_option(w, "core.body_contact", "true") != DEFSIM_OK)
+            return NULL;
+    }
     if (v->pins == 2) {
         int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins);
         if (!pins) return NULL;
@@ -292,7 +331,7 @@ static int cloth(int nu, const char *backend, int threads)
 
 int main(int argc, char **argv)
 {
-    int n = 12, steps = 20, rounds = 7, threads = 1, cloth_n = 0;
+    int n = 12, steps = 20, rounds = 7, threads = 1, cloth_n = 0, n_implicit = 4;
     const char *only = NULL;
     for (int i = 1; i < argc; i += 2) {
         if (!strcmp(argv[i], "--cpu")) {
@@ -308,9 +347,12 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--only")) only = argv[i + 1];
         else if (!strcmp(argv[i], "--cloth")) cloth_n = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--backend")) backend_name = argv[i + 1];
+        else if (!strcmp(argv[i], "--n-implicit")) n_implicit = atoi(argv[i + 1]);
         else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
     }
-    if (n < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0 || cloth_n < 0) return 2;
+    if (n < 1 || n_implicit < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0 ||
+        cloth_n < 0)
+        return 2;
     if (cloth_n > 0) {
         printf("%dx%d cloth on a sphere, 150 steps of 0.01 s, %d threads\n\n", cloth_n, cloth_n,
                threads);
@@ -318,43 +360,67 @@ int main(int argc, char **argv)
                "|---|---:|---:|---:|---:|\n");
         return cloth(cloth_n, "newton_cholmod", threads) || cloth(cloth_n, "symplectic_euler", threads);
     }
-    defsim_mesh m;
-    if (bench_beam_mesh(n, &m) != DEFSIM_OK) return 1;
+    defsim_mesh m, mi;
+    if (bench_beam_mesh(n, &m) != DEFSIM_OK || bench_beam_mesh(n_implicit, &mi) != DEFSIM_OK)
+        return 1;
     defsim_world *w[NV] = {0};
     for (int v = 0; v < NV; ++v)
         if ((v == 0 || !only || strstr(variants[v].name, only)) &&
-            !(w[v] = make(&variants[v], &m, threads))) {
+            !(w[v] = make(&variants[v], variants[v].implicit ? &mi : &m, threads))) {
             fprintf(stderr, "variant %s: %s\n", variants[v].name, defsim_last_error());
             return 1;
         }
     double t[NV][100];
-    const double h = 1e-5;
     for (int v = 0; v < NV; ++v)
-        if (w[v]) defsim_world_step(w[v], h);   /* plan and warm up */
+        if (w[v]) defsim_world_step(w[v], variants[v].implicit ? 1e-3 : 1e-5);   /* plan, warm up */
     for (int r = 0; r < rounds; ++r)
         for (int v = 0; v < NV; ++v) {
             if (!w[v]) continue;
+            const double h = variants[v].implicit ? 1e-3 : 1e-5;
             double t0 = now();
-            for (int s = 0; s < steps; ++s) defsim_world_step(w[v], h);
+            for (int s = 0; s < steps; ++s)
+                if (defsim_world_step(w[v], h) != DEFSIM_OK) {
+                    fprintf(stderr, "variant %s: %s\n", variants[v].name,
+                            defsim_world_last_error(w[v]));
+                    return 1;
+                }
             t[v][r] = (now() - t0) / steps;
         }
-    printf("%s, %d tets, %d threads, median of %d rounds x %d steps, variants interleaved, %s\n\n",
-           backend_name, m.tet_count, threads, rounds, steps,
+    printf("%s, %d tets (newton_cholmod variants: 2 x %d tets, h = 1e-3 s), %d threads, median "
+           "of %d rounds x %d steps, variants interleaved, %s\n\n", backend_name, m.tet_count,
+           mi.tet_count, threads, rounds, steps,
            use_cpu ? "process CPU time" : "monotonic clock");
     printf("| variant | ms/step | vs baseline | passes run |\n|---|---:|---:|---|\n");
     double base = 0;
+    char notes[NV][192] = {{0}};
     for (int v = 0; v < NV; ++v) {
         if (!w[v]) continue;
         qsort(t[v], (size_t)rounds, sizeof(double), cmp);
         double med = t[v][rounds / 2];
-        if (v == 0) base = med;
+        if (v == 0 || variants[v].own_base) base = med;
         defsim_stats s = {.size = sizeof s};
         defsim_world_stats(w[v], &s);
         char p[256];
         passes(s.passes, p, sizeof p);
         printf("| %s | %.3f | %.3f | %s|\n", variants[v].name, 1e3 * med, med / base, p);
+        if (variants[v].body_contact) {
+            /* nothing is near: what the broad phase and CCD cost, of the whole step */
+            double cand = 0, broad = 0, ccd = 0, eval = 0, total = 1;
+            defsim_world_stat(w[v], "contact.body_candidates", &cand);
+            defsim_world_stat(w[v], "contact.time_body_broad", &broad);
+            defsim_world_stat(w[v], "contact.time_body_ccd", &ccd);
+            defsim_world_stat(w[v], "contact.time_body_eval", &eval);
+            defsim_world_stat(w[v], "time_step", &total);
+            snprintf(notes[v], sizeof notes[v], "%s: candidate pairs %.0f; body broad phase "
+                     "%.2f %%, CCD %.2f %%, evaluation %.2f %% of the step", variants[v].name,
+                     cand, 100 * broad / total, 100 * ccd / total, 100 * eval / total);
+        }
         defsim_world_destroy(w[v]);
     }
+    for (int v = 0; v < NV; ++v)
+        if (notes[v][0]) printf("\n%s", notes[v]);
+    printf("\n");
     defsim_mesh_free(&m);
+    defsim_mesh_free(&mi);
     return 0;
 }

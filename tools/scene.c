@@ -412,6 +412,8 @@ static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_bod
         return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "bending_stiffness"),
                        "%s: bending_stiffness needs a \"cloth\" or \"rope\" mesh (boxes and mesh "
                        "files have no bending springs)", w);
+    b->shear_k = shear;
+    b->bend_k = bend;
     if ((shear >= 0.0 || bend >= 0.0) && b->mesh.spring_count > 0) {
         const int32_t ns = b->mesh.spring_count;
         b->spring_k = malloc((size_t)ns * sizeof *b->spring_k);
@@ -507,10 +509,29 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     snprintf(w, sizeof w, "bodies[%d]", index);
     static const char *const keys[] = {"name", "mesh", "transform", "material", "pin", "velocity",
                                        "initial_transform", "color", "probe", "forces", "drive",
-                                       NULL};
+                                       "self_contact", "collision_group", "collision_mask",
+                                       "friction", NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
     b->probe = -1;
+    b->shear_k = b->bend_k = -1.0;
+    b->self_contact = 1;
+    b->collision_group = 1u;
+    b->collision_mask = 0xFFFFFFFFu;
+    b->friction = 0.5;
+    double group = 1.0, mask = 4294967295.0;
+    if (sj_bool(c, j, "self_contact", w, &b->self_contact) ||
+        sj_number(c, j, "collision_group", w, 0.0, 4294967295.0, 0, &group) ||
+        sj_number(c, j, "collision_mask", w, 0.0, 4294967295.0, 0, &mask) ||
+        sj_number(c, j, "friction", w, 0.0, 10.0, 0, &b->friction))
+        return -1;
+    if (group != floor(group) || mask != floor(mask))
+        return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, group != floor(group)
+                                                                  ? "collision_group"
+                                                                  : "collision_mask"),
+                       "%s: collision_group and collision_mask must be integers in [0, 2^32)", w);
+    b->collision_group = (uint32_t)group;
+    b->collision_mask = (uint32_t)mask;
     scene_palette(index, b->color);
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(j, "name");
     if (name) {
@@ -742,8 +763,23 @@ defsim_status scene_build(scene *s, defsim_world **out)
         if (b->mesh.tet_count == 0) {
             bd.springs = b->mesh.springs;
             bd.spring_count = b->mesh.spring_count;
-            bd.spring_stiffness = b->spring_k;
+            /* Kinds where the mesh has them (the same stiffnesses as spring_k): body contact
+             * takes a rope's stretch springs as its edges. A cloth's triangles are its contact
+             * surface; a tet body's is its boundary, which the library extracts. */
+            if (b->mesh.spring_kinds) {
+                bd.spring_kinds = b->mesh.spring_kinds;
+                bd.shear_stiffness = b->shear_k;
+                bd.bend_stiffness = b->bend_k;
+            } else {
+                bd.spring_stiffness = b->spring_k;
+            }
+            bd.triangles = b->mesh.triangles;
+            bd.triangle_count = b->mesh.triangle_count;
         }
+        bd.self_contact = b->self_contact;
+        bd.collision_group = b->collision_group;
+        bd.collision_mask = b->collision_mask;
+        bd.friction = b->friction;
         bd.initial_positions = b->initial;
         bd.initial_velocities = b->velocity;
         bd.material = b->material;

@@ -115,6 +115,11 @@ typedef struct scene_body {
     int32_t nforces;
     scene_drive *drives;    /* "drive": keyframed pins */
     int32_t ndrives;
+    double shear_k, bend_k; /* material.shear_stiffness, bending_stiffness; -1: not given */
+    /* body contact (docs/body-contact.md): as in defsim_body_def */
+    int self_contact;
+    uint32_t collision_group, collision_mask;
+    double friction;
 } scene_body;
 
 /* What a scene file may ask for at most, checked by scene_load before anything large is made

@@ -38,6 +38,9 @@
 #define IC_MAX_BACKTRACKS 40
 /* Diagonal shifts tried (multiples of M / h^2) when an exact Hessian is not positive definite. */
 #define IC_MAX_SHIFTS 12
+/* Factorisations of fewer flops run the BLAS on one thread (bit-identical for any thread
+ * count); larger ones on the world's threads (bit-identical for a fixed count). */
+#define IC_BLAS_SERIAL_FLOPS 1e8
 /* Relative resolution of g: decreases smaller than this times |g|'s scale cannot be seen. */
 #define IC_G_RESOLUTION (1e3 * DBL_EPSILON)
 
@@ -139,6 +142,9 @@ typedef struct ic_solver {
     double *grad, *dx;         /* free DOFs */
     int coupled;               /* the host has the coupling services (pin_positions, ...) */
     int contact;               /* the host has the contact services (ABI 5) */
+    int versioned;             /* the host has matrix_pattern_version (ABI 6) */
+    uint64_t pattern_version;  /* of the pattern in pat (and the analysis in L) */
+    int64_t analyses;          /* symbolic analyses since init */
     double *dxf;               /* the Newton update over all DOFs (contact_max_step) */
     const int64_t *dof_free;   /* DOF -> free index or -1 */
     double *dpin, *fpd;        /* driven pins: x_p - z_p, and -B(x_b) (x_p - z_p) on free DOFs */
@@ -246,6 +252,10 @@ static void ordering_methods(cholmod_common *cc, int ordering)
 
 static pthread_mutex_t analysis_lock = PTHREAD_MUTEX_INITIALIZER;
 
+static defsim_status analyse(ic_solver *s, const defsim_host *host, defsim_system *sys);
+static void say(const ic_solver *s, const defsim_host *host, defsim_system *sys,
+                const char *message);
+
 static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
@@ -298,6 +308,8 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
                                    sizeof host->applied_forces_vary;
     s->dof_free = host->dof_to_free(sys);
     s->contact = host->size >= offsetof(defsim_host, contact_start) + sizeof host->contact_start;
+    s->versioned = host->size >= offsetof(defsim_host, matrix_pattern_version) +
+                                     sizeof host->matrix_pattern_version;
     if (s->contact) {
         s->dxf = alloc_doubles(host, p->ndof);
         if (!s->dxf) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -322,6 +334,46 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->cc.quick_return_if_not_posdef = 1;
     s->cc.print = 0;
 
+    s->rhs = cholmod_l_zeros((size_t)p->n, 1, CHOLMOD_REAL, &s->cc);
+    if (!s->rhs) {
+        say(s, host, sys, "out of memory for CHOLMOD's right-hand side");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    if (s->versioned) s->pattern_version = host->matrix_pattern_version(sys);
+    return analyse(s, host, sys);
+}
+
+/* Body contact grows the pattern during a run (matrix_pattern_version, ABI 6): when it changed,
+ * fetch it again, move the values to its layout and redo the symbolic analysis. */
+static defsim_status sync_pattern(ic_solver *s, const defsim_host *host, defsim_system *sys)
+{
+    if (!s->versioned) return DEFSIM_OK;
+    const uint64_t version = host->matrix_pattern_version(sys);
+    if (version == s->pattern_version) return DEFSIM_OK;
+    if (version == 0) return DEFSIM_ERR_OUT_OF_MEMORY;   /* the host set the message */
+    defsim__ic_solver *p = &s->pub;
+    defsim_status st = host->matrix_pattern(sys, DEFSIM_TRIANGLE_UPPER, &s->pat);
+    if (st != DEFSIM_OK) return st;
+    host->release(s->hval);
+    s->hval = alloc_doubles(host, s->pat.nnz);
+    if (!s->hval) return DEFSIM_ERR_OUT_OF_MEMORY;
+    memset(s->hval, 0, (size_t)s->pat.nnz * sizeof *s->hval);
+    if (p->bval) {
+        host->release(p->bval);
+        p->bval = alloc_doubles(host, s->pat.nnz);
+        if (!p->bval) return DEFSIM_ERR_OUT_OF_MEMORY;
+        if (p->xb && (st = defsim__ic_damping_matrix(p, host, sys, p->xb)) != DEFSIM_OK)
+            return st;
+    }
+    cholmod_l_free_factor(&s->L, &s->cc);
+    s->pattern_version = version;
+    return analyse(s, host, sys);
+}
+
+/* CHOLMOD's symbolic analysis of the pattern in pat (the values in hval). */
+static defsim_status analyse(ic_solver *s, const defsim_host *host, defsim_system *sys)
+{
+    const defsim__ic_solver *p = &s->pub;
     /* The pattern is only read by CHOLMOD; the casts drop const for its struct's sake. */
     s->A.nrow = s->A.ncol = (size_t)s->pat.n;
     s->A.nzmax = (size_t)s->pat.nnz;
@@ -339,23 +391,22 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     pthread_mutex_lock(&analysis_lock);
     s->L = cholmod_l_analyze(&s->A, &s->cc);
     pthread_mutex_unlock(&analysis_lock);
-    s->rhs = cholmod_l_zeros((size_t)p->n, 1, CHOLMOD_REAL, &s->cc);
-    if (!s->L || !s->rhs) {
+    if (!s->L) {
         char why[128];
-        snprintf(why, sizeof why, "%s: CHOLMOD analysis failed (CHOLMOD status %d)",
-                 scheme->name, s->cc.status);
-        host->set_error(sys, why);
+        snprintf(why, sizeof why, "CHOLMOD analysis failed (CHOLMOD status %d)", s->cc.status);
+        say(s, host, sys, why);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    s->analyses++;
     const int ord = s->L->ordering;
     char msg[256];
     snprintf(msg, sizeof msg,
              "%s: %lld free DOFs, nnz(A upper) %lld, nnz(L) %.0f, %.3g Gflop per "
-             "factorisation, %s, %s ordering, analysis %.3f s", scheme->name,
-             (long long)p->n, (long long)s->pat.nnz, s->cc.lnz, s->cc.fl * 1e-9,
-             s->L->is_super ? "supernodal" : "simplicial",
+             "factorisation, %s, %s ordering, analysis %.3f s (analysis %lld of this set-up)",
+             p->scheme->name, (long long)p->n, (long long)s->pat.nnz, s->cc.lnz,
+             s->cc.fl * 1e-9, s->L->is_super ? "supernodal" : "simplicial",
              ord == CHOLMOD_METIS ? "METIS" : ord == CHOLMOD_AMD ? "AMD" : "other",
-             host->wall_time() - t0);
+             host->wall_time() - t0, (long long)s->analyses);
     host->log(sys, 2, msg);
     return DEFSIM_OK;
 }
@@ -551,7 +602,10 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
 #endif
     double shift = 0.0;
     defsim_status result = DEFSIM_OK;
-    blas_enter(threads);
+    /* OpenBLAS splits its work by thread count, which changes the rounding: a small
+     * factorisation, where a second thread gains nothing, runs its BLAS on one thread, so that
+     * its results are the same for every thread count. */
+    blas_enter(s->cc.fl < IC_BLAS_SERIAL_FLOPS ? 1 : threads);
     const omp_saved omp = omp_limit(threads);
     for (int attempt = 0;; ++attempt) {
         double t0 = host->wall_time();
@@ -667,7 +721,9 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     char msg[200];
     for (int it = 1; it <= s->max_iterations; ++it) {
         stats->newton_iterations++;
-        defsim_status st = gradient(s, stp, host, sys, s->x, h);
+        defsim_status st = sync_pattern(s, host, sys);
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
+        st = gradient(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "non-finite forces");
         double gmax = 0.0;
         for (int64_t k = 0; k < p->n; ++k) gmax = fmax(gmax, fabs(s->grad[k]));

@@ -29,9 +29,10 @@ extern "C" {
 /// applied_forces_vary); version 4 defsim_backend.stable_step_options; version 5
 /// defsim_backend.save_state and load_state (checkpoints, with defsim_state_writer and
 /// defsim_state_reader), the contact services (defsim_host.contact_max_step, contact_start) and
-/// DEFSIM_BACKEND_CONTACT_CCD. The core accepts backends built against 1 to 5 (a table's
-/// struct_size says which fields it has); a backend checks host->size before using a later field.
-#define DEFSIM_BACKEND_ABI_VERSION 5u
+/// DEFSIM_BACKEND_CONTACT_CCD; version 6 defsim_host.matrix_pattern_version (body contact grows
+/// the pattern). The core accepts backends built against 1 to 6 (a table's struct_size says
+/// which fields it has); a backend checks host->size before using a later field.
+#define DEFSIM_BACKEND_ABI_VERSION 6u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -236,6 +237,21 @@ typedef struct defsim_host {
     /// collider comes within the activation distance of in this step is carried rigidly with
     /// the collider's motion. No-op without colliders or without DEFSIM_BACKEND_CONTACT_CCD.
     void (*contact_start)(defsim_system *sys, double *x);
+
+    /* ABI version 6: body contact (docs/body-contact.md). */
+
+    /// The matrix pattern's version: a number that changes whenever the pattern does. Body
+    /// contact couples vertices of different bodies (or far apart in one) when they come near,
+    /// and its off-diagonal blocks need entries the pattern lacks: they are collected during the
+    /// step (contact_max_step, matrix_values) and merged into the pattern by this call, never
+    /// behind the backend's back. A backend that keeps the pattern's pointers or values in its
+    /// layout calls it before each assembly; when the number differs from the one it saw, every
+    /// pointer from matrix_pattern (and values in its layout) is stale: fetch the pattern again
+    /// and redo any symbolic analysis. Merged pairs stay until the bodies or pins change (the
+    /// pattern only grows, so most new contacts need no new analysis). Without body contact the
+    /// number never changes. Returns 0 if merging ran out of memory (then matrix_pattern and
+    /// matrix_values fail with DEFSIM_ERR_OUT_OF_MEMORY until it succeeds).
+    uint64_t (*matrix_pattern_version)(defsim_system *sys);
 } defsim_host;
 
 /// Capability flags of a backend.

@@ -71,8 +71,11 @@ typedef enum defsim_status {
                                           ///< from another world.
     DEFSIM_ERR_LOCKED = -10,              ///< The world is inside a callback and cannot be changed.
     DEFSIM_ERR_CONFLICT = -11,            ///< A backend of that name is already registered.
-    DEFSIM_ERR_CALLBACK = -12             ///< A host callback reported failure or returned a
+    DEFSIM_ERR_CALLBACK = -12,            ///< A host callback reported failure or returned a
                                           ///< non-finite value; state unchanged.
+    DEFSIM_ERR_UNSUPPORTED = -13          ///< The world's backend cannot do what the world asks
+                                          ///< (body contact on an explicit backend); state
+                                          ///< unchanged.
 } defsim_status;
 
 /// Static English text for a status code ("invalid argument", ...). Never NULL; the string is
@@ -244,6 +247,22 @@ typedef struct defsim_body_def {
     const int32_t *spring_kinds;
     double shear_stiffness;             ///< N/m of DEFSIM_SPRING_SHEAR springs; < 0 (default): material.stiffness.
     double bend_stiffness;              ///< N/m of DEFSIM_SPRING_BEND springs; < 0 (default): material.stiffness.
+    /* Body-body and self-contact (appended; see the section "Body contact" and
+     * docs/body-contact.md). Used only while the core option body_contact is on. */
+    /// Optional: 3 body-local vertex indices per triangle, the contact surface of a cloth (e.g.
+    /// defsim_mesh.triangles), copied. NULL: a tet body uses its boundary triangles, a body of
+    /// springs only (a rope) its stretch springs as edges (all springs when spring_kinds is NULL).
+    /// An index out of range or a triangle that repeats a vertex is DEFSIM_ERR_INVALID_MESH.
+    const int32_t *triangles;
+    int32_t triangle_count;             ///< >= 0; triangles may be NULL only when it is 0.
+    int32_t self_contact;               ///< 1 (default): the body collides with itself; 0: not.
+    uint32_t collision_group;           ///< Groups the body belongs to (bits), default 1.
+    /// Groups the body collides with, default 0xFFFFFFFF. Bodies A != B collide iff
+    /// (A.group & B.mask) != 0 and (B.group & A.mask) != 0.
+    uint32_t collision_mask;
+    /// Coulomb coefficient of body-body friction (>= 0, finite; default 0.5); a pair of bodies
+    /// uses sqrt(mu_A mu_B). Larger than 10 is DEFSIM_ERR_INVALID_MATERIAL.
+    double friction;
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
@@ -256,7 +275,8 @@ DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
 /// DEFSIM_ERR_INVALID_MESH (index out of range, non-finite coordinate, degenerate tet or spring
 /// of zero rest length, repeated vertex, vertex without mass; the message names the element),
 /// DEFSIM_ERR_INVALID_MATERIAL (E <= 0, nu outside [0, 0.5), negative density, stiffness, mass or
-/// damping, tets with a spring model), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// damping, tets with a spring model, friction outside [0, 10]), DEFSIM_ERR_LOCKED (from inside a
+/// host callback),
 /// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most bodies it can).
 DEFSIM_API defsim_status defsim_world_add_body(defsim_world *world, const defsim_body_def *def,
                                                defsim_body_id *out);
@@ -890,6 +910,27 @@ DEFSIM_API defsim_status defsim_world_get_collider(const defsim_world *world, in
 /// for vertices not in contact). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
 DEFSIM_API defsim_status defsim_world_get_contact_forces(const defsim_world *world, double *out,
                                                          int32_t n);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Body contact (issue 13; docs/body-contact.md)                                              */
+/*                                                                                            */
+/* With the core option body_contact on, bodies collide with each other and with themselves:  */
+/* their surfaces (cloth triangles, tet bodies' boundary triangles, rope edges) repel through */
+/* a log barrier inside contact_dhat, with continuous collision detection in the line search  */
+/* and lagged Coulomb friction, on the backends with DEFSIM_BACKEND_CONTACT_CCD               */
+/* (newton_cholmod, newmark, bdf2). Every other backend refuses such a step                   */
+/* (DEFSIM_ERR_UNSUPPORTED, state unchanged). The forces join                                 */
+/* defsim_world_get_contact_forces; statistics "contact.body_*" and                           */
+/* "contact.pattern_growths" (defsim_world_stat).                                             */
+
+/// Changes the collision filter of a live body (the fields of defsim_body_def of the same
+/// names): self_contact 0 or 1, collision_group, collision_mask. Takes effect at the next step
+/// without a re-plan. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL or not a live world,
+/// self_contact not 0 or 1), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED (from inside a host
+/// callback). On an error nothing changes.
+DEFSIM_API defsim_status defsim_body_set_collision(defsim_world *world, defsim_body_id body,
+                                                   int32_t self_contact, uint32_t group,
+                                                   uint32_t mask);
 
 /* ------------------------------------------------------------------------------------------ */
 /* Spring kinds (issue 16): cloth and rope meshes tell each spring's kind                     */

@@ -185,6 +185,12 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_body_unpin, INVALID, defsim_body_unpin(f->w, f->rope, f->bad_verts, 1)) \
     X(CTX_DIRECT, 0, defsim_body_unpin, STALE, defsim_body_unpin(f->w, f->foreign, f->verts, 1)) \
     LOCKED(X, defsim_body_unpin, f->rope, f->verts, 1)                                          \
+    BADW(X, defsim_body_set_collision, INVALID, f->rope, 1, 1u, 1u)                             \
+    X(CTX_DIRECT, 0, defsim_body_set_collision, INVALID, defsim_body_set_collision(f->w, f->rope, 2, 1u, 1u)) \
+    X(CTX_DIRECT, 0, defsim_body_set_collision, INVALID, defsim_body_set_collision(f->w, f->rope, -1, 1u, 1u)) \
+    X(CTX_DIRECT, 0, defsim_body_set_collision, STALE, defsim_body_set_collision(f->w, f->stale, 1, 1u, 1u)) \
+    X(CTX_DIRECT, 0, defsim_body_set_collision, STALE, defsim_body_set_collision(f->w, f->foreign, 1, 1u, 1u)) \
+    LOCKED(X, defsim_body_set_collision, f->rope, 0, 2u, 2u)                                    \
     /* simulation */                                                                            \
     BADW1(X, F_VALUE, defsim_world_vertex_count, 0)                                             \
     BADW(X, defsim_world_step, INVALID, H)                                                      \

@@ -123,24 +123,25 @@ static void test_types(void **state)
 {
     (void)state;
     defsim_world *w = beam_world("opt_test");
-    assert_int_equal(defsim_world_option_count(w), 10 + OPT_N);
-    const char *names[15] = {"core.simd", "core.auto_substep", "core.substep_safety",
+    assert_int_equal(defsim_world_option_count(w), 11 + OPT_N);
+    const char *names[16] = {"core.simd", "core.auto_substep", "core.substep_safety",
                             "core.watchdog", "core.watchdog_energy_growth",
                             "core.watchdog_max_stretch", "core.contact_dhat", "core.contact_kappa",
-                            "core.contact_frequency", "core.friction_eps_v", "opt_test.rtol",
+                            "core.contact_frequency", "core.friction_eps_v", "core.body_contact",
+                            "opt_test.rtol",
                             "opt_test.max_order", "opt_test.verbose", "opt_test.projection",
                             "opt_test.max_iterations"};
-    const defsim_option_type types[15] = {DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_BOOL,
+    const defsim_option_type types[16] = {DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_BOOL,
                                          DEFSIM_OPTION_REAL, DEFSIM_OPTION_BOOL,
                                          DEFSIM_OPTION_REAL, DEFSIM_OPTION_REAL,
                                          DEFSIM_OPTION_REAL, DEFSIM_OPTION_REAL,
                                          DEFSIM_OPTION_REAL, DEFSIM_OPTION_REAL,
-                                         DEFSIM_OPTION_REAL,
+                                         DEFSIM_OPTION_BOOL, DEFSIM_OPTION_REAL,
                                          DEFSIM_OPTION_INT, DEFSIM_OPTION_BOOL,
                                          DEFSIM_OPTION_CHOICE, DEFSIM_OPTION_INT};
-    const double defaults[15] = {0, 0, 0.8, 1, 10, 100, 1e-3, 0, 0, 1e-3, 1e-4, 4, 0, 1, 5};
-    const double maxima[15] = {4, 1, 1, 1, 1e300, 1e300, 0.1, 1e20, 1e12, 1e3, 1, 4, 1, 2, 10};
-    for (int i = 0; i < 15; ++i) {
+    const double defaults[16] = {0, 0, 0.8, 1, 10, 100, 1e-3, 0, 0, 1e-3, 0, 1e-4, 4, 0, 1, 5};
+    const double maxima[16] = {4, 1, 1, 1, 1e300, 1e300, 0.1, 1e20, 1e12, 1e3, 1, 1, 4, 1, 2, 10};
+    for (int i = 0; i < 16; ++i) {
         defsim_option_info info = {.size = sizeof info};
         TU_OK(defsim_world_option_info(w, i, &info));
         assert_string_equal(info.name, names[i]);
@@ -152,11 +153,11 @@ static void test_types(void **state)
         assert_non_null(info.doc);
     }
     defsim_option_info info = {.size = sizeof info};
-    assert_int_equal(defsim_world_option_info(w, 15, &info), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_world_option_info(w, 16, &info), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_world_option_info(w, -1, &info), DEFSIM_ERR_INVALID_ARGUMENT);
     /* An older, shorter info struct receives the fields it knows. */
     struct { uint32_t size; const char *name; } small = {sizeof small, NULL};
-    TU_OK(defsim_world_option_info(w, 10, (defsim_option_info *)&small));
+    TU_OK(defsim_world_option_info(w, 11, (defsim_option_info *)&small));
     assert_string_equal(small.name, "opt_test.rtol");
 
     TU_OK(defsim_world_set_option(w, "opt_test.rtol", " 2.5e-7 "));
@@ -235,7 +236,7 @@ static void test_bad_input(void **state)
     assert_int_equal(defsim_world_option_count(NULL), 0);
     for (int i = 0; i < OPT_N; ++i) {
         defsim_option_info info = {.size = sizeof info};
-        TU_OK(defsim_world_option_info(w, 10 + i, &info));
+        TU_OK(defsim_world_option_info(w, 11 + i, &info));
         assert_true(info.value == OT_OPTIONS[i].default_value);
     }
     for (int k = 0; k < 3; ++k) {
@@ -308,7 +309,7 @@ static void test_def_fields_map(void **state)
     d.auto_substep = 1;
     d.rtol = 1e-7;
     TU_OK(defsim_world_create(&d, &w));
-    assert_int_equal(defsim_world_option_count(w), 10);
+    assert_int_equal(defsim_world_option_count(w), 11);
     assert_true(get(w, "core.auto_substep") == 1);
     double v;
     assert_int_equal(defsim_world_get_option(w, "symplectic_euler.rtol", &v),
@@ -425,8 +426,8 @@ static void test_stats_by_name(void **state)
     for (int i = 0; i < nf; ++i) assert_true(stat(w, fields[i].name) == fields[i].value);
     assert_true(stat(w, "steps") == 7 && stat(w, "internal_steps") == 7);
     assert_true(stat(w, "force_evals") >= 7 && stat(w, "stable_step") > 0);
-    assert_int_equal(defsim_world_stat_count(w), nf + CNT_N + 7);   /* and 7 contact.* */
-    for (int i = 0; i < nf + CNT_N + 7; ++i) {
+    assert_int_equal(defsim_world_stat_count(w), nf + CNT_N + 14);   /* and 14 contact.* */
+    for (int i = 0; i < nf + CNT_N + 14; ++i) {
         const char *name;
         double v, by_name;
         TU_OK(defsim_world_stat_info(w, i, &name, &v));
@@ -438,7 +439,7 @@ static void test_stats_by_name(void **state)
     double v;
     assert_int_equal(defsim_world_stat(w, "size", &v), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_world_stat(w, "opt_test.nothing", &v), DEFSIM_ERR_INVALID_ARGUMENT);
-    assert_int_equal(defsim_world_stat_info(w, nf + CNT_N + 7, NULL, &v),
+    assert_int_equal(defsim_world_stat_info(w, nf + CNT_N + 14, NULL, &v),
                      DEFSIM_ERR_INVALID_ARGUMENT);
 
     defsim_world_reset_stats(w);
@@ -492,8 +493,8 @@ static void test_registry_tables(void **state)
     defsim_status st = defsim_register_backend(&v1);
     assert_true(st == DEFSIM_OK || st == DEFSIM_ERR_CONFLICT);
     defsim_world *w = beam_world("opt_v1");
-    assert_int_equal(defsim_world_option_count(w), 10);
-    assert_int_equal(defsim_world_stat_count(w), 29 + 7);   /* fields, contact.* */
+    assert_int_equal(defsim_world_option_count(w), 11);
+    assert_int_equal(defsim_world_stat_count(w), 29 + 14);   /* fields, contact.* */
     TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
 

@@ -25,7 +25,8 @@ def test_core_options_by_name(box: defsim.Mesh) -> None:
                                "core.substep_safety": 0.5, "core.watchdog": True,
                                "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0,
                                "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
-                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3,
+                               "core.body_contact": False}
 
 
 def test_bad_options_raise_and_change_nothing() -> None:
@@ -40,7 +41,8 @@ def test_bad_options_raise_and_change_nothing() -> None:
                                "core.substep_safety": 0.8, "core.watchdog": True,
                                "core.watchdog_energy_growth": 10.0, "core.watchdog_max_stretch": 100.0,
                                "core.contact_dhat": 1e-3, "core.contact_kappa": 0.0,
-                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3}
+                               "core.contact_frequency": 0.0, "core.friction_eps_v": 1e-3,
+                               "core.body_contact": False}
         with pytest.raises(defsim.InvalidArgumentError):
             w.option("core.nothing")
         with pytest.raises(defsim.InvalidArgumentError):
@@ -63,7 +65,8 @@ def test_backend_option_and_counter(box: defsim.Mesh) -> None:
                                     "core.watchdog", "core.watchdog_energy_growth",
                                     "core.watchdog_max_stretch", "core.contact_dhat",
                                     "core.contact_kappa", "core.contact_frequency",
-                                    "core.friction_eps_v", "testmod.damping"}
+                                    "core.friction_eps_v", "core.body_contact",
+                                    "testmod.damping"}
         w.add_body(box)
         v0 = np.zeros((w.vertex_count, 3))
         v0[:, 0] = 1.0

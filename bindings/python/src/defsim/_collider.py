@@ -241,6 +241,7 @@ class WorldColliders:
         return out
 
     def contact_forces(self) -> np.ndarray:
-        """The total contact force (normal + friction, N) the colliders applied to each vertex
-        during the last step, (n, 3); zero before any step and away from contact."""
+        """The total contact force (normal + friction, N) the colliders (and, with the option
+        core.body_contact, the other bodies and the body itself) applied to each vertex during
+        the last step, (n, 3); zero before any step and away from contact."""
         return self._get(lib.defsim_world_get_contact_forces, None, 3, "out")   # type: ignore[attr-defined]

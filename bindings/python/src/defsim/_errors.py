@@ -31,6 +31,7 @@ class Status(enum.IntEnum):
     LOCKED = -10
     CONFLICT = -11
     CALLBACK = -12
+    UNSUPPORTED = -13
 
 
 class Error(Exception):
@@ -138,10 +139,10 @@ class CallbackError(Error):
 
 
 class UnsupportedError(Error, NotImplementedError):
-    """The loaded libdefsim lacks a function this package wraps (an older or smaller build).
-
-    Its ``status`` is None: no C call was made.
-    """
+    """The loaded libdefsim lacks a function this package wraps (an older or smaller build):
+    its ``status`` is None, no C call was made; or the world's backend cannot do what the world
+    asks, such as body contact on an explicit backend (``DEFSIM_ERR_UNSUPPORTED``; state
+    unchanged)."""
 
 
 _CLASSES: Dict[int, Type[Error]] = {
@@ -157,6 +158,7 @@ _CLASSES: Dict[int, Type[Error]] = {
     Status.LOCKED: LockedError,
     Status.CONFLICT: ConflictError,
     Status.CALLBACK: CallbackError,
+    Status.UNSUPPORTED: UnsupportedError,
 }
 
 

@@ -126,6 +126,14 @@ def _projection(value: Union[str, int, Projection]) -> int:
         raise InvalidArgumentError(f"unknown projection {value!r}") from None
 
 
+def _collision_bits(value: Any, what: str) -> int:
+    """A collision group or mask: an integer in [0, 2^32)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or \
+            not 0 <= int(value) <= 0xFFFFFFFF:
+        raise InvalidArgumentError(f"{what} must be an integer in [0, 2^32), got {value!r}")
+    return int(value)
+
+
 class Body(Handle, BodyCoupling):
     """A body of a World: a small handle (index and generation), not the data.
 
@@ -183,6 +191,11 @@ class Body(Handle, BodyCoupling):
     def unpin(self, vertices: Any) -> None:
         """Same as ``World.unpin(self, vertices)``."""
         self._world.unpin(self, vertices)
+
+    def set_collision(self, self_contact: bool = True, group: int = 1,
+                      mask: int = 0xFFFFFFFF) -> None:
+        """Same as ``World.set_collision(self, ...)``."""
+        self._world.set_collision(self, self_contact, group, mask)
 
     def remove(self) -> None:
         """Same as ``World.remove_body(self)``."""
@@ -399,7 +412,9 @@ class World(WorldCoupling, WorldColliders):
                  spring_kinds: Any = None, shear_stiffness: Optional[float] = None,
                  bend_stiffness: Optional[float] = None,
                  vertex_mass: Any = None, initial_positions: Any = None,
-                 initial_velocities: Any = None, triangles: Any = None) -> Body:
+                 initial_velocities: Any = None, triangles: Any = None,
+                 self_contact: bool = True, collision_group: int = 1,
+                 collision_mask: int = 0xFFFFFFFF, friction: float = 0.5) -> Body:
         """Adds a body; its vertices follow those of the bodies added before it. All arrays are
         copied.
 
@@ -418,9 +433,15 @@ class World(WorldCoupling, WorldColliders):
             vertex_mass: optional (n,) kg per vertex (else lumped from density plus
                 material.vertex_mass).
             initial_positions, initial_velocities: optional (n, 3); default rest and zero.
-            triangles: optional (k, 3) surface triangles, used only for output and display
-                (``defsim.io``, ``_repr_png_``); a Mesh brings its own; for tets without them
-                the boundary is computed.
+            triangles: optional (k, 3) surface triangles, used for output and display
+                (``defsim.io``, ``_repr_png_``) and, for a body without tets (a cloth), as its
+                contact surface with body contact on; a Mesh brings its own; for tets without
+                them the boundary is computed.
+            self_contact, collision_group, collision_mask, friction: body contact
+                (``core.body_contact``; docs/body-contact.md): whether the body collides with
+                itself, its group bits, the groups it collides with (bodies A and B collide when
+                ``A.group & B.mask`` and ``B.group & A.mask``), its Coulomb coefficient (a pair
+                uses the geometric mean).
 
         Returns the new Body. Raises InvalidArgumentError (shapes, counts), InvalidMeshError
         (index out of range, degenerate tet, zero-length spring, non-finite coordinate, vertex
@@ -479,6 +500,15 @@ class World(WorldCoupling, WorldColliders):
                 d.shear_stiffness = _arrays.c_double(shear_stiffness, "shear_stiffness")
             if bend_stiffness is not None:
                 d.bend_stiffness = _arrays.c_double(bend_stiffness, "bend_stiffness")
+        # A body without tets collides through its triangles (a tet body through its boundary).
+        keep.append(_arrays.iptr(tri) if tri.size and not t.size else ffi.NULL)
+        d.triangles = keep[8]
+        d.triangle_count = _arrays.c_int(tri.shape[0] if tri.size and not t.size else 0,
+                                         "triangle count")
+        d.self_contact = 1 if self_contact else 0
+        d.collision_group = _collision_bits(collision_group, "collision_group")
+        d.collision_mask = _collision_bits(collision_mask, "collision_mask")
+        d.friction = _arrays.c_double(friction, "friction")
         d.vertex_count = _arrays.c_int(n, "vertex count")
         d.tet_count = _arrays.c_int(t.shape[0], "tet count")
         d.spring_count = _arrays.c_int(s.shape[0], "spring count")
@@ -542,6 +572,15 @@ class World(WorldCoupling, WorldColliders):
         cid = self._own(body)
         v = self._vertex_list(body, vertices)
         self._check(lib.defsim_body_unpin(self._live(), cid, _arrays.iptr(v), v.size))
+
+    def set_collision(self, body: Body, self_contact: bool = True, group: int = 1,
+                      mask: int = 0xFFFFFFFF) -> None:
+        """Changes a body's collision filter (as the add_body arguments of the same names);
+        takes effect at the next step. Raises InvalidArgumentError, StaleIdError."""
+        cid = self._own(body)
+        self._check(lib.defsim_body_set_collision(
+            self._live(), cid, 1 if self_contact else 0, _collision_bits(group, "group"),
+            _collision_bits(mask, "mask")))
 
     # -- simulation ------------------------------------------------------------------------
 

@@ -1,0 +1,1172 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Body-body and self-contact (body_contact.h; docs/body-contact.md).
+ *
+ * Contents: surfaces; the broad phase and candidate pairs; one pair's barrier and one friction
+ * pair's potential; energy, forces, matrix values and products; CCD and the feasible start; the
+ * pattern; the start and end of a step.
+ *
+ * Every loop runs serially over the candidates in the spatial hash's sorted order, so results
+ * do not depend on the thread count.
+ */
+#include "body_contact.h"
+
+#include "clock.h"
+#include "contact.h"
+#include "contact_barrier.h"
+#include "contact_prim.h"
+#include "mat3.h"
+#include "mesh.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
+#define BC_CCD_FRACTION 0.2
+#define BC_CCD_ITERATIONS 5000
+/* Pairs closer than this multiple of dhat join the matrix pattern. Not more than 1: beyond
+ * dhat, which pairs are candidates depends on the broad phase's history (its balls), and the
+ * pattern (so the factorisation's rounding) must not. */
+#define BC_PATTERN_MARGIN 1.0
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static int grow(void **p, int64_t *cap, int64_t need, size_t elem)
+{
+    if (need <= *cap) return 1;
+    int64_t c = *cap ? *cap : 64;
+    while (c < need) c *= 2;
+    void *q = realloc(*p, (size_t)c * elem);
+    if (!q) return 0;
+    *p = q;
+    *cap = c;
+    return 1;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Surfaces */
+
+void defsim__body_contact_unplan(defsim__body_contact *bc)
+{
+    free(bc->face); free(bc->edge); free(bc->vert); free(bc->rope);
+    free(bc->face_body); free(bc->edge_body); free(bc->vert_body); free(bc->edge_len2);
+    free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu);
+    free(bc->radius); free(bc->lo); free(bc->hi); free(bc->scratch); free(bc->center);
+    bc->center = NULL;
+    bc->have_pairs = 0;
+    free(bc->clo); free(bc->chi); free(bc->cmap); free(bc->blo); free(bc->bhi); free(bc->bactive);
+    bc->clo = bc->chi = bc->blo = bc->bhi = NULL;
+    bc->cmap = NULL;
+    bc->bactive = NULL;
+    bc->face = bc->edge = bc->vert = bc->rope = NULL;
+    bc->face_body = bc->edge_body = bc->vert_body = bc->self_contact = NULL;
+    bc->edge_len2 = bc->mu = bc->radius = bc->lo = bc->hi = bc->scratch = NULL;
+    bc->group = bc->mask = NULL;
+    bc->nface = bc->nedge = bc->nvert = bc->nrope = bc->nbody = 0;
+    bc->npair = bc->nfric = 0;
+    bc->npend = 0;
+    bc->planned = 0;
+}
+
+void defsim__body_contact_free(defsim__body_contact *bc)
+{
+    defsim__body_contact_unplan(bc);
+    free(bc->kind); free(bc->pa); free(bc->pb);
+    free(bc->fric);
+    free(bc->pend);
+    defsim__hash_free(&bc->hash);
+    memset(bc, 0, sizeof *bc);
+}
+
+/* One body's faces and edges (global indices) appended to the lists. */
+static defsim_status add_surface(defsim__body_contact *bc, const defsim__body *b, int64_t *capf,
+                                 int64_t *cape)
+{
+    int32_t *tris = NULL, nt = 0;
+    defsim_status st = DEFSIM_OK;
+    if (b->ntri > 0) {
+        tris = malloc(3 * (size_t)b->ntri * sizeof *tris);
+        if (!tris) return DEFSIM_ERR_OUT_OF_MEMORY;
+        memcpy(tris, b->tris, 3 * (size_t)b->ntri * sizeof *tris);
+        nt = b->ntri;
+    } else if (b->nt > 0) {
+        if ((st = defsim__tet_boundary(b->rest, b->tets, b->nt, &tris, &nt)) != DEFSIM_OK)
+            return st;
+    }
+    int32_t *edges = NULL, ne = 0;
+    const int rope = nt == 0 && b->nedge > 0;
+    if (nt > 0 && (st = defsim__triangle_edges(tris, nt, &edges, &ne)) != DEFSIM_OK) goto done;
+    if (rope) ne = b->nedge;
+    if (!grow((void **)&bc->face, capf, 3 * ((int64_t)bc->nface + nt), sizeof(int32_t)) ||
+        !grow((void **)&bc->edge, cape, 2 * ((int64_t)bc->nedge + ne), sizeof(int32_t))) {
+        st = DEFSIM_ERR_OUT_OF_MEMORY;
+        goto done;
+    }
+    for (int64_t k = 0; k < 3 * (int64_t)nt; ++k)
+        bc->face[3 * (int64_t)bc->nface + k] = tris[k] + b->offset;
+    const int32_t *src = rope ? b->edges : edges;
+    for (int64_t k = 0; k < 2 * (int64_t)ne; ++k)
+        bc->edge[2 * (int64_t)bc->nedge + k] = src[k] + b->offset;
+    bc->nface += nt;
+    bc->nedge += ne;
+done:
+    free(tris);
+    free(edges);
+    return st;
+}
+
+static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, int32_t nbodies,
+                          int32_t nv)
+{
+    defsim__body_contact_unplan(bc);
+    int64_t capf = 0, cape = 0;
+    int32_t *fb_end = calloc((size_t)nbodies + 1, sizeof *fb_end);
+    int32_t *eb_end = calloc((size_t)nbodies + 1, sizeof *eb_end);
+    uint8_t *rope_body = calloc((size_t)nbodies + 1, 1);
+    defsim_status st = fb_end && eb_end && rope_body ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t b = 0; b < nbodies && st == DEFSIM_OK; ++b) {
+        if (bodies[b].generation & 1u) st = add_surface(bc, &bodies[b], &capf, &cape);
+        fb_end[b] = bc->nface;
+        eb_end[b] = bc->nedge;
+        rope_body[b] = bodies[b].ntri == 0 && bodies[b].nt == 0 && bodies[b].nedge > 0;
+    }
+    const size_t nf = (size_t)(bc->nface > 0 ? bc->nface : 1);
+    const size_t ne = (size_t)(bc->nedge > 0 ? bc->nedge : 1);
+    const size_t nb = (size_t)(nbodies > 0 ? nbodies : 1);
+    int32_t *mark = calloc((size_t)(nv > 0 ? nv : 1), sizeof *mark);
+    if (st == DEFSIM_OK) {
+        bc->face_body = malloc(nf * sizeof *bc->face_body);
+        bc->edge_body = malloc(ne * sizeof *bc->edge_body);
+        bc->edge_len2 = malloc(ne * sizeof *bc->edge_len2);
+        bc->rope = malloc(ne * sizeof *bc->rope);
+        bc->self_contact = malloc(nb * sizeof *bc->self_contact);
+        bc->group = malloc(nb * sizeof *bc->group);
+        bc->mask = malloc(nb * sizeof *bc->mask);
+        bc->mu = malloc(nb * sizeof *bc->mu);
+        bc->radius = malloc((size_t)(nv > 0 ? nv : 1) * sizeof *bc->radius);
+        bc->center = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->center);
+        bc->scratch = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->scratch);
+        if (!mark || !bc->face_body || !bc->edge_body || !bc->edge_len2 || !bc->rope ||
+            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->radius || !bc->center ||
+            !bc->scratch)
+            st = DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    if (st == DEFSIM_OK) {
+        int32_t b = 0;
+        for (int32_t f = 0; f < bc->nface; ++f) {
+            while (f >= fb_end[b]) ++b;
+            bc->face_body[f] = b;
+        }
+        b = 0;
+        for (int32_t e = 0; e < bc->nedge; ++e) {
+            while (e >= eb_end[b]) ++b;
+            bc->edge_body[e] = b;
+            const defsim__body *bd = &bodies[b];
+            const double *p = bd->rest + 3 * (int64_t)(bc->edge[2 * (int64_t)e] - bd->offset);
+            const double *q = bd->rest + 3 * (int64_t)(bc->edge[2 * (int64_t)e + 1] - bd->offset);
+            const double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+            bc->edge_len2[e] = dot3(d, d);
+            if (rope_body[b]) bc->rope[bc->nrope++] = e;
+        }
+        /* Surface vertices: those of a face or an edge, in vertex order (bodies are in vertex
+         * order, so they come grouped by body). */
+        for (int64_t k = 0; k < 3 * (int64_t)bc->nface; ++k) mark[bc->face[k]] = 1;
+        for (int64_t k = 0; k < 2 * (int64_t)bc->nedge; ++k) mark[bc->edge[k]] = 1;
+        for (int32_t i = 0; i < nv; ++i) bc->nvert += mark[i];
+        bc->vert = malloc((size_t)(bc->nvert > 0 ? bc->nvert : 1) * sizeof *bc->vert);
+        bc->vert_body = malloc((size_t)(bc->nvert > 0 ? bc->nvert : 1) * sizeof *bc->vert_body);
+        const size_t nbox = (size_t)bc->nvert + (size_t)bc->nface + (size_t)bc->nedge +
+                            (size_t)bc->nrope + 1;
+        bc->lo = malloc(3 * nbox * sizeof *bc->lo);
+        bc->hi = malloc(3 * nbox * sizeof *bc->hi);
+        bc->clo = malloc(3 * nbox * sizeof *bc->clo);
+        bc->chi = malloc(3 * nbox * sizeof *bc->chi);
+        bc->cmap = malloc(nbox * sizeof *bc->cmap);
+        bc->blo = malloc(3 * nb * sizeof *bc->blo);
+        bc->bhi = malloc(3 * nb * sizeof *bc->bhi);
+        bc->bactive = malloc(nb);
+        if (!bc->vert || !bc->vert_body || !bc->lo || !bc->hi || !bc->clo || !bc->chi ||
+            !bc->cmap || !bc->blo || !bc->bhi || !bc->bactive)
+            st = DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    if (st == DEFSIM_OK) {
+        int32_t k = 0, b = 0;
+        for (int32_t i = 0; i < nv; ++i) {
+            if (!mark[i]) continue;
+            while (!(bodies[b].generation & 1u) || i >= bodies[b].offset + bodies[b].nv) ++b;
+            bc->vert[k] = i;
+            bc->vert_body[k++] = b;
+        }
+    }
+    free(mark);
+    free(fb_end);
+    free(eb_end);
+    free(rope_body);
+    if (st != DEFSIM_OK) {
+        defsim__body_contact_unplan(bc);
+        return st;
+    }
+    bc->nv = nv;
+    bc->nbody = nbodies;
+    bc->planned = 1;
+    bc->fresh = 1;
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The broad phase and candidate pairs */
+
+/* The global vertices of pair q (4, or 3 for point-edge); returns their count. */
+static int nodes(const defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b,
+                 int32_t idx[4])
+{
+    if (kind == DEFSIM__BC_PT) {
+        idx[0] = bc->vert[a];
+        for (int k = 0; k < 3; ++k) idx[1 + k] = bc->face[3 * (int64_t)b + k];
+        return 4;
+    }
+    if (kind == DEFSIM__BC_EE) {
+        idx[0] = bc->edge[2 * (int64_t)a];
+        idx[1] = bc->edge[2 * (int64_t)a + 1];
+        idx[2] = bc->edge[2 * (int64_t)b];
+        idx[3] = bc->edge[2 * (int64_t)b + 1];
+        return 4;
+    }
+    idx[0] = bc->vert[a];
+    idx[1] = bc->edge[2 * (int64_t)b];
+    idx[2] = bc->edge[2 * (int64_t)b + 1];
+    idx[3] = -1;
+    return 3;
+}
+
+static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
+{
+    if (ba == bb) return !bc->self_contact[ba];
+    return !((bc->group[ba] & bc->mask[bb]) && (bc->group[bb] & bc->mask[ba]));
+}
+
+static double dist2(uint8_t kind, const double *X, double *g, double *H);
+
+static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
+{
+    int32_t ba, bb;
+    if (kind == DEFSIM__BC_PT) ba = bc->vert_body[a], bb = bc->face_body[b];
+    else if (kind == DEFSIM__BC_EE) ba = bc->edge_body[a], bb = bc->edge_body[b];
+    else ba = bc->vert_body[a], bb = bc->edge_body[b];
+    if (filtered(bc, ba, bb)) return;
+    int32_t idx[4];
+    const int n = nodes(bc, kind, a, b, idx);
+    int free_node = 0;
+    for (int i = 0; i < n; ++i) {
+        free_node |= !bc->pinned[idx[i]];
+        for (int j = 0; j < i; ++j)
+            if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
+    }
+    if (!free_node) return;
+    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its
+     * ball (ensure), the pair's distance stays above its start distance less the largest ball
+     * of each side (the distance moves by at most the largest displacement of each primitive). */
+    double X[12], ra = 0.0, rb = 0.0;
+    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    for (int i = 0; i < n; ++i) {
+        memcpy(X + 3 * i, bc->center + 3 * (int64_t)idx[i], 3 * sizeof(double));
+        if (i < first) ra = fmax(ra, bc->radius[idx[i]]);
+        else rb = fmax(rb, bc->radius[idx[i]]);
+    }
+    const double reach = ra + rb + bc->dhat;
+    if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
+    int64_t cap = bc->cap_pair;
+    if (bc->npair == cap) {
+        int64_t c1 = cap, c2 = cap, c3 = cap;
+        if (!grow((void **)&bc->kind, &c1, cap + 1, sizeof *bc->kind) ||
+            !grow((void **)&bc->pa, &c2, cap + 1, sizeof *bc->pa) ||
+            !grow((void **)&bc->pb, &c3, cap + 1, sizeof *bc->pb)) {
+            bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+            return;
+        }
+        bc->cap_pair = (int32_t)c1;
+    }
+    bc->kind[bc->npair] = kind;
+    bc->pa[bc->npair] = a;
+    bc->pb[bc->npair++] = b;
+}
+
+/* Box of a set of vertices' balls, grown by dhat / 2 (boxes that overlap are within dhat). */
+static void ball_box(const defsim__body_contact *bc, const int32_t *v, int n, double *lo,
+                     double *hi)
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+    for (int i = 0; i < n; ++i) {
+        const double *x = bc->center + 3 * (int64_t)v[i], r = bc->radius[v[i]] + 0.5 * bc->dhat;
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = fmin(lo[k], x[k] - r);
+            hi[k] = fmax(hi[k], x[k] + r);
+        }
+    }
+}
+
+/* Pairs from the hash's last query, mapped back from the compact lists (ma, mb). */
+static void collect(defsim__body_contact *bc, uint8_t kind, const int32_t *ma, const int32_t *mb)
+{
+    const defsim__hash *h = &bc->hash;
+    for (int64_t k = 0; k < h->npairs && !bc->failed; ++k) {
+        const int32_t a = ma[h->pairs[k] >> 32], b = mb[h->pairs[k] & 0xFFFFFFFF];
+        add_pair(bc, kind, a, kind == DEFSIM__BC_PE ? bc->rope[b] : b);
+    }
+}
+
+/* Copies the boxes of the primitives whose body takes part into the compact lists; returns
+ * their count. */
+static int32_t compact(const defsim__body_contact *bc, const int32_t *body, const int32_t *sel,
+                       int32_t n, const double *lo, const double *hi, double *clo, double *chi,
+                       int32_t *map)
+{
+    int32_t m = 0;
+    for (int32_t i = 0; i < n; ++i) {
+        const int32_t k = sel ? sel[i] : i;
+        if (!bc->bactive[body[k]]) continue;
+        memcpy(clo + 3 * (int64_t)m, lo + 3 * (int64_t)k, 3 * sizeof(double));
+        memcpy(chi + 3 * (int64_t)m, hi + 3 * (int64_t)k, 3 * sizeof(double));
+        map[m++] = i;
+    }
+    return m;
+}
+
+/* The candidate pairs for the current balls. Bodies that can meet nothing in this step (no
+ * self-contact, and no body they collide with whose box meets theirs) stay out of the hash: a
+ * scene whose bodies are far apart costs little more than the boxes. */
+static void broad(defsim__body_contact *bc)
+{
+    const double t0 = defsim__now();
+    const int64_t nvb = bc->nvert, nfb = bc->nface, neb = bc->nedge;
+    double *vlo = bc->lo, *vhi = bc->hi;
+    double *flo = vlo + 3 * nvb, *fhi = vhi + 3 * nvb;
+    double *elo = flo + 3 * nfb, *ehi = fhi + 3 * nfb;
+    for (int64_t i = 0; i < nvb; ++i) ball_box(bc, bc->vert + i, 1, vlo + 3 * i, vhi + 3 * i);
+    for (int64_t f = 0; f < nfb; ++f) ball_box(bc, bc->face + 3 * f, 3, flo + 3 * f, fhi + 3 * f);
+    for (int64_t e = 0; e < neb; ++e) ball_box(bc, bc->edge + 2 * e, 2, elo + 3 * e, ehi + 3 * e);
+    /* bodies' boxes (of their surface vertices' boxes) and which of them take part */
+    const int32_t nb = bc->nbody;
+    for (int32_t b = 0; b < nb; ++b)
+        for (int k = 0; k < 3; ++k) {
+            bc->blo[3 * (int64_t)b + k] = INFINITY;
+            bc->bhi[3 * (int64_t)b + k] = -INFINITY;
+        }
+    for (int64_t i = 0; i < nvb; ++i) {
+        const int32_t b = bc->vert_body[i];
+        for (int k = 0; k < 3; ++k) {
+            bc->blo[3 * (int64_t)b + k] = fmin(bc->blo[3 * (int64_t)b + k], vlo[3 * i + k]);
+            bc->bhi[3 * (int64_t)b + k] = fmax(bc->bhi[3 * (int64_t)b + k], vhi[3 * i + k]);
+        }
+    }
+    for (int32_t b = 0; b < nb; ++b) {
+        int on = bc->self_contact[b] != 0;
+        for (int32_t c = 0; c < nb && !on; ++c) {
+            if (c == b || filtered(bc, b, c)) continue;
+            int meet = 1;
+            for (int k = 0; k < 3 && meet; ++k)
+                meet = bc->blo[3 * (int64_t)b + k] <= bc->bhi[3 * (int64_t)c + k] &&
+                       bc->blo[3 * (int64_t)c + k] <= bc->bhi[3 * (int64_t)b + k];
+            on = meet;
+        }
+        bc->bactive[b] = (uint8_t)on;
+    }
+    double *cvlo = bc->clo, *cvhi = bc->chi;
+    int32_t *vmap = bc->cmap;
+    const int32_t nv = compact(bc, bc->vert_body, NULL, bc->nvert, vlo, vhi, cvlo, cvhi, vmap);
+    double *cflo = cvlo + 3 * (int64_t)nv, *cfhi = cvhi + 3 * (int64_t)nv;
+    int32_t *fmap = vmap + nv;
+    const int32_t nf = compact(bc, bc->face_body, NULL, bc->nface, flo, fhi, cflo, cfhi, fmap);
+    double *celo = cflo + 3 * (int64_t)nf, *cehi = cfhi + 3 * (int64_t)nf;
+    int32_t *emap = fmap + nf;
+    const int32_t ne = compact(bc, bc->edge_body, NULL, bc->nedge, elo, ehi, celo, cehi, emap);
+    double *crlo = celo + 3 * (int64_t)ne, *crhi = cehi + 3 * (int64_t)ne;
+    int32_t *rmap = emap + ne;
+    const int32_t nr = compact(bc, bc->edge_body, bc->rope, bc->nrope, elo, ehi, crlo, crhi, rmap);
+    bc->npair = 0;
+    if (nf > 0 && nv > 0) {
+        if (defsim__hash_pairs(&bc->hash, cvlo, cvhi, nv, cflo, cfhi, nf, 0, 0.0) != DEFSIM_OK)
+            bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        else
+            collect(bc, DEFSIM__BC_PT, vmap, fmap);
+    }
+    if (ne > 1 && !bc->failed) {
+        if (defsim__hash_pairs(&bc->hash, celo, cehi, ne, celo, cehi, ne, 1, 0.0) != DEFSIM_OK)
+            bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        else
+            collect(bc, DEFSIM__BC_EE, emap, emap);
+    }
+    if (nr > 0 && nv > 0 && !bc->failed) {
+        if (defsim__hash_pairs(&bc->hash, cvlo, cvhi, nv, crlo, crhi, nr, 0, 0.0) != DEFSIM_OK)
+            bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        else
+            collect(bc, DEFSIM__BC_PE, vmap, rmap);
+    }
+    bc->have_pairs = !bc->failed;
+    bc->stat[DEFSIM__CSTAT_BODY_CANDIDATES] = bc->npair;
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
+}
+
+/* Grows the ball of every surface vertex that x (or x + dx, when dx is not NULL) leaves, and
+ * pairs again if any grew: whatever points a backend evaluates, the candidates cover them. */
+static void ensure(defsim__body_contact *bc, const double *x, const double *dx)
+{
+    int grew = 0;
+    for (int32_t k = 0; k < bc->nvert; ++k) {
+        const int32_t i = bc->vert[k];
+        const double *a = x + 3 * (int64_t)i, *b = bc->center + 3 * (int64_t)i;
+        double d2 = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            const double u = a[c] + (dx ? dx[3 * (int64_t)i + c] : 0.0) - b[c];
+            d2 += u * u;
+        }
+        double e2 = 0.0;
+        if (dx)
+            for (int c = 0; c < 3; ++c) e2 += (a[c] - b[c]) * (a[c] - b[c]);
+        const double m2 = fmax(d2, e2);
+        if (m2 <= bc->radius[i] * bc->radius[i]) continue;
+        bc->radius[i] = 2.0 * sqrt(m2);
+        grew = 1;
+    }
+    if (grew) broad(bc);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* One pair */
+
+static void gather(const double *x, const int32_t *idx, int n, double *X)
+{
+    for (int i = 0; i < n; ++i) memcpy(X + 3 * i, x + 3 * (int64_t)idx[i], 3 * sizeof(double));
+}
+
+static double dist2(uint8_t kind, const double *X, double *g, double *H)
+{
+    if (kind == DEFSIM__BC_PT) return defsim__pt_dist2(X, X + 3, X + 6, X + 9, g, H, NULL);
+    if (kind == DEFSIM__BC_EE) return defsim__ee_dist2(X, X + 3, X + 6, X + 9, g, H, NULL);
+    return defsim__pe_dist2(X, X + 3, X + 6, g, H, NULL);
+}
+
+/* The barrier's stiffness for a pair: khat times the mean mass of its vertices. */
+static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int n)
+{
+    double m = 0.0;
+    for (int i = 0; i < n; ++i) m += bc->mass[idx[i]];
+    return bc->khat * m / n;
+}
+
+/* Makes the Hessian H (3n x 3n) of a function of the n vertices that only their differences
+ * enter (every distance here) positive semi-definite: in the coordinates y_i = x_i - x_0
+ * (i >= 1) it is T^T B T with B its (3n - 3)-square lower block; B is projected (clamped
+ * eigenvalues) and mapped back. A smaller eigenproblem than the full one (9 instead of 12), and
+ * translations stay in the null space exactly. */
+static void project_relative(int n, double *H)
+{
+    const int nd = 3 * n, r = nd - 3;
+    double B[81];
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) B[i * r + j] = H[(3 + i) * nd + 3 + j];
+    defsim__project_psd(r, B, DEFSIM_PROJECTION_CLAMP);
+    /* column sums per row (the x_0 column block of B T) */
+    double c[81][3];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) {
+            double sum = 0.0;
+            for (int b = 0; b < n - 1; ++b) sum += B[i * r + 3 * b + k];
+            c[i][k] = sum;
+        }
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < r; ++j) H[(3 + i) * nd + 3 + j] = B[i * r + j];
+    for (int i = 0; i < r; ++i)
+        for (int k = 0; k < 3; ++k) H[(3 + i) * nd + k] = H[k * nd + 3 + i] = -c[i][k];
+    for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) {
+            double sum = 0.0;
+            for (int a = 0; a < n - 1; ++a) sum += c[3 * a + k][l];
+            H[k * nd + l] = sum;
+        }
+}
+
+/* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
+ * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
+ * or at distance 0). *n and idx receive its vertices. */
+static double pair_barrier(const defsim__body_contact *bc, int32_t q, const double *x, int *n,
+                           int32_t idx[4], double *g, double *H)
+{
+    const uint8_t kind = bc->kind[q];
+    const int m = *n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
+    const int nd = 3 * m;
+    double X[12], gs[12], Hs[144];
+    gather(x, idx, m, X);
+    const double dh = bc->dhat;
+    /* the derivatives only for pairs within dhat (most candidates are not) */
+    double s = dist2(kind, X, NULL, NULL);
+    if (!(s < dh * dh)) return 0.0;
+    if (!(s > 0.0)) return INFINITY;
+    if (g || H) s = dist2(kind, X, gs, H ? Hs : NULL);
+    const double d = sqrt(s), kap = pair_kappa(bc, idx, m);
+    const double e = kap * barrier(d, dh);
+    double gd[12];
+    const double b1 = kap * barrier_d1(d, dh);
+    for (int i = 0; i < nd && (g || H); ++i) gd[i] = gs[i] / (2.0 * d);
+    if (H) {
+        /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
+        const double b2 = kap * barrier_d2(d, dh);
+        for (int i = 0; i < nd; ++i)
+            for (int j = 0; j < nd; ++j)
+                H[i * nd + j] = b2 * gd[i] * gd[j] +
+                                b1 * (Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d);
+    }
+    if (g)
+        for (int i = 0; i < nd; ++i) g[i] = b1 * gd[i];
+    double out = e;
+    if (kind == DEFSIM__BC_EE) {
+        const double eps = 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]];
+        double gm[12], Hm[144];
+        const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps, g || H ? gm : NULL,
+                                               H ? Hm : NULL);
+        if (mo < 1.0) {
+            if (H)
+                for (int i = 0; i < 12; ++i)
+                    for (int j = 0; j < 12; ++j)
+                        H[i * 12 + j] = mo * H[i * 12 + j] + b1 * gd[i] * gm[j] +
+                                        gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
+            if (g)
+                for (int i = 0; i < 12; ++i) g[i] = mo * g[i] + e * gm[i];
+            out = mo * e;
+        }
+    }
+    if (H) project_relative(m, H);
+    return out;
+}
+
+/* Friction pair r at x: energy, gradient (12) and Hessian (144, PSD) over its four nodes (an
+ * unused node has weight 0). */
+static double pair_friction(const defsim__body_contact *bc, int32_t r, const double *x,
+                            double *g, double *H)
+{
+    const defsim__bc_friction *fr = &bc->fric[r];
+    const int32_t *idx = fr->node;
+    const double *w = fr->w, *nrm = fr->nrm;
+    const double mul = fr->mul, eps = bc->eps_v * bc->h;
+    double u[3] = {0.0, 0.0, 0.0}, ut[3];
+    for (int i = 0; i < 4; ++i) {
+        if (idx[i] < 0) continue;
+        for (int k = 0; k < 3; ++k)
+            u[k] += w[i] * (x[3 * (int64_t)idx[i] + k] - bc->xn[3 * (int64_t)idx[i] + k]);
+    }
+    const double un = dot3(u, nrm);
+    for (int k = 0; k < 3; ++k) ut[k] = u[k] - un * nrm[k];
+    const double y = sqrt(dot3(ut, ut));
+    if (g) {
+        const double s = mul * friction_f1_over_y(y, eps);
+        for (int i = 0; i < 4; ++i)
+            for (int k = 0; k < 3; ++k) g[3 * i + k] = w[i] * s * ut[k];
+    }
+    if (H) {
+        double B[9] = {0};
+        friction_block(mul, nrm, ut, y, eps, B);
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j)
+                for (int a = 0; a < 3; ++a)
+                    for (int b = 0; b < 3; ++b)
+                        H[(3 * i + a) * 12 + 3 * j + b] = w[i] * w[j] * B[3 * a + b];
+    }
+    return mul * friction_f0(y, eps);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Energy, forces, matrices */
+
+double defsim__body_contact_energy(defsim__body_contact *bc, const double *x)
+{
+    const double t0 = defsim__now();
+    ensure(bc, x, NULL);
+    double e = 0.0;
+    int32_t idx[4];
+    int n;
+    for (int32_t q = 0; q < bc->npair && isfinite(e); ++q)
+        e += pair_barrier(bc, q, x, &n, idx, NULL, NULL);
+    for (int32_t r = 0; r < bc->nfric && isfinite(e); ++r) e += pair_friction(bc, r, x, NULL, NULL);
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
+    return bc->failed ? INFINITY : e;
+}
+
+defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double *x, double *f)
+{
+    const double t0 = defsim__now();
+    ensure(bc, x, NULL);
+    defsim_status st = bc->failed;
+    int32_t idx[4];
+    double g[12];
+    int n;
+    for (int32_t q = 0; q < bc->npair && st == DEFSIM_OK; ++q) {
+        const double e = pair_barrier(bc, q, x, &n, idx, g, NULL);
+        if (!isfinite(e)) {
+            st = DEFSIM_ERR_UNSTABLE;
+            break;
+        }
+        if (e == 0.0) continue;
+        for (int i = 0; i < n; ++i)
+            if (!bc->pinned[idx[i]])
+                for (int k = 0; k < 3; ++k) f[3 * (int64_t)idx[i] + k] -= g[3 * i + k];
+    }
+    for (int32_t r = 0; r < bc->nfric && st == DEFSIM_OK; ++r) {
+        pair_friction(bc, r, x, g, NULL);
+        const int32_t *fi = bc->fric[r].node;
+        for (int i = 0; i < 4; ++i)
+            if (fi[i] >= 0 && !bc->pinned[fi[i]])
+                for (int k = 0; k < 3; ++k) f[3 * (int64_t)fi[i] + k] -= g[3 * i + k];
+    }
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
+    return st;
+}
+
+/* Queues the free-vertex pairs among idx that the pattern lacks. */
+static void pend(defsim__body_contact *bc, const defsim__system *s, const int32_t *idx, int n)
+{
+    if (!s->pattern.built) return;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            if (idx[i] < 0 || idx[j] < 0) continue;
+            const int32_t fa = s->vfree[idx[i]], fb = s->vfree[idx[j]];
+            if (fa < 0 || fb < 0 || fa >= fb || defsim__pattern_rank(s, fa, fb) >= 0) continue;
+            /* duplicates go when the pattern merges the list */
+            const int64_t key = ((int64_t)fa << 32) | fb;
+            if (!grow((void **)&bc->pend, &bc->cap_pend, bc->npend + 1, sizeof *bc->pend)) {
+                bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+                return;
+            }
+            bc->pend[bc->npend++] = key;
+        }
+}
+
+/* Adds k H (3n x 3n over idx) into the pattern's values. */
+static void scatter(defsim__body_contact *bc, const defsim__system *s, const int32_t *idx, int n,
+                    const double *H, double k, int upper, const int64_t *cp, double *values)
+{
+    const int nd = 3 * n;
+    int missing = 0;
+    for (int b = 0; b < n; ++b) {
+        if (idx[b] < 0) continue;
+        const int32_t fb = s->vfree[idx[b]];
+        if (fb < 0) continue;
+        for (int a = 0; a < n; ++a) {
+            if (idx[a] < 0) continue;
+            const int32_t fa = s->vfree[idx[a]];
+            if (fa < 0 || (upper && fa > fb)) continue;
+            const int32_t r = defsim__pattern_rank(s, fa, fb);
+            if (r < 0) {
+                missing = 1;
+                continue;
+            }
+            for (int cb = 0; cb < 3; ++cb) {
+                const int64_t base = cp[3 * (int64_t)fb + cb] + 3 * (int64_t)r;
+                const int camax = (upper && fa == fb) ? cb : 2;
+                for (int ca = 0; ca <= camax; ++ca)
+                    values[base + ca] += k * H[(3 * a + ca) * nd + 3 * b + cb];
+            }
+        }
+    }
+    if (missing) pend(bc, s, idx, n);
+}
+
+/* Calls fn with every nonzero pair Hessian at x (barriers within dhat, friction pairs). */
+typedef void (*hessian_fn)(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                           const double *H);
+
+static void each_hessian(defsim__body_contact *bc, const double *x, hessian_fn fn, void *ctx)
+{
+    const double t0 = defsim__now();
+    ensure(bc, x, NULL);
+    int32_t idx[4];
+    double H[144];
+    int n;
+    for (int32_t q = 0; q < bc->npair; ++q) {
+        const double e = pair_barrier(bc, q, x, &n, idx, NULL, H);
+        if (e == 0.0 || !isfinite(e)) continue;
+        fn(bc, ctx, idx, n, H);
+    }
+    for (int32_t r = 0; r < bc->nfric; ++r) {
+        pair_friction(bc, r, x, NULL, H);
+        fn(bc, ctx, bc->fric[r].node, 4, H);
+    }
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
+}
+
+typedef struct values_ctx {
+    const defsim__system *s;
+    double k;
+    int upper;
+    const int64_t *cp;
+    double *values;
+} values_ctx;
+
+static void values_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                      const double *H)
+{
+    const values_ctx *c = ctx;
+    scatter(bc, c->s, idx, n, H, c->k, c->upper, c->cp, c->values);
+}
+
+void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system *s,
+                                 const double *x, double k, int upper, const int64_t *cp,
+                                 double *values)
+{
+    values_ctx c = {s, k, upper, cp, values};
+    each_hessian(bc, x, values_fn, &c);
+}
+
+typedef struct apply_ctx {
+    double k;
+    const double *dx;
+    double *out;
+} apply_ctx;
+
+/* out += k H dx over the pair's free vertices. */
+static void apply_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
+                     const double *H)
+{
+    const apply_ctx *a = ctx;
+    const int nd = 3 * n;
+    double u[12];
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c)
+            u[3 * i + c] = idx[i] >= 0 && !bc->pinned[idx[i]] ? a->dx[3 * (int64_t)idx[i] + c] : 0.0;
+    for (int i = 0; i < n; ++i) {
+        if (idx[i] < 0 || bc->pinned[idx[i]]) continue;
+        for (int c = 0; c < 3; ++c) {
+            double sum = 0.0;
+            for (int j = 0; j < nd; ++j) sum += H[(3 * i + c) * nd + j] * u[j];
+            a->out[3 * (int64_t)idx[i] + c] += a->k * sum;
+        }
+    }
+}
+
+void defsim__body_contact_apply(defsim__body_contact *bc, const double *x, double k,
+                                const double *dx, double *out)
+{
+    apply_ctx a = {k, dx, out};
+    each_hessian(bc, x, apply_fn, &a);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* CCD and the feasible start */
+
+/* Largest t in [0, tmax] along x + t dx that keeps pair q at least BC_CCD_FRACTION of its
+ * distance at x; 0 if it starts at distance 0. */
+static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *x,
+                       const double *dx, double tmax)
+{
+    int32_t idx[4];
+    const uint8_t kind = bc->kind[q];
+    const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
+    double X[12], D[12];
+    gather(x, idx, n, X);
+    gather(dx, idx, n, D);
+    /* A bound on the relative motion: the largest displacement on each side. */
+    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    double la = 0.0, lb = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const double l = sqrt(dot3(D + 3 * i, D + 3 * i));
+        if (i < first) la = fmax(la, l);
+        else lb = fmax(lb, l);
+    }
+    if (la + lb == 0.0) return tmax;
+    const double d = sqrt(dist2(kind, X, NULL, NULL));
+    if (!(d > 0.0)) return 0.0;
+    if ((la + lb) * tmax <= (1.0 - BC_CCD_FRACTION) * d) return tmax;
+    /* A pair that cannot come within dhat on the segment cannot cross, and limiting the step
+     * for it would make the result depend on which far pairs the broad phase kept. */
+    if (d - (la + lb) * tmax >= bc->dhat) return tmax;
+    if (kind == DEFSIM__BC_PT)
+        return defsim__pt_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
+    if (kind == DEFSIM__BC_EE)
+        return defsim__ee_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
+    return defsim__pe_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
+}
+
+static double ccd(defsim__body_contact *bc, const double *x, const double *dx)
+{
+    ensure(bc, x, dx);
+    double alpha = bc->failed ? 0.0 : 1.0;
+    for (int32_t q = 0; q < bc->npair && alpha > 0.0; ++q) {
+        const double t = pair_toi(bc, q, x, dx, alpha);
+        if (t < alpha) alpha = t;
+    }
+    return alpha;
+}
+
+double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, const double *dx)
+{
+    const double t0 = defsim__now();
+    const double alpha = ccd(bc, x, dx);
+    /* The pattern's slack: pairs that this step brings within the margin join it before the
+     * next assembly. */
+    const double m = BC_PATTERN_MARGIN * bc->dhat;
+    int32_t idx[4];
+    double X[12], D[12];
+    for (int32_t q = 0; q < bc->npair && !bc->failed; ++q) {
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        gather(x, idx, n, X);
+        gather(dx, idx, n, D);
+        for (int i = 0; i < 3 * n; ++i) X[i] += alpha * D[i];
+        if (dist2(bc->kind[q], X, NULL, NULL) < m * m) pend(bc, bc->sys, idx, n);
+    }
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_CCD] += defsim__now() - t0;
+    return alpha;
+}
+
+void defsim__body_contact_start(defsim__body_contact *bc, double *x)
+{
+    const double t0 = defsim__now();
+    double *d = bc->scratch;
+    const int64_t n3 = 3 * (int64_t)bc->nv;
+    for (int64_t i = 0; i < n3; ++i) d[i] = x[i] - bc->xn[i];
+    double alpha = ccd(bc, bc->xn, d);
+    if (alpha < 1.0) {
+        /* Free vertices back along their way (pinned ones are the core's): once to where CCD
+         * allows, and to the start if that mix with the pins' motion is not safe either. */
+        for (int pass = 0; pass < 2 && alpha < 1.0; ++pass) {
+            for (int32_t v = 0; v < bc->nv; ++v) {
+                if (bc->pinned[v]) continue;
+                for (int c = 0; c < 3; ++c) {
+                    const int64_t i = 3 * (int64_t)v + c;
+                    d[i] = pass == 0 ? alpha * d[i] : 0.0;
+                    x[i] = bc->xn[i] + d[i];
+                }
+            }
+            alpha = ccd(bc, bc->xn, d);
+        }
+    }
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_CCD] += defsim__now() - t0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The pattern */
+
+/* ------------------------------------------------------------------------------------------ */
+/* The start and end of a step */
+
+/* Closest points of pair (kind, X) at the step's start: weights w (sum w_i X_i is the vector
+ * from the second primitive's closest point to the first's). */
+static void closest_weights(uint8_t kind, const double *X, double w[4])
+{
+    w[3] = 0.0;
+    if (kind == DEFSIM__BC_PE) {
+        const double *p = X, *a = X + 3, *b = X + 6;
+        const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double r[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+        const double l2 = dot3(e, e);
+        double t = l2 > 0.0 ? dot3(r, e) / l2 : 0.0;
+        t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+        w[0] = 1.0;
+        w[1] = -(1.0 - t);
+        w[2] = -t;
+        return;
+    }
+    if (kind == DEFSIM__BC_EE) {
+        /* closest points of two segments (clamped line parameters) */
+        const double *p1 = X, *q1 = X + 3, *p2 = X + 6, *q2 = X + 9;
+        const double d1[3] = {q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]};
+        const double d2[3] = {q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]};
+        const double r[3] = {p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]};
+        const double a = dot3(d1, d1), e = dot3(d2, d2), f = dot3(d2, r), c = dot3(d1, r);
+        const double b = dot3(d1, d2), den = a * e - b * b;
+        double s = den > 1e-12 * a * e ? (b * f - c * e) / den : 0.0;
+        s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+        double t = e > 0.0 ? (b * s + f) / e : 0.0;
+        if (t < 0.0 || t > 1.0) {
+            t = t < 0.0 ? 0.0 : 1.0;
+            s = a > 0.0 ? (b * t - c) / a : 0.0;
+            s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+        }
+        w[0] = 1.0 - s;
+        w[1] = s;
+        w[2] = -(1.0 - t);
+        w[3] = -t;
+        return;
+    }
+    /* point-triangle: barycentric coordinates of the closest point (by Voronoi region) */
+    const double *p = X, *a = X + 3, *b = X + 6, *c = X + 9;
+    const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    const double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
+    const double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+    const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
+    double u, v, ww;   /* weights of a, b, c */
+    if (d1 <= 0.0 && d2 <= 0.0) u = 1.0, v = 0.0, ww = 0.0;
+    else if (d3 >= 0.0 && d4 <= d3) u = 0.0, v = 1.0, ww = 0.0;
+    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        const double t = d1 / (d1 - d3);
+        u = 1.0 - t, v = t, ww = 0.0;
+    } else if (d6 >= 0.0 && d5 <= d6) u = 0.0, v = 0.0, ww = 1.0;
+    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        const double t = d2 / (d2 - d6);
+        u = 1.0 - t, v = 0.0, ww = t;
+    } else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        u = 0.0, v = 1.0 - t, ww = t;
+    } else {
+        const double den = 1.0 / (va + vb + vc);
+        v = vb * den, ww = vc * den, u = 1.0 - v - ww;
+    }
+    w[0] = 1.0;
+    w[1] = -u;
+    w[2] = -v;
+    w[3] = -ww;
+}
+
+static int reserve_fric(defsim__body_contact *bc, int32_t n)
+{
+    int64_t cap = bc->cap_fric;
+    if (!grow((void **)&bc->fric, &cap, n, sizeof *bc->fric)) return 0;
+    bc->cap_fric = (int32_t)cap;
+    return 1;
+}
+
+/* The body that primitive pair q's first primitive belongs to, and the second's. */
+static void pair_bodies(const defsim__body_contact *bc, int32_t q, int32_t *ba, int32_t *bb)
+{
+    const uint8_t k = bc->kind[q];
+    *ba = k == DEFSIM__BC_EE ? bc->edge_body[bc->pa[q]] : bc->vert_body[bc->pa[q]];
+    *bb = k == DEFSIM__BC_PT ? bc->face_body[bc->pb[q]] : bc->edge_body[bc->pb[q]];
+}
+
+/* Segment (p, q) against triangle (a, b, c): 1 if they cross (floating point signs). */
+static int segment_crosses(const double *p, const double *q, const double *a, const double *b,
+                           const double *c)
+{
+    double o[5];
+    const double *pts[5][4] = {{a, b, c, p}, {a, b, c, q}, {p, q, a, b}, {p, q, b, c},
+                               {p, q, c, a}};
+    for (int k = 0; k < 5; ++k) {
+        const double *u = pts[k][0], *v = pts[k][1], *w = pts[k][2], *z = pts[k][3];
+        const double e1[3] = {v[0] - u[0], v[1] - u[1], v[2] - u[2]};
+        const double e2[3] = {w[0] - u[0], w[1] - u[1], w[2] - u[2]};
+        const double e3[3] = {z[0] - u[0], z[1] - u[1], z[2] - u[2]};
+        o[k] = e1[0] * (e2[1] * e3[2] - e2[2] * e3[1]) - e1[1] * (e2[0] * e3[2] - e2[2] * e3[0]) +
+               e1[2] * (e2[0] * e3[1] - e2[1] * e3[0]);
+        /* below the rounding of the products: no sign (nearly coplanar points) */
+        if (fabs(o[k]) <= 1e-12 * sqrt(dot3(e1, e1) * dot3(e2, e2) * dot3(e3, e3))) o[k] = 0.0;
+    }
+    /* a coplanar pair is left to the distance check (only touching can happen there) */
+    if ((o[0] >= 0.0 && o[1] >= 0.0) || (o[0] <= 0.0 && o[1] <= 0.0)) return 0;
+    return (o[2] >= 0.0 && o[3] >= 0.0 && o[4] >= 0.0) || (o[2] <= 0.0 && o[3] <= 0.0 &&
+                                                          o[4] <= 0.0);
+}
+
+/* The first edge and face that cross at x, among boxes that overlap (the start of a run or of a
+ * plan: the barrier keeps later steps apart). Returns 1 and their indices, else 0. */
+static int find_crossing(defsim__body_contact *bc, const double *x, int32_t *edge, int32_t *face)
+{
+    if (bc->nface == 0 || bc->nedge == 0) return 0;
+    double *flo = bc->lo, *fhi = bc->hi, *elo = flo + 3 * (int64_t)bc->nface,
+           *ehi = fhi + 3 * (int64_t)bc->nface;
+    for (int32_t f = 0; f < bc->nface; ++f)
+        for (int k = 0; k < 3; ++k) {
+            const int32_t *t = bc->face + 3 * (int64_t)f;
+            const double a = x[3 * (int64_t)t[0] + k], b = x[3 * (int64_t)t[1] + k],
+                         c = x[3 * (int64_t)t[2] + k];
+            flo[3 * (int64_t)f + k] = fmin(a, fmin(b, c));
+            fhi[3 * (int64_t)f + k] = fmax(a, fmax(b, c));
+        }
+    for (int32_t e = 0; e < bc->nedge; ++e)
+        for (int k = 0; k < 3; ++k) {
+            const int32_t *t = bc->edge + 2 * (int64_t)e;
+            const double a = x[3 * (int64_t)t[0] + k], b = x[3 * (int64_t)t[1] + k];
+            elo[3 * (int64_t)e + k] = fmin(a, b);
+            ehi[3 * (int64_t)e + k] = fmax(a, b);
+        }
+    if (defsim__hash_pairs(&bc->hash, elo, ehi, bc->nedge, flo, fhi, bc->nface, 0, 0.0) !=
+        DEFSIM_OK) {
+        bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        return 0;
+    }
+    for (int64_t k = 0; k < bc->hash.npairs; ++k) {
+        const int32_t e = (int32_t)(bc->hash.pairs[k] >> 32);
+        const int32_t f = (int32_t)(bc->hash.pairs[k] & 0xFFFFFFFF);
+        if (filtered(bc, bc->edge_body[e], bc->face_body[f])) continue;
+        const int32_t *ev = bc->edge + 2 * (int64_t)e, *fv = bc->face + 3 * (int64_t)f;
+        int shared = 0;
+        for (int i = 0; i < 2; ++i)
+            for (int j = 0; j < 3; ++j) shared |= ev[i] == fv[j];
+        if (shared) continue;
+        if (segment_crosses(x + 3 * (int64_t)ev[0], x + 3 * (int64_t)ev[1],
+                            x + 3 * (int64_t)fv[0], x + 3 * (int64_t)fv[1],
+                            x + 3 * (int64_t)fv[2])) {
+            *edge = e;
+            *face = f;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim__system *s,
+                                         const defsim__body *bodies, int32_t nbodies,
+                                         double dhat_rel, double kappa, double eps_v,
+                                         const double *x, const double *v, double h,
+                                         double *stat, defsim__messages *msg)
+{
+    const double t0 = defsim__now();
+    bc->stat = stat;
+    bc->sys = s;
+    bc->failed = DEFSIM_OK;
+    bc->active = 0;
+    defsim_status st = DEFSIM_OK;
+    if ((!bc->planned || bc->nv != s->nv || bc->nbody != nbodies) &&
+        (st = plan(bc, bodies, nbodies, s->nv)) != DEFSIM_OK) {
+        defsim__error(msg, "out of memory for body contact surfaces");
+        return st;
+    }
+    for (int32_t b = 0; b < nbodies; ++b) {
+        bc->self_contact[b] = bodies[b].self_contact;
+        bc->group[b] = bodies[b].group;
+        bc->mask[b] = bodies[b].mask;
+        bc->mu[b] = bodies[b].friction;
+    }
+    bc->mass = s->mass;
+    bc->pinned = s->pinned;
+    bc->vfree = s->vfree;
+    bc->xn = x;
+    bc->h = h;
+    bc->dhat = dhat_rel * s->length_scale;
+    bc->eps_v = eps_v;
+    const double gn = sqrt(dot3(s->gravity, s->gravity));
+    bc->khat = kappa > 0.0 ? kappa : gn / bc->dhat + 1.0 / (h * h);
+    bc->npend = 0;
+    bc->nfric = 0;
+    /* Each vertex's ball: its inertial motion over the step with room to spare (and dhat, so
+     * that Newton's small corrections stay inside); evaluations beyond it grow it (ensure). */
+    /* The candidates of the last broad phase stay valid while every such ball lies in the ball
+     * they were found for (center, radius): quiet scenes skip the hash. A new broad phase
+     * takes the balls a quarter larger, so that the next steps of a scene at rest reuse it
+     * (larger would add candidates in moving scenes). */
+    int reuse = bc->have_pairs && !bc->fresh;
+    for (int32_t k = 0; k < bc->nvert && reuse; ++k) {
+        const int32_t i = bc->vert[k];
+        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
+        const double *ci = bc->center + 3 * (int64_t)i;
+        const double r = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat;
+        const double d[3] = {xi[0] - ci[0], xi[1] - ci[1], xi[2] - ci[2]};
+        reuse = sqrt(dot3(d, d)) + r <= bc->radius[i];
+    }
+    if (!reuse) {
+        memcpy(bc->center, x, 3 * (size_t)bc->nv * sizeof *x);
+        for (int32_t k = 0; k < bc->nvert; ++k) {
+            const int32_t i = bc->vert[k];
+            const double *vi = v + 3 * (int64_t)i;
+            bc->radius[i] =
+                bc->pinned[i] ? 0.0 : 1.25 * (1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat);
+        }
+    }
+    bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
+    if (!reuse) broad(bc);
+    if (bc->failed) {
+        defsim__error(msg, "out of memory for body contact pairs");
+        return bc->failed;
+    }
+    /* Surfaces that touch or cross at the start: the barrier cannot separate them. */
+    int32_t e = -1, f = -1;
+    if (bc->fresh && find_crossing(bc, x, &e, &f)) {
+        defsim__error(msg, "body contact: at the start of the step, edge (%d, %d) of body %d "
+                      "crosses triangle (%d, %d, %d) of body %d (world vertex indices; bodies in "
+                      "vertex order): surfaces must start apart (move the bodies, or filter the "
+                      "pair with collision groups or self_contact)",
+                      (int)bc->edge[2 * (int64_t)e], (int)bc->edge[2 * (int64_t)e + 1],
+                      (int)bc->edge_body[e], (int)bc->face[3 * (int64_t)f],
+                      (int)bc->face[3 * (int64_t)f + 1], (int)bc->face[3 * (int64_t)f + 2],
+                      (int)bc->face_body[f]);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (bc->failed) {
+        defsim__error(msg, "out of memory for body contact pairs");
+        return bc->failed;
+    }
+    bc->fresh = 0;
+    const double dh = bc->dhat;
+    for (int32_t q = 0; q < bc->npair; ++q) {
+        int32_t idx[4];
+        const uint8_t kind = bc->kind[q];
+        const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
+        double X[12];
+        gather(x, idx, n, X);
+        const double s2 = dist2(kind, X, NULL, NULL);
+        if (!(s2 > 0.0)) {
+            static const char *const what[3] = {"vertex-triangle", "edge-edge", "vertex-edge"};
+            int32_t ba, bb;
+            pair_bodies(bc, q, &ba, &bb);
+            defsim__error(msg, "body contact: at the start of the step the %s pair of world "
+                          "vertices (%d, %d, %d, %d) touches (distance 0) between bodies %d and "
+                          "%d (bodies in vertex order): surfaces must start apart",
+                          what[kind], (int)idx[0], (int)idx[1], (int)idx[2], (int)idx[3],
+                          (int)ba, (int)bb);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
+        const double d = sqrt(s2);
+        if (d < BC_PATTERN_MARGIN * dh) pend(bc, s, idx, n);
+        if (!(d < dh)) continue;
+        /* Lagged friction (IPC): normal force and closest points at the start. */
+        int32_t ba, bb;
+        pair_bodies(bc, q, &ba, &bb);
+        const double mu = sqrt(bc->mu[ba] * bc->mu[bb]);
+        if (!(mu > 0.0)) continue;
+        double lam = -pair_kappa(bc, idx, n) * barrier_d1(d, dh);
+        if (kind == DEFSIM__BC_EE) {
+            const double eps = 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]];
+            lam *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps, NULL, NULL);
+        }
+        double w[4], dv[3] = {0.0, 0.0, 0.0};
+        closest_weights(kind, X, w);
+        for (int i = 0; i < n; ++i)
+            for (int k = 0; k < 3; ++k) dv[k] += w[i] * X[3 * i + k];
+        const double len = sqrt(dot3(dv, dv));
+        if (!(lam > 0.0) || !(len > 0.0)) continue;
+        if (!reserve_fric(bc, bc->nfric + 1)) {
+            defsim__error(msg, "out of memory for body contact friction");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        defsim__bc_friction *fr = &bc->fric[bc->nfric++];
+        for (int i = 0; i < 4; ++i) {
+            fr->node[i] = i < n ? idx[i] : -1;
+            fr->w[i] = i < n ? w[i] : 0.0;
+        }
+        for (int k = 0; k < 3; ++k) fr->nrm[k] = dv[k] / len;
+        fr->mul = mu * lam;
+    }
+    if (bc->failed) {
+        defsim__error(msg, "out of memory for body contact pairs");
+        return bc->failed;
+    }
+    bc->active = 1;
+    return DEFSIM_OK;
+}
+
+double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f)
+{
+    memset(f, 0, 3 * (size_t)bc->nv * sizeof *f);
+    (void)defsim__body_contact_forces(bc, x, f);
+    double dmin = INFINITY;
+    int32_t active = 0, idx[4];
+    double X[12];
+    for (int32_t q = 0; q < bc->npair; ++q) {
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        gather(x, idx, n, X);
+        const double d = sqrt(dist2(bc->kind[q], X, NULL, NULL));
+        if (d < dmin) dmin = d;
+        active += d < bc->dhat;
+    }
+    bc->stat[DEFSIM__CSTAT_BODY_ACTIVE] = active;
+    bc->stat[DEFSIM__CSTAT_BODY_MIN_DISTANCE] = dmin;
+    return dmin;
+}

@@ -1,0 +1,211 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Broad phase (broad_phase.h). The hash: every box of B is inserted in the cells it overlaps
+ * (cell coordinates packed into one key), the (key, box) list is sorted, and every box of A
+ * looks up the cells it overlaps by binary search and tests the boxes found there. Sorting
+ * instead of hashing makes the result independent of insertion order and thread count.
+ */
+#include "broad_phase.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void defsim__hash_free(defsim__hash *h)
+{
+    free(h->keys);
+    free(h->pairs);
+    memset(h, 0, sizeof *h);
+}
+
+static int reserve(void **p, int64_t *cap, int64_t need, size_t size)
+{
+    if (need <= *cap) return 1;
+    int64_t c = *cap ? *cap : 256;
+    while (c < need) c *= 2;
+    void *q = realloc(*p, (size_t)c * size);
+    if (!q) return 0;
+    *p = q;
+    *cap = c;
+    return 1;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int cmp_i64(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Cell coordinates are clamped to 21 bits per axis (2M cells): the key of (i, j, k) fits in 63
+ * bits, and boxes beyond the clamped range share the border cells (correct, only slower). */
+static int64_t cell_of(double v, double origin, double inv)
+{
+    double c = floor((v - origin) * inv);
+    if (c < 0) c = 0;
+    if (c > 2097151) c = 2097151;
+    return (int64_t)c;
+}
+
+static uint32_t key_of(int64_t i, int64_t j, int64_t k)
+{
+    /* A 32-bit hash of the cell: boxes in different cells may share a key (they are then
+     * compared for nothing), never the other way round. */
+    uint64_t z = (uint64_t)i * 0x9E3779B97F4A7C15ull ^ (uint64_t)j * 0xC2B2AE3D27D4EB4Full ^
+                 (uint64_t)k * 0x165667B19E3779F9ull;
+    z ^= z >> 29;
+    return (uint32_t)(z * 0xBF58476D1CE4E5B9ull >> 32);
+}
+
+static int overlap(const double *lo_a, const double *hi_a, const double *lo_b, const double *hi_b)
+{
+    return lo_a[0] <= hi_b[0] && lo_b[0] <= hi_a[0] && lo_a[1] <= hi_b[1] &&
+           lo_b[1] <= hi_a[1] && lo_a[2] <= hi_b[2] && lo_b[2] <= hi_a[2];
+}
+
+/* The cell range of a box along each axis. */
+static void range(const double *lo, const double *hi, const double *origin, double inv,
+                  int64_t r[3][2])
+{
+    for (int a = 0; a < 3; ++a) {
+        r[a][0] = cell_of(lo[a], origin[a], inv);
+        r[a][1] = cell_of(hi[a], origin[a], inv);
+    }
+}
+
+/* Cells that the boxes of B overlap in all, with cell size 1 / inv. */
+static int64_t count_cells(const double *lo_b, const double *hi_b, int32_t nb,
+                           const double *origin, double inv)
+{
+    int64_t n = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t r[3][2];
+        range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+        n += (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+    }
+    return n;
+}
+
+defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const double *hi_a,
+                                 int32_t na, const double *lo_b, const double *hi_b, int32_t nb,
+                                 int self, double cell)
+{
+    h->nkeys = h->npairs = 0;
+    if (na == 0 || nb == 0) return DEFSIM_OK;
+    double origin[3] = {INFINITY, INFINITY, INFINITY}, far[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t b = 0; b < nb; ++b)
+        for (int a = 0; a < 3; ++a) {
+            origin[a] = fmin(origin[a], lo_b[3 * b + a]);
+            far[a] = fmax(far[a], hi_b[3 * b + a]);
+        }
+    /* Coarsen the cells until the boxes of B overlap at most 8 cells each on average (a few
+     * long boxes must not make the hash quadratic). */
+    double extent = 0.0;
+    for (int a = 0; a < 3; ++a) extent = fmax(extent, far[a] - origin[a]);
+    if (!(cell > 0.0) || !isfinite(cell)) {   /* automatic: the mean box size */
+        cell = 0.0;
+        for (int32_t b = 0; b < nb; ++b)
+            for (int a = 0; a < 3; ++a) cell += (hi_b[3 * b + a] - lo_b[3 * b + a]) / (3.0 * nb);
+        if (!(cell > 0.0)) cell = extent > 0.0 ? extent : 1.0;
+    }
+    while (cell < extent && count_cells(lo_b, hi_b, nb, origin, 1.0 / cell) > 8 * (int64_t)nb)
+        cell *= 2.0;
+    const double inv = 1.0 / cell;
+    int64_t top[3];
+    for (int a = 0; a < 3; ++a) top[a] = cell_of(far[a], origin[a], inv);
+    /* Insert B. */
+    for (int pass = 0; pass < 2; ++pass) {
+        int64_t n = 0;
+        for (int32_t b = 0; b < nb; ++b) {
+            int64_t r[3][2];
+            range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+            for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
+                for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
+                    for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+                        if (pass) h->keys[n] = (uint64_t)key_of(i, j, k) << 32 | (uint32_t)b;
+                        ++n;
+                    }
+        }
+        if (!pass && !reserve((void **)&h->keys, &h->cap_keys, n, sizeof *h->keys))
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        h->nkeys = n;
+    }
+    qsort(h->keys, (size_t)h->nkeys, sizeof *h->keys, cmp_u64);
+    /* Query A. */
+    for (int32_t a = 0; a < na; ++a) {
+        int64_t r[3][2];
+        range(lo_a + 3 * a, hi_a + 3 * a, origin, inv, r);
+        for (int ax = 0; ax < 3; ++ax) {   /* no box of B beyond its far corner's cell */
+            if (r[ax][0] > top[ax]) r[ax][0] = top[ax] + 1;
+            if (r[ax][1] > top[ax]) r[ax][1] = top[ax];
+        }
+        for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
+            for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
+                for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+                    const uint64_t key = (uint64_t)key_of(i, j, k) << 32;
+                    int64_t lo = 0, hi = h->nkeys;
+                    while (lo < hi) {
+                        const int64_t mid = lo + (hi - lo) / 2;
+                        if (h->keys[mid] < key) lo = mid + 1;
+                        else hi = mid;
+                    }
+                    for (int64_t m = lo; m < h->nkeys && (h->keys[m] >> 32) == (key >> 32); ++m) {
+                        const int32_t b = (int32_t)(uint32_t)h->keys[m];
+                        if (self && b <= a) continue;
+                        if (!overlap(lo_a + 3 * a, hi_a + 3 * a, lo_b + 3 * b, hi_b + 3 * b))
+                            continue;
+                        if (!reserve((void **)&h->pairs, &h->cap_pairs, h->npairs + 1,
+                                     sizeof *h->pairs))
+                            return DEFSIM_ERR_OUT_OF_MEMORY;
+                        h->pairs[h->npairs++] = (int64_t)a << 32 | b;
+                    }
+                }
+    }
+    qsort(h->pairs, (size_t)h->npairs, sizeof *h->pairs, cmp_i64);
+    int64_t u = 0;
+    for (int64_t m = 0; m < h->npairs; ++m)
+        if (u == 0 || h->pairs[m] != h->pairs[u - 1]) h->pairs[u++] = h->pairs[m];
+    h->npairs = u;
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Surfaces */
+
+defsim_status defsim__triangle_edges(const int32_t *tris, int32_t nf, int32_t **edges,
+                                     int32_t *ne)
+{
+    *edges = NULL;
+    *ne = 0;
+    const int64_t n = 3 * (int64_t)nf;
+    int64_t *e = malloc((size_t)(n + 1) * sizeof *e);
+    if (!e) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int64_t f = 0; f < nf; ++f)
+        for (int k = 0; k < 3; ++k) {
+            int64_t a = tris[3 * f + k], b = tris[3 * f + (k + 1) % 3];
+            if (a > b) { const int64_t t = a; a = b; b = t; }
+            e[3 * f + k] = a << 32 | b;
+        }
+    qsort(e, (size_t)n, sizeof *e, cmp_i64);
+    int64_t m = 0;
+    for (int64_t i = 0; i < n; ++i)
+        if (m == 0 || e[i] != e[m - 1]) e[m++] = e[i];
+    int32_t *out = malloc((size_t)(2 * m + 1) * sizeof *out);
+    if (!out) {
+        free(e);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int64_t i = 0; i < m; ++i) {
+        out[2 * i] = (int32_t)(e[i] >> 32);
+        out[2 * i + 1] = (int32_t)(e[i] & 0xffffffff);
+    }
+    free(e);
+    *edges = out;
+    *ne = (int32_t)m;
+    return DEFSIM_OK;
+}

@@ -1,0 +1,65 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Distances between surface primitives for body-body and self-contact (contact_prim.c): point-
+ * triangle, edge-edge and point-edge squared distances with exact gradients and Hessians, the
+ * edge-edge mollifier of IPC for nearly parallel edges, and additive continuous collision
+ * detection (ACCD, Li, Kaufman and Jiang 2021).
+ *
+ * Squared distances are used throughout (smooth where the distance itself is not). Each pair's
+ * distance is that of its closest features, chosen by region: the derivatives are those of the
+ * formula for that region (point-point, point-line, point-plane or line-line), which agree in
+ * value and gradient across region boundaries. Coordinates come as separate 3-vectors; the
+ * gradient (12 or 9 doubles) and Hessian (row-major, 144 or 81) are over the vertices in the order
+ * of the arguments. g and H may be NULL.
+ */
+#ifndef DEFSIM_CONTACT_PRIM_H
+#define DEFSIM_CONTACT_PRIM_H
+
+/* Which formula a pair's distance came from (the closest features). */
+typedef enum defsim__dtype {
+    DEFSIM__D_PP = 0,   /* point-point */
+    DEFSIM__D_PE = 1,   /* point-line (a point and the interior of an edge) */
+    DEFSIM__D_PT = 2,   /* point-plane (a point and the interior of a triangle) */
+    DEFSIM__D_EE = 3    /* line-line (the interiors of two edges) */
+} defsim__dtype;
+
+/* Point p against triangle (t0, t1, t2). */
+double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
+                        const double t2[3], double g[12], double H[144], defsim__dtype *type);
+
+/* Segment (a0, a1) against segment (b0, b1). Nearly parallel edges (|ea x eb|^2 below 1e-20 of
+ * |ea|^2 |eb|^2) take their distance from the endpoint-to-segment candidates, which is exact for
+ * parallel segments; the mollifier below makes the barrier smooth across that switch. */
+double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
+                        const double b1[3], double g[12], double H[144], defsim__dtype *type);
+
+/* Point p against segment (e0, e1): ropes. */
+double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3], double g[9],
+                        double H[81], defsim__dtype *type);
+
+/* IPC's edge-edge mollifier m(c), c = |(a1 - a0) x (b1 - b0)|^2: m = (2 - c / eps) c / eps below
+ * eps and 1 above; multiplies the edge-edge barrier so that it vanishes smoothly as the edges
+ * become parallel, where the closest-feature switch would make the barrier non-smooth.
+ * defsim__ee_mollifier_eps gives eps = 1e-3 |a1 - a0|^2 |b1 - b0|^2 from rest positions. */
+double defsim__ee_mollifier(const double a0[3], const double a1[3], const double b0[3],
+                            const double b1[3], double eps, double g[12], double H[144]);
+double defsim__ee_mollifier_eps(const double a0[3], const double a1[3], const double b0[3],
+                                const double b1[3]);
+
+/* Additive CCD: the four vertices x (12 doubles: p, t0, t1, t2 for a point-triangle pair, or
+ * a0, a1, b0, b1 for an edge-edge pair) move linearly by dx over t in [0, 1]. Returns a time
+ * t in [0, tmax] such that the pair's distance stays above zero over [0, t]: either t < tmax and
+ * the distance at t is at least s (0 < s < 1, e.g. 0.1) times the starting distance (the next
+ * conservative advance would have gone below that), or t = tmax. Conservative by construction:
+ * each advance is shorter than the distance divided by a bound on the relative speed (the
+ * largest displacement of each side, after removing the mean). Stops after max_iterations
+ * advances and returns the time reached (still conservative). */
+double defsim__pt_accd(const double x[12], const double dx[12], double s, double tmax,
+                       int max_iterations);
+double defsim__ee_accd(const double x[12], const double dx[12], double s, double tmax,
+                       int max_iterations);
+/* The same for a point p and a segment (e0, e1): x and dx hold p, e0, e1 (9 doubles). */
+double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
+                       int max_iterations);
+
+#endif /* DEFSIM_CONTACT_PRIM_H */

@@ -1,0 +1,279 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Primitive distances for contact (src/contact_prim.c): values against brute-force sampling of
+ * the primitives, gradients and Hessians against central differences in every region, the
+ * mollifier's derivatives, and additive CCD against a fine independent sampling of the motion.
+ */
+#include "contact_prim.h"
+#include "test_util.h"
+
+#include <math.h>
+#include <string.h>
+
+typedef double (*pair_fn)(const double *x, double *g, double *H, defsim__dtype *type);
+
+static double pt(const double *x, double *g, double *H, defsim__dtype *type)
+{
+    return defsim__pt_dist2(x, x + 3, x + 6, x + 9, g, H, type);
+}
+
+static double ee(const double *x, double *g, double *H, defsim__dtype *type)
+{
+    return defsim__ee_dist2(x, x + 3, x + 6, x + 9, g, H, type);
+}
+
+static double pe(const double *x, double *g, double *H, defsim__dtype *type)
+{
+    return defsim__pe_dist2(x, x + 3, x + 6, g, H, type);
+}
+
+static double eps_x;
+
+static double moll(const double *x, double *g, double *H, defsim__dtype *type)
+{
+    if (type) *type = DEFSIM__D_EE;
+    return defsim__ee_mollifier(x, x + 3, x + 6, x + 9, eps_x, g, H);
+}
+
+/* Central differences of f and of its gradient at x (n variables) against g and H; the pair
+ * must stay in one region over +-h (checked through its type). Returns the largest relative
+ * errors. */
+static void fd_check(pair_fn f, const double *x0, int n, double *eg, double *eh)
+{
+    double x[12], g[12], H[144], gp[12], gm[12], Hs[144];
+    defsim__dtype t0, tp, tm;
+    memcpy(x, x0, (size_t)n * sizeof *x);
+    f(x, g, H, &t0);
+    double gscale = 0.0, hscale = 0.0;
+    for (int i = 0; i < n; ++i) gscale = fmax(gscale, fabs(g[i]));
+    for (int i = 0; i < n * n; ++i) hscale = fmax(hscale, fabs(H[i]));
+    *eg = *eh = 0.0;
+    const double h = 1e-6;
+    for (int i = 0; i < n; ++i) {
+        x[i] = x0[i] + h;
+        const double fp = f(x, gp, Hs, &tp);
+        x[i] = x0[i] - h;
+        const double fm = f(x, gm, Hs, &tm);
+        x[i] = x0[i];
+        assert_int_equal(tp, t0);
+        assert_int_equal(tm, t0);
+        *eg = fmax(*eg, fabs((fp - fm) / (2 * h) - g[i]) / fmax(gscale, 1e-12));
+        for (int j = 0; j < n; ++j)
+            *eh = fmax(*eh, fabs((gp[j] - gm[j]) / (2 * h) - H[j * n + i]) / fmax(hscale, 1e-12));
+    }
+    /* Symmetric Hessian. */
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) assert_true(fabs(H[i * n + j] - H[j * n + i]) <= 1e-12 * hscale);
+}
+
+static void random_points(unsigned long long *rng, double *x, int n)
+{
+    for (int i = 0; i < n; ++i) x[i] = tu_rand(rng);
+}
+
+/* Brute force: the smallest squared distance between samples of the two primitives (a point,
+ * segment or triangle each, given by 1 to 3 vertices), on a grid of 200 steps per parameter. */
+static double sample_d2(const double *a, int na, const double *b, int nb)
+{
+    const int N = 200;
+    double best = INFINITY;
+    for (int i = 0; i <= (na > 1 ? N : 0); ++i)
+        for (int j = 0; j <= (na > 2 ? N - i : 0); ++j) {
+            double pa[3];
+            for (int k = 0; k < 3; ++k) {
+                pa[k] = a[k];
+                if (na > 1) pa[k] += (double)i / N * (a[3 + k] - a[k]);
+                if (na > 2) pa[k] += (double)j / N * (a[6 + k] - a[k]);
+            }
+            for (int u = 0; u <= (nb > 1 ? N : 0); ++u)
+                for (int v = 0; v <= (nb > 2 ? N - u : 0); ++v) {
+                    double d2 = 0.0;
+                    for (int k = 0; k < 3; ++k) {
+                        double pb = b[k];
+                        if (nb > 1) pb += (double)u / N * (b[3 + k] - b[k]);
+                        if (nb > 2) pb += (double)v / N * (b[6 + k] - b[k]);
+                        d2 += (pa[k] - pb) * (pa[k] - pb);
+                    }
+                    best = fmin(best, d2);
+                }
+        }
+    return best;
+}
+
+static void test_values_against_sampling(void **state)
+{
+    (void)state;
+    unsigned long long rng = 7;
+    for (int trial = 0; trial < 40; ++trial) {
+        double x[12];
+        random_points(&rng, x, 12);
+        /* The sampled minimum is never below the exact one, and close to it: a grid step of
+         * 1/200 of edges of length <= 3.5 moves a point by <= 0.0175. */
+        const double dpt = sqrt(pt(x, NULL, NULL, NULL)), spt = sqrt(sample_d2(x, 1, x + 3, 3));
+        assert_true(spt >= dpt - 1e-12 && spt <= dpt + 0.03);
+        const double dee = sqrt(ee(x, NULL, NULL, NULL)), see = sqrt(sample_d2(x, 2, x + 6, 2));
+        assert_true(see >= dee - 1e-12 && see <= dee + 0.03);
+        const double dpe = sqrt(pe(x, NULL, NULL, NULL)), spe = sqrt(sample_d2(x, 1, x + 3, 2));
+        assert_true(spe >= dpe - 1e-12 && spe <= dpe + 0.03);
+    }
+}
+
+/* Gradients and Hessians in every region: random configurations until each type of each pair
+ * has been met at least 5 times, away from region boundaries (the finite differences check the
+ * type does not change). */
+static void test_derivatives_every_region(void **state)
+{
+    (void)state;
+    struct {
+        pair_fn f;
+        int n;
+        int types;   /* bit mask of the types the pair can have */
+    } pairs[] = {{pt, 12, 1 << DEFSIM__D_PP | 1 << DEFSIM__D_PE | 1 << DEFSIM__D_PT},
+                 {ee, 12, 1 << DEFSIM__D_PP | 1 << DEFSIM__D_PE | 1 << DEFSIM__D_EE},
+                 {pe, 9, 1 << DEFSIM__D_PP | 1 << DEFSIM__D_PE}};
+    unsigned long long rng = 11;
+    for (int p = 0; p < 3; ++p) {
+        int seen[4] = {0, 0, 0, 0};
+        double worst_g = 0.0, worst_h = 0.0;
+        for (int trial = 0; trial < 20000; ++trial) {
+            double x[12];
+            random_points(&rng, x, pairs[p].n);
+            defsim__dtype t;
+            pairs[p].f(x, NULL, NULL, &t);
+            /* Keep away from region boundaries: the type must hold at +-1e-4 in every
+             * coordinate. */
+            int stable = 1;
+            for (int i = 0; i < pairs[p].n && stable; ++i)
+                for (int sgn = -1; sgn <= 1 && stable; sgn += 2) {
+                    double y[12];
+                    memcpy(y, x, sizeof y);
+                    y[i] += sgn * 1e-4;
+                    defsim__dtype ty;
+                    pairs[p].f(y, NULL, NULL, &ty);
+                    stable = ty == t;
+                }
+            if (!stable || seen[t] >= 5) continue;
+            double eg, eh;
+            fd_check(pairs[p].f, x, pairs[p].n, &eg, &eh);
+            worst_g = fmax(worst_g, eg);
+            worst_h = fmax(worst_h, eh);
+            seen[t]++;
+        }
+        for (int t = 0; t < 4; ++t)
+            if (pairs[p].types & (1 << t)) assert_int_equal(seen[t], 5);
+        print_message("pair %d: worst relative gradient error %.2e, Hessian %.2e\n", p, worst_g,
+                      worst_h);
+        assert_true(worst_g < 1e-7);
+        assert_true(worst_h < 1e-5);
+    }
+}
+
+/* Exact values in known configurations. */
+static void test_known_distances(void **state)
+{
+    (void)state;
+    defsim__dtype t;
+    /* A point 0.3 above the interior of the unit right triangle in z = 0. */
+    const double x1[12] = {0.2, 0.2, 0.3, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    assert_true(fabs(pt(x1, NULL, NULL, &t) - 0.09) < 1e-15);
+    assert_int_equal(t, DEFSIM__D_PT);
+    /* Beyond vertex t1: point-point. */
+    const double x2[12] = {2, -1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    assert_true(fabs(pt(x2, NULL, NULL, &t) - 2.0) < 1e-15);
+    assert_int_equal(t, DEFSIM__D_PP);
+    /* Crossing edges 0.5 apart: line-line. */
+    const double x3[12] = {-1, 0, 0, 1, 0, 0, 0, -1, 0.5, 0, 1, 0.5};
+    assert_true(fabs(ee(x3, NULL, NULL, &t) - 0.25) < 1e-15);
+    assert_int_equal(t, DEFSIM__D_EE);
+    /* Parallel edges 0.4 apart, overlapping: the endpoint candidates give the exact distance. */
+    const double x4[12] = {0, 0, 0, 2, 0, 0, 1, 0.4, 0, 3, 0.4, 0};
+    assert_true(fabs(ee(x4, NULL, NULL, &t) - 0.16) < 1e-15);
+    assert_int_equal(t, DEFSIM__D_PE);
+}
+
+static void test_mollifier(void **state)
+{
+    (void)state;
+    /* Nearly parallel edges: c = |ea x eb|^2 below eps. */
+    const double x[12] = {0, 0, 0, 1, 0, 0, 0.1, 0.3, 0.05, 1.1, 0.31, 0.06};
+    eps_x = defsim__ee_mollifier_eps(x, x + 3, x + 6, x + 9);
+    double g[12], H[144];
+    const double m = defsim__ee_mollifier(x, x + 3, x + 6, x + 9, eps_x, g, H);
+    assert_true(m > 0.0 && m < 1.0);
+    double eg, eh;
+    fd_check(moll, x, 12, &eg, &eh);
+    print_message("mollifier: relative gradient error %.2e, Hessian %.2e (m = %.3f)\n", eg, eh,
+                  m);
+    assert_true(eg < 1e-7 && eh < 1e-5);
+    /* Crossing edges: m = 1 and zero derivatives. */
+    const double y[12] = {-1, 0, 0, 1, 0, 0, 0, -1, 0.5, 0, 1, 0.5};
+    assert_true(defsim__ee_mollifier(y, y + 3, y + 6, y + 9, eps_x, g, H) == 1.0);
+    for (int i = 0; i < 12; ++i) assert_true(g[i] == 0.0);
+}
+
+/* The smallest distance over a fine sampling of the motion on [0, t]. */
+static double min_along(pair_fn f, const double *x0, const double *dx, double t)
+{
+    double best = INFINITY;
+    for (int i = 0; i <= 20000; ++i) {
+        double x[12];
+        for (int k = 0; k < 12; ++k) x[k] = x0[k] + t * i / 20000.0 * dx[k];
+        best = fmin(best, sqrt(f(x, NULL, NULL, NULL)));
+    }
+    return best;
+}
+
+static void test_accd(void **state)
+{
+    (void)state;
+    /* A point falling onto a triangle's interior from 1 m at 4 m per unit time: contact at
+     * t = 0.25. ACCD stops before, at no less than s = 0.1 of the start distance, and not
+     * needlessly early. */
+    const double x[12] = {0.2, 0.2, 1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const double dx[12] = {0, 0, -4.0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const double t = defsim__pt_accd(x, dx, 0.1, 1.0, 1000);
+    print_message("point onto triangle: toi 0.25, ACCD %.4f\n", t);
+    assert_true(t < 0.25 && t >= 0.8 * 0.25 * 0.9);
+    /* Moving apart: tmax. */
+    const double up[12] = {0, 0, 4.0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    assert_true(defsim__pt_accd(x, up, 0.1, 1.0, 1000) == 1.0);
+
+    /* Random motions: the pair never touches on [0, t], and if t < 1 it is at least s d0 apart
+     * at t (an independent fine sampling, not ACCD's own iterates). */
+    unsigned long long rng = 5;
+    int stopped = 0;
+    for (int trial = 0; trial < 200; ++trial) {
+        double y[12], dy[12];
+        random_points(&rng, y, 12);
+        random_points(&rng, dy, 12);
+        for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
+        const int is_ee = trial & 1;
+        pair_fn f = is_ee ? ee : pt;
+        const double d0 = sqrt(f(y, NULL, NULL, NULL));
+        const double ty = is_ee ? defsim__ee_accd(y, dy, 0.1, 1.0, 10000)
+                                : defsim__pt_accd(y, dy, 0.1, 1.0, 10000);
+        assert_true(ty >= 0.0 && ty <= 1.0);
+        const double dmin = min_along(f, y, dy, ty);
+        assert_true(dmin > 0.0);
+        if (ty < 1.0) {
+            double z[12];
+            for (int k = 0; k < 12; ++k) z[k] = y[k] + ty * dy[k];
+            assert_true(sqrt(f(z, NULL, NULL, NULL)) >= 0.1 * d0 * (1 - 1e-12));
+            ++stopped;
+        }
+    }
+    print_message("random motions: %d of 200 stopped before t = 1\n", stopped);
+    assert_true(stopped > 20);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_values_against_sampling),
+        cmocka_unit_test(test_derivatives_every_region),
+        cmocka_unit_test(test_known_distances),
+        cmocka_unit_test(test_mollifier),
+        cmocka_unit_test(test_accd),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

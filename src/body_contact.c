@@ -1077,7 +1077,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
             const double *vi = v + 3 * (int64_t)i;
             const double hv = h * sqrt(dot3(vi, vi)), gh2 = gn * h * h;
             bc->radius[i] =
-                bc->pinned[i] ? 0.0 : 1.25 * (1.5 * hv + gh2 + bc->dhat) + slack * (hv + gh2);
+                bc->pinned[i] ? 0.0 : 1.25 * (1.5 * hv + gh2 + bc->dhat) + fmin(slack * (hv + gh2), 2.0 * bc->dhat);
         }
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;

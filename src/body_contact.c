@@ -1067,8 +1067,9 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     if (!reuse) {
         /* After a broad phase that found nothing, the balls take several steps of motion more:
          * an idle scene (sagging, vibrating bodies far apart) reuses the result for many steps
-         * instead of two or three. Only then: in a busy scene larger balls keep many more
-         * pairs as candidates (the cloth fold: 8 times as many). */
+         * instead of two or three. Only then, and at most 2 dhat more: in a moving scene
+         * larger balls keep many more pairs as candidates (the falling cloth of the fold, which
+         * finds none at first: 8 times as many without the cap). */
         const double slack =
             !bc->fresh && bc->have_pairs && bc->npair == 0 ? BC_IDLE_SLACK : 0.0;
         memcpy(bc->center, x, 3 * (size_t)bc->nv * sizeof *x);
@@ -1077,7 +1078,9 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
             const double *vi = v + 3 * (int64_t)i;
             const double hv = h * sqrt(dot3(vi, vi)), gh2 = gn * h * h;
             bc->radius[i] =
-                bc->pinned[i] ? 0.0 : 1.25 * (1.5 * hv + gh2 + bc->dhat) + fmin(slack * (hv + gh2), 2.0 * bc->dhat);
+                bc->pinned[i] ? 0.0
+                              : 1.25 * (1.5 * hv + gh2 + bc->dhat) +
+                                    fmin(slack * (hv + gh2), 2.0 * bc->dhat);
         }
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;

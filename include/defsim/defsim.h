@@ -654,6 +654,9 @@ DEFSIM_API defsim_status defsim_world_set_external_forces(defsim_world *world, c
 /// call) that evaluated it fails with DEFSIM_ERR_CALLBACK and the world's state is unchanged.
 /// A non-finite force is treated as a failure too. The callback must not call the world.
 /// Forces it adds to pinned vertices have no effect (but count in defsim_world_get_pin_forces).
+/// Adaptive backends may call it at times up to one internal step past the end of the current
+/// defsim_world_step (sundials_ida steps past t + h and interpolates the state at t + h), so
+/// within a call it should depend on (x, v, t) only.
 typedef int (*defsim_force_fn)(void *user, const double *x, const double *v, double t, int32_t n,
                                double *f_inout);
 

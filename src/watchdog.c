@@ -16,15 +16,23 @@
  * checked against the same limit (one energy evaluation, about the cost of a step of an
  * explicit backend) in the steps where garbage can hide from K: the first step after a
  * reference, a step in which K more than doubled (and exceeds a thousandth of the floor), a
- * step that moved some vertex by more than MOVE_FRACTION of the smallest element size, and
- * every ENERGY_EVERY-th step. A stable explicit run moves vertices by a small fraction of an
- * element per step (its CFL condition), so it pays the evaluation in a few steps only.
+ * step that deformed some element by more than MOVE_FRACTION of the smallest element size, and
+ * every ENERGY_EVERY-th step. Deformed: an edge of a tet from its fourth vertex, a spring, or an
+ * attachment's spring changed by more than that (the displacements of its ends differ by more;
+ * the other tet edges then by at most twice that).
+ * U changes only through those, so moving a body as a whole (falling, swinging, thrown) checks
+ * nothing more; a stable explicit run changes them by a small fraction of an element per step
+ * (its CFL condition), so it pays the evaluation in a few steps only. (Until this was measured
+ * on the cantilever at h = 2.8 ms, the trigger was any vertex moving that far: every step of
+ * the sagging beam paid an energy evaluation, twice the cost of its explicit step.)
  *
  * Inversion of a neo-Hookean element (J = det F <= 0, where its energy is undefined) is checked
  * by a pass over those elements in the same steps, and in every step while the smallest J seen
- * is below JMIN_WATCH. Between, no vertex moved by more than MOVE_FRACTION of the smallest
- * element size, which changes J of a tet of ordinary shape by about 4 x 3 x 1 % = 0.12 at most:
- * from J >= JMIN_WATCH = 0.5 no step of that kind reaches J <= 0. (The pass alone costs about
+ * is below JMIN_WATCH. Between, no column of a tet's Ds = [x0 - x3, x1 - x3, x2 - x3] changed by
+ * more than MOVE_FRACTION of the smallest element size, which changes J of a tet of ordinary
+ * shape by a few hundredths (3 columns x 1 % x a cofactor near 1 for F near I; the former
+ * bound of each vertex moving 1 %, 0.12, still holds with room): from J >= JMIN_WATCH = 0.5 no
+ * step of that kind reaches J <= 0. (The pass alone costs about
  * a fifth of an explicit step over the same elements.) The growth factor covers the bounded
  * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
  * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
@@ -119,6 +127,53 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     wd->have_rest = 1;
 }
 
+/* Whether some element changed shape by more than sqrt(move2) in a step with displacements dx
+ * (3 nv): a column x_a - x_3 of a tet's Ds, a spring, or an attachment's spring (whose world
+ * point stays put within a step) with |dx_a - dx_b|^2 > move2. lo and hi bound the displacements
+ * component-wise: when their box's diagonal is within the limit, no two vertices moved
+ * differently by more (a body moved as a whole), and the pass over the elements is skipped. */
+static int deformed(const defsim__watchdog *wd, const defsim__system *s, const double *dx,
+                    const double lo[3], const double hi[3])
+{
+    const double box = (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (hi[2] - lo[2]) * (hi[2] - lo[2]);
+    if (box <= wd->move2) return 0;
+    double most = 0.0;
+    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        const defsim__group *gr = &s->groups[m];
+        const int32_t *id = gr->idx;
+        if (gr->nodes == 4) {
+#pragma omp simd reduction(max : most)
+            for (int32_t e = 0; e < gr->n; ++e) {
+                const double *d3 = dx + 3 * (int64_t)id[4 * (int64_t)e + 3];
+                for (int a = 0; a < 3; ++a) {
+                    const double *da = dx + 3 * (int64_t)id[4 * (int64_t)e + a];
+                    const double c0 = da[0] - d3[0], c1 = da[1] - d3[1], c2 = da[2] - d3[2];
+                    const double q = c0 * c0 + c1 * c1 + c2 * c2;
+                    most = q > most ? q : most;
+                }
+            }
+        } else {
+#pragma omp simd reduction(max : most)
+            for (int32_t e = 0; e < gr->n; ++e) {
+                const double *da = dx + 3 * (int64_t)id[2 * (int64_t)e];
+                const double *db = dx + 3 * (int64_t)id[2 * (int64_t)e + 1];
+                const double c0 = da[0] - db[0], c1 = da[1] - db[1], c2 = da[2] - db[2];
+                const double q = c0 * c0 + c1 * c1 + c2 * c2;
+                most = q > most ? q : most;
+            }
+        }
+    }
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        double d[3];
+        attach_combine(at, e, dx, 0, d);
+        const double q = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        most = q > most ? q : most;
+    }
+    return !(most <= wd->move2);
+}
+
 static double kinetic_free(const defsim__system *s, const double *v)
 {
     double ke = 0.0;
@@ -147,12 +202,15 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     if (!wd->have_rest) {
         free(wd->rest_diag);
         free(wd->dof);
+        free(wd->dx);
         wd->rest_diag = malloc(((size_t)in->nbodies + 1) * sizeof *wd->rest_diag);
         wd->dof = malloc(((size_t)s->nv + 1) * sizeof *wd->dof);
-        if (!wd->rest_diag || !wd->dof) {
+        wd->dx = malloc((3 * (size_t)s->nv + 1) * sizeof *wd->dx);
+        if (!wd->rest_diag || !wd->dof || !wd->dx) {
             free(wd->rest_diag);
             free(wd->dof);
-            wd->rest_diag = wd->dof = NULL;
+            free(wd->dx);
+            wd->rest_diag = wd->dof = wd->dx = NULL;
             snprintf(what, size, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -162,18 +220,23 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     if (energy && !wd->have_ref) {
         wd->k_prev = kinetic_free(s, in->v0);
         wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0);
+        wd->energy_evals++;
         wd->work = 0.0;
         wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
         wd->have_ref = 1;
     }
 
     /* One branch-free pass over the vertices (vectorised: it runs in every step): finiteness,
-     * kinetic energy and work of the free vertices, the largest move. x * 0 is NaN exactly when
-     * x is inf or NaN; mf is a vertex's mass, 0 if pinned. */
+     * kinetic energy and work of the free vertices, and the displacements of the step. x * 0 is
+     * NaN exactly when x is inf or NaN; mf is a vertex's mass, 0 if pinned. */
     const double *mf = wd->dof, *fx = s->fext, *g = s->gravity;
-    double nan = 0.0, ke = 0.0, mdx0 = 0.0, mdx1 = 0.0, mdx2 = 0.0, wext = 0.0, move = 0.0;
+    double *dx = wd->dx;
+    double nan = 0.0, ke = 0.0, mdx0 = 0.0, mdx1 = 0.0, mdx2 = 0.0, wext = 0.0;
+    double lo0 = INFINITY, lo1 = INFINITY, lo2 = INFINITY;
+    double hi0 = -INFINITY, hi1 = -INFINITY, hi2 = -INFINITY;
     const int32_t nv = s->nv;
-#pragma omp simd reduction(+ : nan, ke, mdx0, mdx1, mdx2, wext) reduction(max : move)
+#pragma omp simd reduction(+ : nan, ke, mdx0, mdx1, mdx2, wext) \
+    reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
     for (int32_t i = 0; i < nv; ++i) {
         const double m = mf[i], fr = m > 0.0 ? 1.0 : 0.0;
         const double *p = x + 3 * (int64_t)i, *q = x0 + 3 * (int64_t)i, *u = v + 3 * (int64_t)i;
@@ -187,26 +250,34 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             const double *f = fx + 3 * (int64_t)i;
             wext += fr * (f[0] * d0 + f[1] * d1 + f[2] * d2);
         }
-        const double a = fr * (d0 * d0 + d1 * d1 + d2 * d2);
-        move = a > move ? a : move;
+        dx[3 * (int64_t)i] = d0;
+        dx[3 * (int64_t)i + 1] = d1;
+        dx[3 * (int64_t)i + 2] = d2;
+        lo0 = d0 < lo0 ? d0 : lo0;
+        lo1 = d1 < lo1 ? d1 : lo1;
+        lo2 = d2 < lo2 ? d2 : lo2;
+        hi0 = d0 > hi0 ? d0 : hi0;
+        hi1 = d1 > hi1 ? d1 : hi1;
+        hi2 = d2 > hi2 ? d2 : hi2;
     }
     ke *= 0.5;
     const double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
     const int finite = nan == 0.0;
-    const double move2 = move;
+    const double lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     if (!finite) {
         snprintf(what, size, "the state became non-finite");
         return DEFSIM_ERR_UNSTABLE;
     }
     /* The steps where garbage can hide from K and where an element can invert (header). */
-    const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor || !(move2 <= wd->move2) ||
-                     ++wd->since_full >= ENERGY_EVERY;
+    const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor ||
+                     ++wd->since_full >= ENERGY_EVERY || deformed(wd, s, dx, lo, hi);
     if (full) wd->since_full = 0;
     wd->k_prev = ke;
     if (energy) {
         const double budget = wd->e_ref + wd->work + work;
         const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
         const double e = full ? ke + defsim__elastic_energy(s, in->work, x) : ke;
+        wd->energy_evals += full;
         const char *which = full ? "total" : "kinetic";
         if (!(e <= limit)) {
             snprintf(what, size, "the %s energy reached %.3g J, over %g x %.3g J (the energy at "
@@ -274,6 +345,7 @@ void defsim__watchdog_free(defsim__watchdog *wd)
 {
     free(wd->rest_diag);
     free(wd->dof);
+    free(wd->dx);
     memset(wd, 0, sizeof *wd);
 }
 

@@ -24,10 +24,12 @@ typedef struct defsim__watchdog {
     double e_floor;       /* J: total mass x its rest size x max(|g|, 9.81 m/s^2) */
     double k_prev;        /* J: kinetic energy after the previous step */
     int32_t since_full;   /* steps since the last check of the total energy */
-    double move2;         /* m^2: a step that moves a vertex further checks the total energy */
+    double move2;         /* m^2: a step that deforms an element further checks the total energy */
     double jmin;          /* smallest J of the neo-Hookean elements at the last inversion check */
     double *rest_diag;    /* per body slot: diagonal of its rest bounding box (m) */
     double *dof;          /* nv: a vertex's mass, 0 if pinned */
+    double *dx;           /* 3 nv: the displacements of the step being checked */
+    int64_t energy_evals; /* elastic-energy evaluations so far (they join defsim_stats) */
 } defsim__watchdog;
 
 /* What one check needs: the system, the bodies, the state after (x, v) and before (x0, v0) the

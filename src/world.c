@@ -1064,7 +1064,9 @@ static defsim_status watch_step(defsim_world *w, double h)
         .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
         .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
     char what[400];
+    const int64_t evals = w->wd.energy_evals;
     defsim_status st = defsim__watchdog_check(&w->wd, &in, what, sizeof what);
+    w->stats.energy_evals += w->wd.energy_evals - evals;
     if (st != DEFSIM_ERR_UNSTABLE) {
         if (st != DEFSIM_OK) defsim__error(w->msg, "step: %s", what);
         return st;

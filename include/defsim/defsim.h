@@ -424,7 +424,7 @@ typedef struct defsim_stats {
     double time_solve;             ///< Triangular solves / linear solves.
     int64_t force_evals;           ///< Force evaluations.
     int64_t hessian_evals;         ///< Stiffness matrix assemblies.
-    int64_t energy_evals;          ///< Potential energy evaluations.
+    int64_t energy_evals;          ///< Potential energy evaluations (the watchdog's included).
     int64_t newton_iterations;     ///< Nonlinear iterations (implicit backends).
     int64_t line_search_backtracks;///< Step halvings in line searches.
     int64_t linear_solves;         ///< Linear systems solved.

@@ -498,7 +498,8 @@ static void write_rows(FILE *f, const point *p, int n)
  * step), mean step = h (fixed-step) or T / internal steps (adaptive), over the `ORDER_POINTS`
  * finest ok points whose error is above 100 times the reference's own (so that the reference does
  * not set it) and below 1e-2 (the asymptotic range); none where those steps span less than 1.5x
- * (an adaptive backend held at its stability limit). Printed and appended to the Pareto file. */
+ * (an adaptive backend held at its stability limit, or changing its order instead of its
+ * step). Printed and appended to the Pareto file. */
 #define ORDER_POINTS 3
 static void write_orders(const bench *b, const point *p, int n, double ref_err, const char *path)
 {
@@ -544,11 +545,11 @@ static void write_orders(const bench *b, const point *p, int n, double ref_err, 
             continue;
         }
         if (hs[k - 1] < 1.5 * hs[0]) {
-            /* An adaptive backend whose steps its stability limit sets, not its tolerance
-             * (sundials_erk on a stiff scene): the errors do not follow the step, no order. */
-            printf("  %-17s  none: mean steps %.3g .. %.3g s, not set by the tolerance\n",
+            /* An adaptive backend whose mean step hardly changes with its tolerance (sundials_erk
+             * held at its stability limit, sundials_ida changing its order): no order in h. */
+            printf("  %-17s  none: mean steps %.3g .. %.3g s, too close for a slope\n",
                    p[i].backend, hs[0], hs[k - 1]);
-            if (f) fprintf(f, "- %s: none (mean steps %.3g to %.3g s, not set by the tolerance)\n",
+            if (f) fprintf(f, "- %s: none (mean steps %.3g to %.3g s, too close for a slope)\n",
                            p[i].backend, hs[0], hs[k - 1]);
             continue;
         }

@@ -136,6 +136,24 @@ int main(int argc, char **argv)
     snprintf(cmd, sizeof cmd, "%s/rope_pareto.md", out);
     struct stat st1, st2;
     CHECK(stat(cmd, &st1) == 0 && st1.st_size > 100, "no Pareto table");
+    /* The front's ratio t(1e-5) / t(1e-3), t(e) the fastest wall time of a row reaching e, as
+     * computed here from the CSV. */
+    {
+        double t3 = 0.0, t5 = 0.0;
+        for (int i = 0; i < n; ++i) {
+            if (rows[i].rms <= 1e-3 && (t3 == 0.0 || rows[i].wall < t3)) t3 = rows[i].wall;
+            if (rows[i].rms <= 1e-5 && (t5 == 0.0 || rows[i].wall < t5)) t5 = rows[i].wall;
+        }
+        FILE *pf = fopen(cmd, "r");
+        char line[512];
+        double printed = -1.0;
+        while (pf && fgets(line, sizeof line, pf))
+            if (sscanf(line, "Front: t(1e-5) / t(1e-3) = %lf", &printed) == 1) break;
+        if (pf) fclose(pf);
+        CHECK(t3 > 0.0 && t5 > 0.0, "rope: levels 1e-3 and 1e-5 not both reached");
+        CHECK(fabs(printed - t5 / t3) <= 0.006 * t5 / t3 + 0.005,
+              "Pareto file: t(1e-5) / t(1e-3) printed %g, the rows give %g", printed, t5 / t3);
+    }
 
     /* Second run: the cached reference is used, not rewritten, and gives the same errors. */
     CHECK(stat(ref, &st1) == 0, "stat %s", ref);

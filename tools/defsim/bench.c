@@ -420,8 +420,10 @@ static void setting(const point *p, char *buf, size_t n)
     snprintf(buf, n, "%s = %.3g%s", p->is_tol ? "tol" : "h", p->value, p->is_tol ? "" : " s");
 }
 
-/* Pareto table: for each error level the fastest point reaching it, and the fastest point of
- * any other backend (to show the margin). Printed and written as markdown. */
+/* Pareto table: for each error level 1e-1 .. 1e-8 the fastest point reaching it, and the
+ * fastest point of any other backend (to show the margin), then the front's ratios t(1e-5) /
+ * t(1e-3) and t(1e-8) / t(1e-3) (t(e): the fastest wall time reaching e; no cliff in the front
+ * keeps them small). Printed and written as markdown. */
 static int write_pareto(const bench *b, const point *p, int n, const char *path)
 {
     FILE *f = fopen(path, "w");
@@ -438,7 +440,8 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
     printf("\nPareto table (RMS position error / body size at T = %g s):\n", b->T);
     printf("  %-8s  %-17s %-16s %10s %10s   %s\n", "level", "fastest", "setting", "wall_s",
            "rms_err", "next other backend");
-    for (int k = 1; k <= 6; ++k) {
+    double t_level[9] = {0};   /* t(1e-k), 0: not reached */
+    for (int k = 1; k <= 8; ++k) {
         const double level = pow(10.0, -k);
         int best = -1, other = -1;
         for (int i = 0; i < n; ++i)
@@ -457,6 +460,7 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
             printf("  1e-%-5d  none reached\n", k);
             continue;
         }
+        t_level[k] = p[best].wall;
         setting(&p[best], s1, sizeof s1);
         if (other >= 0) {
             char so[64];
@@ -471,6 +475,14 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
         }
         printf("  1e-%-5d  %-17s %-16s %10.4g %10.2e   %s\n", k, p[best].backend, s1,
                p[best].wall, p[best].rms, s2);
+    }
+    if (t_level[3] > 0.0) {
+        char r5[32] = "not reached", r8[32] = "not reached";
+        if (t_level[5] > 0.0) snprintf(r5, sizeof r5, "%.2f", t_level[5] / t_level[3]);
+        if (t_level[8] > 0.0) snprintf(r8, sizeof r8, "%.1f", t_level[8] / t_level[3]);
+        printf("  front: t(1e-5) / t(1e-3) = %s, t(1e-8) / t(1e-3) = %s\n", r5, r8);
+        fprintf(f, "\nFront: t(1e-5) / t(1e-3) = %s, t(1e-8) / t(1e-3) = %s (t(e): the fastest "
+                   "wall time reaching RMS error e).\n", r5, r8);
     }
     fprintf(f, "\nPareto-optimal points (no other point is both faster and more accurate):\n\n");
     for (int i = 0; i < n; ++i)

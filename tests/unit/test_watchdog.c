@@ -175,8 +175,8 @@ static void test_energy_hidden_in_elastic(void **state)
 /* The total energy is checked in the steps where an element changed shape by more than 1 % of
  * the smallest element size, not where vertices merely moved that far: the cantilever sagging
  * at its step of 2.8 ms (the tip moves up to 1 cm per step, its elements change by at most
- * 1.8 mm of the 2.5 mm limit) and a box thrown at 50 m/s (5 cm, a fifth of an element, per step) pay the
- * check in a handful of steps of 200. The old trigger (any vertex moving 1 %) checked every
+ * 1.8 mm of the 2.5 mm limit) and a box thrown at 50 m/s (5 cm, a fifth of an element, per
+ * step) pay the check in a handful of steps of 200. The old trigger (any vertex moving 1 %) checked every
  * step of both, which doubled the explicit step's cost. A step that deforms the elements (the
  * box spun at 50 rad/s: 1.2 cm of relative motion per 0.25 m edge) is checked every time. */
 static void test_energy_check_follows_deformation(void **state)

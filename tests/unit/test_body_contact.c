@@ -281,11 +281,8 @@ static long vertices_in_tets(const double *x, int32_t va, int32_t nva, const int
 static defsim_world *contact_world(const char *backend, int threads)
 {
     defsim_world_def d = tu_world_def(backend, -G, threads);
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) {
-        printf("  %s: not available (%s), skipped\n", backend, defsim_last_error());
-        return NULL;
-    }
+    defsim_world *w = tu_create_or_skip(&d);
+    if (!w) return NULL;
     TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
     /* an impact takes Newton up to ~40 iterations (docs/contact.md) */
     if (strcmp(backend, "symplectic_euler") != 0) {
@@ -862,5 +859,5 @@ int main(void)
         cmocka_unit_test(test_cloth_no_self_contact),
         cmocka_unit_test(test_cloth_deterministic),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

@@ -615,5 +615,5 @@ int main(void)
         cmocka_unit_test(test_bad_defs),
         cmocka_unit_test(test_checkpoint),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

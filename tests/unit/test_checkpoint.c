@@ -793,5 +793,5 @@ int main(void)
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),
     };
-    return cmocka_run_group_tests(tests, tu_tmpdir_setup, tu_tmpdir_teardown);
+    return tu_exit(cmocka_run_group_tests(tests, tu_tmpdir_setup, tu_tmpdir_teardown));
 }

@@ -34,16 +34,13 @@ static int is_barrier(const char *backend)
     return 0;
 }
 
-/* A world with gravity -G y and one thread, or NULL when the backend is not available. Barrier
- * steps get 200 Newton iterations: an impact takes up to ~40 (docs/contact.md). */
+/* A world with gravity -G y and one thread, or NULL (a skip) when this build lacks the backend.
+ * Barrier steps get 200 Newton iterations: an impact takes up to ~40 (docs/contact.md). */
 static defsim_world *world_or_skip(const char *backend, double gy)
 {
     defsim_world_def d = tu_world_def(backend, gy, 1);
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) {
-        printf("  %s: not available (%s), skipped\n", backend, defsim_last_error());
-        return NULL;
-    }
+    defsim_world *w = tu_create_or_skip(&d);
+    if (!w) return NULL;
     if (is_barrier(backend)) {
         char name[64];
         snprintf(name, sizeof name, "%s.max_iterations", backend);
@@ -1019,5 +1016,5 @@ int main(void)
         cmocka_unit_test(test_sdf_nan),
         cmocka_unit_test(test_far_colliders),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

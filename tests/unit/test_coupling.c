@@ -1090,5 +1090,5 @@ int main(void)
         cmocka_unit_test(test_attachment_bad_input),
         cmocka_unit_test(test_element_stress),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

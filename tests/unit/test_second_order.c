@@ -14,16 +14,6 @@
 
 #define PI 3.14159265358979323846
 
-static int have(const char *backend)
-{
-    defsim_world_def d;
-    defsim_world_def_init(&d, sizeof d);
-    d.backend = backend;
-    defsim_world *w = NULL;
-    const defsim_status st = defsim_world_create(&d, &w);
-    defsim_world_destroy(w);
-    return st == DEFSIM_OK;
-}
 
 /* Errors in x and v at T of N steps against x(t) = e^{-ct/2} a (cos wd t + c/(2 wd) sin wd t). */
 static void oscillator_error(const char *backend, int N, double *ex, double *ev)
@@ -50,10 +40,7 @@ static void test_oscillator_orders(void **state)
     (void)state;
     const char *names[] = {"velocity_verlet", "newmark", "bdf2"};
     for (int b = 0; b < 3; ++b) {
-        if (!have(names[b])) {
-            printf("%s not built: skipped\n", names[b]);
-            continue;
-        }
+        if (!tu_available(names[b])) continue;
         double ex[3], ev[3];
         const int N[3] = {200, 400, 800};
         for (int j = 0; j < 3; ++j) oscillator_error(names[b], N[j], &ex[j], &ev[j]);
@@ -72,7 +59,7 @@ static void test_oscillator_orders(void **state)
 static void test_newmark_linear_energy(void **state)
 {
     (void)state;
-    if (!have("newmark") || !have("newton_cholmod")) skip();
+    if (!tu_available("newmark") || !tu_available("newton_cholmod")) skip();
     const double m = 0.5, k = 200.0, h = 1.0 / sqrt(k / m);
     const char *names[2] = {"newmark", "newton_cholmod"};
     double ratio[2], dev[2];
@@ -92,7 +79,7 @@ static void test_newmark_linear_energy(void **state)
 static void test_bdf2_energy_monotone(void **state)
 {
     (void)state;
-    if (!have("bdf2")) skip();
+    if (!tu_available("bdf2")) skip();
     const double m = 0.5, k = 200.0, om = sqrt(k / m);
     const double oh[4] = {0.1, 0.5, 1.0, 5.0};
     for (int j = 0; j < 4; ++j) {
@@ -137,7 +124,7 @@ static defsim_world *swinging_beam(const char *backend)
 static void test_newmark_beam_energy(void **state)
 {
     (void)state;
-    if (!have("newmark") || !have("newton_cholmod")) skip();
+    if (!tu_available("newmark") || !tu_available("newton_cholmod")) skip();
     const char *names[2] = {"newmark", "newton_cholmod"};
     double dev = 0.0, end[2];
     for (int b = 0; b < 2; ++b) {
@@ -263,7 +250,7 @@ static void check_invalidation(const char *backend, double h, int carry_shows)
 static void test_bdf2_first_step_is_backward_euler(void **state)
 {
     (void)state;
-    if (!have("bdf2") || !have("newton_cholmod")) skip();
+    if (!tu_available("bdf2") || !tu_available("newton_cholmod")) skip();
     defsim_body_id ia, ib;
     defsim_world *a = beam("bdf2", &ia), *b = beam("newton_cholmod", &ib);
     double *x, *v;
@@ -315,7 +302,7 @@ static void test_verlet_force_count(void **state)
 static void test_bdf2_restart(void **state)
 {
     (void)state;
-    if (!have("bdf2")) skip();
+    if (!tu_available("bdf2")) skip();
     check_invalidation("bdf2", 1.0 / 60.0, 1);
 }
 
@@ -365,7 +352,7 @@ static void test_implicit_options(void **state)
     const char *names[] = {"newton_cholmod", "newmark", "bdf2"};
     char name[64];
     for (int b = 0; b < 3; ++b) {
-        if (!have(names[b])) skip();
+        if (!tu_available(names[b])) skip();
         defsim_body_id id;
         defsim_world *w = beam(names[b], &id);
         snprintf(name, sizeof name, "%s.tolerance", names[b]);
@@ -408,7 +395,7 @@ static void test_restart_counters(void **state)
     const char *counters[2] = {"velocity_verlet.force_restarts", "bdf2.restarts"};
     const double h[2] = {2e-4, 1.0 / 60.0};
     for (int b = 0; b < 2; ++b) {
-        if (!have(names[b])) continue;
+        if (!tu_available(names[b])) continue;
         defsim_body_id id;
         defsim_world *w = beam(names[b], &id);
         double *x, *v;
@@ -497,5 +484,5 @@ int main(void)
         cmocka_unit_test(test_implicit_options),
         cmocka_unit_test(test_restart_counters),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

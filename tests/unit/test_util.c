@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 #include "test_util.h"
 
+#include "built_backends.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -301,13 +303,40 @@ void tu_osc_exact(const tu_osc *o, double t, double *u, double *v)
     *v = e * (-g * (A * cs + B * sn) + wd * (B * cs - A * sn));
 }
 
+int tu_built(const char *backend) { return built_backend(backend); }
+
+static int tu_skips;
+
+void tu_skip(const char *what)
+{
+    ++tu_skips;
+    printf("SKIP: %s\n", what);
+}
+
+int tu_exit(int failures)
+{
+    return failures ? failures : tu_skips ? TU_SKIP_CODE : 0;
+}
+
+defsim_world *tu_create_or_skip(const defsim_world_def *d)
+{
+    defsim_world *w = NULL;
+    if (defsim_world_create(d, &w) == DEFSIM_OK) return w;
+    if (tu_built(d->backend))
+        fail_msg("backend %s is built but no world can be created with it: %s", d->backend,
+                 defsim_last_error());
+    char what[160];
+    snprintf(what, sizeof what, "backend %s is not in this build", d->backend);
+    tu_skip(what);
+    return NULL;
+}
+
 int tu_available(const char *backend)
 {
     defsim_world_def d;
     defsim_world_def_init(&d, sizeof d);
     d.backend = backend;
-    defsim_world *w = NULL;
-    if (defsim_world_create(&d, &w) != DEFSIM_OK) return 0;
+    defsim_world *w = tu_create_or_skip(&d);
     defsim_world_destroy(w);
-    return 1;
+    return w != NULL;
 }

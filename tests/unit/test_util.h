@@ -70,8 +70,22 @@ double tu_energy_run(defsim_world *w, double h, int steps, double *max_dev);
 defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
                             double beta, double a, int pin, int auto_substep);
 
-/* 1 if a world with this backend can be created (built in, registered or loadable), else 0. */
+/* Backends of this build (CMake's DEFSIM_CONFORMANCE_BACKENDS, compiled in as
+ * DEFSIM_TEST_BACKENDS): tu_built says whether one is. tu_create_or_skip creates a world; where
+ * that fails for a backend this build does not have, it records a skip (tu_skip) and returns
+ * NULL; for a backend it has (or one the test registered), the failure fails the test: a module
+ * that no longer loads must not pass as "not available". tu_available: 1 when a world with the
+ * backend can be created, else 0 with the skip recorded. */
+int tu_built(const char *backend);
+defsim_world *tu_create_or_skip(const defsim_world_def *d);
 int tu_available(const char *backend);
+
+/* Records that part of a test could not run (printed as "SKIP: <what>"); tu_exit turns a run
+ * with skips and no failures into TU_SKIP_CODE, which ctest reports as skipped
+ * (SKIP_RETURN_CODE), never as passed. Tests end with return tu_exit(cmocka_run_...). */
+#define TU_SKIP_CODE 77
+void tu_skip(const char *what);
+int tu_exit(int failures);
 
 /* Pins every vertex of body b whose coordinate `axis` is <= value (+1e-12). Returns the count. */
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value);

@@ -473,5 +473,5 @@ int main(void)
         cmocka_unit_test(test_options),
         cmocka_unit_test(test_stretch_bound),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

@@ -5,10 +5,25 @@ from __future__ import annotations
 
 from typing import Iterator
 
+import os
+
 import numpy as np
 import pytest
 
 import defsim
+
+
+def world_or_skip(backend: str, **kw) -> defsim.World:
+    """A World with the backend; the test is skipped only when the build does not have it
+    (DEFSIM_TEST_BACKENDS, set by ctest to the build's backends; without it, as from an installed
+    package, any BackendUnavailableError skips). A backend the build has must load."""
+    try:
+        return defsim.World(backend, **kw)
+    except defsim.BackendUnavailableError:
+        built = os.environ.get("DEFSIM_TEST_BACKENDS")
+        if built is not None and backend in built.split(","):
+            raise
+        pytest.skip(f"backend {backend} is not in this build")
 
 
 @pytest.fixture

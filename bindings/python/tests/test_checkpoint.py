@@ -10,15 +10,13 @@ import numpy as np
 import pytest
 
 import defsim
+from conftest import world_or_skip
 
 
 def scene(backend: str) -> defsim.World:
     """A clamped, damped beam with a spring rope attached to its tip, under gravity and held
     external forces."""
-    try:
-        w = defsim.World(backend, gravity=(0, -9.81, 0), num_threads=1)
-    except defsim.BackendUnavailableError:
-        pytest.skip(f"{backend} is not built")
+    w = world_or_skip(backend, gravity=(0, -9.81, 0), num_threads=1)
     mat = defsim.Material("stable_neohookean", youngs_modulus=2e5, mass_damping=0.2,
                           stiffness_damping=1e-3)
     beam = w.add_body(defsim.mesh_box((0, 0, 0), (1.0, 0.2, 0.2), cells=(4, 1, 1)),

@@ -11,16 +11,14 @@ import numpy as np
 import pytest
 
 import defsim
+from conftest import world_or_skip
 
 BACKENDS = ["explicit_euler", "symplectic_euler", "newton_cholmod", "sundials_ida",
             "sundials_kinsol"]
 
 
 def _world(backend: str, **kw) -> defsim.World:
-    try:
-        return defsim.World(backend, **kw)
-    except defsim.BackendUnavailableError:
-        pytest.skip(f"backend {backend} not available in this build")
+    return world_or_skip(backend, **kw)
 
 
 def _beam(w: defsim.World, cells=(6, 2, 2), damping=0.0) -> defsim.Body:

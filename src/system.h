@@ -63,7 +63,8 @@ typedef struct defsim__pattern {
     uint64_t version;
 } defsim__pattern;
 
-/* Attachments (attach.c): zero-rest-length springs on d = sum_j a_j x[node_j] - p, energy
+/* Attachments (built by plan.c from coupling.c's list; evaluated by forces.c, energy.c and
+ * assembly.c through element.h's attach_combine): zero-rest-length springs on d = sum_j a_j x[node_j] - p, energy
  * k/2 |d|^2, damping force -c a_j sum_l a_l v[node_l] on node j. Node 0 is the attached vertex
  * (a = 1); nodes 1..4 the target's vertices (a = -weight), or unused (node -1, a = 0) for a
  * world point p. */
@@ -103,7 +104,7 @@ typedef struct defsim__system {
     defsim__pattern pattern;
     const struct defsim__tet_kernels *tet_kernels;   /* batched force kernels; NULL: scalar */
 
-    /* The host's terms (coupling.c, attach.c). fext and cb_stiffness are owned by the world and
+    /* The host's terms (coupling.c; attachments compiled by plan.c). fext and cb_stiffness are owned by the world and
      * updated between (or, for cb_stiffness, by the host services during) steps. */
     defsim__attachments att;
     int has_attachment_damping;

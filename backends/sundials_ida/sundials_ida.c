@@ -609,14 +609,7 @@ static void build_pattern(ida_state *s)
     }
 }
 
-#define SET(call)                                                                             \
-    do {                                                                                      \
-        int flag_ = (call);                                                                   \
-        if (flag_ < 0) {                                                                      \
-            ida_fail(s, #call, flag_);                                                        \
-            return flag_ == IDA_MEM_FAIL ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
-        }                                                                                     \
-    } while (0)
+#define SET(call) DEFSIM__SUN_SET(s, ida_fail, IDA_MEM_FAIL, #call, call)
 
 /* The full 2n x 2n Newton matrix and KLU (linear_solver = klu). */
 static defsim_status klu_create(ida_state *s)
@@ -643,15 +636,8 @@ static defsim_status klu_create(ida_state *s)
 static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     ida_state *s = state;
-    s->host = host;
-    s->sys = sys;
-    s->n = host->free_dof_count(sys);
-    s->ndof = host->dof_count(sys);
-    s->free_dofs = host->free_dofs(sys);
-    s->sun.need_reinit = 1;
-    if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
-    defsim__sun_options(host, sys, ida_options, O_COUNT, o);
+    DEFSIM__SUN_INIT_PROLOGUE(s, host, sys, ida_options, O_COUNT, o);
     s->solver = (int)o[O_LINEAR_SOLVER];
 #ifndef DEFSIM_IDA_CHOLMOD
     if (s->solver == LS_CHOLMOD) {

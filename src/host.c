@@ -111,8 +111,18 @@ defsim_status defsim__host_forces(defsim_system *s, const double *x, const doubl
         for (int64_t i = 0; i < ndof; ++i) f[i] += c->f0[i];
     } else {
         if (!v) v = s->state->v;
-        st = defsim__callback_forces(c, s->msg, nv, x, v, t, f);
-        if (st != DEFSIM_OK) return st;
+        if (c->in_step && c->rec_first) {
+            /* Recorded for the watchdog's bound on the callback's work (watchdog.h). */
+            double *r = c->nrec == 0 ? c->rec_first : c->rec_last;
+            memset(r, 0, (size_t)ndof * sizeof *r);
+            st = defsim__callback_forces(c, s->msg, nv, x, v, t, r);
+            if (st != DEFSIM_OK) return st;
+            for (int64_t i = 0; i < ndof; ++i) f[i] += r[i];
+            c->nrec++;
+        } else {
+            st = defsim__callback_forces(c, s->msg, nv, x, v, t, f);
+            if (st != DEFSIM_OK) return st;
+        }
         if (c->jac && c->in_step) {
             memcpy(c->veval, v, (size_t)ndof * sizeof *v);
             c->teval = t;

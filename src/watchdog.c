@@ -36,9 +36,18 @@
  * a fifth of an explicit step over the same elements.) The growth factor covers the bounded
  * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
  * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
- * geometrically and passes any factor within a few steps. Steps with a force callback or driven
- * pins do work the core cannot account for cheaply: the energy check skips them and takes a new
- * reference at the next step without.
+ * geometrically and passes any factor within a few steps.
+ *
+ * The work of the host's other terms joins W in the steps that have them (world.c gathers what
+ * they need; docs/watchdog.md "Work done on the system"): the force callback's, from the forces
+ * the backend's own evaluations recorded (no extra call of the callback); the driven pins', from
+ * the elastic and damping forces at the pinned vertices at both ends of the step; the colliders'
+ * motion against the contact forces; and the contact energy of colliders that came, as work
+ * put in by the host. Each is the larger of its values with the forces at either end (the
+ * midpoint rule plus half the spread), an upper bound of the work along the step whenever the
+ * force varies monotonically over it. So the check stays on in every step: a kinetic energy
+ * beyond growth x (E(ref) + W) + floor, or one that overflows, fails the step, and no free
+ * vertex leaves a step faster than sqrt(2 (growth (E(ref) + W) + floor) / m_i).
  */
 #include "watchdog.h"
 
@@ -185,6 +194,65 @@ static double kinetic_free(const defsim__system *s, const double *v)
     return ke;
 }
 
+/* The force callback's work in a step with displacements dx: per free vertex, the largest
+ * f . dx over the evaluations recorded in the step (the midpoint rule plus half their spread:
+ * exact for a force held over the step, an upper bound of the work along the step whenever the
+ * force's component along dx stays between the recorded values). */
+static double callback_work(const defsim__watchdog *wd, const defsim__system *s,
+                            const double *const *f, int n, const double *dx)
+{
+    double w = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (!(wd->dof[i] > 0.0)) continue;
+        const double *d = dx + 3 * (int64_t)i;
+        double most = -INFINITY;
+        for (int r = 0; r < n; ++r) {
+            const double *fi = f[r] + 3 * (int64_t)i;
+            const double p = fi[0] * d[0] + fi[1] * d[1] + fi[2] * d[2];
+            most = p > most ? p : most;
+        }
+        w += most;
+    }
+    return w;
+}
+
+/* The driven pins' work on the free vertices and the elements: -f . dx at the pinned vertices
+ * that moved, f the elastic and damping forces on them (the pin holds them against f), the
+ * larger of its values with the forces at the start and at the end (as the callback's). */
+static double pin_work(const defsim__system *s, const double *f0, const double *f1,
+                       const double *dx)
+{
+    double w = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (!s->pinned[i]) continue;
+        const double *d = dx + 3 * (int64_t)i, *a = f0 + 3 * (int64_t)i, *b = f1 + 3 * (int64_t)i;
+        if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0) continue;
+        const double pa = -(a[0] * d[0] + a[1] * d[1] + a[2] * d[2]);
+        const double pb = -(b[0] * d[0] + b[1] * d[1] + b[2] * d[2]);
+        w += pa > pb ? pa : pb;
+    }
+    return w;
+}
+
+double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end)
+{
+    if (wd->pin_nv != nv || !wd->pin_f0 || !wd->pin_f1) {
+        free(wd->pin_f0);
+        free(wd->pin_f1);
+        wd->pin_f0 = malloc((3 * (size_t)nv + 1) * sizeof *wd->pin_f0);
+        wd->pin_f1 = malloc((3 * (size_t)nv + 1) * sizeof *wd->pin_f1);
+        wd->pin_nv = nv;
+        wd->pin_f_t = NAN;
+        if (!wd->pin_f0 || !wd->pin_f1) {
+            free(wd->pin_f0);
+            free(wd->pin_f1);
+            wd->pin_f0 = wd->pin_f1 = NULL;
+            return NULL;
+        }
+    }
+    return end ? wd->pin_f1 : wd->pin_f0;
+}
+
 defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
                                      char *what, size_t size)
 {
@@ -216,14 +284,17 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         }
         take_rest(wd, in);
     }
-    const int energy = in->energy;
-    if (energy && !wd->have_ref) {
+    /* The contact energy at the start is stored energy the reference holds; colliders that came
+     * or went since the reference put it in as work (the whole of it: at least what changed). */
+    double injected = in->colliders_changed ? in->contact_start : 0.0;
+    if (!wd->have_ref) {
         wd->k_prev = kinetic_free(s, in->v0);
-        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0);
+        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0) + in->contact_start;
         wd->energy_evals++;
         wd->work = 0.0;
         wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
         wd->have_ref = 1;
+        injected = 0.0;
     }
 
     /* One branch-free pass over the vertices (vectorised: it runs in every step): finiteness,
@@ -261,27 +332,35 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         hi2 = d2 > hi2 ? d2 : hi2;
     }
     ke *= 0.5;
-    const double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
     const int finite = nan == 0.0;
     const double lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     if (!finite) {
         snprintf(what, size, "the state became non-finite");
         return DEFSIM_ERR_UNSTABLE;
     }
+    /* Work beyond gravity and held forces (only in steps that have it: the pass above is all a
+     * plain step pays). A work that overflows leaves only the kinetic energy's finiteness. */
+    double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
+    if (in->ncb > 0) work += callback_work(wd, s, in->cb_f, in->ncb, dx);
+    if (in->pin_f0) work += pin_work(s, in->pin_f0, in->pin_f1, dx);
+    work += in->contact_work + injected;
+    if (!isfinite(work)) work = INFINITY;
     /* The steps where garbage can hide from K and where an element can invert (header). */
     const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor ||
                      ++wd->since_full >= ENERGY_EVERY || deformed(wd, s, dx, lo, hi);
     if (full) wd->since_full = 0;
     wd->k_prev = ke;
-    if (energy) {
+    {
         const double budget = wd->e_ref + wd->work + work;
         const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
         const double e = full ? ke + defsim__elastic_energy(s, in->work, x) : ke;
         wd->energy_evals += full;
         const char *which = full ? "total" : "kinetic";
-        if (!(e <= limit)) {
+        /* Also with an unbounded budget: velocities whose energy overflows are no motion. */
+        if (!(e <= limit) || !(ke < INFINITY)) {
             snprintf(what, size, "the %s energy reached %.3g J, over %g x %.3g J (the energy at "
-                     "the reference plus the work of gravity and applied forces since) + %.3g J "
+                     "the reference plus the work of gravity, applied forces, the force "
+                     "callback, driven pins and colliders since) + %.3g J "
                      "(core.watchdog_energy_growth)", which, e, in->energy_growth, budget,
                      wd->e_floor);
             return DEFSIM_ERR_UNSTABLE;
@@ -309,7 +388,8 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    if (energy) wd->work += work;
+    /* Unbounded work bounds nothing further: a new reference at the next step. */
+    if (work < INFINITY) wd->work += work;
     else wd->have_ref = 0;
     return DEFSIM_OK;
 }
@@ -335,9 +415,20 @@ void defsim__watchdog_message(char *out, size_t size, const char *what, double h
              "restored). %s (core.watchdog = false turns the watchdog off)", what, h, t, advice);
 }
 
+void defsim__watchdog_step_done(defsim__watchdog *wd, double t)
+{
+    if (!wd->pin_end) return;
+    double *f = wd->pin_f0;
+    wd->pin_f0 = wd->pin_f1;
+    wd->pin_f1 = f;
+    wd->pin_f_t = t;
+    wd->pin_end = 0;
+}
+
 void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 {
     wd->have_ref = 0;
+    wd->pin_f_t = NAN;
     if (bodies) wd->have_rest = 0;
 }
 
@@ -346,7 +437,10 @@ void defsim__watchdog_free(defsim__watchdog *wd)
     free(wd->rest_diag);
     free(wd->dof);
     free(wd->dx);
+    free(wd->pin_f0);
+    free(wd->pin_f1);
     memset(wd, 0, sizeof *wd);
+    wd->pin_f_t = NAN;
 }
 
 void defsim__watchdog_attachment_moved(defsim__watchdog *wd, const defsim__system *s, int32_t e,

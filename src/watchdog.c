@@ -53,6 +53,7 @@
 
 #include "energy.h"
 #include "element.h"
+#include "forces.h"
 #include "material.h"
 
 #include <math.h>
@@ -232,6 +233,93 @@ static double pin_work(const defsim__system *s, const double *f0, const double *
         w += pa > pb ? pa : pb;
     }
     return w;
+}
+
+/* Lists the elements with a pinned vertex (once per plan). */
+static int list_pinned_elements(defsim__watchdog *wd, const defsim__system *s)
+{
+    int64_t n = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+        n = 0;
+        for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+            const defsim__group *g = &s->groups[m];
+            for (int32_t e = 0; e < g->n; ++e) {
+                int held = 0;
+                for (int a = 0; a < g->nodes; ++a)
+                    held |= s->pinned[g->idx[(int64_t)g->nodes * e + a]];
+                if (!held) continue;
+                if (pass) {
+                    wd->pin_el[2 * n] = m;
+                    wd->pin_el[2 * n + 1] = e;
+                }
+                ++n;
+            }
+        }
+        if (!pass) {
+            free(wd->pin_el);
+            wd->pin_el = malloc((2 * (size_t)n + 1) * sizeof *wd->pin_el);
+            if (!wd->pin_el) return 0;
+        }
+    }
+    wd->npin_el = (int32_t)n;
+    wd->pin_el_ok = 1;
+    return 1;
+}
+
+defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__system *s,
+                                          const double *x, const double *v, double *f)
+{
+    if (s->has_stiffness_damping || s->has_attachment_damping || s->body_contact)
+        return defsim__forces(s, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING |
+                                           DEFSIM__FORCE_KEEP_PINNED, f, NULL);
+    if (!wd->pin_el_ok && !list_pinned_elements(wd, s)) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t i = 0; i < s->nv; ++i)
+        if (s->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
+    /* Each element's forces into a local copy, then only its pinned nodes' into f. (Mass
+     * damping does no work across a pin: the free vertices' share of it is -alpha m v^2.) */
+    for (int32_t k = 0; k < wd->npin_el; ++k) {
+        const defsim__group *g = &s->groups[wd->pin_el[2 * k]];
+        const int32_t e = wd->pin_el[2 * k + 1];
+        const int32_t *id = g->idx + (int64_t)g->nodes * e;
+        double fl[12] = {0};
+        if (g->nodes == 4) {
+            const int32_t loc[4] = {0, 1, 2, 3};
+            const double *dm = g->dminv + 9 * (int64_t)e;
+            double F[9], P[9], xl[12];
+            for (int a = 0; a < 4; ++a)
+                memcpy(xl + 3 * a, x + 3 * (int64_t)id[a], 3 * sizeof *xl);
+            tet_deformation(xl, loc, dm, F);
+            (void)g->law->P(g->mu[e], g->lambda[e], F, P);
+            tet_scatter(fl, loc, dm, P, -g->vol[e]);
+        } else {
+            const double *xa = x + 3 * (int64_t)id[0], *xb = x + 3 * (int64_t)id[1];
+            const double d[3] = {xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]};
+            const double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            const double c = l > 0.0 ? -g->k[e] * (l - g->l0[e]) / l : 0.0;
+            for (int i = 0; i < 3; ++i) {
+                fl[i] = c * d[i];
+                fl[3 + i] = -c * d[i];
+            }
+        }
+        for (int a = 0; a < g->nodes; ++a)
+            if (s->pinned[id[a]])
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)id[a] + i] += fl[3 * a + i];
+    }
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+        double d[3];
+        attach_combine(at, e, x, 1, d);
+        const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+            if (nd[j] >= 0 && s->pinned[nd[j]])
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)nd[j] + i] -= at->k[e] * a[j] * d[i];
+    }
+    for (int32_t i = 0; i < s->nv; ++i)
+        if (s->pinned[i] && !(isfinite(f[3 * (int64_t)i]) && isfinite(f[3 * (int64_t)i + 1]) &&
+                              isfinite(f[3 * (int64_t)i + 2])))
+            return DEFSIM_ERR_UNSTABLE;
+    return DEFSIM_OK;
 }
 
 double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end)
@@ -429,7 +517,10 @@ void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 {
     wd->have_ref = 0;
     wd->pin_f_t = NAN;
-    if (bodies) wd->have_rest = 0;
+    if (bodies) {
+        wd->have_rest = 0;
+        wd->pin_el_ok = 0;
+    }
 }
 
 void defsim__watchdog_free(defsim__watchdog *wd)
@@ -439,6 +530,7 @@ void defsim__watchdog_free(defsim__watchdog *wd)
     free(wd->dx);
     free(wd->pin_f0);
     free(wd->pin_f1);
+    free(wd->pin_el);
     memset(wd, 0, sizeof *wd);
     wd->pin_f_t = NAN;
 }

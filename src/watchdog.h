@@ -35,6 +35,9 @@ typedef struct defsim__watchdog {
     double pin_f_t;       /* s: the time whose state pin_f0 holds the forces of (NaN: none) */
     int32_t pin_nv;       /* the vertex count pin_f0 and pin_f1 were made for */
     int pin_end;          /* pin_f1 holds the end of the step under way */
+    int32_t *pin_el;      /* (group, element) pairs of the elements with a pinned vertex */
+    int32_t npin_el;
+    int pin_el_ok;        /* pin_el and npin_el hold for the current plan */
 } defsim__watchdog;
 
 /* What one check needs: the system, the bodies, the state after (x, v) and before (x0, v0) the
@@ -81,6 +84,15 @@ void defsim__watchdog_forget(defsim__watchdog *wd, int bodies);
 /* The buffers for the forces at driven pins (3 nv each), allocated at the first step that moves
  * one; NULL when out of memory. */
 double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end);
+
+/* The forces on the pinned vertices at (x, v) that the pins hold against and that exchange
+ * work with the free vertices and the elements: elastic (tets, springs, attachment springs),
+ * from the elements with a pinned vertex only (listed once per plan); with stiffness or
+ * attachment damping or body contact, one full evaluation of the elastic and damping forces.
+ * Writes the pinned vertices' entries of f (3 nv). Returns DEFSIM_ERR_UNSTABLE if one is not
+ * finite, DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__system *s,
+                                          const double *x, const double *v, double *f);
 
 /* The step under way succeeded and the state is now that of time t: the forces at its end
  * serve as the next step's start. */

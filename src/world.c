@@ -1065,8 +1065,7 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
     }
     if (w->drove) {
         /* The forces that the pins hold at the start (those of the last step's end when that
-         * ended here) and at the end; elastic and damping, as they exchange work with the
-         * free vertices. Not counted as the backend's force evaluations. */
+         * ended here) and at the end. Not counted as the backend's force evaluations. */
         defsim__watchdog *wd = &w->wd;
         double *f0 = defsim__watchdog_pin_buffer(wd, w->nv, 0);
         double *f1 = defsim__watchdog_pin_buffer(wd, w->nv, 1);
@@ -1074,17 +1073,18 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
             snprintf(what, size, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
-        const uint32_t which = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING |
-                               DEFSIM__FORCE_KEEP_PINNED;
         defsim_status st = DEFSIM_OK;
         if (!(wd->pin_f_t == w->state.t && wd->have_ref)) {
-            st = defsim__forces(&w->sys, w->x_save, w->v_save, which, f0, NULL);
+            st = defsim__watchdog_pin_forces(wd, &w->sys, w->x_save, w->v_save, f0);
             wd->pin_f_t = st == DEFSIM_OK ? w->state.t : NAN;
         }
-        if (st == DEFSIM_OK) st = defsim__forces(&w->sys, w->state.x, w->state.v, which, f1, NULL);
+        if (st == DEFSIM_OK)
+            st = defsim__watchdog_pin_forces(wd, &w->sys, w->state.x, w->state.v, f1);
         if (st != DEFSIM_OK) {
-            snprintf(what, size, "the forces on the driven pins are not finite");
-            return DEFSIM_ERR_UNSTABLE;
+            snprintf(what, size, st == DEFSIM_ERR_OUT_OF_MEMORY
+                                     ? "out of memory"
+                                     : "the forces on the driven pins are not finite");
+            return st;
         }
         wd->pin_end = 1;
         in->pin_f0 = f0;

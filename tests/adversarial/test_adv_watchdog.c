@@ -452,36 +452,60 @@ static void test_drive_unstable_run(void **state)
 /* ------------------------------------------------------------------------------------------ */
 /* No false trips on the same paths */
 
-/* A plane under the box rising at 0.2 m/s lifts it (penalty contact, symplectic Euler at half
- * the stable step with contact; barrier contact with newton_cholmod): no trip, the reference
- * kept (energy_drift defined), and the box lifted, so the collider did work. */
+static double kinetic(const defsim_world *w)
+{
+    defsim_energy e;
+    TU_OK(defsim_world_energy(w, &e));
+    return e.kinetic;
+}
+
+/* A plane under the box rising at 0.2 m/s lifts it, and one rising at 10 m/s bats it up
+ * (penalty contact, symplectic Euler at half the stable step with contact; barrier contact with
+ * newton_cholmod): no trip, the reference kept (energy_drift defined), the box lifted. At
+ * 10 m/s the box's kinetic energy goes well past the floor of the bound: without the plane's
+ * work in the budget the check would refuse these steps. */
 static void test_moving_collider_lifts(void **state)
 {
     (void)state;
     const char *backends[2] = {"symplectic_euler", "newton_cholmod"};
-    for (int b = 0; b < 2; ++b) {
-        if (!tu_available(backends[b])) continue;
-        defsim_world *w = box_world(backends[b], 0.02, NULL);
-        mover m = {.id = add_plane(w, 0.0), .y = 0.0, .dy = 0.0};
-        const double h = b == 0 ? 0.5 * stable_step(w) : 1e-2;
-        const int steps = (int)ceil(0.5 / h);
-        m.dy = 0.2 * h;
-        for (int s = 0; s < steps; ++s) {
-            move_collider(w, s, &m);
-            TU_OK(defsim_world_step(w, h));
+    const double speeds[2] = {0.2, 10.0}, durations[2] = {0.5, 0.3};
+    for (int b = 0; b < 2; ++b)
+        for (int k = 0; k < 2; ++k) {
+            if (!tu_available(backends[b])) continue;
+            defsim_world *w = box_world(backends[b], 0.02, NULL);
+            mover m = {.id = add_plane(w, 0.0), .y = 0.0, .dy = 0.0};
+            const double h = b == 0 ? 0.5 * stable_step(w) : 1e-2;
+            const int steps = (int)ceil(durations[k] / h);
+            budget bg = budget_start(w, NULL, NULL);
+            double kmax = 0.0;
+            m.dy = speeds[k] * h;
+            for (int s = 0; s < steps; ++s) {
+                move_collider(w, s, &m);
+                TU_OK(defsim_world_step(w, h));
+                kmax = fmax(kmax, kinetic(w));
+            }
+            assert_true(stat(w, "watchdog_trips") == 0.0);
+            assert_false(isnan(stat(w, "energy_drift")));
+            double *x = tu_positions(w), ymin = INFINITY;
+            for (int i = 0; i < defsim_world_vertex_count(w); ++i)
+                ymin = fmin(ymin, x[3 * i + 1]);
+            /* the plane rose by 0.1 m or 3 m; the box started 0.02 m above */
+            assert_true(ymin > (k == 0 ? 0.05 : 2.5));
+            if (k == 1) {
+                print_message("%s: plane at 10 m/s: kinetic energy up to %.3g J, floor %.3g J\n",
+                              backends[b], kmax, bg.floor);
+                assert_true(kmax > 2.0 * bg.floor);
+            }
+            free(x);
+            budget_end(&bg);
+            defsim_world_destroy(w);
         }
-        assert_true(stat(w, "watchdog_trips") == 0.0);
-        assert_false(isnan(stat(w, "energy_drift")));
-        double *x = tu_positions(w), ymin = INFINITY;
-        for (int i = 0; i < defsim_world_vertex_count(w); ++i) ymin = fmin(ymin, x[3 * i + 1]);
-        assert_true(ymin > 0.05);   /* the plane rose by 0.1 m; the box started 0.02 m above */
-        free(x);
-        defsim_world_destroy(w);
-    }
 }
 
 /* A callback spring pulling every vertex towards a point 0.3 m away (f = -k (x - p)), with
- * gravity: the box swings for 1 s at the stable step's half, no trip, reference kept. */
+ * gravity: the box swings for 1 s, no trip, reference kept; k = 2000 N/m at half the stable
+ * step, and k = 2e5 N/m at 1 ms (the explicit backends), whose swing's kinetic energy goes well
+ * past the floor of the bound: without the callback's work the check would refuse it. */
 typedef struct anchor {
     double k, p[3];
 } anchor;
@@ -499,29 +523,44 @@ static int cb_anchor(void *user, const double *x, const double *v, double t, int
 static void test_callback_spring_clean(void **state)
 {
     (void)state;
-    const char *backends[3] = {"symplectic_euler", "velocity_verlet", "newton_cholmod"};
-    for (int b = 0; b < 3; ++b) {
+    const char *backends[5] = {"symplectic_euler", "velocity_verlet", "newton_cholmod",
+                               "symplectic_euler", "velocity_verlet"};
+    for (int b = 0; b < 5; ++b) {
         if (!tu_available(backends[b])) continue;
         defsim_world *w = box_world(backends[b], 0.0, NULL);
-        anchor a = {.k = 2000.0, .p = {0.8, 0.5, 0.5}};
+        anchor a = {.k = b < 3 ? 2000.0 : 2e5, .p = {0.8, 0.5, 0.5}};
         TU_OK(defsim_world_set_force_callback(w, cb_anchor, NULL, &a));
-        const double h = b < 2 ? 0.5 * stable_step(w) : 1e-2;
+        const double h = b < 2 ? 0.5 * stable_step(w) : b == 2 ? 1e-2 : 1e-3;
         const int steps = (int)ceil(1.0 / h);
-        for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+        budget bg = budget_start(w, NULL, NULL);
+        double kmax = 0.0;
+        for (int s = 0; s < steps; ++s) {
+            TU_OK(defsim_world_step(w, h));
+            kmax = fmax(kmax, kinetic(w));
+        }
         assert_true(stat(w, "watchdog_trips") == 0.0);
         assert_false(isnan(stat(w, "energy_drift")));
+        if (b >= 3) {
+            print_message("%s: callback spring of 2e5 N/m: kinetic energy up to %.3g J, floor "
+                          "%.3g J\n", backends[b], kmax, bg.floor);
+            assert_true(kmax > 2.0 * bg.floor);
+        }
+        budget_end(&bg);
         defsim_world_destroy(w);
     }
 }
 
 /* The bottom face driven on a circle of radius 5 cm once per second: no trip, reference kept;
- * also with stiffness damping (its forces across the pins count in the drive's work). */
+ * also with stiffness damping (its forces across the pins count in the drive's work); and
+ * driven along x at x = 5 t^2 (to 10 m/s in 1 s), whose kinetic energy goes well past the
+ * floor of the bound: without the pins' work the check would refuse it. */
 static void test_drive_clean(void **state)
 {
     (void)state;
-    const char *backends[3] = {"symplectic_euler", "newton_cholmod", "symplectic_euler"};
-    const double beta[3] = {0.0, 0.0, 5e-3};
-    for (int b = 0; b < 3; ++b) {
+    const char *backends[4] = {"symplectic_euler", "newton_cholmod", "symplectic_euler",
+                               "symplectic_euler"};
+    const double beta[4] = {0.0, 0.0, 5e-3, 0.0};
+    for (int b = 0; b < 4; ++b) {
         if (!tu_available(backends[b])) continue;
         defsim_body_id id;
         defsim_world *w = box_world_beta(backends[b], 0.0, beta[b], &id);
@@ -531,43 +570,69 @@ static void test_drive_clean(void **state)
         memcpy(base, d.x, sizeof base);
         const double h = b != 1 ? 0.5 * stable_step(w) : 1e-2;
         const int steps = (int)ceil(1.0 / h);
+        budget bg = budget_start(w, pinned, NULL);
+        double kmax = 0.0;
         for (int s = 0; s < steps; ++s) {
-            const double t = (s + 1) * h, ox = 0.05 * (cos(2 * PI * t) - 1.0),
-                         oz = 0.05 * sin(2 * PI * t);
+            const double t = (s + 1) * h;
+            const double ox = b < 3 ? 0.05 * (cos(2 * PI * t) - 1.0) : 5.0 * t * t,
+                         oz = b < 3 ? 0.05 * sin(2 * PI * t) : 0.0;
             for (int i = 0; i < d.n; ++i) {
                 d.x[3 * i] = base[3 * i] + ox;
                 d.x[3 * i + 2] = base[3 * i + 2] + oz;
             }
             TU_OK(defsim_body_set_pin_targets(w, id, d.verts, d.n, d.x));
             TU_OK(defsim_world_step(w, h));
+            kmax = fmax(kmax, kinetic(w));
         }
         assert_true(stat(w, "watchdog_trips") == 0.0);
         assert_false(isnan(stat(w, "energy_drift")));
+        if (b == 3) {
+            print_message("drive to 10 m/s: kinetic energy up to %.3g J, floor %.3g J\n", kmax,
+                          bg.floor);
+            assert_true(kmax > 2.0 * bg.floor);
+        }
+        budget_end(&bg);
         defsim_world_destroy(w);
     }
 }
 
-/* A plane added through the resting box (its bottom layer 5 cm inside): the penalty pushes the
- * box out with the energy it stored, which the watchdog counts as work put in by the host; then
- * the plane removed and the box falls: no trip in 0.5 s of either. */
+/* A plane added through the resting box (its bottom layer 5 cm inside, then half the box
+ * inside): the penalty pushes the box out with the energy it stored, which the watchdog counts
+ * as work put in by the host; then the plane removed and the box falls: no trip in 0.5 s of
+ * either. Half the box inside stores and releases well past the floor of the bound: without
+ * the added plane's energy in the budget the check would refuse it. */
 static void test_collider_added_inside_clean(void **state)
 {
     (void)state;
-    defsim_world *w = box_world("symplectic_euler", 0.0, NULL);
-    TU_OK(defsim_world_step(w, 1e-4));
-    const defsim_collider_id id = add_plane(w, 0.05);
-    const double h = 0.5 * stable_step(w);
-    const int steps = (int)ceil(0.5 / h);
-    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
-    double *x = tu_positions(w), ymin = INFINITY;
-    for (int i = 0; i < defsim_world_vertex_count(w); ++i) ymin = fmin(ymin, x[3 * i + 1]);
-    assert_true(ymin > 0.0);   /* pushed up out of its start */
-    free(x);
-    TU_OK(defsim_world_remove_collider(w, id));
-    for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
-    assert_true(stat(w, "watchdog_trips") == 0.0);
-    assert_false(isnan(stat(w, "energy_drift")));
-    defsim_world_destroy(w);
+    const double depth[2] = {0.05, 0.5};
+    for (int k = 0; k < 2; ++k) {
+        defsim_world *w = box_world("symplectic_euler", 0.0, NULL);
+        TU_OK(defsim_world_step(w, 1e-4));
+        budget bg = budget_start(w, NULL, NULL);
+        const defsim_collider_id id = add_plane(w, depth[k]);
+        const double h = 0.5 * stable_step(w);
+        const int steps = (int)ceil(0.5 / h);
+        double kmax = 0.0;
+        for (int s = 0; s < steps; ++s) {
+            TU_OK(defsim_world_step(w, h));
+            kmax = fmax(kmax, kinetic(w));
+        }
+        double *x = tu_positions(w), ymin = INFINITY;
+        for (int i = 0; i < defsim_world_vertex_count(w); ++i) ymin = fmin(ymin, x[3 * i + 1]);
+        assert_true(ymin > 0.0);   /* pushed up out of its start */
+        free(x);
+        TU_OK(defsim_world_remove_collider(w, id));
+        for (int s = 0; s < steps; ++s) TU_OK(defsim_world_step(w, h));
+        assert_true(stat(w, "watchdog_trips") == 0.0);
+        assert_false(isnan(stat(w, "energy_drift")));
+        if (k == 1) {
+            print_message("plane added through half the box: kinetic energy up to %.3g J, "
+                          "floor %.3g J\n", kmax, bg.floor);
+            assert_true(kmax > 2.0 * bg.floor);
+        }
+        budget_end(&bg);
+        defsim_world_destroy(w);
+    }
 }
 
 int main(void)

@@ -476,8 +476,9 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    /* Unbounded work bounds nothing further: a new reference at the next step. */
-    if (work < INFINITY) wd->work += work;
+    /* Unbounded work or a reference energy that is not finite (an SDF callback that failed
+     * there) bounds nothing further: a new reference at the next step. */
+    if (work < INFINITY && wd->e_ref < INFINITY) wd->work += work;
     else wd->have_ref = 0;
     return DEFSIM_OK;
 }

@@ -222,8 +222,8 @@ static void write_bodies(bw *b, const defsim_world *w)
 
 static void write_coupling(bw *b, const defsim_world *w)
 {
-    for (int32_t i = 0; i < w->natt; ++i) {
-        const defsim__attachment *a = &w->att[i];
+    for (int32_t i = 0; i < w->coupling.natt; ++i) {
+        const defsim__attachment *a = &w->coupling.att[i];
         if (!(a->generation & 1u)) continue;
         const defsim_attachment_def *d = &a->def;
         const size_t c = chunk_begin(b, "ATCH");
@@ -240,18 +240,18 @@ static void write_coupling(bw *b, const defsim_world *w)
         put_f64s(b, d->target_weights, 4);
         chunk_end(b, c);
     }
-    if (w->fext) {
+    if (w->coupling.fext) {
         const size_t c = chunk_begin(b, "FEXT");
-        put_f64s(b, w->fext, 3 * (int64_t)w->nv);
+        put_f64s(b, w->coupling.fext, 3 * (int64_t)w->nv);
         chunk_end(b, c);
     }
-    if (w->ntargeted > 0) {
+    if (w->coupling.ntargeted > 0) {
         const size_t c = chunk_begin(b, "PTGT");
-        put_u32(b, (uint32_t)w->ntargeted);
+        put_u32(b, (uint32_t)w->coupling.ntargeted);
         for (int32_t v = 0; v < w->nv; ++v)
-            if (w->targeted[v]) {
+            if (w->coupling.targeted[v]) {
                 put_i32(b, v);
-                put_f64s(b, w->pin_target + 3 * (int64_t)v, 3);
+                put_f64s(b, w->coupling.pin_target + 3 * (int64_t)v, 3);
             }
         chunk_end(b, c);
     }
@@ -261,8 +261,8 @@ static void write_coupling(bw *b, const defsim_world *w)
  * next step, as stored (normalised), so that the loaded world has the same bits. */
 static void write_colliders(bw *b, const defsim_world *w)
 {
-    for (int32_t i = 0; i < w->ncol; ++i) {
-        const defsim__collider *c = &w->col[i];
+    for (int32_t i = 0; i < w->colliders.ncol; ++i) {
+        const defsim__collider *c = &w->colliders.col[i];
         if (!(c->generation & 1u)) continue;
         const defsim_collider_def *d = &c->def;
         const size_t at = chunk_begin(b, "COLL");
@@ -288,12 +288,12 @@ static void write_colliders(bw *b, const defsim_world *w)
     }
     /* Whether the colliders changed since the last step, and that step's contact forces (the
      * read-back) when they are still of these vertices. */
-    const int forces = w->contact_force && w->contact_nv == w->nv;
-    if (w->ncol > 0 || forces) {
+    const int forces = w->colliders.force && w->colliders.force_nv == w->nv;
+    if (w->colliders.ncol > 0 || forces) {
         const size_t at = chunk_begin(b, "CFRC");
-        put_i32(b, w->colliders_changed);
+        put_i32(b, w->colliders.changed);
         put_i32(b, forces);
-        if (forces) put_f64s(b, w->contact_force, 3 * (int64_t)w->nv);
+        if (forces) put_f64s(b, w->colliders.force, 3 * (int64_t)w->nv);
         chunk_end(b, at);
     }
 }
@@ -305,7 +305,7 @@ static void write_state(bw *b, const defsim_world *w)
     put_f64s(b, w->state.x, 3 * (int64_t)w->nv);
     put_f64s(b, w->state.v, 3 * (int64_t)w->nv);
     put_f64(b, w->state.t);
-    put_i32(b, w->drove);
+    put_i32(b, w->coupling.drove);
     /* Version 2: auto_substep's cached stable step and its age, which set the substeps. */
     const int kept = w->planned && !w->options.reinit;   /* else the next step drops it */
     put_f64(b, kept ? w->h_stable : 0.0);
@@ -901,10 +901,10 @@ static defsim_status load_targets(defsim_world *w, const chunk *c)
     br r = chunk_reader(c);
     const uint32_t n = get_u32(&r);
     if (!fits(&r, n, 28) || n > (uint32_t)w->nv) return malformed(c, "count out of range");
-    if (!w->pin_target) {
-        w->pin_target = malloc(3 * (size_t)w->nv * sizeof *w->pin_target);
-        w->targeted = calloc((size_t)w->nv, 1);
-        if (!w->pin_target || !w->targeted) {
+    if (!w->coupling.pin_target) {
+        w->coupling.pin_target = malloc(3 * (size_t)w->nv * sizeof *w->coupling.pin_target);
+        w->coupling.targeted = calloc((size_t)w->nv, 1);
+        if (!w->coupling.pin_target || !w->coupling.targeted) {
             defsim__set_last_error("load: out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -913,12 +913,12 @@ static defsim_status load_targets(defsim_world *w, const chunk *c)
         const int32_t v = get_i32(&r);
         double p[3];
         get_f64s(&r, p, 3);
-        if (r.bad || v < 0 || v >= w->nv || !w->pinned[v] || w->targeted[v] ||
+        if (r.bad || v < 0 || v >= w->nv || !w->pinned[v] || w->coupling.targeted[v] ||
             !isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
             return malformed(c, "a target of a vertex that is not pinned, repeated or not finite");
-        memcpy(w->pin_target + 3 * (int64_t)v, p, sizeof p);
-        w->targeted[v] = 1;
-        w->ntargeted++;
+        memcpy(w->coupling.pin_target + 3 * (int64_t)v, p, sizeof p);
+        w->coupling.targeted[v] = 1;
+        w->coupling.ntargeted++;
     }
     if (r.at != r.n) return malformed(c, "wrong length");
     return DEFSIM_OK;
@@ -987,7 +987,7 @@ static defsim_status load_collider(defsim_world *w, const chunk *c)
             st = world_failed(w, st, "collider pose");
         } else {
             /* The stored bits, not their normalisation again (which may move the last bit). */
-            defsim__collider *col = &w->col[defsim__world_id_slot(w, id.index)];
+            defsim__collider *col = &w->colliders.col[defsim__world_id_slot(w, id.index)];
             memcpy(col->pos, d.position, sizeof col->pos);
             memcpy(col->rot, d.rotation, sizeof col->rot);
             memcpy(col->pos1, pos1, sizeof col->pos1);
@@ -1034,7 +1034,7 @@ static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
     if (c->len != 8 + (forces ? 24 * (size_t)w->nv : 0) || (changed != 0 && changed != 1) ||
         (forces != 0 && forces != 1))
         return malformed(c, "length does not match the vertices, or a bad flag");
-    w->colliders_changed = changed;
+    w->colliders.changed = changed;
     if (!forces) return DEFSIM_OK;
     double *f = malloc(3 * (size_t)(w->nv > 0 ? w->nv : 1) * sizeof *f);
     if (!f) {
@@ -1042,10 +1042,10 @@ static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     get_f64s(&r, f, 3 * (int64_t)w->nv);
-    free(w->contact_force);
-    w->contact_force = f;
-    w->contact_nv = w->nv;
-    w->contact_zero = 0;
+    free(w->colliders.force);
+    w->colliders.force = f;
+    w->colliders.force_nv = w->nv;
+    w->colliders.force_zero = 0;
     return DEFSIM_OK;
 }
 
@@ -1088,7 +1088,7 @@ static defsim_status load_state(defsim_world *w, const chunk *c, uint32_t versio
     }
     free(x);
     w->state.t = t;
-    w->drove = drove;
+    w->coupling.drove = drove;
     return DEFSIM_OK;
 }
 
@@ -1297,7 +1297,7 @@ int32_t defsim_world_attachment_count(const defsim_world *w)
 {
     if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
-    for (int32_t i = 0; i < w->natt; ++i) n += (w->att[i].generation & 1u) != 0;
+    for (int32_t i = 0; i < w->coupling.natt; ++i) n += (w->coupling.att[i].generation & 1u) != 0;
     return n;
 }
 
@@ -1309,9 +1309,9 @@ defsim_status defsim_world_attachment_at(const defsim_world *w, int32_t i,
         defsim__error(w->msg, "attachment_at: out is NULL");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    for (int32_t k = 0; i >= 0 && k < w->natt; ++k)
-        if ((w->att[k].generation & 1u) && i-- == 0) {
-            *out = (defsim_attachment_id){defsim__world_id_index(w, k), w->att[k].generation};
+    for (int32_t k = 0; i >= 0 && k < w->coupling.natt; ++k)
+        if ((w->coupling.att[k].generation & 1u) && i-- == 0) {
+            *out = (defsim_attachment_id){defsim__world_id_index(w, k), w->coupling.att[k].generation};
             return DEFSIM_OK;
         }
     defsim__error(w->msg, "attachment_at: index out of range [0, %d)",
@@ -1328,7 +1328,7 @@ defsim_status defsim_collider_set_sdf(defsim_world *w, defsim_collider_id id, de
     defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     const int64_t slot = defsim__world_id_slot(w, id.index);
-    defsim__collider *c = slot >= 0 && slot < w->ncol ? &w->col[slot] : NULL;
+    defsim__collider *c = slot >= 0 && slot < w->colliders.ncol ? &w->colliders.col[slot] : NULL;
     if (!c || c->generation != id.generation || !(id.generation & 1u)) {
         defsim__error(w->msg, "collider id {%u, %u} is %s", (unsigned)id.index,
                       (unsigned)id.generation,

@@ -190,3 +190,21 @@ void defsim__collider_free(defsim__collider *c)
     c->mesh_t = NULL;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* The world's set of colliders */
+
+int32_t defsim__collider_set_live(const defsim__collider_set *s)
+{
+    int32_t n = 0;
+    for (int32_t i = 0; i < s->ncol; ++i) n += (s->col[i].generation & 1u) != 0;
+    return n;
+}
+
+void defsim__collider_set_free(defsim__collider_set *s)
+{
+    for (int32_t i = 0; i < s->ncol; ++i)
+        if (s->col[i].generation & 1u) defsim__collider_free(&s->col[i]);
+    free(s->col);
+    free(s->force);
+    memset(s, 0, sizeof *s);
+}

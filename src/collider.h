@@ -26,6 +26,24 @@ typedef struct defsim__collider {
     double pos1[3], rot1[4];  /* pose at the end of the next step (== pos, rot if not moved) */
 } defsim__collider;
 
+/* The world's colliders, a sub-object of the world: slots in creation order (ids name them;
+ * live ones have odd generations), what changed since the last step, and the contact forces
+ * of the last step that the host reads back (colliders' and bodies'). */
+typedef struct defsim__collider_set {
+    defsim__collider *col;
+    int32_t ncol, cap_col;
+    int changed;              /* a collider was added or removed since the last step */
+    int came;                 /* a collider came or went since the last successful step */
+    double *force;            /* 3 force_nv: contact forces of the last step, or NULL */
+    int32_t force_nv;
+    int force_zero;           /* force is known to be all zero */
+} defsim__collider_set;
+
+/* The number of live colliders. */
+int32_t defsim__collider_set_live(const defsim__collider_set *s);
+/* Frees the colliders and the read-back (at destruction). */
+void defsim__collider_set_free(defsim__collider_set *s);
+
 /* A pose: position (m) and unit quaternion (w, x, y, z), with its rotation matrix (row-major,
  * local to world). */
 typedef struct defsim__pose {

@@ -14,8 +14,8 @@
 static defsim__collider *collider(const defsim_world *w, defsim_collider_id id)
 {
     const int64_t slot = defsim__world_id_slot(w, id.index);
-    if (slot < 0 || slot >= w->ncol) return NULL;
-    defsim__collider *c = &w->col[slot];
+    if (slot < 0 || slot >= w->colliders.ncol) return NULL;
+    defsim__collider *c = &w->colliders.col[slot];
     return c->generation == id.generation && (c->generation & 1u) ? c : NULL;
 }
 
@@ -37,28 +37,28 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
     defsim__collider c;
     if ((st = defsim__collider_make(w->msg, def, &c)) != DEFSIM_OK) return st;
     int32_t slot = 0;
-    while (slot < w->ncol && (w->col[slot].generation & 1u)) ++slot;
+    while (slot < w->colliders.ncol && (w->colliders.col[slot].generation & 1u)) ++slot;
     if (slot == DEFSIM__ID_MAX_SLOTS) {
         defsim__collider_free(&c);
         defsim__error(w->msg, "add_collider: the world holds %d colliders, the most it can",
                       (int)DEFSIM__ID_MAX_SLOTS);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    if (slot == w->ncol && w->ncol == w->cap_col) {
-        const int32_t cap = w->cap_col ? 2 * w->cap_col : 4;
-        defsim__collider *nc = realloc(w->col, (size_t)cap * sizeof *nc);
+    if (slot == w->colliders.ncol && w->colliders.ncol == w->colliders.cap_col) {
+        const int32_t cap = w->colliders.cap_col ? 2 * w->colliders.cap_col : 4;
+        defsim__collider *nc = realloc(w->colliders.col, (size_t)cap * sizeof *nc);
         if (!nc) {
             defsim__collider_free(&c);
             defsim__error(w->msg, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
-        w->col = nc;
-        w->cap_col = cap;
+        w->colliders.col = nc;
+        w->colliders.cap_col = cap;
     }
-    if (slot == w->ncol) w->col[w->ncol++].generation = 0;
-    c.generation = w->col[slot].generation + 1;
-    w->col[slot] = c;
-    w->colliders_changed = 1;
+    if (slot == w->colliders.ncol) w->colliders.col[w->colliders.ncol++].generation = 0;
+    c.generation = w->colliders.col[slot].generation + 1;
+    w->colliders.col[slot] = c;
+    w->colliders.changed = 1;
     if (out) {
         out->index = defsim__world_id_index(w, slot);
         out->generation = c.generation;
@@ -74,7 +74,7 @@ defsim_status defsim_world_remove_collider(defsim_world *w, defsim_collider_id i
     if (!c) return DEFSIM_ERR_STALE_ID;
     defsim__collider_free(c);
     c->generation++;
-    w->colliders_changed = 1;
+    w->colliders.changed = 1;
     return DEFSIM_OK;
 }
 
@@ -99,10 +99,7 @@ defsim_status defsim_collider_set_pose(defsim_world *w, defsim_collider_id id,
 
 int32_t defsim_world_collider_count(const defsim_world *w)
 {
-    if (!defsim__world_live(w)) return 0;
-    int32_t n = 0;
-    for (int32_t i = 0; i < w->ncol; ++i) n += (w->col[i].generation & 1u) != 0;
-    return n;
+    return defsim__world_live(w) ? defsim__collider_set_live(&w->colliders) : 0;
 }
 
 defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim_collider_id *id,
@@ -113,8 +110,8 @@ defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim
         defsim__error(w->msg, "get_collider: def->size is too small");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    for (int32_t s = 0, n = 0; s < w->ncol; ++s) {
-        const defsim__collider *c = &w->col[s];
+    for (int32_t s = 0, n = 0; s < w->colliders.ncol; ++s) {
+        const defsim__collider *c = &w->colliders.col[s];
         if (!(c->generation & 1u) || n++ != i) continue;
         if (id) {
             id->index = defsim__world_id_index(w, s);
@@ -144,20 +141,9 @@ defsim_status defsim_world_get_contact_forces(const defsim_world *w, double *out
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const int64_t ndof = 3 * (int64_t)n;
-    if (w->contact_force && w->contact_nv == n)
-        memcpy(out, w->contact_force, (size_t)ndof * sizeof *out);
+    if (w->colliders.force && w->colliders.force_nv == n)
+        memcpy(out, w->colliders.force, (size_t)ndof * sizeof *out);
     else
         memset(out, 0, (size_t)ndof * sizeof *out);
     return DEFSIM_OK;
-}
-
-void defsim__colliders_free(defsim_world *w)
-{
-    for (int32_t i = 0; i < w->ncol; ++i)
-        if (w->col[i].generation & 1u) defsim__collider_free(&w->col[i]);
-    free(w->col);
-    free(w->contact_force);
-    w->col = NULL;
-    w->contact_force = NULL;
-    w->ncol = w->cap_col = 0;
 }

@@ -26,172 +26,6 @@ static int64_t first_non_finite(const double *a, int64_t n)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* Workspaces */
-
-static void release_callback(defsim__coupling *c)
-{
-    free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
-    free(c->rec_first); free(c->rec_last); free(c->rec_prev);
-    c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
-    c->rec_first = c->rec_last = c->rec_prev = NULL;
-    c->rec_prev_t = NAN;
-}
-
-static void release_drive(defsim__coupling *c)
-{
-    free(c->drv); free(c->drv_start); free(c->drv_target); free(c->drv_x0); free(c->drv_x1);
-    free(c->pin_vel);
-    c->drv = NULL;
-    c->drv_start = c->drv_target = c->drv_x0 = c->drv_x1 = c->pin_vel = NULL;
-}
-
-defsim_status defsim__coupling_reserve(defsim_world *w)
-{
-    defsim__coupling *c = &w->cpl;
-    const size_t n = (size_t)(w->nv > 0 ? w->nv : 1);
-    if (c->nv != w->nv) {
-        release_callback(c);
-        release_drive(c);
-        c->nv = w->nv;
-    }
-    if (c->fn && !c->f0) {
-        c->f0 = malloc(3 * n * sizeof *c->f0);
-        c->x0 = malloc(3 * n * sizeof *c->x0);
-        c->veval = malloc(3 * n * sizeof *c->veval);
-        c->K0 = malloc(9 * n * sizeof *c->K0);
-        c->kcb = malloc(9 * n * sizeof *c->kcb);
-        c->rec_first = malloc(3 * n * sizeof *c->rec_first);
-        c->rec_last = malloc(3 * n * sizeof *c->rec_last);
-        c->rec_prev = malloc(3 * n * sizeof *c->rec_prev);
-        c->rec_prev_t = NAN;
-        if (!c->f0 || !c->x0 || !c->veval || !c->K0 || !c->kcb || !c->rec_first ||
-            !c->rec_last || !c->rec_prev) {
-            release_callback(c);
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-    }
-    if (w->sys.has_pins && !c->drv) {
-        c->drv = malloc(3 * n * sizeof *c->drv);
-        c->drv_start = malloc(3 * n * sizeof *c->drv_start);
-        c->drv_target = malloc(3 * n * sizeof *c->drv_target);
-        c->drv_x0 = malloc(3 * n * sizeof *c->drv_x0);
-        c->drv_x1 = malloc(3 * n * sizeof *c->drv_x1);
-        c->pin_vel = calloc(3 * n, sizeof *c->pin_vel);
-        if (!c->drv || !c->drv_start || !c->drv_target || !c->drv_x0 || !c->drv_x1 ||
-            !c->pin_vel) {
-            release_drive(c);
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-    }
-    return DEFSIM_OK;
-}
-
-void defsim__coupling_free(defsim_world *w)
-{
-    release_callback(&w->cpl);
-    release_drive(&w->cpl);
-    free(w->fext); free(w->att); free(w->pin_target); free(w->targeted);
-}
-
-/* ------------------------------------------------------------------------------------------ */
-/* Steps */
-
-defsim_status defsim__coupling_step_begin(defsim_world *w, double h)
-{
-    defsim__coupling *c = &w->cpl;
-    const defsim__system *s = &w->sys;
-    c->implicit = (w->backend->flags & DEFSIM_BACKEND_IMPLICIT) != 0;
-    c->failed = 0;
-    c->t0 = w->state.t;
-    c->h = h;
-    c->ndrv = 0;
-    c->nrec = 0;
-    if (s->has_pins && (w->ntargeted > 0 || w->drove)) {
-        for (int32_t v = 0; v < s->nv; ++v) {
-            if (!s->pinned[v]) continue;
-            for (int k = 0; k < 3; ++k) {
-                const int64_t d = 3 * (int64_t)v + k;
-                double vel = 0.0;
-                if (w->targeted && w->targeted[v]) {
-                    c->drv[c->ndrv] = d;
-                    c->drv_start[c->ndrv] = w->state.x[d];
-                    c->drv_target[c->ndrv] = w->pin_target[d];
-                    c->ndrv++;
-                    vel = (w->pin_target[d] - w->state.x[d]) / h;
-                }
-                c->pin_vel[d] = vel;
-                w->state.v[d] = vel;
-            }
-        }
-        if (c->ndrv > 0) w->step_passes |= DEFSIM_PASS_DRIVEN_PINS;
-    }
-    if (c->fn && c->implicit) {
-        /* Implicit backends hold the callback (without a Jacobian) or model its energy (with
-         * one) from its value at the start of the step. */
-        const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
-        memset(c->f0, 0, bytes);
-        memcpy(c->x0, w->state.x, bytes);
-        defsim_status st = defsim__callback_forces(c, w->msg, w->nv, w->state.x, w->state.v,
-                                                   c->t0, c->f0);
-        if (st == DEFSIM_OK && c->jac)
-            st = defsim__callback_stiffness(c, w->msg, w->nv, s->projection, w->state.x,
-                                            w->state.v, c->t0, c->K0);
-        if (st != DEFSIM_OK) return st;
-        memcpy(c->veval, w->state.v, bytes);
-        c->teval = c->t0;
-        c->hold = c->jac == NULL;
-        w->step_passes |= DEFSIM_PASS_FORCE_CALLBACK;
-    } else {
-        c->hold = 0;
-    }
-    c->in_step = 1;
-    return DEFSIM_OK;
-}
-
-void defsim__coupling_substep_before(defsim_world *w, int64_t i, int64_t n, double hsub)
-{
-    defsim__coupling *c = &w->cpl;
-    c->t0 = w->state.t + (double)i * hsub;
-    c->h = hsub;
-    const double r = (double)(i + 1) / (double)n;
-    for (int64_t k = 0; k < c->ndrv; ++k) {
-        const int64_t d = c->drv[k];
-        c->drv_x0[k] = w->state.x[d];
-        c->drv_x1[k] = i + 1 == n ? c->drv_target[k]
-                                  : c->drv_start[k] + r * (c->drv_target[k] - c->drv_start[k]);
-        w->state.v[d] = c->pin_vel[d];
-    }
-}
-
-void defsim__coupling_substep_after(defsim_world *w)
-{
-    defsim__coupling *c = &w->cpl;
-    for (int64_t k = 0; k < c->ndrv; ++k) {
-        w->state.x[c->drv[k]] = c->drv_x1[k];
-        w->state.v[c->drv[k]] = c->pin_vel[c->drv[k]];
-    }
-}
-
-defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st)
-{
-    defsim__coupling *c = &w->cpl;
-    c->in_step = 0;
-    c->hold = 0;
-    w->sys.cb_stiffness = NULL;
-    if (c->failed) {
-        c->failed = 0;
-        st = DEFSIM_ERR_CALLBACK;   /* the callback's failure is the cause, whatever followed */
-    }
-    if (st == DEFSIM_OK) {
-        w->drove = c->ndrv > 0;
-        if (w->ntargeted > 0) memset(w->targeted, 0, (size_t)w->nv);
-        w->ntargeted = 0;
-    }
-    c->ndrv = 0;
-    return st;
-}
-
-/* ------------------------------------------------------------------------------------------ */
 /* External forces and the callback */
 
 defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f, int32_t n)
@@ -199,9 +33,9 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
     defsim_status st = defsim__world_enter(w);
     if (st != DEFSIM_OK) return st;
     if (!f) {
-        free(w->fext);
-        w->fext = NULL;
-        w->fext_nonzero = 0;
+        free(w->coupling.fext);
+        w->coupling.fext = NULL;
+        w->coupling.fext_nonzero = 0;
         w->sys.fext = NULL;
         return DEFSIM_OK;
     }
@@ -216,20 +50,20 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
                       (long long)(bad / 3));
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    if (!w->fext) {
-        w->fext = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *w->fext);
-        if (!w->fext) {
+    if (!w->coupling.fext) {
+        w->coupling.fext = malloc((size_t)(ndof > 0 ? ndof : 1) * sizeof *w->coupling.fext);
+        if (!w->coupling.fext) {
             defsim__error(w->msg, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
     }
     int nonzero = 0;
     for (int64_t i = 0; i < ndof; ++i) {
-        w->fext[i] = f[i];
+        w->coupling.fext[i] = f[i];
         nonzero |= f[i] != 0.0;
     }
-    w->fext_nonzero = nonzero;
-    if (w->planned) w->sys.fext = nonzero ? w->fext : NULL;
+    w->coupling.fext_nonzero = nonzero;
+    if (w->planned) w->sys.fext = nonzero ? w->coupling.fext : NULL;
     return DEFSIM_OK;
 }
 
@@ -242,13 +76,13 @@ defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn f
         defsim__error(w->msg, "set_force_callback: a jacobian needs a force function");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    defsim__coupling *c = &w->cpl;
+    defsim__coupling *c = &w->coupling.cpl;
     const defsim__coupling old = *c;
     c->fn = fn;
     c->jac = fn ? jacobian : NULL;
     c->user = fn ? user : NULL;
     c->rec_prev_t = NAN;   /* another callback: its forces of the last step are not known */
-    if (w->planned && (st = defsim__coupling_reserve(w)) != DEFSIM_OK) {
+    if (w->planned && (st = defsim__coupling_reserve(&w->coupling, w->nv, w->sys.has_pins)) != DEFSIM_OK) {
         c->fn = old.fn;
         c->jac = old.jac;
         c->user = old.user;
@@ -286,13 +120,13 @@ defsim_status defsim_body_set_pin_targets(defsim_world *w, defsim_body_id id,
             }
     }
     if (n == 0) return DEFSIM_OK;
-    if (!w->pin_target) {
-        w->pin_target = malloc(3 * (size_t)w->nv * sizeof *w->pin_target);
-        w->targeted = calloc((size_t)w->nv, 1);
-        if (!w->pin_target || !w->targeted) {
-            free(w->pin_target); free(w->targeted);
-            w->pin_target = NULL;
-            w->targeted = NULL;
+    if (!w->coupling.pin_target) {
+        w->coupling.pin_target = malloc(3 * (size_t)w->nv * sizeof *w->coupling.pin_target);
+        w->coupling.targeted = calloc((size_t)w->nv, 1);
+        if (!w->coupling.pin_target || !w->coupling.targeted) {
+            free(w->coupling.pin_target); free(w->coupling.targeted);
+            w->coupling.pin_target = NULL;
+            w->coupling.targeted = NULL;
             defsim__error(w->msg, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -300,11 +134,11 @@ defsim_status defsim_body_set_pin_targets(defsim_world *w, defsim_body_id id,
     if ((st = defsim_body_pin(w, id, verts, n)) != DEFSIM_OK) return st;
     for (int32_t i = 0; i < n; ++i) {
         const int64_t v = (int64_t)b->offset + verts[i];
-        if (!w->targeted[v]) {
-            w->targeted[v] = 1;
-            w->ntargeted++;
+        if (!w->coupling.targeted[v]) {
+            w->coupling.targeted[v] = 1;
+            w->coupling.ntargeted++;
         }
-        for (int k = 0; k < 3; ++k) w->pin_target[3 * v + k] = positions[3 * (int64_t)i + k];
+        for (int k = 0; k < 3; ++k) w->coupling.pin_target[3 * v + k] = positions[3 * (int64_t)i + k];
     }
     return DEFSIM_OK;
 }
@@ -327,8 +161,8 @@ void defsim_attachment_def_init(defsim_attachment_def *def, size_t size)
 static defsim__attachment *attachment(const defsim_world *w, defsim_attachment_id id)
 {
     const int64_t slot = defsim__world_id_slot(w, id.index);
-    if (slot < 0 || slot >= w->natt) return NULL;
-    defsim__attachment *a = &w->att[slot];
+    if (slot < 0 || slot >= w->coupling.natt) return NULL;
+    defsim__attachment *a = &w->coupling.att[slot];
     return a->generation == id.generation && (a->generation & 1u) ? a : NULL;
 }
 
@@ -413,24 +247,24 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
     int32_t slot = 0;
-    while (slot < w->natt && (w->att[slot].generation & 1u)) ++slot;
+    while (slot < w->coupling.natt && (w->coupling.att[slot].generation & 1u)) ++slot;
     if (slot == DEFSIM__ID_MAX_SLOTS) {
         defsim__error(w->msg, "add_attachment: the world holds %d attachments, the most it can",
                       (int)DEFSIM__ID_MAX_SLOTS);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    if (slot == w->natt && w->natt == w->cap_att) {
-        const int32_t cap = w->cap_att ? 2 * w->cap_att : 8;
-        defsim__attachment *na = realloc(w->att, (size_t)cap * sizeof *na);
+    if (slot == w->coupling.natt && w->coupling.natt == w->coupling.cap_att) {
+        const int32_t cap = w->coupling.cap_att ? 2 * w->coupling.cap_att : 8;
+        defsim__attachment *na = realloc(w->coupling.att, (size_t)cap * sizeof *na);
         if (!na) {
             defsim__error(w->msg, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
-        w->att = na;
-        w->cap_att = cap;
+        w->coupling.att = na;
+        w->coupling.cap_att = cap;
     }
-    if (slot == w->natt) w->att[w->natt++].generation = 0;
-    defsim__attachment *a = &w->att[slot];
+    if (slot == w->coupling.natt) w->coupling.att[w->coupling.natt++].generation = 0;
+    defsim__attachment *a = &w->coupling.att[slot];
     a->generation++;
     a->def = d;
     defsim__world_invalidate(w);
@@ -450,16 +284,6 @@ defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_
     a->generation++;
     defsim__world_invalidate(w);
     return DEFSIM_OK;
-}
-
-void defsim__coupling_drop_body(defsim_world *w, defsim_body_id id)
-{
-    for (int32_t i = 0; i < w->natt; ++i) {
-        defsim__attachment *a = &w->att[i];
-        if ((a->generation & 1u) &&
-            (a->def.body.index == id.index || a->def.target_body.index == id.index))
-            a->generation++;
-    }
 }
 
 defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id id,
@@ -484,7 +308,7 @@ defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id
     if (w->planned) {
         /* The compiled attachments are the live ones in slot order. */
         int32_t e = 0;
-        for (const defsim__attachment *o = w->att; o < a; ++o) e += (o->generation & 1u) != 0;
+        for (const defsim__attachment *o = w->coupling.att; o < a; ++o) e += (o->generation & 1u) != 0;
         defsim__watchdog_attachment_moved(&w->wd, &w->sys, e, w->state.x, target);
         for (int k = 0; k < 3; ++k) w->sys.att.p[3 * (int64_t)e + k] = target[k];
     }
@@ -550,7 +374,7 @@ defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t 
     st = defsim__host_forces(&w->handle, w->state.x, w->state.v, w->state.t,
                              DEFSIM_FORCE_ALL | DEFSIM__FORCE_KEEP_PINNED, f);
     w->handle.passes = saved;
-    w->cpl.failed = 0;
+    w->coupling.cpl.failed = 0;
     if (st == DEFSIM_OK)
         for (int64_t i = 0; i < ndof; ++i) out[i] = w->pinned[i / 3] ? -f[i] : 0.0;
     else if (st != DEFSIM_ERR_CALLBACK)

@@ -33,12 +33,6 @@ void defsim__lame(double E, double nu, double *mu, double *lambda)
     *lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
 }
 
-void defsim__lame_params(double mu, double lambda, double p[3])
-{
-    p[0] = mu;
-    p[1] = lambda;
-    p[2] = 0.0;
-}
 
 static void put_msg(char *msg, size_t msg_size, const char *fmt, ...)
 {

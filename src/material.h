@@ -78,8 +78,15 @@ extern const defsim__spring_model defsim__model_spring;
  * mu = E/(2(1+nu)), lambda = E nu/((1+nu)(1-2nu)). */
 void defsim__lame(double E, double nu, double *mu, double *lambda);
 
-/* params of a model whose batched law takes (mu, lambda) as they are: p = {mu, lambda, 0}. */
-void defsim__lame_params(double mu, double lambda, double p[3]);
+/* params of a model whose batched law takes (mu, lambda) as they are: p = {mu, lambda, 0}.
+ * Inline: the models' tables point at it, and material.c points at the tables (a call from a
+ * model file back into material.c would be a cycle). */
+static inline void defsim__lame_params(double mu, double lambda, double p[3])
+{
+    p[0] = mu;
+    p[1] = lambda;
+    p[2] = 0.0;
+}
 
 /* dPdF of model m made positive semi-definite (mode DEFSIM_PROJECTION_CLAMP or _ABS) from its
  * eigen-structure (sigma): the 3 x 3 block h is projected and the six twist / flip eigenvalues

@@ -306,7 +306,7 @@ void defsim__options_free(defsim__options *o)
 }
 
 defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
-                                   const defsim_world_def *d)
+                                   const defsim_world_def *d, const defsim_world_def *dflt)
 {
     memset(o, 0, sizeof *o);
     o->backend = b;
@@ -339,8 +339,7 @@ defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
     for (size_t i = 0; i < no; ++i) o->values[i] = b->options[i].default_value;
 
     /* Deprecated def fields that differ from their defaults set the option of the same name. */
-    defsim_world_def dd;
-    defsim_world_def_init(&dd, sizeof dd);
+    const defsim_world_def dd = *dflt;
     const struct { const char *name; double value, fallback; } legacy[] = {
         {"tolerance", d->tolerance, dd.tolerance},
         {"max_iterations", d->max_iterations, dd.max_iterations},

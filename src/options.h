@@ -42,10 +42,11 @@ typedef struct defsim__options {
 } defsim__options;
 
 /* Allocates the values and counters of backend b (defaults, counters zero) and maps the
- * deprecated world-def fields that differ from their defaults onto options of the same name.
+ * deprecated world-def fields of `def` that differ from those of `dflt` (the defaults, which
+ * the caller fills: options.c sits below world.c) onto options of the same name.
  * On failure sets defsim_last_error() and leaves *o freed. */
 defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
-                                   const defsim_world_def *def);
+                                   const defsim_world_def *def, const defsim_world_def *dflt);
 void defsim__options_free(defsim__options *o);
 
 /* Zeroes the backend's counters (defsim_world_reset_stats). */

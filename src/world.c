@@ -146,7 +146,9 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
     w->def.backend = w->backend_name;
     w->backend = b;
-    st = defsim__options_init(&w->options, b, &d);
+    defsim_world_def dflt;
+    defsim_world_def_init(&dflt, sizeof dflt);
+    st = defsim__options_init(&w->options, b, &d, &dflt);
     if (st != DEFSIM_OK) {
         free(w->msg);
         free(w);
@@ -172,7 +174,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->stats.threads = w->nthreads;
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
                                 .def = &w->def, .stats = &w->stats, .passes = &w->step_passes,
-                                .msg = w->msg, .options = &w->options, .cpl = &w->cpl};
+                                .msg = w->msg, .options = &w->options, .cpl = &w->coupling.cpl};
     _Static_assert((int)DEFSIM__CSTAT_COUNT == (int)DEFSIM__CONTACT_STATS,
                    "contact.h's statistics and options.c's names must agree");
     w->options.contact_stats = w->contact.stat;
@@ -269,15 +271,15 @@ defsim_status defsim__world_plan(defsim_world *w)
         .projection = defsim__options_projection(&w->options, (int)w->def.projection),
         .tet_kernels = defsim__options_tet_kernels(&w->options), .nthreads = w->nthreads,
         .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
-        .attachments = w->att, .nattachments = w->natt, .body_dense = w->body_dense};
+        .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_dense};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
-    if (st == DEFSIM_OK && (st = defsim__coupling_reserve(w)) != DEFSIM_OK)
+    if (st == DEFSIM_OK && (st = defsim__coupling_reserve(&w->coupling, w->nv, w->sys.has_pins)) != DEFSIM_OK)
         defsim__unplan(&w->sys, &w->work);
     if (st != DEFSIM_OK) {
         defsim__error(w->msg, "out of memory while planning the world");
         return st;
     }
-    w->sys.fext = w->fext_nonzero ? w->fext : NULL;
+    w->sys.fext = w->coupling.fext_nonzero ? w->coupling.fext : NULL;
     w->contact.omega_elastic = 0.0;
     w->planned = 1;
     return DEFSIM_OK;
@@ -304,8 +306,8 @@ void defsim_world_destroy(defsim_world *w)
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
     free(w->x_save); free(w->v_save);
     free(w->bstate);
-    defsim__coupling_free(w);
-    defsim__colliders_free(w);
+    defsim__coupling_free(&w->coupling);
+    defsim__collider_set_free(&w->colliders);
     defsim__contact_free(&w->contact);
     defsim__body_contact_free(&w->body_contact);
     free(w->msg);
@@ -354,11 +356,11 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     double *mass = malloc(n * sizeof *mass);
     uint8_t *pinned = malloc(n);
     /* the host's per-vertex coupling data, where it has some: new bodies get none */
-    double *fext = w->fext ? calloc(3 * n, sizeof *fext) : NULL;
-    double *target = w->pin_target ? malloc(3 * n * sizeof *target) : NULL;
-    uint8_t *targeted = w->pin_target ? calloc(n, 1) : NULL;
-    if (!x || !v || !xs || !vs || !mass || !pinned || (w->fext && !fext) ||
-        (w->pin_target && (!target || !targeted))) {
+    double *fext = w->coupling.fext ? calloc(3 * n, sizeof *fext) : NULL;
+    double *target = w->coupling.pin_target ? malloc(3 * n * sizeof *target) : NULL;
+    uint8_t *targeted = w->coupling.pin_target ? calloc(n, 1) : NULL;
+    if (!x || !v || !xs || !vs || !mass || !pinned || (w->coupling.fext && !fext) ||
+        (w->coupling.pin_target && (!target || !targeted))) {
         free(x); free(v); free(xs); free(vs); free(mass); free(pinned);
         free(fext); free(target); free(targeted);
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -372,11 +374,11 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         if (old_offset[b] >= 0) {
             memcpy(x + 3 * (int64_t)off, w->state.x + 3 * (int64_t)old_offset[b], bytes);
             memcpy(v + 3 * (int64_t)off, w->state.v + 3 * (int64_t)old_offset[b], bytes);
-            if (fext) memcpy(fext + 3 * (int64_t)off, w->fext + 3 * (int64_t)old_offset[b], bytes);
+            if (fext) memcpy(fext + 3 * (int64_t)off, w->coupling.fext + 3 * (int64_t)old_offset[b], bytes);
             if (target) {
-                memcpy(target + 3 * (int64_t)off, w->pin_target + 3 * (int64_t)old_offset[b],
+                memcpy(target + 3 * (int64_t)off, w->coupling.pin_target + 3 * (int64_t)old_offset[b],
                        bytes);
-                memcpy(targeted + off, w->targeted + old_offset[b], (size_t)bd->nv);
+                memcpy(targeted + off, w->coupling.targeted + old_offset[b], (size_t)bd->nv);
                 for (int32_t i = 0; i < bd->nv; ++i) ntargeted += targeted[off + i];
             }
         } else {
@@ -394,13 +396,13 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     w->state.x = x; w->state.v = v; w->x_save = xs; w->v_save = vs;
     w->handle.x_start = xs;
     w->mass = mass; w->pinned = pinned;
-    free(w->fext); free(w->pin_target); free(w->targeted);
-    w->fext = fext; w->pin_target = target; w->targeted = targeted;
-    w->ntargeted = ntargeted;
+    free(w->coupling.fext); free(w->coupling.pin_target); free(w->coupling.targeted);
+    w->coupling.fext = fext; w->coupling.pin_target = target; w->coupling.targeted = targeted;
+    w->coupling.ntargeted = ntargeted;
     if (fext) {
         int nonzero = 0;
         for (int64_t i = 0; i < 3 * (int64_t)nv; ++i) nonzero |= fext[i] != 0.0;
-        w->fext_nonzero = nonzero;
+        w->coupling.fext_nonzero = nonzero;
     }
     w->nv = nv;
     backend_fini(w);
@@ -707,7 +709,7 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
         defsim__error(w->msg, "out of memory");
         return st;
     }
-    defsim__coupling_drop_body(w, id);
+    defsim__coupling_drop_body(&w->coupling, id);
     body_free(b);
     /* Close the gap in the dense array; the slot is free for the next body. */
     const int64_t slot = DEFSIM__ID_SLOT(id.index);
@@ -759,9 +761,9 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
         if (b->pinned[v] != value) changed = 1;
         b->pinned[v] = value;
         w->pinned[b->offset + v] = value;
-        if (!value && w->targeted && w->targeted[b->offset + v]) {
-            w->targeted[b->offset + v] = 0;   /* unpinning drops the target */
-            w->ntargeted--;
+        if (!value && w->coupling.targeted && w->coupling.targeted[b->offset + v]) {
+            w->coupling.targeted[b->offset + v] = 0;   /* unpinning drops the target */
+            w->coupling.ntargeted--;
         }
         if (value) {
             double *vv = w->state.v + 3 * ((int64_t)b->offset + v);
@@ -905,7 +907,7 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         const defsim__plan_input in = {
             .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
             .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
-            .attachments = w->att, .nattachments = w->natt, .body_dense = w->body_dense};
+            .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_dense};
         if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
             defsim__error(w->msg, "out of memory while planning the world");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -919,8 +921,8 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         const double *v = w->state.v + 3 * (int64_t)i, *x = w->state.x + 3 * (int64_t)i;
         ke += 0.5 * w->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         ge -= w->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
-        if (w->fext_nonzero) {
-            const double *f = w->fext + 3 * (int64_t)i;
+        if (w->coupling.fext_nonzero) {
+            const double *f = w->coupling.fext + 3 * (int64_t)i;
             ge -= f[0] * x[0] + f[1] * x[1] + f[2] * x[2];
         }
     }
@@ -1056,14 +1058,14 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char *what,
                                 size_t size)
 {
-    const defsim__coupling *c = &w->cpl;
+    const defsim__coupling *c = &w->coupling.cpl;
     if (c->fn) {
         if (c->implicit) in->cb_f[in->ncb++] = c->f0;   /* the start, evaluated by step_begin */
         if (c->nrec > 0) in->cb_f[in->ncb++] = c->rec_first;
         if (c->nrec > 1) in->cb_f[in->ncb++] = c->rec_last;
         if (c->rec_prev_t == w->state.t && w->wd.have_ref) in->cb_f[in->ncb++] = c->rec_prev;
     }
-    if (w->drove) {
+    if (w->coupling.drove) {
         /* The forces that the pins hold at the start (those of the last step's end when that
          * ended here) and at the end. Not counted as the backend's force evaluations. */
         defsim__watchdog *wd = &w->wd;
@@ -1092,8 +1094,8 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
     }
     defsim__contact *ct = w->sys.contact;
     if (ct && ct->npair > 0) {
-        in->colliders_changed = w->colliders_came;
-        if (!w->wd.have_ref || w->colliders_came)
+        in->colliders_changed = w->colliders.came;
+        if (!w->wd.have_ref || w->colliders.came)
             in->contact_start = defsim__contact_energy_start(ct, w->x_save);
         in->contact_work = defsim__contact_work(ct, w->x_save, w->state.x);
     }
@@ -1144,11 +1146,11 @@ static defsim_status contact_begin(defsim_world *w, double h)
      * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
      * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
     const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
-    int jumped = w->colliders_changed;
-    for (int32_t j = 0; j < w->ncol && !jumped; ++j)
-        jumped = (w->col[j].generation & 1u) &&
-                 (memcmp(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos) != 0 ||
-                  memcmp(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot) != 0);
+    int jumped = w->colliders.changed;
+    for (int32_t j = 0; j < w->colliders.ncol && !jumped; ++j)
+        jumped = (w->colliders.col[j].generation & 1u) &&
+                 (memcmp(w->colliders.col[j].pos, w->colliders.col[j].pos1, sizeof w->colliders.col[j].pos) != 0 ||
+                  memcmp(w->colliders.col[j].rot, w->colliders.col[j].rot1, sizeof w->colliders.col[j].rot) != 0);
     if (h > 0.0 && jumped && penalty && w->backend_ready && w->backend->reset) {
         const defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
         if (st != DEFSIM_OK) {
@@ -1159,10 +1161,10 @@ static defsim_status contact_begin(defsim_world *w, double h)
     }
     if (h > 0.0) {
         /* The watchdog counts the energy of colliders that came until a step succeeds. */
-        w->colliders_came |= w->colliders_changed;
-        w->colliders_changed = 0;
+        w->colliders.came |= w->colliders.changed;
+        w->colliders.changed = 0;
     }
-    if (defsim_world_collider_count(w) == 0) return DEFSIM_OK;
+    if (defsim__collider_set_live(&w->colliders) == 0) return DEFSIM_OK;
     const defsim__options *o = &w->options;
     defsim__contact_params p = {
         .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
@@ -1183,7 +1185,7 @@ static defsim_status contact_begin(defsim_world *w, double h)
     }
     p.omega_elastic = c->omega_elastic;
     /* A step's start: the world's copies, which nothing changes until the step ends. */
-    defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p,
+    defsim_status st = defsim__contact_begin(c, &w->sys, w->colliders.col, w->colliders.ncol, &p,
                                              h > 0.0 ? w->x_save : w->state.x,
                                              h > 0.0 ? w->v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
@@ -1194,14 +1196,14 @@ static defsim_status contact_begin(defsim_world *w, double h)
 /* A zeroed contact-force read-back of the world's vertex count. */
 static defsim_status readback_reserve(defsim_world *w)
 {
-    free(w->contact_force);
-    w->contact_nv = 0;
-    w->contact_force = calloc(3 * (size_t)w->nv, sizeof *w->contact_force);
-    if (!w->contact_force) {
+    free(w->colliders.force);
+    w->colliders.force_nv = 0;
+    w->colliders.force = calloc(3 * (size_t)w->nv, sizeof *w->colliders.force);
+    if (!w->colliders.force) {
         defsim__error(w->msg, "out of memory for the contact forces");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    w->contact_nv = w->nv;
+    w->colliders.force_nv = w->nv;
     return DEFSIM_OK;
 }
 
@@ -1213,21 +1215,21 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     w->sys.contact = NULL;
     if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
         if (st == DEFSIM_OK && w->contact.readback_set) {
-            free(w->contact_force);
-            w->contact_force = NULL;
-            w->contact_nv = 0;
+            free(w->colliders.force);
+            w->colliders.force = NULL;
+            w->colliders.force_nv = 0;
             w->contact.readback_set = 0;
         }
         return st;
     }
-    if (st == DEFSIM_OK && (!w->contact_force || w->contact_nv != w->nv)) {
+    if (st == DEFSIM_OK && (!w->colliders.force || w->colliders.force_nv != w->nv)) {
         if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
-        w->contact_zero = 1;
+        w->colliders.force_zero = 1;
     }
     /* The read-back goes to scratch first: a callback failing there fails the step too, and
      * a failed step changes neither the read-back nor the poses. Without pairs (colliders far
      * away) the forces are zero: nothing to compute or copy when the read-back is zero already. */
-    const int none = st == DEFSIM_OK && w->contact_zero && defsim__contact_none(c, w->state.x);
+    const int none = st == DEFSIM_OK && w->colliders.force_zero && defsim__contact_none(c, w->state.x);
     if (st == DEFSIM_OK && !c->failed && none) {
         c->stat[DEFSIM__CSTAT_ACTIVE] = 0;
         c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = INFINITY;
@@ -1253,12 +1255,12 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
                       "defect: please report it with the scene", c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
         return DEFSIM_ERR_UNSTABLE;
     }
-    if (!none) memcpy(w->contact_force, c->blk, 3 * (size_t)w->nv * sizeof *w->contact_force);
-    w->contact_zero = c->npair == 0;
+    if (!none) memcpy(w->colliders.force, c->blk, 3 * (size_t)w->nv * sizeof *w->colliders.force);
+    w->colliders.force_zero = c->npair == 0;
     c->readback_set = 1;
-    for (int32_t j = 0; j < w->ncol; ++j) {
-        memcpy(w->col[j].pos, w->col[j].pos1, sizeof w->col[j].pos);
-        memcpy(w->col[j].rot, w->col[j].rot1, sizeof w->col[j].rot);
+    for (int32_t j = 0; j < w->colliders.ncol; ++j) {
+        memcpy(w->colliders.col[j].pos, w->colliders.col[j].pos1, sizeof w->colliders.col[j].pos);
+        memcpy(w->colliders.col[j].rot, w->colliders.col[j].rot1, sizeof w->colliders.col[j].rot);
     }
     return DEFSIM_OK;
 }
@@ -1310,16 +1312,24 @@ static defsim_status body_end(defsim_world *w, defsim_status st)
 /* Adds body contact's forces of a successful step to the read-back (after the colliders'). */
 static defsim_status body_readback(defsim_world *w, int colliders)
 {
-    if (!w->contact_force || w->contact_nv != w->nv) {
+    if (!w->colliders.force || w->colliders.force_nv != w->nv) {
         if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
     } else if (!colliders) {
-        memset(w->contact_force, 0, 3 * (size_t)w->nv * sizeof *w->contact_force);
+        memset(w->colliders.force, 0, 3 * (size_t)w->nv * sizeof *w->colliders.force);
     }
     const double *f = w->body_contact.scratch;
-    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i) w->contact_force[i] += f[i];
-    w->contact_zero = 0;
+    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i) w->colliders.force[i] += f[i];
+    w->colliders.force_zero = 0;
     w->contact.readback_set = 1;
     return DEFSIM_OK;
+}
+
+/* The coupling set's start of a step (driven pins, the callback at the start). */
+static defsim_status step_begin(defsim_world *w, double h)
+{
+    return defsim__coupling_step_begin(&w->coupling, &w->sys, &w->state,
+                                       (w->backend->flags & DEFSIM_BACKEND_IMPLICIT) != 0, h,
+                                       &w->step_passes, w->msg);
 }
 
 defsim_status defsim_world_step(defsim_world *w, double h)
@@ -1367,7 +1377,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->msg->error[0] = '\0';
     const int substep = defsim__options_auto_substep(&w->options) &&
                         (w->backend->stable_step || w->backend->stable_step_options);
-    st = defsim__coupling_step_begin(w, h);
+    st = step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
     if (st == DEFSIM_OK) st = body_begin(w, h);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
@@ -1391,23 +1401,23 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         }
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
-            defsim__coupling_substep_before(w, i, n, h / (double)n);
+            defsim__coupling_substep_before(&w->coupling, &w->state, i, n, h / (double)n);
             if (w->sys.contact)
                 defsim__contact_substep(w->sys.contact, (double)i / (double)n,
                                         (double)(i + 1) / (double)n, h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
-            defsim__coupling_substep_after(w);
+            defsim__coupling_substep_after(&w->coupling, &w->state);
         }
         if (substep) w->stats.substeps += n;
         if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
         /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
         memcpy(w->state.x, w->x_save, bytes);
         memcpy(w->state.v, w->v_save, bytes);
-        st = defsim__coupling_step_begin(w, h);
+        st = step_begin(w, h);
         if (st != DEFSIM_OK) break;
         if (w->backend->reset) w->backend->reset(&defsim__host, &w->handle, w->bstate);
     }
-    st = defsim__coupling_step_end(w, st);
+    st = defsim__coupling_step_end(&w->coupling, &w->sys, st);
     if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
     const int bodies = w->sys.body_contact != NULL, colliders = w->sys.contact != NULL;
@@ -1428,15 +1438,15 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         return st;
     }
     w->state.t += h;
-    w->colliders_came = 0;
+    w->colliders.came = 0;
     defsim__watchdog_step_done(&w->wd, w->state.t);
-    if (w->cpl.fn && w->cpl.nrec > 0) {
+    if (w->coupling.cpl.fn && w->coupling.cpl.nrec > 0) {
         /* The callback's last forces of this step serve the next (watch_work). */
-        double *r = w->cpl.rec_prev;
-        w->cpl.rec_prev = w->cpl.nrec > 1 ? w->cpl.rec_last : w->cpl.rec_first;
-        if (w->cpl.nrec > 1) w->cpl.rec_last = r;
-        else w->cpl.rec_first = r;
-        w->cpl.rec_prev_t = w->state.t;
+        double *r = w->coupling.cpl.rec_prev;
+        w->coupling.cpl.rec_prev = w->coupling.cpl.nrec > 1 ? w->coupling.cpl.rec_last : w->coupling.cpl.rec_first;
+        if (w->coupling.cpl.nrec > 1) w->coupling.cpl.rec_last = r;
+        else w->coupling.cpl.rec_first = r;
+        w->coupling.cpl.rec_prev_t = w->state.t;
     }
     w->stats.steps++;
     w->stats.passes = w->step_passes;

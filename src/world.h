@@ -12,6 +12,7 @@
 #include "body_contact.h"
 #include "collider.h"
 #include "contact.h"
+#include "coupling_set.h"
 #include "host.h"
 #include "status.h"
 #include "system.h"
@@ -61,26 +62,8 @@ struct defsim_world {
     defsim_stats stats;
     uint32_t step_passes;
 
-    /* The host's coupling terms (coupling.c). Per-vertex arrays are NULL until first used and
-     * are carried over like the state when bodies are added or removed. */
-    double *fext;             /* 3 nv held external forces, or NULL */
-    int fext_nonzero;         /* the system sees fext only when some force is not zero */
-    defsim__attachment *att;
-    int32_t natt, cap_att;
-    double *pin_target;       /* 3 nv: where driven pins end the next step */
-    uint8_t *targeted;        /* nv: the vertex has a target */
-    int32_t ntargeted;
-    int drove;                /* the last step moved pins: their velocities go back to zero */
-    defsim__coupling cpl;     /* callback and drive workspaces, sized by the plan */
-
-    /* Colliders (collider.c): slots in creation order, live ones with odd generations. */
-    defsim__collider *col;
-    int32_t ncol, cap_col;
-    int colliders_changed;    /* a collider was added or removed since the last step */
-    int colliders_came;       /* a collider came or went since the last successful step */
-    double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
-    int32_t contact_nv;
-    int contact_zero;         /* contact_force is known to be all zero */
+    defsim__coupling_set coupling;    /* the host's coupling terms (coupling_set.h) */
+    defsim__collider_set colliders;   /* colliders and the contact read-back (collider.h) */
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
     defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
     defsim__body_contact body_contact;  /* body_contact.h: surfaces (per plan) and pairs */
@@ -123,26 +106,5 @@ void defsim__world_invalidate(defsim_world *w);
 /* Returns DEFSIM_ERR_LOCKED with the world's error set while a host callback (log, force
  * callback or its Jacobian) runs, else OK. */
 defsim_status defsim__world_check_unlocked(defsim_world *w);
-
-/* Sizes the coupling workspaces (w->cpl) for the current plan and features (coupling.c).
- * Returns DEFSIM_ERR_OUT_OF_MEMORY on failure. */
-defsim_status defsim__coupling_reserve(defsim_world *w);
-
-/* Frees the coupling workspaces and the host's coupling terms (at destruction). */
-void defsim__coupling_free(defsim_world *w);
-
-/* Removes the attachments that reference the body `id`, bumping their generations. */
-void defsim__coupling_drop_body(defsim_world *w, defsim_body_id id);
-
-/* Step hooks (coupling.c): begin evaluates what the step holds (callback at the start for
- * implicit backends; driven pins' velocities); before/after bracket each backend call i of n;
- * end closes the step (ok: it succeeded, consume the targets). */
-defsim_status defsim__coupling_step_begin(defsim_world *w, double h);
-void defsim__coupling_substep_before(defsim_world *w, int64_t i, int64_t n, double hsub);
-void defsim__coupling_substep_after(defsim_world *w);
-defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st);
-
-/* Frees the colliders and the contact read-back (at destruction; collider.c). */
-void defsim__colliders_free(defsim_world *w);
 
 #endif

@@ -184,7 +184,7 @@ static void check_derivatives(const char *backend, int shape)
     /* The lagged friction of BARRIER needs a start point apart from x: start from x shifted. */
     double *xs = malloc(3 * (size_t)n * sizeof *xs);
     for (int i = 0; i < 3 * n; ++i) xs[i] = x[i] + (i % 3 == 1 ? 0.0 : 1e-4 * tu_rand(&seed));
-    TU_OK(defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p, xs, v, h, w->msg));
+    TU_OK(defsim__contact_begin(c, &w->sys, w->colliders.col, w->colliders.ncol, &p, xs, v, h, w->msg));
     assert_true(c->npair >= (shape == DEFSIM_SHAPE_PLANE ? 9 : 1));
     double *f = calloc(3 * (size_t)n, sizeof *f), *fp = calloc(3 * (size_t)n, sizeof *fp);
     double *fm = calloc(3 * (size_t)n, sizeof *fm);

@@ -730,11 +730,11 @@ static uint64_t model_digest(const defsim_world *w)
     }
     mix(&h, w->mass, (size_t)w->nv * sizeof *w->mass);
     mix(&h, w->pinned, (size_t)w->nv);
-    mix(&h, &w->fext_nonzero, sizeof w->fext_nonzero);
-    if (w->fext) mix(&h, w->fext, 3 * (size_t)w->nv * sizeof *w->fext);
-    mix(&h, &w->natt, sizeof w->natt);
-    for (int32_t i = 0; i < w->natt; ++i) {
-        const defsim__attachment *a = &w->att[i];
+    mix(&h, &w->coupling.fext_nonzero, sizeof w->coupling.fext_nonzero);
+    if (w->coupling.fext) mix(&h, w->coupling.fext, 3 * (size_t)w->nv * sizeof *w->coupling.fext);
+    mix(&h, &w->coupling.natt, sizeof w->coupling.natt);
+    for (int32_t i = 0; i < w->coupling.natt; ++i) {
+        const defsim__attachment *a = &w->coupling.att[i];
         mix(&h, &a->generation, sizeof a->generation);
         if (!(a->generation & 1u)) continue;
         mix(&h, &a->def.body, sizeof a->def.body);
@@ -747,9 +747,9 @@ static uint64_t model_digest(const defsim_world *w)
         mix(&h, a->def.target_vertices, sizeof a->def.target_vertices);
         mix(&h, a->def.target_weights, sizeof a->def.target_weights);
     }
-    mix(&h, &w->ncol, sizeof w->ncol);
-    for (int32_t i = 0; i < w->ncol; ++i) {
-        const defsim__collider *c = &w->col[i];
+    mix(&h, &w->colliders.ncol, sizeof w->colliders.ncol);
+    for (int32_t i = 0; i < w->colliders.ncol; ++i) {
+        const defsim__collider *c = &w->colliders.col[i];
         mix(&h, &c->generation, sizeof c->generation);
         if (!(c->generation & 1u)) continue;
         mix(&h, &c->def.shape, sizeof c->def.shape);
@@ -761,11 +761,11 @@ static uint64_t model_digest(const defsim_world *w)
         mix(&h, c->pos1, sizeof c->pos1);
         mix(&h, c->rot1, sizeof c->rot1);
     }
-    mix(&h, &w->ntargeted, sizeof w->ntargeted);
-    if (w->targeted) mix(&h, w->targeted, (size_t)w->nv);
-    mix(&h, &w->cpl.fn, sizeof w->cpl.fn);
-    mix(&h, &w->cpl.jac, sizeof w->cpl.jac);
-    mix(&h, &w->cpl.user, sizeof w->cpl.user);
+    mix(&h, &w->coupling.ntargeted, sizeof w->coupling.ntargeted);
+    if (w->coupling.targeted) mix(&h, w->coupling.targeted, (size_t)w->nv);
+    mix(&h, &w->coupling.cpl.fn, sizeof w->coupling.cpl.fn);
+    mix(&h, &w->coupling.cpl.jac, sizeof w->coupling.cpl.jac);
+    mix(&h, &w->coupling.cpl.user, sizeof w->coupling.cpl.user);
     mix(&h, &w->msg->locked, sizeof w->msg->locked);
     const int32_t no = defsim_world_option_count(w);
     for (int32_t i = 0; i < no; ++i) {

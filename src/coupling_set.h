@@ -1,0 +1,54 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The host's coupling terms as the world holds them, a sub-object of the world: held external
+ * forces, attachments, driven pins' targets, and the force callback with the workspaces of the
+ * step under way (defsim__coupling, host.h, which backends reach through the host table).
+ * The public API over it is coupling.c; the step hooks here are what the world's step calls.
+ * Per-vertex arrays are NULL until first used and follow the state when bodies come or go.
+ */
+#ifndef DEFSIM_COUPLING_SET_H
+#define DEFSIM_COUPLING_SET_H
+
+#include "body.h"
+#include "host.h"
+#include "status.h"
+#include "system.h"
+
+#include <stdint.h>
+
+typedef struct defsim__coupling_set {
+    double *fext;             /* 3 nv held external forces, or NULL */
+    int fext_nonzero;         /* the system sees fext only when some force is not zero */
+    defsim__attachment *att;  /* slots in creation order, live ones with odd generations */
+    int32_t natt, cap_att;
+    double *pin_target;       /* 3 nv: where driven pins end the next step */
+    uint8_t *targeted;        /* nv: the vertex has a target */
+    int32_t ntargeted;
+    int drove;                /* the last step moved pins: their velocities go back to zero */
+    defsim__coupling cpl;     /* callback and drive workspaces, sized by the plan */
+} defsim__coupling_set;
+
+/* Sizes the callback and drive workspaces for nv vertices (the drive's when the system has
+ * pins). Returns DEFSIM_ERR_OUT_OF_MEMORY on failure. */
+defsim_status defsim__coupling_reserve(defsim__coupling_set *cs, int32_t nv, int has_pins);
+
+/* Frees the workspaces and the host's coupling terms (at destruction). */
+void defsim__coupling_free(defsim__coupling_set *cs);
+
+/* Removes the attachments that reference the body `id`, bumping their generations. */
+void defsim__coupling_drop_body(defsim__coupling_set *cs, defsim_body_id id);
+
+/* Step hooks. begin evaluates what a step of h from `state` holds: driven pins' velocities,
+ * and for implicit backends the callback at the start (DEFSIM_PASS_* it uses go into *passes);
+ * before/after bracket each backend call i of n; end closes the step (st: the step's status;
+ * OK consumes the targets) and returns the step's status. */
+defsim_status defsim__coupling_step_begin(defsim__coupling_set *cs, const defsim__system *sys,
+                                          defsim__state *state, int implicit, double h,
+                                          uint32_t *passes, defsim__messages *msg);
+void defsim__coupling_substep_before(defsim__coupling_set *cs, defsim__state *state, int64_t i,
+                                     int64_t n, double hsub);
+void defsim__coupling_substep_after(defsim__coupling_set *cs, defsim__state *state);
+defsim_status defsim__coupling_step_end(defsim__coupling_set *cs, defsim__system *sys,
+                                        defsim_status st);
+
+#endif

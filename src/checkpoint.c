@@ -174,8 +174,8 @@ static void write_world(bw *b, const defsim_world *w)
  * bytes whatever world it was loaded into): the id of bodies[dense], and of a body id. */
 static uint32_t saved_body_index(const defsim_world *w, int32_t dense)
 {
-    for (int32_t s = 0; s < w->nslots; ++s)
-        if ((w->body_gen[s] & 1u) && w->body_dense[s] == dense) return (uint32_t)s + 1;
+    for (int32_t s = 0; s < w->body_ids.nslots; ++s)
+        if ((w->body_ids.gen[s] & 1u) && w->body_ids.dense[s] == dense) return (uint32_t)s + 1;
     return 0;
 }
 
@@ -1271,7 +1271,7 @@ int32_t defsim_world_body_count(const defsim_world *w)
 {
     if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
-    for (int32_t s = 0; s < w->nslots; ++s) n += (w->body_gen[s] & 1u) != 0;
+    for (int32_t s = 0; s < w->body_ids.nslots; ++s) n += (w->body_ids.gen[s] & 1u) != 0;
     return n;
 }
 
@@ -1283,9 +1283,9 @@ defsim_status defsim_world_body_at(const defsim_world *w, int32_t i, defsim_body
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     /* The i-th body in vertex order is bodies[i]; find the id slot that holds it. */
-    for (int32_t s = 0; i >= 0 && i < w->nbodies && s < w->nslots; ++s)
-        if ((w->body_gen[s] & 1u) && w->body_dense[s] == i) {
-            *out = (defsim_body_id){defsim__world_id_index(w, s), w->body_gen[s]};
+    for (int32_t s = 0; i >= 0 && i < w->nbodies && s < w->body_ids.nslots; ++s)
+        if ((w->body_ids.gen[s] & 1u) && w->body_ids.dense[s] == i) {
+            *out = (defsim_body_id){defsim__world_id_index(w, s), w->body_ids.gen[s]};
             return DEFSIM_OK;
         }
     defsim__error(w->msg, "body_at: index %d out of range [0, %d)", (int)i,

@@ -206,5 +206,6 @@ void defsim__collider_set_free(defsim__collider_set *s)
         if (s->col[i].generation & 1u) defsim__collider_free(&s->col[i]);
     free(s->col);
     free(s->force);
+    defsim__id_pool_free(&s->ids);
     memset(s, 0, sizeof *s);
 }

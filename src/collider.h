@@ -10,6 +10,7 @@
 #define DEFSIM_COLLIDER_H
 
 #include "defsim/defsim.h"
+#include "id_pool.h"
 #include "status.h"
 
 #include <stdint.h>
@@ -30,8 +31,9 @@ typedef struct defsim__collider {
  * live ones have odd generations), what changed since the last step, and the contact forces
  * of the last step that the host reads back (colliders' and bodies'). */
 typedef struct defsim__collider_set {
-    defsim__collider *col;
+    defsim__collider *col;    /* by id slot (a collider's generation is its slot's) */
     int32_t ncol, cap_col;
+    defsim__id_pool ids;
     int changed;              /* a collider was added or removed since the last step */
     int came;                 /* a collider came or went since the last successful step */
     double *force;            /* 3 force_nv: contact forces of the last step, or NULL */

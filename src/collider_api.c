@@ -11,22 +11,11 @@
 /* ------------------------------------------------------------------------------------------ */
 /* The public API */
 
-static defsim__collider *collider(const defsim_world *w, defsim_collider_id id)
-{
-    const int64_t slot = defsim__world_id_slot(w, id.index);
-    if (slot < 0 || slot >= w->colliders.ncol) return NULL;
-    defsim__collider *c = &w->colliders.col[slot];
-    return c->generation == id.generation && (c->generation & 1u) ? c : NULL;
-}
-
 static defsim__collider *collider_or_error(const defsim_world *w, defsim_collider_id id)
 {
-    defsim__collider *c = collider(w, id);
-    if (!c)
-        defsim__error(w->msg, "collider id {%u, %u} is %s", (unsigned)id.index,
-                      (unsigned)id.generation,
-                      defsim__world_id_problem(w, id.index, id.generation));
-    return c;
+    const int64_t slot =
+        defsim__id_pool_lookup(&w->colliders.ids, w->msg, "collider", id.index, id.generation);
+    return slot < 0 ? NULL : &w->colliders.col[slot];
 }
 
 defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_def *def,
@@ -36,13 +25,11 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
     if (st != DEFSIM_OK) return st;
     defsim__collider c;
     if ((st = defsim__collider_make(w->msg, def, &c)) != DEFSIM_OK) return st;
-    int32_t slot = 0;
-    while (slot < w->colliders.ncol && (w->colliders.col[slot].generation & 1u)) ++slot;
-    if (slot == DEFSIM__ID_MAX_SLOTS) {
+    int32_t slot;
+    if ((st = defsim__id_pool_reserve(&w->colliders.ids, w->msg, "colliders", &slot)) !=
+        DEFSIM_OK) {
         defsim__collider_free(&c);
-        defsim__error(w->msg, "add_collider: the world holds %d colliders, the most it can",
-                      (int)DEFSIM__ID_MAX_SLOTS);
-        return DEFSIM_ERR_OUT_OF_MEMORY;
+        return st;
     }
     if (slot == w->colliders.ncol && w->colliders.ncol == w->colliders.cap_col) {
         const int32_t cap = w->colliders.cap_col ? 2 * w->colliders.cap_col : 4;
@@ -55,12 +42,12 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
         w->colliders.col = nc;
         w->colliders.cap_col = cap;
     }
-    if (slot == w->colliders.ncol) w->colliders.col[w->colliders.ncol++].generation = 0;
-    c.generation = w->colliders.col[slot].generation + 1;
+    if (slot == w->colliders.ncol) w->colliders.ncol++;
+    c.generation = defsim__id_pool_take(&w->colliders.ids, slot, slot);
     w->colliders.col[slot] = c;
     w->colliders.changed = 1;
     if (out) {
-        out->index = defsim__world_id_index(w, slot);
+        out->index = defsim__id_pool_index(&w->colliders.ids, slot);
         out->generation = c.generation;
     }
     return DEFSIM_OK;
@@ -74,6 +61,7 @@ defsim_status defsim_world_remove_collider(defsim_world *w, defsim_collider_id i
     if (!c) return DEFSIM_ERR_STALE_ID;
     defsim__collider_free(c);
     c->generation++;
+    defsim__id_pool_release(&w->colliders.ids, (int32_t)(c - w->colliders.col));
     w->colliders.changed = 1;
     return DEFSIM_OK;
 }
@@ -114,7 +102,7 @@ defsim_status defsim_world_get_collider(const defsim_world *w, int32_t i, defsim
         const defsim__collider *c = &w->colliders.col[s];
         if (!(c->generation & 1u) || n++ != i) continue;
         if (id) {
-            id->index = defsim__world_id_index(w, s);
+            id->index = defsim__id_pool_index(&w->colliders.ids, s);
             id->generation = c->generation;
         }
         if (def) {

@@ -158,22 +158,11 @@ void defsim_attachment_def_init(defsim_attachment_def *def, size_t size)
     def->size = (uint32_t)size;
 }
 
-static defsim__attachment *attachment(const defsim_world *w, defsim_attachment_id id)
-{
-    const int64_t slot = defsim__world_id_slot(w, id.index);
-    if (slot < 0 || slot >= w->coupling.natt) return NULL;
-    defsim__attachment *a = &w->coupling.att[slot];
-    return a->generation == id.generation && (a->generation & 1u) ? a : NULL;
-}
-
 static defsim__attachment *attachment_or_error(const defsim_world *w, defsim_attachment_id id)
 {
-    defsim__attachment *a = attachment(w, id);
-    if (!a)
-        defsim__error(w->msg, "attachment id {%u, %u} is %s", (unsigned)id.index,
-                      (unsigned)id.generation,
-                      defsim__world_id_problem(w, id.index, id.generation));
-    return a;
+    const int64_t slot =
+        defsim__id_pool_lookup(&w->coupling.att_ids, w->msg, "attachment", id.index, id.generation);
+    return slot < 0 ? NULL : &w->coupling.att[slot];
 }
 
 static int is_null(defsim_body_id id) { return id.index == 0 && id.generation == 0; }
@@ -246,13 +235,9 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     defsim_attachment_def d;
     if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
-    int32_t slot = 0;
-    while (slot < w->coupling.natt && (w->coupling.att[slot].generation & 1u)) ++slot;
-    if (slot == DEFSIM__ID_MAX_SLOTS) {
-        defsim__error(w->msg, "add_attachment: the world holds %d attachments, the most it can",
-                      (int)DEFSIM__ID_MAX_SLOTS);
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
+    int32_t slot;
+    st = defsim__id_pool_reserve(&w->coupling.att_ids, w->msg, "attachments", &slot);
+    if (st != DEFSIM_OK) return st;
     if (slot == w->coupling.natt && w->coupling.natt == w->coupling.cap_att) {
         const int32_t cap = w->coupling.cap_att ? 2 * w->coupling.cap_att : 8;
         defsim__attachment *na = realloc(w->coupling.att, (size_t)cap * sizeof *na);
@@ -263,13 +248,13 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
         w->coupling.att = na;
         w->coupling.cap_att = cap;
     }
-    if (slot == w->coupling.natt) w->coupling.att[w->coupling.natt++].generation = 0;
+    if (slot == w->coupling.natt) w->coupling.natt++;
     defsim__attachment *a = &w->coupling.att[slot];
-    a->generation++;
+    a->generation = defsim__id_pool_take(&w->coupling.att_ids, slot, slot);
     a->def = d;
     defsim__world_invalidate(w);
     if (out) {
-        out->index = defsim__world_id_index(w, slot);
+        out->index = defsim__id_pool_index(&w->coupling.att_ids, slot);
         out->generation = a->generation;
     }
     return DEFSIM_OK;
@@ -282,6 +267,7 @@ defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_
     defsim__attachment *a = attachment_or_error(w, id);
     if (!a) return DEFSIM_ERR_STALE_ID;
     a->generation++;
+    defsim__id_pool_release(&w->coupling.att_ids, (int32_t)(a - w->coupling.att));
     defsim__world_invalidate(w);
     return DEFSIM_OK;
 }

@@ -79,6 +79,7 @@ void defsim__coupling_free(defsim__coupling_set *cs)
     release_callback(&cs->cpl);
     release_drive(&cs->cpl);
     free(cs->fext); free(cs->att); free(cs->pin_target); free(cs->targeted);
+    defsim__id_pool_free(&cs->att_ids);
     memset(cs, 0, sizeof *cs);
 }
 
@@ -191,7 +192,9 @@ void defsim__coupling_drop_body(defsim__coupling_set *cs, defsim_body_id id)
     for (int32_t i = 0; i < cs->natt; ++i) {
         defsim__attachment *a = &cs->att[i];
         if ((a->generation & 1u) &&
-            (a->def.body.index == id.index || a->def.target_body.index == id.index))
+            (a->def.body.index == id.index || a->def.target_body.index == id.index)) {
             a->generation++;
+            defsim__id_pool_release(&cs->att_ids, i);
+        }
     }
 }

@@ -11,6 +11,7 @@
 
 #include "body.h"
 #include "host.h"
+#include "id_pool.h"
 #include "status.h"
 #include "system.h"
 
@@ -19,8 +20,9 @@
 typedef struct defsim__coupling_set {
     double *fext;             /* 3 nv held external forces, or NULL */
     int fext_nonzero;         /* the system sees fext only when some force is not zero */
-    defsim__attachment *att;  /* slots in creation order, live ones with odd generations */
+    defsim__attachment *att;  /* by id slot (an attachment's generation is its slot's) */
     int32_t natt, cap_att;
+    defsim__id_pool att_ids;
     double *pin_target;       /* 3 nv: where driven pins end the next step */
     uint8_t *targeted;        /* nv: the vertex has a target */
     int32_t ntargeted;

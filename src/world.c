@@ -139,7 +139,8 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     w->magic = DEFSIM__WORLD_MAGIC;
-    w->id_tag = (uint32_t)atomic_fetch_add(&world_serial, 1u) % DEFSIM__ID_TAGS + 1u;
+    const uint32_t tag = (uint32_t)atomic_fetch_add(&world_serial, 1u) % DEFSIM__ID_TAGS + 1u;
+    w->body_ids.tag = w->colliders.ids.tag = w->coupling.att_ids.tag = tag;
     w->def = d;
     w->msg->log = d.log;
     w->msg->log_user = d.log_user;
@@ -246,19 +247,17 @@ defsim_status defsim__world_enter(defsim_world *w)
 
 int64_t defsim__world_id_slot(const defsim_world *w, uint32_t index)
 {
-    if ((index >> DEFSIM__ID_SLOT_BITS) != w->id_tag) return -1;
-    return DEFSIM__ID_SLOT(index);
+    return defsim__id_pool_slot(&w->body_ids, index);
 }
 
 uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot)
 {
-    return w->id_tag << DEFSIM__ID_SLOT_BITS | (uint32_t)(slot + 1);
+    return defsim__id_pool_index(&w->body_ids, slot);
 }
 
 const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation)
 {
-    if (index == 0 && generation == 0) return "null";
-    return defsim__world_id_slot(w, index) < 0 ? "not of this world" : "stale (removed)";
+    return defsim__id_pool_problem(&w->body_ids, index, generation);
 }
 
 defsim_status defsim__world_plan(defsim_world *w)
@@ -271,7 +270,7 @@ defsim_status defsim__world_plan(defsim_world *w)
         .projection = defsim__options_projection(&w->options, (int)w->def.projection),
         .tet_kernels = defsim__options_tet_kernels(&w->options), .nthreads = w->nthreads,
         .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
-        .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_dense};
+        .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_ids.dense};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
     if (st == DEFSIM_OK && (st = defsim__coupling_reserve(&w->coupling, w->nv, w->sys.has_pins)) != DEFSIM_OK)
         defsim__unplan(&w->sys, &w->work);
@@ -302,7 +301,8 @@ void defsim_world_destroy(defsim_world *w)
     defsim__world_unplan(w);
     defsim__watchdog_free(&w->wd);
     for (int32_t i = 0; i < w->nbodies; ++i) body_free(&w->bodies[i]);
-    free(w->bodies); free(w->body_gen); free(w->body_dense);
+    free(w->bodies);
+    defsim__id_pool_free(&w->body_ids);
     free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
     free(w->x_save); free(w->v_save);
     free(w->bstate);
@@ -620,24 +620,10 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
 
     /* The id takes the first free slot (its generation makes the ids of its earlier bodies
      * stale); the vertices still follow those of the bodies added before. */
-    int32_t slot = 0;
-    while (slot < w->nslots && (w->body_gen[slot] & 1u)) ++slot;
-    st = DEFSIM_ERR_OUT_OF_MEMORY;
-    if (slot == DEFSIM__ID_MAX_SLOTS) {
-        defsim__error(w->msg, "add_body: the world holds %d bodies, the most it can",
-                      (int)DEFSIM__ID_MAX_SLOTS);
+    int32_t slot;
+    if ((st = defsim__id_pool_reserve(&w->body_ids, w->msg, "bodies", &slot)) != DEFSIM_OK)
         goto fail;
-    }
-    if (slot == w->cap_slots) {
-        int32_t cap = w->cap_slots ? 2 * w->cap_slots : 8;
-        if (cap > DEFSIM__ID_MAX_SLOTS) cap = DEFSIM__ID_MAX_SLOTS;
-        uint32_t *gen = realloc(w->body_gen, (size_t)cap * sizeof *gen);
-        if (gen) w->body_gen = gen;
-        int32_t *dense = gen ? realloc(w->body_dense, (size_t)cap * sizeof *dense) : NULL;
-        if (!dense) { defsim__error(w->msg, "out of memory"); goto fail; }
-        w->body_dense = dense;
-        w->cap_slots = cap;
-    }
+    st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (w->nbodies == w->cap_bodies) {
         int32_t cap = w->cap_bodies ? 2 * w->cap_bodies : 8;
         defsim__body *nb = realloc(w->bodies, (size_t)cap * sizeof *nb);
@@ -649,7 +635,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     if (!old) { defsim__error(w->msg, "out of memory"); goto fail; }
     for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
     old[w->nbodies] = -1;
-    b.generation = (slot < w->nslots ? w->body_gen[slot] : 0u) + 1u;
+    b.generation = (slot < w->body_ids.nslots ? w->body_ids.gen[slot] : 0u) + 1u;
     w->bodies[w->nbodies++] = b;
     st = rebuild_vertices(w, old, d.initial_positions ? d.initial_positions : d.rest_positions,
                           d.initial_velocities);
@@ -659,9 +645,7 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
         defsim__error(w->msg, "out of memory");
         goto fail;
     }
-    if (slot == w->nslots) w->nslots++;
-    w->body_gen[slot] = b.generation;
-    w->body_dense[slot] = w->nbodies - 1;
+    defsim__id_pool_take(&w->body_ids, slot, w->nbodies - 1);
     w->stats.reordered_tets += reordered;
     if (out) {
         out->index = defsim__world_id_index(w, slot);
@@ -675,21 +659,15 @@ fail:
 
 defsim__body *defsim__world_find_body(const defsim_world *w, defsim_body_id id)
 {
-    const int64_t slot = defsim__world_id_slot(w, id.index);
-    if (slot < 0 || slot >= w->nslots || w->body_gen[slot] != id.generation ||
-        !(id.generation & 1u))
-        return NULL;
-    return &w->bodies[w->body_dense[slot]];
+    const int64_t slot = defsim__id_pool_find(&w->body_ids, id.index, id.generation);
+    return slot < 0 ? NULL : &w->bodies[w->body_ids.dense[slot]];
 }
 
 defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id)
 {
-    defsim__body *b = defsim__world_find_body(w, id);
-    if (!b)
-        defsim__error(w->msg, "body id {%u, %u} is %s", (unsigned)id.index,
-                      (unsigned)id.generation,
-                      defsim__world_id_problem(w, id.index, id.generation));
-    return b;
+    const int64_t slot =
+        defsim__id_pool_lookup(&w->body_ids, w->msg, "body", id.index, id.generation);
+    return slot < 0 ? NULL : &w->bodies[w->body_ids.dense[slot]];
 }
 
 defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
@@ -713,14 +691,13 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
     body_free(b);
     /* Close the gap in the dense array; the slot is free for the next body. */
     const int64_t slot = DEFSIM__ID_SLOT(id.index);
-    const int32_t dense = w->body_dense[slot];
+    const int32_t dense = w->body_ids.dense[slot];
     memmove(w->bodies + dense, w->bodies + dense + 1,
             (size_t)(w->nbodies - dense - 1) * sizeof *w->bodies);
     w->nbodies--;
-    for (int32_t i = 0; i < w->nslots; ++i)
-        if (w->body_dense[i] > dense) w->body_dense[i]--;
-    w->body_dense[slot] = -1;
-    w->body_gen[slot]++;
+    for (int32_t i = 0; i < w->body_ids.nslots; ++i)
+        if (w->body_ids.dense[i] > dense) w->body_ids.dense[i]--;
+    defsim__id_pool_release(&w->body_ids, (int32_t)slot);
     return DEFSIM_OK;
 }
 
@@ -907,7 +884,7 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         const defsim__plan_input in = {
             .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
             .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
-            .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_dense};
+            .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_ids.dense};
         if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
             defsim__error(w->msg, "out of memory while planning the world");
             return DEFSIM_ERR_OUT_OF_MEMORY;

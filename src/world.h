@@ -14,6 +14,7 @@
 #include "contact.h"
 #include "coupling_set.h"
 #include "host.h"
+#include "id_pool.h"
 #include "status.h"
 #include "system.h"
 #include "options.h"
@@ -22,13 +23,12 @@
 #include <stdint.h>
 
 /* A world starts with a magic number: a best-effort check of the pointer, SQLite's way. Ids
- * carry the world's tag (body.h). */
+ * carry the world's tag (body.h), the same in each of its id pools. */
 #define DEFSIM__WORLD_MAGIC 0x64736d77u      /* "dsmw" */
 #define DEFSIM__WORLD_DEAD 0x64656164u       /* "dead": set by defsim_world_destroy */
 
 struct defsim_world {
     uint32_t magic;           /* DEFSIM__WORLD_MAGIC while the world lives */
-    uint32_t id_tag;          /* 1 .. 4095, in the index of every id the world hands out */
     defsim_world_def def;
     char backend_name[64];
     const defsim_backend *backend;
@@ -41,9 +41,7 @@ struct defsim_world {
     defsim__body *bodies;     /* live bodies in vertex order (and, during a removal, the one
                                  going, with an even generation) */
     int32_t nbodies, cap_bodies;
-    uint32_t *body_gen;       /* per id slot: generation, odd while the slot's body lives */
-    int32_t *body_dense;      /* per id slot: index into bodies, -1 when free */
-    int32_t nslots, cap_slots;
+    defsim__id_pool body_ids; /* the bodies' ids (id_pool.h): slot -> index into bodies */
 
     /* state and per-vertex data (rebuilt on add/remove; state carried over) */
     int32_t nv;

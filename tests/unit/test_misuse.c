@@ -706,12 +706,12 @@ static uint64_t model_digest(const defsim_world *w)
 {
     uint64_t h = 0xcbf29ce484222325ull;
     mix(&h, &w->magic, sizeof w->magic);
-    mix(&h, &w->id_tag, sizeof w->id_tag);
+    mix(&h, &w->body_ids.tag, sizeof w->body_ids.tag);
     mix(&h, &w->nv, sizeof w->nv);
     mix(&h, &w->nbodies, sizeof w->nbodies);
-    mix(&h, &w->nslots, sizeof w->nslots);
-    mix(&h, w->body_gen, (size_t)w->nslots * sizeof *w->body_gen);
-    mix(&h, w->body_dense, (size_t)w->nslots * sizeof *w->body_dense);
+    mix(&h, &w->body_ids.nslots, sizeof w->body_ids.nslots);
+    mix(&h, w->body_ids.gen, (size_t)w->body_ids.nslots * sizeof *w->body_ids.gen);
+    mix(&h, w->body_ids.dense, (size_t)w->body_ids.nslots * sizeof *w->body_ids.dense);
     for (int32_t b = 0; b < w->nbodies; ++b) {
         const defsim__body *bd = &w->bodies[b];
         mix(&h, &bd->generation, sizeof bd->generation);

@@ -817,8 +817,11 @@ double defsim__contact_damping_rate(defsim__contact *c, const double *x, const d
 {
     if (c->mode != DEFSIM__CONTACT_PENALTY || !(c->eps_v > 0.0) || c->mu_max == 0.0) return 0.0;
     ensure(c, x);
-    /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d). */
-    double depth = sqrt(dot3(gravity, gravity)) / c->khat;
+    /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d).
+     * Contact that is not active at x may be later, and deeper than a vertex's own weight
+     * pushes it (|g| / khat): a vertex under a body rests about where the penalty starts to
+     * overlap, d = 0, so the rate is taken at that depth, dhat, at least. */
+    double depth = fmax(sqrt(dot3(gravity, gravity)) / c->khat, c->dhat);
     for (int32_t q = 0; q < c->npair; ++q) {
         const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
         if (d < c->dhat && c->col[c->pc[q]].def.friction > 0.0) depth = fmax(depth, c->dhat - d);

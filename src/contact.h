@@ -173,7 +173,8 @@ double defsim__contact_energy_start(defsim__contact *c, const double *x);
 double defsim__contact_work(defsim__contact *c, const double *x0, const double *x1);
 
 /* The damping rate (1/s) that PENALTY friction adds at x: 2 mu lam / (eps_v m_i) at the deepest
- * contact, lam / m_i = khat (dhat - d), and at least 2 mu_max |g| / eps_v (resting contact). */
+ * contact, lam / m_i = khat (dhat - d), and at least that of a contact at d = 0 or carrying the
+ * vertex's weight, whichever is deeper (contact that becomes active later, resting). */
 double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3]);
 
 #endif /* DEFSIM_CONTACT_H */

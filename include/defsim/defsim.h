@@ -331,7 +331,11 @@ DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 /// backend's: symplectic Euler 2/omega_max without damping (the root of h^2 w^2 + 2 c h = 4 with
 /// it), explicit Euler c / omega_max^2 (0 without damping: forward Euler is unstable for any h on
 /// an undamped oscillator), +INFINITY for implicit backends. It is a linearisation at the current
-/// state: large deformations that stiffen the material lower it. Either output may be NULL.
+/// state: large deformations that stiffen the material lower it. With a collider, backends with
+/// penalty contact count it whether or not a vertex touches the collider yet: omega_max^2 =
+/// omega_el^2 + (2.5 max(omega_c, omega_el))^2, the factor 2.5 for the energy the penalty's switch
+/// feeds an explicit step, and c adds friction's damping rate at a contact at least as deep as
+/// d = 0 (docs/stability.md "Contact"). Either output may be NULL.
 /// Cost: about 20 to 100 force evaluations. Errors: DEFSIM_ERR_INVALID_ARGUMENT,
 /// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_stable_step(defsim_world *world, double *h_out,

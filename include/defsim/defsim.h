@@ -789,8 +789,8 @@ DEFSIM_API defsim_status defsim_world_get_attachment_force(const defsim_world *w
 /// weight, pointing up). A rigid-body engine coupled two-way applies -R_i to what holds the pin.
 /// Evaluated on demand (one force evaluation, plus the force callback if one is set).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch), DEFSIM_ERR_CALLBACK (the force
-/// callback failed; out is unchanged), DEFSIM_ERR_LOCKED (from inside a host callback: it calls
-/// the force callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// callback failed, also when nothing is pinned; out is unchanged), DEFSIM_ERR_LOCKED (from
+/// inside a host callback: it calls the force callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double *out,
                                                      int32_t n);
 

@@ -22,6 +22,36 @@
 
 #define G 9.81
 
+/* ------------------------------------------------------------------------------------------ */
+/* The state before a call, to check that a failed call left it bit-identical */
+
+typedef struct snap {
+    double *x, *v, t;
+    int32_t n;
+} snap;
+
+static snap snap_take(const defsim_world *w)
+{
+    snap s = {tu_positions(w), tu_velocities(w), defsim_world_time(w),
+              defsim_world_vertex_count(w)};
+    return s;
+}
+
+static void snap_check(const defsim_world *w, snap *s)
+{
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    assert_int_equal(defsim_world_vertex_count(w), s->n);
+    assert_memory_equal(x, s->x, 3 * (size_t)s->n * sizeof *x);
+    assert_memory_equal(v, s->v, 3 * (size_t)s->n * sizeof *v);
+    const double t = defsim_world_time(w);
+    assert_memory_equal(&t, &s->t, sizeof t);
+    free(x);
+    free(v);
+    free(s->x);
+    free(s->v);
+    s->x = s->v = NULL;
+}
+
 /* A 2x2x2-cell neo-Hookean box (0.2 m, nu 0.3, 1000 kg/m^3, mass damping alpha) with its bottom
  * at height y0, and a ground plane through the origin with friction mu. */
 static defsim_world *box_on_ground(const char *backend, double E, double alpha, double y0,
@@ -112,11 +142,56 @@ static void test_stable_step_friction(void **state)
         }
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* 2. get_pin_forces runs the force callback also when nothing is pinned */
+
+static int cb_mode;   /* 0: adds nothing, 1: fails, 2: a NaN force */
+static int cb_calls;
+
+static int force_cb(void *user, const double *x, const double *v, double t, int32_t n,
+                    double *f)
+{
+    (void)user; (void)x; (void)v; (void)t; (void)n;
+    ++cb_calls;
+    if (cb_mode == 2) f[0] += NAN;
+    return cb_mode == 1;
+}
+
+static void test_pin_forces_unpinned(void **state)
+{
+    (void)state;
+    defsim_world *w = box_on_ground("symplectic_euler", 1e5, 0.0, 0.05, 0.0);
+    TU_OK(defsim_world_step(w, 1e-4));   /* a state that is not the rest state */
+    const int32_t n = defsim_world_vertex_count(w);
+    const size_t bytes = 3 * (size_t)n * sizeof(double);
+    double *out = malloc(bytes), *sentinel = malloc(bytes);
+    for (int64_t i = 0; i < 3 * (int64_t)n; ++i) sentinel[i] = out[i] = 1234.5 + (double)i;
+    TU_OK(defsim_world_set_force_callback(w, force_cb, NULL, NULL));
+    for (cb_mode = 1; cb_mode <= 2; ++cb_mode) {
+        cb_calls = 0;
+        snap s = snap_take(w);
+        assert_int_equal(defsim_world_get_pin_forces(w, out, n), DEFSIM_ERR_CALLBACK);
+        assert_true(cb_calls >= 1);
+        assert_memory_equal(out, sentinel, bytes);   /* out unchanged */
+        snap_check(w, &s);
+    }
+    /* A callback that succeeds: nothing pinned, all zero. */
+    cb_mode = 0;
+    cb_calls = 0;
+    TU_OK(defsim_world_get_pin_forces(w, out, n));
+    assert_int_equal(cb_calls, 1);
+    for (int64_t i = 0; i < 3 * (int64_t)n; ++i) assert_true(out[i] == 0.0);
+    free(out);
+    free(sentinel);
+    defsim_world_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stable_step_resting),
         cmocka_unit_test(test_stable_step_friction),
+        cmocka_unit_test(test_pin_forces_unpinned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,6 +5,7 @@
  * collider_mesh.c.
  */
 #include "collider.h"
+#include "mesh.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -65,6 +66,13 @@ static int all_finite(const double *a, int n)
     return 1;
 }
 
+int defsim__collider_coords_ok(const double *a, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if (!(fabs(a[i]) <= DEFSIM__COORD_MAX)) return 0;
+    return 1;
+}
+
 /* Normalises a quaternion within 1e-6 of unit length; returns 0 for any other. */
 int defsim__unit_quaternion(const double *in, double out[4])
 {
@@ -106,7 +114,10 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
     d->size = sizeof *d;
     if ((unsigned)d->shape > (unsigned)DEFSIM_SHAPE_SDF)
         BAD("add_collider: unknown shape %d", (int)d->shape);
-    if (!all_finite(d->position, 3)) BAD("add_collider: position is not finite");
+    if (!defsim__collider_coords_ok(d->position, 3))
+        BAD("add_collider: position (%g, %g, %g) must be finite and within +-%g m (the "
+            "coordinate bound: distances would overflow)", d->position[0], d->position[1],
+            d->position[2], DEFSIM__COORD_MAX);
     if (!defsim__unit_quaternion(def->rotation, d->rotation))
         BAD("add_collider: rotation (%g, %g, %g, %g) is not a unit quaternion (w, x, y, z) "
             "within 1e-6", def->rotation[0], def->rotation[1], def->rotation[2],

@@ -320,8 +320,10 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 /// far beyond its rest size, an inverted neo-Hookean element; see docs/watchdog.md and the
 /// core.watchdog options), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
 /// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made),
-/// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (from inside a host
-/// callback). A world without bodies only advances its time.
+/// DEFSIM_ERR_CALLBACK (the force callback or an SDF collider's callback failed),
+/// DEFSIM_ERR_LOCKED (from inside a host callback). A vertex so far out (beyond about 1e150 m)
+/// that its distance to a collider overflows fails the step with DEFSIM_ERR_UNSTABLE. A world
+/// without bodies only advances its time.
 DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 
 /// Estimates the largest step that the world's backend can take stably from the current state.
@@ -337,7 +339,9 @@ DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 /// feeds an explicit step, and c adds friction's damping rate at a contact at least as deep as
 /// d = 0 (docs/stability.md "Contact"). Either output may be NULL.
 /// Cost: about 20 to 100 force evaluations. Errors: DEFSIM_ERR_INVALID_ARGUMENT,
-/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY,
+/// DEFSIM_ERR_UNSTABLE (a non-finite stiffness, or a distance to a collider that overflows),
+/// DEFSIM_ERR_CALLBACK (an SDF collider's callback failed).
 DEFSIM_API defsim_status defsim_world_stable_step(defsim_world *world, double *h_out,
                                                   double *omega_max_out);
 
@@ -877,7 +881,8 @@ typedef struct defsim_collider_def {
 DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 
 /// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a
+/// position beyond +-1e100 m (the coordinate bound of meshes: distances would overflow), a zero
 /// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
 /// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, non-finite
 /// coordinates, an index out of range or a zero-area triangle, an SDF without a callback or
@@ -897,8 +902,9 @@ DEFSIM_API defsim_status defsim_world_remove_collider(defsim_world *world,
 /// quaternion w x y z, normalised as for defsim_collider_def). During that step it moves from
 /// its current pose at constant velocity (position linearly, rotation along the shortest arc),
 /// so friction carries bodies along. Calling it again before the step replaces the target.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, non-finite, a quaternion not within 1e-6 of unit
-/// length), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED. On error nothing changes.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, non-finite, a position beyond +-1e100 m, a
+/// quaternion not within 1e-6 of unit length), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED. On error
+/// nothing changes.
 DEFSIM_API defsim_status defsim_collider_set_pose(defsim_world *world,
                                                   defsim_collider_id collider,
                                                   const double position[3],

@@ -186,12 +186,96 @@ static void test_pin_forces_unpinned(void **state)
     defsim_world_destroy(w);
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* 3. Collider poses within the coordinate bound; a distance that overflows blames no SDF */
+
+static int collider_pose(const defsim_world *w, int32_t i, double pos[3])
+{
+    defsim_collider_def d;
+    defsim_collider_def_init(&d, sizeof d);
+    if (defsim_world_get_collider(w, i, NULL, &d) != DEFSIM_OK) return 0;
+    memcpy(pos, d.position, sizeof d.position);
+    return 1;
+}
+
+static void test_pose_bound(void **state)
+{
+    (void)state;
+    defsim_world *w = box_on_ground("symplectic_euler", 1e5, 0.0, 0.05, 0.0);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.shape = DEFSIM_SHAPE_SPHERE;
+    cd.position[1] = -1.0;
+    defsim_collider_id sphere;
+    TU_OK(defsim_world_add_collider(w, &cd, &sphere));
+    TU_OK(defsim_world_step(w, 1e-4));
+    const double q[4] = {1, 0, 0, 0}, far[3] = {0.0, 1e308, 0.0}, beyond[3] = {0.0, 0.0, -2e100};
+    /* The audit's pose, and one just beyond the bound: refused, nothing changes. */
+    const double *bad[2] = {far, beyond};
+    for (int k = 0; k < 2; ++k) {
+        snap s = snap_take(w);
+        assert_int_equal(defsim_collider_set_pose(w, sphere, bad[k], q),
+                         DEFSIM_ERR_INVALID_ARGUMENT);
+        snap_check(w, &s);
+        defsim_collider_def add = cd;
+        memcpy(add.position, bad[k], sizeof add.position);
+        assert_int_equal(defsim_world_add_collider(w, &add, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+        assert_int_equal(defsim_world_collider_count(w), 2);
+    }
+    /* The pose it had is the pose it has: the next step does not move it. */
+    double pos[3] = {NAN, NAN, NAN};
+    assert_true(collider_pose(w, 1, pos));
+    assert_true(pos[0] == 0.0 && pos[1] == -1.0 && pos[2] == 0.0);
+    TU_OK(defsim_world_step(w, 1e-4));
+    assert_true(collider_pose(w, 1, pos));
+    assert_true(pos[0] == 0.0 && pos[1] == -1.0 && pos[2] == 0.0);
+    /* At the bound itself: accepted, and the step through the body's region to it succeeds. */
+    const double edge[3] = {0.0, 1e100, 0.0};
+    TU_OK(defsim_collider_set_pose(w, sphere, edge, q));
+    TU_OK(defsim_world_step(w, 1e-4));
+    assert_true(collider_pose(w, 1, pos));
+    assert_true(pos[1] == 1e100);
+    defsim_world_destroy(w);
+}
+
+/* A body far beyond the bound (set_state takes any finite state) next to a tilted plane, whose
+ * bounds cover everything: the distance overflows. The step fails as UNSTABLE, not as a host
+ * callback's failure (there is no SDF), and nothing changes. */
+static void test_distance_overflow(void **state)
+{
+    (void)state;
+    defsim_world *w = tu_world("symplectic_euler", -G, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {0.2, 0.2, 0.2};
+    tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 1, 1, 1, lo, hi, 1e5, 0.3, 1000);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.normal[0] = 1.0;   /* normal (1, 1, 0): no axis-aligned bound */
+    TU_OK(defsim_world_add_collider(w, &cd, NULL));
+    TU_OK(defsim_world_step(w, 1e-4));
+    const int32_t n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = tu_velocities(w);
+    for (int32_t i = 0; i < n; ++i) x[3 * i] = x[3 * i + 1] = 1.5e308;
+    TU_OK(defsim_world_set_state(w, x, v));
+    snap s = snap_take(w);
+    assert_int_equal(defsim_world_step(w, 1e-4), DEFSIM_ERR_UNSTABLE);
+    snap_check(w, &s);
+    s = snap_take(w);
+    double h;
+    assert_int_equal(defsim_world_stable_step(w, &h, NULL), DEFSIM_ERR_UNSTABLE);
+    snap_check(w, &s);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stable_step_resting),
         cmocka_unit_test(test_stable_step_friction),
         cmocka_unit_test(test_pin_forces_unpinned),
+        cmocka_unit_test(test_pose_bound),
+        cmocka_unit_test(test_distance_overflow),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,6 +7,7 @@
 #include "collider.h"
 #include "mesh.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -102,6 +103,10 @@ void defsim_collider_def_init(defsim_collider_def *def, size_t size)
 
 #define BAD(...) do { defsim__error(msg, __VA_ARGS__); return DEFSIM_ERR_INVALID_ARGUMENT; } while (0)
 
+/* A radius, half extent or half height: a positive normal number (a denormal's square is zero)
+ * within the coordinate bound (its square and the bounds stay finite). */
+static int size_ok(double r) { return isnormal(r) && r > 0.0 && r <= DEFSIM__COORD_MAX; }
+
 defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider_def *def,
                                     defsim__collider *c)
 {
@@ -135,20 +140,24 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
         break;
     }
     case DEFSIM_SHAPE_SPHERE:
-        if (!isfinite(d->radius) || !(d->radius > 0.0))
-            BAD("add_collider: sphere radius %g must be finite and > 0", d->radius);
+        if (!size_ok(d->radius))
+            BAD("add_collider: sphere radius %g must be in [%g, %g] m (a positive normal number "
+                "within the coordinate bound)", d->radius, DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_BOX:
         for (int k = 0; k < 3; ++k)
-            if (!isfinite(d->half_extents[k]) || !(d->half_extents[k] > 0.0))
-                BAD("add_collider: box half_extents (%g, %g, %g) must be finite and > 0",
-                    d->half_extents[0], d->half_extents[1], d->half_extents[2]);
+            if (!size_ok(d->half_extents[k]))
+                BAD("add_collider: box half_extents (%g, %g, %g) must each be in [%g, %g] m (a "
+                    "positive normal number within the coordinate bound)", d->half_extents[0],
+                    d->half_extents[1], d->half_extents[2], DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_CAPSULE:
-        if (!isfinite(d->radius) || !(d->radius > 0.0))
-            BAD("add_collider: capsule radius %g must be finite and > 0", d->radius);
-        if (!isfinite(d->half_height) || !(d->half_height >= 0.0))
-            BAD("add_collider: capsule half_height %g must be finite and >= 0", d->half_height);
+        if (!size_ok(d->radius))
+            BAD("add_collider: capsule radius %g must be in [%g, %g] m (a positive normal number "
+                "within the coordinate bound)", d->radius, DBL_MIN, DEFSIM__COORD_MAX);
+        if (d->half_height != 0.0 && !size_ok(d->half_height))
+            BAD("add_collider: capsule half_height %g must be 0 or in [%g, %g] m", d->half_height,
+                DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_MESH: {
         defsim_status st = defsim__mesh_check(msg, d);
@@ -174,7 +183,9 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
     }
     case DEFSIM_SHAPE_SDF: {
         if (!d->sdf) BAD("add_collider: an SDF collider needs its callback sdf (NULL given)");
-        if (!all_finite(d->sdf_bounds, 6)) BAD("add_collider: sdf_bounds are not finite");
+        if (!defsim__collider_coords_ok(d->sdf_bounds, 6))
+            BAD("add_collider: sdf_bounds must be finite and within +-%g m (the coordinate "
+                "bound)", DEFSIM__COORD_MAX);
         int any = 0;
         for (int k = 0; k < 6; ++k) any |= d->sdf_bounds[k] != 0.0;
         for (int k = 0; any && k < 3; ++k)

@@ -89,8 +89,11 @@ enum { O_RTOL, O_ATOL, O_TABLE, O_MAX_STEPS, O_STAB_LIMIT, O_STAB_SAFETY, O_COUN
 static const defsim_option_spec erk_options[O_COUNT] = {
     {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
      "relative tolerance per second of simulated time"},
-    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1e300, NULL,
-     "absolute tolerance per second of simulated time (m for positions, m/s for velocities)"},
+    /* A length (and a speed): within the coordinate bound, 1e100, and at least 1e-30, below the
+     * rounding of any coordinate of a scene larger than 1e-14 m. */
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), "
+     "in [1e-30, 1e100]"},
     {"table", DEFSIM_OPTION_CHOICE, 0, 0, 0,
      "dormand_prince_5|bogacki_shampine_3|zonneveld_4|cash_karp_5|verner_6|fehlberg_8",
      "embedded pair (method order in the name): Dormand-Prince 5(4) by default"},

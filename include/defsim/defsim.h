@@ -504,7 +504,7 @@ typedef struct defsim_option_info {
 /// world's backend ("sundials_ida.max_order") or "core.<option>" for an option of the world
 /// itself: "core.simd" (auto|scalar|generic|avx2|avx512: the tet force kernels; the environment
 /// variable DEFSIM_SIMD, when set, overrides it), "core.auto_substep" (BOOL),
-/// "core.substep_safety" (REAL in (0, 1]), and the stability watchdog's "core.watchdog" (BOOL,
+/// "core.substep_safety" (REAL in [0.01, 1]), and the stability watchdog's "core.watchdog" (BOOL,
 /// default on), "core.watchdog_energy_growth" (REAL >= 1, default 10) and
 /// "core.watchdog_max_stretch" (REAL >= 1, default 100) (docs/watchdog.md). `value` is text: a number ("3", "1e-6"), a BOOL word
 /// ("true", "false", "on", "off", "1", "0") or a CHOICE name ("clamp"). Changing an option of the
@@ -859,10 +859,12 @@ typedef struct defsim_collider_def {
                                 ///< length is normalised; others are rejected.
     double normal[3];           ///< PLANE: outward normal (local frame; normalised, not zero).
                                 ///< Default (0, 1, 0).
-    double radius;              ///< SPHERE, CAPSULE: radius (m, > 0). Default 0.5.
-    double half_extents[3];     ///< BOX: half side lengths (m, > 0). Default (0.5, 0.5, 0.5).
-    double half_height;         ///< CAPSULE: half length of its axis segment (m, >= 0).
-                                ///< Default 0.5.
+    double radius;              ///< SPHERE, CAPSULE: radius (m, a normal number in
+                                ///< [DBL_MIN, 1e100]). Default 0.5.
+    double half_extents[3];     ///< BOX: half side lengths (m, each in [DBL_MIN, 1e100]).
+                                ///< Default (0.5, 0.5, 0.5).
+    double half_height;         ///< CAPSULE: half length of its axis segment (m, 0 or in
+                                ///< [DBL_MIN, 1e100]). Default 0.5.
     double friction;            ///< Coulomb friction coefficient mu (>= 0). Default 0.
     const double *vertices;     ///< MESH: 3 * vertex_count coordinates (m, local frame). Copied.
     int32_t vertex_count;       ///< MESH: >= 3.
@@ -883,10 +885,11 @@ DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 /// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a
 /// position beyond +-1e100 m (the coordinate bound of meshes: distances would overflow), a zero
-/// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
-/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, non-finite
-/// coordinates, an index out of range or a zero-area triangle, an SDF without a callback or
-/// with sdf_bounds lo > hi), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// normal, a radius or half extent not in [DBL_MIN, 1e100] m (zero, negative, denormal or too
+/// large), a half_height neither 0 nor in that range, friction < 0, a quaternion not within
+/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, mesh
+/// coordinates non-finite or beyond +-1e100 m, an index out of range or a zero-area triangle, an
+/// SDF without a callback or with sdf_bounds lo > hi or beyond +-1e100 m), DEFSIM_ERR_LOCKED (from inside a host callback),
 /// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most colliders it can). On error
 /// nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,

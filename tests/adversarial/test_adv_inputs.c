@@ -268,6 +268,133 @@ static void test_distance_overflow(void **state)
     defsim_world_destroy(w);
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* 4. Sizes and option ranges: radii, half extents, core.substep_safety, tolerances */
+
+static void test_collider_sizes(void **state)
+{
+    (void)state;
+    defsim_world *w = box_on_ground("symplectic_euler", 1e5, 0.0, 0.05, 0.0);
+    TU_OK(defsim_world_step(w, 1e-4));
+    const double huge = 1e308, denormal = 1e-310, smallest = 4.9e-324;
+    defsim_collider_def sphere, box, capsule;
+    defsim_collider_def_init(&sphere, sizeof sphere);
+    sphere.shape = DEFSIM_SHAPE_SPHERE;
+    sphere.position[1] = -2.0;
+    box = capsule = sphere;
+    box.shape = DEFSIM_SHAPE_BOX;
+    capsule.shape = DEFSIM_SHAPE_CAPSULE;
+    const double bad[5] = {huge, 2e100, denormal, smallest, -1.0};
+    for (int k = 0; k < 5; ++k) {
+        defsim_collider_def d[5] = {sphere, box, box, capsule, capsule};
+        d[0].radius = bad[k];
+        d[1].half_extents[1] = bad[k];
+        d[2].half_extents[0] = d[2].half_extents[1] = d[2].half_extents[2] = bad[k];
+        d[3].radius = bad[k];
+        d[4].half_height = bad[k];
+        for (int j = 0; j < 5; ++j) {
+            snap s = snap_take(w);
+            assert_int_equal(defsim_world_add_collider(w, &d[j], NULL),
+                             DEFSIM_ERR_INVALID_ARGUMENT);
+            assert_int_equal(defsim_world_collider_count(w), 1);
+            snap_check(w, &s);
+        }
+    }
+    /* A mesh vertex and SDF bounds beyond the coordinate bound. */
+    const double tri[9] = {0, 0, 0, 1, 0, 0, 0, 0, 1e200};
+    const int32_t idx[3] = {0, 1, 2};
+    defsim_collider_def mesh;
+    defsim_collider_def_init(&mesh, sizeof mesh);
+    mesh.shape = DEFSIM_SHAPE_MESH;
+    mesh.vertices = tri;
+    mesh.vertex_count = 3;
+    mesh.triangles = idx;
+    mesh.triangle_count = 1;
+    assert_int_equal(defsim_world_add_collider(w, &mesh, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    /* The limits themselves are sizes: accepted (a capsule of zero half height is a ball). */
+    const double ok[2] = {DBL_MIN, 1e100};
+    for (int k = 0; k < 2; ++k) {
+        defsim_collider_def d[3] = {sphere, box, capsule};
+        d[0].radius = ok[k];
+        d[1].half_extents[0] = ok[k];
+        d[2].radius = ok[k];
+        d[2].half_height = 0.0;
+        for (int j = 0; j < 3; ++j) {
+            d[j].position[1] = -2.0 - ok[k];   /* below the box (the 1e100 ones reach it) */
+            defsim_collider_id id;
+            TU_OK(defsim_world_add_collider(w, &d[j], &id));
+            TU_OK(defsim_world_step(w, 1e-4));
+            TU_OK(defsim_world_remove_collider(w, id));
+        }
+    }
+    assert_int_equal(defsim_world_collider_count(w), 1);
+    defsim_world_destroy(w);
+}
+
+/* An option set out of range leaves its value (and the world) unchanged. */
+static void expect_refused(defsim_world *w, const char *name, double value)
+{
+    double before, after;
+    TU_OK(defsim_world_get_option(w, name, &before));
+    snap s = snap_take(w);
+    assert_int_equal(defsim_world_set_option_number(w, name, value), DEFSIM_ERR_INVALID_ARGUMENT);
+    char text[64];
+    snprintf(text, sizeof text, "%.17g", value);
+    assert_int_equal(defsim_world_set_option(w, name, text), DEFSIM_ERR_INVALID_ARGUMENT);
+    TU_OK(defsim_world_get_option(w, name, &after));
+    assert_memory_equal(&before, &after, sizeof before);
+    snap_check(w, &s);
+}
+
+static void test_option_ranges(void **state)
+{
+    (void)state;
+    defsim_world *w = box_on_ground("symplectic_euler", 1e5, 0.0, 0.05, 0.0);
+    TU_OK(defsim_world_step(w, 1e-4));
+    expect_refused(w, "core.substep_safety", 1e-300);
+    expect_refused(w, "core.substep_safety", 0.005);
+    TU_OK(defsim_world_set_option_number(w, "core.substep_safety", 0.01));
+    defsim_world_destroy(w);
+    /* The tolerances of the backends that have them (those built here). */
+    const struct { const char *backend, *option; double bad, lowest; } tol[] = {
+        {"newton_cholmod", "newton_cholmod.tolerance", 1e-300, 1e-14},
+        {"newmark", "newmark.tolerance", 1e-300, 1e-14},
+        {"bdf2", "bdf2.tolerance", 1e-300, 1e-14},
+        {"sundials_kinsol", "sundials_kinsol.tolerance", 1e-300, 1e-14},
+        {"sundials_ida", "sundials_ida.atol", 1e-300, 1e-30},
+        {"sundials_erk", "sundials_erk.atol", 1e-300, 1e-30},
+    };
+    for (size_t i = 0; i < sizeof tol / sizeof *tol; ++i) {
+        if (!tu_available(tol[i].backend)) {
+            printf("  %s: not available, skipped\n", tol[i].backend);
+            continue;
+        }
+        w = box_on_ground(tol[i].backend, 1e5, 0.0, 0.05, 0.0);
+        expect_refused(w, tol[i].option, tol[i].bad);
+        expect_refused(w, tol[i].option, 0.5 * tol[i].lowest);
+        TU_OK(defsim_world_set_option_number(w, tol[i].option, tol[i].lowest));
+        defsim_world_destroy(w);
+    }
+    /* The deprecated world-def fields go through the same ranges. */
+    defsim_world_def d = tu_world_def("symplectic_euler", -G, 1);
+    d.substep_safety = 1e-300;
+    w = NULL;
+    assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(w);
+    if (tu_available("sundials_ida")) {
+        d = tu_world_def("sundials_ida", -G, 1);
+        d.atol = 1e-300;
+        assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+        assert_null(w);
+    }
+    if (tu_available("newton_cholmod")) {
+        d = tu_world_def("newton_cholmod", -G, 1);
+        d.tolerance = 1e-300;
+        assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+        assert_null(w);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -276,6 +403,8 @@ int main(void)
         cmocka_unit_test(test_pin_forces_unpinned),
         cmocka_unit_test(test_pose_bound),
         cmocka_unit_test(test_distance_overflow),
+        cmocka_unit_test(test_collider_sizes),
+        cmocka_unit_test(test_option_ranges),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -324,6 +324,12 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 /// DEFSIM_ERR_LOCKED (from inside a host callback). A vertex so far out (beyond about 1e150 m)
 /// that its distance to a collider overflows fails the step with DEFSIM_ERR_UNSTABLE. A world
 /// without bodies only advances its time.
+/// Work: explicit backends take one step of h (or, with core.auto_substep, up to 1e7 substeps);
+/// adaptive ones at most their max_internal_steps internal steps, and sundials_erk refuses at
+/// once (DEFSIM_ERR_NOT_CONVERGED) an h that needs more at its stability limit. A host interrupts
+/// a long call from its force callback: a non-zero return fails the call with
+/// DEFSIM_ERR_CALLBACK at the next force evaluation (every evaluation for explicit backends and
+/// sundials_erk; implicit backends call it once per step, or per Newton iterate with a Jacobian).
 DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 
 /// Estimates the largest step that the world's backend can take stably from the current state.

@@ -395,6 +395,85 @@ static void test_option_ranges(void **state)
     }
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* 5. sundials_erk: the work of one call, and how a host interrupts a long one */
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double stat_of(const defsim_world *w, const char *name)
+{
+    double v = NAN;
+    TU_OK(defsim_world_stat(w, name, &v));
+    return v;
+}
+
+static long stop_after, stop_calls;
+
+static int stopping_cb(void *user, const double *x, const double *v, double t, int32_t n,
+                       double *f)
+{
+    (void)user; (void)x; (void)v; (void)t; (void)n; (void)f;
+    return ++stop_calls >= stop_after;   /* the host's "stop" flag, raised after stop_after */
+}
+
+static defsim_world *erk_box(void)
+{
+    defsim_world *w = tu_world("sundials_erk", -G, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {0.2, 0.2, 0.2};
+    tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 2, 2, 2, lo, hi, 1e5, 0.3, 1000);
+    TU_OK(defsim_world_step(w, 1e-3));
+    return w;
+}
+
+static void test_erk_work(void **state)
+{
+    (void)state;
+    if (!tu_available("sundials_erk")) {
+        printf("  sundials_erk: not available, skipped\n");
+        return;
+    }
+    /* h = 1000 s needs about 226,000 internal steps at the stability limit, more than the
+     * 100,000 a call may take: refused before any (it took 12 s and 100,000 steps). */
+    defsim_world *w = erk_box();
+    const double steps0 = stat_of(w, "sundials_erk.internal_steps");
+    snap s = snap_take(w);
+    double t0 = now_s();
+    assert_int_equal(defsim_world_step(w, 1000.0), DEFSIM_ERR_NOT_CONVERGED);
+    const double took = now_s() - t0;
+    printf("  h = 1000 s: refused in %.3f s\n", took);
+    assert_true(took < 5.0);
+    assert_true(stat_of(w, "sundials_erk.internal_steps") == steps0);
+    snap_check(w, &s);
+    TU_OK(defsim_world_step(w, 1e-3));   /* the world goes on */
+    /* A smaller max_internal_steps lowers the step that is refused at once. */
+    TU_OK(defsim_world_set_option_number(w, "sundials_erk.max_internal_steps", 1000));
+    s = snap_take(w);
+    assert_int_equal(defsim_world_step(w, 10.0), DEFSIM_ERR_NOT_CONVERGED);
+    snap_check(w, &s);
+    TU_OK(defsim_world_step(w, 1e-2));   /* about 2 internal steps: allowed */
+    defsim_world_destroy(w);
+
+    /* A call that would run for seconds (h = 100 s: about 32,000 internal steps): the host stops
+     * it from its force callback, which explicit backends call at every force evaluation. */
+    w = erk_box();
+    stop_after = 500;
+    stop_calls = 0;
+    TU_OK(defsim_world_set_force_callback(w, stopping_cb, NULL, NULL));
+    s = snap_take(w);
+    t0 = now_s();
+    assert_int_equal(defsim_world_step(w, 100.0), DEFSIM_ERR_CALLBACK);
+    printf("  h = 100 s, stopped by the callback after %ld calls in %.3f s\n", stop_calls,
+           now_s() - t0);
+    assert_int_equal(stop_calls, stop_after);   /* no force evaluation after the stop */
+    snap_check(w, &s);
+    defsim_world_destroy(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -405,6 +484,7 @@ int main(void)
         cmocka_unit_test(test_distance_overflow),
         cmocka_unit_test(test_collider_sizes),
         cmocka_unit_test(test_option_ranges),
+        cmocka_unit_test(test_erk_work),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

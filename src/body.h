@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
-/* A body as the host gave it: validated, tets reordered to positive orientation (world.c); an
+/* A body as the host gave it: validated, tets reordered to positive orientation (body.c); an
  * attachment as the host gave it. */
 #ifndef DEFSIM_BODY_H
 #define DEFSIM_BODY_H
 
 #include "defsim/defsim.h"
+#include "status.h"
 
 #include <stdint.h>
 
@@ -38,6 +39,17 @@ typedef struct defsim__body {
     uint32_t group, mask;
     double friction;
 } defsim__body;
+
+/* Validates the host's def (a world of world_nv vertices receives it) and builds *out from
+ * it; *d receives the def with defaults for the fields an older def lacks (its arrays are the
+ * host's, for the initial state), *reordered the number of tets turned to positive
+ * orientation. On failure *out holds nothing to free and msg says why: INVALID_ARGUMENT,
+ * INVALID_MESH, INVALID_MATERIAL or OUT_OF_MEMORY. */
+defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *def,
+                                 int32_t world_nv, defsim_body_def *d, defsim__body *out,
+                                 int32_t *reordered);
+/* Frees a body's arrays (their pointers become NULL). */
+void defsim__body_free(defsim__body *b);
 
 /* An attachment as the host gave it (coupling.c): validated; its bodies are live while it is. */
 typedef struct defsim__attachment {

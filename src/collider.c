@@ -67,13 +67,6 @@ static int all_finite(const double *a, int n)
     return 1;
 }
 
-int defsim__collider_coords_ok(const double *a, int64_t n)
-{
-    for (int64_t i = 0; i < n; ++i)
-        if (!(fabs(a[i]) <= DEFSIM__COORD_MAX)) return 0;
-    return 1;
-}
-
 /* Normalises a quaternion within 1e-6 of unit length; returns 0 for any other. */
 int defsim__unit_quaternion(const double *in, double out[4])
 {

@@ -11,8 +11,10 @@
 
 #include "defsim/defsim.h"
 #include "id_pool.h"
+#include "mesh.h"
 #include "status.h"
 
+#include <math.h>
 #include <stdint.h>
 
 struct defsim__bvh;
@@ -61,8 +63,14 @@ void defsim__collider_free(defsim__collider *c);
 
 /* 1 if the n values of a are finite and within +-DEFSIM__COORD_MAX (mesh.h), the bound of mesh
  * coordinates: a collider's position (and, for its shape, coordinates and sizes) within it keeps
- * every distance, its square and every bound finite. 0 otherwise (NaN included). */
-int defsim__collider_coords_ok(const double *a, int64_t n);
+ * every distance, its square and every bound finite. 0 otherwise (NaN included). Inline:
+ * collider.c and collider_mesh.c both check with it, and collider.c calls collider_mesh.c. */
+static inline int defsim__collider_coords_ok(const double *a, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if (!(fabs(a[i]) <= DEFSIM__COORD_MAX)) return 0;
+    return 1;
+}
 
 /* Normalises a quaternion (w, x, y, z) within 1e-6 of unit length into out; returns 0 (out
  * unchanged) for any other, or a non-finite one. */

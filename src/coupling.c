@@ -347,7 +347,7 @@ defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t 
     const int64_t ndof = 3 * (int64_t)n;
     /* Without pins the answer is zero, but a force callback still runs and may fail (the
      * header's Errors line): only a world without one skips the evaluation. */
-    if (!w->sys.has_pins && !w->cpl.fn) {
+    if (!w->sys.has_pins && !w->coupling.cpl.fn) {
         memset(out, 0, (size_t)ndof * sizeof *out);
         return DEFSIM_OK;
     }

@@ -352,6 +352,18 @@ static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
     return 1;
 }
 
+const double *defsim__contact_vel(const defsim__contact *c, int32_t nv)
+{
+    return nv > 0 && c->cap_v >= nv ? c->vel : NULL;
+}
+
+defsim_status defsim__contact_set_vel(defsim__contact *c, int32_t nv, const double *vel)
+{
+    if (!reserve(c, nv, 0)) return DEFSIM_ERR_OUT_OF_MEMORY;
+    memcpy(c->vel, vel, 3 * (size_t)nv * sizeof *vel);
+    return DEFSIM_OK;
+}
+
 defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__collider *col, int32_t ncol,
                                     const defsim__contact_params *p, const double *x,

@@ -1041,7 +1041,10 @@ static defsim_status load_pattern(defsim_world *w, const chunk *c)
     defsim_status st = DEFSIM_OK;
     int grew = 0;
     if (r.bad || r.at != r.n) st = malformed(c, "wrong length or a pair out of range");
-    else if ((st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
+    /* Built first: growing a pattern that is not built yet (a backend that builds it at its
+     * first use) would drop the pairs. */
+    else if ((st = defsim__pattern_build(&w->sys)) != DEFSIM_OK ||
+             (st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
         defsim__set_last_error("load: out of memory");
     free(pairs);
     return st;
@@ -1262,13 +1265,15 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     int32_t age = 0;
     if (st == DEFSIM_OK) st = load_state(w, state, k->version, &h_stable, &age);
     if (st == DEFSIM_OK && contact) st = load_contact_forces(w, contact);
-    if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
     /* Planned now, with the options taken as the backend's initial ones, as the saved world
-     * was: its first step keeps the cache. */
+     * was: its first step keeps the cache. The pattern grows before the backend starts: a
+     * backend borrows it at init, and growing it later would free what it holds (newmark's
+     * first step read freed memory that way). */
     if (st == DEFSIM_OK && (st = defsim__world_plan(w)) != DEFSIM_OK)
         st = world_failed(w, st, "planning");
     if (st == DEFSIM_OK && pattern) st = load_pattern(w, pattern);
     if (st == DEFSIM_OK && cstate) st = load_contact_state(w, cstate);
+    if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
         w->h_stable = h_stable;

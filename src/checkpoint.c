@@ -1194,7 +1194,14 @@ static defsim_status load_backend(defsim_world *w, const chunk *c)
     if ((st = defsim__world_backend_start(w)) != DEFSIM_OK)
         return world_failed(w, st, "backend initialisation");
     const defsim_state_reader rd = {&r, sr_f64, sr_i64, sr_remaining};
+    /* A backend that replays its last step (sundials_erk) sees the colliders as that step did. */
+    st = defsim__world_replay_contact_begin(w);
+    if (st != DEFSIM_OK) {
+        defsim__world_backend_stop(w);
+        return world_failed(w, st, "contact for the backend's history");
+    }
     st = be->load_state(&defsim__host, &w->handle, w->bstate, &rd);
+    defsim__world_replay_contact_end(w);
     if (st == DEFSIM_OK && (r.bad || r.at != r.n)) st = DEFSIM_ERR_IO;
     if (st != DEFSIM_OK) {
         defsim__world_backend_stop(w);
@@ -1274,6 +1281,8 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     if (st == DEFSIM_OK && pattern) st = load_pattern(w, pattern);
     if (st == DEFSIM_OK && cstate) st = load_contact_state(w, cstate);
     if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
+    /* Again: a replay in the backend's load evaluated friction, which keeps its velocities. */
+    if (st == DEFSIM_OK && cstate) st = load_contact_state(w, cstate);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
         w->h_stable = h_stable;

@@ -1,13 +1,19 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Checkpoints bit-exact with colliders (issue 23): every scene kind (colliders still and moving,
- * friction, attachments, driven pins and a force callback beside a frictional collider, body
- * contact) on every backend that promises bit-for-bit continuation (docs/checkpoints.md). A run
- * is saved after N steps with the next step's collider pose and pin target pending, loaded into
- * a new world (the force callback installed again), and both step M more: positions, velocities
- * and the clock must have the same bits, and so must a world loaded from the loaded world's own
- * checkpoint. Each scene is checked to touch what it claims (contact forces, friction, body
- * contact pairs), so that no case passes by having nothing to continue.
+ * Checkpoints bit-exact with colliders (issue 23): every scene kind (colliders still, moving,
+ * stopped after moving, under auto_substep; friction; attachments, driven pins, held forces and
+ * a force callback beside a frictional collider; body contact) on all nine backends
+ * (docs/checkpoints.md "What continues bit for bit" has the matrix and sundials_erk's one
+ * exception). A run is saved after N steps with the next step's collider pose and pin target
+ * pending, loaded into a new world (the force callback installed again), and both step M more:
+ * positions, velocities and the clock must have the same bits, and so must a world loaded from
+ * the loaded world's own checkpoint. Saved early, mid-run and late. Each scene is checked to do
+ * what it claims (contact forces, forces along the ground, body contact pairs), so that no case
+ * passes by having nothing to continue.
+ *
+ * What it caught: the penalty frequency computed again at the load (every penalty backend),
+ * friction's matrix-block velocities (sundials_kinsol), sundials_erk's replay without the
+ * colliders (a failed load), newmark reading a freed pattern after loading body contact.
  */
 #include "test_util.h"
 
@@ -15,18 +21,28 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
-enum { K_STILL, K_FRICTION, K_MOVING, K_COUPLED, K_BODY, K_COUNT };
-static const char *const kind_name[K_COUNT] = {"still", "friction", "moving", "coupled", "body"};
+enum { K_STILL, K_FRICTION, K_MOVING, K_STOPPED, K_SUBSTEP, K_COUPLED, K_BODY, K_COUNT };
+static const char *const kind_name[K_COUNT] = {"still",   "friction", "moving",  "stopped",
+                                               "substep", "coupled",  "body"};
 
-/* All nine backends; sundials_erk too (the docs promise bit-for-bit continuation for it as
- * well, through its replayed step). */
+/* K_STOPPED: the sphere moves in steps 1 .. stop_after (the last step before the save), then
+ * stays where it is, so that the steps after the load continue a history (no reset for a
+ * moving collider) that began while it moved. */
+static int stop_after = 0;
+
+/* All nine backends. */
 static const char *const backends[] = {"symplectic_euler", "explicit_euler", "velocity_verlet",
                                        "newton_cholmod",   "newmark",        "bdf2",
                                        "sundials_ida",     "sundials_kinsol", "sundials_erk"};
 enum { NB = sizeof backends / sizeof backends[0] };
 
 static const double H = 5e-4;
+
+/* K_SUBSTEP takes 8 times longer steps with core.auto_substep on (several substeps per step on
+ * the backends with a stable-step estimate; one step on the others). */
+static double step_of(int kind) { return kind == K_SUBSTEP ? 8.0 * H : H; }
 
 /* The force callback: a drag and a time-varying push along z on every vertex, with its
  * constants behind `user` (which the loaded world must be given again). */
@@ -77,7 +93,7 @@ static defsim_collider_id add_plane(defsim_world *w, double friction)
     return id;
 }
 
-/* Sets every free vertex's velocity to (vx, 0, 0). */
+/* Adds vx to every vertex's x velocity. */
 static void slide(defsim_world *w, double vx)
 {
     const int32_t n = defsim_world_vertex_count(w);
@@ -92,7 +108,12 @@ static void slide(defsim_world *w, double vx)
  * backend with CCD) or the backend is not in this build. */
 static defsim_world *scene(const char *backend, int kind)
 {
-    if (!tu_available(backend) || (kind == K_BODY && !is_ccd(backend))) return NULL;
+    /* sundials_erk under auto_substep: each substep is an ERK solve of many internal steps
+     * against the stiff penalty, 10 s here; its history across substeps is what the other
+     * kinds test. */
+    if (!tu_available(backend) || (kind == K_BODY && !is_ccd(backend)) ||
+        (kind == K_SUBSTEP && strcmp(backend, "sundials_erk") == 0))
+        return NULL;
     defsim_world *w = tu_world(backend, -9.81, 1);
     switch (kind) {
     case K_STILL:   /* a cube falling onto a still, frictionless ground, and a still sphere */
@@ -114,7 +135,9 @@ static defsim_world *scene(const char *backend, int kind)
         add_plane(w, 0.6);
         slide(w, 0.5);
         break;
-    case K_MOVING: {   /* a frictional sphere touching a cube's side, sliding along it and
+    case K_MOVING:
+    case K_STOPPED:
+    case K_SUBSTEP: {   /* a frictional sphere touching a cube's side, sliding along it and
                           turning (a collider that overruns a vertex's gap in one step is
                           another matter: newmark refuses such steps) */
         add_cube(w, 0.0, 0.0001);
@@ -128,6 +151,7 @@ static defsim_world *scene(const char *backend, int kind)
         cd.position[2] = 0.1;
         cd.friction = 0.4;
         TU_OK(defsim_world_add_collider(w, &cd, NULL));
+        if (kind == K_SUBSTEP) TU_OK(defsim_world_set_option(w, "core.auto_substep", "true"));
         break;
     }
     case K_COUPLED: {   /* attachments, a driven pin, the callback, held forces; friction */
@@ -181,7 +205,7 @@ static defsim_world *scene(const char *backend, int kind)
     }
     case K_BODY:   /* a cube falling onto another on a frictional ground: body contact */
         add_cube(w, 0.0, 0.0001);
-        add_cube(w, 0.05, 0.2035);
+        add_cube(w, 0.05, 0.2008);
         add_plane(w, 0.5);
         TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
         break;
@@ -193,7 +217,7 @@ static defsim_world *scene(const char *backend, int kind)
  * step k; the ladder's last vertex its target. */
 static void prepare(defsim_world *w, int kind, int k)
 {
-    if (kind == K_MOVING) {
+    if (kind == K_MOVING || kind == K_SUBSTEP || (kind == K_STOPPED && k <= stop_after)) {
         defsim_collider_id id;
         TU_OK(defsim_world_get_collider(w, 1, &id, NULL));
         const double a = 0.02 * k;   /* turning about z: its surface drags the cube along y */
@@ -250,7 +274,7 @@ static void run(defsim_world *w, int kind, int from, int n, seen *s)
 {
     for (int k = from; k < from + n; ++k) {
         prepare(w, kind, k);
-        const defsim_status st = defsim_world_step(w, H);
+        const defsim_status st = defsim_world_step(w, step_of(kind));
         if (st != DEFSIM_OK)
             fail_msg("%s step %d: %s (%s)", kind_name[kind], k, defsim_status_string(st),
                      defsim_world_last_error(w));
@@ -297,6 +321,8 @@ static int check_kind(int kind, int before, int after, int *failures)
     int cases = 0;
     for (int bi = 0; bi < NB; ++bi) {
         const char *backend = backends[bi];
+        struct timespec t0, t1;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
         defsim_world *a = scene(backend, kind);
         if (!a) continue;
         cases++;
@@ -311,7 +337,7 @@ static int check_kind(int kind, int before, int after, int *failures)
             defsim_world *ws[3] = {a, b, c};
             for (int j = 0; j < 3; ++j) {
                 if (k > before + 1) prepare(ws[j], kind, k);
-                const defsim_status st = defsim_world_step(ws[j], H);
+                const defsim_status st = defsim_world_step(ws[j], step_of(kind));
                 if (st != DEFSIM_OK)
                     fail_msg("%s %s world %d step %d: %s (%s)", backend, kind_name[kind], j, k,
                              defsim_status_string(st), defsim_world_last_error(ws[j]));
@@ -319,16 +345,28 @@ static int check_kind(int kind, int before, int after, int *failures)
             look(a, &sn);
         }
         const double db = compare(a, b), dc = compare(a, c);
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        printf("%5.2f s", (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec));
         printf("  %-9s %-16s loaded: %s (%.3g m), loaded twice: %s (%.3g m); contact force up to "
                "%.3g N, %.3g N along the ground\n", kind_name[kind], backend,
                db == 0.0 ? "same bits" : "DIFFERS", db, dc == 0.0 ? "same bits" : "DIFFERS", dc,
                sn.normal, sn.tangential);
         /* The scene does what it claims. */
-        assert_true(sn.normal > 0.0);
-        if (kind == K_FRICTION || kind == K_MOVING || kind == K_COUPLED)
-            assert_true(sn.tangential > 0.0);
+        assert_true(sn.normal > 1.0);
+        if (kind != K_STILL && kind != K_BODY)
+            assert_true(sn.tangential > 1.0);
         if (kind == K_BODY) assert_true(sn.body_active > 0.0);
-        if (db != 0.0 || dc != 0.0) (*failures)++;
+        /* sundials_erk replays the saved run's last internal step at the load, and the replay
+         * sees the colliders at their current pose, still: after a step in which the sphere
+         * moved (and rubbed), followed by steps in which it stays (no restart), the replay does
+         * not land and ERKStep restarts from the state (docs/checkpoints.md): close, not the
+         * same bits. */
+        const int exact = !(kind == K_STOPPED && strcmp(backend, "sundials_erk") == 0);
+        if (exact && (db != 0.0 || dc != 0.0)) (*failures)++;
+        if (!exact) {
+            assert_true(fabs(db) < 1e-8);
+            assert_true(fabs(dc) < 1e-8);
+        }
         defsim_world_destroy(a);
         defsim_world_destroy(b);
         defsim_world_destroy(c);
@@ -336,26 +374,44 @@ static int check_kind(int kind, int before, int after, int *failures)
     return cases;
 }
 
-static void run_matrix(int before, int after)
+static void run_matrix(int before, int after, int substep)
 {
     int failures = 0, cases = 0;
-    for (int kind = 0; kind < K_COUNT; ++kind) cases += check_kind(kind, before, after, &failures);
+    stop_after = before;
+    for (int kind = 0; kind < K_COUNT; ++kind)
+        if (kind != K_SUBSTEP || substep) cases += check_kind(kind, before, after, &failures);
     printf("  %d cases, %d not bit for bit\n", cases, failures);
-    assert_true(cases >= K_COUNT);   /* at least the built-in backends ran every kind */
+    /* At least the three built-in backends ran five kinds each (body contact needs modules). */
+    assert_true(cases >= 3 * (K_COUNT - 2));
     assert_int_equal(failures, 0);
 }
 
-/* The default run: 40 steps, save, 20 more. */
+/* 40 steps (contact established), save, 20 more. */
 static void test_matrix(void **state)
 {
     (void)state;
-    run_matrix(40, 20);
+    run_matrix(40, 20, 1);
+}
+
+/* Saved early (the cube still settling onto the ground, the sphere just touching) and late. */
+static void test_matrix_early(void **state)
+{
+    (void)state;
+    run_matrix(6, 20, 1);
+}
+
+static void test_matrix_late(void **state)
+{
+    (void)state;
+    run_matrix(100, 30, 0);   /* substeps: 6 s more */
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_matrix),
+        cmocka_unit_test(test_matrix_early),
+        cmocka_unit_test(test_matrix_late),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

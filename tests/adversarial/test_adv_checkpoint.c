@@ -17,6 +17,8 @@
  */
 #include "test_util.h"
 
+#include "checkpoint.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -406,12 +408,128 @@ static void test_matrix_late(void **state)
     run_matrix(100, 30, 0);   /* substeps: 6 s more */
 }
 
+/* Little-endian reads and writes in a checkpoint's bytes. */
+static uint64_t get_le(const unsigned char *p, int n)
+{
+    uint64_t v = 0;
+    for (int i = n - 1; i >= 0; --i) v = (v << 8) | p[i];
+    return v;
+}
+
+static void put_le(unsigned char *p, uint64_t v, int n)
+{
+    for (int i = 0; i < n; ++i) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+/* Offset of the chunk `tag` in a checkpoint (its tag's first byte), or 0. */
+static size_t find_chunk(const unsigned char *p, size_t n, const char *tag)
+{
+    for (size_t at = DEFSIM__CKPT_HEADER; at + 16 <= n;) {
+        if (memcmp(p + at, tag, 4) == 0) return at;
+        at += 16 + (size_t)get_le(p + at + 4, 8);
+    }
+    return 0;
+}
+
+/* A copy of the checkpoint with the CNTC chunk's payload replaced by `pay` (len bytes), its
+ * length and CRC rewritten: contents that pass the CRC. */
+static unsigned char *with_contact_state(const unsigned char *p, size_t n, const void *pay,
+                                         size_t len, size_t *out_n)
+{
+    const size_t at = find_chunk(p, n, "CNTC");
+    assert_true(at > 0);
+    const size_t old = (size_t)get_le(p + at + 4, 8), tail = at + 16 + old;
+    *out_n = n - old + len;
+    unsigned char *q = malloc(*out_n);
+    assert_non_null(q);
+    memcpy(q, p, at + 4);
+    put_le(q + at + 4, len, 8);
+    memcpy(q + at + 12, pay, len);
+    put_le(q + at + 12 + len, defsim__crc32(0, q + at, 12 + len), 4);
+    memcpy(q + at + 16 + len, p + tail, n - tail);
+    return q;
+}
+
+/* The contact state (CNTC) comes from a file like everything else: a frequency that is not
+ * finite or negative, a bad flag, a wrong length or a non-finite velocity is refused with
+ * DEFSIM_ERR_IO and no world; a finite but absurd frequency loads, and its step fails with a
+ * status, not a crash. The unchanged payload loads and continues bit for bit. */
+static void test_contact_state_damaged(void **state)
+{
+    (void)state;
+    defsim_world *a = scene("sundials_kinsol", K_FRICTION);
+    if (!a) a = scene("symplectic_euler", K_FRICTION);
+    seen sn = {0.0, 0.0, 0.0};
+    run(a, K_FRICTION, 1, 10, &sn);
+    void *buf = NULL;
+    size_t n = 0;
+    TU_OK(defsim_world_save_buffer(a, &buf, &n));
+    const unsigned char *p = buf;
+    const size_t at = find_chunk(p, n, "CNTC");
+    assert_true(at > 0);
+    const size_t len = (size_t)get_le(p + at + 4, 8);
+    const int32_t nv = defsim_world_vertex_count(a);
+    assert_int_equal(len, 12 + 24 * (size_t)nv);   /* omega, the flag, the velocities */
+    unsigned char *pay = malloc(len);
+    assert_non_null(pay);
+    double omega;
+    memcpy(&omega, p + at + 12, 8);
+    assert_true(omega > 0.0);   /* the frequency was computed and saved */
+
+    const double bad_omega[] = {NAN, -1.0, INFINITY};
+    for (int m = 0; m < 7; ++m) {
+        memcpy(pay, p + at + 12, len);
+        size_t plen = len;
+        if (m < 3) memcpy(pay, &bad_omega[m], 8);
+        if (m == 3) put_le(pay + 8, 2, 4);                  /* the flag */
+        if (m == 4) plen = len - 8;                         /* one velocity short */
+        if (m == 5) memcpy(pay + 12 + 8 * 7, &bad_omega[0], 8);   /* a NaN velocity */
+        if (m == 6) put_le(pay + 8, 0, 4);                  /* no velocities, but their bytes */
+        size_t qn = 0;
+        unsigned char *q = with_contact_state(p, n, pay, plen, &qn);
+        defsim_world *b = (defsim_world *)1;
+        assert_int_equal(defsim_world_load_buffer(q, qn, NULL, NULL, &b), DEFSIM_ERR_IO);
+        assert_null(b);
+        free(q);
+    }
+
+    /* Finite and absurd: loads; the step fails cleanly and leaves the state as it was. */
+    memcpy(pay, p + at + 12, len);
+    const double huge = 1e300;
+    memcpy(pay, &huge, 8);
+    size_t qn = 0;
+    unsigned char *q = with_contact_state(p, n, pay, len, &qn);
+    defsim_world *b = NULL;
+    TU_OK(defsim_world_load_buffer(q, qn, NULL, NULL, &b));
+    assert_true(compare(a, b) == 0.0);
+    assert_int_not_equal(defsim_world_step(b, H), DEFSIM_OK);
+    assert_true(compare(a, b) == 0.0);
+    defsim_world_destroy(b);
+    free(q);
+
+    /* Rewritten unchanged: the same bits as the original after 10 more steps. */
+    memcpy(pay, p + at + 12, len);
+    q = with_contact_state(p, n, pay, len, &qn);
+    assert_int_equal(qn, n);
+    assert_memory_equal(q, p, n);
+    TU_OK(defsim_world_load_buffer(q, qn, NULL, NULL, &b));
+    run(a, K_FRICTION, 11, 10, &sn);
+    run(b, K_FRICTION, 11, 10, &sn);
+    assert_true(compare(a, b) == 0.0);
+    defsim_world_destroy(b);
+    free(q);
+    free(pay);
+    defsim_buffer_free(buf);
+    defsim_world_destroy(a);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_matrix),
         cmocka_unit_test(test_matrix_early),
         cmocka_unit_test(test_matrix_late),
+        cmocka_unit_test(test_contact_state_damaged),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

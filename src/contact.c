@@ -520,6 +520,13 @@ static double contact_energy(defsim__contact *c, const double *x)
 static void collider_velocity(const defsim__contact *c, int32_t j, const double x[3],
                               double vc[3])
 {
+    /* A collider that keeps its pose over the step has no velocity: exactly zero, not the
+     * roundoff of carrying x through the pose and back (which also made a checkpoint's replayed
+     * step, which sees colliders still, differ from the step it replays). */
+    if (memcmp(&c->pose0[j], &c->pose1[j], sizeof c->pose0[j]) == 0) {
+        vc[0] = vc[1] = vc[2] = 0.0;
+        return;
+    }
     double back[3];
     carry(&c->pose1[j], &c->pose0[j], x, back);
     for (int k = 0; k < 3; ++k) vc[k] = c->h > 0.0 ? (x[k] - back[k]) / c->h : 0.0;

@@ -7,13 +7,15 @@
  * exception). A run is saved after N steps with the next step's collider pose and pin target
  * pending, loaded into a new world (the force callback installed again), and both step M more:
  * positions, velocities and the clock must have the same bits, and so must a world loaded from
- * the loaded world's own checkpoint. Saved early, mid-run and late. Each scene is checked to do
+ * the loaded world's own checkpoint. Saved early and mid-run; with --long (adv_checkpoint_long)
+ * late, and after every 5th step of a run. Each scene is checked to do
  * what it claims (contact forces, forces along the ground, body contact pairs), so that no case
  * passes by having nothing to continue.
  *
  * What it caught: the penalty frequency computed again at the load (every penalty backend),
  * friction's matrix-block velocities (sundials_kinsol), sundials_erk's replay without the
- * colliders (a failed load), newmark reading a freed pattern after loading body contact.
+ * colliders (a failed load) and its miss by a still, rotated collider's roundoff velocity,
+ * newmark reading a freed pattern after loading body contact.
  */
 #include "test_util.h"
 

@@ -1196,6 +1196,11 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
     if (w->nv == 0 || defsim_world_collider_count(w) == 0 ||
         (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD))
         return DEFSIM_OK;
+    /* An SDF collider has no function until the host installs it after the load: the replay
+     * goes without contact (and, if it touched one, misses and restarts). */
+    for (int32_t j = 0; j < w->ncol; ++j)
+        if ((w->col[j].generation & 1u) && w->col[j].def.shape == DEFSIM_SHAPE_SDF)
+            return DEFSIM_OK;
     /* contact_begin takes both poses of the step from the colliders: the end pose made the
      * current one for that call (begin copies the poses), then the pending targets back. */
     double *keep = malloc(7 * (size_t)w->ncol * sizeof *keep);

@@ -623,6 +623,91 @@ static void test_contact_state_damaged(void **state)
     defsim_world_destroy(a);
 }
 
+/* Checkpoints with colliders, the contact state, a body-contact pattern and backend histories
+ * (sundials_kinsol with friction, newmark with body contact, velocity_verlet and sundials_erk on
+ * the SDF ground, sundials_ida with a moving sphere), changed in 1 to 3 bytes of a random chunk
+ * with the CRC made valid again: each load is refused with a status and no world, or loads and
+ * steps (any status) without a crash. `trials` per scene. */
+static void mutate(int trials)
+{
+    static const struct {
+        const char *backend;
+        int kind;
+    } cases[] = {{"sundials_kinsol", K_FRICTION}, {"newmark", K_BODY},
+                 {"velocity_verlet", K_SDF},      {"sundials_erk", K_SDF},
+                 {"sundials_ida", K_MOVING}};
+    unsigned long long seed = 23;
+    int refused = 0, loaded = 0, scenes = 0;
+    for (size_t ci = 0; ci < sizeof cases / sizeof cases[0]; ++ci) {
+        defsim_world *a = scene(cases[ci].backend, cases[ci].kind);
+        if (!a) continue;
+        scenes++;
+        seen sn = {0.0, 0.0, 0.0};
+        stop_after = 1 << 30;
+        run(a, cases[ci].kind, 1, 30, &sn);
+        prepare(a, cases[ci].kind, 31);
+        void *data = NULL;
+        size_t n = 0;
+        TU_OK(defsim_world_save_buffer(a, &data, &n));
+        unsigned char *buf = malloc(n);
+        assert_non_null(buf);
+        for (int trial = 0; trial < trials; ++trial) {
+            memcpy(buf, data, n);
+            size_t at = DEFSIM__CKPT_HEADER, len = 0;
+            const int hops = (int)(6.0 * (tu_rand(&seed) + 1.0));
+            for (int h = 0;; ++h) {
+                len = (size_t)get_le(buf + at + 4, 8);
+                if (h == hops || at + 16 + len >= n - 16) break;
+                at += 16 + len;
+            }
+            if (len == 0) continue;
+            const int changes = 1 + (int)(1.5 * (tu_rand(&seed) + 1.0));
+            for (int c = 0; c < changes; ++c) {
+                const size_t k = (size_t)((tu_rand(&seed) + 1.0) * 0.5 * (double)len) % len;
+                buf[at + 12 + k] = (unsigned char)(128.0 * (tu_rand(&seed) + 1.0));
+            }
+            put_le(buf + at + 12 + len, defsim__crc32(0, buf + at, 12 + len), 4);
+            defsim_world *w = (defsim_world *)1;
+            const defsim_status st = defsim_world_load_buffer(buf, n, NULL, NULL, &w);
+            if (st != DEFSIM_OK) {
+                assert_true(st < 0);
+                assert_null(w);
+                ++refused;
+                continue;
+            }
+            ++loaded;
+            /* The host's functions, where the loaded world still has what they belong to. */
+            defsim_collider_def cd;
+            defsim_collider_id id;
+            cd.size = sizeof cd;
+            for (int32_t j = 0; j < defsim_world_collider_count(w); ++j)
+                if (defsim_world_get_collider(w, j, &id, &cd) == DEFSIM_OK &&
+                    cd.shape == DEFSIM_SHAPE_SDF)
+                    TU_OK(defsim_collider_set_sdf(w, id, ground_sdf, NULL));
+            for (int k = 0; k < 3; ++k) (void)defsim_world_step(w, H);   /* any status */
+            defsim_world_destroy(w);
+        }
+        free(buf);
+        defsim_buffer_free(data);
+        defsim_world_destroy(a);
+    }
+    printf("  %d mutated checkpoints of %d scenes with valid CRCs: %d refused, %d loaded and "
+           "stepped\n", refused + loaded, scenes, refused, loaded);
+    assert_true(refused > 0 && loaded > 0);
+}
+
+static void test_mutated(void **state)
+{
+    (void)state;
+    mutate(60);
+}
+
+static void test_mutated_long(void **state)
+{
+    (void)state;
+    mutate(1000);
+}
+
 /* The default run; with --long, the long one (registered as adv_checkpoint_long, label long). */
 int main(int argc, char **argv)
 {
@@ -630,10 +715,12 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_matrix),
         cmocka_unit_test(test_matrix_early),
         cmocka_unit_test(test_contact_state_damaged),
+        cmocka_unit_test(test_mutated),
     };
     const struct CMUnitTest long_tests[] = {
         cmocka_unit_test(test_matrix_late),
         cmocka_unit_test(test_sweep),
+        cmocka_unit_test(test_mutated_long),
     };
     if (argc > 1 && strcmp(argv[1], "--long") == 0)
         return cmocka_run_group_tests(long_tests, NULL, NULL);

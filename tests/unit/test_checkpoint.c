@@ -652,11 +652,12 @@ static void test_version_2_file(void **state)
 }
 
 /* Format version 4 with a collider: tests/checkpoint/v4_colliders.dfck, written by the library
- * of commit 28c0d99 (docs/checkpoints.md, "Versioning policy"): a stable neo-Hookean cube (2x2x2 cells, 0.2 m,
- * Rayleigh beta 2e-3) started at 0.5 m/s along x on a ground with friction 0.6, symplectic_euler,
- * 40 steps of 0.5 ms. It loads and holds that run's state. It lacks version 5's contact state,
- * so the loaded world computes the penalty frequency again, at the loaded state, and continues
- * close to the uninterrupted run, not bit for bit (a file saved now does: test_adv_checkpoint). */
+ * of commit 28c0d99 (docs/checkpoints.md, "Versioning policy"): a stable neo-Hookean cube
+ * (2x2x2 cells, 0.2 m, Rayleigh beta 2e-3) started at 0.5 m/s along x on a ground with friction
+ * 0.6, symplectic_euler, 40 steps of 0.5 ms. It loads and holds that run's state. It lacks
+ * version 5's contact state, so the loaded world computes the penalty frequency again, at the
+ * loaded state, and continues close to the uninterrupted run, not bit for bit (a file saved now
+ * does: test_adv_checkpoint). */
 static defsim_world *sliding_cube(void)
 {
     defsim_world *w = tu_world("symplectic_euler", -9.81, 1);

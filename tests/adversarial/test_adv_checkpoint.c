@@ -8,7 +8,7 @@
  * exception). A run is saved after N steps with the next step's collider pose and pin target
  * pending, loaded into a new world (the force callback installed again), and both step M more:
  * positions, velocities and the clock must have the same bits, and so must a world loaded from
- * the loaded world's own checkpoint. Saved early and mid-run; with --long (adv_checkpoint_long)
+ * the loaded world's own checkpoint. Saved early and mid-run; with --long (long_adv_ckpt)
  * late, and after every 5th step of a run. Each scene is checked to do
  * what it claims (contact forces, forces along the ground, body contact pairs), so that no case
  * passes by having nothing to continue.
@@ -718,7 +718,7 @@ static void test_mutated_long(void **state)
     mutate(1000, 1);
 }
 
-/* The default run; with --long, the long one (registered as adv_checkpoint_long, label long). */
+/* The default run; with --long, the long one (registered as long_adv_ckpt, label long). */
 int main(int argc, char **argv)
 {
     const struct CMUnitTest tests[] = {

@@ -738,6 +738,10 @@ static defsim_status load_options(defsim_world *w, const chunk *c)
         get_str(&r, name, sizeof name);
         const double value = get_f64(&r);
         if (r.bad) break;
+        /* An option at the value it has is left alone: it stays a default, and an environment
+         * variable's default (DEFSIM_SIMD) still applies as it did to the saved run. */
+        double now;
+        if (defsim_world_get_option(w, name, &now) == DEFSIM_OK && now == value) continue;
         const defsim_status st = defsim_world_set_option_number(w, name, value);
         if (st != DEFSIM_OK) return world_failed(w, st, "option");
     }

@@ -30,7 +30,7 @@ enum { SIMD_AUTO = 0, SIMD_SCALAR = 1 };
 static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
     {"simd", DEFSIM_OPTION_CHOICE, 0.0, 0.0, 0.0, SIMD_CHOICES,
      "tet force kernels: auto (the fastest this CPU runs), scalar (reference), or one batched "
-     "variant; the environment variable DEFSIM_SIMD overrides it"},
+     "variant; the environment variable DEFSIM_SIMD gives the default, the option set wins"},
     {"auto_substep", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
      "conditionally stable backends: split each step into substeps of at most substep_safety "
      "times the estimated stable step"},
@@ -390,34 +390,20 @@ int defsim__options_take_reinit(defsim__options *o)
     return r;
 }
 
-double defsim__options_core(const defsim__options *o, int which)
-{
-    return o->core[which];
-}
-
-int defsim__options_auto_substep(const defsim__options *o)
-{
-    return o->core[DEFSIM__OPT_AUTO_SUBSTEP] != 0.0;
-}
-
-double defsim__options_substep_safety(const defsim__options *o)
-{
-    return o->core[DEFSIM__OPT_SUBSTEP_SAFETY];
-}
-
-int defsim__options_projection(const defsim__options *o, int def_projection)
+static int projection(const defsim__options *o, int def_projection)
 {
     int k = o->backend ? find_backend_option(o->backend, "projection") : -1;
     if (k >= 0 && o->backend->options[k].type == DEFSIM_OPTION_CHOICE) return (int)o->values[k];
     return def_projection;
 }
 
-const struct defsim__tet_kernels *defsim__options_tet_kernels(const defsim__options *o)
+static const struct defsim__tet_kernels *tet_kernels(const defsim__options *o)
 {
-    /* An override for benchmarks and cross-checks; unknown or unsupported names fall back to
-     * the best variant, as before the option existed. */
+    /* The environment's choice, for benchmarks and cross-checks, is a default: a host that
+     * set core.simd gets what it set. Unknown or unsupported names fall back to the best
+     * variant, as before the option existed. */
     const char *env = getenv("DEFSIM_SIMD");
-    if (env && env[0]) {
+    if (env && env[0] && !o->core_set[DEFSIM__OPT_SIMD]) {
         if (!strcmp(env, "scalar")) return NULL;
         const defsim__tet_kernels *k = defsim__tet_kernels_find(env);
         return k ? k : defsim__tet_kernels_best();
@@ -432,6 +418,24 @@ const struct defsim__tet_kernels *defsim__options_tet_kernels(const defsim__opti
     snprintf(name, sizeof name, "%.*s", (int)len, p);
     const defsim__tet_kernels *k = defsim__tet_kernels_find(name);
     return k ? k : defsim__tet_kernels_best();   /* set_option refuses unsupported variants */
+}
+
+void defsim__options_resolve(const defsim__options *o, int def_projection, defsim__settings *out)
+{
+    const double *c = o->core;
+    *out = (defsim__settings){
+        .tet_kernels = tet_kernels(o),
+        .projection = projection(o, def_projection),
+        .auto_substep = c[DEFSIM__OPT_AUTO_SUBSTEP] != 0.0,
+        .substep_safety = c[DEFSIM__OPT_SUBSTEP_SAFETY],
+        .watchdog = c[DEFSIM__OPT_WATCHDOG] != 0.0,
+        .energy_growth = c[DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH],
+        .max_stretch = c[DEFSIM__OPT_WATCHDOG_MAX_STRETCH],
+        .contact_dhat = c[DEFSIM__OPT_CONTACT_DHAT],
+        .contact_kappa = c[DEFSIM__OPT_CONTACT_KAPPA],
+        .contact_frequency = c[DEFSIM__OPT_CONTACT_FREQUENCY],
+        .friction_eps_v = c[DEFSIM__OPT_FRICTION_EPS_V],
+        .body_contact = c[DEFSIM__OPT_BODY_CONTACT] != 0.0};
 }
 
 const double *defsim__options_values(const defsim__options *o)
@@ -503,7 +507,10 @@ static defsim_status assign(defsim__options *o, defsim__messages *msg, const opt
                             double v)
 {
     double *value = r->backend ? &o->values[r->index] : &o->core[r->index];
-    if (*value == v) return DEFSIM_OK;
+    if (*value == v) {
+        if (!r->backend) o->core_set[r->index] = 1;   /* wins over the environment's default */
+        return DEFSIM_OK;
+    }
     if (r->spec == &CORE_SPECS[DEFSIM__OPT_SIMD] && v > SIMD_SCALAR) {
         const char *p = SIMD_CHOICES;
         for (int i = 0; i < (int)v; ++i) p = strchr(p, '|') + 1;
@@ -517,6 +524,7 @@ static defsim_status assign(defsim__options *o, defsim__messages *msg, const opt
     }
     *value = v;
     if (r->backend) o->reinit = 1;
+    else o->core_set[r->index] = 1;
     return DEFSIM_OK;
 }
 

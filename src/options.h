@@ -38,6 +38,8 @@ typedef struct defsim__options {
     const char **names;      /* full names: core options, backend options, then counters */
     char *name_buf;          /* storage of the backend's full names */
     int reinit;              /* a backend option changed since the backend's last init */
+    uint8_t core_set[DEFSIM__CORE_OPTIONS]; /* the host set the core option (environment
+                                               variables give defaults only) */
     const double *contact_stats; /* DEFSIM__CONTACT_STATS values (the world's contact), or NULL */
 } defsim__options;
 
@@ -55,16 +57,23 @@ void defsim__options_reset_counters(defsim__options *o);
 /* Returns 1 once after a backend option changed: the world re-initialises its backend. */
 int defsim__options_take_reinit(defsim__options *o);
 
-/* What the core reads of its options: the value of option `which` (DEFSIM__OPT_*). */
-double defsim__options_core(const defsim__options *o, int which);
-int defsim__options_auto_substep(const defsim__options *o);
-double defsim__options_substep_safety(const defsim__options *o);
-/* The backend's "projection" option when it declares one, else `def_projection` (the world
- * def's, for backends that still read it there). */
-int defsim__options_projection(const defsim__options *o, int def_projection);
-/* The batched tet kernels core.simd selects (NULL: the scalar kernels); the environment
- * variable DEFSIM_SIMD overrides the option when it is set. */
-const struct defsim__tet_kernels *defsim__options_tet_kernels(const defsim__options *o);
+/* The options resolved into what the core reads (MuJoCo's mjOption): the world resolves them
+ * when an option changes, and its step and plan read fields, never names or accessors. */
+typedef struct defsim__settings {
+    const struct defsim__tet_kernels *tet_kernels; /* core.simd's kernels, NULL: scalar */
+    int projection;          /* the backend's "projection" option, else the world def's */
+    int auto_substep;
+    double substep_safety;
+    int watchdog;
+    double energy_growth, max_stretch;   /* core.watchdog_energy_growth, _max_stretch */
+    double contact_dhat, contact_kappa, contact_frequency, friction_eps_v;
+    int body_contact;
+} defsim__settings;
+
+/* Resolves the options into *out. core.simd: the environment variable DEFSIM_SIMD gives the
+ * default, and an option the host set wins over it. def_projection: the world def's, for a
+ * backend without a "projection" option. */
+void defsim__options_resolve(const defsim__options *o, int def_projection, defsim__settings *out);
 
 /* Host services (backend.h, ABI version 2). */
 const double *defsim__options_values(const defsim__options *o);

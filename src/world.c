@@ -153,6 +153,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
         free(w);
         return st;
     }
+    defsim__options_resolve(&w->options, (int)w->def.projection, &w->set);
     if (b->state_size > 0) {
         w->bstate = calloc(1, b->state_size);
         if (!w->bstate) {
@@ -265,8 +266,8 @@ defsim_status defsim__world_plan(defsim_world *w)
     const defsim__plan_input in = {
         .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
         .pinned = w->pinned, .gravity = w->def.gravity,
-        .projection = defsim__options_projection(&w->options, (int)w->def.projection),
-        .tet_kernels = defsim__options_tet_kernels(&w->options), .nthreads = w->nthreads,
+        .projection = w->set.projection, .tet_kernels = w->set.tet_kernels,
+        .nthreads = w->nthreads,
         .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
         .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_ids.dense};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
@@ -858,13 +859,11 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
  * tripped and what to do, with the stable step at the restored start (docs/watchdog.md). */
 static defsim_status watch_step(defsim_world *w, double h)
 {
-    const defsim__options *o = &w->options;
     defsim__watchdog_step in = {
         .sys = &w->sys, .work = &w->work, .bodies = w->bodies, .nbodies = w->nbodies,
         .x = w->state.x, .v = w->state.v, .x0 = w->x_save, .v0 = w->v_save,
-        .on = defsim__options_core(o, DEFSIM__OPT_WATCHDOG) != 0.0,
-        .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
-        .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
+        .on = w->set.watchdog, .energy_growth = w->set.energy_growth,
+        .max_stretch = w->set.max_stretch};
     char what[400];
     w->wd.pin_end = 0;
     defsim_status st = in.on ? watch_work(w, &in, what, sizeof what) : DEFSIM_OK;
@@ -884,7 +883,7 @@ static defsim_status watch_step(defsim_world *w, double h)
     const int estimated = limited && estimate_stable_step(w, &hs, NULL) == DEFSIM_OK;
     char msg[sizeof w->msg->error];
     defsim__watchdog_message(msg, sizeof msg, what, h, w->state.t, w->backend->name, limited,
-                             estimated ? hs : NAN, defsim__options_auto_substep(o));
+                             estimated ? hs : NAN, w->set.auto_substep);
     defsim__error(w->msg, "%s", msg);
     return DEFSIM_ERR_UNSTABLE;
 }
@@ -917,14 +916,11 @@ static defsim_status contact_begin(defsim_world *w, double h)
         w->colliders.changed = 0;
     }
     if (defsim__collider_set_live(&w->colliders) == 0) return DEFSIM_OK;
-    const defsim__options *o = &w->options;
     defsim__contact_params p = {
         .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
                                                                  : DEFSIM__CONTACT_PENALTY,
-        .dhat_rel = defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
-        .kappa = defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
-        .frequency = defsim__options_core(o, DEFSIM__OPT_CONTACT_FREQUENCY),
-        .eps_v = defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V)};
+        .dhat_rel = w->set.contact_dhat, .kappa = w->set.contact_kappa,
+        .frequency = w->set.contact_frequency, .eps_v = w->set.friction_eps_v};
     defsim__contact *c = &w->contact;
     if (p.mode == DEFSIM__CONTACT_PENALTY && p.frequency == 0.0 && c->omega_elastic == 0.0) {
         double om = 0.0;   /* the bodies' own top frequency, without contact, once per plan */
@@ -947,31 +943,31 @@ static defsim_status contact_begin(defsim_world *w, double h)
 
 defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 {
-    if (w->nv == 0 || defsim_world_collider_count(w) == 0 ||
+    if (w->nv == 0 || defsim__collider_set_live(&w->colliders) == 0 ||
         (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD))
         return DEFSIM_OK;
     /* An SDF collider has no function until the host installs it after the load: the replay
      * goes without contact (and, if it touched one, misses and restarts). */
-    for (int32_t j = 0; j < w->ncol; ++j)
-        if ((w->col[j].generation & 1u) && w->col[j].def.shape == DEFSIM_SHAPE_SDF)
+    for (int32_t j = 0; j < w->colliders.ncol; ++j)
+        if ((w->colliders.col[j].generation & 1u) && w->colliders.col[j].def.shape == DEFSIM_SHAPE_SDF)
             return DEFSIM_OK;
     /* contact_begin takes both poses of the step from the colliders: the end pose made the
      * current one for that call (begin copies the poses), then the pending targets back. */
-    double *keep = malloc(7 * (size_t)w->ncol * sizeof *keep);
+    double *keep = malloc(7 * (size_t)w->colliders.ncol * sizeof *keep);
     if (!keep) {
         defsim__error(w->msg, "out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    for (int32_t j = 0; j < w->ncol; ++j) {
-        defsim__collider *c = &w->col[j];
+    for (int32_t j = 0; j < w->colliders.ncol; ++j) {
+        defsim__collider *c = &w->colliders.col[j];
         memcpy(keep + 7 * (int64_t)j, c->pos1, sizeof c->pos1);
         memcpy(keep + 7 * (int64_t)j + 3, c->rot1, sizeof c->rot1);
         memcpy(c->pos1, c->pos, sizeof c->pos);
         memcpy(c->rot1, c->rot, sizeof c->rot);
     }
     const defsim_status st = contact_begin(w, 0.0);
-    for (int32_t j = 0; j < w->ncol; ++j) {
-        defsim__collider *c = &w->col[j];
+    for (int32_t j = 0; j < w->colliders.ncol; ++j) {
+        defsim__collider *c = &w->colliders.col[j];
         memcpy(c->pos1, keep + 7 * (int64_t)j, sizeof c->pos1);
         memcpy(c->rot1, keep + 7 * (int64_t)j + 3, sizeof c->rot1);
     }
@@ -1030,7 +1026,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     }
     if (st != DEFSIM_OK) return st;
     if (c->mode == DEFSIM__CONTACT_BARRIER &&
-        defsim__options_core(&w->options, DEFSIM__OPT_WATCHDOG) != 0.0 &&
+        w->set.watchdog &&
         !(c->stat[DEFSIM__CSTAT_MIN_DISTANCE] > 0.0)) {
         /* The watchdog's contact check: the barrier is infinite at zero distance and the line
          * search keeps every vertex out, so a vertex at d <= 0 means that guarantee broke. */
@@ -1055,8 +1051,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
 static defsim_status body_begin(defsim_world *w, double h)
 {
     w->sys.body_contact = NULL;
-    const defsim__options *o = &w->options;
-    if (defsim__options_core(o, DEFSIM__OPT_BODY_CONTACT) == 0.0) {
+    if (!w->set.body_contact) {
         w->body_contact_last = 0;
         return DEFSIM_OK;
     }
@@ -1064,9 +1059,7 @@ static defsim_status body_begin(defsim_world *w, double h)
     w->body_contact_last = 1;
     const defsim_status st = defsim__body_contact_begin(
         &w->body_contact, &w->sys, w->bodies, w->nbodies,
-        defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
-        defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
-        defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V), w->x_save, w->state.v, h,
+        w->set.contact_dhat, w->set.contact_kappa, w->set.friction_eps_v, w->x_save, w->state.v, h,
         w->contact.stat, w->msg);
     if (st == DEFSIM_OK) w->sys.body_contact = &w->body_contact;
     return st;
@@ -1084,7 +1077,7 @@ static defsim_status body_end(defsim_world *w, defsim_status st)
         return bc->failed;
     }
     const double dmin = defsim__body_contact_end(bc, w->state.x, bc->scratch);
-    if (defsim__options_core(&w->options, DEFSIM__OPT_WATCHDOG) != 0.0 && !(dmin > 0.0)) {
+    if (w->set.watchdog && !(dmin > 0.0)) {
         w->stats.watchdog_trips++;
         defsim__error(w->msg, "step: watchdog: two body surfaces touched (distance %g m) although "
                       "the contact barrier forbids it; state restored. This is a defect: please "
@@ -1131,7 +1124,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                       h, w->state.t);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    if (defsim__options_core(&w->options, DEFSIM__OPT_BODY_CONTACT) != 0.0 &&
+    if (w->set.body_contact &&
         !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
         defsim__error(w->msg, "step: body contact (core.body_contact) needs a backend with "
                               "contact CCD (newton_cholmod, newmark or bdf2); backend %s has "
@@ -1160,7 +1153,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     memcpy(w->v_save, w->state.v, bytes);
     w->step_passes = 0;
     w->msg->error[0] = '\0';
-    const int substep = defsim__options_auto_substep(&w->options) &&
+    const int substep = w->set.auto_substep &&
                         (w->backend->stable_step || w->backend->stable_step_options);
     st = step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
@@ -1175,7 +1168,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
                 w->h_stable = attempt > 0 ? 0.5 * hs : hs;
                 w->steps_since_estimate = 0;
             }
-            double k = ceil(h / (defsim__options_substep_safety(&w->options) * w->h_stable));
+            double k = ceil(h / (w->set.substep_safety * w->h_stable));
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
                 defsim__error(w->msg, "step: auto_substep would need %g substeps (stable step %g s)",
@@ -1242,12 +1235,15 @@ defsim_status defsim_world_step(defsim_world *w, double h)
 /* ------------------------------------------------------------------------------------------ */
 /* Options and statistics by name (options.c does the work). */
 
-/* Settings the compiled system holds take effect without a re-plan. */
+/* The options resolve into the settings when they change; those the compiled system holds
+ * take effect without a re-plan. */
 static defsim_status options_changed(defsim_world *w, defsim_status st)
 {
-    if (st == DEFSIM_OK && w->planned) {
-        w->sys.tet_kernels = defsim__options_tet_kernels(&w->options);
-        w->sys.projection = defsim__options_projection(&w->options, (int)w->def.projection);
+    if (st != DEFSIM_OK) return st;
+    defsim__options_resolve(&w->options, (int)w->def.projection, &w->set);
+    if (w->planned) {
+        w->sys.tet_kernels = w->set.tet_kernels;
+        w->sys.projection = w->set.projection;
     }
     return st;
 }

@@ -34,6 +34,7 @@ struct defsim_world {
     const defsim_backend *backend;
     void *bstate;
     defsim__options options;  /* options and counters by name (options.c) */
+    defsim__settings set;     /* the options resolved, as the step and plan read them */
     int backend_ready;        /* init succeeded for the current plan */
     int planned;              /* sys and work match the bodies */
     defsim__messages *msg;    /* allocated: const getters may report errors */

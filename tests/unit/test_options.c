@@ -565,7 +565,8 @@ static void test_registry_tables(void **state)
 }
 
 /* core.simd picks the tet kernels when the world plans, and at once when it is already planned;
- * DEFSIM_SIMD overrides it. Scalar and batched forces agree to rounding. */
+ * DEFSIM_SIMD gives its default, never overrides what the host set. Scalar and batched forces
+ * agree to rounding. */
 static void test_simd_option(void **state)
 {
     (void)state;
@@ -591,14 +592,28 @@ static void test_simd_option(void **state)
         assert_int_equal(defsim_world_set_option(w, "core.simd", x86[i]),
                          defsim__tet_kernels_find(x86[i]) ? DEFSIM_OK
                                                           : DEFSIM_ERR_INVALID_ARGUMENT);
-    /* The environment variable wins over the option at the next plan. */
-    TU_OK(defsim_world_set_option(w, "core.simd", "generic"));
+    /* The environment variable gives the default only: a world whose host did not set
+     * core.simd takes it, and an option the host set wins over it (even "auto", the value the
+     * option had). */
     setenv("DEFSIM_SIMD", "scalar", 1);
-    defsim__world_unplan(w);
-    TU_OK(defsim_world_forces(w, x, fg));
-    assert_null(w->sys.tet_kernels);
-    assert_memory_equal(fg, fs, 3 * (size_t)n * sizeof *fs);
+    for (int set_auto = 0; set_auto < 2; ++set_auto) {
+        defsim_world *e = tu_world("symplectic_euler", 0.0, 1);
+        tu_add_box(e, DEFSIM_MODEL_NEOHOOKEAN, 3, 2, 2, LO, HI, 1e5, 0.3, 1000);
+        if (set_auto) TU_OK(defsim_world_set_option(e, "core.simd", "auto"));
+        TU_OK(defsim_world_forces(e, x, fg));
+        if (set_auto) {
+            assert_ptr_equal(e->sys.tet_kernels, defsim__tet_kernels_best());
+        } else {
+            assert_null(e->sys.tet_kernels);
+            assert_memory_equal(fg, fs, 3 * (size_t)n * sizeof *fs);
+            TU_OK(defsim_world_set_option(e, "core.simd", "generic"));
+            assert_ptr_equal(e->sys.tet_kernels, &defsim__tet_kernels_generic);
+        }
+        defsim_world_destroy(e);
+    }
     unsetenv("DEFSIM_SIMD");
+    /* Without it, the host's option as before. */
+    TU_OK(defsim_world_set_option(w, "core.simd", "generic"));
     defsim__world_unplan(w);
     TU_OK(defsim_world_forces(w, x, fg));
     assert_ptr_equal(w->sys.tet_kernels, &defsim__tet_kernels_generic);

@@ -947,15 +947,32 @@ static double witness_toi(const defsim__contact *c, const witness *w, const doub
     return tmin;
 }
 
-/* The guard over every live collider at its end pose, from x along dx. */
+/* The guard over every live collider at its end pose, from x along dx; colliders whose witness
+ * lies outside the box swept by all vertices cost one box test. */
 static double witness_max_step(defsim__contact *c, const double *x, const double *dx,
                                double tmax)
 {
     if (c->far || (c->nface == 0 && c->nedge == 0)) return tmax;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t i = 0; i < c->nv; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double a = x[3 * i + k], b = a + dx[3 * i + k];
+            lo[k] = fmin(lo[k], fmin(a, b));
+            hi[k] = fmax(hi[k], fmax(a, b));
+        }
     witness w;
-    for (int32_t j = 0; j < c->ncol && tmax > 0.0; ++j)
-        if (live(c, j) && witness_of(c, j, &c->pose1[j], &w))
-            tmax = witness_toi(c, &w, x, dx, tmax, NULL);
+    for (int32_t j = 0; j < c->ncol && tmax > 0.0; ++j) {
+        if (!live(c, j) || !witness_of(c, j, &c->pose1[j], &w)) continue;
+        int near = 0;
+        for (int i = 0; i < w.np && !near; ++i) near = in_box(lo, hi, w.p[i]);
+        for (int i = 0; i < w.ne && !near; ++i) {
+            const double *a = w.p[w.e[i][0]], *b = w.p[w.e[i][1]];
+            int miss = 0;
+            for (int k = 0; k < 3; ++k) miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
+            near = !miss;
+        }
+        if (near) tmax = witness_toi(c, &w, x, dx, tmax, NULL);
+    }
     return tmax;
 }
 

@@ -929,7 +929,8 @@ static double witness_toi(const defsim__contact *c, const witness *w, const doub
         for (int i = 0; i < w->ne && tmin > 0.0; ++i) {
             const double *a = w->p[w->e[i][0]], *b = w->p[w->e[i][1]];
             int miss = 0;
-            for (int k = 0; k < 3; ++k) miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
+            for (int k = 0; k < 3; ++k)
+                miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
             if (miss) continue;
             for (int a2 = 0; a2 < 2; ++a2)
                 for (int k = 0; k < 3; ++k) {
@@ -968,7 +969,8 @@ static double witness_max_step(defsim__contact *c, const double *x, const double
         for (int i = 0; i < w.ne && !near; ++i) {
             const double *a = w.p[w.e[i][0]], *b = w.p[w.e[i][1]];
             int miss = 0;
-            for (int k = 0; k < 3; ++k) miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
+            for (int k = 0; k < 3; ++k)
+                miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
             near = !miss;
         }
         if (near) tmax = witness_toi(c, &w, x, dx, tmax, NULL);
@@ -1095,9 +1097,11 @@ int defsim__contact_start(defsim__contact *c, double *x)
         for (int pass = 0; pass < 4; ++pass) {
             for (int32_t i = 0; i < c->nv; ++i) {
                 double *ci = cpos + 3 * (int64_t)i;
-                if (c->carrier[i] == j || c->pinned[i]) memcpy(ci, base + 3 * (int64_t)i, 3 * sizeof *ci);
+                if (c->carrier[i] == j || c->pinned[i])
+                    memcpy(ci, base + 3 * (int64_t)i, 3 * sizeof *ci);
                 else carry(&c->pose0[j], &c->pose1[j], c->xn + 3 * (int64_t)i, ci);
-                for (int k = 0; k < 3; ++k) rel[3 * (int64_t)i + k] = base[3 * (int64_t)i + k] - ci[k];
+                for (int k = 0; k < 3; ++k)
+                    rel[3 * (int64_t)i + k] = base[3 * (int64_t)i + k] - ci[k];
                 hit[i] = 0;
             }
             (void)witness_toi(c, &w, cpos, rel, 1.0, hit);

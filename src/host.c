@@ -318,9 +318,18 @@ static double contact_max_step(defsim_system *s, const double *x, const double *
 static void contact_start(defsim_system *s, double *x)
 {
     defsim__contact *c = s->sys->contact;
-    if (c && c->mode == DEFSIM__CONTACT_BARRIER && x) defsim__contact_start(c, x);
-    /* last: the start it leaves is feasible for the bodies whatever the colliders moved */
-    if (s->sys->body_contact && x) defsim__body_contact_start(s->sys->body_contact, x);
+    defsim__body_contact *bc = s->sys->body_contact;
+    if (!x) return;
+    if (c && c->mode != DEFSIM__CONTACT_BARRIER) c = NULL;
+    const int carried = c ? defsim__contact_start(c, x) & 1 : 0;
+    if (!bc) return;
+    /* Body contact cuts the start back towards x_n, which keeps every collider's path clear
+     * (a part of a clear segment from x_n) except for vertices that a moving collider carries:
+     * then the colliders' cut runs again on the result, until neither cuts it. */
+    if (!defsim__body_contact_start(bc, x) || !carried) return;
+    for (int round = 0; round < 3; ++round)
+        if (!(defsim__contact_start(c, x) & 2) || !defsim__body_contact_start(bc, x)) return;
+    defsim__contact_block(c, -1);
 }
 
 static uint64_t matrix_pattern_version(defsim_system *s)

@@ -15,6 +15,7 @@
 #include "contact.h"
 
 #include "file_read.h"
+#include "step.h"
 #include "world.h"
 
 #include <errno.h>

@@ -291,6 +291,11 @@ static const double *option_values(const defsim_system *s)
 }
 static double *counters(defsim_system *s) { return defsim__options_counters(s->options); }
 
+static int32_t option_is_set(const defsim_system *s, int32_t index)
+{
+    return defsim__options_is_set(s->options, index);
+}
+
 static defsim_status omega_max(defsim_system *s, const double *x, double *omega, double *damping)
 {
     if (!x || !omega || !damping) return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -388,4 +393,5 @@ const defsim_host defsim__host = {
     .contact_max_step = contact_max_step,
     .contact_start = contact_start,
     .matrix_pattern_version = matrix_pattern_version,
+    .option_is_set = option_is_set,
 };

@@ -301,6 +301,7 @@ void defsim__options_free(defsim__options *o)
 {
     free(o->values);
     free(o->counters);
+    free(o->values_set);
     free(o->names);
     free(o->name_buf);
     memset(o, 0, sizeof *o);
@@ -318,9 +319,10 @@ defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
     for (size_t i = 0; i < nc; ++i) bytes += strlen(b->name) + strlen(b->counters[i].name) + 2;
     o->values = calloc(no + 1, sizeof *o->values);
     o->counters = calloc(nc + 1, sizeof *o->counters);
+    o->values_set = calloc(no + 1, 1);
     o->names = calloc(DEFSIM__CORE_OPTIONS + no + nc, sizeof *o->names);
     o->name_buf = malloc(bytes);
-    if (!o->values || !o->counters || !o->names || !o->name_buf) {
+    if (!o->values || !o->counters || !o->values_set || !o->names || !o->name_buf) {
         defsim__options_free(o);
         defsim__set_last_error("out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -373,6 +375,8 @@ defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         *slot = legacy[i].value;
+        if (slot >= o->core && slot < o->core + DEFSIM__CORE_OPTIONS) o->core_set[slot - o->core] = 1;
+        else o->values_set[slot - o->values] = 1;
     }
     return DEFSIM_OK;
 }
@@ -436,6 +440,12 @@ void defsim__options_resolve(const defsim__options *o, int def_projection, defsi
         .contact_frequency = c[DEFSIM__OPT_CONTACT_FREQUENCY],
         .friction_eps_v = c[DEFSIM__OPT_FRICTION_EPS_V],
         .body_contact = c[DEFSIM__OPT_BODY_CONTACT] != 0.0};
+}
+
+int32_t defsim__options_is_set(const defsim__options *o, int32_t index)
+{
+    return o->backend && index >= 0 && index < o->backend->option_count &&
+           o->values_set[index];
 }
 
 const double *defsim__options_values(const defsim__options *o)
@@ -507,8 +517,9 @@ static defsim_status assign(defsim__options *o, defsim__messages *msg, const opt
                             double v)
 {
     double *value = r->backend ? &o->values[r->index] : &o->core[r->index];
+    uint8_t *set = r->backend ? &o->values_set[r->index] : &o->core_set[r->index];
     if (*value == v) {
-        if (!r->backend) o->core_set[r->index] = 1;   /* wins over the environment's default */
+        *set = 1;   /* wins over an environment variable's default */
         return DEFSIM_OK;
     }
     if (r->spec == &CORE_SPECS[DEFSIM__OPT_SIMD] && v > SIMD_SCALAR) {
@@ -523,8 +534,8 @@ static defsim_status assign(defsim__options *o, defsim__messages *msg, const opt
         }
     }
     *value = v;
+    *set = 1;
     if (r->backend) o->reinit = 1;
-    else o->core_set[r->index] = 1;
     return DEFSIM_OK;
 }
 

@@ -35,6 +35,7 @@ typedef struct defsim__options {
     const defsim_backend *backend;
     double *values;          /* backend->option_count: current values */
     double *counters;        /* backend->counter_count */
+    uint8_t *values_set;     /* backend->option_count: the host set the option */
     const char **names;      /* full names: core options, backend options, then counters */
     char *name_buf;          /* storage of the backend's full names */
     int reinit;              /* a backend option changed since the backend's last init */
@@ -75,8 +76,9 @@ typedef struct defsim__settings {
  * backend without a "projection" option. */
 void defsim__options_resolve(const defsim__options *o, int def_projection, defsim__settings *out);
 
-/* Host services (backend.h, ABI version 2). */
+/* Host services (backend.h, ABI version 2; option_is_set, ABI 7). */
 const double *defsim__options_values(const defsim__options *o);
+int32_t defsim__options_is_set(const defsim__options *o, int32_t index);
 double *defsim__options_counters(defsim__options *o);
 
 /* Checks the options and counters a backend declares (registry). On error writes why to msg. */

@@ -207,10 +207,10 @@ static const defsim_option_spec ic_options[OPT_COUNT] = {
     [OPT_ORDERING] = {.name = "cholmod_ordering", .type = DEFSIM_OPTION_CHOICE,
         .choices = ORDERINGS,
         .doc = "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or "
-               "metis; the environment variable DEFSIM_CHOLMOD_ORDERING overrides it"},
+               "metis; the environment variable DEFSIM_CHOLMOD_ORDERING gives the default"},
     [OPT_FACTOR] = {.name = "cholmod_factor", .type = DEFSIM_OPTION_CHOICE, .choices = FACTORS,
         .doc = "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the "
-               "environment variable DEFSIM_CHOLMOD_FACTOR overrides it"},
+               "environment variable DEFSIM_CHOLMOD_FACTOR gives the default"},
 };
 
 static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
@@ -231,10 +231,15 @@ static int choice_index(const char *choices, const char *name)
     }
 }
 
-/* A CHOICE option, unless the environment variable names one of its choices. */
-static int choice_option(const double *values, int opt, const char *env)
+/* A CHOICE option; the environment variable, when it names one of its choices, gives the
+ * default: an option the host set wins (a host of ABI 7 or later says which it set). */
+static int choice_option(const defsim_host *host, const defsim_system *sys, const double *values,
+                         int opt, const char *env)
 {
-    const char *e = getenv(env);
+    const int set = host->size >= offsetof(defsim_host, option_is_set) +
+                                      sizeof host->option_is_set &&
+                    host->option_is_set(sys, opt);
+    const char *e = set ? NULL : getenv(env);
     const int k = e ? choice_index(ic_options[opt].choices, e) : -1;
     return k >= 0 ? k : (int)values[opt];
 }
@@ -328,9 +333,9 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     /* Fill-reducing ordering: AMD and METIS, keeping the one with less fill (METIS halves the
      * flops on the 100k-tet beam). METIS keeps global random state, so analyses run one at a
      * time in the process (analysis_lock): then its ordering is the same on every run. */
-    ordering_methods(&s->cc, choice_option(opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
+    ordering_methods(&s->cc, choice_option(host, sys, opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
     s->cc.postorder = 1;
-    const int factor = choice_option(opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
+    const int factor = choice_option(host, sys, opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
     s->cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
                        : factor == 2 ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
     s->cc.quick_return_if_not_posdef = 1;

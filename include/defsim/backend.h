@@ -32,7 +32,7 @@ extern "C" {
 /// DEFSIM_BACKEND_CONTACT_CCD; version 6 defsim_host.matrix_pattern_version (body contact grows
 /// the pattern). The core accepts backends built against 1 to 6 (a table's struct_size says
 /// which fields it has); a backend checks host->size before using a later field.
-#define DEFSIM_BACKEND_ABI_VERSION 6u
+#define DEFSIM_BACKEND_ABI_VERSION 7u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -258,6 +258,15 @@ typedef struct defsim_host {
     /// number never changes. Returns 0 if merging ran out of memory (then matrix_pattern and
     /// matrix_values fail with DEFSIM_ERR_OUT_OF_MEMORY until it succeeds).
     uint64_t (*matrix_pattern_version)(defsim_system *sys);
+
+    /* ABI version 7 */
+
+    /// 1 if the host set the backend's option `index` (its place in the backend's `options`)
+    /// in this world by name, at creation or by a checkpoint's load (which sets the options that
+    /// differ from their value then), else 0 (the default holds); 0 for an index out of range. A backend
+    /// whose environment variable gives an option's default (DEFSIM_CHOLMOD_ORDERING) reads
+    /// the variable only when this is 0: an option the host set wins.
+    int32_t (*option_is_set)(const defsim_system *sys, int32_t index);
 } defsim_host;
 
 /// Capability flags of a backend.

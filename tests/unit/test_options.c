@@ -564,6 +564,27 @@ static void test_registry_tables(void **state)
     assert_int_equal(defsim_register_backend(&core), DEFSIM_ERR_INVALID_ARGUMENT);
 }
 
+/* The host table says which backend options the host set (option_is_set, ABI 7): a backend
+ * whose environment variable gives an option's default (DEFSIM_CHOLMOD_*) lets the host's
+ * setting win. Setting an option to the value it has counts as setting it. */
+static void test_option_is_set(void **state)
+{
+    (void)state;
+    defsim_world *w = beam_world("opt_test");
+    assert_true(defsim__host.abi_version >= 7u && defsim__host.option_is_set != NULL);
+    for (int32_t i = 0; i < OPT_N; ++i) assert_int_equal(defsim__host.option_is_set(&w->handle, i), 0);
+    TU_OK(defsim_world_set_option(w, "opt_test.max_order", "4"));   /* the default */
+    TU_OK(defsim_world_set_option_number(w, "opt_test.rtol", 1e-6));
+    for (int32_t i = 0; i < OPT_N; ++i)
+        assert_int_equal(defsim__host.option_is_set(&w->handle, i),
+                         i == OPT_MAX_ORDER || i == OPT_RTOL);
+    assert_int_equal(defsim__host.option_is_set(&w->handle, OPT_N), 0);   /* out of range */
+    assert_int_equal(defsim__host.option_is_set(&w->handle, -1), 0);
+    assert_int_equal(defsim_world_set_option(w, "opt_test.max_order", "9"),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    defsim_world_destroy(w);
+}
+
 /* core.simd picks the tet kernels when the world plans, and at once when it is already planned;
  * DEFSIM_SIMD gives its default, never overrides what the host set. Scalar and batched forces
  * agree to rounding. */
@@ -635,6 +656,7 @@ int main(void)
         cmocka_unit_test(test_stats_by_name),
         cmocka_unit_test(test_registry_tables),
         cmocka_unit_test(test_simd_option),
+        cmocka_unit_test(test_option_is_set),
     };
     return cmocka_run_group_tests(tests, register_once, NULL);
 }

@@ -12,6 +12,7 @@
 #include "forces.h"
 #include "mat3.h"
 #include "material.h"
+#include "terms.h"
 #include "world.h"
 
 #include <math.h>
@@ -168,7 +169,7 @@ defsim_status defsim__coupling_step_end(defsim_world *w, defsim_status st)
     defsim__coupling *c = &w->cpl;
     c->in_step = 0;
     c->hold = 0;
-    w->sys.cb_stiffness = NULL;
+    defsim__terms_step_end(&w->sys);
     if (c->failed) {
         c->failed = 0;
         st = DEFSIM_ERR_CALLBACK;   /* the callback's failure is the cause, whatever followed */
@@ -194,7 +195,7 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
         w->fext = NULL;
         w->fext_nonzero = 0;
         w->sys.fext = NULL;
-        return DEFSIM_OK;
+        return w->planned ? defsim__terms_compile(&w->sys) : DEFSIM_OK;
     }
     if (n != w->nv) {
         defsim__error(w->msg, "set_external_forces: n = %d but the world has %d vertices",
@@ -220,8 +221,9 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
         nonzero |= f[i] != 0.0;
     }
     w->fext_nonzero = nonzero;
-    if (w->planned) w->sys.fext = nonzero ? w->fext : NULL;
-    return DEFSIM_OK;
+    if (!w->planned) return DEFSIM_OK;
+    w->sys.fext = nonzero ? w->fext : NULL;
+    return defsim__terms_compile(&w->sys);
 }
 
 defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn fn,
@@ -245,7 +247,7 @@ defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn f
         defsim__error(w->msg, "out of memory");
         return st;
     }
-    return DEFSIM_OK;
+    return w->planned ? defsim__terms_compile(&w->sys) : DEFSIM_OK;
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -14,6 +14,7 @@
 #include "plan.h"
 #include "registry.h"
 #include "stability.h"
+#include "terms.h"
 #include "tet_rest.h"
 #include "watchdog.h"
 
@@ -278,6 +279,12 @@ defsim_status defsim__world_plan(defsim_world *w)
         return st;
     }
     w->sys.fext = w->fext_nonzero ? w->fext : NULL;
+    w->sys.host = &w->handle;
+    if ((st = defsim__terms_compile(&w->sys)) != DEFSIM_OK) {
+        defsim__unplan(&w->sys, &w->work);
+        defsim__error(w->msg, "out of memory while planning the world");
+        return st;
+    }
     w->contact.omega_elastic = 0.0;
     w->planned = 1;
     return DEFSIM_OK;
@@ -1042,6 +1049,8 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     if (w->nv > 0 && penalty && (st = contact_begin(w, 0.0)) != DEFSIM_OK) return st;
     if (w->nv > 0) st = estimate_stable_step(w, &h, &om);
     w->sys.contact = NULL;
+    const defsim_status ct = defsim__terms_compile(&w->sys);
+    if (st == DEFSIM_OK) st = ct;
     if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
@@ -1089,7 +1098,10 @@ static defsim_status watch_step(defsim_world *w, double h)
  * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends. */
 static defsim_status contact_begin(defsim_world *w, double h)
 {
-    w->sys.contact = NULL;
+    if (w->sys.contact) {   /* left attached by a failed step: detach */
+        w->sys.contact = NULL;
+        (void)defsim__terms_compile(&w->sys);
+    }
     /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
      * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
      * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
@@ -1138,7 +1150,7 @@ static defsim_status contact_begin(defsim_world *w, double h)
                                              h > 0.0 ? w->v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
-    return DEFSIM_OK;
+    return defsim__terms_compile(&w->sys);
 }
 
 /* A zeroed contact-force read-back of the world's vertex count. */
@@ -1161,6 +1173,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
 {
     defsim__contact *c = w->sys.contact;
     w->sys.contact = NULL;
+    if (c && defsim__terms_compile(&w->sys) != DEFSIM_OK) st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
         if (st == DEFSIM_OK && w->contact.readback_set) {
             free(w->contact_force);
@@ -1217,7 +1230,10 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
  * backends without contact CCD already). */
 static defsim_status body_begin(defsim_world *w, double h)
 {
-    w->sys.body_contact = NULL;
+    if (w->sys.body_contact) {   /* left attached by a failed step: detach */
+        w->sys.body_contact = NULL;
+        (void)defsim__terms_compile(&w->sys);
+    }
     const defsim__options *o = &w->options;
     if (defsim__options_core(o, DEFSIM__OPT_BODY_CONTACT) == 0.0) {
         w->body_contact_last = 0;
@@ -1231,8 +1247,9 @@ static defsim_status body_begin(defsim_world *w, double h)
         defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
         defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V), w->x_save, w->state.v, h,
         w->contact.stat, w->msg);
-    if (st == DEFSIM_OK) w->sys.body_contact = &w->body_contact;
-    return st;
+    if (st != DEFSIM_OK) return st;
+    w->sys.body_contact = &w->body_contact;
+    return defsim__terms_compile(&w->sys);
 }
 
 /* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
@@ -1241,6 +1258,8 @@ static defsim_status body_end(defsim_world *w, defsim_status st)
 {
     defsim__body_contact *bc = w->sys.body_contact;
     w->sys.body_contact = NULL;
+    if (bc && defsim__terms_compile(&w->sys) != DEFSIM_OK && st == DEFSIM_OK)
+        st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!bc || st != DEFSIM_OK) return st;
     if (bc->failed) {
         defsim__error(w->msg, "out of memory for body contact pairs; state restored");
@@ -1342,9 +1361,8 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
             defsim__coupling_substep_before(w, i, n, h / (double)n);
-            if (w->sys.contact)
-                defsim__contact_substep(w->sys.contact, (double)i / (double)n,
-                                        (double)(i + 1) / (double)n, h / (double)n);
+            defsim__terms_substep(&w->sys, (double)i / (double)n, (double)(i + 1) / (double)n,
+                                  h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
             defsim__coupling_substep_after(w);
         }
@@ -1448,6 +1466,9 @@ defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const cha
 defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
 {
     if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (name && value && !strncmp(name, "term.", 5) &&
+        defsim__terms_counter(&w->sys, name + 5, value))
+        return DEFSIM_OK;
     if (!name || !defsim__watchdog_is_diagnostic(name))
         return defsim__options_stat(&w->options, w->msg, &w->stats, name, value);
     const defsim_stats now = stats_now(w);

@@ -8,6 +8,7 @@
 #define DEFSIM_ELEMENT_H
 
 #include "defsim/backend.h"
+#include "mat3.h"
 #include "system.h"
 
 #include <math.h>
@@ -52,8 +53,7 @@ static inline void tet_deformation(const double *x, const int32_t *id, const dou
     }
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            F[3 * i + j] = ds[3 * i + 0] * dminv[0 + j] + ds[3 * i + 1] * dminv[3 + j] +
-                           ds[3 * i + 2] * dminv[6 + j];
+            F[3 * i + j] = DEFSIM__M3_MUL(ds, dminv, i, j);
 }
 
 /* Adds s * P g_a to the force of node a (s = -volume for elastic forces). */
@@ -63,8 +63,7 @@ static inline void tet_scatter(double *f, const int32_t *id, const double *dminv
     double h[3][3];   /* h[a][i] = s sum_j P_ij Dminv[a][j] */
     for (int a = 0; a < 3; ++a)
         for (int i = 0; i < 3; ++i)
-            h[a][i] = s * (P[3 * i + 0] * dminv[3 * a + 0] + P[3 * i + 1] * dminv[3 * a + 1] +
-                           P[3 * i + 2] * dminv[3 * a + 2]);
+            h[a][i] = s * DEFSIM__M3_MUL_NT(P, dminv, i, a);
     for (int a = 0; a < 3; ++a) {
         double *fa = f + 3 * (int64_t)id[a];
         fa[0] += h[a][0];

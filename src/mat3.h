@@ -5,6 +5,11 @@
  * 3x3 matrices are row-major double[9]: A[3*i+j] = A_ij. The inline helpers write their result
  * through a temporary, so an output may alias an input. Larger symmetric matrices (element
  * Hessians, n <= 12) are row-major double[n*n].
+ *
+ * The formulas of the products, the cofactor matrix and its determinant are written once, as
+ * the DEFSIM__M3_* macros over row-major arrays of any element type: double in the helpers here
+ * and the scalar kernels (element.h), the SIMD vectors of tet_batch.h in the batched kernels,
+ * one matrix per lane. Both thus compute the same expressions in the same order.
  */
 #ifndef DEFSIM_MAT3_H
 #define DEFSIM_MAT3_H
@@ -13,6 +18,32 @@
 
 /* Largest n accepted by defsim__project_psd (a tet's 12 x 12 Hessian). */
 #define DEFSIM__EIG_MAX_N 12
+
+/* Entry (i, j) of A B, A^T B and A B^T. */
+#define DEFSIM__M3_MUL(A, B, i, j)                                                            \
+    ((A)[3 * (i)] * (B)[(j)] + (A)[3 * (i) + 1] * (B)[3 + (j)] + (A)[3 * (i) + 2] * (B)[6 + (j)])
+#define DEFSIM__M3_MUL_TN(A, B, i, j)                                                         \
+    ((A)[(i)] * (B)[(j)] + (A)[3 + (i)] * (B)[3 + (j)] + (A)[6 + (i)] * (B)[6 + (j)])
+#define DEFSIM__M3_MUL_NT(A, B, i, j)                                                         \
+    ((A)[3 * (i)] * (B)[3 * (j)] + (A)[3 * (i) + 1] * (B)[3 * (j) + 1] +                      \
+     (A)[3 * (i) + 2] * (B)[3 * (j) + 2])
+
+/* C = cof A = dJ/dA with J = det A (C = det(A) A^-T when A is invertible); C must not alias A. */
+#define DEFSIM__M3_COFACTOR(A, C)                                                             \
+    do {                                                                                      \
+        (C)[0] = (A)[4] * (A)[8] - (A)[5] * (A)[7];                                           \
+        (C)[1] = (A)[5] * (A)[6] - (A)[3] * (A)[8];                                           \
+        (C)[2] = (A)[3] * (A)[7] - (A)[4] * (A)[6];                                           \
+        (C)[3] = (A)[2] * (A)[7] - (A)[1] * (A)[8];                                           \
+        (C)[4] = (A)[0] * (A)[8] - (A)[2] * (A)[6];                                           \
+        (C)[5] = (A)[1] * (A)[6] - (A)[0] * (A)[7];                                           \
+        (C)[6] = (A)[1] * (A)[5] - (A)[2] * (A)[4];                                           \
+        (C)[7] = (A)[2] * (A)[3] - (A)[0] * (A)[5];                                           \
+        (C)[8] = (A)[0] * (A)[4] - (A)[1] * (A)[3];                                           \
+    } while (0)
+
+/* det A from C = cof A (expansion along the first row). */
+#define DEFSIM__M3_DET_COF(A, C) ((A)[0] * (C)[0] + (A)[1] * (C)[1] + (A)[2] * (C)[2])
 
 static inline void defsim__m3_identity(double A[9])
 {
@@ -30,15 +61,7 @@ static inline double defsim__m3_det(const double A[9])
 static inline void defsim__m3_cofactor(const double A[9], double C[9])
 {
     double c[9];
-    c[0] = A[4] * A[8] - A[5] * A[7];
-    c[1] = A[5] * A[6] - A[3] * A[8];
-    c[2] = A[3] * A[7] - A[4] * A[6];
-    c[3] = A[2] * A[7] - A[1] * A[8];
-    c[4] = A[0] * A[8] - A[2] * A[6];
-    c[5] = A[1] * A[6] - A[0] * A[7];
-    c[6] = A[1] * A[5] - A[2] * A[4];
-    c[7] = A[2] * A[3] - A[0] * A[5];
-    c[8] = A[0] * A[4] - A[1] * A[3];
+    DEFSIM__M3_COFACTOR(A, c);
     memcpy(C, c, sizeof c);
 }
 
@@ -47,7 +70,7 @@ static inline double defsim__m3_inverse(const double A[9], double Ainv[9])
 {
     double C[9];
     defsim__m3_cofactor(A, C);
-    double det = A[0] * C[0] + A[1] * C[1] + A[2] * C[2];
+    double det = DEFSIM__M3_DET_COF(A, C);
     if (det == 0.0) {
         memset(Ainv, 0, 9 * sizeof(double));
         return det;
@@ -78,36 +101,18 @@ static inline double defsim__m3_ddot(const double A[9], const double B[9])
     return s;
 }
 
-/* C = A B */
-static inline void defsim__m3_mul(const double A[9], const double B[9], double C[9])
-{
-    double c[9];
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            c[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
-    memcpy(C, c, sizeof c);
-}
-
-/* C = A^T B */
-static inline void defsim__m3_mul_tn(const double A[9], const double B[9], double C[9])
-{
-    double c[9];
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            c[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
-    memcpy(C, c, sizeof c);
-}
-
-/* C = A B^T */
-static inline void defsim__m3_mul_nt(const double A[9], const double B[9], double C[9])
-{
-    double c[9];
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            c[3 * i + j] = A[3 * i] * B[3 * j] + A[3 * i + 1] * B[3 * j + 1] +
-                           A[3 * i + 2] * B[3 * j + 2];
-    memcpy(C, c, sizeof c);
-}
+/* C = A B, A^T B and A B^T: one body over the entry formula. */
+#define DEFSIM__M3_PRODUCT_FN(name, ENTRY)                                                    \
+    static inline void name(const double A[9], const double B[9], double C[9])                \
+    {                                                                                         \
+        double c[9];                                                                          \
+        for (int i = 0; i < 3; ++i)                                                           \
+            for (int j = 0; j < 3; ++j) c[3 * i + j] = ENTRY(A, B, i, j);                     \
+        memcpy(C, c, sizeof c);                                                               \
+    }
+DEFSIM__M3_PRODUCT_FN(defsim__m3_mul, DEFSIM__M3_MUL)         /* C = A B */
+DEFSIM__M3_PRODUCT_FN(defsim__m3_mul_tn, DEFSIM__M3_MUL_TN)   /* C = A^T B */
+DEFSIM__M3_PRODUCT_FN(defsim__m3_mul_nt, DEFSIM__M3_MUL_NT)   /* C = A B^T */
 
 /*
  * Signed SVD: F = U diag(sigma) V^T with U and V proper rotations (det +1). sigma is sorted by

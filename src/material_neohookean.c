@@ -28,7 +28,7 @@ static double neohookean_psi(double mu, double lambda, const double F[9])
 static double cofactor_det(const double F[9], double G[9])
 {
     defsim__m3_cofactor(F, G);
-    return F[0] * G[0] + F[1] * G[1] + F[2] * G[2];
+    return DEFSIM__M3_DET_COF(F, G);
 }
 
 /* P = mu (F - F^-T) + lambda log J F^-T. */
@@ -105,7 +105,7 @@ DEFSIM_SIMD_INLINE void law_neohookean(const double *d, int s, const vd F[9], vd
     const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
     vd C[9];
     cofactor(F, C);
-    const vd J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+    const vd J = DEFSIM__M3_DET_COF(F, C);
     const vd c = (la * v_log(J) - mu) / J;
     for (int i = 0; i < 9; ++i) P[i] = mu * F[i] + c * C[i];
     const vl bad = ~(J > 0.0);

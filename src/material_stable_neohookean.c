@@ -50,7 +50,7 @@ static double snh_P(double mu, double lambda, const double F[9], double P[9])
     snh_params(mu, lambda, &mp, &lp, &alpha);
     defsim__m3_cofactor(F, C);
     double ic = defsim__m3_ddot(F, F);
-    double d = F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha;
+    double d = DEFSIM__M3_DET_COF(F, C) - alpha;
     double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
     double c2 = lp * d;
     for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
@@ -72,7 +72,7 @@ static void snh_dPdF(double mu, double lambda, const double F[9], double dPdF[81
     double ic = defsim__m3_ddot(F, F);
     double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
     double cF = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
-    double c2 = lp * (F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha);
+    double c2 = lp * (DEFSIM__M3_DET_COF(F, C) - alpha);
     for (int r = 0; r < 9; ++r)
         for (int c = r; c < 9; ++c) {
             double h = cF * F[r] * F[c] + lp * C[r] * C[c];
@@ -142,7 +142,7 @@ DEFSIM_SIMD_INLINE void law_snh(const double *d, int s, const vd F[9], vd P[9])
     vd ic = F[0] * F[0];
     for (int i = 1; i < 9; ++i) ic += F[i] * F[i];
     const vd c1 = mp * (1.0 - 1.0 / (ic + 1.0));
-    const vd c2 = lp * (F[0] * C[0] + F[1] * C[1] + F[2] * C[2] - alpha);
+    const vd c2 = lp * (DEFSIM__M3_DET_COF(F, C) - alpha);
     for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
 }
 

@@ -97,7 +97,7 @@ DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
     vd E[9], S[9];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            E[3 * i + j] = 0.5 * (F[i] * F[j] + F[3 + i] * F[3 + j] + F[6 + i] * F[6 + j]);
+            E[3 * i + j] = 0.5 * DEFSIM__M3_MUL_TN(F, F, i, j);
     E[0] -= 0.5;
     E[4] -= 0.5;
     E[8] -= 0.5;
@@ -108,7 +108,7 @@ DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
     S[8] += la * tr;
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            P[3 * i + j] = F[3 * i] * S[j] + F[3 * i + 1] * S[3 + j] + F[3 * i + 2] * S[6 + j];
+            P[3 * i + j] = DEFSIM__M3_MUL(F, S, i, j);
 }
 
 DEFSIM__BATCHED_KERNEL(stvk, law_stvk)

@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Gmsh .msh, ASCII formats 2.x, 4.0 and 4.1: linear tets; lower-dimensional elements skipped. */
-#include "mesh_load.h"
+#include "mesh_gmsh.h"
+
+#include "mesh_raw.h"
 
 #include <errno.h>
 #include <math.h>

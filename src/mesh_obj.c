@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Wavefront .obj: faces (fan-triangulated) and polylines; their edges become springs. */
-#include "mesh_load.h"
+#include "mesh_obj.h"
+
+#include "mesh_raw.h"
 
 #include <errno.h>
 #include <math.h>

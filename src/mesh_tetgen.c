@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* TetGen .node/.ele (https://wias-berlin.de/software/tetgen/fformats.html). */
-#include "mesh_load.h"
+#include "mesh_tetgen.h"
+
+#include "mesh_raw.h"
 
 #include <errno.h>
 #include <math.h>

@@ -13,6 +13,7 @@
 #ifndef DEFSIM_TET_BATCH_H
 #define DEFSIM_TET_BATCH_H
 
+#include "mat3.h"
 #include "simd.h"
 #include "tet_forces.h"
 
@@ -50,8 +51,7 @@ DEFSIM_SIMD_INLINE void batch_deformation(const double *x, const int32_t *id, co
         for (int a = 0; a < 3; ++a) ds[3 * i + a] = p[a][i] - p[3][i];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            F[3 * i + j] = ds[3 * i + 0] * dm[0 + j] + ds[3 * i + 1] * dm[3 + j] +
-                           ds[3 * i + 2] * dm[6 + j];
+            F[3 * i + j] = DEFSIM__M3_MUL(ds, dm, i, j);
 }
 
 /* h_a[i] = -vol sum_j P_ij Dminv[a][j], h_3 = -(h_0 + h_1 + h_2), added to the forces of the
@@ -62,8 +62,7 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
     vd h[4][3];
     for (int a = 0; a < 3; ++a)
         for (int i = 0; i < 3; ++i)
-            h[a][i] = nvol * (P[3 * i + 0] * dm[3 * a + 0] + P[3 * i + 1] * dm[3 * a + 1] +
-                              P[3 * i + 2] * dm[3 * a + 2]);
+            h[a][i] = nvol * DEFSIM__M3_MUL_NT(P, dm, i, a);
     for (int i = 0; i < 3; ++i) h[3][i] = -(h[0][i] + h[1][i] + h[2][i]);
     for (int a = 0; a < 4; ++a) {
         double *rows[DEFSIM_VW];
@@ -99,19 +98,13 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
     }
 
 /* ------------------------------------------------------------------------------------------ */
-/* Shared by the lane-wise laws of the material files.                                        */
+/* Shared by the lane-wise laws of the material files: mat3.h's formulas over vd (the products
+ * are used as DEFSIM__M3_MUL and friends directly).                                           */
 
+/* C = cof A, lane by lane (C must not alias A). */
 DEFSIM_SIMD_INLINE void cofactor(const vd A[9], vd C[9])
 {
-    C[0] = A[4] * A[8] - A[5] * A[7];
-    C[1] = A[5] * A[6] - A[3] * A[8];
-    C[2] = A[3] * A[7] - A[4] * A[6];
-    C[3] = A[2] * A[7] - A[1] * A[8];
-    C[4] = A[0] * A[8] - A[2] * A[6];
-    C[5] = A[1] * A[6] - A[0] * A[7];
-    C[6] = A[1] * A[5] - A[2] * A[4];
-    C[7] = A[2] * A[3] - A[0] * A[5];
-    C[8] = A[0] * A[4] - A[1] * A[3];
+    DEFSIM__M3_COFACTOR(A, C);
 }
 
 #endif /* DEFSIM_TET_BATCH_H */

@@ -4,6 +4,8 @@
  * building them into a world and setting their poses before each step. The format is in
  * tools/README.md, section "Colliders".
  */
+#include "scene_collider.h"
+
 #include "scene_json.h"
 
 #include <math.h>

@@ -6,6 +6,9 @@
  *
  * Contents: paths; forces; drives; attachments; build, step, free.
  */
+#include "scene_coupling.h"
+
+#include "scene_collider.h"
 #include "scene_json.h"
 
 #include <math.h>

@@ -1,14 +1,16 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Scene files, the JSON layer: parsing with cJSON, the source position of every value (for
- * "file:line:col" in messages), typed access with range checks, and --set overrides.
+ * "file:line:col" in messages), typed access with range checks, --set overrides, and vertex
+ * selections.
  *
  * cJSON keeps no source positions, so a second pass over the (already validated) text records
  * where each value starts, in document order. cJSON keeps members and elements in document
  * order too, so a pre-order walk of its tree pairs each node with its offset. The pass must
  * agree with cJSON on what is whitespace (every byte up to 0x20).
  *
- * Contents: source positions; sj_parse; typed access; overrides.
+ * Contents: source positions; sj_parse; typed access; overrides; vertex selections (indices and
+ * boxes, for pins, forces and drives).
  */
 #include "scene_json.h"
 
@@ -357,4 +359,56 @@ int sj_override(scene *s, cJSON *root, const char *spec)
     cJSON_Delete(value);
     snprintf(s->error, sizeof s->error, "--set %s: empty key path", spec);
     return -1;
+}
+
+int sj_select(sj_ctx *c, const cJSON *indices, const cJSON *boxes, const char *what,
+              const double *pos, int32_t nv, double tol, uint8_t *mark)
+{
+    if (indices && !cJSON_IsArray(indices))
+        return sj_fail(c, indices, "%s.indices must be an array of vertex indices", what);
+    if (indices)
+        for (const cJSON *e = indices->child; e; e = e->next) {
+            if (!cJSON_IsNumber(e) || e->valuedouble != floor(e->valuedouble) ||
+                e->valuedouble < 0 || e->valuedouble >= nv)
+                return sj_fail(c, e, "%s: vertex index must be an integer in [0, %d)", what, (int)nv);
+            mark[(int32_t)e->valuedouble] = 1;
+        }
+    if (!boxes) return 0;
+    /* One box {lo, hi}, or an array of them. */
+    const cJSON *one = cJSON_IsArray(boxes) ? boxes->child : boxes;
+    if (cJSON_IsArray(boxes) && !one) return sj_fail(c, boxes, "%s.box: empty list", what);
+    for (; one; one = cJSON_IsArray(boxes) ? one->next : NULL) {
+        static const char *const keys[] = {"lo", "hi", NULL};
+        double lo[3], hi[3];
+        char wb[220];
+        snprintf(wb, sizeof wb, "%s.box", what);
+        if (sj_keys(c, one, wb, keys) || !sj_require(c, one, "lo", wb) ||
+            !sj_require(c, one, "hi", wb) || sj_vec3(c, one, "lo", wb, lo) ||
+            sj_vec3(c, one, "hi", wb, hi))
+            return -1;
+        int hits = 0;
+        for (int32_t i = 0; i < nv; ++i) {
+            const double *p = pos + 3 * i;
+            int in = 1;
+            for (int k = 0; k < 3; ++k) in &= p[k] >= lo[k] - tol && p[k] <= hi[k] + tol;
+            if (in) { mark[i] = 1; ++hits; }
+        }
+        if (hits == 0)
+            return sj_fail(c, one, "%s.box contains no vertex of the body (at rest, after "
+                           "\"transform\")", what);
+    }
+    return 0;
+}
+
+int sj_marked(sj_ctx *c, const cJSON *where, const uint8_t *mark, int32_t nv, int32_t **out,
+              int32_t *n)
+{
+    int32_t k = 0;
+    for (int32_t i = 0; i < nv; ++i) k += mark[i];
+    *out = malloc((size_t)(k > 0 ? k : 1) * sizeof **out);
+    if (!*out) return sj_fail(c, where, "out of memory");
+    *n = 0;
+    for (int32_t i = 0; i < nv; ++i)
+        if (mark[i]) (*out)[(*n)++] = i;
+    return 0;
 }

@@ -1,13 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Private to tools/scene*.c: the JSON layer of scene files (scene_json.c) and the parsers of the
- * scene's sections (scene.c: world and bodies; scene_output.c: output, camera, colours).
+ * Private to tools/scene*.c: the JSON layer of scene files (scene_json.c): source positions,
+ * typed checks, overrides and vertex selections, shared by the parsers of the scene's sections
+ * (scene.c, scene_coupling.c, scene_collider.c, scene_output.c). It calls none of them.
  * Every function that checks returns 0, or -1 with s->error set to "file:line:col: message".
  */
 #ifndef DEFSIM_TOOLS_SCENE_JSON_H
 #define DEFSIM_TOOLS_SCENE_JSON_H
 
-#include "scene.h"
+#include "scene_types.h"
 
 #include <cjson/cJSON.h>
 
@@ -69,24 +70,5 @@ int sj_select(sj_ctx *c, const cJSON *indices, const cJSON *boxes, const char *w
 /* The marked vertices as a malloc'd list. */
 int sj_marked(sj_ctx *c, const cJSON *where, const uint8_t *mark, int32_t nv, int32_t **out,
               int32_t *n);
-
-/* scene_coupling.c: a body's "forces" and "drive" (after its pins and initial positions), the
- * scene's "attachments" (after all bodies), and what scene_build and scene_free do for them. */
-int scene_parse_forces(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol);
-int scene_parse_drive(sj_ctx *c, const cJSON *j, const char *what, scene_body *b, double tol);
-int scene_parse_attachments(sj_ctx *c, const cJSON *j);
-defsim_status scene_build_coupling(scene *s, defsim_world *w);
-void scene_free_coupling(scene *s);
-
-/* scene_collider.c: the "colliders" array; adding them to a world (after the bodies); setting
- * the poses of moving ones for the end of a step at time t; freeing them. */
-int scene_parse_colliders(sj_ctx *c, const cJSON *j);
-defsim_status scene_build_colliders(scene *s, defsim_world *w);
-defsim_status scene_move_colliders(scene *s, defsim_world *w, double t);
-void scene_free_colliders(scene *s);
-
-/* scene_output.c: defaults of the output settings, and the "output" section. */
-void scene_output_defaults(scene *s);
-int scene_parse_output(sj_ctx *c, const cJSON *o);
 
 #endif

@@ -1,5 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Scene files: the settings of the rendered output (frames, image size, camera, colours). */
+#include "scene_output.h"
+
 #include "scene_json.h"
 
 #include <math.h>

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Shared SUNDIALS plumbing of the sundials_ida and sundials_kinsol modules. */
+/* Shared SUNDIALS plumbing of the sundials_erk, sundials_ida and sundials_kinsol modules. */
 #include "sundials_common.h"
 
 #include <math.h>

@@ -1,9 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * What the two SUNDIALS backends (sundials_ida, sundials_kinsol) share: a SUNDIALS context, a
- * sparse CSC matrix with the KLU direct solver (wrapped so that factorisation and solve times
- * land in defsim_stats), and capture of SUNDIALS error messages. Linked statically into each
- * module; every symbol is hidden.
+ * What the SUNDIALS backends (sundials_erk, sundials_ida, sundials_kinsol) share: the prologue of
+ * their init and the macro of its setter calls, a SUNDIALS context, a sparse CSC matrix with the
+ * KLU direct solver (wrapped so that factorisation and solve times land in defsim_stats), and
+ * capture of SUNDIALS error messages. Linked statically into each module; every symbol is hidden.
  */
 #ifndef DEFSIM_SUNDIALS_COMMON_H
 #define DEFSIM_SUNDIALS_COMMON_H
@@ -36,6 +36,38 @@ typedef struct defsim__sun {
     const double *pv;          /* this step's driven-pin velocities, or NULL */
     int drove;                 /* the last step drove pins */
 } defsim__sun;
+
+/* The prologue of every module's init, over its state `s` (a struct with the fields `sun`,
+ * `host`, `sys`, `n`, `ndof` and `free_dofs`): notes the host and the system, reads the free-DOF
+ * map, asks for a restart from the world's state at the first step (need_reinit; KINSOL keeps no
+ * history and never reads it), and returns DEFSIM_OK from the init when every DOF is pinned
+ * (nothing moves); else reads the backend's `count` option values into `o` (defsim__sun_options).
+ * A macro because the three states are different structs with these fields in common. */
+#define DEFSIM__SUN_INIT_PROLOGUE(s, host_, sys_, specs, count, o)                             \
+    do {                                                                                       \
+        (s)->host = (host_);                                                                   \
+        (s)->sys = (sys_);                                                                     \
+        (s)->n = (host_)->free_dof_count(sys_);                                                \
+        (s)->ndof = (host_)->dof_count(sys_);                                                  \
+        (s)->free_dofs = (host_)->free_dofs(sys_);                                             \
+        (s)->sun.need_reinit = 1;                                                              \
+        if ((s)->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */            \
+        defsim__sun_options(host_, sys_, specs, count, o);                                     \
+    } while (0)
+
+/* One SUNDIALS setter of a module's init: runs `call`; a negative flag is reported through the
+ * module's `fail(s, text, flag)` and returns from the init, DEFSIM_ERR_OUT_OF_MEMORY when the flag
+ * is the package's `mem_fail` (ARK_MEM_FAIL, IDA_MEM_FAIL, KIN_MEM_FAIL), else
+ * DEFSIM_ERR_INVALID_ARGUMENT. `text` is the call as written (#call of the module's SET, taken
+ * before its macros expand). */
+#define DEFSIM__SUN_SET(s, fail, mem_fail, text, call)                                        \
+    do {                                                                                      \
+        int flag_ = (call);                                                                   \
+        if (flag_ < 0) {                                                                      \
+            fail(s, text, flag_);                                                             \
+            return flag_ == (mem_fail) ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
+        }                                                                                     \
+    } while (0)
 
 /* Creates the context (and notes whether the host has the coupling services). Returns
  * DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */

@@ -468,27 +468,13 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->minv = s->x = s->v = s->f = NULL;
 }
 
-#define SET(call)                                                                             \
-    do {                                                                                      \
-        int flag_ = (call);                                                                   \
-        if (flag_ < 0) {                                                                      \
-            erk_fail(s, #call, flag_);                                                        \
-            return flag_ == ARK_MEM_FAIL ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
-        }                                                                                     \
-    } while (0)
+#define SET(call) DEFSIM__SUN_SET(s, erk_fail, ARK_MEM_FAIL, #call, call)
 
 static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     erk_state *s = state;
-    s->host = host;
-    s->sys = sys;
-    s->n = host->free_dof_count(sys);
-    s->ndof = host->dof_count(sys);
-    s->free_dofs = host->free_dofs(sys);
-    s->sun.need_reinit = 1;
-    if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
-    defsim__sun_options(host, sys, erk_options, O_COUNT, o);
+    DEFSIM__SUN_INIT_PROLOGUE(s, host, sys, erk_options, O_COUNT, o);
     s->rtol = o[O_RTOL];
     s->atol = o[O_ATOL];
     s->table = table_index(o);

@@ -30,12 +30,10 @@
  */
 #include "defsim/backend.h"
 
+#include "ida_private.h"
 #include "sundials_common.h"
 
 #include <ida/ida.h>
-/* IDA's memory layout (installed by SUNDIALS 6.x with its headers): checkpoints save and restore
- * the BDF history that IDA's public API can read in part but not set. */
-#include <ida/ida_impl.h>
 #include <sunlinsol/sunlinsol_klu.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
@@ -609,14 +607,7 @@ static void build_pattern(ida_state *s)
     }
 }
 
-#define SET(call)                                                                             \
-    do {                                                                                      \
-        int flag_ = (call);                                                                   \
-        if (flag_ < 0) {                                                                      \
-            ida_fail(s, #call, flag_);                                                        \
-            return flag_ == IDA_MEM_FAIL ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
-        }                                                                                     \
-    } while (0)
+#define SET(call) DEFSIM__SUN_SET(s, ida_fail, IDA_MEM_FAIL, #call, call)
 
 /* The full 2n x 2n Newton matrix and KLU (linear_solver = klu). */
 static defsim_status klu_create(ida_state *s)
@@ -643,15 +634,8 @@ static defsim_status klu_create(ida_state *s)
 static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     ida_state *s = state;
-    s->host = host;
-    s->sys = sys;
-    s->n = host->free_dof_count(sys);
-    s->ndof = host->dof_count(sys);
-    s->free_dofs = host->free_dofs(sys);
-    s->sun.need_reinit = 1;
-    if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
-    defsim__sun_options(host, sys, ida_options, O_COUNT, o);
+    DEFSIM__SUN_INIT_PROLOGUE(s, host, sys, ida_options, O_COUNT, o);
     s->solver = (int)o[O_LINEAR_SOLVER];
 #ifndef DEFSIM_IDA_CHOLMOD
     if (s->solver == LS_CHOLMOD) {
@@ -723,9 +707,9 @@ static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void 
 /* The forces of the free DOFs at IDA's last internal point (tn, y_n = phi[0]) into out. */
 static defsim_status point_forces(ida_state *s, double *out)
 {
-    const IDAMem im = s->mem;
-    scatter(s, N_VGetArrayPointer(im->ida_phi[0]));
-    if (defsim__sun_forces(&s->sun, s->x, s->v, im->ida_tn, DEFSIM_FORCE_ALL, s->f) != DEFSIM_OK)
+    scatter(s, N_VGetArrayPointer(defsim__ida_yn(s->mem)));
+    if (defsim__sun_forces(&s->sun, s->x, s->v, defsim__ida_tn(s->mem), DEFSIM_FORCE_ALL, s->f) !=
+        DEFSIM_OK)
         return DEFSIM_ERR_UNSTABLE;
     for (int64_t i = 0; i < s->n; ++i) out[i] = s->f[s->free_dofs[i]];
     return DEFSIM_OK;
@@ -753,9 +737,8 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
     ida_state *s = state;
     if (s->n == 0) return DEFSIM_OK;
     defsim__sun_drive_begin(&s->sun, 1);
-    IDAMem im = s->mem;
     const int changed = !s->sun.need_reinit && s->fcheck_valid && forces_changed(s);
-    if (changed && im->ida_tn != s->t) s->sun.need_reinit = 1;
+    if (changed && defsim__ida_tn(s->mem) != s->t) s->sun.need_reinit = 1;
     if (s->sun.need_reinit) {
         defsim_status st = ida_restart(s);
         if (st != DEFSIM_OK) return st;
@@ -766,7 +749,7 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
         int flag = IDASetStopTime(s->mem, tout);
         if (flag < 0) return ida_fail(s, "IDASetStopTime", flag);
     } else {
-        im->ida_tstopset = SUNFALSE;   /* SUNDIALS 6.4 has no IDAClearStopTime */
+        defsim__ida_clear_stop_time(s->mem);
     }
     if (s->bound > 0) --s->bound;
     realtype tret = s->t;
@@ -778,10 +761,11 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
     s->t = tout;
     /* What this call's inputs give at IDA's new internal point, for the next call to compare
      * (an unchanged point was compared at the start of this call). */
-    if (!s->fcheck_valid || im->ida_tn != s->fcheck_t) {
+    const double tn = defsim__ida_tn(s->mem);
+    if (!s->fcheck_valid || tn != s->fcheck_t) {
         s->fcheck_valid = point_forces(s, s->fcheck) == DEFSIM_OK;
-        s->fcheck_t = im->ida_tn;
-        if (!s->fcheck_valid && im->ida_tn != s->t) s->sun.need_reinit = 1;
+        s->fcheck_t = tn;
+        if (!s->fcheck_valid && tn != s->t) s->sun.need_reinit = 1;
     }
     return DEFSIM_OK;
 }
@@ -794,24 +778,8 @@ static defsim_status ida_step(const defsim_host *host, defsim_system *sys, void 
  * KLU checkpoint also holds the matrix that chose them (unless the last set-up did), which the
  * load factorises before refactorising the last one (README "Checkpoints"). */
 
-enum { IDA_HIST_INTS = 15, IDA_HIST_REALS = 5 * MXORDP1 + 18 };
-
-static int ida_vector_count(const IDAMem im)
-{
-    int k = 0;
-    while (k < MXORDP1 && im->ida_phi[k]) ++k;
-    return k;
-}
-
-/* The vectors of the history: phi[0 ..] and the estimated local error ee (ida_yy and ida_yp
- * alias the caller's vectors inside IDASolve: not history). */
-static int ida_history_vectors(const IDAMem im, N_Vector vs[MXORDP1 + 1])
-{
-    int n = 0;
-    for (int k = 0; k < ida_vector_count(im); ++k) vs[n++] = im->ida_phi[k];
-    vs[n++] = im->ida_ee;
-    return n;
-}
+/* The history's scalars, then the world's time: the scalars of a checkpoint. */
+enum { IDA_HIST_INTS = DEFSIM__IDA_HIST_INTS, IDA_HIST_REALS = DEFSIM__IDA_HIST_REALS + 1 };
 
 /* IDA's counters now and at the last read (s->base), as arrays in ida_counts' order. */
 static void ida_counts_now(ida_state *s, long c[7], long b[7])
@@ -828,16 +796,6 @@ static void ida_counts_now(ida_state *s, long c[7], long b[7])
     memcpy(b, base, sizeof base);
 }
 
-/* The scalars, in one order for both directions: ints (as int64) then reals. */
-#define IDA_INT_FIELDS(X)                                                                       \
-    X(ida_kk) X(ida_kused) X(ida_knew) X(ida_phase) X(ida_ns) X(ida_nst) X(ida_nre)           \
-    X(ida_ncfn) X(ida_netf) X(ida_nni) X(ida_nnf) X(ida_nsetups) X(ida_tstopset)              \
-    X(ida_maxord_alloc)
-#define IDA_REAL_FIELDS(X)                                                                      \
-    X(ida_hin) X(ida_h0u) X(ida_hh) X(ida_hused) X(ida_eta) X(ida_tn) X(ida_tretlast)          \
-    X(ida_cj) X(ida_cjlast) X(ida_cjold) X(ida_cjratio) X(ida_ss) X(ida_oldnrm)               \
-    X(ida_epsNewt) X(ida_toldel) X(ida_tstop) X(ida_tolsf)
-
 static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const void *state,
                               const defsim_state_writer *wr)
 {
@@ -849,34 +807,19 @@ static defsim_status ida_save(const defsim_host *host, defsim_system *sys, const
     if (st != DEFSIM_OK || !history) return st;
     const int64_t solver = s->solver;
     if ((st = wr->i64(wr->ctx, &solver, 1)) != DEFSIM_OK) return st;
-    const IDAMem im = s->mem;
     int64_t ints[IDA_HIST_INTS];
     double reals[IDA_HIST_REALS];
-    int ni = 0, nr = 0;
-#define PUT_INT(f) ints[ni++] = (int64_t)im->f;
-#define PUT_REAL(f) reals[nr++] = im->f;
-    IDA_INT_FIELDS(PUT_INT)
-    IDA_REAL_FIELDS(PUT_REAL)
-#undef PUT_INT
-#undef PUT_REAL
-    ints[ni++] = ida_vector_count(im);
-    for (int k = 0; k < MXORDP1; ++k) {
-        reals[nr++] = im->ida_psi[k];
-        reals[nr++] = im->ida_alpha[k];
-        reals[nr++] = im->ida_beta[k];
-        reals[nr++] = im->ida_sigma[k];
-        reals[nr++] = im->ida_gamma[k];
-    }
-    reals[nr++] = s->t;
-    if ((st = wr->i64(wr->ctx, ints, ni)) != DEFSIM_OK) return st;
-    if ((st = wr->f64(wr->ctx, reals, nr)) != DEFSIM_OK) return st;
+    defsim__ida_history_get(s->mem, ints, reals);
+    reals[IDA_HIST_REALS - 1] = s->t;
+    if ((st = wr->i64(wr->ctx, ints, IDA_HIST_INTS)) != DEFSIM_OK) return st;
+    if ((st = wr->f64(wr->ctx, reals, IDA_HIST_REALS)) != DEFSIM_OK) return st;
     long c[7], b[7];
     int64_t since[7];
     ida_counts_now(s, c, b);
     for (int k = 0; k < 7; ++k) since[k] = c[k] - b[k];
     if ((st = wr->i64(wr->ctx, since, 7)) != DEFSIM_OK) return st;
-    N_Vector vs[MXORDP1 + 1];
-    const int nv = ida_history_vectors(im, vs);
+    N_Vector vs[DEFSIM__IDA_HIST_VECTORS];
+    const int nv = defsim__ida_history_vectors(s->mem, vs);
     for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
         st = wr->f64(wr->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
     if (st != DEFSIM_OK) return st;
@@ -918,7 +861,6 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
     if ((st = rd->i64(rd->ctx, &solver, 1)) != DEFSIM_OK) return st;
     if (s->n == 0 || solver != s->solver) return DEFSIM_ERR_IO;
     if ((st = ida_restart(s)) != DEFSIM_OK) return st;
-    IDAMem im = s->mem;
     int64_t ints[IDA_HIST_INTS];
     double reals[IDA_HIST_REALS];
     int64_t since[7];
@@ -926,38 +868,19 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
         (st = rd->f64(rd->ctx, reals, IDA_HIST_REALS)) != DEFSIM_OK ||
         (st = rd->i64(rd->ctx, since, 7)) != DEFSIM_OK)
         return st;
-    if (ints[13] != im->ida_maxord_alloc || ints[14] != ida_vector_count(im) || ints[0] < 0 ||
-        ints[0] > im->ida_maxord || ints[5] < 1)
-        return DEFSIM_ERR_IO;
-    int ni = 0, nr = 0;
-#define GET_INT(f) im->f = ints[ni++];
-#define GET_REAL(f) im->f = reals[nr++];
-    IDA_INT_FIELDS(GET_INT)
-    IDA_REAL_FIELDS(GET_REAL)
-#undef GET_INT
-#undef GET_REAL
-    for (int k = 0; k < MXORDP1; ++k) {
-        im->ida_psi[k] = reals[nr++];
-        im->ida_alpha[k] = reals[nr++];
-        im->ida_beta[k] = reals[nr++];
-        im->ida_sigma[k] = reals[nr++];
-        im->ida_gamma[k] = reals[nr++];
-    }
-    s->t = reals[nr++];
-    N_Vector vs[MXORDP1 + 1];
-    const int nv = ida_history_vectors(im, vs);
+    if (!defsim__ida_history_set(s->mem, ints, reals)) return DEFSIM_ERR_IO;
+    s->t = reals[IDA_HIST_REALS - 1];
+    N_Vector vs[DEFSIM__IDA_HIST_VECTORS];
+    const int nv = defsim__ida_history_vectors(s->mem, vs);
     for (int k = 0; k < nv && st == DEFSIM_OK; ++k)
         st = rd->f64(rd->ctx, N_VGetArrayPointer(vs[k]), 2 * s->n);
     if (st != DEFSIM_OK) return st;
-    /* IDASolve runs its initial set-up only before the first step (nst == 0): do its part that
-     * a restored history needs (the error weights' user data, the linear and nonlinear
-     * solvers' initialisation), then factorise the saved Newton matrix. */
-    im->ida_edata = im->ida_user_data;
-    if ((im->ida_linit && im->ida_linit(im) != 0) || idaNlsInit(im) != IDA_SUCCESS) {
+    /* The part of IDASolve's first-call set-up that a restored history needs, then the saved
+     * Newton matrix factorised again. */
+    if (defsim__ida_resume_setup(s->mem) != 0) {
         host->set_error(sys, "sundials_ida: IDA's solvers did not initialise");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    im->ida_SetupDone = SUNTRUE;
 #ifdef DEFSIM_IDA_CHOLMOD
     if (s->solver == LS_CHOLMOD) {
         ida_chol *ch = s->chol;

@@ -184,26 +184,13 @@ static void kin_fini(const defsim_host *host, defsim_system *sys, void *state)
     s->mf = s->cf = s->du = s->xn = s->vn = s->x = s->fel = s->fg = s->bval = s->fpd = NULL;
 }
 
-#define SET(call)                                                                             \
-    do {                                                                                      \
-        int flag_ = (call);                                                                   \
-        if (flag_ < 0) {                                                                      \
-            kin_fail(s, #call, flag_);                                                        \
-            return flag_ == KIN_MEM_FAIL ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_ERR_INVALID_ARGUMENT; \
-        }                                                                                     \
-    } while (0)
+#define SET(call) DEFSIM__SUN_SET(s, kin_fail, KIN_MEM_FAIL, #call, call)
 
 static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     kin_state *s = state;
-    s->host = host;
-    s->sys = sys;
-    s->n = host->free_dof_count(sys);
-    s->ndof = host->dof_count(sys);
-    s->free_dofs = host->free_dofs(sys);
-    if (s->n == 0) return DEFSIM_OK;   /* everything pinned: nothing moves */
     double o[O_COUNT];
-    defsim__sun_options(host, sys, kin_options, O_COUNT, o);
+    DEFSIM__SUN_INIT_PROLOGUE(s, host, sys, kin_options, O_COUNT, o);
     s->tolerance = o[O_TOLERANCE];
     defsim_status st = host->matrix_pattern(sys, DEFSIM_TRIANGLE_FULL, &s->kpat);
     if (st != DEFSIM_OK) return st;

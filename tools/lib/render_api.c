@@ -5,7 +5,7 @@
 #include "api_error.h"
 #include "render/image.h"
 #include "render/render.h"
-#include "scene_json.h"
+#include "scene.h"
 
 #include <math.h>
 #include <stdio.h>

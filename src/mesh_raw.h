@@ -1,13 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * What the mesh loaders share after tokenizing: the collected mesh (vertices by the tag the file
+ * What the mesh parsers share after tokenizing: the collected mesh (vertices by the tag the file
  * gives them, elements by vertex tags, each with its line) and `defsim__mesh_finish`, which maps
  * tags to indices, drops vertices that no element uses (they would have no mass), orients tets
  * positively, rejects degenerate elements (tet_rest.h) and adds the tets' boundary triangles.
- * One loader per format: mesh_tetgen.c, mesh_gmsh.c, mesh_obj.c; mesh_load.c picks one.
+ * It sits below the parsers (mesh_tetgen.c, mesh_gmsh.c, mesh_obj.c), which sit below
+ * mesh_load.c: each parser finishes its own mesh, so no call goes back up.
  */
-#ifndef DEFSIM_MESH_LOAD_H
-#define DEFSIM_MESH_LOAD_H
+#ifndef DEFSIM_MESH_RAW_H
+#define DEFSIM_MESH_RAW_H
 
 #include "mesh_reader.h"
 
@@ -41,10 +42,5 @@ defsim_status defsim__mesh_oom(const char *path);
  * `edge_springs`, the unique edges of the triangles become springs (OBJ cloth). */
 defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edge_springs,
                                   defsim_mesh *out);
-
-/* The loaders: `base` is a TetGen path without .node/.ele. */
-defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out);
-defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out);
-defsim_status defsim__load_obj(const char *path, defsim_mesh *out);
 
 #endif

@@ -732,6 +732,87 @@ void defsim__contact_end(defsim__contact *c, const double *x, const double *v, d
     c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = dmin;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* The watchdog's view */
+
+/* Energy (J, no friction) of pair q at x with its collider at `pose`, and the force on the
+ * vertex into f; a barrier pair at d <= 0 gives +inf (NaN on a callback failure). */
+static double pair_term(defsim__contact *c, int32_t q, const defsim__pose *pose, const double *x,
+                        double f[3])
+{
+    const int32_t i = c->pv[q];
+    double d, n[3];
+    f[0] = f[1] = f[2] = 0.0;
+    if (defsim__collider_distance(&c->col[c->pc[q]], pose, x + 3 * (int64_t)i, &d, n, NULL) !=
+            DEFSIM_OK || !isfinite(d))
+        return NAN;
+    const double dh = c->dhat, k = kfac(c, i);
+    if (!(d < dh)) return 0.0;
+    if (c->mode == DEFSIM__CONTACT_BARRIER) {
+        if (d <= 0.0) {
+            f[0] = f[1] = f[2] = INFINITY;
+            return INFINITY;
+        }
+        const double s = -k * barrier_d1(d, dh);
+        for (int a = 0; a < 3; ++a) f[a] = s * n[a];
+        return k * barrier(d, dh);
+    }
+    for (int a = 0; a < 3; ++a) f[a] = k * (dh - d) * n[a];
+    return 0.5 * k * (dh - d) * (dh - d);
+}
+
+double defsim__contact_energy_start(defsim__contact *c, const double *x)
+{
+    double e = 0.0, f[3];
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        defsim__pose p0;
+        defsim__collider_pose_at(&c->col[c->pc[q]], 0.0, &p0);
+        const double u = pair_term(c, q, &p0, x, f);
+        if (isnan(u)) return INFINITY;
+        if (u < INFINITY) e += u;
+    }
+    return e;
+}
+
+double defsim__contact_work(defsim__contact *c, const double *x0, const double *x1)
+{
+    int any = 0;
+    for (int32_t j = 0; j < c->ncol && !any; ++j)
+        any = live(c, j) && (memcmp(c->col[j].pos, c->col[j].pos1, sizeof c->col[j].pos) != 0 ||
+                             memcmp(c->col[j].rot, c->col[j].rot1, sizeof c->col[j].rot) != 0);
+    if (!any) return 0.0;
+    ensure(c, x1);
+    double w = 0.0;
+    for (int32_t q = 0; q < c->npair; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q];
+        const defsim__collider *col = &c->col[c->pc[q]];
+        defsim__pose p0, p1;
+        defsim__collider_pose_at(col, 0.0, &p0);
+        defsim__collider_pose_at(col, 1.0, &p1);
+        const double *a = x0 + 3 * (int64_t)i, *b = x1 + 3 * (int64_t)i;
+        double ua[3], ub[3], fa[3], fb[3], fc[3];
+        carry(&p0, &p1, a, ua);
+        carry(&p0, &p1, b, ub);
+        for (int k = 0; k < 3; ++k) {
+            ua[k] -= a[k];
+            ub[k] -= b[k];
+        }
+        const double e0 = pair_term(c, q, &p0, x0, fa);
+        if (isnan(e0) || isnan(pair_term(c, q, &p1, x0, fb)) ||
+            isnan(pair_term(c, q, &p1, x1, fc)))
+            return INFINITY;
+        if (e0 == INFINITY) fa[0] = fa[1] = fa[2] = 0.0;   /* starts inside: left out (above) */
+        const double pa = dot3(fa, ua), pb = dot3(fb, ua), pc = dot3(fc, ub);
+        const double fbig = fmax(sqrt(dot3(fa, fa)), fmax(sqrt(dot3(fb, fb)), sqrt(dot3(fc, fc))));
+        const double ubig = fmax(sqrt(dot3(ua, ua)), sqrt(dot3(ub, ub)));
+        const double fr = col->def.friction > 0.0 ? col->def.friction * fbig * ubig : 0.0;
+        w += fmax(pa, fmax(pb, pc)) + fr;
+    }
+    return isnan(w) ? INFINITY : w;
+}
+
 double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3])
 {
     if (c->mode != DEFSIM__CONTACT_PENALTY || !(c->eps_v > 0.0) || c->mu_max == 0.0) return 0.0;

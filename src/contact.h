@@ -160,6 +160,18 @@ int defsim__contact_none(defsim__contact *c, const double *x);
  * statistics. */
 void defsim__contact_end(defsim__contact *c, const double *x, const double *v, double *f);
 
+/* The watchdog's view of the colliders' work (docs/watchdog.md). Both take the poses of the
+ * world's whole step (pos and pos1 of each collider), not those of a substep.
+ * energy_start: the barrier or penalty energy (J, no friction) of the pairs at x with the
+ * colliders at their pose at the start of the step; a barrier pair at d <= 0 there (its vertex
+ * starts inside) counts 0, as the step leaves it out.
+ * work: a bound on the work (J) that the colliders' motion over the step does on the vertices
+ * of the pairs: per pair, the largest f . u of the contact force f at (x0, start pose),
+ * (x0, end pose) and (x1, end pose), u the collider's surface displacement at the vertex, plus
+ * friction's mu max |f| |u|; 0 when no collider moves. Pairs of the vertices at x1 join first. */
+double defsim__contact_energy_start(defsim__contact *c, const double *x);
+double defsim__contact_work(defsim__contact *c, const double *x0, const double *x1);
+
 /* The damping rate (1/s) that PENALTY friction adds at x: 2 mu lam / (eps_v m_i) at the deepest
  * contact, lam / m_i = khat (dhat - d), and at least 2 mu_max |g| / eps_v (resting contact). */
 double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3]);

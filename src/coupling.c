@@ -32,7 +32,10 @@ static int64_t first_non_finite(const double *a, int64_t n)
 static void release_callback(defsim__coupling *c)
 {
     free(c->f0); free(c->K0); free(c->x0); free(c->kcb); free(c->veval);
+    free(c->rec_first); free(c->rec_last); free(c->rec_prev);
     c->f0 = c->K0 = c->x0 = c->kcb = c->veval = NULL;
+    c->rec_first = c->rec_last = c->rec_prev = NULL;
+    c->rec_prev_t = NAN;
 }
 
 static void release_drive(defsim__coupling *c)
@@ -58,7 +61,12 @@ defsim_status defsim__coupling_reserve(defsim_world *w)
         c->veval = malloc(3 * n * sizeof *c->veval);
         c->K0 = malloc(9 * n * sizeof *c->K0);
         c->kcb = malloc(9 * n * sizeof *c->kcb);
-        if (!c->f0 || !c->x0 || !c->veval || !c->K0 || !c->kcb) {
+        c->rec_first = malloc(3 * n * sizeof *c->rec_first);
+        c->rec_last = malloc(3 * n * sizeof *c->rec_last);
+        c->rec_prev = malloc(3 * n * sizeof *c->rec_prev);
+        c->rec_prev_t = NAN;
+        if (!c->f0 || !c->x0 || !c->veval || !c->K0 || !c->kcb || !c->rec_first ||
+            !c->rec_last || !c->rec_prev) {
             release_callback(c);
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -98,6 +106,7 @@ defsim_status defsim__coupling_step_begin(defsim_world *w, double h)
     c->t0 = w->state.t;
     c->h = h;
     c->ndrv = 0;
+    c->nrec = 0;
     if (s->has_pins && (w->ntargeted > 0 || w->drove)) {
         for (int32_t v = 0; v < s->nv; ++v) {
             if (!s->pinned[v]) continue;
@@ -240,6 +249,7 @@ defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn f
     c->fn = fn;
     c->jac = fn ? jacobian : NULL;
     c->user = fn ? user : NULL;
+    c->rec_prev_t = NAN;   /* another callback: its forces of the last step are not known */
     if (w->planned && (st = defsim__coupling_reserve(w)) != DEFSIM_OK) {
         c->fn = old.fn;
         c->jac = old.jac;

@@ -41,6 +41,13 @@ typedef struct defsim__coupling {
     double *drv_start, *drv_target;   /* at the start and end of the world's step */
     double *drv_x0, *drv_x1;  /* at the start and end of the backend step */
     double *pin_vel;          /* 3 nv: velocity of the driven DOFs over the step, 0 elsewhere */
+
+    /* The callback's forces as the backend evaluated them in a step (for the watchdog's bound
+     * on its work): the first and the last evaluation of the step under way (nrec of them so
+     * far), and the last of the step before, which ended at time rec_prev_t (NaN: none). */
+    double *rec_first, *rec_last, *rec_prev;
+    int64_t nrec;
+    double rec_prev_t;
 } defsim__coupling;
 
 struct defsim_system {

@@ -35,8 +35,18 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
         for (int64_t i = 0; i < ndof; ++i) f[i] += c->f0[i];
     } else {
         const double *v = ev->v ? ev->v : h->state->v;
-        const defsim_status st = defsim__callback_forces(c, h->msg, s->nv, ev->x, v, ev->t, f);
-        if (st != DEFSIM_OK) return st;
+        if (c->in_step && c->rec_first) {
+            /* Recorded for the watchdog's bound on the callback's work (watchdog.h). */
+            double *r = c->nrec == 0 ? c->rec_first : c->rec_last;
+            memset(r, 0, (size_t)ndof * sizeof *r);
+            const defsim_status st = defsim__callback_forces(c, h->msg, s->nv, ev->x, v, ev->t, r);
+            if (st != DEFSIM_OK) return st;
+            for (int64_t i = 0; i < ndof; ++i) f[i] += r[i];
+            c->nrec++;
+        } else {
+            const defsim_status st = defsim__callback_forces(c, h->msg, s->nv, ev->x, v, ev->t, f);
+            if (st != DEFSIM_OK) return st;
+        }
         if (c->jac && c->in_step) {
             memcpy(c->veval, v, (size_t)ndof * sizeof *v);
             c->teval = ev->t;

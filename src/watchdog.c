@@ -36,14 +36,24 @@
  * a fifth of an explicit step over the same elements.) The growth factor covers the bounded
  * energy error of a stable explicit method (symplectic Euler at 0.9 of its limit swings its
  * kinetic energy up to 1 / (1 - 0.81) ~ 5 times the true energy); an unstable one grows
- * geometrically and passes any factor within a few steps. Steps with a force callback or driven
- * pins do work the core cannot account for cheaply: the energy check skips them and takes a new
- * reference at the next step without.
+ * geometrically and passes any factor within a few steps.
+ *
+ * The work of the host's other terms joins W in the steps that have them (world.c gathers what
+ * they need; docs/watchdog.md "Work done on the system"): the force callback's, from the forces
+ * the backend's own evaluations recorded (no extra call of the callback); the driven pins', from
+ * the elastic and damping forces at the pinned vertices at both ends of the step; the colliders'
+ * motion against the contact forces; and the contact energy of colliders that came, as work
+ * put in by the host. Each is the larger of its values with the forces at either end (the
+ * midpoint rule plus half the spread), an upper bound of the work along the step whenever the
+ * force varies monotonically over it. So the check stays on in every step: a kinetic energy
+ * beyond growth x (E(ref) + W) + floor, or one that overflows, fails the step, and no free
+ * vertex leaves a step faster than sqrt(2 (growth (E(ref) + W) + floor) / m_i).
  */
 #include "watchdog.h"
 
 #include "energy.h"
 #include "element.h"
+#include "forces.h"
 #include "material.h"
 
 #include <math.h>
@@ -185,6 +195,152 @@ static double kinetic_free(const defsim__system *s, const double *v)
     return ke;
 }
 
+/* The force callback's work in a step with displacements dx: per free vertex, the largest
+ * f . dx over the evaluations recorded in the step (the midpoint rule plus half their spread:
+ * exact for a force held over the step, an upper bound of the work along the step whenever the
+ * force's component along dx stays between the recorded values). */
+static double callback_work(const defsim__watchdog *wd, const defsim__system *s,
+                            const double *const *f, int n, const double *dx)
+{
+    double w = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (!(wd->dof[i] > 0.0)) continue;
+        const double *d = dx + 3 * (int64_t)i;
+        double most = -INFINITY;
+        for (int r = 0; r < n; ++r) {
+            const double *fi = f[r] + 3 * (int64_t)i;
+            const double p = fi[0] * d[0] + fi[1] * d[1] + fi[2] * d[2];
+            most = p > most ? p : most;
+        }
+        w += most;
+    }
+    return w;
+}
+
+/* The driven pins' work on the free vertices and the elements: -f . dx at the pinned vertices
+ * that moved, f the elastic and damping forces on them (the pin holds them against f), the
+ * larger of its values with the forces at the start and at the end (as the callback's). */
+static double pin_work(const defsim__system *s, const double *f0, const double *f1,
+                       const double *dx)
+{
+    double w = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (!s->pinned[i]) continue;
+        const double *d = dx + 3 * (int64_t)i, *a = f0 + 3 * (int64_t)i, *b = f1 + 3 * (int64_t)i;
+        if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0) continue;
+        const double pa = -(a[0] * d[0] + a[1] * d[1] + a[2] * d[2]);
+        const double pb = -(b[0] * d[0] + b[1] * d[1] + b[2] * d[2]);
+        w += pa > pb ? pa : pb;
+    }
+    return w;
+}
+
+/* Lists the elements with a pinned vertex (once per plan). */
+static int list_pinned_elements(defsim__watchdog *wd, const defsim__system *s)
+{
+    int64_t n = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+        n = 0;
+        for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+            const defsim__group *g = &s->groups[m];
+            for (int32_t e = 0; e < g->n; ++e) {
+                int held = 0;
+                for (int a = 0; a < g->nodes; ++a)
+                    held |= s->pinned[g->idx[(int64_t)g->nodes * e + a]];
+                if (!held) continue;
+                if (pass) {
+                    wd->pin_el[2 * n] = m;
+                    wd->pin_el[2 * n + 1] = e;
+                }
+                ++n;
+            }
+        }
+        if (!pass) {
+            free(wd->pin_el);
+            wd->pin_el = malloc((2 * (size_t)n + 1) * sizeof *wd->pin_el);
+            if (!wd->pin_el) return 0;
+        }
+    }
+    wd->npin_el = (int32_t)n;
+    wd->pin_el_ok = 1;
+    return 1;
+}
+
+defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__system *s,
+                                          const double *x, const double *v, double *f)
+{
+    if (s->has_stiffness_damping || s->has_attachment_damping || s->body_contact)
+        return defsim__forces(s, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING |
+                                           DEFSIM__FORCE_KEEP_PINNED, f, NULL);
+    if (!wd->pin_el_ok && !list_pinned_elements(wd, s)) return DEFSIM_ERR_OUT_OF_MEMORY;
+    for (int32_t i = 0; i < s->nv; ++i)
+        if (s->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
+    /* Each element's forces into a local copy, then only its pinned nodes' into f. (Mass
+     * damping does no work across a pin: the free vertices' share of it is -alpha m v^2.) */
+    for (int32_t k = 0; k < wd->npin_el; ++k) {
+        const defsim__group *g = &s->groups[wd->pin_el[2 * k]];
+        const int32_t e = wd->pin_el[2 * k + 1];
+        const int32_t *id = g->idx + (int64_t)g->nodes * e;
+        double fl[12] = {0};
+        if (g->nodes == 4) {
+            const int32_t loc[4] = {0, 1, 2, 3};
+            const double *dm = g->dminv + 9 * (int64_t)e;
+            double F[9], P[9], xl[12];
+            for (int a = 0; a < 4; ++a)
+                memcpy(xl + 3 * a, x + 3 * (int64_t)id[a], 3 * sizeof *xl);
+            tet_deformation(xl, loc, dm, F);
+            (void)g->law->P(g->mu[e], g->lambda[e], F, P);
+            tet_scatter(fl, loc, dm, P, -g->vol[e]);
+        } else {
+            const double *xa = x + 3 * (int64_t)id[0], *xb = x + 3 * (int64_t)id[1];
+            const double d[3] = {xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]};
+            const double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            const double c = l > 0.0 ? -g->k[e] * (l - g->l0[e]) / l : 0.0;
+            for (int i = 0; i < 3; ++i) {
+                fl[i] = c * d[i];
+                fl[3 + i] = -c * d[i];
+            }
+        }
+        for (int a = 0; a < g->nodes; ++a)
+            if (s->pinned[id[a]])
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)id[a] + i] += fl[3 * a + i];
+    }
+    const defsim__attachments *at = &s->att;
+    for (int32_t e = 0; e < at->n; ++e) {
+        const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+        double d[3];
+        attach_combine(at, e, x, 1, d);
+        const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j)
+            if (nd[j] >= 0 && s->pinned[nd[j]])
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)nd[j] + i] -= at->k[e] * a[j] * d[i];
+    }
+    for (int32_t i = 0; i < s->nv; ++i)
+        if (s->pinned[i] && !(isfinite(f[3 * (int64_t)i]) && isfinite(f[3 * (int64_t)i + 1]) &&
+                              isfinite(f[3 * (int64_t)i + 2])))
+            return DEFSIM_ERR_UNSTABLE;
+    return DEFSIM_OK;
+}
+
+double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end)
+{
+    if (wd->pin_nv != nv || !wd->pin_f0 || !wd->pin_f1) {
+        free(wd->pin_f0);
+        free(wd->pin_f1);
+        wd->pin_f0 = malloc((3 * (size_t)nv + 1) * sizeof *wd->pin_f0);
+        wd->pin_f1 = malloc((3 * (size_t)nv + 1) * sizeof *wd->pin_f1);
+        wd->pin_nv = nv;
+        wd->pin_f_t = NAN;
+        if (!wd->pin_f0 || !wd->pin_f1) {
+            free(wd->pin_f0);
+            free(wd->pin_f1);
+            wd->pin_f0 = wd->pin_f1 = NULL;
+            return NULL;
+        }
+    }
+    return end ? wd->pin_f1 : wd->pin_f0;
+}
+
 defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
                                      char *what, size_t size)
 {
@@ -216,14 +372,17 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         }
         take_rest(wd, in);
     }
-    const int energy = in->energy;
-    if (energy && !wd->have_ref) {
+    /* The contact energy at the start is stored energy the reference holds; colliders that came
+     * or went since the reference put it in as work (the whole of it: at least what changed). */
+    double injected = in->colliders_changed ? in->contact_start : 0.0;
+    if (!wd->have_ref) {
         wd->k_prev = kinetic_free(s, in->v0);
-        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0);
+        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0) + in->contact_start;
         wd->energy_evals++;
         wd->work = 0.0;
         wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
         wd->have_ref = 1;
+        injected = 0.0;
     }
 
     /* One branch-free pass over the vertices (vectorised: it runs in every step): finiteness,
@@ -261,27 +420,35 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         hi2 = d2 > hi2 ? d2 : hi2;
     }
     ke *= 0.5;
-    const double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
     const int finite = nan == 0.0;
     const double lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
     if (!finite) {
         snprintf(what, size, "the state became non-finite");
         return DEFSIM_ERR_UNSTABLE;
     }
+    /* Work beyond gravity and held forces (only in steps that have it: the pass above is all a
+     * plain step pays). A work that overflows leaves only the kinetic energy's finiteness. */
+    double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
+    if (in->ncb > 0) work += callback_work(wd, s, in->cb_f, in->ncb, dx);
+    if (in->pin_f0) work += pin_work(s, in->pin_f0, in->pin_f1, dx);
+    work += in->contact_work + injected;
+    if (!isfinite(work)) work = INFINITY;
     /* The steps where garbage can hide from K and where an element can invert (header). */
     const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor ||
                      ++wd->since_full >= ENERGY_EVERY || deformed(wd, s, dx, lo, hi);
     if (full) wd->since_full = 0;
     wd->k_prev = ke;
-    if (energy) {
+    {
         const double budget = wd->e_ref + wd->work + work;
         const double limit = in->energy_growth * (budget > 0.0 ? budget : 0.0) + wd->e_floor;
         const double e = full ? ke + defsim__elastic_energy(s, in->work, x) : ke;
         wd->energy_evals += full;
         const char *which = full ? "total" : "kinetic";
-        if (!(e <= limit)) {
+        /* Also with an unbounded budget: velocities whose energy overflows are no motion. */
+        if (!(e <= limit) || !(ke < INFINITY)) {
             snprintf(what, size, "the %s energy reached %.3g J, over %g x %.3g J (the energy at "
-                     "the reference plus the work of gravity and applied forces since) + %.3g J "
+                     "the reference plus the work of gravity, applied forces, the force "
+                     "callback, driven pins and colliders since) + %.3g J "
                      "(core.watchdog_energy_growth)", which, e, in->energy_growth, budget,
                      wd->e_floor);
             return DEFSIM_ERR_UNSTABLE;
@@ -309,7 +476,9 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    if (energy) wd->work += work;
+    /* Unbounded work or a reference energy that is not finite (an SDF callback that failed
+     * there) bounds nothing further: a new reference at the next step. */
+    if (work < INFINITY && wd->e_ref < INFINITY) wd->work += work;
     else wd->have_ref = 0;
     return DEFSIM_OK;
 }
@@ -335,10 +504,24 @@ void defsim__watchdog_message(char *out, size_t size, const char *what, double h
              "restored). %s (core.watchdog = false turns the watchdog off)", what, h, t, advice);
 }
 
+void defsim__watchdog_step_done(defsim__watchdog *wd, double t)
+{
+    if (!wd->pin_end) return;
+    double *f = wd->pin_f0;
+    wd->pin_f0 = wd->pin_f1;
+    wd->pin_f1 = f;
+    wd->pin_f_t = t;
+    wd->pin_end = 0;
+}
+
 void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 {
     wd->have_ref = 0;
-    if (bodies) wd->have_rest = 0;
+    wd->pin_f_t = NAN;
+    if (bodies) {
+        wd->have_rest = 0;
+        wd->pin_el_ok = 0;
+    }
 }
 
 void defsim__watchdog_free(defsim__watchdog *wd)
@@ -346,7 +529,11 @@ void defsim__watchdog_free(defsim__watchdog *wd)
     free(wd->rest_diag);
     free(wd->dof);
     free(wd->dx);
+    free(wd->pin_f0);
+    free(wd->pin_f1);
+    free(wd->pin_el);
     memset(wd, 0, sizeof *wd);
+    wd->pin_f_t = NAN;
 }
 
 void defsim__watchdog_attachment_moved(defsim__watchdog *wd, const defsim__system *s, int32_t e,

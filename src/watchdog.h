@@ -30,6 +30,14 @@ typedef struct defsim__watchdog {
     double *dof;          /* nv: a vertex's mass, 0 if pinned */
     double *dx;           /* 3 nv: the displacements of the step being checked */
     int64_t energy_evals; /* elastic-energy evaluations so far (they join defsim_stats) */
+    double *pin_f0, *pin_f1; /* 3 nv: elastic and damping forces at the start and end of a step
+                                that moves driven pins (NULL until one does) */
+    double pin_f_t;       /* s: the time whose state pin_f0 holds the forces of (NaN: none) */
+    int32_t pin_nv;       /* the vertex count pin_f0 and pin_f1 were made for */
+    int pin_end;          /* pin_f1 holds the end of the step under way */
+    int32_t *pin_el;      /* (group, element) pairs of the elements with a pinned vertex */
+    int32_t npin_el;
+    int pin_el_ok;        /* pin_el and npin_el hold for the current plan */
 } defsim__watchdog;
 
 /* What one check needs: the system, the bodies, the state after (x, v) and before (x0, v0) the
@@ -41,7 +49,18 @@ typedef struct defsim__watchdog_step {
     int32_t nbodies;
     const double *x, *v, *x0, *v0;
     int on;               /* core.watchdog; off: only the finiteness check runs */
-    int energy;           /* the applied work of the step is known (no callback, no driven pin) */
+    /* The work done on the system in the step besides gravity and held forces (docs/watchdog.md
+     * "The energy bound"): the force callback's evaluations recorded in the step (3 nv each; a
+     * vertex's work is the largest of f . dx over them), the elastic and damping forces at the
+     * pinned DOFs at the start and end of a step that moves driven pins (NULL: none moved), the
+     * colliders' motion against the contact forces (J), and the contact energy at the start of
+     * the step (J), which joins the reference, or the work when colliders came or went. */
+    const double *cb_f[4];
+    int ncb;
+    const double *pin_f0, *pin_f1;
+    double contact_work;
+    double contact_start;
+    int colliders_changed;
     double energy_growth; /* core.watchdog_energy_growth */
     double max_stretch;   /* core.watchdog_max_stretch */
 } defsim__watchdog_step;
@@ -61,6 +80,23 @@ void defsim__watchdog_message(char *out, size_t size, const char *what, double h
 /* Drops the energy reference (the host changed the state or the model between steps); with
  * `bodies` set, the rest sizes too. The next check takes a new reference. */
 void defsim__watchdog_forget(defsim__watchdog *wd, int bodies);
+
+/* The buffers for the forces at driven pins (3 nv each), allocated at the first step that moves
+ * one; NULL when out of memory. */
+double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end);
+
+/* The forces on the pinned vertices at (x, v) that the pins hold against and that exchange
+ * work with the free vertices and the elements: elastic (tets, springs, attachment springs),
+ * from the elements with a pinned vertex only (listed once per plan); with stiffness or
+ * attachment damping or body contact, one full evaluation of the elastic and damping forces.
+ * Writes the pinned vertices' entries of f (3 nv). Returns DEFSIM_ERR_UNSTABLE if one is not
+ * finite, DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__system *s,
+                                          const double *x, const double *v, double *f);
+
+/* The step under way succeeded and the state is now that of time t: the forces at its end
+ * serve as the next step's start. */
+void defsim__watchdog_step_done(defsim__watchdog *wd, double t);
 
 /* Frees the per-body sizes (at the world's destruction). */
 void defsim__watchdog_free(defsim__watchdog *wd);

@@ -1060,21 +1060,71 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 /* ------------------------------------------------------------------------------------------ */
 /* Stepping */
 
+/* The work terms of the step for the watchdog (watchdog.h): the callback's recorded forces,
+ * the forces at moving driven pins, the colliders' work and their energy at the start. */
+static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char *what,
+                                size_t size)
+{
+    const defsim__coupling *c = &w->cpl;
+    if (c->fn) {
+        if (c->implicit) in->cb_f[in->ncb++] = c->f0;   /* the start, evaluated by step_begin */
+        if (c->nrec > 0) in->cb_f[in->ncb++] = c->rec_first;
+        if (c->nrec > 1) in->cb_f[in->ncb++] = c->rec_last;
+        if (c->rec_prev_t == w->state.t && w->wd.have_ref) in->cb_f[in->ncb++] = c->rec_prev;
+    }
+    if (w->drove) {
+        /* The forces that the pins hold at the start (those of the last step's end when that
+         * ended here) and at the end. Not counted as the backend's force evaluations. */
+        defsim__watchdog *wd = &w->wd;
+        double *f0 = defsim__watchdog_pin_buffer(wd, w->nv, 0);
+        double *f1 = defsim__watchdog_pin_buffer(wd, w->nv, 1);
+        if (!f0 || !f1) {
+            snprintf(what, size, "out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        defsim_status st = DEFSIM_OK;
+        if (!(wd->pin_f_t == w->state.t && wd->have_ref)) {
+            st = defsim__watchdog_pin_forces(wd, &w->sys, w->x_save, w->v_save, f0);
+            wd->pin_f_t = st == DEFSIM_OK ? w->state.t : NAN;
+        }
+        if (st == DEFSIM_OK)
+            st = defsim__watchdog_pin_forces(wd, &w->sys, w->state.x, w->state.v, f1);
+        if (st != DEFSIM_OK) {
+            snprintf(what, size, st == DEFSIM_ERR_OUT_OF_MEMORY
+                                     ? "out of memory"
+                                     : "the forces on the driven pins are not finite");
+            return st;
+        }
+        wd->pin_end = 1;
+        in->pin_f0 = f0;
+        in->pin_f1 = f1;
+    }
+    defsim__contact *ct = w->sys.contact;
+    if (ct && ct->npair > 0) {
+        in->colliders_changed = w->colliders_came;
+        if (!w->wd.have_ref || w->colliders_came)
+            in->contact_start = defsim__contact_energy_start(ct, w->x_save);
+        in->contact_work = defsim__contact_work(ct, w->x_save, w->state.x);
+    }
+    return DEFSIM_OK;
+}
+
 /* The stability watchdog over a step the backend finished; on a trip the message says what
  * tripped and what to do, with the stable step at the restored start (docs/watchdog.md). */
 static defsim_status watch_step(defsim_world *w, double h)
 {
     const defsim__options *o = &w->options;
-    const defsim__watchdog_step in = {
+    defsim__watchdog_step in = {
         .sys = &w->sys, .work = &w->work, .bodies = w->bodies, .nbodies = w->nbodies,
         .x = w->state.x, .v = w->state.v, .x0 = w->x_save, .v0 = w->v_save,
         .on = defsim__options_core(o, DEFSIM__OPT_WATCHDOG) != 0.0,
-        .energy = !w->cpl.fn && !w->drove && !w->colliders_moved,
         .energy_growth = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH),
         .max_stretch = defsim__options_core(o, DEFSIM__OPT_WATCHDOG_MAX_STRETCH)};
     char what[400];
+    w->wd.pin_end = 0;
+    defsim_status st = in.on ? watch_work(w, &in, what, sizeof what) : DEFSIM_OK;
     const int64_t evals = w->wd.energy_evals;
-    defsim_status st = defsim__watchdog_check(&w->wd, &in, what, sizeof what);
+    if (st == DEFSIM_OK) st = defsim__watchdog_check(&w->wd, &in, what, sizeof what);
     w->stats.energy_evals += w->wd.energy_evals - evals;
     if (st != DEFSIM_ERR_UNSTABLE) {
         if (st != DEFSIM_OK) defsim__error(w->msg, "step: %s", what);
@@ -1120,8 +1170,8 @@ static defsim_status contact_begin(defsim_world *w, double h)
         }
     }
     if (h > 0.0) {
-        /* A moving collider does work the watchdog does not track: no energy check this step. */
-        w->colliders_moved = jumped;
+        /* The watchdog counts the energy of colliders that came until a step succeeds. */
+        w->colliders_came |= w->colliders_changed;
         w->colliders_changed = 0;
     }
     if (defsim_world_collider_count(w) == 0) return DEFSIM_OK;
@@ -1396,6 +1446,16 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         return st;
     }
     w->state.t += h;
+    w->colliders_came = 0;
+    defsim__watchdog_step_done(&w->wd, w->state.t);
+    if (w->cpl.fn && w->cpl.nrec > 0) {
+        /* The callback's last forces of this step serve the next (watch_work). */
+        double *r = w->cpl.rec_prev;
+        w->cpl.rec_prev = w->cpl.nrec > 1 ? w->cpl.rec_last : w->cpl.rec_first;
+        if (w->cpl.nrec > 1) w->cpl.rec_last = r;
+        else w->cpl.rec_first = r;
+        w->cpl.rec_prev_t = w->state.t;
+    }
     w->stats.steps++;
     w->stats.passes = w->step_passes;
     w->stats.time_step += defsim__now() - t0;

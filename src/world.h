@@ -77,7 +77,7 @@ struct defsim_world {
     defsim__collider *col;
     int32_t ncol, cap_col;
     int colliders_changed;    /* a collider was added or removed since the last step */
-    int colliders_moved;      /* in this step a collider moves, or one came or went */
+    int colliders_came;       /* a collider came or went since the last successful step */
     double *contact_force;    /* 3 contact_nv: contact forces of the last step, or NULL */
     int32_t contact_nv;
     int contact_zero;         /* contact_force is known to be all zero */

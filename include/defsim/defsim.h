@@ -445,11 +445,14 @@ typedef struct defsim_stats {
     int64_t inverted_elements;     ///< Tets with J <= 0 now (any model; neo-Hookean ones fail
                                    ///< the step that inverts them while the watchdog is on).
     double energy_drift;           ///< J: total energy now (kinetic of free vertices plus
-                                   ///< elastic) minus the energy at the watchdog's reference and
-                                   ///< the work of gravity and applied forces since; negative
-                                   ///< when damping dissipates. NaN without a reference (the
-                                   ///< watchdog is off, or the last step had a force callback
-                                   ///< or driven pins, whose work is not tracked).
+                                   ///< elastic) minus the energy at the watchdog's reference
+                                   ///< (with the contact energy then) and the work done since:
+                                   ///< gravity and applied forces exactly; the force callback,
+                                   ///< driven pins and moving colliders as upper bounds, and
+                                   ///< the contact energy of colliders added (docs/watchdog.md);
+                                   ///< negative when damping dissipates. NaN without a
+                                   ///< reference (the watchdog is off, or the last step's work
+                                   ///< overflowed).
     double nonlinear_residual;     ///< Implicit backends: the residual norm of the last Newton
                                    ///< iteration of the last step (the backend's own measure;
                                    ///< see its README); 0 for other backends.

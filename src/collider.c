@@ -5,7 +5,9 @@
  * collider_mesh.c.
  */
 #include "collider.h"
+#include "mesh.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -65,6 +67,13 @@ static int all_finite(const double *a, int n)
     return 1;
 }
 
+int defsim__collider_coords_ok(const double *a, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if (!(fabs(a[i]) <= DEFSIM__COORD_MAX)) return 0;
+    return 1;
+}
+
 /* Normalises a quaternion within 1e-6 of unit length; returns 0 for any other. */
 int defsim__unit_quaternion(const double *in, double out[4])
 {
@@ -94,6 +103,10 @@ void defsim_collider_def_init(defsim_collider_def *def, size_t size)
 
 #define BAD(...) do { defsim__error(msg, __VA_ARGS__); return DEFSIM_ERR_INVALID_ARGUMENT; } while (0)
 
+/* A radius, half extent or half height: a positive normal number (a denormal's square is zero)
+ * within the coordinate bound (its square and the bounds stay finite). */
+static int size_ok(double r) { return isnormal(r) && r > 0.0 && r <= DEFSIM__COORD_MAX; }
+
 defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider_def *def,
                                     defsim__collider *c)
 {
@@ -106,7 +119,10 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
     d->size = sizeof *d;
     if ((unsigned)d->shape > (unsigned)DEFSIM_SHAPE_SDF)
         BAD("add_collider: unknown shape %d", (int)d->shape);
-    if (!all_finite(d->position, 3)) BAD("add_collider: position is not finite");
+    if (!defsim__collider_coords_ok(d->position, 3))
+        BAD("add_collider: position (%g, %g, %g) must be finite and within +-%g m (the "
+            "coordinate bound: distances would overflow)", d->position[0], d->position[1],
+            d->position[2], DEFSIM__COORD_MAX);
     if (!defsim__unit_quaternion(def->rotation, d->rotation))
         BAD("add_collider: rotation (%g, %g, %g, %g) is not a unit quaternion (w, x, y, z) "
             "within 1e-6", def->rotation[0], def->rotation[1], def->rotation[2],
@@ -124,20 +140,24 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
         break;
     }
     case DEFSIM_SHAPE_SPHERE:
-        if (!isfinite(d->radius) || !(d->radius > 0.0))
-            BAD("add_collider: sphere radius %g must be finite and > 0", d->radius);
+        if (!size_ok(d->radius))
+            BAD("add_collider: sphere radius %g must be in [%g, %g] m (a positive normal number "
+                "within the coordinate bound)", d->radius, DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_BOX:
         for (int k = 0; k < 3; ++k)
-            if (!isfinite(d->half_extents[k]) || !(d->half_extents[k] > 0.0))
-                BAD("add_collider: box half_extents (%g, %g, %g) must be finite and > 0",
-                    d->half_extents[0], d->half_extents[1], d->half_extents[2]);
+            if (!size_ok(d->half_extents[k]))
+                BAD("add_collider: box half_extents (%g, %g, %g) must each be in [%g, %g] m (a "
+                    "positive normal number within the coordinate bound)", d->half_extents[0],
+                    d->half_extents[1], d->half_extents[2], DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_CAPSULE:
-        if (!isfinite(d->radius) || !(d->radius > 0.0))
-            BAD("add_collider: capsule radius %g must be finite and > 0", d->radius);
-        if (!isfinite(d->half_height) || !(d->half_height >= 0.0))
-            BAD("add_collider: capsule half_height %g must be finite and >= 0", d->half_height);
+        if (!size_ok(d->radius))
+            BAD("add_collider: capsule radius %g must be in [%g, %g] m (a positive normal number "
+                "within the coordinate bound)", d->radius, DBL_MIN, DEFSIM__COORD_MAX);
+        if (d->half_height != 0.0 && !size_ok(d->half_height))
+            BAD("add_collider: capsule half_height %g must be 0 or in [%g, %g] m", d->half_height,
+                DBL_MIN, DEFSIM__COORD_MAX);
         break;
     case DEFSIM_SHAPE_MESH: {
         defsim_status st = defsim__mesh_check(msg, d);
@@ -163,7 +183,9 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
     }
     case DEFSIM_SHAPE_SDF: {
         if (!d->sdf) BAD("add_collider: an SDF collider needs its callback sdf (NULL given)");
-        if (!all_finite(d->sdf_bounds, 6)) BAD("add_collider: sdf_bounds are not finite");
+        if (!defsim__collider_coords_ok(d->sdf_bounds, 6))
+            BAD("add_collider: sdf_bounds must be finite and within +-%g m (the coordinate "
+                "bound)", DEFSIM__COORD_MAX);
         int any = 0;
         for (int k = 0; k < 6; ++k) any |= d->sdf_bounds[k] != 0.0;
         for (int k = 0; any && k < 3; ++k)

@@ -39,6 +39,11 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
                                     defsim__collider *c);
 void defsim__collider_free(defsim__collider *c);
 
+/* 1 if the n values of a are finite and within +-DEFSIM__COORD_MAX (mesh.h), the bound of mesh
+ * coordinates: a collider's position (and, for its shape, coordinates and sizes) within it keeps
+ * every distance, its square and every bound finite. 0 otherwise (NaN included). */
+int defsim__collider_coords_ok(const double *a, int64_t n);
+
 /* Normalises a quaternion (w, x, y, z) within 1e-6 of unit length into out; returns 0 (out
  * unchanged) for any other, or a non-finite one. */
 int defsim__unit_quaternion(const double *in, double out[4]);

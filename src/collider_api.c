@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Colliders: the public API (add, remove, pose, listing, contact-force read-back). */
 #include "collider.h"
+#include "mesh.h"
 #include "world.h"
 
 #include <math.h>
@@ -86,10 +87,15 @@ defsim_status defsim_collider_set_pose(defsim_world *w, defsim_collider_id id,
     defsim__collider *c = collider_or_error(w, id);
     if (!c) return DEFSIM_ERR_STALE_ID;
     double q[4];
-    if (!position || !rotation || !isfinite(position[0]) || !isfinite(position[1]) ||
-        !isfinite(position[2]) || !defsim__unit_quaternion(rotation, q)) {
-        defsim__error(w->msg, "collider_set_pose: position and rotation must be finite and the "
-                      "rotation a unit quaternion (w, x, y, z) within 1e-6");
+    if (!position || !rotation || !defsim__unit_quaternion(rotation, q)) {
+        defsim__error(w->msg, "collider_set_pose: position and rotation must not be NULL and the "
+                      "rotation must be a unit quaternion (w, x, y, z) within 1e-6");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (!defsim__collider_coords_ok(position, 3)) {
+        defsim__error(w->msg, "collider_set_pose: position (%g, %g, %g) must be finite and within "
+                      "+-%g m (the coordinate bound: distances would overflow)", position[0],
+                      position[1], position[2], DEFSIM__COORD_MAX);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     memcpy(c->pos1, position, sizeof c->pos1);

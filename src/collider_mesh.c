@@ -63,8 +63,9 @@ defsim_status defsim__mesh_check(defsim__messages *msg, const defsim_collider_de
         BAD("add_collider: a mesh needs >= 3 vertices and >= 1 triangle (%d, %d given)",
             (int)d->vertex_count, (int)d->triangle_count);
     for (int64_t i = 0; i < 3 * (int64_t)d->vertex_count; ++i)
-        if (!isfinite(d->vertices[i]))
-            BAD("add_collider: mesh vertex %d is not finite", (int)(i / 3));
+        if (!defsim__collider_coords_ok(d->vertices + i, 1))
+            BAD("add_collider: mesh vertex %d is not finite or beyond +-1e100 m (the coordinate "
+                "bound of meshes)", (int)(i / 3));
     for (int32_t t = 0; t < d->triangle_count; ++t) {
         const int32_t *v = d->triangles + 3 * (int64_t)t;
         for (int k = 0; k < 3; ++k)

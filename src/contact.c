@@ -42,15 +42,38 @@ static int live(const defsim__contact *c, int32_t j) { return (c->col[j].generat
 
 static double kfac(const defsim__contact *c, int32_t i) { return c->khat * c->mass[i]; }
 
-/* Distance of x to collider slot j at its end-of-step pose; on a callback failure records it
- * and returns NaN. */
+/* Records a distance to collider slot j that failed: an SDF's callback (CALLBACK) or, for the
+ * other shapes, a distance that overflowed (UNSTABLE: a vertex far beyond the coordinate bound;
+ * colliders are held within it). The first failure of a step is kept. */
+static void geometry_failed(defsim__contact *c, int32_t j)
+{
+    if (!c->failed)
+        c->failed = c->col[j].def.shape == DEFSIM_SHAPE_SDF ? DEFSIM_ERR_CALLBACK
+                                                            : DEFSIM_ERR_UNSTABLE;
+}
+
+const char *defsim__contact_failure(const defsim__contact *c)
+{
+    switch (c->failed) {
+    case DEFSIM_ERR_CALLBACK:
+        return "a collider's SDF callback returned a non-finite value";
+    case DEFSIM_ERR_UNSTABLE:
+        return "the distance of a vertex to a collider is not finite (the vertex lies far "
+               "beyond the coordinate bound of +-1e100 m)";
+    default:
+        return "out of memory for contact pairs";
+    }
+}
+
+/* Distance of x to collider slot j at its end-of-step pose; on a failure records it and
+ * returns NaN. */
 static double distance(defsim__contact *c, int32_t j, const double x[3], double n[3],
                        double H[9])
 {
     double d, g[3];
     if (defsim__collider_distance(&c->col[j], &c->pose1[j], x, &d, n ? n : g, H) != DEFSIM_OK ||
         !isfinite(d)) {
-        if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+        geometry_failed(c, j);
         return NAN;
     }
     return d;
@@ -106,7 +129,7 @@ static void pair_vertex(defsim__contact *c, int32_t i, int grown)
             double d0, g[3], moved[3];
             if (defsim__collider_distance(&c->col[j], &c->pose0[j], x, &d0, g, NULL) != DEFSIM_OK ||
                 !isfinite(d0)) {
-                if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+                geometry_failed(c, j);
                 return;
             }
             carry(&c->pose0[j], &c->pose1[j], x, moved);
@@ -396,7 +419,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         double d0, d1, n0[3], g1[3], moved[3];
         if (defsim__collider_distance(&col[j], &c->pose0[j], xi, &d0, n0, NULL) != DEFSIM_OK ||
             !isfinite(d0)) {
-            c->failed = DEFSIM_ERR_CALLBACK;
+            geometry_failed(c, j);
             break;
         }
         d1 = distance(c, j, xi, g1, NULL);
@@ -410,12 +433,8 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
     }
     c->stat[DEFSIM__CSTAT_PAIRS] = c->npair;
     c->stat[DEFSIM__CSTAT_TIME_BROAD] += defsim__now() - t0;
-    if (c->failed == DEFSIM_ERR_CALLBACK) {
-        defsim__error(msg, "contact: a collider's SDF callback returned a non-finite value");
-        return DEFSIM_ERR_CALLBACK;
-    }
     if (c->failed) {
-        defsim__error(msg, "out of memory for contact pairs");
+        defsim__error(msg, "contact: %s", defsim__contact_failure(c));
         return c->failed;
     }
     return DEFSIM_OK;
@@ -670,7 +689,7 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
         const double b[3] = {a[0] + u[0], a[1] + u[1], a[2] + u[2]};
         double t = 1.0;
         if (defsim__collider_toi(&c->col[j], &c->pose1[j], a, b, fraction * d, &t) != DEFSIM_OK) {
-            c->failed = DEFSIM_ERR_CALLBACK;
+            geometry_failed(c, j);
             alpha = 0.0;
             break;
         }
@@ -692,7 +711,7 @@ void defsim__contact_start(defsim__contact *c, double *x)
         if (isnan(d1) ||
             defsim__collider_distance(&c->col[j], &c->pose0[j], xi, &d0, g, NULL) != DEFSIM_OK ||
             !isfinite(d0)) {
-            if (!c->failed) c->failed = DEFSIM_ERR_CALLBACK;
+            geometry_failed(c, j);
             return;
         }
         if (d1 < c->dhat && d1 < d0 && d0 > 0.0) {
@@ -817,8 +836,11 @@ double defsim__contact_damping_rate(defsim__contact *c, const double *x, const d
 {
     if (c->mode != DEFSIM__CONTACT_PENALTY || !(c->eps_v > 0.0) || c->mu_max == 0.0) return 0.0;
     ensure(c, x);
-    /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d). */
-    double depth = sqrt(dot3(gravity, gravity)) / c->khat;
+    /* -d f / d v_t of the friction at rest is 2 mu lam / eps_v, lam / m_i = khat (dhat - d).
+     * Contact that is not active at x may be later, and deeper than a vertex's own weight
+     * pushes it (|g| / khat): a vertex under a body rests about where the penalty starts to
+     * overlap, d = 0, so the rate is taken at that depth, dhat, at least. */
+    double depth = fmax(sqrt(dot3(gravity, gravity)) / c->khat, c->dhat);
     for (int32_t q = 0; q < c->npair; ++q) {
         const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
         if (d < c->dhat && c->col[c->pc[q]].def.friction > 0.0) depth = fmax(depth, c->dhat - d);

@@ -50,7 +50,8 @@ enum {
 
 typedef struct defsim__contact {
     int mode;                   /* DEFSIM__CONTACT_*; OFF: no live collider */
-    int failed;                 /* an SDF callback failed in this step */
+    int failed;                 /* this step's failure: CALLBACK (an SDF callback), UNSTABLE
+                                   (a distance overflowed), OUT_OF_MEMORY; defsim__contact_failure */
     const defsim__collider *col;/* the world's collider slots (live ones: odd generation) */
     int32_t ncol;
     defsim__pose *pose0, *pose1;/* per slot: the pose at the start and end of the step */
@@ -113,7 +114,8 @@ void defsim__contact_free(defsim__contact *c);
 /* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
  * and (BARRIER) the lagged friction. col/ncol are the world's slots. x and v are borrowed until
  * the step ends and must not change meanwhile (the world passes its copies of the step's start).
- * Returns DEFSIM_OK, DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (message in msg). */
+ * Returns DEFSIM_OK, DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_CALLBACK (an SDF callback) or
+ * DEFSIM_ERR_UNSTABLE (a distance overflowed), with the message in msg. */
 defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__collider *col, int32_t ncol,
                                     const defsim__contact_params *p, const double *x,
@@ -128,12 +130,13 @@ double defsim__contact_khat(const defsim__contact_params *p, double dhat, double
                             const double gravity[3]);
 
 /* Contact energy at x (J): barrier or penalty, plus BARRIER's friction potential; +inf where a
- * barrier pair has d <= 0 or a callback failed. */
+ * barrier pair has d <= 0 or a distance failed. */
 double defsim__contact_energy(defsim__contact *c, const double *x);
 
 /* Adds the contact forces at x (and v) to f: which & DEFSIM_FORCE_ELASTIC: -grad of the energy;
  * which & DEFSIM_FORCE_DAMPING (PENALTY, v not NULL): friction. Pinned vertices get nothing.
- * Returns DEFSIM_ERR_UNSTABLE for an infeasible barrier point, DEFSIM_ERR_CALLBACK. */
+ * Returns DEFSIM_ERR_UNSTABLE for an infeasible barrier point or a distance that overflowed,
+ * DEFSIM_ERR_CALLBACK for an SDF callback's failure. */
 defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const double *v,
                                      uint32_t which, double *f);
 
@@ -172,8 +175,12 @@ void defsim__contact_end(defsim__contact *c, const double *x, const double *v, d
 double defsim__contact_energy_start(defsim__contact *c, const double *x);
 double defsim__contact_work(defsim__contact *c, const double *x0, const double *x1);
 
+/* What c->failed means, for the error message (static text). */
+const char *defsim__contact_failure(const defsim__contact *c);
+
 /* The damping rate (1/s) that PENALTY friction adds at x: 2 mu lam / (eps_v m_i) at the deepest
- * contact, lam / m_i = khat (dhat - d), and at least 2 mu_max |g| / eps_v (resting contact). */
+ * contact, lam / m_i = khat (dhat - d), and at least that of a contact at d = 0 or carrying the
+ * vertex's weight, whichever is deeper (contact that becomes active later, resting). */
 double defsim__contact_damping_rate(defsim__contact *c, const double *x, const double gravity[3]);
 
 #endif /* DEFSIM_CONTACT_H */

@@ -34,9 +34,10 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
     {"auto_substep", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
      "conditionally stable backends: split each step into substeps of at most substep_safety "
      "times the estimated stable step"},
-    /* (0, 1]: DBL_MIN, the smallest normal double, stands for the open bound */
-    {"substep_safety", DEFSIM_OPTION_REAL, 0.8, DBL_MIN, 1.0, NULL,
-     "fraction of the stable step that auto_substep uses, in (0, 1]"},
+    /* Below 0.01 a step would split into more than 100 x the substeps stability needs; 1e-300
+     * made every step fail with "auto_substep would need 1e+300 substeps". */
+    {"substep_safety", DEFSIM_OPTION_REAL, 0.8, 0.01, 1.0, NULL,
+     "fraction of the stable step that auto_substep uses, in [0.01, 1]"},
     {"watchdog", DEFSIM_OPTION_BOOL, 1.0, 0.0, 1.0, NULL,
      "fail a step whose state leaves the envelope the scene explains (energy, extent, "
      "inversion; docs/watchdog.md) with DEFSIM_ERR_UNSTABLE; non-finite states fail either way"},

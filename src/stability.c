@@ -52,14 +52,11 @@ defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, con
         if (lambda >= 0.0 || pass == 1) break;
         shift = -lambda;   /* dominant eigenvalue negative: shift the spectrum up */
     }
-    /* A bounded term raises the top of the spectrum by at most its bound (Weyl). */
-    double bound = 0.0;
-    int bounded = 0;
+    /* A bounded term raises the top of the spectrum by at most its bound. */
     for (int32_t k = 0; k < s->nterms; ++k) {
         const defsim__term *t = &s->terms[k];
-        if (t->ops->lambda_bound) bounded |= t->ops->lambda_bound(t, s, &bound);
+        if (t->ops->lambda_bound) lambda = t->ops->lambda_bound(t, s, lambda);
     }
-    if (bounded) lambda = (lambda > 0.0 ? lambda : 0.0) + bound;
     *omega = lambda > 0.0 ? sqrt(lambda) : 0.0;
     return isfinite(*omega) ? DEFSIM_OK : DEFSIM_ERR_UNSTABLE;
 }

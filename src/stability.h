@@ -6,8 +6,9 @@
 #include "system.h"
 
 /* omega_max = sqrt(largest eigenvalue of M^-1 K(x)) over the free DOFs (rad/s), by power
- * iteration in the planner's workspace (no allocation); with penalty contact, sqrt(omega_el^2 +
- * omega_c^2), its bound. DEFSIM_ERR_UNSTABLE if not finite. */
+ * iteration in the planner's workspace (no allocation); with penalty contact (a collider, active
+ * or not), sqrt(omega_el^2 + (2.5 max(omega_c, omega_el))^2): Weyl's bound, with room for the
+ * energy the penalty's switch feeds an explicit step. DEFSIM_ERR_UNSTABLE if not finite. */
 defsim_status defsim__omega_max(const defsim__system *s, defsim__work *wk, const double *x,
                                 double *omega);
 

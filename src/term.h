@@ -135,10 +135,10 @@ typedef struct defsim__term_ops {
     /* Makes a Newton start x feasible for it. */
     void (*start)(const defsim__term *t, double *x);
 
-    /* Explicit stability: adds what it bounds of the top eigenvalue of M^-1 K (1/s^2) to
-     * *lambda and returns 1 (BOUNDED kinds; 0: nothing to bound), and its damping rates at x
-     * into *r. */
-    int (*lambda_bound)(const defsim__term *t, defsim__csys *s, double *lambda);
+    /* Explicit stability: the bound on the top eigenvalue of M^-1 K (1/s^2) with its share,
+     * given lambda without it (BOUNDED kinds: the power iteration leaves them out), and its
+     * damping rates at x into *r. */
+    double (*lambda_bound)(const defsim__term *t, defsim__csys *s, double lambda);
     void (*rates)(const defsim__term *t, defsim__csys *s, const double *x, defsim__rates *r);
 
     /* Step hooks (a step begins with compile, when the world attaches its contact state): the

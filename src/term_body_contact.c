@@ -163,6 +163,19 @@ static int counter(const defsim__term *t, const char *name, double *value)
     return 1;
 }
 
+/* memcpy that allows empty arrays (NULL before any pair): advances the cursor. */
+static void put(unsigned char **p, const void *src, size_t n)
+{
+    if (n) memcpy(*p, src, n);
+    *p += n;
+}
+
+static void get(void *dst, const unsigned char **p, size_t n)
+{
+    if (n) memcpy(dst, *p, n);
+    *p += n;
+}
+
 /* The chunk: the step's candidate pairs (kind, a, b) and its lagged friction pairs. */
 static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
 {
@@ -172,12 +185,12 @@ static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
                         nf * sizeof(defsim__bc_friction);
     if (!buf || cap < need) return need;
     unsigned char *p = buf;
-    memcpy(p, &bc->npair, sizeof bc->npair); p += sizeof bc->npair;
-    memcpy(p, &bc->nfric, sizeof bc->nfric); p += sizeof bc->nfric;
-    memcpy(p, bc->kind, np); p += np;
-    memcpy(p, bc->pa, np * sizeof *bc->pa); p += np * sizeof *bc->pa;
-    memcpy(p, bc->pb, np * sizeof *bc->pb); p += np * sizeof *bc->pb;
-    memcpy(p, bc->fric, nf * sizeof *bc->fric);
+    put(&p, &bc->npair, sizeof bc->npair);
+    put(&p, &bc->nfric, sizeof bc->nfric);
+    put(&p, bc->kind, np);
+    put(&p, bc->pa, np * sizeof *bc->pa);
+    put(&p, bc->pb, np * sizeof *bc->pb);
+    put(&p, bc->fric, nf * sizeof *bc->fric);
     return need;
 }
 
@@ -221,10 +234,10 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     }
     bc->npair = np;
     bc->nfric = nf;
-    memcpy(bc->kind, p, (size_t)np); p += np;
-    memcpy(bc->pa, p, (size_t)np * sizeof *bc->pa); p += (size_t)np * sizeof *bc->pa;
-    memcpy(bc->pb, p, (size_t)np * sizeof *bc->pb); p += (size_t)np * sizeof *bc->pb;
-    memcpy(bc->fric, p, (size_t)nf * sizeof *bc->fric);
+    get(bc->kind, &p, (size_t)np);
+    get(bc->pa, &p, (size_t)np * sizeof *bc->pa);
+    get(bc->pb, &p, (size_t)np * sizeof *bc->pb);
+    get(bc->fric, &p, (size_t)nf * sizeof *bc->fric);
     t->cache->valid = 0;
     return DEFSIM_OK;
 }

@@ -11,6 +11,7 @@
 #include "system.h"
 #include "terms.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -90,15 +91,25 @@ static void start(const defsim__term *t, double *x)
     if (c->mode == DEFSIM__CONTACT_BARRIER) defsim__contact_start(c, x);
 }
 
+/* The factor on the penalty's frequency in the stable step: measured on boxes resting on and
+ * dropped onto a plane (docs/stability.md "Contact"), the heating stays slow up to
+ * h sqrt(omega_el^2 + (1.9..2.45 omega_c)^2) = 2; 2.5 leaves room for a host's 0.9. */
+#define PENALTY_KINK 2.5
+
 /* The penalty springs (diagonal, k_i = omega_c^2 m_i) raise the top of the spectrum by at most
- * omega_c^2 (Weyl), whether or not a contact is active at x. */
-static int lambda_bound(const defsim__term *t, const defsim__system *s, double *lambda)
+ * omega_c^2 (Weyl), whether or not a contact is active at x. That bound is the linear one; the
+ * penalty switches on and off at d = dhat, and an explicit step that lands past the switch gains
+ * or loses energy: near the linear limit a body at rest on a collider heats up and blows up
+ * within thousands of steps. The energy goes to the fastest modes, the springs' or the body's
+ * own, so the term is PENALTY_KINK times the larger of omega_c and omega_el (docs/stability.md
+ * "Contact"). */
+static double lambda_bound(const defsim__term *t, const defsim__system *s, double lambda)
 {
     (void)s;
     const defsim__contact *c = contact(t);
-    if (c->mode != DEFSIM__CONTACT_PENALTY) return 0;
-    *lambda += c->khat;
-    return 1;
+    if (c->mode != DEFSIM__CONTACT_PENALTY) return lambda;
+    const double el = lambda > 0.0 ? lambda : 0.0;
+    return el + PENALTY_KINK * PENALTY_KINK * fmax(c->khat, el);
 }
 
 static void rates(const defsim__term *t, const defsim__system *s, const double *x,
@@ -120,6 +131,19 @@ static int counter(const defsim__term *t, const char *name, double *value)
     if (strcmp(name, "linearisations") != 0) return 0;
     *value = (double)t->cache->linearisations;
     return 1;
+}
+
+/* memcpy that allows empty arrays (NULL before any pair): advances the cursor. */
+static void put(unsigned char **p, const void *src, size_t n)
+{
+    if (n) memcpy(*p, src, n);
+    *p += n;
+}
+
+static void get(void *dst, const unsigned char **p, size_t n)
+{
+    if (n) memcpy(dst, *p, n);
+    *p += n;
 }
 
 /* The chunk: the frequency cached per plan, the safe box, and the step's candidate pairs with
@@ -147,12 +171,12 @@ static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
     memcpy(buf, &h, sizeof h);
     unsigned char *p = buf + sizeof h;
     const size_t n = (size_t)c->npair;
-    memcpy(p, c->pv, n * sizeof *c->pv); p += n * sizeof *c->pv;
-    memcpy(p, c->pc, n * sizeof *c->pc); p += n * sizeof *c->pc;
-    memcpy(p, c->lam, n * sizeof *c->lam); p += n * sizeof *c->lam;
-    memcpy(p, c->nrm, 3 * n * sizeof *c->nrm); p += 3 * n * sizeof *c->nrm;
-    memcpy(p, c->uc, 3 * n * sizeof *c->uc); p += 3 * n * sizeof *c->uc;
-    memcpy(p, c->off, n);
+    put(&p, c->pv, n * sizeof *c->pv);
+    put(&p, c->pc, n * sizeof *c->pc);
+    put(&p, c->lam, n * sizeof *c->lam);
+    put(&p, c->nrm, 3 * n * sizeof *c->nrm);
+    put(&p, c->uc, 3 * n * sizeof *c->uc);
+    put(&p, c->off, n);
     return need;
 }
 
@@ -194,12 +218,12 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     c->npair = h.npair;
     const unsigned char *p = buf + sizeof h;
     const size_t n = (size_t)c->npair;
-    memcpy(c->pv, p, n * sizeof *c->pv); p += n * sizeof *c->pv;
-    memcpy(c->pc, p, n * sizeof *c->pc); p += n * sizeof *c->pc;
-    memcpy(c->lam, p, n * sizeof *c->lam); p += n * sizeof *c->lam;
-    memcpy(c->nrm, p, 3 * n * sizeof *c->nrm); p += 3 * n * sizeof *c->nrm;
-    memcpy(c->uc, p, 3 * n * sizeof *c->uc); p += 3 * n * sizeof *c->uc;
-    memcpy(c->off, p, n);
+    get(c->pv, &p, n * sizeof *c->pv);
+    get(c->pc, &p, n * sizeof *c->pc);
+    get(c->lam, &p, n * sizeof *c->lam);
+    get(c->nrm, &p, 3 * n * sizeof *c->nrm);
+    get(c->uc, &p, 3 * n * sizeof *c->uc);
+    get(c->off, &p, n);
     t->cache->valid = 0;
     return DEFSIM_OK;
 }

@@ -1248,10 +1248,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
         defsim__contact_end(c, w->state.x, w->state.v, c->blk);
     }
     if (c->failed) {
-        defsim__error(w->msg, c->failed == DEFSIM_ERR_CALLBACK
-                                  ? "contact: a collider's SDF callback returned a non-finite "
-                                    "value; state restored"
-                                  : "out of memory for contact pairs; state restored");
+        defsim__error(w->msg, "contact: %s; state restored", defsim__contact_failure(c));
         return c->failed;
     }
     if (st != DEFSIM_OK) return st;

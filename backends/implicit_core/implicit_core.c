@@ -192,9 +192,11 @@ static const char ORDERINGS[] = "best|amd|metis", FACTORS[] = "auto|supernodal|s
 
 static const defsim_option_spec ic_options[OPT_COUNT] = {
     [OPT_TOLERANCE] = {.name = "tolerance", .type = DEFSIM_OPTION_REAL, .default_value = 1e-6,
-        .min_value = DBL_MIN, .max_value = 1.0,
+        /* Below 1e-14 the test asks for less than the rounding of the positions themselves
+         * (2.2e-16 of coordinates that may be larger than L): Newton could only run out. */
+        .min_value = 1e-14, .max_value = 1.0,
         .doc = "Newton stops when no DOF's update exceeds tolerance x L (L: diagonal of the rest "
-               "positions' bounding box); relative, in (0, 1]"},
+               "positions' bounding box); relative, in [1e-14, 1]"},
     [OPT_MAX_ITERATIONS] = {.name = "max_iterations", .type = DEFSIM_OPTION_INT,
         .default_value = 50, .min_value = 1, .max_value = 1e6,
         .doc = "Newton iterations per step before the step fails with NOT_CONVERGED"},

@@ -41,6 +41,7 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -89,8 +90,11 @@ enum { O_RTOL, O_ATOL, O_TABLE, O_MAX_STEPS, O_STAB_LIMIT, O_STAB_SAFETY, O_COUN
 static const defsim_option_spec erk_options[O_COUNT] = {
     {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
      "relative tolerance per second of simulated time"},
-    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1e300, NULL,
-     "absolute tolerance per second of simulated time (m for positions, m/s for velocities)"},
+    /* A length (and a speed): within the coordinate bound, 1e100, and at least 1e-30, below the
+     * rounding of any coordinate of a scene larger than 1e-14 m. */
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), "
+     "in [1e-30, 1e100]"},
     {"table", DEFSIM_OPTION_CHOICE, 0, 0, 0,
      "dormand_prince_5|bogacki_shampine_3|zonneveld_4|cash_karp_5|verner_6|fehlberg_8",
      "embedded pair (method order in the name): Dormand-Prince 5(4) by default"},
@@ -132,11 +136,16 @@ typedef struct erk_state {
     double *minv;              /* 1 / mass per free DOF */
     double *x, *v, *f;         /* full DOF work arrays (pinned entries fixed) */
     double rtol, atol;
+    long max_steps;            /* max_internal_steps: internal steps per call */
+    int stab_on;               /* stability_limit */
+    double stab_safety;        /* stability_safety: ERKStep's CFL fraction */
     int table;                 /* index into tables[] */
     int order;
     ARKodeButcherTable bt;     /* a copy of the table, for its stability function */
     double t;
     double h_stab;             /* last stability limit (s); 0: not estimated */
+    double h_stab_pre;         /* the limit at y after a restart, estimated before ERKStepEvolve
+                                  (erk_step); -1: none. ERKStep's first estimate takes it */
     long stab_step, stab_etf, stab_exp;   /* ERKStep's step, error-test failure and
                                              stability-limited step counts at that estimate */
     erk_counts base;
@@ -296,18 +305,25 @@ static int erk_stability(N_Vector yy, realtype t, realtype *hstab, void *user)
     ERKStepGetNumExpSteps(s->mem, &nexp);
     const int stiffened = netf > s->stab_etf && nexp > s->stab_exp;
     if (s->h_stab <= 0.0 || nst - s->stab_step >= STAB_REFRESH || stiffened) {
-        scatter(s, N_VGetArrayPointer(yy));
-        double omega = 0.0, c = 0.0;
-        if (s->host->omega_max(s->sys, s->x, &omega, &c) != DEFSIM_OK) {
-            *hstab = 0.0;   /* no estimate: no limit; the error test still holds */
-            return 0;
+        const double *y = N_VGetArrayPointer(yy);
+        if (s->h_stab_pre >= 0.0 && nst == 0 &&
+            memcmp(y, N_VGetArrayPointer(s->y), 2 * (size_t)s->n * sizeof *y) == 0) {
+            s->h_stab = s->h_stab_pre;   /* made at this very state by erk_step */
+        } else {
+            scatter(s, y);
+            double omega = 0.0, c = 0.0;
+            if (s->host->omega_max(s->sys, s->x, &omega, &c) != DEFSIM_OK) {
+                *hstab = 0.0;   /* no estimate: no limit; the error test still holds */
+                return 0;
+            }
+            s->h_stab = table_stable_step(s->bt, omega, c);
+            count(s, C_STAB_ESTIMATES, 1.0);
         }
-        s->h_stab = table_stable_step(s->bt, omega, c);
+        s->h_stab_pre = -1.0;
         s->stab_step = nst;
         s->stab_etf = netf;
         s->stab_exp = nexp;
         s->host->stats(s->sys)->stable_step = s->h_stab;
-        count(s, C_STAB_ESTIMATES, 1.0);
     }
     *hstab = isfinite(s->h_stab) ? s->h_stab : 0.0;
     return 0;
@@ -426,6 +442,7 @@ static defsim_status erk_reinit(erk_state *s, double t0, N_Vector y0)
     if (flag < 0) return erk_fail(s, "ERKStepReInit", flag);
     memset(&s->base, 0, sizeof s->base);
     s->h_stab = 0.0;
+    s->h_stab_pre = -1.0;
     s->prior_e = 1.0;
     s->replay = 0;
     s->replay_f0 = 0;
@@ -473,10 +490,14 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
 static defsim_status erk_init(const defsim_host *host, defsim_system *sys, void *state)
 {
     erk_state *s = state;
+    s->h_stab_pre = -1.0;   /* before the prologue, which returns early when all is pinned */
     double o[O_COUNT];
     DEFSIM__SUN_INIT_PROLOGUE(s, host, sys, erk_options, O_COUNT, o);
     s->rtol = o[O_RTOL];
     s->atol = o[O_ATOL];
+    s->max_steps = (long)o[O_MAX_STEPS];
+    s->stab_on = o[O_STAB_LIMIT] != 0.0;
+    s->stab_safety = o[O_STAB_SAFETY];
     s->table = table_index(o);
     const size_t n = (size_t)s->n, nd = (size_t)s->ndof;
     s->minv = defsim__sun_calloc(host, n, sizeof *s->minv);
@@ -533,6 +554,36 @@ static defsim_status erk_step(const defsim_host *host, defsim_system *sys, void 
     if (s->sun.need_reinit) {
         defsim_status st = erk_restart(s);
         if (st != DEFSIM_OK) return st;
+    }
+    /* A call that cannot finish: at the stability limit it needs more internal steps than it may
+     * take. ERKStep would take them all and fail (h = 1000 s on a 48-tet box: 12 s; minutes on
+     * a large body), so it is refused before any work, the state untouched (README "Work per
+     * call"). The limit is the one ERKStep's next step uses: the last estimate or, after a
+     * restart, the first one, made here at the same state and handed to ERKStep's first call
+     * of erk_stability (not to the error weights before it: the steps stay bit for bit). */
+    if (s->stab_on) {
+        double hs = s->h_stab;
+        if (!(hs > 0.0) && s->h_stab_pre < 0.0) {
+            double omega = 0.0, c = 0.0;
+            scatter(s, N_VGetArrayPointer(s->y));
+            if (s->host->omega_max(s->sys, s->x, &omega, &c) == DEFSIM_OK) {
+                s->h_stab_pre = table_stable_step(s->bt, omega, c);
+                count(s, C_STAB_ESTIMATES, 1.0);
+            }
+        }
+        if (!(hs > 0.0) && s->h_stab_pre >= 0.0) hs = s->h_stab_pre;
+        hs = isfinite(hs) ? hs : 0.0;   /* no estimate, or no limit: nothing to refuse */
+        const double need = hs > 0.0 ? h / (s->stab_safety * hs) : 0.0;
+        if (need > (double)s->max_steps) {
+            char msg[400];
+            snprintf(msg, sizeof msg, "sundials_erk: h = %g s needs at least %.3g internal steps "
+                     "at the stability limit (%.3g s x stability_safety %g), more than "
+                     "sundials_erk.max_internal_steps (%ld) allows in one call: take shorter "
+                     "steps or raise max_internal_steps", h, need, hs, s->stab_safety,
+                     s->max_steps);
+            host->set_error(sys, msg);
+            return DEFSIM_ERR_NOT_CONVERGED;
+        }
     }
     const double tout = s->t + h;
     int flag = ERKStepSetStopTime(s->mem, tout);

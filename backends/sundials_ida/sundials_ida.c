@@ -79,8 +79,11 @@ enum { LS_CHOLMOD = 0, LS_KLU = 1 };
 static const defsim_option_spec ida_options[O_COUNT] = {
     {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
      "relative tolerance per second of simulated time"},
-    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1e300, NULL,
-     "absolute tolerance per second of simulated time (m for positions, m/s for velocities)"},
+    /* A length (and a speed): within the coordinate bound, 1e100, and at least 1e-30, below the
+     * rounding of any coordinate of a scene larger than 1e-14 m. */
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), "
+     "in [1e-30, 1e100]"},
     {"max_order", DEFSIM_OPTION_INT, 5, 1, 5, NULL, "highest BDF order"},
     {"max_internal_steps", DEFSIM_OPTION_INT, 100000, 1, 2e9, NULL,
      "internal steps allowed per defsim_world_step call"},

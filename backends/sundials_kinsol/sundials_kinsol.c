@@ -38,8 +38,9 @@
 enum { O_TOLERANCE, O_MAX_ITERATIONS, O_COUNT };
 
 static const defsim_option_spec kin_options[O_COUNT] = {
-    {"tolerance", DEFSIM_OPTION_REAL, 1e-6, 1e-300, 1.0, NULL,
-     "scaled residual: position error relative to the scene size"},
+    /* Relative: below 1e-14 the rounding of the positions exceeds it (as rtol's bound). */
+    {"tolerance", DEFSIM_OPTION_REAL, 1e-6, 1e-14, 1.0, NULL,
+     "scaled residual: position error relative to the scene size, in [1e-14, 1]"},
     {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
      "Newton iterations per solve (from y, then from x_n)"},
 };

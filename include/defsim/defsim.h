@@ -320,8 +320,16 @@ DEFSIM_API int32_t defsim_world_vertex_count(const defsim_world *world);
 /// far beyond its rest size, an inverted neo-Hookean element; see docs/watchdog.md and the
 /// core.watchdog options), DEFSIM_ERR_NOT_CONVERGED (implicit backends),
 /// DEFSIM_ERR_OUT_OF_MEMORY (first step after a change of bodies or pins, when buffers are made),
-/// DEFSIM_ERR_CALLBACK (the force callback failed), DEFSIM_ERR_LOCKED (from inside a host
-/// callback). A world without bodies only advances its time.
+/// DEFSIM_ERR_CALLBACK (the force callback or an SDF collider's callback failed),
+/// DEFSIM_ERR_LOCKED (from inside a host callback). A vertex so far out (beyond about 1e150 m)
+/// that its distance to a collider overflows fails the step with DEFSIM_ERR_UNSTABLE. A world
+/// without bodies only advances its time.
+/// Work: explicit backends take one step of h (or, with core.auto_substep, up to 1e7 substeps);
+/// adaptive ones at most their max_internal_steps internal steps, and sundials_erk refuses at
+/// once (DEFSIM_ERR_NOT_CONVERGED) an h that needs more at its stability limit. A host interrupts
+/// a long call from its force callback: a non-zero return fails the call with
+/// DEFSIM_ERR_CALLBACK at the next force evaluation (every evaluation for explicit backends and
+/// sundials_erk; implicit backends call it once per step, or per Newton iterate with a Jacobian).
 DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 
 /// Estimates the largest step that the world's backend can take stably from the current state.
@@ -331,9 +339,15 @@ DEFSIM_API defsim_status defsim_world_step(defsim_world *world, double h);
 /// backend's: symplectic Euler 2/omega_max without damping (the root of h^2 w^2 + 2 c h = 4 with
 /// it), explicit Euler c / omega_max^2 (0 without damping: forward Euler is unstable for any h on
 /// an undamped oscillator), +INFINITY for implicit backends. It is a linearisation at the current
-/// state: large deformations that stiffen the material lower it. Either output may be NULL.
+/// state: large deformations that stiffen the material lower it. With a collider, backends with
+/// penalty contact count it whether or not a vertex touches the collider yet: omega_max^2 =
+/// omega_el^2 + (2.5 max(omega_c, omega_el))^2, the factor 2.5 for the energy the penalty's switch
+/// feeds an explicit step, and c adds friction's damping rate at a contact at least as deep as
+/// d = 0 (docs/stability.md "Contact"). Either output may be NULL.
 /// Cost: about 20 to 100 force evaluations. Errors: DEFSIM_ERR_INVALID_ARGUMENT,
-/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// DEFSIM_ERR_LOCKED (from inside a host callback), DEFSIM_ERR_OUT_OF_MEMORY,
+/// DEFSIM_ERR_UNSTABLE (a non-finite stiffness, or a distance to a collider that overflows),
+/// DEFSIM_ERR_CALLBACK (an SDF collider's callback failed).
 DEFSIM_API defsim_status defsim_world_stable_step(defsim_world *world, double *h_out,
                                                   double *omega_max_out);
 
@@ -496,7 +510,7 @@ typedef struct defsim_option_info {
 /// world's backend ("sundials_ida.max_order") or "core.<option>" for an option of the world
 /// itself: "core.simd" (auto|scalar|generic|avx2|avx512: the tet force kernels; the environment
 /// variable DEFSIM_SIMD, when set, overrides it), "core.auto_substep" (BOOL),
-/// "core.substep_safety" (REAL in (0, 1]), and the stability watchdog's "core.watchdog" (BOOL,
+/// "core.substep_safety" (REAL in [0.01, 1]), and the stability watchdog's "core.watchdog" (BOOL,
 /// default on), "core.watchdog_energy_growth" (REAL >= 1, default 10) and
 /// "core.watchdog_max_stretch" (REAL >= 1, default 100) (docs/watchdog.md). `value` is text: a number ("3", "1e-6"), a BOOL word
 /// ("true", "false", "on", "off", "1", "0") or a CHOICE name ("clamp"). Changing an option of the
@@ -785,8 +799,8 @@ DEFSIM_API defsim_status defsim_world_get_attachment_force(const defsim_world *w
 /// weight, pointing up). A rigid-body engine coupled two-way applies -R_i to what holds the pin.
 /// Evaluated on demand (one force evaluation, plus the force callback if one is set).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch), DEFSIM_ERR_CALLBACK (the force
-/// callback failed; out is unchanged), DEFSIM_ERR_LOCKED (from inside a host callback: it calls
-/// the force callback), DEFSIM_ERR_OUT_OF_MEMORY.
+/// callback failed, also when nothing is pinned; out is unchanged), DEFSIM_ERR_LOCKED (from
+/// inside a host callback: it calls the force callback), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double *out,
                                                      int32_t n);
 
@@ -851,10 +865,12 @@ typedef struct defsim_collider_def {
                                 ///< length is normalised; others are rejected.
     double normal[3];           ///< PLANE: outward normal (local frame; normalised, not zero).
                                 ///< Default (0, 1, 0).
-    double radius;              ///< SPHERE, CAPSULE: radius (m, > 0). Default 0.5.
-    double half_extents[3];     ///< BOX: half side lengths (m, > 0). Default (0.5, 0.5, 0.5).
-    double half_height;         ///< CAPSULE: half length of its axis segment (m, >= 0).
-                                ///< Default 0.5.
+    double radius;              ///< SPHERE, CAPSULE: radius (m, a normal number in
+                                ///< [DBL_MIN, 1e100]). Default 0.5.
+    double half_extents[3];     ///< BOX: half side lengths (m, each in [DBL_MIN, 1e100]).
+                                ///< Default (0.5, 0.5, 0.5).
+    double half_height;         ///< CAPSULE: half length of its axis segment (m, 0 or in
+                                ///< [DBL_MIN, 1e100]). Default 0.5.
     double friction;            ///< Coulomb friction coefficient mu (>= 0). Default 0.
     const double *vertices;     ///< MESH: 3 * vertex_count coordinates (m, local frame). Copied.
     int32_t vertex_count;       ///< MESH: >= 3.
@@ -873,11 +889,13 @@ typedef struct defsim_collider_def {
 DEFSIM_API void defsim_collider_def_init(defsim_collider_def *def, size_t size);
 
 /// Adds a collider; on success *out (may be NULL) receives its id. Mesh arrays are copied.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a zero
-/// normal, radius or half extents <= 0, half_height < 0, friction < 0, a quaternion not within
-/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, non-finite
-/// coordinates, an index out of range or a zero-area triangle, an SDF without a callback or
-/// with sdf_bounds lo > hi), DEFSIM_ERR_LOCKED (from inside a host callback),
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size, unknown shape, non-finite numbers, a
+/// position beyond +-1e100 m (the coordinate bound of meshes: distances would overflow), a zero
+/// normal, a radius or half extent not in [DBL_MIN, 1e100] m (zero, negative, denormal or too
+/// large), a half_height neither 0 nor in that range, friction < 0, a quaternion not within
+/// 1e-6 of unit length, a mesh with too few vertices or triangles, NULL arrays, mesh
+/// coordinates non-finite or beyond +-1e100 m, an index out of range or a zero-area triangle, an
+/// SDF without a callback or with sdf_bounds lo > hi or beyond +-1e100 m), DEFSIM_ERR_LOCKED (from inside a host callback),
 /// DEFSIM_ERR_OUT_OF_MEMORY (also: the world holds the most colliders it can). On error
 /// nothing changes.
 DEFSIM_API defsim_status defsim_world_add_collider(defsim_world *world,
@@ -893,8 +911,9 @@ DEFSIM_API defsim_status defsim_world_remove_collider(defsim_world *world,
 /// quaternion w x y z, normalised as for defsim_collider_def). During that step it moves from
 /// its current pose at constant velocity (position linearly, rotation along the shortest arc),
 /// so friction carries bodies along. Calling it again before the step replaces the target.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, non-finite, a quaternion not within 1e-6 of unit
-/// length), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED. On error nothing changes.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, non-finite, a position beyond +-1e100 m, a
+/// quaternion not within 1e-6 of unit length), DEFSIM_ERR_STALE_ID, DEFSIM_ERR_LOCKED. On error
+/// nothing changes.
 DEFSIM_API defsim_status defsim_collider_set_pose(defsim_world *world,
                                                   defsim_collider_id collider,
                                                   const double position[3],

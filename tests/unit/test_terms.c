@@ -518,10 +518,10 @@ static void project_psd(int n, double *A)
         }
 }
 
-/* A rope's lower end over a triangle's interior, 0.4 dhat above it: one point-triangle pair. */
-static void test_body_contact(void **state)
+/* A rope's lower end over a triangle's interior, 0.4 dhat above it: one point-triangle pair
+ * (with friction mu: lagged from the start, the point then slid along the triangle). */
+static defsim_world *point_over_triangle(double mu, double **x_out, double **v_out)
 {
-    (void)state;
     defsim_world *w = world(0.0);
     const double tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     const int32_t tt[3] = {0, 1, 2};
@@ -540,7 +540,7 @@ static void test_body_contact(void **state)
         d.triangle_count = b ? 0 : 1;
         d.springs = b ? sp : NULL;
         d.spring_count = b ? 1 : 0;
-        d.friction = 0.0;
+        d.friction = mu;
         TU_OK(defsim_world_add_body(w, &d, NULL));
     }
     TU_OK(defsim__world_plan(w));
@@ -551,11 +551,45 @@ static void test_body_contact(void **state)
                                      1e-3, w->x_save, v, 0.01, w->contact.stat, w->msg));
     w->sys.body_contact = &w->body_contact;
     TU_OK(defsim__terms_compile(&w->sys));
-    const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_body_contact);
     /* evaluated off the start: a tilted triangle, the point moved */
     x[3 * 3 + 0] += 0.1 * dh;
     x[3 * 3 + 2] += 0.2 * dh;
     x[3 * 1 + 2] += 0.1 * dh;
+    *x_out = x;
+    *v_out = v;
+    return w;
+}
+
+static void detach_bodies(defsim_world *w)
+{
+    w->sys.body_contact = NULL;
+    w->body_contact.active = 0;
+    TU_OK(defsim__terms_compile(&w->sys));
+}
+
+static void test_body_contact_friction(void **state)
+{
+    (void)state;
+    double *x, *v;
+    defsim_world *w = point_over_triangle(0.5, &x, &v);
+    const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_body_contact);
+    assert_true(w->body_contact.nfric == 1);
+    check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-4 * 0.01 * sqrt(3.0), 1e-5);
+    check_chunk(w, t, x, DEFSIM_FORCE_ELASTIC);
+    detach_bodies(w);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+}
+
+static void test_body_contact(void **state)
+{
+    (void)state;
+    const double dh = 0.01 * sqrt(3.0);
+    double *x, *v;
+    defsim_world *w = point_over_triangle(0.0, &x, &v);
+    const int64_t n = 3 * (int64_t)w->nv;
+    const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_body_contact);
     check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-4 * dh, 1e-5);
     /* values: the engine projects the pair's Hessian in the differences to its first vertex
      * (body_contact.c project_relative); do the same to the differenced Hessian */
@@ -625,9 +659,7 @@ static void test_body_contact(void **state)
     assert_true(hmin > 0.0);
     free(dx);
     check_chunk(w, t, x, DEFSIM_FORCE_ELASTIC);
-    w->sys.body_contact = NULL;
-    w->body_contact.active = 0;
-    TU_OK(defsim__terms_compile(&w->sys));
+    detach_bodies(w);
     free(x);
     free(v);
     defsim_world_destroy(w);
@@ -647,6 +679,7 @@ int main(void)
         cmocka_unit_test(test_elastic),        cmocka_unit_test(test_spring_and_mass),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),
         cmocka_unit_test(test_collider),       cmocka_unit_test(test_body_contact),
+        cmocka_unit_test(test_body_contact_friction),
         cmocka_unit_test(test_all_kinds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -12,6 +12,7 @@
 #include "checkpoint.h"
 
 #include "assembly.h"
+#include "contact.h"
 
 #include "file_read.h"
 #include "world.h"
@@ -298,6 +299,24 @@ static void write_colliders(bw *b, const defsim_world *w)
     }
 }
 
+/* Contact state that the next steps depend on (version 5): the penalty's automatic frequency,
+ * computed by power iteration at the state of the first step after a plan and kept for the plan
+ * (a loaded world would compute it at the saved state: another stiffness), and the velocities
+ * of penalty friction's matrix blocks, those of the latest damping evaluation with pairs, which
+ * sundials_kinsol's damping matrix B(x_n) takes from the end of the step before (a loaded world
+ * would have zeros). */
+static void write_contact_state(bw *b, const defsim_world *w)
+{
+    const double omega = w->planned ? w->contact.omega_elastic : 0.0;
+    const double *vel = defsim__contact_vel(&w->contact, w->nv);
+    if (omega == 0.0 && !vel) return;
+    const size_t at = chunk_begin(b, "CNTC");
+    put_f64(b, omega);
+    put_i32(b, vel != NULL);
+    if (vel) put_f64s(b, vel, 3 * (int64_t)w->nv);
+    chunk_end(b, at);
+}
+
 static void write_state(bw *b, const defsim_world *w)
 {
     size_t c = chunk_begin(b, "STAT");
@@ -366,6 +385,7 @@ static defsim_status save_to(const defsim_world *w, bw *b)
     write_bodies(b, w);
     write_coupling(b, w);
     write_colliders(b, w);
+    write_contact_state(b, w);
     write_pattern(b, w);
     write_state(b, w);
     defsim_status st = write_backend(b, w);
@@ -1021,7 +1041,10 @@ static defsim_status load_pattern(defsim_world *w, const chunk *c)
     defsim_status st = DEFSIM_OK;
     int grew = 0;
     if (r.bad || r.at != r.n) st = malformed(c, "wrong length or a pair out of range");
-    else if ((st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
+    /* Built first: growing a pattern that is not built yet (a backend that builds it at its
+     * first use) would drop the pairs. */
+    else if ((st = defsim__pattern_build(&w->sys)) != DEFSIM_OK ||
+             (st = defsim__pattern_grow(&w->sys, pairs, (int64_t)n, &grew)) != DEFSIM_OK)
         defsim__set_last_error("load: out of memory");
     free(pairs);
     return st;
@@ -1046,6 +1069,40 @@ static defsim_status load_contact_forces(defsim_world *w, const chunk *c)
     w->contact_force = f;
     w->contact_nv = w->nv;
     w->contact_zero = 0;
+    return DEFSIM_OK;
+}
+
+/* Version 5's contact state; applied once the world is planned (planning clears the
+ * frequency). */
+static defsim_status load_contact_state(defsim_world *w, const chunk *c)
+{
+    br r = chunk_reader(c);
+    const double omega = get_f64(&r);
+    const int32_t has_vel = get_i32(&r);
+    const int64_t ndof = 3 * (int64_t)w->nv;
+    if (r.bad || !(omega >= 0.0) || !isfinite(omega) || (has_vel != 0 && has_vel != 1) ||
+        (has_vel && w->nv == 0) || c->len != 12 + (has_vel ? 8 * (size_t)ndof : 0))
+        return malformed(c, "wrong length, a bad flag, or a frequency that is not finite and "
+                            ">= 0");
+    if (has_vel) {
+        double *vel = malloc((size_t)ndof * sizeof *vel);
+        if (!vel) {
+            defsim__set_last_error("load: out of memory");
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        get_f64s(&r, vel, ndof);
+        int finite = 1;
+        for (int64_t i = 0; i < ndof; ++i) finite &= isfinite(vel[i]) != 0;
+        const defsim_status st = finite ? defsim__contact_set_vel(&w->contact, w->nv, vel)
+                                        : DEFSIM_ERR_IO;
+        free(vel);
+        if (st == DEFSIM_ERR_IO) return malformed(c, "a velocity is not finite");
+        if (st != DEFSIM_OK) {
+            defsim__set_last_error("load: out of memory");
+            return st;
+        }
+    }
+    w->contact.omega_elastic = omega;
     return DEFSIM_OK;
 }
 
@@ -1137,7 +1194,14 @@ static defsim_status load_backend(defsim_world *w, const chunk *c)
     if ((st = defsim__world_backend_start(w)) != DEFSIM_OK)
         return world_failed(w, st, "backend initialisation");
     const defsim_state_reader rd = {&r, sr_f64, sr_i64, sr_remaining};
+    /* A backend that replays its last step (sundials_erk) sees the colliders as that step did. */
+    st = defsim__world_replay_contact_begin(w);
+    if (st != DEFSIM_OK) {
+        defsim__world_backend_stop(w);
+        return world_failed(w, st, "contact for the backend's history");
+    }
     st = be->load_state(&defsim__host, &w->handle, w->bstate, &rd);
+    defsim__world_replay_contact_end(w);
     if (st == DEFSIM_OK && (r.bad || r.at != r.n)) st = DEFSIM_ERR_IO;
     if (st != DEFSIM_OK) {
         defsim__world_backend_stop(w);
@@ -1160,6 +1224,7 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     id_map *map = calloc((size_t)k->n, sizeof *map);
     int32_t nmap = 0;
     const chunk *state = NULL, *stats = NULL, *backend = NULL, *contact = NULL, *pattern = NULL;
+    const chunk *cstate = NULL;
     if (!map) {
         defsim__set_last_error("load: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -1180,6 +1245,8 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
             st = load_collider(w, c);
         } else if (strcmp(c->tag, "CFRC") == 0 && k->version >= 3) {
             contact = c;
+        } else if (strcmp(c->tag, "CNTC") == 0 && k->version >= 5) {
+            cstate = c;
         } else if (strcmp(c->tag, "PEXT") == 0 && k->version >= 4) {
             pattern = c;
         } else if (strcmp(c->tag, "STAT") == 0) {
@@ -1205,12 +1272,17 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     int32_t age = 0;
     if (st == DEFSIM_OK) st = load_state(w, state, k->version, &h_stable, &age);
     if (st == DEFSIM_OK && contact) st = load_contact_forces(w, contact);
-    if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
     /* Planned now, with the options taken as the backend's initial ones, as the saved world
-     * was: its first step keeps the cache. */
+     * was: its first step keeps the cache. The pattern grows before the backend starts: a
+     * backend borrows it at init, and growing it later would free what it holds (newmark's
+     * first step read freed memory that way). */
     if (st == DEFSIM_OK && (st = defsim__world_plan(w)) != DEFSIM_OK)
         st = world_failed(w, st, "planning");
     if (st == DEFSIM_OK && pattern) st = load_pattern(w, pattern);
+    if (st == DEFSIM_OK && cstate) st = load_contact_state(w, cstate);
+    if (st == DEFSIM_OK && backend) st = load_backend(w, backend);
+    /* Again: a replay in the backend's load evaluated friction, which keeps its velocities. */
+    if (st == DEFSIM_OK && cstate) st = load_contact_state(w, cstate);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
         w->h_stable = h_stable;

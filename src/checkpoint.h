@@ -14,8 +14,9 @@
 #define DEFSIM__CKPT_HEADER 16
 /* The version this library writes; it reads 1 .. this. Version 2 added the auto_substep cache
  * (the stable-step estimate and its age) to the STAT chunk, version 3 the colliders (COLL
- * chunks, and CFRC for the contact forces of the last step). */
-#define DEFSIM__CKPT_VERSION 4u
+ * chunks, and CFRC for the contact forces of the last step), version 4 body contact (BODY's
+ * surfaces and filters, PEXT), version 5 the contact state a continuation depends on (CNTC). */
+#define DEFSIM__CKPT_VERSION 5u
 
 /* CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) of n bytes, continuing from crc (0 to
  * start). */

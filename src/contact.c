@@ -352,6 +352,18 @@ static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
     return 1;
 }
 
+const double *defsim__contact_vel(const defsim__contact *c, int32_t nv)
+{
+    return nv > 0 && c->cap_v >= nv ? c->vel : NULL;
+}
+
+defsim_status defsim__contact_set_vel(defsim__contact *c, int32_t nv, const double *vel)
+{
+    if (!reserve(c, nv, 0)) return DEFSIM_ERR_OUT_OF_MEMORY;
+    memcpy(c->vel, vel, 3 * (size_t)nv * sizeof *vel);
+    return DEFSIM_OK;
+}
+
 defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
                                     const defsim__collider *col, int32_t ncol,
                                     const defsim__contact_params *p, const double *x,
@@ -508,6 +520,13 @@ static double contact_energy(defsim__contact *c, const double *x)
 static void collider_velocity(const defsim__contact *c, int32_t j, const double x[3],
                               double vc[3])
 {
+    /* A collider that keeps its pose over the step has no velocity: exactly zero, not the
+     * roundoff of carrying x through the pose and back (which also made a checkpoint's replayed
+     * step, which sees colliders still, differ from the step it replays). */
+    if (memcmp(&c->pose0[j], &c->pose1[j], sizeof c->pose0[j]) == 0) {
+        vc[0] = vc[1] = vc[2] = 0.0;
+        return;
+    }
     double back[3];
     carry(&c->pose1[j], &c->pose0[j], x, back);
     for (int k = 0; k < 3; ++k) vc[k] = c->h > 0.0 ? (x[k] - back[k]) / c->h : 0.0;

@@ -99,6 +99,14 @@ typedef struct defsim__contact {
     double stat[DEFSIM__CSTAT_COUNT];
 } defsim__contact;
 
+/* Checkpoints (checkpoint.c): the PENALTY friction blocks' velocities (`vel`, the latest damping
+ * evaluation's, which a backend may never refresh within a step: sundials_kinsol's B(x_n)) are
+ * part of what the next step depends on. defsim__contact_vel gives them for nv vertices (NULL
+ * when none are held: the next step allocates them as zeros); defsim__contact_set_vel restores
+ * them. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. */
+const double *defsim__contact_vel(const defsim__contact *c, int32_t nv);
+defsim_status defsim__contact_set_vel(defsim__contact *c, int32_t nv, const double *vel);
+
 /* Parameters of a step, read from the world's options by the caller. */
 typedef struct defsim__contact_params {
     int mode;

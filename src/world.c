@@ -1203,6 +1203,42 @@ static defsim_status contact_begin(defsim_world *w, double h)
     return defsim__terms_compile(&w->sys);
 }
 
+defsim_status defsim__world_replay_contact_begin(defsim_world *w)
+{
+    if (w->nv == 0 || defsim_world_collider_count(w) == 0 ||
+        (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD))
+        return DEFSIM_OK;
+    /* An SDF collider has no function until the host installs it after the load: the replay
+     * goes without contact (and, if it touched one, misses and restarts). */
+    for (int32_t j = 0; j < w->ncol; ++j)
+        if ((w->col[j].generation & 1u) && w->col[j].def.shape == DEFSIM_SHAPE_SDF)
+            return DEFSIM_OK;
+    /* contact_begin takes both poses of the step from the colliders: the end pose made the
+     * current one for that call (begin copies the poses), then the pending targets back. */
+    double *keep = malloc(7 * (size_t)w->ncol * sizeof *keep);
+    if (!keep) {
+        defsim__error(w->msg, "out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int32_t j = 0; j < w->ncol; ++j) {
+        defsim__collider *c = &w->col[j];
+        memcpy(keep + 7 * (int64_t)j, c->pos1, sizeof c->pos1);
+        memcpy(keep + 7 * (int64_t)j + 3, c->rot1, sizeof c->rot1);
+        memcpy(c->pos1, c->pos, sizeof c->pos);
+        memcpy(c->rot1, c->rot, sizeof c->rot);
+    }
+    const defsim_status st = contact_begin(w, 0.0);
+    for (int32_t j = 0; j < w->ncol; ++j) {
+        defsim__collider *c = &w->col[j];
+        memcpy(c->pos1, keep + 7 * (int64_t)j, sizeof c->pos1);
+        memcpy(c->rot1, keep + 7 * (int64_t)j + 3, sizeof c->rot1);
+    }
+    free(keep);
+    return st;
+}
+
+void defsim__world_replay_contact_end(defsim_world *w) { w->sys.contact = NULL; }
+
 /* A zeroed contact-force read-back of the world's vertex count. */
 static defsim_status readback_reserve(defsim_world *w)
 {

@@ -94,6 +94,13 @@ defsim_status defsim__world_plan(defsim_world *w);
  * made, sets the world's error and returns the status. Stop finalises it (history dropped). */
 defsim_status defsim__world_backend_start(defsim_world *w);
 void defsim__world_backend_stop(defsim_world *w);
+/* Checkpoint loads: contact for a backend that replays its last internal step in load_state
+ * (sundials_erk), as a step's end saw it: every collider still at its current pose (a pending
+ * set_pose target is kept but not used); none while an SDF collider has no function yet. End
+ * clears it. Begin returns DEFSIM_OK,
+ * DEFSIM_ERR_OUT_OF_MEMORY or DEFSIM_ERR_CALLBACK (world's error set). */
+defsim_status defsim__world_replay_contact_begin(defsim_world *w);
+void defsim__world_replay_contact_end(defsim_world *w);
 /* Drops the compiled system; the next step or query plans again. */
 void defsim__world_unplan(defsim_world *w);
 

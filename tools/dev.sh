@@ -3,7 +3,8 @@
 #
 # One entry point for a fresh Debian/Ubuntu machine:
 #   tools/dev.sh demo    install what is missing, build, run the demo scene
-#   tools/dev.sh test    install what is missing, build, run every test (and tsan)
+#   tools/dev.sh test    install what is missing, build, run every test but those labelled long
+#                        (and tsan)
 #   tools/dev.sh tsan    build and run the thread test under ThreadSanitizer (build-tsan)
 #   tools/dev.sh deps    only install (as root) or print the apt-get line (otherwise)
 #   tools/dev.sh build   only configure and build
@@ -95,7 +96,9 @@ test)
     deps
     pyenv
     configure_and_build
-    ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 900
+    # Tests labelled "long" (the adversarial suite's long matrices) run on demand only:
+    # ctest --test-dir build -L long.
+    ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 900 -LE long
     tsan
     ;;
 tsan) deps; tsan ;;

@@ -18,6 +18,10 @@
  * evaluate, once per Newton iteration) and before products (DEFSIM__LIN_PRODUCT from the host's
  * service, DEFSIM__LIN_LAZY from internal loops such as the power iteration: evaluate only if x
  * or the coefficients differ from the cached ones), so a product does no geometry.
+ *
+ * Every op but compile is optional (NULL: nothing to do), so kinds to come (cloth membranes and
+ * hinges, rigid bodies) and ops to come (derivatives with respect to a term's parameters, for
+ * gradients) are appended without touching the kinds that have no use for them.
  */
 #ifndef DEFSIM_TERM_H
 #define DEFSIM_TERM_H
@@ -61,8 +65,10 @@ typedef struct defsim__term_cache {
     int any;                  /* some block is not zero */
     int64_t count;            /* blocks in buf */
     double k, kd;             /* the coefficients they were evaluated for */
-    uint64_t epoch, seen;     /* bumped when something besides x changes the blocks */
-    int64_t linearisations;   /* evaluations, cumulative (the benchmark's counter) */
+    uint64_t epoch;           /* bumped when something besides x changes the blocks (a substep,
+                                 friction's velocities) */
+    uint64_t seen;            /* the epoch the blocks were evaluated at */
+    int64_t linearisations;   /* evaluations, cumulative (statistic term.<kind>.linearisations) */
 } defsim__term_cache;
 
 /* One term of a system: what its ops evaluate. */

@@ -767,14 +767,15 @@ double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, 
     return alpha;
 }
 
-void defsim__body_contact_start(defsim__body_contact *bc, double *x)
+int defsim__body_contact_start(defsim__body_contact *bc, double *x)
 {
     const double t0 = defsim__now();
     double *d = bc->scratch;
     const int64_t n3 = 3 * (int64_t)bc->nv;
     for (int64_t i = 0; i < n3; ++i) d[i] = x[i] - bc->xn[i];
     double alpha = ccd(bc, bc->xn, d);
-    if (alpha < 1.0) {
+    const int cut = alpha < 1.0;
+    if (cut) {
         /* Free vertices back along their way (pinned ones are the core's): once to where CCD
          * allows, and to the start if that mix with the pins' motion is not safe either. */
         for (int pass = 0; pass < 2 && alpha < 1.0; ++pass) {
@@ -790,6 +791,7 @@ void defsim__body_contact_start(defsim__body_contact *bc, double *x)
         }
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_CCD] += defsim__now() - t0;
+    return cut;
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -124,8 +124,9 @@ void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system
  * at x along x + t dx, t <= alpha (additive CCD); 0 when x is not feasible. */
 double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, const double *dx);
 /* Makes a Newton start x feasible: moves its free vertices back along the segment from the
- * step's start as far as CCD requires (to the start itself if needed). */
-void defsim__body_contact_start(defsim__body_contact *bc, double *x);
+ * step's start as far as CCD requires (to the start itself if needed). Returns 1 if it moved
+ * them. */
+int defsim__body_contact_start(defsim__body_contact *bc, double *x);
 /* Ends a successful step at x: the body contact force per vertex into f (3 nv, overwritten) and
  * the statistics; returns the smallest pair distance (m; inf without candidates). */
 double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f);

@@ -9,9 +9,12 @@
  */
 #include "contact.h"
 
+#include "broad_phase.h"
 #include "clock.h"
 #include "contact_barrier.h"
+#include "contact_prim.h"
 #include "mat3.h"
+#include "mesh.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -313,6 +316,8 @@ void defsim__contact_free(defsim__contact *c)
     const int readback = c->readback_set;
     free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
     free(c->radius); free(c->vel); free(c->blk);
+    free(c->base); free(c->dstart); free(c->carrier); free(c->cpos); free(c->hit);
+    free(c->face); free(c->edge);
     free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
     memset(c, 0, sizeof *c);
     c->omega_elastic = om;
@@ -333,10 +338,17 @@ static int reserve(defsim__contact *c, int32_t nv, int32_t ncol)
 {
     if (nv > c->cap_v) {
         free(c->radius); free(c->vel); free(c->blk);
+        free(c->base); free(c->dstart); free(c->carrier); free(c->cpos); free(c->hit);
         c->radius = malloc((size_t)nv * sizeof *c->radius);
         c->vel = calloc(3 * (size_t)nv, sizeof *c->vel);
         c->blk = malloc(9 * (size_t)nv * sizeof *c->blk);
-        c->cap_v = c->radius && c->vel && c->blk ? nv : 0;
+        c->base = malloc(3 * (size_t)nv * sizeof *c->base);
+        c->dstart = malloc(3 * (size_t)nv * sizeof *c->dstart);
+        c->carrier = malloc((size_t)nv * sizeof *c->carrier);
+        c->cpos = malloc(3 * (size_t)nv * sizeof *c->cpos);
+        c->hit = malloc((size_t)nv * sizeof *c->hit);
+        c->cap_v = c->radius && c->vel && c->blk && c->base && c->dstart && c->carrier &&
+                           c->cpos && c->hit ? nv : 0;
         if (!c->cap_v) return 0;
     }
     if (ncol > c->cap_col) {
@@ -376,6 +388,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
     }
     c->mode = p->mode;
     c->failed = DEFSIM_OK;
+    c->blocked = 0;
     c->col = col;
     c->ncol = ncol;
     c->nv = s->nv;
@@ -488,6 +501,7 @@ static double contact_energy(defsim__contact *c, const double *x);
 double defsim__contact_energy(defsim__contact *c, const double *x)
 {
     const double t0 = defsim__now();
+    if (c->blocked) return INFINITY;
     ensure(c, x);
     double e = contact_energy(c, x);
     c->stat[DEFSIM__CSTAT_TIME_EVAL] += defsim__now() - t0;
@@ -671,6 +685,300 @@ static int contact_blocks(defsim__contact *c, const double *x, double k, double 
 }
 
 /* ------------------------------------------------------------------------------------------ */
+/* The witness guard. Contact acts on vertices only, so a body whose elements stretch around a
+ * small collider can pass it with every vertex outside: Newton's iterates did that with a soft
+ * box against a sphere, its faces sliding over the sphere until the box was free below. The
+ * line search and the Newton start therefore also keep the bodies' surface triangles and edges
+ * from sweeping across each collider's witness: its core (the shape shrunk to half its size
+ * about its centre), as its centre (sphere), axis (capsule) or corners and edges (box, convex
+ * mesh). A witness lies deeper inside than vertex-only contact lets an edge cut into the
+ * collider while the edges are short against the collider (docs/contact.md), so contact that
+ * holds without the guard never meets it; a body pushed across it stops there (the step fails
+ * when Newton cannot converge). Planes and SDFs have none. */
+
+enum { WIT_MAX_MESH = 64 };   /* convex meshes of at most this many vertices get a witness */
+
+defsim_status defsim__contact_surfaces(defsim__contact *c, const defsim__body *bodies,
+                                       int32_t nbodies)
+{
+    free(c->face); free(c->edge);
+    c->face = c->edge = NULL;
+    c->nface = c->nedge = 0;
+    int64_t capf = 0, cape = 0;
+    defsim_status st = DEFSIM_OK;
+    for (int32_t b = 0; b < nbodies && st == DEFSIM_OK; ++b) {
+        const defsim__body *bd = &bodies[b];
+        if (!(bd->generation & 1u)) continue;
+        int32_t *tris = NULL, nt = 0, *edges = NULL, ne = 0;
+        if (bd->ntri > 0) {
+            tris = malloc(3 * (size_t)bd->ntri * sizeof *tris);
+            if (!tris) st = DEFSIM_ERR_OUT_OF_MEMORY;
+            else memcpy(tris, bd->tris, 3 * (size_t)bd->ntri * sizeof *tris);
+            nt = bd->ntri;
+        } else if (bd->nt > 0) {
+            st = defsim__tet_boundary(bd->rest, bd->tets, bd->nt, &tris, &nt);
+        }
+        if (st == DEFSIM_OK && nt > 0) st = defsim__triangle_edges(tris, nt, &edges, &ne);
+        const int32_t *src = edges;
+        if (st == DEFSIM_OK && nt == 0 && bd->nedge > 0) {
+            src = bd->edges;
+            ne = bd->nedge;
+        }
+        if (st == DEFSIM_OK && 3 * ((int64_t)c->nface + nt) > capf) {
+            capf = 2 * (3 * ((int64_t)c->nface + nt)) + 64;
+            int32_t *f = realloc(c->face, (size_t)capf * sizeof *f);
+            if (f) c->face = f;
+            else st = DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        if (st == DEFSIM_OK && 2 * ((int64_t)c->nedge + ne) > cape) {
+            cape = 2 * (2 * ((int64_t)c->nedge + ne)) + 64;
+            int32_t *e = realloc(c->edge, (size_t)cape * sizeof *e);
+            if (e) c->edge = e;
+            else st = DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        if (st == DEFSIM_OK) {
+            for (int64_t k = 0; k < 3 * (int64_t)nt; ++k)
+                c->face[3 * (int64_t)c->nface + k] = tris[k] + bd->offset;
+            for (int64_t k = 0; k < 2 * (int64_t)ne; ++k)
+                c->edge[2 * (int64_t)c->nedge + k] = src[k] + bd->offset;
+            c->nface += nt;
+            c->nedge += ne;
+        }
+        free(tris);
+        free(edges);
+    }
+    if (st != DEFSIM_OK) {
+        free(c->face); free(c->edge);
+        c->face = c->edge = NULL;
+        c->nface = c->nedge = 0;
+        return st;
+    }
+    c->surf_planned = 1;
+    return DEFSIM_OK;
+}
+
+/* A collider's witness in world coordinates at `pose`: points (at most 8 of its own, or a
+ * convex mesh's, up to WIT_MAX_MESH) and edges between them (index pairs). */
+typedef struct witness {
+    int np, ne;
+    double p[WIT_MAX_MESH][3];
+    int e[3 * 2 * WIT_MAX_MESH][2];
+} witness;
+
+/* Whether the mesh of collider j is convex (every vertex on the inner side of every face's
+ * plane, to 1e-9 of its size). */
+static int mesh_convex(const defsim__collider *col)
+{
+    const defsim_collider_def *d = &col->def;
+    const double *x = col->mesh_x;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = 0; i < d->vertex_count; ++i)
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = fmin(lo[k], x[3 * i + k]);
+            hi[k] = fmax(hi[k], x[3 * i + k]);
+        }
+    const double size = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    for (int32_t t = 0; t < d->triangle_count; ++t) {
+        const int32_t *tr = col->mesh_t + 3 * t;
+        const double *a = x + 3 * tr[0], *b = x + 3 * tr[1], *e = x + 3 * tr[2];
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double v[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
+        const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                             u[0] * v[1] - u[1] * v[0]};
+        const double len = sqrt(dot3(n, n));
+        if (!(len > 0.0)) return 0;
+        for (int32_t i = 0; i < d->vertex_count; ++i) {
+            const double w[3] = {x[3 * i] - a[0], x[3 * i + 1] - a[1], x[3 * i + 2] - a[2]};
+            if (dot3(w, n) / len > 1e-9 * size) return 0;
+        }
+    }
+    return 1;
+}
+
+static int witness_of(const defsim__contact *c, int32_t j, const defsim__pose *pose, witness *w)
+{
+    const defsim__collider *col = &c->col[j];
+    const defsim_collider_def *d = &col->def;
+    double l[WIT_MAX_MESH][3];
+    w->np = w->ne = 0;
+    switch (d->shape) {
+    case DEFSIM_SHAPE_SPHERE:
+        l[0][0] = l[0][1] = l[0][2] = 0.0;
+        w->np = 1;
+        break;
+    case DEFSIM_SHAPE_CAPSULE:
+        for (int s = 0; s < 2; ++s) {
+            l[s][0] = l[s][2] = 0.0;
+            l[s][1] = (s ? 0.5 : -0.5) * d->half_height;
+        }
+        w->np = d->half_height > 0.0 ? 2 : 1;
+        if (w->np == 2) {
+            w->e[0][0] = 0;
+            w->e[0][1] = 1;
+            w->ne = 1;
+        }
+        break;
+    case DEFSIM_SHAPE_BOX:
+        for (int i = 0; i < 8; ++i)
+            for (int k = 0; k < 3; ++k) l[i][k] = ((i >> k) & 1 ? 0.5 : -0.5) * d->half_extents[k];
+        w->np = 8;
+        for (int i = 0; i < 8; ++i)
+            for (int k = 0; k < 3; ++k)
+                if (!((i >> k) & 1)) {
+                    w->e[w->ne][0] = i;
+                    w->e[w->ne++][1] = i | (1 << k);
+                }
+        break;
+    case DEFSIM_SHAPE_MESH: {
+        if (d->vertex_count > WIT_MAX_MESH || d->triangle_count > 2 * WIT_MAX_MESH ||
+            !mesh_convex(col))
+            return 0;
+        double m[3] = {0.0, 0.0, 0.0};
+        for (int32_t i = 0; i < d->vertex_count; ++i)
+            for (int k = 0; k < 3; ++k) m[k] += col->mesh_x[3 * i + k] / d->vertex_count;
+        for (int32_t i = 0; i < d->vertex_count; ++i)
+            for (int k = 0; k < 3; ++k) l[i][k] = m[k] + 0.5 * (col->mesh_x[3 * i + k] - m[k]);
+        w->np = d->vertex_count;
+        for (int32_t t = 0; t < d->triangle_count; ++t)
+            for (int k = 0; k < 3; ++k) {
+                w->e[w->ne][0] = col->mesh_t[3 * t + k];
+                w->e[w->ne++][1] = col->mesh_t[3 * t + (k + 1) % 3];
+            }
+        break;
+    }
+    default:
+        return 0;
+    }
+    for (int i = 0; i < w->np; ++i)
+        for (int k = 0; k < 3; ++k)
+            w->p[i][k] = pose->p[k] + pose->R[3 * k] * l[i][0] + pose->R[3 * k + 1] * l[i][1] +
+                         pose->R[3 * k + 2] * l[i][2];
+    return w->np > 0;
+}
+
+/* The box around n vertices idx of x and of x + dx (dx may be NULL). */
+static void swept_box(const double *x, const double *dx, const int32_t *idx, int n, double lo[3],
+                      double hi[3])
+{
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+    for (int a = 0; a < n; ++a) {
+        const double *p = x + 3 * (int64_t)idx[a];
+        for (int k = 0; k < 3; ++k) {
+            const double q = dx ? p[k] + dx[3 * (int64_t)idx[a] + k] : p[k];
+            lo[k] = fmin(lo[k], fmin(p[k], q));
+            hi[k] = fmax(hi[k], fmax(p[k], q));
+        }
+    }
+}
+
+static int in_box(const double lo[3], const double hi[3], const double p[3])
+{
+    return p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] &&
+           p[2] <= hi[2];
+}
+
+enum { WIT_CCD_ITERATIONS = 5000 };
+
+/* The additive CCD of one primitive pair against a witness, keeping the pair at least dhat
+ * and DEFSIM__CONTACT_FRACTION of its distance apart: with no barrier between them, Newton
+ * could otherwise push a triangle ever closer to the witness until rounding lets it through. */
+static double witness_pair(const defsim__contact *c, int pt, const double X[12],
+                           const double D[12], double tmax)
+{
+    const double d2 = pt ? defsim__pt_dist2(X, X + 3, X + 6, X + 9, NULL, NULL, NULL)
+                         : defsim__ee_dist2(X, X + 3, X + 6, X + 9, NULL, NULL, NULL);
+    if (!(d2 > 0.0) || !isfinite(d2)) return 0.0;   /* touching, or not a number */
+    const double d = sqrt(d2), s = fmax(DEFSIM__CONTACT_FRACTION, c->dhat / d);
+    if (!(s < 0.99)) return 0.0;
+    return pt ? defsim__pt_accd(X, D, s, tmax, WIT_CCD_ITERATIONS)
+              : defsim__ee_accd(X, D, s, tmax, WIT_CCD_ITERATIONS);
+}
+
+/* Largest t in [0, tmax] such that no surface triangle of x + t' dx (t' <= t) sweeps across a
+ * witness point of w, nor a surface edge across a witness edge. With `hit`, every primitive is
+ * tested up to tmax and the vertices of those that would sweep across are marked in hit. */
+static double witness_toi(const defsim__contact *c, const witness *w, const double *x,
+                          const double *dx, double tmax, uint8_t *hit)
+{
+    double X[12], D[12], tmin = tmax;
+    for (int32_t f = 0; f < c->nface && tmin > 0.0; ++f) {
+        const int32_t *t = c->face + 3 * (int64_t)f;
+        double lo[3], hi[3];
+        swept_box(x, dx, t, 3, lo, hi);
+        for (int i = 0; i < w->np && tmin > 0.0; ++i) {
+            if (!in_box(lo, hi, w->p[i])) continue;
+            memcpy(X, w->p[i], 3 * sizeof *X);
+            memset(D, 0, 3 * sizeof *D);
+            for (int a = 0; a < 3; ++a)
+                for (int k = 0; k < 3; ++k) {
+                    X[3 + 3 * a + k] = x[3 * (int64_t)t[a] + k];
+                    D[3 + 3 * a + k] = dx[3 * (int64_t)t[a] + k];
+                }
+            const double ti = witness_pair(c, 1, X, D, hit ? tmax : tmin);
+            if (hit && ti < tmax) hit[t[0]] = hit[t[1]] = hit[t[2]] = 1;
+            else tmin = fmin(tmin, ti);
+        }
+    }
+    for (int32_t e = 0; e < c->nedge && tmin > 0.0 && w->ne > 0; ++e) {
+        const int32_t *ed = c->edge + 2 * (int64_t)e;
+        double lo[3], hi[3];
+        swept_box(x, dx, ed, 2, lo, hi);
+        for (int i = 0; i < w->ne && tmin > 0.0; ++i) {
+            const double *a = w->p[w->e[i][0]], *b = w->p[w->e[i][1]];
+            int miss = 0;
+            for (int k = 0; k < 3; ++k)
+                miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
+            if (miss) continue;
+            for (int a2 = 0; a2 < 2; ++a2)
+                for (int k = 0; k < 3; ++k) {
+                    X[3 * a2 + k] = x[3 * (int64_t)ed[a2] + k];
+                    D[3 * a2 + k] = dx[3 * (int64_t)ed[a2] + k];
+                }
+            memcpy(X + 6, a, 3 * sizeof *X);
+            memcpy(X + 9, b, 3 * sizeof *X);
+            memset(D + 6, 0, 6 * sizeof *D);
+            const double ti = witness_pair(c, 0, X, D, hit ? tmax : tmin);
+            if (hit && ti < tmax) hit[ed[0]] = hit[ed[1]] = 1;
+            else tmin = fmin(tmin, ti);
+        }
+    }
+    return tmin;
+}
+
+/* The guard over every live collider at its end pose, from x along dx; colliders whose witness
+ * lies outside the box swept by all vertices cost one box test. */
+static double witness_max_step(defsim__contact *c, const double *x, const double *dx,
+                               double tmax)
+{
+    if (c->far || (c->nface == 0 && c->nedge == 0)) return tmax;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t i = 0; i < c->nv; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double a = x[3 * i + k], b = a + dx[3 * i + k];
+            lo[k] = fmin(lo[k], fmin(a, b));
+            hi[k] = fmax(hi[k], fmax(a, b));
+        }
+    witness w;
+    for (int32_t j = 0; j < c->ncol && tmax > 0.0; ++j) {
+        if (!live(c, j) || !witness_of(c, j, &c->pose1[j], &w)) continue;
+        int near = 0;
+        for (int i = 0; i < w.np && !near; ++i) near = in_box(lo, hi, w.p[i]);
+        for (int i = 0; i < w.ne && !near; ++i) {
+            const double *a = w.p[w.e[i][0]], *b = w.p[w.e[i][1]];
+            int miss = 0;
+            for (int k = 0; k < 3; ++k)
+                miss |= fmax(a[k], b[k]) < lo[k] || fmin(a[k], b[k]) > hi[k];
+            near = !miss;
+        }
+        if (near) tmax = witness_toi(c, &w, x, dx, tmax, NULL);
+    }
+    return tmax;
+}
+
+/* ------------------------------------------------------------------------------------------ */
 /* Continuous collision detection and the feasible start */
 
 double defsim__contact_max_step(defsim__contact *c, const double *x, const double *dx,
@@ -714,32 +1022,139 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
         }
         if (t < alpha) alpha = t;
     }
+    if (c->mode == DEFSIM__CONTACT_BARRIER && alpha > 0.0 && !c->failed)
+        alpha = witness_max_step(c, x, dx, alpha);
     if (c->failed) alpha = 0.0;
     c->stat[DEFSIM__CSTAT_TIME_CCD] += defsim__now() - t0;
     c->stat[DEFSIM__CSTAT_CCD_CALLS] += 1.0;
     return alpha;
 }
 
-void defsim__contact_start(defsim__contact *c, double *x)
+/* Whether the straight segment from a to b (world, collider j at its end pose) keeps a
+ * clearance of `clear` to collider j; 0 also on a callback failure (recorded). */
+static int clear_path(defsim__contact *c, int32_t j, const double a[3], const double b[3],
+                      double clear)
 {
-    for (int32_t q = 0; q < c->npair; ++q) {
-        if (c->off[q]) continue;
-        const int32_t i = c->pv[q], j = c->pc[q];
-        double *xi = x + 3 * (int64_t)i, d0, g[3];
-        const double d1 = distance(c, j, xi, NULL, NULL);
-        if (isnan(d1) ||
-            defsim__collider_distance(&c->col[j], &c->pose0[j], xi, &d0, g, NULL) != DEFSIM_OK ||
-            !isfinite(d0)) {
-            geometry_failed(c, j);
-            return;
-        }
-        if (d1 < c->dhat && d1 < d0 && d0 > 0.0) {
-            double moved[3];
-            carry(&c->pose0[j], &c->pose1[j], xi, moved);
-            memcpy(xi, moved, sizeof moved);
-        }
+    if (a[0] == b[0] && a[1] == b[1] && a[2] == b[2]) return 1;
+    double t = 1.0;
+    if (defsim__collider_toi(&c->col[j], &c->pose1[j], a, b, clear, &t) != DEFSIM_OK) {
+        geometry_failed(c, j);
+        return 0;
     }
+    return t >= 1.0;
+}
+
+/* Where x_n of vertex i sits relative to collider j at the end of the step (x_n carried with
+ * the collider's motion) and its distance there (that at the start pose, up to rounding); NaN
+ * on a callback failure. */
+static double start_in_frame(defsim__contact *c, int32_t i, int32_t j, double a[3])
+{
+    const double *xi = c->xn + 3 * (int64_t)i;
+    if (moves(c, j)) carry(&c->pose0[j], &c->pose1[j], xi, a);
+    else memcpy(a, xi, 3 * sizeof *a);
+    return distance(c, j, a, NULL, NULL);
+}
+
+/* The guess must not start Newton past a collider: the barrier is finite on the far side of a
+ * thin one, and Newton would converge there. Each vertex's motion relative to a collider is
+ * the straight segment, in the collider's frame, from its start to the base, then to the start
+ * of Newton (and on by the CCD-limited updates): none crosses the collider. */
+int defsim__contact_start(defsim__contact *c, double *x)
+{
+    const int64_t n3 = 3 * (int64_t)c->nv;
+    double *base = c->base, *dx = c->dstart;
+    const double fr = DEFSIM__CONTACT_FRACTION;
+    c->blocked = 0;
+    /* Pairs for every vertex whose guess left its ball; the ball about x_n then holds the whole
+     * segment to the guess. Still far: x_n and the guess lie in the safe box, and so does the
+     * segment between them, which no collider comes near. */
     ensure(c, x);
+    if (c->far) return 0;
+    memcpy(base, c->xn, (size_t)n3 * sizeof *base);
+    for (int32_t i = 0; i < c->nv; ++i) {
+        c->carrier[i] = -1;
+        if (c->pinned[i]) memcpy(base + 3 * (int64_t)i, x + 3 * (int64_t)i, 3 * sizeof *x);
+    }
+    /* The carriers: a moving collider that would pass over the vertex standing still. */
+    for (int32_t q = 0; q < c->npair && !c->failed; ++q) {
+        const int32_t i = c->pv[q], j = c->pc[q];
+        if (c->off[q] || !moves(c, j) || c->carrier[i] >= 0) continue;
+        double a[3];
+        const double d0 = start_in_frame(c, i, j, a);
+        if (!(d0 > 0.0)) continue;   /* NaN (recorded) or inside at the start: no promise */
+        if (clear_path(c, j, a, c->xn + 3 * (int64_t)i, fr * fmin(d0, c->dhat))) continue;
+        if (c->failed) return 0;
+        c->carrier[i] = j;
+        memcpy(base + 3 * (int64_t)i, a, sizeof a);
+    }
+    /* A moving collider's witness must not sweep across a surface triangle or edge either
+     * (it would pass between the vertices): such primitives ride with the collider too. */
+    for (int32_t j = 0; j < c->ncol && !c->failed && (c->nface > 0 || c->nedge > 0); ++j) {
+        witness w;
+        if (!live(c, j) || !moves(c, j) || !witness_of(c, j, &c->pose1[j], &w)) continue;
+        double *cpos = c->cpos, *rel = dx;
+        uint8_t *hit = c->hit;
+        for (int pass = 0; pass < 4; ++pass) {
+            for (int32_t i = 0; i < c->nv; ++i) {
+                double *ci = cpos + 3 * (int64_t)i;
+                if (c->carrier[i] == j || c->pinned[i])
+                    memcpy(ci, base + 3 * (int64_t)i, 3 * sizeof *ci);
+                else carry(&c->pose0[j], &c->pose1[j], c->xn + 3 * (int64_t)i, ci);
+                for (int k = 0; k < 3; ++k)
+                    rel[3 * (int64_t)i + k] = base[3 * (int64_t)i + k] - ci[k];
+                hit[i] = 0;
+            }
+            (void)witness_toi(c, &w, cpos, rel, 1.0, hit);
+            int any = 0;
+            for (int32_t i = 0; i < c->nv; ++i) {
+                if (!hit[i] || c->pinned[i] || c->carrier[i] == j) continue;
+                if (c->carrier[i] >= 0) {   /* carried by another collider already */
+                    defsim__contact_block(c, i);
+                    break;
+                }
+                c->carrier[i] = j;
+                memcpy(base + 3 * (int64_t)i, cpos + 3 * (int64_t)i, 3 * sizeof *base);
+                any = 1;
+            }
+            if (!any || c->blocked) break;
+            if (pass == 3) defsim__contact_block(c, -1);   /* still sweeping: give up cleanly */
+        }
+        if (c->blocked) return 0;
+    }
+    /* Every collider must keep clear of the way from the vertex's start to its base. */
+    int carried = 0;
+    for (int32_t i = 0; i < c->nv; ++i) carried |= c->carrier[i] >= 0;
+    for (int32_t q = 0; q < c->npair && !c->failed && !c->blocked; ++q) {
+        const int32_t i = c->pv[q], j = c->pc[q];
+        if (c->off[q] || c->carrier[i] < 0 || c->carrier[i] == j) continue;
+        double a[3];
+        const double d0 = start_in_frame(c, i, j, a);
+        if (!(d0 > 0.0)) continue;
+        if (!clear_path(c, j, a, base + 3 * (int64_t)i, fr * fmin(d0, c->dhat)) && !c->failed)
+            defsim__contact_block(c, i);
+    }
+    if (c->failed || c->blocked) return 0;
+    ensure(c, base);
+    for (int64_t k = 0; k < n3; ++k) dx[k] = x[k] - base[k];
+    /* Fraction 0: only a path that reaches a collider (or sweeps a surface across a witness)
+     * counts; a guess that merely comes close is kept, as before. */
+    const double alpha = defsim__contact_max_step(c, base, dx, 0.0);
+    /* The whole way is clear: the guess is kept as it is (base + (x - base) may round
+     * differently). */
+    if (alpha >= 1.0) return carried;
+    /* Otherwise Newton starts at the base, as it did at x_n when the guess lay inside a
+     * collider (a guess past a thin one now does the same): a start cut to just short of the
+     * collider would leave a vertex where the barrier is steepest. */
+    for (int32_t i = 0; i < c->nv; ++i)
+        if (!c->pinned[i]) memcpy(x + 3 * (int64_t)i, base + 3 * (int64_t)i, 3 * sizeof *x);
+    ensure(c, x);
+    return carried | 2;
+}
+
+void defsim__contact_block(defsim__contact *c, int32_t vertex)
+{
+    c->blocked = 1;
+    c->blocked_vertex = vertex;
 }
 
 /* ------------------------------------------------------------------------------------------ */

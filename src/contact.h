@@ -22,6 +22,7 @@
 #ifndef DEFSIM_CONTACT_H
 #define DEFSIM_CONTACT_H
 
+#include "body.h"
 #include "collider.h"
 #include "system.h"
 
@@ -85,7 +86,21 @@ typedef struct defsim__contact {
     double safe_lo[3], safe_hi[3]; /* the safe box: no collider comes within dhat of it */
     double *vel;                /* 3 nv: velocities of the latest damping evaluation (PENALTY) */
     double *blk;                /* 9 nv: scratch for the matrices' diagonal blocks */
+    double *base, *dstart;      /* 3 nv each: contact_start's base positions and displacement */
+    int32_t *carrier;           /* nv: contact_start's collider slot that carries the vertex, -1 */
+    double *cpos;               /* 3 nv: contact_start's positions carried with one collider */
+    uint8_t *hit;               /* nv: contact_start's vertices of primitives a witness sweeps */
     int32_t cap_v;
+    /* BARRIER's guard against bodies passing around small colliders (docs/contact.md, "No
+     * tunnelling"): the bodies' surface triangles and edges (global vertex indices), built
+     * once per plan, which never sweep across a collider's witness (its core's corners, edges,
+     * centre or axis). */
+    int32_t nface, nedge;
+    int32_t *face, *edge;       /* 3 nface, 2 nedge */
+    int surf_planned;           /* face and edge hold this plan's surfaces */
+    int32_t blocked;            /* BARRIER: no Newton start keeps the vertices clear of the
+                                   colliders in this step (the energy is then +inf) */
+    int32_t blocked_vertex;     /* the vertex that could not be kept clear, or -1 */
 
     /* Candidate pairs: vertex, collider slot, and per pair the lagged friction data (BARRIER):
      * the normal force lam (N) and normal n at the start of the step, the collider's surface
@@ -118,6 +133,11 @@ typedef struct defsim__contact_params {
 } defsim__contact_params;
 
 void defsim__contact_free(defsim__contact *c);
+
+/* BARRIER: the bodies' surfaces for the witness guard (tet boundaries, a body's triangles, a
+ * rope's edges), once per plan (surf_planned). Returns DEFSIM_OK or OUT_OF_MEMORY. */
+defsim_status defsim__contact_surfaces(defsim__contact *c, const defsim__body *bodies,
+                                       int32_t nbodies);
 
 /* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
  * and (BARRIER) the lagged friction. col/ncol are the world's slots. x and v are borrowed until
@@ -159,9 +179,28 @@ int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double
 double defsim__contact_max_step(defsim__contact *c, const double *x, const double *dx,
                                 double fraction);
 
-/* Carries the vertices of a Newton start x that a collider approaches within dhat rigidly with
- * the collider's motion over the step, so that x is feasible for the end-of-step poses. */
-void defsim__contact_start(defsim__contact *c, double *x);
+/* Makes the guess x (all DOFs; pinned ones already at their end-of-step values) a Newton start
+ * whose path from the step's start crosses no collider, relative to the collider's motion over
+ * the step (position linear, rotation slerp; see docs/contact.md, "No tunnelling"):
+ * 1. a base per free vertex: x_n, or x_n carried rigidly with a moving collider whose motion
+ *    relative to the vertex standing still would come closer than DEFSIM__CONTACT_FRACTION of
+ *    min(d_0, dhat) (d_0 at the start pose); the straight path, in each other collider's frame,
+ *    from where x_n sits in it to the base must keep that clearance too, or the vertex is
+ *    blocked (the energy is +inf for the rest of the step, so the step fails cleanly);
+ * 2. x unchanged if defsim__contact_max_step from the base to x with fraction 0 allows the
+ *    whole way (no vertex reaches a collider, no surface sweeps across a witness), else x =
+ *    the base for every free vertex (so that a body keeps its shape).
+ * Returns 1 if a vertex was carried (then a later cut of x back towards x_n, body contact's,
+ * may cross a collider, and x must come back here), plus 2 if x was moved to the base. */
+int defsim__contact_start(defsim__contact *c, double *x);
+
+/* Marks the step's start infeasible (the energy is +inf until the next step begins): vertex
+ * `vertex` (or -1: unknown) cannot be kept clear of every collider and body. */
+void defsim__contact_block(defsim__contact *c, int32_t vertex);
+
+/* The fraction of its distance that no CCD-limited step lets a vertex give up (0.2: a step
+ * ends at least at 0.2 of the distance it started from). */
+#define DEFSIM__CONTACT_FRACTION 0.2
 
 /* Whether no pair can be active at x (a point no evaluation may have seen: the end of a step):
  * the broad phase's check at x, then no candidate pair. */

@@ -234,10 +234,30 @@ static double contact_max_step(defsim_system *s, const double *x, const double *
 static void contact_start(defsim_system *s, double *x)
 {
     if (!x) return;
-    for (int32_t k = 0; k < s->sys->nterms; ++k) {
-        const defsim__term *t = &s->sys->terms[k];
-        if (t->ops->start) t->ops->start(t, x);
+    const defsim__system *sys = s->sys;
+    const defsim__term *st[DEFSIM__TERM_MAX];
+    int n = 0;
+    for (int32_t k = 0; k < sys->nterms; ++k)
+        if (sys->terms[k].ops->start) st[n++] = &sys->terms[k];
+    /* A term's start keeps the path from the step's start clear for it, which a later term's
+     * cut back towards that start keeps too, except where the term asks to run again (a
+     * collider carried a vertex): then the terms run in turn until one leaves x as the one
+     * before it left it (every term has then accepted x), at most three rounds. */
+    int again = 0, redo = 0;
+    for (int i = 0; i < n; ++i) {
+        const int r = st[i]->ops->start(st[i], x);
+        if (again && (r & DEFSIM__START_MOVED)) redo = 1;
+        again |= r & DEFSIM__START_AGAIN;
     }
+    if (!redo) return;
+    int quiet = 0;
+    for (int round = 0; round < 3; ++round)
+        for (int i = 0; i < n; ++i) {
+            quiet = st[i]->ops->start(st[i], x) & DEFSIM__START_MOVED ? 0 : quiet + 1;
+            if (quiet >= n - 1) return;
+        }
+    for (int i = 0; i < n; ++i)
+        if (st[i]->ops->block) st[i]->ops->block(st[i]);
 }
 
 static uint64_t matrix_pattern_version(defsim_system *s)

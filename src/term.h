@@ -47,6 +47,12 @@ enum { DEFSIM__TERM_MAX = DEFSIM__TERM_KINDS + 8 };
 /* Linearisation modes (above). */
 enum { DEFSIM__LIN_VALUES = 0, DEFSIM__LIN_PRODUCT = 1, DEFSIM__LIN_LAZY = 2 };
 
+/* What a start op did (host.c's contact_start runs the terms again while one asks). */
+enum {
+    DEFSIM__START_MOVED = 1,  /* it changed x */
+    DEFSIM__START_AGAIN = 2   /* a later term's move may undo what it guaranteed: run it again */
+};
+
 /* Flags of a kind. */
 enum {
     DEFSIM__TERM_ELASTIC = 1u << 0,   /* its energy is elastic (defsim__elastic_energy) */
@@ -138,8 +144,11 @@ typedef struct defsim__term_ops {
 
     /* Largest alpha in (0, 1] along x + alpha dx that it allows (CCD). */
     double (*max_step)(const defsim__term *t, const double *x, const double *dx);
-    /* Makes a Newton start x feasible for it. */
-    void (*start)(const defsim__term *t, double *x);
+    /* Makes a Newton start x feasible for it, its path from the step's start clear; returns
+     * DEFSIM__START_* bits. block: no start could be made so (the energy is +inf for the rest
+     * of the step). */
+    int (*start)(const defsim__term *t, double *x);
+    void (*block)(const defsim__term *t);
 
     /* Explicit stability: the bound on the top eigenvalue of M^-1 K (1/s^2) with its share,
      * given lambda without it (BOUNDED kinds: the power iteration leaves them out), and its

@@ -151,7 +151,10 @@ static double max_step(const defsim__term *t, const double *x, const double *dx)
     return defsim__body_contact_max_step(bcon(t), x, dx);
 }
 
-static void start(const defsim__term *t, double *x) { defsim__body_contact_start(bcon(t), x); }
+static int start(const defsim__term *t, double *x)
+{
+    return defsim__body_contact_start(bcon(t), x) ? DEFSIM__START_MOVED : 0;
+}
 
 static void step_end(const defsim__term *t) { t->cache->valid = t->cache->any = 0; }
 

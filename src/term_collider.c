@@ -85,10 +85,20 @@ static double max_step(const defsim__term *t, const double *x, const double *dx)
     return c->mode == DEFSIM__CONTACT_BARRIER ? defsim__contact_max_step(c, x, dx, 0.2) : 1.0;
 }
 
-static void start(const defsim__term *t, double *x)
+/* A vertex carried with a moving collider may be cut back across another by a later term: then
+ * this runs again (DEFSIM__START_AGAIN). */
+static int start(const defsim__term *t, double *x)
 {
     defsim__contact *c = contact(t);
-    if (c->mode == DEFSIM__CONTACT_BARRIER) defsim__contact_start(c, x);
+    if (c->mode != DEFSIM__CONTACT_BARRIER) return 0;
+    const int r = defsim__contact_start(c, x);
+    return (r & 2 ? DEFSIM__START_MOVED : 0) | (r & 1 ? DEFSIM__START_AGAIN : 0);
+}
+
+static void block(const defsim__term *t)
+{
+    defsim__contact *c = contact(t);
+    if (c->mode == DEFSIM__CONTACT_BARRIER) defsim__contact_block(c, -1);
 }
 
 /* The factor on the penalty's frequency in the stable step: measured on boxes resting on and
@@ -146,12 +156,14 @@ static void get(void *dst, const unsigned char **p, size_t n)
     *p += n;
 }
 
-/* The chunk: the frequency cached per plan, the safe box, and the step's candidate pairs with
- * their lagged friction. */
+/* The chunk: the frequency cached per plan, the safe box, PENALTY friction's velocities (what
+ * the checkpoint's CNTC chunk keeps of them: the next step's first matrix may read them), and the
+ * step's candidate pairs with their lagged friction. */
 typedef struct chunk_head {
     double omega_elastic;
     double safe_lo[3], safe_hi[3];
     int32_t safe_set, npair;
+    int32_t nvel, pad;        /* vertices of the velocities that follow (0: none) */
 } chunk_head;
 
 enum { PAIR_BYTES = 2 * sizeof(int32_t) + 7 * sizeof(double) + 1 };
@@ -159,7 +171,10 @@ enum { PAIR_BYTES = 2 * sizeof(int32_t) + 7 * sizeof(double) + 1 };
 static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
 {
     const defsim__contact *c = contact(t);
-    const size_t need = sizeof(chunk_head) + (size_t)c->npair * PAIR_BYTES;
+    const double *vel = defsim__contact_vel(c, c->nv);
+    const int32_t nvel = vel ? c->nv : 0;
+    const size_t need =
+        sizeof(chunk_head) + 3 * (size_t)nvel * sizeof(double) + (size_t)c->npair * PAIR_BYTES;
     if (!buf || cap < need) return need;
     chunk_head h;
     memset(&h, 0, sizeof h);
@@ -168,8 +183,10 @@ static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
     memcpy(h.safe_hi, c->safe_hi, sizeof h.safe_hi);
     h.safe_set = c->safe_set;
     h.npair = c->npair;
+    h.nvel = nvel;
     memcpy(buf, &h, sizeof h);
     unsigned char *p = buf + sizeof h;
+    put(&p, vel, 3 * (size_t)nvel * sizeof *vel);
     const size_t n = (size_t)c->npair;
     put(&p, c->pv, n * sizeof *c->pv);
     put(&p, c->pc, n * sizeof *c->pc);
@@ -186,12 +203,15 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     chunk_head h;
     if (!buf || size < sizeof h) return DEFSIM_ERR_INVALID_ARGUMENT;
     memcpy(&h, buf, sizeof h);
-    if (h.npair < 0 || size != sizeof h + (size_t)h.npair * PAIR_BYTES)
+    const size_t vbytes = 3 * (size_t)(h.nvel > 0 ? h.nvel : 0) * sizeof(double);
+    if (h.npair < 0 || (h.nvel != 0 && h.nvel != c->nv) ||
+        size != sizeof h + vbytes + (size_t)h.npair * PAIR_BYTES)
         return DEFSIM_ERR_INVALID_ARGUMENT;
+    const unsigned char *pairs = buf + sizeof h + vbytes;
     for (int32_t i = 0; i < h.npair; ++i) {
         int32_t v, j;
-        memcpy(&v, buf + sizeof h + i * sizeof v, sizeof v);
-        memcpy(&j, buf + sizeof h + (size_t)h.npair * sizeof v + i * sizeof j, sizeof j);
+        memcpy(&v, pairs + i * sizeof v, sizeof v);
+        memcpy(&j, pairs + (size_t)h.npair * sizeof v + i * sizeof j, sizeof j);
         if (v < 0 || v >= c->nv || j < 0 || j >= c->ncol) return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (h.npair > c->cap_pair) {
@@ -211,12 +231,17 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
         if (!pv || !pc || !lam || !nrm || !uc || !off) return DEFSIM_ERR_OUT_OF_MEMORY;
         c->cap_pair = h.npair;
     }
+    /* the velocities start 8-byte aligned (after the head) in a buffer from malloc */
+    if (h.nvel > 0 &&
+        defsim__contact_set_vel(c, h.nvel, (const double *)(const void *)(buf + sizeof h)) !=
+            DEFSIM_OK)
+        return DEFSIM_ERR_OUT_OF_MEMORY;
     c->omega_elastic = h.omega_elastic;
     memcpy(c->safe_lo, h.safe_lo, sizeof h.safe_lo);
     memcpy(c->safe_hi, h.safe_hi, sizeof h.safe_hi);
     c->safe_set = h.safe_set;
     c->npair = h.npair;
-    const unsigned char *p = buf + sizeof h;
+    const unsigned char *p = pairs;
     const size_t n = (size_t)c->npair;
     get(c->pv, &p, n * sizeof *c->pv);
     get(c->pc, &p, n * sizeof *c->pc);
@@ -241,6 +266,7 @@ const defsim__term_ops defsim__term_collider = {
     .apply = apply,
     .max_step = max_step,
     .start = start,
+    .block = block,
     .lambda_bound = lambda_bound,
     .rates = rates,
     .substep = substep,

@@ -286,6 +286,7 @@ defsim_status defsim__world_plan(defsim_world *w)
         return st;
     }
     w->contact.omega_elastic = 0.0;
+    w->contact.surf_planned = 0;
     w->planned = 1;
     return DEFSIM_OK;
 }
@@ -1194,6 +1195,11 @@ static defsim_status contact_begin(defsim_world *w, double h)
         c->omega_elastic = om;
     }
     p.omega_elastic = c->omega_elastic;
+    if (p.mode == DEFSIM__CONTACT_BARRIER && !c->surf_planned &&
+        defsim__contact_surfaces(c, w->bodies, w->nbodies) != DEFSIM_OK) {
+        defsim__error(w->msg, "contact: out of memory for the bodies' surfaces");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     /* A step's start: the world's copies, which nothing changes until the step ends. */
     defsim_status st = defsim__contact_begin(c, &w->sys, w->col, w->ncol, &p,
                                              h > 0.0 ? w->x_save : w->state.x,
@@ -1286,6 +1292,13 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
     if (c->failed) {
         defsim__error(w->msg, "contact: %s; state restored", defsim__contact_failure(c));
         return c->failed;
+    }
+    if (st != DEFSIM_OK && c->blocked) {
+        char who[48] = "a surface";
+        if (c->blocked_vertex >= 0) snprintf(who, sizeof who, "vertex %d", (int)c->blocked_vertex);
+        defsim__error(w->msg, "contact: no Newton start keeps %s clear of the moving colliders in "
+                      "this step (squeezed between colliders that move differently, swept by "
+                      "one, or cut back by body contact); state restored", who);
     }
     if (st != DEFSIM_OK) return st;
     if (c->mode == DEFSIM__CONTACT_BARRIER &&

@@ -229,13 +229,19 @@ typedef struct defsim_host {
 
     /// Continuous collision detection for line searches: the largest alpha in (0, 1] such that
     /// along x + t dx, 0 <= t <= alpha (x and dx over all DOFs), no vertex comes closer to any
-    /// collider (at its end-of-step pose) than 0.2 times its distance at x. 1 when the world has
+    /// collider (at its end-of-step pose) than 0.2 times its distance at x, and no body surface
+    /// triangle or edge sweeps across a collider's witness (docs/contact.md, "No tunnelling"),
+    /// nor body surfaces across each other with body contact on. 1 when the world has
     /// no colliders or in a step of a backend without DEFSIM_BACKEND_CONTACT_CCD; 0 when x is not
     /// feasible or a collider's SDF callback failed (the core then fails the step).
     double (*contact_max_step)(defsim_system *sys, const double *x, const double *dx);
-    /// Makes a Newton start x (all DOFs) feasible for the barrier: every vertex that a moving
-    /// collider comes within the activation distance of in this step is carried rigidly with
-    /// the collider's motion. No-op without colliders or without DEFSIM_BACKEND_CONTACT_CCD.
+    /// Makes a Newton start x (all DOFs; pinned DOFs at their end-of-step values) feasible for
+    /// the barrier and reachable from the step's start without crossing a collider or a body
+    /// surface: a vertex that a moving collider would pass is carried rigidly with it, and the
+    /// free DOFs go back to that start (all of them, so that bodies keep their shape) unless
+    /// continuous collision detection finds the whole way to x clear. A start that cannot be
+    /// made so makes the energy +inf for the rest of the step. No-op without colliders and body
+    /// contact, or without DEFSIM_BACKEND_CONTACT_CCD.
     void (*contact_start)(defsim_system *sys, double *x);
 
     /* ABI version 6: body contact (docs/body-contact.md). */

@@ -460,7 +460,22 @@ static void test_collider(void **state)
             assert_true(a > 0.0 && a < 1.0);
             assert_true(dmin > 0.0);
         }
+        /* friction's velocities (PENALTY keeps them from its latest damping evaluation) are
+         * part of the chunk */
+        for (int64_t i = 0; i < n; ++i) v[i] = 0.05 * tu_rand(&seed);
+        term_forces(w, t, x, v, DEFSIM_FORCE_DAMPING, out);
+        double *vel0 = NULL;
+        const double *vel = defsim__contact_vel(&w->contact, w->nv);
+        if (vel) {
+            vel0 = malloc((size_t)n * sizeof *vel0);
+            memcpy(vel0, vel, (size_t)n * sizeof *vel0);
+        }
         check_chunk(w, t, x, DEFSIM_FORCE_ELASTIC);
+        if (vel0) {
+            assert_memory_equal(vel0, defsim__contact_vel(&w->contact, w->nv),
+                                (size_t)n * sizeof *vel0);
+            free(vel0);
+        }
         double lin = 0.0;   /* its counter by name */
         TU_OK(defsim_world_stat(w, "term.collider.linearisations", &lin));
         assert_true(lin == (double)t->cache->linearisations && lin > 0.0);

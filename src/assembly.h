@@ -28,13 +28,46 @@ defsim_status defsim__matrix_values(const defsim__system *s, const double *x,
                                     double *values, uint32_t *passes);
 
 /* out = A dx over all DOFs (pinned rows and columns zero), element Hessians projected with
- * `proj` (a defsim_projection). */
+ * `proj` (a defsim_projection). Terms that cache their blocks (contact) linearise first only if
+ * x or the coefficients changed since they last did. */
 void defsim__matrix_apply(const defsim__system *s, const double *x,
                           const defsim_matrix_coeffs *c, int proj, const double *dx, double *out);
 
-/* defsim__matrix_apply with the system's projection. */
+/* defsim__matrix_apply without the terms whose kind has a flag in `skip` (DEFSIM__TERM_*). */
+void defsim__matrix_apply_skip(const defsim__system *s, const double *x,
+                               const defsim_matrix_coeffs *c, int proj, uint32_t skip,
+                               const double *dx, double *out);
+
+/* defsim__matrix_apply with the system's projection, after every term linearised at x as a
+ * product asks (DEFSIM__LIN_PRODUCT: the force callback's Jacobian is evaluated again). */
 defsim_status defsim__matrix_product(const defsim__system *s, const double *x,
                                      const defsim_matrix_coeffs *c, const double *dx,
                                      double *out);
+
+/* Helpers of the terms' pattern and values. */
+
+/* Visits the free-vertex pairs of n elements of `nodes` vertices each (idx, -1: unused node):
+ * counts pair (fa, fb) in pos[fa + 1] (list NULL) or appends fb to fa's list at pos[fa]. */
+void defsim__element_pairs(const defsim__system *s, const int32_t *idx, int nodes, int64_t n,
+                           int64_t *pos, int32_t *list);
+
+/* The rank of node a's free vertex in node b's neighbour list, per element and node pair
+ * ((nodes e + a) nodes + b; -1: unused or pinned), in a new array (NULL: out of memory). */
+int32_t *defsim__element_ranks(const defsim__system *s, const int32_t *idx, int nodes,
+                               int64_t n);
+
+/* Adds the element matrix K (3 nn x 3 nn, row-major) of the element with vertices id and
+ * ranks blk into the values. */
+void defsim__element_scatter(const defsim__system *s, const int32_t *id, const int32_t *blk,
+                             int nn, const double *K, int upper, const int64_t *cp,
+                             double *values);
+
+/* Adds k times symmetric 3x3 blocks per vertex (9 nv) to the diagonal blocks of the values. */
+void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,
+                          const int64_t *cp, double *values);
+
+/* out += k B dx for 3x3 blocks B per vertex (9 nv) on the diagonal (pinned vertices none). */
+void defsim__apply_diagonal(const defsim__system *s, const double *blocks, double k,
+                            const double *dx, double *out);
 
 #endif /* DEFSIM_ASSEMBLY_H */

@@ -650,9 +650,9 @@ static void pend(defsim__body_contact *bc, const defsim__system *s, const int32_
         }
 }
 
-/* Adds k H (3n x 3n over idx) into the pattern's values. */
-static void scatter(defsim__body_contact *bc, const defsim__system *s, const int32_t *idx, int n,
-                    const double *H, double k, int upper, const int64_t *cp, double *values)
+void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
+                                  const int32_t *idx, int n, const double *H, double k, int upper,
+                                  const int64_t *cp, double *values)
 {
     const int nd = 3 * n;
     int missing = 0;
@@ -680,11 +680,8 @@ static void scatter(defsim__body_contact *bc, const defsim__system *s, const int
     if (missing) pend(bc, s, idx, n);
 }
 
-/* Calls fn with every nonzero pair Hessian at x (barriers within dhat, friction pairs). */
-typedef void (*hessian_fn)(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
-                           const double *H);
-
-static void each_hessian(defsim__body_contact *bc, const double *x, hessian_fn fn, void *ctx)
+void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
+                                   defsim__bc_hessian_fn fn, void *ctx)
 {
     const double t0 = defsim__now();
     ensure(bc, x, NULL);
@@ -694,69 +691,13 @@ static void each_hessian(defsim__body_contact *bc, const double *x, hessian_fn f
     for (int32_t q = 0; q < bc->npair; ++q) {
         const double e = pair_barrier(bc, q, x, &n, idx, NULL, H);
         if (e == 0.0 || !isfinite(e)) continue;
-        fn(bc, ctx, idx, n, H);
+        fn(ctx, idx, n, H);
     }
     for (int32_t r = 0; r < bc->nfric; ++r) {
         pair_friction(bc, r, x, NULL, H);
-        fn(bc, ctx, bc->fric[r].node, 4, H);
+        fn(ctx, bc->fric[r].node, 4, H);
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
-}
-
-typedef struct values_ctx {
-    const defsim__system *s;
-    double k;
-    int upper;
-    const int64_t *cp;
-    double *values;
-} values_ctx;
-
-static void values_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
-                      const double *H)
-{
-    const values_ctx *c = ctx;
-    scatter(bc, c->s, idx, n, H, c->k, c->upper, c->cp, c->values);
-}
-
-void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system *s,
-                                 const double *x, double k, int upper, const int64_t *cp,
-                                 double *values)
-{
-    values_ctx c = {s, k, upper, cp, values};
-    each_hessian(bc, x, values_fn, &c);
-}
-
-typedef struct apply_ctx {
-    double k;
-    const double *dx;
-    double *out;
-} apply_ctx;
-
-/* out += k H dx over the pair's free vertices. */
-static void apply_fn(defsim__body_contact *bc, void *ctx, const int32_t *idx, int n,
-                     const double *H)
-{
-    const apply_ctx *a = ctx;
-    const int nd = 3 * n;
-    double u[12];
-    for (int i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c)
-            u[3 * i + c] = idx[i] >= 0 && !bc->pinned[idx[i]] ? a->dx[3 * (int64_t)idx[i] + c] : 0.0;
-    for (int i = 0; i < n; ++i) {
-        if (idx[i] < 0 || bc->pinned[idx[i]]) continue;
-        for (int c = 0; c < 3; ++c) {
-            double sum = 0.0;
-            for (int j = 0; j < nd; ++j) sum += H[(3 * i + c) * nd + j] * u[j];
-            a->out[3 * (int64_t)idx[i] + c] += a->k * sum;
-        }
-    }
-}
-
-void defsim__body_contact_apply(defsim__body_contact *bc, const double *x, double k,
-                                const double *dx, double *out)
-{
-    apply_ctx a = {k, dx, out};
-    each_hessian(bc, x, apply_fn, &a);
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -109,15 +109,17 @@ double defsim__body_contact_energy(defsim__body_contact *bc, const double *x);
 /* Adds the contact forces (-gradient) at x to f (pinned vertices get nothing). Returns
  * DEFSIM_ERR_UNSTABLE for an infeasible point, DEFSIM_ERR_OUT_OF_MEMORY. */
 defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double *x, double *f);
-/* Adds k times the contact Hessian (projected to PSD per pair) at x into values of the pattern
- * (upper or full, column pointers cp), with its off-diagonal vertex blocks where the pattern has
- * them (a missing pair is queued for matrix_pattern_version). */
-void defsim__body_contact_values(defsim__body_contact *bc, const defsim__system *s,
-                                 const double *x, double k, int upper, const int64_t *cp,
-                                 double *values);
-/* out += k H(x) dx. */
-void defsim__body_contact_apply(defsim__body_contact *bc, const double *x, double k,
-                                const double *dx, double *out);
+/* Calls fn with every nonzero pair Hessian at x (projected to PSD per pair; 3n x 3n over the
+ * vertices idx, -1: unused): barriers within dhat, then the lagged friction pairs. */
+typedef void (*defsim__bc_hessian_fn)(void *ctx, const int32_t *idx, int n, const double *H);
+void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
+                                   defsim__bc_hessian_fn fn, void *ctx);
+/* Adds k H (3n x 3n over idx) into values of the pattern (upper or full, column pointers cp),
+ * with its off-diagonal vertex blocks where the pattern has them (a missing pair is queued for
+ * matrix_pattern_version). */
+void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
+                                  const int32_t *idx, int n, const double *H, double k, int upper,
+                                  const int64_t *cp, double *values);
 /* Largest alpha in (0, 1] such that no candidate pair comes closer than 0.2 times its distance
  * at x along x + t dx, t <= alpha (additive CCD); 0 when x is not feasible. */
 double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, const double *dx);

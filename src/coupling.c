@@ -12,6 +12,7 @@
 #include "forces.h"
 #include "mat3.h"
 #include "material.h"
+#include "terms.h"
 #include "world.h"
 
 #include <math.h>
@@ -37,7 +38,7 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
         w->coupling.fext = NULL;
         w->coupling.fext_nonzero = 0;
         w->sys.fext = NULL;
-        return DEFSIM_OK;
+        return w->planned ? defsim__terms_compile(&w->sys) : DEFSIM_OK;
     }
     if (n != w->nv) {
         defsim__error(w->msg, "set_external_forces: n = %d but the world has %d vertices",
@@ -63,8 +64,9 @@ defsim_status defsim_world_set_external_forces(defsim_world *w, const double *f,
         nonzero |= f[i] != 0.0;
     }
     w->coupling.fext_nonzero = nonzero;
-    if (w->planned) w->sys.fext = nonzero ? w->coupling.fext : NULL;
-    return DEFSIM_OK;
+    if (!w->planned) return DEFSIM_OK;
+    w->sys.fext = nonzero ? w->coupling.fext : NULL;
+    return defsim__terms_compile(&w->sys);
 }
 
 defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn fn,
@@ -89,7 +91,7 @@ defsim_status defsim_world_set_force_callback(defsim_world *w, defsim_force_fn f
         defsim__error(w->msg, "out of memory");
         return st;
     }
-    return DEFSIM_OK;
+    return w->planned ? defsim__terms_compile(&w->sys) : DEFSIM_OK;
 }
 
 /* ------------------------------------------------------------------------------------------ */

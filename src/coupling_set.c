@@ -9,6 +9,8 @@
  */
 #include "coupling_set.h"
 
+#include "terms.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -170,7 +172,7 @@ defsim_status defsim__coupling_step_end(defsim__coupling_set *cs, defsim__system
     defsim__coupling *c = &cs->cpl;
     c->in_step = 0;
     c->hold = 0;
-    sys->cb_stiffness = NULL;
+    defsim__terms_step_end(sys);
     if (c->failed) {
         c->failed = 0;
         st = DEFSIM_ERR_CALLBACK;   /* the callback's failure is the cause, whatever followed */

@@ -13,7 +13,8 @@ enum { DEFSIM__REDUCE_BLOCK = 2048 };
  * neo-Hookean element). */
 double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const double *x);
 
-/* Elastic plus gravitational plus contact energy at x (J; contact.h). */
+/* Elastic plus every other term's energy at x (J): gravity, contact, held forces (relative to
+ * the step's start), the callback's model in implicit steps. */
 double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const double *x);
 
 #endif /* DEFSIM_ENERGY_H */

@@ -1,13 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* The table of host services that every backend receives (backend.h): the compiled system's
- * physics, the host's force callback and driven pins, plus the counting and timing of
- * statistics. */
+ * physics (loops over its terms, term.h), the calls of the host's force callback (its term,
+ * term_callback.c, makes them) and driven pins, plus the counting and timing of statistics. */
 #include "host.h"
 
 #include "assembly.h"
 #include "clock.h"
-#include "body_contact.h"
-#include "contact.h"
 #include "energy.h"
 #include "forces.h"
 #include "mat3.h"
@@ -95,46 +93,8 @@ static int has_stiffness_damping(const defsim_system *s)
 defsim_status defsim__host_forces(defsim_system *s, const double *x, const double *v, double t,
                                   uint32_t which, double *f)
 {
-    defsim__coupling *c = s->cpl;
     const uint32_t keep = which & DEFSIM__FORCE_KEEP_PINNED;
-    which &= DEFSIM_FORCE_ALL;
-    if (!c->fn || !(which & DEFSIM_FORCE_GRAVITY))
-        return defsim__forces(s->sys, x, v, which | keep, f, s->passes);
-    /* The callback belongs to the applied forces (DEFSIM_FORCE_GRAVITY): added before pinned
-     * DOFs are cleared, so that it counts in pin forces like every other term. */
-    defsim_status st = defsim__forces(s->sys, x, v, which | DEFSIM__FORCE_KEEP_PINNED, f,
-                                      s->passes);
-    if (st != DEFSIM_OK) return st;
-    const int32_t nv = s->sys->nv;
-    const int64_t ndof = 3 * (int64_t)nv;
-    if (c->hold && c->in_step) {
-        for (int64_t i = 0; i < ndof; ++i) f[i] += c->f0[i];
-    } else {
-        if (!v) v = s->state->v;
-        if (c->in_step && c->rec_first) {
-            /* Recorded for the watchdog's bound on the callback's work (watchdog.h). */
-            double *r = c->nrec == 0 ? c->rec_first : c->rec_last;
-            memset(r, 0, (size_t)ndof * sizeof *r);
-            st = defsim__callback_forces(c, s->msg, nv, x, v, t, r);
-            if (st != DEFSIM_OK) return st;
-            for (int64_t i = 0; i < ndof; ++i) f[i] += r[i];
-            c->nrec++;
-        } else {
-            st = defsim__callback_forces(c, s->msg, nv, x, v, t, f);
-            if (st != DEFSIM_OK) return st;
-        }
-        if (c->jac && c->in_step) {
-            memcpy(c->veval, v, (size_t)ndof * sizeof *v);
-            c->teval = t;
-        }
-    }
-    *s->passes |= DEFSIM_PASS_FORCE_CALLBACK;
-    if (s->sys->has_pins && !keep) {
-        for (int32_t i = 0; i < nv; ++i)
-            if (s->sys->pinned[i]) f[3 * (int64_t)i] = f[3 * (int64_t)i + 1] = f[3 * (int64_t)i + 2] = 0.0;
-        *s->passes |= DEFSIM_PASS_PINS;
-    }
-    return DEFSIM_OK;
+    return defsim__forces_at(s->sys, x, v, t, (which & DEFSIM_FORCE_ALL) | keep, f, s->passes);
 }
 
 static defsim_status forces_at(defsim_system *s, const double *x, const double *v, double t,
@@ -160,53 +120,10 @@ static defsim_status forces(defsim_system *s, const double *x, const double *v, 
 
 static double potential_energy(defsim_system *s, const double *x)
 {
-    double e = defsim__potential_energy(s->sys, s->work, x);
-    /* Held forces contribute -f . (x - x_start): the same differences as -f . x without its
-     * large terms, which would hide small decreases from line searches. */
-    if (s->sys->fext) {
-        double sum = 0.0;
-        for (int64_t i = 0; i < 3 * (int64_t)s->sys->nv; ++i)
-            sum -= s->sys->fext[i] * (x[i] - s->x_start[i]);
-        e += sum;
-    }
-    /* An implicit step's line search sees the callback through its model from the step's
-     * start: -f0 . d held, plus d^T K0 d / 2 with a Jacobian (d = x - x0). */
-    const defsim__coupling *c = s->cpl;
-    if (c->fn && c->in_step && c->implicit) {
-        double lin = 0.0, quad = 0.0;
-        for (int32_t i = 0; i < s->sys->nv; ++i) {
-            if (s->sys->pinned[i]) continue;
-            double d[3];
-            for (int k = 0; k < 3; ++k) {
-                d[k] = x[3 * (int64_t)i + k] - c->x0[3 * (int64_t)i + k];
-                lin += c->f0[3 * (int64_t)i + k] * d[k];
-            }
-            if (c->jac) {
-                const double *K = c->K0 + 9 * (int64_t)i;
-                for (int r = 0; r < 3; ++r)
-                    quad += d[r] * (K[3 * r] * d[0] + K[3 * r + 1] * d[1] + K[3 * r + 2] * d[2]);
-            }
-        }
-        e += 0.5 * quad - lin;
-    }
+    const double e = defsim__potential_energy(s->sys, s->work, x);
     s->stats->energy_evals++;
     *s->passes |= DEFSIM_PASS_ENERGY;
     return e;
-}
-
-/* Implicit steps with a Jacobian callback: its stiffness at x, with the velocities and time
- * of the latest force evaluation, joins K. */
-static defsim_status callback_stiffness(defsim_system *s, const double *x)
-{
-    defsim__coupling *c = s->cpl;
-    if (!(c->jac && c->in_step && c->implicit)) {
-        s->sys->cb_stiffness = NULL;
-        return DEFSIM_OK;
-    }
-    defsim_status st = defsim__callback_stiffness(c, s->msg, s->sys->nv, s->sys->projection, x,
-                                                  c->veval, c->teval, c->kcb);
-    s->sys->cb_stiffness = st == DEFSIM_OK ? c->kcb : NULL;
-    return st;
 }
 
 static void pin_positions(const defsim_system *s, double t, double *x)
@@ -254,7 +171,6 @@ static defsim_status matrix_values(defsim_system *s, const double *x,
     defsim_status st = ensure_pattern(s);
     if (st != DEFSIM_OK) return st;
     const double t0 = defsim__now();
-    if (c && c->k != 0.0 && (st = callback_stiffness(s, x)) != DEFSIM_OK) return st;
     st = defsim__matrix_values(s->sys, x, c, tri, values, s->passes);
     if (st != DEFSIM_OK) return st;
     s->stats->hessian_evals++;
@@ -265,8 +181,6 @@ static defsim_status matrix_values(defsim_system *s, const double *x,
 static defsim_status matrix_product(defsim_system *s, const double *x,
                                     const defsim_matrix_coeffs *c, const double *dx, double *out)
 {
-    defsim_status st;
-    if (x && c && c->k != 0.0 && (st = callback_stiffness(s, x)) != DEFSIM_OK) return st;
     return defsim__matrix_product(s->sys, x, c, dx, out);
 }
 
@@ -304,51 +218,64 @@ static defsim_status omega_max(defsim_system *s, const double *x, double *omega,
     return st;
 }
 
-/* Contact's services serve only barrier steps (contact.h, body_contact.h); elsewhere they
- * change nothing. */
+/* The terms' CCD and feasible start (contact's, for barrier steps; elsewhere they change
+ * nothing). */
 static double contact_max_step(defsim_system *s, const double *x, const double *dx)
 {
-    defsim__contact *c = s->sys->contact;
-    defsim__body_contact *bc = s->sys->body_contact;
     if (!x || !dx) return 1.0;
+    const defsim__system *sys = s->sys;
     double alpha = 1.0;
-    if (c && c->mode == DEFSIM__CONTACT_BARRIER) alpha = defsim__contact_max_step(c, x, dx, 0.2);
-    if (bc && alpha > 0.0) {
-        const double a = defsim__body_contact_max_step(bc, x, dx);
+    for (int32_t k = 0; k < sys->nterms && alpha > 0.0; ++k) {
+        const defsim__term *t = &sys->terms[k];
+        if (!t->ops->max_step) continue;
+        const double a = t->ops->max_step(t, x, dx);
         if (a < alpha) alpha = a;
     }
     return alpha;
 }
 
+/* In list order: body contact's start comes last, feasible for the bodies whatever the
+ * colliders moved. */
 static void contact_start(defsim_system *s, double *x)
 {
-    defsim__contact *c = s->sys->contact;
-    defsim__body_contact *bc = s->sys->body_contact;
     if (!x) return;
-    if (c && c->mode != DEFSIM__CONTACT_BARRIER) c = NULL;
-    const int carried = c ? defsim__contact_start(c, x) & 1 : 0;
-    if (!bc) return;
-    /* Body contact cuts the start back towards x_n, which keeps every collider's path clear
-     * (a part of a clear segment from x_n) except for vertices that a moving collider carries:
-     * then the colliders' cut runs again on the result, until neither cuts it. */
-    if (!defsim__body_contact_start(bc, x) || !carried) return;
+    const defsim__system *sys = s->sys;
+    const defsim__term *st[DEFSIM__TERM_MAX];
+    int n = 0;
+    for (int32_t k = 0; k < sys->nterms; ++k)
+        if (sys->terms[k].ops->start) st[n++] = &sys->terms[k];
+    /* A term's start keeps the path from the step's start clear for it, which a later term's
+     * cut back towards that start keeps too, except where the term asks to run again (a
+     * collider carried a vertex): then the terms run in turn until one leaves x as the one
+     * before it left it (every term has then accepted x), at most three rounds. */
+    int again = 0, redo = 0;
+    for (int i = 0; i < n; ++i) {
+        const int r = st[i]->ops->start(st[i], x);
+        if (again && (r & DEFSIM__START_MOVED)) redo = 1;
+        again |= r & DEFSIM__START_AGAIN;
+    }
+    if (!redo) return;
+    int quiet = 0;
     for (int round = 0; round < 3; ++round)
-        if (!(defsim__contact_start(c, x) & 2) || !defsim__body_contact_start(bc, x)) return;
-    defsim__contact_block(c, -1);
+        for (int i = 0; i < n; ++i) {
+            quiet = st[i]->ops->start(st[i], x) & DEFSIM__START_MOVED ? 0 : quiet + 1;
+            if (quiet >= n - 1) return;
+        }
+    for (int i = 0; i < n; ++i)
+        if (st[i]->ops->block) st[i]->ops->block(st[i]);
 }
 
 static uint64_t matrix_pattern_version(defsim_system *s)
 {
-    defsim__body_contact *bc = s->sys->body_contact;
-    if (bc && bc->npend > 0) {
+    for (int32_t k = 0; k < s->sys->nterms; ++k) {
+        const defsim__term *t = &s->sys->terms[k];
+        if (!t->ops->pattern_update) continue;
         int grew = 0;
-        const defsim_status st = defsim__pattern_grow(s->sys, bc->pend, bc->npend, &grew);
-        bc->npend = 0;
-        if (st != DEFSIM_OK) {
-            defsim__error(s->msg, "out of memory growing the matrix pattern for body contact");
+        if (t->ops->pattern_update(t, s->sys, &grew) != DEFSIM_OK) {
+            defsim__error(s->msg, "out of memory growing the matrix pattern for %s",
+                          t->ops->name);
             return 0;
         }
-        if (grew) bc->stat[DEFSIM__CSTAT_PATTERN_GROWTHS] += 1.0;
     }
     return s->sys->pattern.version;
 }

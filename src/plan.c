@@ -3,22 +3,20 @@
  * The planner: compiles the bodies of a world into a defsim__system (system.h) when the world
  * is first stepped or evaluated after a change: element groups per material with their rest
  * data, colours and SIMD batches, attachments, per-DOF masses and damping, free-DOF maps, the
- * pass plan, the sparse pattern when the backend assembles matrices, and the workspaces physics
- * functions use, so that no step allocates.
+ * pass plan, the list of terms (term.c), the sparse pattern when the backend assembles
+ * matrices, and the workspaces physics functions use, so that no step allocates.
  *
  * Contents: kernel variants; freeing; SIMD batches; element groups; defsim__plan.
  */
 #include "plan.h"
-
-#include "tet_rest.h"
 
 #include "assembly.h"
 #include "colour.h"
 #include "energy.h"
 #include "mat3.h"
 #include "material.h"
+#include "terms.h"
 #include "tet_forces.h"
-#include "tet_rest.h"
 #include "tet_rest.h"
 
 #include <math.h>
@@ -71,6 +69,7 @@ void defsim__unplan(defsim__system *s, defsim__work *wk)
     free(p->extra);
     free(s->mass); free(s->mass3); free(s->alpha3); free(s->pinned);
     free(s->free_dofs); free(s->dof_to_free); free(s->vfree);
+    defsim__terms_free(s);
     memset(s, 0, sizeof *s);
     free(wk->partial); free(wk->pz); free(wk->py); free(wk->pu);
     memset(wk, 0, sizeof *wk);
@@ -311,6 +310,7 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
         diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                     (hi[2] - lo[2]) * (hi[2] - lo[2]));
     s->length_scale = diag > 0.0 ? diag : 1.0;
+    if ((st = defsim__terms_compile(s)) != DEFSIM_OK) goto fail;
     if (in->need_matrix && (st = defsim__pattern_build(s)) != DEFSIM_OK) goto fail;
     return DEFSIM_OK;
 fail:

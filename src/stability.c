@@ -4,14 +4,8 @@
 #include "stability.h"
 
 #include "assembly.h"
-#include "contact.h"
 
 #include <math.h>
-
-/* The factor on the penalty's frequency in the stable step: measured on boxes resting on and
- * dropped onto a plane (docs/stability.md "Contact"), the heating stays slow up to
- * h sqrt(omega_el^2 + (1.9..2.45 omega_c)^2) = 2; 2.5 leaves room for a host's 0.9. */
-#define PENALTY_KINK 2.5
 
 /* Largest eigenvalue of M^-1/2 K(x) M^-1/2 over the free DOFs (exact Hessians) by power
  * iteration from a fixed start, to 1e-4 relative in the Rayleigh quotient. If the dominant
@@ -20,10 +14,9 @@
 defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, const double *x,
                                 double *omega)
 {
-    /* The elastic part alone; contact's penalty is added below as a bound. */
-    defsim__system elastic = *sys;
-    elastic.contact = NULL;
-    const defsim__system *s = &elastic;
+    /* Without the terms that bound their share instead (contact's penalty, added below); terms
+     * that cache their blocks linearise once, at the first product. */
+    const defsim__system *s = sys;
     const int64_t ndof = 3 * (int64_t)s->nv;
     double *z = wk->pz, *y = wk->py, *u = wk->pu;
     const defsim_matrix_coeffs ck = {1.0, 0.0, 0.0, 0.0};
@@ -41,7 +34,8 @@ defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, con
         double prev = 0.0;
         for (int it = 0; it < 300; ++it) {
             for (int64_t i = 0; i < ndof; ++i) u[i] = z[i] / sqrt(s->mass3[i]);
-            defsim__matrix_apply(s, x, &ck, DEFSIM_PROJECTION_NONE, u, y);
+            defsim__matrix_apply_skip(s, x, &ck, DEFSIM_PROJECTION_NONE, DEFSIM__TERM_BOUNDED, u,
+                                      y);
             double q = 0.0, yn = 0.0;
             for (int64_t i = 0; i < ndof; ++i) {
                 y[i] = y[i] / sqrt(s->mass3[i]) + shift * z[i];
@@ -58,16 +52,10 @@ defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, con
         if (lambda >= 0.0 || pass == 1) break;
         shift = -lambda;   /* dominant eigenvalue negative: shift the spectrum up */
     }
-    /* Contact's penalty springs (diagonal, k_i = omega_c^2 m_i) raise the top of the spectrum by
-     * at most omega_c^2 (Weyl), whether or not a contact is active at x. That bound is the
-     * linear one; the penalty switches on and off at d = dhat, and an explicit step that lands
-     * past the switch gains or loses energy: near the linear limit a body at rest on a collider
-     * heats up and blows up within thousands of steps. The energy goes to the fastest modes,
-     * the springs' or the body's own, so the term is PENALTY_KINK times the larger of omega_c
-     * and omega_el (docs/stability.md "Contact"). */
-    if (sys->contact && sys->contact->mode == DEFSIM__CONTACT_PENALTY) {
-        const double el = lambda > 0.0 ? lambda : 0.0;
-        lambda = el + PENALTY_KINK * PENALTY_KINK * fmax(sys->contact->khat, el);
+    /* A bounded term raises the top of the spectrum by at most its bound. */
+    for (int32_t k = 0; k < s->nterms; ++k) {
+        const defsim__term *t = &s->terms[k];
+        if (t->ops->lambda_bound) lambda = t->ops->lambda_bound(t, s, lambda);
     }
     *omega = lambda > 0.0 ? sqrt(lambda) : 0.0;
     return isfinite(*omega) ? DEFSIM_OK : DEFSIM_ERR_UNSTABLE;
@@ -75,26 +63,10 @@ defsim_status defsim__omega_max(const defsim__system *sys, defsim__work *wk, con
 
 double defsim__damping_coeff(const defsim__system *s, const double *x, double omega)
 {
-    double alpha = 0.0, beta = 0.0;
-    for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i)
-        if (!s->pinned[i / 3] && s->alpha3[i] > alpha) alpha = s->alpha3[i];
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
-        for (int32_t e = 0; e < s->groups[m].n; ++e)
-            if (s->groups[m].beta[e] > beta) beta = s->groups[m].beta[e];
-    /* An attachment's damper acts on its nodes at a rate of at most c sum_j a_j^2 / min m. */
-    const defsim__attachments *at = &s->att;
-    for (int32_t e = 0; e < at->n; ++e) {
-        if (at->c[e] == 0.0) continue;
-        double a2 = 0.0, mmin = INFINITY;
-        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j) {
-            const int32_t v = at->node[DEFSIM__ATTACH_NODES * (int64_t)e + j];
-            if (v < 0 || s->pinned[v]) continue;
-            const double a = at->a[DEFSIM__ATTACH_NODES * (int64_t)e + j];
-            a2 += a * a;
-            if (s->mass[v] < mmin) mmin = s->mass[v];
-        }
-        if (a2 > 0.0 && at->c[e] * a2 / mmin > alpha) alpha = at->c[e] * a2 / mmin;
+    defsim__rates r = {0.0, 0.0, 0.0};
+    for (int32_t k = 0; k < s->nterms; ++k) {
+        const defsim__term *t = &s->terms[k];
+        if (t->ops->rates) t->ops->rates(t, s, x, &r);
     }
-    if (s->contact && x) alpha += defsim__contact_damping_rate(s->contact, x, s->gravity);
-    return alpha + beta * omega * omega;
+    return (r.alpha + r.alpha_add) + r.beta * omega * omega;
 }

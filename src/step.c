@@ -12,6 +12,7 @@
 
 #include "clock.h"
 #include "stability.h"
+#include "terms.h"
 #include "watchdog.h"
 
 #include <math.h>
@@ -56,6 +57,8 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     if (w->nv > 0 && penalty && (st = contact_begin(w, 0.0)) != DEFSIM_OK) return st;
     if (w->nv > 0) st = estimate_stable_step(w, &h, &om);
     w->sys.contact = NULL;
+    const defsim_status ct = defsim__terms_compile(&w->sys);
+    if (st == DEFSIM_OK) st = ct;
     if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
@@ -151,7 +154,10 @@ static defsim_status watch_step(defsim_world *w, double h)
  * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends. */
 static defsim_status contact_begin(defsim_world *w, double h)
 {
-    w->sys.contact = NULL;
+    if (w->sys.contact) {   /* left attached by a failed step: detach */
+        w->sys.contact = NULL;
+        (void)defsim__terms_compile(&w->sys);
+    }
     /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
      * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
      * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
@@ -202,7 +208,7 @@ static defsim_status contact_begin(defsim_world *w, double h)
                                              h > 0.0 ? w->v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
-    return DEFSIM_OK;
+    return defsim__terms_compile(&w->sys);
 }
 
 defsim_status defsim__world_replay_contact_begin(defsim_world *w)
@@ -261,6 +267,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
 {
     defsim__contact *c = w->sys.contact;
     w->sys.contact = NULL;
+    if (c && defsim__terms_compile(&w->sys) != DEFSIM_OK) st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
         if (st == DEFSIM_OK && w->contact.readback_set) {
             free(w->colliders.force);
@@ -321,7 +328,10 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
  * backends without contact CCD already). */
 static defsim_status body_begin(defsim_world *w, double h)
 {
-    w->sys.body_contact = NULL;
+    if (w->sys.body_contact) {   /* left attached by a failed step: detach */
+        w->sys.body_contact = NULL;
+        (void)defsim__terms_compile(&w->sys);
+    }
     if (!w->set.body_contact) {
         w->body_contact_last = 0;
         return DEFSIM_OK;
@@ -332,8 +342,9 @@ static defsim_status body_begin(defsim_world *w, double h)
         &w->body_contact, &w->sys, w->bodies, w->nbodies,
         w->set.contact_dhat, w->set.contact_kappa, w->set.friction_eps_v, w->x_save, w->state.v, h,
         w->contact.stat, w->msg);
-    if (st == DEFSIM_OK) w->sys.body_contact = &w->body_contact;
-    return st;
+    if (st != DEFSIM_OK) return st;
+    w->sys.body_contact = &w->body_contact;
+    return defsim__terms_compile(&w->sys);
 }
 
 /* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
@@ -342,6 +353,8 @@ static defsim_status body_end(defsim_world *w, defsim_status st)
 {
     defsim__body_contact *bc = w->sys.body_contact;
     w->sys.body_contact = NULL;
+    if (bc && defsim__terms_compile(&w->sys) != DEFSIM_OK && st == DEFSIM_OK)
+        st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!bc || st != DEFSIM_OK) return st;
     if (bc->failed) {
         defsim__error(w->msg, "out of memory for body contact pairs; state restored");
@@ -451,9 +464,8 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
             defsim__coupling_substep_before(&w->coupling, &w->state, i, n, h / (double)n);
-            if (w->sys.contact)
-                defsim__contact_substep(w->sys.contact, (double)i / (double)n,
-                                        (double)(i + 1) / (double)n, h / (double)n);
+            defsim__terms_substep(&w->sys, (double)i / (double)n, (double)(i + 1) / (double)n,
+                                  h / (double)n);
             st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
             defsim__coupling_substep_after(&w->coupling, &w->state);
         }

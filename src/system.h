@@ -3,15 +3,17 @@
  * The compiled system: what the bodies of a world compile to when it is planned (plan.c), in
  * the spirit of MuJoCo's mjModel. Element groups per material (structure of arrays, coloured for
  * conflict-free scatter, cut into SIMD batches), springs, masses, free-DOF maps, pins, the
- * sparse pattern and the pass plan. Physics functions (forces.c, energy.c, assembly.c,
- * stability.c) read a `const defsim__system *` and write only into their outputs and into a
- * `defsim__work` (scratch the planner sized); they never see the world.
+ * sparse pattern, the pass plan, and the list of terms (term.h) that physics functions
+ * (forces.c, energy.c, assembly.c, stability.c) loop over. They read a `const defsim__system *`
+ * and write only into their outputs, into a `defsim__work` (scratch the planner sized) and into
+ * the terms' mutable data and caches; they never see the world.
  */
 #ifndef DEFSIM_SYSTEM_H
 #define DEFSIM_SYSTEM_H
 
 #include "defsim/backend.h"
 #include "material_list.h"
+#include "term.h"
 
 #include <stdint.h>
 
@@ -104,12 +106,13 @@ typedef struct defsim__system {
     defsim__pattern pattern;
     const struct defsim__tet_kernels *tet_kernels;   /* batched force kernels; NULL: scalar */
 
-    /* The host's terms (coupling.c; attachments compiled by plan.c). fext and cb_stiffness are owned by the world and
-     * updated between (or, for cb_stiffness, by the host services during) steps. */
+    /* The host's terms (coupling.c; attachments compiled by plan.c). fext is owned by the world
+     * and updated between steps; host is the world's handle of the host services (the force
+     * callback's and held forces' terms read it), NULL for a system without a world. */
     defsim__attachments att;
     int has_attachment_damping;
     const double *fext;       /* 3 nv held external forces, or NULL (none or all zero) */
-    const double *cb_stiffness;   /* 9 nv: -dF/dx blocks of the force callback, or NULL */
+    struct defsim_system *host;
 
     /* Contact with the world's colliders (contact.h): set by the world for its steps while it
      * has live colliders, else NULL. Evaluations may grow its candidate pairs. */
@@ -117,6 +120,14 @@ typedef struct defsim__system {
     /* Body-body and self-contact (body_contact.h): set by the world for its steps while the
      * option body_contact is on, else NULL. */
     struct defsim__body_contact *body_contact;
+
+    /* The terms (term.h), compiled by term.c from what the fields above say the scene uses:
+     * terms[] in force order, energy_order and matrix_order index it in the order of those
+     * sums. One linearisation cache per kind. */
+    defsim__term terms[DEFSIM__TERM_MAX];
+    int32_t nterms, nenergy, nmatrix;
+    uint8_t energy_order[DEFSIM__TERM_MAX], matrix_order[DEFSIM__TERM_MAX];
+    defsim__term_cache cache[DEFSIM__TERM_KINDS];
 } defsim__system;
 
 /* The first position in the sorted list[0 .. n) whose entry is not below key. */

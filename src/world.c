@@ -12,6 +12,7 @@
 #include "mat3.h"
 #include "plan.h"
 #include "registry.h"
+#include "terms.h"
 #include "watchdog.h"
 
 #include <math.h>
@@ -277,6 +278,12 @@ defsim_status defsim__world_plan(defsim_world *w)
         return st;
     }
     w->sys.fext = w->coupling.fext_nonzero ? w->coupling.fext : NULL;
+    w->sys.host = &w->handle;
+    if ((st = defsim__terms_compile(&w->sys)) != DEFSIM_OK) {
+        defsim__unplan(&w->sys, &w->work);
+        defsim__error(w->msg, "out of memory while planning the world");
+        return st;
+    }
     w->contact.omega_elastic = 0.0;
     w->contact.surf_planned = 0;
     w->planned = 1;
@@ -827,6 +834,9 @@ defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const cha
 defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
 {
     if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (name && value && !strncmp(name, "term.", 5) &&
+        defsim__terms_counter(&w->sys, name + 5, value))
+        return DEFSIM_OK;
     if (!name || !defsim__watchdog_is_diagnostic(name))
         return defsim__options_stat(&w->options, w->msg, &w->stats, name, value);
     const defsim_stats now = stats_now(w);

@@ -1,0 +1,174 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Terms (DESIGN.md section 7; PolyFEM's Form, MuJoCo's mj_passive): every force family of a
+ * system is a term, a const ops table plus a const model (built at plan time: an element group,
+ * the attachments, the system itself) and mutable data (contact state, cached Hessian blocks).
+ * forces.c, energy.c, assembly.c, stability.c and host.c loop over the system's list of terms
+ * and name none; terms.c compiles the list from term_list.h, with only the terms the scene uses
+ * (terms.h).
+ *
+ * The sums keep the order they had before terms (trajectories are bit-identical): forces in list
+ * order, energies and matrices in each kind's energy_rank and matrix_rank. Where two families
+ * shared one element matrix or one diagonal add before, they still do: a group's stiffness
+ * damping matrix B is assembled by its elastic term (one element matrix k K + kd beta B), mass
+ * damping's alpha M by the inertia term (one add of (m + md alpha) M per DOF).
+ *
+ * Linearisation: `linearise` evaluates and caches a term's Hessian blocks at x, `values` and
+ * `apply` read what it cached. assembly.c calls it before matrix values (DEFSIM__LIN_VALUES:
+ * evaluate, once per Newton iteration) and before products (DEFSIM__LIN_PRODUCT from the host's
+ * service, DEFSIM__LIN_LAZY from internal loops such as the power iteration: evaluate only if x
+ * or the coefficients differ from the cached ones), so a product does no geometry.
+ *
+ * Every op but compile is optional (NULL: nothing to do), so kinds to come (cloth membranes and
+ * hinges, rigid bodies) and ops to come (derivatives with respect to a term's parameters, for
+ * gradients) are appended without touching the kinds that have no use for them.
+ */
+#ifndef DEFSIM_TERM_H
+#define DEFSIM_TERM_H
+
+#include "defsim/backend.h"
+#include "term_list.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+struct defsim__system;
+struct defsim__work;
+struct defsim__term_ops;
+
+/* Term kinds in list order (term_list.h). */
+#define DEFSIM__TERM_ENUM(name) DEFSIM__TERM_KIND_##name,
+enum { DEFSIM__TERM_LIST(DEFSIM__TERM_ENUM) DEFSIM__TERM_KINDS };
+#undef DEFSIM__TERM_ENUM
+
+/* At most one term per kind, except one elastic term per tet model. */
+enum { DEFSIM__TERM_MAX = DEFSIM__TERM_KINDS + 8 };
+
+/* Linearisation modes (above). */
+enum { DEFSIM__LIN_VALUES = 0, DEFSIM__LIN_PRODUCT = 1, DEFSIM__LIN_LAZY = 2 };
+
+/* What a start op did (host.c's contact_start runs the terms again while one asks). */
+enum {
+    DEFSIM__START_MOVED = 1,  /* it changed x */
+    DEFSIM__START_AGAIN = 2   /* a later term's move may undo what it guaranteed: run it again */
+};
+
+/* Flags of a kind. */
+enum {
+    DEFSIM__TERM_ELASTIC = 1u << 0,   /* its energy is elastic (defsim__elastic_energy) */
+    DEFSIM__TERM_BOUNDED = 1u << 1    /* the power iteration leaves it out: lambda_bound bounds
+                                         its share of the top eigenvalue */
+};
+
+/* A linearisation cache a kind may use (the system keeps one per kind, so its buffers outlive
+ * the list's recompilation and are freed with the plan). */
+typedef struct defsim__term_cache {
+    void *buf;                /* the kind's blocks */
+    size_t cap;               /* bytes of buf */
+    double *x;                /* 3 nv: the x they were evaluated at */
+    int32_t nx;               /* vertices x was allocated for */
+    int valid;                /* buf holds the blocks at x for k, kd and epoch */
+    int any;                  /* some block is not zero */
+    int64_t count;            /* blocks in buf */
+    double k, kd;             /* the coefficients they were evaluated for */
+    uint64_t epoch;           /* bumped when something besides x changes the blocks (a substep,
+                                 friction's velocities) */
+    uint64_t seen;            /* the epoch the blocks were evaluated at */
+    int64_t linearisations;   /* evaluations, cumulative (statistic term.<kind>.linearisations) */
+} defsim__term_cache;
+
+/* One term of a system: what its ops evaluate. */
+typedef struct defsim__term {
+    const struct defsim__term_ops *ops;
+    const void *model;        /* the kind's const model: an element group, the attachments, ... */
+    void *data;               /* the kind's mutable data (contact state), or NULL */
+    defsim__term_cache *cache;/* the kind's linearisation cache */
+    int32_t index;            /* the kind's own index (the element group of an elastic term) */
+} defsim__term;
+
+/* What a force evaluation asks for. */
+typedef struct defsim__eval {
+    const double *x, *v;      /* v may be NULL without DEFSIM_FORCE_DAMPING */
+    double t;                 /* time (s): the host's callback reads it */
+    uint32_t which;           /* DEFSIM_FORCE_* */
+} defsim__eval;
+
+/* Damping rates of explicit stability (stability.c): the largest rates over the terms and the
+ * additive rates. */
+typedef struct defsim__rates {
+    double alpha;             /* largest mass-like damping rate (1/s) */
+    double beta;              /* largest stiffness damping (s) */
+    double alpha_add;         /* rates that add to alpha (1/s) */
+} defsim__rates;
+
+typedef const struct defsim__system defsim__csys;
+
+/* A kind's ops. Every op but compile is optional (NULL: the term adds nothing there). */
+typedef struct defsim__term_ops {
+    const char *name;
+    uint32_t flags;           /* DEFSIM__TERM_* */
+    int8_t energy_rank;       /* place in the energy sums */
+    int8_t matrix_rank;       /* place in the matrix sums (values and products) */
+
+    /* Appends this kind's terms for s to out (room for DEFSIM__TERM_MAX); returns how many, or
+     * -1 when out of memory (for its cache). */
+    int (*compile)(struct defsim__system *s, defsim__term *out);
+
+    /* Energy at x (J) added to e, in the term's own order of partial sums. */
+    double (*energy)(const defsim__term *t, defsim__csys *s, struct defsim__work *wk,
+                     const double *x, double e);
+    /* Adds its forces to f; ORs the passes that ran into *used. */
+    defsim_status (*forces)(const defsim__term *t, defsim__csys *s, const defsim__eval *ev,
+                            double *f, uint32_t *used);
+
+    /* The free-vertex pairs its blocks couple (sparse pattern): counts pair (fa, fb) in
+     * pos[fa + 1] (list NULL) or appends fb to fa's list at pos[fa]. */
+    void (*pairs)(const defsim__term *t, defsim__csys *s, int64_t *pos, int32_t *list);
+    /* The pattern was built: the ranks of its node pairs in it. */
+    defsim_status (*ranks)(const defsim__term *t, struct defsim__system *s);
+    /* Merges pairs it found since (contact) into the pattern; *grew = 1 if it changed. */
+    defsim_status (*pattern_update)(const defsim__term *t, struct defsim__system *s, int *grew);
+
+    /* Evaluates and caches its blocks of k K + kd B at x (mode DEFSIM__LIN_*). */
+    defsim_status (*linearise)(const defsim__term *t, defsim__csys *s, const double *x,
+                               const defsim_matrix_coeffs *c, int mode);
+    /* Adds its share of m M + md alpha M + k K + kd B into the pattern's values (upper or full,
+     * column pointers cp); ORs DEFSIM_PASS_* into *passes (may be NULL). */
+    void (*values)(const defsim__term *t, defsim__csys *s, const double *x,
+                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *values,
+                   uint32_t *passes);
+    /* out += its share of A dx (pinned rows and columns zero); element Hessians projected with
+     * proj. Contact terms read only what linearise cached. */
+    void (*apply)(const defsim__term *t, defsim__csys *s, const double *x,
+                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out);
+
+    /* Largest alpha in (0, 1] along x + alpha dx that it allows (CCD). */
+    double (*max_step)(const defsim__term *t, const double *x, const double *dx);
+    /* Makes a Newton start x feasible for it, its path from the step's start clear; returns
+     * DEFSIM__START_* bits. block: no start could be made so (the energy is +inf for the rest
+     * of the step). */
+    int (*start)(const defsim__term *t, double *x);
+    void (*block)(const defsim__term *t);
+
+    /* Explicit stability: the bound on the top eigenvalue of M^-1 K (1/s^2) with its share,
+     * given lambda without it (BOUNDED kinds: the power iteration leaves them out), and its
+     * damping rates at x into *r. */
+    double (*lambda_bound)(const defsim__term *t, defsim__csys *s, double lambda);
+    void (*rates)(const defsim__term *t, defsim__csys *s, const double *x, defsim__rates *r);
+
+    /* Step hooks (a step begins with compile, when the world attaches its contact state): the
+     * backend step under way covers the fraction [s0, s1] of the world's step with length h;
+     * the step ended. */
+    void (*substep)(const defsim__term *t, double s0, double s1, double h);
+    void (*step_end)(const defsim__term *t);
+
+    /* Counters by name ("linearisations", and the kind's own); 1 if it has `name`. */
+    int (*counter)(const defsim__term *t, const char *name, double *value);
+
+    /* Its checkpoint chunk: save writes its state into buf when cap allows and returns the
+     * bytes it needs; load reads what save wrote (DEFSIM_ERR_INVALID_ARGUMENT if it cannot). */
+    size_t (*save)(const defsim__term *t, unsigned char *buf, size_t cap);
+    defsim_status (*load)(const defsim__term *t, const unsigned char *buf, size_t n);
+} defsim__term_ops;
+
+#endif /* DEFSIM_TERM_H */

@@ -1,0 +1,131 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The host's force callback (defsim_world_set_force_callback; host.c calls it): among the
+ * applied forces (DEFSIM_FORCE_GRAVITY), before pinned DOFs are cleared so that it counts in pin
+ * forces like every other term. Implicit steps see it through its model from the step's start:
+ * held f0 without a Jacobian; with one, -f0 . d + d^T K0 d / 2 in the energy and the Jacobian's
+ * stiffness -sym(dF/dx) in the matrices, evaluated when matrix values or a product are asked
+ * (the Jacobian reads v and t, which no cache key sees).
+ */
+#include "assembly.h"
+#include "host.h"
+#include "system.h"
+
+#include <string.h>
+
+static defsim_system *host(const defsim__term *t) { return t->data; }
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    if (!s->host || !s->host->cpl || !s->host->cpl->fn) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = s;
+    out->data = s->host;
+    return 1;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    if (!(ev->which & DEFSIM_FORCE_GRAVITY)) return DEFSIM_OK;
+    defsim_system *h = host(t);
+    defsim__coupling *c = h->cpl;
+    const int64_t ndof = 3 * (int64_t)s->nv;
+    if (c->hold && c->in_step) {
+        for (int64_t i = 0; i < ndof; ++i) f[i] += c->f0[i];
+    } else {
+        const double *v = ev->v ? ev->v : h->state->v;
+        if (c->in_step && c->rec_first) {
+            /* Recorded for the watchdog's bound on the callback's work (watchdog.h). */
+            double *r = c->nrec == 0 ? c->rec_first : c->rec_last;
+            memset(r, 0, (size_t)ndof * sizeof *r);
+            const defsim_status st = defsim__callback_forces(c, h->msg, s->nv, ev->x, v, ev->t, r);
+            if (st != DEFSIM_OK) return st;
+            for (int64_t i = 0; i < ndof; ++i) f[i] += r[i];
+            c->nrec++;
+        } else {
+            const defsim_status st = defsim__callback_forces(c, h->msg, s->nv, ev->x, v, ev->t, f);
+            if (st != DEFSIM_OK) return st;
+        }
+        if (c->jac && c->in_step) {
+            memcpy(c->veval, v, (size_t)ndof * sizeof *v);
+            c->teval = ev->t;
+        }
+    }
+    *used |= DEFSIM_PASS_FORCE_CALLBACK;
+    return DEFSIM_OK;
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double e)
+{
+    (void)wk;
+    const defsim__coupling *c = host(t)->cpl;
+    if (!(c->in_step && c->implicit)) return e;
+    double lin = 0.0, quad = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        if (s->pinned[i]) continue;
+        double d[3];
+        for (int k = 0; k < 3; ++k) {
+            d[k] = x[3 * (int64_t)i + k] - c->x0[3 * (int64_t)i + k];
+            lin += c->f0[3 * (int64_t)i + k] * d[k];
+        }
+        if (c->jac) {
+            const double *K = c->K0 + 9 * (int64_t)i;
+            for (int r = 0; r < 3; ++r)
+                quad += d[r] * (K[3 * r] * d[0] + K[3 * r + 1] * d[1] + K[3 * r + 2] * d[2]);
+        }
+    }
+    return e + (0.5 * quad - lin);
+}
+
+/* Implicit steps with a Jacobian: its stiffness at x, with the velocities and time of the latest
+ * force evaluation, joins K (cache->any: c->kcb holds it). Internal products (LAZY) use what the
+ * last evaluation left. */
+static defsim_status linearise(const defsim__term *t, const defsim__system *s, const double *x,
+                               const defsim_matrix_coeffs *k, int mode)
+{
+    if (mode == DEFSIM__LIN_LAZY || k->k == 0.0) return DEFSIM_OK;
+    defsim_system *h = host(t);
+    defsim__coupling *c = h->cpl;
+    t->cache->any = 0;
+    if (!(c->jac && c->in_step && c->implicit)) return DEFSIM_OK;
+    const defsim_status st = defsim__callback_stiffness(c, h->msg, s->nv, s->projection, x,
+                                                        c->veval, c->teval, c->kcb);
+    t->cache->any = st == DEFSIM_OK;
+    t->cache->linearisations++;
+    return st;
+}
+
+static void values(const defsim__term *t, const defsim__system *s, const double *x,
+                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
+                   uint32_t *passes)
+{
+    (void)x;
+    (void)passes;
+    if (c->k != 0.0 && t->cache->any)
+        defsim__add_diagonal(s, host(t)->cpl->kcb, c->k, upper, cp, val);
+}
+
+static void apply(const defsim__term *t, const defsim__system *s, const double *x,
+                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
+{
+    (void)x;
+    (void)proj;
+    if (c->k != 0.0 && t->cache->any) defsim__apply_diagonal(s, host(t)->cpl->kcb, c->k, dx, out);
+}
+
+static void step_end(const defsim__term *t) { t->cache->any = 0; }
+
+const defsim__term_ops defsim__term_callback = {
+    .name = "callback",
+    .energy_rank = 7,
+    .matrix_rank = 3,
+    .compile = compile,
+    .energy = energy,
+    .forces = forces,
+    .linearise = linearise,
+    .values = values,
+    .apply = apply,
+    .step_end = step_end,
+};

@@ -1,0 +1,239 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The elastic energy of one tet element group (one term per material model that the scene
+ * uses): forces by the batched SIMD kernels of tet_forces.c when chosen, else the model's scalar
+ * kernel, unchanged; energy as deterministic blocked sums; element matrices k K + kd beta B
+ * (the group's stiffness damping B shares the element matrix, so each element is scattered
+ * once); products element by element without forming the matrix. Elements are sorted by
+ * colour, so each colour scatters in parallel without atomics, bit-identical for any thread
+ * count.
+ */
+#include "assembly.h"
+#include "element.h"
+#include "energy.h"
+#include "mat3.h"
+#include "material.h"
+#include "system.h"
+#include "tet_forces.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const defsim__group *group(const defsim__term *t) { return t->model; }
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    int n = 0;
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
+        if (s->groups[m].n > 0) {
+            memset(&out[n], 0, sizeof out[n]);
+            out[n].model = &s->groups[m];
+            out[n].index = m;
+            ++n;
+        }
+    return n;
+}
+
+static double element_energy(const defsim__group *g, const double *x, int32_t e)
+{
+    double F[9];
+    tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
+    const double mu = g->mu[e], la = g->lambda[e];
+    double psi = g->law->psi(mu, la, F);
+    if (g->law->psi_rest) psi -= g->law->psi_rest(mu, la);
+    return g->vol[e] * psi;
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double total)
+{
+    const defsim__group *g = group(t);
+    const int32_t nb = (g->n + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
+    double *part = wk->partial;
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
+    for (int32_t b = 0; b < nb; ++b) {
+        int32_t e1 = (b + 1) * DEFSIM__REDUCE_BLOCK < g->n ? (b + 1) * DEFSIM__REDUCE_BLOCK : g->n;
+        double sum = 0.0;
+        for (int32_t e = b * DEFSIM__REDUCE_BLOCK; e < e1; ++e) sum += element_energy(g, x, e);
+        part[b] = sum;
+    }
+    for (int32_t b = 0; b < nb; ++b) total += part[b];
+    return total;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    const defsim__group *g = group(t);
+    if (s->tet_kernels) s->tet_kernels->forces[t->index](g, ev->x, f, s->nthreads);
+    else g->law->forces(g, ev->x, f, s->nthreads);
+    *used |= g->pass;
+    return DEFSIM_OK;
+}
+
+static void pairs(const defsim__term *t, const defsim__system *s, int64_t *pos, int32_t *list)
+{
+    defsim__element_pairs(s, group(t)->idx, 4, group(t)->n, pos, list);
+}
+
+static defsim_status ranks(const defsim__term *t, defsim__system *s)
+{
+    defsim__group *g = &s->groups[t->index];
+    free(g->blk);
+    g->blk = defsim__element_ranks(s, g->idx, 4, g->n);
+    return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+/* Element matrix over its nodes: K[(a c),(b d)], 12x12, scaled by k + kd beta (kd part always
+ * with clamped projection). Returns 0 if the element adds nothing. */
+static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
+                          int32_t e, const defsim_matrix_coeffs *c, double *K)
+{
+    const double sk = c->k, sd = c->kd * g->beta[e];
+    if (sk == 0.0 && sd == 0.0) return 0;
+    const int proj = s->projection;
+    const int nd = 12;
+    double F[9], D[81], gr[4][3];
+    tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
+    if (proj == DEFSIM_PROJECTION_NONE) {
+        g->law->dPdF(g->mu[e], g->lambda[e], F, D);
+        if (sd != 0.0) {
+            double Dd[81];
+            defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F,
+                                         DEFSIM_PROJECTION_CLAMP, Dd, 0, NULL);
+            for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+        } else {
+            for (int i = 0; i < 81; ++i) D[i] *= sk;
+        }
+    } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D,
+                                     DEFSIM_PROJECTION_CLAMP, Dd);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+    tet_gradients(g->dminv + 9 * (int64_t)e, gr);
+    const double vol = g->vol[e];
+    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l]. D is symmetric, so K is; and
+     * g_3 = -(g_0 + g_1 + g_2) makes node 3's blocks minus sums of the others: only the six
+     * blocks a <= b < 3 need the products. */
+    for (int b = 0; b < 3; ++b) {
+        double Dg[9][3];   /* Dg[(i,j)][k] = sum_l D[(i,j),(k,l)] g_b[l] */
+        for (int r = 0; r < 9; ++r)
+            for (int k = 0; k < 3; ++k)
+                Dg[r][k] = D[9 * r + 3 * k] * gr[b][0] + D[9 * r + 3 * k + 1] * gr[b][1] +
+                           D[9 * r + 3 * k + 2] * gr[b][2];
+        for (int a = 0; a <= b; ++a)
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k) {
+                    const double v = vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
+                                            gr[a][2] * Dg[3 * i + 2][k]);
+                    K[(3 * a + i) * nd + 3 * b + k] = v;
+                    K[(3 * b + k) * nd + 3 * a + i] = v;
+                }
+    }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const double *row = K + (3 * a + i) * nd;
+                const double v = -(row[k] + row[3 + k] + row[6 + k]);
+                K[(3 * a + i) * nd + 9 + k] = v;
+                K[(9 + k) * nd + 3 * a + i] = v;
+            }
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double *row = K + (9 + i) * nd;
+            K[(9 + i) * nd + 9 + k] = -(row[k] + row[3 + k] + row[6 + k]);
+        }
+    return 1;
+}
+
+static void values(const defsim__term *t, const defsim__system *s, const double *x,
+                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
+                   uint32_t *passes)
+{
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    const defsim__group *g = group(t);
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
+        for (int32_t e = e0; e < e1; ++e) {
+            double K[144];
+            if (!element_matrix(s, g, x, e, c, K)) continue;
+            defsim__element_scatter(s, g->idx + 4 * (int64_t)e, g->blk + 16 * (int64_t)e, 4, K,
+                                    upper, cp, val);
+        }
+    }
+    if (passes) *passes |= DEFSIM_PASS_HESSIAN;
+}
+
+/* out += A dx for one element without forming its matrix: dF = sum_a dx_a g_a^T,
+ * dP = (k D + kd beta Dclamped) : dF, out_a += vol dP g_a. */
+static void element_apply(const defsim__group *g, const double *x, int32_t e,
+                          const defsim_matrix_coeffs *c, int proj, const uint8_t *pinned,
+                          const double *dx, double *out)
+{
+    const double sk = c->k, sd = c->kd * g->beta[e];
+    if (sk == 0.0 && sd == 0.0) return;
+    const int32_t *id = g->idx + 4 * (int64_t)e;
+    const double *dm = g->dminv + 9 * (int64_t)e;
+    double F[9], D[81], dF[9], dP[9], gr[4][3];
+    tet_deformation(x, id, dm, F);
+    g->law->dPdF(g->mu[e], g->lambda[e], F, D);
+    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        memcpy(Dd, D, sizeof Dd);
+        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+    tet_gradients(dm, gr);
+    memset(dF, 0, sizeof dF);
+    for (int a = 0; a < 4; ++a) {
+        if (pinned[id[a]]) continue;
+        const double *u = dx + 3 * (int64_t)id[a];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) dF[3 * i + j] += u[i] * gr[a][j];
+    }
+    apply_dpdf(D, dF, dP);
+    const double vol = g->vol[e];
+    for (int a = 0; a < 4; ++a) {
+        if (pinned[id[a]]) continue;
+        double *o = out + 3 * (int64_t)id[a];
+        for (int i = 0; i < 3; ++i)
+            o[i] += vol * (dP[3 * i] * gr[a][0] + dP[3 * i + 1] * gr[a][1] + dP[3 * i + 2] * gr[a][2]);
+    }
+}
+
+static void apply(const defsim__term *t, const defsim__system *s, const double *x,
+                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
+{
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    const defsim__group *g = group(t);
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
+        for (int32_t e = e0; e < e1; ++e) element_apply(g, x, e, c, proj, s->pinned, dx, out);
+    }
+}
+
+const defsim__term_ops defsim__term_elastic = {
+    .name = "elastic",
+    .flags = DEFSIM__TERM_ELASTIC,
+    .energy_rank = 0,
+    .matrix_rank = 0,
+    .compile = compile,
+    .energy = energy,
+    .forces = forces,
+    .pairs = pairs,
+    .ranks = ranks,
+    .values = values,
+    .apply = apply,
+};

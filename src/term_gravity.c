@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/* Gravity: forces m_i g, energy -sum m_i g . x_i. */
+#include "system.h"
+
+#include <string.h>
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    if (!s->has_gravity) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = s;
+    return 1;
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double e)
+{
+    (void)t;
+    (void)wk;
+    const double *gr = s->gravity;
+    double sum = 0.0;
+    for (int32_t i = 0; i < s->nv; ++i)
+        sum -= s->mass[i] * (gr[0] * x[3 * (int64_t)i] + gr[1] * x[3 * (int64_t)i + 1] +
+                             gr[2] * x[3 * (int64_t)i + 2]);
+    return e + sum;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    (void)t;
+    if (!(ev->which & DEFSIM_FORCE_GRAVITY)) return DEFSIM_OK;
+    const double *gr = s->gravity;
+    for (int32_t i = 0; i < s->nv; ++i) {
+        f[3 * (int64_t)i + 0] += s->mass[i] * gr[0];
+        f[3 * (int64_t)i + 1] += s->mass[i] * gr[1];
+        f[3 * (int64_t)i + 2] += s->mass[i] * gr[2];
+    }
+    *used |= DEFSIM_PASS_GRAVITY;
+    return DEFSIM_OK;
+}
+
+const defsim__term_ops defsim__term_gravity = {
+    .name = "gravity",
+    .energy_rank = 3,
+    .compile = compile,
+    .energy = energy,
+    .forces = forces,
+};

@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Held external forces (defsim_world_set_external_forces): forces f_ext, energy
+ * -f_ext . (x - x_start) relative to the positions at the start of the world's step (the same
+ * differences as -f_ext . x without its large terms, which would hide small decreases from line
+ * searches; the origin without a host).
+ */
+#include "host.h"
+#include "system.h"
+
+#include <string.h>
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    if (!s->fext) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = s;
+    return 1;
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double e)
+{
+    (void)t;
+    (void)wk;
+    const double *x0 = s->host ? s->host->x_start : NULL;
+    double sum = 0.0;
+    for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i)
+        sum -= s->fext[i] * (x[i] - (x0 ? x0[i] : 0.0));
+    return e + sum;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    (void)t;
+    if (!(ev->which & DEFSIM_FORCE_GRAVITY)) return DEFSIM_OK;
+    for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i) f[i] += s->fext[i];
+    *used |= DEFSIM_PASS_EXTERNAL_FORCES;
+    return DEFSIM_OK;
+}
+
+const defsim__term_ops defsim__term_held = {
+    .name = "held",
+    .energy_rank = 6,
+    .compile = compile,
+    .energy = energy,
+    .forces = forces,
+};

@@ -1,0 +1,44 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Mass damping, forces -alpha M v. Its matrix md alpha M joins the inertia's diagonal
+ * (term_inertia.c adds (m + md alpha) M in one add per DOF).
+ */
+#include "system.h"
+
+#include <string.h>
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    if (!s->has_mass_damping) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = s;
+    return 1;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    (void)t;
+    if (!(ev->which & DEFSIM_FORCE_DAMPING) || !ev->v) return DEFSIM_OK;
+    const int64_t ndof = 3 * (int64_t)s->nv;
+    for (int64_t i = 0; i < ndof; ++i) f[i] -= s->alpha3[i] * s->mass3[i] * ev->v[i];
+    *used |= DEFSIM_PASS_MASS_DAMPING;
+    return DEFSIM_OK;
+}
+
+/* The largest mass damping of a free DOF. */
+static void rates(const defsim__term *t, const defsim__system *s, const double *x,
+                  defsim__rates *r)
+{
+    (void)t;
+    (void)x;
+    for (int64_t i = 0; i < 3 * (int64_t)s->nv; ++i)
+        if (!s->pinned[i / 3] && s->alpha3[i] > r->alpha) r->alpha = s->alpha3[i];
+}
+
+const defsim__term_ops defsim__term_mass_damping = {
+    .name = "mass_damping",
+    .compile = compile,
+    .forces = forces,
+    .rates = rates,
+};

@@ -1,0 +1,165 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The elastic energy of the springs group (material_spring.c's law, E = k/2 (l - l0)^2):
+ * forces by its kernel, energy as deterministic blocked sums, 6x6 element matrices k K + kd beta
+ * B (the springs' stiffness damping B shares the element matrix) and products element by
+ * element. Springs are sorted by colour like tets (conflict-free parallel scatter).
+ */
+#include "assembly.h"
+#include "energy.h"
+#include "material.h"
+#include "system.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static const defsim__group *group(const defsim__term *t) { return t->model; }
+
+static int compile(defsim__system *s, defsim__term *out)
+{
+    if (s->groups[DEFSIM__TET_MODELS].n == 0) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = &s->groups[DEFSIM__TET_MODELS];
+    out->index = DEFSIM__TET_MODELS;
+    return 1;
+}
+
+static double element_energy(const defsim__group *g, const double *x, int32_t e)
+{
+    return defsim__model_spring.energy(x + 3 * (int64_t)g->idx[2 * (int64_t)e],
+                                       x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1], g->k[e],
+                                       g->l0[e]);
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double total)
+{
+    const defsim__group *g = group(t);
+    const int32_t nb = (g->n + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
+    double *part = wk->partial;
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
+    for (int32_t b = 0; b < nb; ++b) {
+        int32_t e1 = (b + 1) * DEFSIM__REDUCE_BLOCK < g->n ? (b + 1) * DEFSIM__REDUCE_BLOCK : g->n;
+        double sum = 0.0;
+        for (int32_t e = b * DEFSIM__REDUCE_BLOCK; e < e1; ++e) sum += element_energy(g, x, e);
+        part[b] = sum;
+    }
+    for (int32_t b = 0; b < nb; ++b) total += part[b];
+    return total;
+}
+
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    defsim__model_spring.forces(group(t), ev->x, f, s->nthreads);
+    *used |= group(t)->pass;
+    return DEFSIM_OK;
+}
+
+static void pairs(const defsim__term *t, const defsim__system *s, int64_t *pos, int32_t *list)
+{
+    defsim__element_pairs(s, group(t)->idx, 2, group(t)->n, pos, list);
+}
+
+static defsim_status ranks(const defsim__term *t, defsim__system *s)
+{
+    defsim__group *g = &s->groups[t->index];
+    free(g->blk);
+    g->blk = defsim__element_ranks(s, g->idx, 2, g->n);
+    return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+/* Element matrix K[(a c),(b d)], 6x6, scaled by k + kd beta (kd part clamped). Returns 0 if
+ * the element adds nothing. */
+static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
+                          int32_t e, const defsim_matrix_coeffs *c, double *K)
+{
+    const double sk = c->k, sd = c->kd * g->beta[e];
+    if (sk == 0.0 && sd == 0.0) return 0;
+    const int nd = 6;
+    const double *xa = x + 3 * (int64_t)g->idx[2 * (int64_t)e];
+    const double *xb = x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1];
+    double Kb[9], Kd[9];
+    defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], s->projection, Kb);
+    if (sd != 0.0)
+        defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
+    for (int i = 0; i < 9; ++i) Kb[i] = sk * Kb[i] + (sd != 0.0 ? sd * Kd[i] : 0.0);
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    K[(3 * a + i) * nd + 3 * b + j] = (a == b ? 1.0 : -1.0) * Kb[3 * i + j];
+    return 1;
+}
+
+static void values(const defsim__term *t, const defsim__system *s, const double *x,
+                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
+                   uint32_t *passes)
+{
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    const defsim__group *g = group(t);
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
+        for (int32_t e = e0; e < e1; ++e) {
+            double K[36];
+            if (!element_matrix(s, g, x, e, c, K)) continue;
+            defsim__element_scatter(s, g->idx + 2 * (int64_t)e, g->blk + 4 * (int64_t)e, 2, K,
+                                    upper, cp, val);
+        }
+    }
+    if (passes) *passes |= DEFSIM_PASS_HESSIAN;
+}
+
+static void element_apply(const defsim__group *g, const double *x, int32_t e,
+                          const defsim_matrix_coeffs *c, int proj, const uint8_t *pinned,
+                          const double *dx, double *out)
+{
+    const double sk = c->k, sd = c->kd * g->beta[e];
+    if (sk == 0.0 && sd == 0.0) return;
+    const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
+    const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)b;
+    double Kb[9], Kd[9], d[3];
+    defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], proj, Kb);
+    if (sd != 0.0)
+        defsim__model_spring.block(xa, xb, g->k[e], g->l0[e], DEFSIM_PROJECTION_CLAMP, Kd);
+    for (int i = 0; i < 3; ++i) {
+        double ua = pinned[a] ? 0.0 : dx[3 * (int64_t)a + i];
+        double ub = pinned[b] ? 0.0 : dx[3 * (int64_t)b + i];
+        d[i] = ua - ub;
+    }
+    for (int i = 0; i < 3; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < 3; ++j)
+            s += (sk * Kb[3 * i + j] + (sd != 0.0 ? sd * Kd[3 * i + j] : 0.0)) * d[j];
+        if (!pinned[a]) out[3 * (int64_t)a + i] += s;
+        if (!pinned[b]) out[3 * (int64_t)b + i] -= s;
+    }
+}
+
+static void apply(const defsim__term *t, const defsim__system *s, const double *x,
+                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
+{
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    const defsim__group *g = group(t);
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
+        for (int32_t e = e0; e < e1; ++e) element_apply(g, x, e, c, proj, s->pinned, dx, out);
+    }
+}
+
+const defsim__term_ops defsim__term_spring = {
+    .name = "spring",
+    .flags = DEFSIM__TERM_ELASTIC,
+    .energy_rank = 1,
+    .matrix_rank = 1,
+    .compile = compile,
+    .energy = energy,
+    .forces = forces,
+    .pairs = pairs,
+    .ranks = ranks,
+    .values = values,
+    .apply = apply,
+};

@@ -1,0 +1,128 @@
+/* SPDX-License-Identifier: MIT */
+/* The list of terms of a system (terms.h; term.h): compiled from term_list.h, with the orders of the
+ * energy and matrix sums, the step hooks over it, and the linearisation caches' keys. */
+#include "terms.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define DEFSIM__TERM_DECLARE(name) extern const defsim__term_ops defsim__term_##name;
+DEFSIM__TERM_LIST(DEFSIM__TERM_DECLARE)
+#undef DEFSIM__TERM_DECLARE
+
+#define DEFSIM__TERM_ENTRY(name) &defsim__term_##name,
+static const defsim__term_ops *const kinds[DEFSIM__TERM_KINDS] = {
+    DEFSIM__TERM_LIST(DEFSIM__TERM_ENTRY)};
+#undef DEFSIM__TERM_ENTRY
+
+/* Indices of the terms that have an op, by rank then list position (a stable order). */
+static int32_t order(const defsim__system *s, int matrix, uint8_t *out)
+{
+    int32_t n = 0;
+    for (int r = 0; r < 128; ++r)
+        for (int32_t i = 0; i < s->nterms; ++i) {
+            const defsim__term_ops *o = s->terms[i].ops;
+            const int has = matrix ? (o->values || o->apply) : o->energy != NULL;
+            if (has && (matrix ? o->matrix_rank : o->energy_rank) == r) out[n++] = (uint8_t)i;
+        }
+    return n;
+}
+
+defsim_status defsim__terms_compile(defsim__system *s)
+{
+    s->nterms = 0;
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
+        defsim__term *out = s->terms + s->nterms;
+        const int n = kinds[k]->compile(s, out);
+        if (n < 0) {
+            s->nterms = s->nenergy = s->nmatrix = 0;
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+        for (int i = 0; i < n; ++i) {
+            out[i].ops = kinds[k];
+            out[i].cache = &s->cache[k];
+        }
+        s->nterms += n;
+    }
+    s->nenergy = order(s, 0, s->energy_order);
+    s->nmatrix = order(s, 1, s->matrix_order);
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) s->cache[k].valid = s->cache[k].any = 0;
+    return DEFSIM_OK;
+}
+
+void defsim__terms_free(defsim__system *s)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
+        free(s->cache[k].buf);
+        free(s->cache[k].x);
+        memset(&s->cache[k], 0, sizeof s->cache[k]);
+    }
+    s->nterms = s->nenergy = s->nmatrix = 0;
+}
+
+void defsim__terms_substep(const defsim__system *s, double s0, double s1, double h)
+{
+    for (int32_t i = 0; i < s->nterms; ++i)
+        if (s->terms[i].ops->substep) s->terms[i].ops->substep(&s->terms[i], s0, s1, h);
+}
+
+void defsim__terms_step_end(const defsim__system *s)
+{
+    for (int32_t i = 0; i < s->nterms; ++i)
+        if (s->terms[i].ops->step_end) s->terms[i].ops->step_end(&s->terms[i]);
+}
+
+int defsim__terms_counter(const defsim__system *s, const char *name, double *value)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
+        const size_t n = strlen(kinds[k]->name);
+        if (!kinds[k]->counter || strncmp(name, kinds[k]->name, n) != 0 || name[n] != '.')
+            continue;
+        /* the kind's counters live in its cache, which outlives its term */
+        const defsim__term t = {kinds[k], s, NULL, (defsim__term_cache *)&s->cache[k], 0};
+        return kinds[k]->counter(&t, name + n + 1, value);
+    }
+    return 0;
+}
+
+const defsim__term *defsim__terms_find(const defsim__system *s, int kind)
+{
+    for (int32_t i = 0; i < s->nterms; ++i)
+        if (s->terms[i].ops == kinds[kind]) return &s->terms[i];
+    return NULL;
+}
+
+int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
+                      const defsim_matrix_coeffs *k)
+{
+    return c->valid && c->nx >= nv && c->seen == c->epoch && c->k == k->k && c->kd == k->kd &&
+           memcmp(c->x, x, 3 * (size_t)nv * sizeof *x) == 0;
+}
+
+void defsim__cache_store(defsim__term_cache *c, int32_t nv, const double *x,
+                         const defsim_matrix_coeffs *k)
+{
+    memcpy(c->x, x, 3 * (size_t)nv * sizeof *x);
+    c->k = k->k;
+    c->kd = k->kd;
+    c->seen = c->epoch;
+    c->valid = 1;
+    c->linearisations++;
+}
+
+int defsim__cache_reserve(defsim__term_cache *c, size_t bytes, int32_t nv)
+{
+    if (bytes > c->cap) {
+        void *b = realloc(c->buf, bytes);
+        if (!b) return 0;
+        c->buf = b;
+        c->cap = bytes;
+    }
+    if (nv > c->nx) {
+        double *x = realloc(c->x, 3 * (size_t)nv * sizeof *x);
+        if (!x) return 0;
+        c->x = x;
+        c->nx = nv;
+    }
+    return 1;
+}

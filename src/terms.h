@@ -1,0 +1,38 @@
+/* SPDX-License-Identifier: MIT */
+/* The list of terms of a system (terms.c; the term interface is term.h): its compilation, the
+ * step hooks over it, and the keys of the terms' linearisation caches. */
+#ifndef DEFSIM_TERMS_H
+#define DEFSIM_TERMS_H
+
+#include "system.h"
+
+/* Recompiles s's list from what the scene uses (after a plan, and whenever the world attaches
+ * or detaches contact, held forces or the callback) and invalidates the caches. */
+defsim_status defsim__terms_compile(defsim__system *s);
+
+/* Frees the caches (defsim__unplan). */
+void defsim__terms_free(defsim__system *s);
+
+/* The step hooks over the list (a step begins when the world attaches its contact state and
+ * recompiles). */
+void defsim__terms_substep(const defsim__system *s, double s0, double s1, double h);
+void defsim__terms_step_end(const defsim__system *s);
+
+/* A kind's counter by name "<kind>.<counter>" (term.h's counter op; the world's statistics
+ * "term.<kind>.<counter>"), read from the kind's cache whether or not its term is in the list
+ * now; 1 if found. */
+int defsim__terms_counter(const defsim__system *s, const char *name, double *value);
+
+/* The first term of a kind, or NULL. */
+const defsim__term *defsim__terms_find(const defsim__system *s, int kind);
+
+/* Whether the cache holds the blocks at x for the coefficients' k and kd and its epoch. */
+int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
+                      const defsim_matrix_coeffs *k);
+/* Makes (x, k, kd, epoch) the cache's key (valid); the x buffer is the one compile reserved. */
+void defsim__cache_store(defsim__term_cache *c, int32_t nv, const double *x,
+                         const defsim_matrix_coeffs *k);
+/* Grows c->buf to at least `bytes` and c->x to nv vertices; 0 when out of memory. */
+int defsim__cache_reserve(defsim__term_cache *c, size_t bytes, int32_t nv);
+
+#endif /* DEFSIM_TERMS_H */

@@ -155,7 +155,7 @@ static int64_t linearisations(const defsim__system *s)
  * body_begin), and grows the pattern with the pairs it couples. */
 static int attach(defsim_world *w, double h)
 {
-    const defsim__options *o = &w->options;
+    const defsim__settings *o = &w->set;
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
     memcpy(w->x_save, w->state.x, bytes);
     memcpy(w->v_save, w->state.v, bytes);
@@ -163,21 +163,21 @@ static int attach(defsim_world *w, double h)
         const defsim__contact_params p = {
             .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
                                                                      : DEFSIM__CONTACT_PENALTY,
-            .dhat_rel = defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
-            .kappa = defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
-            .frequency = defsim__options_core(o, DEFSIM__OPT_CONTACT_FREQUENCY),
+            .dhat_rel = o->contact_dhat,
+            .kappa = o->contact_kappa,
+            .frequency = o->contact_frequency,
             .omega_elastic = 1.0,
-            .eps_v = defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V)};
-        if (defsim__contact_begin(&w->contact, &w->sys, w->col, w->ncol, &p, w->x_save,
+            .eps_v = o->friction_eps_v};
+        if (defsim__contact_begin(&w->contact, &w->sys, w->colliders.col, w->colliders.ncol, &p, w->x_save,
                                   w->v_save, h, w->msg) != DEFSIM_OK)
             return -1;
         w->sys.contact = &w->contact;
     }
-    if (defsim__options_core(o, DEFSIM__OPT_BODY_CONTACT) != 0.0) {
+    if (o->body_contact) {
         if (defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies, w->nbodies,
-                                       defsim__options_core(o, DEFSIM__OPT_CONTACT_DHAT),
-                                       defsim__options_core(o, DEFSIM__OPT_CONTACT_KAPPA),
-                                       defsim__options_core(o, DEFSIM__OPT_FRICTION_EPS_V),
+                                       o->contact_dhat,
+                                       o->contact_kappa,
+                                       o->friction_eps_v,
                                        w->x_save, w->v_save, h, w->contact.stat,
                                        w->msg) != DEFSIM_OK)
             return -1;

@@ -384,7 +384,7 @@ static void test_callback(void **state)
     double *r = tu_positions(w);
     TU_OK(defsim_world_set_force_callback(w, cb_force, cb_jac, r));
     double *v, *x = perturbed(w, 0.01, &v);
-    defsim__coupling *c = &w->cpl;
+    defsim__coupling *c = &w->coupling.cpl;
     c->in_step = c->implicit = 1;
     const int64_t n = 3 * (int64_t)w->nv;
     memcpy(c->x0, r, (size_t)n * sizeof *r);
@@ -428,7 +428,7 @@ static void test_collider(void **state)
         TU_OK(defsim_world_set_state(w, x, v));
         const defsim__contact_params p = {.mode = mode, .dhat_rel = 1e-3, .frequency = 300.0,
                                           .eps_v = 0.02};
-        TU_OK(defsim__contact_begin(&w->contact, &w->sys, w->col, w->ncol, &p, x, v, 0.01,
+        TU_OK(defsim__contact_begin(&w->contact, &w->sys, w->colliders.col, w->colliders.ncol, &p, x, v, 0.01,
                                     w->msg));
         w->sys.contact = &w->contact;
         TU_OK(defsim__terms_compile(&w->sys));

@@ -16,60 +16,6 @@
 #include <string.h>
 
 /* ------------------------------------------------------------------------------------------ */
-/* The host's force callback */
-
-static int64_t first_non_finite(const double *a, int64_t n)
-{
-    for (int64_t i = 0; i < n; ++i)
-        if (!isfinite(a[i])) return i;
-    return -1;
-}
-
-/* Calls the callback (jac: the Jacobian, writing `width` doubles per vertex into out; else the
- * forces, adding 3 per vertex) with the world locked, and checks what it returned and wrote. */
-static defsim_status call_host(defsim__coupling *c, defsim__messages *msg, int32_t nv, int jac,
-                               const double *x, const double *v, double t, double *out)
-{
-    const char *what = jac ? "force Jacobian callback" : "force callback";
-    const int width = jac ? 9 : 3;
-    msg->locked++;
-    const int rc = jac ? c->jac(c->user, x, v, t, nv, out) : c->fn(c->user, x, v, t, nv, out);
-    msg->locked--;
-    const int64_t bad = rc != 0 ? -1 : first_non_finite(out, width * (int64_t)nv);
-    if (rc == 0 && bad < 0) return DEFSIM_OK;
-    c->failed = 1;
-    if (rc != 0) defsim__error(msg, "%s failed (returned %d at t = %g)", what, rc, t);
-    else defsim__error(msg, "%s gave a non-finite value at vertex %lld (t = %g)", what,
-                       (long long)(bad / width), t);
-    return DEFSIM_ERR_CALLBACK;
-}
-
-defsim_status defsim__callback_forces(defsim__coupling *c, defsim__messages *msg, int32_t nv,
-                                      const double *x, const double *v, double t, double *f)
-{
-    return call_host(c, msg, nv, 0, x, v, t, f);
-}
-
-defsim_status defsim__callback_stiffness(defsim__coupling *c, defsim__messages *msg, int32_t nv,
-                                         int projection, const double *x, const double *v,
-                                         double t, double *K)
-{
-    memset(K, 0, 9 * (size_t)nv * sizeof *K);
-    defsim_status st = call_host(c, msg, nv, 1, x, v, t, K);
-    if (st != DEFSIM_OK) return st;
-    for (int32_t i = 0; i < nv; ++i) {
-        double *B = K + 9 * (int64_t)i;
-        for (int r = 0; r < 3; ++r)
-            for (int s = r; s < 3; ++s) {
-                const double m = -0.5 * (B[3 * r + s] + B[3 * s + r]);
-                B[3 * r + s] = B[3 * s + r] = m;
-            }
-        if (projection != DEFSIM_PROJECTION_NONE) defsim__project_psd(3, B, projection);
-    }
-    return DEFSIM_OK;
-}
-
-/* ------------------------------------------------------------------------------------------ */
 /* Services */
 
 static int64_t dof_count(const defsim_system *s) { return 3 * (int64_t)s->sys->nv; }

@@ -63,7 +63,8 @@ struct defsim_system {
     const double *x_start;    /* 3 nv: positions at the start of the world's step */
 };
 
-/* Adds the callback's forces at (x, v, t) into f (3 nv). On a failure or a non-finite force,
+/* The host's force callback (defined in term_callback.c, with its term). Adds the callback's
+ * forces at (x, v, t) into f (3 nv). On a failure or a non-finite force,
  * sets c->failed and the error in msg and returns DEFSIM_ERR_CALLBACK (f is then undefined). */
 defsim_status defsim__callback_forces(defsim__coupling *c, defsim__messages *msg, int32_t nv,
                                       const double *x, const double *v, double t, double *f);

@@ -11,7 +11,7 @@
 #include "body_contact.h"
 #include "contact.h"
 #include "system.h"
-#include "terms.h"
+#include "term_cache.h"
 
 #include <stdlib.h>
 #include <string.h>

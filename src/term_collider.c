@@ -9,7 +9,7 @@
 #include "assembly.h"
 #include "contact.h"
 #include "system.h"
-#include "terms.h"
+#include "term_cache.h"
 
 #include <math.h>
 #include <stdlib.h>

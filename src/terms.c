@@ -91,38 +91,3 @@ const defsim__term *defsim__terms_find(const defsim__system *s, int kind)
         if (s->terms[i].ops == kinds[kind]) return &s->terms[i];
     return NULL;
 }
-
-int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
-                      const defsim_matrix_coeffs *k)
-{
-    return c->valid && c->nx >= nv && c->seen == c->epoch && c->k == k->k && c->kd == k->kd &&
-           memcmp(c->x, x, 3 * (size_t)nv * sizeof *x) == 0;
-}
-
-void defsim__cache_store(defsim__term_cache *c, int32_t nv, const double *x,
-                         const defsim_matrix_coeffs *k)
-{
-    memcpy(c->x, x, 3 * (size_t)nv * sizeof *x);
-    c->k = k->k;
-    c->kd = k->kd;
-    c->seen = c->epoch;
-    c->valid = 1;
-    c->linearisations++;
-}
-
-int defsim__cache_reserve(defsim__term_cache *c, size_t bytes, int32_t nv)
-{
-    if (bytes > c->cap) {
-        void *b = realloc(c->buf, bytes);
-        if (!b) return 0;
-        c->buf = b;
-        c->cap = bytes;
-    }
-    if (nv > c->nx) {
-        double *x = realloc(c->x, 3 * (size_t)nv * sizeof *x);
-        if (!x) return 0;
-        c->x = x;
-        c->nx = nv;
-    }
-    return 1;
-}

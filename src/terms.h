@@ -5,6 +5,7 @@
 #define DEFSIM_TERMS_H
 
 #include "system.h"
+#include "term_cache.h"
 
 /* Recompiles s's list from what the scene uses (after a plan, and whenever the world attaches
  * or detaches contact, held forces or the callback) and invalidates the caches. */
@@ -25,14 +26,5 @@ int defsim__terms_counter(const defsim__system *s, const char *name, double *val
 
 /* The first term of a kind, or NULL. */
 const defsim__term *defsim__terms_find(const defsim__system *s, int kind);
-
-/* Whether the cache holds the blocks at x for the coefficients' k and kd and its epoch. */
-int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
-                      const defsim_matrix_coeffs *k);
-/* Makes (x, k, kd, epoch) the cache's key (valid); the x buffer is the one compile reserved. */
-void defsim__cache_store(defsim__term_cache *c, int32_t nv, const double *x,
-                         const defsim_matrix_coeffs *k);
-/* Grows c->buf to at least `bytes` and c->x to nv vertices; 0 when out of memory. */
-int defsim__cache_reserve(defsim__term_cache *c, size_t bytes, int32_t nv);
 
 #endif /* DEFSIM_TERMS_H */

@@ -344,3 +344,20 @@ defsim_status defsim__matrix_product(const defsim__system *s, const double *x,
     defsim__matrix_apply(s, x, c, s->projection, dx, out);
     return DEFSIM_OK;
 }
+
+void defsim__group_values(const defsim__system *s, const defsim__group *g, int nn,
+                          defsim__element_matrix_fn matrix, const double *x,
+                          const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
+                          double *values)
+{
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
+        for (int32_t e = e0; e < e1; ++e) {
+            double K[144];
+            if (!matrix(s, g, x, e, c, K)) continue;
+            defsim__element_scatter(s, g->idx + nn * (int64_t)e, g->blk + nn * nn * (int64_t)e,
+                                    nn, K, upper, cp, values);
+        }
+    }
+}

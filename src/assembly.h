@@ -62,6 +62,19 @@ void defsim__element_scatter(const defsim__system *s, const int32_t *id, const i
                              int nn, const double *K, int upper, const int64_t *cp,
                              double *values);
 
+/* The element matrix of element e of group g at x for coefficients c into K (3 nn x 3 nn);
+ * returns 0 when the element adds nothing. */
+typedef int (*defsim__element_matrix_fn)(const defsim__system *s, const defsim__group *g,
+                                         const double *x, int32_t e,
+                                         const defsim_matrix_coeffs *c, double *K);
+
+/* Adds the element matrices of group g (nn nodes per element, at most 4) into the values,
+ * colour by colour (elements of a colour share no vertex, so no two threads write one entry). */
+void defsim__group_values(const defsim__system *s, const defsim__group *g, int nn,
+                          defsim__element_matrix_fn matrix, const double *x,
+                          const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
+                          double *values);
+
 /* Adds k times symmetric 3x3 blocks per vertex (9 nv) to the diagonal blocks of the values. */
 void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,
                           const int64_t *cp, double *values);

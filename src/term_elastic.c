@@ -157,17 +157,7 @@ static void values(const defsim__term *t, const defsim__system *s, const double 
                    uint32_t *passes)
 {
     if (c->k == 0.0 && c->kd == 0.0) return;
-    const defsim__group *g = group(t);
-    for (int32_t col = 0; col < g->ncolors; ++col) {
-        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
-        for (int32_t e = e0; e < e1; ++e) {
-            double K[144];
-            if (!element_matrix(s, g, x, e, c, K)) continue;
-            defsim__element_scatter(s, g->idx + 4 * (int64_t)e, g->blk + 16 * (int64_t)e, 4, K,
-                                    upper, cp, val);
-        }
-    }
+    defsim__group_values(s, group(t), 4, element_matrix, x, c, upper, cp, val);
     if (passes) *passes |= DEFSIM_PASS_HESSIAN;
 }
 

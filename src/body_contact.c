@@ -14,6 +14,7 @@
 #include "clock.h"
 #include "contact.h"
 #include "contact_barrier.h"
+#include "contact_pair.h"
 #include "contact_prim.h"
 #include "mat3.h"
 #include "mesh.h"
@@ -464,38 +465,6 @@ static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int
     return bc->khat * m / n;
 }
 
-/* Makes the Hessian H (3n x 3n) of a function of the n vertices that only their differences
- * enter (every distance here) positive semi-definite: in the coordinates y_i = x_i - x_0
- * (i >= 1) it is T^T B T with B its (3n - 3)-square lower block; B is projected (clamped
- * eigenvalues) and mapped back. A smaller eigenproblem than the full one (9 instead of 12), and
- * translations stay in the null space exactly. */
-static void project_relative(int n, double *H)
-{
-    const int nd = 3 * n, r = nd - 3;
-    double B[81];
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < r; ++j) B[i * r + j] = H[(3 + i) * nd + 3 + j];
-    defsim__project_psd(r, B, DEFSIM_PROJECTION_CLAMP);
-    /* column sums per row (the x_0 column block of B T) */
-    double c[81][3];
-    for (int i = 0; i < r; ++i)
-        for (int k = 0; k < 3; ++k) {
-            double sum = 0.0;
-            for (int b = 0; b < n - 1; ++b) sum += B[i * r + 3 * b + k];
-            c[i][k] = sum;
-        }
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < r; ++j) H[(3 + i) * nd + 3 + j] = B[i * r + j];
-    for (int i = 0; i < r; ++i)
-        for (int k = 0; k < 3; ++k) H[(3 + i) * nd + k] = H[k * nd + 3 + i] = -c[i][k];
-    for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) {
-            double sum = 0.0;
-            for (int a = 0; a < n - 1; ++a) sum += c[3 * a + k][l];
-            H[k * nd + l] = sum;
-        }
-}
-
 /* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
  * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
  * or at distance 0). *n and idx receive its vertices. */
@@ -504,49 +473,13 @@ static double pair_barrier(const defsim__body_contact *bc, int32_t q, const doub
 {
     const uint8_t kind = bc->kind[q];
     const int m = *n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
-    const int nd = 3 * m;
-    double X[12], gs[12], Hs[144];
+    double X[12];
     gather(x, idx, m, X);
-    const double dh = bc->dhat;
-    /* the derivatives only for pairs within dhat (most candidates are not) */
-    double s = dist2(kind, X, NULL, NULL);
-    if (!(s < dh * dh)) return 0.0;
-    if (!(s > 0.0)) return INFINITY;
-    if (g || H) s = dist2(kind, X, gs, H ? Hs : NULL);
-    const double d = sqrt(s), kap = pair_kappa(bc, idx, m);
-    const double e = kap * barrier(d, dh);
-    double gd[12];
-    const double b1 = kap * barrier_d1(d, dh);
-    for (int i = 0; i < nd && (g || H); ++i) gd[i] = gs[i] / (2.0 * d);
-    if (H) {
-        /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
-        const double b2 = kap * barrier_d2(d, dh);
-        for (int i = 0; i < nd; ++i)
-            for (int j = 0; j < nd; ++j)
-                H[i * nd + j] = b2 * gd[i] * gd[j] +
-                                b1 * (Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d);
-    }
-    if (g)
-        for (int i = 0; i < nd; ++i) g[i] = b1 * gd[i];
-    double out = e;
-    if (kind == DEFSIM__BC_EE) {
-        const double eps = 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]];
-        double gm[12], Hm[144];
-        const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps, g || H ? gm : NULL,
-                                               H ? Hm : NULL);
-        if (mo < 1.0) {
-            if (H)
-                for (int i = 0; i < 12; ++i)
-                    for (int j = 0; j < 12; ++j)
-                        H[i * 12 + j] = mo * H[i * 12 + j] + b1 * gd[i] * gm[j] +
-                                        gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
-            if (g)
-                for (int i = 0; i < 12; ++i) g[i] = mo * g[i] + e * gm[i];
-            out = mo * e;
-        }
-    }
-    if (H) project_relative(m, H);
-    return out;
+    const int type = kind == DEFSIM__BC_PT ? DEFSIM__C_FV
+                     : kind == DEFSIM__BC_EE ? DEFSIM__C_EE : DEFSIM__C_EV;
+    const double eps = kind == DEFSIM__BC_EE
+                           ? 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]] : 0.0;
+    return defsim__contact_barrier(type, X, bc->dhat, pair_kappa(bc, idx, m), eps, g, H);
 }
 
 /* Friction pair r at x: energy, gradient (12) and Hessian (144, PSD) over its four nodes (an

@@ -1,0 +1,34 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * One body-contact constraint's barrier (contact_pair.c): the energy kappa b(d), its gradient
+ * and its Hessian projected to positive semi-definite, for the contact types of IPC:
+ * vertex-vertex (X = p, q), edge-vertex (X = p, e0, e1), face-vertex (X = p, t0, t1, t2; the
+ * point-triangle distance with its closest-feature regions) and edge-edge (X = a0, a1, b0, b1;
+ * the segment distance with IPC's mollifier for nearly parallel edges). body_contact.c builds the
+ * constraints; this file is the per-constraint kernel that every phase (energy, gradient,
+ * Hessian) calls.
+ */
+#ifndef DEFSIM_CONTACT_PAIR_H
+#define DEFSIM_CONTACT_PAIR_H
+
+/* Contact types, with their vertex counts 2, 3, 4, 4. */
+enum { DEFSIM__C_VV = 0, DEFSIM__C_EV = 1, DEFSIM__C_FV = 2, DEFSIM__C_EE = 3 };
+
+static inline int defsim__contact_nodes(int type)
+{
+    return type == DEFSIM__C_VV ? 2 : type == DEFSIM__C_EV ? 3 : 4;
+}
+
+/* The squared distance of a constraint of this type (g: 3n gradient, H: 3n x 3n row-major;
+ * either may be NULL). */
+double defsim__contact_dist2(int type, const double *X, double *g, double *H);
+
+/* The barrier of one constraint at X (3n coordinates, n = defsim__contact_nodes(type)):
+ * kappa b(d) with IPC's log barrier inside dhat, times the edge-edge mollifier for DEFSIM__C_EE
+ * (eps_moll: its threshold, defsim__ee_mollifier_eps of the rest positions; ignored otherwise).
+ * Returns 0 outside dhat (g and H left unwritten) and +inf at distance 0. g (3n) receives the
+ * gradient and H (3n x 3n, row-major) the Hessian projected to PSD when not NULL. */
+double defsim__contact_barrier(int type, const double *X, double dhat, double kappa,
+                               double eps_moll, double *g, double *H);
+
+#endif /* DEFSIM_CONTACT_PAIR_H */

@@ -247,6 +247,14 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 
 void defsim__world_replay_contact_end(defsim_world *w) { w->sys.contact = NULL; }
 
+void *defsim__world_term_state(defsim_world *w, int kind)
+{
+    /* Body contact keeps candidates between steps only to skip a broad phase: a loaded world's
+     * first step finds them again, in the same deterministic order. Its chunk is a step's pairs,
+     * read against the surfaces that a step's begin builds. */
+    return kind == DEFSIM__TERM_KIND_collider ? &w->contact : NULL;
+}
+
 /* A zeroed contact-force read-back of the world's vertex count. */
 static defsim_status readback_reserve(defsim_world *w)
 {

@@ -57,7 +57,7 @@ static defsim_status save_world(defsim__bw *b, const defsim_world *w)
 {
     const defsim_world_def *d = &w->def;
     size_t c = defsim__chunk_begin(b, "WRLD");
-    defsim__put_str(b, w->backend_name);
+    defsim__put_str(b, w->backend.name);
     defsim__put_f64s(b, d->gravity, 3);
     defsim__put_i32(b, w->nthreads);   /* resolved: the same bits need the same thread count */
     defsim__put_f64(b, d->tolerance);
@@ -88,12 +88,12 @@ static defsim_status save_world(defsim__bw *b, const defsim_world *w)
 /* A BODY chunk per live body, in vertex order, with its saved id (id slot + 1). */
 static defsim_status save_bodies(defsim__bw *b, const defsim_world *w)
 {
-    for (int32_t i = 0; i < w->nbodies; ++i) {
-        const defsim__body *body = &w->bodies[i];
+    for (int32_t i = 0; i < w->bodies.n; ++i) {
+        const defsim__body *body = &w->bodies.b[i];
         if (!(body->generation & 1u)) continue;
         uint32_t saved = 0;
-        for (int32_t s = 0; s < w->body_ids.nslots && !saved; ++s)
-            if ((w->body_ids.gen[s] & 1u) && w->body_ids.dense[s] == i) saved = (uint32_t)s + 1;
+        for (int32_t s = 0; s < w->bodies.ids.nslots && !saved; ++s)
+            if ((w->bodies.ids.gen[s] & 1u) && w->bodies.ids.dense[s] == i) saved = (uint32_t)s + 1;
         defsim__body_save(b, body, saved);
     }
     return DEFSIM_OK;
@@ -101,7 +101,7 @@ static defsim_status save_bodies(defsim__bw *b, const defsim_world *w)
 
 static defsim_status save_coupling(defsim__bw *b, const defsim_world *w)
 {
-    defsim__coupling_save(b, &w->coupling, w->nv, &w->body_ids);
+    defsim__coupling_save(b, &w->coupling, w->nv, &w->bodies.ids);
     return DEFSIM_OK;
 }
 
@@ -161,8 +161,8 @@ static defsim_status save_state(defsim__bw *b, const defsim_world *w)
     defsim__put_i32(b, w->coupling.drove);
     /* Version 2: auto_substep's cached stable step and its age, which set the substeps. */
     const int kept = w->planned && !w->options.reinit;   /* else the next step drops it */
-    defsim__put_f64(b, kept ? w->h_stable : 0.0);
-    defsim__put_i32(b, kept ? w->steps_since_estimate : 0);
+    defsim__put_f64(b, kept ? w->step.h_stable : 0.0);
+    defsim__put_i32(b, kept ? w->step.since_estimate : 0);
     defsim__chunk_end(b, c);
 
     c = defsim__chunk_begin(b, "STCS");
@@ -183,13 +183,13 @@ static defsim_status save_state(defsim__bw *b, const defsim_world *w)
  * pins and options (a pending change would drop the history at the next step anyway). */
 static defsim_status save_backend(defsim__bw *b, const defsim_world *w)
 {
-    const defsim_backend *be = w->backend;
-    if (!be->save_state || !w->backend_ready || !w->planned || w->options.reinit) return DEFSIM_OK;
+    const defsim_backend *be = w->backend.table;
+    if (!be->save_state || !w->backend.ready || !w->planned || w->options.reinit) return DEFSIM_OK;
     const size_t c = defsim__chunk_begin(b, "BKND");
     defsim__put_str(b, be->name);
     const defsim_state_writer wr = {b, sw_f64, sw_i64};
     defsim_world *mw = (defsim_world *)w;   /* host services take a mutable system */
-    const defsim_status st = be->save_state(&defsim__host, &mw->handle, w->bstate, &wr);
+    const defsim_status st = be->save_state(&defsim__host, &mw->handle, w->backend.state, &wr);
     if (st != DEFSIM_OK) {
         if (!w->msg->error[0])
             defsim__error(w->msg, "save: backend %s could not save its history (%s)", be->name,
@@ -580,7 +580,7 @@ static defsim_status read_targets(loader *L, const chunk *c)
     defsim__br r = chunk_reader(c);
     const char *why = NULL;
     const defsim_status st =
-        defsim__coupling_load_targets(&L->w->coupling, &r, L->w->nv, L->w->pinned, &why);
+        defsim__coupling_load_targets(&L->w->coupling, &r, L->w->nv, L->w->bodies.pinned, &why);
     return st == DEFSIM_OK ? st : read_failed(c, st, why);
 }
 
@@ -766,7 +766,8 @@ static defsim_status load_state(defsim_world *w, const chunk *c, uint32_t versio
     if (!(*h_stable >= 0.0) || *age < 0) bad = "a bad stable-step cache";
     for (int64_t i = 0; i < 2 * ndof && !bad; ++i)
         if (!isfinite(x[i])) bad = "a position or velocity is not finite";
-    if (!bad && (!isfinite(t) || (drove != 0 && drove != 1))) bad = "time not finite, or a bad flag";
+    if (!bad && (!isfinite(t) || (drove != 0 && drove != 1)))
+        bad = "time not finite, or a bad flag";
     if (bad) {
         free(x);
         return malformed(c, bad);
@@ -839,7 +840,7 @@ static defsim_status load_backend(defsim_world *w, const chunk *c)
     char name[64];
     defsim__get_str(&r, name, sizeof name);
     if (r.bad) return malformed(c, "no backend name");
-    const defsim_backend *be = w->backend;
+    const defsim_backend *be = w->backend.table;
     if (strcmp(name, be->name) != 0 || !be->load_state)
         return malformed(c, "history of another backend, or of one that cannot load it");
     if (w->nv == 0) return malformed(c, "history of a world without vertices");
@@ -855,7 +856,7 @@ static defsim_status load_backend(defsim_world *w, const chunk *c)
         defsim__world_backend_stop(w);
         return world_failed(w, st, "contact for the backend's history");
     }
-    st = be->load_state(&defsim__host, &w->handle, w->bstate, &rd);
+    st = be->load_state(&defsim__host, &w->handle, w->backend.state, &rd);
     defsim__world_replay_contact_end(w);
     if (st == DEFSIM_OK && !defsim__read_whole(&r)) st = DEFSIM_ERR_IO;
     if (st != DEFSIM_OK) {
@@ -927,8 +928,8 @@ static defsim_status build(const ckpt *k, defsim_log_fn log, void *log_user, def
     if (st == DEFSIM_OK && L.backend) st = load_carried(&L);
     if (st == DEFSIM_OK) {
         (void)defsim__options_take_reinit(&w->options);
-        w->h_stable = h_stable;
-        w->steps_since_estimate = age;
+        w->step.h_stable = h_stable;
+        w->step.since_estimate = age;
     }
     /* Statistics last: planning and the backend's load count nothing the run did. */
     if (st == DEFSIM_OK && L.stats) st = load_stats(w, L.stats);
@@ -985,7 +986,7 @@ int32_t defsim_world_body_count(const defsim_world *w)
 {
     if (!defsim__world_live(w)) return 0;
     int32_t n = 0;
-    for (int32_t s = 0; s < w->body_ids.nslots; ++s) n += (w->body_ids.gen[s] & 1u) != 0;
+    for (int32_t s = 0; s < w->bodies.ids.nslots; ++s) n += (w->bodies.ids.gen[s] & 1u) != 0;
     return n;
 }
 
@@ -997,9 +998,9 @@ defsim_status defsim_world_body_at(const defsim_world *w, int32_t i, defsim_body
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     /* The i-th body in vertex order is bodies[i]; find the id slot that holds it. */
-    for (int32_t s = 0; i >= 0 && i < w->nbodies && s < w->body_ids.nslots; ++s)
-        if ((w->body_ids.gen[s] & 1u) && w->body_ids.dense[s] == i) {
-            *out = (defsim_body_id){defsim__world_id_index(w, s), w->body_ids.gen[s]};
+    for (int32_t s = 0; i >= 0 && i < w->bodies.n && s < w->bodies.ids.nslots; ++s)
+        if ((w->bodies.ids.gen[s] & 1u) && w->bodies.ids.dense[s] == i) {
+            *out = (defsim_body_id){defsim__world_id_index(w, s), w->bodies.ids.gen[s]};
             return DEFSIM_OK;
         }
     defsim__error(w->msg, "body_at: index %d out of range [0, %d)", (int)i,

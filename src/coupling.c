@@ -366,7 +366,7 @@ defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t 
     w->handle.passes = saved;
     w->coupling.cpl.failed = 0;
     if (st == DEFSIM_OK)
-        for (int64_t i = 0; i < ndof; ++i) out[i] = w->pinned[i / 3] ? -f[i] : 0.0;
+        for (int64_t i = 0; i < ndof; ++i) out[i] = w->bodies.pinned[i / 3] ? -f[i] : 0.0;
     else if (st != DEFSIM_ERR_CALLBACK)
         defsim__error(w->msg, "get_pin_forces: the forces are not finite");
     free(f);

@@ -216,24 +216,9 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
 }
 
 const defsim__term_ops defsim__term_collider = {
-    .name = "collider",
-    .flags = DEFSIM__TERM_BOUNDED,
-    .energy_rank = 4,
-    .matrix_rank = 4,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .linearise = linearise,
-    .values = values,
-    .apply = apply,
-    .max_step = max_step,
-    .start = start,
-    .block = block,
-    .lambda_bound = lambda_bound,
-    .rates = rates,
-    .substep = substep,
-    .step_end = step_end,
-    .counter = counter,
-    .save = save,
-    .load = load,
-};
+    .name = "collider", .flags = DEFSIM__TERM_BOUNDED, .energy_rank = 4, .matrix_rank = 4,
+    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX,
+    .max_step = max_step, .start = start, .block = block,
+    .lambda_bound = lambda_bound, .rates = rates,
+    .substep = substep, .step_end = step_end, .counter = counter,
+    .save = save, .load = load};

@@ -194,10 +194,8 @@ void defsim__coupling_drop_body(defsim__coupling_set *cs, defsim_body_id id)
     for (int32_t i = 0; i < cs->natt; ++i) {
         defsim__attachment *a = &cs->att[i];
         if ((a->generation & 1u) &&
-            (a->def.body.index == id.index || a->def.target_body.index == id.index)) {
-            a->generation++;
-            defsim__id_pool_release(&cs->att_ids, i);
-        }
+            (a->def.body.index == id.index || a->def.target_body.index == id.index))
+            defsim__id_pool_remove(&cs->att_ids, i, &a->generation);
     }
 }
 

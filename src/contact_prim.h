@@ -37,6 +37,15 @@ double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[
 double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3], double g[9],
                         double H[81], defsim__dtype *type);
 
+/* The closest features of a pair, for kernels that specialise by region: the formula that
+ * the functions above use (*type), its squared distance (*d2) and the pair's vertices that it
+ * involves, as indices into the pair's vertices in the formula's order (PP: the two points; PE:
+ * the point, then the edge's ends; PT: p, t0, t1, t2; EE: a0, a1, b0, b1). Returns how many
+ * (2, 3 or 4). x packs the vertices as the functions above take them. */
+int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4]);
+int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4]);
+int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4]);
+
 /* IPC's edge-edge mollifier m(c), c = |(a1 - a0) x (b1 - b0)|^2: m = (2 - c / eps) c / eps below
  * eps and 1 above; multiplies the edge-edge barrier so that it vanishes smoothly as the edges
  * become parallel, where the closest-feature switch would make the barrier non-smooth.

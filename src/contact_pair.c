@@ -16,11 +16,13 @@
  *     (moving vertices within the plane leaves n^ fixed, and the normal only turns within the
  *     plane), a 5-dimensional space: its 5 x 5 matrix is built in closed form from the
  *     second-order expansion of sigma and clamped there;
- *   - the rest (point-line regions, the mollified edge-edge barrier): the Hessian from the
- *     distance's derivatives, clamped in the translation-free subspace of the vertices involved
- *     (6 x 6 for point-line, 9 x 9 for the mollified edge-edge).
+ *   - point-line regions (edge-vertex, and face-vertex or edge-edge pairs closest at an edge's
+ *     interior): a 3 x 3 matrix and one eigenvalue, closed form (pl_closed);
+ *   - the mollified edge-edge barrier: the Hessian from the distance's and the mollifier's
+ *     derivatives, clamped in the 9-dimensional translation-free subspace.
  * Every small clamp uses one symmetric eigensolver: Householder tridiagonalisation and the
- * implicit QR iteration with Wilkinson shifts (Golub and Van Loan, 8.3), for n <= 9.
+ * implicit QR iteration with Wilkinson shifts (Golub and Van Loan, 8.3), for n <= 9. The
+ * closed forms are checked against the clamp of the whole matrix in tests/unit/test_contact_pair.c.
  */
 #include "contact_pair.h"
 
@@ -119,12 +121,12 @@ static void sym_eig(int n, double *A, double *lam, double *V)
         while (lo > 0 && e[lo - 1] != 0.0) --lo;
         /* Wilkinson shift from the trailing 2 x 2 block. */
         const double dd = 0.5 * (lam[hi - 1] - lam[hi]), eh = e[hi - 1];
-        const double mu = lam[hi] - eh * eh / (dd + copysign(hypot(dd, eh), dd));
+        const double mu = lam[hi] - eh * eh / (dd + copysign(sqrt(dd * dd + eh * eh), dd));
         double x = lam[lo] - mu, z = e[lo];
         for (int k = lo; k < hi; ++k) {
             /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
              * zeroes z against x: at k = lo the shifted first column, later the bulge. */
-            const double r = hypot(x, z), c = x / r, s = -z / r;
+            const double r = sqrt(x * x + z * z), c = x / r, s = -z / r;
             if (k > lo) e[k - 1] = c * x - s * z;
             const double a = lam[k], b = e[k], d = lam[k + 1];
             lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;
@@ -149,8 +151,14 @@ static void sym_eig(int n, double *A, double *lam, double *V)
 static void clamp_psd(int n, double *A)
 {
     double W[EIG_N * EIG_N], V[EIG_N * EIG_N], lam[EIG_N];
-    memcpy(W, A, (size_t)(n * n) * sizeof *W);
+    /* scaled to entries of at most 1, so that no square in the eigensolver under- or
+     * overflows */
+    double m = 0.0;
+    for (int i = 0; i < n * n; ++i) m = fmax(m, fabs(A[i]));
+    if (!(m > 0.0) || !isfinite(m)) return;
+    for (int i = 0; i < n * n; ++i) W[i] = A[i] / m;
     sym_eig(n, W, lam, V);
+    for (int k = 0; k < n; ++k) lam[k] *= m;
     int neg = 0;
     for (int k = 0; k < n; ++k) neg += lam[k] < 0.0;
     if (!neg) return;
@@ -251,6 +259,70 @@ static void vv_closed(const double *X, int nd, int i, int j, double d, double f1
             H[(3 * i + a) * nd + 3 * i + b] = H[(3 * j + a) * nd + 3 * j + b] = v;
             H[(3 * i + a) * nd + 3 * j + b] = H[(3 * j + a) * nd + 3 * i + b] = -v;
         }
+}
+
+/* Point-line region: vertex p against the line through e0, e1 (indices into X, nd = 3 *
+ * number of vertices), distance d, f1 = f'(d), f2 = f''(d). With u = p - e0, w = e1 - e0,
+ * L = |w|, beta = u . w / L^2, the closest points' node weights c = (1, beta - 1, -beta),
+ * k = (0, -1, 1) (w's), the frame e^ = w / L, n^ (from the line to p), b^ = e^ x n^, and
+ * rho = dp - (1 - beta) de0 - beta de1, the expansion of d to second order is
+ *   d + rho_n + (rho_b^2 - (d/L)^2 w_n^2 - 2 (d/L) w_n rho_e) / (2d),
+ * so the Hessian of f(d) is f1/d |c|^2 on c^ (x) b^ alone, and a 3 x 3 matrix on
+ * (h_1 (x) n^, h_2 (x) n^, c^ (x) e^): a 4-dimensional range, clamped there. */
+static void pl_closed(const double *X, int nd, const int *nodes, double d, double f1,
+                      double f2, double *g, double *H)
+{
+    const double *p = X + 3 * nodes[0], *e0 = X + 3 * nodes[1], *e1 = X + 3 * nodes[2];
+    double u[3], w[3], nh[3], eh[3], bh[3];
+    for (int k = 0; k < 3; ++k) u[k] = p[k] - e0[k], w[k] = e1[k] - e0[k];
+    const double L2 = dot3(w, w), L = sqrt(L2), beta = dot3(u, w) / L2;
+    for (int k = 0; k < 3; ++k) {
+        nh[k] = (u[k] - beta * w[k]) / d;
+        eh[k] = w[k] / L;
+    }
+    cross3(eh, nh, bh);
+    const double c[3] = {1.0, beta - 1.0, -beta}, kk[3] = {0.0, -1.0, 1.0};
+    if (g) {
+        memset(g, 0, (size_t)nd * sizeof *g);
+        for (int i = 0; i < 3; ++i)
+            for (int q = 0; q < 3; ++q) g[3 * nodes[i] + q] = f1 * c[i] * nh[q];
+    }
+    if (!H) return;
+    const double(*h)[4] = NODE_BASIS[3];
+    const double cn = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double Cn[3] = {0, 0, 0}, Kn[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i) {
+        Cn[0] += c[i] * h[0][i], Cn[1] += c[i] * h[1][i];
+        Kn[0] += kk[i] * h[0][i], Kn[1] += kk[i] * h[1][i];
+    }
+    const double Ce[3] = {0.0, 0.0, cn};
+    double M[9];
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b <= a; ++b)
+            M[3 * a + b] = M[3 * b + a] = f2 * Cn[a] * Cn[b] - f1 * d / L2 * Kn[a] * Kn[b] -
+                                          f1 / L * (Kn[a] * Ce[b] + Ce[a] * Kn[b]);
+    clamp_psd(3, M);
+    const double lb = f1 > 0.0 ? f1 * cn * cn / d : 0.0;
+    /* Q_i (3 x 4): h_1[i] n^, h_2[i] n^, c^_i e^, c^_i b^ */
+    double Q[3][3][4];
+    for (int i = 0; i < 3; ++i)
+        for (int q = 0; q < 3; ++q) {
+            Q[i][q][0] = h[0][i] * nh[q];
+            Q[i][q][1] = h[1][i] * nh[q];
+            Q[i][q][2] = c[i] / cn * eh[q];
+            Q[i][q][3] = c[i] / cn * bh[q];
+        }
+    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
+    for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j)
+            for (int a = 0; a < 3; ++a)
+                for (int b = i == j ? a : 0; b < 3; ++b) {
+                    double s = lb * Q[i][a][3] * Q[j][b][3];
+                    for (int x = 0; x < 3; ++x)
+                        for (int y = 0; y < 3; ++y) s += Q[i][a][x] * M[3 * x + y] * Q[j][b][y];
+                    H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = s;
+                    H[(3 * nodes[j] + b) * nd + 3 * nodes[i] + a] = s;
+                }
 }
 
 /* The three difference vectors of the plane formula as node weights over the 4 vertices:
@@ -428,6 +500,10 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
         for (int k = 0; k < 3; ++k) nh[k] = n[k] / nu;
         const double sig = dot3(r, nh);
         plane_closed(ee, sig, nu, nh, r, c1, c2, b1, b2, g, H);
+        return e;
+    }
+    if (!moll && dt == DEFSIM__D_PE) {
+        pl_closed(X, nd, nodes, d, b1, b2, g, H);
         return e;
     }
     /* General: the Hessian from the distance's derivatives, clamped over the vertices that

@@ -465,38 +465,57 @@ static double pe_d2(const double *x)
     return defsim__pe_dist2(x, x + 3, x + 6, NULL, NULL, NULL);
 }
 
-static double norm3(const double *a) { return sqrt(dot3(a, a)); }
+/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]),
+ * first: how many of the four vertices form the first primitive (1 for PT, 2 for EE).
+ *
+ * The closest points move with a relative velocity that is a convex combination of the vertex
+ * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
+ * constant lp = max |dx_a - dx_b|: no larger than ACCD's bound (the largest displacement on each
+ * side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each advance is
+ * ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below the gap
+ * s d(0), the crossing inside that advance (which is collision-free as a whole) is bracketed and
+ * halved REFINE times, and the last time found at or above the gap is returned: the result is
+ * then within 2^-REFINE of one advance of where d first reaches the gap at a checked time,
+ * where ACCD stops one whole advance short of it. */
+enum { REFINE = 12 };
+#define ETA 0.9
 
-/* first: how many of the four vertices form the first primitive (1 for PT, 2 for EE). */
-static double accd(dist2_fn dist2, int first, const double x0[12], const double dx0[12],
+static double accd(dist2_fn dist2, int first, const double x0[12], const double dx[12],
                    double s, double tmax, int max_iterations)
 {
-    /* Relative motion only: subtract the mean displacement. */
-    double dx[12], x[12], mean[3] = {0, 0, 0};
-    for (int v = 0; v < 4; ++v)
-        for (int k = 0; k < 3; ++k) mean[k] += 0.25 * dx0[3 * v + k];
-    for (int v = 0; v < 4; ++v)
-        for (int k = 0; k < 3; ++k) dx[3 * v + k] = dx0[3 * v + k] - mean[k];
-    /* A bound on how fast the distance can shrink: the largest displacement of each side. */
-    double la = 0.0, lb = 0.0;
-    for (int v = 0; v < 4; ++v) {
-        const double l = norm3(dx + 3 * v);
-        if (v < first) la = l > la ? l : la;
-        else lb = l > lb ? l : lb;
-    }
-    const double lp = la + lb;
+    double lp = 0.0;
+    for (int a = 0; a < first; ++a)
+        for (int b = first; b < 4; ++b) {
+            double r[3];
+            sub3(dx + 3 * a, dx + 3 * b, r);
+            const double l = dot3(r, r);
+            lp = l > lp ? l : lp;
+        }
+    lp = sqrt(lp);
     if (!(lp > 0.0)) return tmax;
-    memcpy(x, x0, sizeof x);
-    double d = sqrt(dist2(x));
+    double x[12];
+    double d = sqrt(dist2(x0));
+    if (!(d > 0.0)) return 0.0;
     const double gap = s * d;
-    double t = 0.0, tl = (1.0 - s) * d / lp;
+    double t = 0.0;
     for (int it = 0; it < max_iterations; ++it) {
-        for (int k = 0; k < 12; ++k) x[k] += tl * dx[k];
-        d = sqrt(dist2(x));
-        if (t > 0.0 && d < gap) return t;
+        const double tl = ETA * d / lp;
+        if (t + tl >= tmax) return tmax;
+        for (int k = 0; k < 12; ++k) x[k] = x0[k] + (t + tl) * dx[k];
+        const double dn = sqrt(dist2(x));
+        if (dn < gap) {
+            /* d(t) >= gap > d(t + tl): bisect, keeping lo at or above the gap */
+            double lo = t, hi = t + tl;
+            for (int r = 0; r < REFINE; ++r) {
+                const double mid = 0.5 * (lo + hi);
+                for (int k = 0; k < 12; ++k) x[k] = x0[k] + mid * dx[k];
+                if (sqrt(dist2(x)) >= gap) lo = mid;
+                else hi = mid;
+            }
+            return lo;
+        }
         t += tl;
-        if (t >= tmax) return tmax;
-        tl = 0.9 * d / lp;
+        d = dn;
     }
     return t;
 }

@@ -126,7 +126,7 @@ static void sym_eig(int n, double *A, double *lam, double *V)
         for (int k = lo; k < hi; ++k) {
             /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
              * zeroes z against x: at k = lo the shifted first column, later the bulge. */
-            const double r = sqrt(x * x + z * z), c = x / r, s = -z / r;
+            const double ir = 1.0 / sqrt(x * x + z * z), c = x * ir, s = -z * ir;
             if (k > lo) e[k - 1] = c * x - s * z;
             const double a = lam[k], b = e[k], d = lam[k + 1];
             lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;
@@ -154,7 +154,7 @@ static void clamp_psd(int n, double *A)
     /* scaled to entries of at most 1, so that no square in the eigensolver under- or
      * overflows */
     double m = 0.0;
-    for (int i = 0; i < n * n; ++i) m = fmax(m, fabs(A[i]));
+    for (int i = 0; i < n * n; ++i) m = fabs(A[i]) > m ? fabs(A[i]) : m;
     if (!(m > 0.0) || !isfinite(m)) return;
     for (int i = 0; i < n * n; ++i) W[i] = A[i] / m;
     sym_eig(n, W, lam, V);
@@ -468,7 +468,7 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
     defsim__dtype dt;
     int nodes[4];
     double s;
-    const int na = closest(type, X, &s, &dt, nodes);
+    closest(type, X, &s, &dt, nodes);
     if (!(s < dh * dh)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
     const double d = sqrt(s);
@@ -506,33 +506,23 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
         pl_closed(X, nd, nodes, d, b1, b2, g, H);
         return e;
     }
-    /* General: the Hessian from the distance's derivatives, clamped over the vertices that
-     * the closest features (or the mollifier, which involves all four) depend on. */
-    double gs[12], Hs[144], gd[12], Hb[144];
-    double *Hx = H ? H : Hb;
-    s = defsim__contact_dist2(type, X, gs, Hs);
-    for (int i = 0; i < nd; ++i) gd[i] = gs[i] / (2.0 * d);
-    /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
-    for (int i = 0; i < nd; ++i)
-        for (int j = 0; j < nd; ++j)
-            Hx[i * nd + j] = b2 * gd[i] * gd[j] + b1 * (Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d);
+    /* The mollified edge-edge barrier m kappa b(d): its Hessian from the distance's and the
+     * mollifier's derivatives, clamped in the 9-dimensional translation-free subspace. */
+    double gs[12], Hs[144], gd[12], gm[12], Hm[144];
+    defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
+    const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, H ? Hm : NULL);
+    for (int i = 0; i < 12; ++i) gd[i] = gs[i] / (2.0 * d);
     if (g)
-        for (int i = 0; i < nd; ++i) g[i] = b1 * gd[i];
-    double out = e;
-    if (moll) {
-        double gm[12], Hm[144];
-        const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, Hm);
+        for (int i = 0; i < 12; ++i) g[i] = mo * (b1 * gd[i]) + e * gm[i];
+    if (H) {
+        /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
         for (int i = 0; i < 12; ++i)
             for (int j = 0; j < 12; ++j)
-                Hx[i * 12 + j] = mo * Hx[i * 12 + j] + b1 * gd[i] * gm[j] + gm[i] * b1 * gd[j] +
-                                 e * Hm[i * 12 + j];
-        if (g)
-            for (int i = 0; i < 12; ++i) g[i] = mo * g[i] + e * gm[i];
-        out = mo * e;
-    }
-    if (H) {
+                H[i * 12 + j] =
+                    mo * (b2 * gd[i] * gd[j] + b1 * (Hs[i * 12 + j] / (2.0 * d) - gd[i] * gd[j] / d)) +
+                    b1 * gd[i] * gm[j] + gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
         static const int all[4] = {0, 1, 2, 3};
-        project_nodes(nd, H, moll ? 4 : na, moll ? all : nodes);
+        project_nodes(12, H, 4, all);
     }
-    return out;
+    return mo * e;
 }

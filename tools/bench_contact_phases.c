@@ -99,7 +99,7 @@ static int open_world(scene *s, defsim_world **w, const char *path, int cells)
         return -1;
     }
     char opt[96];
-    snprintf(opt, sizeof opt, "%s.max_iterations", (*w)->backend_name);
+    snprintf(opt, sizeof opt, "%s.max_iterations", (*w)->backend.name);
     defsim_world_set_option(*w, opt, "200");
     return 0;
 }
@@ -197,7 +197,7 @@ static void phase_begin(phase_ctx *c)
     c->bc->have_pairs = 0;
     const defsim__settings *o = &w->set;
     const defsim_status st = defsim__body_contact_begin(
-        c->bc, &w->sys, w->bodies, w->nbodies, o->contact_dhat, o->contact_kappa,
+        c->bc, &w->sys, w->bodies.b, w->bodies.n, o->contact_dhat, o->contact_kappa,
         o->friction_eps_v, c->x, c->v, c->h, w->contact.stat, w->msg);
     if (st != DEFSIM_OK) c->st = st;
     c->bc->npend = 0;
@@ -332,7 +332,7 @@ static int time_state(const char *dir, int step, int repeat)
         return -1;
     for (int64_t i = 0; i < n3; ++i) dx[i] = x1[i] - x[i];
     /* a barrier alone, as ipctk's BarrierPotential: no lagged friction pairs */
-    for (int32_t b = 0; b < w->nbodies; ++b) w->bodies[b].friction = 0.0;
+    for (int32_t b = 0; b < w->bodies.n; ++b) w->bodies.b[b].friction = 0.0;
     memcpy(w->state.x, x, (size_t)n3 * sizeof *x);
     memcpy(w->state.v, v, (size_t)n3 * sizeof *v);
     phase_ctx c = {.w = w, .bc = &w->body_contact, .x = x, .v = v, .dx = dx, .h = s.h, .f = f};
@@ -404,9 +404,9 @@ static int write_states(const char *dir, const char *path, int cells, int steps,
     double *xs = malloc((size_t)n3 * sizeof *xs), *vs = malloc((size_t)n3 * sizeof *vs);
     double *rest = malloc((size_t)n3 * sizeof *rest);
     if (!xs || !vs || !rest) return -1;
-    for (int32_t b = 0; b < w->nbodies; ++b)
-        memcpy(rest + 3 * (int64_t)w->bodies[b].offset, w->bodies[b].rest,
-               3 * (size_t)w->bodies[b].nv * sizeof *rest);
+    for (int32_t b = 0; b < w->bodies.n; ++b)
+        memcpy(rest + 3 * (int64_t)w->bodies.b[b].offset, w->bodies.b[b].rest,
+               3 * (size_t)w->bodies.b[b].nv * sizeof *rest);
     if (write_vec(dir, "x", 0, rest, n3) != 0) return -1;
     int impact = -1;
     const int settled = steps - 1;

@@ -11,7 +11,6 @@
 
 #include <math.h>
 #include <stdlib.h>
-#include <string.h>
 
 static int compile(defsim__system *s, defsim__term *out)
 {
@@ -147,4 +146,4 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
 
 const defsim__term_ops defsim__term_attach = {
     .name = "attach", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 2, .matrix_rank = 2,
-    DEFSIM__TERM_FORCES, DEFSIM__TERM_PATTERN, DEFSIM__TERM_MATRIX, .rates = rates};
+    DEFSIM__TERM_FORCES, .pairs = pairs, .ranks = ranks, DEFSIM__TERM_MATRIX, .rates = rates};

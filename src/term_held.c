@@ -9,8 +9,6 @@
 #include "system.h"
 #include "term_cache.h"
 
-#include <string.h>
-
 static int compile(defsim__system *s, defsim__term *out)
 {
     return defsim__term_one(s->fext != NULL, s, NULL, 0, out);

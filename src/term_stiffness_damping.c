@@ -10,8 +10,6 @@
 #include "system.h"
 #include "term_cache.h"
 
-#include <string.h>
-
 enum { PAR_MIN = 1024 };
 
 static int compile(defsim__system *s, defsim__term *out)

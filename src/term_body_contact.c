@@ -241,6 +241,9 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     get(bc->pa, &p, (size_t)np * sizeof *bc->pa);
     get(bc->pb, &p, (size_t)np * sizeof *bc->pb);
     get(bc->fric, &p, (size_t)nf * sizeof *bc->fric);
+    /* the candidates' boxes are not saved: the next evaluation finds them again */
+    bc->have_pairs = 0;
+    bc->con_valid = 0;
     t->cache->valid = 0;
     return DEFSIM_OK;
 }

@@ -28,6 +28,9 @@
 /* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
 #define BC_CCD_FRACTION 0.2
 #define BC_CCD_ITERATIONS 5000
+/* Room around each vertex's box when candidates are built (times dhat): Newton updates smaller
+ * than this reuse them. */
+#define BC_BOX_SLACK 0.25
 static double dot3(const double a[3], const double b[3])
 {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -251,8 +254,10 @@ static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
     return !((bc->group[ba] & bc->mask[bb]) && (bc->group[bb] & bc->mask[ba]));
 }
 
+static double dist2(uint8_t kind, const double *X, double *g, double *H);
+
 /* Appends candidate (kind, a, b) unless the filter excludes it, its primitives share a vertex
- * (adjacent) or all its vertices are pinned. */
+ * (adjacent), all its vertices are pinned or it cannot come within dhat inside the boxes. */
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
 {
     int32_t ba, bb;
@@ -269,6 +274,22 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
             if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     }
     if (!free_node) return;
+    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its box
+     * (within |dx_i| + sqrt(3) r of x_i), the pair's distance stays above its distance at x less
+     * the largest such reach on each side. */
+    const double r = sqrt(3.0) * BC_BOX_SLACK * bc->dhat;
+    double X[12], ra = r, rb = r;
+    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    for (int i = 0; i < n; ++i) {
+        const int64_t v = 3 * (int64_t)idx[i];
+        memcpy(X + 3 * i, bc->bx + v, 3 * sizeof(double));
+        if (!bc->bdx) continue;
+        const double l = r + sqrt(dot3(bc->bdx + v, bc->bdx + v));
+        if (i < first) ra = fmax(ra, l);
+        else rb = fmax(rb, l);
+    }
+    const double reach = ra + rb + bc->dhat;
+    if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {
         int64_t c1 = cap, c2 = cap, c3 = cap;
@@ -431,19 +452,24 @@ static int covers(const defsim__body_contact *bc, const double *x, const double 
 }
 
 /* Candidates for x (and the segment to x + dx when dx is not NULL), rebuilt unless the current
- * ones cover it. */
+ * ones cover it. The vertices' boxes take BC_BOX_SLACK dhat of room: the small updates of a
+ * converging Newton solve stay inside, and reuse them. */
 static void ensure(defsim__body_contact *bc, const double *x, const double *dx)
 {
     if (covers(bc, x, dx)) return;
+    const double r = BC_BOX_SLACK * bc->dhat;
     for (int32_t k = 0; k < bc->nvert; ++k) {
         const int64_t i = 3 * (int64_t)bc->vert[k];
         for (int c = 0; c < 3; ++c) {
             const double a = x[i + c], b = dx ? a + dx[i + c] : a;
-            bc->vlo[i + c] = fmin(a, b);
-            bc->vhi[i + c] = fmax(a, b);
+            bc->vlo[i + c] = fmin(a, b) - r;
+            bc->vhi[i + c] = fmax(a, b) + r;
         }
     }
+    bc->bx = x;
+    bc->bdx = dx;
     broad(bc);
+    bc->bx = bc->bdx = NULL;
 }
 
 defsim_status defsim__body_contact_candidates(defsim__body_contact *bc, const double *x)
@@ -1301,6 +1327,7 @@ double defsim__body_contact_end(defsim__body_contact *bc, const double *x, doubl
         const double d = sqrt(dist2(bc->kind[q], X, NULL, NULL));
         if (d < dmin) dmin = d;
     }
+
     bc->stat[DEFSIM__CSTAT_BODY_ACTIVE] = bc->con_valid ? bc->ncon : 0;
     bc->stat[DEFSIM__CSTAT_BODY_MIN_DISTANCE] = dmin;
     return dmin;

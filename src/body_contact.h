@@ -76,6 +76,7 @@ typedef struct defsim__body_contact {
                                  were built (a point, or its segment for CCD) */
     int have_pairs;           /* the candidates match vlo, vhi (a broad phase ran) */
     int32_t nthreads;         /* the system's (OpenMP loops over contacts and candidates) */
+    const double *bx, *bdx;   /* during a broad phase: the point and update (or NULL) it covers */
     double *lo, *hi;          /* 3 (nvert + nface + nedge + nrope): boxes */
     double *scratch;          /* 3 nv: contact_start's displacement, end's forces */
     double *clo, *chi;        /* the boxes of the primitives of bodies that take part */

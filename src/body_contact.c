@@ -427,6 +427,7 @@ static void broad(defsim__body_contact *bc)
             collect(bc, DEFSIM__BC_PE, vmap, rmap);
     }
     bc->have_pairs = !bc->failed;
+    bc->cand_dhat = bc->dhat;
     bc->broads++;
     bc->stat[DEFSIM__CSTAT_BODY_CANDIDATES] = bc->npair;
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
@@ -1224,10 +1225,13 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->khat = kappa > 0.0 ? kappa : gn / bc->dhat + 1.0 / (h * h);
     bc->npend = 0;
     bc->nfric = 0;
-    /* Filters, pins, masses and stiffness may have changed since the last step: candidates and
-     * constraint set are found again, at the start (a broad phase linear in the surface). */
+    /* Masses and stiffness may have changed since the last step: the constraint set is built
+     * again. The candidates too when the filter (fresh), pins (a plan) or dhat changed, or when
+     * the start left their boxes; a scene at rest keeps them (no broad phase). */
     bc->con_valid = 0;
-    if (defsim__body_contact_candidates(bc, x) != DEFSIM_OK) {
+    if (bc->fresh || bc->cand_dhat != bc->dhat) bc->have_pairs = 0;
+    ensure(bc, x, NULL);
+    if (bc->failed) {
         defsim__error(msg, "out of memory for body contact pairs");
         return bc->failed;
     }

@@ -75,6 +75,7 @@ typedef struct defsim__body_contact {
     double *vlo, *vhi;        /* 3 nv: the box each surface vertex had when the candidates
                                  were built (a point, or its segment for CCD) */
     int have_pairs;           /* the candidates match vlo, vhi (a broad phase ran) */
+    double cand_dhat;         /* the dhat they were built for (m) */
     int32_t nthreads;         /* the system's (OpenMP loops over contacts and candidates) */
     const double *bx, *bdx;   /* during a broad phase: the point and update (or NULL) it covers */
     double *lo, *hi;          /* 3 (nvert + nface + nedge + nrope): boxes */

@@ -79,7 +79,7 @@ void defsim__body_contact_free(defsim__body_contact *bc)
 {
     defsim__body_contact_unplan(bc);
     free(bc->kind); free(bc->pa); free(bc->pb);
-    free(bc->con); free(bc->ctmp); free(bc->sv); free(bc->sg); free(bc->sh);
+    free(bc->con); free(bc->ctmp); free(bc->act); free(bc->sv); free(bc->sg); free(bc->sh);
     free(bc->fric);
     free(bc->pend);
     defsim__hash_free(&bc->hash);
@@ -703,6 +703,9 @@ defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double 
         defsim__bc_contact *t = realloc(bc->ctmp, (size_t)bc->npair * sizeof *t);
         if (!t) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
         bc->ctmp = t;
+        int32_t *a = realloc(bc->act, (size_t)bc->npair * sizeof *a);
+        if (!a) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        bc->act = a;
         bc->cap_tmp = bc->npair;
     }
     const int32_t np = bc->npair;
@@ -715,8 +718,12 @@ defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double 
 #pragma omp parallel for schedule(static) num_threads(nth) if (np > 512)
     for (int32_t q = 0; q < np; ++q) candidate_contact(bc, q, x, &tmp[q]);
     int32_t m = 0;
+    bc->nact = 0;
     for (int32_t q = 0; q < np; ++q)
-        if (tmp[q].type >= 0) tmp[m++] = tmp[q];
+        if (tmp[q].type >= 0) {
+            tmp[m++] = tmp[q];
+            bc->act[bc->nact++] = q;
+        }
     qsort(tmp, (size_t)m, sizeof *tmp, contact_cmp);
     if (!reserve_contacts(bc, m)) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
     int32_t n = 0;
@@ -872,8 +879,12 @@ static void pend(defsim__body_contact *bc, const defsim__system *s, const int32_
 /* Queues the pattern pairs of every contact of the current set. */
 static void pend_set(defsim__body_contact *bc)
 {
-    for (int32_t q = 0; q < bc->ncon && !bc->failed; ++q)
-        pend(bc, bc->sys, bc->con[q].v, defsim__contact_nodes(bc->con[q].type));
+    for (int32_t k = 0; k < bc->nact && !bc->failed; ++k) {
+        const int32_t q = bc->act[k];
+        int32_t idx[4];
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        pend(bc, bc->sys, idx, n);
+    }
 }
 
 void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,

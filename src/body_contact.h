@@ -97,6 +97,8 @@ typedef struct defsim__body_contact {
      * while it is built. sv, sg, sh: per-contact energy, gradient (12) and Hessian (144) slots
      * that the parallel loops fill and the serial sums read in contact order. */
     int32_t ncon, cap_con, cap_tmp;
+    int32_t *act, nact;       /* the candidates within dhat at conx (their primitives' vertex
+                                 pairs join the pattern) */
     struct defsim__bc_contact *con, *ctmp;
     int32_t ncon_type[4];
     double *conx;             /* 3 nv */

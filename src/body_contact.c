@@ -715,7 +715,7 @@ defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double 
     /* Each candidate's contact into its own slot (any thread), then compacted, sorted and
      * deduplicated in one order: the set does not depend on the thread count, nor on the
      * candidates' order or on which pairs beyond dhat were candidates. */
-#pragma omp parallel for schedule(static) num_threads(nth) if (np > 512)
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && np > 512)
     for (int32_t q = 0; q < np; ++q) candidate_contact(bc, q, x, &tmp[q]);
     int32_t m = 0;
     bc->nact = 0;
@@ -810,7 +810,7 @@ double defsim__body_contact_energy(defsim__body_contact *bc, const double *x)
     double *sv = bc->sv;
     const int nth = nthreads_of(bc);
     (void)nth;
-#pragma omp parallel for schedule(static) num_threads(nth) if (n > 256)
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && n > 256)
     for (int32_t q = 0; q < n; ++q) sv[q] = contact_barrier(bc, &con[q], x, NULL, NULL);
     double e = 0.0;
     for (int32_t q = 0; q < n; ++q) e += sv[q];
@@ -829,7 +829,7 @@ defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double
     double *sv = bc->sv, *sg = bc->sg;
     const int nth = nthreads_of(bc);
     (void)nth;
-#pragma omp parallel for schedule(static) num_threads(nth) if (n > 256)
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && n > 256)
     for (int32_t q = 0; q < n; ++q)
         sv[q] = contact_barrier(bc, &con[q], x, sg + 12 * (int64_t)q, NULL);
     for (int32_t q = 0; q < n && st == DEFSIM_OK; ++q) {
@@ -928,7 +928,7 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
     double *sv = bc->sv, *sh = bc->sh;
     const int nth = nthreads_of(bc);
     (void)nth;
-#pragma omp parallel for schedule(dynamic, 16) num_threads(nth) if (n > 64)
+#pragma omp parallel for schedule(dynamic, 16) num_threads(nth) if (nth > 1 && n > 64)
     for (int32_t q = 0; q < n; ++q)
         sv[q] = contact_barrier(bc, &con[q], x, NULL, sh + 144 * (int64_t)q);
     for (int32_t q = 0; q < n; ++q) {
@@ -992,7 +992,7 @@ static double ccd(defsim__body_contact *bc, const double *x, const double *dx)
     const int nth = nthreads_of(bc);
     (void)nth;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(nth) reduction(min : alpha) \
-    if (np > 512)
+    if (nth > 1 && np > 512)
     for (int32_t q = 0; q < np; ++q) {
         const double t = pair_toi(bc, q, x, dx, 1.0);
         if (t < alpha) alpha = t;

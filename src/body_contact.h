@@ -137,9 +137,11 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
                                          const double *x, const double *v, double h,
                                          double *stat, defsim__messages *msg);
 
-/* The barrier candidates at x (the phase benchmark's broad phase): primitive pairs whose boxes
- * at x, grown by dhat / 2, overlap, after the collision filter; they cover the point x only.
- * Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. Count in bc->npair. */
+/* The barrier candidates at x (the phase benchmark's broad phase; always runs it): primitive
+ * pairs whose boxes at x (each vertex's with dhat / 4 of room), grown by dhat / 2, overlap and
+ * that could come within dhat inside them, after the collision filter. They cover every point
+ * whose surface vertices stay in those boxes. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY.
+ * Count in bc->npair. */
 defsim_status defsim__body_contact_candidates(defsim__body_contact *bc, const double *x);
 /* Builds the constraint set at x from the current candidates (after a broad phase at x if they do
  * not cover x): bc->ncon contacts, bc->ncon_type[DEFSIM__C_*] per type; the energy, forces and

@@ -288,7 +288,7 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
         if (i < first) ra = fmax(ra, l);
         else rb = fmax(rb, l);
     }
-    const double reach = ra + rb + bc->dhat;
+    const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
     if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {

@@ -157,27 +157,8 @@ static defsim_status probe_step(const defsim_host *host, defsim_system *sys, voi
     for (int i = 0; i < m; ++i)
         for (int j = 0; j < i; ++j)
             Hfd[i * m + j] = Hfd[j * m + i] = 0.5 * (Hfd[i * m + j] + Hfd[j * m + i]);
-    /* the engine projects in the coordinates x_i - x_0 (i >= 1): the pair's energy depends
-     * only on them; the same here */
-    {
-        const int r = m - 3;
-        double B[81];
-        for (int i = 0; i < r; ++i)
-            for (int j = 0; j < r; ++j) B[i * r + j] = Hfd[(3 + i) * m + 3 + j];
-        project_psd(r, B);
-        /* H = T^T B T, T: x -> (x_1 - x_0, ..., x_{n-1} - x_0) */
-        for (int i = 0; i < m; ++i)
-            for (int j = 0; j < m; ++j) {
-                double sum = 0.0;
-                for (int a = 0; a < r; ++a)
-                    for (int b = 0; b < r; ++b) {
-                        const double ti = (i >= 3 && i - 3 == a) ? 1.0 : (i < 3 && a % 3 == i) ? -1.0 : 0.0;
-                        const double tj = (j >= 3 && j - 3 == b) ? 1.0 : (j < 3 && b % 3 == j) ? -1.0 : 0.0;
-                        sum += ti * B[a * r + b] * tj;
-                    }
-                Hfd[i * m + j] = sum;
-            }
-    }
+    /* the engine clamps the eigenvalues of the whole pair matrix (contact_pair.c) */
+    project_psd(m, Hfd);
     const defsim_matrix_coeffs kc = {1.0, 0.0, 0.0, 0.0};
     probe.hess_err = probe.hess_scale = 0.0;
     for (int j = 0; j < m; ++j) {

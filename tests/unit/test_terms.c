@@ -561,9 +561,9 @@ static defsim_world *point_over_triangle(double mu, double **x_out, double **v_o
     TU_OK(defsim__world_plan(w));
     const int64_t n = 3 * (int64_t)w->nv;
     double *x = tu_positions(w), *v = calloc((size_t)n, sizeof *v);
-    memcpy(w->x_save, x, (size_t)n * sizeof *x);
-    TU_OK(defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies, w->nbodies, 0.01, 0.0,
-                                     1e-3, w->x_save, v, 0.01, w->contact.stat, w->msg));
+    memcpy(w->step.x_save, x, (size_t)n * sizeof *x);
+    TU_OK(defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies.b, w->bodies.n, 0.01, 0.0,
+                                     1e-3, w->step.x_save, v, 0.01, w->contact.stat, w->msg));
     w->sys.body_contact = &w->body_contact;
     TU_OK(defsim__terms_compile(&w->sys));
     /* evaluated off the start: a tilted triangle, the point moved */

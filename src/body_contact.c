@@ -289,6 +289,22 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
         else rb = fmax(rb, l);
     }
     const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
+    /* first the distance of the primitives' bounding spheres (about their centroids), a lower
+     * bound of theirs that removes most neighbours in a surface without the exact distance */
+    double c[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}, rad[2] = {0.0, 0.0};
+    for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) c[i >= first][k] += X[3 * i + k];
+    for (int k = 0; k < 3; ++k) {
+        c[0][k] /= first;
+        c[1][k] /= n - first;
+    }
+    for (int i = 0; i < n; ++i) {
+        const double *ci = c[i >= first];
+        const double u[3] = {X[3 * i] - ci[0], X[3 * i + 1] - ci[1], X[3 * i + 2] - ci[2]};
+        rad[i >= first] = fmax(rad[i >= first], sqrt(dot3(u, u)));
+    }
+    const double cc[3] = {c[0][0] - c[1][0], c[0][1] - c[1][1], c[0][2] - c[1][2]};
+    if (sqrt(dot3(cc, cc)) - rad[0] - rad[1] >= reach * (1.0 + 1e-9)) return;
     if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {

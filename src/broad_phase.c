@@ -16,7 +16,9 @@
 void defsim__hash_free(defsim__hash *h)
 {
     free(h->keys);
+    free(h->bucket);
     free(h->start);
+    free(h->cell0);
     free(h->pairs);
     memset(h, 0, sizeof *h);
 }
@@ -118,41 +120,53 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
     int64_t top[3];
     for (int a = 0; a < 3; ++a) top[a] = cell_of(far[a], origin[a], inv);
     /* Buckets: a power of two at least the (box, cell) entries; a counting sort by bucket, in
-     * box order within each. */
+     * box order within each. Each box of B keeps its lowest cell (the reporting rule below). */
+    if (n > INT32_MAX / 2) return DEFSIM_ERR_OUT_OF_MEMORY;   /* int32 bucket offsets */
     int64_t nbk = 1;
     while (nbk < n) nbk *= 2;
     const uint32_t mask = (uint32_t)(nbk - 1);
     if (!reserve((void **)&h->keys, &h->cap_keys, n, sizeof *h->keys) ||
-        !reserve((void **)&h->start, &h->cap_start, nbk + 1, sizeof *h->start))
+        !reserve((void **)&h->bucket, &h->cap_bucket, n, sizeof *h->bucket) ||
+        !reserve((void **)&h->start, &h->cap_start, nbk + 1, sizeof *h->start) ||
+        !reserve((void **)&h->cell0, &h->cap_cell0, 3 * (int64_t)nb, sizeof *h->cell0))
         return DEFSIM_ERR_OUT_OF_MEMORY;
-    int64_t *start = h->start;
+    int32_t *start = h->start, *cell0 = h->cell0;
+    uint32_t *bucket = h->bucket;
     memset(start, 0, (size_t)(nbk + 1) * sizeof *start);
-    for (int pass = 0; pass < 2; ++pass) {
-        for (int32_t b = 0; b < nb; ++b) {
-            int64_t r[3][2];
-            range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
-            for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
-                for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
-                    for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
-                        const uint32_t bk = key_of(i, j, k) & mask;
-                        if (pass == 0) start[bk + 1]++;
-                        else h->keys[start[bk]++] = (uint32_t)b;
-                    }
-        }
-        if (pass == 0)
-            for (int64_t q = 0; q < nbk; ++q) start[q + 1] += start[q];
+    int64_t e = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t r[3][2];
+        range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+        for (int a = 0; a < 3; ++a) cell0[3 * (int64_t)b + a] = (int32_t)r[a][0];
+        for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
+            for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
+                for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+                    const uint32_t bk = key_of(i, j, k) & mask;
+                    bucket[e++] = bk;
+                    start[bk + 1]++;
+                }
+    }
+    for (int64_t q = 0; q < nbk; ++q) start[q + 1] += start[q];
+    e = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t r[3][2];
+        range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+        const int64_t m = (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+        for (int64_t q = 0; q < m; ++q) h->keys[start[bucket[e++]]++] = (uint32_t)b;
     }
     /* the scatter advanced each start to its end: shift back */
     for (int64_t q = nbk; q > 0; --q) start[q] = start[q - 1];
     start[0] = 0;
     h->nkeys = n;
     /* Query A. A pair is reported from one cell only, the one holding the larger of the two
-     * boxes' lower corners (it lies in both boxes, so both visit it); a box that two of its cells
-     * put twice in one bucket is found twice there, which the per-box sort removes. */
+     * boxes' lower corners (it lies in both boxes, so both visit it; cells are monotone in the
+     * coordinates, so it is the larger of their lowest cells); a box that two of its cells put
+     * twice in one bucket is found twice there, which the per-box sort removes. */
     for (int32_t a = 0; a < na; ++a) {
         int64_t r[3][2];
         const double *la = lo_a + 3 * a, *ha = hi_a + 3 * a;
         range(la, ha, origin, inv, r);
+        const int64_t a0[3] = {r[0][0], r[1][0], r[2][0]};
         for (int ax = 0; ax < 3; ++ax) {   /* no box of B beyond its far corner's cell */
             if (r[ax][0] > top[ax]) r[ax][0] = top[ax] + 1;
             if (r[ax][1] > top[ax]) r[ax][1] = top[ax];
@@ -162,15 +176,15 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
             for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
                 for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
                     const uint32_t bk = key_of(i, j, k) & mask;
-                    for (int64_t m = start[bk]; m < start[bk + 1]; ++m) {
+                    for (int32_t m = start[bk]; m < start[bk + 1]; ++m) {
                         const int32_t b = (int32_t)h->keys[m];
                         if (self && b <= a) continue;
-                        const double *lb = lo_b + 3 * b, *hb = hi_b + 3 * b;
-                        if (!overlap(la, ha, lb, hb)) continue;
-                        if (cell_of(fmax(la[0], lb[0]), origin[0], inv) != i ||
-                            cell_of(fmax(la[1], lb[1]), origin[1], inv) != j ||
-                            cell_of(fmax(la[2], lb[2]), origin[2], inv) != k)
+                        const int32_t *c0 = cell0 + 3 * (int64_t)b;
+                        if ((c0[0] > a0[0] ? c0[0] : a0[0]) != i ||
+                            (c0[1] > a0[1] ? c0[1] : a0[1]) != j ||
+                            (c0[2] > a0[2] ? c0[2] : a0[2]) != k)
                             continue;
+                        if (!overlap(la, ha, lo_b + 3 * b, hi_b + 3 * b)) continue;
                         if (!reserve((void **)&h->pairs, &h->cap_pairs, h->npairs + 1,
                                      sizeof *h->pairs))
                             return DEFSIM_ERR_OUT_OF_MEMORY;

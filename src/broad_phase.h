@@ -19,8 +19,12 @@ typedef struct defsim__hash {
     uint32_t *keys;           /* the inserted boxes of B, grouped by the bucket of each cell they
                                  overlap (box order within a bucket) */
     int64_t nkeys, cap_keys;
-    int64_t *start;           /* buckets + 1: where each bucket's boxes start in keys */
+    uint32_t *bucket;         /* the bucket of each entry, in insertion order */
+    int64_t cap_bucket;
+    int32_t *start;           /* buckets + 1: where each bucket's boxes start in keys */
     int64_t cap_start;
+    int32_t *cell0;           /* 3 per box of B: its lowest cell */
+    int64_t cap_cell0;
     int64_t *pairs;           /* (a << 32 | b) of the last query, sorted, unique */
     int64_t npairs, cap_pairs;
 } defsim__hash;

@@ -206,7 +206,8 @@ static void project_nodes(int nd, double *H, int m, const int *nodes)
                 B[(3 * k + a) * r + col] = s;
             }
     for (int i = 0; i < r; ++i)
-        for (int j = 0; j < i; ++j) B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
+        for (int j = 0; j < i; ++j)
+            B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
     clamp_psd(r, B);
     /* H = P B P^T on the vertices' blocks */
     memset(H, 0, (size_t)(nd * nd) * sizeof *H);
@@ -226,7 +227,10 @@ static void project_nodes(int nd, double *H, int m, const int *nodes)
 /* ------------------------------------------------------------------------------------------ */
 /* Closed forms */
 
-static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void cross3(const double *a, const double *b, double *out)
 {
@@ -517,10 +521,11 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
     if (H) {
         /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
         for (int i = 0; i < 12; ++i)
-            for (int j = 0; j < 12; ++j)
-                H[i * 12 + j] =
-                    mo * (b2 * gd[i] * gd[j] + b1 * (Hs[i * 12 + j] / (2.0 * d) - gd[i] * gd[j] / d)) +
-                    b1 * gd[i] * gm[j] + gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
+            for (int j = 0; j < 12; ++j) {
+                const double hd = Hs[i * 12 + j] / (2.0 * d) - gd[i] * gd[j] / d;
+                H[i * 12 + j] = mo * (b2 * gd[i] * gd[j] + b1 * hd) + b1 * gd[i] * gm[j] +
+                                gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
+            }
         static const int all[4] = {0, 1, 2, 3};
         project_nodes(12, H, 4, all);
     }

@@ -25,6 +25,17 @@
 
 static defsim_status contact_begin(defsim_world *w, double h);
 
+/* The terms' list follows what is attached to the system (collider and body contact): compiled
+ * again only when that differs from what it was compiled with (contact, body), once for all
+ * the begins of a step and once for all its ends. */
+static defsim_status terms_follow(defsim_world *w, const void *contact, const void *body,
+                                  defsim_status st)
+{
+    if (w->sys.contact == contact && w->sys.body_contact == body) return st;
+    const defsim_status ct = defsim__terms_compile(&w->sys);
+    return st == DEFSIM_OK ? ct : st;
+}
+
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
 {
     double om = 0.0;
@@ -54,11 +65,13 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     /* Penalty contact stiffens the system (explicit backends' limit); the barrier's backends
      * have no limit. */
     const int penalty = !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD);
-    if (w->nv > 0 && penalty && (st = contact_begin(w, 0.0)) != DEFSIM_OK) return st;
-    if (w->nv > 0) st = estimate_stable_step(w, &h, &om);
+    const void *was = w->sys.contact;
+    if (w->nv > 0 && penalty) st = contact_begin(w, 0.0);
+    st = terms_follow(w, was, w->sys.body_contact, st);
+    if (w->nv > 0 && st == DEFSIM_OK) st = estimate_stable_step(w, &h, &om);
+    was = w->sys.contact;
     w->sys.contact = NULL;
-    const defsim_status ct = defsim__terms_compile(&w->sys);
-    if (st == DEFSIM_OK) st = ct;
+    st = terms_follow(w, was, w->sys.body_contact, st);
     if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
@@ -151,13 +164,11 @@ static defsim_status watch_step(defsim_world *w, double h)
 }
 
 /* Contact (contact.h) for a step of h (0: for the stable step): BARRIER for backends whose line
- * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends. */
+ * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends.
+ * Attaches it only: the caller compiles the terms' list again (terms_follow). */
 static defsim_status contact_begin(defsim_world *w, double h)
 {
-    if (w->sys.contact) {   /* left attached by a failed step: detach */
-        w->sys.contact = NULL;
-        (void)defsim__terms_compile(&w->sys);
-    }
+    w->sys.contact = NULL;   /* left attached by a failed step: detached */
     /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
      * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
      * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
@@ -209,8 +220,9 @@ static defsim_status contact_begin(defsim_world *w, double h)
                                              h > 0.0 ? w->step.v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
-    return defsim__terms_compile(&w->sys);
+    return DEFSIM_OK;
 }
+
 
 defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 {
@@ -236,7 +248,9 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
         memcpy(c->pos1, c->pos, sizeof c->pos);
         memcpy(c->rot1, c->rot, sizeof c->rot);
     }
-    const defsim_status st = contact_begin(w, 0.0);
+    const void *was = w->sys.contact;
+    defsim_status st = contact_begin(w, 0.0);
+    st = terms_follow(w, was, w->sys.body_contact, st);
     for (int32_t j = 0; j < w->colliders.ncol; ++j) {
         defsim__collider *c = &w->colliders.col[j];
         memcpy(c->pos1, keep + 7 * (int64_t)j, sizeof c->pos1);
@@ -246,7 +260,12 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
     return st;
 }
 
-void defsim__world_replay_contact_end(defsim_world *w) { w->sys.contact = NULL; }
+void defsim__world_replay_contact_end(defsim_world *w)
+{
+    const void *was = w->sys.contact;
+    w->sys.contact = NULL;
+    (void)terms_follow(w, was, w->sys.body_contact, DEFSIM_OK);
+}
 
 void *defsim__world_term_state(defsim_world *w, int kind)
 {
@@ -272,11 +291,8 @@ static defsim_status readback_reserve(defsim_world *w)
 
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the
  * contact forces for the host and the colliders' poses at the end of the step. */
-static defsim_status contact_end(defsim_world *w, defsim_status st)
+static defsim_status contact_end(defsim_world *w, defsim__contact *c, defsim_status st)
 {
-    defsim__contact *c = w->sys.contact;
-    w->sys.contact = NULL;
-    if (c && defsim__terms_compile(&w->sys) != DEFSIM_OK) st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
         if (st == DEFSIM_OK && w->contact.readback_set) {
             free(w->colliders.force);
@@ -337,10 +353,7 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
  * backends without contact CCD already). */
 static defsim_status body_begin(defsim_world *w, double h)
 {
-    if (w->sys.body_contact) {   /* left attached by a failed step: detach */
-        w->sys.body_contact = NULL;
-        (void)defsim__terms_compile(&w->sys);
-    }
+    w->sys.body_contact = NULL;   /* left attached by a failed step: detached */
     if (!w->set.body_contact) {
         w->step.body_contact_last = 0;
         return DEFSIM_OK;
@@ -354,17 +367,13 @@ static defsim_status body_begin(defsim_world *w, double h)
         w->contact.stat, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.body_contact = &w->body_contact;
-    return defsim__terms_compile(&w->sys);
+    return DEFSIM_OK;
 }
 
 /* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
  * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
-static defsim_status body_end(defsim_world *w, defsim_status st)
+static defsim_status body_end(defsim_world *w, defsim__body_contact *bc, defsim_status st)
 {
-    defsim__body_contact *bc = w->sys.body_contact;
-    w->sys.body_contact = NULL;
-    if (bc && defsim__terms_compile(&w->sys) != DEFSIM_OK && st == DEFSIM_OK)
-        st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!bc || st != DEFSIM_OK) return st;
     if (bc->failed) {
         defsim__error(w->msg, "out of memory for body contact pairs; state restored");
@@ -434,11 +443,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->stats.steps++;
         return DEFSIM_OK;
     }
-    if (defsim__options_take_reinit(&w->options)) {   /* an option changed */
-        defsim__world_backend_stop(w);
-        w->step.h_stable = 0.0;   /* the stability limit may depend on it */
-    }
-    if (!w->backend.ready && (st = defsim__world_backend_start(w)) != DEFSIM_OK) {
+    if ((st = defsim__world_backend_prepare(w)) != DEFSIM_OK) {
         w->stats.failed_steps++;
         return st;
     }
@@ -449,9 +454,11 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->msg->error[0] = '\0';
     const int substep = w->set.auto_substep &&
                         (w->backend.table->stable_step || w->backend.table->stable_step_options);
+    const void *was_contact = w->sys.contact, *was_body = w->sys.body_contact;
     st = step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
     if (st == DEFSIM_OK) st = body_begin(w, h);
+    st = terms_follow(w, was_contact, was_body, st);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -492,10 +499,14 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     st = defsim__coupling_step_end(&w->coupling, &w->sys, st);
     if (substep && st == DEFSIM_OK) w->step.since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
-    const int bodies = w->sys.body_contact != NULL, colliders = w->sys.contact != NULL;
-    st = body_end(w, st);
-    st = contact_end(w, st);
-    if (st == DEFSIM_OK && bodies) st = body_readback(w, colliders);
+    defsim__contact *c = w->sys.contact;
+    defsim__body_contact *bc = w->sys.body_contact;
+    w->sys.contact = NULL;
+    w->sys.body_contact = NULL;
+    st = terms_follow(w, c, bc, st);
+    st = body_end(w, bc, st);
+    st = contact_end(w, c, st);
+    if (st == DEFSIM_OK && bc) st = body_readback(w, c != NULL);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->step.x_save, bytes);
         memcpy(w->state.v, w->step.v_save, bytes);

@@ -207,6 +207,15 @@ defsim_status defsim__world_backend_start(defsim_world *w)
 
 void defsim__world_backend_stop(defsim_world *w) { backend_fini(w); }
 
+defsim_status defsim__world_backend_prepare(defsim_world *w)
+{
+    if (defsim__options_take_reinit(&w->options)) {   /* an option changed */
+        backend_fini(w);
+        w->step.h_stable = 0.0;   /* the stability limit may depend on it */
+    }
+    return w->backend.ready ? DEFSIM_OK : defsim__world_backend_start(w);
+}
+
 void defsim__world_unplan(defsim_world *w)
 {
     defsim__unplan(&w->sys, &w->work);

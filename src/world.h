@@ -94,6 +94,10 @@ defsim_status defsim__world_plan(defsim_world *w);
  * made, sets the world's error and returns the status. Stop finalises it (history dropped). */
 defsim_status defsim__world_backend_start(defsim_world *w);
 void defsim__world_backend_stop(defsim_world *w);
+/* The backend ready for a step: stopped first when an option changed since its init (with
+ * auto_substep's cached stable step, which may depend on it), started when it is not. Returns
+ * what start returns. */
+defsim_status defsim__world_backend_prepare(defsim_world *w);
 /* Drops the compiled system; the next step or query plans again. */
 void defsim__world_unplan(defsim_world *w);
 

@@ -67,8 +67,8 @@ static int run_hessian(const char *path, int rounds)
     int count[4] = {0, 0, 0, 0};
     for (int i = 0; i < n; ++i) {
         if (fread(&c[i].type, sizeof c[i].type, 1, f) != 1 ||
-            fread(&c[i].eps, sizeof c[i].eps, 1, f) != 1 || fread(c[i].x, sizeof c[i].x, 1, f) != 1 ||
-            c[i].type < 0 || c[i].type > 3) {
+            fread(&c[i].eps, sizeof c[i].eps, 1, f) != 1 ||
+            fread(c[i].x, sizeof c[i].x, 1, f) != 1 || c[i].type < 0 || c[i].type > 3) {
             fprintf(stderr, "%s: bad contact %d\n", path, i);
             free(c);
             fclose(f);

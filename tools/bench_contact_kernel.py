@@ -123,7 +123,8 @@ def hessian(args):
           f"less the call overhead ({1e9 * to / n:.0f} ns): {1e9 * (te - to) / n:.0f} ns/contact")
     print(f"cloth {args.cells}x{args.cells} cells, dhat {dhat:.4g}: {n} contacts "
           f"(VV {counts[0]}, EV {counts[1]}, FV {counts[2]}, EE {counts[3]}) -> {args.out}")
-    print(f"ipctk {ipctk.__version__} whole-set Hessian, 1 thread, CPU time, median of {args.rounds}: "
+    print(f"ipctk {ipctk.__version__} whole-set Hessian, 1 thread, CPU time, "
+          f"median of {args.rounds}: "
           f"with CLAMP {1e3 * tc:.3f} ms = {1e9 * tc / n:.0f} ns/contact; "
           f"without projection {1e3 * tn:.3f} ms = {1e9 * tn / n:.0f} ns/contact")
 

@@ -109,7 +109,8 @@ static int check_one(int type, const double *X0, double dh, double eps, worst *w
     double Href[144];
     reference_hessian(type, X, dh, kap, eps, Href);
     for (int i = 0; i < nd; ++i)
-        for (int j = 0; j < i; ++j) Hfd[i * nd + j] = Hfd[j * nd + i] = 0.5 * (Hfd[i * nd + j] + Hfd[j * nd + i]);
+        for (int j = 0; j < i; ++j)
+            Hfd[i * nd + j] = Hfd[j * nd + i] = 0.5 * (Hfd[i * nd + j] + Hfd[j * nd + i]);
     double efd = 0.0;
     for (int i = 0; i < nd * nd; ++i) efd = fmax(efd, fabs(Hfd[i] - Href[i]));
     w->fd = fmax(w->fd, efd / max_abs(Href, nd * nd));

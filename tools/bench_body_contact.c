@@ -22,7 +22,8 @@
  * Scaling (issue 30): --cells-list 12,16,24 runs each size in turn (same physical cloth; d_hat
  * follows the world's length scale as in every run) and --fit adds the exponent p of a least
  * squares fit of log(ms/step) = p log(vertices) + c over the sizes (and the same for ms per
- * Newton iteration).
+ * Newton iteration); a size that fails is reported in the table and left out of the fit, and
+ * the run exits 1.
  *
  * --check tests, after every step, every pair of surface primitives of the bodies that share no
  * vertex (whatever self_contact and collision groups say: a scene that lets surfaces pass
@@ -499,10 +500,18 @@ int main(int argc, char **argv)
     int status = 0;
     for (char *b = strtok_r(backends, ",", &save); b; b = strtok_r(NULL, ",", &save)) {
         double nvs[32], ms[32], msi[32];
+        int nfit = 0;
         for (int z = 0; z < nsizes; ++z) {
             result r[99];
-            for (int k = 0; k < repeat; ++k)
-                if (run(path, b, sizes[z], threads, &r[k]) != 0) return 1;
+            int ok = 1;
+            for (int k = 0; k < repeat && ok; ++k) ok = run(path, b, sizes[z], threads, &r[k]) == 0;
+            if (!ok) {
+                /* a size that fails (message above) is reported and left out of the fit */
+                printf("| %s | %d x %d | failed (see the message) |\n", b, sizes[z], sizes[z]);
+                fflush(stdout);
+                status = 1;
+                continue;
+            }
             qsort(r, (size_t)repeat, sizeof *r, by_ms);
             const result *m = &r[repeat / 2];
             char cl[32] = "scene's";
@@ -513,9 +522,9 @@ int main(int argc, char **argv)
                    m->broad + m->ccd + m->eval, m->growths, m->candidates, m->active, m->min_d,
                    m->kinetic, check ? "" : "(off) ", m->exact_tests);
             fflush(stdout);
-            nvs[z] = m->nv;
-            ms[z] = m->ms_step;
-            msi[z] = m->ms_it;
+            nvs[nfit] = m->nv;
+            ms[nfit] = m->ms_step;
+            msi[nfit++] = m->ms_it;
             for (int k = 0; k < repeat; ++k)
                 if (rest >= 0.0 && !(r[k].kinetic <= rest)) {
                     fprintf(stderr, "--rest: kinetic energy %g J at the end, above %g J\n",
@@ -523,10 +532,10 @@ int main(int argc, char **argv)
                     status = 1;
                 }
         }
-        if (fit && nsizes >= 2)
+        if (fit && nfit >= 2)
             printf("\n%s: least squares on log-log over %d sizes: ms/step ~ vertices^%.2f, "
-                   "ms/iteration ~ vertices^%.2f\n\n", b, nsizes, loglog_slope(nvs, ms, nsizes),
-                   loglog_slope(nvs, msi, nsizes));
+                   "ms/iteration ~ vertices^%.2f\n\n", b, nfit, loglog_slope(nvs, ms, nfit),
+                   loglog_slope(nvs, msi, nfit));
     }
     return status;
 }

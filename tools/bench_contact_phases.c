@@ -25,19 +25,19 @@
  * The second form builds the world of DIR/run.txt again, steps it once (the plan), loads x_K and
  * v_K and times, one thread, process CPU time, median of R rounds (default 5) of an inner loop of
  * at least 2 ms (as ipc_probe.py does):
- *  - cand: the broad phase for the barrier (defsim__body_contact_begin with its reuse of the last
- *    candidates defeated: balls, spatial hash, the candidate filter, start distances);
- *  - collisions_from_cand: building the constraint set from the candidates (not separate in
- *    this engine yet: null);
- *  - energy, gradient (the forces), hessian_psd (every pair's PSD-projected Hessian handed to a
- *    callback that copies it into a triplet buffer: no global assembly) at x_K;
- *  - ccd_accd_narrow: defsim__body_contact_max_step along x_K -> x_K+1 on the step's candidates;
- *    ccd_accd_full: the broad phase and that CCD (which grows the balls and pairs again when
- *    x_K+1 leaves them);
+ *  - cand: the broad phase for the barrier (defsim__body_contact_candidates at x_K);
+ *  - collisions_from_cand: the constraint set from those candidates (defsim__body_contact_build:
+ *    contacts merged into vertex-vertex, edge-vertex, face-vertex, edge-edge);
+ *  - energy, gradient (the forces), hessian_psd (every contact's PSD-projected Hessian handed to
+ *    a callback that copies it into a triplet buffer: no global assembly) at x_K, on that set
+ *    (as ipctk's potentials take a built collision set);
+ *  - ccd_accd_narrow: defsim__body_contact_max_step along x_K -> x_K+1 on candidates that cover
+ *    the swept boxes (it also builds the constraint set at the step's end, as in a solve);
+ *    ccd_accd_full: the same with its swept broad phase run first;
  * with friction off (a barrier alone, as ipctk's BarrierPotential), and prints one JSON line with
- * the same keys as ipc_probe's where the phase is the same: counts (candidates by kind,
- * collisions within dhat by kind, unmerged: a vertex-triangle pair counts as fv whatever its
- * closest feature), alpha_accd, and peak_rss_mb (getrusage ru_maxrss of the whole process).
+ * the same keys as ipc_probe's where the phase is the same: counts (candidates by kind, the
+ * constraint set's contacts by type, and the candidates within dhat before merging),
+ * alpha_accd, and peak_rss_mb (getrusage ru_maxrss of the whole process).
  *
  * Internal functions: links the static library. A tool, not a test.
  */
@@ -203,6 +203,20 @@ static void phase_begin(phase_ctx *c)
     c->bc->npend = 0;
 }
 
+/* The barrier's broad phase at x. */
+static void phase_cand(phase_ctx *c)
+{
+    const defsim_status st = defsim__body_contact_candidates(c->bc, c->x);
+    if (st != DEFSIM_OK) c->st = st;
+}
+
+/* The constraint set at x from the candidates. */
+static void phase_build(phase_ctx *c)
+{
+    const defsim_status st = defsim__body_contact_build(c->bc, c->x);
+    if (st != DEFSIM_OK) c->st = st;
+}
+
 static void phase_energy(phase_ctx *c)
 {
     c->sink += defsim__body_contact_energy(c->bc, c->x);
@@ -245,7 +259,7 @@ static void phase_ccd(phase_ctx *c)
 
 static void phase_ccd_full(phase_ctx *c)
 {
-    phase_begin(c);
+    c->bc->have_pairs = 0;
     phase_ccd(c);
 }
 
@@ -343,15 +357,21 @@ static int time_state(const char *dir, int step, int repeat)
     }
     defsim__body_contact *bc = c.bc;
     int64_t cand[3], near[3];
-    count_pairs(bc, x, cand, near);
+    if (defsim__body_contact_candidates(bc, x) != DEFSIM_OK) return -1;
     c.cap_trip = (int64_t)bc->npair * (144 + 4) + 1;
     c.trip = malloc((size_t)c.cap_trip * sizeof *c.trip);
     if (!c.trip) return -1;
-    const double t_cand = time_phase(&c, phase_begin, repeat);
+    const double t_cand = time_phase(&c, phase_cand, repeat);
+    count_pairs(bc, x, cand, near);
+    const double t_build = time_phase(&c, phase_build, repeat);
+    const int64_t ncon = bc->ncon;
+    int64_t ctype[4];
+    for (int k = 0; k < 4; ++k) ctype[k] = bc->ncon_type[k];
     const double t_energy = time_phase(&c, phase_energy, repeat);
     const double t_grad = time_phase(&c, phase_gradient, repeat);
     const double t_hess = time_phase(&c, phase_hessian, repeat);
     const double energy = defsim__body_contact_energy(bc, x);
+    c.bc->have_pairs = 0;
     const double alpha = defsim__body_contact_max_step(bc, x, dx);
     bc->npend = 0;
     const int64_t ccd_cand = bc->npair;
@@ -364,16 +384,19 @@ static int time_state(const char *dir, int step, int repeat)
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     printf("{\"tool\": \"defsim\", \"nv\": %d, \"cells\": %d, \"step\": %d, \"threads\": 1, "
-           "\"dhat\": %.6g, \"cand\": %.6g, \"collisions_from_cand\": null, \"energy\": %.6g, "
+           "\"dhat\": %.6g, \"cand\": %.6g, \"collisions_from_cand\": %.6g, \"energy\": %.6g, "
            "\"gradient\": %.6g, \"hessian_psd\": %.6g, \"ccd_accd_full\": %.6g, "
            "\"ccd_accd_narrow\": %.6g, \"alpha_accd\": %.6g, \"candidates\": %lld, "
            "\"candidates_fv_ee_ev\": [%lld, %lld, %lld], \"collisions\": %lld, "
-           "\"vv_ev_ee_fv\": [0, %lld, %lld, %lld], \"ccd_candidates\": %lld, "
+           "\"vv_ev_ee_fv\": [%lld, %lld, %lld, %lld], \"pairs_within_dhat\": %lld, "
+           "\"ccd_candidates\": %lld, "
            "\"energy_J\": %.9g, \"peak_rss_mb\": %.1f, \"repeat\": %d}\n",
-           (int)w->nv, ri.cells, step, bc->dhat, t_cand, t_energy, t_grad, t_hess, t_ccd_full,
-           t_ccd, alpha, (long long)(cand[0] + cand[1] + cand[2]), (long long)cand[0],
-           (long long)cand[1], (long long)cand[2], (long long)(near[0] + near[1] + near[2]),
-           (long long)near[2], (long long)near[1], (long long)near[0], (long long)ccd_cand,
+           (int)w->nv, ri.cells, step, bc->dhat, t_cand, t_build, t_energy, t_grad, t_hess,
+           t_ccd_full, t_ccd, alpha, (long long)(cand[0] + cand[1] + cand[2]),
+           (long long)cand[0], (long long)cand[1], (long long)cand[2], (long long)ncon,
+           (long long)ctype[DEFSIM__C_VV], (long long)ctype[DEFSIM__C_EV],
+           (long long)ctype[DEFSIM__C_EE], (long long)ctype[DEFSIM__C_FV],
+           (long long)(near[0] + near[1] + near[2]), (long long)ccd_cand,
            energy, (double)ru.ru_maxrss / 1024.0, repeat);
     fflush(stdout);
     free(c.trip);

@@ -79,10 +79,16 @@ int defsim__terms_counter(const defsim__system *s, const char *name, double *val
         if (!kinds[k]->counter || strncmp(name, kinds[k]->name, n) != 0 || name[n] != '.')
             continue;
         /* the kind's counters live in its cache, which outlives its term */
-        const defsim__term t = {kinds[k], s, NULL, (defsim__term_cache *)&s->cache[k], 0};
+        const defsim__term t = defsim__terms_detached(s, k, NULL);
         return kinds[k]->counter(&t, name + n + 1, value);
     }
     return 0;
+}
+
+defsim__term defsim__terms_detached(const defsim__system *s, int kind, void *data)
+{
+    /* the cache belongs to the system, which is const to its readers but not to a kind's ops */
+    return (defsim__term){kinds[kind], s, data, (defsim__term_cache *)&s->cache[kind], 0};
 }
 
 const defsim__term *defsim__terms_find(const defsim__system *s, int kind)

@@ -24,6 +24,10 @@ void defsim__terms_step_end(const defsim__system *s);
  * now; 1 if found. */
 int defsim__terms_counter(const defsim__system *s, const char *name, double *value);
 
+/* A term of kind `kind` outside the list, over s with mutable data `data` (NULL for kinds that
+ * have none): what counters and checkpoints call a kind's ops with. */
+defsim__term defsim__terms_detached(const defsim__system *s, int kind, void *data);
+
 /* The first term of a kind, or NULL. */
 const defsim__term *defsim__terms_find(const defsim__system *s, int kind);
 

@@ -5,7 +5,9 @@
 #include "host.h"
 
 #include "assembly.h"
+#include "body_contact.h"
 #include "clock.h"
+#include "contact.h"
 #include "energy.h"
 #include "forces.h"
 #include "mat3.h"
@@ -226,6 +228,24 @@ static uint64_t matrix_pattern_version(defsim_system *s)
     return s->sys->pattern.version;
 }
 
+/* Contact at the latest Hessian: only contact kinds fill a linearisation cache, so a valid cache
+ * that holds a non-zero block is a contact constraint active there. Reads the caches and the
+ * contact states' dhat; evaluates nothing. */
+static double contact_active_dhat(defsim_system *s)
+{
+    const defsim__system *sys = s->sys;
+    int active = 0;
+    for (int32_t k = 0; k < sys->nterms; ++k) {
+        const defsim__term_cache *c = sys->terms[k].cache;
+        if (c && c->valid && c->any) active = 1;
+    }
+    if (!active) return 0.0;
+    double dhat = INFINITY;
+    if (sys->contact && sys->contact->mode == DEFSIM__CONTACT_BARRIER) dhat = sys->contact->dhat;
+    if (sys->body_contact && sys->body_contact->active) dhat = fmin(dhat, sys->body_contact->dhat);
+    return isfinite(dhat) && dhat > 0.0 ? dhat : 0.0;
+}
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -267,4 +287,5 @@ const defsim_host defsim__host = {
     .contact_start = contact_start,
     .matrix_pattern_version = matrix_pattern_version,
     .option_is_set = option_is_set,
+    .contact_active_dhat = contact_active_dhat,
 };

@@ -133,6 +133,7 @@ static void omp_restore(omp_saved saved)
 typedef struct ic_solver {
     defsim__ic_solver pub;     /* what schemes see; first, so the pointers convert */
     double tolerance;          /* relative (options) */
+    double contact_tolerance;  /* relative to dhat; 0: contact steps stop as the others */
     int max_iterations;
     int stiffness_damping;
     double gravity[3];
@@ -143,6 +144,7 @@ typedef struct ic_solver {
     int coupled;               /* the host has the coupling services (pin_positions, ...) */
     int contact;               /* the host has the contact services (ABI 5) */
     int versioned;             /* the host has matrix_pattern_version (ABI 6) */
+    int contact_scaled;        /* the host has contact_active_dhat (ABI 8) */
     uint64_t pattern_version;  /* of the pattern in pat (and the analysis in L) */
     int64_t analyses;          /* symbolic analyses since init */
     double *dxf;               /* the Newton update over all DOFs (contact_max_step) */
@@ -187,7 +189,10 @@ static double *alloc_doubles(const defsim_host *host, int64_t n)
 /* Options ("<backend>.<name>"), the same for every scheme. "projection" is read by the core's
  * matrix assembly itself; the others here, at init. */
 
-enum { OPT_TOLERANCE, OPT_MAX_ITERATIONS, OPT_PROJECTION, OPT_ORDERING, OPT_FACTOR, OPT_COUNT };
+enum {
+    OPT_TOLERANCE, OPT_MAX_ITERATIONS, OPT_PROJECTION, OPT_ORDERING, OPT_FACTOR,
+    OPT_CONTACT_TOLERANCE, OPT_COUNT
+};
 static const char ORDERINGS[] = "best|amd|metis", FACTORS[] = "auto|supernodal|simplicial";
 
 static const defsim_option_spec ic_options[OPT_COUNT] = {
@@ -211,11 +216,21 @@ static const defsim_option_spec ic_options[OPT_COUNT] = {
     [OPT_FACTOR] = {.name = "cholmod_factor", .type = DEFSIM_OPTION_CHOICE, .choices = FACTORS,
         .doc = "factorisation: auto (CHOLMOD's choice), supernodal or simplicial; the "
                "environment variable DEFSIM_CHOLMOD_FACTOR gives the default"},
+    [OPT_CONTACT_TOLERANCE] = {.name = "contact_tolerance", .type = DEFSIM_OPTION_REAL,
+        .default_value = 1e-2, .min_value = 0.0, .max_value = 1.0,
+        .doc = "with barrier contact active, Newton also stops once the update and the updates "
+               "its contraction predicts are within tc = max(tolerance x L, contact_tolerance x "
+               "dhat), the full update is collision-free and each DOF's residual is below "
+               "c_m m tc / h^2 or contact_tolerance x the forces it balances: a step then "
+               "keeps at most about tc of position error; relative to dhat, in [0, 1]; 0: the "
+               "old stop"},
 };
 
 static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
     {"shifted_factorisations", "Newton iterations whose Hessian needed a diagonal shift to be "
                                "positive definite (only with projection none)"},
+    {"contact_stops", "steps that the contact stop ended (contact_tolerance) before the update "
+                      "came within tolerance x L"},
 };
 
 /* The index of `name` in the '|'-separated `choices`, or -1. */
@@ -281,6 +296,7 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->stiffness_damping = host->has_stiffness_damping(sys);
     const double *opt = host->option_values(sys);
     s->tolerance = opt[OPT_TOLERANCE];
+    s->contact_tolerance = opt[OPT_CONTACT_TOLERANCE];
     s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
     p->counters = host->counters(sys);
     memcpy(s->gravity, host->options(sys)->gravity, sizeof s->gravity);
@@ -317,6 +333,8 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->contact = host->size >= offsetof(defsim_host, contact_start) + sizeof host->contact_start;
     s->versioned = host->size >= offsetof(defsim_host, matrix_pattern_version) +
                                      sizeof host->matrix_pattern_version;
+    s->contact_scaled = host->size >= offsetof(defsim_host, contact_active_dhat) +
+                                          sizeof host->contact_active_dhat;
     if (s->contact) {
         s->dxf = alloc_doubles(host, p->ndof);
         if (!s->dxf) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -693,6 +711,42 @@ static defsim_status pin_damping(ic_solver *s, const defsim__ic_targets *stp,
     return host->forces(sys, p->xb, s->dpin, DEFSIM_FORCE_DAMPING, s->fpd);
 }
 
+/* The contact stop (README.md, "Newton's method", 5): with barrier contact active at x (dhat > 0
+ * from the host), the iteration has converged when, with tc = max(tol, contact_tolerance dhat),
+ *  - the update moves no free DOF by more than tc, and the full update is collision-free;
+ *  - the updates still to come, estimated from the contraction rho = |dx|_inf / |dx_prev|_inf of
+ *    the last full step as |dx|_inf rho / (1 - rho) (a geometric tail), stay within tc;
+ *  - every DOF's residual grad_i is small: below the force that would move it by tc against
+ *    its inertia alone (c_m m_i tc / h^2), or below contact_tolerance times the forces it
+ *    balances (|inertia_i| + |f_i| + |damping_i|: the equation of motion holds to that fraction
+ *    of its terms, which a stiff barrier's force makes large where its stiffness makes dx tiny).
+ * dx_prev is the previous iteration's |dx|_inf when that update was taken whole, else 0 (no
+ * contraction known: no contact stop). Reads grad, f and the displacement e at x (what gradient
+ * left there) and dx; changes nothing. */
+static int contact_converged(const ic_solver *s, const defsim__ic_targets *st, const double *x,
+                             double h, double dhat, double tol, double dxmax, double dx_prev,
+                             double alpha_max)
+{
+    const defsim__ic_solver *p = &s->pub;
+    if (!(s->contact_tolerance > 0.0 && dhat > 0.0 && alpha_max >= 1.0 && dx_prev > 0.0))
+        return 0;
+    const double tc = fmax(tol, s->contact_tolerance * dhat);
+    const double rho = dxmax / dx_prev;
+    if (!(dxmax <= tc && rho < 1.0 && dxmax * rho <= tc * (1.0 - rho))) return 0;
+    const double ih2 = st->cm / (h * h), ih = st->cd / h;
+    for (int64_t k = 0; k < p->n; ++k) {
+        const int64_t i = p->fdof[k];
+        const double r = fabs(s->grad[k]);
+        if (r <= ih2 * p->mass[i] * tc) continue;
+        double damping = p->alpha[i] * p->mass[i] * p->e[k] + (p->bval ? p->be[k] : 0.0);
+        if (s->fpd_on) damping -= s->fpd[i];
+        const double terms = fabs(ih2 * p->mass[i] * (x[i] - st->y[i])) + fabs(p->f[i]) +
+                             fabs(ih * damping);
+        if (!(r <= s->contact_tolerance * terms)) return 0;
+    }
+    return 1;
+}
+
 /* The Newton loop on g from the scheme's guess; on success x holds the minimiser. */
 static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const defsim_host *host,
                               defsim_system *sys, double h)
@@ -725,6 +779,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     memcpy(s->xt, s->x, bytes);
 
     const double tol = s->tolerance * host->length_scale(sys);
+    double dx_prev = 0.0;   /* |dx|_inf of the previous update if it was taken whole, else 0 */
     char msg[200];
     for (int it = 1; it <= s->max_iterations; ++it) {
         stats->newton_iterations++;
@@ -764,6 +819,14 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
             for (int64_t k = 0; k < p->n; ++k) s->x[p->fdof[k]] += alpha_max * s->dx[k];
             return DEFSIM_OK;
         }
+        /* With contact active, the stop on contact's scale (contact_converged). */
+        const double dhat = s->contact_scaled && s->contact_tolerance > 0.0
+                                ? host->contact_active_dhat(sys) : 0.0;
+        if (contact_converged(s, stp, s->x, h, dhat, tol, dxmax, dx_prev, alpha_max)) {
+            for (int64_t k = 0; k < p->n; ++k) s->x[p->fdof[k]] += s->dx[k];
+            p->counters[DEFSIM__IC_CONTACT_STOPS] += 1.0;
+            return DEFSIM_OK;
+        }
 
         /* Backtracking line search: Armijo decrease of g from the largest feasible step. A full
          * step whose predicted decrease is below g's resolution is taken if g does not rise
@@ -794,6 +857,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         memcpy(s->x, s->xt, bytes);
         gx = gt;
         scale = tscale;
+        dx_prev = alpha == 1.0 ? dxmax : 0.0;
     }
     snprintf(msg, sizeof msg, "no convergence in %d Newton iterations (tolerance %.3g m)",
              s->max_iterations, tol);

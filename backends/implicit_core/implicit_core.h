@@ -49,7 +49,7 @@ typedef struct defsim__ic_scheme {
 } defsim__ic_scheme;
 
 /* The core's counters; a scheme's come after them in the backend's table. */
-enum { DEFSIM__IC_SHIFTED = 0, DEFSIM__IC_COUNTERS = 1 };
+enum { DEFSIM__IC_SHIFTED = 0, DEFSIM__IC_CONTACT_STOPS = 1, DEFSIM__IC_COUNTERS = 2 };
 #define DEFSIM__IC_MAX_SCHEME_COUNTERS 4
 
 /* The per-world solver as schemes see it (the core's struct begins with it). */

@@ -30,9 +30,10 @@ extern "C" {
 /// defsim_backend.save_state and load_state (checkpoints, with defsim_state_writer and
 /// defsim_state_reader), the contact services (defsim_host.contact_max_step, contact_start) and
 /// DEFSIM_BACKEND_CONTACT_CCD; version 6 defsim_host.matrix_pattern_version (body contact grows
-/// the pattern). The core accepts backends built against 1 to 6 (a table's struct_size says
-/// which fields it has); a backend checks host->size before using a later field.
-#define DEFSIM_BACKEND_ABI_VERSION 7u
+/// the pattern); version 7 defsim_host.option_is_set; version 8 defsim_host.contact_active_dhat
+/// (a Newton stop on contact's scale). The core accepts backends built against 1 to 8 (a table's
+/// struct_size says which fields it has); a backend checks host->size before using a later field.
+#define DEFSIM_BACKEND_ABI_VERSION 8u
 
 /// Name of the one symbol a module exports.
 #define DEFSIM_MODULE_ENTRY "defsim_module_init"
@@ -267,6 +268,16 @@ typedef struct defsim_host {
     /// whose environment variable gives an option's default (DEFSIM_CHOLMOD_ORDERING) reads
     /// the variable only when this is 0: an option the host set wins.
     int32_t (*option_is_set)(const defsim_system *sys, int32_t index);
+
+    /* ABI version 8 */
+
+    /// Barrier contact at the positions of the latest matrix_values call (a Newton iteration's
+    /// Hessian): the activation distance dhat (m) of the world's contact when some
+    /// contact constraint contributed a block there (a pair within dhat, or lagged friction of a
+    /// pair that was within dhat at the step's start), else 0 (no contact active, no contact in
+    /// the world, or a backend without DEFSIM_BACKEND_CONTACT_CCD). Reads what that call cached:
+    /// changes nothing, evaluates nothing. For a Newton stop on contact's scale (docs/contact.md).
+    double (*contact_active_dhat)(defsim_system *sys);
 } defsim_host;
 
 /// Capability flags of a backend.

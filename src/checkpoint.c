@@ -148,16 +148,7 @@ static void write_world(bw *b, const defsim_world *w)
     put_str(b, w->backend_name);
     put_f64s(b, d->gravity, 3);
     put_i32(b, w->nthreads);   /* resolved: the same bits need the same thread count */
-    put_f64(b, d->tolerance);
-    put_i32(b, d->max_iterations);
-    put_f64(b, d->rtol);
-    put_f64(b, d->atol);
-    put_i32(b, (int32_t)d->projection);
-    put_i32(b, d->max_order);
-    put_i32(b, d->max_internal_steps);
-    put_i32(b, d->auto_substep);
-    put_f64(b, d->substep_safety);
-    chunk_end(b, c);
+    chunk_end(b, c);   /* the settings are options: the OPTS chunk holds them by name */
 
     c = chunk_begin(b, "OPTS");
     const int32_t n = defsim__options_count(&w->options);
@@ -715,19 +706,31 @@ static defsim_status load_world(const chunk *c, defsim_log_fn log, void *log_use
     d.backend = backend;
     get_f64s(&r, d.gravity, 3);
     d.num_threads = get_i32(&r);
-    d.tolerance = get_f64(&r);
-    d.max_iterations = get_i32(&r);
-    d.rtol = get_f64(&r);
-    d.atol = get_f64(&r);
-    d.projection = (defsim_projection)get_i32(&r);
-    d.max_order = get_i32(&r);
-    d.max_internal_steps = get_i32(&r);
-    d.auto_substep = get_i32(&r);
-    d.substep_safety = get_f64(&r);
+    /* Files written before the world def lost its nine backend settings carry them here:
+     * tolerance, max_iterations, rtol, atol, projection, ... At creation they set the options
+     * of the same names, which the OPTS chunk holds, except the projection of a backend that
+     * had no such option then (sundials_ida, sundials_kinsol): set it here where it has one. */
+    int32_t projection = DEFSIM_PROJECTION_CLAMP;
+    if (!r.bad && r.n - r.at == 4 * sizeof(double) + 5 * sizeof(int32_t)) {
+        r.at += 3 * sizeof(double) + sizeof(int32_t);
+        projection = get_i32(&r);
+        r.at = r.n;
+    }
     if (r.bad || r.at != r.n) return malformed(c, "wrong length");
     d.log = log;
     d.log_user = log_user;
-    return defsim_world_create(&d, out);
+    defsim_status st = defsim_world_create(&d, out);
+    if (st != DEFSIM_OK || projection == DEFSIM_PROJECTION_CLAMP) return st;
+    char name[80];
+    snprintf(name, sizeof name, "%s.projection", backend);
+    double now;
+    if (defsim_world_get_option(*out, name, &now) == DEFSIM_OK &&
+        (st = defsim_world_set_option_number(*out, name, projection)) != DEFSIM_OK) {
+        st = world_failed(*out, st, "projection");
+        defsim_world_destroy(*out);
+        *out = NULL;
+    }
+    return st;
 }
 
 static defsim_status load_options(defsim_world *w, const chunk *c)

@@ -57,9 +57,9 @@ int main(int argc, char **argv)
         s.def.backend = "sundials_ida";
         snprintf(s.backend, sizeof s.backend, "sundials_ida");
         s.def.num_threads = 1;
-        s.def.rtol = tol;
-        s.def.atol = tol * size;
-        s.def.max_internal_steps = 10000000;
+        scene_setting(&s, SCENE_RTOL, tol);
+        scene_setting(&s, SCENE_ATOL, tol * size);
+        scene_setting(&s, SCENE_MAX_INTERNAL_STEPS, 10000000);
         defsim_world *w = NULL;
         if (scene_build(&s, &w) != DEFSIM_OK) {
             fprintf(stderr, "defsim-bench-ida: %s\n", s.error);

@@ -73,13 +73,16 @@ int main(int argc, char **argv)
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
     wd.num_threads = threads;
-    wd.tolerance = tol;
-    wd.max_iterations = max_it;
-    wd.projection = projection;
     if (verbose) wd.log = print_log;
     defsim_world *w;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_last_error());
+        return 1;
+    }
+    if (bench_backend_option(w, backend, "tolerance", tol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "max_iterations", max_it) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "projection", projection) != DEFSIM_OK) {
+        fprintf(stderr, "%s\n", defsim_world_last_error(w));
         return 1;
     }
     defsim_mesh m;

@@ -116,12 +116,16 @@ int main(int argc, char **argv)
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
     wd.num_threads = (int32_t)threads;
-    wd.rtol = rtol;
-    wd.atol = atol;
-    wd.max_internal_steps = 10000000;
     defsim_world *w = NULL;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
         fprintf(stderr, "defsim-reference: %s\n", defsim_last_error());
+        return 1;
+    }
+    if (bench_backend_option(w, backend, "rtol", rtol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "atol", atol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "max_internal_steps", 10000000) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
+        defsim_world_destroy(w);
         return 1;
     }
     defsim_mesh m = {.size = sizeof m};

@@ -283,7 +283,7 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->tolerance = opt[OPT_TOLERANCE];
     s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
     p->counters = host->counters(sys);
-    memcpy(s->gravity, host->options(sys)->gravity, sizeof s->gravity);
+    host->gravity(sys, s->gravity);
     p->x0 = alloc_doubles(host, p->ndof);
     p->v0 = alloc_doubles(host, p->ndof);
     p->y = alloc_doubles(host, p->ndof);
@@ -842,13 +842,13 @@ static defsim_counter_spec ic_counters[DEFSIM__IC_COUNTERS + DEFSIM__IC_MAX_SCHE
 
 /// Module entry point (DEFSIM_MODULE_ENTRY): hands the core this module's backend table (its
 /// scheme's name, flags and counters; the core's options). Returns
-/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 2.
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 8 (gravity).
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
     const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
-    if (!host || !out || host->abi_version < 2 ||
-        host->size < offsetof(defsim_host, counters) + sizeof host->counters ||
+    if (!host || !out || host->abi_version < 8 ||
+        host->size < offsetof(defsim_host, option_is_set) + sizeof host->option_is_set ||
         scheme->counter_count > DEFSIM__IC_MAX_SCHEME_COUNTERS)
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     memcpy(ic_counters, ic_core_counters, sizeof ic_core_counters);

@@ -98,7 +98,7 @@ void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, d
 defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
                                  const defsim_backend *backend)
 {
-    if (!out || !host || host->abi_version < 2 ||
+    if (!out || !host || host->abi_version < 8 ||
         host->size < offsetof(defsim_host, omega_max) + sizeof host->omega_max)
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     *out = backend;

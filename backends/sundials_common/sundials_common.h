@@ -100,8 +100,9 @@ void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
 double *defsim__sun_counters(const defsim_host *host, defsim_system *sys);
 void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
 
-/* The body of each module's entry point: hands out `backend` if the host is of ABI version 2
- * with every service the SUNDIALS modules use (options, counters, omega_max). */
+/* The body of each module's entry point: hands out `backend` if the host is of ABI version 8
+ * (version 8 broke the table) with every service the SUNDIALS modules use (options, counters,
+ * omega_max). */
 defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
                                  const defsim_backend *backend);
 

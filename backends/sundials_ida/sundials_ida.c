@@ -67,7 +67,7 @@
 #define IDA_SUPERNODAL_FLOPS 1e8
 
 /* Options, in the order of ida_options. */
-enum { O_RTOL, O_ATOL, O_MAX_ORDER, O_MAX_STEPS, O_LINEAR_SOLVER, O_DELTA_CJ, O_COUNT };
+enum { O_RTOL, O_ATOL, O_MAX_ORDER, O_MAX_STEPS, O_LINEAR_SOLVER, O_DELTA_CJ, O_PROJECTION, O_COUNT };
 enum { LS_CHOLMOD = 0, LS_KLU = 1 };
 
 #ifdef DEFSIM_IDA_CHOLMOD
@@ -95,6 +95,10 @@ static const defsim_option_spec ida_options[O_COUNT] = {
     {"delta_cj", DEFSIM_OPTION_REAL, 0.5, 0.01, 0.99, NULL,
      "relative change of IDA's cj (1 / step size scale) that triggers a new Newton matrix "
      "(IDASetDeltaCjLSetup); larger: fewer factorisations, more Newton iterations"},
+    /* Read by the core: the projection its matrix services apply (backend.h). */
+    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
+     "element Hessians in the Newton matrix: exact (none), or made positive semi-definite "
+     "(clamp: negative eigenvalues to 0, abs: to their absolute value)"},
 };
 
 /* Counters, in the order of ida_counters. */

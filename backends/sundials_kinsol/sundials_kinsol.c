@@ -35,7 +35,7 @@
 #include <string.h>
 
 /* Options, in the order of kin_options. */
-enum { O_TOLERANCE, O_MAX_ITERATIONS, O_COUNT };
+enum { O_TOLERANCE, O_MAX_ITERATIONS, O_PROJECTION, O_COUNT };
 
 static const defsim_option_spec kin_options[O_COUNT] = {
     /* Relative: below 1e-14 the rounding of the positions exceeds it (as rtol's bound). */
@@ -43,6 +43,10 @@ static const defsim_option_spec kin_options[O_COUNT] = {
      "scaled residual: position error relative to the scene size, in [1e-14, 1]"},
     {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
      "Newton iterations per solve (from y, then from x_n)"},
+    /* Read by the core: the projection its matrix services apply (backend.h). */
+    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
+     "element Hessians in the Newton matrix: exact (none), or made positive semi-definite "
+     "(clamp: negative eigenvalues to 0, abs: to their absolute value)"},
 };
 
 /* Counters, in the order of kin_counters. */

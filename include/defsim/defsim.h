@@ -140,7 +140,9 @@ DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, c
 
 typedef struct defsim_world defsim_world;
 
-/// How implicit backends make element Hessians positive semi-definite before assembly.
+/// How implicit backends make element Hessians positive semi-definite before assembly: the
+/// values of a backend's CHOICE option "projection" ("none|clamp|abs", e.g.
+/// "newton_cholmod.projection"). A backend without that option gets DEFSIM_PROJECTION_CLAMP.
 typedef enum defsim_projection {
     DEFSIM_PROJECTION_NONE = 0,     ///< Exact Hessians (may be indefinite).
     DEFSIM_PROJECTION_CLAMP = 1,    ///< Negative eigenvalues of each element Hessian set to 0.
@@ -151,12 +153,9 @@ typedef enum defsim_projection {
 typedef void (*defsim_log_fn)(void *user, int level, const char *message);
 
 /// Creation parameters of a world. Fill with defsim_world_def_init, then change what you need.
-/// The fields after num_threads (tolerance ... substep_safety, except log and log_user) are
-/// deprecated: they keep working in this major version, but options by name
-/// (defsim_world_set_option) replace them. At creation each deprecated field that differs from
-/// its default sets the option of the same name of the world's backend ("<backend>.rtol") or
-/// of the core ("core.auto_substep", "core.substep_safety"), where one exists; a field with no
-/// such option is ignored. Options set after creation win.
+/// It holds only what every backend shares; the settings of one backend (tolerances, iteration
+/// limits, projection, ...) and of the core (auto_substep, the watchdog, contact) are options
+/// by name (defsim_world_set_option, docs/api.md).
 typedef struct defsim_world_def {
     uint32_t size;             ///< sizeof(defsim_world_def), set by defsim_world_def_init.
     const char *backend;       ///< Integrator: "explicit_euler", "symplectic_euler" (built in),
@@ -165,28 +164,8 @@ typedef struct defsim_world_def {
                                ///< Default "symplectic_euler".
     double gravity[3];         ///< m/s^2. Default (0, -9.81, 0).
     int32_t num_threads;       ///< Threads for force and Hessian assembly; 0: OpenMP's default.
-    double tolerance;          ///< Deprecated ("<backend>.tolerance"). Nonlinear solves:
-                               ///< relative tolerance (see backend READMEs). Default 1e-6.
-    int32_t max_iterations;    ///< Deprecated ("<backend>.max_iterations"). Nonlinear solves:
-                               ///< iteration limit per step. Default 50.
-    double rtol, atol;         ///< Deprecated ("<backend>.rtol", "<backend>.atol"). Adaptive
-                               ///< integrators: relative tolerance and absolute (m, m/s).
-                               ///< Defaults 1e-4 and 1e-6.
     defsim_log_fn log;         ///< Optional log sink; NULL: silent.
     void *log_user;            ///< Passed to log.
-    defsim_projection projection;  ///< Deprecated ("<backend>.projection", a CHOICE whose
-                               ///< index is the enum value). Implicit backends. Default
-                               ///< DEFSIM_PROJECTION_CLAMP.
-    int32_t max_order;         ///< Deprecated ("<backend>.max_order"). Adaptive BDF: maximum
-                               ///< order 1..5. Default 5.
-    int32_t max_internal_steps;///< Deprecated ("<backend>.max_internal_steps"). Adaptive
-                               ///< integrators: internal steps per call. Default 100000.
-    int32_t auto_substep;      ///< Deprecated ("core.auto_substep"). Conditionally stable
-                               ///< backends: 1 splits each defsim_world_step into substeps no
-                               ///< longer than substep_safety times the estimated stable step
-                               ///< (defsim_world_stable_step). Default 0.
-    double substep_safety;     ///< Deprecated ("core.substep_safety"). Fraction of the stable
-                               ///< step used by auto_substep. Default 0.8.
 } defsim_world_def;
 
 /// Fills *def with defaults. `size` must be sizeof *def. Does nothing if def is NULL.
@@ -194,7 +173,8 @@ DEFSIM_API void defsim_world_def_init(defsim_world_def *def, size_t size);
 
 /// Creates an empty world. On success *out receives a world the caller owns and must release
 /// with defsim_world_destroy. Loads the backend's module now if it is not built in.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, def->size 0 or too small, bad option values),
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, def->size 0 or too small, an empty backend name
+/// or one of 64 characters or more, a non-finite gravity, num_threads < 0),
 /// DEFSIM_ERR_BACKEND_UNAVAILABLE (unknown name or module failed), DEFSIM_ERR_OUT_OF_MEMORY.
 /// On failure *out is set to NULL and defsim_last_error() says why.
 DEFSIM_API defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **out);
@@ -544,16 +524,19 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
                                                   defsim_option_info *out);
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
-/// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
-/// of the world's backend ("sundials_ida.internal_steps"), or contact's ("contact.active",
-/// docs/contact.md). min_volume_ratio, inverted_elements and energy_drift are computed from the
+/// "newton_iterations", "time_factor", ...; integer fields are converted to double), a counter
+/// of the world's backend ("sundials_ida.internal_steps"), contact's ("contact.active",
+/// docs/contact.md), or a counter of a term kind ("collider.linearisations",
+/// "body_contact.cached_pairs": Hessian evaluations since the world was planned or its
+/// statistics reset, and the pair Hessians cached now). min_volume_ratio, inverted_elements and energy_drift are computed from the
 /// current state at this call (see defsim_stats).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
 DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
                                            double *value);
 
 /// Number of statistics by name: the fields of defsim_stats (except size), then the backend's
-/// counters, then contact's (contact.*). 0 for a NULL world.
+/// counters, then contact's (contact.*), then the term kinds' ("<kind>.<counter>"). 0 for a
+/// NULL world.
 DEFSIM_API int32_t defsim_world_stat_count(const defsim_world *world);
 
 /// Name and value of statistic i (0 .. defsim_world_stat_count - 1). Either output may be NULL.

@@ -35,11 +35,11 @@ static int substep = 0;   /* core.auto_substep in the scene */
 static defsim_world *scene(const char *backend, const char *linear_solver)
 {
     defsim_world_def d = tu_world_def(backend, -9.81, 1);
-    d.auto_substep = substep;
     defsim_world *w = NULL;
     defsim_status st = defsim_world_create(&d, &w);
     if (st == DEFSIM_ERR_BACKEND_UNAVAILABLE) return NULL;
     TU_OK(st);
+    TU_OK(defsim_world_set_option_number(w, "core.auto_substep", substep));
     if (linear_solver) {
         char name[96];
         snprintf(name, sizeof name, "%s.linear_solver", backend);

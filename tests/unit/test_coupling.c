@@ -24,9 +24,9 @@ static defsim_world *world_def(const char *backend, double gy, double tol)
     d.backend = backend;
     d.gravity[1] = gy;
     d.num_threads = 1;
-    d.tolerance = tol;
     defsim_world *w = NULL;
     if (defsim_world_create(&d, &w) != DEFSIM_OK) fail_msg("world_create: %s", defsim_last_error());
+    tu_backend_option(w, backend, "tolerance", tol);
     return w;
 }
 
@@ -555,9 +555,9 @@ static void test_driven_lands(void **state)
         defsim_world_def_init(&wd, sizeof wd);
         wd.backend = backends[b];
         wd.num_threads = 1;
-        wd.auto_substep = b == 2;
         defsim_world *w = NULL;
         TU_OK(defsim_world_create(&wd, &w));
+        TU_OK(defsim_world_set_option_number(w, "core.auto_substep", b == 2));
         defsim_body_id id = add_beam(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
         int32_t verts[64];
         double *x = tu_positions(w);
@@ -618,9 +618,9 @@ static void test_driven_damped_implicit(void **state)
         defsim_world_def_init(&wd, sizeof wd);
         wd.backend = implicit_backends[b];
         wd.num_threads = 1;
-        wd.tolerance = 1e-10;
         defsim_world *w = NULL;
         TU_OK(defsim_world_create(&wd, &w));
+        tu_backend_option(w, implicit_backends[b], "tolerance", 1e-10);
         defsim_material mat;
         defsim_material_init(&mat, sizeof mat, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
         mat.youngs_modulus = 1e5;

@@ -15,7 +15,7 @@ int main(void)
     defsim_world *w = NULL;
     defsim_option_info info = {sizeof info, NULL, DEFSIM_OPTION_REAL, 0, 0, 0, 0, NULL, NULL};
     double steps = -1.0;
-    if (DEFSIM_BACKEND_ABI_VERSION != 7u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
+    if (DEFSIM_BACKEND_ABI_VERSION != 8u || spec.type != DEFSIM_OPTION_BOOL || !counter.name[0] ||
         defsim_world_create(&def, &w) != DEFSIM_OK || defsim_world_option_count(w) != 11 ||
         defsim_world_option_info(w, 2, &info) != DEFSIM_OK || info.value != 0.8 ||
         defsim_world_stat(w, "steps", &steps) != DEFSIM_OK || steps != 0.0)
@@ -27,6 +27,8 @@ int main(void)
     if (ad.size != sizeof ad || ad.stiffness != 1e3 || ad.target_vertex_count != 0 ||
         sizeof(((defsim_host *)0)->applied_forces_vary) != sizeof(void (*)(void)))
         return 5;
+    /* ABI version 8: gravity in the host table, where the world def was. */
+    if (sizeof(((defsim_host *)0)->gravity) != sizeof(void (*)(void))) return 7;
     /* Checkpoints (ABI version 5 backend ops; public declarations). */
     void *buf = NULL;
     size_t bytes = 0;

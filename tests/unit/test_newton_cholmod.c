@@ -651,9 +651,9 @@ static void scaled_chain(double c, double s, int steps, double *x_out, int64_t *
     d.backend = NC;
     d.gravity[1] = CH_G * c / (s * s);
     d.num_threads = 1;
-    d.tolerance = 1e-8;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
+    tu_backend_option(w, NC, "tolerance", 1e-8);
     add_chain(w, c, CH_K / (s * s), 0.0, 0.0);
     for (int k = 0; k < steps; ++k) step_ok(w, 0.01 * s);
     TU_OK(defsim_world_get_positions(w, x_out, CH_N));

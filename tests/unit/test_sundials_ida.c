@@ -17,12 +17,12 @@
 
 static defsim_world *ida_world(double rtol, double atol, int max_order, int max_steps, double gy)
 {
-    defsim_world_def d = tu_world_def("sundials_ida", gy, 1);
-    d.rtol = rtol;
-    d.atol = atol;
-    d.max_order = max_order;
-    d.max_internal_steps = max_steps;
-    return tu_create(&d);
+    defsim_world *w = tu_world("sundials_ida", gy, 1);
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.rtol", rtol));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.atol", atol));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.max_order", max_order));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.max_internal_steps", max_steps));
+    return w;
 }
 
 enum { NOSC = 3 };
@@ -383,11 +383,11 @@ static defsim_world *beam(const char *backend, double rtol, defsim_projection pr
     d.backend = backend;
     d.gravity[1] = -9.81;
     d.num_threads = 1;
-    d.rtol = rtol;
-    d.atol = rtol;
-    d.projection = proj;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
+    tu_backend_option(w, backend, "rtol", rtol);
+    tu_backend_option(w, backend, "atol", rtol);
+    tu_backend_option(w, backend, "projection", proj);
     const double lo[3] = {0, 0, 0}, hi[3] = {2, 0.5, 0.5};
     defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 4, 1, 1, lo, hi, 2e4, 0.3, 1000);
     tu_pin_below(w, b, 0, 0.0);

@@ -156,9 +156,9 @@ static defsim_status build(bench *b, const char *backend, double rtol, defsim_wo
     b->s.def.backend = backend;
     b->s.def.num_threads = b->threads;
     if (rtol > 0.0) {
-        b->s.def.rtol = rtol;
-        b->s.def.atol = rtol * b->size;
-        b->s.def.max_internal_steps = 10000000;
+        scene_setting(&b->s, SCENE_RTOL, rtol);
+        scene_setting(&b->s, SCENE_ATOL, rtol * b->size);
+        scene_setting(&b->s, SCENE_MAX_INTERNAL_STEPS, 10000000);
     }
     snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
     return scene_build(&b->s, w);

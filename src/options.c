@@ -67,15 +67,10 @@ typedef struct stat_field {
 static const stat_field STATS[] = {
     STAT(passes, ST_U32), STAT(steps, ST_I64), STAT(failed_steps, ST_I64),
     STAT(threads, ST_I32), STAT(reordered_tets, ST_I32), STAT(time_step, ST_F64),
-    STAT(time_forces, ST_F64), STAT(time_hessian, ST_F64), STAT(time_factor, ST_F64),
-    STAT(time_solve, ST_F64), STAT(force_evals, ST_I64), STAT(hessian_evals, ST_I64),
-    STAT(energy_evals, ST_I64), STAT(newton_iterations, ST_I64),
-    STAT(line_search_backtracks, ST_I64), STAT(linear_solves, ST_I64),
-    STAT(internal_steps, ST_I64), STAT(residual_evals, ST_I64), STAT(jacobian_evals, ST_I64),
-    STAT(error_test_failures, ST_I64), STAT(convergence_failures, ST_I64),
-    STAT(last_order, ST_I32), STAT(substeps, ST_I64), STAT(stable_step, ST_F64),
-    STAT(min_volume_ratio, ST_F64), STAT(inverted_elements, ST_I64), STAT(energy_drift, ST_F64),
-    STAT(nonlinear_residual, ST_F64), STAT(watchdog_trips, ST_I64),
+    STAT(time_forces, ST_F64), STAT(time_hessian, ST_F64), STAT(force_evals, ST_I64),
+    STAT(hessian_evals, ST_I64), STAT(energy_evals, ST_I64), STAT(substeps, ST_I64),
+    STAT(stable_step, ST_F64), STAT(min_volume_ratio, ST_F64), STAT(inverted_elements, ST_I64),
+    STAT(energy_drift, ST_F64), STAT(watchdog_trips, ST_I64),
 };
 #undef STAT
 enum { NSTATS = (int)(sizeof STATS / sizeof STATS[0]) };

@@ -58,3 +58,11 @@ defsim_status bench_backend_option(defsim_world *w, const char *backend, const c
     if (defsim_world_get_option(w, name, &now) != DEFSIM_OK) return DEFSIM_OK;
     return defsim_world_set_option_number(w, name, value);
 }
+
+double bench_backend_stat(const defsim_world *w, const char *backend, const char *leaf)
+{
+    char name[160];
+    snprintf(name, sizeof name, "%s.%s", backend, leaf);
+    double v = 0.0;
+    return defsim_world_stat(w, name, &v) == DEFSIM_OK ? v : 0.0;
+}

@@ -26,4 +26,8 @@ defsim_model bench_model_by_name(const char *name);
 defsim_status bench_backend_option(defsim_world *w, const char *backend, const char *leaf,
                                    double value);
 
+/* The counter "<backend>.<leaf>" of w (the backend's counters by name), or 0 where the backend
+ * has none. */
+double bench_backend_stat(const defsim_world *w, const char *backend, const char *leaf);
+
 #endif

@@ -32,7 +32,9 @@ extern "C" {
 /// DEFSIM_BACKEND_CONTACT_CCD; version 6 defsim_host.matrix_pattern_version (body contact grows
 /// the pattern); version 7 defsim_host.option_is_set. Version 8 is a break, not an append (no
 /// release shipped 1 to 7): defsim_host.gravity took the place of `options` (which handed out
-/// the public world def, whose nine backend settings became options by name). The core
+/// the public world def, whose nine backend settings became options by name), and defsim_stats
+/// lost the backend counters (newton_iterations ... nonlinear_residual: a backend counts in its
+/// own `counters`, read by name). The core
 /// accepts tables built against 8 (a later table's struct_size says which fields it has);
 /// a backend checks host->abi_version and host->size before using a field appended after 8.
 #define DEFSIM_BACKEND_ABI_VERSION 8u
@@ -171,7 +173,8 @@ typedef struct defsim_host {
     /// Diagonal of the bounding box of the rest positions (m): a length scale for tolerances.
     double (*length_scale)(const defsim_system *sys);
 
-    /// Statistics to update (newton_iterations, time_factor, ...). Never NULL.
+    /// The core's statistics: a backend with its own stable-step estimate writes stable_step;
+    /// everything it counts (iterations, solves, timings) goes in its `counters`. Never NULL.
     defsim_stats *(*stats)(defsim_system *sys);
     /// Monotonic wall clock in seconds.
     double (*wall_time)(void);

@@ -402,8 +402,11 @@ enum {
     DEFSIM_PASS_DRIVEN_PINS = 1u << 14      ///< Pinned vertices moved to targets in this step.
 };
 
-/// Counters and timings, cumulative since creation (or since defsim_world_reset_stats).
-/// Times are wall-clock seconds. Fields are only ever appended.
+/// The core's counters and timings, cumulative since creation (or since
+/// defsim_world_reset_stats). Times are wall-clock seconds. Fields are only ever appended (the
+/// backend counters this struct held before, newton_iterations ... nonlinear_residual, left it:
+/// each backend declares its own, read by name as "<backend>.<counter>" with defsim_world_stat
+/// and listed by defsim_world_stat_info; docs/api.md lists those of the shipped backends).
 typedef struct defsim_stats {
     uint32_t size;                 ///< Set by the caller to sizeof(defsim_stats) before the call.
     uint32_t passes;               ///< DEFSIM_PASS_* bits of the last step.
@@ -414,20 +417,9 @@ typedef struct defsim_stats {
     double time_step;              ///< Total time inside defsim_world_step.
     double time_forces;            ///< Force evaluation (elastic, gravity, damping).
     double time_hessian;           ///< Stiffness matrix assembly.
-    double time_factor;            ///< Sparse factorisation (implicit backends).
-    double time_solve;             ///< Triangular solves / linear solves.
     int64_t force_evals;           ///< Force evaluations.
     int64_t hessian_evals;         ///< Stiffness matrix assemblies.
     int64_t energy_evals;          ///< Potential energy evaluations (the watchdog's included).
-    int64_t newton_iterations;     ///< Nonlinear iterations (implicit backends).
-    int64_t line_search_backtracks;///< Step halvings in line searches.
-    int64_t linear_solves;         ///< Linear systems solved.
-    int64_t internal_steps;        ///< Adaptive integrators: internal steps taken.
-    int64_t residual_evals;        ///< Adaptive integrators: residual evaluations.
-    int64_t jacobian_evals;        ///< Adaptive integrators: Jacobian evaluations.
-    int64_t error_test_failures;   ///< Adaptive integrators: local error test failures.
-    int64_t convergence_failures;  ///< Nonlinear convergence failures (recovered or not).
-    int32_t last_order;            ///< Adaptive BDF: order used in the last internal step.
     int64_t substeps;              ///< Backend steps taken by auto_substep (>= steps when on).
     double stable_step;            ///< Last estimate of the stable step (s), 0 if never made.
     /* Stability watchdog (docs/watchdog.md). The first three are computed from the current state
@@ -447,9 +439,6 @@ typedef struct defsim_stats {
                                    ///< negative when damping dissipates. NaN without a
                                    ///< reference (the watchdog is off, or the last step's work
                                    ///< overflowed).
-    double nonlinear_residual;     ///< Implicit backends: the residual norm of the last Newton
-                                   ///< iteration of the last step (the backend's own measure;
-                                   ///< see its README); 0 for other backends.
     int64_t watchdog_trips;        ///< Steps the watchdog failed with DEFSIM_ERR_UNSTABLE.
 } defsim_stats;
 
@@ -524,8 +513,8 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
                                                   defsim_option_info *out);
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
-/// "newton_iterations", "time_factor", ...; integer fields are converted to double), a counter
-/// of the world's backend ("sundials_ida.internal_steps"), contact's ("contact.active",
+/// "force_evals", "time_step", ...; integer fields are converted to double), a counter of the
+/// world's backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"), contact's ("contact.active",
 /// docs/contact.md), or a counter of a term kind ("collider.linearisations",
 /// "body_contact.cached_pairs": Hessian evaluations since the world was planned or its
 /// statistics reset, and the pair Hessians cached now). min_volume_ratio, inverted_elements and energy_drift are computed from the

@@ -38,6 +38,27 @@ defsim_world *tu_world(const char *backend, double gy, int threads)
     return tu_create(&d);
 }
 
+double tu_stat(const defsim_world *w, const char *name)
+{
+    double v = 0.0;
+    if (defsim_world_stat(w, name, &v) != DEFSIM_OK)
+        fail_msg("stat %s: %s", name, defsim_world_last_error(w));
+    return v;
+}
+
+double tu_bstat(const defsim_world *w, const char *leaf)
+{
+    const size_t n = strlen(leaf);
+    for (int32_t i = 0; i < defsim_world_stat_count(w); ++i) {
+        const char *name;
+        double v;
+        TU_OK(defsim_world_stat_info(w, i, &name, &v));
+        const char *dot = strchr(name, '.');
+        if (dot && !strcmp(dot + 1, leaf) && strlen(dot + 1) == n) return v;
+    }
+    return 0.0;
+}
+
 int tu_backend_option(defsim_world *w, const char *backend, const char *leaf, double value)
 {
     char name[160];

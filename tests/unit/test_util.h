@@ -21,6 +21,15 @@ defsim_world *tu_world(const char *backend, double gy, int threads);
 defsim_world_def tu_world_def(const char *backend, double gy, int threads);
 defsim_world *tu_create(const defsim_world_def *d);
 
+/* The statistic `name` of w (defsim_world_stat: a field of defsim_stats, "<backend>.<counter>",
+ * ...); fails the test when w has none of that name. */
+double tu_stat(const defsim_world *w, const char *name);
+
+/* The counter `leaf` of w's backend, whatever the backend ("<backend>.<leaf>": the first
+ * statistic so named in the listing, where the backend's counters precede contact's and the
+ * terms'), or 0 when the backend has no such counter (as for tests run over every backend). */
+double tu_bstat(const defsim_world *w, const char *leaf);
+
 /* Sets the option "<backend>.<leaf>" of w (backend: w's) to value where the backend has it
  * (a setting a test gives every backend it runs, ignored by those without it); fails the test
  * when the option refuses the value. Returns 1 if the backend has the option. */

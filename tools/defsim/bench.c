@@ -18,6 +18,7 @@
 #include "clock.h"
 #include "refsol.h"
 #include "scene.h"
+#include "stat.h"
 
 #include "fileio.h"
 
@@ -248,8 +249,8 @@ static void run_point(bench *b, const refsol *ref, point *p)
         defsim_stats stats = {.size = sizeof stats};
         defsim_world_stats(w, &stats);
         p->steps = stats.steps;
-        p->newton = stats.newton_iterations;
-        p->internal = stats.internal_steps;
+        p->newton = (int64_t)tools_backend_stat(w, "newton_iterations");
+        p->internal = (int64_t)tools_backend_stat(w, "internal_steps");
         if (st != DEFSIM_OK) {
             /* A failed run is not timed again: its failure is the result. */
             snprintf(p->status, sizeof p->status, "%s",

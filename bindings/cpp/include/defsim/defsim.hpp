@@ -1030,8 +1030,8 @@ public:
         check(defsim_world_get_option(w_, name.c_str(), &v));
         return v;
     }
-    /// A statistic by name: a field of defsim_stats ("steps", "newton_iterations") or a counter
-    /// of the backend ("sundials_ida.internal_steps"). Throws Error DEFSIM_ERR_INVALID_ARGUMENT
+    /// A statistic by name: a field of defsim_stats ("steps", "force_evals") or a counter of
+    /// the backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"). Throws Error DEFSIM_ERR_INVALID_ARGUMENT
     /// for an unknown name.
     double stat(const std::string &name) const
     {

@@ -68,7 +68,8 @@ class Energy(NamedTuple):
 @dataclasses.dataclass(frozen=True)
 class Stats:
     """Counters and timings of a world, cumulative since creation or ``reset_stats()``
-    (``defsim_stats``). Times are wall-clock seconds."""
+    (``defsim_stats``, the core's; the backend's own counters, such as Newton iterations and
+    internal steps, are in ``counters`` by full name). Times are wall-clock seconds."""
 
     passes: Pass                    #: passes of the last step
     steps: int                      #: successful steps
@@ -78,29 +79,18 @@ class Stats:
     time_step: float                #: total time inside step()
     time_forces: float              #: force evaluation
     time_hessian: float             #: stiffness matrix assembly
-    time_factor: float              #: sparse factorisation (implicit backends)
-    time_solve: float               #: linear solves
     force_evals: int
     hessian_evals: int
     energy_evals: int
-    newton_iterations: int          #: nonlinear iterations (implicit backends)
-    line_search_backtracks: int
-    linear_solves: int
-    internal_steps: int             #: adaptive integrators
-    residual_evals: int
-    jacobian_evals: int
-    error_test_failures: int
-    convergence_failures: int
-    last_order: int                 #: adaptive BDF: order of the last internal step
     substeps: int                   #: backend steps taken by auto_substep
     stable_step: float              #: last stable-step estimate in s (0: none made)
     # The stability watchdog (docs/watchdog.md); the first three of the current state.
     min_volume_ratio: float         #: smallest det F over all tets (1 without tets)
     inverted_elements: int          #: tets with det F <= 0
     energy_drift: float             #: J since the watchdog's reference (nan without one)
-    nonlinear_residual: float       #: implicit backends: last Newton residual (N)
     watchdog_trips: int             #: steps the watchdog failed
-    #: the backend's counters by full name ("sundials_ida.internal_steps": value)
+    #: the backend's counters by full name ("sundials_ida.internal_steps",
+    #: "newton_cholmod.newton_iterations", "newton_cholmod.time_factor": value)
     counters: Dict[str, float] = dataclasses.field(default_factory=dict)
 
 
@@ -751,8 +741,8 @@ class World(WorldCoupling, WorldColliders):
         return {ffi.string(i.name).decode("utf-8"): self._typed(i) for i in self._option_infos()}
 
     def stat(self, name: str) -> float:
-        """A statistic by name: a field of ``Stats`` ("steps", "newton_iterations", ...) or a
-        counter of the backend ("sundials_ida.internal_steps"). Raises InvalidArgumentError
+        """A statistic by name: a field of ``Stats`` ("steps", "force_evals", ...) or a
+        counter of the backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"). Raises InvalidArgumentError
         for an unknown name."""
         value = ffi.new("double *")
         self._check(lib.defsim_world_stat(self._live(), str(name).encode("utf-8"), value))

@@ -345,11 +345,13 @@ defsim_status defsim__matrix_product(const defsim__system *s, const double *x,
     return DEFSIM_OK;
 }
 
-void defsim__group_values(const defsim__system *s, const defsim__group *g, int nn,
+void defsim__group_values(const defsim__system *s, const defsim__group *g,
                           defsim__element_matrix_fn matrix, const double *x,
                           const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
-                          double *values)
+                          double *values, uint32_t *passes)
 {
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    const int nn = g->nodes;
     for (int32_t col = 0; col < g->ncolors; ++col) {
         const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
@@ -360,4 +362,32 @@ void defsim__group_values(const defsim__system *s, const defsim__group *g, int n
                                     nn, K, upper, cp, values);
         }
     }
+    if (passes) *passes |= DEFSIM_PASS_HESSIAN;
+}
+
+void defsim__group_apply(const defsim__system *s, const defsim__group *g,
+                         defsim__element_apply_fn apply, const double *x,
+                         const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
+{
+    if (c->k == 0.0 && c->kd == 0.0) return;
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
+        for (int32_t e = e0; e < e1; ++e) apply(g, x, e, c, proj, s->pinned, dx, out);
+    }
+}
+
+void defsim__group_pairs(const defsim__term *t, const defsim__system *s, int64_t *pos,
+                         int32_t *list)
+{
+    const defsim__group *g = t->model;
+    defsim__element_pairs(s, g->idx, g->nodes, g->n, pos, list);
+}
+
+defsim_status defsim__group_ranks(const defsim__term *t, defsim__system *s)
+{
+    defsim__group *g = &s->groups[t->index];
+    free(g->blk);
+    g->blk = defsim__element_ranks(s, g->idx, g->nodes, g->n);
+    return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
 }

@@ -56,6 +56,13 @@ void defsim__element_pairs(const defsim__system *s, const int32_t *idx, int node
 int32_t *defsim__element_ranks(const defsim__system *s, const int32_t *idx, int nodes,
                                int64_t n);
 
+/* The pattern ops of an element group's term (elastic, spring: model the group, index its place
+ * in s->groups): its elements' pairs, and their ranks into the group's blk (replacing what it
+ * held; DEFSIM_ERR_OUT_OF_MEMORY when they do not fit). */
+void defsim__group_pairs(const defsim__term *t, const defsim__system *s, int64_t *pos,
+                         int32_t *list);
+defsim_status defsim__group_ranks(const defsim__term *t, defsim__system *s);
+
 /* Adds the element matrix K (3 nn x 3 nn, row-major) of the element with vertices id and
  * ranks blk into the values. */
 void defsim__element_scatter(const defsim__system *s, const int32_t *id, const int32_t *blk,
@@ -68,12 +75,25 @@ typedef int (*defsim__element_matrix_fn)(const defsim__system *s, const defsim__
                                          const double *x, int32_t e,
                                          const defsim_matrix_coeffs *c, double *K);
 
-/* Adds the element matrices of group g (nn nodes per element, at most 4) into the values,
- * colour by colour (elements of a colour share no vertex, so no two threads write one entry). */
-void defsim__group_values(const defsim__system *s, const defsim__group *g, int nn,
+/* Adds the element matrices of group g (at most 4 nodes per element) into the values, colour by
+ * colour (elements of a colour share no vertex, so no two threads write one entry), and
+ * DEFSIM_PASS_HESSIAN into *passes (may be NULL); nothing when k and kd are both zero. */
+void defsim__group_values(const defsim__system *s, const defsim__group *g,
                           defsim__element_matrix_fn matrix, const double *x,
                           const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
-                          double *values);
+                          double *values, uint32_t *passes);
+
+/* out += an element's share of (k K + kd B) dx at x (pinned rows and columns zero; element
+ * Hessians projected with proj). */
+typedef void (*defsim__element_apply_fn)(const defsim__group *g, const double *x, int32_t e,
+                                         const defsim_matrix_coeffs *c, int proj,
+                                         const uint8_t *pinned, const double *dx, double *out);
+
+/* The matrix-free product of group g's elements, colour by colour as defsim__group_values:
+ * nothing when k and kd are both zero. */
+void defsim__group_apply(const defsim__system *s, const defsim__group *g,
+                         defsim__element_apply_fn apply, const double *x,
+                         const defsim_matrix_coeffs *c, int proj, const double *dx, double *out);
 
 /* Adds k times symmetric 3x3 blocks per vertex (9 nv) to the diagonal blocks of the values. */
 void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,

@@ -257,3 +257,122 @@ fail:
     defsim__body_free(&b);
     return st;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Checkpoint chunk */
+
+void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
+{
+    const size_t c = defsim__chunk_begin(b, "BODY");
+    defsim__put_u32(b, saved);   /* the attachments that name it use this */
+    defsim__put_u32(b, body->generation);
+    defsim__put_i32(b, body->nv);
+    defsim__put_i32(b, body->nt);
+    defsim__put_i32(b, body->ns);
+    const defsim_material *m = &body->mat;
+    defsim__put_i32(b, (int32_t)m->model);
+    const double mp[7] = {m->youngs_modulus, m->poisson_ratio, m->density, m->stiffness,
+                          m->vertex_mass, m->mass_damping, m->stiffness_damping};
+    defsim__put_f64s(b, mp, 7);
+    defsim__put_f64s(b, body->rest, 3 * (int64_t)body->nv);
+    defsim__put_f64s(b, body->mass, body->nv);
+    defsim__put_i32s(b, body->tets, 4 * (int64_t)body->nt);
+    defsim__put_i32s(b, body->springs, 2 * (int64_t)body->ns);
+    defsim__put_f64s(b, body->k, body->ns);
+    defsim__put(b, body->pinned, (size_t)body->nv);
+    /* version 4: body contact */
+    defsim__put_i32(b, body->ntri);
+    defsim__put_i32(b, body->nedge);
+    defsim__put_i32s(b, body->tris, 3 * (int64_t)body->ntri);
+    defsim__put_i32s(b, body->edges, 2 * (int64_t)body->nedge);
+    defsim__put_i32(b, body->self_contact);
+    defsim__put_u32(b, body->group);
+    defsim__put_u32(b, body->mask);
+    defsim__put_f64(b, body->friction);
+    defsim__chunk_end(b, c);
+}
+
+void defsim__body_saved_free(defsim__body_saved *s)
+{
+    free(s->rest); free(s->mass); free(s->k); free(s->tets);
+    free(s->springs); free(s->tris); free(s->pins); free(s->edges);
+    memset(s, 0, sizeof *s);
+}
+
+defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_saved *out,
+                                const char **why)
+{
+    memset(out, 0, sizeof *out);
+    out->id = defsim__get_u32(r);
+    out->generation = defsim__get_u32(r);
+    const int32_t nv = defsim__get_i32(r), nt = defsim__get_i32(r), ns = defsim__get_i32(r);
+    defsim_body_def *d = &out->def;
+    defsim_body_def_init(d, sizeof *d);
+    d->material.model = (defsim_model)defsim__get_i32(r);
+    double mp[7];
+    defsim__get_f64s(r, mp, 7);
+    d->material.youngs_modulus = mp[0];
+    d->material.poisson_ratio = mp[1];
+    d->material.density = mp[2];
+    d->material.stiffness = mp[3];
+    d->material.vertex_mass = mp[4];
+    d->material.mass_damping = mp[5];
+    d->material.stiffness_damping = mp[6];
+    /* Each vertex takes 4 doubles and a byte, each tet 16 bytes, each spring 16. */
+    if (nv < 1 || nt < 0 || ns < 0 || !defsim__fits(r, nv, 33) || !defsim__fits(r, nt, 16) ||
+        !defsim__fits(r, ns, 16)) {
+        *why = "counts out of range";
+        return DEFSIM_ERR_IO;
+    }
+    out->rest = malloc(3 * (size_t)nv * sizeof *out->rest);
+    out->mass = malloc((size_t)nv * sizeof *out->mass);
+    out->tets = malloc((4 * (size_t)nt + 1) * sizeof *out->tets);
+    out->springs = malloc((2 * (size_t)ns + 1) * sizeof *out->springs);
+    out->k = malloc(((size_t)ns + 1) * sizeof *out->k);
+    out->pins = malloc((size_t)nv * sizeof *out->pins);
+    if (!out->rest || !out->mass || !out->tets || !out->springs || !out->k || !out->pins)
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    defsim__get_f64s(r, out->rest, 3 * (int64_t)nv);
+    defsim__get_f64s(r, out->mass, nv);
+    defsim__get_i32s(r, out->tets, 4 * (int64_t)nt);
+    defsim__get_i32s(r, out->springs, 2 * (int64_t)ns);
+    defsim__get_f64s(r, out->k, ns);
+    const unsigned char *pinned = defsim__take(r, (size_t)nv);
+    for (int32_t i = 0; pinned && i < nv; ++i)
+        if (pinned[i]) out->pins[out->npin++] = i;
+    /* Body contact (version 4); older files get the defaults. */
+    if (version >= 4) {
+        const int32_t ntri = defsim__get_i32(r), nedge = defsim__get_i32(r);
+        if (ntri < 0 || nedge < 0 || !defsim__fits(r, ntri, 12) || !defsim__fits(r, nedge, 8)) {
+            *why = "counts out of range";
+            return DEFSIM_ERR_IO;
+        }
+        out->tris = malloc((3 * (size_t)ntri + 1) * sizeof *out->tris);
+        out->edges = malloc((2 * (size_t)nedge + 1) * sizeof *out->edges);
+        if (!out->tris || !out->edges) return DEFSIM_ERR_OUT_OF_MEMORY;
+        defsim__get_i32s(r, out->tris, 3 * (int64_t)ntri);
+        defsim__get_i32s(r, out->edges, 2 * (int64_t)nedge);
+        out->nedge = nedge;
+        d->self_contact = defsim__get_i32(r);
+        d->collision_group = defsim__get_u32(r);
+        d->collision_mask = defsim__get_u32(r);
+        d->friction = defsim__get_f64(r);
+        d->triangles = ntri > 0 ? out->tris : NULL;
+        d->triangle_count = ntri;
+    }
+    for (int32_t e = 0; e < 2 * out->nedge && !r->bad; ++e)
+        if (out->edges[e] < 0 || out->edges[e] >= nv) r->bad = 1;
+    if (!defsim__read_whole(r)) {
+        *why = "wrong length";
+        return DEFSIM_ERR_IO;
+    }
+    d->rest_positions = out->rest;
+    d->vertex_count = nv;
+    d->tets = nt > 0 ? out->tets : NULL;
+    d->tet_count = nt;
+    d->springs = ns > 0 ? out->springs : NULL;
+    d->spring_count = ns;
+    d->spring_stiffness = ns > 0 ? out->k : NULL;
+    d->vertex_mass = out->mass;
+    return DEFSIM_OK;
+}

@@ -4,6 +4,7 @@
 #ifndef DEFSIM_BODY_H
 #define DEFSIM_BODY_H
 
+#include "chunk.h"
 #include "defsim/defsim.h"
 #include "status.h"
 
@@ -50,6 +51,32 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                                  int32_t *reordered);
 /* Frees a body's arrays (their pointers become NULL). */
 void defsim__body_free(defsim__body *b);
+
+/* Checkpoints: writes the body's BODY chunk (docs/checkpoints.md); `saved` is its id as a
+ * checkpoint keeps it (id slot + 1, without the world's tag, so that a world saves the same bytes
+ * whatever world it was loaded into). */
+void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved);
+
+/* A BODY chunk read back, as the def that builds the body again through the public API (its
+ * arrays point into the buffers here: masses and stiffnesses as saved, so that the compiled
+ * system has the same bits), with the pins, and the contact edges restored as saved (a rope's
+ * springs come back without their kinds). */
+typedef struct defsim__body_saved {
+    uint32_t id, generation;  /* as saved */
+    defsim_body_def def;
+    double *rest, *mass, *k;
+    int32_t *tets, *springs, *tris;
+    int32_t *pins, npin;      /* the pinned vertices */
+    int32_t *edges, nedge;    /* the contact edges (version 4 on) */
+} defsim__body_saved;
+
+/* Reads a BODY chunk of format `version` (its payload in r) into *out, whose buffers are the
+ * caller's to free with defsim__body_saved_free, also on failure. Returns DEFSIM_ERR_IO with
+ * *why saying what is malformed, or DEFSIM_ERR_OUT_OF_MEMORY; the values themselves are
+ * validated by defsim_world_add_body. */
+defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_saved *out,
+                                const char **why);
+void defsim__body_saved_free(defsim__body_saved *s);
 
 /* An attachment as the host gave it (coupling.c): validated; its bodies are live while it is. */
 typedef struct defsim__attachment {

@@ -6,8 +6,10 @@
  * pair's potential; energy, forces, matrix values and products; CCD and the feasible start; the
  * pattern; the start and end of a step.
  *
- * Every loop runs serially over the candidates in the spatial hash's sorted order, so results
- * do not depend on the thread count.
+ * Per evaluation point x: candidates from the sorted hash (built only when x leaves the boxes
+ * they were built for), the constraint set at x (built once, reused by every phase at that x),
+ * then per-contact values computed in parallel into per-contact slots and summed or scattered
+ * serially in the set's canonical order: results do not depend on the thread count.
  */
 #include "body_contact.h"
 
@@ -26,14 +28,9 @@
 /* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
 #define BC_CCD_FRACTION 0.2
 #define BC_CCD_ITERATIONS 5000
-/* Pairs closer than this multiple of dhat join the matrix pattern. Not more than 1: beyond
- * dhat, which pairs are candidates depends on the broad phase's history (its balls), and the
- * pattern (so the factorisation's rounding) must not. */
-#define BC_PATTERN_MARGIN 1.0
-/* The balls of a broad phase after one that found no candidate: this many more steps of each
- * vertex's motion. */
-#define BC_IDLE_SLACK 8.0
-
+/* Room around each vertex's box when candidates are built (times dhat): Newton updates smaller
+ * than this reuse them. */
+#define BC_BOX_SLACK 0.25
 static double dot3(const double a[3], const double b[3])
 {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -59,16 +56,18 @@ void defsim__body_contact_unplan(defsim__body_contact *bc)
     free(bc->face); free(bc->edge); free(bc->vert); free(bc->rope);
     free(bc->face_body); free(bc->edge_body); free(bc->vert_body); free(bc->edge_len2);
     free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu);
-    free(bc->radius); free(bc->lo); free(bc->hi); free(bc->scratch); free(bc->center);
-    bc->center = NULL;
+    free(bc->vlo); free(bc->vhi); free(bc->lo); free(bc->hi); free(bc->scratch); free(bc->conx);
+    bc->vlo = bc->vhi = bc->conx = NULL;
     bc->have_pairs = 0;
+    bc->con_valid = 0;
+    bc->ncon = 0;
     free(bc->clo); free(bc->chi); free(bc->cmap); free(bc->blo); free(bc->bhi); free(bc->bactive);
     bc->clo = bc->chi = bc->blo = bc->bhi = NULL;
     bc->cmap = NULL;
     bc->bactive = NULL;
     bc->face = bc->edge = bc->vert = bc->rope = NULL;
     bc->face_body = bc->edge_body = bc->vert_body = bc->self_contact = NULL;
-    bc->edge_len2 = bc->mu = bc->radius = bc->lo = bc->hi = bc->scratch = NULL;
+    bc->edge_len2 = bc->mu = bc->lo = bc->hi = bc->scratch = NULL;
     bc->group = bc->mask = NULL;
     bc->nface = bc->nedge = bc->nvert = bc->nrope = bc->nbody = 0;
     bc->npair = bc->nfric = 0;
@@ -80,6 +79,7 @@ void defsim__body_contact_free(defsim__body_contact *bc)
 {
     defsim__body_contact_unplan(bc);
     free(bc->kind); free(bc->pa); free(bc->pb);
+    free(bc->con); free(bc->ctmp); free(bc->act); free(bc->sv); free(bc->sg); free(bc->sh);
     free(bc->fric);
     free(bc->pend);
     defsim__hash_free(&bc->hash);
@@ -151,12 +151,13 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
         bc->group = malloc(nb * sizeof *bc->group);
         bc->mask = malloc(nb * sizeof *bc->mask);
         bc->mu = malloc(nb * sizeof *bc->mu);
-        bc->radius = malloc((size_t)(nv > 0 ? nv : 1) * sizeof *bc->radius);
-        bc->center = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->center);
+        bc->vlo = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->vlo);
+        bc->vhi = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->vhi);
+        bc->conx = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->conx);
         bc->scratch = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->scratch);
         if (!mark || !bc->face_body || !bc->edge_body || !bc->edge_len2 || !bc->rope ||
-            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->radius || !bc->center ||
-            !bc->scratch)
+            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->vlo || !bc->vhi ||
+            !bc->conx || !bc->scratch)
             st = DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (st == DEFSIM_OK) {
@@ -224,7 +225,7 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
 /* ------------------------------------------------------------------------------------------ */
 /* The broad phase and candidate pairs */
 
-/* The global vertices of pair q (4, or 3 for point-edge); returns their count. */
+/* The global vertices of candidate (kind, a, b) (4, or 3 for point-edge); returns their count. */
 static int nodes(const defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b,
                  int32_t idx[4])
 {
@@ -255,6 +256,8 @@ static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
 
 static double dist2(uint8_t kind, const double *X, double *g, double *H);
 
+/* Appends candidate (kind, a, b) unless the filter excludes it, its primitives share a vertex
+ * (adjacent), all its vertices are pinned or it cannot come within dhat inside the boxes. */
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
 {
     int32_t ba, bb;
@@ -271,17 +274,37 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
             if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     }
     if (!free_node) return;
-    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its
-     * ball (ensure), the pair's distance stays above its start distance less the largest ball
-     * of each side (the distance moves by at most the largest displacement of each primitive). */
-    double X[12], ra = 0.0, rb = 0.0;
+    /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its box
+     * (within |dx_i| + sqrt(3) r of x_i), the pair's distance stays above its distance at x less
+     * the largest such reach on each side. */
+    const double r = sqrt(3.0) * BC_BOX_SLACK * bc->dhat;
+    double X[12], ra = r, rb = r;
     const int first = kind == DEFSIM__BC_EE ? 2 : 1;
     for (int i = 0; i < n; ++i) {
-        memcpy(X + 3 * i, bc->center + 3 * (int64_t)idx[i], 3 * sizeof(double));
-        if (i < first) ra = fmax(ra, bc->radius[idx[i]]);
-        else rb = fmax(rb, bc->radius[idx[i]]);
+        const int64_t v = 3 * (int64_t)idx[i];
+        memcpy(X + 3 * i, bc->bx + v, 3 * sizeof(double));
+        if (!bc->bdx) continue;
+        const double l = r + sqrt(dot3(bc->bdx + v, bc->bdx + v));
+        if (i < first) ra = fmax(ra, l);
+        else rb = fmax(rb, l);
     }
-    const double reach = ra + rb + bc->dhat;
+    const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
+    /* first the distance of the primitives' bounding spheres (about their centroids), a lower
+     * bound of theirs that removes most neighbours in a surface without the exact distance */
+    double c[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}, rad[2] = {0.0, 0.0};
+    for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) c[i >= first][k] += X[3 * i + k];
+    for (int k = 0; k < 3; ++k) {
+        c[0][k] /= first;
+        c[1][k] /= n - first;
+    }
+    for (int i = 0; i < n; ++i) {
+        const double *ci = c[i >= first];
+        const double u[3] = {X[3 * i] - ci[0], X[3 * i + 1] - ci[1], X[3 * i + 2] - ci[2]};
+        rad[i >= first] = fmax(rad[i >= first], sqrt(dot3(u, u)));
+    }
+    const double cc[3] = {c[0][0] - c[1][0], c[0][1] - c[1][1], c[0][2] - c[1][2]};
+    if (sqrt(dot3(cc, cc)) - rad[0] - rad[1] >= reach * (1.0 + 1e-9)) return;
     if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {
@@ -299,20 +322,24 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
     bc->pb[bc->npair++] = b;
 }
 
-/* Box of a set of vertices' balls, grown by dhat / 2 (boxes that overlap are within dhat). */
-static void ball_box(const defsim__body_contact *bc, const int32_t *v, int n, double *lo,
+/* Box of a set of vertices' boxes (vlo, vhi), grown by dhat / 2: two primitives within dhat of
+ * each other anywhere in their vertices' boxes have overlapping boxes. */
+static void prim_box(const defsim__body_contact *bc, const int32_t *v, int n, double *lo,
                      double *hi)
 {
+    const double r = 0.5 * bc->dhat;
     for (int k = 0; k < 3; ++k) {
-        lo[k] = INFINITY;
-        hi[k] = -INFINITY;
+        lo[k] = bc->vlo[3 * (int64_t)v[0] + k];
+        hi[k] = bc->vhi[3 * (int64_t)v[0] + k];
     }
-    for (int i = 0; i < n; ++i) {
-        const double *x = bc->center + 3 * (int64_t)v[i], r = bc->radius[v[i]] + 0.5 * bc->dhat;
+    for (int i = 1; i < n; ++i)
         for (int k = 0; k < 3; ++k) {
-            lo[k] = fmin(lo[k], x[k] - r);
-            hi[k] = fmax(hi[k], x[k] + r);
+            lo[k] = fmin(lo[k], bc->vlo[3 * (int64_t)v[i] + k]);
+            hi[k] = fmax(hi[k], bc->vhi[3 * (int64_t)v[i] + k]);
         }
+    for (int k = 0; k < 3; ++k) {
+        lo[k] -= r;
+        hi[k] += r;
     }
 }
 
@@ -343,9 +370,11 @@ static int32_t compact(const defsim__body_contact *bc, const int32_t *body, cons
     return m;
 }
 
-/* The candidate pairs for the current balls. Bodies that can meet nothing in this step (no
- * self-contact, and no body they collide with whose box meets theirs) stay out of the hash: a
- * scene whose bodies are far apart costs little more than the boxes. */
+/* The candidate pairs for the vertices' boxes vlo, vhi (a point each, or a segment for CCD):
+ * point-triangle, edge-edge and point-edge (ropes) pairs whose primitive boxes, grown by
+ * dhat / 2, overlap. Bodies that can meet nothing (no self-contact, and no body they collide with
+ * whose box meets theirs) stay out of the hash. Cost: linear in the surface for boxes about the
+ * size of a primitive (the hash's cells are the mean box size). */
 static void broad(defsim__body_contact *bc)
 {
     const double t0 = defsim__now();
@@ -353,9 +382,9 @@ static void broad(defsim__body_contact *bc)
     double *vlo = bc->lo, *vhi = bc->hi;
     double *flo = vlo + 3 * nvb, *fhi = vhi + 3 * nvb;
     double *elo = flo + 3 * nfb, *ehi = fhi + 3 * nfb;
-    for (int64_t i = 0; i < nvb; ++i) ball_box(bc, bc->vert + i, 1, vlo + 3 * i, vhi + 3 * i);
-    for (int64_t f = 0; f < nfb; ++f) ball_box(bc, bc->face + 3 * f, 3, flo + 3 * f, fhi + 3 * f);
-    for (int64_t e = 0; e < neb; ++e) ball_box(bc, bc->edge + 2 * e, 2, elo + 3 * e, ehi + 3 * e);
+    for (int64_t i = 0; i < nvb; ++i) prim_box(bc, bc->vert + i, 1, vlo + 3 * i, vhi + 3 * i);
+    for (int64_t f = 0; f < nfb; ++f) prim_box(bc, bc->face + 3 * f, 3, flo + 3 * f, fhi + 3 * f);
+    for (int64_t e = 0; e < neb; ++e) prim_box(bc, bc->edge + 2 * e, 2, elo + 3 * e, ehi + 3 * e);
     /* bodies' boxes (of their surface vertices' boxes) and which of them take part */
     const int32_t nb = bc->nbody;
     for (int32_t b = 0; b < nb; ++b)
@@ -414,42 +443,68 @@ static void broad(defsim__body_contact *bc)
             collect(bc, DEFSIM__BC_PE, vmap, rmap);
     }
     bc->have_pairs = !bc->failed;
+    bc->cand_dhat = bc->dhat;
+    bc->broads++;
     bc->stat[DEFSIM__CSTAT_BODY_CANDIDATES] = bc->npair;
     bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
 }
 
-/* Grows the ball of every surface vertex that x (or x + dx, when dx is not NULL) leaves, and
- * pairs again if any grew: whatever points a backend evaluates, the candidates cover them. */
+/* Whether the candidates cover x (and x + dx when dx is not NULL): every surface vertex lies in
+ * the box they were built for, so every primitive pair within dhat there is a candidate. */
+static int covers(const defsim__body_contact *bc, const double *x, const double *dx)
+{
+    if (!bc->have_pairs) return 0;
+    for (int32_t k = 0; k < bc->nvert; ++k) {
+        const int64_t i = 3 * (int64_t)bc->vert[k];
+        for (int c = 0; c < 3; ++c) {
+            const double a = x[i + c], lo = bc->vlo[i + c], hi = bc->vhi[i + c];
+            if (!(a >= lo && a <= hi)) return 0;
+            if (dx) {
+                const double b = a + dx[i + c];
+                if (!(b >= lo && b <= hi)) return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* Candidates for x (and the segment to x + dx when dx is not NULL), rebuilt unless the current
+ * ones cover it. The vertices' boxes take BC_BOX_SLACK dhat of room: the small updates of a
+ * converging Newton solve stay inside, and reuse them. */
 static void ensure(defsim__body_contact *bc, const double *x, const double *dx)
 {
-    int grew = 0;
+    if (covers(bc, x, dx)) return;
+    const double r = BC_BOX_SLACK * bc->dhat;
     for (int32_t k = 0; k < bc->nvert; ++k) {
-        const int32_t i = bc->vert[k];
-        const double *a = x + 3 * (int64_t)i, *b = bc->center + 3 * (int64_t)i;
-        double d2 = 0.0;
+        const int64_t i = 3 * (int64_t)bc->vert[k];
         for (int c = 0; c < 3; ++c) {
-            const double u = a[c] + (dx ? dx[3 * (int64_t)i + c] : 0.0) - b[c];
-            d2 += u * u;
+            const double a = x[i + c], b = dx ? a + dx[i + c] : a;
+            bc->vlo[i + c] = fmin(a, b) - r;
+            bc->vhi[i + c] = fmax(a, b) + r;
         }
-        double e2 = 0.0;
-        if (dx)
-            for (int c = 0; c < 3; ++c) e2 += (a[c] - b[c]) * (a[c] - b[c]);
-        const double m2 = fmax(d2, e2);
-        if (m2 <= bc->radius[i] * bc->radius[i]) continue;
-        bc->radius[i] = 2.0 * sqrt(m2);
-        grew = 1;
     }
-    if (grew) broad(bc);
+    bc->bx = x;
+    bc->bdx = dx;
+    broad(bc);
+    bc->bx = bc->bdx = NULL;
+}
+
+defsim_status defsim__body_contact_candidates(defsim__body_contact *bc, const double *x)
+{
+    bc->have_pairs = 0;
+    ensure(bc, x, NULL);
+    return bc->failed;
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* One pair */
+/* The constraint set */
 
 static void gather(const double *x, const int32_t *idx, int n, double *X)
 {
     for (int i = 0; i < n; ++i) memcpy(X + 3 * i, x + 3 * (int64_t)idx[i], 3 * sizeof(double));
 }
 
+/* Squared distance of candidate (kind, X). */
 static double dist2(uint8_t kind, const double *X, double *g, double *H)
 {
     if (kind == DEFSIM__BC_PT) return defsim__pt_dist2(X, X + 3, X + 6, X + 9, g, H, NULL);
@@ -457,7 +512,7 @@ static double dist2(uint8_t kind, const double *X, double *g, double *H)
     return defsim__pe_dist2(X, X + 3, X + 6, g, H, NULL);
 }
 
-/* The barrier's stiffness for a pair: khat times the mean mass of its vertices. */
+/* The barrier's stiffness for a contact: khat times the mean mass of its vertices. */
 static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int n)
 {
     double m = 0.0;
@@ -465,21 +520,261 @@ static double pair_kappa(const defsim__body_contact *bc, const int32_t *idx, int
     return bc->khat * m / n;
 }
 
-/* Pair q's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
- * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf: outside dhat
- * or at distance 0). *n and idx receive its vertices. */
-static double pair_barrier(const defsim__body_contact *bc, int32_t q, const double *x, int *n,
-                           int32_t idx[4], double *g, double *H)
+/* Where the closest point of segment (a, b) to p lies: 0 at a, 1 at b, 2 inside. */
+static int segment_region(const double *p, const double *a, const double *b)
+{
+    const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double r[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    const double t = dot3(r, e), l2 = dot3(e, e);
+    return t <= 0.0 ? 0 : t >= l2 ? 1 : 2;
+}
+
+/* The closest features of point p and triangle (a, b, c), by Voronoi region (Ericson's tests):
+ * 0, 1, 2 a vertex; 3 edge ab, 4 edge ac, 5 edge bc; 6 the interior. */
+static int triangle_region(const double *p, const double *a, const double *b, const double *c)
+{
+    const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    const double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
+    const double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+    const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
+    if (d1 <= 0.0 && d2 <= 0.0) return 0;
+    if (d3 >= 0.0 && d4 <= d3) return 1;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return 3;
+    if (d6 >= 0.0 && d5 <= d6) return 2;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return 4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return 5;
+    return 6;
+}
+
+/* The closest points of segments (a0, a1) and (b0, b1) as regions (0 at the first end, 1 at the
+ * second, 2 inside) on each. */
+static void edges_region(const double *X, int *ra, int *rb)
+{
+    const double *p1 = X, *q1 = X + 3, *p2 = X + 6, *q2 = X + 9;
+    const double d1[3] = {q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]};
+    const double d2[3] = {q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]};
+    const double r[3] = {p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]};
+    const double a = dot3(d1, d1), e = dot3(d2, d2), f = dot3(d2, r), c = dot3(d1, r);
+    const double b = dot3(d1, d2), den = a * e - b * b;
+    double s = den > 1e-12 * a * e ? (b * f - c * e) / den : 0.0;
+    s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+    double t = e > 0.0 ? (b * s + f) / e : 0.0;
+    if (t < 0.0 || t > 1.0) {
+        t = t < 0.0 ? 0.0 : 1.0;
+        s = a > 0.0 ? (b * t - c) / a : 0.0;
+        s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
+    }
+    *ra = s <= 0.0 ? 0 : s >= 1.0 ? 1 : 2;
+    *rb = t <= 0.0 ? 0 : t >= 1.0 ? 1 : 2;
+}
+
+static void swap32(int32_t *a, int32_t *b)
+{
+    const int32_t t = *a;
+    *a = *b;
+    *b = t;
+}
+
+/* Candidate q at x as a contact (IPC's Collisions::build): its closest features decide the type
+ * (a point-triangle candidate whose closest feature is a vertex or an edge becomes vertex-vertex
+ * or edge-vertex; so does an edge-edge candidate whose closest points are an end or two, unless
+ * the edges are nearly parallel, |ea x eb|^2 < eps, where it stays edge-edge for the mollifier).
+ * Vertices in canonical order (a contact found from several candidates has one key); kappa is
+ * the candidate's own (khat times the mean mass of its vertices): duplicates add their kappa, so
+ * the merged set's energy is the sum over the candidates within dhat, continuous where a closest
+ * feature changes. Sets out->type -1 when it is not within dhat. */
+static void candidate_contact(const defsim__body_contact *bc, int32_t q, const double *x,
+                              defsim__bc_contact *out)
 {
     const uint8_t kind = bc->kind[q];
-    const int m = *n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
+    int32_t idx[4], *v = out->v;
+    const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
     double X[12];
-    gather(x, idx, m, X);
-    const int type = kind == DEFSIM__BC_PT ? DEFSIM__C_FV
-                     : kind == DEFSIM__BC_EE ? DEFSIM__C_EE : DEFSIM__C_EV;
-    const double eps = kind == DEFSIM__BC_EE
-                           ? 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]] : 0.0;
-    return defsim__contact_barrier(type, X, bc->dhat, pair_kappa(bc, idx, m), eps, g, H);
+    gather(x, idx, n, X);
+    out->type = -1;
+    out->eps = 0.0;
+    v[0] = v[1] = v[2] = v[3] = -1;
+    if (kind == DEFSIM__BC_PT) {
+        const int r = triangle_region(X, X + 3, X + 6, X + 9);
+        v[0] = idx[0];
+        if (r < 3) {
+            out->type = DEFSIM__C_VV;
+            v[1] = idx[1 + r];
+        } else if (r < 6) {
+            static const int ends[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+            out->type = DEFSIM__C_EV;
+            v[1] = idx[1 + ends[r - 3][0]];
+            v[2] = idx[1 + ends[r - 3][1]];
+        } else {
+            out->type = DEFSIM__C_FV;
+            v[1] = idx[1], v[2] = idx[2], v[3] = idx[3];
+        }
+    } else if (kind == DEFSIM__BC_PE) {
+        const int r = segment_region(X, X + 3, X + 6);
+        v[0] = idx[0];
+        if (r < 2) {
+            out->type = DEFSIM__C_VV;
+            v[1] = idx[1 + r];
+        } else {
+            out->type = DEFSIM__C_EV;
+            v[1] = idx[1], v[2] = idx[2];
+        }
+    } else {
+        const double eps = 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]];
+        const double ea[3] = {X[3] - X[0], X[4] - X[1], X[5] - X[2]};
+        const double eb[3] = {X[9] - X[6], X[10] - X[7], X[11] - X[8]};
+        const double cr[3] = {ea[1] * eb[2] - ea[2] * eb[1], ea[2] * eb[0] - ea[0] * eb[2],
+                              ea[0] * eb[1] - ea[1] * eb[0]};
+        int ra = 2, rb = 2;
+        if (!(dot3(cr, cr) < eps)) edges_region(X, &ra, &rb);
+        if (ra < 2 && rb < 2) {
+            out->type = DEFSIM__C_VV;
+            v[0] = idx[ra], v[1] = idx[2 + rb];
+        } else if (ra < 2) {
+            out->type = DEFSIM__C_EV;
+            v[0] = idx[ra], v[1] = idx[2], v[2] = idx[3];
+        } else if (rb < 2) {
+            out->type = DEFSIM__C_EV;
+            v[0] = idx[2 + rb], v[1] = idx[0], v[2] = idx[1];
+        } else {
+            out->type = DEFSIM__C_EE;
+            out->eps = eps;
+            for (int i = 0; i < 4; ++i) v[i] = idx[i];
+            if (v[0] > v[1]) swap32(&v[0], &v[1]);
+            if (v[2] > v[3]) swap32(&v[2], &v[3]);
+            if (v[0] > v[2] || (v[0] == v[2] && v[1] > v[3])) {
+                swap32(&v[0], &v[2]);
+                swap32(&v[1], &v[3]);
+            }
+        }
+    }
+    if (out->type == DEFSIM__C_VV && v[0] > v[1]) swap32(&v[0], &v[1]);
+    if (out->type == DEFSIM__C_EV && v[1] > v[2]) swap32(&v[1], &v[2]);
+    const int m = defsim__contact_nodes(out->type);
+    int free_node = 0;
+    for (int i = 0; i < m; ++i) free_node |= !bc->pinned[v[i]];
+    gather(x, v, m, X);
+    if (!free_node || !(defsim__contact_dist2(out->type, X, NULL, NULL) < bc->dhat * bc->dhat)) {
+        out->type = -1;
+        return;
+    }
+    out->kappa = pair_kappa(bc, idx, n);
+    if (kind == DEFSIM__BC_PT) out->body[0] = bc->vert_body[bc->pa[q]], out->body[1] = bc->face_body[bc->pb[q]];
+    else if (kind == DEFSIM__BC_EE) out->body[0] = bc->edge_body[bc->pa[q]], out->body[1] = bc->edge_body[bc->pb[q]];
+    else out->body[0] = bc->vert_body[bc->pa[q]], out->body[1] = bc->edge_body[bc->pb[q]];
+}
+
+/* The contacts' order: type, then vertices (the key), then stiffness (so that duplicates are
+ * summed in one order whatever order the candidates came in). */
+static int contact_key_cmp(const defsim__bc_contact *a, const defsim__bc_contact *b)
+{
+    if (a->type != b->type) return a->type < b->type ? -1 : 1;
+    for (int i = 0; i < 4; ++i)
+        if (a->v[i] != b->v[i]) return a->v[i] < b->v[i] ? -1 : 1;
+    return 0;
+}
+
+static int contact_cmp(const void *pa, const void *pb)
+{
+    const defsim__bc_contact *a = pa, *b = pb;
+    const int c = contact_key_cmp(a, b);
+    if (c) return c;
+    return (a->kappa > b->kappa) - (a->kappa < b->kappa);
+}
+
+/* Room for n contacts and their slots (energy, gradient, Hessian). */
+static int reserve_contacts(defsim__body_contact *bc, int32_t n)
+{
+    if (n <= bc->cap_con) return 1;
+    int32_t c = bc->cap_con ? bc->cap_con : 64;
+    while (c < n) c *= 2;
+    defsim__bc_contact *con = realloc(bc->con, (size_t)c * sizeof *con);
+    if (con) bc->con = con;
+    double *sv = realloc(bc->sv, (size_t)c * sizeof *sv);
+    if (sv) bc->sv = sv;
+    double *sg = realloc(bc->sg, 12 * (size_t)c * sizeof *sg);
+    if (sg) bc->sg = sg;
+    double *sh = realloc(bc->sh, 144 * (size_t)c * sizeof *sh);
+    if (sh) bc->sh = sh;
+    if (!con || !sv || !sg || !sh) return 0;
+    bc->cap_con = c;
+    return 1;
+}
+
+static int nthreads_of(const defsim__body_contact *bc)
+{
+    return bc->nthreads > 0 ? bc->nthreads : 1;
+}
+
+defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double *x)
+{
+    ensure(bc, x, NULL);
+    if (bc->failed) return bc->failed;
+    bc->con_valid = 0;
+    if (bc->npair > bc->cap_tmp) {
+        defsim__bc_contact *t = realloc(bc->ctmp, (size_t)bc->npair * sizeof *t);
+        if (!t) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        bc->ctmp = t;
+        int32_t *a = realloc(bc->act, (size_t)bc->npair * sizeof *a);
+        if (!a) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+        bc->act = a;
+        bc->cap_tmp = bc->npair;
+    }
+    const int32_t np = bc->npair;
+    defsim__bc_contact *tmp = bc->ctmp;
+    const int nth = nthreads_of(bc);
+    (void)nth;   /* used by OpenMP pragmas only */
+    /* Each candidate's contact into its own slot (any thread), then compacted, sorted and
+     * deduplicated in one order: the set does not depend on the thread count, nor on the
+     * candidates' order or on which pairs beyond dhat were candidates. */
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && np > 512)
+    for (int32_t q = 0; q < np; ++q) candidate_contact(bc, q, x, &tmp[q]);
+    int32_t m = 0;
+    bc->nact = 0;
+    for (int32_t q = 0; q < np; ++q)
+        if (tmp[q].type >= 0) {
+            tmp[m++] = tmp[q];
+            bc->act[bc->nact++] = q;
+        }
+    qsort(tmp, (size_t)m, sizeof *tmp, contact_cmp);
+    if (!reserve_contacts(bc, m)) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+    int32_t n = 0;
+    for (int k = 0; k < 4; ++k) bc->ncon_type[k] = 0;
+    for (int32_t q = 0; q < m; ++q) {
+        if (n > 0 && contact_key_cmp(&tmp[q], &bc->con[n - 1]) == 0) {
+            bc->con[n - 1].kappa += tmp[q].kappa;   /* the multiplicity, as a weight */
+            continue;
+        }
+        bc->con[n++] = tmp[q];
+        bc->ncon_type[tmp[q].type]++;
+    }
+    bc->ncon = n;
+    memcpy(bc->conx, x, 3 * (size_t)bc->nv * sizeof *x);
+    bc->con_valid = 1;
+    bc->builds++;
+    return DEFSIM_OK;
+}
+
+/* The constraint set at x: the one built last if it was built at x, else a new one. */
+static defsim_status constraints_at(defsim__body_contact *bc, const double *x)
+{
+    if (bc->failed) return bc->failed;
+    if (bc->con_valid && !memcmp(bc->conx, x, 3 * (size_t)bc->nv * sizeof *x)) return DEFSIM_OK;
+    return defsim__body_contact_build(bc, x);
+}
+
+/* Contact c's barrier at x: energy, and the gradient (3n) and PSD-projected Hessian (3n x 3n,
+ * row-major) when g / H are not NULL (left unwritten when the energy is 0 or +inf). */
+static double contact_barrier(const defsim__body_contact *bc, const defsim__bc_contact *c,
+                              const double *x, double *g, double *H)
+{
+    double X[12];
+    gather(x, c->v, defsim__contact_nodes(c->type), X);
+    return defsim__contact_barrier(c->type, X, bc->dhat, c->kappa, c->eps, g, H);
 }
 
 /* Friction pair r at x: energy, gradient (12) and Hessian (144, PSD) over its four nodes (an
@@ -518,41 +813,55 @@ static double pair_friction(const defsim__body_contact *bc, int32_t r, const dou
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* Energy, forces, matrices */
+/* Energy, forces, matrices: each contact's value into its slot (in parallel), then summed or
+ * scattered serially in the set's order, so the results are the same bits for every thread
+ * count. */
 
 double defsim__body_contact_energy(defsim__body_contact *bc, const double *x)
 {
     const double t0 = defsim__now();
-    ensure(bc, x, NULL);
+    if (constraints_at(bc, x) != DEFSIM_OK) return INFINITY;
+    const int32_t n = bc->ncon;
+    const defsim__bc_contact *con = bc->con;
+    double *sv = bc->sv;
+    const int nth = nthreads_of(bc);
+    (void)nth;
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && n > 256)
+    for (int32_t q = 0; q < n; ++q) sv[q] = contact_barrier(bc, &con[q], x, NULL, NULL);
     double e = 0.0;
-    int32_t idx[4];
-    int n;
-    for (int32_t q = 0; q < bc->npair && isfinite(e); ++q)
-        e += pair_barrier(bc, q, x, &n, idx, NULL, NULL);
+    for (int32_t q = 0; q < n; ++q) e += sv[q];
     for (int32_t r = 0; r < bc->nfric && isfinite(e); ++r) e += pair_friction(bc, r, x, NULL, NULL);
     bc->stat[DEFSIM__CSTAT_TIME_BODY_EVAL] += defsim__now() - t0;
-    return bc->failed ? INFINITY : e;
+    return isfinite(e) ? e : INFINITY;
 }
 
 defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double *x, double *f)
 {
     const double t0 = defsim__now();
-    ensure(bc, x, NULL);
-    defsim_status st = bc->failed;
-    int32_t idx[4];
-    double g[12];
-    int n;
-    for (int32_t q = 0; q < bc->npair && st == DEFSIM_OK; ++q) {
-        const double e = pair_barrier(bc, q, x, &n, idx, g, NULL);
-        if (!isfinite(e)) {
+    defsim_status st = constraints_at(bc, x);
+    if (st != DEFSIM_OK) return st;
+    const int32_t n = bc->ncon;
+    const defsim__bc_contact *con = bc->con;
+    double *sv = bc->sv, *sg = bc->sg;
+    const int nth = nthreads_of(bc);
+    (void)nth;
+#pragma omp parallel for schedule(static) num_threads(nth) if (nth > 1 && n > 256)
+    for (int32_t q = 0; q < n; ++q)
+        sv[q] = contact_barrier(bc, &con[q], x, sg + 12 * (int64_t)q, NULL);
+    for (int32_t q = 0; q < n && st == DEFSIM_OK; ++q) {
+        if (!isfinite(sv[q])) {
             st = DEFSIM_ERR_UNSTABLE;
             break;
         }
-        if (e == 0.0) continue;
-        for (int i = 0; i < n; ++i)
-            if (!bc->pinned[idx[i]])
-                for (int k = 0; k < 3; ++k) f[3 * (int64_t)idx[i] + k] -= g[3 * i + k];
+        if (sv[q] == 0.0) continue;
+        const double *g = sg + 12 * (int64_t)q;
+        for (int i = 0; i < defsim__contact_nodes(con[q].type); ++i) {
+            const int32_t v = con[q].v[i];
+            if (!bc->pinned[v])
+                for (int k = 0; k < 3; ++k) f[3 * (int64_t)v + k] -= g[3 * i + k];
+        }
     }
+    double g[12];
     for (int32_t r = 0; r < bc->nfric && st == DEFSIM_OK; ++r) {
         pair_friction(bc, r, x, g, NULL);
         const int32_t *fi = bc->fric[r].node;
@@ -581,6 +890,17 @@ static void pend(defsim__body_contact *bc, const defsim__system *s, const int32_
             }
             bc->pend[bc->npend++] = key;
         }
+}
+
+/* Queues the pattern pairs of every contact of the current set. */
+static void pend_set(defsim__body_contact *bc)
+{
+    for (int32_t k = 0; k < bc->nact && !bc->failed; ++k) {
+        const int32_t q = bc->act[k];
+        int32_t idx[4];
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        pend(bc, bc->sys, idx, n);
+    }
 }
 
 void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
@@ -617,15 +937,21 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
                                    defsim__bc_hessian_fn fn, void *ctx)
 {
     const double t0 = defsim__now();
-    ensure(bc, x, NULL);
-    int32_t idx[4];
-    double H[144];
-    int n;
-    for (int32_t q = 0; q < bc->npair; ++q) {
-        const double e = pair_barrier(bc, q, x, &n, idx, NULL, H);
-        if (e == 0.0 || !isfinite(e)) continue;
-        fn(ctx, idx, n, H);
+    if (constraints_at(bc, x) != DEFSIM_OK) return;
+    pend_set(bc);
+    const int32_t n = bc->ncon;
+    const defsim__bc_contact *con = bc->con;
+    double *sv = bc->sv, *sh = bc->sh;
+    const int nth = nthreads_of(bc);
+    (void)nth;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(nth) if (nth > 1 && n > 64)
+    for (int32_t q = 0; q < n; ++q)
+        sv[q] = contact_barrier(bc, &con[q], x, NULL, sh + 144 * (int64_t)q);
+    for (int32_t q = 0; q < n; ++q) {
+        if (sv[q] == 0.0 || !isfinite(sv[q])) continue;
+        fn(ctx, con[q].v, defsim__contact_nodes(con[q].type), sh + 144 * (int64_t)q);
     }
+    double H[144];
     for (int32_t r = 0; r < bc->nfric; ++r) {
         pair_friction(bc, r, x, NULL, H);
         fn(ctx, bc->fric[r].node, 4, H);
@@ -636,7 +962,7 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
 /* ------------------------------------------------------------------------------------------ */
 /* CCD and the feasible start */
 
-/* Largest t in [0, tmax] along x + t dx that keeps pair q at least BC_CCD_FRACTION of its
+/* Largest t in [0, tmax] along x + t dx that keeps candidate q at least BC_CCD_FRACTION of its
  * distance at x; 0 if it starts at distance 0. */
 static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *x,
                        const double *dx, double tmax)
@@ -669,12 +995,22 @@ static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *
     return defsim__pe_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
 }
 
+/* The largest step along dx from x over the candidates of the swept boxes (built unless the
+ * current ones cover the segment). Each candidate's time is the same whatever the thread that
+ * computes it and the minimum does not depend on the order, so alpha is the same bits for every
+ * thread count. */
 static double ccd(defsim__body_contact *bc, const double *x, const double *dx)
 {
     ensure(bc, x, dx);
-    double alpha = bc->failed ? 0.0 : 1.0;
-    for (int32_t q = 0; q < bc->npair && alpha > 0.0; ++q) {
-        const double t = pair_toi(bc, q, x, dx, alpha);
+    if (bc->failed) return 0.0;
+    double alpha = 1.0;
+    const int32_t np = bc->npair;
+    const int nth = nthreads_of(bc);
+    (void)nth;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(nth) reduction(min : alpha) \
+    if (nth > 1 && np > 512)
+    for (int32_t q = 0; q < np; ++q) {
+        const double t = pair_toi(bc, q, x, dx, 1.0);
         if (t < alpha) alpha = t;
     }
     return alpha;
@@ -684,17 +1020,13 @@ double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, 
 {
     const double t0 = defsim__now();
     const double alpha = ccd(bc, x, dx);
-    /* The pattern's slack: pairs that this step brings within the margin join it before the
-     * next assembly. */
-    const double m = BC_PATTERN_MARGIN * bc->dhat;
-    int32_t idx[4];
-    double X[12], D[12];
-    for (int32_t q = 0; q < bc->npair && !bc->failed; ++q) {
-        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
-        gather(x, idx, n, X);
-        gather(dx, idx, n, D);
-        for (int i = 0; i < 3 * n; ++i) X[i] += alpha * D[i];
-        if (dist2(bc->kind[q], X, NULL, NULL) < m * m) pend(bc, bc->sys, idx, n);
+    /* The pattern's slack: the contacts at the update's end (the line search's first trial,
+     * which reuses this set) join it before the next assembly. */
+    if (alpha > 0.0 && !bc->failed) {
+        double *xe = bc->scratch;
+        const int64_t n3 = 3 * (int64_t)bc->nv;
+        for (int64_t i = 0; i < n3; ++i) xe[i] = x[i] + alpha * dx[i];
+        if (defsim__body_contact_build(bc, xe) == DEFSIM_OK) pend_set(bc);
     }
     bc->stat[DEFSIM__CSTAT_TIME_BODY_CCD] += defsim__now() - t0;
     return alpha;
@@ -728,17 +1060,19 @@ int defsim__body_contact_start(defsim__body_contact *bc, double *x)
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* The pattern */
-
-/* ------------------------------------------------------------------------------------------ */
 /* The start and end of a step */
 
-/* Closest points of pair (kind, X) at the step's start: weights w (sum w_i X_i is the vector
- * from the second primitive's closest point to the first's). */
-static void closest_weights(uint8_t kind, const double *X, double w[4])
+/* Closest points of contact (type, X) at the step's start: weights w (sum w_i X_i is the vector
+ * from the second feature's closest point to the first's). */
+static void closest_weights(int type, const double *X, double w[4])
 {
-    w[3] = 0.0;
-    if (kind == DEFSIM__BC_PE) {
+    w[2] = w[3] = 0.0;
+    if (type == DEFSIM__C_VV) {
+        w[0] = 1.0;
+        w[1] = -1.0;
+        return;
+    }
+    if (type == DEFSIM__C_EV) {
         const double *p = X, *a = X + 3, *b = X + 6;
         const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
         const double r[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
@@ -750,7 +1084,7 @@ static void closest_weights(uint8_t kind, const double *X, double w[4])
         w[2] = -t;
         return;
     }
-    if (kind == DEFSIM__BC_EE) {
+    if (type == DEFSIM__C_EE) {
         /* closest points of two segments (clamped line parameters) */
         const double *p1 = X, *q1 = X + 3, *p2 = X + 6, *q2 = X + 9;
         const double d1[3] = {q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]};
@@ -811,14 +1145,6 @@ static int reserve_fric(defsim__body_contact *bc, int32_t n)
     if (!grow((void **)&bc->fric, &cap, n, sizeof *bc->fric)) return 0;
     bc->cap_fric = (int32_t)cap;
     return 1;
-}
-
-/* The body that primitive pair q's first primitive belongs to, and the second's. */
-static void pair_bodies(const defsim__body_contact *bc, int32_t q, int32_t *ba, int32_t *bb)
-{
-    const uint8_t k = bc->kind[q];
-    *ba = k == DEFSIM__BC_EE ? bc->edge_body[bc->pa[q]] : bc->vert_body[bc->pa[q]];
-    *bb = k == DEFSIM__BC_PT ? bc->face_body[bc->pb[q]] : bc->edge_body[bc->pb[q]];
 }
 
 /* Segment (p, q) against triangle (a, b, c): 1 if they cross (floating point signs). */
@@ -897,7 +1223,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
                                          const double *x, const double *v, double h,
                                          double *stat, defsim__messages *msg)
 {
-    const double t0 = defsim__now();
+    (void)v;
     bc->stat = stat;
     bc->sys = s;
     bc->failed = DEFSIM_OK;
@@ -917,6 +1243,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->mass = s->mass;
     bc->pinned = s->pinned;
     bc->vfree = s->vfree;
+    bc->nthreads = s->nthreads;
     bc->xn = x;
     bc->h = h;
     bc->dhat = dhat_rel * s->length_scale;
@@ -925,42 +1252,12 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->khat = kappa > 0.0 ? kappa : gn / bc->dhat + 1.0 / (h * h);
     bc->npend = 0;
     bc->nfric = 0;
-    /* Each vertex's ball: its inertial motion over the step with room to spare (and dhat, so
-     * that Newton's small corrections stay inside); evaluations beyond it grow it (ensure). */
-    /* The candidates of the last broad phase stay valid while every such ball lies in the ball
-     * they were found for (center, radius): quiet scenes skip the hash. A new broad phase
-     * takes the balls a quarter larger, so that the next steps of a scene at rest reuse it
-     * (larger would add candidates in moving scenes). */
-    int reuse = bc->have_pairs && !bc->fresh;
-    for (int32_t k = 0; k < bc->nvert && reuse; ++k) {
-        const int32_t i = bc->vert[k];
-        const double *vi = v + 3 * (int64_t)i, *xi = x + 3 * (int64_t)i;
-        const double *ci = bc->center + 3 * (int64_t)i;
-        const double r = bc->pinned[i] ? 0.0 : 1.5 * h * sqrt(dot3(vi, vi)) + gn * h * h + bc->dhat;
-        const double d[3] = {xi[0] - ci[0], xi[1] - ci[1], xi[2] - ci[2]};
-        reuse = sqrt(dot3(d, d)) + r <= bc->radius[i];
-    }
-    if (!reuse) {
-        /* After a broad phase that found nothing, the balls take several steps of motion more:
-         * an idle scene (sagging, vibrating bodies far apart) reuses the result for many steps
-         * instead of two or three. Only then, and at most 2 dhat more: in a moving scene
-         * larger balls keep many more pairs as candidates (the falling cloth of the fold, which
-         * finds none at first: 8 times as many without the cap). */
-        const double slack =
-            !bc->fresh && bc->have_pairs && bc->npair == 0 ? BC_IDLE_SLACK : 0.0;
-        memcpy(bc->center, x, 3 * (size_t)bc->nv * sizeof *x);
-        for (int32_t k = 0; k < bc->nvert; ++k) {
-            const int32_t i = bc->vert[k];
-            const double *vi = v + 3 * (int64_t)i;
-            const double hv = h * sqrt(dot3(vi, vi)), gh2 = gn * h * h;
-            bc->radius[i] =
-                bc->pinned[i] ? 0.0
-                              : 1.25 * (1.5 * hv + gh2 + bc->dhat) +
-                                    fmin(slack * (hv + gh2), 2.0 * bc->dhat);
-        }
-    }
-    bc->stat[DEFSIM__CSTAT_TIME_BODY_BROAD] += defsim__now() - t0;
-    if (!reuse) broad(bc);
+    /* Masses and stiffness may have changed since the last step: the constraint set is built
+     * again. The candidates too when the filter (fresh), pins (a plan) or dhat changed, or when
+     * the start left their boxes; a scene at rest keeps them (no broad phase). */
+    bc->con_valid = 0;
+    if (bc->fresh || bc->cand_dhat != bc->dhat) bc->have_pairs = 0;
+    ensure(bc, x, NULL);
     if (bc->failed) {
         defsim__error(msg, "out of memory for body contact pairs");
         return bc->failed;
@@ -983,18 +1280,18 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
         return bc->failed;
     }
     bc->fresh = 0;
-    const double dh = bc->dhat;
     for (int32_t q = 0; q < bc->npair; ++q) {
         int32_t idx[4];
         const uint8_t kind = bc->kind[q];
         const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
         double X[12];
         gather(x, idx, n, X);
-        const double s2 = dist2(kind, X, NULL, NULL);
-        if (!(s2 > 0.0)) {
+        if (!(dist2(kind, X, NULL, NULL) > 0.0)) {
             static const char *const what[3] = {"vertex-triangle", "edge-edge", "vertex-edge"};
             int32_t ba, bb;
-            pair_bodies(bc, q, &ba, &bb);
+            if (kind == DEFSIM__BC_PT) ba = bc->vert_body[bc->pa[q]], bb = bc->face_body[bc->pb[q]];
+            else if (kind == DEFSIM__BC_EE) ba = bc->edge_body[bc->pa[q]], bb = bc->edge_body[bc->pb[q]];
+            else ba = bc->vert_body[bc->pa[q]], bb = bc->edge_body[bc->pb[q]];
             defsim__error(msg, "body contact: at the start of the step the %s pair of world "
                           "vertices (%d, %d, %d, %d) touches (distance 0) between bodies %d and "
                           "%d (bodies in vertex order): surfaces must start apart",
@@ -1002,21 +1299,28 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
                           (int)ba, (int)bb);
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-        const double d = sqrt(s2);
-        if (d < BC_PATTERN_MARGIN * dh) pend(bc, s, idx, n);
-        if (!(d < dh)) continue;
-        /* Lagged friction (IPC): normal force and closest points at the start. */
-        int32_t ba, bb;
-        pair_bodies(bc, q, &ba, &bb);
-        const double mu = sqrt(bc->mu[ba] * bc->mu[bb]);
+    }
+    /* The constraint set at the start: its pattern pairs, and lagged friction (IPC): each
+     * contact's normal force and closest points. */
+    if (defsim__body_contact_build(bc, x) != DEFSIM_OK) {
+        defsim__error(msg, "out of memory for body contact pairs");
+        return bc->failed;
+    }
+    pend_set(bc);
+    const double dh = bc->dhat;
+    for (int32_t q = 0; q < bc->ncon; ++q) {
+        const defsim__bc_contact *c = &bc->con[q];
+        const int n = defsim__contact_nodes(c->type);
+        const double mu = sqrt(bc->mu[c->body[0]] * bc->mu[c->body[1]]);
         if (!(mu > 0.0)) continue;
-        double lam = -pair_kappa(bc, idx, n) * barrier_d1(d, dh);
-        if (kind == DEFSIM__BC_EE) {
-            const double eps = 1e-3 * bc->edge_len2[bc->pa[q]] * bc->edge_len2[bc->pb[q]];
-            lam *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps, NULL, NULL);
-        }
+        double X[12];
+        gather(x, c->v, n, X);
+        const double d = sqrt(defsim__contact_dist2(c->type, X, NULL, NULL));
+        double lam = -c->kappa * barrier_d1(d, dh);
+        if (c->type == DEFSIM__C_EE)
+            lam *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, c->eps, NULL, NULL);
         double w[4], dv[3] = {0.0, 0.0, 0.0};
-        closest_weights(kind, X, w);
+        closest_weights(c->type, X, w);
         for (int i = 0; i < n; ++i)
             for (int k = 0; k < 3; ++k) dv[k] += w[i] * X[3 * i + k];
         const double len = sqrt(dot3(dv, dv));
@@ -1027,7 +1331,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
         }
         defsim__bc_friction *fr = &bc->fric[bc->nfric++];
         for (int i = 0; i < 4; ++i) {
-            fr->node[i] = i < n ? idx[i] : -1;
+            fr->node[i] = i < n ? c->v[i] : -1;
             fr->w[i] = i < n ? w[i] : 0.0;
         }
         for (int k = 0; k < 3; ++k) fr->nrm[k] = dv[k] / len;
@@ -1046,16 +1350,16 @@ double defsim__body_contact_end(defsim__body_contact *bc, const double *x, doubl
     memset(f, 0, 3 * (size_t)bc->nv * sizeof *f);
     (void)defsim__body_contact_forces(bc, x, f);
     double dmin = INFINITY;
-    int32_t active = 0, idx[4];
+    int32_t idx[4];
     double X[12];
     for (int32_t q = 0; q < bc->npair; ++q) {
         const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
         gather(x, idx, n, X);
         const double d = sqrt(dist2(bc->kind[q], X, NULL, NULL));
         if (d < dmin) dmin = d;
-        active += d < bc->dhat;
     }
-    bc->stat[DEFSIM__CSTAT_BODY_ACTIVE] = active;
+
+    bc->stat[DEFSIM__CSTAT_BODY_ACTIVE] = bc->con_valid ? bc->ncon : 0;
     bc->stat[DEFSIM__CSTAT_BODY_MIN_DISTANCE] = dmin;
     return dmin;
 }

@@ -7,18 +7,22 @@
  * every candidate pair, so no iterate of a line search crosses a surface. Only for backends with
  * DEFSIM_BACKEND_CONTACT_CCD (the world refuses to step the others).
  *
- * Surfaces are extracted once per plan. A step begins with a broad phase: each surface vertex
- * gets a ball about its start position (its motion in the step, grown by evaluations that go
- * beyond it), primitives get the boxes of their vertices' balls grown by dhat, and a sorted
- * spatial hash (broad_phase.h) pairs them in one deterministic order. Candidate pairs whose
- * vertices are not yet coupled in the sparse pattern are collected and merged into it when the
- * backend asks (matrix_pattern_version).
+ * Surfaces are extracted once per plan. Each evaluation point x has its constraint set
+ * (IPC's): the primitive pairs within dhat at x, merged into vertex-vertex, edge-vertex,
+ * face-vertex and edge-edge contacts (contact_pair.h), built once per x and reused by the energy,
+ * forces, Hessians and pattern at that x. Its candidates come from a sorted spatial hash
+ * (broad_phase.h) of primitive boxes grown by dhat / 2: at x for the barrier, swept over
+ * x -> x + dx for CCD (so they also cover every point of the line search). Candidates stay valid
+ * while every surface vertex lies in the box they were built for; the phases rebuild them
+ * otherwise. Free-vertex pairs of contacts that the sparse pattern lacks are collected and merged
+ * into it when the backend asks (matrix_pattern_version).
  */
 #ifndef DEFSIM_BODY_CONTACT_H
 #define DEFSIM_BODY_CONTACT_H
 
 #include "body.h"
 #include "broad_phase.h"
+#include "contact_pair.h"
 #include "status.h"
 #include "system.h"
 
@@ -32,6 +36,17 @@ typedef struct defsim__bc_friction {
     double nrm[3];
     double mul;
 } defsim__bc_friction;
+
+/* One contact of the constraint set: its type (DEFSIM__C_VV, _EV, _FV, _EE of contact_pair.h),
+ * its vertices in the kernel's order (VV: p, q; EV: p, e0, e1; FV: p, t0, t1, t2; EE: a0, a1, b0,
+ * b1; -1 unused), its barrier stiffness kappa and, for EE, the mollifier threshold eps; the
+ * dense indices of the two bodies it joins (friction's mu). */
+typedef struct defsim__bc_contact {
+    int32_t v[4];
+    int32_t type;
+    int32_t body[2];
+    double kappa, eps;
+} defsim__bc_contact;
 
 typedef struct defsim__body_contact {
     /* Surfaces (per plan; global vertex indices). */
@@ -57,9 +72,12 @@ typedef struct defsim__body_contact {
     const uint8_t *pinned;    /* nv */
     const int32_t *vfree;     /* nv: free vertex index or -1 */
     const double *xn;         /* 3 nv: the step's start (borrowed) */
-    double *center, *radius;  /* 3 nv, nv: the balls the candidates were found for (m); the
-                                 centers are the start of the step that found them */
-    int have_pairs;           /* the candidates match the balls (a broad phase ran) */
+    double *vlo, *vhi;        /* 3 nv: the box each surface vertex had when the candidates
+                                 were built (a point, or its segment for CCD) */
+    int have_pairs;           /* the candidates match vlo, vhi (a broad phase ran) */
+    double cand_dhat;         /* the dhat they were built for (m) */
+    int32_t nthreads;         /* the system's (OpenMP loops over contacts and candidates) */
+    const double *bx, *bdx;   /* during a broad phase: the point and update (or NULL) it covers */
     double *lo, *hi;          /* 3 (nvert + nface + nedge + nrope): boxes */
     double *scratch;          /* 3 nv: contact_start's displacement, end's forces */
     double *clo, *chi;        /* the boxes of the primitives of bodies that take part */
@@ -73,6 +91,21 @@ typedef struct defsim__body_contact {
     int32_t npair, cap_pair;
     uint8_t *kind;
     int32_t *pa, *pb;
+
+    /* The constraint set at conx (valid while con_valid): ncon contacts in canonical order
+     * (type, then vertices), ncon_type[DEFSIM__C_*] of each type. ctmp: one slot per candidate
+     * while it is built. sv, sg, sh: per-contact energy, gradient (12) and Hessian (144) slots
+     * that the parallel loops fill and the serial sums read in contact order. */
+    int32_t ncon, cap_con, cap_tmp;
+    int32_t *act, nact;       /* the candidates within dhat at conx (their primitives' vertex
+                                 pairs join the pattern) */
+    struct defsim__bc_contact *con, *ctmp;
+    int32_t ncon_type[4];
+    double *conx;             /* 3 nv */
+    int con_valid;
+    double *sv, *sg, *sh;
+    int64_t builds;           /* constraint sets built, cumulative */
+    int64_t broads;           /* broad phases run, cumulative */
 
     /* Lagged friction (IPC): pairs active at the step's start, with their nodes, the weights of
      * the relative displacement of the closest points, the normal at the start, and mu lam. */
@@ -104,13 +137,25 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
                                          const double *x, const double *v, double h,
                                          double *stat, defsim__messages *msg);
 
+/* The barrier candidates at x (the phase benchmark's broad phase; always runs it): primitive
+ * pairs whose boxes at x (each vertex's with dhat / 4 of room), grown by dhat / 2, overlap and
+ * that could come within dhat inside them, after the collision filter. They cover every point
+ * whose surface vertices stay in those boxes. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY.
+ * Count in bc->npair. */
+defsim_status defsim__body_contact_candidates(defsim__body_contact *bc, const double *x);
+/* Builds the constraint set at x from the current candidates (after a broad phase at x if they do
+ * not cover x): bc->ncon contacts, bc->ncon_type[DEFSIM__C_*] per type; the energy, forces and
+ * Hessians at the same x reuse it. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double *x);
+
 /* Energy at x (J): barriers plus friction; +inf where a pair has distance 0. */
 double defsim__body_contact_energy(defsim__body_contact *bc, const double *x);
 /* Adds the contact forces (-gradient) at x to f (pinned vertices get nothing). Returns
  * DEFSIM_ERR_UNSTABLE for an infeasible point, DEFSIM_ERR_OUT_OF_MEMORY. */
 defsim_status defsim__body_contact_forces(defsim__body_contact *bc, const double *x, double *f);
-/* Calls fn with every nonzero pair Hessian at x (projected to PSD per pair; 3n x 3n over the
- * vertices idx, -1: unused): barriers within dhat, then the lagged friction pairs. */
+/* Calls fn with every nonzero contact Hessian at x (projected to PSD per contact; 3n x 3n over
+ * the vertices idx, -1: unused), in the constraint set's order, then the lagged friction pairs;
+ * queues the free-vertex pairs of the contacts that the pattern lacks. */
 typedef void (*defsim__bc_hessian_fn)(void *ctx, const int32_t *idx, int n, const double *H);
 void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
                                    defsim__bc_hessian_fn fn, void *ctx);
@@ -120,8 +165,10 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
 void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
                                   const int32_t *idx, int n, const double *H, double k, int upper,
                                   const int64_t *cp, double *values);
-/* Largest alpha in (0, 1] such that no candidate pair comes closer than 0.2 times its distance
- * at x along x + t dx, t <= alpha (additive CCD); 0 when x is not feasible. */
+/* Largest alpha in (0, 1] such that no primitive pair comes closer than 0.2 times its distance
+ * at x along x + t dx, t <= alpha (additive CCD over the candidates of the swept boxes, which it
+ * builds when the current ones do not cover the segment); 0 when x is not feasible. Builds the
+ * constraint set at x + alpha dx (the line search's first trial) and queues its pattern pairs. */
 double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, const double *dx);
 /* Makes a Newton start x feasible: moves its free vertices back along the segment from the
  * step's start as far as CCD requires (to the start itself if needed). Returns 1 if it moved

@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Broad phase (broad_phase.h). The hash: every box of B is inserted in the cells it overlaps
- * (cell coordinates packed into one key), the (key, box) list is sorted, and every box of A
- * looks up the cells it overlaps by binary search and tests the boxes found there. Sorting
- * instead of hashing makes the result independent of insertion order and thread count.
+ * (cell coordinates hashed into a bucket), the boxes are counting-sorted by bucket in box order,
+ * and every box of A visits the buckets of the cells it overlaps and tests the boxes found there,
+ * reporting each overlapping pair from one cell only. The result does not depend on the thread
+ * count; the cost is linear in the boxes (and the cells they overlap, at most 8 per box of B on
+ * average).
  */
 #include "broad_phase.h"
 
@@ -14,6 +16,9 @@
 void defsim__hash_free(defsim__hash *h)
 {
     free(h->keys);
+    free(h->bucket);
+    free(h->start);
+    free(h->cell0);
     free(h->pairs);
     memset(h, 0, sizeof *h);
 }
@@ -28,12 +33,6 @@ static int reserve(void **p, int64_t *cap, int64_t need, size_t size)
     *p = q;
     *cap = c;
     return 1;
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return (x > y) - (x < y);
 }
 
 static int cmp_i64(const void *a, const void *b)
@@ -113,64 +112,100 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
             for (int a = 0; a < 3; ++a) cell += (hi_b[3 * b + a] - lo_b[3 * b + a]) / (3.0 * nb);
         if (!(cell > 0.0)) cell = extent > 0.0 ? extent : 1.0;
     }
-    while (cell < extent && count_cells(lo_b, hi_b, nb, origin, 1.0 / cell) > 8 * (int64_t)nb)
+    int64_t n = 0;
+    while ((n = count_cells(lo_b, hi_b, nb, origin, 1.0 / cell)) > 8 * (int64_t)nb &&
+           cell < extent)
         cell *= 2.0;
     const double inv = 1.0 / cell;
     int64_t top[3];
     for (int a = 0; a < 3; ++a) top[a] = cell_of(far[a], origin[a], inv);
-    /* Insert B. */
-    for (int pass = 0; pass < 2; ++pass) {
-        int64_t n = 0;
-        for (int32_t b = 0; b < nb; ++b) {
-            int64_t r[3][2];
-            range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
-            for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
-                for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
-                    for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
-                        if (pass) h->keys[n] = (uint64_t)key_of(i, j, k) << 32 | (uint32_t)b;
-                        ++n;
-                    }
-        }
-        if (!pass && !reserve((void **)&h->keys, &h->cap_keys, n, sizeof *h->keys))
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        h->nkeys = n;
+    /* Buckets: a power of two at least the (box, cell) entries; a counting sort by bucket, in
+     * box order within each. Each box of B keeps its lowest cell (the reporting rule below). */
+    if (n > INT32_MAX / 2) return DEFSIM_ERR_OUT_OF_MEMORY;   /* int32 bucket offsets */
+    int64_t nbk = 1;
+    while (nbk < n) nbk *= 2;
+    const uint32_t mask = (uint32_t)(nbk - 1);
+    if (!reserve((void **)&h->keys, &h->cap_keys, n, sizeof *h->keys) ||
+        !reserve((void **)&h->bucket, &h->cap_bucket, n, sizeof *h->bucket) ||
+        !reserve((void **)&h->start, &h->cap_start, nbk + 1, sizeof *h->start) ||
+        !reserve((void **)&h->cell0, &h->cap_cell0, 3 * (int64_t)nb, sizeof *h->cell0))
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    int32_t *start = h->start, *cell0 = h->cell0;
+    uint32_t *bucket = h->bucket;
+    memset(start, 0, (size_t)(nbk + 1) * sizeof *start);
+    int64_t e = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t r[3][2];
+        range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+        for (int a = 0; a < 3; ++a) cell0[3 * (int64_t)b + a] = (int32_t)r[a][0];
+        for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
+            for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
+                for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+                    const uint32_t bk = key_of(i, j, k) & mask;
+                    bucket[e++] = bk;
+                    start[bk + 1]++;
+                }
     }
-    qsort(h->keys, (size_t)h->nkeys, sizeof *h->keys, cmp_u64);
-    /* Query A. */
+    for (int64_t q = 0; q < nbk; ++q) start[q + 1] += start[q];
+    e = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t r[3][2];
+        range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
+        const int64_t m = (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+        for (int64_t q = 0; q < m; ++q) h->keys[start[bucket[e++]]++] = (uint32_t)b;
+    }
+    /* the scatter advanced each start to its end: shift back */
+    for (int64_t q = nbk; q > 0; --q) start[q] = start[q - 1];
+    start[0] = 0;
+    h->nkeys = n;
+    /* Query A. A pair is reported from one cell only, the one holding the larger of the two
+     * boxes' lower corners (it lies in both boxes, so both visit it; cells are monotone in the
+     * coordinates, so it is the larger of their lowest cells); a box that two of its cells put
+     * twice in one bucket is found twice there, which the per-box sort removes. */
     for (int32_t a = 0; a < na; ++a) {
         int64_t r[3][2];
-        range(lo_a + 3 * a, hi_a + 3 * a, origin, inv, r);
+        const double *la = lo_a + 3 * a, *ha = hi_a + 3 * a;
+        range(la, ha, origin, inv, r);
+        const int64_t a0[3] = {r[0][0], r[1][0], r[2][0]};
         for (int ax = 0; ax < 3; ++ax) {   /* no box of B beyond its far corner's cell */
             if (r[ax][0] > top[ax]) r[ax][0] = top[ax] + 1;
             if (r[ax][1] > top[ax]) r[ax][1] = top[ax];
         }
+        const int64_t first = h->npairs;
         for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
             for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
                 for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
-                    const uint64_t key = (uint64_t)key_of(i, j, k) << 32;
-                    int64_t lo = 0, hi = h->nkeys;
-                    while (lo < hi) {
-                        const int64_t mid = lo + (hi - lo) / 2;
-                        if (h->keys[mid] < key) lo = mid + 1;
-                        else hi = mid;
-                    }
-                    for (int64_t m = lo; m < h->nkeys && (h->keys[m] >> 32) == (key >> 32); ++m) {
-                        const int32_t b = (int32_t)(uint32_t)h->keys[m];
+                    const uint32_t bk = key_of(i, j, k) & mask;
+                    for (int32_t m = start[bk]; m < start[bk + 1]; ++m) {
+                        const int32_t b = (int32_t)h->keys[m];
                         if (self && b <= a) continue;
-                        if (!overlap(lo_a + 3 * a, hi_a + 3 * a, lo_b + 3 * b, hi_b + 3 * b))
+                        const int32_t *c0 = cell0 + 3 * (int64_t)b;
+                        if ((c0[0] > a0[0] ? c0[0] : a0[0]) != i ||
+                            (c0[1] > a0[1] ? c0[1] : a0[1]) != j ||
+                            (c0[2] > a0[2] ? c0[2] : a0[2]) != k)
                             continue;
+                        if (!overlap(la, ha, lo_b + 3 * b, hi_b + 3 * b)) continue;
                         if (!reserve((void **)&h->pairs, &h->cap_pairs, h->npairs + 1,
                                      sizeof *h->pairs))
                             return DEFSIM_ERR_OUT_OF_MEMORY;
                         h->pairs[h->npairs++] = (int64_t)a << 32 | b;
                     }
                 }
+        /* a's pairs in b order, unique (a few: insertion sort) */
+        for (int64_t m = first + 1; m < h->npairs; ++m) {
+            const int64_t v = h->pairs[m];
+            int64_t q = m;
+            while (q > first && h->pairs[q - 1] > v) {
+                h->pairs[q] = h->pairs[q - 1];
+                --q;
+            }
+            h->pairs[q] = v;
+        }
+        int64_t u = first;
+        for (int64_t m = first; m < h->npairs; ++m)
+            if (m == first || h->pairs[m] != h->pairs[u - 1]) h->pairs[u++] = h->pairs[m];
+        h->npairs = u;
     }
-    qsort(h->pairs, (size_t)h->npairs, sizeof *h->pairs, cmp_i64);
-    int64_t u = 0;
-    for (int64_t m = 0; m < h->npairs; ++m)
-        if (u == 0 || h->pairs[m] != h->pairs[u - 1]) h->pairs[u++] = h->pairs[m];
-    h->npairs = u;
     return DEFSIM_OK;
 }
 

@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Broad phase for body-body and self-contact (broad_phase.c): a spatial hash of axis-aligned
- * boxes (uniform cells, keys sorted rather than hashed, so the pairs come out in one
- * deterministic order whatever the thread count), and the unique edges of triangle lists (the
+ * boxes (uniform cells hashed into buckets, counting-sorted in box order, so the pairs come out
+ * in one deterministic order whatever the thread count; cost linear in the boxes), and the
+ * unique edges of triangle lists (the
  * boundary triangles of tet meshes come from defsim__tet_boundary, mesh.h).
  */
 #ifndef DEFSIM_BROAD_PHASE_H
@@ -15,8 +16,15 @@
 /* Growable scratch of the hash: reused across steps, so a step allocates only when a scene
  * needs more room than before. Zero-initialise; free with defsim__hash_free. */
 typedef struct defsim__hash {
-    uint64_t *keys;           /* (cell key << 32 | box index) of the inserted boxes */
+    uint32_t *keys;           /* the inserted boxes of B, grouped by the bucket of each cell they
+                                 overlap (box order within a bucket) */
     int64_t nkeys, cap_keys;
+    uint32_t *bucket;         /* the bucket of each entry, in insertion order */
+    int64_t cap_bucket;
+    int32_t *start;           /* buckets + 1: where each bucket's boxes start in keys */
+    int64_t cap_start;
+    int32_t *cell0;           /* 3 per box of B: its lowest cell */
+    int64_t cap_cell0;
     int64_t *pairs;           /* (a << 32 | b) of the last query, sorted, unique */
     int64_t npairs, cap_pairs;
 } defsim__hash;
@@ -24,7 +32,7 @@ typedef struct defsim__hash {
 void defsim__hash_free(defsim__hash *h);
 
 /* Pairs (a, b) of overlapping closed boxes, a from set A (na boxes) and b from set B (nb boxes;
- * lo and hi are 3 doubles per box). With self != 0, A and B must be the same set and only
+ * lo and hi are 3 doubles per box), each reported once. With self != 0, A and B must be the same set and only
  * pairs a < b are reported. cell (m) is the hash's cell size: about the size of a typical box
  * (coarsened, doubling, while B's boxes overlap more than 8 cells each on average; 0 for the
  * mean size of B's boxes). The pairs land in h->pairs (sorted, unique), each

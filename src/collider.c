@@ -224,3 +224,119 @@ void defsim__collider_set_free(defsim__collider_set *s)
     defsim__id_pool_free(&s->ids);
     memset(s, 0, sizeof *s);
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Checkpoint chunks */
+
+void defsim__collider_set_save(defsim__bw *b, const defsim__collider_set *s, int32_t nv)
+{
+    for (int32_t i = 0; i < s->ncol; ++i) {
+        const defsim__collider *c = &s->col[i];
+        if (!(c->generation & 1u)) continue;
+        const defsim_collider_def *d = &c->def;
+        const size_t at = defsim__chunk_begin(b, "COLL");
+        defsim__put_i32(b, (int32_t)d->shape);
+        defsim__put_f64s(b, c->pos, 3);
+        defsim__put_f64s(b, c->rot, 4);
+        defsim__put_f64s(b, c->pos1, 3);
+        defsim__put_f64s(b, c->rot1, 4);
+        defsim__put_f64s(b, d->normal, 3);
+        defsim__put_f64(b, d->radius);
+        defsim__put_f64s(b, d->half_extents, 3);
+        defsim__put_f64(b, d->half_height);
+        defsim__put_f64(b, d->friction);
+        defsim__put_f64s(b, d->sdf_bounds, 6);
+        const int mesh = d->shape == DEFSIM_SHAPE_MESH;
+        defsim__put_i32(b, mesh ? d->vertex_count : 0);
+        defsim__put_i32(b, mesh ? d->triangle_count : 0);
+        if (mesh) {
+            defsim__put_f64s(b, d->vertices, 3 * (int64_t)d->vertex_count);
+            defsim__put_i32s(b, d->triangles, 3 * (int64_t)d->triangle_count);
+        }
+        defsim__chunk_end(b, at);
+    }
+    const int forces = s->force && s->force_nv == nv;
+    if (s->ncol > 0 || forces) {
+        const size_t at = defsim__chunk_begin(b, "CFRC");
+        defsim__put_i32(b, s->changed);
+        defsim__put_i32(b, forces);
+        if (forces) defsim__put_f64s(b, s->force, 3 * (int64_t)nv);
+        defsim__chunk_end(b, at);
+    }
+}
+
+void defsim__collider_saved_free(defsim__collider_saved *s)
+{
+    free(s->vertices);
+    free(s->triangles);
+    s->vertices = NULL;
+    s->triangles = NULL;
+}
+
+defsim_status defsim__collider_read(defsim__br *r, defsim__collider_saved *out, const char **why)
+{
+    memset(out, 0, sizeof *out);
+    defsim_collider_def *d = &out->def;
+    defsim_collider_def_init(d, sizeof *d);
+    d->shape = (defsim_shape)defsim__get_i32(r);
+    defsim__get_f64s(r, d->position, 3);
+    defsim__get_f64s(r, d->rotation, 4);
+    defsim__get_f64s(r, out->pos1, 3);
+    defsim__get_f64s(r, out->rot1, 4);
+    defsim__get_f64s(r, d->normal, 3);
+    d->radius = defsim__get_f64(r);
+    defsim__get_f64s(r, d->half_extents, 3);
+    d->half_height = defsim__get_f64(r);
+    d->friction = defsim__get_f64(r);
+    defsim__get_f64s(r, d->sdf_bounds, 6);
+    const int32_t nv = defsim__get_i32(r), nt = defsim__get_i32(r);
+    if (nv < 0 || nt < 0 || !defsim__fits(r, nv, 24) || !defsim__fits(r, nt, 12)) {
+        *why = "mesh counts out of range";
+        return DEFSIM_ERR_IO;
+    }
+    out->vertices = malloc(3 * (size_t)(nv + 1) * sizeof *out->vertices);
+    out->triangles = malloc(3 * (size_t)(nt + 1) * sizeof *out->triangles);
+    if (!out->vertices || !out->triangles) return DEFSIM_ERR_OUT_OF_MEMORY;
+    defsim__get_f64s(r, out->vertices, 3 * (int64_t)nv);
+    defsim__get_i32s(r, out->triangles, 3 * (int64_t)nt);
+    if (!defsim__read_whole(r) || !all_finite(out->rot1, 4)) {
+        *why = "wrong length or a bad pose";
+        return DEFSIM_ERR_IO;
+    }
+    d->vertices = out->vertices;
+    d->vertex_count = nv;
+    d->triangles = out->triangles;
+    d->triangle_count = nt;
+    return DEFSIM_OK;
+}
+
+void defsim__collider_restore(defsim__collider *c, const defsim__collider_saved *saved)
+{
+    const defsim_collider_def *d = &saved->def;
+    memcpy(c->pos, d->position, sizeof c->pos);
+    memcpy(c->rot, d->rotation, sizeof c->rot);
+    memcpy(c->pos1, saved->pos1, sizeof c->pos1);
+    memcpy(c->rot1, saved->rot1, sizeof c->rot1);
+    memcpy(c->def.position, d->position, sizeof d->position);
+    memcpy(c->def.rotation, d->rotation, sizeof d->rotation);
+    memcpy(c->def.normal, d->normal, sizeof d->normal);
+}
+
+defsim_status defsim__collider_set_load_forces(defsim__collider_set *s, defsim__br *r,
+                                               int32_t nv)
+{
+    const int32_t changed = defsim__get_i32(r), forces = defsim__get_i32(r);
+    if (r->n != 8 + (forces ? 24 * (size_t)nv : 0) || (changed != 0 && changed != 1) ||
+        (forces != 0 && forces != 1))
+        return DEFSIM_ERR_IO;
+    s->changed = changed;
+    if (!forces) return DEFSIM_OK;
+    double *f = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *f);
+    if (!f) return DEFSIM_ERR_OUT_OF_MEMORY;
+    defsim__get_f64s(r, f, 3 * (int64_t)nv);
+    free(s->force);
+    s->force = f;
+    s->force_nv = nv;
+    s->force_zero = 0;
+    return DEFSIM_OK;
+}

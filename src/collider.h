@@ -9,6 +9,7 @@
 #ifndef DEFSIM_COLLIDER_H
 #define DEFSIM_COLLIDER_H
 
+#include "chunk.h"
 #include "defsim/defsim.h"
 #include "id_pool.h"
 #include "mesh.h"
@@ -47,6 +48,35 @@ typedef struct defsim__collider_set {
 int32_t defsim__collider_set_live(const defsim__collider_set *s);
 /* Frees the colliders and the read-back (at destruction). */
 void defsim__collider_set_free(defsim__collider_set *s);
+
+/* Checkpoints (docs/checkpoints.md): writes a COLL chunk per live collider in slot order, with
+ * its pose now and at the end of the next step as stored (normalised), and the CFRC chunk:
+ * whether the colliders changed since the last step, and that step's contact forces when they
+ * are still of the world's nv vertices. */
+void defsim__collider_set_save(defsim__bw *b, const defsim__collider_set *s, int32_t nv);
+
+/* A COLL chunk read back: the def (arrays in the buffers here, the SDF's function left to the
+ * caller) and the pose at the end of the next step. */
+typedef struct defsim__collider_saved {
+    defsim_collider_def def;
+    double pos1[3], rot1[4];
+    double *vertices;
+    int32_t *triangles;
+} defsim__collider_saved;
+
+/* Reads a COLL chunk into *out, whose buffers are the caller's to free with
+ * defsim__collider_saved_free, also on failure: DEFSIM_ERR_IO with *why saying what is
+ * malformed, DEFSIM_ERR_OUT_OF_MEMORY. The def's values are validated by
+ * defsim_world_add_collider. */
+defsim_status defsim__collider_read(defsim__br *r, defsim__collider_saved *out, const char **why);
+void defsim__collider_saved_free(defsim__collider_saved *s);
+/* Gives collider c the saved bits of both poses and the normal (a second normalisation may
+ * move the last bit). */
+void defsim__collider_restore(defsim__collider *c, const defsim__collider_saved *saved);
+/* Reads the CFRC chunk into the set for a world of nv vertices: DEFSIM_ERR_IO if malformed,
+ * DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__collider_set_load_forces(defsim__collider_set *s, defsim__br *r,
+                                               int32_t nv);
 
 /* A pose: position (m) and unit quaternion (w, x, y, z), with its rotation matrix (row-major,
  * local to world). */

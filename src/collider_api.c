@@ -27,23 +27,14 @@ defsim_status defsim_world_add_collider(defsim_world *w, const defsim_collider_d
     defsim__collider c;
     if ((st = defsim__collider_make(w->msg, def, &c)) != DEFSIM_OK) return st;
     int32_t slot;
-    if ((st = defsim__id_pool_reserve(&w->colliders.ids, w->msg, "colliders", &slot)) !=
-        DEFSIM_OK) {
+    defsim__collider *col = defsim__id_pool_add(&w->colliders.ids, w->msg, "colliders",
+                                                w->colliders.col, sizeof *col, &w->colliders.ncol,
+                                                &w->colliders.cap_col, &slot);
+    if (!col) {
         defsim__collider_free(&c);
-        return st;
+        return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    if (slot == w->colliders.ncol && w->colliders.ncol == w->colliders.cap_col) {
-        const int32_t cap = w->colliders.cap_col ? 2 * w->colliders.cap_col : 4;
-        defsim__collider *nc = realloc(w->colliders.col, (size_t)cap * sizeof *nc);
-        if (!nc) {
-            defsim__collider_free(&c);
-            defsim__error(w->msg, "out of memory");
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        w->colliders.col = nc;
-        w->colliders.cap_col = cap;
-    }
-    if (slot == w->colliders.ncol) w->colliders.ncol++;
+    w->colliders.col = col;
     c.generation = defsim__id_pool_take(&w->colliders.ids, slot, slot);
     w->colliders.col[slot] = c;
     w->colliders.changed = 1;
@@ -61,8 +52,7 @@ defsim_status defsim_world_remove_collider(defsim_world *w, defsim_collider_id i
     defsim__collider *c = collider_or_error(w, id);
     if (!c) return DEFSIM_ERR_STALE_ID;
     defsim__collider_free(c);
-    c->generation++;
-    defsim__id_pool_release(&w->colliders.ids, (int32_t)(c - w->colliders.col));
+    defsim__id_pool_remove(&w->colliders.ids, (int32_t)(c - w->colliders.col), &c->generation);
     w->colliders.changed = 1;
     return DEFSIM_OK;
 }

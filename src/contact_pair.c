@@ -1,16 +1,39 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * One body-contact constraint's barrier: see contact_pair.h.
+ *
+ * The Hessian is projected to positive semi-definite by the exact eigenvalue clamp of the whole
+ * 3n x 3n matrix, in the smallest subspace that holds its range:
+ *   - every distance depends on vertex differences only, so translations are exact null
+ *     vectors; an orthonormal basis of their complement (H_k (x) I3 with H the columns of a
+ *     Hadamard-like node matrix orthogonal to (1, ..., 1)) turns the clamp of H into the clamp
+ *     of a (3m - 3)-square matrix over the m vertices the closest features involve;
+ *   - point-point regions (any contact type): the 3 x 3 block of y = x_i - x_j has the
+ *     eigenvectors n and the plane orthogonal to it, so the clamp is closed form;
+ *   - point-plane (face-vertex interior) and line-line (edge-edge interior, mollifier off)
+ *     regions: the signed distance sigma = r . n^ has gradient w (x) n^ (w: the closest points'
+ *     node weights) and a Hessian whose range lies in {h_k (x) n^} + {w (x) t : t in the plane}
+ *     (moving vertices within the plane leaves n^ fixed, and the normal only turns within the
+ *     plane), a 5-dimensional space: its 5 x 5 matrix is built in closed form from the
+ *     second-order expansion of sigma and clamped there;
+ *   - point-line regions (edge-vertex, and face-vertex or edge-edge pairs closest at an edge's
+ *     interior): a 3 x 3 matrix and one eigenvalue, closed form (pl_closed);
+ *   - the mollified edge-edge barrier: the Hessian from the distance's and the mollifier's
+ *     derivatives, clamped in the 9-dimensional translation-free subspace.
+ * Every small clamp uses one symmetric eigensolver: Householder tridiagonalisation and the
+ * implicit QR iteration with Wilkinson shifts (Golub and Van Loan, 8.3), for n <= 9. The
+ * closed forms are checked against the clamp of the whole matrix in tests/unit/test_contact_pair.c.
  */
 #include "contact_pair.h"
 
 #include "contact_barrier.h"
 #include "contact_prim.h"
-#include "mat3.h"
 
-#include "defsim/defsim.h"
-
+#include <float.h>
 #include <math.h>
+#include <string.h>
+
+enum { EIG_N = 9 };
 
 double defsim__contact_dist2(int type, const double *X, double *g, double *H)
 {
@@ -37,36 +60,407 @@ double defsim__contact_dist2(int type, const double *X, double *g, double *H)
     }
 }
 
-/* Makes the Hessian H (3n x 3n) of a function of the n vertices that only their differences
- * enter (every distance here) positive semi-definite: in the coordinates y_i = x_i - x_0
- * (i >= 1) it is T^T B T with B its (3n - 3)-square lower block; B is projected (clamped
- * eigenvalues) and mapped back. A smaller eigenproblem than the full one (9 instead of 12), and
- * translations stay in the null space exactly. */
-static void project_relative(int n, double *H)
+/* ------------------------------------------------------------------------------------------ */
+/* Small symmetric eigenproblems */
+
+/* Eigenvalues lam and eigenvectors (the columns of V, n x n row-major) of the symmetric n x n
+ * matrix A (n <= EIG_N; A is destroyed). Householder reduction to tridiagonal form with the
+ * reflections accumulated in V, then implicit symmetric QR steps with Wilkinson shifts on the
+ * unreduced blocks, the Givens rotations accumulated in V. */
+static void sym_eig(int n, double *A, double *lam, double *V)
 {
-    const int nd = 3 * n, r = nd - 3;
-    double B[81];
+    double e[EIG_N], v[EIG_N], p[EIG_N];
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) V[i * n + j] = i == j;
+    for (int k = 0; k + 2 < n; ++k) {
+        /* The reflection I - beta v v^T that maps A[k+1.., k] onto a multiple of e_{k+1}. */
+        double tail = 0.0;
+        for (int i = k + 2; i < n; ++i) tail += A[i * n + k] * A[i * n + k];
+        const double x0 = A[(k + 1) * n + k];
+        if (tail == 0.0) {
+            e[k] = x0;
+            continue;
+        }
+        const double norm = sqrt(x0 * x0 + tail), alpha = x0 > 0.0 ? -norm : norm;
+        v[k + 1] = x0 - alpha;
+        for (int i = k + 2; i < n; ++i) v[i] = A[i * n + k];
+        const double beta = 2.0 / (v[k + 1] * v[k + 1] + tail);
+        /* A22 <- P A22 P: p = beta A22 v, w = p - (beta p.v / 2) v, A22 -= v w^T + w v^T. */
+        double pv = 0.0;
+        for (int i = k + 1; i < n; ++i) {
+            double s = 0.0;
+            for (int j = k + 1; j < n; ++j) s += A[i * n + j] * v[j];
+            p[i] = beta * s;
+            pv += p[i] * v[i];
+        }
+        const double kk = 0.5 * beta * pv;
+        for (int i = k + 1; i < n; ++i) p[i] -= kk * v[i];
+        for (int i = k + 1; i < n; ++i)
+            for (int j = k + 1; j < n; ++j) A[i * n + j] -= v[i] * p[j] + p[i] * v[j];
+        e[k] = alpha;
+        /* V <- V P */
+        for (int i = 0; i < n; ++i) {
+            double s = 0.0;
+            for (int j = k + 1; j < n; ++j) s += V[i * n + j] * v[j];
+            s *= beta;
+            for (int j = k + 1; j < n; ++j) V[i * n + j] -= s * v[j];
+        }
+    }
+    for (int i = 0; i < n; ++i) lam[i] = A[i * n + i];
+    if (n >= 2) e[n - 2] = A[(n - 1) * n + n - 2];
+    /* Implicit QR on the tridiagonal (lam, e). */
+    for (int iter = 0; iter < 60 * n; ++iter) {
+        for (int i = 0; i + 1 < n; ++i)
+            if (fabs(e[i]) <= DBL_EPSILON * (fabs(lam[i]) + fabs(lam[i + 1])) ||
+                fabs(e[i]) < DBL_MIN)
+                e[i] = 0.0;
+        int hi = n - 1;
+        while (hi > 0 && e[hi - 1] == 0.0) --hi;
+        if (hi == 0) break;
+        int lo = hi - 1;
+        while (lo > 0 && e[lo - 1] != 0.0) --lo;
+        /* Wilkinson shift from the trailing 2 x 2 block. */
+        const double dd = 0.5 * (lam[hi - 1] - lam[hi]), eh = e[hi - 1];
+        const double mu = lam[hi] - eh * eh / (dd + copysign(sqrt(dd * dd + eh * eh), dd));
+        double x = lam[lo] - mu, z = e[lo];
+        for (int k = lo; k < hi; ++k) {
+            /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
+             * zeroes z against x: at k = lo the shifted first column, later the bulge. */
+            const double ir = 1.0 / sqrt(x * x + z * z), c = x * ir, s = -z * ir;
+            if (k > lo) e[k - 1] = c * x - s * z;
+            const double a = lam[k], b = e[k], d = lam[k + 1];
+            lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;
+            lam[k + 1] = s * s * a + 2.0 * c * s * b + c * c * d;
+            e[k] = c * s * (a - d) + (c * c - s * s) * b;
+            if (k + 1 < hi) {
+                z = -s * e[k + 1];
+                e[k + 1] *= c;
+                x = e[k];
+            }
+            for (int i = 0; i < n; ++i) {
+                const double q0 = V[i * n + k], q1 = V[i * n + k + 1];
+                V[i * n + k] = c * q0 - s * q1;
+                V[i * n + k + 1] = s * q0 + c * q1;
+            }
+        }
+    }
+}
+
+/* Replaces the symmetric n x n matrix A by its projection on the positive semi-definite cone
+ * (eigenvalues clamped at 0): A = sum over positive lam of lam v v^T. */
+static void clamp_psd(int n, double *A)
+{
+    double W[EIG_N * EIG_N], V[EIG_N * EIG_N], lam[EIG_N];
+    /* scaled to entries of at most 1, so that no square in the eigensolver under- or
+     * overflows */
+    double m = 0.0;
+    for (int i = 0; i < n * n; ++i) m = fabs(A[i]) > m ? fabs(A[i]) : m;
+    if (!(m > 0.0) || !isfinite(m)) return;
+    for (int i = 0; i < n * n; ++i) W[i] = A[i] / m;
+    sym_eig(n, W, lam, V);
+    for (int k = 0; k < n; ++k) lam[k] *= m;
+    int neg = 0;
+    for (int k = 0; k < n; ++k) neg += lam[k] < 0.0;
+    if (!neg) return;
+    for (int i = 0; i < n; ++i)
+        for (int j = i; j < n; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < n; ++k)
+                if (lam[k] > 0.0) s += V[i * n + k] * lam[k] * V[j * n + k];
+            A[i * n + j] = A[j * n + i] = s;
+        }
+}
+
+/* Node weights of an orthonormal basis of the vectors over m nodes orthogonal to (1, ..., 1):
+ * basis vector k is NODE_BASIS[m][k][0 .. m - 1]. */
+static const double NODE_BASIS[5][3][4] = {
+    {{0}},
+    {{0}},
+    {{0.70710678118654752, -0.70710678118654752}},
+    {{0.70710678118654752, -0.70710678118654752, 0.0},
+     {0.40824829046386302, 0.40824829046386302, -0.81649658092772603}},
+    {{0.5, 0.5, -0.5, -0.5}, {0.5, -0.5, 0.5, -0.5}, {0.5, -0.5, -0.5, 0.5}},
+};
+
+/* Projects the Hessian H (nd x nd, nd = 3n) whose nonzero blocks are those of the m vertices
+ * `nodes`, and which translations of those vertices leave unchanged: the exact clamp, computed
+ * in the (3m - 3)-dimensional translation-free subspace. */
+static void project_nodes(int nd, double *H, int m, const int *nodes)
+{
+    const int r = 3 * (m - 1);
+    const double(*h)[4] = NODE_BASIS[m];
+    /* B = P^T H P with P = [h_k (x) I3] placed on `nodes` */
+    double C[12][EIG_N], B[EIG_N * EIG_N];
+    for (int row = 0; row < nd; ++row)
+        for (int k = 0; k < m - 1; ++k)
+            for (int b = 0; b < 3; ++b) {
+                double s = 0.0;
+                for (int j = 0; j < m; ++j) s += H[row * nd + 3 * nodes[j] + b] * h[k][j];
+                C[row][3 * k + b] = s;
+            }
+    for (int k = 0; k < m - 1; ++k)
+        for (int a = 0; a < 3; ++a)
+            for (int col = 0; col < r; ++col) {
+                double s = 0.0;
+                for (int i = 0; i < m; ++i) s += h[k][i] * C[3 * nodes[i] + a][col];
+                B[(3 * k + a) * r + col] = s;
+            }
     for (int i = 0; i < r; ++i)
-        for (int j = 0; j < r; ++j) B[i * r + j] = H[(3 + i) * nd + 3 + j];
-    defsim__project_psd(r, B, DEFSIM_PROJECTION_CLAMP);
-    /* column sums per row (the x_0 column block of B T) */
-    double c[81][3];
-    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < i; ++j)
+            B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
+    clamp_psd(r, B);
+    /* H = P B P^T on the vertices' blocks */
+    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
+    for (int i = 0; i < m; ++i)
+        for (int j = i; j < m; ++j)
+            for (int a = 0; a < 3; ++a)
+                for (int b = i == j ? a : 0; b < 3; ++b) {
+                    double s = 0.0;
+                    for (int k = 0; k < m - 1; ++k)
+                        for (int l = 0; l < m - 1; ++l)
+                            s += h[k][i] * h[l][j] * B[(3 * k + a) * r + 3 * l + b];
+                    H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = s;
+                    H[(3 * nodes[j] + b) * nd + 3 * nodes[i] + a] = s;
+                }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Closed forms */
+
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double *a, const double *b, double *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Point-point between vertices i and j of X: the gradient f1 grad d and the clamped Hessian
+ * of f(d) (f1 = f', f2 = f'') over y = x_i - x_j, f2 n n^T + max(f1 / d, 0) (I - n n^T), placed
+ * as [+B -B; -B +B]. g and H cover nd = 3 (number of vertices) coordinates, zero elsewhere. */
+static void vv_closed(const double *X, int nd, int i, int j, double d, double f1, double f2,
+                      double *g, double *H)
+{
+    double n[3];
+    for (int k = 0; k < 3; ++k) n[k] = (X[3 * i + k] - X[3 * j + k]) / d;
+    if (g) {
+        memset(g, 0, (size_t)nd * sizeof *g);
         for (int k = 0; k < 3; ++k) {
-            double sum = 0.0;
-            for (int b = 0; b < n - 1; ++b) sum += B[i * r + 3 * b + k];
-            c[i][k] = sum;
+            g[3 * i + k] = f1 * n[k];
+            g[3 * j + k] = -f1 * n[k];
         }
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < r; ++j) H[(3 + i) * nd + 3 + j] = B[i * r + j];
-    for (int i = 0; i < r; ++i)
-        for (int k = 0; k < 3; ++k) H[(3 + i) * nd + k] = H[k * nd + 3 + i] = -c[i][k];
-    for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) {
-            double sum = 0.0;
-            for (int a = 0; a < n - 1; ++a) sum += c[3 * a + k][l];
-            H[k * nd + l] = sum;
+    }
+    if (!H) return;
+    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
+    const double t = f1 > 0.0 ? f1 / d : 0.0;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            const double v = (f2 - t) * (n[a] * n[b]) + (a == b ? t : 0.0);
+            H[(3 * i + a) * nd + 3 * i + b] = H[(3 * j + a) * nd + 3 * j + b] = v;
+            H[(3 * i + a) * nd + 3 * j + b] = H[(3 * j + a) * nd + 3 * i + b] = -v;
         }
+}
+
+/* Point-line region: vertex p against the line through e0, e1 (indices into X, nd = 3 *
+ * number of vertices), distance d, f1 = f'(d), f2 = f''(d). With u = p - e0, w = e1 - e0,
+ * L = |w|, beta = u . w / L^2, the closest points' node weights c = (1, beta - 1, -beta),
+ * k = (0, -1, 1) (w's), the frame e^ = w / L, n^ (from the line to p), b^ = e^ x n^, and
+ * rho = dp - (1 - beta) de0 - beta de1, the expansion of d to second order is
+ *   d + rho_n + (rho_b^2 - (d/L)^2 w_n^2 - 2 (d/L) w_n rho_e) / (2d),
+ * so the Hessian of f(d) is f1/d |c|^2 on c^ (x) b^ alone, and a 3 x 3 matrix on
+ * (h_1 (x) n^, h_2 (x) n^, c^ (x) e^): a 4-dimensional range, clamped there. */
+static void pl_closed(const double *X, int nd, const int *nodes, double d, double f1,
+                      double f2, double *g, double *H)
+{
+    const double *p = X + 3 * nodes[0], *e0 = X + 3 * nodes[1], *e1 = X + 3 * nodes[2];
+    double u[3], w[3], nh[3], eh[3], bh[3];
+    for (int k = 0; k < 3; ++k) u[k] = p[k] - e0[k], w[k] = e1[k] - e0[k];
+    const double L2 = dot3(w, w), L = sqrt(L2), beta = dot3(u, w) / L2;
+    for (int k = 0; k < 3; ++k) {
+        nh[k] = (u[k] - beta * w[k]) / d;
+        eh[k] = w[k] / L;
+    }
+    cross3(eh, nh, bh);
+    const double c[3] = {1.0, beta - 1.0, -beta}, kk[3] = {0.0, -1.0, 1.0};
+    if (g) {
+        memset(g, 0, (size_t)nd * sizeof *g);
+        for (int i = 0; i < 3; ++i)
+            for (int q = 0; q < 3; ++q) g[3 * nodes[i] + q] = f1 * c[i] * nh[q];
+    }
+    if (!H) return;
+    const double(*h)[4] = NODE_BASIS[3];
+    const double cn = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double Cn[3] = {0, 0, 0}, Kn[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i) {
+        Cn[0] += c[i] * h[0][i], Cn[1] += c[i] * h[1][i];
+        Kn[0] += kk[i] * h[0][i], Kn[1] += kk[i] * h[1][i];
+    }
+    const double Ce[3] = {0.0, 0.0, cn};
+    double M[9];
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b <= a; ++b)
+            M[3 * a + b] = M[3 * b + a] = f2 * Cn[a] * Cn[b] - f1 * d / L2 * Kn[a] * Kn[b] -
+                                          f1 / L * (Kn[a] * Ce[b] + Ce[a] * Kn[b]);
+    clamp_psd(3, M);
+    const double lb = f1 > 0.0 ? f1 * cn * cn / d : 0.0;
+    /* Q_i (3 x 4): h_1[i] n^, h_2[i] n^, c^_i e^, c^_i b^ */
+    double Q[3][3][4];
+    for (int i = 0; i < 3; ++i)
+        for (int q = 0; q < 3; ++q) {
+            Q[i][q][0] = h[0][i] * nh[q];
+            Q[i][q][1] = h[1][i] * nh[q];
+            Q[i][q][2] = c[i] / cn * eh[q];
+            Q[i][q][3] = c[i] / cn * bh[q];
+        }
+    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
+    for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j)
+            for (int a = 0; a < 3; ++a)
+                for (int b = i == j ? a : 0; b < 3; ++b) {
+                    double s = lb * Q[i][a][3] * Q[j][b][3];
+                    for (int x = 0; x < 3; ++x)
+                        for (int y = 0; y < 3; ++y) s += Q[i][a][x] * M[3 * x + y] * Q[j][b][y];
+                    H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = s;
+                    H[(3 * nodes[j] + b) * nd + 3 * nodes[i] + a] = s;
+                }
+}
+
+/* The three difference vectors of the plane formula as node weights over the 4 vertices:
+ * r, c1, c2 with sigma = r . (c1 x c2) / |c1 x c2|. Point-plane: r = p - t0, c1 = t1 - t0,
+ * c2 = t2 - t0; line-line: r = a0 - b0, c1 = a1 - a0, c2 = b1 - b0. */
+static const double PLANE_MAP[2][3][4] = {
+    {{1, -1, 0, 0}, {0, -1, 1, 0}, {0, -1, 0, 1}},
+    {{1, 0, -1, 0}, {-1, 1, 0, 0}, {0, 0, -1, 1}},
+};
+
+static double wdot4(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+}
+
+/* Point-plane (ee = 0) or line-line (ee = 1) region of a 4-vertex constraint with the
+ * difference vectors r, c1, c2 (PLANE_MAP), nu = |c1 x c2|, n^ = c1 x c2 / nu and
+ * sigma = r . n^: the gradient of f(|sigma|) (f1 = f', f2 = f'' at d = |sigma|) into g (12) and
+ * its clamped Hessian into H (144), either NULL.
+ *
+ * sigma's second-order expansion in the frame (t_a, t_b, n^) with perturbations dr, dc1, dc2
+ * (subscript n: along n^, t: in the plane; J v = n^ x v; v = J (dc1_n c2 - dc2_n c1);
+ * z = n^ . (dc1_t x c2 + c1 x dc2_t); r_t = r - sigma n^; nu = |c1 x c2|) is
+ *   d2 sigma = (2/nu) [dr_t . v + r_t . (dc1_n J dc2_t - dc2_n J dc1_t)]
+ *              - (2/nu^2) z (r_t . v) - (sigma/nu^2) |v|^2,
+ * so the Hessian has no block within the plane and none along dr_n; in the basis
+ * N_k = h_k (x) n^ (k < 3), T_a = w^ (x) t_a, T_b = w^ (x) t_b it is the 5 x 5 matrix below. */
+static void plane_closed(int ee, double sig, double nu, const double nh[3],
+                         const double r[3], const double c1[3], const double c2[3], double f1,
+                         double f2, double *g, double *H)
+{
+    const double(*map)[4] = PLANE_MAP[ee];
+    const double sg = sig > 0.0 ? 1.0 : -1.0;
+    /* barycentric weights of the closest point: r_t = beta1 c1 + beta2 c2 */
+    double m[3], rt[3];
+    cross3(r, c2, m);
+    const double beta1 = dot3(m, nh) / nu;
+    cross3(c1, r, m);
+    const double beta2 = dot3(m, nh) / nu;
+    for (int k = 0; k < 3; ++k) rt[k] = r[k] - sig * nh[k];
+    double w[4];
+    for (int i = 0; i < 4; ++i) w[i] = map[0][i] - beta1 * map[1][i] - beta2 * map[2][i];
+    if (g)
+        for (int i = 0; i < 4; ++i)
+            for (int k = 0; k < 3; ++k) g[3 * i + k] = f1 * sg * w[i] * nh[k];
+    if (!H) return;
+    const double W = sqrt(wdot4(w, w));
+    double wh[4];
+    for (int i = 0; i < 4; ++i) wh[i] = w[i] / W;
+    /* in-plane frame */
+    double ta[3], tb[3];
+    const double l1 = sqrt(dot3(c1, c1));
+    for (int k = 0; k < 3; ++k) ta[k] = c1[k] / l1;
+    cross3(nh, ta, tb);
+    const double *h[3] = {NODE_BASIS[4][0], NODE_BASIS[4][1], NODE_BASIS[4][2]};
+    double v[3][3], rv[3], G[3];
+    for (int k = 0; k < 3; ++k) {
+        const double m1 = wdot4(map[1], h[k]), m2 = wdot4(map[2], h[k]);
+        double u[3];
+        for (int c = 0; c < 3; ++c) u[c] = m1 * c2[c] - m2 * c1[c];
+        cross3(nh, u, v[k]);
+        rv[k] = -nu * (beta1 * m1 + beta2 * m2);
+        G[k] = wdot4(w, h[k]);
+    }
+    /* in-plane directions: weights of w^ on r, c1, c2 */
+    const double ar = wdot4(map[0], wh), a1 = wdot4(map[1], wh), a2 = wdot4(map[2], wh);
+    double jr[3];
+    cross3(nh, rt, jr);
+    const double *t[2] = {ta, tb};
+    double z[2], tj[2];
+    for (int a = 0; a < 2; ++a) {
+        double q1[3], q2[3];
+        cross3(t[a], c2, q1);
+        cross3(c1, t[a], q2);
+        z[a] = a1 * dot3(nh, q1) + a2 * dot3(nh, q2);
+        tj[a] = dot3(t[a], jr);
+    }
+    /* M = f2 G G^T + f1 sg K over (N_0, N_1, N_2, T_a, T_b) */
+    double M[25];
+    const double ks = f1 * sg;
+    for (int k = 0; k < 3; ++k) {
+        for (int l = 0; l <= k; ++l)
+            M[5 * k + l] = M[5 * l + k] =
+                f2 * G[k] * G[l] - ks * sig / (nu * nu) * dot3(v[k], v[l]);
+        const double m1 = wdot4(map[1], h[k]), m2 = wdot4(map[2], h[k]);
+        for (int a = 0; a < 2; ++a) {
+            const double kt = (ar * dot3(t[a], v[k]) - (m1 * a2 - m2 * a1) * tj[a]) / nu -
+                              z[a] * rv[k] / (nu * nu);
+            M[5 * k + 3 + a] = M[5 * (3 + a) + k] = ks * kt;
+        }
+    }
+    M[18] = M[19] = M[23] = M[24] = 0.0;
+    clamp_psd(5, M);
+    /* H = Q M Q^T with Q_i (3 x 5) the rows of node i */
+    double Q[4][3][5], Z[4][3][5];
+    for (int i = 0; i < 4; ++i)
+        for (int c = 0; c < 3; ++c) {
+            for (int k = 0; k < 3; ++k) Q[i][c][k] = h[k][i] * nh[c];
+            Q[i][c][3] = wh[i] * ta[c];
+            Q[i][c][4] = wh[i] * tb[c];
+        }
+    for (int i = 0; i < 4; ++i)
+        for (int c = 0; c < 3; ++c)
+            for (int q = 0; q < 5; ++q) {
+                double s = 0.0;
+                for (int p = 0; p < 5; ++p) s += Q[i][c][p] * M[5 * p + q];
+                Z[i][c][q] = s;
+            }
+    for (int i = 0; i < 4; ++i)
+        for (int j = i; j < 4; ++j)
+            for (int a = 0; a < 3; ++a)
+                for (int b = i == j ? a : 0; b < 3; ++b) {
+                    double s = 0.0;
+                    for (int q = 0; q < 5; ++q) s += Z[i][a][q] * Q[j][b][q];
+                    H[(3 * i + a) * 12 + 3 * j + b] = H[(3 * j + b) * 12 + 3 * i + a] = s;
+                }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+
+/* The closest features of the constraint (see defsim__pt_closest); VV: both vertices. */
+static int closest(int type, const double *X, double *s, defsim__dtype *dt, int nodes[4])
+{
+    switch (type) {
+    case DEFSIM__C_FV: return defsim__pt_closest(X, s, dt, nodes);
+    case DEFSIM__C_EE: return defsim__ee_closest(X, s, dt, nodes);
+    case DEFSIM__C_EV: return defsim__pe_closest(X, s, dt, nodes);
+    default:
+        *s = defsim__contact_dist2(type, X, NULL, NULL);
+        *dt = DEFSIM__D_PP;
+        nodes[0] = 0;
+        nodes[1] = 1;
+        return 2;
+    }
 }
 
 double defsim__contact_barrier(int type, const double *X, double dh, double kap,
@@ -74,43 +468,66 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
 {
     const int m = defsim__contact_nodes(type);
     const int nd = 3 * m;
-    double gs[12], Hs[144];
     /* the derivatives only for pairs within dhat (most candidates are not) */
-    double s = defsim__contact_dist2(type, X, NULL, NULL);
+    defsim__dtype dt;
+    int nodes[4];
+    double s;
+    closest(type, X, &s, &dt, nodes);
     if (!(s < dh * dh)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
-    if (g || H) s = defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
     const double d = sqrt(s);
     const double e = kap * barrier(d, dh);
-    double gd[12];
-    const double b1 = kap * barrier_d1(d, dh);
-    for (int i = 0; i < nd && (g || H); ++i) gd[i] = gs[i] / (2.0 * d);
+    if (!g && !H) {
+        if (type == DEFSIM__C_EE)
+            return e * defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL);
+        return e;
+    }
+    const double b1 = kap * barrier_d1(d, dh), b2 = kap * barrier_d2(d, dh);
+    const int moll = type == DEFSIM__C_EE &&
+                     defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL) < 1.0;
+    if (!moll && dt == DEFSIM__D_PP) {
+        vv_closed(X, nd, nodes[0], nodes[1], d, b1, b2, g, H);
+        return e;
+    }
+    if (!moll && (dt == DEFSIM__D_PT || dt == DEFSIM__D_EE)) {
+        const int ee = dt == DEFSIM__D_EE;
+        const double(*map)[4] = PLANE_MAP[ee];
+        double r[3], c1[3], c2[3], n[3], nh[3];
+        for (int k = 0; k < 3; ++k) {
+            double v[3] = {0, 0, 0};
+            for (int i = 0; i < 4; ++i)
+                for (int q = 0; q < 3; ++q) v[q] += map[k][i] * X[3 * i + q];
+            memcpy(k == 0 ? r : k == 1 ? c1 : c2, v, sizeof v);
+        }
+        cross3(c1, c2, n);
+        const double nu = sqrt(dot3(n, n));
+        for (int k = 0; k < 3; ++k) nh[k] = n[k] / nu;
+        const double sig = dot3(r, nh);
+        plane_closed(ee, sig, nu, nh, r, c1, c2, b1, b2, g, H);
+        return e;
+    }
+    if (!moll && dt == DEFSIM__D_PE) {
+        pl_closed(X, nd, nodes, d, b1, b2, g, H);
+        return e;
+    }
+    /* The mollified edge-edge barrier m kappa b(d): its Hessian from the distance's and the
+     * mollifier's derivatives, clamped in the 9-dimensional translation-free subspace. */
+    double gs[12], Hs[144], gd[12], gm[12], Hm[144];
+    defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
+    const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, H ? Hm : NULL);
+    for (int i = 0; i < 12; ++i) gd[i] = gs[i] / (2.0 * d);
+    if (g)
+        for (int i = 0; i < 12; ++i) g[i] = mo * (b1 * gd[i]) + e * gm[i];
     if (H) {
         /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
-        const double b2 = kap * barrier_d2(d, dh);
-        for (int i = 0; i < nd; ++i)
-            for (int j = 0; j < nd; ++j)
-                H[i * nd + j] = b2 * gd[i] * gd[j] +
-                                b1 * (Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d);
+        for (int i = 0; i < 12; ++i)
+            for (int j = 0; j < 12; ++j) {
+                const double hd = Hs[i * 12 + j] / (2.0 * d) - gd[i] * gd[j] / d;
+                H[i * 12 + j] = mo * (b2 * gd[i] * gd[j] + b1 * hd) + b1 * gd[i] * gm[j] +
+                                gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
+            }
+        static const int all[4] = {0, 1, 2, 3};
+        project_nodes(12, H, 4, all);
     }
-    if (g)
-        for (int i = 0; i < nd; ++i) g[i] = b1 * gd[i];
-    double out = e;
-    if (type == DEFSIM__C_EE) {
-        double gm[12], Hm[144];
-        const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll,
-                                               g || H ? gm : NULL, H ? Hm : NULL);
-        if (mo < 1.0) {
-            if (H)
-                for (int i = 0; i < 12; ++i)
-                    for (int j = 0; j < 12; ++j)
-                        H[i * 12 + j] = mo * H[i * 12 + j] + b1 * gd[i] * gm[j] +
-                                        gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
-            if (g)
-                for (int i = 0; i < 12; ++i) g[i] = mo * g[i] + e * gm[i];
-            out = mo * e;
-        }
-    }
-    if (H) project_relative(m, H);
-    return out;
+    return mo * e;
 }

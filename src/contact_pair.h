@@ -27,7 +27,10 @@ double defsim__contact_dist2(int type, const double *X, double *g, double *H);
  * kappa b(d) with IPC's log barrier inside dhat, times the edge-edge mollifier for DEFSIM__C_EE
  * (eps_moll: its threshold, defsim__ee_mollifier_eps of the rest positions; ignored otherwise).
  * Returns 0 outside dhat (g and H left unwritten) and +inf at distance 0. g (3n) receives the
- * gradient and H (3n x 3n, row-major) the Hessian projected to PSD when not NULL. */
+ * gradient and H (3n x 3n, row-major, exactly symmetric) the Hessian projected to PSD when not
+ * NULL: the exact eigenvalue clamp of the whole 3n x 3n matrix (to rounding), in closed form for
+ * point-point, point-plane and line-line regions (see contact_pair.c). Pure: no state, safe to
+ * call from any number of threads. */
 double defsim__contact_barrier(int type, const double *X, double dhat, double kappa,
                                double eps_moll, double *g, double *H);
 

@@ -205,35 +205,18 @@ static double point_segment(const double *p, const double *e0, const double *e1,
     return dot3(m, m) / ww;
 }
 
-/* Evaluates the candidate "point X[p] against segment X[e0] X[e1]" with derivatives. */
-static double eval_point_segment(const double *X, int n, int p, int e0, int e1, int which,
-                                 double *g, double *H, defsim__dtype *type)
-{
-    if (which == 2) {
-        *type = DEFSIM__D_PE;
-        return f_pl(X, n, p, e0, e1, g, H);
-    }
-    *type = DEFSIM__D_PP;
-    return f_pp(X, n, p, which == 0 ? e0 : e1, g, H);
-}
-
 static void clear(double *g, double *H, int n)
 {
     if (g) memset(g, 0, (size_t)n * sizeof *g);
     if (H) memset(H, 0, (size_t)n * (size_t)n * sizeof *H);
 }
 
-double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
-                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
+/* The closest features of p against (t0, t1, t2) in X (p, t0, t1, t2): the formula and the
+ * vertices it involves (see defsim__pt_closest); the squared distance for the boundary regions
+ * (the interior's is left to the caller, *d2 = -1). */
+static int pt_region(const double *X, defsim__dtype *type, int nodes[4], double *d2)
 {
-    double X[12];
-    memcpy(X, p, 3 * sizeof *X);
-    memcpy(X + 3, t0, 3 * sizeof *X);
-    memcpy(X + 6, t1, 3 * sizeof *X);
-    memcpy(X + 9, t2, 3 * sizeof *X);
-    clear(g, H, 12);
-    defsim__dtype tt;
-    if (!type) type = &tt;
+    const double *p = X, *t0 = X + 3, *t1 = X + 6, *t2 = X + 9;
     /* Barycentric coordinates of p's projection on the triangle's plane. */
     double e1[3], e2[3], u[3];
     sub3(t1, t0, e1);
@@ -245,7 +228,9 @@ double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3
         const double b1 = (c * d - b * e) / det, b2 = (a * e - b * d) / det;
         if (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
             *type = DEFSIM__D_PT;
-            return f_plane(X, 12, 0, 1, 2, 1, 3, 1, g, H);
+            for (int k = 0; k < 4; ++k) nodes[k] = k;
+            *d2 = -1.0;
+            return 4;
         }
     }
     /* Outside (or a degenerate triangle): the closest point is on the boundary. */
@@ -261,20 +246,60 @@ double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3
             which = w;
         }
     }
-    return eval_point_segment(X, 12, 0, edge[best][0], edge[best][1], which, g, H, type);
+    *d2 = dmin;
+    nodes[0] = 0;
+    if (which == 2) {
+        *type = DEFSIM__D_PE;
+        nodes[1] = edge[best][0];
+        nodes[2] = edge[best][1];
+        return 3;
+    }
+    *type = DEFSIM__D_PP;
+    nodes[1] = edge[best][which];
+    return 2;
 }
 
-double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
-                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+/* Evaluates the formula of a region over the vertices `nodes` of X (n coordinates). */
+static double eval_region(const double *X, int n, defsim__dtype type, const int *nodes,
+                          double *g, double *H)
+{
+    switch (type) {
+    case DEFSIM__D_PP: return f_pp(X, n, nodes[0], nodes[1], g, H);
+    case DEFSIM__D_PE: return f_pl(X, n, nodes[0], nodes[1], nodes[2], g, H);
+    case DEFSIM__D_PT: return f_plane(X, n, 0, 1, 2, 1, 3, 1, g, H);
+    default: return f_plane(X, n, 0, 2, 1, 0, 3, 2, g, H);
+    }
+}
+
+int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    const int m = pt_region(x, type, nodes, d2);
+    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 1, 2, 1, 3, 1, NULL, NULL);
+    return m;
+}
+
+double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
+                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
 {
     double X[12];
-    memcpy(X, a0, 3 * sizeof *X);
-    memcpy(X + 3, a1, 3 * sizeof *X);
-    memcpy(X + 6, b0, 3 * sizeof *X);
-    memcpy(X + 9, b1, 3 * sizeof *X);
+    memcpy(X, p, 3 * sizeof *X);
+    memcpy(X + 3, t0, 3 * sizeof *X);
+    memcpy(X + 6, t1, 3 * sizeof *X);
+    memcpy(X + 9, t2, 3 * sizeof *X);
     clear(g, H, 12);
     defsim__dtype tt;
     if (!type) type = &tt;
+    int nodes[4];
+    double d2;
+    pt_region(X, type, nodes, &d2);
+    if (d2 >= 0.0 && !g && !H) return d2;
+    return eval_region(X, 12, *type, nodes, g, H);
+}
+
+/* The closest features of segments (a0, a1) and (b0, b1) in X: as pt_region. */
+static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double *d2)
+{
+    const double *a0 = X, *a1 = X + 3, *b0 = X + 6, *b1 = X + 9;
     double ea[3], eb[3], r[3], n[3];
     sub3(a1, a0, ea);
     sub3(b1, b0, eb);
@@ -288,7 +313,9 @@ double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[
         const double s = (ab * rb - bb * ra) / det, t = (aa * rb - ab * ra) / det;
         if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
             *type = DEFSIM__D_EE;
-            return f_plane(X, 12, 0, 2, 1, 0, 3, 2, g, H);
+            for (int k = 0; k < 4; ++k) nodes[k] = k;
+            *d2 = -1.0;
+            return 4;
         }
     }
     /* On the boundary of the parameter square: an end against the other segment. */
@@ -305,8 +332,58 @@ double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[
             which = w;
         }
     }
-    return eval_point_segment(X, 12, cand[best][0], cand[best][1], cand[best][2], which, g, H,
-                              type);
+    *d2 = dmin;
+    nodes[0] = cand[best][0];
+    if (which == 2) {
+        *type = DEFSIM__D_PE;
+        nodes[1] = cand[best][1];
+        nodes[2] = cand[best][2];
+        return 3;
+    }
+    *type = DEFSIM__D_PP;
+    nodes[1] = cand[best][1 + which];
+    return 2;
+}
+
+int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    const int m = ee_region(x, type, nodes, d2);
+    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 2, 1, 0, 3, 2, NULL, NULL);
+    return m;
+}
+
+double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
+                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+{
+    double X[12];
+    memcpy(X, a0, 3 * sizeof *X);
+    memcpy(X + 3, a1, 3 * sizeof *X);
+    memcpy(X + 6, b0, 3 * sizeof *X);
+    memcpy(X + 9, b1, 3 * sizeof *X);
+    clear(g, H, 12);
+    defsim__dtype tt;
+    if (!type) type = &tt;
+    int nodes[4];
+    double d2;
+    ee_region(X, type, nodes, &d2);
+    if (d2 >= 0.0 && !g && !H) return d2;
+    return eval_region(X, 12, *type, nodes, g, H);
+}
+
+int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4])
+{
+    int which;
+    *d2 = point_segment(x, x + 3, x + 6, &which);
+    nodes[0] = 0;
+    if (which == 2) {
+        *type = DEFSIM__D_PE;
+        nodes[1] = 1;
+        nodes[2] = 2;
+        return 3;
+    }
+    *type = DEFSIM__D_PP;
+    nodes[1] = 1 + which;
+    return 2;
 }
 
 double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3], double g[9],
@@ -319,9 +396,11 @@ double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3
     clear(g, H, 9);
     defsim__dtype tt;
     if (!type) type = &tt;
-    int which;
-    point_segment(p, e0, e1, &which);
-    return eval_point_segment(X, 9, 0, 1, 2, which, g, H, type);
+    int nodes[4];
+    double d2;
+    defsim__pe_closest(X, &d2, type, nodes);
+    if (!g && !H) return d2;
+    return eval_region(X, 9, *type, nodes, g, H);
 }
 
 double defsim__ee_mollifier_eps(const double a0[3], const double a1[3], const double b0[3],
@@ -386,38 +465,57 @@ static double pe_d2(const double *x)
     return defsim__pe_dist2(x, x + 3, x + 6, NULL, NULL, NULL);
 }
 
-static double norm3(const double *a) { return sqrt(dot3(a, a)); }
+/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]),
+ * first: how many of the four vertices form the first primitive (1 for PT, 2 for EE).
+ *
+ * The closest points move with a relative velocity that is a convex combination of the vertex
+ * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
+ * constant lp = max |dx_a - dx_b|: no larger than ACCD's bound (the largest displacement on each
+ * side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each advance is
+ * ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below the gap
+ * s d(0), the crossing inside that advance (which is collision-free as a whole) is bracketed and
+ * halved REFINE times, and the last time found at or above the gap is returned: the result is
+ * then within 2^-REFINE of one advance of where d first reaches the gap at a checked time,
+ * where ACCD stops one whole advance short of it. */
+enum { REFINE = 12 };
+#define ETA 0.9
 
-/* first: how many of the four vertices form the first primitive (1 for PT, 2 for EE). */
-static double accd(dist2_fn dist2, int first, const double x0[12], const double dx0[12],
+static double accd(dist2_fn dist2, int first, const double x0[12], const double dx[12],
                    double s, double tmax, int max_iterations)
 {
-    /* Relative motion only: subtract the mean displacement. */
-    double dx[12], x[12], mean[3] = {0, 0, 0};
-    for (int v = 0; v < 4; ++v)
-        for (int k = 0; k < 3; ++k) mean[k] += 0.25 * dx0[3 * v + k];
-    for (int v = 0; v < 4; ++v)
-        for (int k = 0; k < 3; ++k) dx[3 * v + k] = dx0[3 * v + k] - mean[k];
-    /* A bound on how fast the distance can shrink: the largest displacement of each side. */
-    double la = 0.0, lb = 0.0;
-    for (int v = 0; v < 4; ++v) {
-        const double l = norm3(dx + 3 * v);
-        if (v < first) la = l > la ? l : la;
-        else lb = l > lb ? l : lb;
-    }
-    const double lp = la + lb;
+    double lp = 0.0;
+    for (int a = 0; a < first; ++a)
+        for (int b = first; b < 4; ++b) {
+            double r[3];
+            sub3(dx + 3 * a, dx + 3 * b, r);
+            const double l = dot3(r, r);
+            lp = l > lp ? l : lp;
+        }
+    lp = sqrt(lp);
     if (!(lp > 0.0)) return tmax;
-    memcpy(x, x0, sizeof x);
-    double d = sqrt(dist2(x));
+    double x[12];
+    double d = sqrt(dist2(x0));
+    if (!(d > 0.0)) return 0.0;
     const double gap = s * d;
-    double t = 0.0, tl = (1.0 - s) * d / lp;
+    double t = 0.0;
     for (int it = 0; it < max_iterations; ++it) {
-        for (int k = 0; k < 12; ++k) x[k] += tl * dx[k];
-        d = sqrt(dist2(x));
-        if (t > 0.0 && d < gap) return t;
+        const double tl = ETA * d / lp;
+        if (t + tl >= tmax) return tmax;
+        for (int k = 0; k < 12; ++k) x[k] = x0[k] + (t + tl) * dx[k];
+        const double dn = sqrt(dist2(x));
+        if (dn < gap) {
+            /* d(t) >= gap > d(t + tl): bisect, keeping lo at or above the gap */
+            double lo = t, hi = t + tl;
+            for (int r = 0; r < REFINE; ++r) {
+                const double mid = 0.5 * (lo + hi);
+                for (int k = 0; k < 12; ++k) x[k] = x0[k] + mid * dx[k];
+                if (sqrt(dist2(x)) >= gap) lo = mid;
+                else hi = mid;
+            }
+            return lo;
+        }
         t += tl;
-        if (t >= tmax) return tmax;
-        tl = 0.9 * d / lp;
+        d = dn;
     }
     return t;
 }

@@ -238,19 +238,11 @@ defsim_status defsim_world_add_attachment(defsim_world *w, const defsim_attachme
     if ((st = check_attachment(w, def, &d)) != DEFSIM_OK) return st;
     if (is_null(d.target_body)) d.target_vertex_count = 0;
     int32_t slot;
-    st = defsim__id_pool_reserve(&w->coupling.att_ids, w->msg, "attachments", &slot);
-    if (st != DEFSIM_OK) return st;
-    if (slot == w->coupling.natt && w->coupling.natt == w->coupling.cap_att) {
-        const int32_t cap = w->coupling.cap_att ? 2 * w->coupling.cap_att : 8;
-        defsim__attachment *na = realloc(w->coupling.att, (size_t)cap * sizeof *na);
-        if (!na) {
-            defsim__error(w->msg, "out of memory");
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        w->coupling.att = na;
-        w->coupling.cap_att = cap;
-    }
-    if (slot == w->coupling.natt) w->coupling.natt++;
+    defsim__attachment *att = defsim__id_pool_add(&w->coupling.att_ids, w->msg, "attachments",
+                                                  w->coupling.att, sizeof *att, &w->coupling.natt,
+                                                  &w->coupling.cap_att, &slot);
+    if (!att) return DEFSIM_ERR_OUT_OF_MEMORY;
+    w->coupling.att = att;
     defsim__attachment *a = &w->coupling.att[slot];
     a->generation = defsim__id_pool_take(&w->coupling.att_ids, slot, slot);
     a->def = d;
@@ -268,8 +260,7 @@ defsim_status defsim_world_remove_attachment(defsim_world *w, defsim_attachment_
     if (st != DEFSIM_OK) return st;
     defsim__attachment *a = attachment_or_error(w, id);
     if (!a) return DEFSIM_ERR_STALE_ID;
-    a->generation++;
-    defsim__id_pool_release(&w->coupling.att_ids, (int32_t)(a - w->coupling.att));
+    defsim__id_pool_remove(&w->coupling.att_ids, (int32_t)(a - w->coupling.att), &a->generation);
     defsim__world_invalidate(w);
     return DEFSIM_OK;
 }
@@ -366,7 +357,7 @@ defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t 
     w->handle.passes = saved;
     w->coupling.cpl.failed = 0;
     if (st == DEFSIM_OK)
-        for (int64_t i = 0; i < ndof; ++i) out[i] = w->pinned[i / 3] ? -f[i] : 0.0;
+        for (int64_t i = 0; i < ndof; ++i) out[i] = w->bodies.pinned[i / 3] ? -f[i] : 0.0;
     else if (st != DEFSIM_ERR_CALLBACK)
         defsim__error(w->msg, "get_pin_forces: the forces are not finite");
     free(f);

@@ -194,9 +194,106 @@ void defsim__coupling_drop_body(defsim__coupling_set *cs, defsim_body_id id)
     for (int32_t i = 0; i < cs->natt; ++i) {
         defsim__attachment *a = &cs->att[i];
         if ((a->generation & 1u) &&
-            (a->def.body.index == id.index || a->def.target_body.index == id.index)) {
-            a->generation++;
-            defsim__id_pool_release(&cs->att_ids, i);
-        }
+            (a->def.body.index == id.index || a->def.target_body.index == id.index))
+            defsim__id_pool_remove(&cs->att_ids, i, &a->generation);
     }
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Checkpoint chunks */
+
+/* A body id as a checkpoint keeps it: slot + 1 without the world's tag, 0 for none. */
+static uint32_t saved_id(const defsim__id_pool *bodies, uint32_t index)
+{
+    const int64_t slot = index ? defsim__id_pool_slot(bodies, index) : -1;
+    return slot < 0 ? 0 : (uint32_t)slot + 1;
+}
+
+void defsim__coupling_save(defsim__bw *b, const defsim__coupling_set *cs, int32_t nv,
+                           const defsim__id_pool *bodies)
+{
+    for (int32_t i = 0; i < cs->natt; ++i) {
+        const defsim__attachment *a = &cs->att[i];
+        if (!(a->generation & 1u)) continue;
+        const defsim_attachment_def *d = &a->def;
+        const size_t c = defsim__chunk_begin(b, "ATCH");
+        defsim__put_u32(b, saved_id(bodies, d->body.index));
+        defsim__put_u32(b, d->body.generation);
+        defsim__put_i32(b, d->vertex);
+        defsim__put_f64(b, d->stiffness);
+        defsim__put_f64(b, d->damping);
+        defsim__put_f64s(b, d->target, 3);
+        defsim__put_u32(b, saved_id(bodies, d->target_body.index));
+        defsim__put_u32(b, d->target_body.generation);
+        defsim__put_i32(b, d->target_vertex_count);
+        defsim__put_i32s(b, d->target_vertices, 4);
+        defsim__put_f64s(b, d->target_weights, 4);
+        defsim__chunk_end(b, c);
+    }
+    if (cs->fext) {
+        const size_t c = defsim__chunk_begin(b, "FEXT");
+        defsim__put_f64s(b, cs->fext, 3 * (int64_t)nv);
+        defsim__chunk_end(b, c);
+    }
+    if (cs->ntargeted > 0) {
+        const size_t c = defsim__chunk_begin(b, "PTGT");
+        defsim__put_u32(b, (uint32_t)cs->ntargeted);
+        for (int32_t v = 0; v < nv; ++v)
+            if (cs->targeted[v]) {
+                defsim__put_i32(b, v);
+                defsim__put_f64s(b, cs->pin_target + 3 * (int64_t)v, 3);
+            }
+        defsim__chunk_end(b, c);
+    }
+}
+
+defsim_status defsim__attachment_read(defsim__br *r, defsim_attachment_def *d, uint32_t body[2],
+                                      uint32_t target[2])
+{
+    body[0] = defsim__get_u32(r);
+    body[1] = defsim__get_u32(r);
+    d->vertex = defsim__get_i32(r);
+    d->stiffness = defsim__get_f64(r);
+    d->damping = defsim__get_f64(r);
+    defsim__get_f64s(r, d->target, 3);
+    target[0] = defsim__get_u32(r);
+    target[1] = defsim__get_u32(r);
+    d->target_vertex_count = defsim__get_i32(r);
+    defsim__get_i32s(r, d->target_vertices, 4);
+    defsim__get_f64s(r, d->target_weights, 4);
+    if (target[0] == 0 && target[1] == 0) d->target_vertex_count = 0;
+    return defsim__read_whole(r) ? DEFSIM_OK : DEFSIM_ERR_IO;
+}
+
+defsim_status defsim__coupling_load_targets(defsim__coupling_set *cs, defsim__br *r,
+                                            int32_t nv, const uint8_t *pinned, const char **why)
+{
+    const uint32_t n = defsim__get_u32(r);
+    if (!defsim__fits(r, n, 28) || n > (uint32_t)nv) {
+        *why = "count out of range";
+        return DEFSIM_ERR_IO;
+    }
+    if (!cs->pin_target) {
+        cs->pin_target = malloc(3 * (size_t)nv * sizeof *cs->pin_target);
+        cs->targeted = calloc((size_t)nv, 1);
+        if (!cs->pin_target || !cs->targeted) return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+        const int32_t v = defsim__get_i32(r);
+        double p[3];
+        defsim__get_f64s(r, p, 3);
+        if (r->bad || v < 0 || v >= nv || !pinned[v] || cs->targeted[v] || !isfinite(p[0]) ||
+            !isfinite(p[1]) || !isfinite(p[2])) {
+            *why = "a target of a vertex that is not pinned, repeated or not finite";
+            return DEFSIM_ERR_IO;
+        }
+        memcpy(cs->pin_target + 3 * (int64_t)v, p, sizeof p);
+        cs->targeted[v] = 1;
+        cs->ntargeted++;
+    }
+    if (!defsim__read_whole(r)) {
+        *why = "wrong length";
+        return DEFSIM_ERR_IO;
+    }
+    return DEFSIM_OK;
 }

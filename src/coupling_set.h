@@ -10,6 +10,7 @@
 #define DEFSIM_COUPLING_SET_H
 
 #include "body.h"
+#include "chunk.h"
 #include "host.h"
 #include "id_pool.h"
 #include "status.h"
@@ -52,5 +53,21 @@ void defsim__coupling_substep_before(defsim__coupling_set *cs, defsim__state *st
 void defsim__coupling_substep_after(defsim__coupling_set *cs, defsim__state *state);
 defsim_status defsim__coupling_step_end(defsim__coupling_set *cs, defsim__system *sys,
                                         defsim_status st);
+
+/* Checkpoints (docs/checkpoints.md): writes an ATCH chunk per live attachment (its bodies named
+ * by their saved ids: id slot + 1 in `bodies`), the held forces (FEXT) and the driven pins'
+ * targets (PTGT) of a world of nv vertices. */
+void defsim__coupling_save(defsim__bw *b, const defsim__coupling_set *cs, int32_t nv,
+                           const defsim__id_pool *bodies);
+/* Reads an ATCH chunk into *d (initialised by defsim_attachment_def_init) with the saved ids of its body and target body (0, 0: none) for
+ * the caller to map; DEFSIM_ERR_IO if malformed (the values are validated by
+ * defsim_world_add_attachment). */
+defsim_status defsim__attachment_read(defsim__br *r, defsim_attachment_def *d, uint32_t body[2],
+                                      uint32_t target[2]);
+/* Reads a PTGT chunk into the set: every vertex named must be pinned (pinned[v], nv vertices)
+ * and named once, its target finite. DEFSIM_ERR_IO if not (*why says what),
+ * DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__coupling_load_targets(defsim__coupling_set *cs, defsim__br *r,
+                                            int32_t nv, const uint8_t *pinned, const char **why);
 
 #endif

@@ -25,3 +25,20 @@ double defsim__potential_energy(const defsim__system *s, defsim__work *wk, const
     }
     return e;
 }
+
+double defsim__group_energy(const defsim__system *s, defsim__work *wk, const defsim__group *g,
+                            defsim__element_energy_fn energy, const double *x, double total)
+{
+    const int32_t nb = (g->n + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
+    double *part = wk->partial;
+    (void)s;   /* its thread count, for OpenMP only */
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
+    for (int32_t b = 0; b < nb; ++b) {
+        int32_t e1 = (b + 1) * DEFSIM__REDUCE_BLOCK < g->n ? (b + 1) * DEFSIM__REDUCE_BLOCK : g->n;
+        double sum = 0.0;
+        for (int32_t e = b * DEFSIM__REDUCE_BLOCK; e < e1; ++e) sum += energy(g, x, e);
+        part[b] = sum;
+    }
+    for (int32_t b = 0; b < nb; ++b) total += part[b];
+    return total;
+}

@@ -9,6 +9,14 @@
  * sizes defsim__work.partial for the largest group. */
 enum { DEFSIM__REDUCE_BLOCK = 2048 };
 
+/* An element's energy at x (J). */
+typedef double (*defsim__element_energy_fn)(const defsim__group *g, const double *x, int32_t e);
+
+/* total plus group g's energy at x, summed as the reductions above (wk->partial holds the
+ * blocks' sums). */
+double defsim__group_energy(const defsim__system *s, defsim__work *wk, const defsim__group *g,
+                            defsim__element_energy_fn energy, const double *x, double total);
+
 /* Elastic energy at x (J), relative to rest; +INFINITY where undefined (an inverted
  * neo-Hookean element). */
 double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const double *x);

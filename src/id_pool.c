@@ -48,6 +48,30 @@ void defsim__id_pool_release(defsim__id_pool *p, int32_t slot)
     p->dense[slot] = -1;
 }
 
+void *defsim__id_pool_add(defsim__id_pool *p, defsim__messages *msg, const char *what,
+                          void *items, size_t size, int32_t *n, int32_t *cap, int32_t *slot)
+{
+    if (defsim__id_pool_reserve(p, msg, what, slot) != DEFSIM_OK) return NULL;
+    if (*slot == *n && *n == *cap) {
+        const int32_t c = *cap ? 2 * *cap : 8;
+        void *grown = realloc(items, (size_t)c * size);
+        if (!grown) {
+            defsim__error(msg, "out of memory");
+            return NULL;
+        }
+        items = grown;
+        *cap = c;
+    }
+    if (*slot == *n) (*n)++;
+    return items;
+}
+
+void defsim__id_pool_remove(defsim__id_pool *p, int32_t slot, uint32_t *generation)
+{
+    (*generation)++;
+    defsim__id_pool_release(p, slot);
+}
+
 int64_t defsim__id_pool_slot(const defsim__id_pool *p, uint32_t index)
 {
     if ((index >> DEFSIM__ID_SLOT_BITS) != p->tag) return -1;

@@ -29,6 +29,16 @@ defsim_status defsim__id_pool_reserve(defsim__id_pool *p, defsim__messages *msg,
 uint32_t defsim__id_pool_take(defsim__id_pool *p, int32_t slot, int32_t dense);
 /* Ends the life of a live slot: its ids turn stale, and the next reserve may reuse it. */
 void defsim__id_pool_release(defsim__id_pool *p, int32_t slot);
+/* Adds an object kept by id slot (colliders, attachments; bodies are kept in vertex order): a
+ * slot reserved as by defsim__id_pool_reserve into *slot and, when the slot is new, room for it
+ * in the owner's array `items` (*n elements of `size` bytes, room for *cap), whose *n then
+ * counts it. Returns the array (moved when it grew), or NULL with the message in msg when the
+ * pool is full or memory is (the old array stays). defsim__id_pool_take commits. */
+void *defsim__id_pool_add(defsim__id_pool *p, defsim__messages *msg, const char *what,
+                          void *items, size_t size, int32_t *n, int32_t *cap, int32_t *slot);
+/* Ends the life of the live object in `slot`: its generation (which the owner's array keeps in
+ * *generation) and the slot's turn even, and the slot is free for the next add. */
+void defsim__id_pool_remove(defsim__id_pool *p, int32_t slot, uint32_t *generation);
 /* The slot of a live object named by (index, generation), or -1. */
 int64_t defsim__id_pool_find(const defsim__id_pool *p, uint32_t index, uint32_t generation);
 /* The same, and for -1 the message "<what> id {i, g} is <problem>" in msg ("body"). */

@@ -25,6 +25,17 @@
 
 static defsim_status contact_begin(defsim_world *w, double h);
 
+/* The terms' list follows what is attached to the system (collider and body contact): compiled
+ * again only when that differs from what it was compiled with (contact, body), once for all
+ * the begins of a step and once for all its ends. */
+static defsim_status terms_follow(defsim_world *w, const void *contact, const void *body,
+                                  defsim_status st)
+{
+    if (w->sys.contact == contact && w->sys.body_contact == body) return st;
+    const defsim_status ct = defsim__terms_compile(&w->sys);
+    return st == DEFSIM_OK ? ct : st;
+}
+
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
 {
     double om = 0.0;
@@ -35,7 +46,7 @@ static defsim_status estimate_stable_step(defsim_world *w, double *h, double *om
         return st;
     }
     const double c = defsim__damping_coeff(&w->sys, w->state.x, om);
-    const defsim_backend *b = w->backend;
+    const defsim_backend *b = w->backend.table;
     *h = b->stable_step_options ? b->stable_step_options(defsim__options_values(&w->options), om, c)
          : b->stable_step       ? b->stable_step(om, c)
                                 : INFINITY;
@@ -53,12 +64,14 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     double h = INFINITY, om = 0.0;
     /* Penalty contact stiffens the system (explicit backends' limit); the barrier's backends
      * have no limit. */
-    const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
-    if (w->nv > 0 && penalty && (st = contact_begin(w, 0.0)) != DEFSIM_OK) return st;
-    if (w->nv > 0) st = estimate_stable_step(w, &h, &om);
+    const int penalty = !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    const void *was = w->sys.contact;
+    if (w->nv > 0 && penalty) st = contact_begin(w, 0.0);
+    st = terms_follow(w, was, w->sys.body_contact, st);
+    if (w->nv > 0 && st == DEFSIM_OK) st = estimate_stable_step(w, &h, &om);
+    was = w->sys.contact;
     w->sys.contact = NULL;
-    const defsim_status ct = defsim__terms_compile(&w->sys);
-    if (st == DEFSIM_OK) st = ct;
+    st = terms_follow(w, was, w->sys.body_contact, st);
     if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
@@ -92,7 +105,7 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
         }
         defsim_status st = DEFSIM_OK;
         if (!(wd->pin_f_t == w->state.t && wd->have_ref)) {
-            st = defsim__watchdog_pin_forces(wd, &w->sys, w->x_save, w->v_save, f0);
+            st = defsim__watchdog_pin_forces(wd, &w->sys, w->step.x_save, w->step.v_save, f0);
             wd->pin_f_t = st == DEFSIM_OK ? w->state.t : NAN;
         }
         if (st == DEFSIM_OK)
@@ -111,8 +124,8 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
     if (ct && ct->npair > 0) {
         in->colliders_changed = w->colliders.came;
         if (!w->wd.have_ref || w->colliders.came)
-            in->contact_start = defsim__contact_energy_start(ct, w->x_save);
-        in->contact_work = defsim__contact_work(ct, w->x_save, w->state.x);
+            in->contact_start = defsim__contact_energy_start(ct, w->step.x_save);
+        in->contact_work = defsim__contact_work(ct, w->step.x_save, w->state.x);
     }
     return DEFSIM_OK;
 }
@@ -122,8 +135,8 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
 static defsim_status watch_step(defsim_world *w, double h)
 {
     defsim__watchdog_step in = {
-        .sys = &w->sys, .work = &w->work, .bodies = w->bodies, .nbodies = w->nbodies,
-        .x = w->state.x, .v = w->state.v, .x0 = w->x_save, .v0 = w->v_save,
+        .sys = &w->sys, .work = &w->work, .bodies = w->bodies.b, .nbodies = w->bodies.n,
+        .x = w->state.x, .v = w->state.v, .x0 = w->step.x_save, .v0 = w->step.v_save,
         .on = w->set.watchdog, .energy_growth = w->set.energy_growth,
         .max_stretch = w->set.max_stretch};
     char what[400];
@@ -138,40 +151,39 @@ static defsim_status watch_step(defsim_world *w, double h)
     }
     w->stats.watchdog_trips++;
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
-    memcpy(w->state.x, w->x_save, bytes);   /* the estimate is of the start */
-    memcpy(w->state.v, w->v_save, bytes);
-    const int limited = w->backend->stable_step || w->backend->stable_step_options;
+    memcpy(w->state.x, w->step.x_save, bytes);   /* the estimate is of the start */
+    memcpy(w->state.v, w->step.v_save, bytes);
+    const int limited = w->backend.table->stable_step || w->backend.table->stable_step_options;
     double hs = INFINITY;
     const int estimated = limited && estimate_stable_step(w, &hs, NULL) == DEFSIM_OK;
     char msg[sizeof w->msg->error];
-    defsim__watchdog_message(msg, sizeof msg, what, h, w->state.t, w->backend->name, limited,
+    defsim__watchdog_message(msg, sizeof msg, what, h, w->state.t, w->backend.table->name, limited,
                              estimated ? hs : NAN, w->set.auto_substep);
     defsim__error(w->msg, "%s", msg);
     return DEFSIM_ERR_UNSTABLE;
 }
 
 /* Contact (contact.h) for a step of h (0: for the stable step): BARRIER for backends whose line
- * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends. */
+ * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends.
+ * Attaches it only: the caller compiles the terms' list again (terms_follow). */
 static defsim_status contact_begin(defsim_world *w, double h)
 {
-    if (w->sys.contact) {   /* left attached by a failed step: detach */
-        w->sys.contact = NULL;
-        (void)defsim__terms_compile(&w->sys);
-    }
+    w->sys.contact = NULL;   /* left attached by a failed step: detached */
     /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
      * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
      * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
-    const int penalty = !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    const int penalty = !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD);
     int jumped = w->colliders.changed;
     for (int32_t j = 0; j < w->colliders.ncol && !jumped; ++j)
         jumped = (w->colliders.col[j].generation & 1u) &&
                  (memcmp(w->colliders.col[j].pos, w->colliders.col[j].pos1, sizeof w->colliders.col[j].pos) != 0 ||
                   memcmp(w->colliders.col[j].rot, w->colliders.col[j].rot1, sizeof w->colliders.col[j].rot) != 0);
-    if (h > 0.0 && jumped && penalty && w->backend_ready && w->backend->reset) {
-        const defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
+    if (h > 0.0 && jumped && penalty && w->backend.ready && w->backend.table->reset) {
+        const defsim_status st =
+            w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
         if (st != DEFSIM_OK) {
             defsim__error(w->msg, "backend %s failed to reset for the colliders' change",
-                          w->backend->name);
+                          w->backend.table->name);
             return st;
         }
     }
@@ -182,7 +194,7 @@ static defsim_status contact_begin(defsim_world *w, double h)
     }
     if (defsim__collider_set_live(&w->colliders) == 0) return DEFSIM_OK;
     defsim__contact_params p = {
-        .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
+        .mode = (w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
                                                                  : DEFSIM__CONTACT_PENALTY,
         .dhat_rel = w->set.contact_dhat, .kappa = w->set.contact_kappa,
         .frequency = w->set.contact_frequency, .eps_v = w->set.friction_eps_v};
@@ -198,23 +210,24 @@ static defsim_status contact_begin(defsim_world *w, double h)
     }
     p.omega_elastic = c->omega_elastic;
     if (p.mode == DEFSIM__CONTACT_BARRIER && !c->surf_planned &&
-        defsim__contact_surfaces(c, w->bodies, w->nbodies) != DEFSIM_OK) {
+        defsim__contact_surfaces(c, w->bodies.b, w->bodies.n) != DEFSIM_OK) {
         defsim__error(w->msg, "contact: out of memory for the bodies' surfaces");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     /* A step's start: the world's copies, which nothing changes until the step ends. */
     defsim_status st = defsim__contact_begin(c, &w->sys, w->colliders.col, w->colliders.ncol, &p,
-                                             h > 0.0 ? w->x_save : w->state.x,
-                                             h > 0.0 ? w->v_save : w->state.v, h, w->msg);
+                                             h > 0.0 ? w->step.x_save : w->state.x,
+                                             h > 0.0 ? w->step.v_save : w->state.v, h, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.contact = c;
-    return defsim__terms_compile(&w->sys);
+    return DEFSIM_OK;
 }
+
 
 defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 {
     if (w->nv == 0 || defsim__collider_set_live(&w->colliders) == 0 ||
-        (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD))
+        (w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD))
         return DEFSIM_OK;
     /* An SDF collider has no function until the host installs it after the load: the replay
      * goes without contact (and, if it touched one, misses and restarts). */
@@ -235,7 +248,9 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
         memcpy(c->pos1, c->pos, sizeof c->pos);
         memcpy(c->rot1, c->rot, sizeof c->rot);
     }
-    const defsim_status st = contact_begin(w, 0.0);
+    const void *was = w->sys.contact;
+    defsim_status st = contact_begin(w, 0.0);
+    st = terms_follow(w, was, w->sys.body_contact, st);
     for (int32_t j = 0; j < w->colliders.ncol; ++j) {
         defsim__collider *c = &w->colliders.col[j];
         memcpy(c->pos1, keep + 7 * (int64_t)j, sizeof c->pos1);
@@ -245,7 +260,20 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
     return st;
 }
 
-void defsim__world_replay_contact_end(defsim_world *w) { w->sys.contact = NULL; }
+void defsim__world_replay_contact_end(defsim_world *w)
+{
+    const void *was = w->sys.contact;
+    w->sys.contact = NULL;
+    (void)terms_follow(w, was, w->sys.body_contact, DEFSIM_OK);
+}
+
+void *defsim__world_term_state(defsim_world *w, int kind)
+{
+    /* Body contact keeps candidates between steps only to skip a broad phase: a loaded world's
+     * first step finds them again, in the same deterministic order. Its chunk is a step's pairs,
+     * read against the surfaces that a step's begin builds. */
+    return kind == DEFSIM__TERM_KIND_collider ? &w->contact : NULL;
+}
 
 /* A zeroed contact-force read-back of the world's vertex count. */
 static defsim_status readback_reserve(defsim_world *w)
@@ -263,11 +291,8 @@ static defsim_status readback_reserve(defsim_world *w)
 
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the
  * contact forces for the host and the colliders' poses at the end of the step. */
-static defsim_status contact_end(defsim_world *w, defsim_status st)
+static defsim_status contact_end(defsim_world *w, defsim__contact *c, defsim_status st)
 {
-    defsim__contact *c = w->sys.contact;
-    w->sys.contact = NULL;
-    if (c && defsim__terms_compile(&w->sys) != DEFSIM_OK) st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
         if (st == DEFSIM_OK && w->contact.readback_set) {
             free(w->colliders.force);
@@ -328,33 +353,27 @@ static defsim_status contact_end(defsim_world *w, defsim_status st)
  * backends without contact CCD already). */
 static defsim_status body_begin(defsim_world *w, double h)
 {
-    if (w->sys.body_contact) {   /* left attached by a failed step: detach */
-        w->sys.body_contact = NULL;
-        (void)defsim__terms_compile(&w->sys);
-    }
+    w->sys.body_contact = NULL;   /* left attached by a failed step: detached */
     if (!w->set.body_contact) {
-        w->body_contact_last = 0;
+        w->step.body_contact_last = 0;
         return DEFSIM_OK;
     }
-    if (!w->body_contact_last) w->body_contact.fresh = 1;
-    w->body_contact_last = 1;
+    if (!w->step.body_contact_last) w->body_contact.fresh = 1;
+    w->step.body_contact_last = 1;
     const defsim_status st = defsim__body_contact_begin(
-        &w->body_contact, &w->sys, w->bodies, w->nbodies,
-        w->set.contact_dhat, w->set.contact_kappa, w->set.friction_eps_v, w->x_save, w->state.v, h,
+        &w->body_contact, &w->sys, w->bodies.b, w->bodies.n,
+        w->set.contact_dhat, w->set.contact_kappa, w->set.friction_eps_v, w->step.x_save,
+        w->state.v, h,
         w->contact.stat, w->msg);
     if (st != DEFSIM_OK) return st;
     w->sys.body_contact = &w->body_contact;
-    return defsim__terms_compile(&w->sys);
+    return DEFSIM_OK;
 }
 
 /* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
  * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
-static defsim_status body_end(defsim_world *w, defsim_status st)
+static defsim_status body_end(defsim_world *w, defsim__body_contact *bc, defsim_status st)
 {
-    defsim__body_contact *bc = w->sys.body_contact;
-    w->sys.body_contact = NULL;
-    if (bc && defsim__terms_compile(&w->sys) != DEFSIM_OK && st == DEFSIM_OK)
-        st = DEFSIM_ERR_OUT_OF_MEMORY;
     if (!bc || st != DEFSIM_OK) return st;
     if (bc->failed) {
         defsim__error(w->msg, "out of memory for body contact pairs; state restored");
@@ -390,8 +409,8 @@ static defsim_status body_readback(defsim_world *w, int colliders)
 static defsim_status step_begin(defsim_world *w, double h)
 {
     return defsim__coupling_step_begin(&w->coupling, &w->sys, &w->state,
-                                       (w->backend->flags & DEFSIM_BACKEND_IMPLICIT) != 0, h,
-                                       &w->step_passes, w->msg);
+                                       (w->backend.table->flags & DEFSIM_BACKEND_IMPLICIT) != 0, h,
+                                       &w->step.passes, w->msg);
 }
 
 defsim_status defsim_world_step(defsim_world *w, double h)
@@ -409,11 +428,11 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     if (w->set.body_contact &&
-        !(w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
         defsim__error(w->msg, "step: body contact (core.body_contact) needs a backend with "
                               "contact CCD (newton_cholmod, newmark or bdf2); backend %s has "
                               "none: turn body_contact off or change the backend",
-                      w->backend->name);
+                      w->backend.table->name);
         return DEFSIM_ERR_UNSUPPORTED;
     }
     double t0 = defsim__now();
@@ -424,39 +443,37 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->stats.steps++;
         return DEFSIM_OK;
     }
-    if (defsim__options_take_reinit(&w->options)) {   /* an option changed */
-        defsim__world_backend_stop(w);
-        w->h_stable = 0.0;   /* the stability limit may depend on it */
-    }
-    if (!w->backend_ready && (st = defsim__world_backend_start(w)) != DEFSIM_OK) {
+    if ((st = defsim__world_backend_prepare(w)) != DEFSIM_OK) {
         w->stats.failed_steps++;
         return st;
     }
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
-    memcpy(w->x_save, w->state.x, bytes);
-    memcpy(w->v_save, w->state.v, bytes);
-    w->step_passes = 0;
+    memcpy(w->step.x_save, w->state.x, bytes);
+    memcpy(w->step.v_save, w->state.v, bytes);
+    w->step.passes = 0;
     w->msg->error[0] = '\0';
     const int substep = w->set.auto_substep &&
-                        (w->backend->stable_step || w->backend->stable_step_options);
+                        (w->backend.table->stable_step || w->backend.table->stable_step_options);
+    const void *was_contact = w->sys.contact, *was_body = w->sys.body_contact;
     st = step_begin(w, h);
     if (st == DEFSIM_OK) st = contact_begin(w, h);
     if (st == DEFSIM_OK) st = body_begin(w, h);
+    st = terms_follow(w, was_contact, was_body, st);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
             /* Re-estimate every 64 steps, after any change, and after a failed attempt. */
-            if (w->h_stable <= 0.0 || w->steps_since_estimate >= 64 || attempt > 0) {
+            if (w->step.h_stable <= 0.0 || w->step.since_estimate >= 64 || attempt > 0) {
                 double hs;
                 if ((st = estimate_stable_step(w, &hs, NULL)) != DEFSIM_OK) break;
-                w->h_stable = attempt > 0 ? 0.5 * hs : hs;
-                w->steps_since_estimate = 0;
+                w->step.h_stable = attempt > 0 ? 0.5 * hs : hs;
+                w->step.since_estimate = 0;
             }
-            double k = ceil(h / (w->set.substep_safety * w->h_stable));
+            double k = ceil(h / (w->set.substep_safety * w->step.h_stable));
             if (!(k <= 1e7)) {
                 st = DEFSIM_ERR_UNSTABLE;
                 defsim__error(w->msg, "step: auto_substep would need %g substeps (stable step %g s)",
-                              k, w->h_stable);
+                              k, w->step.h_stable);
                 break;
             }
             n = k < 1.0 ? 1 : (int64_t)k;
@@ -466,33 +483,38 @@ defsim_status defsim_world_step(defsim_world *w, double h)
             defsim__coupling_substep_before(&w->coupling, &w->state, i, n, h / (double)n);
             defsim__terms_substep(&w->sys, (double)i / (double)n, (double)(i + 1) / (double)n,
                                   h / (double)n);
-            st = w->backend->step(&defsim__host, &w->handle, w->bstate, h / (double)n);
+            st = w->backend.table->step(&defsim__host, &w->handle, w->backend.state, h / (double)n);
             defsim__coupling_substep_after(&w->coupling, &w->state);
         }
         if (substep) w->stats.substeps += n;
         if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
         /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
-        memcpy(w->state.x, w->x_save, bytes);
-        memcpy(w->state.v, w->v_save, bytes);
+        memcpy(w->state.x, w->step.x_save, bytes);
+        memcpy(w->state.v, w->step.v_save, bytes);
         st = step_begin(w, h);
         if (st != DEFSIM_OK) break;
-        if (w->backend->reset) w->backend->reset(&defsim__host, &w->handle, w->bstate);
+        if (w->backend.table->reset)
+            w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
     }
     st = defsim__coupling_step_end(&w->coupling, &w->sys, st);
-    if (substep && st == DEFSIM_OK) w->steps_since_estimate++;
+    if (substep && st == DEFSIM_OK) w->step.since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
-    const int bodies = w->sys.body_contact != NULL, colliders = w->sys.contact != NULL;
-    st = body_end(w, st);
-    st = contact_end(w, st);
-    if (st == DEFSIM_OK && bodies) st = body_readback(w, colliders);
+    defsim__contact *c = w->sys.contact;
+    defsim__body_contact *bc = w->sys.body_contact;
+    w->sys.contact = NULL;
+    w->sys.body_contact = NULL;
+    st = terms_follow(w, c, bc, st);
+    st = body_end(w, bc, st);
+    st = contact_end(w, c, st);
+    if (st == DEFSIM_OK && bc) st = body_readback(w, c != NULL);
     if (st != DEFSIM_OK) {
-        memcpy(w->state.x, w->x_save, bytes);
-        memcpy(w->state.v, w->v_save, bytes);
+        memcpy(w->state.x, w->step.x_save, bytes);
+        memcpy(w->state.v, w->step.v_save, bytes);
         if (!w->msg->error[0])
-            defsim__error(w->msg, "step: backend %s failed: %s", w->backend->name,
+            defsim__error(w->msg, "step: backend %s failed: %s", w->backend.table->name,
                           defsim_status_string(st));
-        if (w->backend->reset &&
-            w->backend->reset(&defsim__host, &w->handle, w->bstate) != DEFSIM_OK)
+        if (w->backend.table->reset &&
+            w->backend.table->reset(&defsim__host, &w->handle, w->backend.state) != DEFSIM_OK)
             defsim__world_backend_stop(w);
         w->stats.failed_steps++;
         w->stats.time_step += defsim__now() - t0;
@@ -510,7 +532,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         w->coupling.cpl.rec_prev_t = w->state.t;
     }
     w->stats.steps++;
-    w->stats.passes = w->step_passes;
+    w->stats.passes = w->step.passes;
     w->stats.time_step += defsim__now() - t0;
     return DEFSIM_OK;
 }

@@ -17,4 +17,9 @@
 defsim_status defsim__world_replay_contact_begin(defsim_world *w);
 void defsim__world_replay_contact_end(defsim_world *w);
 
+/* The state that a step attaches to the term of `kind` and that carries from one step to the
+ * next, for checkpoints to save and load through the kind's ops; NULL for kinds that keep none
+ * (term_list.h). */
+void *defsim__world_term_state(defsim_world *w, int kind);
+
 #endif

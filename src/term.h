@@ -182,4 +182,11 @@ typedef struct defsim__term_ops {
     defsim_status (*load)(const defsim__term *t, const unsigned char *buf, size_t n);
 } defsim__term_ops;
 
+/* An ops table's usual groups of ops, for kind files that name their static functions after the
+ * ops they fill (every kind does): energy and forces, the sparse pattern's pairs and ranks, the
+ * matrix values and products. */
+#define DEFSIM__TERM_FORCES .compile = compile, .energy = energy, .forces = forces
+#define DEFSIM__TERM_PATTERN .pairs = pairs, .ranks = ranks
+#define DEFSIM__TERM_MATRIX .values = values, .apply = apply
+
 #endif /* DEFSIM_TERM_H */

@@ -7,6 +7,7 @@
 #include "assembly.h"
 #include "element.h"
 #include "system.h"
+#include "term_cache.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -14,10 +15,7 @@
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (s->att.n == 0) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = &s->att;
-    return 1;
+    return defsim__term_one(s->att.n > 0, &s->att, NULL, 0, out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -148,16 +146,5 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
 }
 
 const defsim__term_ops defsim__term_attach = {
-    .name = "attach",
-    .flags = DEFSIM__TERM_ELASTIC,
-    .energy_rank = 2,
-    .matrix_rank = 2,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .pairs = pairs,
-    .ranks = ranks,
-    .values = values,
-    .apply = apply,
-    .rates = rates,
-};
+    .name = "attach", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 2, .matrix_rank = 2,
+    DEFSIM__TERM_FORCES, DEFSIM__TERM_PATTERN, DEFSIM__TERM_MATRIX, .rates = rates};

@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Body-body and self-contact (body_contact.c does the geometry; docs/body-contact.md): in the
- * list while the world has attached its body contact for a step. linearise evaluates every pair
- * Hessian at x once (barriers, then lagged friction) into the kind's cache; values scatter and
- * products multiply what it cached, so a product neither touches the surfaces nor regrows the
- * candidates. The pairs that candidates couple but the pattern lacks are merged when the host
- * asks (pattern_update).
+ * list while the world has attached its body contact for a step. linearise evaluates every
+ * contact Hessian of the constraint set at x once (barriers, then lagged friction) into the
+ * kind's cache; values scatter and products multiply what it cached, so a product neither
+ * touches the surfaces nor regrows the candidates. The vertex pairs that contacts couple but the
+ * pattern lacks are merged when the host asks (pattern_update).
  */
 #include "assembly.h"
 #include "body_contact.h"
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A cached pair Hessian: 3n x 3n over the vertices idx (-1: unused). */
+/* A cached contact Hessian: 3n x 3n over the vertices idx (-1: unused). */
 typedef struct entry {
     int32_t idx[4];
     int32_t n;
@@ -246,6 +246,9 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     get(bc->pa, &p, (size_t)np * sizeof *bc->pa);
     get(bc->pb, &p, (size_t)np * sizeof *bc->pb);
     get(bc->fric, &p, (size_t)nf * sizeof *bc->fric);
+    /* the candidates' boxes are not saved: the next evaluation finds them again */
+    bc->have_pairs = 0;
+    bc->con_valid = 0;
     t->cache->valid = 0;
     return DEFSIM_OK;
 }

@@ -1,11 +1,21 @@
 /* SPDX-License-Identifier: MIT */
-/* The linearisation cache that contact terms keep their blocks in (term_cache.h): its key (x,
- * coefficients, epoch) and its buffers. Apart from terms.c, so that the term files that use it
- * do not call the list that names them. */
+/* What the term kinds share (term_cache.h): the one term a kind adds, and the linearisation
+ * cache that contact terms keep their blocks in, its key (x, coefficients, epoch) and its
+ * buffers. Apart from terms.c, so that the term files do not call the list that names them. */
 #include "term_cache.h"
 
 #include <stdlib.h>
 #include <string.h>
+
+int defsim__term_one(int on, const void *model, void *data, int32_t index, defsim__term *out)
+{
+    if (!on) return 0;
+    memset(out, 0, sizeof *out);
+    out->model = model;
+    out->data = data;
+    out->index = index;
+    return 1;
+}
 
 int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
                       const defsim_matrix_coeffs *k)

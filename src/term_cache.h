@@ -1,10 +1,15 @@
 /* SPDX-License-Identifier: MIT */
-/* The linearisation cache of a term (defsim__term_cache, term.h): whether it holds the blocks at
- * x, storing its key, growing its buffers (term_cache.c). */
+/* What the term kinds share below the list that names them (term_cache.c): the one term a kind
+ * adds, and the linearisation cache (defsim__term_cache, term.h): whether it holds the blocks at
+ * x, storing its key, growing its buffers. */
 #ifndef DEFSIM_TERM_CACHE_H
 #define DEFSIM_TERM_CACHE_H
 
 #include "term.h"
+
+/* A kind's compile for the common case, one term or none: when `on`, writes the term with its
+ * model, data and index into out and returns 1; else returns 0. */
+int defsim__term_one(int on, const void *model, void *data, int32_t index, defsim__term *out);
 
 /* Whether the cache holds the blocks at x for the coefficients' k and kd and its epoch. */
 int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,

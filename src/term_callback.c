@@ -11,6 +11,7 @@
 #include "host.h"
 #include "mat3.h"
 #include "system.h"
+#include "term_cache.h"
 
 #include <math.h>
 #include <string.h>
@@ -70,11 +71,7 @@ static defsim_system *host(const defsim__term *t) { return t->data; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->host || !s->host->cpl || !s->host->cpl->fn) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    out->data = s->host;
-    return 1;
+    return defsim__term_one(s->host && s->host->cpl && s->host->cpl->fn, s, s->host, 0, out);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
@@ -171,14 +168,5 @@ static void apply(const defsim__term *t, const defsim__system *s, const double *
 static void step_end(const defsim__term *t) { t->cache->any = 0; }
 
 const defsim__term_ops defsim__term_callback = {
-    .name = "callback",
-    .energy_rank = 7,
-    .matrix_rank = 3,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .linearise = linearise,
-    .values = values,
-    .apply = apply,
-    .step_end = step_end,
-};
+    .name = "callback", .energy_rank = 7, .matrix_rank = 3,
+    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX, .step_end = step_end};

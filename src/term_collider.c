@@ -7,6 +7,7 @@
  * never queries a collider.
  */
 #include "assembly.h"
+#include "chunk.h"
 #include "contact.h"
 #include "system.h"
 #include "term_cache.h"
@@ -159,139 +160,83 @@ static const defsim_option_spec OPTIONS[] = {
      "friction's stick-slip threshold (m/s): below it friction is a smooth viscous law"},
 };
 
-/* memcpy that allows empty arrays (NULL before any pair): advances the cursor. */
-static void put(unsigned char **p, const void *src, size_t n)
-{
-    if (n) memcpy(*p, src, n);
-    *p += n;
-}
-
-static void get(void *dst, const unsigned char **p, size_t n)
-{
-    if (n) memcpy(dst, *p, n);
-    *p += n;
-}
-
-/* The chunk: the frequency cached per plan, the safe box, PENALTY friction's velocities (what
- * the checkpoint's CNTC chunk keeps of them: the next step's first matrix may read them), and the
- * step's candidate pairs with their lagged friction. */
-typedef struct chunk_head {
-    double omega_elastic;
-    double safe_lo[3], safe_hi[3];
-    int32_t safe_set, npair;
-    int32_t nvel, pad;        /* vertices of the velocities that follow (0: none) */
-} chunk_head;
-
-enum { PAIR_BYTES = 2 * sizeof(int32_t) + 7 * sizeof(double) + 1 };
+/* The chunk: what carries from one step to the next (the pairs do not: each step's begin finds
+ * them again). The penalty's automatic frequency, computed by power iteration at the first
+ * step after a plan and kept for the plan (a loaded world would compute it at another state:
+ * another stiffness); the safe box, kept while no collider comes near it; PENALTY friction's
+ * velocities of the latest damping evaluation with pairs, which sundials_kinsol's damping
+ * matrix B(x_n) takes from the end of the step before (a loaded world would have zeros).
+ * Little-endian as the rest of a checkpoint: f64 frequency, i32 safe_set, f64 safe box (lo,
+ * hi), i32 vertices of the velocities that follow (0: none), their 3 nv f64. Nothing to carry
+ * (no frequency, box or velocities): 0 bytes. */
+enum { HEAD_BYTES = 8 + 4 + 48 + 4 };
 
 static size_t save(const defsim__term *t, unsigned char *buf, size_t cap)
 {
     const defsim__contact *c = contact(t);
-    const double *vel = defsim__contact_vel(c, c->nv);
-    const int32_t nvel = vel ? c->nv : 0;
-    const size_t need =
-        sizeof(chunk_head) + 3 * (size_t)nvel * sizeof(double) + (size_t)c->npair * PAIR_BYTES;
+    const defsim__system *s = t->model;
+    const double *vel = defsim__contact_vel(c, s->nv);
+    const int32_t nvel = vel ? s->nv : 0;
+    if (c->omega_elastic == 0.0 && !c->safe_set && !vel) return 0;
+    const size_t need = HEAD_BYTES + 24 * (size_t)nvel;
     if (!buf || cap < need) return need;
-    chunk_head h;
-    memset(&h, 0, sizeof h);
-    h.omega_elastic = c->omega_elastic;
-    memcpy(h.safe_lo, c->safe_lo, sizeof h.safe_lo);
-    memcpy(h.safe_hi, c->safe_hi, sizeof h.safe_hi);
-    h.safe_set = c->safe_set;
-    h.npair = c->npair;
-    h.nvel = nvel;
-    memcpy(buf, &h, sizeof h);
-    unsigned char *p = buf + sizeof h;
-    put(&p, vel, 3 * (size_t)nvel * sizeof *vel);
-    const size_t n = (size_t)c->npair;
-    put(&p, c->pv, n * sizeof *c->pv);
-    put(&p, c->pc, n * sizeof *c->pc);
-    put(&p, c->lam, n * sizeof *c->lam);
-    put(&p, c->nrm, 3 * n * sizeof *c->nrm);
-    put(&p, c->uc, 3 * n * sizeof *c->uc);
-    put(&p, c->off, n);
+    defsim__bw b = {buf, 0, need, 0};   /* within cap: never grows */
+    defsim__put_f64(&b, c->omega_elastic);
+    defsim__put_i32(&b, c->safe_set != 0);
+    defsim__put_f64s(&b, c->safe_lo, 3);
+    defsim__put_f64s(&b, c->safe_hi, 3);
+    defsim__put_i32(&b, nvel);
+    defsim__put_f64s(&b, vel, 3 * (int64_t)nvel);
     return need;
 }
 
 static defsim_status load(const defsim__term *t, const unsigned char *buf, size_t size)
 {
     defsim__contact *c = contact(t);
-    chunk_head h;
-    if (!buf || size < sizeof h) return DEFSIM_ERR_INVALID_ARGUMENT;
-    memcpy(&h, buf, sizeof h);
-    const size_t vbytes = 3 * (size_t)(h.nvel > 0 ? h.nvel : 0) * sizeof(double);
-    if (h.npair < 0 || (h.nvel != 0 && h.nvel != c->nv) ||
-        size != sizeof h + vbytes + (size_t)h.npair * PAIR_BYTES)
+    const defsim__system *s = t->model;
+    if (size == 0) {   /* nothing carried */
+        c->omega_elastic = 0.0;
+        c->safe_set = 0;
+        t->cache->valid = 0;
+        return DEFSIM_OK;
+    }
+    if (!buf) return DEFSIM_ERR_INVALID_ARGUMENT;
+    defsim__br r = {buf, size, 0, 0};
+    const double omega = defsim__get_f64(&r);
+    const int32_t safe = defsim__get_i32(&r);
+    double box[6];
+    defsim__get_f64s(&r, box, 6);
+    const int32_t nvel = defsim__get_i32(&r);
+    int finite = 1;
+    for (int k = 0; k < 6; ++k) finite &= isfinite(box[k]) != 0;
+    if (r.bad || !(omega >= 0.0) || !isfinite(omega) || (safe != 0 && safe != 1) || !finite ||
+        (nvel != 0 && nvel != s->nv) || size != HEAD_BYTES + 24 * (size_t)nvel)
         return DEFSIM_ERR_INVALID_ARGUMENT;
-    const unsigned char *pairs = buf + sizeof h + vbytes;
-    for (int32_t i = 0; i < h.npair; ++i) {
-        int32_t v, j;
-        memcpy(&v, pairs + i * sizeof v, sizeof v);
-        memcpy(&j, pairs + (size_t)h.npair * sizeof v + i * sizeof j, sizeof j);
-        if (v < 0 || v >= c->nv || j < 0 || j >= c->ncol) return DEFSIM_ERR_INVALID_ARGUMENT;
+    double *vel = NULL;
+    if (nvel > 0) {
+        vel = malloc(24 * (size_t)nvel);
+        if (!vel) return DEFSIM_ERR_OUT_OF_MEMORY;
+        defsim__get_f64s(&r, vel, 3 * (int64_t)nvel);
+        for (int64_t i = 0; i < 3 * (int64_t)nvel; ++i) finite &= isfinite(vel[i]) != 0;
+        const defsim_status st = finite ? defsim__contact_set_vel(c, nvel, vel)
+                                        : DEFSIM_ERR_INVALID_ARGUMENT;
+        free(vel);
+        if (st != DEFSIM_OK) return st;
     }
-    if (h.npair > c->cap_pair) {
-        const size_t n = (size_t)h.npair;
-        int32_t *pv = realloc(c->pv, n * sizeof *pv);
-        if (pv) c->pv = pv;
-        int32_t *pc = realloc(c->pc, n * sizeof *pc);
-        if (pc) c->pc = pc;
-        double *lam = realloc(c->lam, n * sizeof *lam);
-        if (lam) c->lam = lam;
-        double *nrm = realloc(c->nrm, 3 * n * sizeof *nrm);
-        if (nrm) c->nrm = nrm;
-        double *uc = realloc(c->uc, 3 * n * sizeof *uc);
-        if (uc) c->uc = uc;
-        uint8_t *off = realloc(c->off, n);
-        if (off) c->off = off;
-        if (!pv || !pc || !lam || !nrm || !uc || !off) return DEFSIM_ERR_OUT_OF_MEMORY;
-        c->cap_pair = h.npair;
-    }
-    /* the velocities start 8-byte aligned (after the head) in a buffer from malloc */
-    if (h.nvel > 0 &&
-        defsim__contact_set_vel(c, h.nvel, (const double *)(const void *)(buf + sizeof h)) !=
-            DEFSIM_OK)
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    c->omega_elastic = h.omega_elastic;
-    memcpy(c->safe_lo, h.safe_lo, sizeof h.safe_lo);
-    memcpy(c->safe_hi, h.safe_hi, sizeof h.safe_hi);
-    c->safe_set = h.safe_set;
-    c->npair = h.npair;
-    const unsigned char *p = pairs;
-    const size_t n = (size_t)c->npair;
-    get(c->pv, &p, n * sizeof *c->pv);
-    get(c->pc, &p, n * sizeof *c->pc);
-    get(c->lam, &p, n * sizeof *c->lam);
-    get(c->nrm, &p, 3 * n * sizeof *c->nrm);
-    get(c->uc, &p, 3 * n * sizeof *c->uc);
-    get(c->off, &p, n);
+    c->omega_elastic = omega;
+    c->safe_set = safe;
+    memcpy(c->safe_lo, box, sizeof c->safe_lo);
+    memcpy(c->safe_hi, box + 3, sizeof c->safe_hi);
     t->cache->valid = 0;
     return DEFSIM_OK;
 }
 
 const defsim__term_ops defsim__term_collider = {
-    .name = "collider",
-    .flags = DEFSIM__TERM_BOUNDED,
-    .energy_rank = 4,
-    .matrix_rank = 4,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .linearise = linearise,
-    .values = values,
-    .apply = apply,
-    .max_step = max_step,
-    .start = start,
-    .block = block,
-    .lambda_bound = lambda_bound,
-    .rates = rates,
-    .substep = substep,
-    .step_end = step_end,
-    .counters = COUNTERS,
-    .counter_count = 1,
-    .counter = counter,
-    .options = OPTIONS,
-    .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
-    .save = save,
-    .load = load,
-};
+    .name = "collider", .flags = DEFSIM__TERM_BOUNDED, .energy_rank = 4, .matrix_rank = 4,
+    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX,
+    .max_step = max_step, .start = start, .block = block,
+    .lambda_bound = lambda_bound, .rates = rates,
+    .substep = substep, .step_end = step_end,
+    .counters = COUNTERS, .counter_count = 1, .counter = counter,
+    .options = OPTIONS, .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
+    .save = save, .load = load};

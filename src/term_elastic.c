@@ -48,18 +48,7 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
                      const double *x, double total)
 {
-    const defsim__group *g = group(t);
-    const int32_t nb = (g->n + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
-    double *part = wk->partial;
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
-    for (int32_t b = 0; b < nb; ++b) {
-        int32_t e1 = (b + 1) * DEFSIM__REDUCE_BLOCK < g->n ? (b + 1) * DEFSIM__REDUCE_BLOCK : g->n;
-        double sum = 0.0;
-        for (int32_t e = b * DEFSIM__REDUCE_BLOCK; e < e1; ++e) sum += element_energy(g, x, e);
-        part[b] = sum;
-    }
-    for (int32_t b = 0; b < nb; ++b) total += part[b];
-    return total;
+    return defsim__group_energy(s, wk, group(t), element_energy, x, total);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
@@ -71,19 +60,6 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
     else g->law->forces(g, ev->x, f, s->nthreads);
     *used |= g->pass;
     return DEFSIM_OK;
-}
-
-static void pairs(const defsim__term *t, const defsim__system *s, int64_t *pos, int32_t *list)
-{
-    defsim__element_pairs(s, group(t)->idx, 4, group(t)->n, pos, list);
-}
-
-static defsim_status ranks(const defsim__term *t, defsim__system *s)
-{
-    defsim__group *g = &s->groups[t->index];
-    free(g->blk);
-    g->blk = defsim__element_ranks(s, g->idx, 4, g->n);
-    return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
 }
 
 /* Element matrix over its nodes: K[(a c),(b d)], 12x12, scaled by k + kd beta (kd part always
@@ -156,9 +132,7 @@ static void values(const defsim__term *t, const defsim__system *s, const double 
                    const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
                    uint32_t *passes)
 {
-    if (c->k == 0.0 && c->kd == 0.0) return;
-    defsim__group_values(s, group(t), 4, element_matrix, x, c, upper, cp, val);
-    if (passes) *passes |= DEFSIM_PASS_HESSIAN;
+    defsim__group_values(s, group(t), element_matrix, x, c, upper, cp, val, passes);
 }
 
 /* out += A dx for one element without forming its matrix: dF = sum_a dx_a g_a^T,
@@ -205,25 +179,10 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
 static void apply(const defsim__term *t, const defsim__system *s, const double *x,
                   const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
 {
-    if (c->k == 0.0 && c->kd == 0.0) return;
-    const defsim__group *g = group(t);
-    for (int32_t col = 0; col < g->ncolors; ++col) {
-        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
-        for (int32_t e = e0; e < e1; ++e) element_apply(g, x, e, c, proj, s->pinned, dx, out);
-    }
+    defsim__group_apply(s, group(t), element_apply, x, c, proj, dx, out);
 }
 
 const defsim__term_ops defsim__term_elastic = {
-    .name = "elastic",
-    .flags = DEFSIM__TERM_ELASTIC,
-    .energy_rank = 0,
-    .matrix_rank = 0,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .pairs = pairs,
-    .ranks = ranks,
-    .values = values,
-    .apply = apply,
-};
+    .name = "elastic", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 0, .matrix_rank = 0,
+    DEFSIM__TERM_FORCES, DEFSIM__TERM_MATRIX,
+    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks};

@@ -1,15 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /* Gravity: forces m_i g, energy -sum m_i g . x_i. */
 #include "system.h"
+#include "term_cache.h"
 
 #include <string.h>
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->has_gravity) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    return 1;
+    return defsim__term_one(s->has_gravity, s, NULL, 0, out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -41,9 +39,4 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
 }
 
 const defsim__term_ops defsim__term_gravity = {
-    .name = "gravity",
-    .energy_rank = 3,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-};
+    .name = "gravity", .energy_rank = 3, DEFSIM__TERM_FORCES};

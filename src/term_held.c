@@ -7,15 +7,13 @@
  */
 #include "host.h"
 #include "system.h"
+#include "term_cache.h"
 
 #include <string.h>
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->fext) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    return 1;
+    return defsim__term_one(s->fext != NULL, s, NULL, 0, out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -41,9 +39,4 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
 }
 
 const defsim__term_ops defsim__term_held = {
-    .name = "held",
-    .energy_rank = 6,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-};
+    .name = "held", .energy_rank = 6, DEFSIM__TERM_FORCES};

@@ -4,15 +4,13 @@
  * in one add per DOF (term_mass_damping.c has its forces).
  */
 #include "system.h"
+#include "term_cache.h"
 
 #include <string.h>
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (s->nv == 0) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    return 1;
+    return defsim__term_one(s->nv > 0, s, NULL, 0, out);
 }
 
 static void values(const defsim__term *t, const defsim__system *s, const double *x,
@@ -45,9 +43,4 @@ static void apply(const defsim__term *t, const defsim__system *s, const double *
 }
 
 const defsim__term_ops defsim__term_inertia = {
-    .name = "inertia",
-    .matrix_rank = 6,
-    .compile = compile,
-    .values = values,
-    .apply = apply,
-};
+    .name = "inertia", .matrix_rank = 6, .compile = compile, DEFSIM__TERM_MATRIX};

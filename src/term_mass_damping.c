@@ -4,15 +4,13 @@
  * (term_inertia.c adds (m + md alpha) M in one add per DOF).
  */
 #include "system.h"
+#include "term_cache.h"
 
 #include <string.h>
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->has_mass_damping) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    return 1;
+    return defsim__term_one(s->has_mass_damping, s, NULL, 0, out);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
@@ -37,8 +35,4 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
 }
 
 const defsim__term_ops defsim__term_mass_damping = {
-    .name = "mass_damping",
-    .compile = compile,
-    .forces = forces,
-    .rates = rates,
-};
+    .name = "mass_damping", .compile = compile, .forces = forces, .rates = rates};

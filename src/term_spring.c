@@ -9,6 +9,7 @@
 #include "energy.h"
 #include "material.h"
 #include "system.h"
+#include "term_cache.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -17,11 +18,8 @@ static const defsim__group *group(const defsim__term *t) { return t->model; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (s->groups[DEFSIM__TET_MODELS].n == 0) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = &s->groups[DEFSIM__TET_MODELS];
-    out->index = DEFSIM__TET_MODELS;
-    return 1;
+    return defsim__term_one(s->groups[DEFSIM__TET_MODELS].n > 0, &s->groups[DEFSIM__TET_MODELS],
+                           NULL, DEFSIM__TET_MODELS, out);
 }
 
 static double element_energy(const defsim__group *g, const double *x, int32_t e)
@@ -34,18 +32,7 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
                      const double *x, double total)
 {
-    const defsim__group *g = group(t);
-    const int32_t nb = (g->n + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
-    double *part = wk->partial;
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
-    for (int32_t b = 0; b < nb; ++b) {
-        int32_t e1 = (b + 1) * DEFSIM__REDUCE_BLOCK < g->n ? (b + 1) * DEFSIM__REDUCE_BLOCK : g->n;
-        double sum = 0.0;
-        for (int32_t e = b * DEFSIM__REDUCE_BLOCK; e < e1; ++e) sum += element_energy(g, x, e);
-        part[b] = sum;
-    }
-    for (int32_t b = 0; b < nb; ++b) total += part[b];
-    return total;
+    return defsim__group_energy(s, wk, group(t), element_energy, x, total);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
@@ -55,19 +42,6 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
     defsim__model_spring.forces(group(t), ev->x, f, s->nthreads);
     *used |= group(t)->pass;
     return DEFSIM_OK;
-}
-
-static void pairs(const defsim__term *t, const defsim__system *s, int64_t *pos, int32_t *list)
-{
-    defsim__element_pairs(s, group(t)->idx, 2, group(t)->n, pos, list);
-}
-
-static defsim_status ranks(const defsim__term *t, defsim__system *s)
-{
-    defsim__group *g = &s->groups[t->index];
-    free(g->blk);
-    g->blk = defsim__element_ranks(s, g->idx, 2, g->n);
-    return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
 }
 
 /* Element matrix K[(a c),(b d)], 6x6, scaled by k + kd beta (kd part clamped). Returns 0 if
@@ -97,9 +71,7 @@ static void values(const defsim__term *t, const defsim__system *s, const double 
                    const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
                    uint32_t *passes)
 {
-    if (c->k == 0.0 && c->kd == 0.0) return;
-    defsim__group_values(s, group(t), 2, element_matrix, x, c, upper, cp, val);
-    if (passes) *passes |= DEFSIM_PASS_HESSIAN;
+    defsim__group_values(s, group(t), element_matrix, x, c, upper, cp, val, passes);
 }
 
 static void element_apply(const defsim__group *g, const double *x, int32_t e,
@@ -131,25 +103,10 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
 static void apply(const defsim__term *t, const defsim__system *s, const double *x,
                   const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
 {
-    if (c->k == 0.0 && c->kd == 0.0) return;
-    const defsim__group *g = group(t);
-    for (int32_t col = 0; col < g->ncolors; ++col) {
-        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
-        for (int32_t e = e0; e < e1; ++e) element_apply(g, x, e, c, proj, s->pinned, dx, out);
-    }
+    defsim__group_apply(s, group(t), element_apply, x, c, proj, dx, out);
 }
 
 const defsim__term_ops defsim__term_spring = {
-    .name = "spring",
-    .flags = DEFSIM__TERM_ELASTIC,
-    .energy_rank = 1,
-    .matrix_rank = 1,
-    .compile = compile,
-    .energy = energy,
-    .forces = forces,
-    .pairs = pairs,
-    .ranks = ranks,
-    .values = values,
-    .apply = apply,
-};
+    .name = "spring", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 1, .matrix_rank = 1,
+    DEFSIM__TERM_FORCES, DEFSIM__TERM_MATRIX,
+    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks};

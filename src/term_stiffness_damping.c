@@ -8,6 +8,7 @@
 #include "element.h"
 #include "material.h"
 #include "system.h"
+#include "term_cache.h"
 
 #include <string.h>
 
@@ -15,10 +16,7 @@ enum { PAR_MIN = 1024 };
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->has_stiffness_damping) return 0;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    return 1;
+    return defsim__term_one(s->has_stiffness_damping, s, NULL, 0, out);
 }
 
 static void damping_tets(const defsim__group *g, const double *x, const double *v, double *f,
@@ -92,8 +90,4 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
 }
 
 const defsim__term_ops defsim__term_stiffness_damping = {
-    .name = "stiffness_damping",
-    .compile = compile,
-    .forces = forces,
-    .rates = rates,
-};
+    .name = "stiffness_damping", .compile = compile, .forces = forces, .rates = rates};

@@ -88,7 +88,7 @@ int defsim__terms_counter(const defsim__system *s, int32_t i, const char **name,
         }
         if (name) *name = kinds[k]->counters[i];
         /* the kind's counters live in its cache, which outlives its term */
-        const defsim__term t = {kinds[k], s, NULL, (defsim__term_cache *)&s->cache[k], 0};
+        const defsim__term t = defsim__terms_detached(s, k, NULL);
         if (value) *value = kinds[k]->counter(&t, i);
         return 1;
     }
@@ -107,6 +107,12 @@ int32_t defsim__terms_options(const defsim_option_spec **out, int32_t cap)
         for (int32_t i = 0; i < kinds[k]->option_count; ++i, ++n)
             if (n < cap) out[n] = &kinds[k]->options[i];
     return n;
+}
+
+defsim__term defsim__terms_detached(const defsim__system *s, int kind, void *data)
+{
+    /* the cache belongs to the system, which is const to its readers but not to a kind's ops */
+    return (defsim__term){kinds[kind], s, data, (defsim__term_cache *)&s->cache[kind], 0};
 }
 
 const defsim__term *defsim__terms_find(const defsim__system *s, int kind)

@@ -32,6 +32,10 @@ void defsim__terms_reset_counters(defsim__system *s);
  * returns how many there are. */
 int32_t defsim__terms_options(const defsim_option_spec **out, int32_t cap);
 
+/* A term of kind `kind` outside the list, over s with mutable data `data` (NULL for kinds that
+ * have none): what counters and checkpoints call a kind's ops with. */
+defsim__term defsim__terms_detached(const defsim__system *s, int kind, void *data);
+
 /* The first term of a kind, or NULL. */
 const defsim__term *defsim__terms_find(const defsim__system *s, int kind);
 

@@ -103,13 +103,13 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     }
     w->magic = DEFSIM__WORLD_MAGIC;
     const uint32_t tag = (uint32_t)atomic_fetch_add(&world_serial, 1u) % DEFSIM__ID_TAGS + 1u;
-    w->body_ids.tag = w->colliders.ids.tag = w->coupling.att_ids.tag = tag;
+    w->bodies.ids.tag = w->colliders.ids.tag = w->coupling.att_ids.tag = tag;
     w->def = d;
     w->msg->log = d.log;
     w->msg->log_user = d.log_user;
-    snprintf(w->backend_name, sizeof w->backend_name, "%s", d.backend);
-    w->def.backend = w->backend_name;
-    w->backend = b;
+    snprintf(w->backend.name, sizeof w->backend.name, "%s", d.backend);
+    w->def.backend = w->backend.name;
+    w->backend.table = b;
     const defsim_option_spec *term_options[DEFSIM__CORE_MAX];
     const int32_t nterm = defsim__terms_options(term_options, DEFSIM__CORE_MAX);
     st = defsim__options_init(&w->options, b, term_options, nterm);
@@ -120,8 +120,8 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     }
     defsim__options_resolve(&w->options, &w->set);
     if (b->state_size > 0) {
-        w->bstate = calloc(1, b->state_size);
-        if (!w->bstate) {
+        w->backend.state = calloc(1, b->state_size);
+        if (!w->backend.state) {
             free(w->msg);
             defsim__options_free(&w->options);
             free(w);
@@ -138,7 +138,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->stats.size = sizeof w->stats;
     w->stats.threads = w->nthreads;
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
-                                .gravity = w->def.gravity, .stats = &w->stats, .passes = &w->step_passes,
+                                .gravity = w->def.gravity, .stats = &w->stats, .passes = &w->step.passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->coupling.cpl};
     _Static_assert((int)DEFSIM__CSTAT_COUNT == (int)DEFSIM__CONTACT_STATS,
                    "contact.h's statistics and options.c's names must agree");
@@ -149,27 +149,37 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
 
 static void backend_fini(defsim_world *w)
 {
-    if (w->backend_ready) {
-        w->backend->fini(&defsim__host, &w->handle, w->bstate);
-        w->backend_ready = 0;
+    if (w->backend.ready) {
+        w->backend.table->fini(&defsim__host, &w->handle, w->backend.state);
+        w->backend.ready = 0;
     }
-    if (w->bstate) memset(w->bstate, 0, w->backend->state_size);
+    if (w->backend.state) memset(w->backend.state, 0, w->backend.table->state_size);
 }
 
 defsim_status defsim__world_backend_start(defsim_world *w)
 {
-    defsim_status st = w->backend->init(&defsim__host, &w->handle, w->bstate);
+    defsim_status st = w->backend.table->init(&defsim__host, &w->handle, w->backend.state);
     if (st != DEFSIM_OK) {
-        w->backend->fini(&defsim__host, &w->handle, w->bstate);
-        if (w->bstate) memset(w->bstate, 0, w->backend->state_size);
-        if (!w->msg->error[0]) defsim__error(w->msg, "backend %s failed to initialise", w->backend->name);
+        w->backend.table->fini(&defsim__host, &w->handle, w->backend.state);
+        if (w->backend.state) memset(w->backend.state, 0, w->backend.table->state_size);
+        if (!w->msg->error[0])
+            defsim__error(w->msg, "backend %s failed to initialise", w->backend.table->name);
         return st;
     }
-    w->backend_ready = 1;
+    w->backend.ready = 1;
     return DEFSIM_OK;
 }
 
 void defsim__world_backend_stop(defsim_world *w) { backend_fini(w); }
+
+defsim_status defsim__world_backend_prepare(defsim_world *w)
+{
+    if (defsim__options_take_reinit(&w->options)) {   /* an option changed */
+        backend_fini(w);
+        w->step.h_stable = 0.0;   /* the stability limit may depend on it */
+    }
+    return w->backend.ready ? DEFSIM_OK : defsim__world_backend_start(w);
+}
 
 void defsim__world_unplan(defsim_world *w)
 {
@@ -211,30 +221,31 @@ defsim_status defsim__world_enter(defsim_world *w)
 
 int64_t defsim__world_id_slot(const defsim_world *w, uint32_t index)
 {
-    return defsim__id_pool_slot(&w->body_ids, index);
+    return defsim__id_pool_slot(&w->bodies.ids, index);
 }
 
 uint32_t defsim__world_id_index(const defsim_world *w, int32_t slot)
 {
-    return defsim__id_pool_index(&w->body_ids, slot);
+    return defsim__id_pool_index(&w->bodies.ids, slot);
 }
 
 const char *defsim__world_id_problem(const defsim_world *w, uint32_t index, uint32_t generation)
 {
-    return defsim__id_pool_problem(&w->body_ids, index, generation);
+    return defsim__id_pool_problem(&w->bodies.ids, index, generation);
 }
 
 defsim_status defsim__world_plan(defsim_world *w)
 {
     if (w->planned) return DEFSIM_OK;
-    w->h_stable = 0.0;
+    w->step.h_stable = 0.0;
     const defsim__plan_input in = {
-        .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
-        .pinned = w->pinned, .gravity = w->def.gravity,
+        .bodies = w->bodies.b, .nbodies = w->bodies.n, .nv = w->nv, .mass = w->bodies.mass,
+        .pinned = w->bodies.pinned, .gravity = w->def.gravity,
         .projection = w->set.projection, .tet_kernels = w->set.tet_kernels,
         .nthreads = w->nthreads,
-        .need_matrix = (w->backend->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
-        .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_ids.dense};
+        .need_matrix = (w->backend.table->flags & DEFSIM_BACKEND_NEEDS_MATRIX) != 0,
+        .attachments = w->coupling.att, .nattachments = w->coupling.natt,
+        .body_dense = w->bodies.ids.dense};
     defsim_status st = defsim__plan(&w->sys, &w->work, &in);
     if (st == DEFSIM_OK && (st = defsim__coupling_reserve(&w->coupling, w->nv, w->sys.has_pins)) != DEFSIM_OK)
         defsim__unplan(&w->sys, &w->work);
@@ -262,12 +273,12 @@ void defsim_world_destroy(defsim_world *w)
     backend_fini(w);
     defsim__world_unplan(w);
     defsim__watchdog_free(&w->wd);
-    for (int32_t i = 0; i < w->nbodies; ++i) defsim__body_free(&w->bodies[i]);
-    free(w->bodies);
-    defsim__id_pool_free(&w->body_ids);
-    free(w->state.x); free(w->state.v); free(w->mass); free(w->pinned);
-    free(w->x_save); free(w->v_save);
-    free(w->bstate);
+    for (int32_t i = 0; i < w->bodies.n; ++i) defsim__body_free(&w->bodies.b[i]);
+    free(w->bodies.b);
+    defsim__id_pool_free(&w->bodies.ids);
+    free(w->state.x); free(w->state.v); free(w->bodies.mass); free(w->bodies.pinned);
+    free(w->step.x_save); free(w->step.v_save);
+    free(w->backend.state);
     defsim__coupling_free(&w->coupling);
     defsim__collider_set_free(&w->colliders);
     defsim__contact_free(&w->contact);
@@ -293,8 +304,8 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
                                       const double *new_x, const double *new_v)
 {
     int32_t nv = 0;
-    for (int32_t b = 0; b < w->nbodies; ++b)
-        if (w->bodies[b].generation & 1u) nv += w->bodies[b].nv;
+    for (int32_t b = 0; b < w->bodies.n; ++b)
+        if (w->bodies.b[b].generation & 1u) nv += w->bodies.b[b].nv;
     size_t n = (size_t)(nv > 0 ? nv : 1);
     double *x = malloc(3 * n * sizeof *x), *v = malloc(3 * n * sizeof *v);
     double *xs = malloc(3 * n * sizeof *xs), *vs = malloc(3 * n * sizeof *vs);
@@ -312,8 +323,8 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     }
     int32_t ntargeted = 0;
     int32_t off = 0;
-    for (int32_t b = 0; b < w->nbodies; ++b) {
-        defsim__body *bd = &w->bodies[b];
+    for (int32_t b = 0; b < w->bodies.n; ++b) {
+        defsim__body *bd = &w->bodies.b[b];
         if (!(bd->generation & 1u)) continue;
         size_t bytes = 3 * (size_t)bd->nv * sizeof(double);
         if (old_offset[b] >= 0) {
@@ -336,11 +347,14 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
         bd->offset = off;
         off += bd->nv;
     }
-    free(w->state.x); free(w->state.v); free(w->x_save); free(w->v_save);
-    free(w->mass); free(w->pinned);
-    w->state.x = x; w->state.v = v; w->x_save = xs; w->v_save = vs;
+    free(w->state.x); free(w->state.v); free(w->step.x_save); free(w->step.v_save);
+    free(w->bodies.mass); free(w->bodies.pinned);
+    /* Until a step saves its start, the start is now (held forces' energy is relative to it;
+     * uninitialised, it made that energy depend on what malloc returned). */
+    memcpy(xs, x, 3 * n * sizeof *xs);
+    w->state.x = x; w->state.v = v; w->step.x_save = xs; w->step.v_save = vs;
     w->handle.x_start = xs;
-    w->mass = mass; w->pinned = pinned;
+    w->bodies.mass = mass; w->bodies.pinned = pinned;
     free(w->coupling.fext); free(w->coupling.pin_target); free(w->coupling.targeted);
     w->coupling.fext = fext; w->coupling.pin_target = target; w->coupling.targeted = targeted;
     w->coupling.ntargeted = ntargeted;
@@ -369,31 +383,31 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     /* The id takes the first free slot (its generation makes the ids of its earlier bodies
      * stale); the vertices still follow those of the bodies added before. */
     int32_t slot;
-    if ((st = defsim__id_pool_reserve(&w->body_ids, w->msg, "bodies", &slot)) != DEFSIM_OK)
+    if ((st = defsim__id_pool_reserve(&w->bodies.ids, w->msg, "bodies", &slot)) != DEFSIM_OK)
         goto fail;
     st = DEFSIM_ERR_OUT_OF_MEMORY;
-    if (w->nbodies == w->cap_bodies) {
-        int32_t cap = w->cap_bodies ? 2 * w->cap_bodies : 8;
-        defsim__body *nb = realloc(w->bodies, (size_t)cap * sizeof *nb);
+    if (w->bodies.n == w->bodies.cap) {
+        int32_t cap = w->bodies.cap ? 2 * w->bodies.cap : 8;
+        defsim__body *nb = realloc(w->bodies.b, (size_t)cap * sizeof *nb);
         if (!nb) { defsim__error(w->msg, "out of memory"); goto fail; }
-        w->bodies = nb;
-        w->cap_bodies = cap;
+        w->bodies.b = nb;
+        w->bodies.cap = cap;
     }
-    int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
+    int32_t *old = malloc(((size_t)w->bodies.n + 1) * sizeof *old);
     if (!old) { defsim__error(w->msg, "out of memory"); goto fail; }
-    for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
-    old[w->nbodies] = -1;
-    b.generation = (slot < w->body_ids.nslots ? w->body_ids.gen[slot] : 0u) + 1u;
-    w->bodies[w->nbodies++] = b;
+    for (int32_t i = 0; i < w->bodies.n; ++i) old[i] = w->bodies.b[i].offset;
+    old[w->bodies.n] = -1;
+    b.generation = (slot < w->bodies.ids.nslots ? w->bodies.ids.gen[slot] : 0u) + 1u;
+    w->bodies.b[w->bodies.n++] = b;
     st = rebuild_vertices(w, old, d.initial_positions ? d.initial_positions : d.rest_positions,
                           d.initial_velocities);
     free(old);
     if (st != DEFSIM_OK) {
-        w->nbodies--;
+        w->bodies.n--;
         defsim__error(w->msg, "out of memory");
         goto fail;
     }
-    defsim__id_pool_take(&w->body_ids, slot, w->nbodies - 1);
+    defsim__id_pool_take(&w->bodies.ids, slot, w->bodies.n - 1);
     w->stats.reordered_tets += reordered;
     if (out) {
         out->index = defsim__world_id_index(w, slot);
@@ -407,15 +421,15 @@ fail:
 
 defsim__body *defsim__world_find_body(const defsim_world *w, defsim_body_id id)
 {
-    const int64_t slot = defsim__id_pool_find(&w->body_ids, id.index, id.generation);
-    return slot < 0 ? NULL : &w->bodies[w->body_ids.dense[slot]];
+    const int64_t slot = defsim__id_pool_find(&w->bodies.ids, id.index, id.generation);
+    return slot < 0 ? NULL : &w->bodies.b[w->bodies.ids.dense[slot]];
 }
 
 defsim__body *defsim__world_body(const defsim_world *w, defsim_body_id id)
 {
     const int64_t slot =
-        defsim__id_pool_lookup(&w->body_ids, w->msg, "body", id.index, id.generation);
-    return slot < 0 ? NULL : &w->bodies[w->body_ids.dense[slot]];
+        defsim__id_pool_lookup(&w->bodies.ids, w->msg, "body", id.index, id.generation);
+    return slot < 0 ? NULL : &w->bodies.b[w->bodies.ids.dense[slot]];
 }
 
 defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
@@ -424,9 +438,9 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
     if (st != DEFSIM_OK) return st;
     defsim__body *b = defsim__world_body(w, id);
     if (!b) return DEFSIM_ERR_STALE_ID;
-    int32_t *old = malloc(((size_t)w->nbodies + 1) * sizeof *old);
+    int32_t *old = malloc(((size_t)w->bodies.n + 1) * sizeof *old);
     if (!old) { defsim__error(w->msg, "out of memory"); return DEFSIM_ERR_OUT_OF_MEMORY; }
-    for (int32_t i = 0; i < w->nbodies; ++i) old[i] = w->bodies[i].offset;
+    for (int32_t i = 0; i < w->bodies.n; ++i) old[i] = w->bodies.b[i].offset;
     b->generation++;
     st = rebuild_vertices(w, old, NULL, NULL);
     free(old);
@@ -439,13 +453,13 @@ defsim_status defsim_world_remove_body(defsim_world *w, defsim_body_id id)
     defsim__body_free(b);
     /* Close the gap in the dense array; the slot is free for the next body. */
     const int64_t slot = DEFSIM__ID_SLOT(id.index);
-    const int32_t dense = w->body_ids.dense[slot];
-    memmove(w->bodies + dense, w->bodies + dense + 1,
-            (size_t)(w->nbodies - dense - 1) * sizeof *w->bodies);
-    w->nbodies--;
-    for (int32_t i = 0; i < w->body_ids.nslots; ++i)
-        if (w->body_ids.dense[i] > dense) w->body_ids.dense[i]--;
-    defsim__id_pool_release(&w->body_ids, (int32_t)slot);
+    const int32_t dense = w->bodies.ids.dense[slot];
+    memmove(w->bodies.b + dense, w->bodies.b + dense + 1,
+            (size_t)(w->bodies.n - dense - 1) * sizeof *w->bodies.b);
+    w->bodies.n--;
+    for (int32_t i = 0; i < w->bodies.ids.nslots; ++i)
+        if (w->bodies.ids.dense[i] > dense) w->bodies.ids.dense[i]--;
+    defsim__id_pool_release(&w->bodies.ids, (int32_t)slot);
     return DEFSIM_OK;
 }
 
@@ -485,7 +499,7 @@ static defsim_status set_pins(defsim_world *w, defsim_body_id id, const int32_t 
         const int32_t v = verts[i];
         if (b->pinned[v] != value) changed = 1;
         b->pinned[v] = value;
-        w->pinned[b->offset + v] = value;
+        w->bodies.pinned[b->offset + v] = value;
         if (!value && w->coupling.targeted && w->coupling.targeted[b->offset + v]) {
             w->coupling.targeted[b->offset + v] = 0;   /* unpinning drops the target */
             w->coupling.ntargeted--;
@@ -552,7 +566,7 @@ double defsim_world_time(const defsim_world *w)
 static defsim_status copy_out(const defsim_world *w, int which, double *out, int32_t n)
 {
     if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
-    const double *src = which == 0 ? w->state.x : which == 1 ? w->state.v : w->mass;
+    const double *src = which == 0 ? w->state.x : which == 1 ? w->state.v : w->bodies.mass;
     const int width = which == 2 ? 1 : 3;
     if (!out) {
         defsim__error(w->msg, "the output array is NULL");
@@ -600,13 +614,13 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
         return DEFSIM_OK;
     if (x) memcpy(w->state.x, x, bytes);
     if (v) memcpy(w->state.v, v, bytes);
-    w->h_stable = 0.0;
+    w->step.h_stable = 0.0;
     defsim__watchdog_forget(&w->wd, 0);
     w->body_contact.fresh = 1;   /* the host's state may have crossing surfaces */
     for (int32_t i = 0; i < w->nv; ++i)
-        if (w->pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
-    if (w->backend_ready && w->backend->reset) {
-        defsim_status st = w->backend->reset(&defsim__host, &w->handle, w->bstate);
+        if (w->bodies.pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
+    if (w->backend.ready && w->backend.table->reset) {
+        defsim_status st = w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
         if (st != DEFSIM_OK) backend_fini(w);   /* re-initialised at the next step */
     }
     return DEFSIM_OK;
@@ -630,9 +644,10 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
         memset(&tmp, 0, sizeof tmp);
         memset(&tmpw, 0, sizeof tmpw);
         const defsim__plan_input in = {
-            .bodies = w->bodies, .nbodies = w->nbodies, .nv = w->nv, .mass = w->mass,
-            .pinned = w->pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
-            .attachments = w->coupling.att, .nattachments = w->coupling.natt, .body_dense = w->body_ids.dense};
+            .bodies = w->bodies.b, .nbodies = w->bodies.n, .nv = w->nv, .mass = w->bodies.mass,
+            .pinned = w->bodies.pinned, .gravity = w->def.gravity, .nthreads = w->nthreads,
+            .attachments = w->coupling.att, .nattachments = w->coupling.natt,
+            .body_dense = w->bodies.ids.dense};
         if (defsim__plan(&tmp, &tmpw, &in) != DEFSIM_OK) {
             defsim__error(w->msg, "out of memory while planning the world");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -644,8 +659,8 @@ defsim_status defsim_world_energy(const defsim_world *w, defsim_energy *out)
     const double *g = w->def.gravity;
     for (int32_t i = 0; i < w->nv; ++i) {
         const double *v = w->state.v + 3 * (int64_t)i, *x = w->state.x + 3 * (int64_t)i;
-        ke += 0.5 * w->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        ge -= w->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
+        ke += 0.5 * w->bodies.mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        ge -= w->bodies.mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
         if (w->coupling.fext_nonzero) {
             const double *f = w->coupling.fext + 3 * (int64_t)i;
             ge -= f[0] * x[0] + f[1] * x[1] + f[2] * x[2];

@@ -1,9 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Private layout of a world: what the host made (bodies, ids, the state x, v, t), the compiled
- * system (system.h, rebuilt by plan.c after a change) with its workspaces, and the backend with
- * its host-allocated state. The world keeps MuJoCo's split: bodies hold what is constant during
- * simulation as the host gave it, the system is what they compile to.
+ * Private layout of a world, as the sub-objects it owns (Box2D v3's world): the backend slot
+ * (table and host-allocated state), the body set (bodies, their ids, per-vertex masses and
+ * pins), the state x, v, t and the step's own (roll-back copy, auto_substep cache), the compiled
+ * system (system.h, rebuilt by plan.c after a change) with its workspaces and the handle
+ * backends receive, the coupling set, the collider set, the watchdog, collider and body contact,
+ * and the options with their resolved settings. The world keeps MuJoCo's split: bodies hold
+ * what is constant during simulation as the host gave it, the system is what they compile to.
  */
 #ifndef DEFSIM_WORLD_H
 #define DEFSIM_WORLD_H
@@ -27,46 +30,61 @@
 #define DEFSIM__WORLD_MAGIC 0x64736d77u      /* "dsmw" */
 #define DEFSIM__WORLD_DEAD 0x64656164u       /* "dead": set by defsim_world_destroy */
 
+/* The backend slot: the backend's table, the state the host allocates for it (state_size
+ * bytes), and whether its init ran for the current plan. */
+typedef struct defsim__backend_slot {
+    char name[64];
+    const defsim_backend *table;
+    void *state;
+    int ready;                /* init succeeded for the current plan */
+} defsim__backend_slot;
+
+/* The bodies, a sub-object of the world: the bodies in vertex order with their ids, and their
+ * per-vertex data in world order (rebuilt on add and remove). */
+typedef struct defsim__body_set {
+    defsim__body *b;          /* live bodies in vertex order (and, during a removal, the one
+                                 going, with an even generation) */
+    int32_t n, cap;
+    defsim__id_pool ids;      /* the bodies' ids (id_pool.h): slot -> index into b */
+    double *mass;             /* nv */
+    uint8_t *pinned;          /* nv */
+} defsim__body_set;
+
+/* What a step keeps beside the state: the state at its start (for roll-back), auto_substep's
+ * cached stable step, the passes that ran, whether body contact was on. */
+typedef struct defsim__step_state {
+    double *x_save, *v_save;  /* 3 nv */
+    double h_stable;          /* auto_substep: cached estimate, 0 when stale */
+    int32_t since_estimate;   /* steps since h_stable was estimated */
+    uint32_t passes;          /* DEFSIM_PASS_* of the step under way */
+    int body_contact_last;    /* the last step had body contact on */
+} defsim__step_state;
+
 struct defsim_world {
     uint32_t magic;           /* DEFSIM__WORLD_MAGIC while the world lives */
     defsim_world_def def;
-    char backend_name[64];
-    const defsim_backend *backend;
-    void *bstate;
+    defsim__backend_slot backend;
     defsim__options options;  /* options and counters by name (options.c) */
     defsim__settings set;     /* the options resolved, as the step and plan read them */
-    int backend_ready;        /* init succeeded for the current plan */
     int planned;              /* sys and work match the bodies */
     defsim__messages *msg;    /* allocated: const getters may report errors */
+    int32_t nthreads;         /* resolved from def.num_threads */
 
-    defsim__body *bodies;     /* live bodies in vertex order (and, during a removal, the one
-                                 going, with an even generation) */
-    int32_t nbodies, cap_bodies;
-    defsim__id_pool body_ids; /* the bodies' ids (id_pool.h): slot -> index into bodies */
-
-    /* state and per-vertex data (rebuilt on add/remove; state carried over) */
-    int32_t nv;
+    defsim__body_set bodies;
+    int32_t nv;               /* vertices of all bodies */
     defsim__state state;      /* x, v: 3 nv; t */
-    double *mass;             /* nv */
-    uint8_t *pinned;          /* nv */
-    double *x_save, *v_save;  /* 3 nv: the state at the start of a step, for roll-back */
+    defsim__step_state step;
 
     defsim__system sys;
     defsim__work work;
     defsim_system handle;     /* what backends receive: points at sys, work, state, stats */
-
-    int32_t nthreads;
-    double h_stable;          /* auto_substep: cached estimate, 0 when stale */
-    int32_t steps_since_estimate;
     defsim_stats stats;
-    uint32_t step_passes;
 
     defsim__coupling_set coupling;    /* the host's coupling terms (coupling_set.h) */
     defsim__collider_set colliders;   /* colliders and the contact read-back (collider.h) */
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
     defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
     defsim__body_contact body_contact;  /* body_contact.h: surfaces (per plan) and pairs */
-    int body_contact_last;    /* the last step had body contact on */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).
@@ -76,6 +94,10 @@ defsim_status defsim__world_plan(defsim_world *w);
  * made, sets the world's error and returns the status. Stop finalises it (history dropped). */
 defsim_status defsim__world_backend_start(defsim_world *w);
 void defsim__world_backend_stop(defsim_world *w);
+/* The backend ready for a step: stopped first when an option changed since its init (with
+ * auto_substep's cached stable step, which may depend on it), started when it is not. Returns
+ * what start returns. */
+defsim_status defsim__world_backend_prepare(defsim_world *w);
 /* Drops the compiled system; the next step or query plans again. */
 void defsim__world_unplan(defsim_world *w);
 

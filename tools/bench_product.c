@@ -157,28 +157,28 @@ static int attach(defsim_world *w, double h)
 {
     const defsim__settings *o = &w->set;
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
-    memcpy(w->x_save, w->state.x, bytes);
-    memcpy(w->v_save, w->state.v, bytes);
+    memcpy(w->step.x_save, w->state.x, bytes);
+    memcpy(w->step.v_save, w->state.v, bytes);
     if (defsim_world_collider_count(w) > 0) {
         const defsim__contact_params p = {
-            .mode = (w->backend->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
+            .mode = (w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
                                                                      : DEFSIM__CONTACT_PENALTY,
             .dhat_rel = o->contact_dhat,
             .kappa = o->contact_kappa,
             .frequency = o->contact_frequency,
             .omega_elastic = 1.0,
             .eps_v = o->friction_eps_v};
-        if (defsim__contact_begin(&w->contact, &w->sys, w->colliders.col, w->colliders.ncol, &p, w->x_save,
-                                  w->v_save, h, w->msg) != DEFSIM_OK)
+        if (defsim__contact_begin(&w->contact, &w->sys, w->colliders.col, w->colliders.ncol, &p,
+                                  w->step.x_save, w->step.v_save, h, w->msg) != DEFSIM_OK)
             return -1;
         w->sys.contact = &w->contact;
     }
     if (o->body_contact) {
-        if (defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies, w->nbodies,
+        if (defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies.b, w->bodies.n,
                                        o->contact_dhat,
                                        o->contact_kappa,
                                        o->friction_eps_v,
-                                       w->x_save, w->v_save, h, w->contact.stat,
+                                       w->step.x_save, w->step.v_save, h, w->contact.stat,
                                        w->msg) != DEFSIM_OK)
             return -1;
         w->sys.body_contact = &w->body_contact;

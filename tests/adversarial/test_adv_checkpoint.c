@@ -533,12 +533,11 @@ static size_t find_chunk(const unsigned char *p, size_t n, const char *tag)
     return 0;
 }
 
-/* A copy of the checkpoint with the CNTC chunk's payload replaced by `pay` (len bytes), its
+/* A copy of the checkpoint with the chunk at `at` given the payload `pay` (len bytes), its
  * length and CRC rewritten: contents that pass the CRC. */
-static unsigned char *with_contact_state(const unsigned char *p, size_t n, const void *pay,
-                                         size_t len, size_t *out_n)
+static unsigned char *with_payload(const unsigned char *p, size_t n, size_t at, const void *pay,
+                                   size_t len, size_t *out_n)
 {
-    const size_t at = find_chunk(p, n, "CNTC");
     assert_true(at > 0);
     const size_t old = (size_t)get_le(p + at + 4, 8), tail = at + 16 + old;
     *out_n = n - old + len;
@@ -552,10 +551,13 @@ static unsigned char *with_contact_state(const unsigned char *p, size_t n, const
     return q;
 }
 
-/* The contact state (CNTC) comes from a file like everything else: a frequency that is not
- * finite or negative, a bad flag, a wrong length or a non-finite velocity is refused with
- * DEFSIM_ERR_IO and no world; a finite but absurd frequency loads, and its step fails with a
- * status, not a crash. The unchanged payload loads and continues bit for bit. */
+/* The collider term's state (its TERM chunk: the name "collider", then the penalty's frequency,
+ * the safe box's flag and corners, the velocities' vertex count and the velocities) comes from
+ * a file like everything else: a frequency that is not finite or negative, a bad flag, a box
+ * that is not finite, a wrong length, a non-finite velocity or a kind that is not the
+ * collider's is refused with DEFSIM_ERR_IO and no world; a finite but absurd frequency loads,
+ * and its step fails with a status, not a crash. The unchanged payload loads and continues bit
+ * for bit. */
 static void test_contact_state_damaged(void **state)
 {
     (void)state;
@@ -567,28 +569,35 @@ static void test_contact_state_damaged(void **state)
     size_t n = 0;
     TU_OK(defsim_world_save_buffer(a, &buf, &n));
     const unsigned char *p = buf;
-    const size_t at = find_chunk(p, n, "CNTC");
+    const size_t at = find_chunk(p, n, "TERM");
     assert_true(at > 0);
     const size_t len = (size_t)get_le(p + at + 4, 8);
     const int32_t nv = defsim_world_vertex_count(a);
-    assert_int_equal(len, 12 + 24 * (size_t)nv);   /* omega, the flag, the velocities */
+    /* name (4 + 8), frequency, flag, box, count, velocities */
+    enum { NAME = 12, OMEGA = NAME, SAFE = NAME + 8, BOX = SAFE + 4, NVEL = BOX + 48,
+           VEL = NVEL + 4 };
+    assert_int_equal(len, VEL + 24 * (size_t)nv);
+    assert_memory_equal(p + at + 12 + 4, "collider", 8);
+    assert_int_equal(get_le(p + at + 12 + NVEL, 4), (uint64_t)nv);
     unsigned char *pay = malloc(len);
     assert_non_null(pay);
     double omega;
-    memcpy(&omega, p + at + 12, 8);
+    memcpy(&omega, p + at + 12 + OMEGA, 8);
     assert_true(omega > 0.0);   /* the frequency was computed and saved */
 
-    const double bad_omega[] = {NAN, -1.0, INFINITY};
-    for (int m = 0; m < 7; ++m) {
+    const double bad[] = {NAN, -1.0, INFINITY};
+    for (int m = 0; m < 9; ++m) {
         memcpy(pay, p + at + 12, len);
         size_t plen = len;
-        if (m < 3) memcpy(pay, &bad_omega[m], 8);
-        if (m == 3) put_le(pay + 8, 2, 4);                  /* the flag */
-        if (m == 4) plen = len - 8;                         /* one velocity short */
-        if (m == 5) memcpy(pay + 12 + 8 * 7, &bad_omega[0], 8);   /* a NaN velocity */
-        if (m == 6) put_le(pay + 8, 0, 4);                  /* no velocities, but their bytes */
+        if (m < 3) memcpy(pay + OMEGA, &bad[m], 8);
+        if (m == 3) put_le(pay + SAFE, 2, 4);                  /* the box's flag */
+        if (m == 4) plen = len - 8;                            /* one velocity short */
+        if (m == 5) memcpy(pay + VEL + 8 * 7, &bad[0], 8);     /* a NaN velocity */
+        if (m == 6) put_le(pay + NVEL, 0, 4);                  /* no velocities, but their bytes */
+        if (m == 7) memcpy(pay + BOX + 8 * 4, &bad[2], 8);     /* a corner at infinity */
+        if (m == 8) pay[4] = 'x';                              /* "xollider": no such kind */
         size_t qn = 0;
-        unsigned char *q = with_contact_state(p, n, pay, plen, &qn);
+        unsigned char *q = with_payload(p, n, at, pay, plen, &qn);
         defsim_world *b = (defsim_world *)1;
         assert_int_equal(defsim_world_load_buffer(q, qn, NULL, NULL, &b), DEFSIM_ERR_IO);
         assert_null(b);
@@ -598,9 +607,9 @@ static void test_contact_state_damaged(void **state)
     /* Finite and absurd: loads; the step fails cleanly and leaves the state as it was. */
     memcpy(pay, p + at + 12, len);
     const double huge = 1e300;
-    memcpy(pay, &huge, 8);
+    memcpy(pay + OMEGA, &huge, 8);
     size_t qn = 0;
-    unsigned char *q = with_contact_state(p, n, pay, len, &qn);
+    unsigned char *q = with_payload(p, n, at, pay, len, &qn);
     defsim_world *b = NULL;
     TU_OK(defsim_world_load_buffer(q, qn, NULL, NULL, &b));
     assert_true(compare(a, b) == 0.0);
@@ -611,7 +620,7 @@ static void test_contact_state_damaged(void **state)
 
     /* Rewritten unchanged: the same bits as the original after 10 more steps. */
     memcpy(pay, p + at + 12, len);
-    q = with_contact_state(p, n, pay, len, &qn);
+    q = with_payload(p, n, at, pay, len, &qn);
     assert_int_equal(qn, n);
     assert_memory_equal(q, p, n);
     TU_OK(defsim_world_load_buffer(q, qn, NULL, NULL, &b));

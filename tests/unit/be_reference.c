@@ -80,7 +80,7 @@ int be_reference_step(defsim_world *w, const double *xn, const double *vn, doubl
     c.fe = malloc(nd * sizeof *c.fe);
     c.fd = malloc(nd * sizeof *c.fd);
     for (int64_t d = 0; d < c.ndof; ++d)
-        if (!w->pinned[d / 3]) c.free[c.n++] = d;
+        if (!w->bodies.pinned[d / 3]) c.free[c.n++] = d;
     memcpy(c.x, xn, nd * sizeof *c.x);
     const int64_t n = c.n;
     double *u = malloc((size_t)n * sizeof *u), *g = malloc((size_t)n * sizeof *g);

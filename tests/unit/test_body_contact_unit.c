@@ -12,12 +12,18 @@
  *  - pattern growth: the number of CHOLMOD analyses (from the backend's log) is one plus the
  *    growths counted in contact.pattern_growths, and far fewer than the steps;
  *  - an explicit backend refuses body contact with the state unchanged;
+ *  - the constraint set: pairs within dhat merged into one VV, EV or FV contact whose weight and
+ *    energy are the pairs' sum (n khat b(d) at a known distance); a point outside the
+ *    candidates' boxes makes a new broad phase;
  *  - collision groups, masks and self_contact filter pairs (candidate counts);
  *  - bad body defs; a checkpoint round trip continues bit for bit with body contact on.
  */
 #include "test_util.h"
 
+#include "body_contact.h"
+#include "contact_barrier.h"
 #include "exact_geom.h"
+#include "world.h"
 
 #include <defsim/backend.h>
 
@@ -151,27 +157,8 @@ static defsim_status probe_step(const defsim_host *host, defsim_system *sys, voi
     for (int i = 0; i < m; ++i)
         for (int j = 0; j < i; ++j)
             Hfd[i * m + j] = Hfd[j * m + i] = 0.5 * (Hfd[i * m + j] + Hfd[j * m + i]);
-    /* the engine projects in the coordinates x_i - x_0 (i >= 1): the pair's energy depends
-     * only on them; the same here */
-    {
-        const int r = m - 3;
-        double B[81];
-        for (int i = 0; i < r; ++i)
-            for (int j = 0; j < r; ++j) B[i * r + j] = Hfd[(3 + i) * m + 3 + j];
-        project_psd(r, B);
-        /* H = T^T B T, T: x -> (x_1 - x_0, ..., x_{n-1} - x_0) */
-        for (int i = 0; i < m; ++i)
-            for (int j = 0; j < m; ++j) {
-                double sum = 0.0;
-                for (int a = 0; a < r; ++a)
-                    for (int b = 0; b < r; ++b) {
-                        const double ti = (i >= 3 && i - 3 == a) ? 1.0 : (i < 3 && a % 3 == i) ? -1.0 : 0.0;
-                        const double tj = (j >= 3 && j - 3 == b) ? 1.0 : (j < 3 && b % 3 == j) ? -1.0 : 0.0;
-                        sum += ti * B[a * r + b] * tj;
-                    }
-                Hfd[i * m + j] = sum;
-            }
-    }
+    /* the engine clamps the eigenvalues of the whole pair matrix (contact_pair.c) */
+    project_psd(m, Hfd);
     const defsim_matrix_coeffs kc = {1.0, 0.0, 0.0, 0.0};
     probe.hess_err = probe.hess_scale = 0.0;
     for (int j = 0; j < m; ++j) {
@@ -559,6 +546,83 @@ static void test_bad_defs(void **state)
     defsim_world_destroy(w);
 }
 
+/* The constraint set (IPC's merge): a rope's lower end 0.4 dhat above a flat 2 x 2-cell patch
+ * (1 kg per vertex, no friction), over a triangle's interior, over the interior edge that two
+ * triangles share, and over the interior vertex of six triangles. The pairs within dhat there
+ * are 1 (point-triangle), 3 (two point-triangle, one edge-edge) and 13 (six point-triangle, six
+ * edge-edge with the vertex's edges, the vertex against the rope's edge); they merge into one
+ * face-vertex, one edge-vertex and one vertex-vertex contact, whose energy is the sum of the
+ * pairs': n khat b(0.4 dhat), computed here from the barrier's formula. Moving the rope without
+ * a step leaves the candidates' boxes: they are found again (one more broad phase) and the set
+ * at the new point is the right one. */
+static void test_constraint_set(void **state)
+{
+    (void)state;
+    static const double P[3][2] = {{0.8, 0.1}, {0.75, 0.25}, {0.5, 0.5}};
+    static const int expect_pairs[3] = {1, 3, 13};
+    static const int expect_type[3] = {DEFSIM__C_FV, DEFSIM__C_EV, DEFSIM__C_VV};
+    double patch[27];
+    int32_t tris[24], nt = 0;
+    for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) {
+            patch[3 * (3 * j + i)] = 0.5 * i;
+            patch[3 * (3 * j + i) + 1] = 0.5 * j;
+            patch[3 * (3 * j + i) + 2] = 0.0;
+        }
+    for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+            const int32_t a = 3 * j + i, b = a + 1, c = a + 3, d = a + 4;
+            const int32_t t[6] = {a, b, d, a, d, c};
+            memcpy(tris + 3 * nt, t, sizeof t);
+            nt += 2;
+        }
+    for (int cfg = 0; cfg < 3; ++cfg) {
+        defsim_world *w = probe_world();
+        const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, dh = dhat_of(lo, hi);
+        add_raw(w, patch, 9, tris, nt, NULL, 0, 0.0, 0.0);
+        const double rope[6] = {P[cfg][0], P[cfg][1], 0.4 * dh, P[cfg][0], P[cfg][1], 1.0};
+        const int32_t sp[2] = {0, 1};
+        add_raw(w, rope, 2, NULL, 0, sp, 1, 0.0, 0.0);
+        memset(&probe, 0, sizeof probe);
+        TU_OK(defsim_world_step(w, 0.01));
+        defsim__body_contact *bc = &w->body_contact;
+        double *x = tu_positions(w);
+        TU_OK(defsim__body_contact_build(bc, x));
+        const double e = defsim__body_contact_energy(bc, x);
+        const double want = expect_pairs[cfg] * bc->khat * barrier(0.4 * dh, dh);
+        printf("  rope end over %s: %d contact(s) (VV %d, EV %d, FV %d, EE %d), kappa %.6g = %g "
+               "khat; energy %.15g, %d pairs' %.15g\n",
+               cfg == 0 ? "a face" : cfg == 1 ? "an edge" : "a vertex", (int)bc->ncon,
+               (int)bc->ncon_type[DEFSIM__C_VV], (int)bc->ncon_type[DEFSIM__C_EV],
+               (int)bc->ncon_type[DEFSIM__C_FV], (int)bc->ncon_type[DEFSIM__C_EE],
+               bc->ncon ? bc->con[0].kappa : 0.0, bc->ncon ? bc->con[0].kappa / bc->khat : 0.0,
+               e, expect_pairs[cfg], want);
+        assert_int_equal(bc->ncon, 1);
+        assert_int_equal(bc->con[0].type, expect_type[cfg]);
+        assert_int_equal(bc->ncon_type[expect_type[cfg]], 1);
+        assert_true(fabs(bc->con[0].kappa - expect_pairs[cfg] * bc->khat) <=
+                    1e-14 * expect_pairs[cfg] * bc->khat);
+        assert_true(want > 0.0 && fabs(e - want) <= 1e-12 * want);
+        if (cfg == 2) {
+            /* over the edge instead, without a step: outside the candidates' boxes */
+            const int64_t broads = bc->broads;
+            for (int v = 9; v < 11; ++v) {
+                x[3 * v] = P[1][0];
+                x[3 * v + 1] = P[1][1];
+            }
+            const double e2 = defsim__body_contact_energy(bc, x);
+            const double want2 = expect_pairs[1] * bc->khat * barrier(0.4 * dh, dh);
+            printf("  moved over the edge: %lld more broad phase, energy %.15g, want %.15g\n",
+                   (long long)(bc->broads - broads), e2, want2);
+            assert_true(bc->broads == broads + 1);
+            assert_true(fabs(e2 - want2) <= 1e-12 * want2);
+            assert_int_equal(bc->ncon_type[DEFSIM__C_EV], 1);
+        }
+        free(x);
+        defsim_world_destroy(w);
+    }
+}
+
 /* A checkpoint of a world with body contact continues bit for bit: the bodies' contact fields
  * (triangles, filter, friction) and the option come back. */
 static void test_checkpoint(void **state)
@@ -609,6 +673,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fd_point_triangle),
         cmocka_unit_test(test_fd_edges_and_friction),
+        cmocka_unit_test(test_constraint_set),
         cmocka_unit_test(test_boxes_pressed),
         cmocka_unit_test(test_explicit_refusal),
         cmocka_unit_test(test_filters),

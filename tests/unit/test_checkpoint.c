@@ -726,6 +726,60 @@ static void test_version_4_file(void **state)
     defsim_world_destroy(again);
 }
 
+/* Format version 5: tests/checkpoint/v5_friction.dfck, written by the library of commit 520ba06
+ * (the last to write version 5) from the sliding cube above after 40 steps. Its CNTC chunk holds
+ * the penalty's frequency and friction's velocities, which version 6 keeps in the collider
+ * term's TERM chunk: the loaded world continues as the uninterrupted run does (the same bits
+ * with this compiler; roundoff with another, which may contract differently), and saved again
+ * it is a version 6 file with a TERM chunk and no CNTC, which continues bit for bit. */
+static void test_version_5_file(void **state)
+{
+    (void)state;
+    defsim_world *old = NULL;
+    TU_OK(defsim_world_load(DEFSIM_TEST_DATA "/v5_friction.dfck", NULL, NULL, &old));
+    defsim_world *now = sliding_cube();
+    for (int k = 0; k < 40; ++k) TU_OK(defsim_world_step(now, 5e-4));
+    assert_true(defsim_world_time(old) == defsim_world_time(now));
+    const int32_t n = defsim_world_vertex_count(now);
+    double *a = tu_positions(old), *b = tu_positions(now);
+    assert_true(tu_rel_diff(a, b, 3 * n, 1.0) < 1e-12);
+    free(a);
+    free(b);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(now, 5e-4));
+    }
+    const double d = state_diff(old, now);
+    printf("  version 5 with friction: max |difference| 20 steps after the load = %.3g\n", d);
+    assert_true(d < 1e-9);   /* version 4's file, without CNTC, is 1e-6 .. 1e-3 off */
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(old, &buf, &size));
+    const unsigned char *p = buf;
+    assert_int_equal(p[8], DEFSIM__CKPT_VERSION);
+    int term = 0, cntc = 0;
+    for (size_t at = DEFSIM__CKPT_HEADER; at + 16 <= size;) {
+        uint64_t len = 0;
+        for (int k = 7; k >= 0; --k) len = (len << 8) | p[at + 4 + k];
+        term += memcmp(p + at, "TERM", 4) == 0;
+        cntc += memcmp(p + at, "CNTC", 4) == 0;
+        at += 16 + (size_t)len;
+    }
+    assert_int_equal(term, 1);
+    assert_int_equal(cntc, 0);
+    defsim_world *again = NULL;
+    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
+    defsim_buffer_free(buf);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(again, 5e-4));
+    }
+    assert_true(same_bits(old, again));
+    defsim_world_destroy(old);
+    defsim_world_destroy(now);
+    defsim_world_destroy(again);
+}
+
 /* sundials_erk's history layout 1 (written by commit f44ad41, before the replay: the next step
  * length only) still loads, and continues close to the saved run, not bit for bit (1.3e-6 m at
  * rtol 1e-2): the files are a cantilever at step 15 of 1/60 s and the same run at step 31. */
@@ -865,6 +919,7 @@ int main(void)
         cmocka_unit_test(test_version_1_file),
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_version_4_file),
+        cmocka_unit_test(test_version_5_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

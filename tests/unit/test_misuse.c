@@ -706,14 +706,14 @@ static uint64_t model_digest(const defsim_world *w)
 {
     uint64_t h = 0xcbf29ce484222325ull;
     mix(&h, &w->magic, sizeof w->magic);
-    mix(&h, &w->body_ids.tag, sizeof w->body_ids.tag);
+    mix(&h, &w->bodies.ids.tag, sizeof w->bodies.ids.tag);
     mix(&h, &w->nv, sizeof w->nv);
-    mix(&h, &w->nbodies, sizeof w->nbodies);
-    mix(&h, &w->body_ids.nslots, sizeof w->body_ids.nslots);
-    mix(&h, w->body_ids.gen, (size_t)w->body_ids.nslots * sizeof *w->body_ids.gen);
-    mix(&h, w->body_ids.dense, (size_t)w->body_ids.nslots * sizeof *w->body_ids.dense);
-    for (int32_t b = 0; b < w->nbodies; ++b) {
-        const defsim__body *bd = &w->bodies[b];
+    mix(&h, &w->bodies.n, sizeof w->bodies.n);
+    mix(&h, &w->bodies.ids.nslots, sizeof w->bodies.ids.nslots);
+    mix(&h, w->bodies.ids.gen, (size_t)w->bodies.ids.nslots * sizeof *w->bodies.ids.gen);
+    mix(&h, w->bodies.ids.dense, (size_t)w->bodies.ids.nslots * sizeof *w->bodies.ids.dense);
+    for (int32_t b = 0; b < w->bodies.n; ++b) {
+        const defsim__body *bd = &w->bodies.b[b];
         mix(&h, &bd->generation, sizeof bd->generation);
         mix(&h, &bd->nv, sizeof bd->nv);
         mix(&h, &bd->nt, sizeof bd->nt);
@@ -728,8 +728,8 @@ static uint64_t model_digest(const defsim_world *w)
         mix(&h, &bd->mat.youngs_modulus, sizeof(double) * 7);
         mix(&h, &bd->mat.model, sizeof bd->mat.model);
     }
-    mix(&h, w->mass, (size_t)w->nv * sizeof *w->mass);
-    mix(&h, w->pinned, (size_t)w->nv);
+    mix(&h, w->bodies.mass, (size_t)w->nv * sizeof *w->bodies.mass);
+    mix(&h, w->bodies.pinned, (size_t)w->nv);
     mix(&h, &w->coupling.fext_nonzero, sizeof w->coupling.fext_nonzero);
     if (w->coupling.fext) mix(&h, w->coupling.fext, 3 * (size_t)w->nv * sizeof *w->coupling.fext);
     mix(&h, &w->coupling.natt, sizeof w->coupling.natt);

@@ -564,9 +564,9 @@ static defsim_world *point_over_triangle(double mu, double **x_out, double **v_o
     TU_OK(defsim__world_plan(w));
     const int64_t n = 3 * (int64_t)w->nv;
     double *x = tu_positions(w), *v = calloc((size_t)n, sizeof *v);
-    memcpy(w->x_save, x, (size_t)n * sizeof *x);
-    TU_OK(defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies, w->nbodies, 0.01, 0.0,
-                                     1e-3, w->x_save, v, 0.01, w->contact.stat, w->msg));
+    memcpy(w->step.x_save, x, (size_t)n * sizeof *x);
+    TU_OK(defsim__body_contact_begin(&w->body_contact, &w->sys, w->bodies.b, w->bodies.n, 0.01, 0.0,
+                                     1e-3, w->step.x_save, v, 0.01, w->contact.stat, w->msg));
     w->sys.body_contact = &w->body_contact;
     TU_OK(defsim__terms_compile(&w->sys));
     /* evaluated off the start: a tilted triangle, the point moved */
@@ -609,35 +609,22 @@ static void test_body_contact(void **state)
     const int64_t n = 3 * (int64_t)w->nv;
     const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_body_contact);
     check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-4 * dh, 1e-5);
-    /* values: the engine projects the pair's Hessian in the differences to its first vertex
-     * (body_contact.c project_relative); do the same to the differenced Hessian */
+    /* values: the engine clamps the eigenvalues of the pair's whole Hessian (contact_pair.c);
+     * do the same to the differenced Hessian */
     double *J = fd_jacobian(w, t, x, v, DEFSIM_FORCE_ELASTIC, 0, 1e-7);
     double *D = term_dense(w, t, x, K1);
     /* one point-triangle pair (and no friction) */
     assert_true(t->cache->count >= 1);
     const int32_t *idx = ((const int32_t *)t->cache->buf);   /* the entry's vertices */
-    const int m = 4, r = 3 * m - 3;
-    double B[81], Hp[144];
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < r; ++j)
-            B[i * r + j] = J[(3 * (int64_t)idx[1 + i / 3] + i % 3) * n + 3 * idx[1 + j / 3] + j % 3];
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < i; ++j) B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
-    project_psd(r, B);
-    /* H = T^T B T, T = [-1 I] per block row: rows of vertex 0 are minus the sums of the others */
-    for (int a = 0; a < m; ++a)
-        for (int c = 0; c < m; ++c)
-            for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    double sum = 0.0;
-                    for (int aa = 1; aa < m; ++aa)
-                        for (int cc = 1; cc < m; ++cc) {
-                            const double ta = a == 0 ? -1.0 : (a == aa ? 1.0 : 0.0);
-                            const double tc = c == 0 ? -1.0 : (c == cc ? 1.0 : 0.0);
-                            sum += ta * tc * B[(3 * (aa - 1) + i) * r + 3 * (cc - 1) + k];
-                        }
-                    Hp[(3 * a + i) * 12 + 3 * c + k] = sum;
-                }
+    const int m = 4;
+    double Hp[144];
+    for (int i = 0; i < 12; ++i)
+        for (int j = 0; j < 12; ++j)
+            Hp[i * 12 + j] = J[(3 * (int64_t)idx[i / 3] + i % 3) * n + 3 * idx[j / 3] + j % 3];
+    for (int i = 0; i < 12; ++i)
+        for (int j = 0; j < i; ++j)
+            Hp[i * 12 + j] = Hp[j * 12 + i] = 0.5 * (Hp[i * 12 + j] + Hp[j * 12 + i]);
+    project_psd(12, Hp);
     double err = 0.0, scale = 0.0;
     for (int a = 0; a < m; ++a)
         for (int c = 0; c < m; ++c)

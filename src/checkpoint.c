@@ -60,16 +60,7 @@ static defsim_status save_world(defsim__bw *b, const defsim_world *w)
     defsim__put_str(b, w->backend.name);
     defsim__put_f64s(b, d->gravity, 3);
     defsim__put_i32(b, w->nthreads);   /* resolved: the same bits need the same thread count */
-    defsim__put_f64(b, d->tolerance);
-    defsim__put_i32(b, d->max_iterations);
-    defsim__put_f64(b, d->rtol);
-    defsim__put_f64(b, d->atol);
-    defsim__put_i32(b, (int32_t)d->projection);
-    defsim__put_i32(b, d->max_order);
-    defsim__put_i32(b, d->max_internal_steps);
-    defsim__put_i32(b, d->auto_substep);
-    defsim__put_f64(b, d->substep_safety);
-    defsim__chunk_end(b, c);
+    defsim__chunk_end(b, c);   /* the settings are options: the OPTS chunk holds them by name */
 
     c = defsim__chunk_begin(b, "OPTS");
     const int32_t n = defsim__options_count(&w->options);
@@ -470,19 +461,31 @@ static defsim_status load_world(const chunk *c, defsim_log_fn log, void *log_use
     d.backend = backend;
     defsim__get_f64s(&r, d.gravity, 3);
     d.num_threads = defsim__get_i32(&r);
-    d.tolerance = defsim__get_f64(&r);
-    d.max_iterations = defsim__get_i32(&r);
-    d.rtol = defsim__get_f64(&r);
-    d.atol = defsim__get_f64(&r);
-    d.projection = (defsim_projection)defsim__get_i32(&r);
-    d.max_order = defsim__get_i32(&r);
-    d.max_internal_steps = defsim__get_i32(&r);
-    d.auto_substep = defsim__get_i32(&r);
-    d.substep_safety = defsim__get_f64(&r);
+    /* Files written before the world def lost its nine backend settings carry them here:
+     * tolerance, max_iterations, rtol, atol, projection, ... At creation they set the options
+     * of the same names, which the OPTS chunk holds, except the projection of a backend that
+     * had no such option then (sundials_ida, sundials_kinsol): set it here where it has one. */
+    int32_t projection = DEFSIM_PROJECTION_CLAMP;
+    if (!r.bad && r.n - r.at == 4 * sizeof(double) + 5 * sizeof(int32_t)) {
+        r.at += 3 * sizeof(double) + sizeof(int32_t);
+        projection = defsim__get_i32(&r);
+        r.at = r.n;
+    }
     if (!defsim__read_whole(&r)) return malformed(c, "wrong length");
     d.log = log;
     d.log_user = log_user;
-    return defsim_world_create(&d, out);
+    defsim_status st = defsim_world_create(&d, out);
+    if (st != DEFSIM_OK || projection == DEFSIM_PROJECTION_CLAMP) return st;
+    char name[80];
+    snprintf(name, sizeof name, "%s.projection", backend);
+    double now;
+    if (defsim_world_get_option(*out, name, &now) == DEFSIM_OK &&
+        (st = defsim_world_set_option_number(*out, name, projection)) != DEFSIM_OK) {
+        st = world_failed(*out, st, "projection");
+        defsim_world_destroy(*out);
+        *out = NULL;
+    }
+    return st;
 }
 
 static defsim_status load_options(defsim_world *w, const chunk *c)

@@ -132,7 +132,10 @@ static defsim_status matrix_product(defsim_system *s, const double *x,
     return defsim__matrix_product(s->sys, x, c, dx, out);
 }
 
-static const defsim_world_def *options(const defsim_system *s) { return s->def; }
+static void gravity(const defsim_system *s, double g[3])
+{
+    for (int k = 0; k < 3; ++k) g[k] = s->gravity[k];
+}
 static int32_t num_threads(const defsim_system *s) { return s->sys->nthreads; }
 static double length_scale(const defsim_system *s) { return s->sys->length_scale; }
 static defsim_stats *stats(defsim_system *s) { return s->stats; }
@@ -267,7 +270,7 @@ const defsim_host defsim__host = {
     .matrix_pattern = matrix_pattern,
     .matrix_values = matrix_values,
     .matrix_product = matrix_product,
-    .options = options,
+    .gravity = gravity,
     .num_threads = num_threads,
     .length_scale = length_scale,
     .stats = stats,

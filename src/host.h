@@ -54,7 +54,7 @@ struct defsim_system {
     defsim__system *sys;      /* built by plan.c; host services build its pattern on demand */
     defsim__work *work;
     defsim__state *state;
-    const defsim_world_def *def;
+    const double *gravity;    /* the world's (m/s^2), for the host's gravity service */
     defsim_stats *stats;
     uint32_t *passes;         /* DEFSIM_PASS_* of the current step */
     defsim__messages *msg;

@@ -6,7 +6,7 @@
  *   1. the core's options and the stats table (every field of defsim_stats by name)
  *   2. checking a backend's declared options and counters (registry)
  *   3. values: parsing text, validating numbers, describing what is valid
- *   4. a world's options: init (with the deprecated world-def fields), free, what the core reads
+ *   4. a world's options: init, free, what the core reads
  *   5. by name: set, get, iterate, stats (world.c wraps these as the public calls)
  */
 #include "options.h"
@@ -27,7 +27,7 @@
 static const char SIMD_CHOICES[] = "auto|scalar|generic|avx2|avx512";
 enum { SIMD_AUTO = 0, SIMD_SCALAR = 1 };
 
-static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
+static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OWN] = {
     {"simd", DEFSIM_OPTION_CHOICE, 0.0, 0.0, 0.0, SIMD_CHOICES,
      "tet force kernels: auto (the fastest this CPU runs), scalar (reference), or one batched "
      "variant; the environment variable DEFSIM_SIMD gives the default, the option set wins"},
@@ -46,24 +46,10 @@ static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OPTIONS] = {
      "gravity and applied forces since (plus mass x size x max(|g|, 9.81 m/s^2))"},
     {"watchdog_max_stretch", DEFSIM_OPTION_REAL, 100.0, 1.0, 1e300, NULL,
      "a body's bounding-box diagonal may reach this multiple of its rest diagonal"},
-    {"contact_dhat", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 0.1, NULL,
-     "contact activation distance dhat relative to the length scale (diagonal of the rest "
-     "bounding box), in (0, 0.1]"},
-    {"contact_kappa", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e20, NULL,
-     "barrier stiffness per unit vertex mass (1/s^2); 0: automatic, |g| / dhat + 1 / h^2"},
-    {"contact_frequency", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e12, NULL,
-     "penalty contact frequency omega_c (rad/s; stiffness m_i omega_c^2); 0: automatic, the "
-     "bodies' highest elastic frequency, at least sqrt(2 |g| / dhat)"},
-    {"friction_eps_v", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 1e3, NULL,
-     "friction's stick-slip threshold (m/s): below it friction is a smooth viscous law"},
-    {"body_contact", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
-     "body-body and self-contact (barrier, CCD, lagged friction; docs/body-contact.md) on "
-     "backends with contact CCD (newton_cholmod, newmark, bdf2); other backends refuse to step"},
 };
-static const char *const CORE_NAMES[DEFSIM__CORE_OPTIONS] = {
+static const char *const CORE_NAMES[DEFSIM__CORE_OWN] = {
     "core.simd", "core.auto_substep", "core.substep_safety", "core.watchdog",
-    "core.watchdog_energy_growth", "core.watchdog_max_stretch", "core.contact_dhat",
-    "core.contact_kappa", "core.contact_frequency", "core.friction_eps_v", "core.body_contact"};
+    "core.watchdog_energy_growth", "core.watchdog_max_stretch"};
 static const char *const CONTACT_STAT_NAMES[DEFSIM__CONTACT_STATS] = {
     "contact.active", "contact.pairs", "contact.min_distance", "contact.time_broad_phase",
     "contact.time_ccd", "contact.ccd_calls", "contact.time_eval", "contact.body_candidates",
@@ -81,15 +67,10 @@ typedef struct stat_field {
 static const stat_field STATS[] = {
     STAT(passes, ST_U32), STAT(steps, ST_I64), STAT(failed_steps, ST_I64),
     STAT(threads, ST_I32), STAT(reordered_tets, ST_I32), STAT(time_step, ST_F64),
-    STAT(time_forces, ST_F64), STAT(time_hessian, ST_F64), STAT(time_factor, ST_F64),
-    STAT(time_solve, ST_F64), STAT(force_evals, ST_I64), STAT(hessian_evals, ST_I64),
-    STAT(energy_evals, ST_I64), STAT(newton_iterations, ST_I64),
-    STAT(line_search_backtracks, ST_I64), STAT(linear_solves, ST_I64),
-    STAT(internal_steps, ST_I64), STAT(residual_evals, ST_I64), STAT(jacobian_evals, ST_I64),
-    STAT(error_test_failures, ST_I64), STAT(convergence_failures, ST_I64),
-    STAT(last_order, ST_I32), STAT(substeps, ST_I64), STAT(stable_step, ST_F64),
-    STAT(min_volume_ratio, ST_F64), STAT(inverted_elements, ST_I64), STAT(energy_drift, ST_F64),
-    STAT(nonlinear_residual, ST_F64), STAT(watchdog_trips, ST_I64),
+    STAT(time_forces, ST_F64), STAT(time_hessian, ST_F64), STAT(force_evals, ST_I64),
+    STAT(hessian_evals, ST_I64), STAT(energy_evals, ST_I64), STAT(substeps, ST_I64),
+    STAT(stable_step, ST_F64), STAT(min_volume_ratio, ST_F64), STAT(inverted_elements, ST_I64),
+    STAT(energy_drift, ST_F64), STAT(watchdog_trips, ST_I64),
 };
 #undef STAT
 enum { NSTATS = (int)(sizeof STATS / sizeof STATS[0]) };
@@ -308,19 +289,29 @@ void defsim__options_free(defsim__options *o)
 }
 
 defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
-                                   const defsim_world_def *d, const defsim_world_def *dflt)
+                                   const defsim_option_spec *const *terms, int32_t nterm)
 {
     memset(o, 0, sizeof *o);
     o->backend = b;
-    for (int i = 0; i < DEFSIM__CORE_OPTIONS; ++i) o->core[i] = CORE_SPECS[i].default_value;
-    const size_t no = (size_t)b->option_count, nc = (size_t)b->counter_count;
+    if (nterm < 0 || nterm > DEFSIM__CORE_MAX - DEFSIM__CORE_OWN) {
+        defsim__set_last_error("the term kinds declare %d options, more than %d", (int)nterm,
+                               DEFSIM__CORE_MAX - DEFSIM__CORE_OWN);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    o->ncore = DEFSIM__CORE_OWN + nterm;
+    for (int32_t i = 0; i < o->ncore; ++i) {
+        o->core_specs[i] = i < DEFSIM__CORE_OWN ? &CORE_SPECS[i] : terms[i - DEFSIM__CORE_OWN];
+        o->core[i] = o->core_specs[i]->default_value;
+    }
+    const size_t nk = (size_t)o->ncore, no = (size_t)b->option_count, nc = (size_t)b->counter_count;
     size_t bytes = 1;
+    for (int32_t i = 0; i < nterm; ++i) bytes += strlen(terms[i]->name) + sizeof "core.";
     for (size_t i = 0; i < no; ++i) bytes += strlen(b->name) + strlen(b->options[i].name) + 2;
     for (size_t i = 0; i < nc; ++i) bytes += strlen(b->name) + strlen(b->counters[i].name) + 2;
     o->values = calloc(no + 1, sizeof *o->values);
     o->counters = calloc(nc + 1, sizeof *o->counters);
     o->values_set = calloc(no + 1, 1);
-    o->names = calloc(DEFSIM__CORE_OPTIONS + no + nc, sizeof *o->names);
+    o->names = calloc(nk + no + nc, sizeof *o->names);
     o->name_buf = malloc(bytes);
     if (!o->values || !o->counters || !o->values_set || !o->names || !o->name_buf) {
         defsim__options_free(o);
@@ -328,56 +319,23 @@ defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     char *p = o->name_buf;
-    for (size_t i = 0; i < DEFSIM__CORE_OPTIONS + no + nc; ++i) {
-        if (i < DEFSIM__CORE_OPTIONS) {
+    for (size_t i = 0; i < nk + no + nc; ++i) {
+        int n;
+        if (i < DEFSIM__CORE_OWN) {
             o->names[i] = CORE_NAMES[i];
             continue;
         }
-        size_t k = i - DEFSIM__CORE_OPTIONS;
-        const char *leaf = k < no ? b->options[k].name : b->counters[k - no].name;
-        int n = sprintf(p, "%s.%s", b->name, leaf);
+        if (i < nk) {
+            n = sprintf(p, "core.%s", o->core_specs[i]->name);
+        } else {
+            const size_t k = i - nk;
+            n = sprintf(p, "%s.%s", b->name, k < no ? b->options[k].name : b->counters[k - no].name);
+        }
         o->names[i] = p;
         p += n + 1;
     }
     for (size_t i = 0; i < no; ++i) o->values[i] = b->options[i].default_value;
 
-    /* Deprecated def fields that differ from their defaults set the option of the same name. */
-    const defsim_world_def dd = *dflt;
-    const struct { const char *name; double value, fallback; } legacy[] = {
-        {"tolerance", d->tolerance, dd.tolerance},
-        {"max_iterations", d->max_iterations, dd.max_iterations},
-        {"rtol", d->rtol, dd.rtol},
-        {"atol", d->atol, dd.atol},
-        {"projection", (double)d->projection, (double)dd.projection},
-        {"max_order", d->max_order, dd.max_order},
-        {"max_internal_steps", d->max_internal_steps, dd.max_internal_steps},
-        {"auto_substep", d->auto_substep, dd.auto_substep},
-        {"substep_safety", d->substep_safety, dd.substep_safety},
-    };
-    for (size_t i = 0; i < sizeof legacy / sizeof legacy[0]; ++i) {
-        if (legacy[i].value == legacy[i].fallback) continue;
-        const defsim_option_spec *s = NULL;
-        double *slot = NULL;
-        const char *full = NULL;
-        for (int c = 0; c < DEFSIM__CORE_OPTIONS; ++c)
-            if (strcmp(CORE_SPECS[c].name, legacy[i].name) == 0) {
-                s = &CORE_SPECS[c], slot = &o->core[c], full = CORE_NAMES[c];
-            }
-        int k = find_backend_option(b, legacy[i].name);
-        if (k >= 0) s = &b->options[k], slot = &o->values[k], full = o->names[DEFSIM__CORE_OPTIONS + k];
-        if (!s) continue;
-        if (!number_valid(s, legacy[i].value)) {
-            char valid[160];
-            describe_valid(s, valid, sizeof valid);
-            defsim__set_last_error("world def: %s = %g does not suit option %s (valid: %s)",
-                                   legacy[i].name, legacy[i].value, full, valid);
-            defsim__options_free(o);
-            return DEFSIM_ERR_INVALID_ARGUMENT;
-        }
-        *slot = legacy[i].value;
-        if (slot >= o->core && slot < o->core + DEFSIM__CORE_OPTIONS) o->core_set[slot - o->core] = 1;
-        else o->values_set[slot - o->values] = 1;
-    }
     return DEFSIM_OK;
 }
 
@@ -394,11 +352,12 @@ int defsim__options_take_reinit(defsim__options *o)
     return r;
 }
 
-static int projection(const defsim__options *o, int def_projection)
+/* The backend's "projection" option, else clamp (defsim_projection). */
+static int projection(const defsim__options *o)
 {
     int k = o->backend ? find_backend_option(o->backend, "projection") : -1;
     if (k >= 0 && o->backend->options[k].type == DEFSIM_OPTION_CHOICE) return (int)o->values[k];
-    return def_projection;
+    return DEFSIM_PROJECTION_CLAMP;
 }
 
 static const struct defsim__tet_kernels *tet_kernels(const defsim__options *o)
@@ -424,22 +383,30 @@ static const struct defsim__tet_kernels *tet_kernels(const defsim__options *o)
     return k ? k : defsim__tet_kernels_best();   /* set_option refuses unsupported variants */
 }
 
-void defsim__options_resolve(const defsim__options *o, int def_projection, defsim__settings *out)
+/* The value of the core option `name` (a term's: the name is static, so it is found). */
+static double core_value(const defsim__options *o, const char *name)
+{
+    for (int32_t i = DEFSIM__CORE_OWN; i < o->ncore; ++i)
+        if (!strcmp(o->core_specs[i]->name, name)) return o->core[i];
+    return 0.0;
+}
+
+void defsim__options_resolve(const defsim__options *o, defsim__settings *out)
 {
     const double *c = o->core;
     *out = (defsim__settings){
         .tet_kernels = tet_kernels(o),
-        .projection = projection(o, def_projection),
+        .projection = projection(o),
         .auto_substep = c[DEFSIM__OPT_AUTO_SUBSTEP] != 0.0,
         .substep_safety = c[DEFSIM__OPT_SUBSTEP_SAFETY],
         .watchdog = c[DEFSIM__OPT_WATCHDOG] != 0.0,
         .energy_growth = c[DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH],
         .max_stretch = c[DEFSIM__OPT_WATCHDOG_MAX_STRETCH],
-        .contact_dhat = c[DEFSIM__OPT_CONTACT_DHAT],
-        .contact_kappa = c[DEFSIM__OPT_CONTACT_KAPPA],
-        .contact_frequency = c[DEFSIM__OPT_CONTACT_FREQUENCY],
-        .friction_eps_v = c[DEFSIM__OPT_FRICTION_EPS_V],
-        .body_contact = c[DEFSIM__OPT_BODY_CONTACT] != 0.0};
+        .contact_dhat = core_value(o, "contact_dhat"),
+        .contact_kappa = core_value(o, "contact_kappa"),
+        .contact_frequency = core_value(o, "contact_frequency"),
+        .friction_eps_v = core_value(o, "friction_eps_v"),
+        .body_contact = core_value(o, "body_contact") != 0.0};
 }
 
 int32_t defsim__options_is_set(const defsim__options *o, int32_t index)
@@ -484,13 +451,14 @@ static int resolve(const defsim__options *o, defsim__messages *msg, const char *
     size_t used = 0;
     list[0] = '\0';
     if (plen == 4 && strncmp(name, "core", 4) == 0) {
-        for (int c = 0; c < DEFSIM__CORE_OPTIONS; ++c) {
-            if (strcmp(CORE_SPECS[c].name, dot + 1) == 0) {
-                *r = (option_ref){&CORE_SPECS[c], c, CORE_NAMES[c], 0};
+        for (int32_t c = 0; c < o->ncore; ++c) {
+            if (strcmp(o->core_specs[c]->name, dot + 1) == 0) {
+                *r = (option_ref){o->core_specs[c], c, o->names[c], 0};
                 return 1;
             }
-            used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", c ? ", " : "",
-                                     CORE_NAMES[c]);
+            if (used < sizeof list)
+                used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", c ? ", " : "",
+                                         o->names[c]);
         }
         defsim__error(msg, "no option '%s'; the core's options: %s", name, list);
         return 0;
@@ -502,12 +470,12 @@ static int resolve(const defsim__options *o, defsim__messages *msg, const char *
     }
     int k = find_backend_option(b, dot + 1);
     if (k >= 0) {
-        *r = (option_ref){&b->options[k], k, o->names[DEFSIM__CORE_OPTIONS + k], 1};
+        *r = (option_ref){&b->options[k], k, o->names[o->ncore + k], 1};
         return 1;
     }
     for (int32_t i = 0; i < b->option_count && used < sizeof list; ++i)
         used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", i ? ", " : "",
-                                 o->names[DEFSIM__CORE_OPTIONS + i]);
+                                 o->names[o->ncore + i]);
     defsim__error(msg, "backend '%s' has no option '%s'; its options: %s", b->name, dot + 1,
                         b->option_count ? list : "(none)");
     return 0;
@@ -583,20 +551,20 @@ defsim_status defsim__options_get(const defsim__options *o, defsim__messages *ms
 
 int32_t defsim__options_count(const defsim__options *o)
 {
-    return DEFSIM__CORE_OPTIONS + o->backend->option_count;
+    return o->ncore + o->backend->option_count;
 }
 
 defsim_status defsim__options_info(const defsim__options *o, int32_t i, defsim_option_info *out)
 {
     if (!out || out->size < sizeof(uint32_t) || i < 0 || i >= defsim__options_count(o))
         return DEFSIM_ERR_INVALID_ARGUMENT;
-    const int core = i < DEFSIM__CORE_OPTIONS;
-    const defsim_option_spec *s = core ? &CORE_SPECS[i] : &o->backend->options[i - DEFSIM__CORE_OPTIONS];
+    const int core = i < o->ncore;
+    const defsim_option_spec *s = core ? o->core_specs[i] : &o->backend->options[i - o->ncore];
     defsim_option_info info;
     info.size = sizeof info;
     info.name = o->names[i];
     info.type = s->type;
-    info.value = core ? o->core[i] : o->values[i - DEFSIM__CORE_OPTIONS];
+    info.value = core ? o->core[i] : o->values[i - o->ncore];
     info.default_value = s->default_value;
     info.min_value = s->min_value;
     info.max_value = s->max_value;
@@ -627,7 +595,7 @@ defsim_status defsim__options_stat_info(const defsim__options *o, const defsim_s
         return DEFSIM_OK;
     }
     if (name)
-        *name = k < 0 ? STATS[i].name : o->names[DEFSIM__CORE_OPTIONS + o->backend->option_count + k];
+        *name = k < 0 ? STATS[i].name : o->names[o->ncore + o->backend->option_count + k];
     if (value) *value = k < 0 ? stat_read(stats, &STATS[i]) : o->counters[k];
     return DEFSIM_OK;
 }

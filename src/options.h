@@ -11,7 +11,9 @@
 #include "defsim/backend.h"
 #include "status.h"
 
-/* The core's options, in the order defsim_world_option_info lists them. */
+/* The core's own options, in the order defsim_world_option_info lists them; the options the
+ * term kinds declare (term.h: contact's, body contact's) follow as "core.<name>", then the
+ * backend's. */
 enum {
     DEFSIM__OPT_SIMD = 0,          /* CHOICE auto|scalar|generic|avx2|avx512 */
     DEFSIM__OPT_AUTO_SUBSTEP = 1,  /* BOOL */
@@ -19,37 +21,36 @@ enum {
     DEFSIM__OPT_WATCHDOG = 3,      /* BOOL: the stability watchdog (watchdog.c) */
     DEFSIM__OPT_WATCHDOG_ENERGY_GROWTH = 4, /* REAL [1, 1e300] */
     DEFSIM__OPT_WATCHDOG_MAX_STRETCH = 5,   /* REAL [1, 1e300] */
-    DEFSIM__OPT_CONTACT_DHAT = 6,  /* REAL: activation distance / length scale (contact.h) */
-    DEFSIM__OPT_CONTACT_KAPPA = 7, /* REAL: barrier stiffness per unit mass (1/s^2), 0: auto */
-    DEFSIM__OPT_CONTACT_FREQUENCY = 8, /* REAL: penalty frequency (rad/s), 0: auto */
-    DEFSIM__OPT_FRICTION_EPS_V = 9,/* REAL: friction's velocity threshold (m/s) */
-    DEFSIM__OPT_BODY_CONTACT = 10, /* BOOL: body-body and self-contact (body_contact.h) */
-    DEFSIM__CORE_OPTIONS = 11
+    DEFSIM__CORE_OWN = 6,
+    DEFSIM__CORE_MAX = 32          /* the core's own plus the terms' */
 };
 
 /* Contact's statistics ("contact.<name>"), in the order of contact.h's DEFSIM__CSTAT_*. */
 enum { DEFSIM__CONTACT_STATS = 14 };
 
 typedef struct defsim__options {
-    double core[DEFSIM__CORE_OPTIONS];
+    int32_t ncore;           /* the core's options: its own, then the terms' */
+    const defsim_option_spec *core_specs[DEFSIM__CORE_MAX];
+    double core[DEFSIM__CORE_MAX];
     const defsim_backend *backend;
     double *values;          /* backend->option_count: current values */
     double *counters;        /* backend->counter_count */
     uint8_t *values_set;     /* backend->option_count: the host set the option */
     const char **names;      /* full names: core options, backend options, then counters */
-    char *name_buf;          /* storage of the backend's full names */
+    char *name_buf;          /* storage of the terms' and the backend's full names */
     int reinit;              /* a backend option changed since the backend's last init */
-    uint8_t core_set[DEFSIM__CORE_OPTIONS]; /* the host set the core option (environment
-                                               variables give defaults only) */
+    uint8_t core_set[DEFSIM__CORE_MAX]; /* the host set the core option (environment variables
+                                           give defaults only) */
     const double *contact_stats; /* DEFSIM__CONTACT_STATS values (the world's contact), or NULL */
 } defsim__options;
 
-/* Allocates the values and counters of backend b (defaults, counters zero) and maps the
- * deprecated world-def fields of `def` that differ from those of `dflt` (the defaults, which
- * the caller fills: options.c sits below world.c) onto options of the same name.
- * On failure sets defsim_last_error() and leaves *o freed. */
+/* Allocates the values and counters of backend b (defaults, counters zero), with the core's
+ * options: its own, then the nterm options the term kinds declare (terms, static tables that
+ * terms.c lists; world.c hands them over, as options.c sits below the terms); *o owns what it
+ * allocates until defsim__options_free. On failure sets defsim_last_error() and leaves *o
+ * freed. */
 defsim_status defsim__options_init(defsim__options *o, const defsim_backend *b,
-                                   const defsim_world_def *def, const defsim_world_def *dflt);
+                                   const defsim_option_spec *const *terms, int32_t nterm);
 void defsim__options_free(defsim__options *o);
 
 /* Zeroes the backend's counters (defsim_world_reset_stats). */
@@ -62,7 +63,7 @@ int defsim__options_take_reinit(defsim__options *o);
  * when an option changes, and its step and plan read fields, never names or accessors. */
 typedef struct defsim__settings {
     const struct defsim__tet_kernels *tet_kernels; /* core.simd's kernels, NULL: scalar */
-    int projection;          /* the backend's "projection" option, else the world def's */
+    int projection;          /* the backend's "projection" option, else clamp */
     int auto_substep;
     double substep_safety;
     int watchdog;
@@ -72,9 +73,9 @@ typedef struct defsim__settings {
 } defsim__settings;
 
 /* Resolves the options into *out. core.simd: the environment variable DEFSIM_SIMD gives the
- * default, and an option the host set wins over it. def_projection: the world def's, for a
- * backend without a "projection" option. */
-void defsim__options_resolve(const defsim__options *o, int def_projection, defsim__settings *out);
+ * default, and an option the host set wins over it. A backend without a "projection" option
+ * gets DEFSIM_PROJECTION_CLAMP. */
+void defsim__options_resolve(const defsim__options *o, defsim__settings *out);
 
 /* Host services (backend.h, ABI version 2; option_is_set, ABI 7). */
 const double *defsim__options_values(const defsim__options *o);

@@ -62,15 +62,16 @@ static entry *find_locked(const char *name)
 /* Validates and copies a table into a new entry (caller holds the lock). */
 static defsim_status add_locked(const defsim_backend *b, const defsim_backend **out)
 {
-    if (!b || b->abi_version < 1 || b->abi_version > DEFSIM_BACKEND_ABI_VERSION ||
+    /* Version 8 broke the host table (backend.h): older tables are refused. */
+    if (!b || b->abi_version < 8 || b->abi_version > DEFSIM_BACKEND_ABI_VERSION ||
         b->struct_size < offsetof(defsim_backend, reset) || !valid_name(b->name) || !b->init ||
         !b->step || !b->fini) {
         defsim__set_last_error("backend table is NULL, of an unsupported ABI version or size, "
                                "has a name outside [a-z0-9_]{1,63}, or lacks init/step/fini");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    /* Older tables are shorter (version 1 ends before `options`, 2 and 3 before
-     * `stable_step_options`, 4 before `save_state`): the fields they lack read as NULL / 0. */
+    /* A table may be shorter than this core's (struct_size): the fields it lacks read as
+     * NULL / 0. */
     defsim_backend full;
     memset(&full, 0, sizeof full);
     memcpy(&full, b, b->struct_size < sizeof full ? b->struct_size : sizeof full);

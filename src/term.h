@@ -19,7 +19,8 @@
  * service, DEFSIM__LIN_LAZY from internal loops such as the power iteration: evaluate only if x
  * or the coefficients differ from the cached ones), so a product does no geometry.
  *
- * Every op but compile is optional (NULL: nothing to do), so kinds to come (cloth membranes and
+ * Every op but compile is optional (NULL: nothing to do; a kind without counters or options
+ * leaves their tables NULL), so kinds to come (cloth membranes and
  * hinges, rigid bodies) and ops to come (derivatives with respect to a term's parameters, for
  * gradients) are appended without touching the kinds that have no use for them.
  */
@@ -162,8 +163,18 @@ typedef struct defsim__term_ops {
     void (*substep)(const defsim__term *t, double s0, double s1, double h);
     void (*step_end)(const defsim__term *t);
 
-    /* Counters by name ("linearisations", and the kind's own); 1 if it has `name`. */
-    int (*counter)(const defsim__term *t, const char *name, double *value);
+    /* Its counters: their full names "<kind>.<counter>" (static; the world's statistics by name
+     * list them after the core's and the backend's), and the value of counter i (0 <= i <
+     * counter_count), read from the kind's cache (t->cache), which outlives the term: terms.c
+     * calls it with a term that has only ops and cache when the kind is not in the list. */
+    const char *const *counters;
+    int32_t counter_count;
+    double (*counter)(const defsim__term *t, int32_t i);
+
+    /* Options it declares, the world's "core.<name>" (options.c lists them after the core's own,
+     * in list order; their values reach the term through the resolved settings). */
+    const defsim_option_spec *options;
+    int32_t option_count;
 
     /* Its checkpoint chunk: save writes its state into buf when cap allows and returns the
      * bytes it needs; load reads what save wrote (DEFSIM_ERR_INVALID_ARGUMENT if it cannot). */

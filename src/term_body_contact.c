@@ -158,13 +158,18 @@ static int start(const defsim__term *t, double *x)
 
 static void step_end(const defsim__term *t) { t->cache->valid = t->cache->any = 0; }
 
-static int counter(const defsim__term *t, const char *name, double *value)
+static const char *const COUNTERS[] = {"body_contact.linearisations", "body_contact.cached_pairs"};
+
+static double counter(const defsim__term *t, int32_t i)
 {
-    if (!strcmp(name, "linearisations")) *value = (double)t->cache->linearisations;
-    else if (!strcmp(name, "cached_pairs")) *value = (double)t->cache->count;
-    else return 0;
-    return 1;
+    return (double)(i == 0 ? t->cache->linearisations : t->cache->count);
 }
+
+static const defsim_option_spec OPTIONS[] = {
+    {"body_contact", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
+     "body-body and self-contact (barrier, CCD, lagged friction; docs/body-contact.md) on "
+     "backends with contact CCD (newton_cholmod, newmark, bdf2); other backends refuse to step"},
+};
 
 /* memcpy that allows empty arrays (NULL before any pair): advances the cursor. */
 static void put(unsigned char **p, const void *src, size_t n)
@@ -262,7 +267,11 @@ const defsim__term_ops defsim__term_body_contact = {
     .max_step = max_step,
     .start = start,
     .step_end = step_end,
+    .counters = COUNTERS,
+    .counter_count = 2,
     .counter = counter,
+    .options = OPTIONS,
+    .option_count = 1,
     .save = save,
     .load = load,
 };

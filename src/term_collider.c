@@ -12,6 +12,7 @@
 #include "system.h"
 #include "term_cache.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -137,12 +138,27 @@ static void substep(const defsim__term *t, double s0, double s1, double h)
 
 static void step_end(const defsim__term *t) { t->cache->valid = t->cache->any = 0; }
 
-static int counter(const defsim__term *t, const char *name, double *value)
+static const char *const COUNTERS[] = {"collider.linearisations"};
+
+static double counter(const defsim__term *t, int32_t i)
 {
-    if (strcmp(name, "linearisations") != 0) return 0;
-    *value = (double)t->cache->linearisations;
-    return 1;
+    (void)i;
+    return (double)t->cache->linearisations;
 }
+
+/* The contact model's parameters ("core.<name>"), which body contact shares (contact.h). */
+static const defsim_option_spec OPTIONS[] = {
+    {"contact_dhat", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 0.1, NULL,
+     "contact activation distance dhat relative to the length scale (diagonal of the rest "
+     "bounding box), in (0, 0.1]"},
+    {"contact_kappa", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e20, NULL,
+     "barrier stiffness per unit vertex mass (1/s^2); 0: automatic, |g| / dhat + 1 / h^2"},
+    {"contact_frequency", DEFSIM_OPTION_REAL, 0.0, 0.0, 1e12, NULL,
+     "penalty contact frequency omega_c (rad/s; stiffness m_i omega_c^2); 0: automatic, the "
+     "bodies' highest elastic frequency, at least sqrt(2 |g| / dhat)"},
+    {"friction_eps_v", DEFSIM_OPTION_REAL, 1e-3, DBL_MIN, 1e3, NULL,
+     "friction's stick-slip threshold (m/s): below it friction is a smooth viscous law"},
+};
 
 /* The chunk: what carries from one step to the next (the pairs do not: each step's begin finds
  * them again). The penalty's automatic frequency, computed by power iteration at the first
@@ -220,5 +236,7 @@ const defsim__term_ops defsim__term_collider = {
     DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX,
     .max_step = max_step, .start = start, .block = block,
     .lambda_bound = lambda_bound, .rates = rates,
-    .substep = substep, .step_end = step_end, .counter = counter,
+    .substep = substep, .step_end = step_end,
+    .counters = COUNTERS, .counter_count = 1, .counter = counter,
+    .options = OPTIONS, .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
     .save = save, .load = load};

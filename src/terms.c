@@ -72,17 +72,41 @@ void defsim__terms_step_end(const defsim__system *s)
         if (s->terms[i].ops->step_end) s->terms[i].ops->step_end(&s->terms[i]);
 }
 
-int defsim__terms_counter(const defsim__system *s, const char *name, double *value)
+int32_t defsim__terms_counter_count(void)
 {
-    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
-        const size_t n = strlen(kinds[k]->name);
-        if (!kinds[k]->counter || strncmp(name, kinds[k]->name, n) != 0 || name[n] != '.')
+    int32_t n = 0;
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) n += kinds[k]->counter_count;
+    return n;
+}
+
+int defsim__terms_counter(const defsim__system *s, int32_t i, const char **name, double *value)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS && i >= 0; ++k) {
+        if (i >= kinds[k]->counter_count) {
+            i -= kinds[k]->counter_count;
             continue;
+        }
+        if (name) *name = kinds[k]->counters[i];
         /* the kind's counters live in its cache, which outlives its term */
         const defsim__term t = defsim__terms_detached(s, k, NULL);
-        return kinds[k]->counter(&t, name + n + 1, value);
+        if (value) *value = kinds[k]->counter(&t, i);
+        return 1;
     }
     return 0;
+}
+
+void defsim__terms_reset_counters(defsim__system *s)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) s->cache[k].linearisations = 0;
+}
+
+int32_t defsim__terms_options(const defsim_option_spec **out, int32_t cap)
+{
+    int32_t n = 0;
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k)
+        for (int32_t i = 0; i < kinds[k]->option_count; ++i, ++n)
+            if (n < cap) out[n] = &kinds[k]->options[i];
+    return n;
 }
 
 defsim__term defsim__terms_detached(const defsim__system *s, int kind, void *data)

@@ -19,10 +19,18 @@ void defsim__terms_free(defsim__system *s);
 void defsim__terms_substep(const defsim__system *s, double s0, double s1, double h);
 void defsim__terms_step_end(const defsim__system *s);
 
-/* A kind's counter by name "<kind>.<counter>" (term.h's counter op; the world's statistics
- * "term.<kind>.<counter>"), read from the kind's cache whether or not its term is in the list
- * now; 1 if found. */
-int defsim__terms_counter(const defsim__system *s, const char *name, double *value);
+/* The kinds' counters (term.h), in list order: how many there are (the same for every system),
+ * and counter i's full name "<kind>.<counter>" and value, read from the kind's cache whether or
+ * not its term is in s's list now. Either output may be NULL; 0 if i is out of range. */
+int32_t defsim__terms_counter_count(void);
+int defsim__terms_counter(const defsim__system *s, int32_t i, const char **name, double *value);
+
+/* Zeroes the kinds' cumulative counters (defsim_world_reset_stats). */
+void defsim__terms_reset_counters(defsim__system *s);
+
+/* The options the kinds declare (term.h), in list order: writes up to cap pointers into out and
+ * returns how many there are. */
+int32_t defsim__terms_options(const defsim_option_spec **out, int32_t cap);
 
 /* A term of kind `kind` outside the list, over s with mutable data `data` (NULL for kinds that
  * have none): what counters and checkpoints call a kind's ops with. */

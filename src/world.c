@@ -41,14 +41,6 @@ void defsim_world_def_init(defsim_world_def *def, size_t size)
     d.size = (uint32_t)sizeof d;
     d.backend = "symplectic_euler";
     d.gravity[1] = -9.81;
-    d.tolerance = 1e-6;
-    d.max_iterations = 50;
-    d.rtol = 1e-4;
-    d.atol = 1e-6;
-    d.projection = DEFSIM_PROJECTION_CLAMP;
-    d.max_order = 5;
-    d.max_internal_steps = 100000;
-    d.substep_safety = 0.8;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -71,33 +63,6 @@ static defsim_status check_world_def(const defsim_world_def *d)
         }
     if (d->num_threads < 0) {
         defsim__set_last_error("world def: num_threads %d < 0", (int)d->num_threads);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if (!(d->tolerance > 0.0) || !isfinite(d->tolerance) || d->max_iterations < 1) {
-        defsim__set_last_error("world def: tolerance %g must be > 0 and max_iterations %d >= 1",
-                               d->tolerance, (int)d->max_iterations);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if (!(d->rtol > 0.0) || !(d->atol > 0.0) || !isfinite(d->rtol) || !isfinite(d->atol)) {
-        defsim__set_last_error("world def: rtol %g and atol %g must be finite and > 0", d->rtol,
-                               d->atol);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if ((int)d->projection < 0 || (int)d->projection > 2) {
-        defsim__set_last_error("world def: unknown projection %d", (int)d->projection);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if (d->auto_substep != 0 && d->auto_substep != 1) {
-        defsim__set_last_error("world def: auto_substep %d must be 0 or 1", (int)d->auto_substep);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if (!(d->substep_safety > 0.0 && d->substep_safety <= 1.0)) {
-        defsim__set_last_error("world def: substep_safety %g must be in (0, 1]", d->substep_safety);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
-    }
-    if (d->max_order < 1 || d->max_order > 5 || d->max_internal_steps < 1) {
-        defsim__set_last_error("world def: max_order %d must be in 1..5, max_internal_steps %d >= 1",
-                               (int)d->max_order, (int)d->max_internal_steps);
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     return DEFSIM_OK;
@@ -145,15 +110,15 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     snprintf(w->backend.name, sizeof w->backend.name, "%s", d.backend);
     w->def.backend = w->backend.name;
     w->backend.table = b;
-    defsim_world_def dflt;
-    defsim_world_def_init(&dflt, sizeof dflt);
-    st = defsim__options_init(&w->options, b, &d, &dflt);
+    const defsim_option_spec *term_options[DEFSIM__CORE_MAX];
+    const int32_t nterm = defsim__terms_options(term_options, DEFSIM__CORE_MAX);
+    st = defsim__options_init(&w->options, b, term_options, nterm);
     if (st != DEFSIM_OK) {
         free(w->msg);
         free(w);
         return st;
     }
-    defsim__options_resolve(&w->options, (int)w->def.projection, &w->set);
+    defsim__options_resolve(&w->options, &w->set);
     if (b->state_size > 0) {
         w->backend.state = calloc(1, b->state_size);
         if (!w->backend.state) {
@@ -173,7 +138,7 @@ defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **ou
     w->stats.size = sizeof w->stats;
     w->stats.threads = w->nthreads;
     w->handle = (defsim_system){.sys = &w->sys, .work = &w->work, .state = &w->state,
-                                .def = &w->def, .stats = &w->stats, .passes = &w->step.passes,
+                                .gravity = w->def.gravity, .stats = &w->stats, .passes = &w->step.passes,
                                 .msg = w->msg, .options = &w->options, .cpl = &w->coupling.cpl};
     _Static_assert((int)DEFSIM__CSTAT_COUNT == (int)DEFSIM__CONTACT_STATS,
                    "contact.h's statistics and options.c's names must agree");
@@ -384,6 +349,9 @@ static defsim_status rebuild_vertices(defsim_world *w, const int32_t *old_offset
     }
     free(w->state.x); free(w->state.v); free(w->step.x_save); free(w->step.v_save);
     free(w->bodies.mass); free(w->bodies.pinned);
+    /* Until a step saves its start, the start is now (held forces' energy is relative to it;
+     * uninitialised, it made that energy depend on what malloc returned). */
+    memcpy(xs, x, 3 * n * sizeof *xs);
     w->state.x = x; w->state.v = v; w->step.x_save = xs; w->step.v_save = vs;
     w->handle.x_start = xs;
     w->bodies.mass = mass; w->bodies.pinned = pinned;
@@ -776,6 +744,7 @@ void defsim_world_reset_stats(defsim_world *w)
     s.reordered_tets = w->stats.reordered_tets;
     w->stats = s;
     defsim__options_reset_counters(&w->options);
+    defsim__terms_reset_counters(&w->sys);
     memset(w->contact.stat, 0, sizeof w->contact.stat);
 }
 
@@ -787,7 +756,7 @@ void defsim_world_reset_stats(defsim_world *w)
 static defsim_status options_changed(defsim_world *w, defsim_status st)
 {
     if (st != DEFSIM_OK) return st;
-    defsim__options_resolve(&w->options, (int)w->def.projection, &w->set);
+    defsim__options_resolve(&w->options, &w->set);
     if (w->planned) {
         w->sys.tet_kernels = w->set.tet_kernels;
         w->sys.projection = w->set.projection;
@@ -826,15 +795,23 @@ defsim_status defsim_world_option_info(const defsim_world *w, int32_t i, defsim_
                                  : DEFSIM_ERR_INVALID_ARGUMENT;
 }
 
+/* The statistics by name: options.c's (the fields of defsim_stats, the backend's counters,
+ * contact's), then the term kinds' counters (terms.c). */
 int32_t defsim_world_stat_count(const defsim_world *w)
 {
-    return defsim__world_live(w) ? defsim__options_stat_count(&w->options) : 0;
+    return defsim__world_live(w)
+               ? defsim__options_stat_count(&w->options) + defsim__terms_counter_count()
+               : 0;
 }
 
 defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const char **name,
                                      double *value)
 {
     if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    const int32_t nopt = defsim__options_stat_count(&w->options);
+    if (i >= nopt)
+        return defsim__terms_counter(&w->sys, i - nopt, name, value) ? DEFSIM_OK
+                                                                     : DEFSIM_ERR_INVALID_ARGUMENT;
     const char *n = NULL;
     defsim_status st = defsim__options_stat_info(&w->options, &w->stats, i, &n, NULL);
     if (st != DEFSIM_OK || !value || !defsim__watchdog_is_diagnostic(n))
@@ -846,9 +823,12 @@ defsim_status defsim_world_stat_info(const defsim_world *w, int32_t i, const cha
 defsim_status defsim_world_stat(const defsim_world *w, const char *name, double *value)
 {
     if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
-    if (name && value && !strncmp(name, "term.", 5) &&
-        defsim__terms_counter(&w->sys, name + 5, value))
-        return DEFSIM_OK;
+    const char *n;
+    for (int32_t i = 0; name && value && defsim__terms_counter(&w->sys, i, &n, NULL); ++i)
+        if (!strcmp(n, name)) {
+            defsim__terms_counter(&w->sys, i, NULL, value);
+            return DEFSIM_OK;
+        }
     if (!name || !defsim__watchdog_is_diagnostic(name))
         return defsim__options_stat(&w->options, w->msg, &w->stats, name, value);
     const defsim_stats now = stats_now(w);

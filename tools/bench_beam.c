@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 #include "bench_beam.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,4 +47,22 @@ defsim_status bench_add_beam(defsim_world *w, const defsim_mesh *m, const defsim
     st = defsim_body_pin(w, *id, pins, bench_clamp_list(m, pins));
     free(pins);
     return st;
+}
+
+defsim_status bench_backend_option(defsim_world *w, const char *backend, const char *leaf,
+                                   double value)
+{
+    char name[160];
+    snprintf(name, sizeof name, "%s.%s", backend, leaf);
+    double now;
+    if (defsim_world_get_option(w, name, &now) != DEFSIM_OK) return DEFSIM_OK;
+    return defsim_world_set_option_number(w, name, value);
+}
+
+double bench_backend_stat(const defsim_world *w, const char *backend, const char *leaf)
+{
+    char name[160];
+    snprintf(name, sizeof name, "%s.%s", backend, leaf);
+    double v = 0.0;
+    return defsim_world_stat(w, name, &v) == DEFSIM_OK ? v : 0.0;
 }

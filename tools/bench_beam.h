@@ -21,4 +21,13 @@ defsim_status bench_add_beam(defsim_world *w, const defsim_mesh *m, const defsim
  * 0 if the name is none of them. */
 defsim_model bench_model_by_name(const char *name);
 
+/* Sets the option "<backend>.<leaf>" of w to value where w's backend (`backend`) has one;
+ * returns DEFSIM_OK also when it has none (a tool's tolerance for a backend without one). */
+defsim_status bench_backend_option(defsim_world *w, const char *backend, const char *leaf,
+                                   double value);
+
+/* The counter "<backend>.<leaf>" of w (the backend's counters by name), or 0 where the backend
+ * has none. */
+double bench_backend_stat(const defsim_world *w, const char *backend, const char *leaf);
+
 #endif

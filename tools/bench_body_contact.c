@@ -42,6 +42,7 @@
 #include "clock.h"
 #include "exact_geom.h"
 #include "scene.h"
+#include "stat.h"
 
 #include <defsim/defsim.h>
 
@@ -414,7 +415,7 @@ static int run(const char *path, const char *backend, int cells, int threads, re
     const double t = stat(w, "time_step");
     r->steps = steps;
     r->ms_step = 1e3 * wall / steps;
-    r->its = stat(w, "newton_iterations");
+    r->its = tools_backend_stat(w, "newton_iterations");
     r->ms_it = r->its > 0 ? 1e3 * wall / r->its : 0.0;
     r->its /= steps;
     r->broad = 100.0 * stat(w, "contact.time_body_broad") / t;

@@ -38,6 +38,7 @@
  */
 #include "bench_beam.h"
 #include "clock.h"
+#include "stat.h"
 
 #include <defsim/defsim.h>
 
@@ -321,7 +322,7 @@ static int cloth(int nu, const char *backend, int threads)
     defsim_world_stat(w, "contact.time_broad_phase", &broad);
     defsim_world_stat(w, "contact.time_ccd", &ccd);
     defsim_world_stat(w, "contact.time_eval", &eval);
-    defsim_world_stat(w, "newton_iterations", &it);
+    it = tools_backend_stat(w, "newton_iterations");
     defsim_world_stat(w, "substeps", &sub);
     printf("| %s | %.2f | %.1f %% | %.1f | %.0f |\n", backend, 1e3 * t / steps,
            100.0 * (broad + ccd + eval) / t, it / steps, sub / steps);

@@ -73,13 +73,16 @@ int main(int argc, char **argv)
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
     wd.num_threads = threads;
-    wd.tolerance = tol;
-    wd.max_iterations = max_it;
-    wd.projection = projection;
     if (verbose) wd.log = print_log;
     defsim_world *w;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
         fprintf(stderr, "%s\n", defsim_last_error());
+        return 1;
+    }
+    if (bench_backend_option(w, backend, "tolerance", tol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "max_iterations", max_it) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "projection", projection) != DEFSIM_OK) {
+        fprintf(stderr, "%s\n", defsim_world_last_error(w));
         return 1;
     }
     defsim_mesh m;
@@ -106,29 +109,34 @@ int main(int argc, char **argv)
            3 * n, n, n, m.tet_count, m.vertex_count, np, model_name, h, s0.threads, proj, tol);
     printf("%4s %5s %5s %9s %9s %9s %9s %9s %9s\n", "step", "newton", "backtr", "forces_s",
            "assembly_s", "factor_s", "solve_s", "other_s", "step_s");
-    defsim_stats tot = {0};
+    /* Sums over the counted steps: the core's timings and the backend's counters by name. */
+    struct { double newton, time_hessian, time_factor, time_solve, time_forces, time_step; } tot;
+    memset(&tot, 0, sizeof tot);
     int counted = 0;
     for (int k = 0; k < steps; ++k) {
         defsim_world_reset_stats(w);
         defsim_status st = defsim_world_step(w, h);
         defsim_stats s = {.size = sizeof s};
         defsim_world_stats(w, &s);
+        const double newton = bench_backend_stat(w, backend, "newton_iterations");
+        const double factor = bench_backend_stat(w, backend, "time_factor");
+        const double solve = bench_backend_stat(w, backend, "time_solve");
         /* A step cut off by --max-iterations is expected; any other failure is not. */
-        if (st != DEFSIM_OK && !(st == DEFSIM_ERR_NOT_CONVERGED && s.newton_iterations == max_it)) {
+        if (st != DEFSIM_OK && !(st == DEFSIM_ERR_NOT_CONVERGED && newton == max_it)) {
             fprintf(stderr, "step %d: %s: %s\n", k, defsim_status_string(st),
                     defsim_world_last_error(w));
             return 1;
         }
-        double other = s.time_step - s.time_forces - s.time_hessian - s.time_factor - s.time_solve;
-        printf("%4d %5lld %5lld %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f%s\n", k,
-               (long long)s.newton_iterations, (long long)s.line_search_backtracks, s.time_forces,
-               s.time_hessian, s.time_factor, s.time_solve, other, s.time_step,
+        double other = s.time_step - s.time_forces - s.time_hessian - factor - solve;
+        printf("%4d %5.0f %5.0f %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f%s\n", k, newton,
+               bench_backend_stat(w, backend, "line_search_backtracks"), s.time_forces,
+               s.time_hessian, factor, solve, other, s.time_step,
                k == 0 ? "  (includes set-up)" : "");
         if (k > 0 || steps == 1) {
-            tot.newton_iterations += s.newton_iterations;
+            tot.newton += newton;
             tot.time_hessian += s.time_hessian;
-            tot.time_factor += s.time_factor;
-            tot.time_solve += s.time_solve;
+            tot.time_factor += factor;
+            tot.time_solve += solve;
             tot.time_forces += s.time_forces;
             tot.time_step += s.time_step;
             counted++;
@@ -138,8 +146,8 @@ int main(int argc, char **argv)
             defsim_world_set_state(w, m.positions, NULL);
         }
     }
-    if (tot.newton_iterations > 0) {
-        double it = (double)tot.newton_iterations;
+    if (tot.newton > 0) {
+        double it = tot.newton;
         double per = (tot.time_hessian + tot.time_factor + tot.time_solve) / it;
         printf("per Newton iteration (steps %s): assembly %.4f s, factorisation %.4f s, solve "
                "%.4f s, assembly+factorisation+solve %.4f s (assembly %.1f %%); forces %.4f s\n",

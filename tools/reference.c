@@ -41,6 +41,7 @@
  */
 #include "bench_beam.h"
 #include "refsol.h"
+#include "stat.h"
 
 #include <defsim/defsim.h>
 
@@ -116,12 +117,16 @@ int main(int argc, char **argv)
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
     wd.num_threads = (int32_t)threads;
-    wd.rtol = rtol;
-    wd.atol = atol;
-    wd.max_internal_steps = 10000000;
     defsim_world *w = NULL;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) {
         fprintf(stderr, "defsim-reference: %s\n", defsim_last_error());
+        return 1;
+    }
+    if (bench_backend_option(w, backend, "rtol", rtol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "atol", atol) != DEFSIM_OK ||
+        bench_backend_option(w, backend, "max_internal_steps", 10000000) != DEFSIM_OK) {
+        fprintf(stderr, "defsim-reference: %s\n", defsim_world_last_error(w));
+        defsim_world_destroy(w);
         return 1;
     }
     defsim_mesh m = {.size = sizeof m};
@@ -160,8 +165,6 @@ int main(int argc, char **argv)
     if (refsol_integrate(w, T, 100, rtol, atol, quiet ? NULL : "  defsim-reference", &ref) !=
         DEFSIM_OK)
         goto done;
-    defsim_stats st = {.size = sizeof st};
-    defsim_world_stats(w, &st);
     f = fopen(out_path, "w");
     if (!f) {
         fprintf(stderr, "defsim-reference: cannot write %s\n", out_path);
@@ -186,10 +189,11 @@ int main(int argc, char **argv)
     }
     f = NULL;
     if (!quiet)
-        fprintf(stderr, "defsim-reference: wrote %s (%lld internal steps, %lld Newton iterations, "
-                        "%lld Jacobians, %.1f s)\n",
-                out_path, (long long)st.internal_steps, (long long)st.newton_iterations,
-                (long long)st.jacobian_evals, wall);
+        fprintf(stderr, "defsim-reference: wrote %s (%.0f internal steps, %.0f Newton iterations, "
+                        "%.0f Jacobians, %.1f s)\n",
+                out_path, tools_backend_stat(w, "internal_steps"),
+                tools_backend_stat(w, "newton_iterations"), tools_backend_stat(w, "jacobian_evals"),
+                wall);
     rc = 0;
 done:
     if (f) fclose(f);

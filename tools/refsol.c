@@ -2,6 +2,7 @@
 #include "refsol.h"
 
 #include "clock.h"
+#include "stat.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -40,16 +41,13 @@ defsim_status refsol_integrate(defsim_world *w, double T, int calls, double rtol
             return st;
         }
         if (tag && (c + 1) % (calls >= 10 ? calls / 10 : 1) == 0) {
-            defsim_stats s = {.size = sizeof s};
-            defsim_world_stats(w, &s);
-            fprintf(stderr, "%s: t = %.4g s: %lld internal steps, %.1f s\n", tag,
-                    defsim_world_time(w), (long long)s.internal_steps, tools_now() - t0);
+            fprintf(stderr, "%s: t = %.4g s: %.0f internal steps, %.1f s\n", tag,
+                    defsim_world_time(w), tools_backend_stat(w, "internal_steps"),
+                    tools_now() - t0);
         }
     }
     out->wall_seconds = tools_now() - t0;
-    defsim_stats s = {.size = sizeof s};
-    defsim_world_stats(w, &s);
-    out->internal_steps = s.internal_steps;
+    out->internal_steps = (int64_t)tools_backend_stat(w, "internal_steps");
     out->end_time = defsim_world_time(w);
     out->rtol = rtol;
     out->atol = atol;

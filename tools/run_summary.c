@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 #include "run_summary.h"
 
+#include "stat.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -62,7 +64,8 @@ int run_summary_write(const char *path, const scene *s, const defsim_world *w,
                "  \"stable_step\": ",
             (int)s->vertex_count, s->h, r->frames, (int)s->frames, (long long)st.steps,
             (long long)st.failed_steps, defsim_world_time(w), r->wall, st.time_step,
-            (long long)st.newton_iterations, (long long)st.internal_steps);
+            (long long)tools_backend_stat(w, "newton_iterations"),
+            (long long)tools_backend_stat(w, "internal_steps"));
     put_number(f, r->stable_step > 0.0 ? r->stable_step : NAN);
     fputs(",\n", f);
     put_energy(f, "energy_start", &r->start);

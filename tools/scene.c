@@ -45,8 +45,44 @@ static int parse_options(sj_ctx *c, const cJSON *o)
     return 0;
 }
 
+/* The keys of scene settings (SCENE_TOLERANCE ...), which are the options' names. */
+static const char *const SETTING_KEYS[SCENE_SETTINGS] = {
+    "tolerance", "max_iterations", "rtol", "atol", "projection", "max_order",
+    "max_internal_steps"};
+
+void scene_setting(scene *s, int which, double value)
+{
+    s->settings[which] = value;
+    s->settings_given[which] = 1;
+}
+
+/* The settings given by key: each sets "<backend>.<key>" where the backend has that option (a
+ * scene written for one backend runs on another, which ignores what it lacks) and
+ * world.options does not name it (the option by name wins). */
+static defsim_status apply_settings(scene *s, defsim_world *w)
+{
+    for (int k = 0; k < SCENE_SETTINGS; ++k) {
+        if (!s->settings_given[k]) continue;
+        char name[128];
+        snprintf(name, sizeof name, "%s.%s", s->backend, SETTING_KEYS[k]);
+        double now;
+        if (defsim_world_get_option(w, name, &now) != DEFSIM_OK) continue;
+        if (s->options && cJSON_GetObjectItemCaseSensitive(s->options, name)) continue;
+        const defsim_status st = defsim_world_set_option_number(w, name, s->settings[k]);
+        if (st != DEFSIM_OK) {
+            snprintf(s->error, sizeof s->error, "%s: world.%s = %g (option %s): %s: %s", s->path,
+                     SETTING_KEYS[k], s->settings[k], name, defsim_status_string(st),
+                     defsim_world_last_error(w));
+            return st;
+        }
+    }
+    return DEFSIM_OK;
+}
+
 static defsim_status apply_options(scene *s, defsim_world *w)
 {
+    const defsim_status st = apply_settings(s, w);
+    if (st != DEFSIM_OK) return st;
     for (const cJSON *e = s->options ? s->options->child : NULL; e; e = e->next) {
         const size_t plen = (size_t)(strchr(e->string, '.') - e->string);
         if (!(plen == 4 && !strncmp(e->string, "core", 4)) &&
@@ -128,23 +164,33 @@ static int parse_world(sj_ctx *c, const cJSON *w)
                        "it)", s->duration, s->h, (int)s->frames, (int)s->frame_steps, steps,
                        (long long)s->limits.max_steps);
     if (sj_vec3(c, w, "gravity", "world", s->def.gravity) ||
-        sj_int(c, w, "threads", "world", 0, 4096, &s->def.num_threads) ||
-        sj_number(c, w, "tolerance", "world", 0.0, 1e300, 1, &s->def.tolerance) ||
-        sj_int(c, w, "max_iterations", "world", 1, 1000000, &s->def.max_iterations) ||
-        sj_number(c, w, "rtol", "world", 0.0, 1e300, 1, &s->def.rtol) ||
-        sj_number(c, w, "atol", "world", 0.0, 1e300, 1, &s->def.atol) ||
-        sj_int(c, w, "max_order", "world", 1, 5, &s->def.max_order) ||
-        sj_int(c, w, "max_internal_steps", "world", 1, 2000000000, &s->def.max_internal_steps))
+        sj_int(c, w, "threads", "world", 0, 4096, &s->def.num_threads))
         return -1;
-    const cJSON *p = cJSON_GetObjectItemCaseSensitive(w, "projection");
-    if (p) {
-        static const char *const names[] = {"none", "clamp", "abs"};
-        int found = -1;
-        for (int i = 0; i < 3; ++i)
-            if (cJSON_IsString(p) && !strcmp(p->valuestring, names[i])) found = i;
-        if (found < 0)
-            return sj_fail(c, p, "world.projection must be \"none\", \"clamp\" or \"abs\"");
-        s->def.projection = (defsim_projection)found;
+    /* The backend settings by key: their shapes here, their ranges by the library when
+     * scene_build sets them (counts within the bounds they always had). */
+    for (int k = 0; k < SCENE_SETTINGS; ++k) {
+        const cJSON *e = cJSON_GetObjectItemCaseSensitive(w, SETTING_KEYS[k]);
+        if (!e) continue;
+        double v = 0.0;
+        if (k == SCENE_PROJECTION) {
+            static const char *const names[] = {"none", "clamp", "abs"};
+            int found = -1;
+            for (int i = 0; i < 3; ++i)
+                if (cJSON_IsString(e) && !strcmp(e->valuestring, names[i])) found = i;
+            if (found < 0)
+                return sj_fail(c, e, "world.projection must be \"none\", \"clamp\" or \"abs\"");
+            v = found;
+        } else if (k == SCENE_MAX_ITERATIONS || k == SCENE_MAX_ORDER ||
+                   k == SCENE_MAX_INTERNAL_STEPS) {
+            const int hi = k == SCENE_MAX_ORDER ? 5 : k == SCENE_MAX_ITERATIONS ? 1000000
+                                                                                 : 2000000000;
+            int32_t n = 0;
+            if (sj_int(c, w, SETTING_KEYS[k], "world", 1, hi, &n)) return -1;
+            v = n;
+        } else if (sj_number(c, w, SETTING_KEYS[k], "world", 0.0, 1e300, 1, &v)) {
+            return -1;
+        }
+        scene_setting(s, k, v);
     }
     return parse_options(c, cJSON_GetObjectItemCaseSensitive(w, "options"));
 }

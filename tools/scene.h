@@ -23,13 +23,18 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
 int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
                        const scene_limits *limits);
 
-/* Creates the world, sets world.options (those of another backend than the world's are skipped
- * with a warning on stderr) and adds the bodies with their pins, external forces, driven pins
- * and attachments. Returns DEFSIM_OK or an error with s->error naming the option, body or
+/* Creates the world, sets the backend settings given by key (world.tolerance ..., each as the
+ * option "<backend>.<key>" where the backend has one; ignored where it has none) and then
+ * world.options (those of another backend than the world's are skipped with a warning on
+ * stderr), and adds the bodies with their pins, external forces, driven pins and attachments. Returns DEFSIM_OK or an error with s->error naming the option, body or
  * attachment (and the library's detail). */
 defsim_status scene_build(scene *s, defsim_world **out);
 
 void scene_free(scene *s);
+
+/* Gives backend setting `which` (SCENE_TOLERANCE ...) the value scene_build sets, as the scene
+ * file's key does (tools that override a scene's tolerances). */
+void scene_setting(scene *s, int which, double value);
 
 /* The material model a scene's "model" names: case, '-', '_', '.' and spaces are ignored, so
  * "co-rotated", "Corotated" and "stable neo-Hookean" are accepted, as are "StVK",

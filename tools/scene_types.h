@@ -133,6 +133,13 @@ typedef struct scene_limits {
 #define SCENE_MAX_VERTICES 2000000
 #define SCENE_MAX_STEPS 10000000
 
+/* Backend settings that a scene's "world" object gives by key ("tolerance": 1e-8), the names of
+ * options of the world's backend; scene_setting names them in this order. */
+enum {
+    SCENE_TOLERANCE, SCENE_MAX_ITERATIONS, SCENE_RTOL, SCENE_ATOL, SCENE_PROJECTION,
+    SCENE_MAX_ORDER, SCENE_MAX_INTERNAL_STEPS, SCENE_SETTINGS
+};
+
 typedef struct scene {
     char path[1024];
     char name[256];         /* file name without directory and .json */
@@ -147,6 +154,8 @@ typedef struct scene {
     int contact_sheet;
     scene_camera camera;
     struct cJSON *options;  /* world.options (a copy), applied by scene_build; or NULL */
+    double settings[SCENE_SETTINGS];   /* world.tolerance ... (PROJECTION: a defsim_projection) */
+    uint8_t settings_given[SCENE_SETTINGS];   /* the scene (or a tool) gave the setting */
     scene_body *bodies;
     int32_t nbodies;
     scene_attachment *attachments;

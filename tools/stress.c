@@ -56,11 +56,22 @@ static defsim_world *make_world(const char *scene, const char *backend, double E
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     wd.backend = backend;
-    if (max_iterations_opt > 0) wd.max_iterations = max_iterations_opt;
-    wd.max_internal_steps = max_internal_opt;
     wd.num_threads = 1;
     defsim_world *w = NULL;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return NULL;
+    /* The iteration limits as options of the backend, where it has them. */
+    const char *const leaf[2] = {"max_iterations", "max_internal_steps"};
+    const int value[2] = {max_iterations_opt, max_internal_opt};
+    for (int k = 0; k < 2; ++k) {
+        char name[128];
+        snprintf(name, sizeof name, "%s.%s", backend, leaf[k]);
+        double now;
+        if (value[k] > 0 && defsim_world_get_option(w, name, &now) == DEFSIM_OK &&
+            defsim_world_set_option_number(w, name, value[k]) != DEFSIM_OK) {
+            defsim_world_destroy(w);
+            return NULL;
+        }
+    }
     defsim_mesh m = {.size = sizeof m};
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);

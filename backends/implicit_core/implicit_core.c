@@ -231,6 +231,14 @@ static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
                                "positive definite (only with projection none)"},
     {"contact_stops", "steps that the contact stop ended (contact_tolerance) before the update "
                       "came within tolerance x L"},
+    {"newton_iterations", "Newton iterations"},
+    {"line_search_backtracks", "step halvings in the line search"},
+    {"linear_solves", "Newton systems solved (CHOLMOD)"},
+    {"convergence_failures", "steps that failed with DEFSIM_ERR_NOT_CONVERGED"},
+    {"time_factor", "wall time of the numeric factorisations (s)"},
+    {"time_solve", "wall time of the triangular solves (s)"},
+    {"nonlinear_residual", "max norm of the gradient of the step's energy (N) at the last "
+                           "Newton iteration of the last step (a level, not a sum)"},
 };
 
 /* The index of `name` in the '|'-separated `choices`, or -1. */
@@ -299,7 +307,7 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->contact_tolerance = opt[OPT_CONTACT_TOLERANCE];
     s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
     p->counters = host->counters(sys);
-    memcpy(s->gravity, host->options(sys)->gravity, sizeof s->gravity);
+    host->gravity(sys, s->gravity);
     p->x0 = alloc_doubles(host, p->ndof);
     p->v0 = alloc_doubles(host, p->ndof);
     p->y = alloc_doubles(host, p->ndof);
@@ -616,7 +624,7 @@ static void say(const ic_solver *s, const defsim_host *host, defsim_system *sys,
 static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_system *sys,
                                   double h, double *slope)
 {
-    defsim_stats *stats = host->stats(sys);
+    double *count = s->pub.counters;
     const int64_t n = s->pub.n;
     /* Called from inside the host's own parallel region (worlds stepped in parallel), the
      * assembly runs on one thread (nested regions are inactive), and so should the BLAS:
@@ -635,7 +643,7 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
     for (int attempt = 0;; ++attempt) {
         double t0 = host->wall_time();
         cholmod_l_factorize(&s->A, s->L, &s->cc);
-        stats->time_factor += host->wall_time() - t0;
+        count[DEFSIM__IC_TIME_FACTOR] += host->wall_time() - t0;
         if (s->cc.status < CHOLMOD_OK) {
             say(s, host, sys, "CHOLMOD factorisation failed (out of memory)");
             result = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -647,8 +655,8 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
             t0 = host->wall_time();
             int ok = cholmod_l_solve2(CHOLMOD_A, s->L, s->rhs, NULL, &s->sol, NULL, &s->ywork,
                                       &s->ework, &s->cc);
-            stats->time_solve += host->wall_time() - t0;
-            stats->linear_solves++;
+            count[DEFSIM__IC_TIME_SOLVE] += host->wall_time() - t0;
+            count[DEFSIM__IC_LINEAR_SOLVES] += 1.0;
             if (!ok) {
                 say(s, host, sys, "CHOLMOD solve failed (out of memory)");
                 result = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -691,7 +699,7 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
 static defsim_status fail(const ic_solver *s, const defsim_host *host, defsim_system *sys,
                           defsim_status st, const char *message)
 {
-    if (st == DEFSIM_ERR_NOT_CONVERGED) host->stats(sys)->convergence_failures++;
+    if (st == DEFSIM_ERR_NOT_CONVERGED) s->pub.counters[DEFSIM__IC_CONVERGENCE_FAILURES] += 1.0;
     say(s, host, sys, message);
     return st;
 }
@@ -752,7 +760,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
                               defsim_system *sys, double h)
 {
     defsim__ic_solver *p = &s->pub;
-    defsim_stats *stats = host->stats(sys);
+    double *count = p->counters;
     const size_t bytes = (size_t)p->ndof * sizeof(double);
 
     /* Start from the scheme's guess; where its energy is undefined (an inverted neo-Hookean
@@ -782,20 +790,20 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
     double dx_prev = 0.0;   /* |dx|_inf of the previous update if it was taken whole, else 0 */
     char msg[200];
     for (int it = 1; it <= s->max_iterations; ++it) {
-        stats->newton_iterations++;
+        count[DEFSIM__IC_NEWTON] += 1.0;
         defsim_status st = sync_pattern(s, host, sys);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
         st = gradient(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "non-finite forces");
         double gmax = 0.0;
         for (int64_t k = 0; k < p->n; ++k) gmax = fmax(gmax, fabs(s->grad[k]));
-        stats->nonlinear_residual = gmax;
+        count[DEFSIM__IC_RESIDUAL] = gmax;   /* a level, not a sum */
         st = hessian(s, stp, host, sys, s->x, h);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
         double slope = 0.0;
         st = factor_solve(s, host, sys, h, &slope);
         if (st != DEFSIM_OK) {
-            if (st == DEFSIM_ERR_NOT_CONVERGED) stats->convergence_failures++;
+            if (st == DEFSIM_ERR_NOT_CONVERGED) count[DEFSIM__IC_CONVERGENCE_FAILURES] += 1.0;
             return st;   /* factor_solve set the message */
         }
         double dxmax = 0.0;
@@ -846,7 +854,7 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
                 break;
             }
             alpha *= 0.5;
-            stats->line_search_backtracks++;
+            count[DEFSIM__IC_BACKTRACKS] += 1.0;
         }
         if (!accepted) {
             snprintf(msg, sizeof msg,
@@ -906,13 +914,13 @@ static defsim_counter_spec ic_counters[DEFSIM__IC_COUNTERS + DEFSIM__IC_MAX_SCHE
 
 /// Module entry point (DEFSIM_MODULE_ENTRY): hands the core this module's backend table (its
 /// scheme's name, flags and counters; the core's options). Returns
-/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 2.
+/// DEFSIM_ERR_BACKEND_UNAVAILABLE for a host table older than ABI version 8 (gravity).
 __attribute__((visibility("default"))) defsim_status defsim_module_init(
     const defsim_host *host, const defsim_backend **out)
 {
     const defsim__ic_scheme *scheme = &defsim__ic_module_scheme;
-    if (!host || !out || host->abi_version < 2 ||
-        host->size < offsetof(defsim_host, counters) + sizeof host->counters ||
+    if (!host || !out || host->abi_version < 8 ||
+        host->size < offsetof(defsim_host, option_is_set) + sizeof host->option_is_set ||
         scheme->counter_count > DEFSIM__IC_MAX_SCHEME_COUNTERS)
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     memcpy(ic_counters, ic_core_counters, sizeof ic_core_counters);

@@ -18,6 +18,7 @@ struct defsim__sun_timer {
     SUNLinearSolver_Ops orig;
     const defsim_host *host;
     defsim_system *sys;
+    int32_t first;   /* the backend's counters linear_solves, time_factor, time_solve */
 };
 
 static defsim__sun_timer *timer_of(SUNLinearSolver S) { return (defsim__sun_timer *)S->ops; }
@@ -27,7 +28,7 @@ static int timed_setup(SUNLinearSolver S, SUNMatrix A)
     defsim__sun_timer *t = timer_of(S);
     const double t0 = t->host->wall_time();
     int r = t->orig->setup(S, A);
-    t->host->stats(t->sys)->time_factor += t->host->wall_time() - t0;
+    defsim__sun_count(t->host, t->sys, t->first + 1, t->host->wall_time() - t0);
     return r;
 }
 
@@ -36,9 +37,8 @@ static int timed_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, r
     defsim__sun_timer *t = timer_of(S);
     const double t0 = t->host->wall_time();
     int r = t->orig->solve(S, A, x, b, tol);
-    defsim_stats *st = t->host->stats(t->sys);
-    st->time_solve += t->host->wall_time() - t0;
-    st->linear_solves++;
+    defsim__sun_count(t->host, t->sys, t->first + 2, t->host->wall_time() - t0);
+    defsim__sun_count(t->host, t->sys, t->first, 1.0);
     return r;
 }
 
@@ -98,7 +98,7 @@ void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, d
 defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
                                  const defsim_backend *backend)
 {
-    if (!out || !host || host->abi_version < 2 ||
+    if (!out || !host || host->abi_version < 8 ||
         host->size < offsetof(defsim_host, omega_max) + sizeof host->omega_max)
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     *out = backend;
@@ -120,7 +120,8 @@ defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_s
     return DEFSIM_OK;
 }
 
-defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz)
+defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz,
+                             int32_t counters)
 {
     s->J = SUNSparseMatrix((sunindextype)n, (sunindextype)n, (sunindextype)(nnz > 0 ? nnz : 1),
                            CSC_MAT, s->ctx);
@@ -133,6 +134,7 @@ defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t 
     s->timer->orig = s->LS->ops;
     s->timer->host = s->host;
     s->timer->sys = s->sys;
+    s->timer->first = counters;
     s->timer->ops.setup = timed_setup;
     s->timer->ops.solve = timed_solve;
     s->LS->ops = &s->timer->ops;

@@ -73,10 +73,12 @@ typedef struct defsim__sun {
  * DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY (message set). */
 defsim_status defsim__sun_open(defsim__sun *s, const defsim_host *host, defsim_system *sys);
 
-/* Creates an n x n CSC matrix with room for nnz entries and a KLU solver for it, whose setup
- * (factorisation) and solve are timed into stats->time_factor / time_solve and counted in
- * stats->linear_solves. `tmpl` is a vector of length n. */
-defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz);
+/* Creates an n x n CSC matrix with room for nnz entries and a KLU solver for it, whose solves
+ * are counted in the backend's counter `counters` (linear_solves), and whose setup
+ * (factorisation) and solve are timed into the two counters after it (time_factor,
+ * time_solve). `tmpl` is a vector of length n. */
+defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t nnz,
+                              int32_t counters);
 
 /* Frees everything defsim__sun_open / defsim__sun_klu made (any subset of it). */
 void defsim__sun_close(defsim__sun *s);
@@ -100,8 +102,9 @@ void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
 double *defsim__sun_counters(const defsim_host *host, defsim_system *sys);
 void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
 
-/* The body of each module's entry point: hands out `backend` if the host is of ABI version 2
- * with every service the SUNDIALS modules use (options, counters, omega_max). */
+/* The body of each module's entry point: hands out `backend` if the host is of ABI version 8
+ * (version 8 broke the table) with every service the SUNDIALS modules use (options, counters,
+ * omega_max). */
 defsim_status defsim__sun_module(const defsim_host *host, const defsim_backend **out,
                                  const defsim_backend *backend);
 

@@ -393,7 +393,7 @@ static int erk_adapt(N_Vector y, realtype t, realtype h1, realtype h2, realtype 
 /* ------------------------------------------------------------------------------------------ */
 /* Set-up, stepping */
 
-/* Adds ERKStep's counters since the last read to the world's statistics and counters. */
+/* Adds ERKStep's counters since the last read to the backend's counters. */
 static void update_stats(erk_state *s)
 {
     erk_counts c = {0, 0, 0, 0, 0, 0};
@@ -405,11 +405,6 @@ static void update_stats(erk_state *s)
     ERKStepGetNumExpSteps(s->mem, &c.stab);
     ERKStepGetNumAccSteps(s->mem, &c.acc);
     c.rhs = nfe;
-    defsim_stats *st = s->host->stats(s->sys);
-    st->internal_steps += c.steps - s->base.steps;
-    st->residual_evals += c.rhs - s->base.rhs;
-    st->error_test_failures += c.etf - s->base.etf;
-    if (c.steps > 0) st->last_order = s->order;
     count(s, C_STEPS, (double)(c.steps - s->base.steps));
     count(s, C_ATTEMPTS, (double)(c.attempts - s->base.attempts));
     count(s, C_RHS, (double)(c.rhs - s->base.rhs));

@@ -67,7 +67,7 @@
 #define IDA_SUPERNODAL_FLOPS 1e8
 
 /* Options, in the order of ida_options. */
-enum { O_RTOL, O_ATOL, O_MAX_ORDER, O_MAX_STEPS, O_LINEAR_SOLVER, O_DELTA_CJ, O_COUNT };
+enum { O_RTOL, O_ATOL, O_MAX_ORDER, O_MAX_STEPS, O_LINEAR_SOLVER, O_DELTA_CJ, O_PROJECTION, O_COUNT };
 enum { LS_CHOLMOD = 0, LS_KLU = 1 };
 
 #ifdef DEFSIM_IDA_CHOLMOD
@@ -95,10 +95,15 @@ static const defsim_option_spec ida_options[O_COUNT] = {
     {"delta_cj", DEFSIM_OPTION_REAL, 0.5, 0.01, 0.99, NULL,
      "relative change of IDA's cj (1 / step size scale) that triggers a new Newton matrix "
      "(IDASetDeltaCjLSetup); larger: fewer factorisations, more Newton iterations"},
+    /* Read by the core: the projection its matrix services apply (backend.h). */
+    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
+     "element Hessians in the Newton matrix: exact (none), or made positive semi-definite "
+     "(clamp: negative eigenvalues to 0, abs: to their absolute value)"},
 };
 
 /* Counters, in the order of ida_counters. */
-enum { C_STEPS, C_ORDER, C_RES, C_JAC, C_ETF, C_NCF, C_NNI, C_FACTOR, C_COUNT };
+enum { C_STEPS, C_ORDER, C_RES, C_JAC, C_ETF, C_NCF, C_NNI, C_FACTOR, C_LINEAR_SOLVES,
+       C_TIME_FACTOR, C_TIME_SOLVE, C_COUNT };
 
 static const defsim_counter_spec ida_counters[C_COUNT] = {
     {"internal_steps", "internal (BDF) steps"},
@@ -109,6 +114,9 @@ static const defsim_counter_spec ida_counters[C_COUNT] = {
     {"convergence_failures", "Newton failures (IDA cut the step, or failed)"},
     {"newton_iterations", "Newton iterations"},
     {"factorizations", "numeric factorisations of the Newton matrix"},
+    {"linear_solves", "Newton systems solved"},
+    {"time_factor", "wall time of the factorisations (s)"},
+    {"time_solve", "wall time of the triangular solves (s)"},
 };
 
 /* IDA's cumulative counters at the last read (reset to 0 by IDAReInit). */
@@ -314,10 +322,9 @@ static int chol_setup(SUNLinearSolver LS, SUNMatrix A)
     (void)A;
     ida_state *s = LS->content;
     ida_chol *c = s->chol;
-    defsim_stats *st = s->host->stats(s->sys);
     const double t0 = s->host->wall_time();
     cholmod_l_factorize(&c->A, c->L, &c->cc);
-    st->time_factor += s->host->wall_time() - t0;
+    defsim__sun_count(s->host, s->sys, C_TIME_FACTOR, s->host->wall_time() - t0);
     if (c->cc.status < CHOLMOD_OK) return SUNLS_MEM_FAIL;
     /* Not positive definite (an unprojected K): IDA cuts the step, which raises cj^2 M. */
     if (c->cc.status != CHOLMOD_OK) return SUNLS_PACKAGE_FAIL_REC;
@@ -358,9 +365,8 @@ static int chol_solve(SUNLinearSolver LS, SUNMatrix A, N_Vector xv, N_Vector bv,
         d[n + i] = cj * dxi - b[i];
         d[i] = dxi;
     }
-    defsim_stats *st = s->host->stats(s->sys);
-    st->time_solve += s->host->wall_time() - t0;
-    st->linear_solves++;
+    defsim__sun_count(s->host, s->sys, C_TIME_SOLVE, s->host->wall_time() - t0);
+    defsim__sun_count(s->host, s->sys, C_LINEAR_SOLVES, 1.0);
     return SUNLS_SUCCESS;
 }
 
@@ -471,14 +477,6 @@ static void update_stats(ida_state *s)
     IDAGetNumNonlinSolvConvFails(s->mem, &c.ncf);
     IDAGetNumNonlinSolvIters(s->mem, &c.nni);
     IDAGetLastOrder(s->mem, &order);
-    defsim_stats *st = s->host->stats(s->sys);
-    st->internal_steps += c.steps - s->base.steps;
-    st->residual_evals += c.res - s->base.res;
-    st->jacobian_evals += c.jac - s->base.jac;
-    st->error_test_failures += c.etf - s->base.etf;
-    st->convergence_failures += c.ncf - s->base.ncf;
-    st->newton_iterations += c.nni - s->base.nni;
-    if (c.steps > 0) st->last_order = order;
     const defsim_host *h = s->host;
     defsim__sun_count(h, s->sys, C_STEPS, (double)(c.steps - s->base.steps));
     defsim__sun_count(h, s->sys, C_RES, (double)(c.res - s->base.res));
@@ -631,7 +629,7 @@ static defsim_status klu_create(ida_state *s)
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     build_pattern(s);
-    return defsim__sun_klu(&s->sun, s->y, 2 * n, s->jnnz);
+    return defsim__sun_klu(&s->sun, s->y, 2 * n, s->jnnz, C_LINEAR_SOLVES);
 }
 
 static defsim_status ida_init(const defsim_host *host, defsim_system *sys, void *state)

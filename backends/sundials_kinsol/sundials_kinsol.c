@@ -35,7 +35,7 @@
 #include <string.h>
 
 /* Options, in the order of kin_options. */
-enum { O_TOLERANCE, O_MAX_ITERATIONS, O_COUNT };
+enum { O_TOLERANCE, O_MAX_ITERATIONS, O_PROJECTION, O_COUNT };
 
 static const defsim_option_spec kin_options[O_COUNT] = {
     /* Relative: below 1e-14 the rounding of the positions exceeds it (as rtol's bound). */
@@ -43,10 +43,15 @@ static const defsim_option_spec kin_options[O_COUNT] = {
      "scaled residual: position error relative to the scene size, in [1e-14, 1]"},
     {"max_iterations", DEFSIM_OPTION_INT, 50, 1, 1e6, NULL,
      "Newton iterations per solve (from y, then from x_n)"},
+    /* Read by the core: the projection its matrix services apply (backend.h). */
+    {"projection", DEFSIM_OPTION_CHOICE, DEFSIM_PROJECTION_CLAMP, 0, 0, "none|clamp|abs",
+     "element Hessians in the Newton matrix: exact (none), or made positive semi-definite "
+     "(clamp: negative eigenvalues to 0, abs: to their absolute value)"},
 };
 
 /* Counters, in the order of kin_counters. */
-enum { C_NNI, C_RES, C_JAC, C_BT, C_NCF, C_COUNT };
+enum { C_NNI, C_RES, C_JAC, C_BT, C_NCF, C_LINEAR_SOLVES, C_TIME_FACTOR, C_TIME_SOLVE,
+       C_RESIDUAL, C_COUNT };
 
 static const defsim_counter_spec kin_counters[C_COUNT] = {
     {"newton_iterations", "Newton iterations"},
@@ -54,6 +59,11 @@ static const defsim_counter_spec kin_counters[C_COUNT] = {
     {"jacobian_evals", "Newton matrix assemblies"},
     {"line_search_backtracks", "line-search backtracks"},
     {"convergence_failures", "failed KINSOL solves (a step that succeeds from x_n counts one)"},
+    {"linear_solves", "KLU solves"},
+    {"time_factor", "wall time of the KLU factorisations (s)"},
+    {"time_solve", "wall time of the KLU solves (s)"},
+    {"nonlinear_residual", "the scaled residual's max norm after the last step's solve (a level, "
+                           "not a sum)"},
 };
 
 typedef struct kin_state {
@@ -146,7 +156,7 @@ static defsim_status kin_fail(kin_state *s, const char *call, int flag)
 static int kin_failed(int flag) { return flag < 0 || flag == KIN_STEP_LT_STPTOL; }
 
 /* One KINSol call from the guess in s->u; adds its counters (which count this call only) to
- * the world's statistics. */
+ * the backend's counters. */
 static int kin_solve(kin_state *s)
 {
     int flag = KINSol(s->mem, s->u, KIN_LINESEARCH, s->uscale, s->fscale);
@@ -155,11 +165,6 @@ static int kin_solve(kin_state *s)
     KINGetNumFuncEvals(s->mem, &nfe);
     KINGetNumJacEvals(s->mem, &nje);
     KINGetNumBacktrackOps(s->mem, &nbt);
-    defsim_stats *st = s->host->stats(s->sys);
-    st->newton_iterations += nni;
-    st->residual_evals += nfe;
-    st->jacobian_evals += nje;
-    st->line_search_backtracks += nbt;
     defsim__sun_count(s->host, s->sys, C_NNI, (double)nni);
     defsim__sun_count(s->host, s->sys, C_RES, (double)nfe);
     defsim__sun_count(s->host, s->sys, C_JAC, (double)nje);
@@ -231,7 +236,7 @@ static defsim_status kin_init(const defsim_host *host, defsim_system *sys, void 
     N_VConst(0.0, s->u);
     N_VConst(1.0 / host->length_scale(sys), s->uscale);
     N_VConst(1.0, s->fscale);
-    st = defsim__sun_klu(&s->sun, s->u, n, s->kpat.nnz);
+    st = defsim__sun_klu(&s->sun, s->u, n, s->kpat.nnz, C_LINEAR_SOLVES);
     if (st != DEFSIM_OK) return st;
     s->mem = KINCreate(s->sun.ctx);
     if (!s->mem) {
@@ -291,12 +296,10 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         fs[i] = h * h / (s->mf[i] * L);
     }
     s->sun.msg[0] = '\0';
-    defsim_stats *st = host->stats(sys);
     int flag = kin_solve(s), first = 0;
     if (kin_failed(flag)) {
         /* From the inertial guess the forces may be undefined (an inverted neo-Hookean element)
          * or Newton may stall on a non-convex energy: try once more from x_n. */
-        st->convergence_failures++;
         defsim__sun_count(host, sys, C_NCF, 1.0);
         first = flag;
         for (int64_t i = 0; i < s->n; ++i) u[i] = s->xn[s->free_dofs[i]];
@@ -304,9 +307,9 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
         flag = kin_solve(s);
     }
     double fnorm_last = 0.0;
-    if (KINGetFuncNorm(s->mem, &fnorm_last) == KIN_SUCCESS) st->nonlinear_residual = fnorm_last;
+    double *cs = defsim__sun_counters(host, sys);
+    if (cs && KINGetFuncNorm(s->mem, &fnorm_last) == KIN_SUCCESS) cs[C_RESIDUAL] = fnorm_last;
     if (kin_failed(flag)) {
-        st->convergence_failures++;
         defsim__sun_count(host, sys, C_NCF, 1.0);
         if (flag == KIN_STEP_LT_STPTOL) {
             /* Stalled at roundoff above the tolerance: not a solution to the asked accuracy. */

@@ -30,9 +30,14 @@ extern "C" {
 /// defsim_backend.save_state and load_state (checkpoints, with defsim_state_writer and
 /// defsim_state_reader), the contact services (defsim_host.contact_max_step, contact_start) and
 /// DEFSIM_BACKEND_CONTACT_CCD; version 6 defsim_host.matrix_pattern_version (body contact grows
-/// the pattern); version 7 defsim_host.option_is_set; version 8 defsim_host.contact_active_dhat
-/// (a Newton stop on contact's scale). The core accepts backends built against 1 to 8 (a table's
-/// struct_size says which fields it has); a backend checks host->size before using a later field.
+/// the pattern); version 7 defsim_host.option_is_set. Version 8 is a break, not an append (no
+/// release shipped 1 to 7): defsim_host.gravity took the place of `options` (which handed out
+/// the public world def, whose nine backend settings became options by name), defsim_stats
+/// lost the backend counters (newton_iterations ... nonlinear_residual: a backend counts in its
+/// own `counters`, read by name), and defsim_host.contact_active_dhat came (a Newton stop on
+/// contact's scale). The core accepts tables built against 8 (a later table's struct_size says
+/// which fields it has); a backend checks host->abi_version and host->size before using a field
+/// appended after 8.
 #define DEFSIM_BACKEND_ABI_VERSION 8u
 
 /// Name of the one symbol a module exports.
@@ -85,7 +90,7 @@ typedef struct defsim_matrix_coeffs {
 /// CHOICE values the index of the chosen name in `choices`.
 /// One name is shared with the core: a CHOICE option "projection" with choices "none|clamp|abs"
 /// (the defsim_projection values) is the projection that matrix_values and matrix_product apply
-/// in that backend's worlds; a backend without it gets the world def's (deprecated) projection.
+/// in that backend's worlds; a backend without it gets DEFSIM_PROJECTION_CLAMP.
 typedef struct defsim_option_spec {
     const char *name;           ///< [a-z0-9_]{1,63}, unique within the backend: "rtol". Static.
     defsim_option_type type;
@@ -161,15 +166,16 @@ typedef struct defsim_host {
     defsim_status (*matrix_product)(defsim_system *sys, const double *x,
                                     const defsim_matrix_coeffs *c, const double *dx, double *out);
 
-    /// The world's creation options (tolerance, max_iterations, rtol, atol, projection, ...).
-    /// Deprecated for backend settings: declare options and read option_values instead.
-    const defsim_world_def *(*options)(const defsim_system *sys);
+    /// The world's gravity (m/s^2) into g. (Before ABI 8 this slot handed out the world's
+    /// defsim_world_def; a backend's settings are its options: see option_values.)
+    void (*gravity)(const defsim_system *sys, double g[3]);
     /// Threads for assembly (>= 1).
     int32_t (*num_threads)(const defsim_system *sys);
     /// Diagonal of the bounding box of the rest positions (m): a length scale for tolerances.
     double (*length_scale)(const defsim_system *sys);
 
-    /// Statistics to update (newton_iterations, time_factor, ...). Never NULL.
+    /// The core's statistics: a backend with its own stable-step estimate writes stable_step;
+    /// everything it counts (iterations, solves, timings) goes in its `counters`. Never NULL.
     defsim_stats *(*stats)(defsim_system *sys);
     /// Monotonic wall clock in seconds.
     double (*wall_time)(void);

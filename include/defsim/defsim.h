@@ -140,7 +140,9 @@ DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, c
 
 typedef struct defsim_world defsim_world;
 
-/// How implicit backends make element Hessians positive semi-definite before assembly.
+/// How implicit backends make element Hessians positive semi-definite before assembly: the
+/// values of a backend's CHOICE option "projection" ("none|clamp|abs", e.g.
+/// "newton_cholmod.projection"). A backend without that option gets DEFSIM_PROJECTION_CLAMP.
 typedef enum defsim_projection {
     DEFSIM_PROJECTION_NONE = 0,     ///< Exact Hessians (may be indefinite).
     DEFSIM_PROJECTION_CLAMP = 1,    ///< Negative eigenvalues of each element Hessian set to 0.
@@ -151,12 +153,9 @@ typedef enum defsim_projection {
 typedef void (*defsim_log_fn)(void *user, int level, const char *message);
 
 /// Creation parameters of a world. Fill with defsim_world_def_init, then change what you need.
-/// The fields after num_threads (tolerance ... substep_safety, except log and log_user) are
-/// deprecated: they keep working in this major version, but options by name
-/// (defsim_world_set_option) replace them. At creation each deprecated field that differs from
-/// its default sets the option of the same name of the world's backend ("<backend>.rtol") or
-/// of the core ("core.auto_substep", "core.substep_safety"), where one exists; a field with no
-/// such option is ignored. Options set after creation win.
+/// It holds only what every backend shares; the settings of one backend (tolerances, iteration
+/// limits, projection, ...) and of the core (auto_substep, the watchdog, contact) are options
+/// by name (defsim_world_set_option, docs/api.md).
 typedef struct defsim_world_def {
     uint32_t size;             ///< sizeof(defsim_world_def), set by defsim_world_def_init.
     const char *backend;       ///< Integrator: "explicit_euler", "symplectic_euler" (built in),
@@ -165,28 +164,8 @@ typedef struct defsim_world_def {
                                ///< Default "symplectic_euler".
     double gravity[3];         ///< m/s^2. Default (0, -9.81, 0).
     int32_t num_threads;       ///< Threads for force and Hessian assembly; 0: OpenMP's default.
-    double tolerance;          ///< Deprecated ("<backend>.tolerance"). Nonlinear solves:
-                               ///< relative tolerance (see backend READMEs). Default 1e-6.
-    int32_t max_iterations;    ///< Deprecated ("<backend>.max_iterations"). Nonlinear solves:
-                               ///< iteration limit per step. Default 50.
-    double rtol, atol;         ///< Deprecated ("<backend>.rtol", "<backend>.atol"). Adaptive
-                               ///< integrators: relative tolerance and absolute (m, m/s).
-                               ///< Defaults 1e-4 and 1e-6.
     defsim_log_fn log;         ///< Optional log sink; NULL: silent.
     void *log_user;            ///< Passed to log.
-    defsim_projection projection;  ///< Deprecated ("<backend>.projection", a CHOICE whose
-                               ///< index is the enum value). Implicit backends. Default
-                               ///< DEFSIM_PROJECTION_CLAMP.
-    int32_t max_order;         ///< Deprecated ("<backend>.max_order"). Adaptive BDF: maximum
-                               ///< order 1..5. Default 5.
-    int32_t max_internal_steps;///< Deprecated ("<backend>.max_internal_steps"). Adaptive
-                               ///< integrators: internal steps per call. Default 100000.
-    int32_t auto_substep;      ///< Deprecated ("core.auto_substep"). Conditionally stable
-                               ///< backends: 1 splits each defsim_world_step into substeps no
-                               ///< longer than substep_safety times the estimated stable step
-                               ///< (defsim_world_stable_step). Default 0.
-    double substep_safety;     ///< Deprecated ("core.substep_safety"). Fraction of the stable
-                               ///< step used by auto_substep. Default 0.8.
 } defsim_world_def;
 
 /// Fills *def with defaults. `size` must be sizeof *def. Does nothing if def is NULL.
@@ -194,7 +173,8 @@ DEFSIM_API void defsim_world_def_init(defsim_world_def *def, size_t size);
 
 /// Creates an empty world. On success *out receives a world the caller owns and must release
 /// with defsim_world_destroy. Loads the backend's module now if it is not built in.
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, def->size 0 or too small, bad option values),
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, def->size 0 or too small, an empty backend name
+/// or one of 64 characters or more, a non-finite gravity, num_threads < 0),
 /// DEFSIM_ERR_BACKEND_UNAVAILABLE (unknown name or module failed), DEFSIM_ERR_OUT_OF_MEMORY.
 /// On failure *out is set to NULL and defsim_last_error() says why.
 DEFSIM_API defsim_status defsim_world_create(const defsim_world_def *def, defsim_world **out);
@@ -422,8 +402,11 @@ enum {
     DEFSIM_PASS_DRIVEN_PINS = 1u << 14      ///< Pinned vertices moved to targets in this step.
 };
 
-/// Counters and timings, cumulative since creation (or since defsim_world_reset_stats).
-/// Times are wall-clock seconds. Fields are only ever appended.
+/// The core's counters and timings, cumulative since creation (or since
+/// defsim_world_reset_stats). Times are wall-clock seconds. Fields are only ever appended (the
+/// backend counters this struct held before, newton_iterations ... nonlinear_residual, left it:
+/// each backend declares its own, read by name as "<backend>.<counter>" with defsim_world_stat
+/// and listed by defsim_world_stat_info; docs/api.md lists those of the shipped backends).
 typedef struct defsim_stats {
     uint32_t size;                 ///< Set by the caller to sizeof(defsim_stats) before the call.
     uint32_t passes;               ///< DEFSIM_PASS_* bits of the last step.
@@ -434,20 +417,9 @@ typedef struct defsim_stats {
     double time_step;              ///< Total time inside defsim_world_step.
     double time_forces;            ///< Force evaluation (elastic, gravity, damping).
     double time_hessian;           ///< Stiffness matrix assembly.
-    double time_factor;            ///< Sparse factorisation (implicit backends).
-    double time_solve;             ///< Triangular solves / linear solves.
     int64_t force_evals;           ///< Force evaluations.
     int64_t hessian_evals;         ///< Stiffness matrix assemblies.
     int64_t energy_evals;          ///< Potential energy evaluations (the watchdog's included).
-    int64_t newton_iterations;     ///< Nonlinear iterations (implicit backends).
-    int64_t line_search_backtracks;///< Step halvings in line searches.
-    int64_t linear_solves;         ///< Linear systems solved.
-    int64_t internal_steps;        ///< Adaptive integrators: internal steps taken.
-    int64_t residual_evals;        ///< Adaptive integrators: residual evaluations.
-    int64_t jacobian_evals;        ///< Adaptive integrators: Jacobian evaluations.
-    int64_t error_test_failures;   ///< Adaptive integrators: local error test failures.
-    int64_t convergence_failures;  ///< Nonlinear convergence failures (recovered or not).
-    int32_t last_order;            ///< Adaptive BDF: order used in the last internal step.
     int64_t substeps;              ///< Backend steps taken by auto_substep (>= steps when on).
     double stable_step;            ///< Last estimate of the stable step (s), 0 if never made.
     /* Stability watchdog (docs/watchdog.md). The first three are computed from the current state
@@ -467,9 +439,6 @@ typedef struct defsim_stats {
                                    ///< negative when damping dissipates. NaN without a
                                    ///< reference (the watchdog is off, or the last step's work
                                    ///< overflowed).
-    double nonlinear_residual;     ///< Implicit backends: the residual norm of the last Newton
-                                   ///< iteration of the last step (the backend's own measure;
-                                   ///< see its README); 0 for other backends.
     int64_t watchdog_trips;        ///< Steps the watchdog failed with DEFSIM_ERR_UNSTABLE.
 } defsim_stats;
 
@@ -544,16 +513,19 @@ DEFSIM_API defsim_status defsim_world_option_info(const defsim_world *world, int
                                                   defsim_option_info *out);
 
 /// Reads a statistic by name into *value: a field of defsim_stats by its field name ("steps",
-/// "newton_iterations", "time_factor", ...; integer fields are converted to double) or a counter
-/// of the world's backend ("sundials_ida.internal_steps"), or contact's ("contact.active",
-/// docs/contact.md). min_volume_ratio, inverted_elements and energy_drift are computed from the
+/// "force_evals", "time_step", ...; integer fields are converted to double), a counter of the
+/// world's backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"), contact's ("contact.active",
+/// docs/contact.md), or a counter of a term kind ("collider.linearisations",
+/// "body_contact.cached_pairs": Hessian evaluations since the world was planned or its
+/// statistics reset, and the pair Hessians cached now). min_volume_ratio, inverted_elements and energy_drift are computed from the
 /// current state at this call (see defsim_stats).
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, unknown name).
 DEFSIM_API defsim_status defsim_world_stat(const defsim_world *world, const char *name,
                                            double *value);
 
 /// Number of statistics by name: the fields of defsim_stats (except size), then the backend's
-/// counters, then contact's (contact.*). 0 for a NULL world.
+/// counters, then contact's (contact.*), then the term kinds' ("<kind>.<counter>"). 0 for a
+/// NULL world.
 DEFSIM_API int32_t defsim_world_stat_count(const defsim_world *world);
 
 /// Name and value of statistic i (0 .. defsim_world_stat_count - 1). Either output may be NULL.

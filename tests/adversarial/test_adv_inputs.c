@@ -375,24 +375,6 @@ static void test_option_ranges(void **state)
         TU_OK(defsim_world_set_option_number(w, tol[i].option, tol[i].lowest));
         defsim_world_destroy(w);
     }
-    /* The deprecated world-def fields go through the same ranges. */
-    defsim_world_def d = tu_world_def("symplectic_euler", -G, 1);
-    d.substep_safety = 1e-300;
-    w = NULL;
-    assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
-    assert_null(w);
-    if (tu_available("sundials_ida")) {
-        d = tu_world_def("sundials_ida", -G, 1);
-        d.atol = 1e-300;
-        assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
-        assert_null(w);
-    }
-    if (tu_available("newton_cholmod")) {
-        d = tu_world_def("newton_cholmod", -G, 1);
-        d.tolerance = 1e-300;
-        assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
-        assert_null(w);
-    }
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -433,8 +433,7 @@ static void cloth_fold(const char *backend, double h)
     const double hgt = height(x, c.nv);
     const scan end = scan_pairs(x, &c.s, 0, 3.0 * c.dhat, 3.0 * c.dhat, far);
     free(x);
-    double it = NAN;
-    TU_OK(defsim_world_stat(c.w, "newton_iterations", &it));
+    const double it = tu_bstat(c.w, "newton_iterations");
     printf("  %-15s cloth %dx%d fold, %d steps of %g s: no intersecting pairs (%ld exact tests), "
            "min distance %.3g m = %.2f d_hat (d_hat %.3g m); pairs > 3 cells apart at rest within "
            "3 d_hat: most %ld (pile %.4f m then), %ld at the end (pile %.4f m); lowest pile %.4f m = "

@@ -27,6 +27,8 @@ int main(void)
     if (ad.size != sizeof ad || ad.stiffness != 1e3 || ad.target_vertex_count != 0 ||
         sizeof(((defsim_host *)0)->applied_forces_vary) != sizeof(void (*)(void)))
         return 5;
+    /* ABI version 8: gravity in the host table, where the world def was. */
+    if (sizeof(((defsim_host *)0)->gravity) != sizeof(void (*)(void))) return 7;
     /* Checkpoints (ABI version 5 backend ops; public declarations). */
     void *buf = NULL;
     size_t bytes = 0;

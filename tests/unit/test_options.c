@@ -57,7 +57,6 @@ static defsim_status ot_step(const defsim_host *host, defsim_system *sys, void *
         host->positions(sys)[i] += h * host->velocities(sys)[i];
     if (st != DEFSIM_OK) return st;
     host->counters(sys)[CNT_STEPS] += 1.0;
-    host->stats(sys)->internal_steps += 1;
     return DEFSIM_OK;
 }
 
@@ -275,49 +274,39 @@ static void test_reinit_on_change(void **state)
     defsim_world_destroy(w);
 }
 
-/* Deprecated world-def fields that differ from their defaults set the option of the same name
- * of the world's backend or core; fields the backend has no option for are ignored, values the
- * option refuses fail creation. */
-static void test_def_fields_map(void **state)
+/* The world def holds only what every backend shares; the settings are options that start at
+ * their defaults, and a def of the size that ends before log (the first field that a host may
+ * leave out) is accepted. */
+static void test_def_shared(void **state)
 {
     (void)state;
     defsim_world_def d;
+    memset(&d, 0xA5, sizeof d);
     defsim_world_def_init(&d, sizeof d);
+    assert_int_equal(d.size, sizeof d);
+    assert_string_equal(d.backend, "symplectic_euler");
+    assert_true(d.gravity[0] == 0.0 && d.gravity[1] == -9.81 && d.gravity[2] == 0.0);
+    assert_int_equal(d.num_threads, 0);
+    assert_null(d.log);
+    assert_null(d.log_user);
     d.backend = "opt_test";
-    d.rtol = 1e-7;
-    d.max_order = 3;
-    d.projection = DEFSIM_PROJECTION_NONE;
-    d.auto_substep = 1;
-    d.substep_safety = 0.5;
-    d.atol = 1e-3;   /* opt_test has no atol: ignored */
+    d.size = (uint32_t)offsetof(defsim_world_def, log);
     defsim_world *w;
     TU_OK(defsim_world_create(&d, &w));
-    assert_true(get(w, "opt_test.rtol") == 1e-7);
-    assert_true(get(w, "opt_test.max_order") == 3);
-    assert_true(get(w, "opt_test.projection") == 0);
-    assert_true(get(w, "opt_test.max_iterations") == 5);   /* def at its default: the backend's */
-    assert_true(get(w, "core.auto_substep") == 1);
-    assert_true(get(w, "core.substep_safety") == 0.5);
+    assert_true(get(w, "opt_test.rtol") == 1e-4);
+    assert_true(get(w, "opt_test.max_order") == 4);
+    assert_true(get(w, "opt_test.projection") == 1);
+    assert_true(get(w, "opt_test.max_iterations") == 5);
+    assert_true(get(w, "core.auto_substep") == 0);
+    assert_true(get(w, "core.substep_safety") == 0.8);
     defsim_world_destroy(w);
-
-    d.max_iterations = 20;   /* the world def accepts it, opt_test's option only 1..10 */
+    d.size = (uint32_t)offsetof(defsim_world_def, log) - 1;
     assert_int_equal(defsim_world_create(&d, &w), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_null(w);
-
-    /* On a backend without options the core's still map. */
-    defsim_world_def_init(&d, sizeof d);
-    d.auto_substep = 1;
-    d.rtol = 1e-7;
-    TU_OK(defsim_world_create(&d, &w));
-    assert_int_equal(defsim_world_option_count(w), 11);
-    assert_true(get(w, "core.auto_substep") == 1);
-    double v;
-    assert_int_equal(defsim_world_get_option(w, "symplectic_euler.rtol", &v),
-                     DEFSIM_ERR_INVALID_ARGUMENT);
-    defsim_world_destroy(w);
 }
 
-/* core.auto_substep set by name splits steps exactly as the deprecated def field does. */
+/* core.auto_substep set by name splits steps the same way whether it is set before the bodies
+ * are added or after. */
 static void test_auto_substep_option(void **state)
 {
     (void)state;
@@ -325,10 +314,10 @@ static void test_auto_substep_option(void **state)
     defsim_world_def d;
     defsim_world_def_init(&d, sizeof d);
     d.num_threads = 1;
-    d.auto_substep = 1;
-    d.substep_safety = 0.5;
     defsim_world *b;
     TU_OK(defsim_world_create(&d, &b));
+    TU_OK(defsim_world_set_option(b, "core.auto_substep", "on"));
+    TU_OK(defsim_world_set_option(b, "core.substep_safety", "0.5"));
     defsim_body_id id = tu_add_box(b, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 4, 1, 1, LO, HI, 1e5, 0.3,
                                    1000);
     tu_pin_below(b, id, 0, 0.0);
@@ -353,9 +342,9 @@ static void test_auto_substep_option(void **state)
     defsim_world_destroy(b);
 }
 
-/* The backend's "projection" option is the projection the core's matrix services apply: its
- * product equals that of a world whose def asks for the same projection, and differs between
- * none and clamp where tets are inverted. */
+/* The backend's "projection" option is the projection the core's matrix services apply: a
+ * backend without the option gets clamp (the same product as opt_test's clamp), and none
+ * differs from clamp where tets are inverted. */
 static void test_projection_option(void **state)
 {
     (void)state;
@@ -369,7 +358,6 @@ static void test_projection_option(void **state)
         defsim_world_def_init(&d, sizeof d);
         d.backend = backends[k];
         d.num_threads = 1;
-        d.projection = DEFSIM_PROJECTION_NONE;   /* opt_test: mapped, then overridden below */
         defsim_world *w;
         TU_OK(defsim_world_create(&d, &w));
         tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1, 1, 1, LO, HI, 1e5, 0.3, 1000);
@@ -382,7 +370,7 @@ static void test_projection_option(void **state)
         free(x);
         defsim_world_destroy(w);
     }
-    assert_memory_equal(out[0], out[2], sizeof out[0]);
+    assert_memory_equal(out[1], out[2], sizeof out[0]);
     double diff = 0.0, norm = 0.0;
     for (int i = 0; i < NX; ++i) {
         diff = fmax(diff, fabs(out[0][i] - out[1][i]));
@@ -405,46 +393,49 @@ static void test_stats_by_name(void **state)
         {"passes", s.passes}, {"steps", (double)s.steps}, {"failed_steps", (double)s.failed_steps},
         {"threads", s.threads}, {"reordered_tets", s.reordered_tets},
         {"time_step", s.time_step}, {"time_forces", s.time_forces},
-        {"time_hessian", s.time_hessian}, {"time_factor", s.time_factor},
-        {"time_solve", s.time_solve}, {"force_evals", (double)s.force_evals},
+        {"time_hessian", s.time_hessian}, {"force_evals", (double)s.force_evals},
         {"hessian_evals", (double)s.hessian_evals}, {"energy_evals", (double)s.energy_evals},
-        {"newton_iterations", (double)s.newton_iterations},
-        {"line_search_backtracks", (double)s.line_search_backtracks},
-        {"linear_solves", (double)s.linear_solves},
-        {"internal_steps", (double)s.internal_steps},
-        {"residual_evals", (double)s.residual_evals},
-        {"jacobian_evals", (double)s.jacobian_evals},
-        {"error_test_failures", (double)s.error_test_failures},
-        {"convergence_failures", (double)s.convergence_failures},
-        {"last_order", s.last_order}, {"substeps", (double)s.substeps},
-        {"stable_step", s.stable_step}, {"min_volume_ratio", s.min_volume_ratio},
+        {"substeps", (double)s.substeps}, {"stable_step", s.stable_step},
+        {"min_volume_ratio", s.min_volume_ratio},
         {"inverted_elements", (double)s.inverted_elements}, {"energy_drift", s.energy_drift},
-        {"nonlinear_residual", s.nonlinear_residual},
         {"watchdog_trips", (double)s.watchdog_trips},
     };
     const int nf = (int)(sizeof fields / sizeof fields[0]);
     for (int i = 0; i < nf; ++i) assert_true(stat(w, fields[i].name) == fields[i].value);
-    assert_true(stat(w, "steps") == 7 && stat(w, "internal_steps") == 7);
+    assert_true(stat(w, "steps") == 7 && stat(w, "opt_test.steps_taken") == 7);
+    /* the backend counters that defsim_stats held before are names of no statistic now */
+    double gone;
+    assert_int_equal(defsim_world_stat(w, "internal_steps", &gone), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_world_stat(w, "newton_iterations", &gone),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
     assert_true(stat(w, "force_evals") >= 7 && stat(w, "stable_step") > 0);
-    assert_int_equal(defsim_world_stat_count(w), nf + CNT_N + 14);   /* and 14 contact.* */
-    for (int i = 0; i < nf + CNT_N + 14; ++i) {
+    /* and 14 contact.*, then the term kinds' counters (no contact here: zero) */
+    static const char *const term_counters[] = {
+        "collider.linearisations", "body_contact.linearisations", "body_contact.cached_pairs"};
+    enum { NT = 3 };
+    assert_int_equal(defsim_world_stat_count(w), nf + CNT_N + 14 + NT);
+    for (int i = 0; i < nf + CNT_N + 14 + NT; ++i) {
         const char *name;
         double v, by_name;
         TU_OK(defsim_world_stat_info(w, i, &name, &v));
         TU_OK(defsim_world_stat(w, name, &by_name));
         assert_true(v == by_name);
         if (i < nf) assert_string_equal(name, fields[i].name);
+        if (i >= nf + CNT_N + 14) {
+            assert_string_equal(name, term_counters[i - nf - CNT_N - 14]);
+            assert_true(v == 0.0);
+        }
     }
     assert_true(stat(w, "opt_test.steps_taken") == 7 && stat(w, "opt_test.inits") == 1);
     double v;
     assert_int_equal(defsim_world_stat(w, "size", &v), DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_world_stat(w, "opt_test.nothing", &v), DEFSIM_ERR_INVALID_ARGUMENT);
-    assert_int_equal(defsim_world_stat_info(w, nf + CNT_N + 14, NULL, &v),
+    assert_int_equal(defsim_world_stat_info(w, nf + CNT_N + 14 + NT, NULL, &v),
                      DEFSIM_ERR_INVALID_ARGUMENT);
 
     defsim_world_reset_stats(w);
     assert_true(stat(w, "opt_test.steps_taken") == 0 && stat(w, "opt_test.inits") == 0);
-    assert_true(stat(w, "steps") == 0 && stat(w, "internal_steps") == 0);
+    assert_true(stat(w, "steps") == 0 && stat(w, "force_evals") == 0);
     assert_true(stat(w, "threads") == 1);
     for (int i = 0; i < 2; ++i) TU_OK(defsim_world_step(w, 1e-4));
     assert_true(stat(w, "opt_test.steps_taken") == 2 && stat(w, "opt_test.inits") == 0);
@@ -477,7 +468,8 @@ static double rtol_period(const double *values, double omega, double c)
 static void test_registry_tables(void **state)
 {
     (void)state;
-    /* Version 1: the fields after stable_step are garbage here and must not be read. */
+    /* A table that ends before `options` (struct_size): the fields after stable_step are
+     * garbage here and must not be read. Built against a version before 8, it is refused. */
     static defsim_backend v1;
     memset(&v1, 0xA5, sizeof v1);
     v1.abi_version = 1;
@@ -490,21 +482,23 @@ static void test_registry_tables(void **state)
     v1.fini = nop_fini;
     v1.reset = NULL;
     v1.stable_step = NULL;
+    assert_int_equal(defsim_register_backend(&v1), DEFSIM_ERR_INVALID_ARGUMENT);
+    v1.abi_version = DEFSIM_BACKEND_ABI_VERSION;
     defsim_status st = defsim_register_backend(&v1);
     assert_true(st == DEFSIM_OK || st == DEFSIM_ERR_CONFLICT);
     defsim_world *w = beam_world("opt_v1");
     assert_int_equal(defsim_world_option_count(w), 11);
-    assert_int_equal(defsim_world_stat_count(w), 29 + 14);   /* fields, contact.* */
+    assert_int_equal(defsim_world_stat_count(w), 17 + 14 + 3);   /* fields, contact.*, terms' */
     TU_OK(defsim_world_step(w, 1e-4));
     defsim_world_destroy(w);
 
-    /* Versions 2 and 3: options and counters, no stable_step_options (garbage here); the core
-     * reports stable_step. Version 4: stable_step_options, given the world's option values,
-     * wins over stable_step, and auto_substep follows it after an option changes. */
+    /* A table that ends before stable_step_options (garbage here): the core reports
+     * stable_step. With stable_step_options, given the world's option values, that op wins
+     * over stable_step, and auto_substep follows it after an option changes. */
     static defsim_backend v3, v4;
     memset(&v3, 0xA5, sizeof v3);
     memcpy(&v3, &OT_BACKEND, offsetof(defsim_backend, stable_step_options));
-    v3.abi_version = 3;
+    v3.abi_version = DEFSIM_BACKEND_ABI_VERSION;
     v3.struct_size = (uint32_t)offsetof(defsim_backend, stable_step_options);
     v3.name = "opt_v3";
     v3.stable_step = half_period;
@@ -650,7 +644,7 @@ int main(void)
         cmocka_unit_test(test_types),
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_reinit_on_change),
-        cmocka_unit_test(test_def_fields_map),
+        cmocka_unit_test(test_def_shared),
         cmocka_unit_test(test_auto_substep_option),
         cmocka_unit_test(test_projection_option),
         cmocka_unit_test(test_stats_by_name),

@@ -431,6 +431,54 @@ static void test_world_options(void **state)
     scene_free(&s);
 }
 
+/* The backend settings a scene's world object gives by key (world.tolerance, world.projection,
+ * ...) set the options of the run's backend of the same name; a key the backend has no option
+ * for is ignored; an entry of world.options of the same full name wins; a value the option
+ * refuses fails the build. */
+static void test_world_setting_keys(void **state)
+{
+    (void)state;
+    if (!tu_available("newton_cholmod")) {
+        tu_skip("test_world_setting_keys: newton_cholmod not built");
+        return;
+    }
+    const char *keys = "\"backend\": \"newton_cholmod\", \"tolerance\": 1e-8, \"rtol\": 1e-3,\n"
+                       "  \"projection\": \"abs\", \"max_iterations\": 9,\n"
+                       "  \"options\": {\"newton_cholmod.max_iterations\": 7}";
+    const char *path = tu_write_file("keys.json", scene_text(keys, "\"name\": \"b\""));
+    scene s;
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    double v;
+    TU_OK(defsim_world_get_option(w, "newton_cholmod.tolerance", &v));
+    assert_true(v == 1e-8);
+    TU_OK(defsim_world_get_option(w, "newton_cholmod.projection", &v));
+    assert_true(v == DEFSIM_PROJECTION_ABS);
+    TU_OK(defsim_world_get_option(w, "newton_cholmod.max_iterations", &v));
+    assert_true(v == 7.0);
+    TU_OK(defsim_world_step(w, s.h));
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    /* On symplectic_euler, which has none of these options, the keys change nothing. */
+    const char *sets[] = {"world.backend=symplectic_euler", "world.options={}"};
+    if (scene_load(&s, path, sets, 2)) fail_msg("%s", s.error);
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    assert_int_equal(defsim_world_option_count(w), 11);
+    defsim_world_destroy(w);
+    scene_free(&s);
+
+    expect_line(scene_text("\"projection\": \"sideways\"", "\"name\": \"b\""), 3);
+    expect_line(scene_text("\"max_order\": 6", "\"name\": \"b\""), 3);
+    path = tu_write_file("kb.json", scene_text("\"backend\": \"newton_cholmod\", \"tolerance\": 1e-300",
+                                               "\"name\": \"b\""));
+    if (scene_load(&s, path, NULL, 0)) fail_msg("%s", s.error);
+    assert_int_equal(scene_build(&s, &w), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(w);
+    scene_free(&s);
+}
+
 /* Forces, drives and attachments: errors name their line; the tool's barycentric weights
  * reproduce the attached point; a total force is spread by mass; driven pins follow the path. */
 static void test_coupling(void **state)
@@ -705,10 +753,12 @@ int main(void)
                                         tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_world_setting_keys, tu_tmpdir_setup,
+                                        tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_colliders, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_control_bytes_as_whitespace, tu_tmpdir_setup,
                                         tu_tmpdir_teardown),
     };
-    return cmocka_run_group_tests_name("scene", tests, NULL, NULL);
+    return tu_exit(cmocka_run_group_tests_name("scene", tests, NULL, NULL));
 }

@@ -68,10 +68,10 @@ static void test_oscillators(void **state)
         printf("erk oscillators tol %.0e: position error %.3e = %.3g x T tol; internal steps %.0f, "
                "rhs %.0f, rejected %.0f, order %d\n", tols[k], err[k], err[k] / (T * tols[k]),
                steps, stat(w, "sundials_erk.rhs_evals"),
-               stat(w, "sundials_erk.error_test_failures"), (int)st.last_order);
+               stat(w, "sundials_erk.error_test_failures"), (int)tu_bstat(w, "order"));
         /* The contract: tolerance per second of simulated time. */
         assert_true(err[k] <= 10.0 * T * tols[k]);
-        assert_true(st.internal_steps == (int64_t)steps && st.last_order == 5);
+        assert_true(tu_bstat(w, "internal_steps") == (int64_t)steps && tu_bstat(w, "order") == 5);
         assert_true(stat(w, "sundials_erk.order") == 5.0);
         defsim_world_destroy(w);
     }

@@ -17,12 +17,12 @@
 
 static defsim_world *ida_world(double rtol, double atol, int max_order, int max_steps, double gy)
 {
-    defsim_world_def d = tu_world_def("sundials_ida", gy, 1);
-    d.rtol = rtol;
-    d.atol = atol;
-    d.max_order = max_order;
-    d.max_internal_steps = max_steps;
-    return tu_create(&d);
+    defsim_world *w = tu_world("sundials_ida", gy, 1);
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.rtol", rtol));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.atol", atol));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.max_order", max_order));
+    TU_OK(defsim_world_set_option_number(w, "sundials_ida.max_internal_steps", max_steps));
+    return w;
 }
 
 enum { NOSC = 3 };
@@ -85,19 +85,19 @@ static void test_oscillators_tolerance_sweep(void **state)
         printf("ida oscillators tol %.0e: max position error %.3e (abs), %.2f x tolerance "
                "(velocities %.2f x); internal steps %lld, order %d, residuals %lld, Jacobians "
                "%lld, error-test failures %lld, convergence failures %lld\n",
-               tols[k], abs_err[k], err[k], verr[k], (long long)st.internal_steps,
-               (int)st.last_order,
-               (long long)st.residual_evals, (long long)st.jacobian_evals,
-               (long long)st.error_test_failures, (long long)st.convergence_failures);
+               tols[k], abs_err[k], err[k], verr[k], (long long)tu_bstat(w, "internal_steps"),
+               (int)tu_bstat(w, "order"),
+               (long long)tu_bstat(w, "residual_evals"), (long long)tu_bstat(w, "jacobian_evals"),
+               (long long)tu_bstat(w, "error_test_failures"), (long long)tu_bstat(w, "convergence_failures"));
         assert_true(err[k] <= 10.0 * t);   /* the contract: tolerance per second */
-        assert_true(st.internal_steps > 50);
-        assert_true(st.last_order >= 1 && st.last_order <= 5);
-        assert_true(st.residual_evals > st.internal_steps);
-        assert_true(st.jacobian_evals > 0 && st.jacobian_evals <= st.internal_steps);
-        assert_true(st.newton_iterations >= st.internal_steps);
-        assert_true(st.linear_solves >= st.newton_iterations);
-        assert_true(st.time_factor > 0.0 && st.time_solve > 0.0);
-        assert_true(st.hessian_evals >= st.jacobian_evals);
+        assert_true(tu_bstat(w, "internal_steps") > 50);
+        assert_true(tu_bstat(w, "order") >= 1 && tu_bstat(w, "order") <= 5);
+        assert_true(tu_bstat(w, "residual_evals") > tu_bstat(w, "internal_steps"));
+        assert_true(tu_bstat(w, "jacobian_evals") > 0 && tu_bstat(w, "jacobian_evals") <= tu_bstat(w, "internal_steps"));
+        assert_true(tu_bstat(w, "newton_iterations") >= tu_bstat(w, "internal_steps"));
+        assert_true(tu_bstat(w, "linear_solves") >= tu_bstat(w, "newton_iterations"));
+        assert_true(tu_bstat(w, "time_factor") > 0.0 && tu_bstat(w, "time_solve") > 0.0);
+        assert_true(st.hessian_evals >= tu_bstat(w, "jacobian_evals"));
         defsim_world_destroy(w);
     }
     /* Three decades of tolerance buy at least two decades of error. */
@@ -132,7 +132,7 @@ static void test_calibration(void **state)
             TU_OK(defsim_world_stats(w, &st));
             const double ratio = worst / (T * tols[k]);
             printf("ida calibration T = %g s, tol %.0e: position error %.3e = %.3f x T tol, "
-                   "%lld internal steps\n", T, tols[k], worst, ratio, (long long)st.internal_steps);
+                   "%lld internal steps\n", T, tols[k], worst, ratio, (long long)tu_bstat(w, "internal_steps"));
             assert_true(ratio >= 0.1 && ratio <= 10.0);
             defsim_world_destroy(w);
         }
@@ -170,9 +170,9 @@ static void test_max_order(void **state)
         for (int s = 0; s < 20; ++s) {
             TU_OK(defsim_world_step(w, 0.05));
             TU_OK(defsim_world_stats(w, &st));
-            if (st.last_order > used_max) used_max = st.last_order;
+            if (tu_bstat(w, "order") > used_max) used_max = tu_bstat(w, "order");
         }
-        steps[k] = st.internal_steps;
+        steps[k] = tu_bstat(w, "internal_steps");
         const double e = osc_error(w, os, 1, defsim_world_time(w), tol[k], tol[k], NULL, NULL);
         printf("ida max_order %d, tol %.0e: highest order used %d, internal steps %lld, error "
                "%.2f x tolerance\n", orders[k], tol[k], used_max, (long long)steps[k], e);
@@ -250,7 +250,7 @@ static void test_force_change_between_calls(void **state)
     defsim_stats st = {.size = sizeof st};
     TU_OK(defsim_world_stats(w, &st));
     printf("ida force changes at t = 0.5 and 0.55 s: position error at 1 s %.3g m, %lld internal "
-           "steps\n", err, (long long)st.internal_steps);
+           "steps\n", err, (long long)tu_bstat(w, "internal_steps"));
     /* The contract: 10 x tolerance per second (amplitude about 0.25 m, atol tol). */
     assert_true(err <= 10.0 * 1.0 * (tol * 0.25 + tol));
     free(x);
@@ -358,7 +358,7 @@ static void test_failure_leaves_state(void **state)
     defsim_stats st = {.size = sizeof st};
     TU_OK(defsim_world_stats(w, &st));
     assert_int_equal(st.failed_steps, 1);
-    assert_true(st.internal_steps >= 200);
+    assert_true(tu_bstat(w, "internal_steps") >= 200);
     for (int s = 0; s < 5; ++s) {
         TU_OK(defsim_world_step(w, 0.01));
         TU_OK(defsim_world_step(fresh, 0.01));
@@ -383,11 +383,11 @@ static defsim_world *beam(const char *backend, double rtol, defsim_projection pr
     d.backend = backend;
     d.gravity[1] = -9.81;
     d.num_threads = 1;
-    d.rtol = rtol;
-    d.atol = rtol;
-    d.projection = proj;
     defsim_world *w = NULL;
     TU_OK(defsim_world_create(&d, &w));
+    tu_backend_option(w, backend, "rtol", rtol);
+    tu_backend_option(w, backend, "atol", rtol);
+    tu_backend_option(w, backend, "projection", proj);
     const double lo[3] = {0, 0, 0}, hi[3] = {2, 0.5, 0.5};
     defsim_body_id b = tu_add_box(w, DEFSIM_MODEL_NEOHOOKEAN, 4, 1, 1, lo, hi, 2e4, 0.3, 1000);
     tu_pin_below(w, b, 0, 0.0);
@@ -440,14 +440,14 @@ static void test_beam_vs_leapfrog(void **state)
         TU_OK(defsim_world_stats(w, &st));
         printf("ida beam (projection %d) vs leapfrog h = %g: rel. diff x %.2e, v %.2e; steps %lld, "
                "Newton %lld, Jacobians %lld, convergence failures %lld, error-test failures %lld\n",
-               (int)projs[p], hl, ex, ev, (long long)st.internal_steps,
-               (long long)st.newton_iterations, (long long)st.jacobian_evals,
-               (long long)st.convergence_failures, (long long)st.error_test_failures);
+               (int)projs[p], hl, ex, ev, (long long)tu_bstat(w, "internal_steps"),
+               (long long)tu_bstat(w, "newton_iterations"), (long long)tu_bstat(w, "jacobian_evals"),
+               (long long)tu_bstat(w, "convergence_failures"), (long long)tu_bstat(w, "error_test_failures"));
         assert_true(ex < 1e-9);
         assert_true(ev < 1e-8);
         if (projs[p] == DEFSIM_PROJECTION_NONE) {
-            assert_true(st.convergence_failures == 0);
-            assert_true(st.newton_iterations < 2 * st.internal_steps);
+            assert_true(tu_bstat(w, "convergence_failures") == 0);
+            assert_true(tu_bstat(w, "newton_iterations") < 2 * tu_bstat(w, "internal_steps"));
         }
         free(x);
         free(vi);

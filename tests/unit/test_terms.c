@@ -477,8 +477,11 @@ static void test_collider(void **state)
             free(vel0);
         }
         double lin = 0.0;   /* its counter by name */
-        TU_OK(defsim_world_stat(w, "term.collider.linearisations", &lin));
+        TU_OK(defsim_world_stat(w, "collider.linearisations", &lin));
         assert_true(lin == (double)t->cache->linearisations && lin > 0.0);
+        defsim_world_reset_stats(w);   /* zeroes the term kinds' cumulative counters too */
+        TU_OK(defsim_world_stat(w, "collider.linearisations", &lin));
+        assert_true(lin == 0.0 && t->cache->linearisations == 0);
         w->sys.contact = NULL;
         TU_OK(defsim__terms_compile(&w->sys));
         free(x);

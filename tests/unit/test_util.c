@@ -38,14 +38,46 @@ defsim_world *tu_world(const char *backend, double gy, int threads)
     return tu_create(&d);
 }
 
+double tu_stat(const defsim_world *w, const char *name)
+{
+    double v = 0.0;
+    if (defsim_world_stat(w, name, &v) != DEFSIM_OK)
+        fail_msg("stat %s: %s", name, defsim_world_last_error(w));
+    return v;
+}
+
+double tu_bstat(const defsim_world *w, const char *leaf)
+{
+    const size_t n = strlen(leaf);
+    for (int32_t i = 0; i < defsim_world_stat_count(w); ++i) {
+        const char *name;
+        double v;
+        TU_OK(defsim_world_stat_info(w, i, &name, &v));
+        const char *dot = strchr(name, '.');
+        if (dot && !strcmp(dot + 1, leaf) && strlen(dot + 1) == n) return v;
+    }
+    return 0.0;
+}
+
+int tu_backend_option(defsim_world *w, const char *backend, const char *leaf, double value)
+{
+    char name[160];
+    snprintf(name, sizeof name, "%s.%s", backend, leaf);
+    double now;
+    if (defsim_world_get_option(w, name, &now) != DEFSIM_OK) return 0;
+    if (defsim_world_set_option_number(w, name, value) != DEFSIM_OK)
+        fail_msg("%s = %g: %s", name, value, defsim_world_last_error(w));
+    return 1;
+}
+
 defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
                                 int max_iter, defsim_projection proj)
 {
-    defsim_world_def d = tu_world_def(backend, gy, threads);
-    d.tolerance = tol;
-    d.max_iterations = max_iter;
-    d.projection = proj;
-    return tu_create(&d);
+    defsim_world *w = tu_world(backend, gy, threads);
+    tu_backend_option(w, backend, "tolerance", tol);
+    tu_backend_option(w, backend, "max_iterations", max_iter);
+    tu_backend_option(w, backend, "projection", proj);
+    return w;
 }
 
 void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[20])
@@ -63,9 +95,8 @@ void tu_ladder(double x0, double cell, double z1, double x[24], int32_t springs[
 defsim_world *tu_oscillator(const char *backend, double m0, double m, double k, double alpha,
                             double beta, double a, int pin, int auto_substep)
 {
-    defsim_world_def d = tu_world_def(backend, 0.0, 1);
-    d.auto_substep = auto_substep;
-    defsim_world *w = tu_create(&d);
+    defsim_world *w = tu_world(backend, 0.0, 1);
+    if (auto_substep) TU_OK(defsim_world_set_option(w, "core.auto_substep", "true"));
     const tu_spring2 o = {.l0 = 1, .x1 = {1 + a, 0, 0}, .m0 = m0, .m1 = m, .k = k,
                           .alpha = alpha, .beta = beta, .pin_anchor = pin};
     tu_add_spring2(w, &o);

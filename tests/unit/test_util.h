@@ -21,7 +21,22 @@ defsim_world *tu_world(const char *backend, double gy, int threads);
 defsim_world_def tu_world_def(const char *backend, double gy, int threads);
 defsim_world *tu_create(const defsim_world_def *d);
 
-/* A world with an implicit backend's settings: Newton tolerance, iterations and projection. */
+/* The statistic `name` of w (defsim_world_stat: a field of defsim_stats, "<backend>.<counter>",
+ * ...); fails the test when w has none of that name. */
+double tu_stat(const defsim_world *w, const char *name);
+
+/* The counter `leaf` of w's backend, whatever the backend ("<backend>.<leaf>": the first
+ * statistic so named in the listing, where the backend's counters precede contact's and the
+ * terms'), or 0 when the backend has no such counter (as for tests run over every backend). */
+double tu_bstat(const defsim_world *w, const char *leaf);
+
+/* Sets the option "<backend>.<leaf>" of w (backend: w's) to value where the backend has it
+ * (a setting a test gives every backend it runs, ignored by those without it); fails the test
+ * when the option refuses the value. Returns 1 if the backend has the option. */
+int tu_backend_option(defsim_world *w, const char *backend, const char *leaf, double value);
+
+/* A world with an implicit backend's settings: Newton tolerance, iterations and projection,
+ * each set as an option where the backend has it. */
 defsim_world *tu_implicit_world(const char *backend, double gy, int threads, double tol,
                                 int max_iter, defsim_projection proj);
 

@@ -71,7 +71,8 @@ static void test_create_errors(void **state)
     z.num_threads = -1;
     assert_int_equal(defsim_world_create(&z, &w), DEFSIM_ERR_INVALID_ARGUMENT);
     z = d;
-    z.tolerance = 0.0;
+    z.backend = "a_backend_name_of_64_characters_is_one_too_long_for_the_world_xx";
+    assert_int_equal(strlen(z.backend), 64);
     assert_int_equal(defsim_world_create(&z, &w), DEFSIM_ERR_INVALID_ARGUMENT);
     defsim_world_destroy(NULL);
     assert_string_equal(defsim_world_last_error(NULL), "");

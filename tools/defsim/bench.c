@@ -18,6 +18,7 @@
 #include "clock.h"
 #include "refsol.h"
 #include "scene.h"
+#include "stat.h"
 
 #include "fileio.h"
 
@@ -156,9 +157,9 @@ static defsim_status build(bench *b, const char *backend, double rtol, defsim_wo
     b->s.def.backend = backend;
     b->s.def.num_threads = b->threads;
     if (rtol > 0.0) {
-        b->s.def.rtol = rtol;
-        b->s.def.atol = rtol * b->size;
-        b->s.def.max_internal_steps = 10000000;
+        scene_setting(&b->s, SCENE_RTOL, rtol);
+        scene_setting(&b->s, SCENE_ATOL, rtol * b->size);
+        scene_setting(&b->s, SCENE_MAX_INTERNAL_STEPS, 10000000);
     }
     snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
     return scene_build(&b->s, w);
@@ -248,8 +249,8 @@ static void run_point(bench *b, const refsol *ref, point *p)
         defsim_stats stats = {.size = sizeof stats};
         defsim_world_stats(w, &stats);
         p->steps = stats.steps;
-        p->newton = stats.newton_iterations;
-        p->internal = stats.internal_steps;
+        p->newton = (int64_t)tools_backend_stat(w, "newton_iterations");
+        p->internal = (int64_t)tools_backend_stat(w, "internal_steps");
         if (st != DEFSIM_OK) {
             /* A failed run is not timed again: its failure is the result. */
             snprintf(p->status, sizeof p->status, "%s",

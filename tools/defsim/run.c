@@ -790,20 +790,20 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
            interrupted ? "interrupted after" : r->rc ? "stopped after" : "done:", r->last_frame,
            (long long)st.steps, (long long)st.failed_steps, wall,
            wall > 0 ? (double)st.steps / wall : 0.0);
-    printf("  time: step %.3f s (forces %.3f, hessian %.3f, factor %.3f, solve %.3f), "
-           "output %.3f s, render %.3f s\n", st.time_step, st.time_forces, st.time_hessian,
-           st.time_factor, st.time_solve, r->t_out, r->t_render);
-    if (st.newton_iterations || st.linear_solves)
-        printf("  Newton: %lld iterations, %lld line-search backtracks, %lld linear solves, "
-               "%lld convergence failures\n", (long long)st.newton_iterations,
-               (long long)st.line_search_backtracks, (long long)st.linear_solves,
-               (long long)st.convergence_failures);
-    if (st.internal_steps)
-        printf("  adaptive: %lld internal steps, %lld residual and %lld Jacobian evaluations, "
-               "%lld error-test and %lld convergence failures, last order %d\n",
-               (long long)st.internal_steps, (long long)st.residual_evals,
-               (long long)st.jacobian_evals, (long long)st.error_test_failures,
-               (long long)st.convergence_failures, (int)st.last_order);
+    printf("  time: step %.3f s (forces %.3f, hessian %.3f), output %.3f s, render %.3f s\n",
+           st.time_step, st.time_forces, st.time_hessian, r->t_out, r->t_render);
+    /* The backend's counters, by name (iterations, solves, internal steps, its timings). */
+    const size_t bl = strlen(s->backend);
+    int listed = 0;
+    for (int32_t i = 0; i < defsim_world_stat_count(w); ++i) {
+        const char *name;
+        double v;
+        if (defsim_world_stat_info(w, i, &name, &v) != DEFSIM_OK || strncmp(name, s->backend, bl) ||
+            name[bl] != '.' || v == 0.0)
+            continue;
+        printf("%s%s %.6g", listed++ ? ", " : "  backend: ", name + bl + 1, v);
+    }
+    if (listed) printf("\n");
     printf("  energy: start %.6g J, end %.6g J (kinetic %.6g, elastic %.6g, gravitational %.6g)\n",
            r->e0, e->total, e->kinetic, e->elastic, e->gravitational);
     for (int32_t i = 0; i < s->nbodies; ++i)

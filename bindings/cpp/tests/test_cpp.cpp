@@ -369,6 +369,14 @@ static void test_options_and_stats()
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.set_option("sundials_ida.rtol", 1e-6); }));
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] { w.option("core.nothing"); }));
     CHECK(w.option("core.substep_safety") == 0.5);
+    // Options given with the def are set at creation, in order; a refused one throws.
+    defsim::World wo(defsim::WorldDef().option("core.substep_safety", "0.25")
+                         .option("core.auto_substep", "true")
+                         .option("core.substep_safety", "0.5"));
+    CHECK(wo.option("core.substep_safety") == 0.5 && wo.option("core.auto_substep") == 1.0);
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&] {
+        defsim::World bad(defsim::WorldDef().option("core.substep_safety", "2"));
+    }));
     const double p[3] = {0, 0, 0};
     w.add_body(defsim::BodyDef().rest_positions(p).material(
         defsim::Material(defsim::Model::spring).vertex_mass(1.0)));

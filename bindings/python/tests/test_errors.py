@@ -60,10 +60,10 @@ def test_world_creation_errors() -> None:
     assert e.message   # the library's detail (defsim_last_error), not empty
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World,
             gravity=(0, float("nan"), 0))
-    _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World, tolerance=0)
-    _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World, max_order=9)
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World,
-            projection="sideways")
+            options={"core.substep_safety": 0})
+    _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World,
+            options={"core.simd": "sideways"})
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World, gravity=(0, 1))
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World, num_threads=1.5)
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.World, log=42)

@@ -51,8 +51,8 @@ def test_bad_options_raise_and_change_nothing() -> None:
         defsim.World(options={"core.substep_safety": 2.0})
 
 
-def test_deprecated_keywords_map_onto_options() -> None:
-    with defsim.World(auto_substep=True, substep_safety=0.25) as w:
+def test_options_at_creation_in_order() -> None:
+    with defsim.World(options={"core.auto_substep": True, "core.substep_safety": 0.25}) as w:
         assert w.option("core.auto_substep") is True
         assert w.option("core.substep_safety") == 0.25
 
@@ -91,8 +91,9 @@ def test_stats_by_name_match_stats(box: defsim.Mesh) -> None:
         w.stable_step()
         s = w.stats()
         for field in ("steps", "force_evals", "threads", "time_step", "stable_step", "passes",
-                      "internal_steps", "substeps"):
+                      "substeps"):
             assert w.stat(field) == float(getattr(s, field)), field
         assert w.stat("steps") == 5.0
         assert s.stable_step > 0.0 and isinstance(s.stable_step, float)
         assert s.counters == {}
+        assert not hasattr(s, "newton_iterations")   # a backend counter now, by name

@@ -107,15 +107,17 @@ def test_stats_and_passes(box: defsim.Mesh) -> None:
 
 
 def test_options_reach_the_library(box: defsim.Mesh) -> None:
-    with defsim.World("explicit_euler", gravity=[0, 0, -1.5], num_threads=1, tolerance=1e-8,
-                      max_iterations=7, rtol=1e-5, atol=1e-7, projection="abs", max_order=2,
-                      max_internal_steps=10) as w:
+    with defsim.World("explicit_euler", gravity=[0, 0, -1.5], num_threads=1,
+                      options={"core.auto_substep": False}) as w:
         assert w.backend == "explicit_euler" and w.gravity == (0.0, 0.0, -1.5)
         w.add_body([[0, 0, 0]], material=defsim.Material("spring", vertex_mass=2.0))
         w.step(0.5)
         assert w.velocities[0].tolist() == [0.0, 0.0, -0.75]
-    with defsim.World(projection=defsim.Projection.NONE) as w:
+    with defsim.World() as w:
         assert w.backend == "symplectic_euler" and w.gravity == (0.0, -9.81, 0.0)
+    # The backend settings of earlier versions' keywords are options by name now.
+    with pytest.raises(TypeError):
+        defsim.World(tolerance=1e-8)
 
 
 def test_log_callback_receives_errors(box: defsim.Mesh) -> None:
@@ -182,7 +184,8 @@ def test_stable_step_and_auto_substep():
     m, k = 0.5, 200.0
     w0 = math.sqrt(k / m)
     for auto in (False, True):
-        world = defsim.World("symplectic_euler", gravity=(0, 0, 0), auto_substep=auto)
+        world = defsim.World("symplectic_euler", gravity=(0, 0, 0),
+                             options={"core.auto_substep": auto})
         body = world.add_body([[0, 0, 0], [1, 0, 0]], springs=[[0, 1]],
                               material=defsim.Material("spring", stiffness=k),
                               vertex_mass=[m, m], initial_positions=[[0, 0, 0], [1.01, 0, 0]])

@@ -498,24 +498,16 @@ public:
     }
     /// Threads for assembly; 0: OpenMP's default.
     WorldDef &num_threads(int32_t n) noexcept { d_.num_threads = n; return *this; }
-    /// Relative tolerance of nonlinear solves.
-    WorldDef &tolerance(double tol) noexcept { d_.tolerance = tol; return *this; }
-    /// Nonlinear iterations per step.
-    WorldDef &max_iterations(int32_t n) noexcept { d_.max_iterations = n; return *this; }
-    /// Adaptive integrators: relative tolerance.
-    WorldDef &rtol(double r) noexcept { d_.rtol = r; return *this; }
-    /// Adaptive integrators: absolute tolerance (m, m/s).
-    WorldDef &atol(double a) noexcept { d_.atol = a; return *this; }
-    /// Hessian projection of implicit backends.
-    WorldDef &projection(Projection p) noexcept
+    /// An option by name, set by World's constructor right after creation, in the order given
+    /// (World::set_option): a backend's settings ("newton_cholmod.tolerance" = "1e-8",
+    /// "sundials_ida.rtol", "newton_cholmod.projection" = "abs") and the core's
+    /// ("core.auto_substep" = "true"). A name or value the world refuses makes the constructor
+    /// throw (Error DEFSIM_ERR_INVALID_ARGUMENT).
+    WorldDef &option(std::string name, std::string value)
     {
-        d_.projection = static_cast<defsim_projection>(p);
+        options_.emplace_back(std::move(name), std::move(value));
         return *this;
     }
-    /// Adaptive BDF: maximum order 1..5.
-    WorldDef &max_order(int32_t n) noexcept { d_.max_order = n; return *this; }
-    /// Adaptive integrators: internal steps per call.
-    WorldDef &max_internal_steps(int32_t n) noexcept { d_.max_internal_steps = n; return *this; }
     /// A log sink (see LogFunction); empty: silent.
     WorldDef &log(LogFunction fn)
     {
@@ -525,6 +517,11 @@ public:
 
     const std::string &backend() const noexcept { return backend_; }
     const LogFunction &log() const noexcept { return log_; }
+    /// The options by name that World's constructor sets, in order.
+    const std::vector<std::pair<std::string, std::string>> &options() const noexcept
+    {
+        return options_;
+    }
     /// The C struct, without the log sink; its backend pointer is valid while *this lives.
     defsim_world_def c_struct() const noexcept
     {
@@ -539,6 +536,7 @@ private:
     defsim_world_def d_;
     std::string backend_;
     LogFunction log_;
+    std::vector<std::pair<std::string, std::string>> options_;
 };
 
 /// An owning world handle (defsim_world). Move-only; a moved-from World is empty, and calls on
@@ -683,6 +681,15 @@ public:
             d.log_user = log_.get();
         }
         detail::check(defsim_world_create(&d, &w_));
+        for (const auto &o : def.options()) {
+            const defsim_status st = defsim_world_set_option(w_, o.first.c_str(), o.second.c_str());
+            if (st != DEFSIM_OK) {
+                const std::string what = defsim_world_last_error(w_);
+                defsim_world_destroy(w_);
+                w_ = nullptr;
+                throw Error(st, what);
+            }
+        }
     }
     /// Takes ownership of a world made with the C API.
     explicit World(defsim_world *adopt) noexcept : w_(adopt) {}
@@ -1023,8 +1030,8 @@ public:
         check(defsim_world_get_option(w_, name.c_str(), &v));
         return v;
     }
-    /// A statistic by name: a field of defsim_stats ("steps", "newton_iterations") or a counter
-    /// of the backend ("sundials_ida.internal_steps"). Throws Error DEFSIM_ERR_INVALID_ARGUMENT
+    /// A statistic by name: a field of defsim_stats ("steps", "force_evals") or a counter of
+    /// the backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"). Throws Error DEFSIM_ERR_INVALID_ARGUMENT
     /// for an unknown name.
     double stat(const std::string &name) const
     {

@@ -27,7 +27,9 @@ LogCallback = Callable[[int, str], None]
 
 
 class Projection(enum.IntEnum):
-    """How implicit backends make element Hessians positive semi-definite (``defsim_projection``)."""
+    """How implicit backends make element Hessians positive semi-definite (``defsim_projection``):
+    the values of a backend's option ``"<backend>.projection"`` (``set_option`` takes the member
+    or its lower-case name)."""
 
     NONE = 0    #: Exact Hessians (may be indefinite).
     CLAMP = 1   #: Negative eigenvalues set to 0.
@@ -66,7 +68,8 @@ class Energy(NamedTuple):
 @dataclasses.dataclass(frozen=True)
 class Stats:
     """Counters and timings of a world, cumulative since creation or ``reset_stats()``
-    (``defsim_stats``). Times are wall-clock seconds."""
+    (``defsim_stats``, the core's; the backend's own counters, such as Newton iterations and
+    internal steps, are in ``counters`` by full name). Times are wall-clock seconds."""
 
     passes: Pass                    #: passes of the last step
     steps: int                      #: successful steps
@@ -76,29 +79,18 @@ class Stats:
     time_step: float                #: total time inside step()
     time_forces: float              #: force evaluation
     time_hessian: float             #: stiffness matrix assembly
-    time_factor: float              #: sparse factorisation (implicit backends)
-    time_solve: float               #: linear solves
     force_evals: int
     hessian_evals: int
     energy_evals: int
-    newton_iterations: int          #: nonlinear iterations (implicit backends)
-    line_search_backtracks: int
-    linear_solves: int
-    internal_steps: int             #: adaptive integrators
-    residual_evals: int
-    jacobian_evals: int
-    error_test_failures: int
-    convergence_failures: int
-    last_order: int                 #: adaptive BDF: order of the last internal step
     substeps: int                   #: backend steps taken by auto_substep
     stable_step: float              #: last stable-step estimate in s (0: none made)
     # The stability watchdog (docs/watchdog.md); the first three of the current state.
     min_volume_ratio: float         #: smallest det F over all tets (1 without tets)
     inverted_elements: int          #: tets with det F <= 0
     energy_drift: float             #: J since the watchdog's reference (nan without one)
-    nonlinear_residual: float       #: implicit backends: last Newton residual (N)
     watchdog_trips: int             #: steps the watchdog failed
-    #: the backend's counters by full name ("sundials_ida.internal_steps": value)
+    #: the backend's counters by full name ("sundials_ida.internal_steps",
+    #: "newton_cholmod.newton_iterations", "newton_cholmod.time_factor": value)
     counters: Dict[str, float] = dataclasses.field(default_factory=dict)
 
 
@@ -111,19 +103,6 @@ def _log_callback(log: LogCallback) -> Any:
         log(int(level), ffi.string(message).decode("utf-8", "replace"))
 
     return ffi.callback("defsim_log_fn", _sink)
-
-
-def _projection(value: Union[str, int, Projection]) -> int:
-    if isinstance(value, str):
-        try:
-            return int(Projection[value.strip().upper()])
-        except KeyError:
-            raise InvalidArgumentError(f"unknown projection {value!r}; one of none, clamp, "
-                                       f"abs") from None
-    try:
-        return int(Projection(int(value)))
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"unknown projection {value!r}") from None
 
 
 def _collision_bits(value: Any, what: str) -> int:
@@ -215,25 +194,18 @@ class World(WorldCoupling, WorldColliders):
             "symplectic_euler".
         gravity: (gx, gy, gz) in m/s^2. Default (0, -9.81, 0).
         num_threads: threads for force and Hessian assembly; 0: OpenMP's default.
-        tolerance: relative tolerance of nonlinear solves. Default 1e-6.
-        max_iterations: nonlinear iterations per step. Default 50.
-        rtol, atol: adaptive integrators' relative and absolute tolerances. Defaults 1e-4, 1e-6.
-        projection: "none", "clamp" or "abs" (implicit backends). Default "clamp".
-        max_order: adaptive BDF maximum order 1..5. Default 5.
-        max_internal_steps: adaptive integrators' internal steps per call. Default 100000.
-        auto_substep: explicit backends split each step into substeps under the estimated
-            stable step (``stable_step()``). Default False.
-        substep_safety: fraction of the stable step that auto_substep uses. Default 0.8.
-        options: options by name, set after creation in order: ``{"core.simd": "generic",
-            "sundials_ida.rtol": 1e-6}`` (see ``set_option``). Preferred over the keyword
-            arguments tolerance ... substep_safety, which are deprecated: each that differs
-            from its default sets the option of the same name of the backend or core.
+        options: options by name, set after creation in order: ``{"core.auto_substep": True,
+            "sundials_ida.rtol": 1e-6, "newton_cholmod.projection": "abs"}`` (see
+            ``set_option``, ``options()``). A backend's settings (tolerances, iteration limits,
+            projection, BDF order) and the core's (auto_substep, substep_safety, the watchdog,
+            contact) are options; the keyword arguments tolerance ... substep_safety of
+            earlier versions are gone.
         log: optional callable(level, message) that receives the library's log messages.
             Exceptions it raises are printed (as for any cffi callback) and otherwise ignored.
 
     Arguments left as None take the library's defaults (``defsim_world_def_init``).
     Raises BackendUnavailableError (unknown backend, or its module failed to load),
-    InvalidArgumentError (bad option values).
+    InvalidArgumentError (bad gravity or num_threads, an unknown option or a value it refuses).
 
     Arrays: ``positions``, ``velocities``, ``masses``, ``forces()`` return new numpy arrays
     (copies; the library keeps its own state). Positions, velocities and forces have shape
@@ -245,13 +217,7 @@ class World(WorldCoupling, WorldColliders):
     """
 
     def __init__(self, backend: Optional[str] = None, *, gravity: Any = None,
-                 num_threads: Optional[int] = None, tolerance: Optional[float] = None,
-                 max_iterations: Optional[int] = None, rtol: Optional[float] = None,
-                 atol: Optional[float] = None,
-                 projection: Optional[Union[str, int, Projection]] = None,
-                 max_order: Optional[int] = None, max_internal_steps: Optional[int] = None,
-                 auto_substep: Optional[bool] = None, substep_safety: Optional[float] = None,
-                 log: Optional[LogCallback] = None,
+                 num_threads: Optional[int] = None, log: Optional[LogCallback] = None,
                  options: Optional[Mapping[str, Any]] = None) -> None:
         self._ptr: Any = None
         self._bodies: List[Body] = []
@@ -272,24 +238,6 @@ class World(WorldCoupling, WorldColliders):
             d.gravity = list(_arrays.triple(gravity, "gravity"))
         if num_threads is not None:
             d.num_threads = _arrays.c_int(num_threads, "num_threads")
-        if tolerance is not None:
-            d.tolerance = _arrays.c_double(tolerance, "tolerance")
-        if max_iterations is not None:
-            d.max_iterations = _arrays.c_int(max_iterations, "max_iterations")
-        if rtol is not None:
-            d.rtol = _arrays.c_double(rtol, "rtol")
-        if atol is not None:
-            d.atol = _arrays.c_double(atol, "atol")
-        if projection is not None:
-            d.projection = _projection(projection)
-        if max_order is not None:
-            d.max_order = _arrays.c_int(max_order, "max_order")
-        if max_internal_steps is not None:
-            d.max_internal_steps = _arrays.c_int(max_internal_steps, "max_internal_steps")
-        if auto_substep is not None:
-            d.auto_substep = 1 if auto_substep else 0
-        if substep_safety is not None:
-            d.substep_safety = _arrays.c_double(substep_safety, "substep_safety")
         if log is not None:
             self._log_cb = _log_callback(log)
             d.log = self._log_cb
@@ -725,8 +673,9 @@ class World(WorldCoupling, WorldColliders):
             self._check(lib.defsim_world_stat_info(w, i, name, value))
             key = ffi.string(name[0]).decode("utf-8")
             # "<backend>.<counter>"; the stats' own fields have no dot, and contact's
-            # ("contact.*", docs/contact.md) are the core's: read them with stat()
-            if "." in key and not key.startswith("contact."):
+            # ("contact.*", docs/contact.md) and the term kinds' ("collider.linearisations")
+            # are the core's: read them with stat()
+            if key.startswith(self._backend + "."):
                 counters[key] = float(value[0])
         return Stats(counters=counters, **values)
 
@@ -792,8 +741,8 @@ class World(WorldCoupling, WorldColliders):
         return {ffi.string(i.name).decode("utf-8"): self._typed(i) for i in self._option_infos()}
 
     def stat(self, name: str) -> float:
-        """A statistic by name: a field of ``Stats`` ("steps", "newton_iterations", ...) or a
-        counter of the backend ("sundials_ida.internal_steps"). Raises InvalidArgumentError
+        """A statistic by name: a field of ``Stats`` ("steps", "force_evals", ...) or a
+        counter of the backend ("sundials_ida.internal_steps", "newton_cholmod.newton_iterations"). Raises InvalidArgumentError
         for an unknown name."""
         value = ffi.new("double *")
         self._check(lib.defsim_world_stat(self._live(), str(name).encode("utf-8"), value))

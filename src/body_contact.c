@@ -550,9 +550,9 @@ static int triangle_region(const double *p, const double *a, const double *b, co
     return 6;
 }
 
-/* The closest points of segments (a0, a1) and (b0, b1) as regions (0 at the first end, 1 at the
- * second, 2 inside) on each. */
-static void edges_region(const double *X, int *ra, int *rb)
+/* The parameters s, t in [0, 1] of the closest points of segments (a0, a1) and (b0, b1) (X: the
+ * four ends), clamped line parameters. */
+static void segment_params(const double *X, double *ps, double *pt)
 {
     const double *p1 = X, *q1 = X + 3, *p2 = X + 6, *q2 = X + 9;
     const double d1[3] = {q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]};
@@ -568,6 +568,16 @@ static void edges_region(const double *X, int *ra, int *rb)
         s = a > 0.0 ? (b * t - c) / a : 0.0;
         s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
     }
+    *ps = s;
+    *pt = t;
+}
+
+/* The closest points of segments (a0, a1) and (b0, b1) as regions (0 at the first end, 1 at the
+ * second, 2 inside) on each. */
+static void edges_region(const double *X, int *ra, int *rb)
+{
+    double s, t;
+    segment_params(X, &s, &t);
     *ra = s <= 0.0 ? 0 : s >= 1.0 ? 1 : 2;
     *rb = t <= 0.0 ? 0 : t >= 1.0 ? 1 : 2;
 }
@@ -1086,20 +1096,8 @@ static void closest_weights(int type, const double *X, double w[4])
     }
     if (type == DEFSIM__C_EE) {
         /* closest points of two segments (clamped line parameters) */
-        const double *p1 = X, *q1 = X + 3, *p2 = X + 6, *q2 = X + 9;
-        const double d1[3] = {q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]};
-        const double d2[3] = {q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]};
-        const double r[3] = {p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]};
-        const double a = dot3(d1, d1), e = dot3(d2, d2), f = dot3(d2, r), c = dot3(d1, r);
-        const double b = dot3(d1, d2), den = a * e - b * b;
-        double s = den > 1e-12 * a * e ? (b * f - c * e) / den : 0.0;
-        s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
-        double t = e > 0.0 ? (b * s + f) / e : 0.0;
-        if (t < 0.0 || t > 1.0) {
-            t = t < 0.0 ? 0.0 : 1.0;
-            s = a > 0.0 ? (b * t - c) / a : 0.0;
-            s = s < 0.0 ? 0.0 : s > 1.0 ? 1.0 : s;
-        }
+        double s, t;
+        segment_params(X, &s, &t);
         w[0] = 1.0 - s;
         w[1] = s;
         w[2] = -(1.0 - t);

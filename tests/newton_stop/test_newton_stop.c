@@ -101,14 +101,14 @@ static void close_run(run *r)
 /* One step; reads the state back into r->x, r->v. Returns the step's Newton iterations. */
 static double step(run *r, const char *label, int k)
 {
-    const double before = stat(r->w, "newton_iterations");
+    const double before = stat(r->w, "newton_cholmod.newton_iterations");
     if (scene_step(&r->sc, r->w, r->sc.h) != DEFSIM_OK) {
         fprintf(stderr, "%s: step %d: %s\n", label, k, defsim_world_last_error(r->w));
         exit(1);
     }
     defsim_world_get_positions(r->w, r->x, r->nv);
     defsim_world_get_velocities(r->w, r->v, r->nv);
-    return stat(r->w, "newton_iterations") - before;
+    return stat(r->w, "newton_cholmod.newton_iterations") - before;
 }
 
 static double max_diff(const double *a, const double *b, int64_t n)

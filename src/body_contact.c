@@ -750,7 +750,7 @@ defsim_status defsim__body_contact_build(defsim__body_contact *bc, const double 
             tmp[m++] = tmp[q];
             bc->act[bc->nact++] = q;
         }
-    qsort(tmp, (size_t)m, sizeof *tmp, contact_cmp);
+    if (m > 1) qsort(tmp, (size_t)m, sizeof *tmp, contact_cmp);   /* tmp: NULL if none */
     if (!reserve_contacts(bc, m)) return bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
     int32_t n = 0;
     for (int k = 0; k < 4; ++k) bc->ncon_type[k] = 0;

@@ -226,7 +226,7 @@ defsim_status defsim__triangle_edges(const int32_t *tris, int32_t nf, int32_t **
             if (a > b) { const int64_t t = a; a = b; b = t; }
             e[3 * f + k] = a << 32 | b;
         }
-    qsort(e, (size_t)n, sizeof *e, cmp_i64);
+    if (n > 1) qsort(e, (size_t)n, sizeof *e, cmp_i64);
     int64_t m = 0;
     for (int64_t i = 0; i < n; ++i)
         if (m == 0 || e[i] != e[m - 1]) e[m++] = e[i];

@@ -10,14 +10,15 @@
  *
  *   defsim-bench-body-contact [SCENE] [--cells N | --cells-list N1,N2,... [--fit]]
  *                             [--backends a,b] [--threads T] [--repeat R] [--steps S] [--cpu]
- *                             [--check] [--rest KE] [--set KEY=VALUE]...
+ *                             [--check] [--rest KE] [--per-step FILE] [--set KEY=VALUE]...
  *
  * --cells N sets the first body's mesh cells to N x N (a cloth) before loading; --repeat R runs
  * each backend R times (default 3) and reports the run of median time per step; --cpu times the
  * steps with process CPU time (a loaded machine) instead of the monotonic clock. The shares are
  * the library's own timings (monotonic clock) over its time_step. --set overrides a scene key as
  * `defsim run --set` does (e.g. world.h=0.002), at most 8. --steps S runs the first S steps
- * only (default: the scene's length).
+ * only (default: the scene's length). --per-step FILE writes a CSV row per step (cells,
+ * vertices, step, Newton iterations, ms), so the worst steps can be found.
  *
  * Scaling (issue 30): --cells-list 12,16,24 runs each size in turn (same physical cloth; d_hat
  * follows the world's length scale as in every run) and --fit adds the exponent p of a least
@@ -66,6 +67,7 @@ typedef struct result {
 static int use_cpu;        /* --cpu */
 static int max_steps;      /* --steps (0: the scene's) */
 static int check;          /* --check */
+static FILE *per_step;     /* --per-step FILE: one row per step */
 
 static double now(void)
 {
@@ -375,11 +377,18 @@ static int run(const char *path, const char *backend, int cells, int threads, re
         fprintf(stderr, "--check: out of memory\n");
         failed = 1;
     }
-    double wall = 0.0;
+    double wall = 0.0, its_before = 0.0;
     for (int k = 0; k < steps && !failed; ++k) {
         const double t0 = now();
         const defsim_status st = scene_step(&s, w, s.h);
-        wall += now() - t0;
+        const double dt = now() - t0;
+        wall += dt;
+        if (per_step) {
+            const double its = st == DEFSIM_OK ? tools_backend_stat(w, "newton_iterations") : 0;
+            fprintf(per_step, "%d,%d,%d,%.0f,%.3f\n", cells, s.vertex_count, k, its - its_before,
+                    1e3 * dt);
+            its_before = its;
+        }
         if (st != DEFSIM_OK) {
             fprintf(stderr, "%s: step %d: %s\n", backend, k, defsim_world_last_error(w));
             failed = 1;
@@ -467,6 +476,13 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--steps") && has) max_steps = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cpu")) use_cpu = 1;
         else if (!strcmp(argv[i], "--check")) check = 1;
+        else if (!strcmp(argv[i], "--per-step") && has) {
+            if (!(per_step = fopen(argv[++i], "w"))) {
+                perror(argv[i]);
+                return 2;
+            }
+            fprintf(per_step, "cells,vertices,step,newton_iterations,ms\n");
+        }
         else if (!strcmp(argv[i], "--rest") && has) rest = atof(argv[++i]);
         else if (!strcmp(argv[i], "--set") && has && nuser_sets < MAX_SETS)
             user_sets[nuser_sets++] = argv[++i];

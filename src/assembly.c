@@ -113,6 +113,42 @@ defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int6
     return DEFSIM_OK;
 }
 
+defsim_status defsim__pattern_retain(defsim__system *s, const int64_t *keep, int64_t n,
+                                     double stale, int *pruned)
+{
+    defsim__pattern *p = &s->pattern;
+    *pruned = 0;
+    if (!p->built || p->nextra == 0) return DEFSIM_OK;
+    /* extras and keep are both sorted: their intersection in one merge, in place */
+    int64_t u = 0;
+    for (int64_t i = 0, j = 0; i < p->nextra && j < n;) {
+        if (p->extra[i] < keep[j]) ++i;
+        else if (keep[j] < p->extra[i]) ++j;
+        else {
+            ++j;
+            ++u;
+            ++i;
+        }
+    }
+    if ((double)(p->nextra - u) <= stale * (double)p->nextra) return DEFSIM_OK;
+    int64_t w = 0;
+    for (int64_t i = 0, j = 0; i < p->nextra && j < n;) {
+        if (p->extra[i] < keep[j]) ++i;
+        else if (keep[j] < p->extra[i]) ++j;
+        else {
+            p->extra[w++] = p->extra[i];
+            ++i;
+            ++j;
+        }
+    }
+    p->nextra = w;
+    pattern_drop(s);
+    const defsim_status st = defsim__pattern_build(s);
+    if (st != DEFSIM_OK) return st;
+    *pruned = 1;
+    return DEFSIM_OK;
+}
+
 defsim_status defsim__pattern_build(defsim__system *s)
 {
     defsim__pattern *p = &s->pattern;

@@ -16,6 +16,13 @@ defsim_status defsim__pattern_build(defsim__system *s);
 defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int64_t n,
                                    int *grew);
 
+/* Drops the extra pairs (those body contact added) that are not among `keep` (same encoding,
+ * sorted and unique), and rebuilds the pattern, when more than `stale` of the extras would go
+ * (a fraction in [0, 1]); *pruned is set when it rebuilt. Bounds the pattern by the contacts of
+ * the present instead of every contact of the run. */
+defsim_status defsim__pattern_retain(defsim__system *s, const int64_t *keep, int64_t n,
+                                     double stale, int *pruned);
+
 /* The pattern in compressed sparse columns (borrowed from s). DEFSIM_ERR_INVALID_ARGUMENT
  * for a bad triangle or before defsim__pattern_build. */
 defsim_status defsim__matrix_pattern(const defsim__system *s, defsim_triangle tri,

@@ -13,6 +13,8 @@
  */
 #include "body_contact.h"
 
+#include "assembly.h"
+
 #include "clock.h"
 #include "contact.h"
 #include "contact_barrier.h"
@@ -82,6 +84,7 @@ void defsim__body_contact_free(defsim__body_contact *bc)
     free(bc->con); free(bc->ctmp); free(bc->act); free(bc->sv); free(bc->sg); free(bc->sh);
     free(bc->fric);
     free(bc->pend);
+    free(bc->keep);
     defsim__hash_free(&bc->hash);
     memset(bc, 0, sizeof *bc);
 }
@@ -1341,6 +1344,37 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     }
     bc->active = 1;
     return DEFSIM_OK;
+}
+
+static int cmp_key(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__system *s)
+{
+    if (!s->pattern.built || s->pattern.nextra == 0 || !bc->con_valid) return DEFSIM_OK;
+    int64_t n = 0;
+    for (int32_t q = 0; q < bc->ncon; ++q) {
+        const defsim__bc_contact *c = &bc->con[q];
+        const int m = defsim__contact_nodes(c->type);
+        if (!grow((void **)&bc->keep, &bc->cap_keep, n + 6, sizeof *bc->keep)) {
+            bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
+            return bc->failed;
+        }
+        for (int i = 0; i < m; ++i)
+            for (int j = 0; j < m; ++j) {
+                const int32_t fa = s->vfree[c->v[i]], fb = s->vfree[c->v[j]];
+                if (fa >= 0 && fb >= 0 && fa < fb) bc->keep[n++] = ((int64_t)fa << 32) | fb;
+            }
+    }
+    if (n > 1) qsort(bc->keep, (size_t)n, sizeof *bc->keep, cmp_key);
+    int64_t u = 0;
+    for (int64_t k = 0; k < n; ++k)
+        if (k == 0 || bc->keep[k] != bc->keep[k - 1]) bc->keep[u++] = bc->keep[k];
+    int pruned = 0;
+    return defsim__pattern_retain(s, bc->keep, u, 0.25, &pruned);
 }
 
 double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f)

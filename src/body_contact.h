@@ -116,6 +116,8 @@ typedef struct defsim__body_contact {
      * the host's matrix_pattern_version merges them (host.c). */
     int64_t *pend;
     int64_t npend, cap_pend;
+    int64_t *keep;            /* scratch of defsim__body_contact_retain: the set's pairs */
+    int64_t cap_keep;
 
     double *stat;             /* the world's contact statistics (contact.h DEFSIM__CSTAT_*) */
     const defsim__system *sys;/* the system of the step under way */
@@ -177,5 +179,10 @@ int defsim__body_contact_start(defsim__body_contact *bc, double *x);
 /* Ends a successful step at x: the body contact force per vertex into f (3 nv, overwritten) and
  * the statistics; returns the smallest pair distance (m; inf without candidates). */
 double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f);
+/* After defsim__body_contact_end: the pattern keeps, of the pairs body contact added to it, those
+ * of the constraint set at the step's end, when more than a quarter of them belong to no contact
+ * any more (then it is rebuilt). Bounds the pattern, and its factorisation's fill, by the
+ * contacts of the present, not of the whole run. */
+defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__system *s);
 
 #endif /* DEFSIM_BODY_CONTACT_H */

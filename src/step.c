@@ -380,6 +380,11 @@ static defsim_status body_end(defsim_world *w, defsim__body_contact *bc, defsim_
         return bc->failed;
     }
     const double dmin = defsim__body_contact_end(bc, w->state.x, bc->scratch);
+    const defsim_status rs = defsim__body_contact_retain(bc, &w->sys);
+    if (rs != DEFSIM_OK) {
+        defsim__error(w->msg, "out of memory rebuilding the matrix pattern; state restored");
+        return rs;
+    }
     if (w->set.watchdog && !(dmin > 0.0)) {
         w->stats.watchdog_trips++;
         defsim__error(w->msg, "step: watchdog: two body surfaces touched (distance %g m) although "

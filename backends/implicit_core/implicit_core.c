@@ -919,8 +919,12 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
     memcpy(p->v0, vw, bytes);
     p->pin_vel = s->coupled ? host->pin_velocities(sys) : NULL;
 
+    /* Body contact may have rebuilt the pattern between steps (it keeps only the pairs of the
+     * contacts at a step's end): the damping product of the scheme's start reads it already. */
+    defsim_status st = sync_pattern(s, host, sys);
+    if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
     defsim__ic_targets stp = {0};
-    defsim_status st = p->scheme->prepare(p, host, sys, h, &stp);
+    st = p->scheme->prepare(p, host, sys, h, &stp);
     if (st == DEFSIM_OK) st = minimise(s, &stp, host, sys, h);
     else fail(s, host, sys, st, "damping matrix or forces at the start of the step failed");
     if (st != DEFSIM_OK) {

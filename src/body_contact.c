@@ -1355,17 +1355,20 @@ static int cmp_key(const void *a, const void *b)
 defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__system *s)
 {
     if (!s->pattern.built || s->pattern.nextra == 0 || !bc->con_valid) return DEFSIM_OK;
+    /* the pairs pend_set queues: those of the candidates within dhat */
     int64_t n = 0;
-    for (int32_t q = 0; q < bc->ncon; ++q) {
-        const defsim__bc_contact *c = &bc->con[q];
-        const int m = defsim__contact_nodes(c->type);
+    for (int32_t k = 0; k < bc->nact; ++k) {
+        const int32_t q = bc->act[k];
+        int32_t idx[4];
+        const int m = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
         if (!grow((void **)&bc->keep, &bc->cap_keep, n + 6, sizeof *bc->keep)) {
             bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
             return bc->failed;
         }
         for (int i = 0; i < m; ++i)
             for (int j = 0; j < m; ++j) {
-                const int32_t fa = s->vfree[c->v[i]], fb = s->vfree[c->v[j]];
+                if (idx[i] < 0 || idx[j] < 0) continue;
+                const int32_t fa = s->vfree[idx[i]], fb = s->vfree[idx[j]];
                 if (fa >= 0 && fb >= 0 && fa < fb) bc->keep[n++] = ((int64_t)fa << 32) | fb;
             }
     }

@@ -1352,7 +1352,8 @@ static int cmp_key(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__system *s)
+/* defsim__body_contact_end's pattern retention (body_contact.h). */
+static defsim_status retain(defsim__body_contact *bc, defsim__system *s)
 {
     if (!s->pattern.built || s->pattern.nextra == 0 || !bc->con_valid) return DEFSIM_OK;
     /* the pairs pend_set queues: those of the candidates within dhat */
@@ -1380,7 +1381,8 @@ defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__syst
     return defsim__pattern_retain(s, bc->keep, u, 0.25, &pruned);
 }
 
-double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f)
+double defsim__body_contact_end(defsim__body_contact *bc, defsim__system *s, const double *x,
+                                double *f)
 {
     memset(f, 0, 3 * (size_t)bc->nv * sizeof *f);
     (void)defsim__body_contact_forces(bc, x, f);
@@ -1396,5 +1398,6 @@ double defsim__body_contact_end(defsim__body_contact *bc, const double *x, doubl
 
     bc->stat[DEFSIM__CSTAT_BODY_ACTIVE] = bc->con_valid ? bc->ncon : 0;
     bc->stat[DEFSIM__CSTAT_BODY_MIN_DISTANCE] = dmin;
+    if (retain(bc, s) != DEFSIM_OK) bc->failed = DEFSIM_ERR_OUT_OF_MEMORY;
     return dmin;
 }

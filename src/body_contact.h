@@ -177,12 +177,12 @@ double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, 
  * them. */
 int defsim__body_contact_start(defsim__body_contact *bc, double *x);
 /* Ends a successful step at x: the body contact force per vertex into f (3 nv, overwritten) and
- * the statistics; returns the smallest pair distance (m; inf without candidates). */
-double defsim__body_contact_end(defsim__body_contact *bc, const double *x, double *f);
-/* After defsim__body_contact_end: the pattern keeps, of the pairs body contact added to it, those
- * of the constraint set at the step's end, when more than a quarter of them belong to no contact
- * any more (then it is rebuilt). Bounds the pattern, and its factorisation's fill, by the
- * contacts of the present, not of the whole run. */
-defsim_status defsim__body_contact_retain(defsim__body_contact *bc, defsim__system *s);
+ * the statistics; returns the smallest pair distance (m; inf without candidates). Then s's
+ * pattern keeps, of the pairs body contact added to it, those that the constraint set at x
+ * queues, when more than a quarter of them are stale (it is rebuilt then): the pattern, and its
+ * factorisation's fill, are bounded by the contacts of the present, not of the whole run. Out
+ * of memory there sets bc->failed. */
+double defsim__body_contact_end(defsim__body_contact *bc, defsim__system *s, const double *x,
+                                double *f);
 
 #endif /* DEFSIM_BODY_CONTACT_H */

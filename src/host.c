@@ -126,6 +126,21 @@ static defsim_status matrix_values(defsim_system *s, const double *x,
     return DEFSIM_OK;
 }
 
+/* matrix_values with the element Hessians under `projection` instead of the world's (the
+ * system's setting is swapped for the call: a world is stepped by one thread at a time). */
+static defsim_status matrix_values_projected(defsim_system *s, const double *x,
+                                             const defsim_matrix_coeffs *c, defsim_triangle tri,
+                                             int32_t projection, double *values)
+{
+    if (projection < DEFSIM_PROJECTION_NONE || projection > DEFSIM_PROJECTION_ABS)
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    const int world = s->sys->projection;
+    s->sys->projection = projection;
+    const defsim_status st = matrix_values(s, x, c, tri, values);
+    s->sys->projection = world;
+    return st;
+}
+
 static defsim_status matrix_product(defsim_system *s, const double *x,
                                     const defsim_matrix_coeffs *c, const double *dx, double *out)
 {
@@ -291,4 +306,5 @@ const defsim_host defsim__host = {
     .matrix_pattern_version = matrix_pattern_version,
     .option_is_set = option_is_set,
     .contact_active_dhat = contact_active_dhat,
+    .matrix_values_projected = matrix_values_projected,
 };

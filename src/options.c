@@ -352,11 +352,16 @@ int defsim__options_take_reinit(defsim__options *o)
     return r;
 }
 
-/* The backend's "projection" option, else clamp (defsim_projection). */
+/* The backend's "projection" option, else clamp (defsim_projection): what assembly applies.
+ * "auto" assembles the exact Hessians; the backend asks for the clamped ones where it needs
+ * them (matrix_values_projected). */
 static int projection(const defsim__options *o)
 {
     int k = o->backend ? find_backend_option(o->backend, "projection") : -1;
-    if (k >= 0 && o->backend->options[k].type == DEFSIM_OPTION_CHOICE) return (int)o->values[k];
+    if (k >= 0 && o->backend->options[k].type == DEFSIM_OPTION_CHOICE) {
+        const int p = (int)o->values[k];
+        return p == DEFSIM_PROJECTION_AUTO ? DEFSIM_PROJECTION_NONE : p;
+    }
     return DEFSIM_PROJECTION_CLAMP;
 }
 

@@ -379,11 +379,10 @@ static defsim_status body_end(defsim_world *w, defsim__body_contact *bc, defsim_
         defsim__error(w->msg, "out of memory for body contact pairs; state restored");
         return bc->failed;
     }
-    const double dmin = defsim__body_contact_end(bc, w->state.x, bc->scratch);
-    const defsim_status rs = defsim__body_contact_retain(bc, &w->sys);
-    if (rs != DEFSIM_OK) {
+    const double dmin = defsim__body_contact_end(bc, &w->sys, w->state.x, bc->scratch);
+    if (bc->failed) {
         defsim__error(w->msg, "out of memory rebuilding the matrix pattern; state restored");
-        return rs;
+        return bc->failed;
     }
     if (w->set.watchdog && !(dmin > 0.0)) {
         w->stats.watchdog_trips++;

@@ -58,8 +58,9 @@ typedef struct defsim__pattern {
     int64_t full_nnz, upper_nnz;
     int32_t *upper_rank0;     /* per free vertex: neighbours ranked below it (for UPPER) */
     /* Vertex pairs that body contact added (body_contact.h): (fa << 32 | fb), fa < fb free
-     * vertices, sorted, unique; kept until the plan changes. version counts the pattern's
-     * builds (the host's matrix_pattern_version). */
+     * vertices, sorted, unique; kept while the contacts at a step's end use them
+     * (defsim__pattern_retain). version counts the pattern's builds (the host's
+     * matrix_pattern_version). */
     int64_t *extra;
     int64_t nextra;
     uint64_t version;

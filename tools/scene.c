@@ -173,12 +173,13 @@ static int parse_world(sj_ctx *c, const cJSON *w)
         if (!e) continue;
         double v = 0.0;
         if (k == SCENE_PROJECTION) {
-            static const char *const names[] = {"none", "clamp", "abs"};
+            static const char *const names[] = {"none", "clamp", "abs", "auto"};
             int found = -1;
-            for (int i = 0; i < 3; ++i)
+            for (int i = 0; i < 4; ++i)
                 if (cJSON_IsString(e) && !strcmp(e->valuestring, names[i])) found = i;
             if (found < 0)
-                return sj_fail(c, e, "world.projection must be \"none\", \"clamp\" or \"abs\"");
+                return sj_fail(c, e, "world.projection must be \"none\", \"clamp\", \"abs\" or "
+                                     "\"auto\"");
             v = found;
         } else if (k == SCENE_MAX_ITERATIONS || k == SCENE_MAX_ORDER ||
                    k == SCENE_MAX_INTERNAL_STEPS) {

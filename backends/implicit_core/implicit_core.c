@@ -41,6 +41,8 @@
 /* Factorisations of fewer flops run the BLAS on one thread (bit-identical for any thread
  * count); larger ones on the world's threads (bit-identical for a fixed count). */
 #define IC_BLAS_SERIAL_FLOPS 1e8
+/* factor_solve without shifts: the matrix is not positive definite (or dx not descent). */
+#define DEFSIM__IC_INDEFINITE ((defsim_status)1)
 /* Relative resolution of g: decreases smaller than this times |g|'s scale cannot be seen. */
 #define IC_G_RESOLUTION (1e3 * DBL_EPSILON)
 
@@ -136,6 +138,7 @@ typedef struct ic_solver {
     double contact_tolerance;  /* relative to dhat; 0: contact steps stop as the others */
     int max_iterations;
     int stiffness_damping;
+    int auto_projection;       /* projection auto (and the host can assemble the clamped) */
     double gravity[3];
     defsim_csc pat;            /* upper triangle over free DOFs (borrowed from the system) */
     double *hval;              /* Hessian values, pat.nnz */
@@ -207,9 +210,10 @@ static const defsim_option_spec ic_options[OPT_COUNT] = {
         .default_value = 50, .min_value = 1, .max_value = 1e6,
         .doc = "Newton iterations per step before the step fails with NOT_CONVERGED"},
     [OPT_PROJECTION] = {.name = "projection", .type = DEFSIM_OPTION_CHOICE,
-        .default_value = DEFSIM_PROJECTION_CLAMP, .choices = "none|clamp|abs",
+        .default_value = DEFSIM_PROJECTION_CLAMP, .choices = "none|clamp|abs|auto",
         .doc = "element Hessians: exact (none), negative eigenvalues set to 0 (clamp) or to "
-               "their magnitude (abs)"},
+               "their magnitude (abs), or exact while the Newton matrix is positive definite "
+               "and clamped for an iteration where it is not (auto)"},
     [OPT_ORDERING] = {.name = "cholmod_ordering", .type = DEFSIM_OPTION_CHOICE,
         .choices = ORDERINGS,
         .doc = "fill-reducing ordering: best (AMD and METIS, the one with less fill), amd or "
@@ -240,6 +244,8 @@ static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
     {"time_solve", "wall time of the triangular solves (s)"},
     {"nonlinear_residual", "max norm of the gradient of the step's energy (N) at the last "
                            "Newton iteration of the last step (a level, not a sum)"},
+    {"clamped_iterations", "Newton iterations whose exact Hessian was not positive definite, so "
+                           "that they used the clamped one (only with projection auto)"},
 };
 
 /* The index of `name` in the '|'-separated `choices`, or -1. */
@@ -308,6 +314,9 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     s->tolerance = opt[OPT_TOLERANCE];
     s->contact_tolerance = opt[OPT_CONTACT_TOLERANCE];
     s->max_iterations = (int)opt[OPT_MAX_ITERATIONS];
+    s->auto_projection = (int)opt[OPT_PROJECTION] == DEFSIM_PROJECTION_AUTO &&
+                         host->size >= offsetof(defsim_host, matrix_values_projected) +
+                                           sizeof host->matrix_values_projected;
     p->counters = host->counters(sys);
     host->gravity(sys, s->gravity);
     p->x0 = alloc_doubles(host, p->ndof);
@@ -606,12 +615,16 @@ static defsim_status gradient(ic_solver *s, const defsim__ic_targets *st, const 
     return DEFSIM_OK;
 }
 
-/* Hessian of g at x: K(x) + c_m M / h^2 + c_d (alpha M + B) / h, into hval. */
+/* Hessian of g at x: K(x) + c_m M / h^2 + c_d (alpha M + B) / h, into hval; with `clamped`,
+ * the element Hessians clamped to PSD (projection auto, where the exact matrix is not PD). */
 static defsim_status hessian(ic_solver *s, const defsim__ic_targets *st, const defsim_host *host,
-                             defsim_system *sys, const double *x, double h)
+                             defsim_system *sys, const double *x, double h, int clamped)
 {
     const defsim_matrix_coeffs c = {1.0, 0.0, st->cm / (h * h), st->cd / h};
-    defsim_status status = host->matrix_values(sys, x, &c, DEFSIM_TRIANGLE_UPPER, s->hval);
+    defsim_status status =
+        clamped ? host->matrix_values_projected(sys, x, &c, DEFSIM_TRIANGLE_UPPER,
+                                                DEFSIM_PROJECTION_CLAMP, s->hval)
+                : host->matrix_values(sys, x, &c, DEFSIM_TRIANGLE_UPPER, s->hval);
     if (status != DEFSIM_OK) return status;
     if (s->pub.bval)
         for (int64_t p = 0; p < s->pat.nnz; ++p) s->hval[p] += st->cd * s->pub.bval[p] / h;
@@ -651,7 +664,7 @@ static void say(const ic_solver *s, const defsim_host *host, defsim_system *sys,
  * indefinite: then the factorisation fails or dx is not a descent direction, and the diagonal is
  * shifted by growing multiples of M / h^2 until it is. *slope receives grad . dx. */
 static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_system *sys,
-                                  double h, double *slope)
+                                  double h, int shifts, double *slope)
 {
     double *count = s->pub.counters;
     const int64_t n = s->pub.n;
@@ -705,6 +718,10 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
                 result = DEFSIM_ERR_UNSTABLE;
                 break;
             }
+        }
+        if (shifts == 0) {
+            result = DEFSIM__IC_INDEFINITE;
+            break;
         }
         if (attempt == IC_MAX_SHIFTS) {
             say(s, host, sys, "the Hessian stays indefinite after shifting its diagonal by "
@@ -827,10 +844,17 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         double gmax = 0.0;
         for (int64_t k = 0; k < p->n; ++k) gmax = fmax(gmax, fabs(s->grad[k]));
         count[DEFSIM__IC_RESIDUAL] = gmax;   /* a level, not a sum */
-        st = hessian(s, stp, host, sys, s->x, h);
+        st = hessian(s, stp, host, sys, s->x, h, 0);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
         double slope = 0.0;
-        st = factor_solve(s, host, sys, h, &slope);
+        st = factor_solve(s, host, sys, h, !s->auto_projection, &slope);
+        if (st == DEFSIM__IC_INDEFINITE) {
+            /* projection auto: the exact matrix is not PD here; the clamped one is */
+            count[DEFSIM__IC_CLAMPED] += 1.0;
+            st = hessian(s, stp, host, sys, s->x, h, 1);
+            if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
+            st = factor_solve(s, host, sys, h, 1, &slope);
+        }
         if (st != DEFSIM_OK) {
             if (st == DEFSIM_ERR_NOT_CONVERGED) count[DEFSIM__IC_CONVERGENCE_FAILURES] += 1.0;
             return st;   /* factor_solve set the message */

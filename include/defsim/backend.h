@@ -256,13 +256,14 @@ typedef struct defsim_host {
     /// The matrix pattern's version: a number that changes whenever the pattern does. Body
     /// contact couples vertices of different bodies (or far apart in one) when they come near,
     /// and its off-diagonal blocks need entries the pattern lacks: they are collected during the
-    /// step (contact_max_step, matrix_values) and merged into the pattern by this call, never
-    /// behind the backend's back. A backend that keeps the pattern's pointers or values in its
-    /// layout calls it before each assembly; when the number differs from the one it saw, every
-    /// pointer from matrix_pattern (and values in its layout) is stale: fetch the pattern again
-    /// and redo any symbolic analysis. Merged pairs stay until the bodies or pins change (the
-    /// pattern only grows, so most new contacts need no new analysis). Without body contact the
-    /// number never changes. Returns 0 if merging ran out of memory (then matrix_pattern and
+    /// step (contact_max_step, matrix_values) and merged into the pattern by this call. A
+    /// backend that keeps the pattern's pointers or values in its layout calls it at the start
+    /// of each step and before each assembly; when the number differs from the one it saw,
+    /// every pointer from matrix_pattern (and values in its layout) is stale: fetch the pattern
+    /// again and redo any symbolic analysis. Merged pairs stay while contacts use them: at the
+    /// end of a successful step, when over a quarter of them belong to no contact of the end
+    /// state, those go (between steps, never within one; the number changes then too). Without
+    /// body contact the number never changes. Returns 0 if merging ran out of memory (then matrix_pattern and
     /// matrix_values fail with DEFSIM_ERR_OUT_OF_MEMORY until it succeeds).
     uint64_t (*matrix_pattern_version)(defsim_system *sys);
 
@@ -284,6 +285,17 @@ typedef struct defsim_host {
     /// the world, or a backend without DEFSIM_BACKEND_CONTACT_CCD). Reads what that call cached:
     /// changes nothing, evaluates nothing. For a Newton stop on contact's scale (docs/contact.md).
     double (*contact_active_dhat)(defsim_system *sys);
+
+    /* Appended after ABI 8 (check host->size) */
+
+    /// matrix_values with the element Hessians under `projection` (a defsim_projection) instead
+    /// of the world's: a backend whose exact Hessian is indefinite at an iterate can assemble
+    /// the projected one there (the "auto" projection of the implicit backends). Contact
+    /// Hessians are projected either way. DEFSIM_ERR_INVALID_ARGUMENT for another value.
+    defsim_status (*matrix_values_projected)(defsim_system *sys, const double *x,
+                                             const defsim_matrix_coeffs *c,
+                                             defsim_triangle triangle, int32_t projection,
+                                             double *values);
 } defsim_host;
 
 /// Capability flags of a backend.

@@ -141,12 +141,16 @@ DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, c
 typedef struct defsim_world defsim_world;
 
 /// How implicit backends make element Hessians positive semi-definite before assembly: the
-/// values of a backend's CHOICE option "projection" ("none|clamp|abs", e.g.
-/// "newton_cholmod.projection"). A backend without that option gets DEFSIM_PROJECTION_CLAMP.
+/// values of a backend's CHOICE option "projection" ("none|clamp|abs", and "auto" where the
+/// backend offers it, e.g. "newton_cholmod.projection"). A backend without that option gets
+/// DEFSIM_PROJECTION_CLAMP.
 typedef enum defsim_projection {
     DEFSIM_PROJECTION_NONE = 0,     ///< Exact Hessians (may be indefinite).
     DEFSIM_PROJECTION_CLAMP = 1,    ///< Negative eigenvalues of each element Hessian set to 0.
-    DEFSIM_PROJECTION_ABS = 2       ///< Negative eigenvalues replaced by their absolute value.
+    DEFSIM_PROJECTION_ABS = 2,      ///< Negative eigenvalues replaced by their absolute value.
+    DEFSIM_PROJECTION_AUTO = 3      ///< Exact Hessians while the Newton matrix (with the
+                                    ///< inertia) is positive definite; clamped for an iteration
+                                    ///< where it is not (the implicit core's backends).
 } defsim_projection;
 
 /// Log callback: level 0 error, 1 warning, 2 info, 3 debug. `message` is borrowed for the call.

@@ -536,6 +536,8 @@ static void test_all_pinned(void **state)
 /* One step from a strongly compressed state: the minimiser does not depend on how (or whether)
  * the Hessian is projected, nor on the factorisation and ordering; only the path does. */
 
+static int64_t last_clamped;   /* clamped_iterations of the last one_step_h */
+
 static double *one_step_h(defsim_projection proj, double h, int64_t *iterations)
 {
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 0.5, 0.5};
@@ -553,6 +555,7 @@ static double *one_step_h(defsim_projection proj, double h, int64_t *iterations)
     defsim_stats s = {.size = sizeof s};
     TU_OK(defsim_world_stats(w, &s));
     if (iterations) *iterations = tu_bstat(w, "newton_iterations");
+    last_clamped = tu_bstat(w, "clamped_iterations");
     defsim_world_destroy(w);
     return x;
 }
@@ -565,15 +568,17 @@ static double *one_step(defsim_projection proj, int64_t *iterations)
 static void test_projections_agree(void **state)
 {
     (void)state;
-    int64_t it[3];
+    int64_t it[4];
     double *a = one_step(DEFSIM_PROJECTION_CLAMP, &it[0]);
     double *b = one_step(DEFSIM_PROJECTION_ABS, &it[1]);
     double *c = one_step(DEFSIM_PROJECTION_NONE, &it[2]);
+    double *d = one_step(DEFSIM_PROJECTION_AUTO, &it[3]);
     const int n = 5 * 3 * 3;
-    double dab = 0.0, dac = 0.0, moved = 0.0;
+    double dab = 0.0, dac = 0.0, dad = 0.0, moved = 0.0;
     for (int i = 0; i < 3 * n; ++i) {
         dab = fmax(dab, fabs(a[i] - b[i]));
         dac = fmax(dac, fabs(a[i] - c[i]));
+        dad = fmax(dad, fabs(a[i] - d[i]));
     }
     double *x0 = malloc(3 * (size_t)n * sizeof *x0);
     {
@@ -584,12 +589,12 @@ static void test_projections_agree(void **state)
         defsim_mesh_free(&m);
     }
     for (int i = 0; i < 3 * n; ++i) moved = fmax(moved, fabs(a[i] - x0[i]));
-    printf("projections: Newton iterations clamp %lld, abs %lld, none %lld; max differences "
-           "%.2e, %.2e m (step moved %.3f m)\n", (long long)it[0], (long long)it[1],
-           (long long)it[2], dab, dac, moved);
+    printf("projections: Newton iterations clamp %lld, abs %lld, none %lld, auto %lld; max "
+           "differences %.2e, %.2e, %.2e m (step moved %.3f m)\n", (long long)it[0],
+           (long long)it[1], (long long)it[2], (long long)it[3], dab, dac, dad, moved);
     assert_true(moved > 1e-2);
-    assert_true(dab < 1e-9 && dac < 1e-9);
-    free(a); free(b); free(c); free(x0);
+    assert_true(dab < 1e-9 && dac < 1e-9 && dad < 1e-9);
+    free(a); free(b); free(c); free(d); free(x0);
 }
 
 /* At h = 1 s the exact (PROJECTION_NONE) Hessian of the compressed beam is indefinite even
@@ -603,16 +608,24 @@ static void test_indefinite_exact_hessian(void **state)
     const int n = 5 * 3 * 3;
     for (int f = 0; f < 2; ++f) {
         setenv("DEFSIM_CHOLMOD_FACTOR", factor[f], 1);
-        int64_t it_none, it_clamp;
+        int64_t it_none, it_clamp, it_auto;
         double *a = one_step_h(DEFSIM_PROJECTION_NONE, 1.0, &it_none);
         double *b = one_step_h(DEFSIM_PROJECTION_CLAMP, 1.0, &it_clamp);
-        double d = 0.0;
-        for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - b[i]));
-        printf("h = 1 s, %s: Newton iterations none %lld, clamp %lld; difference %.2e m\n",
-               factor[f], (long long)it_none, (long long)it_clamp, d);
-        assert_true(d < 1e-9);
+        double *c = one_step_h(DEFSIM_PROJECTION_AUTO, 1.0, &it_auto);
+        double d = 0.0, dc = 0.0;
+        for (int i = 0; i < 3 * n; ++i) {
+            d = fmax(d, fabs(a[i] - b[i]));
+            dc = fmax(dc, fabs(c[i] - b[i]));
+        }
+        printf("h = 1 s, %s: Newton iterations none %lld, clamp %lld, auto %lld (%lld of them "
+               "clamped); differences %.2e, %.2e m\n", factor[f], (long long)it_none,
+               (long long)it_clamp, (long long)it_auto, (long long)last_clamped, d, dc);
+        assert_true(d < 1e-9 && dc < 1e-9);
+        /* auto met the indefinite exact matrix and used the clamped one there */
+        assert_true(last_clamped > 0 && last_clamped < it_auto);
         free(a);
         free(b);
+        free(c);
     }
     unsetenv("DEFSIM_CHOLMOD_FACTOR");
 }

@@ -149,7 +149,8 @@ enum class Model : int {
 enum class Projection : int {
     none = DEFSIM_PROJECTION_NONE,
     clamp = DEFSIM_PROJECTION_CLAMP,
-    abs = DEFSIM_PROJECTION_ABS
+    abs = DEFSIM_PROJECTION_ABS,
+    automatic = DEFSIM_PROJECTION_AUTO   ///< "auto" (a C++ keyword)
 };
 
 /// The library's version number (major * 10000 + minor * 100 + patch).

@@ -18,7 +18,9 @@
  * the library's own timings (monotonic clock) over its time_step. --set overrides a scene key as
  * `defsim run --set` does (e.g. world.h=0.002), at most 8. --steps S runs the first S steps
  * only (default: the scene's length). --per-step FILE writes a CSV row per step (cells,
- * vertices, step, Newton iterations, ms), so the worst steps can be found.
+ * vertices, step, Newton iterations, ms), so the worst steps can be found. The last column is
+ * the process's peak resident memory (getrusage) after the size's runs: with sizes in rising
+ * order, the peak of the largest so far.
  *
  * Scaling (issue 30): --cells-list 12,16,24 runs each size in turn (same physical cloth; d_hat
  * follows the world's length scale as in every run) and --fit adds the exponent p of a least
@@ -49,6 +51,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <sys/resource.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -510,9 +513,10 @@ int main(int argc, char **argv)
            check ? "; exact intersection check after every step (not timed)" : "");
     printf("| backend | cells | vertices | steps | ms/step | Newton its/step | ms/iteration | "
            "broad | CCD | eval | contact total | pattern growths | candidates (last step) | "
-           "active (last) | min distance (m) | kinetic energy at the end (J) | exact tests |\n"
+           "active (last) | min distance (m) | kinetic energy at the end (J) | exact tests | "
+           "peak RSS (MB) |\n"
            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-           "---:|\n");
+           "---:|---:|\n");
     char *save = NULL;
     int status = 0;
     for (char *b = strtok_r(backends, ",", &save); b; b = strtok_r(NULL, ",", &save)) {
@@ -533,11 +537,14 @@ int main(int argc, char **argv)
             const result *m = &r[repeat / 2];
             char cl[32] = "scene's";
             if (sizes[z] > 0) snprintf(cl, sizeof cl, "%d x %d", sizes[z], sizes[z]);
+            struct rusage ru;
+            getrusage(RUSAGE_SELF, &ru);
             printf("| %s | %s | %d | %d | %.2f | %.2f | %.2f | %.1f %% | %.1f %% | %.1f %% | "
-                   "%.1f %% | %.0f | %.0f | %.0f | %.3g | %.3g | %s%lld |\n", b, cl, m->nv,
-                   m->steps, m->ms_step, m->its, m->ms_it, m->broad, m->ccd, m->eval,
+                   "%.1f %% | %.0f | %.0f | %.0f | %.3g | %.3g | %s%lld | %.1f |\n", b, cl,
+                   m->nv, m->steps, m->ms_step, m->its, m->ms_it, m->broad, m->ccd, m->eval,
                    m->broad + m->ccd + m->eval, m->growths, m->candidates, m->active, m->min_d,
-                   m->kinetic, check ? "" : "(off) ", m->exact_tests);
+                   m->kinetic, check ? "" : "(off) ", m->exact_tests,
+                   (double)ru.ru_maxrss / 1024.0);
             fflush(stdout);
             nvs[nfit] = m->nv;
             ms[nfit] = m->ms_step;

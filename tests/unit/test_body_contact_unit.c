@@ -361,11 +361,74 @@ static long inside(const double *x, int v0, int v1, const int32_t *tets, int nt)
 /* A box whose bottom is pinned and a box on it pressed down by a force: they never
  * interpenetrate, body-body forces cancel and carry the load. Optionally a log counter. */
 static int analyses;
+static long long first_nnz, last_nnz;   /* nnz(A upper) of the first and the last analysis */
+
 static void count_analyses(void *user, int level, const char *message)
 {
     (void)user;
     (void)level;
-    if (strstr(message, "CHOLMOD") == NULL && strstr(message, "nnz(L)")) ++analyses;
+    if (strstr(message, "CHOLMOD") == NULL && strstr(message, "nnz(L)")) {
+        const char *p = strstr(message, "nnz(A upper) ");
+        if (p) last_nnz = atoll(p + strlen("nnz(A upper) "));
+        if (analyses++ == 0) first_nnz = last_nnz;
+    }
+}
+
+/* The pattern keeps only what the contacts of the present use: a box lands on another (the
+ * pattern grows for their pairs), then is lifted off by a force 3 times its weight; once no
+ * pair is within dhat at a step's end, the pairs go and the matrix has the nonzeros of the two
+ * separate boxes again (the backend analyses it once more: analyses > 1 + growths). */
+static void test_pattern_released(void **state)
+{
+    (void)state;
+    if (!tu_available("newton_cholmod")) return;
+    defsim_world_def d = tu_world_def("newton_cholmod", -9.81, 1);
+    d.log = count_analyses;
+    analyses = 0;
+    first_nnz = last_nnz = -1;
+    defsim_world *w = tu_create(&d);
+    TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
+    const double lo0[3] = {0, 0, 0}, hi0[3] = {1, 1, 1}, lo1[3] = {0.1, 1.01, 0.05},
+                 hi1[3] = {1.1, 2.01, 1.05};
+    int32_t *t0, *t1, n0, n1;
+    const defsim_body_id b0 = add_box(w, lo0, hi0, 3, 1u, ~0u, &t0, &n0);
+    add_box(w, lo1, hi1, 3, 1u, ~0u, &t1, &n1);
+    const int nv = defsim_world_vertex_count(w), half = nv / 2;
+    tu_pin_below(w, b0, 1, 0.0);
+    double *m = malloc((size_t)nv * sizeof *m), *fext = calloc(3 * (size_t)nv, sizeof *fext);
+    assert_non_null(m);
+    assert_non_null(fext);
+    TU_OK(defsim_world_get_masses(w, m, nv));
+    double grown = 0.0, active = 0.0;
+    for (int s = 0; s < 160; ++s) {
+        if (s == 60) {   /* lift: 3 times the top box's weight, upwards */
+            for (int i = half; i < nv; ++i) fext[3 * i + 1] = 3.0 * 9.81 * m[i];
+            TU_OK(defsim_world_set_external_forces(w, fext, nv));
+            TU_OK(defsim_world_stat(w, "contact.pattern_growths", &grown));
+            TU_OK(defsim_world_stat(w, "contact.body_active", &active));
+        }
+        if (defsim_world_step(w, 0.01) != DEFSIM_OK)
+            fail_msg("step %d: %s", s, defsim_world_last_error(w));
+    }
+    double growths, active_end;
+    TU_OK(defsim_world_stat(w, "contact.pattern_growths", &growths));
+    TU_OK(defsim_world_stat(w, "contact.body_active", &active_end));
+    double *x = tu_positions(w);
+    double gap = INFINITY;
+    for (int i = half; i < nv; ++i) gap = fmin(gap, x[3 * i + 1] - 1.0);
+    free(x);
+    printf("  pattern released: %g contacts before the lift, %g at the end (gap %.3g m); %g "
+           "growths, %d analyses; nnz(A upper) %lld at the start, %lld at the last analysis\n",
+           active, active_end, gap, growths, analyses, first_nnz, last_nnz);
+    assert_true(active > 0.0 && grown >= 1.0);   /* the boxes touched, the pattern grew */
+    assert_true(active_end == 0.0 && gap > 0.01);   /* and came apart */
+    assert_true(analyses > 1 + (int)growths);       /* an analysis for the smaller pattern */
+    assert_true(first_nnz > 0 && last_nnz == first_nnz);
+    free(t0);
+    free(t1);
+    free(fext);
+    free(m);
+    defsim_world_destroy(w);
 }
 
 static void test_boxes_pressed(void **state)
@@ -675,6 +738,7 @@ int main(void)
         cmocka_unit_test(test_fd_edges_and_friction),
         cmocka_unit_test(test_constraint_set),
         cmocka_unit_test(test_boxes_pressed),
+        cmocka_unit_test(test_pattern_released),
         cmocka_unit_test(test_explicit_refusal),
         cmocka_unit_test(test_filters),
         cmocka_unit_test(test_bad_defs),

@@ -119,29 +119,21 @@ defsim_status defsim__pattern_retain(defsim__system *s, const int64_t *keep, int
     defsim__pattern *p = &s->pattern;
     *pruned = 0;
     if (!p->built || p->nextra == 0) return DEFSIM_OK;
-    /* extras and keep are both sorted: their intersection in one merge, in place */
-    int64_t u = 0;
-    for (int64_t i = 0, j = 0; i < p->nextra && j < n;) {
-        if (p->extra[i] < keep[j]) ++i;
-        else if (keep[j] < p->extra[i]) ++j;
-        else {
-            ++j;
-            ++u;
-            ++i;
+    /* extras and keep are both sorted: their intersection by one merge, counted first and
+     * written in place (the write never overtakes the read) only if enough go */
+    for (int pass = 0; pass < 2; ++pass) {
+        int64_t u = 0;
+        for (int64_t i = 0, j = 0; i < p->nextra && j < n;) {
+            if (p->extra[i] < keep[j]) ++i;
+            else if (keep[j] < p->extra[i]) ++j;
+            else {
+                if (pass == 1) p->extra[u] = p->extra[i];
+                ++u, ++i, ++j;
+            }
         }
+        if (pass == 1) p->nextra = u;
+        else if ((double)(p->nextra - u) <= stale * (double)p->nextra) return DEFSIM_OK;
     }
-    if ((double)(p->nextra - u) <= stale * (double)p->nextra) return DEFSIM_OK;
-    int64_t w = 0;
-    for (int64_t i = 0, j = 0; i < p->nextra && j < n;) {
-        if (p->extra[i] < keep[j]) ++i;
-        else if (keep[j] < p->extra[i]) ++j;
-        else {
-            p->extra[w++] = p->extra[i];
-            ++i;
-            ++j;
-        }
-    }
-    p->nextra = w;
     pattern_drop(s);
     const defsim_status st = defsim__pattern_build(s);
     if (st != DEFSIM_OK) return st;

@@ -263,8 +263,8 @@ typedef struct defsim_host {
     /// again and redo any symbolic analysis. Merged pairs stay while contacts use them: at the
     /// end of a successful step, when over a quarter of them belong to no contact of the end
     /// state, those go (between steps, never within one; the number changes then too). Without
-    /// body contact the number never changes. Returns 0 if merging ran out of memory (then matrix_pattern and
-    /// matrix_values fail with DEFSIM_ERR_OUT_OF_MEMORY until it succeeds).
+    /// body contact the number never changes. Returns 0 if merging ran out of memory (then
+    /// matrix_pattern and matrix_values fail with DEFSIM_ERR_OUT_OF_MEMORY until it succeeds).
     uint64_t (*matrix_pattern_version)(defsim_system *sys);
 
     /* ABI version 7 */

@@ -495,7 +495,8 @@ int main(int argc, char **argv)
         else {
             fprintf(stderr, "usage: defsim-bench-body-contact [SCENE] [--cells N | --cells-list "
                             "N1,N2,... [--fit]] [--backends a,b] [--threads T] [--repeat R] "
-                            "[--steps S] [--cpu] [--check] [--rest KE] [--per-step FILE] [--set KEY=VALUE]...\n");
+                            "[--steps S] [--cpu] [--check] [--rest KE] [--per-step FILE] "
+                            "[--set KEY=VALUE]...\n");
             return 2;
         }
     }

@@ -15,16 +15,19 @@
 
 /* Growable scratch of the hash: reused across steps, so a step allocates only when a scene
  * needs more room than before. Zero-initialise; free with defsim__hash_free. */
+typedef struct defsim__hash_entry {
+    int32_t b;                /* a box of B */
+    int32_t c0[3];            /* its lowest cell */
+} defsim__hash_entry;
+
 typedef struct defsim__hash {
-    uint32_t *keys;           /* the inserted boxes of B, grouped by the bucket of each cell they
+    defsim__hash_entry *keys; /* the inserted boxes of B, grouped by the bucket of each cell they
                                  overlap (box order within a bucket) */
     int64_t nkeys, cap_keys;
     uint32_t *bucket;         /* the bucket of each entry, in insertion order */
     int64_t cap_bucket;
     int32_t *start;           /* buckets + 1: where each bucket's boxes start in keys */
     int64_t cap_start;
-    int32_t *cell0;           /* 3 per box of B: its lowest cell */
-    int64_t cap_cell0;
     int64_t *pairs;           /* (a << 32 | b) of the last query, sorted, unique */
     int64_t npairs, cap_pairs;
 } defsim__hash;

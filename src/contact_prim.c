@@ -447,42 +447,27 @@ double defsim__ee_mollifier(const double a0[3], const double a1[3], const double
 /* ------------------------------------------------------------------------------------------ */
 /* Additive CCD */
 
-typedef double (*dist2_fn)(const double *x);
-
-static double pt_d2(const double *x)
+/* The squared distance of a packed pair for CCD (no derivatives, no copy). */
+static double ccd_dist2(defsim__ccd_pair pair, const double *x)
 {
-    return defsim__pt_dist2(x, x + 3, x + 6, x + 9, NULL, NULL, NULL);
+    defsim__dtype type;
+    int nodes[4];
+    double d2;
+    if (pair == DEFSIM__CCD_PT) {
+        pt_region(x, &type, nodes, &d2);
+        return d2 >= 0.0 ? d2 : f_plane(x, 12, 0, 1, 2, 1, 3, 1, NULL, NULL);
+    }
+    if (pair == DEFSIM__CCD_EE) {
+        ee_region(x, &type, nodes, &d2);
+        return d2 >= 0.0 ? d2 : f_plane(x, 12, 0, 2, 1, 0, 3, 2, NULL, NULL);
+    }
+    int which;
+    return point_segment(x, x + 3, x + 6, &which);
 }
 
-static double ee_d2(const double *x)
+double defsim__ccd_speed(defsim__ccd_pair pair, const double dx[12])
 {
-    return defsim__ee_dist2(x, x + 3, x + 6, x + 9, NULL, NULL, NULL);
-}
-
-/* x holds p, e0, e1 and a copy of e1 (accd's four vertices). */
-static double pe_d2(const double *x)
-{
-    return defsim__pe_dist2(x, x + 3, x + 6, NULL, NULL, NULL);
-}
-
-/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]),
- * first: how many of the four vertices form the first primitive (1 for PT, 2 for EE).
- *
- * The closest points move with a relative velocity that is a convex combination of the vertex
- * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
- * constant lp = max |dx_a - dx_b|: no larger than ACCD's bound (the largest displacement on each
- * side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each advance is
- * ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below the gap
- * s d(0), the crossing inside that advance (which is collision-free as a whole) is bracketed and
- * halved REFINE times, and the last time found at or above the gap is returned: the result is
- * then within 2^-REFINE of one advance of where d first reaches the gap at a checked time,
- * where ACCD stops one whole advance short of it. */
-enum { REFINE = 12 };
-#define ETA 0.9
-
-static double accd(dist2_fn dist2, int first, const double x0[12], const double dx[12],
-                   double s, double tmax, int max_iterations)
-{
+    const int first = pair == DEFSIM__CCD_EE ? 2 : 1;
     double lp = 0.0;
     for (int a = 0; a < first; ++a)
         for (int b = first; b < 4; ++b) {
@@ -491,25 +476,45 @@ static double accd(dist2_fn dist2, int first, const double x0[12], const double 
             const double l = dot3(r, r);
             lp = l > lp ? l : lp;
         }
-    lp = sqrt(lp);
+    return sqrt(lp);
+}
+
+/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]), one
+ * loop for the three kinds of pair.
+ *
+ * The closest points move with a relative velocity that is a convex combination of the vertex
+ * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
+ * constant lp = max |dx_a - dx_b| (defsim__ccd_speed): no larger than ACCD's bound (the largest
+ * displacement on each side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each
+ * advance is ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below
+ * the gap s d(0), the crossing inside that advance (which is collision-free as a whole) is
+ * bracketed and halved REFINE times, and the last time found at or above the gap is returned:
+ * the result is then within 2^-REFINE of one advance of where d first reaches the gap at a
+ * checked time, where ACCD stops one whole advance short of it. */
+enum { REFINE = 12 };
+#define ETA 0.9
+
+double defsim__accd(defsim__ccd_pair pair, const double x0[12], const double dx[12], double d0,
+                    double lp, double s, double tmax, int max_iterations)
+{
     if (!(lp > 0.0)) return tmax;
+    if (!(d0 > 0.0)) return 0.0;
     double x[12];
-    double d = sqrt(dist2(x0));
-    if (!(d > 0.0)) return 0.0;
+    double d = d0;
     const double gap = s * d;
     double t = 0.0;
     for (int it = 0; it < max_iterations; ++it) {
         const double tl = ETA * d / lp;
         if (t + tl >= tmax) return tmax;
         for (int k = 0; k < 12; ++k) x[k] = x0[k] + (t + tl) * dx[k];
-        const double dn = sqrt(dist2(x));
+        const double dn = sqrt(ccd_dist2(pair, x));
         if (dn < gap) {
             /* d(t) >= gap > d(t + tl): bisect, keeping lo at or above the gap */
             double lo = t, hi = t + tl;
             for (int r = 0; r < REFINE; ++r) {
                 const double mid = 0.5 * (lo + hi);
                 for (int k = 0; k < 12; ++k) x[k] = x0[k] + mid * dx[k];
-                if (sqrt(dist2(x)) >= gap) lo = mid;
+                if (sqrt(ccd_dist2(pair, x)) >= gap) lo = mid;
                 else hi = mid;
             }
             return lo;
@@ -520,16 +525,24 @@ static double accd(dist2_fn dist2, int first, const double x0[12], const double 
     return t;
 }
 
+static double accd_of(defsim__ccd_pair pair, const double x[12], const double dx[12], double s,
+                      double tmax, int max_iterations)
+{
+    const double lp = defsim__ccd_speed(pair, dx);
+    if (!(lp > 0.0)) return tmax;
+    return defsim__accd(pair, x, dx, sqrt(ccd_dist2(pair, x)), lp, s, tmax, max_iterations);
+}
+
 double defsim__pt_accd(const double x[12], const double dx[12], double s, double tmax,
                        int max_iterations)
 {
-    return accd(pt_d2, 1, x, dx, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_PT, x, dx, s, tmax, max_iterations);
 }
 
 double defsim__ee_accd(const double x[12], const double dx[12], double s, double tmax,
                        int max_iterations)
 {
-    return accd(ee_d2, 2, x, dx, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_EE, x, dx, s, tmax, max_iterations);
 }
 
 double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
@@ -542,5 +555,5 @@ double defsim__pe_accd(const double x[9], const double dx[9], double s, double t
     memcpy(d4, dx, 9 * sizeof *dx);
     memcpy(x4 + 9, x + 6, 3 * sizeof *x);
     memcpy(d4 + 9, dx + 6, 3 * sizeof *dx);
-    return accd(pe_d2, 1, x4, d4, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_PE, x4, d4, s, tmax, max_iterations);
 }

@@ -300,8 +300,21 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
         rb += sqrt(lb2);
     }
     const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
-    /* first the distance of the primitives' bounding spheres (about their centroids), a lower
-     * bound of theirs that removes most neighbours in a surface without the exact distance */
+    /* Lower bounds of the distance before the closest features: first the distance of the lines
+     * (edge-edge) or of the point to the triangle's plane (no square root) */
+    if (kind != DEFSIM__BC_PE) {
+        const int ee = kind == DEFSIM__BC_EE;
+        const double *p0 = ee ? X : X + 3, *p1 = ee ? X + 3 : X + 6, *q0 = ee ? X + 6 : X + 3;
+        const double u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        const double w[3] = {X[9] - q0[0], X[10] - q0[1], X[11] - q0[2]};
+        const double rr[3] = {X[0] - q0[0], X[1] - q0[1], X[2] - q0[2]};
+        const double nv[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                              u[0] * w[1] - u[1] * w[0]};
+        const double nn = dot3(nv, nv), rn = dot3(rr, nv);
+        if (nn > 0.0 && rn * rn >= reach * reach * nn * (1.0 + 1e-9)) return;
+    }
+    /* then the distance of the primitives' bounding spheres (about their centroids), another
+     * lower bound */
     double c[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}, rad2[2] = {0.0, 0.0};
     for (int i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k) c[i >= first][k] += X[3 * i + k];

@@ -110,9 +110,11 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
             origin[a] = dmin(origin[a], lo_b[3 * b + a]);
             far[a] = dmax(far[a], hi_b[3 * b + a]);
         }
-    /* Cells: with the automatic size, each axis's the mean extent of B's boxes along it (at
-     * least a quarter of the largest such mean), so that flat boxes, as a surface's primitives
-     * near an axis plane, are not stacked in one layer of cubic cells. Coarsened, doubling, until
+    /* Cells: with the automatic size, each axis's 1.4 times the mean extent of B's boxes along
+     * it (at least a quarter of the largest such mean), so that flat boxes, as a surface's
+     * primitives near an axis plane, are not stacked in one layer of cubic cells (1.4: fewer
+     * cells per box than at 1, for 20 % less time on the fold's edges, measured at 0.7, 1 and
+     * 1.4). Coarsened, doubling, until
      * the boxes of B overlap at most 8 cells each on average (a few long boxes must not make the
      * hash quadratic). */
     double extent = 0.0;
@@ -124,7 +126,7 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
             for (int a = 0; a < 3; ++a) m[a] += (hi_b[3 * b + a] - lo_b[3 * b + a]) / nb;
         for (int a = 0; a < 3; ++a) mmax = dmax(mmax, m[a]);
         if (!(mmax > 0.0)) mmax = extent > 0.0 ? extent : 1.0;
-        for (int a = 0; a < 3; ++a) size[a] = dmax(m[a], 0.25 * mmax);
+        for (int a = 0; a < 3; ++a) size[a] = 1.4 * dmax(m[a], 0.25 * mmax);
     }
     double inv[3];
     int64_t n = 0;
@@ -180,8 +182,8 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
     /* Query A. A pair is reported from one cell only, the one holding the larger of the two
      * boxes' lower corners (it lies in both boxes, so both visit it; cells are monotone in the
      * coordinates, so it is the larger of their lowest cells); a box that two of its cells put
-     * twice in one bucket is found twice there, which the per-box sort removes. With self, a
-     * bucket's entries (in box order) before the first b > a are skipped by bisection. */
+     * twice in one bucket is found twice there, which the per-box sort removes. A bucket is read
+     * from its end, so that with self its entries (in box order) up to b = a are never read. */
     for (int32_t a = 0; a < na; ++a) {
         int32_t r[3][2];
         const double *la = lo_a + 3 * a, *ha = hi_a + 3 * a;
@@ -191,48 +193,43 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
             if (r[ax][0] > top[ax]) r[ax][0] = top[ax] + 1;
             if (r[ax][1] > top[ax]) r[ax][1] = top[ax];
         }
-        /* room for every entry this box can visit, so that the sweep needs no check */
-        int64_t most = 0;
-        for (int32_t i = r[0][0]; i <= r[0][1]; ++i)
-            for (int32_t j = r[1][0]; j <= r[1][1]; ++j)
-                for (int32_t k = r[2][0]; k <= r[2][1]; ++k) {
-                    const uint32_t bk = key_of(i, j, k) & mask;
-                    most += start[bk + 1] - start[bk];
-                }
-        if (!reserve((void **)&h->pairs, &h->cap_pairs, h->npairs + most, sizeof *h->pairs))
-            return DEFSIM_ERR_OUT_OF_MEMORY;
-        int64_t *pairs = h->pairs;
         const int64_t first = h->npairs;
         int64_t np = first;
         for (int32_t i = r[0][0]; i <= r[0][1]; ++i)
             for (int32_t j = r[1][0]; j <= r[1][1]; ++j)
                 for (int32_t k = r[2][0]; k <= r[2][1]; ++k) {
                     const uint32_t bk = key_of(i, j, k) & mask;
-                    int32_t m = start[bk];
-                    const int32_t end = start[bk + 1];
-                    if (self) {   /* the first entry with b > a */
-                        int32_t hi = end;
-                        while (m < hi) {
-                            const int32_t mid = m + (hi - m) / 2;
-                            if (ent[mid].b <= a) m = mid + 1;
-                            else hi = mid;
-                        }
-                    }
+                    /* room for every entry of the bucket, so that the sweep needs no check */
+                    if (np + (start[bk + 1] - start[bk]) > h->cap_pairs &&
+                        !reserve((void **)&h->pairs, &h->cap_pairs, np + start[bk + 1] - start[bk],
+                                 sizeof *h->pairs))
+                        return DEFSIM_ERR_OUT_OF_MEMORY;
+                    int64_t *pairs = h->pairs;
+                    const int32_t beg = start[bk];
                     /* the reporting cell, axis by axis: the entry's lowest cell where it
                      * exceeds a's, a's own otherwise */
                     const int ei = i == a0[0], ej = j == a0[1], ek = k == a0[2];
-                    for (; m < end; ++m) {
+                    const int64_t run = np;
+                    /* from the bucket's end: with self, down to the first b <= a */
+                    for (int32_t m = start[bk + 1] - 1; m >= beg; --m) {
                         const defsim__hash_entry *en = ent + m;
+                        const int32_t b = en->b;
+                        if (self && b <= a) break;
                         if ((ei ? en->c0[0] > i : en->c0[0] != i) ||
                             (ej ? en->c0[1] > j : en->c0[1] != j) ||
                             (ek ? en->c0[2] > k : en->c0[2] != k))
                             continue;
-                        const int32_t b = en->b;
                         if (!overlap(la, ha, lo_b + 3 * b, hi_b + 3 * b)) continue;
                         pairs[np++] = (int64_t)a << 32 | b;
                     }
+                    for (int64_t p = run, q = np - 1; p < q; ++p, --q) {   /* ascending */
+                        const int64_t t = pairs[p];
+                        pairs[p] = pairs[q];
+                        pairs[q] = t;
+                    }
                 }
         /* a's pairs in b order, unique (a few: insertion sort) */
+        int64_t *pairs = h->pairs;
         for (int64_t m = first + 1; m < np; ++m) {
             const int64_t v = pairs[m];
             int64_t q = m;

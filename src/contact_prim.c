@@ -271,31 +271,6 @@ static double eval_region(const double *X, int n, defsim__dtype type, const int 
     }
 }
 
-int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
-{
-    const int m = pt_region(x, type, nodes, d2);
-    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 1, 2, 1, 3, 1, NULL, NULL);
-    return m;
-}
-
-double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
-                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
-{
-    double X[12];
-    memcpy(X, p, 3 * sizeof *X);
-    memcpy(X + 3, t0, 3 * sizeof *X);
-    memcpy(X + 6, t1, 3 * sizeof *X);
-    memcpy(X + 9, t2, 3 * sizeof *X);
-    clear(g, H, 12);
-    defsim__dtype tt;
-    if (!type) type = &tt;
-    int nodes[4];
-    double d2;
-    pt_region(X, type, nodes, &d2);
-    if (d2 >= 0.0 && !g && !H) return d2;
-    return eval_region(X, 12, *type, nodes, g, H);
-}
-
 /* The closest features of segments (a0, a1) and (b0, b1) in X: as pt_region. */
 static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double *d2)
 {
@@ -345,29 +320,57 @@ static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double 
     return 2;
 }
 
-int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+/* A region function of four vertices (pt_region, ee_region). */
+typedef int (*region_fn)(const double *X, defsim__dtype *type, int nodes[4], double *d2);
+
+/* The closest features of four packed vertices by `region`, with the interior's distance. */
+static int closest4(region_fn region, const double *x, double *d2, defsim__dtype *type,
+                    int nodes[4])
 {
-    const int m = ee_region(x, type, nodes, d2);
-    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 2, 1, 0, 3, 2, NULL, NULL);
+    const int m = region(x, type, nodes, d2);
+    if (*d2 < 0.0) *d2 = eval_region(x, 12, *type, nodes, NULL, NULL);
     return m;
 }
 
-double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
-                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+/* The squared distance of four vertices (and its derivatives) by `region`. */
+static double dist2_4(region_fn region, const double *v0, const double *v1, const double *v2,
+                      const double *v3, double *g, double *H, defsim__dtype *type)
 {
     double X[12];
-    memcpy(X, a0, 3 * sizeof *X);
-    memcpy(X + 3, a1, 3 * sizeof *X);
-    memcpy(X + 6, b0, 3 * sizeof *X);
-    memcpy(X + 9, b1, 3 * sizeof *X);
+    memcpy(X, v0, 3 * sizeof *X);
+    memcpy(X + 3, v1, 3 * sizeof *X);
+    memcpy(X + 6, v2, 3 * sizeof *X);
+    memcpy(X + 9, v3, 3 * sizeof *X);
     clear(g, H, 12);
     defsim__dtype tt;
     if (!type) type = &tt;
     int nodes[4];
     double d2;
-    ee_region(X, type, nodes, &d2);
+    region(X, type, nodes, &d2);
     if (d2 >= 0.0 && !g && !H) return d2;
     return eval_region(X, 12, *type, nodes, g, H);
+}
+
+int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    return closest4(pt_region, x, d2, type, nodes);
+}
+
+double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
+                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
+{
+    return dist2_4(pt_region, p, t0, t1, t2, g, H, type);
+}
+
+int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    return closest4(ee_region, x, d2, type, nodes);
+}
+
+double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
+                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+{
+    return dist2_4(ee_region, a0, a1, b0, b1, g, H, type);
 }
 
 int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4])
@@ -453,16 +456,10 @@ static double ccd_dist2(defsim__ccd_pair pair, const double *x)
     defsim__dtype type;
     int nodes[4];
     double d2;
-    if (pair == DEFSIM__CCD_PT) {
-        pt_region(x, &type, nodes, &d2);
-        return d2 >= 0.0 ? d2 : f_plane(x, 12, 0, 1, 2, 1, 3, 1, NULL, NULL);
-    }
-    if (pair == DEFSIM__CCD_EE) {
-        ee_region(x, &type, nodes, &d2);
-        return d2 >= 0.0 ? d2 : f_plane(x, 12, 0, 2, 1, 0, 3, 2, NULL, NULL);
-    }
-    int which;
-    return point_segment(x, x + 3, x + 6, &which);
+    if (pair == DEFSIM__CCD_PE) return point_segment(x, x + 3, x + 6, &nodes[0]);
+    if (pair == DEFSIM__CCD_PT) closest4(pt_region, x, &d2, &type, nodes);
+    else closest4(ee_region, x, &d2, &type, nodes);
+    return d2;
 }
 
 double defsim__ccd_speed(defsim__ccd_pair pair, const double dx[12])

@@ -37,8 +37,8 @@ void defsim__hash_free(defsim__hash *h);
 /* Pairs (a, b) of overlapping closed boxes, a from set A (na boxes) and b from set B (nb boxes;
  * lo and hi are 3 doubles per box), each reported once. With self != 0, A and B must be the same set and only
  * pairs a < b are reported. cell (m) is the hash's cell size: about the size of a typical box
- * (coarsened, doubling, while B's boxes overlap more than 8 cells each on average; 0 for the
- * mean size of B's boxes). The pairs land in h->pairs (sorted, unique), each
+ * (coarsened, doubling, while B's boxes overlap more than 8 cells each on average; 0: per axis,
+ * 1.4 times the mean extent of B's boxes along it, at least a quarter of the largest such). The pairs land in h->pairs (sorted, unique), each
  * packed as ((int64_t)a << 32) | b. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. */
 defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const double *hi_a,
                                  int32_t na, const double *lo_b, const double *hi_b, int32_t nb,

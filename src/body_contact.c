@@ -27,8 +27,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* CCD: no pair comes closer than this fraction of its distance in one line-search step. */
-#define BC_CCD_FRACTION 0.2
+/* CCD: no pair comes closer than this fraction of its distance in one line-search step, nor
+ * than BC_CCD_NEAR of its distance or of dhat, whichever is less (ccd_fraction). */
+#define BC_CCD_FRACTION 0.1
+#define BC_CCD_NEAR 0.2
 #define BC_CCD_ITERATIONS 5000
 /* Room around each vertex's box when candidates are built (times dhat): Newton updates smaller
  * than this reuse them. */
@@ -37,6 +39,10 @@ static double dot3(const double a[3], const double b[3])
 {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
+
+/* min and max without libm's calls (NaN: either operand) */
+static double dmin(double a, double b) { return b < a ? b : a; }
+static double dmax(double a, double b) { return b > a ? b : a; }
 
 static int grow(void **p, int64_t *cap, int64_t need, size_t elem)
 {
@@ -263,19 +269,19 @@ static double dist2(uint8_t kind, const double *X, double *g, double *H);
  * (adjacent), all its vertices are pinned or it cannot come within dhat inside the boxes. */
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
 {
+    int32_t idx[4];
+    const int n = nodes(bc, kind, a, b, idx);
+    /* neighbours in a surface first: the most common rejection, and the cheapest */
+    for (int i = 1; i < n; ++i)
+        for (int j = 0; j < i; ++j)
+            if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     int32_t ba, bb;
     if (kind == DEFSIM__BC_PT) ba = bc->vert_body[a], bb = bc->face_body[b];
     else if (kind == DEFSIM__BC_EE) ba = bc->edge_body[a], bb = bc->edge_body[b];
     else ba = bc->vert_body[a], bb = bc->edge_body[b];
     if (filtered(bc, ba, bb)) return;
-    int32_t idx[4];
-    const int n = nodes(bc, kind, a, b, idx);
     int free_node = 0;
-    for (int i = 0; i < n; ++i) {
-        free_node |= !bc->pinned[idx[i]];
-        for (int j = 0; j < i; ++j)
-            if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
-    }
+    for (int i = 0; i < n; ++i) free_node |= !bc->pinned[idx[i]];
     if (!free_node) return;
     /* Boxes that overlap may still be too far apart to meet: while every vertex stays in its box
      * (within |dx_i| + sqrt(3) r of x_i), the pair's distance stays above its distance at x less
@@ -283,18 +289,36 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
     const double r = sqrt(3.0) * BC_BOX_SLACK * bc->dhat;
     double X[12], ra = r, rb = r;
     const int first = kind == DEFSIM__BC_EE ? 2 : 1;
+    double la2 = 0.0, lb2 = 0.0;
     for (int i = 0; i < n; ++i) {
         const int64_t v = 3 * (int64_t)idx[i];
         memcpy(X + 3 * i, bc->bx + v, 3 * sizeof(double));
         if (!bc->bdx) continue;
-        const double l = r + sqrt(dot3(bc->bdx + v, bc->bdx + v));
-        if (i < first) ra = fmax(ra, l);
-        else rb = fmax(rb, l);
+        const double l2 = dot3(bc->bdx + v, bc->bdx + v);
+        if (i < first) la2 = l2 > la2 ? l2 : la2;
+        else lb2 = l2 > lb2 ? l2 : lb2;
+    }
+    if (bc->bdx) {
+        ra += sqrt(la2);
+        rb += sqrt(lb2);
     }
     const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
-    /* first the distance of the primitives' bounding spheres (about their centroids), a lower
-     * bound of theirs that removes most neighbours in a surface without the exact distance */
-    double c[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}, rad[2] = {0.0, 0.0};
+    /* Lower bounds of the distance before the closest features: first the distance of the lines
+     * (edge-edge) or of the point to the triangle's plane (no square root) */
+    if (kind != DEFSIM__BC_PE) {
+        const int ee = kind == DEFSIM__BC_EE;
+        const double *p0 = ee ? X : X + 3, *p1 = ee ? X + 3 : X + 6, *q0 = ee ? X + 6 : X + 3;
+        const double u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        const double w[3] = {X[9] - q0[0], X[10] - q0[1], X[11] - q0[2]};
+        const double rr[3] = {X[0] - q0[0], X[1] - q0[1], X[2] - q0[2]};
+        const double nv[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                              u[0] * w[1] - u[1] * w[0]};
+        const double nn = dot3(nv, nv), rn = dot3(rr, nv);
+        if (nn > 0.0 && rn * rn >= reach * reach * nn * (1.0 + 1e-9)) return;
+    }
+    /* then the distance of the primitives' bounding spheres (about their centroids), another
+     * lower bound */
+    double c[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}, rad2[2] = {0.0, 0.0};
     for (int i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k) c[i >= first][k] += X[3 * i + k];
     for (int k = 0; k < 3; ++k) {
@@ -304,10 +328,13 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
     for (int i = 0; i < n; ++i) {
         const double *ci = c[i >= first];
         const double u[3] = {X[3 * i] - ci[0], X[3 * i + 1] - ci[1], X[3 * i + 2] - ci[2]};
-        rad[i >= first] = fmax(rad[i >= first], sqrt(dot3(u, u)));
+        const double u2 = dot3(u, u);
+        rad2[i >= first] = u2 > rad2[i >= first] ? u2 : rad2[i >= first];
     }
+    /* |cc| - rad0 - rad1 >= reach, with one square root per side */
     const double cc[3] = {c[0][0] - c[1][0], c[0][1] - c[1][1], c[0][2] - c[1][2]};
-    if (sqrt(dot3(cc, cc)) - rad[0] - rad[1] >= reach * (1.0 + 1e-9)) return;
+    const double sep = (reach * (1.0 + 1e-9) + sqrt(rad2[0]) + sqrt(rad2[1])) * (1.0 + 1e-12);
+    if (dot3(cc, cc) >= sep * sep) return;
     if (dist2(kind, X, NULL, NULL) >= reach * reach) return;
     int64_t cap = bc->cap_pair;
     if (bc->npair == cap) {
@@ -337,8 +364,8 @@ static void prim_box(const defsim__body_contact *bc, const int32_t *v, int n, do
     }
     for (int i = 1; i < n; ++i)
         for (int k = 0; k < 3; ++k) {
-            lo[k] = fmin(lo[k], bc->vlo[3 * (int64_t)v[i] + k]);
-            hi[k] = fmax(hi[k], bc->vhi[3 * (int64_t)v[i] + k]);
+            lo[k] = dmin(lo[k], bc->vlo[3 * (int64_t)v[i] + k]);
+            hi[k] = dmax(hi[k], bc->vhi[3 * (int64_t)v[i] + k]);
         }
     for (int k = 0; k < 3; ++k) {
         lo[k] -= r;
@@ -398,8 +425,8 @@ static void broad(defsim__body_contact *bc)
     for (int64_t i = 0; i < nvb; ++i) {
         const int32_t b = bc->vert_body[i];
         for (int k = 0; k < 3; ++k) {
-            bc->blo[3 * (int64_t)b + k] = fmin(bc->blo[3 * (int64_t)b + k], vlo[3 * i + k]);
-            bc->bhi[3 * (int64_t)b + k] = fmax(bc->bhi[3 * (int64_t)b + k], vhi[3 * i + k]);
+            bc->blo[3 * (int64_t)b + k] = dmin(bc->blo[3 * (int64_t)b + k], vlo[3 * i + k]);
+            bc->bhi[3 * (int64_t)b + k] = dmax(bc->bhi[3 * (int64_t)b + k], vhi[3 * i + k]);
         }
     }
     for (int32_t b = 0; b < nb; ++b) {
@@ -482,8 +509,8 @@ static void ensure(defsim__body_contact *bc, const double *x, const double *dx)
         const int64_t i = 3 * (int64_t)bc->vert[k];
         for (int c = 0; c < 3; ++c) {
             const double a = x[i + c], b = dx ? a + dx[i + c] : a;
-            bc->vlo[i + c] = fmin(a, b) - r;
-            bc->vhi[i + c] = fmax(a, b) + r;
+            bc->vlo[i + c] = dmin(a, b) - r;
+            bc->vhi[i + c] = dmax(a, b) + r;
         }
     }
     bc->bx = x;
@@ -975,7 +1002,19 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
 /* ------------------------------------------------------------------------------------------ */
 /* CCD and the feasible start */
 
-/* Largest t in [0, tmax] along x + t dx that keeps candidate q at least BC_CCD_FRACTION of its
+/* The gap that CCD keeps for a pair at distance d at x: a tenth of d, as IPC Toolkit's additive
+ * CCD (conservative_rescaling 0.9), and at least a fifth of d or of dhat where the barrier acts
+ * (d below 2 dhat), so that a line search's first trial does not push pairs that already repel
+ * deep into the barrier (which costs Newton iterations). As a fraction of d, in [0.1, 0.2];
+ * continuous in d. */
+static double ccd_fraction(const defsim__body_contact *bc, double d)
+{
+    const double near = BC_CCD_NEAR * (d < bc->dhat ? d : bc->dhat);
+    const double far = BC_CCD_FRACTION * d;
+    return (near > far ? near : far) / d;
+}
+
+/* Largest t in [0, tmax] along x + t dx that keeps candidate q at least ccd_fraction of its
  * distance at x; 0 if it starts at distance 0. */
 static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *x,
                        const double *dx, double tmax)
@@ -983,29 +1022,24 @@ static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *
     int32_t idx[4];
     const uint8_t kind = bc->kind[q];
     const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
+    if (n == 3) idx[3] = idx[2];   /* point-edge: the edge's end again */
     double X[12], D[12];
-    gather(x, idx, n, X);
-    gather(dx, idx, n, D);
-    /* A bound on the relative motion: the largest displacement on each side. */
-    const int first = kind == DEFSIM__BC_EE ? 2 : 1;
-    double la = 0.0, lb = 0.0;
-    for (int i = 0; i < n; ++i) {
-        const double l = sqrt(dot3(D + 3 * i, D + 3 * i));
-        if (i < first) la = fmax(la, l);
-        else lb = fmax(lb, l);
-    }
-    if (la + lb == 0.0) return tmax;
+    gather(x, idx, 4, X);
+    gather(dx, idx, 4, D);
+    const defsim__ccd_pair pair = kind == DEFSIM__BC_PT   ? DEFSIM__CCD_PT
+                                  : kind == DEFSIM__BC_EE ? DEFSIM__CCD_EE
+                                                          : DEFSIM__CCD_PE;
+    /* A bound on the relative motion (the distance is Lipschitz in t with it) */
+    const double lp = defsim__ccd_speed(pair, D);
+    if (!(lp > 0.0)) return tmax;
     const double d = sqrt(dist2(kind, X, NULL, NULL));
     if (!(d > 0.0)) return 0.0;
-    if ((la + lb) * tmax <= (1.0 - BC_CCD_FRACTION) * d) return tmax;
+    const double s = ccd_fraction(bc, d);
+    if (lp * tmax <= (1.0 - s) * d) return tmax;
     /* A pair that cannot come within dhat on the segment cannot cross, and limiting the step
      * for it would make the result depend on which far pairs the broad phase kept. */
-    if (d - (la + lb) * tmax >= bc->dhat) return tmax;
-    if (kind == DEFSIM__BC_PT)
-        return defsim__pt_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
-    if (kind == DEFSIM__BC_EE)
-        return defsim__ee_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
-    return defsim__pe_accd(X, D, BC_CCD_FRACTION, tmax, BC_CCD_ITERATIONS);
+    if (d - lp * tmax >= bc->dhat) return tmax;
+    return defsim__accd(pair, X, D, d, lp, s, tmax, BC_CCD_ITERATIONS);
 }
 
 /* The largest step along dx from x over the candidates of the swept boxes (built unless the

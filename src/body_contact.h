@@ -167,8 +167,9 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
 void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
                                   const int32_t *idx, int n, const double *H, double k, int upper,
                                   const int64_t *cp, double *values);
-/* Largest alpha in (0, 1] such that no primitive pair comes closer than 0.2 times its distance
- * at x along x + t dx, t <= alpha (additive CCD over the candidates of the swept boxes, which it
+/* Largest alpha in (0, 1] such that no primitive pair comes closer than a gap along x + t dx,
+ * t <= alpha: 0.1 times its distance d at x (IPC Toolkit's additive CCD), and 0.2 times d or
+ * dhat, whichever is less, if that is more (pairs within 2 dhat, where the barrier acts) (additive CCD over the candidates of the swept boxes, which it
  * builds when the current ones do not cover the segment); 0 when x is not feasible. Builds the
  * constraint set at x + alpha dx (the line search's first trial) and queues its pattern pairs. */
 double defsim__body_contact_max_step(defsim__body_contact *bc, const double *x, const double *dx);

@@ -18,7 +18,6 @@ void defsim__hash_free(defsim__hash *h)
     free(h->keys);
     free(h->bucket);
     free(h->start);
-    free(h->cell0);
     free(h->pairs);
     memset(h, 0, sizeof *h);
 }
@@ -41,14 +40,18 @@ static int cmp_i64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+static double dmin(double a, double b) { return b < a ? b : a; }
+static double dmax(double a, double b) { return b > a ? b : a; }
+
 /* Cell coordinates are clamped to 21 bits per axis (2M cells): the key of (i, j, k) fits in 63
- * bits, and boxes beyond the clamped range share the border cells (correct, only slower). */
-static int64_t cell_of(double v, double origin, double inv)
+ * bits, and boxes beyond the clamped range share the border cells (correct, only slower). The
+ * test is written so that NaN lands in cell 0; truncation is floor for the positive values left. */
+static int32_t cell_of(double v, double origin, double inv)
 {
-    double c = floor((v - origin) * inv);
-    if (c < 0) c = 0;
-    if (c > 2097151) c = 2097151;
-    return (int64_t)c;
+    const double c = (v - origin) * inv;
+    if (!(c > 0.0)) return 0;
+    if (c >= 2097151.0) return 2097151;
+    return (int32_t)c;
 }
 
 static uint32_t key_of(int64_t i, int64_t j, int64_t k)
@@ -68,24 +71,29 @@ static int overlap(const double *lo_a, const double *hi_a, const double *lo_b, c
 }
 
 /* The cell range of a box along each axis. */
-static void range(const double *lo, const double *hi, const double *origin, double inv,
-                  int64_t r[3][2])
+static void range(const double *lo, const double *hi, const double *origin, const double *inv,
+                  int32_t r[3][2])
 {
     for (int a = 0; a < 3; ++a) {
-        r[a][0] = cell_of(lo[a], origin[a], inv);
-        r[a][1] = cell_of(hi[a], origin[a], inv);
+        r[a][0] = cell_of(lo[a], origin[a], inv[a]);
+        r[a][1] = cell_of(hi[a], origin[a], inv[a]);
     }
 }
 
-/* Cells that the boxes of B overlap in all, with cell size 1 / inv. */
+static int64_t cells_in(const int32_t r[3][2])
+{
+    return (int64_t)(r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+}
+
+/* Cells that the boxes of B overlap in all, with cell sizes 1 / inv. */
 static int64_t count_cells(const double *lo_b, const double *hi_b, int32_t nb,
-                           const double *origin, double inv)
+                           const double *origin, const double *inv)
 {
     int64_t n = 0;
     for (int32_t b = 0; b < nb; ++b) {
-        int64_t r[3][2];
+        int32_t r[3][2];
         range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
-        n += (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
+        n += cells_in(r);
     }
     return n;
 }
@@ -99,48 +107,60 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
     double origin[3] = {INFINITY, INFINITY, INFINITY}, far[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int32_t b = 0; b < nb; ++b)
         for (int a = 0; a < 3; ++a) {
-            origin[a] = fmin(origin[a], lo_b[3 * b + a]);
-            far[a] = fmax(far[a], hi_b[3 * b + a]);
+            origin[a] = dmin(origin[a], lo_b[3 * b + a]);
+            far[a] = dmax(far[a], hi_b[3 * b + a]);
         }
-    /* Coarsen the cells until the boxes of B overlap at most 8 cells each on average (a few
-     * long boxes must not make the hash quadratic). */
+    /* Cells: with the automatic size, each axis's 1.4 times the mean extent of B's boxes along
+     * it (at least a quarter of the largest such mean), so that flat boxes, as a surface's
+     * primitives near an axis plane, are not stacked in one layer of cubic cells (1.4: fewer
+     * cells per box than at 1, for 20 % less time on the fold's edges, measured at 0.7, 1 and
+     * 1.4). Coarsened, doubling, until
+     * the boxes of B overlap at most 8 cells each on average (a few long boxes must not make the
+     * hash quadratic). */
     double extent = 0.0;
-    for (int a = 0; a < 3; ++a) extent = fmax(extent, far[a] - origin[a]);
-    if (!(cell > 0.0) || !isfinite(cell)) {   /* automatic: the mean box size */
-        cell = 0.0;
+    for (int a = 0; a < 3; ++a) extent = dmax(extent, far[a] - origin[a]);
+    double size[3] = {cell, cell, cell};
+    if (!(cell > 0.0) || !isfinite(cell)) {   /* automatic */
+        double m[3] = {0.0, 0.0, 0.0}, mmax = 0.0;
         for (int32_t b = 0; b < nb; ++b)
-            for (int a = 0; a < 3; ++a) cell += (hi_b[3 * b + a] - lo_b[3 * b + a]) / (3.0 * nb);
-        if (!(cell > 0.0)) cell = extent > 0.0 ? extent : 1.0;
+            for (int a = 0; a < 3; ++a) m[a] += (hi_b[3 * b + a] - lo_b[3 * b + a]) / nb;
+        for (int a = 0; a < 3; ++a) mmax = dmax(mmax, m[a]);
+        if (!(mmax > 0.0)) mmax = extent > 0.0 ? extent : 1.0;
+        for (int a = 0; a < 3; ++a) size[a] = 1.4 * dmax(m[a], 0.25 * mmax);
     }
+    double inv[3];
     int64_t n = 0;
-    while ((n = count_cells(lo_b, hi_b, nb, origin, 1.0 / cell)) > 8 * (int64_t)nb &&
-           cell < extent)
-        cell *= 2.0;
-    const double inv = 1.0 / cell;
-    int64_t top[3];
-    for (int a = 0; a < 3; ++a) top[a] = cell_of(far[a], origin[a], inv);
+    for (;;) {
+        for (int a = 0; a < 3; ++a) inv[a] = 1.0 / size[a];
+        n = count_cells(lo_b, hi_b, nb, origin, inv);
+        if (n <= 8 * (int64_t)nb || !(size[0] < extent || size[1] < extent || size[2] < extent))
+            break;
+        for (int a = 0; a < 3; ++a) size[a] *= 2.0;
+    }
+    int32_t top[3];
+    for (int a = 0; a < 3; ++a) top[a] = cell_of(far[a], origin[a], inv[a]);
     /* Buckets: a power of two at least the (box, cell) entries; a counting sort by bucket, in
-     * box order within each. Each box of B keeps its lowest cell (the reporting rule below). */
+     * box order within each. Each entry carries its box's lowest cell (the reporting rule
+     * below), so that a bucket is read in one sweep. */
     if (n > INT32_MAX / 2) return DEFSIM_ERR_OUT_OF_MEMORY;   /* int32 bucket offsets */
     int64_t nbk = 1;
     while (nbk < n) nbk *= 2;
     const uint32_t mask = (uint32_t)(nbk - 1);
     if (!reserve((void **)&h->keys, &h->cap_keys, n, sizeof *h->keys) ||
         !reserve((void **)&h->bucket, &h->cap_bucket, n, sizeof *h->bucket) ||
-        !reserve((void **)&h->start, &h->cap_start, nbk + 1, sizeof *h->start) ||
-        !reserve((void **)&h->cell0, &h->cap_cell0, 3 * (int64_t)nb, sizeof *h->cell0))
+        !reserve((void **)&h->start, &h->cap_start, nbk + 1, sizeof *h->start))
         return DEFSIM_ERR_OUT_OF_MEMORY;
-    int32_t *start = h->start, *cell0 = h->cell0;
+    int32_t *start = h->start;
     uint32_t *bucket = h->bucket;
+    defsim__hash_entry *ent = h->keys;
     memset(start, 0, (size_t)(nbk + 1) * sizeof *start);
     int64_t e = 0;
     for (int32_t b = 0; b < nb; ++b) {
-        int64_t r[3][2];
+        int32_t r[3][2];
         range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
-        for (int a = 0; a < 3; ++a) cell0[3 * (int64_t)b + a] = (int32_t)r[a][0];
-        for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
-            for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
-                for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+        for (int32_t i = r[0][0]; i <= r[0][1]; ++i)
+            for (int32_t j = r[1][0]; j <= r[1][1]; ++j)
+                for (int32_t k = r[2][0]; k <= r[2][1]; ++k) {
                     const uint32_t bk = key_of(i, j, k) & mask;
                     bucket[e++] = bk;
                     start[bk + 1]++;
@@ -149,10 +169,11 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
     for (int64_t q = 0; q < nbk; ++q) start[q + 1] += start[q];
     e = 0;
     for (int32_t b = 0; b < nb; ++b) {
-        int64_t r[3][2];
+        int32_t r[3][2];
         range(lo_b + 3 * b, hi_b + 3 * b, origin, inv, r);
-        const int64_t m = (r[0][1] - r[0][0] + 1) * (r[1][1] - r[1][0] + 1) * (r[2][1] - r[2][0] + 1);
-        for (int64_t q = 0; q < m; ++q) h->keys[start[bucket[e++]]++] = (uint32_t)b;
+        const defsim__hash_entry en = {b, {r[0][0], r[1][0], r[2][0]}};
+        const int64_t m = cells_in(r);
+        for (int64_t q = 0; q < m; ++q) ent[start[bucket[e++]]++] = en;
     }
     /* the scatter advanced each start to its end: shift back */
     for (int64_t q = nbk; q > 0; --q) start[q] = start[q - 1];
@@ -161,49 +182,66 @@ defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const doub
     /* Query A. A pair is reported from one cell only, the one holding the larger of the two
      * boxes' lower corners (it lies in both boxes, so both visit it; cells are monotone in the
      * coordinates, so it is the larger of their lowest cells); a box that two of its cells put
-     * twice in one bucket is found twice there, which the per-box sort removes. */
+     * twice in one bucket is found twice there, which the per-box sort removes. A bucket is read
+     * from its end, so that with self its entries (in box order) up to b = a are never read. */
     for (int32_t a = 0; a < na; ++a) {
-        int64_t r[3][2];
+        int32_t r[3][2];
         const double *la = lo_a + 3 * a, *ha = hi_a + 3 * a;
         range(la, ha, origin, inv, r);
-        const int64_t a0[3] = {r[0][0], r[1][0], r[2][0]};
+        const int32_t a0[3] = {r[0][0], r[1][0], r[2][0]};
         for (int ax = 0; ax < 3; ++ax) {   /* no box of B beyond its far corner's cell */
             if (r[ax][0] > top[ax]) r[ax][0] = top[ax] + 1;
             if (r[ax][1] > top[ax]) r[ax][1] = top[ax];
         }
         const int64_t first = h->npairs;
-        for (int64_t i = r[0][0]; i <= r[0][1]; ++i)
-            for (int64_t j = r[1][0]; j <= r[1][1]; ++j)
-                for (int64_t k = r[2][0]; k <= r[2][1]; ++k) {
+        int64_t np = first;
+        for (int32_t i = r[0][0]; i <= r[0][1]; ++i)
+            for (int32_t j = r[1][0]; j <= r[1][1]; ++j)
+                for (int32_t k = r[2][0]; k <= r[2][1]; ++k) {
                     const uint32_t bk = key_of(i, j, k) & mask;
-                    for (int32_t m = start[bk]; m < start[bk + 1]; ++m) {
-                        const int32_t b = (int32_t)h->keys[m];
-                        if (self && b <= a) continue;
-                        const int32_t *c0 = cell0 + 3 * (int64_t)b;
-                        if ((c0[0] > a0[0] ? c0[0] : a0[0]) != i ||
-                            (c0[1] > a0[1] ? c0[1] : a0[1]) != j ||
-                            (c0[2] > a0[2] ? c0[2] : a0[2]) != k)
+                    /* room for every entry of the bucket, so that the sweep needs no check */
+                    if (np + (start[bk + 1] - start[bk]) > h->cap_pairs &&
+                        !reserve((void **)&h->pairs, &h->cap_pairs, np + start[bk + 1] - start[bk],
+                                 sizeof *h->pairs))
+                        return DEFSIM_ERR_OUT_OF_MEMORY;
+                    int64_t *pairs = h->pairs;
+                    const int32_t beg = start[bk];
+                    /* the reporting cell, axis by axis: the entry's lowest cell where it
+                     * exceeds a's, a's own otherwise */
+                    const int ei = i == a0[0], ej = j == a0[1], ek = k == a0[2];
+                    const int64_t run = np;
+                    /* from the bucket's end: with self, down to the first b <= a */
+                    for (int32_t m = start[bk + 1] - 1; m >= beg; --m) {
+                        const defsim__hash_entry *en = ent + m;
+                        const int32_t b = en->b;
+                        if (self && b <= a) break;
+                        if ((ei ? en->c0[0] > i : en->c0[0] != i) ||
+                            (ej ? en->c0[1] > j : en->c0[1] != j) ||
+                            (ek ? en->c0[2] > k : en->c0[2] != k))
                             continue;
                         if (!overlap(la, ha, lo_b + 3 * b, hi_b + 3 * b)) continue;
-                        if (!reserve((void **)&h->pairs, &h->cap_pairs, h->npairs + 1,
-                                     sizeof *h->pairs))
-                            return DEFSIM_ERR_OUT_OF_MEMORY;
-                        h->pairs[h->npairs++] = (int64_t)a << 32 | b;
+                        pairs[np++] = (int64_t)a << 32 | b;
+                    }
+                    for (int64_t p = run, q = np - 1; p < q; ++p, --q) {   /* ascending */
+                        const int64_t t = pairs[p];
+                        pairs[p] = pairs[q];
+                        pairs[q] = t;
                     }
                 }
         /* a's pairs in b order, unique (a few: insertion sort) */
-        for (int64_t m = first + 1; m < h->npairs; ++m) {
-            const int64_t v = h->pairs[m];
+        int64_t *pairs = h->pairs;
+        for (int64_t m = first + 1; m < np; ++m) {
+            const int64_t v = pairs[m];
             int64_t q = m;
-            while (q > first && h->pairs[q - 1] > v) {
-                h->pairs[q] = h->pairs[q - 1];
+            while (q > first && pairs[q - 1] > v) {
+                pairs[q] = pairs[q - 1];
                 --q;
             }
-            h->pairs[q] = v;
+            pairs[q] = v;
         }
         int64_t u = first;
-        for (int64_t m = first; m < h->npairs; ++m)
-            if (m == first || h->pairs[m] != h->pairs[u - 1]) h->pairs[u++] = h->pairs[m];
+        for (int64_t m = first; m < np; ++m)
+            if (m == first || pairs[m] != pairs[u - 1]) pairs[u++] = pairs[m];
         h->npairs = u;
     }
     return DEFSIM_OK;

@@ -15,16 +15,19 @@
 
 /* Growable scratch of the hash: reused across steps, so a step allocates only when a scene
  * needs more room than before. Zero-initialise; free with defsim__hash_free. */
+typedef struct defsim__hash_entry {
+    int32_t b;                /* a box of B */
+    int32_t c0[3];            /* its lowest cell */
+} defsim__hash_entry;
+
 typedef struct defsim__hash {
-    uint32_t *keys;           /* the inserted boxes of B, grouped by the bucket of each cell they
+    defsim__hash_entry *keys; /* the inserted boxes of B, grouped by the bucket of each cell they
                                  overlap (box order within a bucket) */
     int64_t nkeys, cap_keys;
     uint32_t *bucket;         /* the bucket of each entry, in insertion order */
     int64_t cap_bucket;
     int32_t *start;           /* buckets + 1: where each bucket's boxes start in keys */
     int64_t cap_start;
-    int32_t *cell0;           /* 3 per box of B: its lowest cell */
-    int64_t cap_cell0;
     int64_t *pairs;           /* (a << 32 | b) of the last query, sorted, unique */
     int64_t npairs, cap_pairs;
 } defsim__hash;
@@ -34,8 +37,8 @@ void defsim__hash_free(defsim__hash *h);
 /* Pairs (a, b) of overlapping closed boxes, a from set A (na boxes) and b from set B (nb boxes;
  * lo and hi are 3 doubles per box), each reported once. With self != 0, A and B must be the same set and only
  * pairs a < b are reported. cell (m) is the hash's cell size: about the size of a typical box
- * (coarsened, doubling, while B's boxes overlap more than 8 cells each on average; 0 for the
- * mean size of B's boxes). The pairs land in h->pairs (sorted, unique), each
+ * (coarsened, doubling, while B's boxes overlap more than 8 cells each on average; 0: per axis,
+ * 1.4 times the mean extent of B's boxes along it, at least a quarter of the largest such). The pairs land in h->pairs (sorted, unique), each
  * packed as ((int64_t)a << 32) | b. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. */
 defsim_status defsim__hash_pairs(defsim__hash *h, const double *lo_a, const double *hi_a,
                                  int32_t na, const double *lo_b, const double *hi_b, int32_t nb,

@@ -271,31 +271,6 @@ static double eval_region(const double *X, int n, defsim__dtype type, const int 
     }
 }
 
-int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
-{
-    const int m = pt_region(x, type, nodes, d2);
-    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 1, 2, 1, 3, 1, NULL, NULL);
-    return m;
-}
-
-double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
-                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
-{
-    double X[12];
-    memcpy(X, p, 3 * sizeof *X);
-    memcpy(X + 3, t0, 3 * sizeof *X);
-    memcpy(X + 6, t1, 3 * sizeof *X);
-    memcpy(X + 9, t2, 3 * sizeof *X);
-    clear(g, H, 12);
-    defsim__dtype tt;
-    if (!type) type = &tt;
-    int nodes[4];
-    double d2;
-    pt_region(X, type, nodes, &d2);
-    if (d2 >= 0.0 && !g && !H) return d2;
-    return eval_region(X, 12, *type, nodes, g, H);
-}
-
 /* The closest features of segments (a0, a1) and (b0, b1) in X: as pt_region. */
 static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double *d2)
 {
@@ -345,29 +320,57 @@ static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double 
     return 2;
 }
 
-int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+/* A region function of four vertices (pt_region, ee_region). */
+typedef int (*region_fn)(const double *X, defsim__dtype *type, int nodes[4], double *d2);
+
+/* The closest features of four packed vertices by `region`, with the interior's distance. */
+static int closest4(region_fn region, const double *x, double *d2, defsim__dtype *type,
+                    int nodes[4])
 {
-    const int m = ee_region(x, type, nodes, d2);
-    if (*d2 < 0.0) *d2 = f_plane(x, 12, 0, 2, 1, 0, 3, 2, NULL, NULL);
+    const int m = region(x, type, nodes, d2);
+    if (*d2 < 0.0) *d2 = eval_region(x, 12, *type, nodes, NULL, NULL);
     return m;
 }
 
-double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
-                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+/* The squared distance of four vertices (and its derivatives) by `region`. */
+static double dist2_4(region_fn region, const double *v0, const double *v1, const double *v2,
+                      const double *v3, double *g, double *H, defsim__dtype *type)
 {
     double X[12];
-    memcpy(X, a0, 3 * sizeof *X);
-    memcpy(X + 3, a1, 3 * sizeof *X);
-    memcpy(X + 6, b0, 3 * sizeof *X);
-    memcpy(X + 9, b1, 3 * sizeof *X);
+    memcpy(X, v0, 3 * sizeof *X);
+    memcpy(X + 3, v1, 3 * sizeof *X);
+    memcpy(X + 6, v2, 3 * sizeof *X);
+    memcpy(X + 9, v3, 3 * sizeof *X);
     clear(g, H, 12);
     defsim__dtype tt;
     if (!type) type = &tt;
     int nodes[4];
     double d2;
-    ee_region(X, type, nodes, &d2);
+    region(X, type, nodes, &d2);
     if (d2 >= 0.0 && !g && !H) return d2;
     return eval_region(X, 12, *type, nodes, g, H);
+}
+
+int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    return closest4(pt_region, x, d2, type, nodes);
+}
+
+double defsim__pt_dist2(const double p[3], const double t0[3], const double t1[3],
+                        const double t2[3], double g[12], double H[144], defsim__dtype *type)
+{
+    return dist2_4(pt_region, p, t0, t1, t2, g, H, type);
+}
+
+int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
+{
+    return closest4(ee_region, x, d2, type, nodes);
+}
+
+double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[3],
+                        const double b1[3], double g[12], double H[144], defsim__dtype *type)
+{
+    return dist2_4(ee_region, a0, a1, b0, b1, g, H, type);
 }
 
 int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4])
@@ -447,42 +450,21 @@ double defsim__ee_mollifier(const double a0[3], const double a1[3], const double
 /* ------------------------------------------------------------------------------------------ */
 /* Additive CCD */
 
-typedef double (*dist2_fn)(const double *x);
-
-static double pt_d2(const double *x)
+/* The squared distance of a packed pair for CCD (no derivatives, no copy). */
+static double ccd_dist2(defsim__ccd_pair pair, const double *x)
 {
-    return defsim__pt_dist2(x, x + 3, x + 6, x + 9, NULL, NULL, NULL);
+    defsim__dtype type;
+    int nodes[4];
+    double d2;
+    if (pair == DEFSIM__CCD_PE) return point_segment(x, x + 3, x + 6, &nodes[0]);
+    if (pair == DEFSIM__CCD_PT) closest4(pt_region, x, &d2, &type, nodes);
+    else closest4(ee_region, x, &d2, &type, nodes);
+    return d2;
 }
 
-static double ee_d2(const double *x)
+double defsim__ccd_speed(defsim__ccd_pair pair, const double dx[12])
 {
-    return defsim__ee_dist2(x, x + 3, x + 6, x + 9, NULL, NULL, NULL);
-}
-
-/* x holds p, e0, e1 and a copy of e1 (accd's four vertices). */
-static double pe_d2(const double *x)
-{
-    return defsim__pe_dist2(x, x + 3, x + 6, NULL, NULL, NULL);
-}
-
-/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]),
- * first: how many of the four vertices form the first primitive (1 for PT, 2 for EE).
- *
- * The closest points move with a relative velocity that is a convex combination of the vertex
- * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
- * constant lp = max |dx_a - dx_b|: no larger than ACCD's bound (the largest displacement on each
- * side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each advance is
- * ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below the gap
- * s d(0), the crossing inside that advance (which is collision-free as a whole) is bracketed and
- * halved REFINE times, and the last time found at or above the gap is returned: the result is
- * then within 2^-REFINE of one advance of where d first reaches the gap at a checked time,
- * where ACCD stops one whole advance short of it. */
-enum { REFINE = 12 };
-#define ETA 0.9
-
-static double accd(dist2_fn dist2, int first, const double x0[12], const double dx[12],
-                   double s, double tmax, int max_iterations)
-{
+    const int first = pair == DEFSIM__CCD_EE ? 2 : 1;
     double lp = 0.0;
     for (int a = 0; a < first; ++a)
         for (int b = first; b < 4; ++b) {
@@ -491,25 +473,45 @@ static double accd(dist2_fn dist2, int first, const double x0[12], const double 
             const double l = dot3(r, r);
             lp = l > lp ? l : lp;
         }
-    lp = sqrt(lp);
+    return sqrt(lp);
+}
+
+/* Conservative advancement of the distance d(t) of the pair x0 + t dx0 (t in [0, tmax]), one
+ * loop for the three kinds of pair.
+ *
+ * The closest points move with a relative velocity that is a convex combination of the vertex
+ * differences dx_a - dx_b (a on the first primitive, b on the second), so d is Lipschitz with
+ * constant lp = max |dx_a - dx_b| (defsim__ccd_speed): no larger than ACCD's bound (the largest
+ * displacement on each side after removing the mean, whose sum bounds every |dx_a - dx_b|). Each
+ * advance is ETA d / lp, over which d stays above (1 - ETA) d > 0. When an advance ends below
+ * the gap s d(0), the crossing inside that advance (which is collision-free as a whole) is
+ * bracketed and halved REFINE times, and the last time found at or above the gap is returned:
+ * the result is then within 2^-REFINE of one advance of where d first reaches the gap at a
+ * checked time, where ACCD stops one whole advance short of it. */
+enum { REFINE = 12 };
+#define ETA 0.9
+
+double defsim__accd(defsim__ccd_pair pair, const double x0[12], const double dx[12], double d0,
+                    double lp, double s, double tmax, int max_iterations)
+{
     if (!(lp > 0.0)) return tmax;
+    if (!(d0 > 0.0)) return 0.0;
     double x[12];
-    double d = sqrt(dist2(x0));
-    if (!(d > 0.0)) return 0.0;
+    double d = d0;
     const double gap = s * d;
     double t = 0.0;
     for (int it = 0; it < max_iterations; ++it) {
         const double tl = ETA * d / lp;
         if (t + tl >= tmax) return tmax;
         for (int k = 0; k < 12; ++k) x[k] = x0[k] + (t + tl) * dx[k];
-        const double dn = sqrt(dist2(x));
+        const double dn = sqrt(ccd_dist2(pair, x));
         if (dn < gap) {
             /* d(t) >= gap > d(t + tl): bisect, keeping lo at or above the gap */
             double lo = t, hi = t + tl;
             for (int r = 0; r < REFINE; ++r) {
                 const double mid = 0.5 * (lo + hi);
                 for (int k = 0; k < 12; ++k) x[k] = x0[k] + mid * dx[k];
-                if (sqrt(dist2(x)) >= gap) lo = mid;
+                if (sqrt(ccd_dist2(pair, x)) >= gap) lo = mid;
                 else hi = mid;
             }
             return lo;
@@ -520,16 +522,24 @@ static double accd(dist2_fn dist2, int first, const double x0[12], const double 
     return t;
 }
 
+static double accd_of(defsim__ccd_pair pair, const double x[12], const double dx[12], double s,
+                      double tmax, int max_iterations)
+{
+    const double lp = defsim__ccd_speed(pair, dx);
+    if (!(lp > 0.0)) return tmax;
+    return defsim__accd(pair, x, dx, sqrt(ccd_dist2(pair, x)), lp, s, tmax, max_iterations);
+}
+
 double defsim__pt_accd(const double x[12], const double dx[12], double s, double tmax,
                        int max_iterations)
 {
-    return accd(pt_d2, 1, x, dx, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_PT, x, dx, s, tmax, max_iterations);
 }
 
 double defsim__ee_accd(const double x[12], const double dx[12], double s, double tmax,
                        int max_iterations)
 {
-    return accd(ee_d2, 2, x, dx, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_EE, x, dx, s, tmax, max_iterations);
 }
 
 double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
@@ -542,5 +552,5 @@ double defsim__pe_accd(const double x[9], const double dx[9], double s, double t
     memcpy(d4, dx, 9 * sizeof *dx);
     memcpy(x4 + 9, x + 6, 3 * sizeof *x);
     memcpy(d4 + 9, dx + 6, 3 * sizeof *dx);
-    return accd(pe_d2, 1, x4, d4, s, tmax, max_iterations);
+    return accd_of(DEFSIM__CCD_PE, x4, d4, s, tmax, max_iterations);
 }

@@ -77,4 +77,18 @@ double defsim__ee_accd(const double x[12], const double dx[12], double s, double
 double defsim__pe_accd(const double x[9], const double dx[9], double s, double tmax,
                        int max_iterations);
 
+/* The loop behind the three functions above, for callers that know the pair's start distance
+ * d0 (> 0) and its relative speed lp (defsim__ccd_speed): pair is the kind, x and dx hold four
+ * vertices (point-edge: p, e0, e1 and e1 again). Same result as the function of its kind. */
+typedef enum defsim__ccd_pair {
+    DEFSIM__CCD_PT = 0,   /* p, t0, t1, t2 */
+    DEFSIM__CCD_EE = 1,   /* a0, a1, b0, b1 */
+    DEFSIM__CCD_PE = 2    /* p, e0, e1, e1 */
+} defsim__ccd_pair;
+double defsim__accd(defsim__ccd_pair pair, const double x[12], const double dx[12], double d0,
+                    double lp, double s, double tmax, int max_iterations);
+/* A bound on how fast the pair's distance changes along dx (per unit t): the largest difference
+ * between a displacement of the first primitive's vertices and one of the second's. */
+double defsim__ccd_speed(defsim__ccd_pair pair, const double dx[12]);
+
 #endif /* DEFSIM_CONTACT_PRIM_H */

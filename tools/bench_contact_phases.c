@@ -6,7 +6,7 @@
  *
  *   defsim-bench-contact-phases --out DIR [SCENE] [--cells N] [--steps S] [--repeat R]
  *                               [--no-time]
- *   defsim-bench-contact-phases --time DIR --step K [--repeat R]
+ *   defsim-bench-contact-phases --time DIR --step K [--repeat R] [--only KEY]
  *
  * The first form runs SCENE (default tests/scenes/cloth_fold.json; --cells N makes its first body
  * an N x N cloth, as defsim-bench-body-contact does) for S steps (default the scene's length) with
@@ -37,7 +37,8 @@
  * with friction off (a barrier alone, as ipctk's BarrierPotential), and prints one JSON line with
  * the same keys as ipc_probe's where the phase is the same: counts (candidates by kind, the
  * constraint set's contacts by type, and the candidates within dhat before merging),
- * alpha_accd, and peak_rss_mb (getrusage ru_maxrss of the whole process).
+ * alpha_accd, and peak_rss_mb (getrusage ru_maxrss of the whole process). --only KEY times that
+ * phase alone (the others print 0), for a profiler.
  *
  * Internal functions: links the static library. A tool, not a test.
  */
@@ -263,9 +264,13 @@ static void phase_ccd_full(phase_ctx *c)
     phase_ccd(c);
 }
 
+/* --only KEY: the one phase to time (for a profiler); the others print 0. */
+static const char *only_phase;
+
 /* Median ms of `repeat` rounds of an inner loop of at least 2 ms (ipc_probe.py's harness). */
-static double time_phase(phase_ctx *c, void (*fn)(phase_ctx *), int repeat)
+static double time_phase(phase_ctx *c, void (*fn)(phase_ctx *), int repeat, const char *key)
 {
+    if (only_phase && strcmp(only_phase, key)) return 0.0;
     fn(c);
     int inner = 1;
     for (;;) {
@@ -361,22 +366,22 @@ static int time_state(const char *dir, int step, int repeat)
     c.cap_trip = (int64_t)bc->npair * (144 + 4) + 1;
     c.trip = malloc((size_t)c.cap_trip * sizeof *c.trip);
     if (!c.trip) return -1;
-    const double t_cand = time_phase(&c, phase_cand, repeat);
+    const double t_cand = time_phase(&c, phase_cand, repeat, "cand");
     count_pairs(bc, x, cand, near);
-    const double t_build = time_phase(&c, phase_build, repeat);
+    const double t_build = time_phase(&c, phase_build, repeat, "collisions_from_cand");
     const int64_t ncon = bc->ncon;
     int64_t ctype[4];
     for (int k = 0; k < 4; ++k) ctype[k] = bc->ncon_type[k];
-    const double t_energy = time_phase(&c, phase_energy, repeat);
-    const double t_grad = time_phase(&c, phase_gradient, repeat);
-    const double t_hess = time_phase(&c, phase_hessian, repeat);
+    const double t_energy = time_phase(&c, phase_energy, repeat, "energy");
+    const double t_grad = time_phase(&c, phase_gradient, repeat, "gradient");
+    const double t_hess = time_phase(&c, phase_hessian, repeat, "hessian_psd");
     const double energy = defsim__body_contact_energy(bc, x);
     c.bc->have_pairs = 0;
     const double alpha = defsim__body_contact_max_step(bc, x, dx);
     bc->npend = 0;
     const int64_t ccd_cand = bc->npair;
-    const double t_ccd = time_phase(&c, phase_ccd, repeat);
-    const double t_ccd_full = time_phase(&c, phase_ccd_full, repeat);
+    const double t_ccd = time_phase(&c, phase_ccd, repeat, "ccd_accd_narrow");
+    const double t_ccd_full = time_phase(&c, phase_ccd_full, repeat, "ccd_accd_full");
     if (c.st != DEFSIM_OK) {
         fprintf(stderr, "state %d: a phase failed: %s\n", step, defsim_status_string(c.st));
         return -1;
@@ -490,12 +495,13 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[i], "--time") && has) tdir = argv[++i];
         else if (!strcmp(argv[i], "--step") && has) step = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--no-time")) no_time = 1;
+        else if (!strcmp(argv[i], "--only") && has) only_phase = argv[++i];
         else if (argv[i][0] != '-') path = argv[i];
         else {
             fprintf(stderr, "usage: defsim-bench-contact-phases --out DIR [SCENE] [--cells N] "
                             "[--steps S] [--repeat R] [--no-time]\n"
                             "       defsim-bench-contact-phases --time DIR --step K "
-                            "[--repeat R]\n");
+                            "[--repeat R] [--only KEY]\n");
             return 2;
         }
     }

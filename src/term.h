@@ -203,19 +203,20 @@ typedef struct defsim__term_ops {
 
     /* The kind's step hooks, called whether or not its term is in the list (terms.c: in list
      * order, end in the reverse), with what the step hands them: begin attaches what the kind's
-     * term needs to the system (*relist = 1 when that changed what the list is compiled from),
-     * restart begins again after a rolled-back attempt, before and after bracket the backend's
-     * call i of n, finish closes the backend's calls (st: their status; returns the step's),
-     * detach takes back what begin attached (returned, or NULL), end closes the kind's part of
-     * the step with it (its read-back, its checks), readback adds to the host's read-back once
-     * every end ran. */
-    defsim_status (*begin)(struct defsim__system *s, const defsim__step_ctx *c, int *relist);
+     * term needs to the system (the list is compiled again when what attached, the kind's
+     * state that the system points at, changed), restart begins again after a rolled-back
+     * attempt, before and after bracket the backend's call i of n, finish closes the backend's
+     * calls (st: their status; returns the step's), detach takes back what begin attached, end
+     * closes the kind's part of the step with what was attached (its read-back, its checks),
+     * readback adds to the host's read-back once every end ran. */
+    defsim_status (*begin)(struct defsim__system *s, const defsim__step_ctx *c);
     defsim_status (*restart)(struct defsim__system *s, const defsim__step_ctx *c);
     void (*before)(const defsim__step_ctx *c, int64_t i, int64_t n);
     void (*after)(const defsim__step_ctx *c);
     defsim_status (*finish)(struct defsim__system *s, const defsim__step_ctx *c,
                             defsim_status st);
-    void *(*detach)(struct defsim__system *s);
+    void *(*attached)(const struct defsim__system *s);
+    void (*detach)(struct defsim__system *s);
     defsim_status (*end)(struct defsim__system *s, const defsim__step_ctx *c, void *was,
                          defsim_status st);
     defsim_status (*readback)(struct defsim__system *s, const defsim__step_ctx *c, void *was,

@@ -157,9 +157,8 @@ static defsim_status restart(defsim__system *s, const defsim__step_ctx *c)
                                        c->passes, c->msg);
 }
 
-static defsim_status begin(defsim__system *s, const defsim__step_ctx *c, int *relist)
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *c)
 {
-    (void)relist;
     return c->h > 0.0 ? restart(s, c) : DEFSIM_OK;
 }
 

@@ -30,13 +30,8 @@ static defsim__body_contact *bcon(const defsim__term *t) { return t->data; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->body_contact) return 0;
-    if (!defsim__cache_reserve(&s->cache[DEFSIM__TERM_KIND_body_contact], sizeof(entry), s->nv))
-        return -1;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    out->data = s->body_contact;
-    return 1;
+    return defsim__term_contact(s, s->nv, s->body_contact,
+                                &s->cache[DEFSIM__TERM_KIND_body_contact], sizeof(entry), out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -258,8 +253,9 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
 
 /* A step's begin while the option is on (the step refused backends without contact CCD
  * already); h = 0 (no step) begins nothing. */
-static defsim_status attach(defsim__system *s, const defsim__step_ctx *sc)
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc)
 {
+    if (!(sc->h > 0.0)) return DEFSIM_OK;
     s->body_contact = NULL;   /* left attached by a failed step: detached */
     const defsim__settings *set = sc->set;
     if (!set->body_contact) {
@@ -276,21 +272,8 @@ static defsim_status attach(defsim__system *s, const defsim__step_ctx *sc)
     return DEFSIM_OK;
 }
 
-static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc, int *relist)
-{
-    if (!(sc->h > 0.0)) return DEFSIM_OK;
-    const void *was = s->body_contact;
-    const defsim_status st = attach(s, sc);
-    *relist |= s->body_contact != was;
-    return st;
-}
-
-static void *detach(defsim__system *s)
-{
-    void *was = s->body_contact;
-    s->body_contact = NULL;
-    return was;
-}
+static void *attached(const defsim__system *s) { return s->body_contact; }
+static void detach(defsim__system *s) { s->body_contact = NULL; }
 
 /* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
  * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
@@ -351,6 +334,7 @@ const defsim__term_ops defsim__term_body_contact = {
     .start = start,
     .step_end = step_end,
     .begin = begin,
+    .attached = attached,
     .detach = detach,
     .end = end,
     .readback = readback,

@@ -26,14 +26,8 @@ static defsim__contact *contact(const defsim__term *t) { return t->data; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->contact) return 0;
-    defsim__term_cache *c = &s->cache[DEFSIM__TERM_KIND_collider];
-    if (!defsim__cache_reserve(c, 9 * (size_t)(s->nv > 0 ? s->nv : 1) * sizeof(double), s->nv))
-        return -1;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    out->data = s->contact;
-    return 1;
+    return defsim__term_contact(s, s->nv, s->contact, &s->cache[DEFSIM__TERM_KIND_collider],
+                                9 * (size_t)(s->nv > 0 ? s->nv : 1) * sizeof(double), out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -157,7 +151,7 @@ static int work(const defsim__term *t, const double *x0, const double *x1, int s
 /* A step's begin (h = 0: for the stable step's estimate or a replay): BARRIER for backends
  * whose line search uses contact_max_step, PENALTY for the others; the world's contact state is
  * attached to the system until the step ends. */
-static defsim_status attach(defsim__system *s, const defsim__step_ctx *sc)
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc)
 {
     s->contact = NULL;   /* left attached by a failed step: detached */
     defsim__collider_set *cs = sc->colliders;
@@ -215,20 +209,8 @@ static defsim_status attach(defsim__system *s, const defsim__step_ctx *sc)
     return DEFSIM_OK;
 }
 
-static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc, int *relist)
-{
-    const void *was = s->contact;
-    const defsim_status st = attach(s, sc);
-    *relist |= s->contact != was;
-    return st;
-}
-
-static void *detach(defsim__system *s)
-{
-    void *was = s->contact;
-    s->contact = NULL;
-    return was;
-}
+static void *attached(const defsim__system *s) { return s->contact; }
+static void detach(defsim__system *s) { s->contact = NULL; }
 
 /* Closes contact's part of a step: a callback's failure is the step's; after a success, the
  * contact forces for the host and the colliders' poses at the end of the step. */
@@ -394,7 +376,7 @@ const defsim__term_ops defsim__term_collider = {
     .max_step = max_step, .start = start, .block = block,
     .lambda_bound = lambda_bound, .rates = rates,
     .substep = substep, .step_end = step_end, .work = work,
-    .begin = begin, .detach = detach, .end = end,
+    .begin = begin, .attached = attached, .detach = detach, .end = end,
     .counters = COUNTERS, .counter_count = 1, .counter = counter,
     .options = OPTIONS, .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
     .save = save, .load = load};

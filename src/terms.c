@@ -70,12 +70,22 @@ static defsim_status relist(defsim__system *s, int changed, defsim_status st)
     return st == DEFSIM_OK ? ct : st;
 }
 
+/* What kind k attached to s (NULL: nothing, or a kind that attaches nothing). */
+static void *attached(const defsim__system *s, int k)
+{
+    return kinds[k]->attached ? kinds[k]->attached(s) : NULL;
+}
+
 defsim_status defsim__terms_step_begin(defsim__system *s, const defsim__step_ctx *c)
 {
     defsim_status st = DEFSIM_OK;
     int changed = 0;
-    for (int k = 0; k < DEFSIM__TERM_KINDS && st == DEFSIM_OK; ++k)
-        if (kinds[k]->begin) st = kinds[k]->begin(s, c, &changed);
+    for (int k = 0; k < DEFSIM__TERM_KINDS && st == DEFSIM_OK; ++k) {
+        if (!kinds[k]->begin) continue;
+        const void *was = attached(s, k);
+        st = kinds[k]->begin(s, c);
+        changed |= attached(s, k) != was;
+    }
     return relist(s, changed, st);
 }
 
@@ -127,7 +137,8 @@ static int detach(defsim__system *s, void *was[DEFSIM__TERM_KINDS])
 {
     int any = 0;
     for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
-        was[k] = kinds[k]->detach ? kinds[k]->detach(s) : NULL;
+        was[k] = attached(s, k);
+        if (was[k]) kinds[k]->detach(s);
         any |= was[k] != NULL;
     }
     return any;

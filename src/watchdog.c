@@ -342,6 +342,15 @@ double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end)
     return end ? wd->pin_f1 : wd->pin_f0;
 }
 
+/* Frees the buffers of the reference's rest data and the check's displacements. */
+static void free_rest(defsim__watchdog *wd)
+{
+    free(wd->rest_diag);
+    free(wd->dof);
+    free(wd->dx);
+    wd->rest_diag = wd->dof = wd->dx = NULL;
+}
+
 defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
                                      char *what, size_t size)
 {
@@ -357,17 +366,12 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         return DEFSIM_ERR_UNSTABLE;
     }
     if (!wd->have_rest) {
-        free(wd->rest_diag);
-        free(wd->dof);
-        free(wd->dx);
+        free_rest(wd);
         wd->rest_diag = malloc(((size_t)in->nbodies + 1) * sizeof *wd->rest_diag);
         wd->dof = malloc(((size_t)s->nv + 1) * sizeof *wd->dof);
         wd->dx = malloc((3 * (size_t)s->nv + 1) * sizeof *wd->dx);
         if (!wd->rest_diag || !wd->dof || !wd->dx) {
-            free(wd->rest_diag);
-            free(wd->dof);
-            free(wd->dx);
-            wd->rest_diag = wd->dof = wd->dx = NULL;
+            free_rest(wd);
             snprintf(what, size, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -529,9 +533,7 @@ void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 
 void defsim__watchdog_free(defsim__watchdog *wd)
 {
-    free(wd->rest_diag);
-    free(wd->dof);
-    free(wd->dx);
+    free_rest(wd);
     free(wd->pin_f0);
     free(wd->pin_f1);
     free(wd->pin_el);

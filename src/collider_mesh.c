@@ -102,7 +102,8 @@ static int normals(struct defsim__bvh *m, int32_t nv)
     for (int32_t t = 0; t < nt; ++t) {
         const int32_t *v = m->tri + 3 * t;
         double e[3][3];   /* e[k]: from corner k to corner k + 1 */
-        for (int k = 0; k < 3; ++k) defsim__v3_sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], e[k]);
+        for (int k = 0; k < 3; ++k)
+            defsim__v3_sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], e[k]);
         double *n = m->fn + 3 * t;
         defsim__v3_cross(e[0], e[2], n);
         for (int k = 0; k < 3; ++k) n[k] = -n[k];   /* (b - a) x (c - a) */

@@ -1252,8 +1252,10 @@ double defsim__contact_work(defsim__contact *c, const double *x0, const double *
             isnan(pair_term(c, q, &p1, x1, fc)))
             return INFINITY;
         if (e0 == INFINITY) fa[0] = fa[1] = fa[2] = 0.0;   /* starts inside: left out (above) */
-        const double pa = defsim__v3_dot(fa, ua), pb = defsim__v3_dot(fb, ua), pc = defsim__v3_dot(fc, ub);
-        const double fbig = fmax(sqrt(defsim__v3_dot(fa, fa)), fmax(sqrt(defsim__v3_dot(fb, fb)), sqrt(defsim__v3_dot(fc, fc))));
+        const double pa = defsim__v3_dot(fa, ua), pb = defsim__v3_dot(fb, ua);
+        const double pc = defsim__v3_dot(fc, ub);
+        const double fbig = fmax(sqrt(defsim__v3_dot(fa, fa)),
+                                 fmax(sqrt(defsim__v3_dot(fb, fb)), sqrt(defsim__v3_dot(fc, fc))));
         const double ubig = fmax(sqrt(defsim__v3_dot(ua, ua)), sqrt(defsim__v3_dot(ub, ub)));
         const double fr = col->def.friction > 0.0 ? col->def.friction * fbig * ubig : 0.0;
         w += fmax(pa, fmax(pb, pc)) + fr;

@@ -167,7 +167,10 @@ static void before(const defsim__step_ctx *c, int64_t i, int64_t n)
     defsim__coupling_substep_before(c->coupling, c->state, i, n, c->h / (double)n);
 }
 
-static void after(const defsim__step_ctx *c) { defsim__coupling_substep_after(c->coupling, c->state); }
+static void after(const defsim__step_ctx *c)
+{
+    defsim__coupling_substep_after(c->coupling, c->state);
+}
 
 static defsim_status finish(defsim__system *s, const defsim__step_ctx *c, defsim_status st)
 {

@@ -264,7 +264,8 @@ static defsim_status end(defsim__system *s, const defsim__step_ctx *sc, void *wa
         (*sc->watchdog_trips)++;
         defsim__error(sc->msg, "step: watchdog: a vertex crossed a collider's surface (distance "
                       "%g m) although the contact barrier forbids it; state restored. This is a "
-                      "defect: please report it with the scene", c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
+                      "defect: please report it with the scene",
+                      c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
         return DEFSIM_ERR_UNSTABLE;
     }
     if (!none) memcpy(cs->force, c->blk, 3 * (size_t)nv * sizeof *cs->force);

@@ -104,7 +104,8 @@ void defsim__terms_substep_before(const defsim__system *s, const defsim__step_ct
         if (kinds[k]->before) kinds[k]->before(c, i, n);
     const double s0 = (double)i / (double)n, s1 = (double)(i + 1) / (double)n;
     for (int32_t j = 0; j < s->nterms; ++j)
-        if (s->terms[j].ops->substep) s->terms[j].ops->substep(&s->terms[j], s0, s1, c->h / (double)n);
+        if (s->terms[j].ops->substep)
+            s->terms[j].ops->substep(&s->terms[j], s0, s1, c->h / (double)n);
 }
 
 void defsim__terms_substep_after(const defsim__step_ctx *c)

@@ -34,7 +34,8 @@ void defsim__terms_substep_after(const defsim__step_ctx *c);
 defsim_status defsim__terms_finish(defsim__system *s, const defsim__step_ctx *c, defsim_status st);
 int defsim__terms_work(const defsim__system *s, const double *x0, const double *x1, int start,
                        double *e0, double *work);
-defsim_status defsim__terms_step_end(defsim__system *s, const defsim__step_ctx *c, defsim_status st);
+defsim_status defsim__terms_step_end(defsim__system *s, const defsim__step_ctx *c,
+                                     defsim_status st);
 defsim_status defsim__terms_detach(defsim__system *s);
 
 /* The kinds' counters (term.h), in list order: how many there are (the same for every system),

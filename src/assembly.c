@@ -384,8 +384,9 @@ void defsim__group_values(const defsim__system *s, const defsim__group *g,
         const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
         for (int32_t e = e0; e < e1; ++e) {
+            const double sk = c->k, sd = c->kd * g->beta[e];
             double K[144];
-            if (!matrix(s, g, x, e, c, K)) continue;
+            if ((sk == 0.0 && sd == 0.0) || !matrix(s, g, x, e, sk, sd, K)) continue;
             defsim__element_scatter(s, g->idx + nn * (int64_t)e, g->blk + nn * nn * (int64_t)e,
                                     nn, K, upper, cp, values);
         }
@@ -401,7 +402,10 @@ void defsim__group_apply(const defsim__system *s, const defsim__group *g,
     for (int32_t col = 0; col < g->ncolors; ++col) {
         const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)
-        for (int32_t e = e0; e < e1; ++e) apply(g, x, e, c, proj, s->pinned, dx, out);
+        for (int32_t e = e0; e < e1; ++e) {
+            const double sk = c->k, sd = c->kd * g->beta[e];
+            if (sk != 0.0 || sd != 0.0) apply(g, x, e, sk, sd, proj, s->pinned, dx, out);
+        }
     }
 }
 

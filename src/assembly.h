@@ -76,11 +76,12 @@ void defsim__element_scatter(const defsim__system *s, const int32_t *id, const i
                              int nn, const double *K, int upper, const int64_t *cp,
                              double *values);
 
-/* The element matrix of element e of group g at x for coefficients c into K (3 nn x 3 nn);
- * returns 0 when the element adds nothing. */
+/* The element matrix k K + kd B of element e of group g at x into K (3 nn x 3 nn), with its
+ * coefficients sk = k and sd = kd beta_e, not both zero (the group's loops skip those); returns
+ * 0 when the element adds nothing. */
 typedef int (*defsim__element_matrix_fn)(const defsim__system *s, const defsim__group *g,
-                                         const double *x, int32_t e,
-                                         const defsim_matrix_coeffs *c, double *K);
+                                         const double *x, int32_t e, double sk, double sd,
+                                         double *K);
 
 /* Adds the element matrices of group g (at most 4 nodes per element) into the values, colour by
  * colour (elements of a colour share no vertex, so no two threads write one entry), and
@@ -90,17 +91,32 @@ void defsim__group_values(const defsim__system *s, const defsim__group *g,
                           const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
                           double *values, uint32_t *passes);
 
-/* out += an element's share of (k K + kd B) dx at x (pinned rows and columns zero; element
- * Hessians projected with proj). */
+/* out += an element's share of (k K + kd B) dx at x, with sk and sd as above (pinned rows and
+ * columns zero; element Hessians projected with proj). */
 typedef void (*defsim__element_apply_fn)(const defsim__group *g, const double *x, int32_t e,
-                                         const defsim_matrix_coeffs *c, int proj,
-                                         const uint8_t *pinned, const double *dx, double *out);
+                                         double sk, double sd, int proj, const uint8_t *pinned,
+                                         const double *dx, double *out);
 
 /* The matrix-free product of group g's elements, colour by colour as defsim__group_values:
  * nothing when k and kd are both zero. */
 void defsim__group_apply(const defsim__system *s, const defsim__group *g,
                          defsim__element_apply_fn apply, const double *x,
                          const defsim_matrix_coeffs *c, int proj, const double *dx, double *out);
+
+/* The values and apply ops of an element group's kind (the term's model is its group): the
+ * group's loops over the kind's element kernels, which the elastic and spring terms share. */
+#define DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)                                    \
+    static void values(const defsim__term *t, const defsim__system *s, const double *x,            \
+                       const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,  \
+                       uint32_t *passes)                                                          \
+    {                                                                                              \
+        defsim__group_values(s, t->model, element_matrix, x, c, upper, cp, val, passes);           \
+    }                                                                                              \
+    static void apply(const defsim__term *t, const defsim__system *s, const double *x,             \
+                      const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)      \
+    {                                                                                              \
+        defsim__group_apply(s, t->model, element_apply, x, c, proj, dx, out);                      \
+    }
 
 /* Adds k times symmetric 3x3 blocks per vertex (9 nv) to the diagonal blocks of the values. */
 void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,

@@ -215,6 +215,20 @@ int32_t defsim__collider_set_live(const defsim__collider_set *s)
     return n;
 }
 
+defsim_status defsim__collider_set_readback(defsim__collider_set *s, int32_t nv,
+                                            defsim__messages *msg)
+{
+    free(s->force);
+    s->force_nv = 0;
+    s->force = calloc(3 * (size_t)nv, sizeof *s->force);
+    if (!s->force) {
+        defsim__error(msg, "out of memory for the contact forces");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    s->force_nv = nv;
+    return DEFSIM_OK;
+}
+
 void defsim__collider_set_free(defsim__collider_set *s)
 {
     for (int32_t i = 0; i < s->ncol; ++i)

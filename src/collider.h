@@ -49,6 +49,11 @@ int32_t defsim__collider_set_live(const defsim__collider_set *s);
 /* Frees the colliders and the read-back (at destruction). */
 void defsim__collider_set_free(defsim__collider_set *s);
 
+/* The contact-force read-back made a zeroed array of nv vertices (collider and body contact
+ * write it at a step's end). DEFSIM_ERR_OUT_OF_MEMORY (with msg's error set) on failure. */
+defsim_status defsim__collider_set_readback(defsim__collider_set *s, int32_t nv,
+                                            defsim__messages *msg);
+
 /* Checkpoints (docs/checkpoints.md): writes a COLL chunk per live collider in slot order, with
  * its pose now and at the end of the next step as stored (normalised), and the CFRC chunk:
  * whether the colliders changed since the last step, and that step's contact forces when they

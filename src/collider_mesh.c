@@ -7,6 +7,7 @@
  * 2005): for a closed, consistently oriented mesh it is negative exactly inside.
  */
 #include "collider.h"
+#include "mat3.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -34,21 +35,6 @@ struct defsim__bvh {
                               sequence */
 };
 
-static void sub(const double *a, const double *b, double *o)
-{
-    o[0] = a[0] - b[0]; o[1] = a[1] - b[1]; o[2] = a[2] - b[2];
-}
-static double dot(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static void cross(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 /* ------------------------------------------------------------------------------------------ */
 /* Validation */
 
@@ -75,13 +61,13 @@ defsim_status defsim__mesh_check(defsim__messages *msg, const defsim_collider_de
         const double *a = d->vertices + 3 * (int64_t)v[0], *b = d->vertices + 3 * (int64_t)v[1],
                      *c = d->vertices + 3 * (int64_t)v[2];
         double ab[3], ac[3], bc[3], n[3];
-        sub(b, a, ab); sub(c, a, ac); sub(c, b, bc);
-        cross(ab, ac, n);
-        double l2 = dot(ab, ab);
-        if (dot(ac, ac) > l2) l2 = dot(ac, ac);
-        if (dot(bc, bc) > l2) l2 = dot(bc, bc);
+        defsim__v3_sub(b, a, ab); defsim__v3_sub(c, a, ac); defsim__v3_sub(c, b, bc);
+        defsim__v3_cross(ab, ac, n);
+        double l2 = defsim__v3_dot(ab, ab);
+        if (defsim__v3_dot(ac, ac) > l2) l2 = defsim__v3_dot(ac, ac);
+        if (defsim__v3_dot(bc, bc) > l2) l2 = defsim__v3_dot(bc, bc);
         /* relative to the longest edge, so that the test does not depend on units */
-        if (!(sqrt(dot(n, n)) > 1e-12 * l2))
+        if (!(sqrt(defsim__v3_dot(n, n)) > 1e-12 * l2))
             BAD("add_collider: mesh triangle %d (%d, %d, %d) is degenerate (zero area)", (int)t,
                 (int)v[0], (int)v[1], (int)v[2]);
     }
@@ -106,7 +92,7 @@ static int cmp_edge(const void *pa, const void *pb)
 
 static void normalise(double *v)
 {
-    const double n = sqrt(dot(v, v));
+    const double n = sqrt(defsim__v3_dot(v, v));
     if (n > 0.0) for (int k = 0; k < 3; ++k) v[k] /= n;
 }
 
@@ -116,15 +102,16 @@ static int normals(struct defsim__bvh *m, int32_t nv)
     for (int32_t t = 0; t < nt; ++t) {
         const int32_t *v = m->tri + 3 * t;
         double e[3][3];   /* e[k]: from corner k to corner k + 1 */
-        for (int k = 0; k < 3; ++k) sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], e[k]);
+        for (int k = 0; k < 3; ++k)
+            defsim__v3_sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], e[k]);
         double *n = m->fn + 3 * t;
-        cross(e[0], e[2], n);
+        defsim__v3_cross(e[0], e[2], n);
         for (int k = 0; k < 3; ++k) n[k] = -n[k];   /* (b - a) x (c - a) */
         normalise(n);
         /* angle-weighted vertex normals */
         for (int k = 0; k < 3; ++k) {
             const double *u = e[k], *w = e[(k + 2) % 3];   /* out of corner k: u, -w */
-            double c = -dot(u, w) / sqrt(dot(u, u) * dot(w, w));
+            double c = -defsim__v3_dot(u, w) / sqrt(defsim__v3_dot(u, u) * defsim__v3_dot(w, w));
             c = c > 1.0 ? 1.0 : c < -1.0 ? -1.0 : c;
             const double ang = acos(c);
             for (int j = 0; j < 3; ++j) m->vn[3 * v[k] + j] += ang * n[j];
@@ -285,15 +272,15 @@ static void closest_on_triangle(const double *p, const double *a, const double *
                                 const double *c, double q[3], int *feature)
 {
     double ab[3], ac[3], ap[3], bp[3], cp[3];
-    sub(b, a, ab); sub(c, a, ac); sub(p, a, ap);
-    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+    defsim__v3_sub(b, a, ab); defsim__v3_sub(c, a, ac); defsim__v3_sub(p, a, ap);
+    const double d1 = defsim__v3_dot(ab, ap), d2 = defsim__v3_dot(ac, ap);
     if (d1 <= 0.0 && d2 <= 0.0) {
         memcpy(q, a, 3 * sizeof *q);
         *feature = 4;
         return;
     }
-    sub(p, b, bp);
-    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+    defsim__v3_sub(p, b, bp);
+    const double d3 = defsim__v3_dot(ab, bp), d4 = defsim__v3_dot(ac, bp);
     if (d3 >= 0.0 && d4 <= d3) {
         memcpy(q, b, 3 * sizeof *q);
         *feature = 5;
@@ -306,8 +293,8 @@ static void closest_on_triangle(const double *p, const double *a, const double *
         *feature = 1;
         return;
     }
-    sub(p, c, cp);
-    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+    defsim__v3_sub(p, c, cp);
+    const double d5 = defsim__v3_dot(ab, cp), d6 = defsim__v3_dot(ac, cp);
     if (d6 >= 0.0 && d5 <= d6) {
         memcpy(q, c, 3 * sizeof *q);
         *feature = 6;
@@ -351,8 +338,8 @@ double defsim__mesh_distance_brute(const defsim__collider *c, const double p[3])
         double r[3], e[3];
         int f;
         closest_on_triangle(p, m->x + 3 * v[0], m->x + 3 * v[1], m->x + 3 * v[2], r, &f);
-        sub(p, r, e);
-        if (dot(e, e) < best) best = dot(e, e);
+        defsim__v3_sub(p, r, e);
+        if (defsim__v3_dot(e, e) < best) best = defsim__v3_dot(e, e);
     }
     return sqrt(best);
 }
@@ -376,8 +363,8 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
                 double r[3], e[3];
                 int f;
                 closest_on_triangle(p, tx, tx + 3, tx + 6, r, &f);
-                sub(p, r, e);
-                const double d2 = dot(e, e);
+                defsim__v3_sub(p, r, e);
+                const double d2 = defsim__v3_dot(e, e);
                 if (d2 < best) {
                     best = d2;
                     best_t = m->order[i];
@@ -403,9 +390,9 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
                      : best_f < 4  ? m->en + 9 * best_t + 3 * (best_f - 1)
                                    : m->vn + 3 * v[best_f - 4];
     double e[3];
-    sub(p, q, e);
+    defsim__v3_sub(p, q, e);
     const double u = sqrt(best);
-    const double s = dot(e, pn) < 0.0 ? -1.0 : 1.0;
+    const double s = defsim__v3_dot(e, pn) < 0.0 ? -1.0 : 1.0;
     if (h) memset(h, 0, 9 * sizeof *h);
     if (!(u > 0.0)) {
         *d = 0.0;
@@ -419,7 +406,7 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
     double t[3] = {0.0, 0.0, 0.0};
     if (best_f < 4) {
         const int k = best_f - 1;
-        sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], t);
+        defsim__v3_sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], t);
         normalise(t);
     }
     const double n[3] = {e[0] / u, e[1] / u, e[2] / u};

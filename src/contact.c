@@ -23,11 +23,6 @@
 /* ------------------------------------------------------------------------------------------ */
 /* Scalar functions */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 /* The point that x becomes when carried rigidly from pose a to pose b. */
 static void carry(const defsim__pose *a, const defsim__pose *b, const double x[3], double out[3])
 {
@@ -137,7 +132,7 @@ static void pair_vertex(defsim__contact *c, int32_t i, int grown)
             }
             carry(&c->pose0[j], &c->pose1[j], x, moved);
             const double u[3] = {moved[0] - x[0], moved[1] - x[1], moved[2] - x[2]};
-            d = fmin(d, d0) - sqrt(dot3(u, u));
+            d = fmin(d, d0) - sqrt(defsim__v3_dot(u, u));
         }
         if (!(d <= r + c->dhat)) continue;
         if (skip_existing) {
@@ -186,7 +181,7 @@ static double box_clearance(defsim__contact *c, int32_t j, const double lo[3], c
             return -INFINITY;
         carry(&c->pose0[j], &c->pose1[j], m, moved);
         const double u[3] = {moved[0] - m[0], moved[1] - m[1], moved[2] - m[2]};
-        d = fmin(d, d0) - sqrt(dot3(u, u));
+        d = fmin(d, d0) - sqrt(defsim__v3_dot(u, u));
     }
     return (d - sqrt(half) - c->dhat) / sqrt(3.0);
 }
@@ -327,7 +322,7 @@ void defsim__contact_free(defsim__contact *c)
 double defsim__contact_khat(const defsim__contact_params *p, double dhat, double h,
                             const double gravity[3])
 {
-    const double g = sqrt(dot3(gravity, gravity));
+    const double g = sqrt(defsim__v3_dot(gravity, gravity));
     if (p->mode == DEFSIM__CONTACT_BARRIER)
         return p->kappa > 0.0 ? p->kappa : g / dhat + 1.0 / (h * h);
     const double w = p->frequency > 0.0 ? p->frequency : fmax(p->omega_elastic, sqrt(2.0 * g / dhat));
@@ -414,7 +409,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         }
         c->mu_max = fmax(c->mu_max, col[j].def.friction);
     }
-    c->g = sqrt(dot3(s->gravity, s->gravity));
+    c->g = sqrt(defsim__v3_dot(s->gravity, s->gravity));
     c->hstep = h;
     c->xn = x;
     c->vn = v;
@@ -490,9 +485,9 @@ static double friction_tangent(const defsim__contact *c, int32_t q, const double
     const double *n = c->nrm + 3 * (int64_t)q, *uc = c->uc + 3 * (int64_t)q;
     double u[3];
     for (int k = 0; k < 3; ++k) u[k] = x[3 * (int64_t)i + k] - c->xn[3 * (int64_t)i + k] - uc[k];
-    const double un = dot3(u, n);
+    const double un = defsim__v3_dot(u, n);
     for (int k = 0; k < 3; ++k) ut[k] = u[k] - un * n[k];
-    *y = sqrt(dot3(ut, ut));
+    *y = sqrt(defsim__v3_dot(ut, ut));
     return mul;
 }
 
@@ -557,9 +552,9 @@ static double penalty_tangent(const defsim__contact *c, int32_t q, double d, con
     double vc[3], vr[3];
     collider_velocity(c, j, c->xn + 3 * (int64_t)i, vc);
     for (int k = 0; k < 3; ++k) vr[k] = v[3 * (int64_t)i + k] - vc[k];
-    const double vn = dot3(vr, n);
+    const double vn = defsim__v3_dot(vr, n);
     for (int k = 0; k < 3; ++k) vt[k] = vr[k] - vn * n[k];
-    *y = sqrt(dot3(vt, vt));
+    *y = sqrt(defsim__v3_dot(vt, vt));
     return mul;
 }
 
@@ -785,11 +780,11 @@ static int mesh_convex(const defsim__collider *col)
         const double v[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]};
         const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
                              u[0] * v[1] - u[1] * v[0]};
-        const double len = sqrt(dot3(n, n));
+        const double len = sqrt(defsim__v3_dot(n, n));
         if (!(len > 0.0)) return 0;
         for (int32_t i = 0; i < d->vertex_count; ++i) {
             const double w[3] = {x[3 * i] - a[0], x[3 * i + 1] - a[1], x[3 * i + 2] - a[2]};
-            if (dot3(w, n) / len > 1e-9 * size) return 0;
+            if (defsim__v3_dot(w, n) / len > 1e-9 * size) return 0;
         }
     }
     return 1;
@@ -1005,7 +1000,7 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
         if (c->off[q]) continue;
         const int32_t i = c->pv[q], j = c->pc[q];
         const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i;
-        const double len = sqrt(dot3(u, u));
+        const double len = sqrt(defsim__v3_dot(u, u));
         if (len == 0.0) continue;
         const double d = distance(c, j, a, NULL, NULL);
         if (isnan(d) || d <= 0.0) {
@@ -1257,9 +1252,11 @@ double defsim__contact_work(defsim__contact *c, const double *x0, const double *
             isnan(pair_term(c, q, &p1, x1, fc)))
             return INFINITY;
         if (e0 == INFINITY) fa[0] = fa[1] = fa[2] = 0.0;   /* starts inside: left out (above) */
-        const double pa = dot3(fa, ua), pb = dot3(fb, ua), pc = dot3(fc, ub);
-        const double fbig = fmax(sqrt(dot3(fa, fa)), fmax(sqrt(dot3(fb, fb)), sqrt(dot3(fc, fc))));
-        const double ubig = fmax(sqrt(dot3(ua, ua)), sqrt(dot3(ub, ub)));
+        const double pa = defsim__v3_dot(fa, ua), pb = defsim__v3_dot(fb, ua);
+        const double pc = defsim__v3_dot(fc, ub);
+        const double fbig = fmax(sqrt(defsim__v3_dot(fa, fa)),
+                                 fmax(sqrt(defsim__v3_dot(fb, fb)), sqrt(defsim__v3_dot(fc, fc))));
+        const double ubig = fmax(sqrt(defsim__v3_dot(ua, ua)), sqrt(defsim__v3_dot(ub, ub)));
         const double fr = col->def.friction > 0.0 ? col->def.friction * fbig * ubig : 0.0;
         w += fmax(pa, fmax(pb, pc)) + fr;
     }
@@ -1274,7 +1271,7 @@ double defsim__contact_damping_rate(defsim__contact *c, const double *x, const d
      * Contact that is not active at x may be later, and deeper than a vertex's own weight
      * pushes it (|g| / khat): a vertex under a body rests about where the penalty starts to
      * overlap, d = 0, so the rate is taken at that depth, dhat, at least. */
-    double depth = fmax(sqrt(dot3(gravity, gravity)) / c->khat, c->dhat);
+    double depth = fmax(sqrt(defsim__v3_dot(gravity, gravity)) / c->khat, c->dhat);
     for (int32_t q = 0; q < c->npair; ++q) {
         const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
         if (d < c->dhat && c->col[c->pc[q]].def.friction > 0.0) depth = fmax(depth, c->dhat - d);

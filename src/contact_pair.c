@@ -28,6 +28,7 @@
 
 #include "contact_barrier.h"
 #include "contact_prim.h"
+#include "mat3.h"
 
 #include <float.h>
 #include <math.h>
@@ -227,18 +228,6 @@ static void project_nodes(int nd, double *H, int m, const int *nodes)
 /* ------------------------------------------------------------------------------------------ */
 /* Closed forms */
 
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double *a, const double *b, double *out)
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 /* Point-point between vertices i and j of X: the gradient f1 grad d and the clamped Hessian
  * of f(d) (f1 = f', f2 = f'') over y = x_i - x_j, f2 n n^T + max(f1 / d, 0) (I - n n^T), placed
  * as [+B -B; -B +B]. g and H cover nd = 3 (number of vertices) coordinates, zero elsewhere. */
@@ -279,12 +268,12 @@ static void pl_closed(const double *X, int nd, const int *nodes, double d, doubl
     const double *p = X + 3 * nodes[0], *e0 = X + 3 * nodes[1], *e1 = X + 3 * nodes[2];
     double u[3], w[3], nh[3], eh[3], bh[3];
     for (int k = 0; k < 3; ++k) u[k] = p[k] - e0[k], w[k] = e1[k] - e0[k];
-    const double L2 = dot3(w, w), L = sqrt(L2), beta = dot3(u, w) / L2;
+    const double L2 = defsim__v3_dot(w, w), L = sqrt(L2), beta = defsim__v3_dot(u, w) / L2;
     for (int k = 0; k < 3; ++k) {
         nh[k] = (u[k] - beta * w[k]) / d;
         eh[k] = w[k] / L;
     }
-    cross3(eh, nh, bh);
+    defsim__v3_cross(eh, nh, bh);
     const double c[3] = {1.0, beta - 1.0, -beta}, kk[3] = {0.0, -1.0, 1.0};
     if (g) {
         memset(g, 0, (size_t)nd * sizeof *g);
@@ -362,10 +351,10 @@ static void plane_closed(int ee, double sig, double nu, const double nh[3],
     const double sg = sig > 0.0 ? 1.0 : -1.0;
     /* barycentric weights of the closest point: r_t = beta1 c1 + beta2 c2 */
     double m[3], rt[3];
-    cross3(r, c2, m);
-    const double beta1 = dot3(m, nh) / nu;
-    cross3(c1, r, m);
-    const double beta2 = dot3(m, nh) / nu;
+    defsim__v3_cross(r, c2, m);
+    const double beta1 = defsim__v3_dot(m, nh) / nu;
+    defsim__v3_cross(c1, r, m);
+    const double beta2 = defsim__v3_dot(m, nh) / nu;
     for (int k = 0; k < 3; ++k) rt[k] = r[k] - sig * nh[k];
     double w[4];
     for (int i = 0; i < 4; ++i) w[i] = map[0][i] - beta1 * map[1][i] - beta2 * map[2][i];
@@ -378,31 +367,31 @@ static void plane_closed(int ee, double sig, double nu, const double nh[3],
     for (int i = 0; i < 4; ++i) wh[i] = w[i] / W;
     /* in-plane frame */
     double ta[3], tb[3];
-    const double l1 = sqrt(dot3(c1, c1));
+    const double l1 = sqrt(defsim__v3_dot(c1, c1));
     for (int k = 0; k < 3; ++k) ta[k] = c1[k] / l1;
-    cross3(nh, ta, tb);
+    defsim__v3_cross(nh, ta, tb);
     const double *h[3] = {NODE_BASIS[4][0], NODE_BASIS[4][1], NODE_BASIS[4][2]};
     double v[3][3], rv[3], G[3];
     for (int k = 0; k < 3; ++k) {
         const double m1 = wdot4(map[1], h[k]), m2 = wdot4(map[2], h[k]);
         double u[3];
         for (int c = 0; c < 3; ++c) u[c] = m1 * c2[c] - m2 * c1[c];
-        cross3(nh, u, v[k]);
+        defsim__v3_cross(nh, u, v[k]);
         rv[k] = -nu * (beta1 * m1 + beta2 * m2);
         G[k] = wdot4(w, h[k]);
     }
     /* in-plane directions: weights of w^ on r, c1, c2 */
     const double ar = wdot4(map[0], wh), a1 = wdot4(map[1], wh), a2 = wdot4(map[2], wh);
     double jr[3];
-    cross3(nh, rt, jr);
+    defsim__v3_cross(nh, rt, jr);
     const double *t[2] = {ta, tb};
     double z[2], tj[2];
     for (int a = 0; a < 2; ++a) {
         double q1[3], q2[3];
-        cross3(t[a], c2, q1);
-        cross3(c1, t[a], q2);
-        z[a] = a1 * dot3(nh, q1) + a2 * dot3(nh, q2);
-        tj[a] = dot3(t[a], jr);
+        defsim__v3_cross(t[a], c2, q1);
+        defsim__v3_cross(c1, t[a], q2);
+        z[a] = a1 * defsim__v3_dot(nh, q1) + a2 * defsim__v3_dot(nh, q2);
+        tj[a] = defsim__v3_dot(t[a], jr);
     }
     /* M = f2 G G^T + f1 sg K over (N_0, N_1, N_2, T_a, T_b) */
     double M[25];
@@ -410,10 +399,10 @@ static void plane_closed(int ee, double sig, double nu, const double nh[3],
     for (int k = 0; k < 3; ++k) {
         for (int l = 0; l <= k; ++l)
             M[5 * k + l] = M[5 * l + k] =
-                f2 * G[k] * G[l] - ks * sig / (nu * nu) * dot3(v[k], v[l]);
+                f2 * G[k] * G[l] - ks * sig / (nu * nu) * defsim__v3_dot(v[k], v[l]);
         const double m1 = wdot4(map[1], h[k]), m2 = wdot4(map[2], h[k]);
         for (int a = 0; a < 2; ++a) {
-            const double kt = (ar * dot3(t[a], v[k]) - (m1 * a2 - m2 * a1) * tj[a]) / nu -
+            const double kt = (ar * defsim__v3_dot(t[a], v[k]) - (m1 * a2 - m2 * a1) * tj[a]) / nu -
                               z[a] * rv[k] / (nu * nu);
             M[5 * k + 3 + a] = M[5 * (3 + a) + k] = ks * kt;
         }
@@ -499,10 +488,10 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
                 for (int q = 0; q < 3; ++q) v[q] += map[k][i] * X[3 * i + q];
             memcpy(k == 0 ? r : k == 1 ? c1 : c2, v, sizeof v);
         }
-        cross3(c1, c2, n);
-        const double nu = sqrt(dot3(n, n));
+        defsim__v3_cross(c1, c2, n);
+        const double nu = sqrt(defsim__v3_dot(n, n));
         for (int k = 0; k < 3; ++k) nh[k] = n[k] / nu;
-        const double sig = dot3(r, nh);
+        const double sig = defsim__v3_dot(r, nh);
         plane_closed(ee, sig, nu, nh, r, c1, c2, b1, b2, g, H);
         return e;
     }

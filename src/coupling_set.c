@@ -9,7 +9,6 @@
  */
 #include "coupling_set.h"
 
-#include "terms.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -172,7 +171,6 @@ defsim_status defsim__coupling_step_end(defsim__coupling_set *cs, defsim__system
     defsim__coupling *c = &cs->cpl;
     c->in_step = 0;
     c->hold = 0;
-    defsim__terms_step_end(sys);
     if (c->failed) {
         c->failed = 0;
         st = DEFSIM_ERR_CALLBACK;   /* the callback's failure is the cause, whatever followed */

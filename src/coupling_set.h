@@ -41,7 +41,8 @@ void defsim__coupling_free(defsim__coupling_set *cs);
 /* Removes the attachments that reference the body `id`, bumping their generations. */
 void defsim__coupling_drop_body(defsim__coupling_set *cs, defsim_body_id id);
 
-/* Step hooks. begin evaluates what a step of h from `state` holds: driven pins' velocities,
+/* Step hooks (the attachments' kind calls them from the terms' step hooks, term_attach.c). begin
+ * evaluates what a step of h from `state` holds: driven pins' velocities,
  * and for implicit backends the callback at the start (DEFSIM_PASS_* it uses go into *passes);
  * before/after bracket each backend call i of n; end closes the step (st: the step's status;
  * OK consumes the targets) and returns the step's status. */

@@ -17,6 +17,15 @@ typedef double (*defsim__element_energy_fn)(const defsim__group *g, const double
 double defsim__group_energy(const defsim__system *s, defsim__work *wk, const defsim__group *g,
                             defsim__element_energy_fn energy, const double *x, double total);
 
+/* The energy op of an element group's kind (the term's model is its group), over the kind's
+ * element energy: what the elastic and spring terms share. */
+#define DEFSIM__GROUP_ENERGY_OP(element_energy)                                                    \
+    static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,        \
+                         const double *x, double total)                                           \
+    {                                                                                              \
+        return defsim__group_energy(s, wk, t->model, element_energy, x, total);                    \
+    }
+
 /* Elastic energy at x (J), relative to rest; +INFINITY where undefined (an inverted
  * neo-Hookean element). */
 double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const double *x);

@@ -4,17 +4,7 @@
 #include <float.h>
 #include <math.h>
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static void cross3(const double a[3], const double b[3], double c[3])
-{
-    c[0] = a[1] * b[2] - a[2] * b[1];
-    c[1] = a[2] * b[0] - a[0] * b[2];
-    c[2] = a[0] * b[1] - a[1] * b[0];
-}
 
 static void swap3(double a[3], double b[3])
 {
@@ -33,8 +23,8 @@ static void any_orthogonal(const double u[3], double w[3])
     if (fabs(u[1]) < fabs(u[k])) k = 1;
     if (fabs(u[2]) < fabs(u[k])) k = 2;
     e[k] = 1.0;
-    cross3(u, e, w);
-    double n = sqrt(dot3(w, w));
+    defsim__v3_cross(u, e, w);
+    double n = sqrt(defsim__v3_dot(w, w));
     for (int i = 0; i < 3; ++i) w[i] /= n;
 }
 
@@ -74,8 +64,8 @@ void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9])
             int p = pairs[k][0], q = pairs[k][1];
             /* Norms are recomputed, not updated: an update would carry an error of eps |a_p|^2
              * into |a_q|^2, fatal when sigma_q / sigma_p is small. */
-            double alpha = dot3(a[p], a[p]), beta = dot3(a[q], a[q]);
-            double gamma = dot3(a[p], a[q]);
+            double alpha = defsim__v3_dot(a[p], a[p]), beta = defsim__v3_dot(a[q], a[q]);
+            double gamma = defsim__v3_dot(a[p], a[q]);
             /* Converged pair: also true for gamma == 0, which covers zero columns. */
             if (gamma * gamma <= tol2 * alpha * beta) continue;
             /* Rotation angle th with tan(2 th) = y / x: t = tan th is the root of least
@@ -99,7 +89,7 @@ void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9])
     }
 
     double n[3];
-    for (int c = 0; c < 3; ++c) n[c] = sqrt(dot3(a[c], a[c]));
+    for (int c = 0; c < 3; ++c) n[c] = sqrt(defsim__v3_dot(a[c], a[c]));
 
     /* Sort by decreasing norm (three compare-swaps). */
     static const int order[3][2] = {{0, 1}, {1, 2}, {0, 1}};
@@ -116,8 +106,8 @@ void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9])
 
     /* Make V a proper rotation; F v2 = a2 keeps holding after negating both. */
     double w[3];
-    cross3(v[0], v[1], w);
-    if (dot3(w, v[2]) < 0.0) {
+    defsim__v3_cross(v[0], v[1], w);
+    if (defsim__v3_dot(w, v[2]) < 0.0) {
         for (int r = 0; r < 3; ++r) {
             v[2][r] = -v[2][r];
             a[2][r] = -a[2][r];
@@ -128,18 +118,18 @@ void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9])
      * proper, and the sign of det F then lands on sigma2 = a2 . u2. */
     double u[3][3];
     for (int r = 0; r < 3; ++r) u[0][r] = a[0][r] / n[0];
-    double proj = dot3(a[1], u[0]);
+    double proj = defsim__v3_dot(a[1], u[0]);
     for (int r = 0; r < 3; ++r) u[1][r] = a[1][r] - proj * u[0][r];
-    double nr = sqrt(dot3(u[1], u[1]));
+    double nr = sqrt(defsim__v3_dot(u[1], u[1]));
     if (nr > 1e-200) {
         for (int r = 0; r < 3; ++r) u[1][r] /= nr;
     } else {
         any_orthogonal(u[0], u[1]);
     }
-    cross3(u[0], u[1], u[2]);
+    defsim__v3_cross(u[0], u[1], u[2]);
 
     /* |a2 . u2| can exceed n[1] by an ulp when the two are equal; keep the order exact. */
-    double s2 = dot3(a[2], u[2]);
+    double s2 = defsim__v3_dot(a[2], u[2]);
     if (fabs(s2) > n[1]) s2 = (s2 < 0.0) ? -n[1] : n[1];
     sigma[0] = n[0] * scale;
     sigma[1] = n[1] * scale;

@@ -45,6 +45,25 @@
 /* det A from C = cof A (expansion along the first row). */
 #define DEFSIM__M3_DET_COF(A, C) ((A)[0] * (C)[0] + (A)[1] * (C)[1] + (A)[2] * (C)[2])
 
+/* 3-vectors: a . b, a x b and a - b (through a temporary: c may alias a or b). */
+static inline double defsim__v3_dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static inline void defsim__v3_cross(const double a[3], const double b[3], double c[3])
+{
+    const double t[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                         a[0] * b[1] - a[1] * b[0]};
+    memcpy(c, t, sizeof t);
+}
+
+static inline void defsim__v3_sub(const double a[3], const double b[3], double c[3])
+{
+    const double t[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+    memcpy(c, t, sizeof t);
+}
+
 static inline void defsim__m3_identity(double A[9])
 {
     static const double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};

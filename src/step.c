@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The world's step (defsim_world_step) and its stable step, in the order a step walks:
- * plan (world.c plans and starts the backend), terms (the coupling set's hooks, collider
- * contact, body contact), the backend's calls (auto-substep, roll-back and retry), the
- * stability watchdog's verdict, and the read-back (contact forces, colliders' poses, the
- * callback's forces for the next step). src/README.md writes the walk down.
+ * The world's step (defsim_world_step) and its stable step, in the order a step walks: plan
+ * (world.c plans and starts the backend), terms (the kinds' begins through terms.c: the coupling
+ * set's hooks, collider contact, body contact), the backend's calls (auto-substep, the per-call
+ * hooks through terms.c, roll-back and retry), the stability watchdog's verdict (watchdog.c,
+ * which reads the colliders' work through the terms), and the read-back (the kinds' ends
+ * through terms.c: contact forces, colliders' poses; the callback's forces for the next step,
+ * statistics). src/README.md writes the walk down; tests/tools/step_walk.py checks it.
  *
  * Contents: stability; stepping.
  */
@@ -23,17 +25,17 @@
 /* ------------------------------------------------------------------------------------------ */
 /* Stability */
 
-static defsim_status contact_begin(defsim_world *w, double h);
-
-/* The terms' list follows what is attached to the system (collider and body contact): compiled
- * again only when that differs from what it was compiled with (contact, body), once for all
- * the begins of a step and once for all its ends. */
-static defsim_status terms_follow(defsim_world *w, const void *contact, const void *body,
-                                  defsim_status st)
+/* What the kinds' step hooks see of the world (term.h), for a step of h (0: no step). */
+static defsim__step_ctx hooks(defsim_world *w, double h)
 {
-    if (w->sys.contact == contact && w->sys.body_contact == body) return st;
-    const defsim_status ct = defsim__terms_compile(&w->sys);
-    return st == DEFSIM_OK ? ct : st;
+    return (defsim__step_ctx){
+        .h = h, .x0 = w->step.x_save, .v0 = w->step.v_save, .state = &w->state, .set = &w->set,
+        .host = &defsim__host, .backend = w->backend.table, .handle = &w->handle,
+        .backend_state = w->backend.state, .backend_ready = w->backend.ready,
+        .bodies = w->bodies.b, .nbodies = w->bodies.n, .work = &w->work,
+        .coupling = &w->coupling, .colliders = &w->colliders, .contact = &w->contact,
+        .body_contact = &w->body_contact, .body_contact_last = &w->step.body_contact_last,
+        .passes = &w->step.passes, .watchdog_trips = &w->stats.watchdog_trips, .msg = w->msg};
 }
 
 static defsim_status estimate_stable_step(defsim_world *w, double *h, double *omega)
@@ -65,13 +67,13 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
     /* Penalty contact stiffens the system (explicit backends' limit); the barrier's backends
      * have no limit. */
     const int penalty = !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD);
-    const void *was = w->sys.contact;
-    if (w->nv > 0 && penalty) st = contact_begin(w, 0.0);
-    st = terms_follow(w, was, w->sys.body_contact, st);
+    if (w->nv > 0 && penalty) {
+        const defsim__step_ctx sc = hooks(w, 0.0);
+        st = defsim__terms_step_begin(&w->sys, &sc);
+    }
     if (w->nv > 0 && st == DEFSIM_OK) st = estimate_stable_step(w, &h, &om);
-    was = w->sys.contact;
-    w->sys.contact = NULL;
-    st = terms_follow(w, was, w->sys.body_contact, st);
+    const defsim_status dt = defsim__terms_detach(&w->sys);
+    if (st == DEFSIM_OK) st = dt;
     if (st != DEFSIM_OK) return st;
     if (h_out) *h_out = h;
     if (omega_out) *omega_out = om;
@@ -82,7 +84,8 @@ defsim_status defsim_world_stable_step(defsim_world *w, double *h_out, double *o
 /* Stepping */
 
 /* The work terms of the step for the watchdog (watchdog.h): the callback's recorded forces,
- * the forces at moving driven pins, the colliders' work and their energy at the start. */
+ * the forces at moving driven pins, and whether the colliders' energy at the start is wanted
+ * (the check reads the colliders' work through the terms). */
 static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char *what,
                                 size_t size)
 {
@@ -120,13 +123,8 @@ static defsim_status watch_work(defsim_world *w, defsim__watchdog_step *in, char
         in->pin_f0 = f0;
         in->pin_f1 = f1;
     }
-    defsim__contact *ct = w->sys.contact;
-    if (ct && ct->npair > 0) {
-        in->colliders_changed = w->colliders.came;
-        if (!w->wd.have_ref || w->colliders.came)
-            in->contact_start = defsim__contact_energy_start(ct, w->step.x_save);
-        in->contact_work = defsim__contact_work(ct, w->step.x_save, w->state.x);
-    }
+    in->colliders_changed = w->colliders.came;
+    in->contact_start_wanted = !w->wd.have_ref || w->colliders.came;
     return DEFSIM_OK;
 }
 
@@ -163,67 +161,6 @@ static defsim_status watch_step(defsim_world *w, double h)
     return DEFSIM_ERR_UNSTABLE;
 }
 
-/* Contact (contact.h) for a step of h (0: for the stable step): BARRIER for backends whose line
- * search uses contact_max_step, PENALTY for the others; the system sees it until the step ends.
- * Attaches it only: the caller compiles the terms' list again (terms_follow). */
-static defsim_status contact_begin(defsim_world *w, double h)
-{
-    w->sys.contact = NULL;   /* left attached by a failed step: detached */
-    /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
-     * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
-     * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
-    const int penalty = !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD);
-    int jumped = w->colliders.changed;
-    for (int32_t j = 0; j < w->colliders.ncol && !jumped; ++j)
-        jumped = (w->colliders.col[j].generation & 1u) &&
-                 (memcmp(w->colliders.col[j].pos, w->colliders.col[j].pos1, sizeof w->colliders.col[j].pos) != 0 ||
-                  memcmp(w->colliders.col[j].rot, w->colliders.col[j].rot1, sizeof w->colliders.col[j].rot) != 0);
-    if (h > 0.0 && jumped && penalty && w->backend.ready && w->backend.table->reset) {
-        const defsim_status st =
-            w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
-        if (st != DEFSIM_OK) {
-            defsim__error(w->msg, "backend %s failed to reset for the colliders' change",
-                          w->backend.table->name);
-            return st;
-        }
-    }
-    if (h > 0.0) {
-        /* The watchdog counts the energy of colliders that came until a step succeeds. */
-        w->colliders.came |= w->colliders.changed;
-        w->colliders.changed = 0;
-    }
-    if (defsim__collider_set_live(&w->colliders) == 0) return DEFSIM_OK;
-    defsim__contact_params p = {
-        .mode = (w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD) ? DEFSIM__CONTACT_BARRIER
-                                                                 : DEFSIM__CONTACT_PENALTY,
-        .dhat_rel = w->set.contact_dhat, .kappa = w->set.contact_kappa,
-        .frequency = w->set.contact_frequency, .eps_v = w->set.friction_eps_v};
-    defsim__contact *c = &w->contact;
-    if (p.mode == DEFSIM__CONTACT_PENALTY && p.frequency == 0.0 && c->omega_elastic == 0.0) {
-        double om = 0.0;   /* the bodies' own top frequency, without contact, once per plan */
-        defsim_status st = defsim__omega_max(&w->sys, &w->work, w->state.x, &om);
-        if (st != DEFSIM_OK) {
-            defsim__error(w->msg, "contact: the elastic frequency is not finite");
-            return st;
-        }
-        c->omega_elastic = om;
-    }
-    p.omega_elastic = c->omega_elastic;
-    if (p.mode == DEFSIM__CONTACT_BARRIER && !c->surf_planned &&
-        defsim__contact_surfaces(c, w->bodies.b, w->bodies.n) != DEFSIM_OK) {
-        defsim__error(w->msg, "contact: out of memory for the bodies' surfaces");
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
-    /* A step's start: the world's copies, which nothing changes until the step ends. */
-    defsim_status st = defsim__contact_begin(c, &w->sys, w->colliders.col, w->colliders.ncol, &p,
-                                             h > 0.0 ? w->step.x_save : w->state.x,
-                                             h > 0.0 ? w->step.v_save : w->state.v, h, w->msg);
-    if (st != DEFSIM_OK) return st;
-    w->sys.contact = c;
-    return DEFSIM_OK;
-}
-
-
 defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 {
     if (w->nv == 0 || defsim__collider_set_live(&w->colliders) == 0 ||
@@ -248,9 +185,8 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
         memcpy(c->pos1, c->pos, sizeof c->pos);
         memcpy(c->rot1, c->rot, sizeof c->rot);
     }
-    const void *was = w->sys.contact;
-    defsim_status st = contact_begin(w, 0.0);
-    st = terms_follow(w, was, w->sys.body_contact, st);
+    const defsim__step_ctx sc = hooks(w, 0.0);
+    const defsim_status st = defsim__terms_step_begin(&w->sys, &sc);
     for (int32_t j = 0; j < w->colliders.ncol; ++j) {
         defsim__collider *c = &w->colliders.col[j];
         memcpy(c->pos1, keep + 7 * (int64_t)j, sizeof c->pos1);
@@ -260,12 +196,7 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
     return st;
 }
 
-void defsim__world_replay_contact_end(defsim_world *w)
-{
-    const void *was = w->sys.contact;
-    w->sys.contact = NULL;
-    (void)terms_follow(w, was, w->sys.body_contact, DEFSIM_OK);
-}
+void defsim__world_replay_contact_end(defsim_world *w) { (void)defsim__terms_detach(&w->sys); }
 
 void *defsim__world_term_state(defsim_world *w, int kind)
 {
@@ -273,148 +204,6 @@ void *defsim__world_term_state(defsim_world *w, int kind)
      * first step finds them again, in the same deterministic order. Its chunk is a step's pairs,
      * read against the surfaces that a step's begin builds. */
     return kind == DEFSIM__TERM_KIND_collider ? &w->contact : NULL;
-}
-
-/* A zeroed contact-force read-back of the world's vertex count. */
-static defsim_status readback_reserve(defsim_world *w)
-{
-    free(w->colliders.force);
-    w->colliders.force_nv = 0;
-    w->colliders.force = calloc(3 * (size_t)w->nv, sizeof *w->colliders.force);
-    if (!w->colliders.force) {
-        defsim__error(w->msg, "out of memory for the contact forces");
-        return DEFSIM_ERR_OUT_OF_MEMORY;
-    }
-    w->colliders.force_nv = w->nv;
-    return DEFSIM_OK;
-}
-
-/* Closes contact's part of a step: a callback's failure is the step's; after a success, the
- * contact forces for the host and the colliders' poses at the end of the step. */
-static defsim_status contact_end(defsim_world *w, defsim__contact *c, defsim_status st)
-{
-    if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
-        if (st == DEFSIM_OK && w->contact.readback_set) {
-            free(w->colliders.force);
-            w->colliders.force = NULL;
-            w->colliders.force_nv = 0;
-            w->contact.readback_set = 0;
-        }
-        return st;
-    }
-    if (st == DEFSIM_OK && (!w->colliders.force || w->colliders.force_nv != w->nv)) {
-        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
-        w->colliders.force_zero = 1;
-    }
-    /* The read-back goes to scratch first: a callback failing there fails the step too, and
-     * a failed step changes neither the read-back nor the poses. Without pairs (colliders far
-     * away) the forces are zero: nothing to compute or copy when the read-back is zero already. */
-    const int none = st == DEFSIM_OK && w->colliders.force_zero && defsim__contact_none(c, w->state.x);
-    if (st == DEFSIM_OK && !c->failed && none) {
-        c->stat[DEFSIM__CSTAT_ACTIVE] = 0;
-        c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = INFINITY;
-    } else if (st == DEFSIM_OK && !c->failed) {
-        defsim__contact_end(c, w->state.x, w->state.v, c->blk);
-    }
-    if (c->failed) {
-        defsim__error(w->msg, "contact: %s; state restored", defsim__contact_failure(c));
-        return c->failed;
-    }
-    if (st != DEFSIM_OK && c->blocked) {
-        char who[48] = "a surface";
-        if (c->blocked_vertex >= 0) snprintf(who, sizeof who, "vertex %d", (int)c->blocked_vertex);
-        defsim__error(w->msg, "contact: no Newton start keeps %s clear of the moving colliders in "
-                      "this step (squeezed between colliders that move differently, swept by "
-                      "one, or cut back by body contact); state restored", who);
-    }
-    if (st != DEFSIM_OK) return st;
-    if (c->mode == DEFSIM__CONTACT_BARRIER &&
-        w->set.watchdog &&
-        !(c->stat[DEFSIM__CSTAT_MIN_DISTANCE] > 0.0)) {
-        /* The watchdog's contact check: the barrier is infinite at zero distance and the line
-         * search keeps every vertex out, so a vertex at d <= 0 means that guarantee broke. */
-        w->stats.watchdog_trips++;
-        defsim__error(w->msg, "step: watchdog: a vertex crossed a collider's surface (distance "
-                      "%g m) although the contact barrier forbids it; state restored. This is a "
-                      "defect: please report it with the scene", c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
-        return DEFSIM_ERR_UNSTABLE;
-    }
-    if (!none) memcpy(w->colliders.force, c->blk, 3 * (size_t)w->nv * sizeof *w->colliders.force);
-    w->colliders.force_zero = c->npair == 0;
-    c->readback_set = 1;
-    for (int32_t j = 0; j < w->colliders.ncol; ++j) {
-        memcpy(w->colliders.col[j].pos, w->colliders.col[j].pos1, sizeof w->colliders.col[j].pos);
-        memcpy(w->colliders.col[j].rot, w->colliders.col[j].rot1, sizeof w->colliders.col[j].rot);
-    }
-    return DEFSIM_OK;
-}
-
-/* Body contact (body_contact.h) for a step of h while the option is on (the step refused
- * backends without contact CCD already). */
-static defsim_status body_begin(defsim_world *w, double h)
-{
-    w->sys.body_contact = NULL;   /* left attached by a failed step: detached */
-    if (!w->set.body_contact) {
-        w->step.body_contact_last = 0;
-        return DEFSIM_OK;
-    }
-    if (!w->step.body_contact_last) w->body_contact.fresh = 1;
-    w->step.body_contact_last = 1;
-    const defsim_status st = defsim__body_contact_begin(
-        &w->body_contact, &w->sys, w->bodies.b, w->bodies.n,
-        w->set.contact_dhat, w->set.contact_kappa, w->set.friction_eps_v, w->step.x_save,
-        w->state.v, h,
-        w->contact.stat, w->msg);
-    if (st != DEFSIM_OK) return st;
-    w->sys.body_contact = &w->body_contact;
-    return DEFSIM_OK;
-}
-
-/* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
- * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
-static defsim_status body_end(defsim_world *w, defsim__body_contact *bc, defsim_status st)
-{
-    if (!bc || st != DEFSIM_OK) return st;
-    if (bc->failed) {
-        defsim__error(w->msg, "out of memory for body contact pairs; state restored");
-        return bc->failed;
-    }
-    const double dmin = defsim__body_contact_end(bc, &w->sys, w->state.x, bc->scratch);
-    if (bc->failed) {
-        defsim__error(w->msg, "out of memory rebuilding the matrix pattern; state restored");
-        return bc->failed;
-    }
-    if (w->set.watchdog && !(dmin > 0.0)) {
-        w->stats.watchdog_trips++;
-        defsim__error(w->msg, "step: watchdog: two body surfaces touched (distance %g m) although "
-                      "the contact barrier forbids it; state restored. This is a defect: please "
-                      "report it with the scene", dmin);
-        return DEFSIM_ERR_UNSTABLE;
-    }
-    return DEFSIM_OK;
-}
-
-/* Adds body contact's forces of a successful step to the read-back (after the colliders'). */
-static defsim_status body_readback(defsim_world *w, int colliders)
-{
-    if (!w->colliders.force || w->colliders.force_nv != w->nv) {
-        if (readback_reserve(w) != DEFSIM_OK) return DEFSIM_ERR_OUT_OF_MEMORY;
-    } else if (!colliders) {
-        memset(w->colliders.force, 0, 3 * (size_t)w->nv * sizeof *w->colliders.force);
-    }
-    const double *f = w->body_contact.scratch;
-    for (int64_t i = 0; i < 3 * (int64_t)w->nv; ++i) w->colliders.force[i] += f[i];
-    w->colliders.force_zero = 0;
-    w->contact.readback_set = 1;
-    return DEFSIM_OK;
-}
-
-/* The coupling set's start of a step (driven pins, the callback at the start). */
-static defsim_status step_begin(defsim_world *w, double h)
-{
-    return defsim__coupling_step_begin(&w->coupling, &w->sys, &w->state,
-                                       (w->backend.table->flags & DEFSIM_BACKEND_IMPLICIT) != 0, h,
-                                       &w->step.passes, w->msg);
 }
 
 defsim_status defsim_world_step(defsim_world *w, double h)
@@ -458,11 +247,8 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->msg->error[0] = '\0';
     const int substep = w->set.auto_substep &&
                         (w->backend.table->stable_step || w->backend.table->stable_step_options);
-    const void *was_contact = w->sys.contact, *was_body = w->sys.body_contact;
-    st = step_begin(w, h);
-    if (st == DEFSIM_OK) st = contact_begin(w, h);
-    if (st == DEFSIM_OK) st = body_begin(w, h);
-    st = terms_follow(w, was_contact, was_body, st);
+    const defsim__step_ctx sc = hooks(w, h);
+    st = defsim__terms_step_begin(&w->sys, &sc);
     for (int attempt = 0; attempt < 2 && st == DEFSIM_OK; ++attempt) {
         int64_t n = 1;
         if (substep) {
@@ -484,33 +270,24 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         }
         st = DEFSIM_OK;
         for (int64_t i = 0; i < n && st == DEFSIM_OK; ++i) {
-            defsim__coupling_substep_before(&w->coupling, &w->state, i, n, h / (double)n);
-            defsim__terms_substep(&w->sys, (double)i / (double)n, (double)(i + 1) / (double)n,
-                                  h / (double)n);
+            defsim__terms_substep_before(&w->sys, &sc, i, n);
             st = w->backend.table->step(&defsim__host, &w->handle, w->backend.state, h / (double)n);
-            defsim__coupling_substep_after(&w->coupling, &w->state);
+            defsim__terms_substep_after(&sc);
         }
         if (substep) w->stats.substeps += n;
         if (st != DEFSIM_ERR_UNSTABLE || !substep) break;
         /* Unstable despite substepping: roll back and retry once, re-estimated and halved. */
         memcpy(w->state.x, w->step.x_save, bytes);
         memcpy(w->state.v, w->step.v_save, bytes);
-        st = step_begin(w, h);
+        st = defsim__terms_restart(&w->sys, &sc);
         if (st != DEFSIM_OK) break;
         if (w->backend.table->reset)
             w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
     }
-    st = defsim__coupling_step_end(&w->coupling, &w->sys, st);
+    st = defsim__terms_finish(&w->sys, &sc, st);
     if (substep && st == DEFSIM_OK) w->step.since_estimate++;
     if (st == DEFSIM_OK) st = watch_step(w, h);
-    defsim__contact *c = w->sys.contact;
-    defsim__body_contact *bc = w->sys.body_contact;
-    w->sys.contact = NULL;
-    w->sys.body_contact = NULL;
-    st = terms_follow(w, c, bc, st);
-    st = body_end(w, bc, st);
-    st = contact_end(w, c, st);
-    if (st == DEFSIM_OK && bc) st = body_readback(w, c != NULL);
+    st = defsim__terms_step_end(&w->sys, &sc, st);
     if (st != DEFSIM_OK) {
         memcpy(w->state.x, w->step.x_save, bytes);
         memcpy(w->state.v, w->step.v_save, bytes);

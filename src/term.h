@@ -36,6 +36,14 @@
 struct defsim__system;
 struct defsim__work;
 struct defsim__term_ops;
+struct defsim__state;
+struct defsim__settings;
+struct defsim__body;
+struct defsim__coupling_set;
+struct defsim__collider_set;
+struct defsim__contact;
+struct defsim__body_contact;
+struct defsim__messages;
 
 /* Term kinds in list order (term_list.h). */
 #define DEFSIM__TERM_ENUM(name) DEFSIM__TERM_KIND_##name,
@@ -104,6 +112,32 @@ typedef struct defsim__rates {
 
 typedef const struct defsim__system defsim__csys;
 
+/* What a world's step hands its kinds' step hooks (step.c fills it from the world's sub-objects,
+ * which the kinds see only through it). h = 0: no step, only collider contact begins (a stable
+ * step's estimate, a checkpoint's replay of contact). */
+typedef struct defsim__step_ctx {
+    double h;                 /* the step (s), or 0 */
+    const double *x0, *v0;    /* the state at the step's start (the world's copies) */
+    struct defsim__state *state;
+    const struct defsim__settings *set;
+    const defsim_host *host;  /* the backend's table and what its calls take (a reset) */
+    const defsim_backend *backend;
+    defsim_system *handle;
+    void *backend_state;
+    int backend_ready;
+    const struct defsim__body *bodies;
+    int32_t nbodies;
+    struct defsim__work *work;
+    struct defsim__coupling_set *coupling;
+    struct defsim__collider_set *colliders;
+    struct defsim__contact *contact;            /* the world's collider contact state */
+    struct defsim__body_contact *body_contact;  /* the world's body contact state */
+    int *body_contact_last;   /* the last step had body contact on */
+    uint32_t *passes;         /* DEFSIM_PASS_* of the step under way */
+    int64_t *watchdog_trips;  /* the world's statistic */
+    struct defsim__messages *msg;
+} defsim__step_ctx;
+
 /* A kind's ops. Every op but compile is optional (NULL: the term adds nothing there). */
 typedef struct defsim__term_ops {
     const char *name;
@@ -157,11 +191,36 @@ typedef struct defsim__term_ops {
     double (*lambda_bound)(const defsim__term *t, defsim__csys *s, double lambda);
     void (*rates)(const defsim__term *t, defsim__csys *s, const double *x, defsim__rates *r);
 
-    /* Step hooks (a step begins with compile, when the world attaches its contact state): the
+    /* The term's step hooks (terms.c calls them over the list from the kinds' hooks below): the
      * backend step under way covers the fraction [s0, s1] of the world's step with length h;
-     * the step ended. */
+     * the backend's calls of the step ended. */
     void (*substep)(const defsim__term *t, double s0, double s1, double h);
     void (*step_end)(const defsim__term *t);
+    /* The work its forces did over x0 -> x1 (J) into *work and, when start, its energy at x0
+     * into *e0, for the watchdog; returns 0 (outputs untouched) when it has none. */
+    int (*work)(const defsim__term *t, const double *x0, const double *x1, int start,
+                double *e0, double *work);
+
+    /* The kind's step hooks, called whether or not its term is in the list (terms.c: in list
+     * order, end in the reverse), with what the step hands them: begin attaches what the kind's
+     * term needs to the system (the list is compiled again when what attached, the kind's
+     * state that the system points at, changed), restart begins again after a rolled-back
+     * attempt, before and after bracket the backend's call i of n, finish closes the backend's
+     * calls (st: their status; returns the step's), detach takes back what begin attached, end
+     * closes the kind's part of the step with what was attached (its read-back, its checks),
+     * readback adds to the host's read-back once every end ran. */
+    defsim_status (*begin)(struct defsim__system *s, const defsim__step_ctx *c);
+    defsim_status (*restart)(struct defsim__system *s, const defsim__step_ctx *c);
+    void (*before)(const defsim__step_ctx *c, int64_t i, int64_t n);
+    void (*after)(const defsim__step_ctx *c);
+    defsim_status (*finish)(struct defsim__system *s, const defsim__step_ctx *c,
+                            defsim_status st);
+    void *(*attached)(const struct defsim__system *s);
+    void (*detach)(struct defsim__system *s);
+    defsim_status (*end)(struct defsim__system *s, const defsim__step_ctx *c, void *was,
+                         defsim_status st);
+    defsim_status (*readback)(struct defsim__system *s, const defsim__step_ctx *c, void *was,
+                              defsim_status st);
 
     /* Its counters: their full names "<kind>.<counter>" (static; the world's statistics by name
      * list them after the core's and the backend's), and the value of counter i (0 <= i <

@@ -3,8 +3,13 @@
  * Attachments (system.h's defsim__attachments, built by plan.c): zero-rest-length springs on
  * d = sum_j a_j x[node_j] - p, energy k/2 |d|^2, with dampers -c a_j sum_l a_l v[node_l].
  * Few, and sharing vertices freely, so one thread in a fixed order.
+ *
+ * The kind also carries the step hooks of the coupling set the attachments belong to (driven
+ * pins, the callback at an implicit step's start; coupling_set.h): the first of the coupling
+ * set's kinds in the list, so its begin runs before contact's, which read the pins' velocities.
  */
 #include "assembly.h"
+#include "coupling_set.h"
 #include "element.h"
 #include "system.h"
 #include "term_cache.h"
@@ -144,6 +149,35 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
     }
 }
 
+/* The coupling set's step hooks (h = 0: no step, nothing to begin). */
+static defsim_status restart(defsim__system *s, const defsim__step_ctx *c)
+{
+    return defsim__coupling_step_begin(c->coupling, s, c->state,
+                                       (c->backend->flags & DEFSIM_BACKEND_IMPLICIT) != 0, c->h,
+                                       c->passes, c->msg);
+}
+
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *c)
+{
+    return c->h > 0.0 ? restart(s, c) : DEFSIM_OK;
+}
+
+static void before(const defsim__step_ctx *c, int64_t i, int64_t n)
+{
+    defsim__coupling_substep_before(c->coupling, c->state, i, n, c->h / (double)n);
+}
+
+static void after(const defsim__step_ctx *c)
+{
+    defsim__coupling_substep_after(c->coupling, c->state);
+}
+
+static defsim_status finish(defsim__system *s, const defsim__step_ctx *c, defsim_status st)
+{
+    return defsim__coupling_step_end(c->coupling, s, st);
+}
+
 const defsim__term_ops defsim__term_attach = {
     .name = "attach", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 2, .matrix_rank = 2,
-    DEFSIM__TERM_FORCES, .pairs = pairs, .ranks = ranks, DEFSIM__TERM_MATRIX, .rates = rates};
+    DEFSIM__TERM_FORCES, .pairs = pairs, .ranks = ranks, DEFSIM__TERM_MATRIX, .rates = rates,
+    .begin = begin, .restart = restart, .before = before, .after = after, .finish = finish};

@@ -9,7 +9,10 @@
  */
 #include "assembly.h"
 #include "body_contact.h"
+#include "collider.h"
 #include "contact.h"
+#include "host.h"
+#include "options.h"
 #include "system.h"
 #include "term_cache.h"
 
@@ -27,13 +30,8 @@ static defsim__body_contact *bcon(const defsim__term *t) { return t->data; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->body_contact) return 0;
-    if (!defsim__cache_reserve(&s->cache[DEFSIM__TERM_KIND_body_contact], sizeof(entry), s->nv))
-        return -1;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    out->data = s->body_contact;
-    return 1;
+    return defsim__term_contact(s, s->nv, s->body_contact,
+                                &s->cache[DEFSIM__TERM_KIND_body_contact], sizeof(entry), out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -253,6 +251,77 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
     return DEFSIM_OK;
 }
 
+/* A step's begin while the option is on (the step refused backends without contact CCD
+ * already); h = 0 (no step) begins nothing. */
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc)
+{
+    if (!(sc->h > 0.0)) return DEFSIM_OK;
+    s->body_contact = NULL;   /* left attached by a failed step: detached */
+    const defsim__settings *set = sc->set;
+    if (!set->body_contact) {
+        *sc->body_contact_last = 0;
+        return DEFSIM_OK;
+    }
+    if (!*sc->body_contact_last) sc->body_contact->fresh = 1;
+    *sc->body_contact_last = 1;
+    const defsim_status st = defsim__body_contact_begin(
+        sc->body_contact, s, sc->bodies, sc->nbodies, set->contact_dhat, set->contact_kappa,
+        set->friction_eps_v, sc->x0, sc->state->v, sc->h, sc->contact->stat, sc->msg);
+    if (st != DEFSIM_OK) return st;
+    s->body_contact = sc->body_contact;
+    return DEFSIM_OK;
+}
+
+static void *attached(const defsim__system *s) { return s->body_contact; }
+static void detach(defsim__system *s) { s->body_contact = NULL; }
+
+/* Closes body contact's part of a step: the forces of the end state (into its scratch, for the
+ * read-back) and the statistics; the watchdog's check that no pair reached distance 0. */
+static defsim_status end(defsim__system *s, const defsim__step_ctx *sc, void *was,
+                         defsim_status st)
+{
+    defsim__body_contact *bc = was;
+    if (!bc || st != DEFSIM_OK) return st;
+    if (bc->failed) {
+        defsim__error(sc->msg, "out of memory for body contact pairs; state restored");
+        return bc->failed;
+    }
+    const double dmin = defsim__body_contact_end(bc, s, sc->state->x, bc->scratch);
+    if (bc->failed) {
+        defsim__error(sc->msg, "out of memory rebuilding the matrix pattern; state restored");
+        return bc->failed;
+    }
+    if (sc->set->watchdog && !(dmin > 0.0)) {
+        (*sc->watchdog_trips)++;
+        defsim__error(sc->msg, "step: watchdog: two body surfaces touched (distance %g m) "
+                      "although the contact barrier forbids it; state restored. This is a "
+                      "defect: please report it with the scene", dmin);
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    return DEFSIM_OK;
+}
+
+/* Adds body contact's forces of a successful step to the read-back, after the colliders' (which
+ * wrote it this step when they set readback_set; else it starts from zero). */
+static defsim_status readback(defsim__system *s, const defsim__step_ctx *sc, void *was,
+                              defsim_status st)
+{
+    defsim__collider_set *cs = sc->colliders;
+    const int32_t nv = s->nv;
+    if (st != DEFSIM_OK || !was) return st;
+    if (!cs->force || cs->force_nv != nv) {
+        if (defsim__collider_set_readback(cs, nv, sc->msg) != DEFSIM_OK)
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+    } else if (!sc->contact->readback_set) {
+        memset(cs->force, 0, 3 * (size_t)nv * sizeof *cs->force);
+    }
+    const double *f = ((defsim__body_contact *)was)->scratch;
+    for (int64_t i = 0; i < 3 * (int64_t)nv; ++i) cs->force[i] += f[i];
+    cs->force_zero = 0;
+    sc->contact->readback_set = 1;
+    return DEFSIM_OK;
+}
+
 const defsim__term_ops defsim__term_body_contact = {
     .name = "body_contact",
     .energy_rank = 5,
@@ -267,6 +336,11 @@ const defsim__term_ops defsim__term_body_contact = {
     .max_step = max_step,
     .start = start,
     .step_end = step_end,
+    .begin = begin,
+    .attached = attached,
+    .detach = detach,
+    .end = end,
+    .readback = readback,
     .counters = COUNTERS,
     .counter_count = 2,
     .counter = counter,

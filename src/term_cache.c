@@ -17,6 +17,14 @@ int defsim__term_one(int on, const void *model, void *data, int32_t index, defsi
     return 1;
 }
 
+int defsim__term_contact(const struct defsim__system *s, int32_t nv, void *data,
+                         defsim__term_cache *c, size_t bytes, defsim__term *out)
+{
+    if (!data) return 0;
+    if (!defsim__cache_reserve(c, bytes, nv)) return -1;
+    return defsim__term_one(1, s, data, 0, out);
+}
+
 int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
                       const defsim_matrix_coeffs *k)
 {

@@ -11,6 +11,12 @@
  * model, data and index into out and returns 1; else returns 0. */
 int defsim__term_one(int on, const void *model, void *data, int32_t index, defsim__term *out);
 
+/* The compile of a contact kind (collider, body contact): the one term over the system s
+ * (nv vertices) with the contact state that a step's begin attached, `data`, and the kind's
+ * cache c made room for `bytes` of blocks; 0 when nothing is attached, -1 when out of memory. */
+int defsim__term_contact(const struct defsim__system *s, int32_t nv, void *data,
+                         defsim__term_cache *c, size_t bytes, defsim__term *out);
+
 /* Whether the cache holds the blocks at x for the coefficients' k and kd and its epoch. */
 int defsim__cache_hit(const defsim__term_cache *c, int32_t nv, const double *x,
                       const defsim_matrix_coeffs *k);

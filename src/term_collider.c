@@ -8,12 +8,17 @@
  */
 #include "assembly.h"
 #include "chunk.h"
+#include "collider.h"
 #include "contact.h"
+#include "host.h"
+#include "options.h"
+#include "stability.h"
 #include "system.h"
 #include "term_cache.h"
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -21,14 +26,8 @@ static defsim__contact *contact(const defsim__term *t) { return t->data; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    if (!s->contact) return 0;
-    defsim__term_cache *c = &s->cache[DEFSIM__TERM_KIND_collider];
-    if (!defsim__cache_reserve(c, 9 * (size_t)(s->nv > 0 ? s->nv : 1) * sizeof(double), s->nv))
-        return -1;
-    memset(out, 0, sizeof *out);
-    out->model = s;
-    out->data = s->contact;
-    return 1;
+    return defsim__term_contact(s, s->nv, s->contact, &s->cache[DEFSIM__TERM_KIND_collider],
+                                9 * (size_t)(s->nv > 0 ? s->nv : 1) * sizeof(double), out);
 }
 
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
@@ -138,6 +137,147 @@ static void substep(const defsim__term *t, double s0, double s1, double h)
 
 static void step_end(const defsim__term *t) { t->cache->valid = t->cache->any = 0; }
 
+/* The colliders' work over x0 -> x1 and their energy at x0 (the watchdog's work terms). */
+static int work(const defsim__term *t, const double *x0, const double *x1, int start, double *e0,
+                double *w)
+{
+    defsim__contact *ct = contact(t);
+    if (ct->npair == 0) return 0;
+    if (start) *e0 = defsim__contact_energy_start(ct, x0);
+    *w = defsim__contact_work(ct, x0, x1);
+    return 1;
+}
+
+/* A step's begin (h = 0: for the stable step's estimate or a replay): BARRIER for backends
+ * whose line search uses contact_max_step, PENALTY for the others; the world's contact state is
+ * attached to the system until the step ends. */
+static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc)
+{
+    s->contact = NULL;   /* left attached by a failed step: detached */
+    defsim__collider_set *cs = sc->colliders;
+    const double h = sc->h;
+    /* The penalty is a force that jumps when a collider comes, goes or moves between steps:
+     * backends that carry force evaluations from the last step (velocity_verlet's f(x_n),
+     * ERK's first-same-as-last stage, IDA's history) start afresh, as after set_state. */
+    const int penalty = !(sc->backend->flags & DEFSIM_BACKEND_CONTACT_CCD);
+    int jumped = cs->changed;
+    for (int32_t j = 0; j < cs->ncol && !jumped; ++j)
+        jumped = (cs->col[j].generation & 1u) &&
+                 (memcmp(cs->col[j].pos, cs->col[j].pos1, sizeof cs->col[j].pos) != 0 ||
+                  memcmp(cs->col[j].rot, cs->col[j].rot1, sizeof cs->col[j].rot) != 0);
+    if (h > 0.0 && jumped && penalty && sc->backend_ready && sc->backend->reset) {
+        const defsim_status st = sc->backend->reset(sc->host, sc->handle, sc->backend_state);
+        if (st != DEFSIM_OK) {
+            defsim__error(sc->msg, "backend %s failed to reset for the colliders' change",
+                          sc->backend->name);
+            return st;
+        }
+    }
+    if (h > 0.0) {
+        /* The watchdog counts the energy of colliders that came until a step succeeds. */
+        cs->came |= cs->changed;
+        cs->changed = 0;
+    }
+    if (defsim__collider_set_live(cs) == 0) return DEFSIM_OK;
+    const defsim__settings *set = sc->set;
+    defsim__contact_params p = {
+        .mode = penalty ? DEFSIM__CONTACT_PENALTY : DEFSIM__CONTACT_BARRIER,
+        .dhat_rel = set->contact_dhat, .kappa = set->contact_kappa,
+        .frequency = set->contact_frequency, .eps_v = set->friction_eps_v};
+    defsim__contact *c = sc->contact;
+    if (p.mode == DEFSIM__CONTACT_PENALTY && p.frequency == 0.0 && c->omega_elastic == 0.0) {
+        double om = 0.0;   /* the bodies' own top frequency, without contact, once per plan */
+        defsim_status st = defsim__omega_max(s, sc->work, sc->state->x, &om);
+        if (st != DEFSIM_OK) {
+            defsim__error(sc->msg, "contact: the elastic frequency is not finite");
+            return st;
+        }
+        c->omega_elastic = om;
+    }
+    p.omega_elastic = c->omega_elastic;
+    if (p.mode == DEFSIM__CONTACT_BARRIER && !c->surf_planned &&
+        defsim__contact_surfaces(c, sc->bodies, sc->nbodies) != DEFSIM_OK) {
+        defsim__error(sc->msg, "contact: out of memory for the bodies' surfaces");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    /* A step's start: the world's copies, which nothing changes until the step ends. */
+    defsim_status st = defsim__contact_begin(c, s, cs->col, cs->ncol, &p,
+                                             h > 0.0 ? sc->x0 : sc->state->x,
+                                             h > 0.0 ? sc->v0 : sc->state->v, h, sc->msg);
+    if (st != DEFSIM_OK) return st;
+    s->contact = c;
+    return DEFSIM_OK;
+}
+
+static void *attached(const defsim__system *s) { return s->contact; }
+static void detach(defsim__system *s) { s->contact = NULL; }
+
+/* Closes contact's part of a step: a callback's failure is the step's; after a success, the
+ * contact forces for the host and the colliders' poses at the end of the step. */
+static defsim_status end(defsim__system *s, const defsim__step_ctx *sc, void *was,
+                         defsim_status st)
+{
+    defsim__collider_set *cs = sc->colliders;
+    defsim__contact *c = was;
+    const int32_t nv = s->nv;
+    if (!c) {   /* no collider: the read-back is zero (dropped once after the last one went) */
+        if (st == DEFSIM_OK && sc->contact->readback_set) {
+            free(cs->force);
+            cs->force = NULL;
+            cs->force_nv = 0;
+            sc->contact->readback_set = 0;
+        }
+        return st;
+    }
+    if (st == DEFSIM_OK && (!cs->force || cs->force_nv != nv)) {
+        if (defsim__collider_set_readback(cs, nv, sc->msg) != DEFSIM_OK)
+            return DEFSIM_ERR_OUT_OF_MEMORY;
+        cs->force_zero = 1;
+    }
+    /* The read-back goes to scratch first: a callback failing there fails the step too, and
+     * a failed step changes neither the read-back nor the poses. Without pairs (colliders far
+     * away) the forces are zero: nothing to compute or copy when the read-back is zero already. */
+    const double *x = sc->state->x;
+    const int none = st == DEFSIM_OK && cs->force_zero && defsim__contact_none(c, x);
+    if (st == DEFSIM_OK && !c->failed && none) {
+        c->stat[DEFSIM__CSTAT_ACTIVE] = 0;
+        c->stat[DEFSIM__CSTAT_MIN_DISTANCE] = INFINITY;
+    } else if (st == DEFSIM_OK && !c->failed) {
+        defsim__contact_end(c, x, sc->state->v, c->blk);
+    }
+    if (c->failed) {
+        defsim__error(sc->msg, "contact: %s; state restored", defsim__contact_failure(c));
+        return c->failed;
+    }
+    if (st != DEFSIM_OK && c->blocked) {
+        char who[48] = "a surface";
+        if (c->blocked_vertex >= 0) snprintf(who, sizeof who, "vertex %d", (int)c->blocked_vertex);
+        defsim__error(sc->msg, "contact: no Newton start keeps %s clear of the moving colliders "
+                      "in this step (squeezed between colliders that move differently, swept by "
+                      "one, or cut back by body contact); state restored", who);
+    }
+    if (st != DEFSIM_OK) return st;
+    if (c->mode == DEFSIM__CONTACT_BARRIER && sc->set->watchdog &&
+        !(c->stat[DEFSIM__CSTAT_MIN_DISTANCE] > 0.0)) {
+        /* The watchdog's contact check: the barrier is infinite at zero distance and the line
+         * search keeps every vertex out, so a vertex at d <= 0 means that guarantee broke. */
+        (*sc->watchdog_trips)++;
+        defsim__error(sc->msg, "step: watchdog: a vertex crossed a collider's surface (distance "
+                      "%g m) although the contact barrier forbids it; state restored. This is a "
+                      "defect: please report it with the scene",
+                      c->stat[DEFSIM__CSTAT_MIN_DISTANCE]);
+        return DEFSIM_ERR_UNSTABLE;
+    }
+    if (!none) memcpy(cs->force, c->blk, 3 * (size_t)nv * sizeof *cs->force);
+    cs->force_zero = c->npair == 0;
+    c->readback_set = 1;
+    for (int32_t j = 0; j < cs->ncol; ++j) {
+        memcpy(cs->col[j].pos, cs->col[j].pos1, sizeof cs->col[j].pos);
+        memcpy(cs->col[j].rot, cs->col[j].rot1, sizeof cs->col[j].rot);
+    }
+    return DEFSIM_OK;
+}
+
 static const char *const COUNTERS[] = {"collider.linearisations"};
 
 static double counter(const defsim__term *t, int32_t i)
@@ -236,7 +376,8 @@ const defsim__term_ops defsim__term_collider = {
     DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX,
     .max_step = max_step, .start = start, .block = block,
     .lambda_bound = lambda_bound, .rates = rates,
-    .substep = substep, .step_end = step_end,
+    .substep = substep, .step_end = step_end, .work = work,
+    .begin = begin, .attached = attached, .detach = detach, .end = end,
     .counters = COUNTERS, .counter_count = 1, .counter = counter,
     .options = OPTIONS, .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
     .save = save, .load = load};

@@ -45,11 +45,7 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
     return g->vol[e] * psi;
 }
 
-static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
-                     const double *x, double total)
-{
-    return defsim__group_energy(s, wk, group(t), element_energy, x, total);
-}
+DEFSIM__GROUP_ENERGY_OP(element_energy)
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
                             double *f, uint32_t *used)
@@ -65,10 +61,8 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
 /* Element matrix over its nodes: K[(a c),(b d)], 12x12, scaled by k + kd beta (kd part always
  * with clamped projection). Returns 0 if the element adds nothing. */
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
-                          int32_t e, const defsim_matrix_coeffs *c, double *K)
+                          int32_t e, double sk, double sd, double *K)
 {
-    const double sk = c->k, sd = c->kd * g->beta[e];
-    if (sk == 0.0 && sd == 0.0) return 0;
     const int proj = s->projection;
     const int nd = 12;
     double F[9], D[81], gr[4][3];
@@ -128,21 +122,12 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
     return 1;
 }
 
-static void values(const defsim__term *t, const defsim__system *s, const double *x,
-                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
-                   uint32_t *passes)
-{
-    defsim__group_values(s, group(t), element_matrix, x, c, upper, cp, val, passes);
-}
-
 /* out += A dx for one element without forming its matrix: dF = sum_a dx_a g_a^T,
  * dP = (k D + kd beta Dclamped) : dF, out_a += vol dP g_a. */
-static void element_apply(const defsim__group *g, const double *x, int32_t e,
-                          const defsim_matrix_coeffs *c, int proj, const uint8_t *pinned,
-                          const double *dx, double *out)
+static void element_apply(const defsim__group *g, const double *x, int32_t e, double sk,
+                          double sd, int proj, const uint8_t *pinned, const double *dx,
+                          double *out)
 {
-    const double sk = c->k, sd = c->kd * g->beta[e];
-    if (sk == 0.0 && sd == 0.0) return;
     const int32_t *id = g->idx + 4 * (int64_t)e;
     const double *dm = g->dminv + 9 * (int64_t)e;
     double F[9], D[81], dF[9], dP[9], gr[4][3];
@@ -176,11 +161,7 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
     }
 }
 
-static void apply(const defsim__term *t, const defsim__system *s, const double *x,
-                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
-{
-    defsim__group_apply(s, group(t), element_apply, x, c, proj, dx, out);
-}
+DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)
 
 const defsim__term_ops defsim__term_elastic = {
     .name = "elastic", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 0, .matrix_rank = 0,

@@ -29,11 +29,7 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
                                        g->l0[e]);
 }
 
-static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
-                     const double *x, double total)
-{
-    return defsim__group_energy(s, wk, group(t), element_energy, x, total);
-}
+DEFSIM__GROUP_ENERGY_OP(element_energy)
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
                             double *f, uint32_t *used)
@@ -47,10 +43,8 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
 /* Element matrix K[(a c),(b d)], 6x6, scaled by k + kd beta (kd part clamped). Returns 0 if
  * the element adds nothing. */
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
-                          int32_t e, const defsim_matrix_coeffs *c, double *K)
+                          int32_t e, double sk, double sd, double *K)
 {
-    const double sk = c->k, sd = c->kd * g->beta[e];
-    if (sk == 0.0 && sd == 0.0) return 0;
     const int nd = 6;
     const double *xa = x + 3 * (int64_t)g->idx[2 * (int64_t)e];
     const double *xb = x + 3 * (int64_t)g->idx[2 * (int64_t)e + 1];
@@ -67,19 +61,10 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
     return 1;
 }
 
-static void values(const defsim__term *t, const defsim__system *s, const double *x,
-                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
-                   uint32_t *passes)
+static void element_apply(const defsim__group *g, const double *x, int32_t e, double sk,
+                          double sd, int proj, const uint8_t *pinned, const double *dx,
+                          double *out)
 {
-    defsim__group_values(s, group(t), element_matrix, x, c, upper, cp, val, passes);
-}
-
-static void element_apply(const defsim__group *g, const double *x, int32_t e,
-                          const defsim_matrix_coeffs *c, int proj, const uint8_t *pinned,
-                          const double *dx, double *out)
-{
-    const double sk = c->k, sd = c->kd * g->beta[e];
-    if (sk == 0.0 && sd == 0.0) return;
     const int32_t a = g->idx[2 * (int64_t)e], b = g->idx[2 * (int64_t)e + 1];
     const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)b;
     double Kb[9], Kd[9], d[3];
@@ -100,11 +85,7 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e,
     }
 }
 
-static void apply(const defsim__term *t, const defsim__system *s, const double *x,
-                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
-{
-    defsim__group_apply(s, group(t), element_apply, x, c, proj, dx, out);
-}
+DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)
 
 const defsim__term_ops defsim__term_spring = {
     .name = "spring", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 1, .matrix_rank = 1,

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* The list of terms of a system (terms.h; term.h): compiled from term_list.h, with the orders of the
- * energy and matrix sums, the step hooks over it, and the linearisation caches' keys. */
+ * energy and matrix sums, the step hooks over it (the kinds' and the terms'), and the
+ * linearisation caches' keys. */
 #include "terms.h"
 
 #include <stdlib.h>
@@ -60,16 +61,105 @@ void defsim__terms_free(defsim__system *s)
     s->nterms = s->nenergy = s->nmatrix = 0;
 }
 
-void defsim__terms_substep(const defsim__system *s, double s0, double s1, double h)
+/* The list compiled again for what the kinds' hooks attached or detached (a failed hook's
+ * status wins over the compilation's). */
+static defsim_status relist(defsim__system *s, int changed, defsim_status st)
 {
-    for (int32_t i = 0; i < s->nterms; ++i)
-        if (s->terms[i].ops->substep) s->terms[i].ops->substep(&s->terms[i], s0, s1, h);
+    if (!changed) return st;
+    const defsim_status ct = defsim__terms_compile(s);
+    return st == DEFSIM_OK ? ct : st;
 }
 
-void defsim__terms_step_end(const defsim__system *s)
+/* What kind k attached to s (NULL: nothing, or a kind that attaches nothing). */
+static void *attached(const defsim__system *s, int k)
 {
+    return kinds[k]->attached ? kinds[k]->attached(s) : NULL;
+}
+
+defsim_status defsim__terms_step_begin(defsim__system *s, const defsim__step_ctx *c)
+{
+    defsim_status st = DEFSIM_OK;
+    int changed = 0;
+    for (int k = 0; k < DEFSIM__TERM_KINDS && st == DEFSIM_OK; ++k) {
+        if (!kinds[k]->begin) continue;
+        const void *was = attached(s, k);
+        st = kinds[k]->begin(s, c);
+        changed |= attached(s, k) != was;
+    }
+    return relist(s, changed, st);
+}
+
+defsim_status defsim__terms_restart(defsim__system *s, const defsim__step_ctx *c)
+{
+    defsim_status st = DEFSIM_OK;
+    for (int k = 0; k < DEFSIM__TERM_KINDS && st == DEFSIM_OK; ++k)
+        if (kinds[k]->restart) st = kinds[k]->restart(s, c);
+    return st;
+}
+
+void defsim__terms_substep_before(const defsim__system *s, const defsim__step_ctx *c, int64_t i,
+                                  int64_t n)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k)
+        if (kinds[k]->before) kinds[k]->before(c, i, n);
+    const double s0 = (double)i / (double)n, s1 = (double)(i + 1) / (double)n;
+    for (int32_t j = 0; j < s->nterms; ++j)
+        if (s->terms[j].ops->substep)
+            s->terms[j].ops->substep(&s->terms[j], s0, s1, c->h / (double)n);
+}
+
+void defsim__terms_substep_after(const defsim__step_ctx *c)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k)
+        if (kinds[k]->after) kinds[k]->after(c);
+}
+
+defsim_status defsim__terms_finish(defsim__system *s, const defsim__step_ctx *c, defsim_status st)
+{
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k)
+        if (kinds[k]->finish) st = kinds[k]->finish(s, c, st);
     for (int32_t i = 0; i < s->nterms; ++i)
         if (s->terms[i].ops->step_end) s->terms[i].ops->step_end(&s->terms[i]);
+    return st;
+}
+
+int defsim__terms_work(const defsim__system *s, const double *x0, const double *x1, int start,
+                       double *e0, double *work)
+{
+    int any = 0;
+    for (int32_t i = 0; i < s->nterms; ++i)
+        if (s->terms[i].ops->work)
+            any |= s->terms[i].ops->work(&s->terms[i], x0, x1, start, e0, work);
+    return any;
+}
+
+/* Takes back what the kinds' begins attached into was[] and compiles the list again if any. */
+static int detach(defsim__system *s, void *was[DEFSIM__TERM_KINDS])
+{
+    int any = 0;
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) {
+        was[k] = attached(s, k);
+        if (was[k]) kinds[k]->detach(s);
+        any |= was[k] != NULL;
+    }
+    return any;
+}
+
+defsim_status defsim__terms_detach(defsim__system *s)
+{
+    void *was[DEFSIM__TERM_KINDS];
+    return relist(s, detach(s, was), DEFSIM_OK);
+}
+
+defsim_status defsim__terms_step_end(defsim__system *s, const defsim__step_ctx *c, defsim_status st)
+{
+    void *was[DEFSIM__TERM_KINDS];
+    st = relist(s, detach(s, was), st);
+    for (int k = DEFSIM__TERM_KINDS - 1; k >= 0; --k)
+        if (kinds[k]->end) st = kinds[k]->end(s, c, was[k], st);
+    for (int k = 0; k < DEFSIM__TERM_KINDS; ++k)
+        if (kinds[k]->readback) st = kinds[k]->readback(s, c, was[k], st);
+    return st;
 }
 
 int32_t defsim__terms_counter_count(void)

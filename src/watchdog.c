@@ -55,6 +55,7 @@
 #include "element.h"
 #include "forces.h"
 #include "material.h"
+#include "terms.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -341,6 +342,15 @@ double *defsim__watchdog_pin_buffer(defsim__watchdog *wd, int32_t nv, int end)
     return end ? wd->pin_f1 : wd->pin_f0;
 }
 
+/* Frees the buffers of the reference's rest data and the check's displacements. */
+static void free_rest(defsim__watchdog *wd)
+{
+    free(wd->rest_diag);
+    free(wd->dof);
+    free(wd->dx);
+    wd->rest_diag = wd->dof = wd->dx = NULL;
+}
+
 defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdog_step *in,
                                      char *what, size_t size)
 {
@@ -356,17 +366,12 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
         return DEFSIM_ERR_UNSTABLE;
     }
     if (!wd->have_rest) {
-        free(wd->rest_diag);
-        free(wd->dof);
-        free(wd->dx);
+        free_rest(wd);
         wd->rest_diag = malloc(((size_t)in->nbodies + 1) * sizeof *wd->rest_diag);
         wd->dof = malloc(((size_t)s->nv + 1) * sizeof *wd->dof);
         wd->dx = malloc((3 * (size_t)s->nv + 1) * sizeof *wd->dx);
         if (!wd->rest_diag || !wd->dof || !wd->dx) {
-            free(wd->rest_diag);
-            free(wd->dof);
-            free(wd->dx);
-            wd->rest_diag = wd->dof = wd->dx = NULL;
+            free_rest(wd);
             snprintf(what, size, "out of memory");
             return DEFSIM_ERR_OUT_OF_MEMORY;
         }
@@ -374,10 +379,12 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     }
     /* The contact energy at the start is stored energy the reference holds; colliders that came
      * or went since the reference put it in as work (the whole of it: at least what changed). */
-    double injected = in->colliders_changed ? in->contact_start : 0.0;
+    double contact_start = 0.0, contact_work = 0.0;
+    defsim__terms_work(s, x0, x, in->contact_start_wanted, &contact_start, &contact_work);
+    double injected = in->colliders_changed ? contact_start : 0.0;
     if (!wd->have_ref) {
         wd->k_prev = kinetic_free(s, in->v0);
-        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0) + in->contact_start;
+        wd->e_ref = wd->k_prev + defsim__elastic_energy(s, in->work, x0) + contact_start;
         wd->energy_evals++;
         wd->work = 0.0;
         wd->since_full = ENERGY_EVERY;   /* the first step checks the total */
@@ -431,7 +438,7 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     double work = g[0] * mdx0 + g[1] * mdx1 + g[2] * mdx2 + wext;
     if (in->ncb > 0) work += callback_work(wd, s, in->cb_f, in->ncb, dx);
     if (in->pin_f0) work += pin_work(s, in->pin_f0, in->pin_f1, dx);
-    work += in->contact_work + injected;
+    work += contact_work + injected;
     if (!isfinite(work)) work = INFINITY;
     /* The steps where garbage can hide from K and where an element can invert (header). */
     const int full = ke > 2.0 * wd->k_prev + 1e-3 * wd->e_floor ||
@@ -526,9 +533,7 @@ void defsim__watchdog_forget(defsim__watchdog *wd, int bodies)
 
 void defsim__watchdog_free(defsim__watchdog *wd)
 {
-    free(wd->rest_diag);
-    free(wd->dof);
-    free(wd->dx);
+    free_rest(wd);
     free(wd->pin_f0);
     free(wd->pin_f1);
     free(wd->pin_el);

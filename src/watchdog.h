@@ -53,13 +53,14 @@ typedef struct defsim__watchdog_step {
      * "The energy bound"): the force callback's evaluations recorded in the step (3 nv each; a
      * vertex's work is the largest of f . dx over them), the elastic and damping forces at the
      * pinned DOFs at the start and end of a step that moves driven pins (NULL: none moved), the
-     * colliders' motion against the contact forces (J), and the contact energy at the start of
-     * the step (J), which joins the reference, or the work when colliders came or went. */
+     * colliders' motion against the contact forces and the contact energy at the start of the
+     * step (J; the check reads both from the terms' work, terms.h), which joins the reference,
+     * or the work when colliders came or went (colliders_changed); contact_start_wanted: the
+     * energy at the start is needed (no reference, or colliders changed). */
     const double *cb_f[4];
     int ncb;
     const double *pin_f0, *pin_f1;
-    double contact_work;
-    double contact_start;
+    int contact_start_wanted;
     int colliders_changed;
     double energy_growth; /* core.watchdog_energy_growth */
     double max_stretch;   /* core.watchdog_max_stretch */

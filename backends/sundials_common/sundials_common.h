@@ -102,6 +102,35 @@ void defsim__sun_options(const defsim_host *host, const defsim_system *sys,
 double *defsim__sun_counters(const defsim_host *host, defsim_system *sys);
 void defsim__sun_count(const defsim_host *host, defsim_system *sys, int which, double value);
 
+/* The tolerances' rows of the adaptive modules' option tables (sundials_erk, sundials_ida):
+ * rtol, then atol, a length (and a speed) within the coordinate bound, 1e100, and at least
+ * 1e-30, below the rounding of any coordinate of a scene larger than 1e-14 m. */
+#define DEFSIM__SUN_OPTION_TOLERANCES                                                         \
+    {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,                                      \
+     "relative tolerance per second of simulated time"},                                      \
+    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,                                    \
+     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), " \
+     "in [1e-30, 1e100]"}
+
+/* The rows each module's backend table shares, for modules that name their state, ops and
+ * spec tables after their prefix (every one does): the ABI's, its name and flags, its state
+ * <prefix>_state, the ops <prefix>_init, _step and _fini, and its options and counters by name
+ * (<prefix>_options[O_COUNT], <prefix>_counters[C_COUNT]). */
+#define DEFSIM__SUN_TABLE(prefix, NAME, FLAGS)                                                \
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION, .struct_size = sizeof(defsim_backend),         \
+    .name = NAME, .flags = FLAGS, .state_size = sizeof(prefix##_state),                       \
+    .init = prefix##_init, .step = prefix##_step, .fini = prefix##_fini,                      \
+    .options = prefix##_options, .option_count = O_COUNT, .counters = prefix##_counters,      \
+    .counter_count = C_COUNT
+
+/* Each module's entry point, over its backend table (defsim__sun_module). */
+#define DEFSIM__SUN_MODULE_INIT(backend)                                                      \
+    __attribute__((visibility("default"))) defsim_status defsim_module_init(                  \
+        const defsim_host *host, const defsim_backend **out)                                  \
+    {                                                                                         \
+        return defsim__sun_module(host, out, &(backend));                                     \
+    }
+
 /* The body of each module's entry point: hands out `backend` if the host is of ABI version 8
  * (version 8 broke the table) with every service the SUNDIALS modules use (options, counters,
  * omega_max). */

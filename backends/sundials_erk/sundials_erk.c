@@ -88,13 +88,7 @@ static const erk_table tables[] = {
 enum { O_RTOL, O_ATOL, O_TABLE, O_MAX_STEPS, O_STAB_LIMIT, O_STAB_SAFETY, O_COUNT };
 
 static const defsim_option_spec erk_options[O_COUNT] = {
-    {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
-     "relative tolerance per second of simulated time"},
-    /* A length (and a speed): within the coordinate bound, 1e100, and at least 1e-30, below the
-     * rounding of any coordinate of a scene larger than 1e-14 m. */
-    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,
-     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), "
-     "in [1e-30, 1e100]"},
+    DEFSIM__SUN_OPTION_TOLERANCES,
     {"table", DEFSIM_OPTION_CHOICE, 0, 0, 0,
      "dormand_prince_5|bogacki_shampine_3|zonneveld_4|cash_karp_5|verner_6|fehlberg_8",
      "embedded pair (method order in the name): Dormand-Prince 5(4) by default"},
@@ -738,27 +732,8 @@ static defsim_status erk_load(const defsim_host *host, defsim_system *sys, void 
 }
 
 static const defsim_backend erk_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "sundials_erk",
-    .flags = DEFSIM_BACKEND_ADAPTIVE,
-    .state_size = sizeof(erk_state),
-    .init = erk_init,
-    .step = erk_step,
-    .fini = erk_fini,
-    .reset = defsim__sun_reset,
-    .save_state = erk_save,
-    .load_state = erk_load,
-    .stable_step = erk_stable_step,
-    .options = erk_options,
-    .option_count = O_COUNT,
-    .counters = erk_counters,
-    .counter_count = C_COUNT,
-    .stable_step_options = erk_stable_step_options,
-};
+    DEFSIM__SUN_TABLE(erk, "sundials_erk", DEFSIM_BACKEND_ADAPTIVE),
+    .reset = defsim__sun_reset, .save_state = erk_save, .load_state = erk_load,
+    .stable_step = erk_stable_step, .stable_step_options = erk_stable_step_options};
 
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__sun_module(host, out, &erk_backend);
-}
+DEFSIM__SUN_MODULE_INIT(erk_backend)

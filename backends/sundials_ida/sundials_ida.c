@@ -77,13 +77,7 @@ enum { LS_CHOLMOD = 0, LS_KLU = 1 };
 #endif
 
 static const defsim_option_spec ida_options[O_COUNT] = {
-    {"rtol", DEFSIM_OPTION_REAL, 1e-4, 1e-14, 1.0, NULL,
-     "relative tolerance per second of simulated time"},
-    /* A length (and a speed): within the coordinate bound, 1e100, and at least 1e-30, below the
-     * rounding of any coordinate of a scene larger than 1e-14 m. */
-    {"atol", DEFSIM_OPTION_REAL, 1e-6, 1e-30, 1e100, NULL,
-     "absolute tolerance per second of simulated time (m for positions, m/s for velocities), "
-     "in [1e-30, 1e100]"},
+    DEFSIM__SUN_OPTION_TOLERANCES,
     {"max_order", DEFSIM_OPTION_INT, 5, 1, 5, NULL, "highest BDF order"},
     {"max_internal_steps", DEFSIM_OPTION_INT, 100000, 1, 2e9, NULL,
      "internal steps allowed per defsim_world_step call"},
@@ -945,27 +939,11 @@ static defsim_status ida_load(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
+/* Not DISSIPATIVE: BDF of order 3 to 5 is not A-stable and need not lose energy. */
 static const defsim_backend ida_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "sundials_ida",
-    /* Not DISSIPATIVE: BDF of order 3 to 5 is not A-stable and need not lose energy. */
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_ADAPTIVE | DEFSIM_BACKEND_IMPLICIT,
-    .state_size = sizeof(ida_state),
-    .init = ida_init,
-    .step = ida_step,
-    .fini = ida_fini,
-    .reset = defsim__sun_reset,
-    .save_state = ida_save,
-    .load_state = ida_load,
-    .options = ida_options,
-    .option_count = O_COUNT,
-    .counters = ida_counters,
-    .counter_count = C_COUNT,
-};
+    DEFSIM__SUN_TABLE(ida, "sundials_ida",
+                      DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_ADAPTIVE |
+                          DEFSIM_BACKEND_IMPLICIT),
+    .reset = defsim__sun_reset, .save_state = ida_save, .load_state = ida_load};
 
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__sun_module(host, out, &ida_backend);
-}
+DEFSIM__SUN_MODULE_INIT(ida_backend)

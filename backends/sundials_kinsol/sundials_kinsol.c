@@ -334,24 +334,10 @@ static defsim_status kin_step(const defsim_host *host, defsim_system *sys, void 
     return DEFSIM_OK;
 }
 
+/* No reset: without history, every step starts from the world's state. */
 static const defsim_backend kin_backend = {
-    .abi_version = DEFSIM_BACKEND_ABI_VERSION,
-    .struct_size = sizeof(defsim_backend),
-    .name = "sundials_kinsol",
-    .flags = DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT | DEFSIM_BACKEND_DISSIPATIVE,
-    .state_size = sizeof(kin_state),
-    .init = kin_init,
-    .step = kin_step,
-    .fini = kin_fini,
-    .reset = NULL,   /* no history: every step starts from the world's state */
-    .options = kin_options,
-    .option_count = O_COUNT,
-    .counters = kin_counters,
-    .counter_count = C_COUNT,
-};
+    DEFSIM__SUN_TABLE(kin, "sundials_kinsol",
+                      DEFSIM_BACKEND_NEEDS_MATRIX | DEFSIM_BACKEND_IMPLICIT |
+                          DEFSIM_BACKEND_DISSIPATIVE)};
 
-__attribute__((visibility("default"))) defsim_status defsim_module_init(
-    const defsim_host *host, const defsim_backend **out)
-{
-    return defsim__sun_module(host, out, &kin_backend);
-}
+DEFSIM__SUN_MODULE_INIT(kin_backend)

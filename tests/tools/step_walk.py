@@ -13,10 +13,12 @@ the services below every phase, status, clock, mat3, ..., counted apart).
 
 The machine code's order is the compiler's, not the step's, so the order of the phases is read
 from step.c's source: defsim_world_step's calls in source order, with step.c's own static
-functions expanded where they are called (once). With --check it fails when the first call of
-a phase's function comes after the first call of a later phase's (src/README.md "A step's
-walk": plan -> terms -> backend -> watchdog -> read-back), or when step.c calls a function of
-another file that no phase lists here (a new call must be placed in the walk).
+functions expanded where they are first called (once; a loop's body counts once). Each phase
+lists the files it may enter and their functions that step.c calls. With --check it fails
+unless step.c's calls go through the phases of src/README.md "A step's walk" (plan -> terms ->
+backend -> watchdog -> read-back) exactly, each once and in that order, or when step.c calls a
+function that no phase lists, or one that a phase lists under a file that does not define it
+(a new call must be placed in the walk).
 
 usage: step_walk.py LIBRARY SRC_DIR [--check] [--trace]
 """
@@ -30,21 +32,21 @@ ROOT = 'defsim_world_step'
 SERVICES_FN = {'defsim__error', 'defsim__now', 'defsim_status_string'}
 # Modules below every phase: called from anywhere, they order nothing.
 SERVICES = {'status', 'clock', 'mat3', 'options', 'host', 'system', 'element'}
-# The phases of src/README.md "A step's walk" by the functions of other files that step.c calls.
+# The phases of src/README.md "A step's walk": per phase, the files it enters and the functions
+# of each that step.c calls.
 PHASES = [
-    ('plan', ['defsim__world_enter', 'defsim__world_plan', 'defsim__world_backend_prepare']),
-    ('terms', ['defsim__coupling_step_begin', 'defsim__collider_set_live',
-               'defsim__contact_begin', 'defsim__contact_surfaces', 'defsim__omega_max',
-               'defsim__terms_compile', 'defsim__body_contact_begin']),
-    ('backend', ['defsim__damping_coeff', 'defsim__options_values',
-                 'defsim__coupling_substep_before', 'defsim__terms_substep',
-                 'defsim__coupling_substep_after']),
-    ('watchdog', ['defsim__coupling_step_end', 'defsim__watchdog_pin_buffer',
-                  'defsim__watchdog_pin_forces', 'defsim__contact_energy_start',
-                  'defsim__contact_work', 'defsim__watchdog_check', 'defsim__watchdog_message']),
-    ('read-back', ['defsim__body_contact_end', 'defsim__contact_none', 'defsim__contact_end',
-                   'defsim__contact_failure', 'defsim__world_backend_stop',
-                   'defsim__watchdog_step_done']),
+    ('plan', {'world': ['defsim__world_enter', 'defsim__world_plan',
+                        'defsim__world_backend_prepare']}),
+    ('terms', {'terms': ['defsim__terms_step_begin']}),
+    ('backend', {'stability': ['defsim__omega_max', 'defsim__damping_coeff'],
+                 'options': ['defsim__options_values'],
+                 'terms': ['defsim__terms_substep_before', 'defsim__terms_substep_after',
+                           'defsim__terms_restart', 'defsim__terms_finish']}),
+    ('watchdog', {'watchdog': ['defsim__watchdog_pin_buffer', 'defsim__watchdog_pin_forces',
+                               'defsim__watchdog_check', 'defsim__watchdog_message']}),
+    ('read-back', {'terms': ['defsim__terms_step_end'],
+                   'world': ['defsim__world_backend_stop'],
+                   'watchdog': ['defsim__watchdog_step_done']}),
 ]
 
 
@@ -176,27 +178,38 @@ def main():
             print('  %s -> %s (%s)' % (a, b, f))
     step_src = os.path.join(src, 'step.c')
     seq = source_walk(step_src, defined, modules)
-    phase = {f: i for i, (_, fs) in enumerate(PHASES) for f in fs}
     mods = [next(iter(defined[f])) for f in seq if f not in SERVICES_FN]
     runs = [m for i, m in enumerate(mods) if i == 0 or m != mods[i - 1]]
     print('step.c in source order, the files it calls (runs): ' + ' -> '.join(runs))
+    phase = {f: (i, m) for i, (_, files) in enumerate(PHASES) for m, fs in files.items()
+             for f in fs}
+    calls = [f for f in seq if f not in SERVICES_FN]
+    names = [PHASES[phase[f][0]][0] if f in phase else '?' for f in calls]
+    phase_runs = [p for i, p in enumerate(names) if i == 0 or p != names[i - 1]]
+    files = {}
+    for f, p in zip(calls, names):
+        m = next(iter(defined.get(f, ('?',))))
+        if m not in files.setdefault(p, []):
+            files[p].append(m)
+    print('step.c in source order, the phases it goes through (their files): ' +
+          ' -> '.join('%s (%s)' % (p, ', '.join(files[p])) for p in phase_runs))
     if '--check' in sys.argv:
-        bad, firsts = [], []
-        for f in seq:
-            if f in SERVICES_FN or f in firsts:
-                continue
-            firsts.append(f)
+        bad = []
+        for f in dict.fromkeys(calls):
             if f not in phase:
                 bad.append('step.c calls %s, which no phase of the walk lists' % f)
-            elif any(phase.get(g, -1) > phase[f] for g in firsts):
-                later = [g for g in firsts if phase.get(g, -1) > phase[f]][0]
-                bad.append('%s (%s) is first called after %s (%s)' %
-                           (f, PHASES[phase[f]][0], later, PHASES[phase[later]][0]))
+            elif phase[f][1] not in defined.get(f, ()):
+                bad.append('%s is listed under %s (%s), which does not define it' %
+                           (f, phase[f][1], PHASES[phase[f][0]][0]))
+        want = [p for p, _ in PHASES]
+        if phase_runs != want:
+            bad.append('the phases go %s, not %s, each once' %
+                       (' -> '.join(phase_runs), ' -> '.join(want)))
         for b in bad:
             print('out of the walk\'s order: ' + b)
         if bad:
             return 1
-        print('the phases in order: ' + ' -> '.join(p for p, _ in PHASES))
+        print('the phases in order, each once: ' + ' -> '.join(want))
     return 0
 
 

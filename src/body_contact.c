@@ -560,8 +560,10 @@ static int segment_region(const double *p, const double *a, const double *b)
 }
 
 /* The closest features of point p and triangle (a, b, c), by Voronoi region (Ericson's tests):
- * 0, 1, 2 a vertex; 3 edge ab, 4 edge ac, 5 edge bc; 6 the interior. */
-static int triangle_region(const double *p, const double *a, const double *b, const double *c)
+ * 0, 1, 2 a vertex; 3 edge ab, 4 edge ac, 5 edge bc; 6 the interior. If w is not NULL it
+ * receives the barycentric weights of a, b, c of the closest point. */
+static int triangle_region(const double *p, const double *a, const double *b, const double *c,
+                           double *w)
 {
     const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
@@ -571,13 +573,24 @@ static int triangle_region(const double *p, const double *a, const double *b, co
     const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
     const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
     const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
-    if (d1 <= 0.0 && d2 <= 0.0) return 0;
-    if (d3 >= 0.0 && d4 <= d3) return 1;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return 3;
-    if (d6 >= 0.0 && d5 <= d6) return 2;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return 4;
-    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return 5;
-    return 6;
+    double u = 0.0, v = 0.0, t = 0.0;   /* weights of a, b, c */
+    int r;
+    if (d1 <= 0.0 && d2 <= 0.0) r = 0, u = 1.0;
+    else if (d3 >= 0.0 && d4 <= d3) r = 1, v = 1.0;
+    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) r = 3, v = d1 / (d1 - d3), u = 1.0 - v;
+    else if (d6 >= 0.0 && d5 <= d6) r = 2, t = 1.0;
+    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) r = 4, t = d2 / (d2 - d6), u = 1.0 - t;
+    else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        r = 5;
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        v = 1.0 - t;
+    } else {
+        r = 6;
+        const double den = 1.0 / (va + vb + vc);
+        v = vb * den, t = vc * den, u = 1.0 - v - t;
+    }
+    if (w) w[0] = u, w[1] = v, w[2] = t;
+    return r;
 }
 
 /* The parameters s, t in [0, 1] of the closest points of segments (a0, a1) and (b0, b1) (X: the
@@ -639,7 +652,7 @@ static void candidate_contact(const defsim__body_contact *bc, int32_t q, const d
     out->eps = 0.0;
     v[0] = v[1] = v[2] = v[3] = -1;
     if (kind == DEFSIM__BC_PT) {
-        const int r = triangle_region(X, X + 3, X + 6, X + 9);
+        const int r = triangle_region(X, X + 3, X + 6, X + 9, NULL);
         v[0] = idx[0];
         if (r < 3) {
             out->type = DEFSIM__C_VV;
@@ -1142,36 +1155,12 @@ static void closest_weights(int type, const double *X, double w[4])
         return;
     }
     /* point-triangle: barycentric coordinates of the closest point (by Voronoi region) */
-    const double *p = X, *a = X + 3, *b = X + 6, *c = X + 9;
-    const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-    const double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
-    const double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
-    const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-    const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
-    const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
-    double u, v, ww;   /* weights of a, b, c */
-    if (d1 <= 0.0 && d2 <= 0.0) u = 1.0, v = 0.0, ww = 0.0;
-    else if (d3 >= 0.0 && d4 <= d3) u = 0.0, v = 1.0, ww = 0.0;
-    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
-        const double t = d1 / (d1 - d3);
-        u = 1.0 - t, v = t, ww = 0.0;
-    } else if (d6 >= 0.0 && d5 <= d6) u = 0.0, v = 0.0, ww = 1.0;
-    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
-        const double t = d2 / (d2 - d6);
-        u = 1.0 - t, v = 0.0, ww = t;
-    } else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
-        const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        u = 0.0, v = 1.0 - t, ww = t;
-    } else {
-        const double den = 1.0 / (va + vb + vc);
-        v = vb * den, ww = vc * den, u = 1.0 - v - ww;
-    }
+    double bary[3];
+    triangle_region(X, X + 3, X + 6, X + 9, bary);
     w[0] = 1.0;
-    w[1] = -u;
-    w[2] = -v;
-    w[3] = -ww;
+    w[1] = -bary[0];
+    w[2] = -bary[1];
+    w[3] = -bary[2];
 }
 
 static int reserve_fric(defsim__body_contact *bc, int32_t n)

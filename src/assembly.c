@@ -9,6 +9,8 @@
  */
 #include "assembly.h"
 
+#include "array.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -70,11 +72,6 @@ static void pattern_drop(defsim__system *s)
     p->built = 0;
 }
 
-static int cmp_i64(const void *a, const void *b)
-{
-    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
-    return (x > y) - (x < y);
-}
 
 defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int64_t n, int *grew)
 {
@@ -100,7 +97,7 @@ defsim_status defsim__pattern_grow(defsim__system *s, const int64_t *pairs, int6
     memcpy(extra + p->nextra, add, (size_t)nnew * sizeof *add);
     free(add);
     int64_t m = p->nextra + nnew;
-    qsort(extra, (size_t)m, sizeof *extra, cmp_i64);
+    qsort(extra, (size_t)m, sizeof *extra, defsim__cmp_i64);
     int64_t u = 0;
     for (int64_t k = 0; k < m; ++k)
         if (k == 0 || extra[k] != extra[k - 1]) extra[u++] = extra[k];

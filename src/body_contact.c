@@ -13,6 +13,7 @@
  */
 #include "body_contact.h"
 
+#include "array.h"
 #include "assembly.h"
 
 #include "clock.h"
@@ -46,14 +47,7 @@ static double dmax(double a, double b) { return b > a ? b : a; }
 
 static int grow(void **p, int64_t *cap, int64_t need, size_t elem)
 {
-    if (need <= *cap) return 1;
-    int64_t c = *cap ? *cap : 64;
-    while (c < need) c *= 2;
-    void *q = realloc(*p, (size_t)c * elem);
-    if (!q) return 0;
-    *p = q;
-    *cap = c;
-    return 1;
+    return defsim__grow(p, cap, need, elem, 64);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -743,18 +737,13 @@ static int contact_cmp(const void *pa, const void *pb)
 static int reserve_contacts(defsim__body_contact *bc, int32_t n)
 {
     if (n <= bc->cap_con) return 1;
-    int32_t c = bc->cap_con ? bc->cap_con : 64;
-    while (c < n) c *= 2;
-    defsim__bc_contact *con = realloc(bc->con, (size_t)c * sizeof *con);
-    if (con) bc->con = con;
-    double *sv = realloc(bc->sv, (size_t)c * sizeof *sv);
-    if (sv) bc->sv = sv;
-    double *sg = realloc(bc->sg, 12 * (size_t)c * sizeof *sg);
-    if (sg) bc->sg = sg;
-    double *sh = realloc(bc->sh, 144 * (size_t)c * sizeof *sh);
-    if (sh) bc->sh = sh;
-    if (!con || !sv || !sg || !sh) return 0;
-    bc->cap_con = c;
+    const int64_t c = defsim__grown_cap(bc->cap_con, n, 64);
+    void **const arrays[] = {(void **)&bc->con, (void **)&bc->sv, (void **)&bc->sg,
+                             (void **)&bc->sh};
+    const size_t elem[] = {sizeof *bc->con, sizeof *bc->sv, 12 * sizeof *bc->sg,
+                           144 * sizeof *bc->sh};
+    if (!defsim__grow_parallel(arrays, elem, 4, c)) return 0;
+    bc->cap_con = (int32_t)c;
     return 1;
 }
 
@@ -1369,12 +1358,6 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     return DEFSIM_OK;
 }
 
-static int cmp_key(const void *a, const void *b)
-{
-    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
-    return (x > y) - (x < y);
-}
-
 /* defsim__body_contact_end's pattern retention (body_contact.h). */
 static defsim_status retain(defsim__body_contact *bc, defsim__system *s)
 {
@@ -1396,7 +1379,7 @@ static defsim_status retain(defsim__body_contact *bc, defsim__system *s)
                 if (fa >= 0 && fb >= 0 && fa < fb) bc->keep[n++] = ((int64_t)fa << 32) | fb;
             }
     }
-    if (n > 1) qsort(bc->keep, (size_t)n, sizeof *bc->keep, cmp_key);
+    if (n > 1) qsort(bc->keep, (size_t)n, sizeof *bc->keep, defsim__cmp_i64);
     int64_t u = 0;
     for (int64_t k = 0; k < n; ++k)
         if (k == 0 || bc->keep[k] != bc->keep[k - 1]) bc->keep[u++] = bc->keep[k];

@@ -9,6 +9,8 @@
  */
 #include "broad_phase.h"
 
+#include "array.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,20 +26,7 @@ void defsim__hash_free(defsim__hash *h)
 
 static int reserve(void **p, int64_t *cap, int64_t need, size_t size)
 {
-    if (need <= *cap) return 1;
-    int64_t c = *cap ? *cap : 256;
-    while (c < need) c *= 2;
-    void *q = realloc(*p, (size_t)c * size);
-    if (!q) return 0;
-    *p = q;
-    *cap = c;
-    return 1;
-}
-
-static int cmp_i64(const void *a, const void *b)
-{
-    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
-    return (x > y) - (x < y);
+    return defsim__grow(p, cap, need, size, 256);
 }
 
 static double dmin(double a, double b) { return b < a ? b : a; }
@@ -264,7 +253,7 @@ defsim_status defsim__triangle_edges(const int32_t *tris, int32_t nf, int32_t **
             if (a > b) { const int64_t t = a; a = b; b = t; }
             e[3 * f + k] = a << 32 | b;
         }
-    if (n > 1) qsort(e, (size_t)n, sizeof *e, cmp_i64);
+    if (n > 1) qsort(e, (size_t)n, sizeof *e, defsim__cmp_i64);
     int64_t m = 0;
     for (int64_t i = 0; i < n; ++i)
         if (m == 0 || e[i] != e[m - 1]) e[m++] = e[i];

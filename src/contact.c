@@ -9,6 +9,7 @@
  */
 #include "contact.h"
 
+#include "array.h"
 #include "broad_phase.h"
 #include "clock.h"
 #include "contact_barrier.h"
@@ -80,22 +81,13 @@ static double distance(defsim__contact *c, int32_t j, const double x[3], double 
 static int reserve_pairs(defsim__contact *c, int32_t n)
 {
     if (n <= c->cap_pair) return 1;
-    int32_t cap = c->cap_pair ? c->cap_pair : 64;
-    while (cap < n) cap *= 2;
-    int32_t *pv = realloc(c->pv, (size_t)cap * sizeof *pv);
-    if (pv) c->pv = pv;
-    int32_t *pc = realloc(c->pc, (size_t)cap * sizeof *pc);
-    if (pc) c->pc = pc;
-    double *lam = realloc(c->lam, (size_t)cap * sizeof *lam);
-    if (lam) c->lam = lam;
-    double *nrm = realloc(c->nrm, 3 * (size_t)cap * sizeof *nrm);
-    if (nrm) c->nrm = nrm;
-    double *uc = realloc(c->uc, 3 * (size_t)cap * sizeof *uc);
-    if (uc) c->uc = uc;
-    uint8_t *off = realloc(c->off, (size_t)cap * sizeof *off);
-    if (off) c->off = off;
-    if (!pv || !pc || !lam || !nrm || !uc || !off) return 0;
-    c->cap_pair = cap;
+    const int64_t cap = defsim__grown_cap(c->cap_pair, n, 64);
+    void **const arrays[] = {(void **)&c->pv, (void **)&c->pc, (void **)&c->lam,
+                             (void **)&c->nrm, (void **)&c->uc, (void **)&c->off};
+    const size_t elem[] = {sizeof *c->pv, sizeof *c->pc, sizeof *c->lam, 3 * sizeof *c->nrm,
+                           3 * sizeof *c->uc, sizeof *c->off};
+    if (!defsim__grow_parallel(arrays, elem, 6, cap)) return 0;
+    c->cap_pair = (int32_t)cap;
     return 1;
 }
 

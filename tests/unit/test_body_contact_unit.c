@@ -374,6 +374,25 @@ static void count_analyses(void *user, int level, const char *message)
     }
 }
 
+/* A world (newton_cholmod, body contact on, analyses counted) with a unit box of 3 cells pinned
+ * at its bottom and a second one above it, `gap` m higher and a little shifted. */
+static defsim_world *stacked_boxes(double gap, int32_t **t0, int32_t *n0, int32_t **t1,
+                                   int32_t *n1)
+{
+    defsim_world_def d = tu_world_def("newton_cholmod", -9.81, 1);
+    d.log = count_analyses;
+    analyses = 0;
+    first_nnz = last_nnz = -1;
+    defsim_world *w = tu_create(&d);
+    TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
+    const double lo0[3] = {0, 0, 0}, hi0[3] = {1, 1, 1}, lo1[3] = {0.1, 1.0 + gap, 0.05},
+                 hi1[3] = {1.1, 2.0 + gap, 1.05};
+    const defsim_body_id b0 = add_box(w, lo0, hi0, 3, 1u, ~0u, t0, n0);
+    add_box(w, lo1, hi1, 3, 1u, ~0u, t1, n1);
+    tu_pin_below(w, b0, 1, 0.0);
+    return w;
+}
+
 /* The pattern keeps only what the contacts of the present use: a box lands on another (the
  * pattern grows for their pairs), then is lifted off by a force 3 times its weight; once no
  * pair is within dhat at a step's end, the pairs go and the matrix has the nonzeros of the two
@@ -382,19 +401,9 @@ static void test_pattern_released(void **state)
 {
     (void)state;
     if (!tu_available("newton_cholmod")) return;
-    defsim_world_def d = tu_world_def("newton_cholmod", -9.81, 1);
-    d.log = count_analyses;
-    analyses = 0;
-    first_nnz = last_nnz = -1;
-    defsim_world *w = tu_create(&d);
-    TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
-    const double lo0[3] = {0, 0, 0}, hi0[3] = {1, 1, 1}, lo1[3] = {0.1, 1.01, 0.05},
-                 hi1[3] = {1.1, 2.01, 1.05};
     int32_t *t0, *t1, n0, n1;
-    const defsim_body_id b0 = add_box(w, lo0, hi0, 3, 1u, ~0u, &t0, &n0);
-    add_box(w, lo1, hi1, 3, 1u, ~0u, &t1, &n1);
+    defsim_world *w = stacked_boxes(0.01, &t0, &n0, &t1, &n1);
     const int nv = defsim_world_vertex_count(w), half = nv / 2;
-    tu_pin_below(w, b0, 1, 0.0);
     double *m = malloc((size_t)nv * sizeof *m), *fext = calloc(3 * (size_t)nv, sizeof *fext);
     assert_non_null(m);
     assert_non_null(fext);
@@ -435,18 +444,9 @@ static void test_boxes_pressed(void **state)
 {
     (void)state;
     if (!tu_available("newton_cholmod")) return;
-    defsim_world_def d = tu_world_def("newton_cholmod", -9.81, 1);
-    d.log = count_analyses;
-    analyses = 0;
-    defsim_world *w = tu_create(&d);
-    TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
-    const double lo0[3] = {0, 0, 0}, hi0[3] = {1, 1, 1}, lo1[3] = {0.1, 1.02, 0.05},
-                 hi1[3] = {1.1, 2.02, 1.05};
     int32_t *t0, *t1, n0, n1;
-    const defsim_body_id b0 = add_box(w, lo0, hi0, 3, 1u, ~0u, &t0, &n0);
-    add_box(w, lo1, hi1, 3, 1u, ~0u, &t1, &n1);
+    defsim_world *w = stacked_boxes(0.02, &t0, &n0, &t1, &n1);
     const int nv = defsim_world_vertex_count(w), half = nv / 2;
-    tu_pin_below(w, b0, 1, 0.0);
     /* 500 N down on the top box's top face, spread over its vertices there */
     double *fext = calloc(3 * (size_t)nv, sizeof *fext), *f = malloc(3 * (size_t)nv * sizeof *f);
     assert_non_null(fext);

@@ -45,6 +45,8 @@ static struct {
     double grad_err, hess_err, values_err;
     double grad_scale, hess_scale;
     int grew;                      /* matrix_pattern_version changed during the step */
+    int projected_same;            /* matrix_values_projected(clamp) == matrix_values */
+    int projected_refused;         /* ... refuses a projection that does not exist */
 } probe;
 
 static double dot(const double *a, const double *b, int n)
@@ -189,6 +191,16 @@ static defsim_status probe_step(const defsim_host *host, defsim_system *sys, voi
                     ++found;
                 }
     probe.grew = found == m * m;   /* every block of the pair, off-diagonal ones included */
+    /* matrix_values_projected with the world's own projection (clamp) is matrix_values, bit for
+     * bit; a projection that does not exist is refused */
+    double *vals2 = malloc((size_t)pat.nnz * sizeof *vals2);
+    assert_non_null(vals2);
+    TU_OK(host->matrix_values_projected(sys, x, &kc, DEFSIM_TRIANGLE_FULL,
+                                        DEFSIM_PROJECTION_CLAMP, vals2));
+    probe.projected_same = memcmp(vals, vals2, (size_t)pat.nnz * sizeof *vals) == 0;
+    probe.projected_refused = host->matrix_values_projected(sys, x, &kc, DEFSIM_TRIANGLE_FULL, 7,
+                                                            vals2) == DEFSIM_ERR_INVALID_ARGUMENT;
+    free(vals2);
     free(vals);
     return DEFSIM_OK;
 }
@@ -266,6 +278,7 @@ static void test_fd_point_triangle(void **state)
     assert_true(probe.hess_scale > 0.0 && probe.hess_err < 1e-4 * probe.hess_scale);
     assert_true(probe.values_err <= 1e-12 * probe.hess_scale);
     assert_true(probe.grew);
+    assert_true(probe.projected_same && probe.projected_refused);
     double g;
     TU_OK(defsim_world_stat(w, "contact.pattern_growths", &g));
     assert_true(g == 1.0);

@@ -116,7 +116,7 @@ typedef struct defsim__body_contact {
      * the host's matrix_pattern_version merges them (host.c). */
     int64_t *pend;
     int64_t npend, cap_pend;
-    int64_t *keep;            /* scratch of defsim__body_contact_retain: the set's pairs */
+    int64_t *keep;            /* scratch of defsim__body_contact_end's retention: the set's pairs */
     int64_t cap_keep;
 
     double *stat;             /* the world's contact statistics (contact.h DEFSIM__CSTAT_*) */

@@ -34,6 +34,8 @@ class Projection(enum.IntEnum):
     NONE = 0    #: Exact Hessians (may be indefinite).
     CLAMP = 1   #: Negative eigenvalues set to 0.
     ABS = 2     #: Negative eigenvalues replaced by their absolute value.
+    AUTO = 3    #: Exact Hessians while the Newton matrix is positive definite, clamped for an
+    #: iteration where it is not (the implicit core's backends: newton_cholmod, newmark, bdf2).
 
 
 class Pass(enum.IntFlag):

@@ -12,7 +12,7 @@ macro(run)
     message(FATAL_ERROR "failed (${rc}): ${ARGV}\n${out}\n${err}")
   endif()
 endmacro()
-foreach(var DEFSIM_LIBRARY DEFSIM_INCLUDE_PATH DEFSIM_BACKEND_PATH PYTHONPATH PYTHONHOME
+foreach(var DEFSIM_LIBRARY DEFSIM_BACKEND_PATH PYTHONPATH PYTHONHOME
             PIP_REQUIRE_VIRTUALENV VIRTUAL_ENV)
   unset(ENV{${var}})
 endforeach()

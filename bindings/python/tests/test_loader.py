@@ -6,7 +6,6 @@ from __future__ import annotations
 import ctypes.util
 import os
 import re
-import shutil
 import subprocess
 import sys
 
@@ -35,14 +34,15 @@ def _import_rc(env_changes: dict, probe: str = PROBE) -> int:
     return subprocess.run([sys.executable, "-c", probe], env=env, timeout=60).returncode
 
 
-def _header_dirs():
-    """Directories holding defsim/defsim.h and defsim/version.h, as the package found them."""
-    found = {}
-    for d in _native._include_path(_native.library_path):
-        for name in ("defsim.h", "version.h"):
-            if name not in found and os.path.isfile(os.path.join(d, "defsim", name)):
-                found[name] = os.path.join(d, "defsim", name)
-    return found
+def _declarations_file() -> str:
+    """The generated declarations module the package loaded (build_ffi.py's output)."""
+    return sys.modules[_native._FFI_MODULE if _native._FFI_MODULE in sys.modules
+                       else f"defsim.{_native._FFI_MODULE}"].__file__
+
+
+def _pythonpath(*first: str) -> str:
+    rest = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    return os.pathsep.join(list(first) + rest)
 
 
 def test_import_with_the_current_environment_works() -> None:
@@ -67,20 +67,45 @@ def test_not_a_library_fails_import(tmp_path) -> None:
 def test_version_check(tmp_path, delta: int, ok: bool) -> None:
     if delta < 0 and defsim.header_version()[1] == 0:
         pytest.skip("no older minor version of this major")
-    src = _header_dirs()
-    inc = tmp_path / "inc" / "defsim"
-    inc.mkdir(parents=True)
-    shutil.copy(src["defsim.h"], inc / "defsim.h")
-    with open(src["version.h"], encoding="utf-8") as f:
+    if os.path.isfile(os.path.join(_native._PKG_DIR, _native._FFI_MODULE + ".py")):
+        pytest.skip("the installed package's own declarations come first")
+    # A copy of the declarations that claims another header version, first on sys.path.
+    with open(_declarations_file(), encoding="utf-8") as f:
         text = f.read()
     n = _native.header_version_number + delta
-    text = re.sub(r"#define DEFSIM_VERSION_NUMBER .*",
-                  f"#define DEFSIM_VERSION_NUMBER ({n})", text)
-    (inc / "version.h").write_text(text)
-    rc = _import_rc({"DEFSIM_INCLUDE_PATH": str(tmp_path / "inc"),
+    text, count = re.subn(r"^HEADER_VERSION_NUMBER = .*$", f"HEADER_VERSION_NUMBER = {n}", text,
+                          flags=re.M)
+    assert count == 1
+    (tmp_path / (_native._FFI_MODULE + ".py")).write_text(text)
+    rc = _import_rc({"PYTHONPATH": _pythonpath(str(tmp_path)),
                      "DEFSIM_LIBRARY": os.path.abspath(_native.library_path)
                      if os.path.sep in _native.library_path else _native.library_path})
     assert rc == (0 if ok else 3)
+
+
+def test_declarations_beside_the_library_or_a_clear_error(tmp_path) -> None:
+    # A build tree: DEFSIM_LIBRARY=<build>/libdefsim.so finds <build>/python/_defsim_ffi.py
+    # with only the sources on PYTHONPATH; without declarations, import fails cleanly.
+    lib = os.environ.get("DEFSIM_LIBRARY", "")
+    beside = os.path.join(os.path.dirname(lib), "python", _native._FFI_MODULE + ".py")
+    if not os.path.isfile(beside) or os.path.isfile(
+            os.path.join(_native._PKG_DIR, _native._FFI_MODULE + ".py")):
+        pytest.skip("needs a build tree's library named by DEFSIM_LIBRARY, and no bundled one")
+    src = os.path.dirname(_native._PKG_DIR)
+    probe = ("import sys, defsim; sys.exit(0 if sys.modules['_defsim_ffi'].__file__ == "
+             f"{beside!r} else 4)")
+    assert _import_rc({"PYTHONPATH": src}, probe) == 0
+    fake = tmp_path / "libdefsim.so"
+    fake.write_text("no declarations beside it")
+    probe = """
+import sys
+try:
+    import defsim
+except ImportError as e:
+    sys.exit(3 if "declarations generated at build time were not found" in str(e) else 5)
+sys.exit(0)
+"""
+    assert _import_rc({"PYTHONPATH": src, "DEFSIM_LIBRARY": str(fake)}, probe) == 3
 
 
 def test_library_from_the_loader_search_path() -> None:
@@ -92,13 +117,13 @@ def test_library_from_the_loader_search_path() -> None:
             or not os.path.isfile(os.path.join(os.path.dirname(lib), soname))):
         pytest.skip("needs a build tree's library named by DEFSIM_LIBRARY, and no bundled one")
     probe = f"import sys, defsim; sys.exit(0 if defsim.library_path == {soname!r} else 4)"
-    headers = _header_dirs()
-    inc = os.pathsep.join(os.path.dirname(os.path.dirname(h)) for h in headers.values())
-    assert _import_rc({"DEFSIM_LIBRARY": None, "DEFSIM_INCLUDE_PATH": inc,
+    # The declarations from sys.path (the build tree's python/ folder).
+    gen = os.path.dirname(_declarations_file())
+    assert _import_rc({"DEFSIM_LIBRARY": None, "PYTHONPATH": _pythonpath(gen),
                        "LD_LIBRARY_PATH": os.path.dirname(os.path.abspath(lib))}, probe) == 0
     # And with nothing to find, the import fails cleanly (unless one is installed system-wide).
     if ctypes.util.find_library("defsim") is None:
-        assert _import_rc({"DEFSIM_LIBRARY": None, "DEFSIM_INCLUDE_PATH": inc,
+        assert _import_rc({"DEFSIM_LIBRARY": None, "PYTHONPATH": _pythonpath(gen),
                            "LD_LIBRARY_PATH": None}) == 3
 
 

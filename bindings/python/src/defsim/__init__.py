@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: MIT
 """defsim: deformable-body simulation (mass-spring networks and tetrahedral FEM) for Python.
 
-A thin, typed layer over the library's C API (``defsim/defsim.h``) through cffi in ABI mode: no
-C compiler is needed at import time. Arrays are numpy float64 (positions, velocities, forces as
+A thin, typed layer over the library's C API (``defsim/defsim.h``) through cffi in out-of-line ABI
+mode (declarations generated and checked against the compiler when the package is built): no C
+compiler is needed at import time. Arrays are numpy float64 (positions, velocities, forces as
 (n, 3)) and int32 (indices). Errors raise a subclass of ``defsim.Error`` that carries the
 library's status code (``.status``) and message (``.message``).
 
@@ -16,7 +17,7 @@ library's status code (``.status``) and message (``.message``).
         print(world.positions[:, 1].min(), world.energy().total)
 
 Where the library and header are found: see ``defsim._native`` (``DEFSIM_LIBRARY``,
-``DEFSIM_INCLUDE_PATH``, the copies bundled by ``pip install``, system paths).
+the copies bundled by ``pip install``, a build tree's declarations, system paths).
 """
 from __future__ import annotations
 

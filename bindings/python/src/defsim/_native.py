@@ -1,30 +1,35 @@
 # SPDX-License-Identifier: MIT
-"""Finds libdefsim and its header, declares the header to cffi (ABI mode) and opens the library.
+"""Finds libdefsim, the cffi declarations generated for its header, and opens the library.
 
-Nothing here needs a C compiler: the header is preprocessed in pure Python (_cheader.py) and
-handed to ``cffi.FFI.cdef``; the library is opened with ``ffi.dlopen``. Functions are looked up
-lazily, so a function that the header declares but the library lacks fails only when called.
+Nothing here needs a C compiler or parses a header: the declarations were generated when the
+package was built (``bindings/python/build_ffi.py``: the compiler's preprocessor, cffi's
+out-of-line ABI mode, and a C file of static assertions that the build compiles, so that cffi's
+layout of every struct, enum and function was checked against the compiler's then). The
+library is opened with ``ffi.dlopen``; functions are looked up lazily, so a function that the
+header declares but the library lacks fails only when called.
 
+Where the declarations come from (the module ``_defsim_ffi``), first match wins:
+  1. the package (``defsim/_defsim_ffi.py``, put there by pip install and the wheel);
+  2. ``_defsim_ffi`` on ``sys.path`` (a build tree's ``<build>/python``);
+  3. ``python/_defsim_ffi.py`` beside the library that ``DEFSIM_LIBRARY`` names (a build tree:
+     ``DEFSIM_LIBRARY=build/libdefsim.so`` alone is enough).
 Where the library comes from, first match wins:
   1. ``DEFSIM_LIBRARY``: a path to the shared library (an error if it cannot be opened);
-  2. the library bundled in the package (``defsim/libdefsim.so``, put there by pip install);
+  2. the library bundled in the package (``defsim/libdefsim.so.<major>``, put there by pip install);
   3. the dynamic loader's search path (LD_LIBRARY_PATH, its cache, the default directories),
      as ``libdefsim.so.<major>`` (the SONAME), then ``libdefsim.so``.
-Where the header comes from: the directories in ``DEFSIM_INCLUDE_PATH`` (``os.pathsep``-separated),
-then the package's bundled ``defsim/include``, then ``include`` and ``../include`` beside the
-library, then /usr/local/include and /usr/include. ``defsim/version.h`` is found the same way.
 """
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import os
 import sys
+from types import ModuleType
 from typing import Any, List, Optional, Tuple
 
-import cffi
-
-from ._cheader import HeaderError, eval_int, preprocess
-
 _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
+_FFI_MODULE = "_defsim_ffi"
 
 
 def _bundled_library() -> Optional[str]:
@@ -52,36 +57,40 @@ def _system_names(major: int) -> List[str]:
     return [f"libdefsim.so.{major}", "libdefsim.so"]
 
 
-def _include_path(library: Optional[str]) -> List[str]:
-    dirs = [d for d in os.environ.get("DEFSIM_INCLUDE_PATH", "").split(os.pathsep) if d]
-    dirs.append(os.path.join(_PKG_DIR, "include"))
-    if library and os.path.sep in library:
-        libdir = os.path.dirname(os.path.abspath(library))
-        dirs += [os.path.join(libdir, "include"), os.path.join(os.path.dirname(libdir), "include")]
-    dirs += ["/usr/local/include", "/usr/include"]
-    return dirs
+def _declarations(explicit: Optional[str]) -> ModuleType:
+    """The generated module of cffi declarations (see the module's docstring for the order)."""
+    tried = [os.path.join(_PKG_DIR, _FFI_MODULE + ".py")]
+    if os.path.isfile(tried[0]):
+        return importlib.import_module("." + _FFI_MODULE, __package__)
+    spec = importlib.util.find_spec(_FFI_MODULE)
+    if spec is not None:
+        return importlib.import_module(_FFI_MODULE)
+    tried.append(f"{_FFI_MODULE} on sys.path")
+    if explicit and os.path.sep in explicit:
+        path = os.path.join(os.path.dirname(os.path.abspath(explicit)), "python",
+                            _FFI_MODULE + ".py")
+        tried.append(path)
+        if os.path.isfile(path):
+            spec = importlib.util.spec_from_file_location(_FFI_MODULE, path)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            sys.modules[_FFI_MODULE] = module
+            return module
+    raise ImportError("defsim: the cffi declarations generated at build time were not found "
+                      "(tried " + ", ".join(tried) + "): install the package (pip install "
+                      "./bindings/python), or build the project with its Python binding "
+                      "(cmake --build build) and set DEFSIM_LIBRARY=build/libdefsim.so or put "
+                      "build/python on PYTHONPATH")
 
 
-def _open() -> Tuple[cffi.FFI, Any, str, str, int, str]:
+def _open() -> Tuple[Any, Any, str, str, int, str]:
     explicit = os.environ.get("DEFSIM_LIBRARY") or None
+    decl = _declarations(explicit)
+    ffi = decl.ffi
+    header_version = int(decl.HEADER_VERSION_NUMBER)
     first = explicit or _bundled_library()
-    # The header that matches the library is searched beside it first (a build tree or an
-    # install prefix), after DEFSIM_INCLUDE_PATH and the bundled copy.
-    include = _include_path(first)
-    try:
-        decls, macros = preprocess(os.path.join("defsim", "defsim.h"), include)
-        header_version = eval_int(macros["DEFSIM_VERSION_NUMBER"])
-        version_string = macros.get("DEFSIM_VERSION_STRING", '""').strip('"')
-    except (HeaderError, KeyError, OSError) as exc:
-        raise ImportError(f"defsim: cannot read the public header defsim/defsim.h "
-                          f"(searched {include}): {exc}") from exc
     candidates = [explicit] if explicit else (
         ([first] if first else []) + _system_names(header_version // 10000))
-    ffi = cffi.FFI()
-    try:
-        ffi.cdef(decls)
-    except cffi.CDefError as exc:
-        raise ImportError(f"defsim: cffi cannot parse defsim.h: {exc}") from exc
     errors = []
     for cand in candidates:
         try:
@@ -105,7 +114,7 @@ def _open() -> Tuple[cffi.FFI, Any, str, str, int, str]:
         raise ImportError(
             f"defsim: library {cand} is version {_fmt(lib_version)}, but the package was built "
             f"for {_fmt(header_version)} (same major version, library at least as new, needed)")
-    return ffi, lib, cand, version_string, header_version, decls
+    return ffi, lib, cand, decl.HEADER_VERSION_STRING, header_version, decl.CDEF
 
 
 def _fmt(number: int) -> str:
@@ -123,33 +132,21 @@ def bundled_module_dir() -> Optional[str]:
 
 
 _extra: dict = {}
-_declared: set = set()
 
 
 def open_extra(name: str) -> Any:
-    """Opens one of the optional libraries over the tools' code, declaring its header to the
-    same ffi: "scene" (libdefsim_scene, include/defsim/scene.h: scene files and VTK frames) or
-    "render" (libdefsim_render, include/defsim/render.h: the OSMesa renderer). Searched in
-    ``DEFSIM_SCENE_LIBRARY`` / ``DEFSIM_RENDER_LIBRARY``, beside the loaded libdefsim (a
-    build tree, an install prefix, the package), then the loader's path. Raises OSError with
-    every place tried when it is not there. The result is cached."""
+    """Opens one of the optional libraries over the tools' code, whose headers the generated
+    declarations include: "scene" (libdefsim_scene, include/defsim/scene.h: scene files and VTK
+    frames) or "render" (libdefsim_render, include/defsim/render.h: the OSMesa renderer).
+    Searched in ``DEFSIM_SCENE_LIBRARY`` / ``DEFSIM_RENDER_LIBRARY``, beside the loaded
+    libdefsim (a build tree, an install prefix, the package), then the loader's path. Raises
+    OSError with every place tried when it is not there. The result is cached."""
     if name in _extra:
         return _extra[name]
     env = os.environ.get(f"DEFSIM_{name.upper()}_LIBRARY") or None
     file = f"libdefsim_{name}.so" if sys.platform != "darwin" else f"libdefsim_{name}.dylib"
     here = os.path.dirname(os.path.abspath(library_path)) if os.path.sep in library_path else None
     candidates = [env] if env else [os.path.join(d, file) for d in (here, _PKG_DIR) if d] + [file]
-    header = os.path.join("defsim", f"{name}.h")
-    include = _include_path(library_path)
-    try:
-        # defsim.h is declared already: its include guard and DEFSIM_API are predefined so that
-        # only the extra header's own declarations reach cdef.
-        decls, _ = preprocess(header, include, {"DEFSIM_DEFSIM_H": "1", "DEFSIM_API": ""})
-    except (HeaderError, OSError) as exc:
-        raise OSError(f"defsim: cannot read {header} (searched {include}): {exc}") from exc
-    if name not in _declared:
-        ffi.cdef(decls)
-        _declared.add(name)
     errors = []
     for cand in candidates:
         try:

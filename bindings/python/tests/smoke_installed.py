@@ -1,11 +1,20 @@
 # SPDX-License-Identifier: MIT
-"""Smoke test of a pip-installed defsim (run by run_pip_install_test.cmake in a fresh venv).
+"""Smoke test of a pip-installed defsim (run by run_pip_install_test.cmake and wheel_test.py in
+a fresh venv, with no DEFSIM_* variable).
 
-Checks that the package loaded the library and header bundled in it (not a build tree), and that
-a short simulation gives the free-fall result that symplectic Euler must give exactly.
+Checks that the package loaded the library and declarations bundled in it (not a build tree),
+that a short simulation gives the free-fall result that symplectic Euler must give exactly,
+every bundled backend module, defsim.io, and the command line the package carries: `defsim run`
+of a shipped scene (defsim.scenes) through the console entry point and `python -m defsim`, the
+same bit for bit; with ``--sweep`` (the sweep extras installed) a 2-worker `defsim-sweep` whose
+rows equal `defsim run` of the same variants.
 """
+import json
 import os
+import shutil
+import subprocess
 import sys
+import tempfile
 
 import numpy as np
 
@@ -14,7 +23,7 @@ import defsim
 pkg = os.path.dirname(os.path.abspath(defsim.__file__))
 assert "site-packages" in pkg, f"defsim imported from {pkg}, not from the virtual environment"
 assert os.path.dirname(os.path.abspath(defsim.library_path)) == pkg, defsim.library_path
-assert os.path.isfile(os.path.join(pkg, "include", "defsim", "defsim.h"))
+assert sys.modules["defsim._defsim_ffi"].__file__.startswith(pkg)   # the generated declarations
 assert defsim.library_version() == defsim.header_version()
 
 # A single free vertex: after n symplectic Euler steps, v = n h g and
@@ -72,5 +81,68 @@ if os.path.isfile(os.path.join(pkg, "libdefsim_scene.so")):
             io_note += ", scene run"
 else:
     io_note = "no libdefsim_scene"
+
+# The command line: the console script `defsim` (in the venv's bin, beside this python) and
+# `python -m defsim` run the C tool the package carries, on a scene the package carries.
+import defsim.scenes  # noqa: E402
+
+bindir = os.path.dirname(sys.executable)
+scene = defsim.scenes.path("cantilever")
+assert scene.startswith(pkg), scene
+assert {"cantilever", "cloth", "rope"} <= set(defsim.scenes.names())
+env = {k: v for k, v in os.environ.items() if not k.startswith("DEFSIM_")}
+env["PATH"] = bindir + os.pathsep + "/usr/bin:/bin"   # no other defsim to find
+
+
+def defsim_run(cmd, out):
+    r = subprocess.run(cmd + ["run", scene, "--set", "world.duration=0.05", "--out", out,
+                              "--summary-json", os.path.join(out, "summary.json")],
+                       env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, (cmd, r.stdout, r.stderr)
+    with open(os.path.join(out, "summary.json")) as f:
+        return json.load(f)
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    a = defsim_run([os.path.join(bindir, "defsim")], os.path.join(tmp, "a"))
+    b = defsim_run([sys.executable, "-m", "defsim"], os.path.join(tmp, "b"))
+    assert a["status"] == "ok" and a["steps"] == 80 and a["failed_steps"] == 0, a   # 2 frames at 30 fps
+    assert a["probes"] == b["probes"] and a["probes"][0]["position"][1] < 1.0, (a, b)
+    assert os.path.isfile(os.path.join(tmp, "a", "final.vtu"))
+    version = subprocess.run([os.path.join(bindir, "defsim"), "--version"], env=env,
+                             capture_output=True, text=True, timeout=60)
+    assert version.returncode == 0 and defsim.__version__ in version.stdout, version
+    cli_note = f"defsim run (tip y {a['probes'][0]['position'][1]:.6f})"
+    if "--sweep" in sys.argv:
+        # Two variants on a 2-worker LocalCluster, through the console script, with nothing but
+        # the venv on PATH: the rows are `defsim run`'s of the same variants, bit for bit.
+        out = os.path.join(tmp, "sweep")
+        r = subprocess.run([os.path.join(bindir, "defsim-sweep"), scene, "--out", out,
+                            "--workers", "2", "--no-progress",
+                            "--grid", "bodies.0.material.youngs_modulus=1e5,1e6",
+                            "--grid", "world.duration=0.05"],
+                           env=env, capture_output=True, text=True, timeout=600, cwd=tmp)
+        assert r.returncode == 0, (r.stdout, r.stderr)
+        from defsim.sweep import read_results
+        df = read_results(out).sort_values("bodies.0.material.youngs_modulus")
+        assert list(df["status"]) == ["ok", "ok"], df
+        assert list(df["bodies.0.material.youngs_modulus"]) == [1e5, 1e6]
+        tips = []
+        for E, y in zip(df["bodies.0.material.youngs_modulus"], df["probe0_y"]):
+            s1 = subprocess.run([os.path.join(bindir, "defsim"), "run", scene, "--set",
+                                 "world.duration=0.05", "--set",
+                                 f"bodies.0.material.youngs_modulus={E!r}", "--out",
+                                 os.path.join(tmp, "one"), "--summary-json",
+                                 os.path.join(tmp, "one.json")],
+                                env=env, capture_output=True, text=True, timeout=300)
+            assert s1.returncode == 0, s1.stderr
+            with open(os.path.join(tmp, "one.json")) as f:
+                ref = json.load(f)["probes"][0]["position"][1]
+            assert y == ref, (E, y, ref)
+            tips.append(y)
+        assert tips[0] < tips[1] < 1.0, tips   # the softer beam sags more
+        cli_note += f", defsim-sweep on 2 workers (tip y {tips[0]:.6f}, {tips[1]:.6f})"
+    shutil.rmtree(os.path.join(tmp, "a"))
+
 print(f"defsim {defsim.__version__} from {pkg}; bundled modules: {names or 'none'}; {io_note}; "
-      f"python {sys.version.split()[0]}")
+      f"{cli_note}; python {sys.version.split()[0]}")

@@ -9,9 +9,11 @@
    SUNDIALS, cJSON, libgomp, ...) into the wheel and rewrites RPATHs; ``auditwheel show`` must
    then pass (a manylinux tag).
 3. A fresh virtual environment without system site packages installs the repaired wheel (with
-   the ``io`` extra), and ``smoke_installed.py`` runs from outside the source tree with
-   ``LD_LIBRARY_PATH`` empty and no DEFSIM_* variable: free fall, every bundled backend module,
-   a VTK frame read back by meshio, a scene run.
+   the ``io`` and ``sweep`` extras), and ``smoke_installed.py --sweep`` runs from outside the
+   source tree with ``LD_LIBRARY_PATH`` empty and no DEFSIM_* variable: free fall, every bundled
+   backend module, a VTK frame read back by meshio, a scene run, `defsim run` of a shipped scene
+   through the console script and ``python -m defsim``, and a 2-worker `defsim-sweep` whose rows
+   equal `defsim run`'s.
 
 Prints the wheel's size. Exits 77 (ctest's SKIP_RETURN_CODE) when PyPI cannot be reached.
 """
@@ -76,12 +78,13 @@ def main() -> int:
     clean = os.path.join(work, "clean-venv")
     run([sys.executable, "-m", "venv", clean], env=clean_env)
     cpy = os.path.join(clean, "bin", "python")
-    run([cpy, "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{wheel}[io]"],
+    run([cpy, "-m", "pip", "install", "-q", "--disable-pip-version-check", f"{wheel}[io,sweep]"],
         env=clean_env)
     env = dict(clean_env, LD_LIBRARY_PATH="")
     if scenes:
         env["DEFSIM_SCENES"] = scenes
-    out = run([cpy, os.path.join(package, "tests", "smoke_installed.py")], cwd=work, env=env)
+    out = run([cpy, os.path.join(package, "tests", "smoke_installed.py"), "--sweep"], cwd=work,
+              env=env)
     t3 = time.time()
     print(out.strip())
     print(f"wheel: {os.path.basename(wheel)}, {os.path.getsize(wheel) / 1e6:.1f} MB "

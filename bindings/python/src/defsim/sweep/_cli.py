@@ -48,7 +48,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, default=1, help="world.threads of each variant")
     p.add_argument("--timeout", type=float, default=3600.0,
                    help="seconds before a variant is killed (default 3600)")
-    p.add_argument("--exe", help="the defsim executable (default: $DEFSIM_EXE, PATH, build/)")
+    p.add_argument("--exe", help="the defsim executable (default: $DEFSIM_EXE, the one the "
+                   "installed package carries, PATH, build/)")
     p.add_argument("--tool", choices=["stress", "bench"],
                    help="spread the runs of `defsim TOOL` instead; its arguments follow --")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -132,9 +133,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(f"defsim-sweep: {exc.name} is missing: pip install './bindings/python[sweep]'",
               file=sys.stderr)
         return 1
+    from .._cli import find_defsim
     from ._engine import finish_bench, run_sweep, run_tool_sweep, write_tool_csv
     out = Path(ns.out)
     try:
+        # Found here, before a cluster starts, so that a missing one is named by this flag.
+        ns.exe = find_defsim(ns.exe, option="--exe PATH")
         if ns.tool:
             if ns.scene or ns.grid or ns.samples or ns.variants:
                 print("defsim-sweep: --tool takes the tool's own arguments after --",

@@ -23,30 +23,12 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-def find_defsim(exe: Optional[str] = None) -> str:
-    """The `defsim` executable: `exe` if given, else $DEFSIM_EXE, else `defsim` on PATH, else a
-    build tree around this source checkout (build*/bin/defsim). Raises FileNotFoundError."""
-    for cand in (exe, os.environ.get("DEFSIM_EXE")):
-        if cand:
-            path = shutil.which(cand) or (cand if os.access(cand, os.X_OK) else None)
-            if not path:
-                raise FileNotFoundError(f"defsim executable {cand!r} not found or not executable")
-            return os.path.abspath(path)
-    on_path = shutil.which("defsim")
-    if on_path:
-        return os.path.abspath(on_path)
-    root = Path(__file__).resolve().parents[5]
-    for build in sorted(root.glob("build*")):
-        cand = build / "bin" / "defsim"
-        if os.access(cand, os.X_OK):
-            return str(cand)
-    raise FileNotFoundError("no defsim executable: pass exe=..., set DEFSIM_EXE, put defsim on "
-                            "PATH, or build the project (build/bin/defsim)")
+from .._cli import find_defsim
 
 
 def worker_exe(client_exe: str) -> str:
     """The executable a worker runs: the client's if this machine has it at the same path,
-    else this machine's own (DEFSIM_EXE, PATH, a build tree)."""
+    else this machine's own (DEFSIM_EXE, the package's, PATH, a build tree)."""
     return client_exe if os.access(client_exe, os.X_OK) else find_defsim()
 
 

@@ -13,6 +13,8 @@ import defsim
 import defsim.display
 import defsim.io
 
+from conftest import world_or_skip
+
 
 def test_collider_api(world):
     world.add_body(np.zeros((1, 3)), material=defsim.Material("spring", vertex_mass=1.0))
@@ -39,6 +41,47 @@ def test_collider_api(world):
     with defsim.World() as other:
         with pytest.raises(defsim.StaleIdError):
             other.remove_collider(ground)
+
+
+SQ = np.sqrt(0.5)
+
+
+@pytest.mark.parametrize("shape,kw,top,x0", [
+    ("plane", {}, 0.0, 0.0),
+    ("sphere", {"radius": 0.3}, 0.3, 0.0),
+    ("box", {"half_extents": (0.5, 0.25, 0.5)}, 0.25, 0.1),
+    ("capsule", {"radius": 0.2, "half_height": 0.3}, 0.5, 0.0),             # axis along y
+    ("capsule", {"radius": 0.2, "half_height": 0.3, "rotation": (SQ, 0, 0, SQ)}, 0.2, 0.25),
+    ("mesh", {"vertices": [[-1, 0.2, -1], [1, 0.2, -1], [1, 0.2, 1], [-1, 0.2, 1]],
+              "triangles": [[0, 2, 1], [0, 3, 2]]}, 0.2, 0.1),
+])
+def test_every_shape_carries_a_resting_vertex(shape, kw, top, x0):
+    # docs/python.md, "Colliders" (issue 28, 4): box, capsule and mesh work like plane and
+    # sphere. A damped vertex of 0.5 kg dropped 0.1 m onto each comes to rest just above the
+    # surface (inside the barrier's reach, 1e-3 m) with a contact force equal to its weight.
+    with world_or_skip("newton_cholmod", gravity=(0, -9.81, 0)) as w:
+        w.add_body([[x0, top + 0.1, 0.0]],
+                   material=defsim.Material("spring", vertex_mass=0.5, mass_damping=20.0))
+        w.add_collider(shape, **kw)
+        w.step(1e-3, steps=600)
+        gap = w.positions[0, 1] - top
+        f = w.contact_forces()[0]
+    assert 0.0 < gap < 1e-3, gap
+    assert f[1] == pytest.approx(0.5 * 9.81, rel=1e-6) and abs(f[0]) + abs(f[2]) < 1e-9, f
+
+
+def test_the_docs_name_every_shape_the_library_accepts():
+    # docs/python.md said the library accepts plane and sphere and refuses the others.
+    doc = os.path.join(os.path.dirname(__file__), *[os.pardir] * 3, "docs", "python.md")
+    if not os.path.isfile(doc):
+        pytest.skip("not a source tree")
+    with open(doc, encoding="utf-8") as f:
+        text = f.read()
+    section = text[text.index("## Colliders"):]
+    section = section[:section.index("\n## ", 1)]
+    assert "refused" not in section.replace("unknown shape", "")
+    for shape in ("plane", "sphere", "box", "capsule", "mesh"):
+        assert f"`{shape}`" in section or f'"{shape}"' in section, shape
 
 
 def test_cloth_stiffness_by_kind():

@@ -6,6 +6,7 @@ from __future__ import annotations
 import ctypes.util
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -69,17 +70,22 @@ def test_version_check(tmp_path, delta: int, ok: bool) -> None:
         pytest.skip("no older minor version of this major")
     if os.path.isfile(os.path.join(_native._PKG_DIR, _native._FFI_MODULE + ".py")):
         pytest.skip("the installed package's own declarations come first")
-    # A copy of the declarations that claims another header version, first on sys.path.
+    if os.path.sep not in _native.library_path:
+        pytest.skip("needs the loaded library's path")
+    # A copy of the library with, beside it, declarations that claim another header version.
     with open(_declarations_file(), encoding="utf-8") as f:
         text = f.read()
     n = _native.header_version_number + delta
     text, count = re.subn(r"^HEADER_VERSION_NUMBER = .*$", f"HEADER_VERSION_NUMBER = {n}", text,
                           flags=re.M)
     assert count == 1
-    (tmp_path / (_native._FFI_MODULE + ".py")).write_text(text)
-    rc = _import_rc({"PYTHONPATH": _pythonpath(str(tmp_path)),
-                     "DEFSIM_LIBRARY": os.path.abspath(_native.library_path)
-                     if os.path.sep in _native.library_path else _native.library_path})
+    (tmp_path / "python").mkdir()
+    (tmp_path / "python" / (_native._FFI_MODULE + ".py")).write_text(text)
+    lib = tmp_path / os.path.basename(_native.library_path)
+    shutil.copy(_native.library_path, lib)
+    probe = PROBE.replace("sys.exit(0)", "sys.exit(0 if sys.modules['_defsim_ffi']"
+                          ".HEADER_VERSION_NUMBER == %d else 4)" % n)
+    rc = _import_rc({"DEFSIM_LIBRARY": str(lib)}, probe)
     assert rc == (0 if ok else 3)
 
 
@@ -106,6 +112,22 @@ except ImportError as e:
 sys.exit(0)
 """
     assert _import_rc({"PYTHONPATH": src, "DEFSIM_LIBRARY": str(fake)}, probe) == 3
+
+
+def test_a_stray_declarations_module_is_not_taken(tmp_path) -> None:
+    # A file named _defsim_ffi.py in the script's folder (or anywhere on sys.path) is not taken
+    # over the declarations beside DEFSIM_LIBRARY, and is refused where it would be.
+    lib = os.environ.get("DEFSIM_LIBRARY", "")
+    beside = os.path.join(os.path.dirname(lib), "python", _native._FFI_MODULE + ".py")
+    if not os.path.isfile(beside):
+        pytest.skip("needs a build tree's library named by DEFSIM_LIBRARY")
+    (tmp_path / (_native._FFI_MODULE + ".py")).write_text("ffi = None\n")
+    probe = ("import sys, defsim; sys.exit(0 if sys.modules['_defsim_ffi'].__file__ == "
+             f"{beside!r} else 4)")
+    assert _import_rc({"PYTHONPATH": _pythonpath(str(tmp_path))}, probe) == 0
+    if ctypes.util.find_library("defsim") is None:
+        assert _import_rc({"PYTHONPATH": _pythonpath(str(tmp_path)), "DEFSIM_LIBRARY": None,
+                           "LD_LIBRARY_PATH": os.path.dirname(os.path.abspath(lib))}) == 3
 
 
 def test_library_from_the_loader_search_path() -> None:

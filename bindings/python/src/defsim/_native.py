@@ -10,9 +10,10 @@ header declares but the library lacks fails only when called.
 
 Where the declarations come from (the module ``_defsim_ffi``), first match wins:
   1. the package (``defsim/_defsim_ffi.py``, put there by pip install and the wheel);
-  2. ``_defsim_ffi`` on ``sys.path`` (a build tree's ``<build>/python``);
-  3. ``python/_defsim_ffi.py`` beside the library that ``DEFSIM_LIBRARY`` names (a build tree:
-     ``DEFSIM_LIBRARY=build/libdefsim.so`` alone is enough).
+  2. ``python/_defsim_ffi.py`` beside the library that ``DEFSIM_LIBRARY`` names (a build tree:
+     ``DEFSIM_LIBRARY=build/libdefsim.so`` alone is enough);
+  3. ``_defsim_ffi`` on ``sys.path`` (a build tree's ``<build>/python``, for a library found
+     on the loader's path).
 Where the library comes from, first match wins:
   1. ``DEFSIM_LIBRARY``: a path to the shared library (an error if it cannot be opened);
   2. the library bundled in the package (``defsim/libdefsim.so.<major>``, put there by pip install);
@@ -57,30 +58,41 @@ def _system_names(major: int) -> List[str]:
     return [f"libdefsim.so.{major}", "libdefsim.so"]
 
 
+def _load_file(path: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(_FFI_MODULE, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    sys.modules[_FFI_MODULE] = module
+    return module
+
+
 def _declarations(explicit: Optional[str]) -> ModuleType:
     """The generated module of cffi declarations (see the module's docstring for the order)."""
     tried = [os.path.join(_PKG_DIR, _FFI_MODULE + ".py")]
     if os.path.isfile(tried[0]):
-        return importlib.import_module("." + _FFI_MODULE, __package__)
-    spec = importlib.util.find_spec(_FFI_MODULE)
-    if spec is not None:
-        return importlib.import_module(_FFI_MODULE)
-    tried.append(f"{_FFI_MODULE} on sys.path")
-    if explicit and os.path.sep in explicit:
-        path = os.path.join(os.path.dirname(os.path.abspath(explicit)), "python",
-                            _FFI_MODULE + ".py")
-        tried.append(path)
-        if os.path.isfile(path):
-            spec = importlib.util.spec_from_file_location(_FFI_MODULE, path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-            sys.modules[_FFI_MODULE] = module
-            return module
-    raise ImportError("defsim: the cffi declarations generated at build time were not found "
-                      "(tried " + ", ".join(tried) + "): install the package (pip install "
-                      "./bindings/python), or build the project with its Python binding "
-                      "(cmake --build build) and set DEFSIM_LIBRARY=build/libdefsim.so or put "
-                      "build/python on PYTHONPATH")
+        module = importlib.import_module("." + _FFI_MODULE, __package__)
+    else:
+        module = None
+        if explicit and os.path.sep in explicit:
+            path = os.path.join(os.path.dirname(os.path.abspath(explicit)), "python",
+                                _FFI_MODULE + ".py")
+            tried.append(path)
+            if os.path.isfile(path):
+                module = _load_file(path)
+        if module is None:
+            tried.append(f"{_FFI_MODULE} on sys.path")
+            if importlib.util.find_spec(_FFI_MODULE) is not None:
+                module = importlib.import_module(_FFI_MODULE)
+    if module is None:
+        raise ImportError("defsim: the cffi declarations generated at build time were not found "
+                          "(tried " + ", ".join(tried) + "): install the package (pip install "
+                          "./bindings/python), or build the project with its Python binding "
+                          "(cmake --build build) and set DEFSIM_LIBRARY=build/libdefsim.so or "
+                          "put build/python on PYTHONPATH")
+    if not all(hasattr(module, a) for a in ("ffi", "HEADER_VERSION_NUMBER", "CDEF")):
+        raise ImportError(f"defsim: {getattr(module, '__file__', module)} is not the declarations "
+                          "module that bindings/python/build_ffi.py writes")
+    return module
 
 
 def _open() -> Tuple[Any, Any, str, str, int, str]:

@@ -262,3 +262,22 @@ def test_cli_local_scheduler_and_plot(cluster, exe, cantilever, tmp_path, capsys
     assert len(df) == 4
     bad = df[df["status"] == "unstable"]
     assert len(bad) == 1 and math.isclose(bad.iloc[0]["stable_step"], 0.001446, rel_tol=0.05)
+
+
+def test_cli_without_a_defsim_names_its_flag(cantilever, tmp_path, monkeypatch, capsys):
+    # Issue 28, 1: with no defsim to find (a wheel without one, nothing on PATH), the message
+    # named `exe=...`, the Python argument, where the command line's flag is --exe; and it came
+    # only after a local cluster had started.
+    from defsim import _cli
+    monkeypatch.delenv("DEFSIM_EXE", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    monkeypatch.setattr(_cli, "_source_builds", lambda: [])
+    monkeypatch.setattr(_cli, "bundled_defsim", lambda: None)
+    rc = cli_main([str(cantilever), "--out", str(tmp_path / "o"), "--workers", "1",
+                   "--grid", "world.duration=0.05", "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert "no defsim executable: pass --exe PATH" in err and "exe=" not in err.replace("--exe", "")
+    assert not (tmp_path / "o").exists()   # refused before anything ran
+    with pytest.raises(FileNotFoundError, match=r"pass exe=PATH"):
+        run_sweep(str(cantilever), [{}], tmp_path / "p", workers=1)

@@ -40,11 +40,17 @@ def _stable_step_marks(ax, df, kx, ky, xs, ys) -> list:
         if drawn else []
 
 
-def heat_map(df, keys: Sequence[str], value: str, path: Union[str, Path], title: str = "") -> Path:
-    """Draws `value` (the "status" column, or a numeric one) over the first two swept keys
-    (x: the first, y: the second; one key gives a single row) into `path` (PNG). Cells that hold
-    several variants (other keys swept too) show the first. Raises ValueError without a swept
-    key or for an unknown column, ImportError without matplotlib."""
+def _text_width(texts, fontsize: float) -> float:
+    """A generous estimate of the widest of `texts` in inches (DejaVu Sans: under 0.62 em per
+    character)."""
+    return max((len(t) for t in texts), default=0) * 0.62 * fontsize / 72.0
+
+
+def figure(df, keys: Sequence[str], value: str, title: str = ""):
+    """The heat map's matplotlib figure (what heat_map saves): `value` over the first two swept
+    keys. The figure is sized from what it holds (cells as wide as their texts and tick
+    labels, margins as wide as the labels, the legend or colour bar beside the axes), so that
+    no two texts overlap for any grid. Raises as heat_map."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -62,47 +68,76 @@ def heat_map(df, keys: Sequence[str], value: str, path: Union[str, Path], title:
     ys = sorted(df[ky].dropna().unique()) if ky else [None]
     first = df.drop_duplicates([kx] + ([ky] if ky else []))
     cell = {(r[kx], r[ky] if ky else None): r for _, r in first.iterrows()}
-    fig, ax = plt.subplots(figsize=(1.2 + 1.1 * len(xs), 1.3 + 0.55 * len(ys)), dpi=110)
+    texts = {}
     if value == "status":
         names = sorted(set(df["status"]), key=lambda s: (s != "ok", s))
         code = {s: i for i, s in enumerate(names)}
         grid = np.full((len(ys), len(xs)), np.nan)
         for (x, y), r in cell.items():
             grid[ys.index(y), xs.index(x)] = code[r["status"]]
-        cmap = ListedColormap([STATUS_COLORS.get(s, "#bbbbbb") for s in names])
-        ax.imshow(grid, cmap=cmap, vmin=-0.5, vmax=len(names) - 0.5, origin="lower",
-                  aspect="auto")
-        # How far each variant got: the steps it took.
-        if "steps" in df.columns:
-            for (x, y), r in cell.items():
-                ax.text(xs.index(x), ys.index(y), f"{int(r['steps'])} steps", ha="center",
-                        va="center", fontsize=7, color="white")
-        handles = [Patch(color=STATUS_COLORS.get(s, "#bbbbbb"), label=s) for s in names]
-        handles += _stable_step_marks(ax, df, kx, ky, xs, ys)
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+            if "steps" in df.columns:   # how far each variant got: the steps it took
+                texts[ys.index(y), xs.index(x)] = (f"{int(r['steps'])} steps", "white")
     else:
         grid = np.full((len(ys), len(xs)), np.nan)
         for (x, y), r in cell.items():
             v = r[value]
             grid[ys.index(y), xs.index(x)] = v if isinstance(v, (int, float)) and \
                 math.isfinite(v) and r["status"] == "ok" else np.nan
-        im = ax.imshow(grid, cmap="viridis", origin="lower", aspect="auto")
-        fig.colorbar(im, ax=ax, label=value)
         for i in range(len(ys)):
             for j in range(len(xs)):
-                txt = "%.3g" % grid[i, j] if math.isfinite(grid[i, j]) else "failed"
-                ax.text(j, i, txt, ha="center", va="center", fontsize=7,
-                        color="white" if math.isfinite(grid[i, j]) else "black")
-    ax.set_xticks(range(len(xs)), [_label(x) for x in xs])
+                ok = math.isfinite(grid[i, j])
+                texts[i, j] = ("%.3g" % grid[i, j] if ok else "failed",
+                               "white" if ok else "black")
+    # Layout in inches: cells fit their text (7 pt) and the x tick labels (10 pt).
+    xlabels = [_label(x) for x in xs]
+    ylabels = [_label(y) for y in ys] if ky else []
+    cell_w = max(0.8, _text_width([t for t, _ in texts.values()], 7) + 0.2,
+                 _text_width(xlabels, 10) + 0.2)
+    cell_h = 0.55
+    ax_w, ax_h = cell_w * len(xs), max(cell_h * len(ys), 0.6)
+    left = 0.3 + _text_width(ylabels, 10) + (0.3 if ky else 0.0)
+    side = 0.25 + (_text_width(["estimated", "stable step"] + [str(n) for n in set(df["status"])],
+                               10) + 0.6 if value == "status" else 1.3)
+    bottom, top = 0.75, 0.45
+    fig_w = left + max(ax_w, _text_width([kx], 10) * 0.6) + side
+    fig_h = bottom + ax_h + top
+    fig = plt.figure(figsize=(fig_w, fig_h), dpi=110)
+    ax = fig.add_axes([left / fig_w, bottom / fig_h, ax_w / fig_w, ax_h / fig_h])
+    if value == "status":
+        cmap = ListedColormap([STATUS_COLORS.get(s, "#bbbbbb") for s in names])
+        ax.imshow(grid, cmap=cmap, vmin=-0.5, vmax=len(names) - 0.5, origin="lower",
+                  aspect="auto")
+        handles = [Patch(color=STATUS_COLORS.get(s, "#bbbbbb"), label=s) for s in names]
+        handles += _stable_step_marks(ax, df, kx, ky, xs, ys)
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.03, 1.0),
+                  borderaxespad=0.0, frameon=False)
+    else:
+        im = ax.imshow(grid, cmap="viridis", origin="lower", aspect="auto")
+        cax = fig.add_axes([(left + ax_w + 0.15) / fig_w, bottom / fig_h, 0.15 / fig_w,
+                            ax_h / fig_h])
+        fig.colorbar(im, cax=cax, label=value)
+    for (i, j), (txt, color) in texts.items():
+        ax.text(j, i, txt, ha="center", va="center", fontsize=7, color=color)
+    ax.set_xticks(range(len(xs)), xlabels)
     ax.set_xlabel(kx)
     if ky:
-        ax.set_yticks(range(len(ys)), [_label(y) for y in ys])
+        ax.set_yticks(range(len(ys)), ylabels)
         ax.set_ylabel(ky)
     else:
         ax.set_yticks([])
     ax.set_title(title or value, fontsize=10)
-    fig.tight_layout()
+    return fig
+
+
+def heat_map(df, keys: Sequence[str], value: str, path: Union[str, Path], title: str = "") -> Path:
+    """Draws `value` (the "status" column, or a numeric one) over the first two swept keys
+    (x: the first, y: the second; one key gives a single row) into `path` (PNG). Cells that hold
+    several variants (other keys swept too) show the first. Raises ValueError without a swept
+    key or for an unknown column, ImportError without matplotlib."""
+    import matplotlib.pyplot as plt
+    fig = figure(df, keys, value, title)
     path = Path(path)
-    fig.savefig(path)
+    # "tight" keeps whatever reaches past the estimated margins (a long key name) in the picture.
+    fig.savefig(path, bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return path

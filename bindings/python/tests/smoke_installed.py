@@ -112,7 +112,18 @@ with tempfile.TemporaryDirectory() as tmp:
     version = subprocess.run([os.path.join(bindir, "defsim"), "--version"], env=env,
                              capture_output=True, text=True, timeout=60)
     assert version.returncode == 0 and defsim.__version__ in version.stdout, version
-    cli_note = f"defsim run (tip y {a['probes'][0]['position'][1]:.6f})"
+    # The tools: `defsim stress` lists its runs and runs one on a bundled module's backend.
+    listing = subprocess.run([os.path.join(bindir, "defsim"), "stress", "--reduced",
+                              "--list-variants"], env=env, capture_output=True, text=True,
+                             timeout=120)
+    assert listing.returncode == 0, listing.stderr
+    runs = [json.loads(ln) for ln in listing.stdout.splitlines() if ln.strip()]
+    k = next(r["index"] for r in runs if r["backend"] == "newton_cholmod")
+    row = subprocess.run([os.path.join(bindir, "defsim"), "stress", "--reduced", "--variant",
+                          str(k)], env=env, capture_output=True, text=True, timeout=300)
+    assert row.returncode == 0 and "newton_cholmod" in row.stdout, (row.stdout, row.stderr)
+    cli_note = (f"defsim run (tip y {a['probes'][0]['position'][1]:.6f}), defsim stress "
+                f"({len(runs)} runs listed, run {k} on newton_cholmod)")
     if "--sweep" in sys.argv:
         # Two variants on a 2-worker LocalCluster, through the console script, with nothing but
         # the venv on PATH: the rows are `defsim run`'s of the same variants, bit for bit.

@@ -368,6 +368,7 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
         if (file[0] == '/') snprintf(full, sizeof full, "%s", file);
         else snprintf(full, sizeof full, "%s%s", c->dir, file);
         defsim_status st = defsim_mesh_load(full, m);
+        c->s->io_failure = st == DEFSIM_ERR_IO;
         if (st != DEFSIM_OK)
             return sj_fail(c, where_node, "%s: %s: %s", w, defsim_status_string(st),
                            defsim_last_error());
@@ -682,6 +683,7 @@ int scene_load_limited(scene *s, const char *path, const char *const *overrides,
     if (!text) {
         snprintf(s->error, sizeof s->error, "%s: cannot read the scene file: %s", path,
                  defsim__read_strerror(errno));
+        s->io_failure = 1;
         return -1;
     }
     c.text = text;

@@ -131,6 +131,7 @@ static int parse_collider(sj_ctx *c, const cJSON *j, int index, scene_collider *
         else snprintf(full, sizeof full, "%s%s", c->dir, m->valuestring);
         col->mesh.size = sizeof col->mesh;
         const defsim_status st = defsim_mesh_load(full, &col->mesh);
+        c->s->io_failure = st == DEFSIM_ERR_IO;
         if (st != DEFSIM_OK)
             return sj_fail(c, m, "%s.mesh: %s: %s", w, defsim_status_string(st), defsim_last_error());
         if (col->mesh.triangle_count < 1)

@@ -171,6 +171,8 @@ typedef struct scene {
     int32_t vertex_count;   /* sum over bodies */
     scene_limits limits;    /* those scene_load checked */
     char error[4096];       /* "file:line:col: what" of the last failure */
+    int io_failure;         /* the failure was a file that cannot be read (the scene file, a
+                               mesh file): DEFSIM_ERR_IO for libdefsim_scene */
 } scene;
 
 #endif

@@ -135,6 +135,16 @@ DEFSIM_API void defsim_material_init(defsim_material *material, size_t size, def
 DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
                                               double *psi, double P[9], double dPdF[81]);
 
+/// Checks a material's parameters by the rules that defsim_world_add_body applies to them, for
+/// a body of any shape: a known model; for tet models E finite and > 0, nu in [0, 0.5), density
+/// finite and >= 0; for every model stiffness, vertex_mass, mass_damping and stiffness_damping
+/// finite and >= 0 (add_body checks stiffness only for bodies with springs). What depends on the
+/// body (tets with DEFSIM_MODEL_SPRING) stays add_body's. Bindings call it when a material is
+/// made, so that a bad value is refused where it is given. defsim_last_error() names the first
+/// bad field. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof
+/// (defsim_material)), DEFSIM_ERR_INVALID_MATERIAL. Thread-safe.
+DEFSIM_API defsim_status defsim_material_check(const defsim_material *material);
+
 /* ------------------------------------------------------------------------------------------ */
 /* Worlds                                                                                     */
 

@@ -28,7 +28,9 @@ typedef struct defsim_scene defsim_scene;
 /// On success *out receives the scene (free it with defsim_scene_free). On failure *out is NULL
 /// and `err` (may be NULL; errsz bytes, always terminated) receives "file:line:col: what".
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL path or out, count < 0, a NULL override, or a
-/// scene the parser rejects), DEFSIM_ERR_OUT_OF_MEMORY.
+/// scene the parser rejects), DEFSIM_ERR_IO (the scene file, or a mesh file it names, cannot be
+/// read: missing, not a regular file, too large; a mesh file that is malformed),
+/// DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_scene_load(const char *path, const char *const *overrides,
                                            int32_t count, defsim_scene **out, char *err,
                                            size_t errsz);

@@ -32,9 +32,10 @@ defsim_status defsim_scene_load(const char *path, const char *const *overrides, 
     defsim_scene *sc = calloc(1, sizeof *sc);
     if (!sc) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
     if (scene_load(&sc->s, path, overrides, count) != 0) {
-        api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", sc->s.error);
+        const defsim_status st = sc->s.io_failure ? DEFSIM_ERR_IO : DEFSIM_ERR_INVALID_ARGUMENT;
+        api_fail(err, errsz, st, "%s", sc->s.error);
         free(sc);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
+        return st;
     }
     *out = sc;
     return DEFSIM_OK;

@@ -538,8 +538,9 @@ class World(WorldCoupling, WorldColliders):
              progress: Union[None, bool, Callable[[int, int], Any], Any] = None) -> None:
         """Advances the world by `steps` steps of h seconds each with its backend.
 
-        progress: None (default) reports nothing; True shows a tqdm bar (``pip install tqdm``;
-            ImportError without it); a tqdm bar you made is advanced by one per step; a
+        progress: None (default) reports nothing; True shows a tqdm bar (the extra
+            ``pip install 'defsim-fem[progress]'``; without tqdm a ModuleNotFoundError that
+            says so, before any step); a tqdm bar you made is advanced by one per step; a
             callable ``fn(done, total)`` is called after every step (return value ignored; an
             exception it raises stops the loop after that step and propagates).
 
@@ -889,7 +890,13 @@ def _progress(progress: Any, total: int) -> Tuple[Optional[Callable[[int, int], 
     if progress is None or progress is False:
         return None, None
     if progress is True:
-        from tqdm.auto import tqdm   # optional: ImportError tells the user what to install
+        try:
+            from tqdm.auto import tqdm   # the optional extra [progress]
+        except ImportError as exc:
+            raise ModuleNotFoundError(
+                "World.step(progress=True) needs tqdm, the optional extra [progress]: "
+                "pip install 'defsim-fem[progress]' (or pip install tqdm); or pass a "
+                "callable(done, total) as progress", name="tqdm") from exc
         bar = tqdm(total=total, unit="step")
         return (lambda done, n: bar.update(1)), bar.close
     if hasattr(progress, "update"):

@@ -106,7 +106,8 @@ static int parse_collider(sj_ctx *c, const cJSON *j, int index, scene_collider *
     static const char *const common[] = {"shape", "position", "rotation", "euler_deg", "friction",
                                          "path"};
     static const char *const own[][3] = {{"normal"}, {"radius"}, {"half_extents"},
-                                         {"radius", "half_height"}, {"mesh"}};
+                                         {"radius", "half_height"},
+                                         {"mesh", "vertices", "triangles"}};
     const char *keys[12];
     int nk = 0;
     for (int k = 0; k < 6; ++k) keys[nk++] = common[k];
@@ -122,7 +123,28 @@ static int parse_collider(sj_ctx *c, const cJSON *j, int index, scene_collider *
         sj_vec3(c, j, "half_extents", w, col->def.half_extents) ||
         sj_number(c, j, "half_height", w, -1e300, 1e300, 0, &col->def.half_height))
         return -1;
-    if (shape == DEFSIM_SHAPE_MESH) {
+    const cJSON *inl = cJSON_GetObjectItemCaseSensitive(j, "vertices");
+    if (shape == DEFSIM_SHAPE_MESH && (inl || cJSON_GetObjectItemCaseSensitive(j, "triangles"))) {
+        /* The mesh itself (what defsim_scene_export writes); the library checks it. */
+        const cJSON *tj = sj_require(c, j, "triangles", w);
+        char wa[100];
+        snprintf(wa, sizeof wa, "%s.vertices", w);
+        if (!tj || !sj_require(c, j, "vertices", w)) return -1;
+        if (cJSON_GetObjectItemCaseSensitive(j, "mesh"))
+            return sj_fail(c, j, "%s: give \"mesh\" (a file) or \"vertices\" and "
+                           "\"triangles\", not both", w);
+        col->mesh.size = sizeof col->mesh;
+        if (sj_doubles(c, inl, wa, 3, &col->mesh.positions, &col->mesh.vertex_count))
+            return -1;
+        snprintf(wa, sizeof wa, "%s.triangles", w);
+        if (sj_ints(c, tj, wa, 3, 0, col->mesh.vertex_count - 1, &col->mesh.triangles,
+                    &col->mesh.triangle_count))
+            return -1;
+        col->def.vertices = col->mesh.positions;
+        col->def.vertex_count = col->mesh.vertex_count;
+        col->def.triangles = col->mesh.triangles;
+        col->def.triangle_count = col->mesh.triangle_count;
+    } else if (shape == DEFSIM_SHAPE_MESH) {
         const cJSON *m = sj_require(c, j, "mesh", w);
         if (!m) return -1;
         if (!cJSON_IsString(m)) return sj_fail(c, m, "%s.mesh must be a file name (.obj)", w);

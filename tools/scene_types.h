@@ -103,6 +103,9 @@ typedef struct scene_body {
     double *initial;        /* NULL or 3 nv initial positions ("initial_transform") */
     double *velocity;       /* NULL or 3 nv initial velocities */
     double *spring_k;       /* NULL or one stiffness per spring */
+    double *masses;         /* NULL or one mass per vertex ("masses", kg) */
+    int inline_mesh;        /* "mesh": {"type": "inline"}: springs and triangles given as they
+                               are, with tets too (defsim_scene_export writes these) */
     defsim_material material;
     int32_t *pins;
     int32_t npins;

@@ -14,8 +14,8 @@ from . import _arrays
 from ._collider import WorldColliders
 from ._coupling import Attachment, BodyCoupling, WorldCoupling
 from ._handle import Handle
-from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
-                      error_from_status)
+from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, UnsupportedError,
+                      check, error_from_status)
 from ._material import Material
 from ._mesh import Mesh, SpringKind
 from ._native import ffi, lib
@@ -840,6 +840,56 @@ class World(WorldCoupling, WorldColliders):
             body = Body(self, int(cid.index), int(cid.generation))
             self._bodies.append(body)
             self._topology[body.id] = topologies[i]
+
+    def to_scene(self, path: Optional[Union[str, "os.PathLike[str]"]] = None, *,
+                 h: Optional[float] = None, duration: Optional[float] = None) -> Dict[str, Any]:
+        """The world as a scene (``defsim_scene_export``): a dict of the scene JSON that
+        ``defsim.io.load_scene`` (and ``defsim run``) read back into a world that steps to the
+        same bits from the current state. It holds the backend, gravity, threads and the options
+        that differ from their defaults, every body as the library holds it (an "inline" mesh,
+        masses, spring stiffnesses, material, pins, held forces, collision filter, the current
+        positions and velocities as the initial state), attachments and colliders; a world made
+        by a scene (``load_scene(...).world``) adds the scene's body names, drives and keyed
+        paths. With `path`, the JSON is also written there.
+
+        `h` and `duration` (s) are the run's, which a scene file needs and a world does not
+        hold: default the scene's for a scene's world, else 1e-3 s and 1 s.
+
+        Raises UnsupportedError for what a scene cannot hold: a force callback or an SDF
+        collider (host functions), driven-pin targets or a collider pose set for the next step
+        (export before setting them or after the step), a scene's keyed paths at t != 0. From
+        a world that has stepped, the file starts from its state with the backend's history
+        (multistep, adaptive) and contact's carried state afresh: close to, not the bits of,
+        the continued run (``save`` continues bit for bit)."""
+        import json
+        from . import io
+        lib = io._scene_lib()
+        if getattr(self, "_force_callback", None) is not None:
+            raise UnsupportedError("to_scene: the world has a force callback (a Python function), "
+                                   "which a scene file cannot hold; clear it first "
+                                   "(set_force_callback(None))", Status.UNSUPPORTED)
+        scene = getattr(self, "_scene", None)
+        hh = -1.0 if h is None else _arrays.c_double(h, "h")
+        dd = -1.0 if duration is None else _arrays.c_double(duration, "duration")
+        if scene is None:
+            hh = 1e-3 if h is None else hh
+            dd = 1.0 if duration is None else dd
+        text = ffi.new("char **")
+        err = ffi.new("char[]", 4096)
+        st = lib.defsim_scene_export(self._live(), scene._ptr if scene is not None else ffi.NULL,
+                                     hh, dd, text, ffi.NULL, err, 4096)
+        if st < 0:
+            raise error_from_status(st, ffi.string(err).decode("utf-8", "replace"))
+        try:
+            data = ffi.string(text[0]).decode("utf-8")
+        finally:
+            lib.defsim_scene_string_free(text[0])
+        if path is not None:
+            tmp = os.fspath(path) + ".tmp"
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(data)
+            os.replace(tmp, path)
+        return json.loads(data)
 
     def attachments(self) -> List[Any]:
         """The live attachments, in the order the world holds them (a new list of handles)."""

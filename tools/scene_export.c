@@ -367,8 +367,9 @@ static void write_path(out *o, const scene_path *p)
 
 /* Spring kinds that reproduce a body's contact edges with per-kind stiffnesses: needed for a
  * body of springs alone whose contact edges are not all its springs (a rope with bending
- * springs). Returns 0 and fills kinds, shear and bend (-1: not used), or -1 when the
- * stiffnesses cannot be expressed per kind. */
+ * springs): the others are bend springs of one stiffness, and shear springs of a second one.
+ * Returns 0 and fills kinds, shear and bend (-1: not used), or -1 when the stiffnesses cannot
+ * be expressed per kind. */
 static int spring_kinds(const xbody *b, int32_t *kinds, double *shear, double *bend)
 {
     int32_t e = 0;
@@ -380,12 +381,12 @@ static int spring_kinds(const xbody *b, int32_t *kinds, double *shear, double *b
             if (b->k[s] != b->mat.stiffness) return -1;
             kinds[s] = DEFSIM_SPRING_STRETCH;
             ++e;
-        } else if (*shear < 0.0 || b->k[s] == *shear) {
-            *shear = b->k[s];
-            kinds[s] = DEFSIM_SPRING_SHEAR;
         } else if (*bend < 0.0 || b->k[s] == *bend) {
             *bend = b->k[s];
             kinds[s] = DEFSIM_SPRING_BEND;
+        } else if (*shear < 0.0 || b->k[s] == *shear) {
+            *shear = b->k[s];
+            kinds[s] = DEFSIM_SPRING_SHEAR;
         } else {
             return -1;
         }
@@ -674,11 +675,18 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
                 sc = &s->colliders[j];
         put(&o, i ? ",\n  {\"shape\": \"%s\"" : ",\n\"colliders\": [\n  {\"shape\": \"%s\"",
             SHAPES[c->shape]);
-        put(&o, ", \"position\": "); vec(&o, c->pos, 3);
+        /* The stored pose and normal, kept bit for bit ("normalized"); a collider on a path
+         * has its poses normalised by the library at each step, and its plane normal too: the
+         * scene's own normal then, which the library normalises as it did. */
+        const int keyed = sc && sc->nkeys > 0;
+        put(&o, ", \"normalized\": true, \"position\": "); vec(&o, c->pos, 3);
         put(&o, ", \"rotation\": "); vec(&o, c->rot, 4);
         put(&o, ", \"friction\": "); num(&o, c->friction);
         switch (c->shape) {
-        case DEFSIM_SHAPE_PLANE: put(&o, ", \"normal\": "); vec(&o, c->normal, 3); break;
+        case DEFSIM_SHAPE_PLANE:
+            put(&o, ", \"normal\": ");
+            vec(&o, keyed ? sc->def.normal : c->normal, 3);
+            break;
         case DEFSIM_SHAPE_SPHERE: put(&o, ", \"radius\": "); num(&o, c->radius); break;
         case DEFSIM_SHAPE_BOX: put(&o, ", \"half_extents\": "); vec(&o, c->half, 3); break;
         case DEFSIM_SHAPE_CAPSULE:

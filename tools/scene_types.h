@@ -91,6 +91,7 @@ typedef struct scene_collider {
     int line;               /* of its object in the scene file */
     defsim_collider_def def;
     defsim_mesh mesh;       /* MESH: the loaded .obj */
+    int normalized;         /* "normalized": rotations and normal used as given (bit for bit) */
     int32_t nkeys;          /* 0: it stays where it is */
     double *key;            /* 8 per key */
     defsim_collider_id id;  /* after scene_build */

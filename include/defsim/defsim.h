@@ -868,6 +868,12 @@ typedef struct defsim_collider_def {
                                 ///< distance is at least the distance to that box, so that
                                 ///< vertices far away are never queried. Default: all zero,
                                 ///< meaning unbounded (every vertex is queried every step).
+    /* appended */
+    /// 1: `rotation` and `normal` are unit already (as defsim_world_get_collider returns them)
+    /// and are kept bit for bit instead of being divided by their computed length again,
+    /// which can change their last bits (scene files that defsim_scene_export writes rebuild
+    /// a collider exactly so); each must still be within 1e-6 of unit length. Default 0.
+    int32_t normalized;
 } defsim_collider_def;
 
 /// Fills *def with defaults (a ground plane through the origin, normal +y, no friction).

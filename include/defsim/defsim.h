@@ -357,6 +357,21 @@ DEFSIM_API defsim_status defsim_world_get_positions(const defsim_world *world, d
 DEFSIM_API defsim_status defsim_world_get_velocities(const defsim_world *world, double *out,
                                                      int32_t n);
 
+/// Borrowed, read-only views of the world's state, for hosts that read it every frame without a
+/// copy: *x and *v (either may be NULL) receive the world's own arrays of positions (m) and
+/// velocities (m/s), 3 * n doubles each in world vertex order, and *n (may be NULL) the vertex
+/// count n. The world owns them: never write through them or free them. Their contents are
+/// the state: defsim_world_step, defsim_world_set_state and defsim_body_pin (a pinned vertex's
+/// velocity becomes 0) change them in place, and a step that fails leaves them as before it;
+/// inside a host callback they hold the state as it is at that moment of the step. The pointers
+/// stay valid until the next defsim_world_add_body or defsim_world_remove_body (which move the
+/// state into new arrays) or defsim_world_destroy; take them again after those. A world without
+/// vertices gives NULL and n = 0.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL or not a live world; the outputs are then NULL
+/// and 0).
+DEFSIM_API defsim_status defsim_world_state_view(const defsim_world *world, const double **x,
+                                                 const double **v, int32_t *n);
+
 /// Copies the lumped vertex masses (kg) into out, n doubles (one per vertex). Same rules as
 /// defsim_world_get_positions.
 DEFSIM_API defsim_status defsim_world_get_masses(const defsim_world *world, double *out, int32_t n);

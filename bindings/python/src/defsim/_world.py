@@ -218,6 +218,11 @@ class World(WorldCoupling, WorldColliders):
     block) frees it at once; otherwise it is freed when garbage-collected.
     """
 
+    #: Bumped when the state arrays move (bodies added or removed, close): StateView's check.
+    _layout = 0
+    #: Bumped by every call that can change the state: the key of StateView's stress buffers.
+    _state_version = 0
+
     def __init__(self, backend: Optional[str] = None, *, gravity: Any = None,
                  num_threads: Optional[int] = None, log: Optional[LogCallback] = None,
                  options: Optional[Mapping[str, Any]] = None) -> None:
@@ -281,6 +286,7 @@ class World(WorldCoupling, WorldColliders):
             ptr, self._ptr = self._ptr, None
             ffi.release(ptr)    # runs defsim_world_destroy while the log callback is alive
         self._bodies = []
+        self._layout += 1
 
     @property
     def closed(self) -> bool:
@@ -466,6 +472,8 @@ class World(WorldCoupling, WorldColliders):
             material._fill(ffi.addressof(d, "material"))
         out = ffi.new("defsim_body_id *")
         self._check(lib.defsim_world_add_body(w, d, out))
+        self._layout += 1
+        self._state_version += 1
         del keep
         body = Body(self, int(out.index), int(out.generation))
         self._bodies.append(body)
@@ -495,6 +503,8 @@ class World(WorldCoupling, WorldColliders):
         """Removes a body; the vertices of later bodies move down and its handle goes stale.
         Raises StaleIdError for a removed body or one of another world."""
         self._check(lib.defsim_world_remove_body(self._live(), self._own(body)))
+        self._layout += 1
+        self._state_version += 1
         self._bodies = [b for b in self._bodies if b != body]
         self._topology.pop(body.id, None)
 
@@ -515,6 +525,7 @@ class World(WorldCoupling, WorldColliders):
         Raises InvalidArgumentError (index out of range), StaleIdError."""
         cid = self._own(body)
         v = self._vertex_list(body, vertices)
+        self._state_version += 1   # pinned vertices' velocities become zero
         self._check(lib.defsim_body_pin(self._live(), cid, _arrays.iptr(v), v.size))
 
     def unpin(self, body: Body, vertices: Any) -> None:
@@ -559,6 +570,7 @@ class World(WorldCoupling, WorldColliders):
         report, close = _progress(progress, n)
         try:
             for i in range(n):
+                self._state_version += 1
                 st = one()
                 if st < 0:
                     self._check(st)
@@ -597,6 +609,14 @@ class World(WorldCoupling, WorldColliders):
             self._check(fn(w, _arrays.dptr(out), n))
         return out
 
+    def view(self) -> "StateView":
+        """Zero-copy, read-only numpy views of the positions and velocities, which see every
+        step as it happens, valid until the bodies change (``add_body``, ``remove_body``) or
+        the world is closed: see ``defsim.StateView``. ``positions`` and ``velocities`` stay
+        copies."""
+        from ._view import StateView
+        return StateView(self)
+
     @property
     def positions(self) -> np.ndarray:
         """A copy of the positions, (n, 3), m. Assigning sets them (``set_state``)."""
@@ -628,6 +648,7 @@ class World(WorldCoupling, WorldColliders):
         n = int(lib.defsim_world_vertex_count(w))
         x = None if positions is None else _arrays.points(positions, "positions", n)
         v = None if velocities is None else _arrays.points(velocities, "velocities", n)
+        self._state_version += 1
         self._check(lib.defsim_world_set_state(w, _arrays.dptr(x), _arrays.dptr(v)))
 
     def stable_step(self) -> Tuple[float, float]:

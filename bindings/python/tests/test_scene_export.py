@@ -230,6 +230,8 @@ def test_load_scene_from_dict_and_string(tmp_path) -> None:
     s = dio.load_scene(scene)
     assert s.world.vertex_count == 4 and s.body_names == ["body 0"]
     s2 = dio.load_scene(json.dumps(scene, default=lambda a: a.tolist()))
+    s3 = dio.load_scene(scene, {"world.h": 5e-4, "bodies.0.material.youngs_modulus": 2e5})
+    assert s3.step_size == 5e-4 and s3.name == "<scene>"
     _same_run(s.world, s.step, s2.world, s2.step, 5)
     assert s.world.positions[1, 1] < 0.0   # it falls, pinned at vertex 0
     bad = dict(scene, bodies=[dict(scene["bodies"][0], colour=[1, 0, 0])])

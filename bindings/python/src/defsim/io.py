@@ -299,8 +299,8 @@ class Scene:
         self.path = "<scene>" if text is not None else os.fspath(path)   # type: ignore[arg-type]
         items = []
         for key, value in (overrides or {}).items():
-            text = value if isinstance(value, str) else json.dumps(value)
-            items.append(ffi.new("char[]", f"{key}={text}".encode("utf-8")))
+            given = value if isinstance(value, str) else json.dumps(value)
+            items.append(ffi.new("char[]", f"{key}={given}".encode("utf-8")))
         out = ffi.new("defsim_scene **")
         err = ffi.new("char[]", 4096)
         arg = ffi.new("char *[]", items) if items else ffi.NULL

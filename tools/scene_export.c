@@ -16,6 +16,7 @@
 #include "scene.h"
 
 #include "../src/chunk.h"
+#include "lib/api_error.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -209,16 +210,12 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             if (b->nv < 1 || b->nt < 0 || b->ns < 0 || !defsim__fits(&r, b->nv, 33) ||
                 !defsim__fits(&r, b->nt, 16) || !defsim__fits(&r, b->ns, 16))
                 return -1;
-            defsim_material_init(&b->mat, sizeof b->mat, (defsim_model)defsim__get_i32(&r));
-            double mp[7];
-            defsim__get_f64s(&r, mp, 7);
-            b->mat.youngs_modulus = mp[0];
-            b->mat.poisson_ratio = mp[1];
-            b->mat.density = mp[2];
-            b->mat.stiffness = mp[3];
-            b->mat.vertex_mass = mp[4];
-            b->mat.mass_damping = mp[5];
-            b->mat.stiffness_damping = mp[6];
+            defsim_material *m = &b->mat;
+            defsim_material_init(m, sizeof *m, (defsim_model)defsim__get_i32(&r));
+            double *const mp[7] = {&m->youngs_modulus, &m->poisson_ratio, &m->density,
+                                   &m->stiffness, &m->vertex_mass, &m->mass_damping,
+                                   &m->stiffness_damping};   /* the chunk's order */
+            for (int q = 0; q < 7; ++q) *mp[q] = defsim__get_f64(&r);
             b->rest = f64s(&r, 3 * (int64_t)b->nv);
             b->mass = f64s(&r, b->nv);
             b->tets = i32s(&r, 4 * (int64_t)b->nt);
@@ -278,22 +275,6 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
 
 /* ------------------------------------------------------------------------------------------ */
 /* The export */
-
-static defsim_status fail(char *err, size_t errsz, defsim_status st, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 4, 5)))
-#endif
-    ;
-static defsim_status fail(char *err, size_t errsz, defsim_status st, const char *fmt, ...)
-{
-    if (err && errsz > 0) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errsz, fmt, ap);
-        va_end(ap);
-    }
-    return st;
-}
 
 static const char *model_name(defsim_model m)
 {
@@ -420,7 +401,7 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
     const xbody *b = &k->bodies[i];
     const int32_t nv = b->nv, off = b->offset;
     const char *model = model_name(b->mat.model);
-    if (!model) return fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "body %d: unknown model %d",
+    if (!model) return api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "body %d: unknown model %d",
                             (int)i, (int)b->mat.model);
     put(o, i ? ",\n  {" : "\n  {");
     char name[64];
@@ -438,7 +419,7 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         if (!kinds) return DEFSIM_ERR_OUT_OF_MEMORY;
         if (spring_kinds(b, kinds, &shear, &bend)) {
             free(kinds);
-            return fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "body %d: its springs' stiffnesses "
+            return api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "body %d: its springs' stiffnesses "
                         "and contact edges have no spring kinds that give both", (int)i);
         }
     }
@@ -540,14 +521,14 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
         if (!(duration > 0.0)) duration = s->duration;
     }
     if (!(h > 0.0) || !isfinite(h) || !(duration > 0.0) || !isfinite(duration))
-        return fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "defsim_scene_export: h = %g and "
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "defsim_scene_export: h = %g and "
                     "duration = %g must be finite and > 0 (a scene file needs both)", h,
                     duration);
     void *data = NULL;
     size_t size = 0;
     defsim_status st = defsim_world_save_buffer(w, &data, &size);
     if (st != DEFSIM_OK)
-        return fail(err, errsz, st, "defsim_scene_export: %s", defsim_world_last_error(w));
+        return api_fail(err, errsz, st, "defsim_scene_export: %s", defsim_world_last_error(w));
     ckpt k;
     const int rc = ckpt_read(data, size, &k);
     out o = {NULL, 0, 0, 0};
@@ -556,18 +537,18 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
     const double t = defsim_world_time(w);
     if (rc) {
         st = rc == -2 ? DEFSIM_ERR_OUT_OF_MEMORY
-                      : fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: the "
+                      : api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: the "
                              "world's checkpoint is of a format this library does not read");
         goto done;
     }
     if (k.npending > 0) {
-        st = fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: %d driven-pin targets "
+        st = api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: %d driven-pin targets "
                   "are set for the next step (defsim_body_set_pin_targets); a scene cannot hold "
                   "them: export before setting them or after the step", (int)k.npending);
         goto done;
     }
     if (s && t != 0.0 && scene_has_paths(s)) {
-        st = fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: the world is at "
+        st = api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: the world is at "
                   "t = %.17g s and its scene has keyed paths (drives, moving targets or "
                   "colliders): a scene starts at t = 0 and would replay them from their start",
                   t);
@@ -586,13 +567,13 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
     for (int32_t i = 0; i < k.ncolls; ++i) {
         const xcoll *c = &k.colls[i];
         if (c->shape < 0 || c->shape > DEFSIM_SHAPE_MESH) {
-            st = fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: collider %d is %s: "
+            st = api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: collider %d is %s: "
                       "a scene holds planes, spheres, boxes, capsules and meshes", (int)i,
                       c->shape == DEFSIM_SHAPE_SDF ? "an SDF (a host function)" : "unknown");
             goto done;
         }
         if (memcmp(c->pos, c->next_pos, sizeof c->pos) || memcmp(c->rot, c->next_rot, sizeof c->rot)) {
-            st = fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: collider %d has "
+            st = api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: collider %d has "
                       "a pose set for the next step (defsim_collider_set_pose); a scene cannot "
                       "hold it: export before setting it or after the step", (int)i);
             goto done;
@@ -626,7 +607,7 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
         const int b = index_of_body(&k, a->body);
         const int tb = a->tbody[0] || a->tbody[1] ? index_of_body(&k, a->tbody) : -2;
         if (b < 0 || tb == -1) {
-            st = fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: attachment %d "
+            st = api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "defsim_scene_export: attachment %d "
                       "names a body the checkpoint does not hold", (int)i);
             goto done;
         }
@@ -723,7 +704,7 @@ defsim_status scene_export(const scene *s, const defsim_world *w, double h, doub
     st = DEFSIM_OK;
 done:
     if (st == DEFSIM_ERR_OUT_OF_MEMORY && err && errsz && !err[0])
-        fail(err, errsz, st, "defsim_scene_export: out of memory");
+        api_fail(err, errsz, st, "defsim_scene_export: out of memory");
     free(o.p);
     free(x);
     free(v);

@@ -244,3 +244,73 @@ def test_load_scene_from_dict_and_string(tmp_path) -> None:
                   "bodies": [{"mesh": {"type": "file", "path": "cube.msh"}}]}
     with pytest.raises(defsim.FileError):
         dio.load_scene(mesh_scene, folder=tmp_path)
+
+
+def test_new_scene_keys_are_checked() -> None:
+    """The keys the export writes are checked like every other key: each bad value is refused
+    with its position, before anything is built."""
+    tet = {"type": "inline", "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+           "tets": [[0, 1, 2, 3]]}
+    rope = {"type": "inline", "positions": [[0, 0, 0], [1, 0, 0], [2, 0, 0]],
+            "springs": [[0, 1], [1, 2], [0, 2]]}
+
+    def scene(body=None, **top):
+        s = {"world": {"h": 1e-3, "duration": 0.01},
+             "bodies": [dict({"mesh": tet}, **(body or {})), {"mesh": rope}]}
+        s.update(top)
+        return s
+
+    bad = [
+        scene({"mesh": dict(tet, tets=[[0, 1, 2, 4]])}),                  # index out of range
+        scene({"mesh": dict(tet, tets=[[0, 1, 2]])}),                     # not rows of 4
+        scene({"mesh": dict(tet, positions=[[0, 0, 0], [1, 0]])}),        # ragged rows
+        scene({"mesh": dict(tet, positions=[])}),                         # no vertex
+        scene({"mesh": dict(tet, colour=1)}),                             # unknown key
+        scene({"masses": [1, 1, 1]}),                                     # 3 masses, 4 vertices
+        scene({"initial_positions": tet["positions"],
+               "initial_transform": {"translate": [0, 1, 0]}}),
+        scene({"initial_velocities": [[0, 0, 0]] * 4, "velocity": [0, 1, 0]}),
+        scene({"mesh": dict(tet, springs=[[0, 1]], spring_kinds=[0, 1])}),   # kinds per spring
+        scene({"mesh": dict(tet, springs=[[0, 1]], spring_kinds=[3])}),      # not a kind
+        scene({"mesh": dict(tet, springs=[[0, 1]], spring_kinds=[0]),
+               "spring_stiffness": [5.0]}),                                  # kinds and per spring
+        scene(attachments=[{"body": 1, "vertex": 0, "stiffness": 10,
+                            "target": {"body": 0, "vertices": [0, 1]}}]),      # no weights
+        scene(attachments=[{"body": 1, "vertex": 0, "stiffness": 10,
+                            "target": {"body": 0, "vertices": [0, 1, 2, 3, 0],
+                                       "weights": [0.2] * 5}}]),              # five vertices
+        scene(attachments=[{"body": 1, "vertex": 0, "stiffness": 10,
+                            "target": {"point": [0, 0, 0], "weights": [1.0]}}]),
+        scene(colliders=[{"shape": "mesh", "mesh": "x.obj", "vertices": [[0, 0, 0]] * 3,
+                          "triangles": [[0, 1, 2]]}]),
+        scene(colliders=[{"shape": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                          "triangles": [[0, 1, 3]]}]),
+        scene(colliders=[{"shape": "sphere", "normalized": 1}]),
+        scene({"drive": {"indices": [0], "keys": [{"t": 0, "rotate": {
+            "vector": [0, 0, 1], "axis": [0, 0, 1], "degrees": 3}}]}}),
+    ]
+    for s in bad:
+        with pytest.raises(defsim.InvalidArgumentError, match=r"<scene>:1:"):
+            dio.load_scene(s)
+    # the library still checks what the parser passes on: weights that do not sum to 1
+    s = dio.load_scene(scene(attachments=[{"body": 1, "vertex": 0, "stiffness": 10,
+                                          "target": {"body": 0, "vertices": [0, 1],
+                                                     "weights": [0.5, 0.6]}}]))
+    with pytest.raises(defsim.InvalidArgumentError, match="weights"):
+        s.world
+    # A unit quaternion whose last bits the library's division by its length changes: kept
+    # bit for bit when given as "normalized" (C: defsim_collider_def.normalized), changed
+    # without; one that is not unit is refused by the library.
+    q = [0.21424427007839494, 0.5093606231982167, 0.20485384406841473, -0.8078898754434873]
+    assert list(defsim.World().add_collider("box", rotation=q).pose.rotation) != q
+    w = dio.load_scene(scene(colliders=[{"shape": "box", "rotation": q,
+                                         "normalized": True}])).world
+    assert list(w.colliders[0].pose.rotation) == q
+    n = [0.3, 0.9, 0.1]
+    n = list(np.array(n) / np.linalg.norm(n))
+    w = dio.load_scene(scene(colliders=[{"shape": "plane", "normal": n,
+                                         "normalized": True}])).world
+    assert w.to_scene()["colliders"][0]["normal"] == n
+    with pytest.raises(defsim.InvalidArgumentError, match="unit"):
+        dio.load_scene(scene(colliders=[{"shape": "box", "rotation": [2, 0, 0, 0],
+                                         "normalized": True}])).world

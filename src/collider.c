@@ -120,6 +120,9 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
         BAD("add_collider: rotation (%g, %g, %g, %g) is not a unit quaternion (w, x, y, z) "
             "within 1e-6", def->rotation[0], def->rotation[1], def->rotation[2],
             def->rotation[3]);
+    if (d->normalized != 0 && d->normalized != 1)
+        BAD("add_collider: normalized %d must be 0 or 1", (int)d->normalized);
+    if (d->normalized) memcpy(d->rotation, def->rotation, sizeof d->rotation);
     if (!isfinite(d->friction) || d->friction < 0.0)
         BAD("add_collider: friction %g must be finite and >= 0", d->friction);
     switch (d->shape) {
@@ -129,7 +132,10 @@ defsim_status defsim__collider_make(defsim__messages *msg, const defsim_collider
         if (!all_finite(d->normal, 3) || !(n > 0.0) || !isfinite(n))
             BAD("add_collider: plane normal (%g, %g, %g) must be finite and not zero",
                 d->normal[0], d->normal[1], d->normal[2]);
-        for (int k = 0; k < 3; ++k) d->normal[k] /= n;
+        if (d->normalized && !(fabs(n - 1.0) <= 1e-6))
+            BAD("add_collider: normalized is 1 but the plane normal's length is %.17g", n);
+        if (!d->normalized)
+            for (int k = 0; k < 3; ++k) d->normal[k] /= n;
         break;
     }
     case DEFSIM_SHAPE_SPHERE:

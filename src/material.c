@@ -147,6 +147,16 @@ void defsim_material_init(defsim_material *material, size_t size, defsim_model m
 
 #undef FITS
 
+defsim_status defsim_material_check(const defsim_material *material)
+{
+    char msg[256];
+    /* As for a body with springs: stiffness is checked whatever the model. */
+    const defsim_status st = defsim__material_check(material, 0, 1, msg, sizeof msg);
+    if (st != DEFSIM_OK) defsim__set_last_error("defsim_material_check: %s", msg);
+    else defsim__set_last_error("%s", "");
+    return st;
+}
+
 defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
                                    double *psi, double P[9], double dPdF[81])
 {

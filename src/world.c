@@ -591,6 +591,17 @@ defsim_status defsim_world_get_velocities(const defsim_world *w, double *out, in
     return copy_out(w, 1, out, n);
 }
 
+defsim_status defsim_world_state_view(const defsim_world *w, const double **x, const double **v,
+                                      int32_t *n)
+{
+    const int live = defsim__world_live(w);
+    const int some = live && w->nv > 0;
+    if (x) *x = some ? w->state.x : NULL;
+    if (v) *v = some ? w->state.v : NULL;
+    if (n) *n = live ? w->nv : 0;
+    return live ? DEFSIM_OK : DEFSIM_ERR_INVALID_ARGUMENT;
+}
+
 defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_t n)
 {
     return copy_out(w, 2, out, n);

@@ -264,7 +264,7 @@ static int parse_transform(sj_ctx *c, const cJSON *j, const char *what,
     return 0;
 }
 
-enum { MESH_FILE, MESH_BOX, MESH_CLOTH, MESH_ROPE };
+enum { MESH_FILE, MESH_BOX, MESH_CLOTH, MESH_ROPE, MESH_INLINE };
 
 /* A mesh of n more vertices must fit within limits.max_vertices with the bodies before it:
  * checked before a generator makes it. */
@@ -348,6 +348,46 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
             *kind = MESH_ROPE;
             st = defsim_mesh_rope(a, bb, seg, m);
             *bending = seg - 1;
+        } else if (!strcmp(ty, "inline")) {
+            /* The arrays themselves (what defsim_scene_export writes): rows or flat lists. */
+            static const char *const keys[] = {"type", "positions", "tets", "triangles",
+                                               "springs", "spring_kinds", NULL};
+            const cJSON *pj = sj_require(c, j, "positions", w);
+            if (sj_keys(c, j, w, keys) || !pj) return -1;
+            char wa[240];
+            snprintf(wa, sizeof wa, "%s.positions", w);
+            if (sj_doubles(c, pj, wa, 3, &m->positions, &m->vertex_count)) return -1;
+            if (m->vertex_count < 1) return sj_fail(c, pj, "%s needs at least one vertex", wa);
+            if (vertex_budget(c, pj, w, m->vertex_count)) return -1;
+            const int32_t top = m->vertex_count - 1;
+            static const char *const names[] = {"tets", "triangles", "springs"};
+            static const int widths[] = {4, 3, 2};
+            int32_t **arrays[] = {&m->tets, &m->triangles, &m->springs};
+            int32_t *counts[] = {&m->tet_count, &m->triangle_count, &m->spring_count};
+            for (int a = 0; a < 3; ++a) {
+                const cJSON *e = cJSON_GetObjectItemCaseSensitive(j, names[a]);
+                snprintf(wa, sizeof wa, "%s.%s", w, names[a]);
+                if (e && sj_ints(c, e, wa, widths[a], 0, top, arrays[a], counts[a])) return -1;
+            }
+            const cJSON *kj = cJSON_GetObjectItemCaseSensitive(j, "spring_kinds");
+            if (kj) {
+                int32_t nk = 0;
+                snprintf(wa, sizeof wa, "%s.spring_kinds", w);
+                if (sj_ints(c, kj, wa, 1, DEFSIM_SPRING_STRETCH, DEFSIM_SPRING_BEND,
+                            &m->spring_kinds, &nk))
+                    return -1;
+                if (nk != m->spring_count)
+                    return sj_fail(c, kj, "%s has %d entries for %d springs", wa, (int)nk,
+                                   (int)m->spring_count);
+            }
+            *kind = MESH_INLINE;
+            /* Drawn as lines: a body of springs alone, its leading stretch springs. */
+            if (m->tet_count == 0 && m->triangle_count == 0 && m->spring_kinds) {
+                int32_t lead = 0;
+                while (lead < m->spring_count && m->spring_kinds[lead] == DEFSIM_SPRING_STRETCH)
+                    ++lead;
+                *bending = m->spring_count - lead;
+            }
         } else if (!strcmp(ty, "file")) {
             static const char *const keys[] = {"type", "path", NULL};
             const cJSON *p = sj_require(c, j, "path", w);
@@ -356,7 +396,8 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
             file = p->valuestring;
             where_node = p;
         } else {
-            return sj_fail(c, type, "%s.type \"%s\" is unknown (known: box, cloth, rope, file)", w, ty);
+            return sj_fail(c, type, "%s.type \"%s\" is unknown (known: box, cloth, rope, file, "
+                           "inline)", w, ty);
         }
         if (st != DEFSIM_OK)
             return sj_fail(c, j, "%s: %s: %s", w, defsim_status_string(st), defsim_last_error());
@@ -368,6 +409,7 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
         if (file[0] == '/') snprintf(full, sizeof full, "%s", file);
         else snprintf(full, sizeof full, "%s%s", c->dir, file);
         defsim_status st = defsim_mesh_load(full, m);
+        c->s->io_failure = st == DEFSIM_ERR_IO;
         if (st != DEFSIM_OK)
             return sj_fail(c, where_node, "%s: %s: %s", w, defsim_status_string(st),
                            defsim_last_error());
@@ -439,7 +481,7 @@ static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_bod
     if (!j) return 0;
     double shear = -1.0, bend = -1.0, total = -1.0;
     if (sj_number(c, j, "youngs_modulus", w, 0.0, 1e300, 1, &m->youngs_modulus) ||
-        sj_number(c, j, "poisson_ratio", w, 0.0, 0.4999999, 0, &m->poisson_ratio) ||
+        sj_number(c, j, "poisson_ratio", w, 0.0, nextafter(0.5, 0.0), 0, &m->poisson_ratio) ||
         sj_number(c, j, "density", w, 0.0, 1e300, 0, &m->density) ||
         sj_number(c, j, "stiffness", w, 0.0, 1e300, 0, &m->stiffness) ||
         sj_number(c, j, "shear_stiffness", w, 0.0, 1e300, 0, &shear) ||
@@ -455,10 +497,11 @@ static int parse_material(sj_ctx *c, const cJSON *j, const char *what, scene_bod
                            "%s: give vertex_mass or total_mass, not both", w);
         m->vertex_mass = total / b->mesh.vertex_count;
     }
-    if (shear >= 0.0 && kind != MESH_CLOTH)
+    const int kinds = kind == MESH_INLINE && b->mesh.spring_kinds;   /* inline with kinds */
+    if (shear >= 0.0 && kind != MESH_CLOTH && !kinds)
         return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "shear_stiffness"),
                        "%s: shear_stiffness needs a \"cloth\" mesh", w);
-    if (bend >= 0.0 && kind != MESH_CLOTH && kind != MESH_ROPE)
+    if (bend >= 0.0 && kind != MESH_CLOTH && kind != MESH_ROPE && !kinds)
         return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "bending_stiffness"),
                        "%s: bending_stiffness needs a \"cloth\" or \"rope\" mesh (boxes and mesh "
                        "files have no bending springs)", w);
@@ -508,7 +551,8 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     static const char *const keys[] = {"name", "mesh", "transform", "material", "pin", "velocity",
                                        "initial_transform", "color", "probe", "forces", "drive",
                                        "self_contact", "collision_group", "collision_mask",
-                                       "friction", NULL};
+                                       "friction", "masses", "spring_stiffness",
+                                       "initial_positions", "initial_velocities", NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
     b->probe = -1;
@@ -542,6 +586,7 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     int32_t bending, shear_first, shear_count;
     int kind;
     if (!mesh || parse_mesh(c, mesh, w, b, &kind, &bending, &shear_first, &shear_count)) return -1;
+    b->inline_mesh = kind == MESH_INLINE;
     const int32_t nv = b->mesh.vertex_count;
     b->line_count = b->mesh.triangle_count == 0 && b->mesh.tet_count == 0
                         ? b->mesh.spring_count - bending : 0;
@@ -579,6 +624,30 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
     const cJSON *pin = cJSON_GetObjectItemCaseSensitive(j, "pin");
     if (pin && parse_pins(c, pin, w, b, 1e-9 * diag)) return -1;
+    /* Arrays of one value per vertex or spring (what defsim_scene_export writes). */
+    const char *const arr_keys[] = {"masses", "spring_stiffness", "initial_positions",
+                                    "initial_velocities"};
+    const int arr_width[] = {1, 1, 3, 3};
+    double **arr_out[] = {&b->masses, &b->spring_k, &b->initial, &b->velocity};
+    const char *const arr_other[] = {NULL, NULL, "initial_transform", "velocity"};
+    for (int a = 0; a < 4; ++a) {
+        const cJSON *e = cJSON_GetObjectItemCaseSensitive(j, arr_keys[a]);
+        if (!e) continue;
+        const int32_t want = a == 1 ? b->mesh.spring_count : nv;
+        if (arr_other[a] && cJSON_GetObjectItemCaseSensitive(j, arr_other[a]))
+            return sj_fail(c, e, "%s: give %s or %s, not both", w, arr_keys[a], arr_other[a]);
+        if (a == 1 && (b->spring_k || b->mesh.spring_kinds))
+            return sj_fail(c, e, "%s: spring_stiffness (one per spring) cannot be combined with "
+                           "stiffness by kind (the mesh's spring kinds, shear_stiffness, "
+                           "bending_stiffness)", w);
+        char wa[140];
+        snprintf(wa, sizeof wa, "%s.%s", w, arr_keys[a]);
+        int32_t n = 0;
+        if (sj_doubles(c, e, wa, arr_width[a], arr_out[a], &n)) return -1;
+        if (n != want)
+            return sj_fail(c, e, "%s has %d entries for %d %s", wa, (int)n, (int)want,
+                           a == 1 ? "springs" : "vertices");
+    }
     const cJSON *it = cJSON_GetObjectItemCaseSensitive(j, "initial_transform");
     if (it) {
         const double center[3] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
@@ -643,7 +712,7 @@ void scene_free(scene *s)
     for (int32_t i = 0; i < s->nbodies; ++i) {
         scene_body *b = &s->bodies[i];
         defsim_mesh_free(&b->mesh);
-        free(b->initial); free(b->velocity); free(b->spring_k); free(b->pins);
+        free(b->initial); free(b->velocity); free(b->spring_k); free(b->pins); free(b->masses);
     }
     scene_free_coupling(s);
     scene_free_colliders(s);
@@ -659,31 +728,71 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
     return scene_load_limited(s, path, overrides, noverrides, NULL);
 }
 
-int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
+/* What scene_load_limited and scene_load_string share: the scene named `label` in messages
+ * (its file name gives the scene's name), mesh paths relative to `dir` ("" or ending in '/'). */
+static void load_begin(scene *s, sj_ctx *c, const char *label, const char *dir,
                        const scene_limits *limits)
 {
     memset(s, 0, sizeof *s);
     s->limits.max_vertices = limits ? limits->max_vertices : SCENE_MAX_VERTICES;
     s->limits.max_steps = limits ? limits->max_steps : SCENE_MAX_STEPS;
-    snprintf(s->path, sizeof s->path, "%s", path);
-    const char *base = strrchr(path, '/');
-    base = base ? base + 1 : path;
+    snprintf(s->path, sizeof s->path, "%s", label);
+    const char *base = strrchr(label, '/');
+    base = base ? base + 1 : label;
     snprintf(s->name, sizeof s->name, "%s", base);
     size_t nl = strlen(s->name);
     if (nl > 5 && !strcmp(s->name + nl - 5, ".json")) s->name[nl - 5] = '\0';
     scene_output_defaults(s);
+    memset(c, 0, sizeof *c);
+    c->s = s;
+    snprintf(c->dir, sizeof c->dir, "%s", dir);
+}
 
+static int load_text(scene *s, sj_ctx *c, char *text, size_t len, const char *const *overrides,
+                     int noverrides);
+
+int scene_load_string(scene *s, const char *json, size_t len, const char *label,
+                      const char *dir, const char *const *overrides, int noverrides)
+{
     sj_ctx c;
-    memset(&c, 0, sizeof c);
-    c.s = s;
-    if (base != path) snprintf(c.dir, sizeof c.dir, "%.*s", (int)(base - path), path);
+    char folder[1024] = "";
+    if (dir && dir[0])
+        snprintf(folder, sizeof folder, "%s%s", dir, dir[strlen(dir) - 1] == '/' ? "" : "/");
+    load_begin(s, &c, label && label[0] ? label : "<string>", folder, NULL);
+    char *text = malloc(len + 1);
+    if (!text) {
+        snprintf(s->error, sizeof s->error, "out of memory");
+        return -1;
+    }
+    memcpy(text, json, len);
+    text[len] = '\0';
+    return load_text(s, &c, text, len, overrides, noverrides);
+}
+
+int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
+                       const scene_limits *limits)
+{
+    sj_ctx c;
+    const char *base = strrchr(path, '/');
+    char dir[1024] = "";
+    if (base) snprintf(dir, sizeof dir, "%.*s", (int)(base + 1 - path), path);
+    load_begin(s, &c, path, dir, limits);
     size_t len = 0;
     char *text = tools_read_file(path, &len);
     if (!text) {
         snprintf(s->error, sizeof s->error, "%s: cannot read the scene file: %s", path,
                  defsim__read_strerror(errno));
+        s->io_failure = 1;
         return -1;
     }
+    return load_text(s, &c, text, len, overrides, noverrides);
+}
+
+/* Parses and checks `text` (malloc'd; freed here). */
+static int load_text(scene *s, sj_ctx *c_, char *text, size_t len, const char *const *overrides,
+                     int noverrides)
+{
+    sj_ctx c = *c_;
     c.text = text;
     c.text_len = len;
     int rc = -1;
@@ -757,8 +866,9 @@ defsim_status scene_build(scene *s, defsim_world **out)
         bd.tets = b->mesh.tets;
         bd.tet_count = b->mesh.tet_count;
         /* Tet bodies are elastic solids: their boundary triangles and any springs of a mesh
-         * file are not simulated; spring bodies use their springs. */
-        if (b->mesh.tet_count == 0) {
+         * file are not simulated; spring bodies use their springs. An inline mesh is taken as
+         * given. */
+        if (b->mesh.tet_count == 0 || b->inline_mesh) {
             bd.springs = b->mesh.springs;
             bd.spring_count = b->mesh.spring_count;
             /* Kinds where the mesh has them (the same stiffnesses as spring_k): body contact
@@ -780,6 +890,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
         bd.friction = b->friction;
         bd.initial_positions = b->initial;
         bd.initial_velocities = b->velocity;
+        bd.vertex_mass = b->masses;
         bd.material = b->material;
         st = defsim_world_add_body(w, &bd, &b->id);
         if (st == DEFSIM_OK && b->npins > 0) st = defsim_body_pin(w, b->id, b->pins, b->npins);

@@ -23,6 +23,11 @@ int scene_load(scene *s, const char *path, const char *const *overrides, int nov
 int scene_load_limited(scene *s, const char *path, const char *const *overrides, int noverrides,
                        const scene_limits *limits);
 
+/* scene_load from `len` bytes of JSON text (copied), named `label` in messages ("<string>" for
+ * NULL), with mesh paths relative to the folder `dir` (NULL or "": the working directory). */
+int scene_load_string(scene *s, const char *json, size_t len, const char *label,
+                      const char *dir, const char *const *overrides, int noverrides);
+
 /* Creates the world, sets the backend settings given by key (world.tolerance ..., each as the
  * option "<backend>.<key>" where the backend has one; ignored where it has none) and then
  * world.options (those of another backend than the world's are skipped with a warning on
@@ -31,6 +36,13 @@ int scene_load_limited(scene *s, const char *path, const char *const *overrides,
 defsim_status scene_build(scene *s, defsim_world **out);
 
 void scene_free(scene *s);
+
+/* The scene JSON of world `w` (tools/scene_export.c; defsim_scene_export): `s`, when not NULL,
+ * is the scene that built `w` (its names, colours, drives and keyed paths are written too), and
+ * h, duration the run's (<= 0: the scene's). On success *json is malloc'd text (free it) and
+ * *length its length (may be NULL). Errors as defsim_scene_export, with the reason in err. */
+defsim_status scene_export(const scene *s, const defsim_world *w, double h, double duration,
+                           char **json, size_t *length, char *err, size_t errsz);
 
 /* Gives backend setting `which` (SCENE_TOLERANCE ...) the value scene_build sets, as the scene
  * file's key does (tools that override a scene's tolerances). */

@@ -33,9 +33,10 @@ static void euler_quat(const double deg[3], double q[4])
     q[3] = s[2] * c[1] * c[0] - c[2] * s[1] * s[0];
 }
 
-/* "rotation" (w x y z, normalised here so that rounded numbers in a file are accepted) or
- * "euler_deg" of obj into q; q is left as is when neither is given. */
-static int parse_rotation(sj_ctx *c, const cJSON *obj, const char *what, double q[4])
+/* "rotation" (w x y z, normalised here so that rounded numbers in a file are accepted, unless
+ * `exact`: the collider's "normalized") or "euler_deg" of obj into q; q is left as is when
+ * neither is given. */
+static int parse_rotation(sj_ctx *c, const cJSON *obj, const char *what, int exact, double q[4])
 {
     const cJSON *r = cJSON_GetObjectItemCaseSensitive(obj, "rotation");
     const cJSON *e = cJSON_GetObjectItemCaseSensitive(obj, "euler_deg");
@@ -47,7 +48,7 @@ static int parse_rotation(sj_ctx *c, const cJSON *obj, const char *what, double 
         if (sj_vec(c, r, w, 4, v)) return -1;
         const double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
         if (!(n > 0.0)) return sj_fail(c, r, "%s must not be zero", w);
-        for (int k = 0; k < 4; ++k) q[k] = v[k] / n;
+        for (int k = 0; k < 4; ++k) q[k] = exact ? v[k] : v[k] / n;
     } else if (e) {
         snprintf(w, sizeof w, "%s.euler_deg", what);
         double v[3];
@@ -75,7 +76,7 @@ static int parse_path(sj_ctx *c, const cJSON *j, const char *what, scene_collide
         memcpy(q + 4, col->def.rotation, 4 * sizeof *q);
         if (sj_keys(c, k, w, keys) || !sj_require(c, k, "t", w) ||
             sj_number(c, k, "t", w, -1e300, 1e300, 0, &q[0]) ||
-            sj_vec3(c, k, "position", w, q + 1) || parse_rotation(c, k, w, q + 4))
+            sj_vec3(c, k, "position", w, q + 1) || parse_rotation(c, k, w, col->normalized, q + 4))
             return -1;
         if (col->nkeys > 0 && !(q[0] > q[-KEY]))
             return sj_fail(c, cJSON_GetObjectItemCaseSensitive(k, "t"),
@@ -104,25 +105,48 @@ static int parse_collider(sj_ctx *c, const cJSON *j, int index, scene_collider *
     col->def.shape = (defsim_shape)shape;
     /* the keys of this shape only: a "radius" on a box is a mistake worth reporting */
     static const char *const common[] = {"shape", "position", "rotation", "euler_deg", "friction",
-                                         "path"};
+                                         "path", "normalized"};
     static const char *const own[][3] = {{"normal"}, {"radius"}, {"half_extents"},
-                                         {"radius", "half_height"}, {"mesh"}};
+                                         {"radius", "half_height"},
+                                         {"mesh", "vertices", "triangles"}};
     const char *keys[12];
     int nk = 0;
-    for (int k = 0; k < 6; ++k) keys[nk++] = common[k];
+    for (int k = 0; k < 7; ++k) keys[nk++] = common[k];
     for (int k = 0; k < 3 && own[shape][k]; ++k) keys[nk++] = own[shape][k];
     keys[nk] = NULL;
     if (sj_keys(c, j, w, keys)) return -1;
     /* values are checked by the library when scene_build adds the collider */
-    if (sj_vec3(c, j, "position", w, col->def.position) ||
-        parse_rotation(c, j, w, col->def.rotation) ||
+    if (sj_bool(c, j, "normalized", w, &col->normalized) ||
+        sj_vec3(c, j, "position", w, col->def.position) ||
+        parse_rotation(c, j, w, col->normalized, col->def.rotation) ||
         sj_number(c, j, "friction", w, -1e300, 1e300, 0, &col->def.friction) ||
         sj_vec3(c, j, "normal", w, col->def.normal) ||
         sj_number(c, j, "radius", w, -1e300, 1e300, 0, &col->def.radius) ||
         sj_vec3(c, j, "half_extents", w, col->def.half_extents) ||
         sj_number(c, j, "half_height", w, -1e300, 1e300, 0, &col->def.half_height))
         return -1;
-    if (shape == DEFSIM_SHAPE_MESH) {
+    const cJSON *inl = cJSON_GetObjectItemCaseSensitive(j, "vertices");
+    if (shape == DEFSIM_SHAPE_MESH && (inl || cJSON_GetObjectItemCaseSensitive(j, "triangles"))) {
+        /* The mesh itself (what defsim_scene_export writes); the library checks it. */
+        const cJSON *tj = sj_require(c, j, "triangles", w);
+        char wa[100];
+        snprintf(wa, sizeof wa, "%s.vertices", w);
+        if (!tj || !sj_require(c, j, "vertices", w)) return -1;
+        if (cJSON_GetObjectItemCaseSensitive(j, "mesh"))
+            return sj_fail(c, j, "%s: give \"mesh\" (a file) or \"vertices\" and "
+                           "\"triangles\", not both", w);
+        col->mesh.size = sizeof col->mesh;
+        if (sj_doubles(c, inl, wa, 3, &col->mesh.positions, &col->mesh.vertex_count))
+            return -1;
+        snprintf(wa, sizeof wa, "%s.triangles", w);
+        if (sj_ints(c, tj, wa, 3, 0, col->mesh.vertex_count - 1, &col->mesh.triangles,
+                    &col->mesh.triangle_count))
+            return -1;
+        col->def.vertices = col->mesh.positions;
+        col->def.vertex_count = col->mesh.vertex_count;
+        col->def.triangles = col->mesh.triangles;
+        col->def.triangle_count = col->mesh.triangle_count;
+    } else if (shape == DEFSIM_SHAPE_MESH) {
         const cJSON *m = sj_require(c, j, "mesh", w);
         if (!m) return -1;
         if (!cJSON_IsString(m)) return sj_fail(c, m, "%s.mesh must be a file name (.obj)", w);
@@ -131,6 +155,7 @@ static int parse_collider(sj_ctx *c, const cJSON *j, int index, scene_collider *
         else snprintf(full, sizeof full, "%s%s", c->dir, m->valuestring);
         col->mesh.size = sizeof col->mesh;
         const defsim_status st = defsim_mesh_load(full, &col->mesh);
+        c->s->io_failure = st == DEFSIM_ERR_IO;
         if (st != DEFSIM_OK)
             return sj_fail(c, m, "%s.mesh: %s: %s", w, defsim_status_string(st), defsim_last_error());
         if (col->mesh.triangle_count < 1)
@@ -204,6 +229,9 @@ defsim_status scene_build_colliders(scene *s, defsim_world *w)
     for (int32_t i = 0; i < s->ncolliders; ++i) {
         scene_collider *col = &s->colliders[i];
         defsim_collider_def d = col->def;
+        /* "normalized": the values as given; a path's poses are normalised by the library, as
+         * defsim_collider_set_pose does at every step */
+        d.normalized = col->nkeys == 0 && col->normalized;
         if (col->nkeys > 0) scene_collider_pose(col, defsim_world_time(w), d.position, d.rotation);
         const defsim_status st = defsim_world_add_collider(w, &d, &col->id);
         if (st != DEFSIM_OK) {

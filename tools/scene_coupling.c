@@ -44,10 +44,23 @@ static int parse_path(sj_ctx *c, const cJSON *j, const char *what, scene_path *o
                            "%s.t = %g: key times must increase", w, q[0]);
         const cJSON *rot = cJSON_GetObjectItemCaseSensitive(k, "rotate");
         if (rot) {
-            static const char *const rkeys[] = {"axis", "degrees", "center", NULL};
+            static const char *const rkeys[] = {"axis", "degrees", "center", "vector", NULL};
             char wr[260];
             snprintf(wr, sizeof wr, "%s.rotate", w);
             double axis[3] = {0, 0, 1}, deg = 0.0;
+            const cJSON *vec = cJSON_GetObjectItemCaseSensitive(rot, "vector");
+            if (vec) {
+                /* The rotation vector itself (axis times angle, rad), as defsim_scene_export
+                 * writes it: the keys' exact values. */
+                if (sj_keys(c, rot, wr, rkeys) || sj_vec3(c, rot, "vector", wr, q + 4) ||
+                    sj_vec3(c, rot, "center", wr, q + 7))
+                    return -1;
+                if (cJSON_GetObjectItemCaseSensitive(rot, "axis") ||
+                    cJSON_GetObjectItemCaseSensitive(rot, "degrees"))
+                    return sj_fail(c, vec, "%s: give vector, or axis and degrees", wr);
+                ++out->n;
+                continue;
+            }
             if (sj_keys(c, rot, wr, rkeys) || !sj_require(c, rot, "axis", wr) ||
                 !sj_require(c, rot, "degrees", wr) || sj_vec3(c, rot, "axis", wr, axis) ||
                 sj_number(c, rot, "degrees", wr, -1e6, 1e6, 0, &deg) ||
@@ -358,10 +371,12 @@ static int parse_attachment(sj_ctx *c, const cJSON *e, int index, scene_attachme
      * the nearest element of another body. */
     const cJSON *tj = cJSON_GetObjectItemCaseSensitive(e, "target");
     int32_t tbody = -1, path = -1;
+    int32_t explicit_count = 0, explicit_vertices[4] = {0, 0, 0, 0};
+    double explicit_weights[4] = {0, 0, 0, 0};
     int has_point = 0;
     double point[3] = {0, 0, 0};
     if (tj) {
-        static const char *const tkeys[] = {"point", "keys", "body", NULL};
+        static const char *const tkeys[] = {"point", "keys", "body", "vertices", "weights", NULL};
         if (!cJSON_IsObject(tj)) {
             sj_fail(c, tj, "%s must be an object with \"point\", \"keys\" or \"body\"", wt);
             goto done;
@@ -382,6 +397,34 @@ static int parse_attachment(sj_ctx *c, const cJSON *e, int index, scene_attachme
                 sj_fail(c, tb, "%s.body: a body cannot be attached to itself", wt);
                 goto done;
             }
+        }
+        /* Explicit target vertices and barycentric weights instead of the nearest element (what
+         * defsim_scene_export writes); the library checks the weights. */
+        const cJSON *tv = cJSON_GetObjectItemCaseSensitive(tj, "vertices");
+        const cJSON *tw = cJSON_GetObjectItemCaseSensitive(tj, "weights");
+        if ((tv || tw) && (!tb || !tv || !tw)) {
+            sj_fail(c, tv ? tv : tw, "%s: \"vertices\" and \"weights\" go together, with "
+                    "\"body\"", wt);
+            goto done;
+        }
+        if (tv) {
+            int32_t *vv = NULL, nvv = 0, nww = 0;
+            double *ww = NULL;
+            char wv[180];
+            snprintf(wv, sizeof wv, "%s.vertices", wt);
+            int bad = sj_ints(c, tv, wv, 1, 0, s->bodies[tbody].mesh.vertex_count - 1, &vv, &nvv);
+            snprintf(wv, sizeof wv, "%s.weights", wt);
+            bad = bad || sj_doubles(c, tw, wv, 1, &ww, &nww);
+            if (!bad && (nvv < 1 || nvv > 4 || nww != nvv))
+                bad = sj_fail(c, tv, "%s: 1 to 4 vertices and as many weights", wt);
+            if (!bad) {
+                explicit_count = nvv;
+                memcpy(explicit_vertices, vv, (size_t)nvv * sizeof *vv);
+                memcpy(explicit_weights, ww, (size_t)nvv * sizeof *ww);
+            }
+            free(vv);
+            free(ww);
+            if (bad) goto done;
         }
         if (tp) {
             if (sj_vec3(c, tj, "point", wt, point)) goto done;
@@ -416,7 +459,13 @@ static int parse_attachment(sj_ctx *c, const cJSON *e, int index, scene_attachme
         a->target_body = tbody;
         a->path = path;
         memcpy(a->anchor, has_point ? point : x0 + 3 * verts[i], sizeof a->anchor);
-        if (tbody >= 0) nearest_element(&s->bodies[tbody], b->mesh.positions + 3 * verts[i], a);
+        if (tbody >= 0 && explicit_count > 0) {
+            a->target_count = explicit_count;
+            memcpy(a->target_vertices, explicit_vertices, sizeof explicit_vertices);
+            memcpy(a->target_weights, explicit_weights, sizeof explicit_weights);
+        } else if (tbody >= 0) {
+            nearest_element(&s->bodies[tbody], b->mesh.positions + 3 * verts[i], a);
+        }
     }
     rc = 0;
 done:

@@ -289,6 +289,88 @@ int sj_vec3(sj_ctx *c, const cJSON *obj, const char *key, const char *what, doub
     return sj_vec(c, j, w, 3, out);
 }
 
+/* The numbers of j (flat or rows of width) into out (count of them first with out NULL). */
+static int sj_flat(sj_ctx *c, const cJSON *j, const char *what, int width, double *out,
+                   int64_t *count)
+{
+    if (!cJSON_IsArray(j))
+        return sj_fail(c, j, "%s must be an array of numbers, or of arrays of %d numbers", what,
+                       width);
+    int64_t k = 0;
+    int rows = -1;   /* unknown, 0 flat, 1 rows */
+    for (const cJSON *e = j->child; e; e = e->next) {
+        const int row = cJSON_IsArray(e);
+        if (rows >= 0 && row != rows)
+            return sj_fail(c, e, "%s mixes numbers and rows", what);
+        rows = row;
+        if (row) {
+            if (cJSON_GetArraySize(e) != width)
+                return sj_fail(c, e, "%s: every row must have %d numbers", what, width);
+            for (const cJSON *x = e->child; x; x = x->next, ++k) {
+                if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble))
+                    return sj_fail(c, x, "%s must hold finite numbers", what);
+                if (out) out[k] = x->valuedouble;
+            }
+        } else {
+            if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble))
+                return sj_fail(c, e, "%s must hold finite numbers", what);
+            if (out) out[k] = e->valuedouble;
+            ++k;
+        }
+    }
+    if (k % width != 0)
+        return sj_fail(c, j, "%s holds %lld numbers, not a multiple of %d", what, (long long)k,
+                       width);
+    if (k / width > INT32_MAX / 4) return sj_fail(c, j, "%s is too long", what);
+    *count = k;
+    return 0;
+}
+
+int sj_doubles(sj_ctx *c, const cJSON *j, const char *what, int width, double **out, int32_t *n)
+{
+    *out = NULL;
+    *n = 0;
+    int64_t k = 0;
+    if (sj_flat(c, j, what, width, NULL, &k)) return -1;
+    if (k == 0) return 0;
+    *out = malloc((size_t)k * sizeof **out);
+    if (!*out) return sj_fail(c, j, "out of memory");
+    sj_flat(c, j, what, width, *out, &k);
+    *n = (int32_t)(k / width);
+    return 0;
+}
+
+int sj_ints(sj_ctx *c, const cJSON *j, const char *what, int width, int32_t lo, int32_t hi,
+            int32_t **out, int32_t *n)
+{
+    double *d = NULL;
+    int32_t rows = 0;
+    *out = NULL;
+    *n = 0;
+    if (sj_doubles(c, j, what, width, &d, &rows)) return -1;
+    const int64_t k = (int64_t)rows * width;
+    if (k == 0) return 0;
+    *out = malloc((size_t)k * sizeof **out);
+    if (!*out) {
+        free(d);
+        return sj_fail(c, j, "out of memory");
+    }
+    for (int64_t i = 0; i < k; ++i) {
+        if (d[i] != floor(d[i]) || d[i] < lo || d[i] > hi) {
+            const double bad = d[i];
+            free(d);
+            free(*out);
+            *out = NULL;
+            return sj_fail(c, j, "%s: entry %lld (%g) must be an integer in [%d, %d]", what,
+                           (long long)i, bad, (int)lo, (int)hi);
+        }
+        (*out)[i] = (int32_t)d[i];
+    }
+    free(d);
+    *n = rows;
+    return 0;
+}
+
 const cJSON *sj_require(sj_ctx *c, const cJSON *obj, const char *key, const char *what)
 {
     const cJSON *j = cJSON_GetObjectItemCaseSensitive(obj, key);

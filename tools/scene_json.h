@@ -56,6 +56,13 @@ int sj_bool(sj_ctx *c, const cJSON *obj, const char *key, const char *what, int 
 int sj_vec(sj_ctx *c, const cJSON *j, const char *what, int n, double *out);
 int sj_vec3(sj_ctx *c, const cJSON *obj, const char *key, const char *what,
                    double out[3]);
+/* j as a list of n rows of `width` numbers: an array of n arrays of width numbers, or a flat
+ * array of width * n numbers. Doubles must be finite; integers (sj_ints) whole numbers in
+ * [lo, hi]. *out is malloc'd (free it; NULL with n = 0 for an empty array). */
+int sj_doubles(sj_ctx *c, const cJSON *j, const char *what, int width, double **out,
+               int32_t *n);
+int sj_ints(sj_ctx *c, const cJSON *j, const char *what, int width, int32_t lo, int32_t hi,
+            int32_t **out, int32_t *n);
 /* obj.key, or NULL with the error "what needs key". */
 const cJSON *sj_require(sj_ctx *c, const cJSON *obj, const char *key, const char *what);
 

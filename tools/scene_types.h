@@ -91,6 +91,7 @@ typedef struct scene_collider {
     int line;               /* of its object in the scene file */
     defsim_collider_def def;
     defsim_mesh mesh;       /* MESH: the loaded .obj */
+    int normalized;         /* "normalized": rotations and normal used as given (bit for bit) */
     int32_t nkeys;          /* 0: it stays where it is */
     double *key;            /* 8 per key */
     defsim_collider_id id;  /* after scene_build */
@@ -103,6 +104,9 @@ typedef struct scene_body {
     double *initial;        /* NULL or 3 nv initial positions ("initial_transform") */
     double *velocity;       /* NULL or 3 nv initial velocities */
     double *spring_k;       /* NULL or one stiffness per spring */
+    double *masses;         /* NULL or one mass per vertex ("masses", kg) */
+    int inline_mesh;        /* "mesh": {"type": "inline"}: springs and triangles given as they
+                               are, with tets too (defsim_scene_export writes these) */
     defsim_material material;
     int32_t *pins;
     int32_t npins;
@@ -171,6 +175,8 @@ typedef struct scene {
     int32_t vertex_count;   /* sum over bodies */
     scene_limits limits;    /* those scene_load checked */
     char error[4096];       /* "file:line:col: what" of the last failure */
+    int io_failure;         /* the failure was a file that cannot be read (the scene file, a
+                               mesh file): DEFSIM_ERR_IO for libdefsim_scene */
 } scene;
 
 #endif

@@ -135,6 +135,16 @@ DEFSIM_API void defsim_material_init(defsim_material *material, size_t size, def
 DEFSIM_API defsim_status defsim_material_eval(const defsim_material *material, const double F[9],
                                               double *psi, double P[9], double dPdF[81]);
 
+/// Checks a material's parameters by the rules that defsim_world_add_body applies to them, for
+/// a body of any shape: a known model; for tet models E finite and > 0, nu in [0, 0.5), density
+/// finite and >= 0; for every model stiffness, vertex_mass, mass_damping and stiffness_damping
+/// finite and >= 0 (add_body checks stiffness only for bodies with springs). What depends on the
+/// body (tets with DEFSIM_MODEL_SPRING) stays add_body's. Bindings call it when a material is
+/// made, so that a bad value is refused where it is given. defsim_last_error() names the first
+/// bad field. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof
+/// (defsim_material)), DEFSIM_ERR_INVALID_MATERIAL. Thread-safe.
+DEFSIM_API defsim_status defsim_material_check(const defsim_material *material);
+
 /* ------------------------------------------------------------------------------------------ */
 /* Worlds                                                                                     */
 
@@ -346,6 +356,21 @@ DEFSIM_API defsim_status defsim_world_get_positions(const defsim_world *world, d
 /// Copies velocities (m/s) into out, 3 * n doubles. Same rules as defsim_world_get_positions.
 DEFSIM_API defsim_status defsim_world_get_velocities(const defsim_world *world, double *out,
                                                      int32_t n);
+
+/// Borrowed, read-only views of the world's state, for hosts that read it every frame without a
+/// copy: *x and *v (either may be NULL) receive the world's own arrays of positions (m) and
+/// velocities (m/s), 3 * n doubles each in world vertex order, and *n (may be NULL) the vertex
+/// count n. The world owns them: never write through them or free them. Their contents are
+/// the state: defsim_world_step, defsim_world_set_state and defsim_body_pin (a pinned vertex's
+/// velocity becomes 0) change them in place, and a step that fails leaves them as before it;
+/// inside a host callback they hold the state as it is at that moment of the step. The pointers
+/// stay valid until the next defsim_world_add_body or defsim_world_remove_body (which move the
+/// state into new arrays) or defsim_world_destroy; take them again after those. A world without
+/// vertices gives NULL and n = 0.
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL or not a live world; the outputs are then NULL
+/// and 0).
+DEFSIM_API defsim_status defsim_world_state_view(const defsim_world *world, const double **x,
+                                                 const double **v, int32_t *n);
 
 /// Copies the lumped vertex masses (kg) into out, n doubles (one per vertex). Same rules as
 /// defsim_world_get_positions.
@@ -858,6 +883,12 @@ typedef struct defsim_collider_def {
                                 ///< distance is at least the distance to that box, so that
                                 ///< vertices far away are never queried. Default: all zero,
                                 ///< meaning unbounded (every vertex is queried every step).
+    /* appended */
+    /// 1: `rotation` and `normal` are unit already (as defsim_world_get_collider returns them)
+    /// and are kept bit for bit instead of being divided by their computed length again,
+    /// which can change their last bits (scene files that defsim_scene_export writes rebuild
+    /// a collider exactly so); each must still be within 1e-6 of unit length. Default 0.
+    int32_t normalized;
 } defsim_collider_def;
 
 /// Fills *def with defaults (a ground plane through the origin, normal +y, no friction).

@@ -28,10 +28,53 @@ typedef struct defsim_scene defsim_scene;
 /// On success *out receives the scene (free it with defsim_scene_free). On failure *out is NULL
 /// and `err` (may be NULL; errsz bytes, always terminated) receives "file:line:col: what".
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL path or out, count < 0, a NULL override, or a
-/// scene the parser rejects), DEFSIM_ERR_OUT_OF_MEMORY.
+/// scene the parser rejects), DEFSIM_ERR_IO (the scene file, or a mesh file it names, cannot be
+/// read: missing, not a regular file, too large; a mesh file that is malformed),
+/// DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_scene_load(const char *path, const char *const *overrides,
                                            int32_t count, defsim_scene **out, char *err,
                                            size_t errsz);
+
+/// defsim_scene_load from JSON text instead of a file: `len` bytes at `json` (copied; need not
+/// be terminated), named `label` in messages ("label:line:col: what"; NULL: "<string>"), with
+/// relative mesh paths taken from the folder `dir` (NULL or "": the working directory). The
+/// scene's name is the label's file name without ".json". Same overrides, ownership and errors
+/// as defsim_scene_load (DEFSIM_ERR_IO only for a mesh file the scene names).
+DEFSIM_API defsim_status defsim_scene_load_string(const char *json, size_t len, const char *label,
+                                                  const char *dir,
+                                                  const char *const *overrides, int32_t count,
+                                                  defsim_scene **out, char *err, size_t errsz);
+
+/// Writes the scene JSON of a world, which defsim_scene_load (or _load_string) reads back into a
+/// world that steps to the same bits as `world` from its current state: the world's backend,
+/// gravity, thread count and every option that differs from its default; each live body as the
+/// library holds it (an "inline" mesh of its rest positions, tets, contact triangles and
+/// springs, its masses and spring stiffnesses, material, pins, the current positions and
+/// velocities as its initial state, held external forces, collision filter and friction);
+/// attachments with their target vertices and weights; colliders at their poses (a mesh
+/// collider's vertices and triangles inline). `scene` may be NULL; otherwise it must be the
+/// scene that built `world` (defsim_scene_build): its body names and colours, its drives and the
+/// keyed paths of its attachments and colliders are written too (not its output settings).
+/// `h` and `duration` (s) are the run's, which a scene file needs and a world does not hold;
+/// <= 0 takes the scene's. The world is not changed. Not expressible, and refused with
+/// DEFSIM_ERR_UNSUPPORTED (err says which): an SDF collider (a host function), driven-pin
+/// targets or a collider pose set for the next step (export before setting them or after the
+/// step), a scene's keyed paths when the world's time is not 0 (a scene starts at t = 0). The
+/// force callback and the log sink are host functions the world does not report: a host that
+/// set a force callback must not expect it in the file (the Python binding refuses). What a
+/// scene starts from is the state; a backend's history (multistep, adaptive) and contact's
+/// carried state start afresh, so a world exported after steps continues to roundoff, not bit
+/// for bit (a checkpoint continues bit for bit). On success *json receives NUL-terminated text
+/// that the caller owns and releases with defsim_scene_string_free, and *length (may be NULL)
+/// its length. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world or json, h or duration not
+/// finite and > 0 without a scene), DEFSIM_ERR_UNSUPPORTED, DEFSIM_ERR_LOCKED (from inside a
+/// host callback), DEFSIM_ERR_OUT_OF_MEMORY; the reason in `err` (may be NULL).
+DEFSIM_API defsim_status defsim_scene_export(const defsim_world *world, const defsim_scene *scene,
+                                             double h, double duration, char **json,
+                                             size_t *length, char *err, size_t errsz);
+
+/// Releases text from defsim_scene_export. NULL is ignored.
+DEFSIM_API void defsim_scene_string_free(char *json);
 
 /// Frees a scene (NULL is ignored). A world it built stays valid and remains the caller's.
 DEFSIM_API void defsim_scene_free(defsim_scene *scene);

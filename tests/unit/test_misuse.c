@@ -135,6 +135,11 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_material_eval, INVALID, defsim_material_eval(&f->mat_spring, f->F_id, NULL, f->P, NULL)) \
     X(CTX_DIRECT, 0, defsim_material_eval, DEFSIM_ERR_INVALID_MATERIAL, defsim_material_eval(&f->mat_bad, f->F_id, NULL, f->P, NULL)) \
     X(CTX_DIRECT, 0, defsim_material_eval, DEFSIM_ERR_UNSTABLE, defsim_material_eval(&f->mat_nh, f->F_inv, NULL, f->P, NULL)) \
+    X(CTX_DIRECT, 0, defsim_material_check, INVALID, defsim_material_check(NULL))             \
+    X(CTX_DIRECT, 0, defsim_material_check, INVALID, defsim_material_check(&f->mat0))         \
+    X(CTX_DIRECT, 0, defsim_material_check, DEFSIM_ERR_INVALID_MATERIAL, defsim_material_check(&f->mat_bad)) \
+    X(CTX_DIRECT, 0, defsim_material_check, OK, defsim_material_check(&f->mat))               \
+    X(CTX_DIRECT, 0, defsim_material_check, OK, defsim_material_check(&f->mat_spring))        \
     /* creation */                                                                              \
     X(CTX_DIRECT, F_VALUE, defsim_world_def_init, 0, (defsim_world_def_init(NULL, sizeof f->wdef), 0)) \
     X(CTX_DIRECT, 0, defsim_world_create, INVALID, defsim_world_create(NULL, &f->out_world))   \
@@ -214,6 +219,11 @@ static uint64_t alien_bytes[64];
     BADW(X, defsim_world_get_velocities, INVALID, f->buf, f->nv)                                \
     X(CTX_DIRECT, 0, defsim_world_get_velocities, INVALID, defsim_world_get_velocities(f->w, f->buf, f->nv + 1)) \
     X(CTX_DIRECT, 0, defsim_world_get_velocities, INVALID, defsim_world_get_velocities(f->w, NULL, f->nv)) \
+    BADW(X, defsim_world_state_view, INVALID, NULL, NULL, NULL)                                 \
+    X(CTX_DIRECT, 0, defsim_world_state_view, OK, defsim_world_state_view(f->w, NULL, NULL, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_state_view, OK, defsim_world_state_view(f->e, NULL, NULL, NULL)) \
+    X(CTX_LOG, 0, defsim_world_state_view, OK, defsim_world_state_view(f->w, NULL, NULL, NULL)) \
+    X(CTX_FORCE, 0, defsim_world_state_view, OK, defsim_world_state_view(f->w, NULL, NULL, NULL)) \
     BADW(X, defsim_world_get_masses, INVALID, f->buf, f->nv)                                    \
     X(CTX_DIRECT, 0, defsim_world_get_masses, INVALID, defsim_world_get_masses(f->w, f->buf, INT32_MIN)) \
     X(CTX_LOG, 0, defsim_world_get_masses, OK, defsim_world_get_masses(f->w, f->buf, f->nv))   \

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* The error reporting that libdefsim_scene and libdefsim_render share. */
+/* The error reporting that libdefsim_scene, libdefsim_render and the scene export share
+ * (compiled into the tools' defsim_scene library). */
 #ifndef DEFSIM_TOOLS_LIB_API_ERROR_H
 #define DEFSIM_TOOLS_LIB_API_ERROR_H
 

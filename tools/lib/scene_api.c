@@ -17,27 +17,69 @@ struct defsim_scene {
     char error[4096];
 };
 
-defsim_status defsim_scene_load(const char *path, const char *const *overrides, int32_t count,
-                                defsim_scene **out, char *err, size_t errsz)
+/* defsim_scene_load and defsim_scene_load_string: the arguments' checks, then the file (path)
+ * or the text (json, len). */
+static defsim_status load(const char *fn, const char *path, const char *json, size_t len,
+                          const char *label, const char *dir, const char *const *overrides,
+                          int32_t count, defsim_scene **out, char *err, size_t errsz)
 {
     if (err && errsz > 0) err[0] = '\0';
     if (out) *out = NULL;
-    if (!path || !out || count < 0 || (count > 0 && !overrides))
+    if ((!path && !json) || !out || count < 0 || (count > 0 && !overrides))
         return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
-                    "defsim_scene_load: NULL path or out, or count < 0 with no overrides");
+                        "%s: NULL %s or out, or count < 0 with no overrides", fn,
+                        json || !label ? "path" : "json");
     for (int32_t i = 0; i < count; ++i)
         if (!overrides[i])
-            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
-                        "defsim_scene_load: override %d is NULL", (int)i);
+            return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s: override %d is NULL",
+                            fn, (int)i);
     defsim_scene *sc = calloc(1, sizeof *sc);
     if (!sc) return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
-    if (scene_load(&sc->s, path, overrides, count) != 0) {
-        api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", sc->s.error);
+    const int rc = path ? scene_load(&sc->s, path, overrides, count)
+                        : scene_load_string(&sc->s, json, len, label, dir, overrides, count);
+    if (rc != 0) {
+        const defsim_status st = sc->s.io_failure ? DEFSIM_ERR_IO : DEFSIM_ERR_INVALID_ARGUMENT;
+        api_fail(err, errsz, st, "%s", sc->s.error);
         free(sc);
-        return DEFSIM_ERR_INVALID_ARGUMENT;
+        return st;
     }
     *out = sc;
     return DEFSIM_OK;
+}
+
+defsim_status defsim_scene_load(const char *path, const char *const *overrides, int32_t count,
+                                defsim_scene **out, char *err, size_t errsz)
+{
+    return load("defsim_scene_load", path, NULL, 0, NULL, NULL, overrides, count, out, err,
+                errsz);
+}
+
+defsim_status defsim_scene_load_string(const char *json, size_t len, const char *label,
+                                       const char *dir, const char *const *overrides,
+                                       int32_t count, defsim_scene **out, char *err, size_t errsz)
+{
+    return load("defsim_scene_load_string", NULL, json, len, label ? label : "<string>", dir,
+                overrides, count, out, err, errsz);
+}
+
+defsim_status defsim_scene_export(const defsim_world *world, const defsim_scene *sc, double h,
+                                  double duration, char **json, size_t *length, char *err,
+                                  size_t errsz)
+{
+    if (json) *json = NULL;
+    if (length) *length = 0;
+    if (!world || !json)
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                        "defsim_scene_export: NULL world or json");
+    if (sc && sc->world != world)
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT,
+                        "defsim_scene_export: the scene did not build this world");
+    return scene_export(sc ? &sc->s : NULL, world, h, duration, json, length, err, errsz);
+}
+
+void defsim_scene_string_free(char *json)
+{
+    free(json);
 }
 
 void defsim_scene_free(defsim_scene *sc)

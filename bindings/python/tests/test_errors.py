@@ -89,11 +89,7 @@ def test_add_body_errors_leave_the_world_unchanged(world: defsim.World, box: def
         (defsim.InvalidMeshError, Status.INVALID_MESH,     # a vertex without mass
          dict(vertices=[[0, 0, 0], [1, 0, 0]], springs=[[0, 1]],
               material=defsim.Material("spring", vertex_mass=0.0))),
-        (defsim.InvalidMaterialError, Status.INVALID_MATERIAL,
-         dict(vertices=box, material=defsim.Material("corotated", youngs_modulus=-1.0))),
-        (defsim.InvalidMaterialError, Status.INVALID_MATERIAL,
-         dict(vertices=box, material=defsim.Material("stvk", poisson_ratio=0.5))),
-        (defsim.InvalidMaterialError, Status.INVALID_MATERIAL,
+        (defsim.InvalidMaterialError, Status.INVALID_MATERIAL,     # tets with springs' model
          dict(vertices=box, material=defsim.Material("spring"))),
         (defsim.InvalidMaterialError, Status.INVALID_MATERIAL,
          dict(vertices=box, vertex_mass=-np.ones(box.vertex_count))),
@@ -135,10 +131,46 @@ def test_material_errors() -> None:
             defsim.Material("stvk"), np.full((3, 3), np.inf))
     _raises(defsim.InvalidArgumentError, Status.INVALID_ARGUMENT, defsim.material_eval,
             "stvk", eye)
-    _raises(defsim.InvalidMaterialError, Status.INVALID_MATERIAL, defsim.material_eval,
-            defsim.Material("neohookean", youngs_modulus=0.0), eye)
+    m = defsim.Material("neohookean")
+    m.__dict__["youngs_modulus"] = 0.0   # past the checks of construction and assignment
+    _raises(defsim.InvalidMaterialError, Status.INVALID_MATERIAL, defsim.material_eval, m, eye)
     _raises(defsim.UnstableError, Status.UNSTABLE, defsim.material_eval,
             defsim.Material("neohookean"), np.diag([1.0, 1.0, -1.0]))
+
+
+def test_material_is_checked_when_made_and_assigned() -> None:
+    """Issue 28 (5): Material(..., youngs_modulus=-1) was accepted until add_body. Every field is
+    checked by the library's rules (defsim_material_check) where it is given."""
+    bad = [("corotated", dict(youngs_modulus=-1.0)), ("stvk", dict(youngs_modulus=0.0)),
+           ("neohookean", dict(youngs_modulus=np.inf)), ("stvk", dict(poisson_ratio=0.5)),
+           ("stvk", dict(poisson_ratio=-0.1)), ("corotated", dict(poisson_ratio=np.nan)),
+           ("stvk", dict(density=-1.0)), ("spring", dict(stiffness=-1.0)),
+           ("stable_neohookean", dict(stiffness=np.inf)), ("spring", dict(vertex_mass=-0.01)),
+           ("stvk", dict(mass_damping=-0.1)), ("stvk", dict(stiffness_damping=np.nan))]
+    for model, kwargs in bad:
+        (field, value), = kwargs.items()
+        with pytest.raises(defsim.InvalidMaterialError, match=field) as info:
+            defsim.Material(model, **kwargs)
+        assert info.value.status == Status.INVALID_MATERIAL
+    # The edges of the ranges are accepted, as add_body accepts them.
+    ok = defsim.Material("stvk", youngs_modulus=1e-300, poisson_ratio=0.0, density=0.0,
+                         stiffness=0.0, vertex_mass=0.0, mass_damping=0.0, stiffness_damping=0.0)
+    assert ok.poisson_ratio == 0.0
+    defsim.Material("corotated", poisson_ratio=np.nextafter(0.5, 0.0))
+    # Assignment is checked too, and a refused value leaves the material as it was.
+    m = defsim.Material("corotated", youngs_modulus=1e5)
+    with pytest.raises(defsim.InvalidMaterialError, match="youngs_modulus"):
+        m.youngs_modulus = -1.0
+    assert m.youngs_modulus == 1e5
+    with pytest.raises(defsim.InvalidArgumentError):
+        m.density = "heavy"
+    assert m.density == 1000.0
+    m.poisson_ratio = 0.45
+    assert m.poisson_ratio == 0.45
+    with pytest.raises(AttributeError):
+        m.young = 1.0   # a misspelt field is not silently a new attribute
+    with pytest.raises(defsim.InvalidArgumentError):
+        m.model = "rubber"
 
 
 def test_mesh_errors() -> None:

@@ -185,8 +185,17 @@ def test_scene_errors_and_overrides(tmp_path):
                    '"box", "lo": [0,0,0], "hi": [1,1,1], "cells": [1,1,1]},\n "colour": [1,0,0]}]}')
     with pytest.raises(defsim.InvalidArgumentError, match=r"bad\.json:3:"):
         dio.load_scene(bad)
-    with pytest.raises(defsim.InvalidArgumentError):
+    # Issue 28 (5): a missing scene file is a FileError, as every other missing file is (it was
+    # InvalidArgumentError); so is a missing mesh file the scene names.
+    with pytest.raises(defsim.FileError, match="missing.json") as info:
         dio.load_scene(tmp_path / "missing.json")
+    assert info.value.status == defsim.Status.IO
+    with pytest.raises(defsim.FileError):
+        dio.load_scene(tmp_path)   # a folder, not a regular file
+    nomesh = tmp_path / "nomesh.json"
+    nomesh.write_text('{"world": {"h": 1e-3, "duration": 0.1}, "bodies": [{"mesh": "gone.msh"}]}')
+    with pytest.raises(defsim.FileError, match="gone.msh"):
+        dio.load_scene(nomesh)
     s = dio.load_scene(os.path.join(SCENES, "cloth.json"),
                        {"world.backend": "explicit_euler", "world.h": 1e-4})
     assert s.backend == "explicit_euler" and s.step_size == 1e-4
@@ -247,3 +256,16 @@ def test_step_progress_callable_and_tqdm(world, box):
     tqdm = pytest.importorskip("tqdm")
     world.step(1e-4, steps=4, progress=True)
     assert tqdm is not None
+
+
+def test_progress_without_tqdm_names_the_extra(world, box, monkeypatch):
+    """Issue 28 (5): progress=True without tqdm raised a bare ModuleNotFoundError; it names the
+    [progress] extra now, and no step is taken."""
+    import sys
+    world.add_body(box)
+    for name in ("tqdm", "tqdm.auto"):
+        monkeypatch.setitem(sys.modules, name, None)   # import tqdm.auto fails as if absent
+    with pytest.raises(ModuleNotFoundError, match=r"defsim-fem\[progress\]") as info:
+        world.step(1e-4, steps=3, progress=True)
+    assert info.value.name == "tqdm"
+    assert world.time == 0.0

@@ -27,7 +27,8 @@ from ._collider import Collider, Pose, Shape
 from ._coupling import Attachment, ElementStress, StepError
 from ._errors import (BackendUnavailableError, CallbackError, ConflictError, Error, FileError,
                       InvalidArgumentError, InvalidMaterialError, InvalidMeshError, LockedError,
-                      NotConvergedError, OutOfMemoryError, StaleIdError, Status, UnstableError,
+                      NotConvergedError, OutOfMemoryError, StaleIdError, StaleViewError, Status,
+                      UnstableError,
                       UnsupportedError, error_from_status)
 from ._material import Material, MaterialEval, Model, material_eval
 from ._mesh import Mesh, SpringKind, mesh_box, mesh_cloth, mesh_load, mesh_rope
@@ -35,6 +36,7 @@ from ._native import header_version_number as _header_version
 from ._native import header_version_string as _header_version_string
 from ._native import lib as _lib
 from ._native import library_path as _library_path
+from ._view import StateView
 from ._world import Body, Energy, LogCallback, Pass, Projection, Stats, Topology, World
 
 #: Version of the C header this package was built for (also the package's version).
@@ -58,11 +60,11 @@ def header_version() -> Tuple[int, int, int]:
 
 
 __all__ = [
-    "World", "Body", "Attachment", "Collider", "Shape", "Pose", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
+    "World", "Body", "StateView", "Attachment", "Collider", "Shape", "Pose", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
     "Material", "Model", "MaterialEval", "material_eval",
     "Mesh", "SpringKind", "Topology", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
-    "FileError", "StaleIdError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",
+    "FileError", "StaleIdError", "StaleViewError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",
     "error_from_status", "library_version", "header_version", "library_path", "__version__",
 ]

@@ -10,8 +10,8 @@ from ._native import ffi, lib
 __all__ = [
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
-    "FileError", "StaleIdError", "LockedError", "ConflictError", "UnsupportedError",
-    "error_from_status",
+    "FileError", "StaleIdError", "StaleViewError", "LockedError", "ConflictError",
+    "UnsupportedError", "error_from_status",
 ]
 
 
@@ -117,6 +117,11 @@ class StaleIdError(Error, LookupError):
     """A body id that is null, removed, or of another world (``DEFSIM_ERR_STALE_ID``)."""
 
     default_status = Status.STALE_ID
+
+
+class StaleViewError(StaleIdError):
+    """A ``StateView`` used after the world's bodies changed or the world was closed (its
+    arrays were moved or freed): take a new one with ``World.view()``. Status STALE_ID."""
 
 
 class LockedError(Error):

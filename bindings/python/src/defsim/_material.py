@@ -50,8 +50,12 @@ class Material:
 
     Parameters left as None take the library's defaults for the model (``defsim_material_init``):
     E = 1e6 Pa, nu = 0.3, rho = 1000 kg/m^3, k = 1e3 N/m, vertex mass 0.01 kg for springs (0 for
-    tet models), no damping. Values are checked by the library when the material is used
-    (``World.add_body``, ``material_eval``), which raises InvalidMaterialError.
+    tet models), no damping. Values are checked when the material is made and whenever a field
+    is assigned, by the library's own rules (``defsim_material_check``, those of
+    ``World.add_body``): E finite and > 0, nu in [0, 0.5), density, stiffness, vertex_mass and
+    the damping coefficients finite and >= 0. A bad value raises InvalidMaterialError naming the
+    field, and an assignment that fails leaves the material as it was. (Whether the model fits a
+    body, tets with "spring", is ``add_body``'s check.)
 
     Args:
         model: "spring", "stvk", "corotated", "neohookean", "stable_neohookean", or a Model.
@@ -80,16 +84,36 @@ class Material:
                  density: Optional[float] = None, stiffness: Optional[float] = None,
                  vertex_mass: Optional[float] = None, mass_damping: Optional[float] = None,
                  stiffness_damping: Optional[float] = None) -> None:
-        self.model = _model(model)
+        object.__setattr__(self, "model", _model(model))
         c = ffi.new("defsim_material *")
         lib.defsim_material_init(c, ffi.sizeof("defsim_material"), int(self.model))
         given = dict(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, density=density,
                      stiffness=stiffness, vertex_mass=vertex_mass, mass_damping=mass_damping,
                      stiffness_damping=stiffness_damping)
-        for name in _FIELDS:
-            v = given[name]
-            setattr(self, name, float(getattr(c, name)) if v is None
-                    else _arrays.c_double(v, name))
+        values = {name: float(getattr(c, name)) if given[name] is None
+                  else _arrays.c_double(given[name], name) for name in _FIELDS}
+        for name, v in values.items():
+            object.__setattr__(self, name, v)
+        self._check()
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name not in _FIELDS and name != "model":
+            raise AttributeError(f"Material has no field {name!r} (fields: model, "
+                                 f"{', '.join(_FIELDS)})")
+        old = getattr(self, name)
+        object.__setattr__(self, name, _model(value) if name == "model"
+                           else _arrays.c_double(value, name))
+        try:
+            self._check()
+        except Exception:
+            object.__setattr__(self, name, old)
+            raise
+
+    def _check(self) -> None:
+        """Raises InvalidMaterialError unless the library accepts these values."""
+        c = ffi.new("defsim_material *")
+        self._fill(c)
+        check(lib.defsim_material_check(c))
 
     def _fill(self, c: Any) -> None:
         """Writes this material into a ``defsim_material`` cdata (defaults first, so that

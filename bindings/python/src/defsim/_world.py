@@ -14,8 +14,8 @@ from . import _arrays
 from ._collider import WorldColliders
 from ._coupling import Attachment, BodyCoupling, WorldCoupling
 from ._handle import Handle
-from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, check,
-                      error_from_status)
+from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, UnsupportedError,
+                      check, error_from_status)
 from ._material import Material
 from ._mesh import Mesh, SpringKind
 from ._native import ffi, lib
@@ -218,6 +218,11 @@ class World(WorldCoupling, WorldColliders):
     block) frees it at once; otherwise it is freed when garbage-collected.
     """
 
+    #: Bumped when the state arrays move (bodies added or removed, close): StateView's check.
+    _layout = 0
+    #: Bumped by every call that can change the state: the key of StateView's stress buffers.
+    _state_version = 0
+
     def __init__(self, backend: Optional[str] = None, *, gravity: Any = None,
                  num_threads: Optional[int] = None, log: Optional[LogCallback] = None,
                  options: Optional[Mapping[str, Any]] = None) -> None:
@@ -281,6 +286,7 @@ class World(WorldCoupling, WorldColliders):
             ptr, self._ptr = self._ptr, None
             ffi.release(ptr)    # runs defsim_world_destroy while the log callback is alive
         self._bodies = []
+        self._layout += 1
 
     @property
     def closed(self) -> bool:
@@ -466,6 +472,8 @@ class World(WorldCoupling, WorldColliders):
             material._fill(ffi.addressof(d, "material"))
         out = ffi.new("defsim_body_id *")
         self._check(lib.defsim_world_add_body(w, d, out))
+        self._layout += 1
+        self._state_version += 1
         del keep
         body = Body(self, int(out.index), int(out.generation))
         self._bodies.append(body)
@@ -495,6 +503,8 @@ class World(WorldCoupling, WorldColliders):
         """Removes a body; the vertices of later bodies move down and its handle goes stale.
         Raises StaleIdError for a removed body or one of another world."""
         self._check(lib.defsim_world_remove_body(self._live(), self._own(body)))
+        self._layout += 1
+        self._state_version += 1
         self._bodies = [b for b in self._bodies if b != body]
         self._topology.pop(body.id, None)
 
@@ -515,6 +525,7 @@ class World(WorldCoupling, WorldColliders):
         Raises InvalidArgumentError (index out of range), StaleIdError."""
         cid = self._own(body)
         v = self._vertex_list(body, vertices)
+        self._state_version += 1   # pinned vertices' velocities become zero
         self._check(lib.defsim_body_pin(self._live(), cid, _arrays.iptr(v), v.size))
 
     def unpin(self, body: Body, vertices: Any) -> None:
@@ -538,8 +549,9 @@ class World(WorldCoupling, WorldColliders):
              progress: Union[None, bool, Callable[[int, int], Any], Any] = None) -> None:
         """Advances the world by `steps` steps of h seconds each with its backend.
 
-        progress: None (default) reports nothing; True shows a tqdm bar (``pip install tqdm``;
-            ImportError without it); a tqdm bar you made is advanced by one per step; a
+        progress: None (default) reports nothing; True shows a tqdm bar (the extra
+            ``pip install 'defsim-fem[progress]'``; without tqdm a ModuleNotFoundError that
+            says so, before any step); a tqdm bar you made is advanced by one per step; a
             callable ``fn(done, total)`` is called after every step (return value ignored; an
             exception it raises stops the loop after that step and propagates).
 
@@ -558,6 +570,7 @@ class World(WorldCoupling, WorldColliders):
         report, close = _progress(progress, n)
         try:
             for i in range(n):
+                self._state_version += 1
                 st = one()
                 if st < 0:
                     self._check(st)
@@ -596,6 +609,14 @@ class World(WorldCoupling, WorldColliders):
             self._check(fn(w, _arrays.dptr(out), n))
         return out
 
+    def view(self) -> "StateView":
+        """Zero-copy, read-only numpy views of the positions and velocities, which see every
+        step as it happens, valid until the bodies change (``add_body``, ``remove_body``) or
+        the world is closed: see ``defsim.StateView``. ``positions`` and ``velocities`` stay
+        copies."""
+        from ._view import StateView
+        return StateView(self)
+
     @property
     def positions(self) -> np.ndarray:
         """A copy of the positions, (n, 3), m. Assigning sets them (``set_state``)."""
@@ -627,6 +648,7 @@ class World(WorldCoupling, WorldColliders):
         n = int(lib.defsim_world_vertex_count(w))
         x = None if positions is None else _arrays.points(positions, "positions", n)
         v = None if velocities is None else _arrays.points(velocities, "velocities", n)
+        self._state_version += 1
         self._check(lib.defsim_world_set_state(w, _arrays.dptr(x), _arrays.dptr(v)))
 
     def stable_step(self) -> Tuple[float, float]:
@@ -840,6 +862,56 @@ class World(WorldCoupling, WorldColliders):
             self._bodies.append(body)
             self._topology[body.id] = topologies[i]
 
+    def to_scene(self, path: Optional[Union[str, "os.PathLike[str]"]] = None, *,
+                 h: Optional[float] = None, duration: Optional[float] = None) -> Dict[str, Any]:
+        """The world as a scene (``defsim_scene_export``): a dict of the scene JSON that
+        ``defsim.io.load_scene`` (and ``defsim run``) read back into a world that steps to the
+        same bits from the current state. It holds the backend, gravity, threads and the options
+        that differ from their defaults, every body as the library holds it (an "inline" mesh,
+        masses, spring stiffnesses, material, pins, held forces, collision filter, the current
+        positions and velocities as the initial state), attachments and colliders; a world made
+        by a scene (``load_scene(...).world``) adds the scene's body names, drives and keyed
+        paths. With `path`, the JSON is also written there.
+
+        `h` and `duration` (s) are the run's, which a scene file needs and a world does not
+        hold: default the scene's for a scene's world, else 1e-3 s and 1 s.
+
+        Raises UnsupportedError for what a scene cannot hold: a force callback or an SDF
+        collider (host functions), driven-pin targets or a collider pose set for the next step
+        (export before setting them or after the step), a scene's keyed paths at t != 0. From
+        a world that has stepped, the file starts from its state with the backend's history
+        (multistep, adaptive) and contact's carried state afresh: close to, not the bits of,
+        the continued run (``save`` continues bit for bit)."""
+        import json
+        from . import io
+        lib = io._scene_lib()
+        if getattr(self, "_force_callback", None) is not None:
+            raise UnsupportedError("to_scene: the world has a force callback (a Python function), "
+                                   "which a scene file cannot hold; clear it first "
+                                   "(set_force_callback(None))", Status.UNSUPPORTED)
+        scene = getattr(self, "_scene", None)
+        hh = -1.0 if h is None else _arrays.c_double(h, "h")
+        dd = -1.0 if duration is None else _arrays.c_double(duration, "duration")
+        if scene is None:
+            hh = 1e-3 if h is None else hh
+            dd = 1.0 if duration is None else dd
+        text = ffi.new("char **")
+        err = ffi.new("char[]", 4096)
+        st = lib.defsim_scene_export(self._live(), scene._ptr if scene is not None else ffi.NULL,
+                                     hh, dd, text, ffi.NULL, err, 4096)
+        if st < 0:
+            raise error_from_status(st, ffi.string(err).decode("utf-8", "replace"))
+        try:
+            data = ffi.string(text[0]).decode("utf-8")
+        finally:
+            lib.defsim_scene_string_free(text[0])
+        if path is not None:
+            tmp = os.fspath(path) + ".tmp"
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(data)
+            os.replace(tmp, path)
+        return json.loads(data)
+
     def attachments(self) -> List[Any]:
         """The live attachments, in the order the world holds them (a new list of handles)."""
         w = self._live()
@@ -889,7 +961,13 @@ def _progress(progress: Any, total: int) -> Tuple[Optional[Callable[[int, int], 
     if progress is None or progress is False:
         return None, None
     if progress is True:
-        from tqdm.auto import tqdm   # optional: ImportError tells the user what to install
+        try:
+            from tqdm.auto import tqdm   # the optional extra [progress]
+        except ImportError as exc:
+            raise ModuleNotFoundError(
+                "World.step(progress=True) needs tqdm, the optional extra [progress]: "
+                "pip install 'defsim-fem[progress]' (or pip install tqdm); or pass a "
+                "callable(done, total) as progress", name="tqdm") from exc
         bar = tqdm(total=total, unit="step")
         return (lambda done, n: bar.update(1)), bar.close
     if hasattr(progress, "update"):

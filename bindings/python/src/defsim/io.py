@@ -289,19 +289,29 @@ class Scene:
     driven pins and keyframed attachments along their paths); ``world.step`` alone does not.
     """
 
-    def __init__(self, path: PathLike, overrides: Optional[Mapping[str, Any]] = None) -> None:
+    def __init__(self, path: Union[PathLike, Mapping[str, Any], str],
+                 overrides: Optional[Mapping[str, Any]] = None, *,
+                 folder: Optional[PathLike] = None) -> None:
         import json
         lib = _scene_lib()
         self._lib = lib
-        self.path = os.fspath(path)
+        text = _scene_text(path)
+        self.path = "<scene>" if text is not None else os.fspath(path)   # type: ignore[arg-type]
         items = []
         for key, value in (overrides or {}).items():
-            text = value if isinstance(value, str) else json.dumps(value)
-            items.append(ffi.new("char[]", f"{key}={text}".encode("utf-8")))
+            given = value if isinstance(value, str) else json.dumps(value)
+            items.append(ffi.new("char[]", f"{key}={given}".encode("utf-8")))
         out = ffi.new("defsim_scene **")
         err = ffi.new("char[]", 4096)
-        st = lib.defsim_scene_load(self.path.encode("utf-8"), ffi.new("char *[]", items)
-                                   if items else ffi.NULL, len(items), out, err, 4096)
+        arg = ffi.new("char *[]", items) if items else ffi.NULL
+        if text is not None:
+            data = text.encode("utf-8")
+            where = b"" if folder is None else os.fsencode(folder)
+            st = lib.defsim_scene_load_string(data, len(data), b"<scene>", where, arg,
+                                              len(items), out, err, 4096)
+        else:
+            st = lib.defsim_scene_load(_arrays.path_bytes(path), arg, len(items), out, err,
+                                       4096)
         _raise(st, err)
         self._ptr = ffi.gc(out[0], lib.defsim_scene_free)
         info = ffi.new("defsim_scene_info *")
@@ -350,6 +360,7 @@ class Scene:
                                 springs[:int(b.line_count)])
                 bodies.append(((int(b.id.index), int(b.id.generation)), topo))
             self._world = World._adopt(out[0], self.backend, self.gravity, bodies)
+            self._world._scene = self   # World.to_scene writes the scene's drives and paths
         return self._world
 
     def step(self, h: Optional[float] = None, steps: int = 1, *, progress: Any = None) -> None:
@@ -405,10 +416,41 @@ class Scene:
                 f"{self.backend}, h={self.step_size:g} s, duration={self.duration:g} s>")
 
 
-def load_scene(path: PathLike, overrides: Optional[Mapping[str, Any]] = None) -> Scene:
-    """Loads a scene file (the JSON of ``defsim run``, same parser, same messages). `overrides`
-    maps dotted keys to values, as ``defsim run --set key=value``: ``{"world.backend":
-    "newton_cholmod", "bodies.0.material.youngs_modulus": 2e5}`` (strings are passed as
-    written, other values as JSON). Raises InvalidArgumentError with "file:line:col: what"
-    for a file the parser rejects."""
-    return Scene(path, overrides)
+def _json_default(value: Any) -> Any:
+    """numpy arrays and scalars in a scene dict, as JSON lists and numbers."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.integer, np.floating, np.bool_)):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON")
+
+
+def _scene_text(source: Any) -> Optional[str]:
+    """The JSON text of a scene given as a dict or a JSON string, or None for a path."""
+    import json
+    if isinstance(source, Mapping):
+        try:
+            # repr of a float is the shortest text that reads back to the same double
+            return json.dumps(source, default=_json_default, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise InvalidArgumentError(f"the scene dict is not JSON: {exc}") from None
+    if isinstance(source, str) and source.lstrip().startswith("{"):
+        return source
+    if isinstance(source, (bytes, bytearray)) and bytes(source).lstrip().startswith(b"{"):
+        return bytes(source).decode("utf-8")
+    return None
+
+
+def load_scene(source: Union[PathLike, Mapping[str, Any], str],
+               overrides: Optional[Mapping[str, Any]] = None, *,
+               folder: Optional[PathLike] = None) -> Scene:
+    """Loads a scene (the JSON of ``defsim run``, same parser, same messages) from a file path,
+    a dict (what ``json.load`` gives, numpy arrays allowed; ``World.to_scene()`` returns one),
+    or a string of JSON text (one that starts with ``{``). Mesh files a dict or string names are
+    taken relative to `folder` (default: the working directory); a file's, to its folder.
+    `overrides` maps dotted keys to values, as ``defsim run --set key=value``:
+    ``{"world.backend": "newton_cholmod", "bodies.0.material.youngs_modulus": 2e5}`` (strings
+    are passed as written, other values as JSON). Raises InvalidArgumentError with
+    "file:line:col: what" for a scene the parser rejects ("<scene>:line:col" for a dict or
+    string), FileError for a scene file or mesh file that cannot be read."""
+    return Scene(source, overrides, folder=folder)

@@ -218,9 +218,8 @@ int defsim_tool_view(int argc, char **argv)
                       .step = step_scene, .reset = reset_scene, .user = vs};
         memcpy(def.gravity, s->def.gravity, sizeof def.gravity);
         vw_result res;
-        int unavailable = 0;
         char err[1024];
-        if (vw_run(&def, &res, &unavailable, err, sizeof err)) {
+        if (vw_run(&def, &res, err, sizeof err) != DEFSIM_OK) {
             fprintf(stderr, "defsim view: %s\n", err);
             rc = 1;
         } else {

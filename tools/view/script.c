@@ -139,7 +139,7 @@ int vw_script_load(vw_script *sc, const char *path, char *err, size_t errsz)
     size_t len = 0;
     if (defsim__read_file(path, DEFSIM__FILE_MAX, &text, &len) != 0) {
         snprintf(err, errsz, "%s: cannot read the script", path);
-        return -1;
+        return -2;
     }
     int cap = 0, lineno = 0, rc = 0;
     for (char *line = text; line && *line && rc == 0;) {

@@ -65,6 +65,7 @@ typedef struct viewer {
     defsim_status fail;
     char fail_msg[600];
     char err[1024];
+    defsim_status status;      /* of the error in err */
 } viewer;
 
 static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -112,6 +113,7 @@ static int bind_bodies(viewer *v)
     v->mass = malloc(((size_t)v->nv + 1) * sizeof *v->mass);
     if (!v->x || !v->x0 || !v->v0 || !v->vec || !v->cell || !v->mass) {
         snprintf(v->err, sizeof v->err, "out of memory");
+        v->status = DEFSIM_ERR_OUT_OF_MEMORY;
         return -1;
     }
     defsim_world_get_positions(v->w, v->x0, v->nv);
@@ -474,6 +476,7 @@ static int draw(viewer *v)
         if (!rgb || rd_resize(v->rd, ww, wh, v->err, sizeof v->err)) {
             free(rgb);
             snprintf(v->err, sizeof v->err, "out of memory");
+        v->status = DEFSIM_ERR_OUT_OF_MEMORY;
             return -1;
         }
         free(v->rgb);
@@ -626,6 +629,7 @@ static int script_frame(viewer *v, const vw_script *sc, script_pos *sp)
             char e[1024];
             if (image_write_png(c->text, &im, e, sizeof e)) {
                 snprintf(v->err, sizeof v->err, "%.400s:%d: %.500s", sc->path, c->line, e);
+                v->status = DEFSIM_ERR_IO;
                 return -1;
             }
             printf("screenshot %s (%d x %d, t = %.6g s)\n", c->text, v->width, v->height,
@@ -686,9 +690,8 @@ static void viewer_free(viewer *v)
     free(v->rgb);
 }
 
-int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_t errsz)
+defsim_status vw_run(const vw_def *def, vw_result *res, char *err, size_t errsz)
 {
-    *unavailable = 0;
     memset(res, 0, sizeof *res);
     res->drag_vertex = -1;
     res->world = def->world;
@@ -698,11 +701,12 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
         def->supersample > 4 || def->color < SCENE_COLOR_BODY || def->color > SCENE_COLOR_SPEED) {
         snprintf(err, errsz, "viewer: NULL world, h not > 0, steps per frame < 1, a window "
                              "size outside 64..8192, supersample outside 1..4 or a bad colour");
-        return -1;
+        return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     vw_script sc = {0};
     if (def->script) {
-        if (vw_script_load(&sc, def->script, err, errsz)) return -1;
+        const int k = vw_script_load(&sc, def->script, err, errsz);
+        if (k) return k == -2 ? DEFSIM_ERR_IO : DEFSIM_ERR_INVALID_ARGUMENT;
         for (int i = 0; i < sc.n; ++i)
             if (sc.cmds[i].op == VW_EXPECT && quantity(NULL, sc.cmds[i].text, NULL)) {
                 snprintf(err, errsz, "%s:%d: expect: unknown quantity %s (time, steps, "
@@ -711,14 +715,14 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
                          "inverted_elements, energy_drift, watchdog_trips)", sc.path,
                          sc.cmds[i].line, sc.cmds[i].text);
                 vw_script_free(&sc);
-                return -1;
+                return DEFSIM_ERR_INVALID_ARGUMENT;
             }
     }
     viewer *v = calloc(1, sizeof *v);
     if (!v) {
         vw_script_free(&sc);
         snprintf(err, errsz, "out of memory");
-        return -1;
+        return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     v->def = def;
     v->res = res;
@@ -735,6 +739,7 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
     int rc = 0;
     if (!v->src || !v->ids || !v->rgb) {
         snprintf(v->err, sizeof v->err, "out of memory");
+        v->status = DEFSIM_ERR_OUT_OF_MEMORY;
         rc = -1;
     }
     if (rc == 0) rc = bind_bodies(v);
@@ -753,7 +758,7 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
     if (rc == 0 && !(inited = glfwInit())) {
         snprintf(v->err, sizeof v->err, "no display for a window (%s; set DISPLAY, or run under "
                  "xvfb-run)", glfw_message[0] ? glfw_message : "glfwInit failed");
-        *unavailable = 1;
+        v->status = DEFSIM_ERR_BACKEND_UNAVAILABLE;
         rc = -1;
     } else if (rc == 0) {
         glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
@@ -766,7 +771,7 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
         if (!v->win) {
             snprintf(v->err, sizeof v->err, "no window with a GL 3.3 core context (%s)",
                      glfw_message[0] ? glfw_message : "glfwCreateWindow failed");
-            *unavailable = 1;
+            v->status = DEFSIM_ERR_BACKEND_UNAVAILABLE;
             rc = -1;
         }
     }
@@ -781,7 +786,7 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
                                         sizeof v->err)
                        : NULL;
         if (!v->rd) {
-            *unavailable = v->rgb != NULL;
+            v->status = v->rgb ? DEFSIM_ERR_BACKEND_UNAVAILABLE : DEFSIM_ERR_OUT_OF_MEMORY;
             rc = -1;
         }
     }
@@ -808,11 +813,12 @@ int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_
     if (v->w) release(v);
     res->world = v->w;
     if (rc) snprintf(err, errsz, "%s", v->err);
+    const defsim_status st = rc == 0 ? DEFSIM_OK : v->status ? v->status : DEFSIM_ERR_INVALID_ARGUMENT;
     if (v->rd) rd_destroy(v->rd);
     if (v->win) glfwDestroyWindow(v->win);
     if (inited) glfwTerminate();
     viewer_free(v);
     free(v);
     vw_script_free(&sc);
-    return rc;
+    return st;
 }

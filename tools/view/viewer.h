@@ -60,10 +60,12 @@ typedef struct vw_result {
     defsim_world *world;        /* the world at the end (a reset may have replaced it) */
 } vw_result;
 
-/* Runs the viewer until the window is closed (or the script ends). Returns 0, or -1 with err:
- * no display or no GL 3.3 core context (*unavailable set to 1), a bad script (line and reason),
- * bad arguments, a screenshot that cannot be written, out of memory. */
-int vw_run(const vw_def *def, vw_result *res, int *unavailable, char *err, size_t errsz);
+/* Runs the viewer until the window is closed (or the script ends). Returns DEFSIM_OK, or with
+ * err: DEFSIM_ERR_BACKEND_UNAVAILABLE (no display, no GL 3.3 core context),
+ * DEFSIM_ERR_INVALID_ARGUMENT (bad settings, a script that does not parse or whose press or
+ * drag finds no vertex, a world whose bodies are not those given), DEFSIM_ERR_IO (a script
+ * that cannot be read, a screenshot that cannot be written), DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status vw_run(const vw_def *def, vw_result *res, char *err, size_t errsz);
 
 /* Script (script.c): the commands of an input script, parsed whole before the window opens. */
 typedef enum vw_op {
@@ -88,7 +90,7 @@ typedef struct vw_script {
 } vw_script;
 
 /* Reads a script: one command a line, '#' starts a comment (tools/view/README.md). Returns 0,
- * or -1 with "file:line: what" in err. */
+ * -1 with "file:line: what" in err, or -2 when the file cannot be read. */
 int vw_script_load(vw_script *sc, const char *path, char *err, size_t errsz);
 void vw_script_free(vw_script *sc);
 

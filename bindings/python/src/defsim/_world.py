@@ -567,6 +567,12 @@ class World(WorldCoupling, WorldColliders):
             if close is not None:
                 close()
 
+    def view(self, h: float, **settings: Any) -> Any:
+        """Opens the live viewer on this world (``defsim.view``: play, step, reset, orbit,
+        colours, drag a vertex) and returns its ``defsim.ViewResult`` when the window closes."""
+        from ._view import view
+        return view(self, h, **settings)
+
     def _repr_png_(self) -> Optional[bytes]:
         """A rendered PNG of the current state for Jupyter (``defsim.display.render_png``), or
         None (Jupyter then shows the text repr) when libdefsim_render is not available."""

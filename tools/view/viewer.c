@@ -409,9 +409,22 @@ static void fmt(char *out, size_t n, double x)
     else snprintf(out, n, "-");
 }
 
-static void hud(viewer *v)
+/* A text line over a lightened band, so that it reads over the bodies too. */
+static void text_line(viewer *v, int x0, int y, int sc, uint8_t grey, const char *text)
 {
     image im = {v->width, v->height, v->rgb};
+    const int w = (int)strlen(text) * 4 * sc + 2 * sc, h = 7 * sc;
+    for (int yy = y - sc; yy < y - sc + h; ++yy)
+        for (int xx = x0 - sc; xx < x0 - sc + w; ++xx) {
+            if (xx < 0 || yy < 0 || xx >= v->width || yy >= v->height) continue;
+            uint8_t *p = v->rgb + 3 * ((size_t)yy * v->width + xx);
+            for (int c = 0; c < 3; ++c) p[c] = (uint8_t)(p[c] + (255 - p[c]) * 3 / 5);
+        }
+    image_draw_text(&im, x0, y, sc, grey, text);
+}
+
+static void hud(viewer *v)
+{
     const int sc = v->height >= 300 ? 2 : 1, lh = 8 * sc, x0 = 6 * sc;
     int y = 6 * sc + lh;   /* below rd_timestamp's line */
     char line[1024], a[32], b[32], c[32], e[32];
@@ -427,7 +440,7 @@ static void hud(viewer *v)
     snprintf(line, sizeof line, "%s  H %s s  STEP %s ms (%s STEPS/s)  STEPS %lld  COLOR %s",
              v->playing ? "PLAYING" : "PAUSED", a, b, c, (long long)v->res->steps,
              colors[v->color]);
-    image_draw_text(&im, x0, y, sc, 40, line);
+    text_line(v, x0, y, sc, 40, line);
     y += lh;
     defsim_stats st = {.size = sizeof st};
     defsim_world_stats(v->w, &st);
@@ -435,7 +448,7 @@ static void hud(viewer *v)
     fmt(b, sizeof b, st.energy_drift);
     snprintf(line, sizeof line, "WATCHDOG  J MIN %s  INVERTED %lld  DRIFT %s J  TRIPS %lld", a,
              (long long)st.inverted_elements, b, (long long)st.watchdog_trips);
-    image_draw_text(&im, x0, y, sc, 40, line);
+    text_line(v, x0, y, sc, 40, line);
     y += lh;
     if (v->dragging) {
         double f[3] = {0.0, 0.0, 0.0};
@@ -444,7 +457,7 @@ static void hud(viewer *v)
         fmt(e, sizeof e, dist3(v->x + 3 * (int64_t)v->drag_v, v->res->drag_target));
         snprintf(line, sizeof line, "DRAG  VERTEX %d OF BODY %d  F %s N  TO TARGET %s m",
                  (int)v->drag_local, (int)v->drag_body, a, e);
-        image_draw_text(&im, x0, y, sc, 40, line);
+        text_line(v, x0, y, sc, 40, line);
         y += lh;
     }
     if (v->fail_msg[0]) {
@@ -456,11 +469,11 @@ static void hud(viewer *v)
         const size_t len = strlen(msg);
         for (size_t at = 0; at < len && cols > 0 && y < v->height / 2; at += (size_t)cols) {
             snprintf(line, sizeof line, "%.*s", cols, msg + at);
-            image_draw_text(&im, x0, y, sc, 40, line);
+            text_line(v, x0, y, sc, 40, line);
             y += lh;
         }
     }
-    image_draw_text(&im, x0, v->height - 6 * sc - 5 * sc, sc, 90,
+    text_line(v, x0, v->height - 6 * sc - 5 * sc, sc, 90,
                     "SPACE PLAY  N STEP  R RESET  C COLOR  LEFT ORBIT  WHEEL ZOOM  RIGHT PULL");
 }
 
@@ -604,8 +617,9 @@ static int script_frame(viewer *v, const vw_script *sc, script_pos *sp)
         case VW_RELEASE: on_button(v, GLFW_MOUSE_BUTTON_RIGHT, 0, 0); break;
         case VW_WAIT:
             if (sp->left == 0) sp->left = c->n;
-            if (--sp->left > 0) return 0;
-            break;
+            /* A frame of it; the last one ends the command (each of the n frames steps). */
+            if (--sp->left == 0) ++sp->pc;
+            return 0;
         case VW_DRAG:
             if (sp->left == 0) {
                 on_move(v, c->a[0], c->a[1]);
@@ -621,8 +635,8 @@ static int script_frame(viewer *v, const vw_script *sc, script_pos *sp)
                 const double s = (double)(c->n - sp->left + 1) / c->n;
                 on_move(v, c->a[0] + s * (c->a[2] - c->a[0]), c->a[1] + s * (c->a[3] - c->a[1]));
             }
-            if (--sp->left > 0) return 0;
-            break;
+            if (--sp->left == 0) ++sp->pc;
+            return 0;
         case VW_SCREENSHOT: {
             if (draw(v)) return -1;
             const image im = {v->width, v->height, v->rgb};

@@ -590,7 +590,8 @@ static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *
                     const double *x, const double *vec, const double *cell, int32_t nc,
                     const double *poses, double t)
 {
-    const rd_frame_data d = {(scene_color)s->color, s, p->top, vec, cell, fl->pinned, poses, nc, t};
+    const rd_frame_data d = {(scene_color)s->color, s, p->top, vec, cell, fl->pinned, poses, nc, t,
+                             NULL};
     return rd_draw_frame(p->rd, &p->bodies, &p->overlay, &p->view, w, x, &d, p->frame.rgb,
                          p->err, sizeof p->err);
 }

@@ -94,6 +94,8 @@ int rd_draw_frame(rd_renderer *r, rd_bodies *b, rd_overlay *overlay, const rd_vi
         if (ground_plane < 0 && rd_view_ground_plane(&view, &c)) ground_plane = i;
         if (rd_overlay_collider(overlay, &c, &view, ground_plane == i, collider_rgb)) goto oom;
     }
+    static const float segment_rgb[3] = {0.85f, 0.1f, 0.55f};
+    if (d->segment && rd_overlay_segment(overlay, d->segment, d->segment + 3, segment_rgb)) goto oom;
     const int n = b->nparts + overlay->nparts;
     rd_part *all = malloc((size_t)(n + 1) * sizeof *all);
     if (!all) goto oom;

@@ -65,6 +65,8 @@ int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const fl
  * sdf_bounds box (nothing when unbounded). */
 int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
                         int as_ground, const float rgb[3]);
+/* A segment from a to b, drawn as a tube (the viewer's pulling spring). */
+int rd_overlay_segment(rd_overlay *o, const double a[3], const double b[3], const float rgb[3]);
 void rd_overlay_free(rd_overlay *o);
 
 /* Puts the view's ground grid on a plane collider (its point and normal at the current pose).
@@ -199,6 +201,8 @@ typedef struct rd_frame_data {
     const double *poses;          /* 7 per collider (position, rotation), or NULL: current */
     int32_t ncolliders;           /* of the world, drawn (the first plane is the ground) */
     double time;                  /* stamped at the top left */
+    const double *segment;        /* 6: two points joined by a tube (the viewer's pulling
+                                     spring, vertex to target), or NULL */
 } rd_frame_data;
 
 /* Renders the bodies at x with the colliders of w into rgb (the renderer's size): colours,

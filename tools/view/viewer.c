@@ -467,10 +467,18 @@ static void hud(viewer *v)
         snprintf(msg, sizeof msg, "%s%s", v->fail != DEFSIM_OK ? "STEP FAILED: " : "", v->fail_msg);
         for (char *p = msg; *p; ++p) *p = (char)toupper((unsigned char)*p);
         const size_t len = strlen(msg);
-        for (size_t at = 0; at < len && cols > 0 && y < v->height / 2; at += (size_t)cols) {
-            snprintf(line, sizeof line, "%.*s", cols, msg + at);
+        for (size_t at = 0; at < len && cols > 0 && y < v->height / 2;) {
+            size_t n = len - at;
+            if (n > (size_t)cols) {   /* break at the last space that fits, if any */
+                n = (size_t)cols;
+                while (n > 0 && msg[at + n] != ' ') --n;
+                if (n == 0) n = (size_t)cols;
+            }
+            snprintf(line, sizeof line, "%.*s", (int)n, msg + at);
             text_line(v, x0, y, sc, 40, line);
             y += lh;
+            at += n;
+            while (msg[at] == ' ') ++at;
         }
     }
     text_line(v, x0, v->height - 6 * sc - 5 * sc, sc, 90,
@@ -515,8 +523,14 @@ static int draw(viewer *v)
     }
     v->top = fmax(v->top, rd_color_top(v->color, v->bodies.parts, v->bodies.nparts,
                                        v->bodies.tri_cell, cell, vec, v->nv));
+    double spring[6];   /* the pulling spring, vertex to target */
+    if (v->dragging) {
+        memcpy(spring, v->x + 3 * (int64_t)v->drag_v, 3 * sizeof *spring);
+        memcpy(spring + 3, v->res->drag_target, 3 * sizeof *spring);
+    }
     const rd_frame_data d = {v->color, v->def->s, v->top, vec, cell, v->def->pinned, NULL,
-                             defsim_world_collider_count(v->w), defsim_world_time(v->w)};
+                             defsim_world_collider_count(v->w), defsim_world_time(v->w),
+                             v->dragging ? spring : NULL};
     if (rd_draw_frame(v->rd, &v->bodies, &v->overlay, &v->view, v->w, v->x, &d, v->rgb, v->err,
                       sizeof v->err))
         return -1;

@@ -14,8 +14,9 @@ from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
-from ._errors import Error, InvalidArgumentError, Status, error_from_status
-from ._native import ffi, open_extra
+from ._errors import InvalidArgumentError, error_from_status
+from ._native import ffi
+from .display import loads, optional_lib
 
 __all__ = ["view", "ViewResult", "view_available"]
 
@@ -23,20 +24,13 @@ _COLORS = {"body": 0, "stress": 1, "displacement": 2, "speed": 3}
 
 
 def _view_lib() -> Any:
-    try:
-        return open_extra("view")
-    except OSError as exc:
-        raise Error(f"the viewer needs libdefsim_view (the tools built with GLFW, libglfw3-dev): "
-                    f"{exc}", Status.BACKEND_UNAVAILABLE) from exc
+    return optional_lib("view", "the viewer needs libdefsim_view (the tools built with GLFW, "
+                                "libglfw3-dev)")
 
 
 def view_available() -> bool:
     """True when libdefsim_view can be loaded (a display is still needed to open a window)."""
-    try:
-        _view_lib()
-        return True
-    except Error:
-        return False
+    return loads("view")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -752,19 +752,18 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
 /* ------------------------------------------------------------------------------------------ */
 /* The run */
 
-/* --option NAME=VALUE, after the scene's own options: an error names what is valid. */
-static int set_cli_options(defsim_world *w, const char *const *opts, int n)
+int run_set_options(const char *tool, defsim_world *w, const char *const *opts, int n)
 {
     for (int i = 0; i < n; ++i) {
         const char *eq = strchr(opts[i], '=');
         char name[160];
         if (!eq || eq == opts[i] || (size_t)(eq - opts[i]) >= sizeof name) {
-            fprintf(stderr, "defsim run: --option %s: expected NAME=VALUE\n", opts[i]);
+            fprintf(stderr, "%s: --option %s: expected NAME=VALUE\n", tool, opts[i]);
             return -1;
         }
         snprintf(name, sizeof name, "%.*s", (int)(eq - opts[i]), opts[i]);
         if (defsim_world_set_option(w, name, eq + 1) != DEFSIM_OK) {
-            fprintf(stderr, "defsim run: --option %s: %s\n", opts[i], defsim_world_last_error(w));
+            fprintf(stderr, "%s: --option %s: %s\n", tool, opts[i], defsim_world_last_error(w));
             return -1;
         }
     }
@@ -847,7 +846,7 @@ static int load(const run_opts *o, scene *s, defsim_world **w, int *f0)
         scene_free(s);
         return 1;
     }
-    if (set_cli_options(*w, o->opts, o->nopts)) {
+    if (run_set_options("defsim run", *w, o->opts, o->nopts)) {
         defsim_world_destroy(*w);
         *w = NULL;
         scene_free(s);

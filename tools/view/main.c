@@ -7,6 +7,8 @@
  */
 #include "view/viewer.h"
 
+#include "../defsim/run.h"
+
 #include "scene.h"
 
 #include <getopt.h>
@@ -44,24 +46,6 @@ typedef struct view_scene {
     int nopts;
 } view_scene;
 
-static int set_options(defsim_world *w, const char *const *opts, int n)
-{
-    for (int i = 0; i < n; ++i) {
-        const char *eq = strchr(opts[i], '=');
-        char name[160];
-        if (!eq || eq == opts[i] || (size_t)(eq - opts[i]) >= sizeof name) {
-            fprintf(stderr, "defsim view: --option %s: expected NAME=VALUE\n", opts[i]);
-            return -1;
-        }
-        snprintf(name, sizeof name, "%.*s", (int)(eq - opts[i]), opts[i]);
-        if (defsim_world_set_option(w, name, eq + 1) != DEFSIM_OK) {
-            fprintf(stderr, "defsim view: --option %s: %s\n", opts[i], defsim_world_last_error(w));
-            return -1;
-        }
-    }
-    return 0;
-}
-
 static defsim_status step_scene(void *user, defsim_world *w, double h)
 {
     return scene_step(&((view_scene *)user)->s, w, h);
@@ -73,7 +57,7 @@ static defsim_status reset_scene(void *user, defsim_world **w)
     view_scene *vs = user;
     defsim_world *nw = NULL;
     defsim_status st = scene_build(&vs->s, &nw);
-    if (st == DEFSIM_OK && set_options(nw, vs->opts, vs->nopts)) st = DEFSIM_ERR_INVALID_ARGUMENT;
+    if (st == DEFSIM_OK && run_set_options("defsim view", nw, vs->opts, vs->nopts)) st = DEFSIM_ERR_INVALID_ARGUMENT;
     if (st != DEFSIM_OK) {
         defsim_world_destroy(nw);
         return st;
@@ -186,7 +170,7 @@ int defsim_tool_view(int argc, char **argv)
         if (scene_build(s, &w) != DEFSIM_OK) {
             fprintf(stderr, "defsim view: %s\n", s->error);
             rc = 1;
-        } else if (set_options(w, opts, nopts)) {
+        } else if (run_set_options("defsim view", w, opts, nopts)) {
             rc = 2;
         }
     }

@@ -593,6 +593,17 @@ static int quantity(viewer *v, const char *name, double *out)
     return 0;
 }
 
+/* The right button pressed at (a[0], a[1]): 0, or -1 with v->err when no vertex is near. */
+static int script_press(viewer *v, const vw_script *sc, const vw_cmd *c, const char *what)
+{
+    on_move(v, c->a[0], c->a[1]);
+    on_button(v, GLFW_MOUSE_BUTTON_RIGHT, 1, 0);
+    if (v->dragging) return 0;
+    snprintf(v->err, sizeof v->err, "%.500s:%d: %s: no vertex within %d pixels of (%g, %g)",
+             sc->path, c->line, what, PICK_RADIUS, c->a[0], c->a[1]);
+    return -1;
+}
+
 typedef struct script_pos {
     int pc, left;   /* the command, and the frames left of a wait or a drag */
 } script_pos;
@@ -619,13 +630,7 @@ static int script_frame(viewer *v, const vw_script *sc, script_pos *sp)
             on_button(v, GLFW_MOUSE_BUTTON_LEFT, 0, 0);
             break;
         case VW_PRESS:
-            on_move(v, c->a[0], c->a[1]);
-            on_button(v, GLFW_MOUSE_BUTTON_RIGHT, 1, 0);
-            if (!v->dragging) {
-                snprintf(v->err, sizeof v->err, "%.500s:%d: press: no vertex within %d pixels of "
-                         "(%g, %g)", sc->path, c->line, PICK_RADIUS, c->a[0], c->a[1]);
-                return -1;
-            }
+            if (script_press(v, sc, c, "press")) return -1;
             break;
         case VW_MOVE: on_move(v, c->a[0], c->a[1]); break;
         case VW_RELEASE: on_button(v, GLFW_MOUSE_BUTTON_RIGHT, 0, 0); break;
@@ -636,13 +641,7 @@ static int script_frame(viewer *v, const vw_script *sc, script_pos *sp)
             return 0;
         case VW_DRAG:
             if (sp->left == 0) {
-                on_move(v, c->a[0], c->a[1]);
-                on_button(v, GLFW_MOUSE_BUTTON_RIGHT, 1, 0);
-                if (!v->dragging) {
-                    snprintf(v->err, sizeof v->err, "%.500s:%d: drag: no vertex within %d pixels "
-                             "of (%g, %g)", sc->path, c->line, PICK_RADIUS, c->a[0], c->a[1]);
-                    return -1;
-                }
+                if (script_press(v, sc, c, "drag")) return -1;
                 sp->left = c->n;
             }
             {

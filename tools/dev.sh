@@ -19,8 +19,11 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${DEFSIM_BUILD_DIR:-$root/build}
 jobs=${DEFSIM_JOBS:-$(nproc)}
+# libglfw3-dev: the viewer (defsim view); xvfb, xauth and Mesa's software GL (libgl1-mesa-dri:
+# llvmpipe, libglx-mesa0, libgl1) for its tests, which open their windows under xvfb-run.
 packages="cmake ninja-build gcc g++ make pkg-config binutils libsundials-dev libsuitesparse-dev
-  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip"
+  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip
+  libglfw3-dev xvfb xauth libgl1 libglx-mesa0 libgl1-mesa-dri"
 
 deps() {
     local missing=""

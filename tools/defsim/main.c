@@ -12,6 +12,19 @@
 #include <stdio.h>
 #include <string.h>
 
+#ifdef DEFSIM_HAVE_VIEWER
+int defsim_tool_view(int argc, char **argv);   /* tools/view/main.c */
+#else
+static int defsim_tool_view(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    fprintf(stderr, "defsim view: this build has no viewer (GLFW was not found when it was "
+                    "configured: install libglfw3-dev and configure again)\n");
+    return 1;
+}
+#endif
+
 typedef struct command {
     const char *name;
     const char *help;
@@ -23,6 +36,8 @@ static const command commands[] = {
     {"stress", "stability stress matrix: scenes x backends x h x E x nu x starts", defsim_tool_stress},
     {"bench", "work-precision benchmark: error against wall time per backend, h and tolerance",
      defsim_tool_bench},
+    {"view", "a scene in a window: play, step, reset, orbit, colours, drag a vertex",
+     defsim_tool_view},
 };
 
 static int usage(FILE *f)

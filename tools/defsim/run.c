@@ -472,10 +472,7 @@ enum { SHEET_MAX = 12 };
 typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
-    rd_part *parts;
-    int32_t nparts;
-    int32_t **tri_cell;   /* stress colours: the cell of each boundary triangle of each part */
-    float **tri_rgb, *vertex_rgb;
+    rd_bodies bodies;     /* one part per body, with their colour buffers */
     rd_overlay overlay;   /* pinned markers and colliders */
     FILE *spool;          /* unlinked scratch file in the output folder */
     int nspooled;
@@ -493,20 +490,26 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
                     const char *dir, defsim_world *w)
 {
     p->rd = rd_create(s->width, s->height, s->supersample, p->err, sizeof p->err);
-    p->parts = calloc((size_t)s->nbodies, sizeof *p->parts);
-    p->tri_cell = calloc((size_t)s->nbodies, sizeof *p->tri_cell);
-    p->tri_rgb = calloc((size_t)s->nbodies, sizeof *p->tri_rgb);
-    p->vertex_rgb = malloc(3 * (size_t)fl->nv * sizeof *p->vertex_rgb + 1);
     p->x = malloc(3 * (size_t)fl->nv * sizeof *p->x + 1);
     p->vec = malloc(3 * (size_t)fl->nv * sizeof *p->vec + 1);
     p->cell = malloc((size_t)(fl->ncells + 1) * sizeof *p->cell);
     p->poses = malloc(7 * (size_t)(defsim_world_collider_count(w) + 1) * sizeof *p->poses);
-    p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb && p->x && p->vec &&
-                p->cell && p->poses ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
-    if (!p->rd || !p->nparts || !p->frame.rgb) {
+    rd_body_src *src = calloc((size_t)s->nbodies + 1, sizeof *src);
+    int bad = !p->x || !p->vec || !p->cell || !p->poses || !p->frame.rgb || !src;
+    for (int32_t i = 0; !bad && i < s->nbodies; ++i) {
+        const scene_body *b = &s->bodies[i];
+        src[i] = (rd_body_src){b->offset, b->mesh.tets, b->mesh.tet_count, fl->cell_offset[i],
+                               b->mesh.triangles, b->mesh.triangle_count, b->mesh.springs,
+                               b->line_count, {b->color[0], b->color[1], b->color[2]}};
+    }
+    /* Stress colours: each boundary triangle takes its tet's cell. */
+    bad = bad || rd_bodies_init(&p->bodies, src, s->nbodies, fl->nv,
+                                s->color == SCENE_COLOR_STRESS);
+    free(src);
+    if (!p->rd || bad) {
         fprintf(stderr, "defsim run: renderer: %s\n", p->rd ? "out of memory" : p->err);
         return -1;
     }
@@ -521,38 +524,6 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     for (int c = 0; c < 3; ++c) {
         p->lo[c] = INFINITY;
         p->hi[c] = -INFINITY;
-    }
-    for (int32_t i = 0; i < s->nbodies; ++i) {
-        const scene_body *b = &s->bodies[i];
-        int32_t *tris = malloc(3 * (size_t)(b->mesh.triangle_count + 1) * sizeof *tris);
-        int32_t *lines = malloc(2 * (size_t)(b->line_count + 1) * sizeof *lines);
-        p->parts[i].tris = tris;
-        p->parts[i].lines = lines;
-        if (!tris || !lines) {
-            fprintf(stderr, "defsim run: renderer: out of memory\n");
-            return -1;
-        }
-        for (int64_t k = 0; k < 3 * (int64_t)b->mesh.triangle_count; ++k)
-            tris[k] = b->mesh.triangles[k] + b->offset;
-        for (int64_t k = 0; k < 2 * (int64_t)b->line_count; ++k)
-            lines[k] = b->mesh.springs[k] + b->offset;
-        p->parts[i].ntris = b->mesh.triangle_count;
-        p->parts[i].nlines = b->line_count;
-        memcpy(p->parts[i].color, b->color, sizeof p->parts[i].color);
-        p->parts[i].smooth = b->mesh.tet_count == 0;
-        /* Stress colours: each boundary triangle takes its tet's cell. */
-        if (s->color == SCENE_COLOR_STRESS && b->mesh.tet_count > 0) {
-            const int32_t nt = b->mesh.triangle_count;
-            int32_t *cell = p->tri_cell[i] = malloc((size_t)(nt + 1) * sizeof *cell);
-            p->tri_rgb[i] = malloc(3 * (size_t)(nt + 1) * sizeof **p->tri_rgb);
-            if (!cell || !p->tri_rgb[i] ||
-                rd_triangle_tets(b->mesh.tets, b->mesh.tet_count, b->mesh.triangles, nt, cell)) {
-                fprintf(stderr, "defsim run: renderer: out of memory\n");
-                return -1;
-            }
-            for (int32_t t = 0; t < nt; ++t)
-                if (cell[t] >= 0) cell[t] += (int32_t)fl->cell_offset[i];
-        }
     }
     /* Contact sheet: up to 12 of the written frames, evenly spread. */
     int written[4096], nw = 0;
@@ -593,8 +564,8 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
             p->lo[c] = fmin(p->lo[c], x[3 * k + c]);
             p->hi[c] = fmax(p->hi[c], x[3 * k + c]);
         }
-    p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->parts, p->nparts, p->tri_cell,
-                                       fl->von_mises, vec, nv));
+    p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->bodies.parts, p->bodies.nparts,
+                                       p->bodies.tri_cell, fl->von_mises, vec, nv));
     if (!keep) return 0;
     int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
              fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
@@ -619,39 +590,10 @@ static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *
                     const double *x, const double *vec, const double *cell, int32_t nc,
                     const double *poses, double t)
 {
-    double range[2];
-    rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, cell, vec, fl->nv,
-                   p->top, p->vertex_rgb, p->tri_rgb, range);
-    rd_view view = p->view;
-    int ground_plane = -1;
-    static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
-    if (rd_overlay_begin(&p->overlay, x, fl->nv) ||
-        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb))
-        goto oom;
-    for (int32_t i = 0; i < nc && i < defsim_world_collider_count(w); ++i) {
-        defsim_collider_def c = {.size = sizeof c};
-        defsim_world_get_collider(w, i, NULL, &c);
-        memcpy(c.position, poses + 7 * i, 3 * sizeof(double));
-        memcpy(c.rotation, poses + 7 * i + 3, 4 * sizeof(double));
-        /* The first plane is the ground: the grid is drawn on it. */
-        if (ground_plane < 0 && rd_view_ground_plane(&view, &c)) ground_plane = i;
-        if (rd_overlay_collider(&p->overlay, &c, &view, ground_plane == i, collider_rgb)) goto oom;
-    }
-    const int n = p->nparts + p->overlay.nparts;
-    rd_part *all = malloc((size_t)n * sizeof *all);
-    if (!all) goto oom;
-    memcpy(all, p->parts, (size_t)p->nparts * sizeof *all);
-    memcpy(all + p->nparts, p->overlay.parts, (size_t)p->overlay.nparts * sizeof *all);
-    const int bad = rd_render(p->rd, &view, p->overlay.x, all, n, p->frame.rgb, p->err,
-                              sizeof p->err);
-    free(all);
-    if (bad) return -1;
-    rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
-    rd_timestamp(p->frame.rgb, s->width, s->height, t);
-    return 0;
-oom:
-    snprintf(p->err, sizeof p->err, "out of memory");
-    return -1;
+    const rd_frame_data d = {(scene_color)s->color, s, p->top, vec, cell, fl->pinned, poses, nc, t,
+                             NULL};
+    return rd_draw_frame(p->rd, &p->bodies, &p->overlay, &p->view, w, x, &d, p->frame.rgb,
+                         p->err, sizeof p->err);
 }
 
 /* Renders the spooled frames (frame_NNNNN.png and the contact sheet) and frees everything.
@@ -715,16 +657,7 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
     if (p->spool) fclose(p->spool);
     for (int k = 0; k < p->nthumbs; ++k) image_free(&p->thumbs[k]);
     image_free(&p->frame);
-    for (int32_t i = 0; i < p->nparts; ++i) {
-        free((void *)p->parts[i].tris);
-        free((void *)p->parts[i].lines);
-        free(p->tri_cell[i]);
-        free(p->tri_rgb[i]);
-    }
-    free(p->parts);
-    free(p->tri_cell);
-    free(p->tri_rgb);
-    free(p->vertex_rgb);
+    rd_bodies_free(&p->bodies);
     free(p->x);
     free(p->vec);
     free(p->cell);
@@ -819,19 +752,18 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
 /* ------------------------------------------------------------------------------------------ */
 /* The run */
 
-/* --option NAME=VALUE, after the scene's own options: an error names what is valid. */
-static int set_cli_options(defsim_world *w, const char *const *opts, int n)
+int run_set_options(const char *tool, defsim_world *w, const char *const *opts, int n)
 {
     for (int i = 0; i < n; ++i) {
         const char *eq = strchr(opts[i], '=');
         char name[160];
         if (!eq || eq == opts[i] || (size_t)(eq - opts[i]) >= sizeof name) {
-            fprintf(stderr, "defsim run: --option %s: expected NAME=VALUE\n", opts[i]);
+            fprintf(stderr, "%s: --option %s: expected NAME=VALUE\n", tool, opts[i]);
             return -1;
         }
         snprintf(name, sizeof name, "%.*s", (int)(eq - opts[i]), opts[i]);
         if (defsim_world_set_option(w, name, eq + 1) != DEFSIM_OK) {
-            fprintf(stderr, "defsim run: --option %s: %s\n", opts[i], defsim_world_last_error(w));
+            fprintf(stderr, "%s: --option %s: %s\n", tool, opts[i], defsim_world_last_error(w));
             return -1;
         }
     }
@@ -914,7 +846,7 @@ static int load(const run_opts *o, scene *s, defsim_world **w, int *f0)
         scene_free(s);
         return 1;
     }
-    if (set_cli_options(*w, o->opts, o->nopts)) {
+    if (run_set_options("defsim run", *w, o->opts, o->nopts)) {
         defsim_world_destroy(*w);
         *w = NULL;
         scene_free(s);

@@ -6,4 +6,10 @@
  * 0 done, 1 error, 2 usage error, 130 interrupted by SIGINT (output complete so far). */
 int run_main(int argc, char **argv);
 
+#include <defsim/defsim.h>
+
+/* --option NAME=VALUE (n of them), set after the scene's own options; an error is printed
+ * as "TOOL: --option ...: " with what is valid. Returns 0, or -1. (Also `defsim view`'s.) */
+int run_set_options(const char *tool, defsim_world *w, const char *const *opts, int n);
+
 #endif

@@ -153,8 +153,8 @@ int image_downscale(const image *in, int k, image *out)
 }
 
 /* A 3x5 pixel font for labels: digits, capitals, and '.', ' ', '-', '+', '(', ')', ',', 'e'
- * (exponents), 's', 'a', 'm' and '/' (units), 't' and '=' (the time stamp). Unknown characters
- * are blank. */
+ * (exponents), 's', 'a', 'm' and '/' (units), 't' and '=' (the time stamp), ':', '%', '<', '>',
+ * '!', '[', ']', '_', '|' (the viewer's text). Unknown characters are blank. */
 static const char *glyph(char ch)
 {
     switch (ch) {
@@ -194,6 +194,28 @@ static const char *glyph(char ch)
     case 'S': return "111100111001111";
     case 'T': return "111010010010010";
     case 'V': return "101101101101010";
+    case 'B': return "110101110101110";
+    case 'F': return "111100110100100";
+    case 'G': return "111100101101111";
+    case 'H': return "101101111101101";
+    case 'J': return "001001001101111";
+    case 'K': return "101101110101101";
+    case 'Q': return "111101101111001";
+    case 'R': return "110101110101101";
+    case 'U': return "101101101101111";
+    case 'W': return "101101111111101";
+    case 'X': return "101101010101101";
+    case 'Y': return "101101010010010";
+    case 'Z': return "111001010100111";
+    case ':': return "000010000010000";
+    case '%': return "101001010100101";
+    case '<': return "001010100010001";
+    case '>': return "100010001010100";
+    case '!': return "010010010000010";
+    case '[': return "110100100100110";
+    case ']': return "011001001001011";
+    case '_': return "000000000000111";
+    case '|': return "010010010010010";
     default: return "000000000000000";
     }
 }

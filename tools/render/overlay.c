@@ -261,3 +261,16 @@ int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_vi
     }
     return 0;
 }
+
+int rd_overlay_segment(rd_overlay *o, const double a[3], const double b[3], const float rgb[3])
+{
+    rd_part *p = add_part(o, 0, 1, rgb, 0);
+    if (!p) return -1;
+    const int32_t ia = add_vertex(o, a), ib = add_vertex(o, b);
+    if (ia < 0 || ib < 0) return -1;
+    int32_t *l = (int32_t *)p->lines;
+    l[0] = ia;
+    l[1] = ib;
+    p->nlines = 1;
+    return 0;
+}

@@ -1,16 +1,18 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * OSMesa renderer. GL 1.1 functions come from libOSMesa (through gl.h); later entry points are
- * looked up with OSMesaGetProcAddress (types from glcorearb.h). Geometry is rebuilt on the CPU every frame (flat
- * normals for solids, area-weighted vertex normals for cloth, tubes for lines) and drawn as plain
- * triangles; nothing depends on timing, so a frame renders the same on every run.
+ * The renderer's drawing, for any GL 3.3 core context: OSMesa's (osmesa.c: defsim run's PNG
+ * frames) or a window's (the viewer, tools/view). Every GL entry point, GL 1.1's included, is
+ * looked up through the context's loader (types from glcorearb.h), so that no GL symbol is
+ * linked and the two contexts can live in one program. Geometry is rebuilt on the CPU every
+ * frame (flat normals for solids, area-weighted vertex normals for cloth, tubes for lines) and
+ * drawn as plain triangles; nothing depends on timing, so a frame renders the same on every run.
  *
- * Contents: shaders; vectors and the view (camera fitting, grid spacing, matrices); geometry
+ * Contents: shaders; the renderer over a context (its buffer, or a framebuffer object and the
+ * blit to a window); vectors and the view (camera fitting, grid spacing, matrices); geometry
  * (triangles with normals, line tubes); rd_render; surfaces of tet cells (rd_tet_surface).
  */
 #include "render.h"
 
-#include <GL/osmesa.h>
 #include <GL/glcorearb.h>
 
 #include <math.h>
@@ -23,6 +25,34 @@
 #endif
 
 #define GL_FUNCS(X)                                                                               \
+    X(PFNGLVIEWPORTPROC, glViewport)                                                            \
+    X(PFNGLCLEARCOLORPROC, glClearColor)                                                        \
+    X(PFNGLCLEARPROC, glClear)                                                                  \
+    X(PFNGLENABLEPROC, glEnable)                                                                \
+    X(PFNGLDISABLEPROC, glDisable)                                                              \
+    X(PFNGLDEPTHMASKPROC, glDepthMask)                                                          \
+    X(PFNGLBLENDFUNCPROC, glBlendFunc)                                                          \
+    X(PFNGLPOLYGONOFFSETPROC, glPolygonOffset)                                                  \
+    X(PFNGLDRAWARRAYSPROC, glDrawArrays)                                                        \
+    X(PFNGLFINISHPROC, glFinish)                                                                \
+    X(PFNGLGETERRORPROC, glGetError)                                                            \
+    X(PFNGLREADPIXELSPROC, glReadPixels)                                                        \
+    X(PFNGLPIXELSTOREIPROC, glPixelStorei)                                                      \
+    X(PFNGLGENTEXTURESPROC, glGenTextures)                                                      \
+    X(PFNGLDELETETEXTURESPROC, glDeleteTextures)                                                \
+    X(PFNGLBINDTEXTUREPROC, glBindTexture)                                                      \
+    X(PFNGLTEXIMAGE2DPROC, glTexImage2D)                                                        \
+    X(PFNGLTEXPARAMETERIPROC, glTexParameteri)                                                  \
+    X(PFNGLUNIFORM1IPROC, glUniform1i)                                                          \
+    X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers)                                              \
+    X(PFNGLDELETEFRAMEBUFFERSPROC, glDeleteFramebuffers)                                        \
+    X(PFNGLBINDFRAMEBUFFERPROC, glBindFramebuffer)                                              \
+    X(PFNGLGENRENDERBUFFERSPROC, glGenRenderbuffers)                                            \
+    X(PFNGLDELETERENDERBUFFERSPROC, glDeleteRenderbuffers)                                      \
+    X(PFNGLBINDRENDERBUFFERPROC, glBindRenderbuffer)                                            \
+    X(PFNGLRENDERBUFFERSTORAGEPROC, glRenderbufferStorage)                                      \
+    X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, glFramebufferRenderbuffer)                              \
+    X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, glCheckFramebufferStatus)                                \
     X(PFNGLCREATESHADERPROC, glCreateShader)                                                    \
     X(PFNGLSHADERSOURCEPROC, glShaderSource)                                                    \
     X(PFNGLCOMPILESHADERPROC, glCompileShader)                                                  \
@@ -57,12 +87,15 @@ typedef struct gl_api {
 } gl_api;
 
 struct rd_renderer {
-    OSMesaContext ctx;
+    rd_context context;
     int width, height, ss;
     uint8_t *buffer;            /* RGBA at ss x size, bottom row first */
     gl_api gl;
-    GLuint prog_mesh, prog_ground, prog_sky;
+    GLuint prog_mesh, prog_ground, prog_sky, prog_blit;
     GLuint vao, vbo;
+    GLuint fbo, color_rb, depth_rb;   /* without into_buffer: the target drawn into */
+    int fbo_w, fbo_h;
+    GLuint texture;             /* rd_present's image */
     float *verts;               /* 9 floats per vertex: position, normal, colour */
     size_t nverts, cap;
 };
@@ -138,6 +171,22 @@ static const char *FS_SKY =
     "out vec4 color;\n"
     "void main() { color = vec4(mix(vec3(0.86, 0.87, 0.89), vec3(0.97, 0.98, 1.0), v_t), 1.0); }\n";
 
+/* rd_present: an RGB8 image (top row first) over the whole viewport, pixel for pixel. */
+static const char *VS_BLIT =
+    "#version 330 core\n"
+    "out vec2 v_uv;\n"
+    "void main() {\n"
+    "  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));\n"
+    "  v_uv = vec2(p.x, 1.0 - p.y);\n"
+    "  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
+    "}\n";
+
+static const char *FS_BLIT =
+    "#version 330 core\n"
+    "in vec2 v_uv; uniform sampler2D image;\n"
+    "out vec4 color;\n"
+    "void main() { color = vec4(texture(image, v_uv).rgb, 1.0); }\n";
+
 static GLuint compile(gl_api *gl, const char *vs, const char *fs, char *err, size_t errsz)
 {
     const char *src[2] = {vs, fs};
@@ -173,43 +222,40 @@ static GLuint compile(gl_api *gl, const char *vs, const char *fs, char *err, siz
     return p;
 }
 
-rd_renderer *rd_create(int width, int height, int supersample, char *err, size_t errsz)
+rd_renderer *rd_create_with(const rd_context *context, int width, int height, int supersample,
+                           char *err, size_t errsz)
 {
     if (width < 1 || height < 1 || supersample < 1 || supersample > 4 || width > 16384 ||
         height > 16384) {
         snprintf(err, errsz, "bad image size %d x %d (supersample %d)", width, height, supersample);
+        if (context->destroy) context->destroy(context->ctx);
         return NULL;
     }
     rd_renderer *r = calloc(1, sizeof *r);
-    if (!r) { snprintf(err, errsz, "out of memory"); return NULL; }
+    if (!r) {
+        snprintf(err, errsz, "out of memory");
+        if (context->destroy) context->destroy(context->ctx);
+        return NULL;
+    }
+    r->context = *context;
     r->width = width;
     r->height = height;
     r->ss = supersample;
-    const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24,
-                           OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
-                           OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                           OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
-    r->ctx = OSMesaCreateContextAttribs(attribs, NULL);
-    if (!r->ctx) {
-        snprintf(err, errsz, "OSMesa could not create a GL 3.3 core context (needs Mesa with "
-                             "llvmpipe or softpipe)");
-        free(r);
-        return NULL;
-    }
     const size_t W = (size_t)width * supersample, H = (size_t)height * supersample;
     r->buffer = malloc(W * H * 4);
-    if (!r->buffer || !OSMesaMakeCurrent(r->ctx, r->buffer, GL_UNSIGNED_BYTE, (GLsizei)W, (GLsizei)H)) {
-        snprintf(err, errsz, "OSMesa: cannot make the context current at %zu x %zu", W, H);
+    if (!r->buffer || context->make_current(context->ctx, r->buffer, (int)W, (int)H)) {
+        snprintf(err, errsz, "%s: cannot make the context current at %zu x %zu", context->name,
+                 W, H);
         rd_destroy(r);
         return NULL;
     }
-#define X(type, name)                                                                             \
+#define X(type, fn)                                                                               \
     {                                                                                            \
-        OSMESAproc p_ = OSMesaGetProcAddress(#name);                                             \
-        memcpy(&r->gl.name, &p_, sizeof p_);                                                     \
+        rd_glproc p_ = context->getproc(#fn);                                                    \
+        memcpy(&r->gl.fn, &p_, sizeof p_);                                                       \
     }                                                                                            \
-    if (!r->gl.name) {                                                                           \
-        snprintf(err, errsz, "OSMesa: no GL function %s", #name);                               \
+    if (!r->gl.fn) {                                                                             \
+        snprintf(err, errsz, "%s: no GL function %s", context->name, #fn);                      \
         rd_destroy(r);                                                                           \
         return NULL;                                                                             \
     }
@@ -218,7 +264,8 @@ rd_renderer *rd_create(int width, int height, int supersample, char *err, size_t
     gl_api *gl = &r->gl;
     if (!(r->prog_mesh = compile(gl, VS_MESH, FS_MESH, err, errsz)) ||
         !(r->prog_ground = compile(gl, VS_GROUND, FS_GROUND, err, errsz)) ||
-        !(r->prog_sky = compile(gl, VS_SKY, FS_SKY, err, errsz))) {
+        !(r->prog_sky = compile(gl, VS_SKY, FS_SKY, err, errsz)) ||
+        (!context->into_buffer && !(r->prog_blit = compile(gl, VS_BLIT, FS_BLIT, err, errsz)))) {
         rd_destroy(r);
         return NULL;
     }
@@ -234,24 +281,128 @@ rd_renderer *rd_create(int width, int height, int supersample, char *err, size_t
     return r;
 }
 
+static void drop_target(rd_renderer *r)
+{
+    gl_api *gl = &r->gl;
+    if (r->fbo) gl->glDeleteFramebuffers(1, &r->fbo);
+    if (r->color_rb) gl->glDeleteRenderbuffers(1, &r->color_rb);
+    if (r->depth_rb) gl->glDeleteRenderbuffers(1, &r->depth_rb);
+    r->fbo = r->color_rb = r->depth_rb = 0;
+    r->fbo_w = r->fbo_h = 0;
+}
+
 void rd_destroy(rd_renderer *r)
 {
     if (!r) return;
-    if (r->ctx) {
+    /* The context is current while its objects are deleted (a null function: never loaded). */
+    if (r->buffer && r->context.make_current(r->context.ctx, r->buffer, r->width * r->ss,
+                                             r->height * r->ss) == 0) {
+        if (r->gl.glDeleteFramebuffers) drop_target(r);
+        if (r->gl.glDeleteTextures && r->texture) r->gl.glDeleteTextures(1, &r->texture);
         if (r->gl.glDeleteBuffers && r->vbo) r->gl.glDeleteBuffers(1, &r->vbo);
         if (r->gl.glDeleteVertexArrays && r->vao) r->gl.glDeleteVertexArrays(1, &r->vao);
         if (r->gl.glDeleteProgram) {
             if (r->prog_mesh) r->gl.glDeleteProgram(r->prog_mesh);
             if (r->prog_ground) r->gl.glDeleteProgram(r->prog_ground);
             if (r->prog_sky) r->gl.glDeleteProgram(r->prog_sky);
+            if (r->prog_blit) r->gl.glDeleteProgram(r->prog_blit);
         }
-        /* Unbind first, so that Mesa frees the framebuffer it made for this buffer. */
-        OSMesaMakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
-        OSMesaDestroyContext(r->ctx);
     }
+    if (r->context.destroy) r->context.destroy(r->context.ctx);
     free(r->buffer);
     free(r->verts);
     free(r);
+}
+
+int rd_width(const rd_renderer *r) { return r->width; }
+int rd_height(const rd_renderer *r) { return r->height; }
+
+int rd_resize(rd_renderer *r, int width, int height, char *err, size_t errsz)
+{
+    if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+        snprintf(err, errsz, "bad image size %d x %d", width, height);
+        return -1;
+    }
+    uint8_t *b = malloc((size_t)width * r->ss * (size_t)height * r->ss * 4);
+    if (!b) {
+        snprintf(err, errsz, "out of memory");
+        return -1;
+    }
+    free(r->buffer);
+    r->buffer = b;
+    r->width = width;
+    r->height = height;
+    return 0;
+}
+
+/* Without into_buffer: a framebuffer object of the supersampled size (made again when the size
+ * changes), bound for drawing. */
+static int bind_target(rd_renderer *r, int W, int H, char *err, size_t errsz)
+{
+    gl_api *gl = &r->gl;
+    if (r->fbo && (r->fbo_w != W || r->fbo_h != H)) drop_target(r);
+    if (!r->fbo) {
+        gl->glGenFramebuffers(1, &r->fbo);
+        gl->glGenRenderbuffers(1, &r->color_rb);
+        gl->glGenRenderbuffers(1, &r->depth_rb);
+        gl->glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+        gl->glBindRenderbuffer(GL_RENDERBUFFER, r->color_rb);
+        gl->glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, W, H);
+        gl->glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                      r->color_rb);
+        gl->glBindRenderbuffer(GL_RENDERBUFFER, r->depth_rb);
+        gl->glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, W, H);
+        gl->glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                                      r->depth_rb);
+        r->fbo_w = W;
+        r->fbo_h = H;
+        if (gl->glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+            snprintf(err, errsz, "%s: the framebuffer object of %d x %d is incomplete",
+                     r->context.name, W, H);
+            drop_target(r);
+            return -1;
+        }
+    }
+    gl->glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    return 0;
+}
+
+int rd_present(rd_renderer *r, const uint8_t *rgb, int width, int height, int fb_width,
+               int fb_height, char *err, size_t errsz)
+{
+    gl_api *gl = &r->gl;
+    if (!r->prog_blit) {
+        snprintf(err, errsz, "%s: the renderer draws into its buffer; nothing to present on",
+                 r->context.name);
+        return -1;
+    }
+    if (r->context.make_current(r->context.ctx, r->buffer, r->width * r->ss, r->height * r->ss)) {
+        snprintf(err, errsz, "%s: cannot make the context current", r->context.name);
+        return -1;
+    }
+    gl->glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl->glViewport(0, 0, fb_width, fb_height);
+    gl->glDisable(GL_DEPTH_TEST);
+    gl->glDisable(GL_BLEND);
+    if (!r->texture) gl->glGenTextures(1, &r->texture);
+    gl->glBindTexture(GL_TEXTURE_2D, r->texture);
+    gl->glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl->glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, width, height, 0, GL_RGB, GL_UNSIGNED_BYTE, rgb);
+    gl->glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl->glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER,
+                        fb_width == width && fb_height == height ? GL_NEAREST : GL_LINEAR);
+    gl->glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl->glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl->glUseProgram(r->prog_blit);
+    gl->glUniform1i(gl->glGetUniformLocation(r->prog_blit, "image"), 0);
+    gl->glBindVertexArray(r->vao);
+    gl->glDrawArrays(GL_TRIANGLES, 0, 3);
+    const GLenum e = gl->glGetError();
+    if (e != GL_NO_ERROR) {
+        snprintf(err, errsz, "GL error 0x%x", (unsigned)e);
+        return -1;
+    }
+    return 0;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -354,10 +505,8 @@ void rd_view_make(const scene_camera *cam, const double lo_in[3], const double h
     v->far_plane = dist + v->ground_extent * 1.5 + radius;
 }
 
-/* Column-major 4x4 for GL: proj * view. */
-static void view_matrix(const rd_view *v, double aspect, float out[16])
+void rd_view_basis(const rd_view *v, double f[3], double s[3], double u[3])
 {
-    double f[3], s[3], u[3];
     sub(v->target, v->eye, f);
     normalize(f);
     cross(f, v->up, s);
@@ -367,6 +516,13 @@ static void view_matrix(const rd_view *v, double aspect, float out[16])
     }
     normalize(s);
     cross(s, f, u);
+}
+
+/* Column-major 4x4 for GL: proj * view. */
+void rd_view_matrix(const rd_view *v, double aspect, double out[16])
+{
+    double f[3], s[3], u[3];
+    rd_view_basis(v, f, s, u);
     double V[16] = {s[0], u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0,
                     -dot(s, v->eye), -dot(u, v->eye), dot(f, v->eye), 1};
     const double t = 1.0 / tan(v->fov * M_PI / 360.0), n = v->near_plane, fa = v->far_plane;
@@ -376,7 +532,7 @@ static void view_matrix(const rd_view *v, double aspect, float out[16])
         for (int r = 0; r < 4; ++r) {
             double acc = 0.0;
             for (int k = 0; k < 4; ++k) acc += P[4 * k + r] * V[4 * c + k];
-            out[4 * c + r] = (float)acc;
+            out[4 * c + r] = acc;
         }
 }
 
@@ -494,25 +650,30 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
 {
     gl_api *gl = &r->gl;
     const int W = r->width * r->ss, H = r->height * r->ss;
-    if (!OSMesaMakeCurrent(r->ctx, r->buffer, GL_UNSIGNED_BYTE, W, H)) {
-        snprintf(err, errsz, "OSMesa: cannot make the context current");
+    if (r->context.make_current(r->context.ctx, r->buffer, W, H)) {
+        snprintf(err, errsz, "%s: cannot make the context current", r->context.name);
         return -1;
     }
+    if (!r->context.into_buffer && bind_target(r, W, H, err, errsz)) return -1;
     float mvp[16];
-    view_matrix(v, (double)r->width / r->height, mvp);
-    glViewport(0, 0, W, H);
-    glClearColor(1, 1, 1, 1);
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    {
+        double m[16];
+        rd_view_matrix(v, (double)r->width / r->height, m);
+        for (int k = 0; k < 16; ++k) mvp[k] = (float)m[k];
+    }
+    gl->glViewport(0, 0, W, H);
+    gl->glClearColor(1, 1, 1, 1);
+    gl->glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     gl->glBindVertexArray(r->vao);
     gl->glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
 
     /* Sky gradient, behind everything. */
-    glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
+    gl->glDisable(GL_DEPTH_TEST);
+    gl->glDepthMask(GL_FALSE);
     gl->glUseProgram(r->prog_sky);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
-    glDepthMask(GL_TRUE);
-    glEnable(GL_DEPTH_TEST);
+    gl->glDrawArrays(GL_TRIANGLES, 0, 3);
+    gl->glDepthMask(GL_TRUE);
+    gl->glEnable(GL_DEPTH_TEST);
 
     /* Bodies. */
     r->nverts = 0;
@@ -543,7 +704,7 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
                         (float)key[1], (float)key[2]);
         gl->glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(r->nverts * 9 * sizeof(float)), r->verts,
                          GL_STREAM_DRAW);
-        glDrawArrays(GL_TRIANGLES, 0, (GLsizei)r->nverts);
+        gl->glDrawArrays(GL_TRIANGLES, 0, (GLsizei)r->nverts);
     }
 
     /* Ground grid: a square around the target's foot point, blended so that it fades out. */
@@ -577,23 +738,27 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
         gl->glUniform1f(gl->glGetUniformLocation(r->prog_ground, "extent"), (float)e);
         gl->glUniform3f(gl->glGetUniformLocation(r->prog_ground, "center"), (float)c[0],
                         (float)c[1], (float)c[2]);
-        glEnable(GL_BLEND);
-        glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-        glEnable(GL_POLYGON_OFFSET_FILL);
-        glPolygonOffset(1.0f, 1.0f);
+        gl->glEnable(GL_BLEND);
+        gl->glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+        gl->glEnable(GL_POLYGON_OFFSET_FILL);
+        gl->glPolygonOffset(1.0f, 1.0f);
         gl->glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(6 * 9 * sizeof(float)), r->verts,
                          GL_STREAM_DRAW);
-        glDrawArrays(GL_TRIANGLES, 0, 6);
-        glDisable(GL_POLYGON_OFFSET_FILL);
-        glDisable(GL_BLEND);
+        gl->glDrawArrays(GL_TRIANGLES, 0, 6);
+        gl->glDisable(GL_POLYGON_OFFSET_FILL);
+        gl->glDisable(GL_BLEND);
     }
-    glFinish();
-    GLenum e = glGetError();
+    gl->glFinish();
+    GLenum e = gl->glGetError();
     if (e != GL_NO_ERROR) {
         snprintf(err, errsz, "GL error 0x%x", (unsigned)e);
         return -1;
     }
-    /* Box-filter the supersampled buffer down; OSMesa's rows run bottom-up. */
+    if (!r->context.into_buffer) {
+        gl->glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        gl->glReadPixels(0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, r->buffer);
+    }
+    /* Box-filter the supersampled buffer down; GL's rows run bottom-up. */
     const int ss = r->ss, n = ss * ss;
     for (int y = 0; y < r->height; ++y)
         for (int xo = 0; xo < r->width; ++xo) {

@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Offscreen renderer: OSMesa with a GL 3.3 core context (llvmpipe or softpipe). Draws shaded
- * surfaces (tet boundaries flat-shaded, cloth smooth and two-sided), lines as tubes, a ground
- * grid and a sky gradient, supersampled and box-filtered down to RGB8.
+ * The renderer: draws shaded surfaces (tet boundaries flat-shaded, cloth smooth and two-sided),
+ * lines as tubes, a ground grid and a sky gradient with any GL 3.3 core context, supersampled and
+ * box-filtered down to RGB8. rd_create makes an off-screen OSMesa context (osmesa.c, llvmpipe
+ * or softpipe: defsim run's PNG frames); rd_create_with takes another (the viewer's window).
  */
 #ifndef DEFSIM_TOOLS_RENDER_H
 #define DEFSIM_TOOLS_RENDER_H
@@ -64,6 +65,8 @@ int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const fl
  * sdf_bounds box (nothing when unbounded). */
 int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
                         int as_ground, const float rgb[3]);
+/* A segment from a to b, drawn as a tube (the viewer's pulling spring). */
+int rd_overlay_segment(rd_overlay *o, const double a[3], const double b[3], const float rgb[3]);
 void rd_overlay_free(rd_overlay *o);
 
 /* Puts the view's ground grid on a plane collider (its point and normal at the current pose).
@@ -72,15 +75,50 @@ int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c);
 
 typedef struct rd_renderer rd_renderer;
 
-/* Creates a context for width x height output images, rendered at supersample x that size.
- * Returns NULL with a message in err when OSMesa or GL 3.3 core is not available. */
+/* Creates an OSMesa context for width x height output images, rendered at supersample x that
+ * size (osmesa.c). Returns NULL with a message in err when OSMesa or GL 3.3 core is not
+ * available. */
 rd_renderer *rd_create(int width, int height, int supersample, char *err, size_t errsz);
+
+/* A GL 3.3 core context that the renderer draws with, and where to: its own buffer
+ * (into_buffer: OSMesa renders into the memory it is made current on), or a framebuffer object
+ * that the renderer makes and reads back (a window's context). */
+typedef void (*rd_glproc)(void);
+typedef struct rd_context {
+    const char *name;       /* in messages: "OSMesa", "GLFW" */
+    void *ctx;
+    /* Makes ctx current (for into_buffer: on buffer, RGBA of width x height). 0, or -1. */
+    int (*make_current)(void *ctx, uint8_t *buffer, int width, int height);
+    void (*destroy)(void *ctx);   /* by rd_destroy (and by rd_create_with when it fails); or NULL */
+    rd_glproc (*getproc)(const char *name);   /* every GL entry point, GL 1.1's included */
+    int into_buffer;
+} rd_context;
+
+/* rd_create over the given context (taken over: destroyed with the renderer). */
+rd_renderer *rd_create_with(const rd_context *context, int width, int height, int supersample,
+                            char *err, size_t errsz);
 void rd_destroy(rd_renderer *r);
+
+/* The output size, and a new one (the viewer's window was resized). rd_resize: 0, or -1. */
+int rd_width(const rd_renderer *r);
+int rd_height(const rd_renderer *r);
+int rd_resize(rd_renderer *r, int width, int height, char *err, size_t errsz);
 
 /* Renders positions x (3 per vertex) into rgb (width * height * 3, top row first).
  * Returns 0, or -1 with a message in err. */
 int rd_render(rd_renderer *r, const rd_view *view, const double *x, const rd_part *parts,
               int nparts, uint8_t *rgb, char *err, size_t errsz);
+
+/* Draws an RGB8 image (width x height, top row first) over the context's default framebuffer
+ * of fb_width x fb_height pixels (a window: swap its buffers next). Not for into_buffer
+ * contexts. Returns 0, or -1 with a message in err. */
+int rd_present(rd_renderer *r, const uint8_t *rgb, int width, int height, int fb_width,
+               int fb_height, char *err, size_t errsz);
+
+/* The camera's unit vectors: forward f (eye to target), right s and up u on screen; and the
+ * column-major projection times view matrix of rd_render for an image of that aspect. */
+void rd_view_basis(const rd_view *v, double f[3], double s[3], double u[3]);
+void rd_view_matrix(const rd_view *v, double aspect, double out[16]);
 
 /* Outward boundary triangles of tets (faces used once), oriented by the tets' orientation:
  * malloc'd, 3 per triangle. Positively oriented tets give outward triangles. */
@@ -119,6 +157,60 @@ void rd_color_parts(scene_color mode, const scene *s, rd_part *parts, int nparts
 /* Draws the colour bar of [lo, hi] for `mode` into the width x height RGB8 image; nothing for
  * body colours or an empty range (hi <= lo). */
 void rd_colorbar(uint8_t *rgb, int width, int height, scene_color mode, double lo, double hi);
+
+/* The bodies of a world as parts, and one frame of them as defsim run draws it (render/frame.c):
+ * shared by defsim run's PNG frames and the viewer. */
+
+/* One body: its index arrays are body-local, as the host gave them. */
+typedef struct rd_body_src {
+    int32_t offset;                      /* its first vertex in the world's positions */
+    const int32_t *tets;                 /* 4 per tet, or NULL */
+    int32_t tet_count;
+    int64_t cell_offset;                 /* its first tet in the frame's cell values */
+    const int32_t *triangles;            /* 3 per triangle: a cloth, or the boundary of tets */
+    int32_t triangle_count;
+    const int32_t *lines;                /* 2 per segment (springs drawn as tubes) */
+    int32_t line_count;
+    float color[3];
+} rd_body_src;
+
+/* The parts of the bodies (world indices) and the buffers their colours go into. */
+typedef struct rd_bodies {
+    rd_part *parts;
+    int nparts;
+    int32_t **tri_cell;   /* per part: the cell of each triangle (its tet), or NULL */
+    float **tri_rgb;      /* per part: 3 per triangle, where tri_cell is not NULL */
+    float *vertex_rgb;    /* 3 nv */
+    int32_t nv;
+} rd_bodies;
+
+/* Builds the parts of n bodies of a world of nv vertices; with `stress`, the cells of the
+ * triangles of bodies with tets (for stress colours). Returns 0, or -1 (out of memory, or a
+ * triangle index outside the body: b is then freed). */
+int rd_bodies_init(rd_bodies *b, const rd_body_src *src, int n, int32_t nv, int stress);
+void rd_bodies_free(rd_bodies *b);
+
+/* What one frame shows besides the positions. */
+typedef struct rd_frame_data {
+    scene_color mode;             /* colours: body, stress, displacement, speed */
+    const scene *s;               /* its color_range, or NULL */
+    double top;                   /* the colour scale's top over the run, or 0: this frame's */
+    const double *vec;            /* 3 nv: displacement or velocity (colours), or NULL */
+    const double *cell;           /* von Mises per cell (stress colours), or NULL */
+    const uint8_t *pinned;        /* nv flags: markers, or NULL */
+    const double *poses;          /* 7 per collider (position, rotation), or NULL: current */
+    int32_t ncolliders;           /* of the world, drawn (the first plane is the ground) */
+    double time;                  /* stamped at the top left */
+    const double *segment;        /* 6: two points joined by a tube (the viewer's pulling
+                                     spring, vertex to target), or NULL */
+} rd_frame_data;
+
+/* Renders the bodies at x with the colliders of w into rgb (the renderer's size): colours,
+ * pinned markers, colliders (overlay, reused between frames), colour bar and time stamp.
+ * Returns 0, or -1 with err. */
+int rd_draw_frame(rd_renderer *r, rd_bodies *b, rd_overlay *overlay, const rd_view *view,
+                  const defsim_world *w, const double *x, const rd_frame_data *d, uint8_t *rgb,
+                  char *err, size_t errsz);
 
 /* Stamps "t = 1.234 s" (simulated time t) at the top left of the width x height RGB8 image. */
 void rd_timestamp(uint8_t *rgb, int width, int height, double t);

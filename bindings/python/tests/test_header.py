@@ -33,8 +33,9 @@ def test_every_public_function_is_declared_and_exported() -> None:
     for name in names:
         assert re.search(r"\b%s\s*\(" % name, _native.declarations), name
         assert callable(getattr(_native.lib, name)), name
-    # The scene and render headers are declared too (their libraries are opened on first use).
-    for header in ("scene.h", "render.h"):
+    # The scene, render and view headers are declared too (their libraries are opened on first
+    # use).
+    for header in ("scene.h", "render.h", "view.h"):
         for name in re.findall(r"DEFSIM_API\s+[^;(]*?\b(defsim_\w+)\s*\(", _header_text(header)):
             assert re.search(r"\b%s\s*\(" % name, _native.declarations), name
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Zero-copy read access (issue 28): World.view() gives read-only numpy arrays over the
+"""Zero-copy read access (issue 28): World.state_view() gives read-only numpy arrays over the
 library's own state (defsim_world_state_view) that see every step, DLPack through numpy, and a
 view that refuses access once the state arrays moved."""
 from __future__ import annotations
@@ -23,7 +23,7 @@ def beam(world: defsim.World, box: defsim.Mesh) -> defsim.Body:
 
 
 def test_view_aliases_the_state(world: defsim.World, beam: defsim.Body) -> None:
-    view = world.view()
+    view = world.state_view()
     x, v = view.positions, view.velocities
     assert x.shape == v.shape == (world.vertex_count, 3)
     assert x.tobytes() == world.positions.tobytes() and not v.any()
@@ -42,7 +42,7 @@ def test_view_aliases_the_state(world: defsim.World, beam: defsim.Body) -> None:
 
 
 def test_view_is_read_only(world: defsim.World, beam: defsim.Body) -> None:
-    view = world.view()
+    view = world.state_view()
     with pytest.raises(ValueError):
         view.positions[0, 0] = 1.0
     with pytest.raises(ValueError):
@@ -53,7 +53,7 @@ def test_view_is_read_only(world: defsim.World, beam: defsim.Body) -> None:
 
 
 def test_failed_step_leaves_the_view(world: defsim.World, beam: defsim.Body) -> None:
-    view = world.view()
+    view = world.state_view()
     world.step(1e-3)
     before = view.positions.copy()
     with pytest.raises(defsim.InvalidArgumentError):
@@ -63,7 +63,7 @@ def test_failed_step_leaves_the_view(world: defsim.World, beam: defsim.Body) -> 
 
 def test_view_goes_stale_when_the_arrays_move(world: defsim.World, beam: defsim.Body,
                                               box: defsim.Mesh) -> None:
-    view = world.view()
+    view = world.state_view()
     n = world.vertex_count
     world.step(1e-3)
     assert view.valid
@@ -74,11 +74,11 @@ def test_view_goes_stale_when_the_arrays_move(world: defsim.World, beam: defsim.
     assert info.value.status == defsim.Status.STALE_ID
     with pytest.raises(defsim.StaleViewError):
         view.element_stress(beam)
-    fresh = world.view()
+    fresh = world.state_view()
     assert fresh.positions.shape == (n + box.vertex_count, 3)
     world.remove_body(other)
     assert not fresh.valid
-    last = world.view()
+    last = world.state_view()
     assert last.positions.tobytes() == world.positions.tobytes()
     world.close()
     assert not last.valid
@@ -87,7 +87,7 @@ def test_view_goes_stale_when_the_arrays_move(world: defsim.World, beam: defsim.
 
 
 def test_dlpack_shares_the_memory(world: defsim.World, beam: defsim.Body) -> None:
-    view = world.view()
+    view = world.state_view()
     t = np.from_dlpack(view.positions)
     assert np.shares_memory(t, view.positions) and not t.flags.writeable
     assert view.positions.__dlpack_device__() == (1, 0)   # kDLCPU, device 0
@@ -96,7 +96,7 @@ def test_dlpack_shares_the_memory(world: defsim.World, beam: defsim.Body) -> Non
 
 
 def test_view_stress_once_per_state(world: defsim.World, beam: defsim.Body) -> None:
-    view = world.view()
+    view = world.state_view()
     world.step(1e-3, steps=5)
     s = view.element_stress(beam)
     ref = beam.element_stress()
@@ -117,6 +117,6 @@ def test_scene_world_view_sees_scene_steps() -> None:
     import defsim.io as dio
     here = os.path.dirname(os.path.abspath(__file__))
     s = dio.load_scene(os.path.join(here, "..", "..", "..", "tests", "scenes", "rope.json"))
-    view = s.world.view()
+    view = s.world.state_view()
     s.step(steps=3)
     assert view.positions.tobytes() == s.world.positions.tobytes()

@@ -121,7 +121,7 @@ class StaleIdError(Error, LookupError):
 
 class StaleViewError(StaleIdError):
     """A ``StateView`` used after the world's bodies changed or the world was closed (its
-    arrays were moved or freed): take a new one with ``World.view()``. Status STALE_ID."""
+    arrays were moved or freed): take a new one with ``World.state_view()``. Status STALE_ID."""
 
 
 class LockedError(Error):

@@ -149,8 +149,9 @@ _extra: dict = {}
 def open_extra(name: str) -> Any:
     """Opens one of the optional libraries over the tools' code, whose headers the generated
     declarations include: "scene" (libdefsim_scene, include/defsim/scene.h: scene files and VTK
-    frames) or "render" (libdefsim_render, include/defsim/render.h: the OSMesa renderer).
-    Searched in ``DEFSIM_SCENE_LIBRARY`` / ``DEFSIM_RENDER_LIBRARY``, beside the loaded
+    frames), "render" (libdefsim_render, include/defsim/render.h: the OSMesa renderer) or
+    "view" (libdefsim_view, include/defsim/view.h: the live viewer). Searched in
+    ``DEFSIM_<NAME>_LIBRARY`` (``DEFSIM_SCENE_LIBRARY``, ...), beside the loaded
     libdefsim (a build tree, an install prefix, the package), then the loader's path. Raises
     OSError with every place tried when it is not there. The result is cached."""
     if name in _extra:

@@ -1,117 +1,115 @@
 # SPDX-License-Identifier: MIT
-"""Zero-copy, read-only access to a world's state (``World.view()``)."""
+"""The live viewer on a World: ``defsim.view(world, h=...)`` (or ``world.view(h=...)``) opens the
+window of ``defsim view`` (libdefsim_view, ``defsim_view_world``) on the world and returns when
+it is closed. Play and pause (space), single step (n), reset (r), orbit (left drag), zoom
+(wheel), colours (c, or 1-4: body, stress, displacement, speed), and drag a vertex with the
+right mouse button (a temporary attachment, removed on release). The step time and the
+watchdog's diagnostics are shown over the picture. Needs libdefsim_view (built with GLFW) and a
+display (X11, Wayland or Xvfb) with OpenGL 3.3."""
 from __future__ import annotations
 
-from typing import Any, Dict, Optional, Tuple
+import dataclasses
+import os
+from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
-from ._coupling import ElementStress
-from ._errors import StaleViewError, Status
-from ._native import ffi, lib
+from ._errors import InvalidArgumentError, error_from_status
+from ._native import ffi
+from .display import loads, optional_lib
 
-__all__ = ["StateView"]
+__all__ = ["view", "ViewResult", "view_available"]
 
-
-def _alias(ptr: Any, n: int) -> np.ndarray:
-    """A read-only (n, 3) float64 array over a C buffer of the world (no copy)."""
-    if n == 0 or ptr == ffi.NULL:
-        a = np.zeros((0, 3))
-    else:
-        a = np.frombuffer(ffi.buffer(ptr, 24 * n), dtype=np.float64).reshape(n, 3)
-    a.flags.writeable = False
-    return a
+_COLORS = {"body": 0, "stress": 1, "displacement": 2, "speed": 3}
 
 
-class StateView:
-    """Read-only numpy views of a world's positions and velocities that alias the library's
-    own arrays (``defsim_world_state_view``): no copy is made, and the arrays see every change
-    of the state (a step, ``set_state``, ``pin``) as it happens. Made by ``World.view()``.
+def _view_lib() -> Any:
+    return optional_lib("view", "the viewer needs libdefsim_view (the tools built with GLFW, "
+                                "libglfw3-dev)")
 
-    Valid until the world's bodies change (``add_body``, ``remove_body``, which move the state
-    into new arrays) or the world is closed. The view checks that on every access and raises
-    StaleViewError after such a call; the arrays it handed out cannot check themselves, so read
-    them again through the view rather than keeping them past such a call (their memory is
-    freed then). They are read-only (``flags.writeable`` False; set the state with
-    ``World.set_state``). Copies stay the default elsewhere (``World.positions`` and friends).
 
-    DLPack: the arrays are numpy arrays, so ``np.from_dlpack(view.positions)`` (or any consumer
-    of DLPack 1.0, which can mark a tensor read-only) shares their memory; ``__dlpack__`` and
-    ``__dlpack_device__`` are numpy's. Consumers of older DLPack versions get numpy's
-    BufferError for a read-only array: copy first.
+def view_available() -> bool:
+    """True when libdefsim_view can be loaded (a display is still needed to open a window)."""
+    return loads("view")
 
-    Stresses are not held by the world: ``element_stress(body)`` computes them into the view's
-    own buffers once per state (again after the state changes), read-only, with the same
-    validity.
-    """
 
-    __slots__ = ("_world", "_layout", "_x", "_v", "_stress")
+@dataclasses.dataclass(frozen=True)
+class ViewResult:
+    """How a viewer session went (``defsim_view_result``)."""
 
-    def __init__(self, world: Any) -> None:
-        w = world._live()
-        x = ffi.new("const double **")
-        v = ffi.new("const double **")
-        n = ffi.new("int32_t *")
-        world._check(lib.defsim_world_state_view(w, x, v, n))
-        self._world = world
-        self._layout = world._layout
-        self._x = _alias(x[0], int(n[0]))
-        self._v = _alias(v[0], int(n[0]))
-        self._stress: Dict[Tuple[int, int], Tuple[int, ElementStress]] = {}
+    steps: int                       #: successful steps the viewer took
+    last_failure: int                #: status of the last failed step (0: none)
+    drag_vertex: Optional[int]       #: world index of the last vertex dragged, or None
+    drag_start: Tuple[float, float, float]    #: its position when grabbed (m)
+    drag_target: Tuple[float, float, float]   #: the spring's target when last moved (m)
+    drag_end: Tuple[float, float, float]      #: its position when released (m)
+    expectations: int                #: the script's ``expect`` lines that ran
+    expectations_failed: int         #: and those that failed
 
-    @property
-    def valid(self) -> bool:
-        """False once the world's bodies changed or the world was closed."""
-        w = self._world
-        return w._ptr is not None and w._layout == self._layout
 
-    def _checked(self) -> None:
-        if not self.valid:
-            raise StaleViewError("this StateView is stale: the world's bodies changed "
-                                 "(add_body, remove_body) or it was closed, which moves or frees "
-                                 "the state; take a new one with World.view()", Status.STALE_ID)
+def view(world: Any, h: float, steps_per_frame: int = 1, width: int = 960, height: int = 600,
+         color: str = "body", paused: bool = False, script: Optional[str] = None,
+         show_timing: bool = True, drag_stiffness: float = 0.0, supersample: int = 1,
+         title: Optional[str] = None) -> ViewResult:
+    """Opens the viewer on `world`, stepping it by `h` seconds (`steps_per_frame` steps per
+    drawn frame while playing), and blocks until the window is closed, or until `script` (an
+    input script, tools/view/README.md) ends. The world keeps the state the session left (reset
+    restores the positions and velocities it had when the call began; the time keeps counting);
+    the attachment of a drag is removed. `color` is "body", "stress", "displacement" or "speed".
 
-    @property
-    def positions(self) -> np.ndarray:
-        """The positions, (n, 3) in m: a read-only array over the world's memory."""
-        self._checked()
-        return self._x
+    Raises defsim.Error with status BACKEND_UNAVAILABLE when libdefsim_view is missing or there
+    is no display with OpenGL 3.3, InvalidArgumentError for a bad setting or script, FileError
+    for a script that cannot be read or a screenshot that cannot be written."""
+    lib = _view_lib()
+    if color not in _COLORS:
+        raise InvalidArgumentError(f"color must be one of {', '.join(_COLORS)}, not {color!r}")
+    # The bodies in vertex order, as defsim_world_body_at lists them.
+    bodies = sorted(world.bodies, key=lambda b: b.vertex_offset)
+    parts = ffi.new("defsim_view_body[]", max(1, len(bodies)))
+    keep: List[Any] = []
 
-    @property
-    def velocities(self) -> np.ndarray:
-        """The velocities, (n, 3) in m/s: a read-only array over the world's memory."""
-        self._checked()
-        return self._v
+    def arr(a: np.ndarray) -> Any:
+        a = np.ascontiguousarray(a, dtype=np.int32)
+        keep.append(a)
+        return ffi.from_buffer("int32_t[]", a) if a.size else ffi.NULL
 
-    def element_stress(self, body: Any) -> ElementStress:
-        """``Body.element_stress()`` of one of the world's bodies, computed into buffers this
-        view keeps (once per state: a step or set_state makes the next call compute again)
-        and returned read-only."""
-        self._checked()
-        w = self._world
-        cid = w._own(body)
-        now = w._state_version
-        cached = self._stress.get(body.id)
-        if cached is not None and cached[0] == now:
-            return cached[1]
-        m = w._tet_count(body)
-        if cached is not None and cached[1].von_mises.shape[0] == m:
-            out = cached[1]
-            for a in out:
-                a.flags.writeable = True
-        else:
-            out = ElementStress(np.zeros((m, 3, 3)), np.zeros(m), np.zeros(m))
-        ptr = (lambda a: ffi.from_buffer("double[]", a) if a.size else ffi.NULL)
-        try:
-            w._check(lib.defsim_body_element_stress(w._live(), cid, ptr(out.cauchy),
-                                                    ptr(out.von_mises),
-                                                    ptr(out.energy_density), m))
-        finally:
-            for a in out:
-                a.flags.writeable = False
-        self._stress[body.id] = (now, out)
-        return out
-
-    def __repr__(self) -> str:
-        state = "valid" if self.valid else "stale"
-        return f"<defsim.StateView {state} vertices={self._x.shape[0]}>"
+    for i, b in enumerate(bodies):
+        topo = world.topology(b)
+        parts[i].triangles = arr(topo.triangles)
+        parts[i].triangle_count = topo.triangles.shape[0]
+        parts[i].lines = arr(topo.lines)
+        parts[i].line_count = topo.lines.shape[0]
+        parts[i].tets = arr(topo.tets)
+        parts[i].tet_count = topo.tets.shape[0]
+        parts[i].color = [-1.0, 0.0, 0.0]
+    d = ffi.new("defsim_view_def *")
+    lib.defsim_view_def_init(d, ffi.sizeof("defsim_view_def"))
+    d.h = float(h)
+    d.steps_per_frame = int(steps_per_frame)
+    d.width, d.height = int(width), int(height)
+    d.supersample = int(supersample)
+    d.color = _COLORS[color]
+    d.paused = 1 if paused else 0
+    d.show_timing = 1 if show_timing else 0
+    d.drag_stiffness = float(drag_stiffness)
+    d.gravity = list(world.gravity)
+    strings = []
+    if script is not None:
+        strings.append(ffi.new("char[]", os.fsencode(script)))
+        d.script = strings[-1]
+    if title is not None:
+        strings.append(ffi.new("char[]", title.encode("utf-8")))
+        d.title = strings[-1]
+    r = ffi.new("defsim_view_result *")
+    r.size = ffi.sizeof("defsim_view_result")
+    err = ffi.new("char[]", 1024)
+    st = lib.defsim_view_world(world._live(), parts, len(bodies), d, r, err, 1024)
+    if st < 0:
+        raise error_from_status(st, ffi.string(err).decode("utf-8", "replace"))
+    return ViewResult(
+        steps=int(r.steps), last_failure=int(r.last_failure),
+        drag_vertex=int(r.drag_vertex) if r.drag_vertex >= 0 else None,
+        drag_start=tuple(float(v) for v in r.drag_start),
+        drag_target=tuple(float(v) for v in r.drag_target),
+        drag_end=tuple(float(v) for v in r.drag_end),
+        expectations=int(r.expectations), expectations_failed=int(r.expectations_failed))

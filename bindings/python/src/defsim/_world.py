@@ -580,6 +580,12 @@ class World(WorldCoupling, WorldColliders):
             if close is not None:
                 close()
 
+    def view(self, h: float, **settings: Any) -> Any:
+        """Opens the live viewer on this world (``defsim.view``: play, step, reset, orbit,
+        colours, drag a vertex) and returns its ``defsim.ViewResult`` when the window closes."""
+        from ._view import view
+        return view(self, h, **settings)
+
     def _repr_png_(self) -> Optional[bytes]:
         """A rendered PNG of the current state for Jupyter (``defsim.display.render_png``), or
         None (Jupyter then shows the text repr) when libdefsim_render is not available."""
@@ -609,12 +615,12 @@ class World(WorldCoupling, WorldColliders):
             self._check(fn(w, _arrays.dptr(out), n))
         return out
 
-    def view(self) -> "StateView":
+    def state_view(self) -> "StateView":
         """Zero-copy, read-only numpy views of the positions and velocities, which see every
         step as it happens, valid until the bodies change (``add_body``, ``remove_body``) or
         the world is closed: see ``defsim.StateView``. ``positions`` and ``velocities`` stay
         copies."""
-        from ._view import StateView
+        from ._state_view import StateView
         return StateView(self)
 
     @property

@@ -17,21 +17,32 @@ from ._native import ffi, open_extra
 __all__ = ["render_png", "available"]
 
 
-def _render_lib() -> Any:
+def optional_lib(name: str, needs: str) -> Any:
+    """open_extra(name), or defsim.Error with status BACKEND_UNAVAILABLE naming what `needs`
+    (the optional libraries of the tools: "render" here, "view" for defsim.view)."""
     try:
-        return open_extra("render")
+        return open_extra(name)
     except OSError as exc:
-        raise Error(f"rendering needs libdefsim_render (the tools built with OSMesa and libpng): "
-                    f"{exc}", Status.BACKEND_UNAVAILABLE) from exc
+        raise Error(f"{needs}: {exc}", Status.BACKEND_UNAVAILABLE) from exc
+
+
+def loads(name: str) -> bool:
+    """True when the optional library `name` can be loaded."""
+    try:
+        optional_lib(name, name)
+        return True
+    except Error:
+        return False
+
+
+def _render_lib() -> Any:
+    return optional_lib("render", "rendering needs libdefsim_render (the tools built with "
+                                  "OSMesa and libpng)")
 
 
 def available() -> bool:
     """True when libdefsim_render can be loaded."""
-    try:
-        _render_lib()
-        return True
-    except Error:
-        return False
+    return loads("render")
 
 
 def render_png(world: Any, width: int = 640, height: int = 400) -> bytes:

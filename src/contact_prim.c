@@ -425,39 +425,24 @@ int defsim__triangle_closest(const double p[3], const double a[3], const double 
     const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
     const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
     const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
-    w[0] = w[1] = w[2] = 0.0;
-    if (d1 <= 0.0 && d2 <= 0.0) {
-        w[0] = 1.0;
-        return 0;
+    double u = 0.0, v = 0.0, t = 0.0;   /* weights of a, b, c */
+    int r;
+    if (d1 <= 0.0 && d2 <= 0.0) r = 0, u = 1.0;
+    else if (d3 >= 0.0 && d4 <= d3) r = 1, v = 1.0;
+    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) r = 3, v = d1 / (d1 - d3), u = 1.0 - v;
+    else if (d6 >= 0.0 && d5 <= d6) r = 2, t = 1.0;
+    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) r = 5, t = d2 / (d2 - d6), u = 1.0 - t;
+    else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        r = 4;
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        v = 1.0 - t;
+    } else {
+        r = 6;
+        const double den = 1.0 / (va + vb + vc);
+        v = vb * den, t = vc * den, u = 1.0 - v - t;
     }
-    if (d3 >= 0.0 && d4 <= d3) {
-        w[1] = 1.0;
-        return 1;
-    }
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
-        w[1] = d1 / (d1 - d3);
-        w[0] = 1.0 - w[1];
-        return 3;
-    }
-    if (d6 >= 0.0 && d5 <= d6) {
-        w[2] = 1.0;
-        return 2;
-    }
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
-        w[2] = d2 / (d2 - d6);
-        w[0] = 1.0 - w[2];
-        return 5;
-    }
-    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
-        w[2] = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        w[1] = 1.0 - w[2];
-        return 4;
-    }
-    const double den = 1.0 / (va + vb + vc);
-    w[1] = vb * den;
-    w[2] = vc * den;
-    w[0] = 1.0 - w[1] - w[2];
-    return 6;
+    w[0] = u, w[1] = v, w[2] = t;
+    return r;
 }
 
 double defsim__ee_mollifier_eps(const double a0[3], const double a1[3], const double b0[3],

@@ -533,11 +533,6 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
     ida_state *s = state;
-    if (s->mem) IDAFree(&s->mem);
-    s->mem = NULL;
-    if (s->y) N_VDestroy(s->y);
-    if (s->yp) N_VDestroy(s->yp);
-    s->y = s->yp = NULL;
     if (s->cls) SUNLinSolFree(s->cls);
     if (s->token) SUNMatFreeEmpty(s->token);
     s->cls = NULL;
@@ -545,7 +540,8 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
 #ifdef DEFSIM_IDA_CHOLMOD
     chol_destroy(s);
 #endif
-    defsim__sun_close(&s->sun);
+    N_Vector *vectors[] = {&s->y, &s->yp};
+    defsim__sun_fini(&s->sun, &s->mem, IDAFree, vectors, 2);
     host->release(s->jcp); host->release(s->jri);
     host->release(s->kval); host->release(s->bval);
     host->release(s->jpiv); host->release(s->jlast);

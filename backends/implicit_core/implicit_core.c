@@ -358,7 +358,8 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
     /* Fill-reducing ordering: AMD and METIS, keeping the one with less fill (METIS halves the
      * flops on the 100k-tet beam). METIS keeps global random state, so analyses run one at a
      * time in the process (analysis_lock): then its ordering is the same on every run. */
-    ordering_methods(&s->ch.cc, choice_option(host, sys, opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
+    ordering_methods(&s->ch.cc,
+                     choice_option(host, sys, opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
     s->ch.cc.postorder = 1;
     const int factor = choice_option(host, sys, opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
     s->ch.cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
@@ -672,8 +673,8 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
             double *b = s->ch.rhs->x;
             for (int64_t k = 0; k < n; ++k) b[k] = -s->grad[k];
             t0 = host->wall_time();
-            int ok = cholmod_l_solve2(CHOLMOD_A, s->ch.L, s->ch.rhs, NULL, &s->ch.sol, NULL, &s->ch.ywork,
-                                      &s->ch.ework, &s->ch.cc);
+            int ok = cholmod_l_solve2(CHOLMOD_A, s->ch.L, s->ch.rhs, NULL, &s->ch.sol, NULL,
+                                      &s->ch.ywork, &s->ch.ework, &s->ch.cc);
             count[DEFSIM__IC_TIME_SOLVE] += host->wall_time() - t0;
             count[DEFSIM__IC_LINEAR_SOLVES] += 1.0;
             if (!ok) {

@@ -3,7 +3,8 @@
  * What the SUNDIALS backends (sundials_erk, sundials_ida, sundials_kinsol) share: the prologue of
  * their init and the macro of its setter calls, the end of their fini, a SUNDIALS context, a
  * sparse CSC matrix with the KLU direct solver (wrapped so that factorisation and solve times
- * land in defsim_stats), and capture of SUNDIALS error messages. Linked statically into each module; every symbol is hidden.
+ * land in defsim_stats), and capture of SUNDIALS error messages. Linked statically into each
+ * module; every symbol is hidden.
  */
 #ifndef DEFSIM_SUNDIALS_COMMON_H
 #define DEFSIM_SUNDIALS_COMMON_H

@@ -346,8 +346,8 @@ static int chol_solve(SUNLinearSolver LS, SUNMatrix A, N_Vector xv, N_Vector bv,
     const double t0 = s->host->wall_time();
     for (int64_t i = 0; i < n; ++i) r[i] = b[n + i] + (cj + s->af[i]) * s->mf[i] * b[i];
     if (s->damp_b) sym_upper_add(&c->upat, c->bval, b, r);
-    if (!cholmod_l_solve2(CHOLMOD_A, c->ch.L, c->ch.rhs, NULL, &c->ch.sol, NULL, &c->ch.ywork, &c->ch.ework,
-                          &c->ch.cc))
+    if (!cholmod_l_solve2(CHOLMOD_A, c->ch.L, c->ch.rhs, NULL, &c->ch.sol, NULL, &c->ch.ywork,
+                          &c->ch.ework, &c->ch.cc))
         return SUNLS_MEM_FAIL;
     const double *dx = c->ch.sol->x;
     for (int64_t i = 0; i < n; ++i) {

@@ -278,9 +278,15 @@ void defsim__element_scatter(const defsim__system *s, const int32_t *id, const i
     }
 }
 
-void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,
-                          const int64_t *cp, double *values)
+void defsim__diagonal_values(const defsim__term *t, const defsim__system *s, const double *x,
+                             const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
+                             double *values, uint32_t *passes)
 {
+    (void)x;
+    (void)passes;
+    double k;
+    const double *blocks = t->ops->diagonal(t, c, &k);
+    if (!blocks) return;
     const int32_t *rank0 = s->pattern.upper_rank0;
     for (int32_t v = 0; v < s->nv; ++v) {
         const int32_t fv = s->vfree[v];
@@ -294,9 +300,15 @@ void defsim__add_diagonal(const defsim__system *s, const double *blocks, double 
     }
 }
 
-void defsim__apply_diagonal(const defsim__system *s, const double *blocks, double k,
-                            const double *dx, double *out)
+void defsim__diagonal_apply(const defsim__term *t, const defsim__system *s, const double *x,
+                            const defsim_matrix_coeffs *c, int proj, const double *dx,
+                            double *out)
 {
+    (void)x;
+    (void)proj;
+    double k;
+    const double *blocks = t->ops->diagonal(t, c, &k);
+    if (!blocks) return;
     for (int32_t v = 0; v < s->nv; ++v) {
         if (s->pinned[v]) continue;
         const double *B = blocks + 9 * (int64_t)v, *u = dx + 3 * (int64_t)v;

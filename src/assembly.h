@@ -118,12 +118,17 @@ void defsim__group_apply(const defsim__system *s, const defsim__group *g,
         defsim__group_apply(s, t->model, element_apply, x, c, proj, dx, out);                      \
     }
 
-/* Adds k times symmetric 3x3 blocks per vertex (9 nv) to the diagonal blocks of the values. */
-void defsim__add_diagonal(const defsim__system *s, const double *blocks, double k, int upper,
-                          const int64_t *cp, double *values);
-
-/* out += k B dx for 3x3 blocks B per vertex (9 nv) on the diagonal (pinned vertices none). */
-void defsim__apply_diagonal(const defsim__system *s, const double *blocks, double k,
-                            const double *dx, double *out);
+/* The values and apply ops of a kind with a diagonal op (term.h), its symmetric 3x3 blocks B
+ * per vertex times their factor f: values adds f B to the diagonal blocks of the values, apply
+ * adds f B dx to out (pinned vertices none). DEFSIM__TERM_DIAGONAL fills the three ops, for
+ * kind files that name their diagonal op `diagonal`. */
+void defsim__diagonal_values(const defsim__term *t, const defsim__system *s, const double *x,
+                             const defsim_matrix_coeffs *c, int upper, const int64_t *cp,
+                             double *values, uint32_t *passes);
+void defsim__diagonal_apply(const defsim__term *t, const defsim__system *s, const double *x,
+                            const defsim_matrix_coeffs *c, int proj, const double *dx,
+                            double *out);
+#define DEFSIM__TERM_DIAGONAL                                                                  \
+    .values = defsim__diagonal_values, .apply = defsim__diagonal_apply, .diagonal = diagonal
 
 #endif /* DEFSIM_ASSEMBLY_H */

@@ -553,40 +553,6 @@ static int segment_region(const double *p, const double *a, const double *b)
     return t <= 0.0 ? 0 : t >= l2 ? 1 : 2;
 }
 
-/* The closest features of point p and triangle (a, b, c), by Voronoi region (Ericson's tests):
- * 0, 1, 2 a vertex; 3 edge ab, 4 edge ac, 5 edge bc; 6 the interior. If w is not NULL it
- * receives the barycentric weights of a, b, c of the closest point. */
-static int triangle_region(const double *p, const double *a, const double *b, const double *c,
-                           double *w)
-{
-    const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-    const double bp[3] = {p[0] - b[0], p[1] - b[1], p[2] - b[2]};
-    const double cp[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
-    const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-    const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
-    const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
-    double u = 0.0, v = 0.0, t = 0.0;   /* weights of a, b, c */
-    int r;
-    if (d1 <= 0.0 && d2 <= 0.0) r = 0, u = 1.0;
-    else if (d3 >= 0.0 && d4 <= d3) r = 1, v = 1.0;
-    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) r = 3, v = d1 / (d1 - d3), u = 1.0 - v;
-    else if (d6 >= 0.0 && d5 <= d6) r = 2, t = 1.0;
-    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) r = 4, t = d2 / (d2 - d6), u = 1.0 - t;
-    else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
-        r = 5;
-        t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        v = 1.0 - t;
-    } else {
-        r = 6;
-        const double den = 1.0 / (va + vb + vc);
-        v = vb * den, t = vc * den, u = 1.0 - v - t;
-    }
-    if (w) w[0] = u, w[1] = v, w[2] = t;
-    return r;
-}
-
 /* The parameters s, t in [0, 1] of the closest points of segments (a0, a1) and (b0, b1) (X: the
  * four ends), clamped line parameters. */
 static void segment_params(const double *X, double *ps, double *pt)
@@ -646,13 +612,15 @@ static void candidate_contact(const defsim__body_contact *bc, int32_t q, const d
     out->eps = 0.0;
     v[0] = v[1] = v[2] = v[3] = -1;
     if (kind == DEFSIM__BC_PT) {
-        const int r = triangle_region(X, X + 3, X + 6, X + 9, NULL);
+        double w[3];
+        const int r = defsim__triangle_closest(X, X + 3, X + 6, X + 9, w);
         v[0] = idx[0];
         if (r < 3) {
             out->type = DEFSIM__C_VV;
             v[1] = idx[1 + r];
         } else if (r < 6) {
-            static const int ends[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+            /* the edge's ends in the triangle's order */
+            static const int ends[3][2] = {{0, 1}, {1, 2}, {0, 2}};
             out->type = DEFSIM__C_EV;
             v[1] = idx[1 + ends[r - 3][0]];
             v[2] = idx[1 + ends[r - 3][1]];
@@ -1145,7 +1113,7 @@ static void closest_weights(int type, const double *X, double w[4])
     }
     /* point-triangle: barycentric coordinates of the closest point (by Voronoi region) */
     double bary[3];
-    triangle_region(X, X + 3, X + 6, X + 9, bary);
+    defsim__triangle_closest(X, X + 3, X + 6, X + 9, bary);
     w[0] = 1.0;
     w[1] = -bary[0];
     w[2] = -bary[1];

@@ -7,6 +7,7 @@
  * 2005): for a closed, consistently oriented mesh it is negative exactly inside.
  */
 #include "collider.h"
+#include "contact_prim.h"
 #include "mat3.h"
 
 #include <math.h>
@@ -266,57 +267,26 @@ void defsim__mesh_local_bounds(const defsim__collider *c, double lo[3], double h
 /* ------------------------------------------------------------------------------------------ */
 /* Queries */
 
-/* Closest point on triangle (a, b, c) to p by the Voronoi regions of its features. feature:
- * 0 the face, 1 + k edge k (corner k to k + 1), 4 + k corner k. */
+/* Closest point q on triangle (a, b, c) to p and its feature (defsim__triangle_closest: 0 + k
+ * corner k, 3 + k the edge from corner k to k + 1, 6 the face), from the feature's parameters
+ * (on the edge and the face, from the corner that starts it). */
 static void closest_on_triangle(const double *p, const double *a, const double *b,
                                 const double *c, double q[3], int *feature)
 {
-    double ab[3], ac[3], ap[3], bp[3], cp[3];
-    defsim__v3_sub(b, a, ab); defsim__v3_sub(c, a, ac); defsim__v3_sub(p, a, ap);
-    const double d1 = defsim__v3_dot(ab, ap), d2 = defsim__v3_dot(ac, ap);
-    if (d1 <= 0.0 && d2 <= 0.0) {
-        memcpy(q, a, 3 * sizeof *q);
-        *feature = 4;
-        return;
+    double w[3];
+    const int f = defsim__triangle_closest(p, a, b, c, w);
+    *feature = f;
+    for (int k = 0; k < 3; ++k) {
+        switch (f) {
+        case 0: q[k] = a[k]; break;
+        case 1: q[k] = b[k]; break;
+        case 2: q[k] = c[k]; break;
+        case 3: q[k] = a[k] + w[1] * (b[k] - a[k]); break;
+        case 4: q[k] = b[k] + w[2] * (c[k] - b[k]); break;
+        case 5: q[k] = a[k] + w[2] * (c[k] - a[k]); break;
+        default: q[k] = a[k] + w[1] * (b[k] - a[k]) + w[2] * (c[k] - a[k]); break;
+        }
     }
-    defsim__v3_sub(p, b, bp);
-    const double d3 = defsim__v3_dot(ab, bp), d4 = defsim__v3_dot(ac, bp);
-    if (d3 >= 0.0 && d4 <= d3) {
-        memcpy(q, b, 3 * sizeof *q);
-        *feature = 5;
-        return;
-    }
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
-        const double s = d1 / (d1 - d3);
-        for (int k = 0; k < 3; ++k) q[k] = a[k] + s * ab[k];
-        *feature = 1;
-        return;
-    }
-    defsim__v3_sub(p, c, cp);
-    const double d5 = defsim__v3_dot(ab, cp), d6 = defsim__v3_dot(ac, cp);
-    if (d6 >= 0.0 && d5 <= d6) {
-        memcpy(q, c, 3 * sizeof *q);
-        *feature = 6;
-        return;
-    }
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
-        const double s = d2 / (d2 - d6);
-        for (int k = 0; k < 3; ++k) q[k] = a[k] + s * ac[k];
-        *feature = 3;
-        return;
-    }
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
-        const double s = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        for (int k = 0; k < 3; ++k) q[k] = b[k] + s * (c[k] - b[k]);
-        *feature = 2;
-        return;
-    }
-    const double den = 1.0 / (va + vb + vc), v = vb * den, w = vc * den;
-    for (int k = 0; k < 3; ++k) q[k] = a[k] + v * ab[k] + w * ac[k];
-    *feature = 0;
 }
 
 static double box_dist2(const bvh_node *n, const double *p)
@@ -350,7 +320,7 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
     const struct defsim__bvh *m = c->bvh;
     double best = INFINITY, q[3] = {0.0, 0.0, 0.0};
     int32_t best_t = 0;
-    int best_f = 0;
+    int best_f = 6;
     int32_t stack[128];
     int sp = 0;
     stack[sp++] = 0;
@@ -386,9 +356,9 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
         }
     }
     const int32_t *v = m->tri + 3 * best_t;
-    const double *pn = best_f == 0 ? m->fn + 3 * best_t
-                     : best_f < 4  ? m->en + 9 * best_t + 3 * (best_f - 1)
-                                   : m->vn + 3 * v[best_f - 4];
+    const double *pn = best_f == 6 ? m->fn + 3 * best_t
+                     : best_f >= 3 ? m->en + 9 * best_t + 3 * (best_f - 3)
+                                   : m->vn + 3 * v[best_f];
     double e[3];
     defsim__v3_sub(p, q, e);
     const double u = sqrt(best);
@@ -401,11 +371,11 @@ void defsim__mesh_distance(const defsim__collider *c, const double p[3], double 
     }
     *d = s * u;
     for (int k = 0; k < 3; ++k) g[k] = s * e[k] / u;
-    if (!h || best_f == 0) return;   /* face region: the distance is affine */
+    if (!h || best_f == 6) return;   /* face region: the distance is affine */
     /* edge: s (I - t t^T - n n^T) / u, t the edge direction; corner: s (I - n n^T) / u */
     double t[3] = {0.0, 0.0, 0.0};
-    if (best_f < 4) {
-        const int k = best_f - 1;
+    if (best_f >= 3) {
+        const int k = best_f - 3;
         defsim__v3_sub(m->x + 3 * v[(k + 1) % 3], m->x + 3 * v[k], t);
         normalise(t);
     }

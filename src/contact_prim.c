@@ -320,7 +320,7 @@ static int ee_region(const double *X, defsim__dtype *type, int nodes[4], double 
     return 2;
 }
 
-/* A region function of four vertices (pt_region, ee_region). */
+/* A region function of packed vertices (pt_region and ee_region of four, pe_region of three). */
 typedef int (*region_fn)(const double *X, defsim__dtype *type, int nodes[4], double *d2);
 
 /* The closest features of four packed vertices by `region`, with the interior's distance. */
@@ -332,6 +332,20 @@ static int closest4(region_fn region, const double *x, double *d2, defsim__dtype
     return m;
 }
 
+/* The squared distance of the n / 3 packed vertices X (and its derivatives) by `region`. */
+static double dist2_packed(region_fn region, const double *X, int n, double *g, double *H,
+                           defsim__dtype *type)
+{
+    clear(g, H, n);
+    defsim__dtype tt;
+    if (!type) type = &tt;
+    int nodes[4];
+    double d2;
+    region(X, type, nodes, &d2);
+    if (d2 >= 0.0 && !g && !H) return d2;
+    return eval_region(X, n, *type, nodes, g, H);
+}
+
 /* The squared distance of four vertices (and its derivatives) by `region`. */
 static double dist2_4(region_fn region, const double *v0, const double *v1, const double *v2,
                       const double *v3, double *g, double *H, defsim__dtype *type)
@@ -341,14 +355,7 @@ static double dist2_4(region_fn region, const double *v0, const double *v1, cons
     memcpy(X + 3, v1, 3 * sizeof *X);
     memcpy(X + 6, v2, 3 * sizeof *X);
     memcpy(X + 9, v3, 3 * sizeof *X);
-    clear(g, H, 12);
-    defsim__dtype tt;
-    if (!type) type = &tt;
-    int nodes[4];
-    double d2;
-    region(X, type, nodes, &d2);
-    if (d2 >= 0.0 && !g && !H) return d2;
-    return eval_region(X, 12, *type, nodes, g, H);
+    return dist2_packed(region, X, 12, g, H, type);
 }
 
 int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4])
@@ -373,10 +380,12 @@ double defsim__ee_dist2(const double a0[3], const double a1[3], const double b0[
     return dist2_4(ee_region, a0, a1, b0, b1, g, H, type);
 }
 
-int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4])
+/* The closest features of p and segment (e0, e1) in X (p, e0, e1), as pt_region (the distance
+ * always set). */
+static int pe_region(const double *X, defsim__dtype *type, int nodes[4], double *d2)
 {
     int which;
-    *d2 = point_segment(x, x + 3, x + 6, &which);
+    *d2 = point_segment(X, X + 3, X + 6, &which);
     nodes[0] = 0;
     if (which == 2) {
         *type = DEFSIM__D_PE;
@@ -389,6 +398,11 @@ int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int n
     return 2;
 }
 
+int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4])
+{
+    return pe_region(x, type, nodes, d2);
+}
+
 double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3], double g[9],
                         double H[81], defsim__dtype *type)
 {
@@ -396,14 +410,39 @@ double defsim__pe_dist2(const double p[3], const double e0[3], const double e1[3
     memcpy(X, p, 3 * sizeof *X);
     memcpy(X + 3, e0, 3 * sizeof *X);
     memcpy(X + 6, e1, 3 * sizeof *X);
-    clear(g, H, 9);
-    defsim__dtype tt;
-    if (!type) type = &tt;
-    int nodes[4];
-    double d2;
-    defsim__pe_closest(X, &d2, type, nodes);
-    if (!g && !H) return d2;
-    return eval_region(X, 9, *type, nodes, g, H);
+    return dist2_packed(pe_region, X, 9, g, H, type);
+}
+
+int defsim__triangle_closest(const double p[3], const double a[3], const double b[3],
+                             const double c[3], double w[3])
+{
+    double ab[3], ac[3], ap[3], bp[3], cp[3];
+    sub3(b, a, ab);
+    sub3(c, a, ac);
+    sub3(p, a, ap);
+    sub3(p, b, bp);
+    sub3(p, c, cp);
+    const double d1 = dot3(ab, ap), d2 = dot3(ac, ap), d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    const double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    const double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
+    double u = 0.0, v = 0.0, t = 0.0;   /* weights of a, b, c */
+    int r;
+    if (d1 <= 0.0 && d2 <= 0.0) r = 0, u = 1.0;
+    else if (d3 >= 0.0 && d4 <= d3) r = 1, v = 1.0;
+    else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) r = 3, v = d1 / (d1 - d3), u = 1.0 - v;
+    else if (d6 >= 0.0 && d5 <= d6) r = 2, t = 1.0;
+    else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) r = 5, t = d2 / (d2 - d6), u = 1.0 - t;
+    else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        r = 4;
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        v = 1.0 - t;
+    } else {
+        r = 6;
+        const double den = 1.0 / (va + vb + vc);
+        v = vb * den, t = vc * den, u = 1.0 - v - t;
+    }
+    w[0] = u, w[1] = v, w[2] = t;
+    return r;
 }
 
 double defsim__ee_mollifier_eps(const double a0[3], const double a1[3], const double b0[3],

@@ -46,6 +46,15 @@ int defsim__pt_closest(const double x[12], double *d2, defsim__dtype *type, int 
 int defsim__ee_closest(const double x[12], double *d2, defsim__dtype *type, int nodes[4]);
 int defsim__pe_closest(const double x[9], double *d2, defsim__dtype *type, int nodes[4]);
 
+/* The closest point of triangle (a, b, c) to p by the Voronoi regions of its features
+ * (Ericson, Real-Time Collision Detection, 5.1.5): returns the feature, 0, 1, 2 the corner a, b,
+ * c; 3 + k the edge from corner k to corner k + 1 (ab, bc, ca); 6 the face. w receives the
+ * barycentric weights of a, b, c of the closest point: the region's parameter itself on an edge
+ * (w[1] from a along ab, w[2] from a along ac, w[2] from b along bc), vb / (va + vb + vc) and
+ * vc / (va + vb + vc) in w[1] and w[2] on the face; the other weight is 1 minus them. */
+int defsim__triangle_closest(const double p[3], const double a[3], const double b[3],
+                             const double c[3], double w[3]);
+
 /* IPC's edge-edge mollifier m(c), c = |(a1 - a0) x (b1 - b0)|^2: m = (2 - c / eps) c / eps below
  * eps and 1 above; multiplies the edge-edge barrier so that it vanishes smoothly as the edges
  * become parallel, where the closest-feature switch would make the barrier non-smooth.

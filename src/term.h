@@ -176,6 +176,11 @@ typedef struct defsim__term_ops {
      * proj. Contact terms read only what linearise cached. */
     void (*apply)(const defsim__term *t, defsim__csys *s, const double *x,
                   const defsim_matrix_coeffs *c, int proj, const double *dx, double *out);
+    /* A kind whose blocks are one 3x3 per vertex (collider contact, the callback's Jacobian)
+     * fills values and apply with assembly.c's defsim__diagonal_values and _apply, which read
+     * its blocks from this: the 9 nv doubles B that linearise left and their factor *f for the
+     * coefficients c (the ops add f B), or NULL when it adds nothing. */
+    const double *(*diagonal)(const defsim__term *t, const defsim_matrix_coeffs *c, double *f);
 
     /* Largest alpha in (0, 1] along x + alpha dx that it allows (CCD). */
     double (*max_step)(const defsim__term *t, const double *x, const double *dx);

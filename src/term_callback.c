@@ -147,26 +147,15 @@ static defsim_status linearise(const defsim__term *t, const defsim__system *s, c
     return st;
 }
 
-static void values(const defsim__term *t, const defsim__system *s, const double *x,
-                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
-                   uint32_t *passes)
+/* The stiffness linearise left, times k. */
+static const double *diagonal(const defsim__term *t, const defsim_matrix_coeffs *c, double *f)
 {
-    (void)x;
-    (void)passes;
-    if (c->k != 0.0 && t->cache->any)
-        defsim__add_diagonal(s, host(t)->cpl->kcb, c->k, upper, cp, val);
-}
-
-static void apply(const defsim__term *t, const defsim__system *s, const double *x,
-                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
-{
-    (void)x;
-    (void)proj;
-    if (c->k != 0.0 && t->cache->any) defsim__apply_diagonal(s, host(t)->cpl->kcb, c->k, dx, out);
+    *f = c->k;
+    return c->k != 0.0 && t->cache->any ? host(t)->cpl->kcb : NULL;
 }
 
 static void step_end(const defsim__term *t) { t->cache->any = 0; }
 
 const defsim__term_ops defsim__term_callback = {
     .name = "callback", .energy_rank = 7, .matrix_rank = 3,
-    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX, .step_end = step_end};
+    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_DIAGONAL, .step_end = step_end};

@@ -60,23 +60,12 @@ static defsim_status linearise(const defsim__term *t, const defsim__system *s, c
     return DEFSIM_OK;
 }
 
-static void values(const defsim__term *t, const defsim__system *s, const double *x,
-                   const defsim_matrix_coeffs *c, int upper, const int64_t *cp, double *val,
-                   uint32_t *passes)
+/* The blocks linearise cached hold the coefficients already. */
+static const double *diagonal(const defsim__term *t, const defsim_matrix_coeffs *c, double *f)
 {
-    (void)x;
     (void)c;
-    (void)passes;
-    if (t->cache->any) defsim__add_diagonal(s, t->cache->buf, 1.0, upper, cp, val);
-}
-
-static void apply(const defsim__term *t, const defsim__system *s, const double *x,
-                  const defsim_matrix_coeffs *c, int proj, const double *dx, double *out)
-{
-    (void)x;
-    (void)c;
-    (void)proj;
-    if (t->cache->any) defsim__apply_diagonal(s, t->cache->buf, 1.0, dx, out);
+    *f = 1.0;
+    return t->cache->any ? t->cache->buf : NULL;
 }
 
 /* Only barrier steps filter their line search (the penalty's backends never ask). */
@@ -373,7 +362,7 @@ static defsim_status load(const defsim__term *t, const unsigned char *buf, size_
 
 const defsim__term_ops defsim__term_collider = {
     .name = "collider", .flags = DEFSIM__TERM_BOUNDED, .energy_rank = 4, .matrix_rank = 4,
-    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_MATRIX,
+    DEFSIM__TERM_FORCES, .linearise = linearise, DEFSIM__TERM_DIAGONAL,
     .max_step = max_step, .start = start, .block = block,
     .lambda_bound = lambda_bound, .rates = rates,
     .substep = substep, .step_end = step_end, .work = work,

@@ -19,7 +19,7 @@
  */
 #include "implicit_core.h"
 
-#include <cholmod.h>
+#include "cholmod_solver.h"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -155,11 +155,7 @@ typedef struct ic_solver {
     const int64_t *dof_free;   /* DOF -> free index or -1 */
     double *dpin, *fpd;        /* driven pins: x_p - z_p, and -B(x_b) (x_p - z_p) on free DOFs */
     int fpd_on;                /* this step's g has the pins' damping cross term */
-    cholmod_common cc;
-    int cc_started;
-    cholmod_sparse A;          /* wraps pat and hval */
-    cholmod_factor *L;
-    cholmod_dense *rhs, *sol, *ywork, *ework;
+    defsim__chol ch;           /* A wraps pat and hval */
 } ic_solver;
 
 static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
@@ -167,14 +163,7 @@ static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
     (void)sys;
     ic_solver **slot = state, *s = *slot;
     if (!s) return;
-    if (s->cc_started) {
-        cholmod_l_free_dense(&s->rhs, &s->cc);
-        cholmod_l_free_dense(&s->sol, &s->cc);
-        cholmod_l_free_dense(&s->ywork, &s->cc);
-        cholmod_l_free_dense(&s->ework, &s->cc);
-        cholmod_l_free_factor(&s->L, &s->cc);
-        cholmod_l_finish(&s->cc);
-    }
+    defsim__chol_finish(&s->ch);
     defsim__ic_solver *p = &s->pub;
     double *owned[] = {s->hval, p->bval, p->x0, p->v0, p->y, p->z, s->x, s->xt, p->f,
                        s->grad, s->dx, p->e, p->be, s->dpin, s->fpd, s->dxf};
@@ -365,21 +354,21 @@ static defsim_status ic_init(const defsim_host *host, defsim_system *sys, void *
         if (!s->dpin || !s->fpd) return DEFSIM_ERR_OUT_OF_MEMORY;
     }
 
-    cholmod_l_start(&s->cc);
-    s->cc_started = 1;
+    defsim__chol_start(&s->ch);
     /* Fill-reducing ordering: AMD and METIS, keeping the one with less fill (METIS halves the
      * flops on the 100k-tet beam). METIS keeps global random state, so analyses run one at a
      * time in the process (analysis_lock): then its ordering is the same on every run. */
-    ordering_methods(&s->cc, choice_option(host, sys, opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
-    s->cc.postorder = 1;
+    ordering_methods(&s->ch.cc,
+                     choice_option(host, sys, opt, OPT_ORDERING, "DEFSIM_CHOLMOD_ORDERING"));
+    s->ch.cc.postorder = 1;
     const int factor = choice_option(host, sys, opt, OPT_FACTOR, "DEFSIM_CHOLMOD_FACTOR");
-    s->cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
+    s->ch.cc.supernodal = factor == 1 ? CHOLMOD_SUPERNODAL
                        : factor == 2 ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
-    s->cc.quick_return_if_not_posdef = 1;
-    s->cc.print = 0;
+    s->ch.cc.quick_return_if_not_posdef = 1;
+    s->ch.cc.print = 0;
 
-    s->rhs = cholmod_l_zeros((size_t)p->n, 1, CHOLMOD_REAL, &s->cc);
-    if (!s->rhs) {
+    s->ch.rhs = cholmod_l_zeros((size_t)p->n, 1, CHOLMOD_REAL, &s->ch.cc);
+    if (!s->ch.rhs) {
         say(s, host, sys, "out of memory for CHOLMOD's right-hand side");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -409,7 +398,7 @@ static defsim_status sync_pattern(ic_solver *s, const defsim_host *host, defsim_
         if (p->xb && (st = defsim__ic_damping_matrix(p, host, sys, p->xb)) != DEFSIM_OK)
             return st;
     }
-    cholmod_l_free_factor(&s->L, &s->cc);
+    cholmod_l_free_factor(&s->ch.L, &s->ch.cc);
     s->pattern_version = version;
     return analyse(s, host, sys);
 }
@@ -418,51 +407,40 @@ static defsim_status sync_pattern(ic_solver *s, const defsim_host *host, defsim_
 static defsim_status analyse(ic_solver *s, const defsim_host *host, defsim_system *sys)
 {
     const defsim__ic_solver *p = &s->pub;
-    /* The pattern is only read by CHOLMOD; the casts drop const for its struct's sake. */
-    s->A.nrow = s->A.ncol = (size_t)s->pat.n;
-    s->A.nzmax = (size_t)s->pat.nnz;
-    s->A.p = (void *)s->pat.col_ptr;
-    s->A.i = (void *)s->pat.row_idx;
-    s->A.x = s->hval;
-    s->A.stype = 1;
-    s->A.itype = CHOLMOD_LONG;
-    s->A.xtype = CHOLMOD_REAL;
-    s->A.dtype = CHOLMOD_DOUBLE;
-    s->A.sorted = 1;
-    s->A.packed = 1;
+    defsim__chol_wrap(&s->ch, &s->pat, s->hval);
 
     /* The first analysis chooses the ordering ("best": AMD and METIS, the one with less fill);
      * the later ones (the pattern grew by contact pairs) keep that method: trying both again on
      * every growth cost a seventh of the 32 x 32 cloth fold's step. The choice is part of the
      * solver's state (ic_save), so a loaded world orders as the one that saved it. */
-    const int nmethods = s->cc.nmethods, first = s->cc.method[0].ordering;
+    const int nmethods = s->ch.cc.nmethods, first = s->ch.cc.method[0].ordering;
     if (s->ordering >= 0) {
-        s->cc.nmethods = 1;
-        s->cc.method[0].ordering = s->ordering;
+        s->ch.cc.nmethods = 1;
+        s->ch.cc.method[0].ordering = s->ordering;
     }
     double t0 = host->wall_time();
     pthread_mutex_lock(&analysis_lock);
-    s->L = cholmod_l_analyze(&s->A, &s->cc);
+    s->ch.L = cholmod_l_analyze(&s->ch.A, &s->ch.cc);
     pthread_mutex_unlock(&analysis_lock);
-    s->cc.nmethods = nmethods;
-    s->cc.method[0].ordering = first;
-    if (s->L && s->ordering < 0 &&
-        (s->L->ordering == CHOLMOD_AMD || s->L->ordering == CHOLMOD_METIS))
-        s->ordering = s->L->ordering;
-    if (!s->L) {
+    s->ch.cc.nmethods = nmethods;
+    s->ch.cc.method[0].ordering = first;
+    if (s->ch.L && s->ordering < 0 &&
+        (s->ch.L->ordering == CHOLMOD_AMD || s->ch.L->ordering == CHOLMOD_METIS))
+        s->ordering = s->ch.L->ordering;
+    if (!s->ch.L) {
         char why[128];
-        snprintf(why, sizeof why, "CHOLMOD analysis failed (CHOLMOD status %d)", s->cc.status);
+        snprintf(why, sizeof why, "CHOLMOD analysis failed (CHOLMOD status %d)", s->ch.cc.status);
         say(s, host, sys, why);
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     s->analyses++;
-    const int ord = s->L->ordering;
+    const int ord = s->ch.L->ordering;
     char msg[256];
     snprintf(msg, sizeof msg,
              "%s: %lld free DOFs, nnz(A upper) %lld, nnz(L) %.0f, %.3g Gflop per "
              "factorisation, %s, %s ordering, analysis %.3f s (analysis %lld of this set-up)",
-             p->scheme->name, (long long)p->n, (long long)s->pat.nnz, s->cc.lnz,
-             s->cc.fl * 1e-9, s->L->is_super ? "supernodal" : "simplicial",
+             p->scheme->name, (long long)p->n, (long long)s->pat.nnz, s->ch.cc.lnz,
+             s->ch.cc.fl * 1e-9, s->ch.L->is_super ? "supernodal" : "simplicial",
              ord == CHOLMOD_METIS ? "METIS" : ord == CHOLMOD_AMD ? "AMD" : "other",
              host->wall_time() - t0, (long long)s->analyses);
     host->log(sys, 2, msg);
@@ -519,9 +497,9 @@ static defsim_status ic_load(const defsim_host *host, defsim_system *sys, void *
         return DEFSIM_ERR_IO;
     /* init analysed the loaded pattern afresh; the saved world's analyses kept its first
      * choice: analyse again with that one, so that the factorisations are the same */
-    if (ordering < 0 || ordering == s->ordering || !s->L) return DEFSIM_OK;
+    if (ordering < 0 || ordering == s->ordering || !s->ch.L) return DEFSIM_OK;
     s->ordering = (int)ordering;
-    cholmod_l_free_factor(&s->L, &s->cc);
+    cholmod_l_free_factor(&s->ch.L, &s->ch.cc);
     return analyse(s, host, sys);
 }
 
@@ -680,23 +658,23 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
     /* OpenBLAS splits its work by thread count, which changes the rounding: a small
      * factorisation, where a second thread gains nothing, runs its BLAS on one thread, so that
      * its results are the same for every thread count. */
-    blas_enter(s->cc.fl < IC_BLAS_SERIAL_FLOPS ? 1 : threads);
+    blas_enter(s->ch.cc.fl < IC_BLAS_SERIAL_FLOPS ? 1 : threads);
     const omp_saved omp = omp_limit(threads);
     for (int attempt = 0;; ++attempt) {
         double t0 = host->wall_time();
-        cholmod_l_factorize(&s->A, s->L, &s->cc);
+        cholmod_l_factorize(&s->ch.A, s->ch.L, &s->ch.cc);
         count[DEFSIM__IC_TIME_FACTOR] += host->wall_time() - t0;
-        if (s->cc.status < CHOLMOD_OK) {
+        if (s->ch.cc.status < CHOLMOD_OK) {
             say(s, host, sys, "CHOLMOD factorisation failed (out of memory)");
             result = DEFSIM_ERR_OUT_OF_MEMORY;
             break;
         }
-        if (s->cc.status == CHOLMOD_OK && ldl_positive(s->L)) {
-            double *b = s->rhs->x;
+        if (s->ch.cc.status == CHOLMOD_OK && ldl_positive(s->ch.L)) {
+            double *b = s->ch.rhs->x;
             for (int64_t k = 0; k < n; ++k) b[k] = -s->grad[k];
             t0 = host->wall_time();
-            int ok = cholmod_l_solve2(CHOLMOD_A, s->L, s->rhs, NULL, &s->sol, NULL, &s->ywork,
-                                      &s->ework, &s->cc);
+            int ok = cholmod_l_solve2(CHOLMOD_A, s->ch.L, s->ch.rhs, NULL, &s->ch.sol, NULL,
+                                      &s->ch.ywork, &s->ch.ework, &s->ch.cc);
             count[DEFSIM__IC_TIME_SOLVE] += host->wall_time() - t0;
             count[DEFSIM__IC_LINEAR_SOLVES] += 1.0;
             if (!ok) {
@@ -704,7 +682,7 @@ static defsim_status factor_solve(ic_solver *s, const defsim_host *host, defsim_
                 result = DEFSIM_ERR_OUT_OF_MEMORY;
                 break;
             }
-            const double *xs = s->sol->x;
+            const double *xs = s->ch.sol->x;
             double d = 0.0, dmax = 0.0;
             for (int64_t k = 0; k < n; ++k) {
                 s->dx[k] = xs[k];

@@ -163,6 +163,18 @@ void defsim__sun_close(defsim__sun *s)
     s->ctx = NULL;
 }
 
+void defsim__sun_fini(defsim__sun *s, void **mem, void (*mem_free)(void **), N_Vector *const *v,
+                      int n)
+{
+    if (*mem) mem_free(mem);
+    *mem = NULL;
+    for (int i = 0; i < n; ++i) {
+        if (*v[i]) N_VDestroy(*v[i]);
+        *v[i] = NULL;
+    }
+    defsim__sun_close(s);
+}
+
 void defsim__sun_error_handler(int code, const char *module, const char *function, char *msg,
                                void *user)
 {

@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * What the SUNDIALS backends (sundials_erk, sundials_ida, sundials_kinsol) share: the prologue of
- * their init and the macro of its setter calls, a SUNDIALS context, a sparse CSC matrix with the
- * KLU direct solver (wrapped so that factorisation and solve times land in defsim_stats), and
- * capture of SUNDIALS error messages. Linked statically into each module; every symbol is hidden.
+ * their init and the macro of its setter calls, the end of their fini, a SUNDIALS context, a
+ * sparse CSC matrix with the KLU direct solver (wrapped so that factorisation and solve times
+ * land in defsim_stats), and capture of SUNDIALS error messages. Linked statically into each
+ * module; every symbol is hidden.
  */
 #ifndef DEFSIM_SUNDIALS_COMMON_H
 #define DEFSIM_SUNDIALS_COMMON_H
@@ -82,6 +83,13 @@ defsim_status defsim__sun_klu(defsim__sun *s, N_Vector tmpl, int64_t n, int64_t 
 
 /* Frees everything defsim__sun_open / defsim__sun_klu made (any subset of it). */
 void defsim__sun_close(defsim__sun *s);
+
+/* The end of every module's fini: frees the package's memory *mem with `mem_free` (IDAFree,
+ * KINFree, ERKStepFree), destroys the module's `n` vectors *v[i] that exist and clears them,
+ * then closes s (defsim__sun_close). What the module made with the context besides them (its
+ * own linear solver) it frees before. */
+void defsim__sun_fini(defsim__sun *s, void **mem, void (*mem_free)(void **), N_Vector *const *v,
+                      int n);
 
 /* Error handler for IDASetErrHandlerFn / KINSetErrHandlerFn (user data: the defsim__sun).
  * Keeps errors for the failure message and sends warnings to the world's log. */

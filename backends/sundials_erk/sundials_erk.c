@@ -458,18 +458,10 @@ static void erk_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
     erk_state *s = state;
-    if (s->mem) ERKStepFree(&s->mem);
-    s->mem = NULL;
-    if (s->y) N_VDestroy(s->y);
-    s->y = NULL;
-    if (s->y0) N_VDestroy(s->y0);
-    s->y0 = NULL;
-    if (s->f0) N_VDestroy(s->f0);
-    if (s->f0_next) N_VDestroy(s->f0_next);
-    s->f0 = s->f0_next = NULL;
     if (s->bt) ARKodeButcherTable_Free(s->bt);
     s->bt = NULL;
-    defsim__sun_close(&s->sun);
+    N_Vector *vectors[] = {&s->y, &s->y0, &s->f0, &s->f0_next};
+    defsim__sun_fini(&s->sun, &s->mem, ERKStepFree, vectors, 4);
     host->release(s->minv); host->release(s->x); host->release(s->v); host->release(s->f);
     s->minv = s->x = s->v = s->f = NULL;
 }

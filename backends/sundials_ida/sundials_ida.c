@@ -38,7 +38,7 @@
 #include <sunmatrix/sunmatrix_sparse.h>
 
 #ifdef DEFSIM_IDA_CHOLMOD
-#include <cholmod.h>
+#include "cholmod_solver.h"
 #endif
 
 #include <float.h>
@@ -256,13 +256,9 @@ static int ida_jacobian(realtype t, realtype cj, N_Vector yy, N_Vector yp, N_Vec
  * as for any matrix-based solver. */
 #ifdef DEFSIM_IDA_CHOLMOD
 struct ida_chol {
-    cholmod_common cc;
-    int started;
+    defsim__chol ch;           /* A wraps upat and sval */
     defsim_csc upat;           /* the core's UPPER pattern over free DOFs (borrowed) */
     double *sval, *bval;       /* S values; B values (damp_b only), on upat */
-    cholmod_sparse A;          /* wraps upat and sval */
-    cholmod_factor *L;
-    cholmod_dense *rhs, *sol, *ywork, *ework;
     double cj;                 /* cj of the current factorisation */
 };
 
@@ -317,11 +313,11 @@ static int chol_setup(SUNLinearSolver LS, SUNMatrix A)
     ida_state *s = LS->content;
     ida_chol *c = s->chol;
     const double t0 = s->host->wall_time();
-    cholmod_l_factorize(&c->A, c->L, &c->cc);
+    cholmod_l_factorize(&c->ch.A, c->ch.L, &c->ch.cc);
     defsim__sun_count(s->host, s->sys, C_TIME_FACTOR, s->host->wall_time() - t0);
-    if (c->cc.status < CHOLMOD_OK) return SUNLS_MEM_FAIL;
+    if (c->ch.cc.status < CHOLMOD_OK) return SUNLS_MEM_FAIL;
     /* Not positive definite (an unprojected K): IDA cuts the step, which raises cj^2 M. */
-    if (c->cc.status != CHOLMOD_OK) return SUNLS_PACKAGE_FAIL_REC;
+    if (c->ch.cc.status != CHOLMOD_OK) return SUNLS_PACKAGE_FAIL_REC;
     return SUNLS_SUCCESS;
 }
 
@@ -345,15 +341,15 @@ static int chol_solve(SUNLinearSolver LS, SUNMatrix A, N_Vector xv, N_Vector bv,
     const int64_t n = s->n;
     const double *b = N_VGetArrayPointer(bv);
     double *d = N_VGetArrayPointer(xv);
-    double *r = c->rhs->x;
+    double *r = c->ch.rhs->x;
     const double cj = c->cj;
     const double t0 = s->host->wall_time();
     for (int64_t i = 0; i < n; ++i) r[i] = b[n + i] + (cj + s->af[i]) * s->mf[i] * b[i];
     if (s->damp_b) sym_upper_add(&c->upat, c->bval, b, r);
-    if (!cholmod_l_solve2(CHOLMOD_A, c->L, c->rhs, NULL, &c->sol, NULL, &c->ywork, &c->ework,
-                          &c->cc))
+    if (!cholmod_l_solve2(CHOLMOD_A, c->ch.L, c->ch.rhs, NULL, &c->ch.sol, NULL, &c->ch.ywork,
+                          &c->ch.ework, &c->ch.cc))
         return SUNLS_MEM_FAIL;
-    const double *dx = c->sol->x;
+    const double *dx = c->ch.sol->x;
     for (int64_t i = 0; i < n; ++i) {
         const double dxi = dx[i];
         d[n + i] = cj * dxi - b[i];
@@ -374,14 +370,7 @@ static void chol_destroy(ida_state *s)
 {
     ida_chol *c = s->chol;
     if (!c) return;
-    if (c->started) {
-        cholmod_l_free_dense(&c->rhs, &c->cc);
-        cholmod_l_free_dense(&c->sol, &c->cc);
-        cholmod_l_free_dense(&c->ywork, &c->cc);
-        cholmod_l_free_dense(&c->ework, &c->cc);
-        cholmod_l_free_factor(&c->L, &c->cc);
-        cholmod_l_finish(&c->cc);
-    }
+    defsim__chol_finish(&c->ch);
     s->host->release(c->sval);
     s->host->release(c->bval);
     s->host->release(c);
@@ -400,36 +389,24 @@ static defsim_status chol_create(ida_state *s)
     c->sval = defsim__sun_calloc(host, (size_t)c->upat.nnz, sizeof *c->sval);
     c->bval = s->damp_b ? defsim__sun_calloc(host, (size_t)c->upat.nnz, sizeof *c->bval) : NULL;
     if (!c->sval || (s->damp_b && !c->bval)) goto oom;
-    cholmod_l_start(&c->cc);
-    c->started = 1;
+    defsim__chol_start(&c->ch);
     /* AMD only: METIS keeps global random state, and these systems are small. */
-    c->cc.nmethods = 1;
-    c->cc.method[0].ordering = CHOLMOD_AMD;
-    c->cc.postorder = 1;
-    c->cc.quick_return_if_not_posdef = 1;
-    c->cc.print = 0;
-    /* The pattern is only read by CHOLMOD; the casts drop const for its struct's sake. */
-    c->A.nrow = c->A.ncol = (size_t)c->upat.n;
-    c->A.nzmax = (size_t)c->upat.nnz;
-    c->A.p = (void *)c->upat.col_ptr;
-    c->A.i = (void *)c->upat.row_idx;
-    c->A.x = c->sval;
-    c->A.stype = 1;
-    c->A.itype = CHOLMOD_LONG;
-    c->A.xtype = CHOLMOD_REAL;
-    c->A.dtype = CHOLMOD_DOUBLE;
-    c->A.sorted = 1;
-    c->A.packed = 1;
-    c->L = cholmod_l_analyze(&c->A, &c->cc);
+    c->ch.cc.nmethods = 1;
+    c->ch.cc.method[0].ordering = CHOLMOD_AMD;
+    c->ch.cc.postorder = 1;
+    c->ch.cc.quick_return_if_not_posdef = 1;
+    c->ch.cc.print = 0;
+    defsim__chol_wrap(&c->ch, &c->upat, c->sval);
+    c->ch.L = cholmod_l_analyze(&c->ch.A, &c->ch.cc);
     /* Small factorisations go simplicial: no BLAS and no OpenMP teams, which on a loaded
      * machine made the supernodal one of the cantilever (6 Mflop) up to 5x slower. */
-    if (c->L && c->L->is_super && c->cc.fl < IDA_SUPERNODAL_FLOPS) {
-        cholmod_l_free_factor(&c->L, &c->cc);
-        c->cc.supernodal = CHOLMOD_SIMPLICIAL;
-        c->L = cholmod_l_analyze(&c->A, &c->cc);
+    if (c->ch.L && c->ch.L->is_super && c->ch.cc.fl < IDA_SUPERNODAL_FLOPS) {
+        cholmod_l_free_factor(&c->ch.L, &c->ch.cc);
+        c->ch.cc.supernodal = CHOLMOD_SIMPLICIAL;
+        c->ch.L = cholmod_l_analyze(&c->ch.A, &c->ch.cc);
     }
-    c->rhs = cholmod_l_zeros((size_t)s->n, 1, CHOLMOD_REAL, &c->cc);
-    if (!c->L || !c->rhs) {
+    c->ch.rhs = cholmod_l_zeros((size_t)s->n, 1, CHOLMOD_REAL, &c->ch.cc);
+    if (!c->ch.L || !c->ch.rhs) {
         host->set_error(s->sys, "sundials_ida: CHOLMOD analysis failed (out of memory)");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -437,8 +414,8 @@ static defsim_status chol_create(ida_state *s)
     snprintf(msg, sizeof msg,
              "sundials_ida: reduced system of %lld free DOFs, nnz(S upper) %lld, nnz(L) %.0f, "
              "%.3g Mflop per factorisation, %s",
-             (long long)s->n, (long long)c->upat.nnz, c->cc.lnz, c->cc.fl * 1e-6,
-             c->L->is_super ? "supernodal" : "simplicial");
+             (long long)s->n, (long long)c->upat.nnz, c->ch.cc.lnz, c->ch.cc.fl * 1e-6,
+             c->ch.L->is_super ? "supernodal" : "simplicial");
     host->log(s->sys, 2, msg);
     s->cls = SUNLinSolNewEmpty(s->sun.ctx);
     s->token = SUNMatNewEmpty(s->sun.ctx);
@@ -556,11 +533,6 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
     ida_state *s = state;
-    if (s->mem) IDAFree(&s->mem);
-    s->mem = NULL;
-    if (s->y) N_VDestroy(s->y);
-    if (s->yp) N_VDestroy(s->yp);
-    s->y = s->yp = NULL;
     if (s->cls) SUNLinSolFree(s->cls);
     if (s->token) SUNMatFreeEmpty(s->token);
     s->cls = NULL;
@@ -568,7 +540,8 @@ static void ida_fini(const defsim_host *host, defsim_system *sys, void *state)
 #ifdef DEFSIM_IDA_CHOLMOD
     chol_destroy(s);
 #endif
-    defsim__sun_close(&s->sun);
+    N_Vector *vectors[] = {&s->y, &s->yp};
+    defsim__sun_fini(&s->sun, &s->mem, IDAFree, vectors, 2);
     host->release(s->jcp); host->release(s->jri);
     host->release(s->kval); host->release(s->bval);
     host->release(s->jpiv); host->release(s->jlast);

@@ -176,13 +176,8 @@ static void kin_fini(const defsim_host *host, defsim_system *sys, void *state)
 {
     (void)sys;
     kin_state *s = state;
-    if (s->mem) KINFree(&s->mem);
-    s->mem = NULL;
-    if (s->u) N_VDestroy(s->u);
-    if (s->uscale) N_VDestroy(s->uscale);
-    if (s->fscale) N_VDestroy(s->fscale);
-    s->u = s->uscale = s->fscale = NULL;
-    defsim__sun_close(&s->sun);
+    N_Vector *vectors[] = {&s->u, &s->uscale, &s->fscale};
+    defsim__sun_fini(&s->sun, &s->mem, KINFree, vectors, 3);
     host->release(s->mf); host->release(s->cf); host->release(s->du);
     host->release(s->xn); host->release(s->vn); host->release(s->x);
     host->release(s->fel); host->release(s->fg);

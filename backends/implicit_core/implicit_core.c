@@ -43,6 +43,13 @@
 #define IC_BLAS_SERIAL_FLOPS 1e8
 /* factor_solve without shifts: the matrix is not positive definite (or dx not descent). */
 #define DEFSIM__IC_INDEFINITE ((defsim_status)1)
+/* Projection auto, at an iteration that used the clamped Hessian: a full step whose decrease
+ * g(x) - g(x + dx) is over IC_EXTRAPOLATE_RATIO times the linear prediction -grad . dx (the
+ * clamped model predicts half of it) has met less curvature than the model, and the line search
+ * tries longer steps, at most IC_EXTRAPOLATIONS of them, up to IC_EXTRAPOLATE_MAX dx. */
+#define IC_EXTRAPOLATE_RATIO 0.75
+#define IC_EXTRAPOLATIONS 4
+#define IC_EXTRAPOLATE_MAX 16.0
 /* Relative resolution of g: decreases smaller than this times |g|'s scale cannot be seen. */
 #define IC_G_RESOLUTION (1e3 * DBL_EPSILON)
 
@@ -235,6 +242,9 @@ static const defsim_counter_spec ic_core_counters[DEFSIM__IC_COUNTERS] = {
                            "Newton iteration of the last step (a level, not a sum)"},
     {"clamped_iterations", "Newton iterations whose exact Hessian was not positive definite, so "
                            "that they used the clamped one (only with projection auto)"},
+    {"extrapolations", "clamped iterations (projection auto) whose full step found less "
+                       "curvature than the clamped model, so that the line search tried longer "
+                       "steps"},
 };
 
 /* The index of `name` in the '|'-separated `choices`, or -1. */
@@ -779,6 +789,48 @@ static int contact_converged(const ic_solver *s, const defsim__ic_targets *st, c
     return 1;
 }
 
+/* Projection auto, after a full step x -> xt = x + dx that the clamped Hessian gave and whose
+ * decrease gt - gx <= IC_EXTRAPOLATE_RATIO slope shows less curvature along dx than the
+ * clamped model has (the exact Hessian was indefinite: compressed springs, buckling): longer
+ * steps a dx along the same direction, a from the minimiser of the quadratic through g(0),
+ * g'(0) = slope and the last g(a), kept in [2 a, 4 a] and within what CCD allows along the
+ * way (up to IC_EXTRAPOLATE_MAX dx), each taken while it satisfies Armijo's condition
+ * against the last. Leaves the furthest accepted point in xt (and its g in *gt, its scale in
+ * *tscale) and returns its a (1: none). Measured on the cloth fold (docs/contact-scale.md):
+ * 6 % fewer Newton iterations at 48 x 48. */
+static double extrapolate(ic_solver *s, const defsim__ic_targets *stp, const defsim_host *host,
+                          defsim_system *sys, double h, double gx, double slope, double *gt,
+                          double *tscale)
+{
+    defsim__ic_solver *p = &s->pub;
+    double cap = IC_EXTRAPOLATE_MAX;
+    if (s->contact) {
+        /* CCD from x + dx along (IC_EXTRAPOLATE_MAX - 1) dx; xt is x + dx (dxf held dx) */
+        for (int64_t k = 0; k < p->n; ++k)
+            s->dxf[p->fdof[k]] = (IC_EXTRAPOLATE_MAX - 1.0) * s->dx[k];
+        cap = 1.0 + (IC_EXTRAPOLATE_MAX - 1.0) * host->contact_max_step(sys, s->xt, s->dxf);
+    }
+    double a = 1.0;
+    for (int e = 0; e < IC_EXTRAPOLATIONS && a < cap; ++e) {
+        const double c = 2.0 * (*gt - gx - slope * a) / (a * a);
+        double an = c > 0.0 ? -slope / c : 4.0 * a;
+        an = fmin(fmax(an, 2.0 * a), fmin(4.0 * a, cap));
+        if (!(an > a)) break;
+        for (int64_t k = 0; k < p->n; ++k) {
+            const int64_t i = p->fdof[k];
+            s->x[i] = s->xt[i] + (an - a) * s->dx[k];   /* x is scratch here: the trial */
+        }
+        double ts = 0.0;
+        const double gn = merit(s, stp, host, sys, s->x, h, &ts);
+        if (!(gn <= *gt + IC_ARMIJO * (an - a) * slope)) break;
+        for (int64_t k = 0; k < p->n; ++k) s->xt[p->fdof[k]] = s->x[p->fdof[k]];
+        a = an;
+        *gt = gn;
+        *tscale = ts;
+    }
+    return a;
+}
+
 /* The Newton loop on g from the scheme's guess; on success x holds the minimiser. */
 static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const defsim_host *host,
                               defsim_system *sys, double h)
@@ -825,10 +877,12 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         st = hessian(s, stp, host, sys, s->x, h, 0);
         if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
         double slope = 0.0;
+        int clamped_now = 0;
         st = factor_solve(s, host, sys, h, !s->auto_projection, &slope);
         if (st == DEFSIM__IC_INDEFINITE) {
             /* projection auto: the exact matrix is not PD here; the clamped one is */
             count[DEFSIM__IC_CLAMPED] += 1.0;
+            clamped_now = 1;
             st = hessian(s, stp, host, sys, s->x, h, 1);
             if (st != DEFSIM_OK) return fail(s, host, sys, st, "Hessian assembly failed");
             st = factor_solve(s, host, sys, h, 1, &slope);
@@ -893,10 +947,16 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
                      it, dxmax);
             return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
         }
+        /* the contraction the contact stop reads: of the whole update taken (a dx) */
+        double taken = alpha == 1.0 ? 1.0 : 0.0;
+        if (clamped_now && alpha == 1.0 && gt - gx <= IC_EXTRAPOLATE_RATIO * slope) {
+            count[DEFSIM__IC_EXTRAPOLATED] += 1.0;
+            taken = extrapolate(s, stp, host, sys, h, gx, slope, &gt, &tscale);
+        }
         memcpy(s->x, s->xt, bytes);
         gx = gt;
         scale = tscale;
-        dx_prev = alpha == 1.0 ? dxmax : 0.0;
+        dx_prev = taken * dxmax;
     }
     snprintf(msg, sizeof msg, "no convergence in %d Newton iterations (tolerance %.3g m)",
              s->max_iterations, tol);

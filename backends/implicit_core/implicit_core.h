@@ -50,11 +50,12 @@ typedef struct defsim__ic_scheme {
 
 /* The core's counters ("<backend>.<name>": shifted_factorisations, contact_stops,
  * newton_iterations, line_search_backtracks, linear_solves, convergence_failures, time_factor,
- * time_solve, nonlinear_residual); a scheme's come after them in the backend's table. */
+ * time_solve, nonlinear_residual, clamped_iterations, extrapolations); a scheme's come after them in the backend's table. */
 enum {
     DEFSIM__IC_SHIFTED = 0, DEFSIM__IC_CONTACT_STOPS, DEFSIM__IC_NEWTON, DEFSIM__IC_BACKTRACKS,
     DEFSIM__IC_LINEAR_SOLVES, DEFSIM__IC_CONVERGENCE_FAILURES, DEFSIM__IC_TIME_FACTOR,
-    DEFSIM__IC_TIME_SOLVE, DEFSIM__IC_RESIDUAL, DEFSIM__IC_CLAMPED, DEFSIM__IC_COUNTERS
+    DEFSIM__IC_TIME_SOLVE, DEFSIM__IC_RESIDUAL, DEFSIM__IC_CLAMPED,
+    DEFSIM__IC_EXTRAPOLATED, DEFSIM__IC_COUNTERS
 };
 #define DEFSIM__IC_MAX_SCHEME_COUNTERS 4
 

@@ -42,6 +42,7 @@
  * check's time is not counted in the step times. --rest KE fails the run (exit 1) when the
  * kinetic energy at its end exceeds KE (J). Both are reported in the table.
  */
+#include "cli.h"
 #include "clock.h"
 #include "exact_geom.h"
 #include "scene.h"
@@ -462,49 +463,89 @@ static double loglog_slope(const double *x, const double *y, int n)
     return (n * sxy - sx * sy) / (n * sxx - sx * sx);
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-body-contact [SCENE] [--cells N | --cells-list N1,N2,...\n"
+               "                                 [--fit]] [--backends a,b] [--threads T]\n"
+               "                                 [--repeat R] [--steps S] [--cpu] [--check]\n"
+               "                                 [--rest KE] [--per-step FILE]\n"
+               "                                 [--set KEY=VALUE]...\n"
+               "Body contact's cost on a shipped scene (default the cloth fold): time per step\n"
+               "and per Newton iteration, the shares of its broad phase, CCD and evaluation.\n"
+               "  --cells N          the first body's mesh cells, N x N\n"
+               "  --cells-list L     run each size in turn; --fit: the scaling exponent\n"
+               "  --backends LIST    backends to run (default newton_cholmod)\n"
+               "  --threads T        OpenMP threads (default 1)\n"
+               "  --repeat R         runs per backend and size, 1..99 (default 3)\n"
+               "  --steps S          the first S steps only (default: the scene's length)\n"
+               "  --cpu              time with process CPU time\n"
+               "  --check            exact intersection check after every step (exit 1 on one)\n"
+               "  --rest KE          exit 1 unless the kinetic energy at the end is below KE\n"
+               "  --per-step FILE    a CSV row per step\n"
+               "  --set KEY=VALUE    override a scene value, as in defsim run (at most 8)\n"
+               "  -h, --help         this text\n"
+               "  --version          the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
-    const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json";
+    const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json", *per_step_path = NULL;
     char backends[256] = "newton_cholmod", list[256] = "";
     int cells = 0, threads = 1, repeat = 3, fit = 0;
     double rest = -1.0;
-    for (int i = 1; i < argc; ++i) {
-        const int has = i + 1 < argc;
-        if (!strcmp(argv[i], "--cells") && has) cells = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cells-list") && has)
-            snprintf(list, sizeof list, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--fit")) fit = 1;
-        else if (!strcmp(argv[i], "--threads") && has) threads = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--repeat") && has) repeat = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--steps") && has) max_steps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cpu")) use_cpu = 1;
-        else if (!strcmp(argv[i], "--check")) check = 1;
-        else if (!strcmp(argv[i], "--per-step") && has) {
-            if (!(per_step = fopen(argv[++i], "w"))) {
-                perror(argv[i]);
-                return 2;
-            }
-            fprintf(per_step, "cells,vertices,step,newton_iterations,ms\n");
+    enum { O_CELLS = CLI_OPT, O_CELLS_LIST, O_FIT, O_THREADS, O_REPEAT, O_STEPS, O_CPU, O_CHECK,
+           O_PER_STEP, O_REST, O_SET, O_BACKENDS };
+    static const struct option options[] = {
+        {"cells", required_argument, NULL, O_CELLS},
+        {"cells-list", required_argument, NULL, O_CELLS_LIST},
+        {"fit", no_argument, NULL, O_FIT}, {"threads", required_argument, NULL, O_THREADS},
+        {"repeat", required_argument, NULL, O_REPEAT},
+        {"steps", required_argument, NULL, O_STEPS}, {"cpu", no_argument, NULL, O_CPU},
+        {"check", no_argument, NULL, O_CHECK},
+        {"per-step", required_argument, NULL, O_PER_STEP},
+        {"rest", required_argument, NULL, O_REST}, {"set", required_argument, NULL, O_SET},
+        {"backends", required_argument, NULL, O_BACKENDS}, {0}};
+    static const cli_tool tool = {"defsim-bench-body-contact", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
+        int ok = 1;
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_CELLS: ok = cli_int(&c, 1, 100000, &cells); break;
+        case O_CELLS_LIST: snprintf(list, sizeof list, "%s", c.arg); break;
+        case O_FIT: fit = 1; break;
+        case O_THREADS: ok = cli_int(&c, 0, 4096, &threads); break;
+        case O_REPEAT: ok = cli_int(&c, 1, 99, &repeat); break;
+        case O_STEPS: ok = cli_int(&c, 0, 1000000000, &max_steps); break;
+        case O_CPU: use_cpu = 1; break;
+        case O_CHECK: check = 1; break;
+        case O_PER_STEP: per_step_path = c.arg; break;
+        case O_REST: ok = cli_double(&c, 0.0, 1e300, &rest); break;
+        case O_SET:
+            if (nuser_sets == MAX_SETS) return cli_error(&c, "at most %d --set", MAX_SETS);
+            user_sets[nuser_sets++] = c.arg;
+            break;
+        case O_BACKENDS: snprintf(backends, sizeof backends, "%s", c.arg); break;
         }
-        else if (!strcmp(argv[i], "--rest") && has) rest = atof(argv[++i]);
-        else if (!strcmp(argv[i], "--set") && has && nuser_sets < MAX_SETS)
-            user_sets[nuser_sets++] = argv[++i];
-        else if (!strcmp(argv[i], "--backends") && has)
-            snprintf(backends, sizeof backends, "%s", argv[++i]);
-        else if (argv[i][0] != '-') path = argv[i];
-        else {
-            fprintf(stderr, "usage: defsim-bench-body-contact [SCENE] [--cells N | --cells-list "
-                            "N1,N2,... [--fit]] [--backends a,b] [--threads T] [--repeat R] "
-                            "[--steps S] [--cpu] [--check] [--rest KE] [--per-step FILE] "
-                            "[--set KEY=VALUE]...\n");
+        if (!ok) return c.status;
+    }
+    if (c.optind + 1 < argc) return cli_error(&c, "one scene file at a time");
+    if (c.optind < argc) path = argv[c.optind];
+    if (per_step_path) {
+        if (!(per_step = fopen(per_step_path, "w"))) {
+            perror(per_step_path);
             return 2;
         }
+        fprintf(per_step, "cells,vertices,step,newton_iterations,ms\n");
     }
-    if (cells < 0 || threads < 0 || repeat < 1 || repeat > 99 || max_steps < 0) return 2;
     int sizes[32], nsizes = 0;
     if (list[0]) {
-        for (char *c = strtok(list, ","); c && nsizes < 32; c = strtok(NULL, ","))
-            if ((sizes[nsizes++] = atoi(c)) < 1) return 2;
+        for (char *tok = strtok(list, ","); tok && nsizes < 32; tok = strtok(NULL, ","))
+            if ((sizes[nsizes++] = atoi(tok)) < 1) {
+                fprintf(stderr, "defsim-bench-body-contact: --cells-list: sizes >= 1\n");
+                return 2;
+            }
     } else {
         sizes[nsizes++] = cells;
     }

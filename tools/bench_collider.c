@@ -8,6 +8,7 @@
  *
  *   defsim-bench-collider [--segments N] [--points P] [--rounds R]
  */
+#include "cli.h"
 #include "clock.h"
 
 #include "collider.h"
@@ -39,16 +40,40 @@ static double urand(void)   /* [-1, 1) */
     return (double)(rng >> 11) * (2.0 / 9007199254740992.0) - 1.0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-collider [--segments N] [--points P] [--rounds R]\n"
+               "Distance queries against a UV-sphere mesh collider: AABB tree against a loop\n"
+               "over every triangle, and the collider's build; medians over rounds.\n"
+               "  --segments N  segments around the sphere, >= 4 (default 100: 9800 triangles)\n"
+               "  --points P    query points (default 20000)\n"
+               "  --rounds R    rounds (default 5)\n"
+               "  -h, --help    this text\n"
+               "  --version     the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
     int nu = 100, npts = 20000, rounds = 5;
-    for (int i = 1; i + 1 < argc; i += 2) {
-        if (!strcmp(argv[i], "--segments")) nu = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--points")) npts = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
-        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
+    enum { O_SEGMENTS = CLI_OPT, O_POINTS, O_ROUNDS };
+    static const struct option options[] = {
+        {"segments", required_argument, NULL, O_SEGMENTS},
+        {"points", required_argument, NULL, O_POINTS},
+        {"rounds", required_argument, NULL, O_ROUNDS}, {0}};
+    static const cli_tool tool = {"defsim-bench-collider", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
+        int ok = 1;
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_SEGMENTS: ok = cli_int(&c, 4, 100000, &nu); break;
+        case O_POINTS: ok = cli_int(&c, 1, 100000000, &npts); break;
+        case O_ROUNDS: ok = cli_int(&c, 1, 1000, &rounds); break;
+        }
+        if (!ok) return c.status;
     }
-    if (nu < 4 || npts < 1 || rounds < 1) { fprintf(stderr, "bad options\n"); return 2; }
+    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
     /* UV sphere: nu segments around y, nu / 2 rings: 2 nu (nu / 2 - 1) triangles */
     const int nr = nu / 2, nv = 2 + nu * (nr - 1), nt = 2 * nu * (nr - 1);
     double *x = malloc(3 * (size_t)nv * sizeof *x);

@@ -40,6 +40,7 @@
  * Numbers are printed with %.17g, so they read back exactly.
  */
 #include "bench_beam.h"
+#include "cli.h"
 #include "refsol.h"
 #include "stat.h"
 
@@ -49,67 +50,65 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int usage(void)
+static void usage(FILE *f)
 {
-    fprintf(stderr,
+    fprintf(f,
             "usage: defsim-reference [--model snh|nh|corotated|stvk] [--n N] [--T SECONDS]\n"
             "                        [--rtol R] [--atol A] [--E PA] [--nu NU] [--rho KG_M3]\n"
             "                        [--alpha 1_S] [--beta S] [--threads T]\n"
-            "                        [--backend sundials_erk|sundials_ida] [--out PATH] [--quiet]\n");
-    return 2;
-}
-
-static int parse_double(const char *s, double *out)
-{
-    char *end = NULL;
-    double v = strtod(s, &end);
-    if (!end || *end || end == s) return 0;
-    *out = v;
-    return 1;
+            "                        [--backend sundials_erk|sundials_ida] [--out PATH] [--quiet]\n"
+            "The work-precision benchmark's reference solution of the tet cantilever at time T.\n"
+            "Defaults: snh, n = 3 (1..64), T = 1 s, rtol = atol = 1e-10, E = 1 MPa, nu = 0.3,\n"
+            "rho = 1000 kg/m^3, no damping, 1 thread, out = reference_<model>_n<n>.txt.\n"
+            "  -h, --help   this text\n"
+            "  --version    the library's version\n");
 }
 
 int main(int argc, char **argv)
 {
     const char *model_name = "snh", *out_path = NULL;
     double T = 1.0, rtol = 1e-10, atol = 1e-10, E = 1e6, nu = 0.3, rho = 1000.0;
-    double alpha = 0.0, beta = 0.0, nd = 3, threads = 1;
-    int quiet = 0;
+    double alpha = 0.0, beta = 0.0;
+    int n = 3, threads = 1, quiet = 0;
     const char *backend = "sundials_erk";
-    for (int i = 1; i < argc; ++i) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--quiet")) { quiet = 1; continue; }
-        if (i + 1 >= argc) return usage();
-        const char *v = argv[++i];
+    enum { O_MODEL = CLI_OPT, O_OUT, O_BACKEND, O_N, O_T, O_RTOL, O_ATOL, O_E, O_NU, O_RHO,
+           O_ALPHA, O_BETA, O_THREADS, O_QUIET };
+    static const struct option options[] = {
+        {"model", required_argument, NULL, O_MODEL}, {"out", required_argument, NULL, O_OUT},
+        {"backend", required_argument, NULL, O_BACKEND}, {"n", required_argument, NULL, O_N},
+        {"T", required_argument, NULL, O_T}, {"rtol", required_argument, NULL, O_RTOL},
+        {"atol", required_argument, NULL, O_ATOL}, {"E", required_argument, NULL, O_E},
+        {"nu", required_argument, NULL, O_NU}, {"rho", required_argument, NULL, O_RHO},
+        {"alpha", required_argument, NULL, O_ALPHA}, {"beta", required_argument, NULL, O_BETA},
+        {"threads", required_argument, NULL, O_THREADS},
+        {"quiet", no_argument, NULL, O_QUIET}, {0}};
+    static const cli_tool tool = {"defsim-reference", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
         int ok = 1;
-        if (!strcmp(a, "--model")) model_name = v;
-        else if (!strcmp(a, "--out")) out_path = v;
-        else if (!strcmp(a, "--backend")) backend = v;
-        else if (!strcmp(a, "--n")) ok = parse_double(v, &nd);
-        else if (!strcmp(a, "--T")) ok = parse_double(v, &T);
-        else if (!strcmp(a, "--rtol")) ok = parse_double(v, &rtol);
-        else if (!strcmp(a, "--atol")) ok = parse_double(v, &atol);
-        else if (!strcmp(a, "--E")) ok = parse_double(v, &E);
-        else if (!strcmp(a, "--nu")) ok = parse_double(v, &nu);
-        else if (!strcmp(a, "--rho")) ok = parse_double(v, &rho);
-        else if (!strcmp(a, "--alpha")) ok = parse_double(v, &alpha);
-        else if (!strcmp(a, "--beta")) ok = parse_double(v, &beta);
-        else if (!strcmp(a, "--threads")) ok = parse_double(v, &threads);
-        else return usage();
-        if (!ok) {
-            fprintf(stderr, "defsim-reference: %s: not a number: %s\n", a, v);
-            return 2;
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_MODEL: model_name = c.arg; break;
+        case O_OUT: out_path = c.arg; break;
+        case O_BACKEND: backend = c.arg; break;
+        case O_N: ok = cli_int(&c, 1, 64, &n); break;
+        case O_T: ok = cli_positive(&c, &T); break;
+        case O_RTOL: ok = cli_positive(&c, &rtol); break;
+        case O_ATOL: ok = cli_positive(&c, &atol); break;
+        case O_E: ok = cli_positive(&c, &E); break;
+        case O_NU: ok = cli_double(&c, -1.0, 0.5, &nu); break;
+        case O_RHO: ok = cli_positive(&c, &rho); break;
+        case O_ALPHA: ok = cli_double(&c, 0.0, 1e300, &alpha); break;
+        case O_BETA: ok = cli_double(&c, 0.0, 1e300, &beta); break;
+        case O_THREADS: ok = cli_int(&c, 0, 1024, &threads); break;
+        case O_QUIET: quiet = 1; break;
         }
+        if (!ok) return c.status;
     }
+    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) {
-        fprintf(stderr, "defsim-reference: unknown model %s\n", model_name);
-        return 2;
-    }
-    const int n = (int)nd;
-    if (n < 1 || n > 64 || (double)n != nd || !(T > 0.0) || threads < 0 || threads > 1024) {
-        fprintf(stderr, "defsim-reference: need 1 <= n <= 64 (integer), T > 0, threads >= 0\n");
-        return 2;
-    }
+    if (!model) return cli_error(&c, "unknown model %s", model_name);
     char default_out[64];
     snprintf(default_out, sizeof default_out, "reference_%s_n%d.txt", model_name, n);
     if (!out_path) out_path = default_out;

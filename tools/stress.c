@@ -20,9 +20,12 @@
  */
 #include "stress.h"
 
+#include "cli.h"
+
 #include <defsim/backend.h>
 #include <defsim/defsim.h>
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -219,8 +222,7 @@ static int backend_flags(const char *name, uint32_t *flags)
     return 1;
 }
 
-/* The help: on stdout with status 0 when asked for (-h, --help), else on stderr with 2. */
-static int usage_to(FILE *f)
+static void usage(FILE *f)
 {
     fprintf(f,
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
@@ -241,11 +243,9 @@ static int usage_to(FILE *f)
             "                     (with --check, exit 1 if it is a violation)\n"
             "  --no-watchdog      core.watchdog off in every run (to see that --check catches\n"
             "                     the garbage the watchdog refuses)\n"
-            "  -h, --help         this text\n");
-    return f == stdout ? 0 : 2;
+            "  -h, --help         this text\n"
+            "  --version          the library's version\n");
 }
-
-static int usage(void) { return usage_to(stderr); }
 
 int defsim_tool_stress(int argc, char **argv)
 {
@@ -256,32 +256,50 @@ int defsim_tool_stress(int argc, char **argv)
     char backends_buf[512] = "explicit_euler,symplectic_euler,velocity_verlet,newton_cholmod,"
                              "newmark,bdf2,sundials_kinsol,sundials_ida,sundials_erk";
     char scenes_buf[128] = "beam,rope";
-    for (int i = 0; i < argc; ++i) {
-        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) return usage_to(stdout);
-        else if (!strcmp(argv[i], "--reduced")) reduced = 1;
-        else if (!strcmp(argv[i], "--check")) check = 1;
-        else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
-        else if (!strcmp(argv[i], "--no-watchdog")) watchdog_off = 1;
-        else if (!strcmp(argv[i], "--variant") && i + 1 < argc) {
-            char *end = NULL;
-            variant = strtol(argv[++i], &end, 10);
-            if (end == argv[i] || *end || variant < 0) return usage();
+    enum { O_REDUCED = CLI_OPT, O_CHECK, O_LIST_VARIANTS, O_NO_WATCHDOG, O_VARIANT, O_CSV,
+           O_BACKENDS, O_SCENES, O_STEPS, O_TIME, O_MAX_ITERATIONS, O_MAX_INTERNAL };
+    static const struct option options[] = {
+        {"reduced", no_argument, NULL, O_REDUCED}, {"check", no_argument, NULL, O_CHECK},
+        {"list-variants", no_argument, NULL, O_LIST_VARIANTS},
+        {"no-watchdog", no_argument, NULL, O_NO_WATCHDOG},
+        {"variant", required_argument, NULL, O_VARIANT}, {"csv", required_argument, NULL, O_CSV},
+        {"backends", required_argument, NULL, O_BACKENDS},
+        {"scenes", required_argument, NULL, O_SCENES},
+        {"steps", required_argument, NULL, O_STEPS}, {"time", required_argument, NULL, O_TIME},
+        {"max-iterations", required_argument, NULL, O_MAX_ITERATIONS},
+        {"max-internal-steps", required_argument, NULL, O_MAX_INTERNAL}, {0}};
+    static const cli_tool tool = {"defsim stress", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_REDUCED: reduced = 1; break;
+        case O_CHECK: check = 1; break;
+        case O_LIST_VARIANTS: list_variants = 1; break;
+        case O_NO_WATCHDOG: watchdog_off = 1; break;
+        case O_VARIANT:
+            if (!cli_long(&c, 0, LONG_MAX, &variant)) return c.status;
+            break;
+        case O_CSV: csv_path = c.arg; break;
+        case O_BACKENDS: snprintf(backends_buf, sizeof backends_buf, "%s", c.arg); break;
+        case O_SCENES: snprintf(scenes_buf, sizeof scenes_buf, "%s", c.arg); break;
+        case O_STEPS:
+            if (!cli_int(&c, 1, INT_MAX, &max_steps)) return c.status;
+            break;
+        case O_TIME:
+            if (!cli_positive(&c, &T)) return c.status;
+            break;
+        case O_MAX_ITERATIONS:
+            if (!cli_int(&c, 0, INT_MAX, &max_iterations_opt)) return c.status;
+            break;
+        case O_MAX_INTERNAL:
+            if (!cli_int(&c, 1, INT_MAX, &max_internal_opt)) return c.status;
+            break;
         }
-        else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv_path = argv[++i];
-        else if (!strcmp(argv[i], "--backends") && i + 1 < argc)
-            snprintf(backends_buf, sizeof backends_buf, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--scenes") && i + 1 < argc)
-            snprintf(scenes_buf, sizeof scenes_buf, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--steps") && i + 1 < argc) max_steps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--time") && i + 1 < argc) T = atof(argv[++i]);
-        else if (!strcmp(argv[i], "--max-iterations") && i + 1 < argc)
-            max_iterations_opt = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--max-internal-steps") && i + 1 < argc)
-            max_internal_opt = atoi(argv[++i]);
-        else return usage();
     }
+    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
     if (max_steps == 0) max_steps = reduced ? 200 : 1000;
-    if (max_steps < 1 || !(T > 0) || max_internal_opt < 1) return usage();
     const double hs_full[] = {1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 1.0 / 60, 1.0 / 24};
     const double hs_red[] = {1e-5, 1e-4, 1e-3, 1e-2, 1.0 / 24};
     const double Es_full[] = {1e3, 1e4, 1e5, 1e6, 1e7, 1e8};

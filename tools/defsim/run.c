@@ -758,8 +758,17 @@ typedef struct progress {
     double t_start, last_bar;
 } progress;
 
-static void progress_frame(progress *pr, const scene *s, int f, int written, double t,
-                           int64_t steps, const defsim_energy *e, const double *x)
+/* Steps per second of simulation: the steps over the library's time in defsim_world_step (no
+ * output, no rendering, no frame bookkeeping). */
+static double sim_steps_per_s(defsim_world *w)
+{
+    defsim_stats st = {.size = sizeof st};
+    defsim_world_stats(w, &st);
+    return st.time_step > 0.0 ? (double)st.steps / st.time_step : 0.0;
+}
+
+static void progress_frame(progress *pr, const scene *s, defsim_world *w, int f, int written,
+                           double t, const defsim_energy *e, const double *x)
 {
     const double wall = tools_now() - pr->t_start;
     char probe[160] = "";
@@ -769,7 +778,7 @@ static void progress_frame(progress *pr, const scene *s, int f, int written, dou
             snprintf(probe, sizeof probe, "  probe (%.4f, %.4f, %.4f)", p[0], p[1], p[2]);
             break;
         }
-    const double sps = wall > 0.0 ? (double)steps / wall : 0.0;
+    const double sps = sim_steps_per_s(w);
     if (pr->mode == PROGRESS_LINES && written) {
         printf("frame %5d/%d  t %8.4f s  wall %7.2f s  %9.0f steps/s  E %12.6g J "
                "(kin %.4g, ela %.4g, grav %.4g)%s\n", f, (int)s->frames, t, wall, sps, e->total,
@@ -801,9 +810,12 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
     defsim_world_stats(w, &st);
     const double wall = tools_now() - pr->t_start;
     const defsim_energy *e = &r->e;
-    printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall (%.0f steps/s)\n",
+    /* Two rates: the simulation's (time in step only) and the run's (output, rendering). */
+    printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall: %.0f steps/s simulating, "
+           "%.0f steps/s with output and rendering\n",
            interrupted ? "interrupted after" : r->rc ? "stopped after" : "done:", r->last_frame,
            (long long)st.steps, (long long)st.failed_steps, wall,
+           st.time_step > 0 ? (double)st.steps / st.time_step : 0.0,
            wall > 0 ? (double)st.steps / wall : 0.0);
     printf("  time: step %.3f s (forces %.3f, hessian %.3f), output %.3f s, render %.3f s\n",
            st.time_step, st.time_forces, st.time_hessian, r->t_out, r->t_render);
@@ -1059,7 +1071,7 @@ int run_main(int argc, char **argv)
             r.t_render += tools_now() - t0;
         }
 #endif
-        progress_frame(&pr, &s, f, written, t, steps, &r.e, x);
+        progress_frame(&pr, &s, w, f, written, t, &r.e, x);
         /* After the frame's output, so that a resumed run starts with the next frame. */
         if (o.checkpoint_every > 0 && f > 0 &&
             (f % o.checkpoint_every == 0 || interrupted) &&

@@ -22,7 +22,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${DEFSIM_BUILD_DIR:-$root/build}
 jobs=${DEFSIM_JOBS:-$(nproc)}
 packages="cmake ninja-build gcc g++ make pkg-config binutils libsundials-dev libsuitesparse-dev
-  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip"
+  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip doxygen"
 
 deps() {
     local missing=""

@@ -338,7 +338,7 @@ static int surface_check(surface *sf, const double *x, int32_t *pa, int32_t *pb,
 
 enum { MAX_SETS = 8 };
 static const char *user_sets[MAX_SETS];   /* --set KEY=VALUE */
-static int nuser_sets;
+static cli_list sets_given = {user_sets, 0, MAX_SETS};
 
 /* One run of the scene with `backend`; 0 or -1 (message printed). */
 static int run(const char *path, const char *backend, int cells, int threads, result *r)
@@ -354,7 +354,7 @@ static int run(const char *path, const char *backend, int cells, int threads, re
     }
     snprintf(threads_set, sizeof threads_set, "world.threads=%d", threads);
     sets[nsets++] = threads_set;
-    for (int k = 0; k < nuser_sets; ++k) sets[nsets++] = user_sets[k];
+    for (int k = 0; k < sets_given.count; ++k) sets[nsets++] = user_sets[k];
     scene s;
     if (scene_load(&s, path, sets, nsets) != 0) {
         fprintf(stderr, "%s\n", s.error);
@@ -490,48 +490,25 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json", *per_step_path = NULL;
-    char backends[256] = "newton_cholmod", list[256] = "";
+    const char *backends_arg = "newton_cholmod", *list_arg = "";
     int cells = 0, threads = 1, repeat = 3, fit = 0;
     double rest = -1.0;
-    enum { O_CELLS = CLI_OPT, O_CELLS_LIST, O_FIT, O_THREADS, O_REPEAT, O_STEPS, O_CPU, O_CHECK,
-           O_PER_STEP, O_REST, O_SET, O_BACKENDS };
-    static const struct option options[] = {
-        {"cells", required_argument, NULL, O_CELLS},
-        {"cells-list", required_argument, NULL, O_CELLS_LIST},
-        {"fit", no_argument, NULL, O_FIT}, {"threads", required_argument, NULL, O_THREADS},
-        {"repeat", required_argument, NULL, O_REPEAT},
-        {"steps", required_argument, NULL, O_STEPS}, {"cpu", no_argument, NULL, O_CPU},
-        {"check", no_argument, NULL, O_CHECK},
-        {"per-step", required_argument, NULL, O_PER_STEP},
-        {"rest", required_argument, NULL, O_REST}, {"set", required_argument, NULL, O_SET},
-        {"backends", required_argument, NULL, O_BACKENDS}, {0}};
-    static const cli_tool tool = {"defsim-bench-body-contact", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_CELLS: ok = cli_int(&c, 1, 100000, &cells); break;
-        case O_CELLS_LIST: snprintf(list, sizeof list, "%s", c.arg); break;
-        case O_FIT: fit = 1; break;
-        case O_THREADS: ok = cli_int(&c, 0, 4096, &threads); break;
-        case O_REPEAT: ok = cli_int(&c, 1, 99, &repeat); break;
-        case O_STEPS: ok = cli_int(&c, 0, 1000000000, &max_steps); break;
-        case O_CPU: use_cpu = 1; break;
-        case O_CHECK: check = 1; break;
-        case O_PER_STEP: per_step_path = c.arg; break;
-        case O_REST: ok = cli_double(&c, 0.0, 1e300, &rest); break;
-        case O_SET:
-            if (nuser_sets == MAX_SETS) return cli_error(&c, "at most %d --set", MAX_SETS);
-            user_sets[nuser_sets++] = c.arg;
-            break;
-        case O_BACKENDS: snprintf(backends, sizeof backends, "%s", c.arg); break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind + 1 < argc) return cli_error(&c, "one scene file at a time");
-    if (c.optind < argc) path = argv[c.optind];
+    static const cli_tool tool = {"defsim-bench-body-contact", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"cells", CLI_INT, &cells, 1, 100000}, {"cells-list", CLI_STRING, &list_arg, 0, 0},
+        {"fit", CLI_FLAG, &fit, 0, 0}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"repeat", CLI_INT, &repeat, 1, 99}, {"steps", CLI_INT, &max_steps, 0, 1e9},
+        {"cpu", CLI_FLAG, &use_cpu, 0, 0}, {"check", CLI_FLAG, &check, 0, 0},
+        {"per-step", CLI_STRING, &per_step_path, 0, 0}, {"rest", CLI_DOUBLE, &rest, 0.0, 1e300},
+        {"set", CLI_LIST, &sets_given, 0, 0}, {"backends", CLI_STRING, &backends_arg, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char backends[256], list[256];
+    snprintf(backends, sizeof backends, "%s", backends_arg);
+    snprintf(list, sizeof list, "%s", list_arg);
+    if (first + 1 < argc) return cli_fail(&tool, "one scene file at a time");
+    if (first < argc) path = argv[first];
     if (per_step_path) {
         if (!(per_step = fopen(per_step_path, "w"))) {
             perror(per_step_path);

@@ -55,25 +55,14 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     int nu = 100, npts = 20000, rounds = 5;
-    enum { O_SEGMENTS = CLI_OPT, O_POINTS, O_ROUNDS };
-    static const struct option options[] = {
-        {"segments", required_argument, NULL, O_SEGMENTS},
-        {"points", required_argument, NULL, O_POINTS},
-        {"rounds", required_argument, NULL, O_ROUNDS}, {0}};
-    static const cli_tool tool = {"defsim-bench-collider", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_SEGMENTS: ok = cli_int(&c, 4, 100000, &nu); break;
-        case O_POINTS: ok = cli_int(&c, 1, 100000000, &npts); break;
-        case O_ROUNDS: ok = cli_int(&c, 1, 1000, &rounds); break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
+    static const cli_tool tool = {"defsim-bench-collider", usage, NULL, ""};
+    const cli_opt opts[] = {{"segments", CLI_INT, &nu, 4, 100000},
+                            {"points", CLI_INT, &npts, 1, 1e8},
+                            {"rounds", CLI_INT, &rounds, 1, 1000}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     /* UV sphere: nu segments around y, nu / 2 rings: 2 nu (nu / 2 - 1) triangles */
     const int nr = nu / 2, nv = 2 + nu * (nr - 1), nt = 2 * nu * (nr - 1);
     double *x = malloc(3 * (size_t)nv * sizeof *x);

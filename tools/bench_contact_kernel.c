@@ -154,22 +154,22 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     static const cli_tool tool = {"defsim-bench-contact-kernel", usage, NULL, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;)
-        if (o == CLI_EXIT) return c.status;
-    char **arg = argv + c.optind;
-    const int nargs = argc - c.optind;
+    int first;
+    const int parsed = cli_parse(&tool, NULL, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char **arg = argv + first;
+    const int nargs = argc - first;
     if (nargs < 2 || nargs > 3 || (strcmp(arg[0], "hessian") && strcmp(arg[0], "ccd")))
-        return cli_error(&c, "need hessian FILE [ROUNDS] or ccd FILE [S]");
-    c.arg = nargs > 2 ? arg[2] : NULL;
-    c.flag = arg[0];
+        return cli_fail(&tool, "need hessian FILE [ROUNDS] or ccd FILE [S]");
+    char *end = NULL;
     if (!strcmp(arg[0], "hessian")) {
-        int rounds = 21;
-        if (c.arg && !cli_int(&c, 1, 100000, &rounds)) return c.status;
-        return run_hessian(arg[1], rounds);
+        const long rounds = nargs > 2 ? strtol(arg[2], &end, 10) : 21;
+        if (nargs > 2 && (end == arg[2] || *end || rounds < 1 || rounds > 100000))
+            return cli_fail(&tool, "ROUNDS: a whole number in 1..100000, got '%s'", arg[2]);
+        return run_hessian(arg[1], (int)rounds);
     }
-    double sep = 0.1;
-    if (c.arg && !cli_double(&c, 0.0, 1.0, &sep)) return c.status;
+    const double sep = nargs > 2 ? strtod(arg[2], &end) : 0.1;
+    if (nargs > 2 && (end == arg[2] || *end || !(sep >= 0.0 && sep <= 1.0)))
+        return cli_fail(&tool, "S: a number in [0, 1], got '%s'", arg[2]);
     return run_ccd(arg[1], sep);
 }

@@ -505,35 +505,19 @@ int main(int argc, char **argv)
 {
     const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json", *out = NULL, *tdir = NULL;
     int cells = 0, steps = 0, repeat = 5, step = -1, no_time = 0;
-    enum { O_CELLS = CLI_OPT, O_STEPS, O_REPEAT, O_OUT, O_TIME, O_STEP, O_NO_TIME, O_ONLY };
-    static const struct option options[] = {
-        {"cells", required_argument, NULL, O_CELLS}, {"steps", required_argument, NULL, O_STEPS},
-        {"repeat", required_argument, NULL, O_REPEAT}, {"out", required_argument, NULL, O_OUT},
-        {"time", required_argument, NULL, O_TIME}, {"step", required_argument, NULL, O_STEP},
-        {"no-time", no_argument, NULL, O_NO_TIME}, {"only", required_argument, NULL, O_ONLY},
-        {0}};
-    static const cli_tool tool = {"defsim-bench-contact-phases", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_CELLS: ok = cli_int(&c, 1, 100000, &cells); break;
-        case O_STEPS: ok = cli_int(&c, 0, 1000000000, &steps); break;
-        case O_REPEAT: ok = cli_int(&c, 1, 99, &repeat); break;
-        case O_OUT: out = c.arg; break;
-        case O_TIME: tdir = c.arg; break;
-        case O_STEP: ok = cli_int(&c, 0, 1000000000, &step); break;
-        case O_NO_TIME: no_time = 1; break;
-        case O_ONLY: only_phase = c.arg; break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind + 1 < argc) return cli_error(&c, "one scene file at a time");
-    if (c.optind < argc) path = argv[c.optind];
-    if (!out && !tdir) return cli_error(&c, "--out DIR or --time DIR --step K");
-    if (tdir && step < 0) return cli_error(&c, "--time needs --step K");
+    static const cli_tool tool = {"defsim-bench-contact-phases", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"cells", CLI_INT, &cells, 1, 100000}, {"steps", CLI_INT, &steps, 0, 1e9},
+        {"repeat", CLI_INT, &repeat, 1, 99}, {"out", CLI_STRING, &out, 0, 0},
+        {"time", CLI_STRING, &tdir, 0, 0}, {"step", CLI_INT, &step, 0, 1e9},
+        {"no-time", CLI_FLAG, &no_time, 0, 0}, {"only", CLI_STRING, &only_phase, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first + 1 < argc) return cli_fail(&tool, "one scene file at a time");
+    if (first < argc) path = argv[first];
+    if (!out && !tdir) return cli_fail(&tool, "--out DIR or --time DIR --step K");
+    if (tdir && step < 0) return cli_fail(&tool, "--time needs --step K");
     if (tdir) {
         return time_state(tdir, step, repeat) == 0 ? 0 : 1;
     }

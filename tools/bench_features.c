@@ -357,36 +357,17 @@ int main(int argc, char **argv)
 {
     int n = 12, steps = 20, rounds = 7, threads = 1, cloth_n = 0, n_implicit = 4;
     const char *only = NULL;
-    enum { O_N = CLI_OPT, O_STEPS, O_ROUNDS, O_THREADS, O_ONLY, O_CLOTH, O_BACKEND,
-           O_N_IMPLICIT, O_CPU };
-    static const struct option options[] = {
-        {"n", required_argument, NULL, O_N}, {"steps", required_argument, NULL, O_STEPS},
-        {"rounds", required_argument, NULL, O_ROUNDS},
-        {"threads", required_argument, NULL, O_THREADS},
-        {"only", required_argument, NULL, O_ONLY}, {"cloth", required_argument, NULL, O_CLOTH},
-        {"backend", required_argument, NULL, O_BACKEND},
-        {"n-implicit", required_argument, NULL, O_N_IMPLICIT},
-        {"cpu", no_argument, NULL, O_CPU}, {0}};
-    static const cli_tool tool = {"defsim-bench-features", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_N: ok = cli_int(&c, 1, 1000, &n); break;
-        case O_STEPS: ok = cli_int(&c, 1, 1000000000, &steps); break;
-        case O_ROUNDS: ok = cli_int(&c, 1, 99, &rounds); break;
-        case O_THREADS: ok = cli_int(&c, 0, 4096, &threads); break;
-        case O_ONLY: only = c.arg; break;
-        case O_CLOTH: ok = cli_int(&c, 1, 100000, &cloth_n); break;
-        case O_BACKEND: backend_name = c.arg; break;
-        case O_N_IMPLICIT: ok = cli_int(&c, 1, 1000, &n_implicit); break;
-        case O_CPU: use_cpu = 1; break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
+    static const cli_tool tool = {"defsim-bench-features", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"n", CLI_INT, &n, 1, 1000}, {"steps", CLI_INT, &steps, 1, 1e9},
+        {"rounds", CLI_INT, &rounds, 1, 99}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"only", CLI_STRING, &only, 0, 0}, {"cloth", CLI_INT, &cloth_n, 1, 100000},
+        {"backend", CLI_STRING, &backend_name, 0, 0}, {"n-implicit", CLI_INT, &n_implicit, 1, 1000},
+        {"cpu", CLI_FLAG, &use_cpu, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     if (cloth_n > 0) {
         printf("%dx%d cloth on a sphere, 150 steps of 0.01 s, %d threads\n\n", cloth_n, cloth_n,
                threads);

@@ -39,22 +39,21 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     static const cli_tool tool = {"defsim-bench-ida", usage, NULL, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;)
-        if (o == CLI_EXIT) return c.status;
-    char **arg = argv + c.optind;
-    const int nargs = argc - c.optind;
-    if (nargs < 3) return cli_error(&c, "need SCENE.json TOL REPEATS");
+    int first;
+    const int parsed = cli_parse(&tool, NULL, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char **arg = argv + first;
+    const int nargs = argc - first;
+    if (nargs < 3) return cli_fail(&tool, "need SCENE.json TOL REPEATS");
     char *end1 = NULL, *end2 = NULL;
     const double tol = strtod(arg[1], &end1);
     const long repeats = strtol(arg[2], &end2, 10);
     if (*end1 || end1 == arg[1] || !(tol > 0.0) || !isfinite(tol) || *end2 || end2 == arg[2] ||
         repeats < 1 || repeats > 64)
-        return cli_error(&c, "TOL > 0 and REPEATS 1 to 64 (got %s and %s)", arg[1], arg[2]);
+        return cli_fail(&tool, "TOL > 0 and REPEATS 1 to 64 (got %s and %s)", arg[1], arg[2]);
     for (int a = 3; a < nargs; ++a)
         if (!strchr(arg[a], '=') || arg[a][0] == '=')
-            return cli_error(&c, "options are NAME=VALUE (got %s)", arg[a]);
+            return cli_fail(&tool, "options are NAME=VALUE (got %s)", arg[a]);
     scene s;
     if (scene_load(&s, arg[0], NULL, 0) != 0) {
         fprintf(stderr, "defsim-bench-ida: %s\n", s.error);

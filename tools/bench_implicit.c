@@ -53,45 +53,24 @@ int main(int argc, char **argv)
     const char *model_name = "snh", *backend = "newton_cholmod", *proj = "clamp";
     int n = 18, threads = 0, steps = 3, max_it = 50, verbose = 0;
     double h = 1.0 / 60.0, tol = 1e-6;
-    enum { O_MODEL = CLI_OPT, O_BACKEND, O_N, O_THREADS, O_H, O_STEPS, O_TOLERANCE,
-           O_MAX_ITERATIONS, O_PROJECTION, O_VERBOSE };
-    static const struct option options[] = {
-        {"model", required_argument, NULL, O_MODEL},
-        {"backend", required_argument, NULL, O_BACKEND}, {"n", required_argument, NULL, O_N},
-        {"threads", required_argument, NULL, O_THREADS}, {"h", required_argument, NULL, O_H},
-        {"steps", required_argument, NULL, O_STEPS},
-        {"tolerance", required_argument, NULL, O_TOLERANCE},
-        {"max-iterations", required_argument, NULL, O_MAX_ITERATIONS},
-        {"projection", required_argument, NULL, O_PROJECTION},
-        {"verbose", no_argument, NULL, O_VERBOSE}, {0}};
-    static const cli_tool tool = {"defsim-bench-implicit", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_MODEL: model_name = c.arg; break;
-        case O_BACKEND: backend = c.arg; break;
-        case O_N: ok = cli_int(&c, 1, 1000, &n); break;
-        case O_THREADS: ok = cli_int(&c, 0, 4096, &threads); break;
-        case O_H: ok = cli_positive(&c, &h); break;
-        case O_STEPS: ok = cli_int(&c, 1, 1000000000, &steps); break;
-        case O_TOLERANCE: ok = cli_positive(&c, &tol); break;
-        case O_MAX_ITERATIONS: ok = cli_int(&c, 1, 1000000, &max_it); break;
-        case O_PROJECTION: proj = c.arg; break;
-        case O_VERBOSE: verbose = 1; break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
+    static const cli_tool tool = {"defsim-bench-implicit", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"model", CLI_STRING, &model_name, 0, 0}, {"backend", CLI_STRING, &backend, 0, 0},
+        {"n", CLI_INT, &n, 1, 1000}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"h", CLI_POSITIVE, &h, 0, 0}, {"steps", CLI_INT, &steps, 1, 1e9},
+        {"tolerance", CLI_POSITIVE, &tol, 0, 0}, {"max-iterations", CLI_INT, &max_it, 1, 1e6},
+        {"projection", CLI_STRING, &proj, 0, 0}, {"verbose", CLI_FLAG, &verbose, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) return cli_error(&c, "unknown model %s", model_name);
+    if (!model) return cli_fail(&tool, "unknown model %s", model_name);
     defsim_projection projection;
     if (!strcmp(proj, "none")) projection = DEFSIM_PROJECTION_NONE;
     else if (!strcmp(proj, "clamp")) projection = DEFSIM_PROJECTION_CLAMP;
     else if (!strcmp(proj, "abs")) projection = DEFSIM_PROJECTION_ABS;
-    else return cli_error(&c, "--projection must be none, clamp or abs (got %s)", proj);
+    else return cli_fail(&tool, "--projection must be none, clamp or abs (got %s)", proj);
 
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);

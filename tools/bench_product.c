@@ -301,30 +301,20 @@ int main(int argc, char **argv)
 {
     const char *paths[8];
     int steps[8], np = 200, repeat = 5, nscene = 0;
-    enum { O_PRODUCTS = CLI_OPT, O_REPEAT };
-    static const struct option options[] = {
-        {"products", required_argument, NULL, O_PRODUCTS},
-        {"repeat", required_argument, NULL, O_REPEAT}, {0}};
-    static const cli_tool tool = {"defsim-bench-product", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_PRODUCTS: ok = cli_int(&c, 1, 100000000, &np); break;
-        case O_REPEAT: ok = cli_int(&c, 1, 99, &repeat); break;
-        }
-        if (!ok) return c.status;
-    }
-    if (argc - c.optind > 8) return cli_error(&c, "at most 8 scenes");
-    for (int i = c.optind; i < argc; ++i) {
+    static const cli_tool tool = {"defsim-bench-product", usage, NULL, ""};
+    const cli_opt opts[] = {{"products", CLI_INT, &np, 1, 1e8}, {"repeat", CLI_INT, &repeat, 1, 99},
+                            {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (argc - first > 8) return cli_fail(&tool, "at most 8 scenes");
+    for (int i = first; i < argc; ++i) {
         char *colon = strrchr(argv[i], ':'), *end = NULL;
         steps[nscene] = 50;
         if (colon) {
             const long v = strtol(colon + 1, &end, 10);
             if (end == colon + 1 || *end || v < 0 || v > 100000000)
-                return cli_error(&c, "SCENE:STEPS with STEPS >= 0 (got %s)", argv[i]);
+                return cli_fail(&tool, "SCENE:STEPS with STEPS >= 0 (got %s)", argv[i]);
             steps[nscene] = (int)v;
             *colon = '\0';
         }

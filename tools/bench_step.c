@@ -54,36 +54,18 @@ int main(int argc, char **argv)
     const char *simd = NULL;
     int n = 18, threads = 1, steps = 20, repeats = 5;
     double stream_gbs = 18.0;
-    enum { O_MODEL = CLI_OPT, O_N, O_THREADS, O_STEPS, O_REPEATS, O_BACKEND, O_SIMD, O_STREAM };
-    static const struct option options[] = {
-        {"model", required_argument, NULL, O_MODEL}, {"n", required_argument, NULL, O_N},
-        {"threads", required_argument, NULL, O_THREADS},
-        {"steps", required_argument, NULL, O_STEPS},
-        {"repeats", required_argument, NULL, O_REPEATS},
-        {"backend", required_argument, NULL, O_BACKEND},
-        {"simd", required_argument, NULL, O_SIMD},
-        {"stream-gbs", required_argument, NULL, O_STREAM}, {0}};
-    static const cli_tool tool = {"defsim-bench-step", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_MODEL: model_name = c.arg; break;
-        case O_N: ok = cli_int(&c, 1, 1000, &n); break;
-        case O_THREADS: ok = cli_int(&c, 0, 4096, &threads); break;
-        case O_STEPS: ok = cli_int(&c, 1, 1000000000, &steps); break;
-        case O_REPEATS: ok = cli_int(&c, 1, 100, &repeats); break;
-        case O_BACKEND: backend = c.arg; break;
-        case O_SIMD: simd = c.arg; break;
-        case O_STREAM: ok = cli_positive(&c, &stream_gbs); break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
+    static const cli_tool tool = {"defsim-bench-step", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"model", CLI_STRING, &model_name, 0, 0}, {"n", CLI_INT, &n, 1, 1000},
+        {"threads", CLI_INT, &threads, 0, 4096}, {"steps", CLI_INT, &steps, 1, 1e9},
+        {"repeats", CLI_INT, &repeats, 1, 100}, {"backend", CLI_STRING, &backend, 0, 0},
+        {"simd", CLI_STRING, &simd, 0, 0}, {"stream-gbs", CLI_POSITIVE, &stream_gbs, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) return cli_error(&c, "unknown model %s", model_name);
+    if (!model) return cli_fail(&tool, "unknown model %s", model_name);
 
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);

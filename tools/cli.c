@@ -33,15 +33,29 @@ void cli_begin(cli *c, const cli_tool *tool, int argc, char **argv)
     opterr = 0;
 }
 
+static int usage_error(const char *name, const char *fmt, va_list ap)
+{
+    fprintf(stderr, "%s: ", name);
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n(%s --help lists the options)\n", name);
+    return 2;
+}
+
 int cli_error(cli *c, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "%s: ", c->tool->name);
-    vfprintf(stderr, fmt, ap);
+    c->status = usage_error(c->tool->name, fmt, ap);
     va_end(ap);
-    fprintf(stderr, "\n(%s --help lists the options)\n", c->tool->name);
-    c->status = 2;
+    return 2;
+}
+
+int cli_fail(const cli_tool *tool, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    usage_error(tool->name, fmt, ap);
+    va_end(ap);
     return 2;
 }
 
@@ -145,4 +159,40 @@ void cli_print_version(const char *name)
 {
     const int v = defsim_version_number();
     printf("%s (defsim %d.%d.%d)\n", name, v / 10000, v / 100 % 100, v % 100);
+}
+
+int cli_parse(const cli_tool *tool, const cli_opt *opts, int argc, char **argv, int *first)
+{
+    struct option longs[CLI_MAX_OPTIONS + 1];
+    int n = 0;
+    for (const cli_opt *o = opts; o && o->name && n < CLI_MAX_OPTIONS; ++o, ++n)
+        longs[n] = (struct option){o->name, o->kind == CLI_FLAG ? no_argument : required_argument,
+                                   NULL, CLI_OPT + n};
+    longs[n] = (struct option){0};
+    cli_tool t = *tool;
+    t.options = longs;
+    cli c;
+    cli_begin(&c, &t, argc, argv);
+    for (int k; (k = cli_next(&c)) != CLI_END;) {
+        if (k == CLI_EXIT) return c.status;
+        const cli_opt *o = &opts[k - CLI_OPT];
+        int ok = 1;
+        switch (o->kind) {
+        case CLI_FLAG: *(int *)o->target = 1; break;
+        case CLI_STRING: *(const char **)o->target = c.arg; break;
+        case CLI_INT: ok = cli_int(&c, (long)o->lo, (long)o->hi, o->target); break;
+        case CLI_LONG: ok = cli_long(&c, (long)o->lo, (long)o->hi, o->target); break;
+        case CLI_DOUBLE: ok = cli_double(&c, o->lo, o->hi, o->target); break;
+        case CLI_POSITIVE: ok = cli_positive(&c, o->target); break;
+        case CLI_LIST: {
+            cli_list *l = o->target;
+            if (l->count == l->capacity) return cli_error(&c, "at most %d %s", l->capacity, c.flag);
+            l->items[l->count++] = c.arg;
+            break;
+        }
+        }
+        if (!ok) return c.status;
+    }
+    *first = c.optind;
+    return -1;
 }

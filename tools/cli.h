@@ -15,6 +15,15 @@
  *
  * Operands and options may come in any order (GNU permutation), unless the tool's short options
  * begin with '+' (stop at the first operand: a command's name).
+ *
+ * A tool whose options only set variables describes them in a table instead, and cli_parse runs
+ * that loop:
+ *
+ *     const cli_opt opts[] = {{"n", CLI_INT, &n, 1, 1000}, {"cpu", CLI_FLAG, &use_cpu, 0, 0}, {0}};
+ *     int first;
+ *     const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+ *     if (parsed >= 0) return parsed;          // help, version or a usage error
+ *     // operands: argv[first .. argc - 1]
  */
 #ifndef DEFSIM_TOOLS_CLI_H
 #define DEFSIM_TOOLS_CLI_H
@@ -69,5 +78,30 @@ int cli_positive(cli *c, double *out);   /* finite and > 0 */
 
 /* Prints "NAME (defsim X.Y.Z)": the version of the library the tool runs with. */
 void cli_print_version(const char *name);
+
+/* What an option of a table sets: CLI_FLAG 1 into an int; CLI_STRING the value into a const
+ * char *; CLI_INT, CLI_LONG and CLI_DOUBLE the value checked against [lo, hi] into an int, long
+ * or double; CLI_POSITIVE a finite number > 0 into a double; CLI_LIST appends the value to a
+ * cli_list (a usage error once it is full). */
+typedef enum cli_kind { CLI_FLAG, CLI_STRING, CLI_INT, CLI_LONG, CLI_DOUBLE, CLI_POSITIVE,
+                        CLI_LIST } cli_kind;
+typedef struct cli_opt {
+    const char *name;   /* the long option without "--"; NULL ends the table */
+    cli_kind kind;
+    void *target;
+    double lo, hi;      /* CLI_INT, CLI_LONG, CLI_DOUBLE */
+} cli_opt;
+typedef struct cli_list {
+    const char **items;
+    int count, capacity;
+} cli_list;
+
+/* Parses argv with the tool's table (at most CLI_MAX_OPTIONS; tool->options is not used).
+ * Returns -1 with *first the first operand, or the exit status after help, version or a usage
+ * error. */
+int cli_parse(const cli_tool *tool, const cli_opt *opts, int argc, char **argv, int *first);
+
+/* Reports a usage error of a tool as cli_error does, without a cli (after cli_parse). */
+int cli_fail(const cli_tool *tool, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 #endif

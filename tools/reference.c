@@ -71,44 +71,21 @@ int main(int argc, char **argv)
     double alpha = 0.0, beta = 0.0;
     int n = 3, threads = 1, quiet = 0;
     const char *backend = "sundials_erk";
-    enum { O_MODEL = CLI_OPT, O_OUT, O_BACKEND, O_N, O_T, O_RTOL, O_ATOL, O_E, O_NU, O_RHO,
-           O_ALPHA, O_BETA, O_THREADS, O_QUIET };
-    static const struct option options[] = {
-        {"model", required_argument, NULL, O_MODEL}, {"out", required_argument, NULL, O_OUT},
-        {"backend", required_argument, NULL, O_BACKEND}, {"n", required_argument, NULL, O_N},
-        {"T", required_argument, NULL, O_T}, {"rtol", required_argument, NULL, O_RTOL},
-        {"atol", required_argument, NULL, O_ATOL}, {"E", required_argument, NULL, O_E},
-        {"nu", required_argument, NULL, O_NU}, {"rho", required_argument, NULL, O_RHO},
-        {"alpha", required_argument, NULL, O_ALPHA}, {"beta", required_argument, NULL, O_BETA},
-        {"threads", required_argument, NULL, O_THREADS},
-        {"quiet", no_argument, NULL, O_QUIET}, {0}};
-    static const cli_tool tool = {"defsim-reference", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_MODEL: model_name = c.arg; break;
-        case O_OUT: out_path = c.arg; break;
-        case O_BACKEND: backend = c.arg; break;
-        case O_N: ok = cli_int(&c, 1, 64, &n); break;
-        case O_T: ok = cli_positive(&c, &T); break;
-        case O_RTOL: ok = cli_positive(&c, &rtol); break;
-        case O_ATOL: ok = cli_positive(&c, &atol); break;
-        case O_E: ok = cli_positive(&c, &E); break;
-        case O_NU: ok = cli_double(&c, -1.0, 0.5, &nu); break;
-        case O_RHO: ok = cli_positive(&c, &rho); break;
-        case O_ALPHA: ok = cli_double(&c, 0.0, 1e300, &alpha); break;
-        case O_BETA: ok = cli_double(&c, 0.0, 1e300, &beta); break;
-        case O_THREADS: ok = cli_int(&c, 0, 1024, &threads); break;
-        case O_QUIET: quiet = 1; break;
-        }
-        if (!ok) return c.status;
-    }
-    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
+    static const cli_tool tool = {"defsim-reference", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"model", CLI_STRING, &model_name, 0, 0}, {"out", CLI_STRING, &out_path, 0, 0},
+        {"backend", CLI_STRING, &backend, 0, 0}, {"n", CLI_INT, &n, 1, 64},
+        {"T", CLI_POSITIVE, &T, 0, 0}, {"rtol", CLI_POSITIVE, &rtol, 0, 0},
+        {"atol", CLI_POSITIVE, &atol, 0, 0}, {"E", CLI_POSITIVE, &E, 0, 0},
+        {"nu", CLI_DOUBLE, &nu, -1.0, 0.5}, {"rho", CLI_POSITIVE, &rho, 0, 0},
+        {"alpha", CLI_DOUBLE, &alpha, 0.0, 1e300}, {"beta", CLI_DOUBLE, &beta, 0.0, 1e300},
+        {"threads", CLI_INT, &threads, 0, 1024}, {"quiet", CLI_FLAG, &quiet, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) return cli_error(&c, "unknown model %s", model_name);
+    if (!model) return cli_fail(&tool, "unknown model %s", model_name);
     char default_out[64];
     snprintf(default_out, sizeof default_out, "reference_%s_n%d.txt", model_name, n);
     if (!out_path) out_path = default_out;

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
-# The API reference (docs/api.md, issue 28): Doxygen over the public headers with warnings as
-# errors (an undocumented declaration, a broken reference), then every DEFSIM_API function of
-# the headers must have its entry in the generated function index.
+# The API reference (docs/api-reference.md, issue 28): Doxygen over the public headers with
+# warnings as errors (an undocumented declaration, a broken reference), then every DEFSIM_API
+# function of the headers must have its entry in the generated function index.
 #   cmake -DDOXYGEN=exe -DDOXYFILE=file -DOUT=dir -DHEADERS="a.h;b.h" -P check_api_docs.cmake
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})

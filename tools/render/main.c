@@ -149,35 +149,23 @@ int main(int argc, char **argv)
     char **inputs = calloc((size_t)argc, sizeof *inputs);
     int ninputs = 0, *list = calloc(chars / 2 + 1, sizeof *list), nlist = 0;
     if (!inputs || !list) return 1;
-    enum { O_SCENE = CLI_OPT, O_OUT, O_COLOR, O_FRAMES };
-    static const struct option options[] = {
-        {"scene", required_argument, NULL, O_SCENE}, {"out", required_argument, NULL, O_OUT},
-        {"color", required_argument, NULL, O_COLOR},
-        {"frames", required_argument, NULL, O_FRAMES}, {0}};
-    static const cli_tool tool = {"defsim-render", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_SCENE: scene_path = c.arg; break;
-        case O_OUT: out_dir = c.arg; break;
-        case O_COLOR: color = c.arg; break;
-        case O_FRAMES:
-            for (const char *s = c.arg;; ) {
-                char *end;
-                const long v = strtol(s, &end, 10);
-                if (end == s || v < 0 || v > 1000000000 || (*end && *end != ','))
-                    return cli_error(&c, "--frames: comma-separated frame numbers (got %s)",
-                                     c.arg);
-                list[nlist++] = (int)v;
-                if (!*end) break;
-                s = end + 1;
-            }
-            break;
-        }
+    const char *frames_arg = NULL;
+    static const cli_tool tool = {"defsim-render", usage, NULL, ""};
+    const cli_opt opts[] = {{"scene", CLI_STRING, &scene_path, 0, 0}, {"out", CLI_STRING, &out_dir, 0, 0},
+                            {"color", CLI_STRING, &color, 0, 0}, {"frames", CLI_STRING, &frames_arg, 0, 0},
+                            {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    for (const char *s = frames_arg; s;) {
+        char *end;
+        const long v = strtol(s, &end, 10);
+        if (end == s || v < 0 || v > 1000000000 || (*end && *end != ','))
+            return cli_fail(&tool, "--frames: comma-separated frame numbers (got %s)", frames_arg);
+        list[nlist++] = (int)v;
+        s = *end ? end + 1 : NULL;
     }
-    for (int i = c.optind; i < argc; ++i) inputs[ninputs++] = argv[i];
+    for (int i = first; i < argc; ++i) inputs[ninputs++] = argv[i];
     /* The frame files and their times. */
     char **files = NULL;
     double *times = NULL;

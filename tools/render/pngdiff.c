@@ -31,27 +31,16 @@ int main(int argc, char **argv)
     const char *a_path = NULL, *b_path = NULL, *diff_path = NULL;
     int threshold = 16;
     double max_fraction = 0.002;
-    enum { O_THRESHOLD = CLI_OPT, O_MAX_FRACTION, O_DIFF };
-    static const struct option options[] = {
-        {"threshold", required_argument, NULL, O_THRESHOLD},
-        {"max-fraction", required_argument, NULL, O_MAX_FRACTION},
-        {"diff", required_argument, NULL, O_DIFF}, {0}};
-    static const cli_tool tool = {"pngdiff", usage, options, ""};
-    cli c;
-    cli_begin(&c, &tool, argc, argv);
-    for (int o; (o = cli_next(&c)) != CLI_END;) {
-        int ok = 1;
-        switch (o) {
-        case CLI_EXIT: return c.status;
-        case O_THRESHOLD: ok = cli_int(&c, 0, 255, &threshold); break;
-        case O_MAX_FRACTION: ok = cli_double(&c, 0.0, 1.0, &max_fraction); break;
-        case O_DIFF: diff_path = c.arg; break;
-        }
-        if (!ok) return c.status;
-    }
-    if (argc - c.optind != 2) return cli_error(&c, "need two PNG files");
-    a_path = argv[c.optind];
-    b_path = argv[c.optind + 1];
+    static const cli_tool tool = {"pngdiff", usage, NULL, ""};
+    const cli_opt opts[] = {{"threshold", CLI_INT, &threshold, 0, 255},
+                            {"max-fraction", CLI_DOUBLE, &max_fraction, 0.0, 1.0},
+                            {"diff", CLI_STRING, &diff_path, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (argc - first != 2) return cli_fail(&tool, "need two PNG files");
+    a_path = argv[first];
+    b_path = argv[first + 1];
     image a, b, d = {0, 0, NULL};
     char err[512];
     if (image_read_png(a_path, &a, err, sizeof err)) {

@@ -7,8 +7,9 @@
  *
  * Modules are searched, in order, in DEFSIM_BACKEND_PATH (a colon-separated override), then
  * beside the loaded library: <libdir>/defsim (an installed tree) and <libdir>/modules (the build
- * tree, and the Python package's layout), then the configure-time DEFSIM_MODULE_DIR (for
- * programs linked with the static library, whose "library" is the executable itself).
+ * tree, and the Python package's layout), then the installed module directory (for programs
+ * linked with the static library, whose "library" is the executable itself): the configure-time
+ * DEFSIM_MODULE_DIR in the build tree, the install prefix's in an installed library.
  */
 #define _GNU_SOURCE 1   /* dladdr */
 #include "registry.h"
@@ -29,6 +30,25 @@
 #ifndef DEFSIM_MODULE_DIR
 #define DEFSIM_MODULE_DIR ""
 #endif
+
+/* The installed module directory, for programs linked with the static library (their "library"
+ * is the executable, so the directories beside it are the program's). Configure time puts
+ * DEFSIM_MODULE_DIR here; the install step writes the prefix it installs to over it in the
+ * installed libdefsim.a and .so (cmake/set_module_dir.c finds the record by its mark and
+ * keeps its size), so that `cmake --install --prefix P` leaves P/<libdir>/defsim in them, not
+ * the configure-time prefix's. Read through an opaque pointer: the compiler must not fold the
+ * contents it was compiled with. */
+#define MODULE_DIR_MARK "defsim-module-dir[4096]:"
+__attribute__((used)) static const char module_dir_record[4096] =
+    MODULE_DIR_MARK DEFSIM_MODULE_DIR;
+
+static const char *installed_module_dir(void)
+{
+    const char *p = module_dir_record;
+    __asm__("" : "+r"(p));
+    p += sizeof MODULE_DIR_MARK - 1;
+    return memchr(p, '\0', sizeof module_dir_record - (sizeof MODULE_DIR_MARK - 1)) ? p : "";
+}
 
 typedef struct entry {
     defsim_backend table;
@@ -198,9 +218,9 @@ static void find_self_dirs(void)
 static const char *module_dirs(char *buf, size_t size)
 {
     pthread_once(&self_once, find_self_dirs);
-    const char *env = getenv("DEFSIM_BACKEND_PATH");
+    const char *env = getenv("DEFSIM_BACKEND_PATH"), *installed = installed_module_dir();
     snprintf(buf, size, "%s%s%s%s%s", env && env[0] ? env : "", env && env[0] ? ":" : "",
-             self_dirs, self_dirs[0] && DEFSIM_MODULE_DIR[0] ? ":" : "", DEFSIM_MODULE_DIR);
+             self_dirs, self_dirs[0] && installed[0] ? ":" : "", installed);
     return buf;
 }
 
@@ -283,7 +303,9 @@ static void unknown_name_error(const char *name, const char *why_not, const char
     for (int i = 0; i < l.n && used < sizeof list; ++i)
         used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", i ? ", " : "",
                                  l.names[i]);
-    defsim__set_last_error("no backend '%.64s'%s: %savailable: %s (modules searched in %.200s)",
+    /* The way out before the list of directories, which may be cut at the message's size. */
+    defsim__set_last_error("no backend '%.64s'%s: %savailable: %s (DEFSIM_BACKEND_PATH names "
+                           "more directories of defsim_<name>.so modules; searched %.200s)",
                            name, why_not, hint, l.n ? list : "(none)",
                            dirs[0] ? dirs : "no directory");
 }

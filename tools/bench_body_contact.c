@@ -42,6 +42,7 @@
  * check's time is not counted in the step times. --rest KE fails the run (exit 1) when the
  * kinetic energy at its end exceeds KE (J). Both are reported in the table.
  */
+#include "cli.h"
 #include "clock.h"
 #include "exact_geom.h"
 #include "scene.h"
@@ -337,7 +338,7 @@ static int surface_check(surface *sf, const double *x, int32_t *pa, int32_t *pb,
 
 enum { MAX_SETS = 8 };
 static const char *user_sets[MAX_SETS];   /* --set KEY=VALUE */
-static int nuser_sets;
+static cli_list sets_given = {user_sets, 0, MAX_SETS};
 
 /* One run of the scene with `backend`; 0 or -1 (message printed). */
 static int run(const char *path, const char *backend, int cells, int threads, result *r)
@@ -353,7 +354,7 @@ static int run(const char *path, const char *backend, int cells, int threads, re
     }
     snprintf(threads_set, sizeof threads_set, "world.threads=%d", threads);
     sets[nsets++] = threads_set;
-    for (int k = 0; k < nuser_sets; ++k) sets[nsets++] = user_sets[k];
+    for (int k = 0; k < sets_given.count; ++k) sets[nsets++] = user_sets[k];
     scene s;
     if (scene_load(&s, path, sets, nsets) != 0) {
         fprintf(stderr, "%s\n", s.error);
@@ -462,49 +463,66 @@ static double loglog_slope(const double *x, const double *y, int n)
     return (n * sxy - sx * sy) / (n * sxx - sx * sx);
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-body-contact [SCENE] [--cells N | --cells-list N1,N2,...\n"
+               "                                 [--fit]] [--backends a,b] [--threads T]\n"
+               "                                 [--repeat R] [--steps S] [--cpu] [--check]\n"
+               "                                 [--rest KE] [--per-step FILE]\n"
+               "                                 [--set KEY=VALUE]...\n"
+               "Body contact's cost on a shipped scene (default the cloth fold): time per step\n"
+               "and per Newton iteration, the shares of its broad phase, CCD and evaluation.\n"
+               "  --cells N          the first body's mesh cells, N x N\n"
+               "  --cells-list L     run each size in turn; --fit: the scaling exponent\n"
+               "  --backends LIST    backends to run (default newton_cholmod)\n"
+               "  --threads T        OpenMP threads (default 1)\n"
+               "  --repeat R         runs per backend and size, 1..99 (default 3)\n"
+               "  --steps S          the first S steps only (default: the scene's length)\n"
+               "  --cpu              time with process CPU time\n"
+               "  --check            exact intersection check after every step (exit 1 on one)\n"
+               "  --rest KE          exit 1 unless the kinetic energy at the end is below KE\n"
+               "  --per-step FILE    a CSV row per step\n"
+               "  --set KEY=VALUE    override a scene value, as in defsim run (at most 8)\n"
+               "  -h, --help         this text\n"
+               "  --version          the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
-    const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json";
-    char backends[256] = "newton_cholmod", list[256] = "";
+    const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json", *per_step_path = NULL;
+    const char *backends_arg = "newton_cholmod", *list_arg = "";
     int cells = 0, threads = 1, repeat = 3, fit = 0;
     double rest = -1.0;
-    for (int i = 1; i < argc; ++i) {
-        const int has = i + 1 < argc;
-        if (!strcmp(argv[i], "--cells") && has) cells = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cells-list") && has)
-            snprintf(list, sizeof list, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--fit")) fit = 1;
-        else if (!strcmp(argv[i], "--threads") && has) threads = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--repeat") && has) repeat = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--steps") && has) max_steps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cpu")) use_cpu = 1;
-        else if (!strcmp(argv[i], "--check")) check = 1;
-        else if (!strcmp(argv[i], "--per-step") && has) {
-            if (!(per_step = fopen(argv[++i], "w"))) {
-                perror(argv[i]);
-                return 2;
-            }
-            fprintf(per_step, "cells,vertices,step,newton_iterations,ms\n");
-        }
-        else if (!strcmp(argv[i], "--rest") && has) rest = atof(argv[++i]);
-        else if (!strcmp(argv[i], "--set") && has && nuser_sets < MAX_SETS)
-            user_sets[nuser_sets++] = argv[++i];
-        else if (!strcmp(argv[i], "--backends") && has)
-            snprintf(backends, sizeof backends, "%s", argv[++i]);
-        else if (argv[i][0] != '-') path = argv[i];
-        else {
-            fprintf(stderr, "usage: defsim-bench-body-contact [SCENE] [--cells N | --cells-list "
-                            "N1,N2,... [--fit]] [--backends a,b] [--threads T] [--repeat R] "
-                            "[--steps S] [--cpu] [--check] [--rest KE] [--per-step FILE] "
-                            "[--set KEY=VALUE]...\n");
+    static const cli_tool tool = {"defsim-bench-body-contact", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"cells", CLI_INT, &cells, 1, 100000}, {"cells-list", CLI_STRING, &list_arg, 0, 0},
+        {"fit", CLI_FLAG, &fit, 0, 0}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"repeat", CLI_INT, &repeat, 1, 99}, {"steps", CLI_INT, &max_steps, 0, 1e9},
+        {"cpu", CLI_FLAG, &use_cpu, 0, 0}, {"check", CLI_FLAG, &check, 0, 0},
+        {"per-step", CLI_STRING, &per_step_path, 0, 0}, {"rest", CLI_DOUBLE, &rest, 0.0, 1e300},
+        {"set", CLI_LIST, &sets_given, 0, 0}, {"backends", CLI_STRING, &backends_arg, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char backends[256], list[256];
+    snprintf(backends, sizeof backends, "%s", backends_arg);
+    snprintf(list, sizeof list, "%s", list_arg);
+    if (first + 1 < argc) return cli_fail(&tool, "one scene file at a time");
+    if (first < argc) path = argv[first];
+    if (per_step_path) {
+        if (!(per_step = fopen(per_step_path, "w"))) {
+            perror(per_step_path);
             return 2;
         }
+        fprintf(per_step, "cells,vertices,step,newton_iterations,ms\n");
     }
-    if (cells < 0 || threads < 0 || repeat < 1 || repeat > 99 || max_steps < 0) return 2;
     int sizes[32], nsizes = 0;
     if (list[0]) {
-        for (char *c = strtok(list, ","); c && nsizes < 32; c = strtok(NULL, ","))
-            if ((sizes[nsizes++] = atoi(c)) < 1) return 2;
+        for (char *tok = strtok(list, ","); tok && nsizes < 32; tok = strtok(NULL, ","))
+            if ((sizes[nsizes++] = atoi(tok)) < 1) {
+                fprintf(stderr, "defsim-bench-body-contact: --cells-list: sizes >= 1\n");
+                return 2;
+            }
     } else {
         sizes[nsizes++] = cells;
     }

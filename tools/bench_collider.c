@@ -8,6 +8,7 @@
  *
  *   defsim-bench-collider [--segments N] [--points P] [--rounds R]
  */
+#include "cli.h"
 #include "clock.h"
 
 #include "collider.h"
@@ -39,16 +40,29 @@ static double urand(void)   /* [-1, 1) */
     return (double)(rng >> 11) * (2.0 / 9007199254740992.0) - 1.0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-collider [--segments N] [--points P] [--rounds R]\n"
+               "Distance queries against a UV-sphere mesh collider: AABB tree against a loop\n"
+               "over every triangle, and the collider's build; medians over rounds.\n"
+               "  --segments N  segments around the sphere, >= 4 (default 100: 9800 triangles)\n"
+               "  --points P    query points (default 20000)\n"
+               "  --rounds R    rounds (default 5)\n"
+               "  -h, --help    this text\n"
+               "  --version     the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
     int nu = 100, npts = 20000, rounds = 5;
-    for (int i = 1; i + 1 < argc; i += 2) {
-        if (!strcmp(argv[i], "--segments")) nu = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--points")) npts = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
-        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
-    }
-    if (nu < 4 || npts < 1 || rounds < 1) { fprintf(stderr, "bad options\n"); return 2; }
+    static const cli_tool tool = {"defsim-bench-collider", usage, NULL, ""};
+    const cli_opt opts[] = {{"segments", CLI_INT, &nu, 4, 100000},
+                            {"points", CLI_INT, &npts, 1, 1e8},
+                            {"rounds", CLI_INT, &rounds, 1, 1000}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     /* UV sphere: nu segments around y, nu / 2 rings: 2 nu (nu / 2 - 1) triangles */
     const int nr = nu / 2, nv = 2 + nu * (nr - 1), nt = 2 * nu * (nr - 1);
     double *x = malloc(3 * (size_t)nv * sizeof *x);

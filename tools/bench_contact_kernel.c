@@ -11,6 +11,7 @@
  *       0.1 = 1 - IPC Toolkit's conservative_rescaling 0.9) against IPC Toolkit's time of impact:
  *       the distribution of ours / theirs over the pairs where theirs is below 1.
  */
+#include "cli.h"
 #include "clock.h"
 #include "contact_pair.h"
 #include "contact_prim.h"
@@ -137,12 +138,38 @@ static int run_ccd(const char *path, double s)
     return 0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-contact-kernel hessian FILE [ROUNDS]\n"
+               "       defsim-bench-contact-kernel ccd FILE [S]\n"
+               "Body contact's per-contact kernel on the inputs bench_contact_kernel.py writes:\n"
+               "  hessian  barrier gradient and projected Hessian per contact, one thread, CPU\n"
+               "           time, median of ROUNDS passes (default 21)\n"
+               "  ccd      additive CCD with minimum separation S (default 0.1) against IPC\n"
+               "           Toolkit's time of impact\n"
+               "  -h, --help   this text\n"
+               "  --version    the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
-    if (argc >= 3 && strcmp(argv[1], "hessian") == 0)
-        return run_hessian(argv[2], argc > 3 ? atoi(argv[3]) : 21);
-    if (argc >= 3 && strcmp(argv[1], "ccd") == 0)
-        return run_ccd(argv[2], argc > 3 ? atof(argv[3]) : 0.1);
-    fprintf(stderr, "usage: %s hessian FILE [ROUNDS] | ccd FILE [S]\n", argv[0]);
-    return 2;
+    static const cli_tool tool = {"defsim-bench-contact-kernel", usage, NULL, ""};
+    int first;
+    const int parsed = cli_parse(&tool, NULL, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char **arg = argv + first;
+    const int nargs = argc - first;
+    if (nargs < 2 || nargs > 3 || (strcmp(arg[0], "hessian") && strcmp(arg[0], "ccd")))
+        return cli_fail(&tool, "need hessian FILE [ROUNDS] or ccd FILE [S]");
+    char *end = NULL;
+    if (!strcmp(arg[0], "hessian")) {
+        const long rounds = nargs > 2 ? strtol(arg[2], &end, 10) : 21;
+        if (nargs > 2 && (end == arg[2] || *end || rounds < 1 || rounds > 100000))
+            return cli_fail(&tool, "ROUNDS: a whole number in 1..100000, got '%s'", arg[2]);
+        return run_hessian(arg[1], (int)rounds);
+    }
+    const double sep = nargs > 2 ? strtod(arg[2], &end) : 0.1;
+    if (nargs > 2 && (end == arg[2] || *end || !(sep >= 0.0 && sep <= 1.0)))
+        return cli_fail(&tool, "S: a number in [0, 1], got '%s'", arg[2]);
+    return run_ccd(arg[1], sep);
 }

@@ -42,6 +42,7 @@
  *
  * Internal functions: links the static library. A tool, not a test.
  */
+#include "cli.h"
 #include "clock.h"
 #include "scene.h"
 
@@ -482,38 +483,42 @@ static int write_states(const char *dir, const char *path, int cells, int steps,
     return 0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-contact-phases --out DIR [SCENE] [--cells N] [--steps S]\n"
+               "                                   [--repeat R] [--no-time]\n"
+               "       defsim-bench-contact-phases --time DIR --step K [--repeat R] [--only KEY]\n"
+               "Body contact's phases timed alone on saved states of a scene (default the cloth\n"
+               "fold), written in the format of IPC Toolkit's probe.\n"
+               "  --out DIR     write the impact and settled states into DIR, then time them\n"
+               "  --cells N     the first body's mesh cells, N x N\n"
+               "  --steps S     run at most S steps (default: the scene's length)\n"
+               "  --repeat R    timed repeats, 1..99 (default 5)\n"
+               "  --no-time     write the states only\n"
+               "  --time DIR    time the saved state --step K of DIR\n"
+               "  --only KEY    time only the phase KEY\n"
+               "  -h, --help    this text\n"
+               "  --version     the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
     const char *path = DEFSIM_BENCH_SCENES "/cloth_fold.json", *out = NULL, *tdir = NULL;
     int cells = 0, steps = 0, repeat = 5, step = -1, no_time = 0;
-    for (int i = 1; i < argc; ++i) {
-        const int has = i + 1 < argc;
-        if (!strcmp(argv[i], "--cells") && has) cells = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--steps") && has) steps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--repeat") && has) repeat = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--out") && has) out = argv[++i];
-        else if (!strcmp(argv[i], "--time") && has) tdir = argv[++i];
-        else if (!strcmp(argv[i], "--step") && has) step = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--no-time")) no_time = 1;
-        else if (!strcmp(argv[i], "--only") && has) only_phase = argv[++i];
-        else if (argv[i][0] != '-') path = argv[i];
-        else {
-            fprintf(stderr, "usage: defsim-bench-contact-phases --out DIR [SCENE] [--cells N] "
-                            "[--steps S] [--repeat R] [--no-time]\n"
-                            "       defsim-bench-contact-phases --time DIR --step K "
-                            "[--repeat R] [--only KEY]\n");
-            return 2;
-        }
-    }
-    if (repeat < 1 || repeat > 99 || cells < 0 || (!out && !tdir)) {
-        fprintf(stderr, "defsim-bench-contact-phases: --out DIR or --time DIR --step K\n");
-        return 2;
-    }
+    static const cli_tool tool = {"defsim-bench-contact-phases", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"cells", CLI_INT, &cells, 1, 100000}, {"steps", CLI_INT, &steps, 0, 1e9},
+        {"repeat", CLI_INT, &repeat, 1, 99}, {"out", CLI_STRING, &out, 0, 0},
+        {"time", CLI_STRING, &tdir, 0, 0}, {"step", CLI_INT, &step, 0, 1e9},
+        {"no-time", CLI_FLAG, &no_time, 0, 0}, {"only", CLI_STRING, &only_phase, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first + 1 < argc) return cli_fail(&tool, "one scene file at a time");
+    if (first < argc) path = argv[first];
+    if (!out && !tdir) return cli_fail(&tool, "--out DIR or --time DIR --step K");
+    if (tdir && step < 0) return cli_fail(&tool, "--time needs --step K");
     if (tdir) {
-        if (step < 0) {
-            fprintf(stderr, "--time needs --step K\n");
-            return 2;
-        }
         return time_state(tdir, step, repeat) == 0 ? 0 : 1;
     }
     if (mkdir(out, 0777) != 0 && errno != EEXIST) {

@@ -37,6 +37,7 @@
  * energy, forces and blocks).
  */
 #include "bench_beam.h"
+#include "cli.h"
 #include "clock.h"
 #include "stat.h"
 
@@ -330,30 +331,43 @@ static int cloth(int nu, const char *backend, int threads)
     return 0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-features [--n N] [--steps S] [--rounds R] [--threads T]\n"
+               "                             [--only WORD] [--cpu] [--backend NAME]\n"
+               "                             [--n-implicit N]\n"
+               "       defsim-bench-features --cloth N [--threads T]\n"
+               "What an unused feature costs: the box beam stepped in variants that differ in\n"
+               "one feature, round-robin; median time per step against the baseline.\n"
+               "  --n N           beam cells across (default 12: 31104 tets)\n"
+               "  --steps S       steps per variant and round (default 20)\n"
+               "  --rounds R      rounds, 1..99 (default 7)\n"
+               "  --threads T     OpenMP threads (default 1; 0: OpenMP's default)\n"
+               "  --only WORD     the baseline and the variants whose name contains WORD\n"
+               "  --cpu           time with process CPU time (for a loaded machine)\n"
+               "  --backend NAME  step every variant with NAME (default symplectic_euler)\n"
+               "  --n-implicit N  cells of the body_contact variants' beams (default 4)\n"
+               "  --cloth N       instead: an N x N cloth dropped on a sphere, time per step\n"
+               "                  and contact's share, newton_cholmod and symplectic_euler\n"
+               "  -h, --help      this text\n"
+               "  --version       the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
     int n = 12, steps = 20, rounds = 7, threads = 1, cloth_n = 0, n_implicit = 4;
     const char *only = NULL;
-    for (int i = 1; i < argc; i += 2) {
-        if (!strcmp(argv[i], "--cpu")) {
-            use_cpu = 1;
-            --i;
-            continue;
-        }
-        if (i + 1 >= argc) { fprintf(stderr, "option %s needs a value\n", argv[i]); return 2; }
-        if (!strcmp(argv[i], "--n")) n = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--steps")) steps = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--rounds")) rounds = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--threads")) threads = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--only")) only = argv[i + 1];
-        else if (!strcmp(argv[i], "--cloth")) cloth_n = atoi(argv[i + 1]);
-        else if (!strcmp(argv[i], "--backend")) backend_name = argv[i + 1];
-        else if (!strcmp(argv[i], "--n-implicit")) n_implicit = atoi(argv[i + 1]);
-        else { fprintf(stderr, "unknown option %s\n", argv[i]); return 2; }
-    }
-    if (n < 1 || n_implicit < 1 || steps < 1 || rounds < 1 || rounds > 99 || threads < 0 ||
-        cloth_n < 0)
-        return 2;
+    static const cli_tool tool = {"defsim-bench-features", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"n", CLI_INT, &n, 1, 1000}, {"steps", CLI_INT, &steps, 1, 1e9},
+        {"rounds", CLI_INT, &rounds, 1, 99}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"only", CLI_STRING, &only, 0, 0}, {"cloth", CLI_INT, &cloth_n, 1, 100000},
+        {"backend", CLI_STRING, &backend_name, 0, 0}, {"n-implicit", CLI_INT, &n_implicit, 1, 1000},
+        {"cpu", CLI_FLAG, &use_cpu, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     if (cloth_n > 0) {
         printf("%dx%d cloth on a sphere, 150 steps of 0.01 s, %d threads\n\n", cloth_n, cloth_n,
                threads);

@@ -9,6 +9,7 @@
  * scene's. Uses only the public API and the scene loader, so the same file builds against older
  * trees for before/after comparisons (backends/sundials_ida/README.md "Cost").
  */
+#include "cli.h"
 #include "clock.h"
 #include "scene.h"
 #include "stat.h"
@@ -24,20 +25,37 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-ida SCENE.json TOL REPEATS [NAME=VALUE ...]\n"
+               "One adaptive sundials_ida run as defsim bench times it (rtol = TOL, atol = TOL x\n"
+               "body size, one thread), REPEATS (1..64) times: median wall time, ms per internal\n"
+               "step, internal steps, Newton iterations, Jacobian evaluations, a checksum.\n"
+               "NAME=VALUE: options set after the scene's (sundials_ida.linear_solver=klu).\n"
+               "  -h, --help   this text\n"
+               "  --version    the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
-    if (argc < 4) {
-        fprintf(stderr, "usage: defsim-bench-ida SCENE.json TOL REPEATS [NAME=VALUE ...]\n");
-        return 2;
-    }
-    const double tol = atof(argv[2]);
-    const int repeats = atoi(argv[3]);
-    if (!(tol > 0.0) || repeats < 1 || repeats > 64) {
-        fprintf(stderr, "defsim-bench-ida: TOL > 0 and REPEATS 1 to 64\n");
-        return 2;
-    }
+    static const cli_tool tool = {"defsim-bench-ida", usage, NULL, ""};
+    int first;
+    const int parsed = cli_parse(&tool, NULL, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    char **arg = argv + first;
+    const int nargs = argc - first;
+    if (nargs < 3) return cli_fail(&tool, "need SCENE.json TOL REPEATS");
+    char *end1 = NULL, *end2 = NULL;
+    const double tol = strtod(arg[1], &end1);
+    const long repeats = strtol(arg[2], &end2, 10);
+    if (*end1 || end1 == arg[1] || !(tol > 0.0) || !isfinite(tol) || *end2 || end2 == arg[2] ||
+        repeats < 1 || repeats > 64)
+        return cli_fail(&tool, "TOL > 0 and REPEATS 1 to 64 (got %s and %s)", arg[1], arg[2]);
+    for (int a = 3; a < nargs; ++a)
+        if (!strchr(arg[a], '=') || arg[a][0] == '=')
+            return cli_fail(&tool, "options are NAME=VALUE (got %s)", arg[a]);
     scene s;
-    if (scene_load(&s, argv[1], NULL, 0) != 0) {
+    if (scene_load(&s, arg[0], NULL, 0) != 0) {
         fprintf(stderr, "defsim-bench-ida: %s\n", s.error);
         return 1;
     }
@@ -69,11 +87,10 @@ int main(int argc, char **argv)
         const int32_t nv = defsim_world_vertex_count(w);
         double *x = malloc((size_t)nv * 3 * sizeof *x);
         defsim_status e = DEFSIM_OK;
-        for (int a = 4; a < argc && e == DEFSIM_OK; ++a) {
+        for (int a = 3; a < nargs && e == DEFSIM_OK; ++a) {
             char name[128];
-            const char *eq = strchr(argv[a], '=');
-            if (!eq) return 2;
-            snprintf(name, sizeof name, "%.*s", (int)(eq - argv[a]), argv[a]);
+            const char *eq = strchr(arg[a], '=');
+            snprintf(name, sizeof name, "%.*s", (int)(eq - arg[a]), arg[a]);
             e = defsim_world_set_option(w, name, eq + 1);
         }
         if (e != DEFSIM_OK) {

@@ -16,6 +16,7 @@
  * "not converged", which the benchmark expects and ignores).
  */
 #include "bench_beam.h"
+#include "cli.h"
 
 #include <defsim/defsim.h>
 
@@ -29,13 +30,22 @@ static void print_log(void *user, int level, const char *message)
     fprintf(stderr, "[log %d] %s\n", level, message);
 }
 
-static int usage(const char *why)
+static void usage(FILE *f)
 {
-    fprintf(stderr, "defsim-bench-implicit: %s\n"
-                    "usage: defsim-bench-implicit [--backend NAME] [--model snh|corotated|nh|stvk]"
-                    " [--n N] [--threads T] [--h SECONDS] [--steps S] [--tolerance TOL]"
-                    " [--max-iterations K] [--projection none|clamp|abs] [--verbose]\n", why);
-    return 2;
+    fprintf(f, "usage: defsim-bench-implicit [options]\n"
+               "Implicit steps on the 3n x n x n cantilever beam, timed per step.\n"
+               "  --backend NAME       implicit backend (default newton_cholmod)\n"
+               "  --model M            snh (default), corotated, nh or stvk\n"
+               "  --n N                cells across (default 18: 104976 tets)\n"
+               "  --threads T          OpenMP threads (default 0: OpenMP's default)\n"
+               "  --h SECONDS          step size (default 1/60)\n"
+               "  --steps S            steps (default 3)\n"
+               "  --tolerance TOL      Newton tolerance (default 1e-6)\n"
+               "  --max-iterations K   Newton iterations per step (default 50)\n"
+               "  --projection P       none, clamp (default) or abs\n"
+               "  --verbose            the library's log on stderr\n"
+               "  -h, --help           this text\n"
+               "  --version            the library's version\n");
 }
 
 int main(int argc, char **argv)
@@ -43,31 +53,24 @@ int main(int argc, char **argv)
     const char *model_name = "snh", *backend = "newton_cholmod", *proj = "clamp";
     int n = 18, threads = 0, steps = 3, max_it = 50, verbose = 0;
     double h = 1.0 / 60.0, tol = 1e-6;
-    for (int i = 1; i < argc; ++i) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--verbose")) { verbose = 1; continue; }
-        if (i + 1 >= argc) return usage("missing value");
-        const char *v = argv[++i];
-        if (!strcmp(a, "--model")) model_name = v;
-        else if (!strcmp(a, "--backend")) backend = v;
-        else if (!strcmp(a, "--n")) n = atoi(v);
-        else if (!strcmp(a, "--threads")) threads = atoi(v);
-        else if (!strcmp(a, "--h")) h = atof(v);
-        else if (!strcmp(a, "--steps")) steps = atoi(v);
-        else if (!strcmp(a, "--tolerance")) tol = atof(v);
-        else if (!strcmp(a, "--max-iterations")) max_it = atoi(v);
-        else if (!strcmp(a, "--projection")) proj = v;
-        else return usage("unknown option");
-    }
+    static const cli_tool tool = {"defsim-bench-implicit", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"model", CLI_STRING, &model_name, 0, 0}, {"backend", CLI_STRING, &backend, 0, 0},
+        {"n", CLI_INT, &n, 1, 1000}, {"threads", CLI_INT, &threads, 0, 4096},
+        {"h", CLI_POSITIVE, &h, 0, 0}, {"steps", CLI_INT, &steps, 1, 1e9},
+        {"tolerance", CLI_POSITIVE, &tol, 0, 0}, {"max-iterations", CLI_INT, &max_it, 1, 1e6},
+        {"projection", CLI_STRING, &proj, 0, 0}, {"verbose", CLI_FLAG, &verbose, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) return usage("unknown model");
+    if (!model) return cli_fail(&tool, "unknown model %s", model_name);
     defsim_projection projection;
     if (!strcmp(proj, "none")) projection = DEFSIM_PROJECTION_NONE;
     else if (!strcmp(proj, "clamp")) projection = DEFSIM_PROJECTION_CLAMP;
     else if (!strcmp(proj, "abs")) projection = DEFSIM_PROJECTION_ABS;
-    else return usage("unknown projection");
-    if (n < 1 || steps < 1 || threads < 0 || !(h > 0.0) || !(tol > 0.0) || max_it < 1)
-        return usage("bad value");
+    else return cli_fail(&tool, "--projection must be none, clamp or abs (got %s)", proj);
 
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);

@@ -20,6 +20,7 @@
  *   DEFSIM_BACKEND_PATH=build/modules defsim-bench-product [SCENE[:STEPS]]... [--products P]
  *                                                           [--repeat R]
  */
+#include "cli.h"
 #include "clock.h"
 #include "scene.h"
 
@@ -284,26 +285,41 @@ static int bench(const char *path, int steps, int np, int repeat)
     return 0;
 }
 
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: defsim-bench-product [SCENE[:STEPS]]... [--products P] [--repeat R]\n"
+               "What contact costs a matrix-vector product and the power iteration, after\n"
+               "STEPS steps of each scene (at most 8; default cloth_fold:60 and\n"
+               "ground_box_sphere:100; STEPS default 50).\n"
+               "  --products P   products per round (default 200)\n"
+               "  --repeat R     rounds, 1..99 (default 5)\n"
+               "  -h, --help     this text\n"
+               "  --version      the library's version\n");
+}
+
 int main(int argc, char **argv)
 {
     const char *paths[8];
     int steps[8], np = 200, repeat = 5, nscene = 0;
-    for (int i = 1; i < argc; ++i) {
-        const int has = i + 1 < argc;
-        if (!strcmp(argv[i], "--products") && has) np = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--repeat") && has) repeat = atoi(argv[++i]);
-        else if (argv[i][0] != '-' && nscene < 8) {
-            char *colon = strrchr(argv[i], ':');
-            steps[nscene] = colon ? atoi(colon + 1) : 50;
-            if (colon) *colon = '\0';
-            paths[nscene++] = argv[i];
-        } else {
-            fprintf(stderr, "usage: defsim-bench-product [SCENE[:STEPS]]... [--products P] "
-                            "[--repeat R]\n");
-            return 2;
+    static const cli_tool tool = {"defsim-bench-product", usage, NULL, ""};
+    const cli_opt opts[] = {{"products", CLI_INT, &np, 1, 1e8}, {"repeat", CLI_INT, &repeat, 1, 99},
+                            {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (argc - first > 8) return cli_fail(&tool, "at most 8 scenes");
+    for (int i = first; i < argc; ++i) {
+        char *colon = strrchr(argv[i], ':'), *end = NULL;
+        steps[nscene] = 50;
+        if (colon) {
+            const long v = strtol(colon + 1, &end, 10);
+            if (end == colon + 1 || *end || v < 0 || v > 100000000)
+                return cli_fail(&tool, "SCENE:STEPS with STEPS >= 0 (got %s)", argv[i]);
+            steps[nscene] = (int)v;
+            *colon = '\0';
         }
+        paths[nscene++] = argv[i];
     }
-    if (np < 1 || repeat < 1 || repeat > 99) return 2;
     if (nscene == 0) {
         paths[0] = DEFSIM_BENCH_SCENES "/cloth_fold.json";
         steps[0] = 60;

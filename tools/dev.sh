@@ -2,11 +2,13 @@
 # SPDX-License-Identifier: MIT
 #
 # One entry point for a fresh Debian/Ubuntu machine:
-#   tools/dev.sh demo    install what is missing, build, run the demo scene
+#   tools/dev.sh demo    install what is missing, build the tool and the modules (not the
+#                        tests), run the demo scenes
 #   tools/dev.sh test    install what is missing, build, run every test but those labelled long
 #                        (and tsan)
 #   tools/dev.sh tsan    build and run the thread test under ThreadSanitizer (build-tsan)
-#   tools/dev.sh deps    only install (as root) or print the apt-get line (otherwise)
+#   tools/dev.sh deps    only install what is missing (apt-get as root, through sudo otherwise;
+#                        without sudo it prints the apt-get line)
 #   tools/dev.sh build   only configure and build
 #   tools/dev.sh sanitize  build with ASan + UBSan in ./build-asan, run the tests labelled
 #                        "sanitize" (unit, conformance, tool and fuzz-regression tests)
@@ -22,7 +24,7 @@ jobs=${DEFSIM_JOBS:-$(nproc)}
 # libglfw3-dev: the viewer (defsim view); xvfb, xauth and Mesa's software GL (libgl1-mesa-dri:
 # llvmpipe, libglx-mesa0, libgl1) for its tests, which open their windows under xvfb-run.
 packages="cmake ninja-build gcc g++ make pkg-config binutils libsundials-dev libsuitesparse-dev
-  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip
+  libcmocka-dev libosmesa6-dev libcjson-dev libpng-dev python3 python3-venv python3-pip doxygen
   libglfw3-dev xvfb xauth libgl1 libglx-mesa0 libgl1-mesa-dri"
 
 deps() {
@@ -31,15 +33,20 @@ deps() {
         dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
     done
     [ -z "$missing" ] && return 0
-    if [ "$(id -u)" = 0 ]; then
-        echo "== installing:$missing"
-        apt-get update -qq
-        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing
-    else
-        echo "Missing packages. Run as root, or install them with:" >&2
-        echo "  sudo apt-get install -y$missing" >&2
-        exit 1
+    # As root (a container) apt-get itself; otherwise through sudo where there is one.
+    local as_root=""
+    if [ "$(id -u)" != 0 ]; then
+        if ! command -v sudo >/dev/null 2>&1; then
+            echo "Missing packages. Run as root, or install them with:" >&2
+            echo "  apt-get install -y$missing" >&2
+            exit 1
+        fi
+        as_root="sudo"
     fi
+    echo "== installing:$missing"
+    $as_root apt-get update -qq
+    $as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+        $missing
 }
 
 # A virtual environment with what the Python binding's tests need (numpy, cffi, pytest, and the
@@ -61,10 +68,14 @@ pyenv() {
     python_arg="-DDEFSIM_PYTHON=$venv/bin/python"
 }
 
+# configure_and_build [TARGET...]: every target, or only those named (the demo: the tool and
+# the backend modules, not the tests).
 configure_and_build() {
     cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release ${python_arg:-} \
         ${DEFSIM_CMAKE_ARGS:-}
-    cmake --build "$build" -j "$jobs"
+    local targets=()
+    for t in "$@"; do targets+=(--target "$t"); done
+    cmake --build "$build" -j "$jobs" "${targets[@]}"
 }
 
 # The thread test alone in a ThreadSanitizer build (docs/threads.md): the library without
@@ -92,6 +103,9 @@ sanitize() {
 }
 
 python_arg=""
+# What the demo builds: the tool and the backend modules it may load (tests/CMakeLists.txt's
+# test_dev_sh checks that this compiles no test).
+demo_targets="defsim-cli defsim_modules"
 case "${1:-}" in
 deps) deps ;;
 build) deps; configure_and_build ;;
@@ -111,7 +125,7 @@ sanitize)
     ;;
 demo)
     deps
-    configure_and_build
+    configure_and_build $demo_targets
     # The cantilever: a clamped beam of tets sagging under gravity. Per-frame energy and tip
     # position on the terminal and in energy.csv; VTK frames, PNGs and a contact sheet.
     "$build/bin/defsim" run "$root/tests/scenes/cantilever.json" --render --progress lines \
@@ -122,7 +136,7 @@ demo)
         --progress lines --out "$build/ground_box_sphere"
     ;;
 *)
-    sed -n '3,15p' "${BASH_SOURCE[0]}"
+    sed -n '3,18p' "${BASH_SOURCE[0]}"
     exit 2
     ;;
 esac

@@ -40,6 +40,7 @@
  * Numbers are printed with %.17g, so they read back exactly.
  */
 #include "bench_beam.h"
+#include "cli.h"
 #include "refsol.h"
 #include "stat.h"
 
@@ -49,67 +50,42 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int usage(void)
+static void usage(FILE *f)
 {
-    fprintf(stderr,
+    fprintf(f,
             "usage: defsim-reference [--model snh|nh|corotated|stvk] [--n N] [--T SECONDS]\n"
             "                        [--rtol R] [--atol A] [--E PA] [--nu NU] [--rho KG_M3]\n"
             "                        [--alpha 1_S] [--beta S] [--threads T]\n"
-            "                        [--backend sundials_erk|sundials_ida] [--out PATH] [--quiet]\n");
-    return 2;
-}
-
-static int parse_double(const char *s, double *out)
-{
-    char *end = NULL;
-    double v = strtod(s, &end);
-    if (!end || *end || end == s) return 0;
-    *out = v;
-    return 1;
+            "                        [--backend sundials_erk|sundials_ida] [--out PATH] [--quiet]\n"
+            "The work-precision benchmark's reference solution of the tet cantilever at time T.\n"
+            "Defaults: snh, n = 3 (1..64), T = 1 s, rtol = atol = 1e-10, E = 1 MPa, nu = 0.3,\n"
+            "rho = 1000 kg/m^3, no damping, 1 thread, out = reference_<model>_n<n>.txt.\n"
+            "  -h, --help   this text\n"
+            "  --version    the library's version\n");
 }
 
 int main(int argc, char **argv)
 {
     const char *model_name = "snh", *out_path = NULL;
     double T = 1.0, rtol = 1e-10, atol = 1e-10, E = 1e6, nu = 0.3, rho = 1000.0;
-    double alpha = 0.0, beta = 0.0, nd = 3, threads = 1;
-    int quiet = 0;
+    double alpha = 0.0, beta = 0.0;
+    int n = 3, threads = 1, quiet = 0;
     const char *backend = "sundials_erk";
-    for (int i = 1; i < argc; ++i) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--quiet")) { quiet = 1; continue; }
-        if (i + 1 >= argc) return usage();
-        const char *v = argv[++i];
-        int ok = 1;
-        if (!strcmp(a, "--model")) model_name = v;
-        else if (!strcmp(a, "--out")) out_path = v;
-        else if (!strcmp(a, "--backend")) backend = v;
-        else if (!strcmp(a, "--n")) ok = parse_double(v, &nd);
-        else if (!strcmp(a, "--T")) ok = parse_double(v, &T);
-        else if (!strcmp(a, "--rtol")) ok = parse_double(v, &rtol);
-        else if (!strcmp(a, "--atol")) ok = parse_double(v, &atol);
-        else if (!strcmp(a, "--E")) ok = parse_double(v, &E);
-        else if (!strcmp(a, "--nu")) ok = parse_double(v, &nu);
-        else if (!strcmp(a, "--rho")) ok = parse_double(v, &rho);
-        else if (!strcmp(a, "--alpha")) ok = parse_double(v, &alpha);
-        else if (!strcmp(a, "--beta")) ok = parse_double(v, &beta);
-        else if (!strcmp(a, "--threads")) ok = parse_double(v, &threads);
-        else return usage();
-        if (!ok) {
-            fprintf(stderr, "defsim-reference: %s: not a number: %s\n", a, v);
-            return 2;
-        }
-    }
+    static const cli_tool tool = {"defsim-reference", usage, NULL, ""};
+    const cli_opt opts[] = {
+        {"model", CLI_STRING, &model_name, 0, 0}, {"out", CLI_STRING, &out_path, 0, 0},
+        {"backend", CLI_STRING, &backend, 0, 0}, {"n", CLI_INT, &n, 1, 64},
+        {"T", CLI_POSITIVE, &T, 0, 0}, {"rtol", CLI_POSITIVE, &rtol, 0, 0},
+        {"atol", CLI_POSITIVE, &atol, 0, 0}, {"E", CLI_POSITIVE, &E, 0, 0},
+        {"nu", CLI_DOUBLE, &nu, -1.0, 0.5}, {"rho", CLI_POSITIVE, &rho, 0, 0},
+        {"alpha", CLI_DOUBLE, &alpha, 0.0, 1e300}, {"beta", CLI_DOUBLE, &beta, 0.0, 1e300},
+        {"threads", CLI_INT, &threads, 0, 1024}, {"quiet", CLI_FLAG, &quiet, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (first < argc) return cli_fail(&tool, "no operands expected (got %s)", argv[first]);
     const defsim_model model = bench_model_by_name(model_name);
-    if (!model) {
-        fprintf(stderr, "defsim-reference: unknown model %s\n", model_name);
-        return 2;
-    }
-    const int n = (int)nd;
-    if (n < 1 || n > 64 || (double)n != nd || !(T > 0.0) || threads < 0 || threads > 1024) {
-        fprintf(stderr, "defsim-reference: need 1 <= n <= 64 (integer), T > 0, threads >= 0\n");
-        return 2;
-    }
+    if (!model) return cli_fail(&tool, "unknown model %s", model_name);
     char default_out[64];
     snprintf(default_out, sizeof default_out, "reference_%s_n%d.txt", model_name, n);
     if (!out_path) out_path = default_out;

@@ -20,9 +20,12 @@
  */
 #include "stress.h"
 
+#include "cli.h"
+
 #include <defsim/backend.h>
 #include <defsim/defsim.h>
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,6 +52,8 @@ static const double MAX_REACH = 100.0;   /* m */
 static int max_iterations_opt;   /* 0: the library's default */
 static int watchdog_off;         /* --no-watchdog: to see that the check catches garbage */
 static int max_internal_opt = 5000;   /* adaptive backends: internal steps per call */
+/* --check: the largest energy gain (over the energy scale) of a successful sundials_erk run. */
+static const double ERK_MAX_GAIN = 1e-6;
 
 static defsim_world *make_world(const char *scene, const char *backend, double E, double nu,
                                 int start, int *nv_out)
@@ -219,14 +224,43 @@ static int backend_flags(const char *name, uint32_t *flags)
     return 1;
 }
 
-/* The help: on stdout with status 0 when asked for (-h, --help), else on stderr with 2. */
-static int usage_to(FILE *f)
+/* --runs LIST: "3,10-17,40" into ranges [lo, hi] of the matrix's indices.
+ * Returns the number of ranges, or 0 when LIST is not such a list. */
+enum { MAX_RANGES = 64 };
+static int parse_runs(const char *s, long lo[MAX_RANGES], long hi[MAX_RANGES])
+{
+    int n = 0;
+    for (const char *p = s;;) {
+        char *end;
+        if (n == MAX_RANGES || *p < '0' || *p > '9') return 0;
+        lo[n] = hi[n] = strtol(p, &end, 10);
+        if (*end == '-') {
+            p = end + 1;
+            if (*p < '0' || *p > '9') return 0;
+            hi[n] = strtol(p, &end, 10);
+            if (hi[n] < lo[n]) return 0;
+        }
+        ++n;
+        if (*end == '\0') return n;
+        if (*end != ',') return 0;
+        p = end + 1;
+    }
+}
+
+static int in_runs(long index, const long *lo, const long *hi, int n)
+{
+    for (int i = 0; i < n; ++i)
+        if (index >= lo[i] && index <= hi[i]) return 1;
+    return 0;
+}
+
+static void usage(FILE *f)
 {
     fprintf(f,
             "usage: defsim stress [--reduced] [--check] [--csv FILE] [--backends a,b,...]\n"
             "                     [--scenes beam,rope] [--steps N] [--time T]\n"
             "                     [--max-iterations N] [--max-internal-steps N]\n"
-            "                     [--list-variants | --variant K] [--no-watchdog]\n"
+            "                     [--list-variants | --variant K | --runs LIST] [--no-watchdog]\n"
             "Runs the stability matrix: scenes x backends x h x E x nu x starts, one CSV row each.\n"
             "  --reduced          the smaller matrix (fewer h, E and nu; 200 steps)\n"
             "  --check            exit 1 if a run violates what is expected of its backend\n"
@@ -238,50 +272,76 @@ static int usage_to(FILE *f)
             "  --max-iterations N, --max-internal-steps N  limits of the implicit backends\n"
             "  --list-variants    print the runs of the matrix as JSON lines (index and settings)\n"
             "  --variant K        run only run K of the matrix; print the CSV header and its row\n"
+            "  --runs LIST        run only these runs of the matrix (indices as --list-variants\n"
+            "                     numbers them, and ranges: 0-3,17), with the CSV and summary\n"
             "                     (with --check, exit 1 if it is a violation)\n"
             "  --no-watchdog      core.watchdog off in every run (to see that --check catches\n"
             "                     the garbage the watchdog refuses)\n"
-            "  -h, --help         this text\n");
-    return f == stdout ? 0 : 2;
+            "  -h, --help         this text\n"
+            "  --version          the library's version\n");
 }
-
-static int usage(void) { return usage_to(stderr); }
 
 int defsim_tool_stress(int argc, char **argv)
 {
     int reduced = 0, check = 0, max_steps = 0, list_variants = 0;
     long variant = -1;   /* >= 0: run only this one (defsim-sweep --tool stress) */
+    long runs_lo[MAX_RANGES], runs_hi[MAX_RANGES];
+    int nruns = 0;       /* --runs: ranges of the indices to run; 0: all */
     double T = 0.5;
     const char *csv_path = "stress.csv";
     char backends_buf[512] = "explicit_euler,symplectic_euler,velocity_verlet,newton_cholmod,"
                              "newmark,bdf2,sundials_kinsol,sundials_ida,sundials_erk";
     char scenes_buf[128] = "beam,rope";
-    for (int i = 0; i < argc; ++i) {
-        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) return usage_to(stdout);
-        else if (!strcmp(argv[i], "--reduced")) reduced = 1;
-        else if (!strcmp(argv[i], "--check")) check = 1;
-        else if (!strcmp(argv[i], "--list-variants")) list_variants = 1;
-        else if (!strcmp(argv[i], "--no-watchdog")) watchdog_off = 1;
-        else if (!strcmp(argv[i], "--variant") && i + 1 < argc) {
-            char *end = NULL;
-            variant = strtol(argv[++i], &end, 10);
-            if (end == argv[i] || *end || variant < 0) return usage();
+    enum { O_REDUCED = CLI_OPT, O_CHECK, O_LIST_VARIANTS, O_NO_WATCHDOG, O_VARIANT, O_CSV,
+           O_BACKENDS, O_SCENES, O_STEPS, O_TIME, O_MAX_ITERATIONS, O_MAX_INTERNAL, O_RUNS };
+    static const struct option options[] = {
+        {"reduced", no_argument, NULL, O_REDUCED}, {"check", no_argument, NULL, O_CHECK},
+        {"list-variants", no_argument, NULL, O_LIST_VARIANTS},
+        {"no-watchdog", no_argument, NULL, O_NO_WATCHDOG},
+        {"variant", required_argument, NULL, O_VARIANT}, {"csv", required_argument, NULL, O_CSV},
+        {"backends", required_argument, NULL, O_BACKENDS},
+        {"scenes", required_argument, NULL, O_SCENES},
+        {"steps", required_argument, NULL, O_STEPS}, {"time", required_argument, NULL, O_TIME},
+        {"max-iterations", required_argument, NULL, O_MAX_ITERATIONS},
+        {"max-internal-steps", required_argument, NULL, O_MAX_INTERNAL},
+        {"runs", required_argument, NULL, O_RUNS}, {0}};
+    static const cli_tool tool = {"defsim stress", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_REDUCED: reduced = 1; break;
+        case O_CHECK: check = 1; break;
+        case O_LIST_VARIANTS: list_variants = 1; break;
+        case O_NO_WATCHDOG: watchdog_off = 1; break;
+        case O_VARIANT:
+            if (!cli_long(&c, 0, LONG_MAX, &variant)) return c.status;
+            break;
+        case O_CSV: csv_path = c.arg; break;
+        case O_RUNS:
+            if (!(nruns = parse_runs(c.arg, runs_lo, runs_hi)))
+                return cli_error(&c, "--runs: indices and ranges (0-3,17; at most %d), got '%s'",
+                                 MAX_RANGES, c.arg);
+            break;
+        case O_BACKENDS: snprintf(backends_buf, sizeof backends_buf, "%s", c.arg); break;
+        case O_SCENES: snprintf(scenes_buf, sizeof scenes_buf, "%s", c.arg); break;
+        case O_STEPS:
+            if (!cli_int(&c, 1, INT_MAX, &max_steps)) return c.status;
+            break;
+        case O_TIME:
+            if (!cli_positive(&c, &T)) return c.status;
+            break;
+        case O_MAX_ITERATIONS:
+            if (!cli_int(&c, 0, INT_MAX, &max_iterations_opt)) return c.status;
+            break;
+        case O_MAX_INTERNAL:
+            if (!cli_int(&c, 1, INT_MAX, &max_internal_opt)) return c.status;
+            break;
         }
-        else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv_path = argv[++i];
-        else if (!strcmp(argv[i], "--backends") && i + 1 < argc)
-            snprintf(backends_buf, sizeof backends_buf, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--scenes") && i + 1 < argc)
-            snprintf(scenes_buf, sizeof scenes_buf, "%s", argv[++i]);
-        else if (!strcmp(argv[i], "--steps") && i + 1 < argc) max_steps = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--time") && i + 1 < argc) T = atof(argv[++i]);
-        else if (!strcmp(argv[i], "--max-iterations") && i + 1 < argc)
-            max_iterations_opt = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--max-internal-steps") && i + 1 < argc)
-            max_internal_opt = atoi(argv[++i]);
-        else return usage();
     }
+    if (c.optind < argc) return cli_error(&c, "no operands expected (got %s)", argv[c.optind]);
     if (max_steps == 0) max_steps = reduced ? 200 : 1000;
-    if (max_steps < 1 || !(T > 0) || max_internal_opt < 1) return usage();
     const double hs_full[] = {1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 1.0 / 60, 1.0 / 24};
     const double hs_red[] = {1e-5, 1e-4, 1e-3, 1e-2, 1.0 / 24};
     const double Es_full[] = {1e3, 1e4, 1e5, 1e6, 1e7, 1e8};
@@ -332,6 +392,7 @@ int defsim_tool_stress(int argc, char **argv)
                                 continue;
                             }
                             if (variant >= 0 && index != variant) continue;
+                            if (nruns && !in_runs(index, runs_lo, runs_hi, nruns)) continue;
                             run_result r = run_one(sc, b, hs[ih], Es[ie], nus[in], st, max_steps, T);
                             ++runs;
                             count[r.cls]++;
@@ -353,6 +414,12 @@ int defsim_tool_stress(int argc, char **argv)
                                         nus[in], start_names[st], r.energy_ratio);
                             else if ((flags & DEFSIM_BACKEND_IMPLICIT) && r.cls == CLS_BLOWUP)
                                 why = "implicit backend blew up";
+                            else if (!strcmp(b, "sundials_erk") && r.cls == CLS_STABLE &&
+                                     r.energy_ratio > ERK_MAX_GAIN)
+                                /* Error control: a run it calls successful holds the energy
+                                 * to its tolerance (largest gain in the reduced matrix 5.2e-8,
+                                 * the soft rope started inverted; the beam's 2.6e-13). */
+                                why = "sundials_erk gained energy beyond its tolerance";
                             else if ((flags & DEFSIM_BACKEND_IMPLICIT) && r.cls == CLS_ERROR)
                                 fprintf(stderr, "clean error: %s %s h=%g E=%g nu=%g start=%s: %s\n",
                                         sc, b, hs[ih], Es[ie], nus[in], start_names[st],

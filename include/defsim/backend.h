@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/*
+/** @file
  * defsim backend ABI: the only header a backend (integrator / solver) includes.
  *
  * A backend owns time: it advances positions and velocities by h using only the services in
@@ -81,7 +81,10 @@ typedef struct defsim_csc {
 /// B = sum_e beta_e K_e the stiffness-damping matrix plus the attachment dampers, M the lumped
 /// (diagonal) mass matrix and C = diag(alpha_i m_i) the mass-damping matrix.
 typedef struct defsim_matrix_coeffs {
-    double k, kd, m, md;
+    double k;    ///< Factor of the stiffness K(x).
+    double kd;   ///< Factor of the stiffness-damping matrix B(x).
+    double m;    ///< Factor of the lumped mass matrix M.
+    double md;   ///< Factor of the mass-damping matrix C.
 } defsim_matrix_coeffs;
 
 /// An option of a backend, set by hosts by name ("<backend>.<name>") with
@@ -93,7 +96,7 @@ typedef struct defsim_matrix_coeffs {
 /// in that backend's worlds; a backend without it gets DEFSIM_PROJECTION_CLAMP.
 typedef struct defsim_option_spec {
     const char *name;           ///< [a-z0-9_]{1,63}, unique within the backend: "rtol". Static.
-    defsim_option_type type;
+    defsim_option_type type;    ///< REAL, INT, BOOL or CHOICE (defsim.h).
     double default_value;       ///< Within the range (REAL, INT); an index of `choices` (CHOICE).
     double min_value;           ///< Inclusive lower bound (REAL and INT; ignored otherwise).
     double max_value;           ///< Inclusive upper bound (REAL and INT; ignored otherwise).
@@ -114,22 +117,22 @@ typedef struct defsim_host {
 
     /// Number of DOFs (3 * vertex count) and of free DOFs (not pinned).
     int64_t (*dof_count)(const defsim_system *sys);
-    int64_t (*free_dof_count)(const defsim_system *sys);
+    int64_t (*free_dof_count)(const defsim_system *sys);   ///< Free DOFs (not pinned).
     /// free index -> DOF (free_dof_count entries), and DOF -> free index or -1 (dof_count).
     const int64_t *(*free_dofs)(const defsim_system *sys);
-    const int64_t *(*dof_to_free)(const defsim_system *sys);
+    const int64_t *(*dof_to_free)(const defsim_system *sys);   ///< DOF -> free index or -1.
 
     /// The world's state, writable: the backend leaves the new positions and velocities here.
     /// The core keeps a copy and restores it if the step fails. Pinned DOFs are the core's: it
     /// sets them after the step (see pin_positions).
     double *(*positions)(defsim_system *sys);
-    double *(*velocities)(defsim_system *sys);
+    double *(*velocities)(defsim_system *sys);   ///< The velocities, writable (as positions).
     /// Simulated time at the start of this step (s); of the substep when the world splits its
     /// steps (auto_substep).
     double (*time)(const defsim_system *sys);
     /// Lumped mass per DOF (3 * vertex count, kg) and mass-damping alpha per DOF (1/s).
     const double *(*mass)(const defsim_system *sys);
-    const double *(*mass_damping)(const defsim_system *sys);
+    const double *(*mass_damping)(const defsim_system *sys);   ///< Alpha per DOF, 1/s.
     /// True if any element has stiffness damping (beta > 0).
     int (*has_stiffness_damping)(const defsim_system *sys);
 
@@ -185,7 +188,7 @@ typedef struct defsim_host {
     void (*set_error)(defsim_system *sys, const char *message);
     /// Allocation that the core's allocator owns (NULL on failure); free with `release`.
     void *(*alloc)(size_t bytes);
-    void (*release)(void *ptr);
+    void (*release)(void *ptr);   ///< Frees what `alloc` returned (NULL is ignored).
 
     /* ABI version 2 */
 
@@ -225,7 +228,7 @@ typedef struct defsim_host {
     /// velocities into the pinned DOFs, so a backend whose forces never see positions within
     /// the step (explicit and symplectic Euler) needs neither service.
     void (*pin_positions)(const defsim_system *sys, double t, double *x);
-    const double *(*pin_velocities)(const defsim_system *sys);
+    const double *(*pin_velocities)(const defsim_system *sys);   ///< See pin_positions.
     /// True when, in this step, the applied forces (DEFSIM_FORCE_GRAVITY) depend on x: a force
     /// callback with a Jacobian in an implicit backend. A backend that evaluates the applied
     /// forces once per step (at x_n) must then evaluate them at every iterate instead, to match
@@ -324,7 +327,9 @@ enum {
 /// fails); `n` may be 0. Valid only during the op.
 typedef struct defsim_state_writer {
     void *ctx;                ///< The core's; passed back to every function.
+    /// Writes n doubles.
     defsim_status (*f64)(void *ctx, const double *values, int64_t n);
+    /// Writes n 64-bit integers.
     defsim_status (*i64)(void *ctx, const int64_t *values, int64_t n);
 } defsim_state_writer;
 
@@ -333,9 +338,12 @@ typedef struct defsim_state_writer {
 /// for (a malformed checkpoint: the op then fails with DEFSIM_ERR_IO too). `remaining` gives the
 /// number of 8-byte values left. Valid only during the op.
 typedef struct defsim_state_reader {
-    void *ctx;
+    void *ctx;                ///< The core's; passed back to every function.
+    /// Reads n doubles.
     defsim_status (*f64)(void *ctx, double *values, int64_t n);
+    /// Reads n 64-bit integers.
     defsim_status (*i64)(void *ctx, int64_t *values, int64_t n);
+    /// The number of 8-byte values left.
     int64_t (*remaining)(void *ctx);
 } defsim_state_reader;
 
@@ -366,10 +374,10 @@ typedef struct defsim_backend {
 
     /// Options (may be NULL when option_count is 0). Static storage.
     const defsim_option_spec *options;
-    int32_t option_count;
+    int32_t option_count;                      ///< Entries of `options`.
     /// Counters (may be NULL when counter_count is 0). Static storage.
     const defsim_counter_spec *counters;
-    int32_t counter_count;
+    int32_t counter_count;                     ///< Entries of `counters`.
 
     /* ABI version 4: tables built against 1 to 3 (smaller struct_size) have none of these. */
 

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/*
+/** @file
  * defsim: deformable-body simulation (mass-spring networks and tetrahedral FEM).
  *
  * This is the only header a host application includes. It is plain C11, compiles as C++,
@@ -106,7 +106,7 @@ typedef enum defsim_model {
 /// Material parameters of a body. Fill with defsim_material_init, then change what you need.
 typedef struct defsim_material {
     uint32_t size;              ///< sizeof(defsim_material), set by defsim_material_init.
-    defsim_model model;
+    defsim_model model;         ///< The constitutive model, set by defsim_material_init.
     double youngs_modulus;      ///< E in Pa (tet models). Default 1e6.
     double poisson_ratio;       ///< nu in [0, 0.5) (tet models). Default 0.3.
     double density;             ///< rho in kg/m^3, gives lumped tet masses. Default 1000.
@@ -148,6 +148,8 @@ DEFSIM_API defsim_status defsim_material_check(const defsim_material *material);
 /* ------------------------------------------------------------------------------------------ */
 /* Worlds                                                                                     */
 
+/// A simulation world: bodies, colliders, attachments, their state and the backend that steps
+/// them. Opaque; made by defsim_world_create, freed by defsim_world_destroy.
 typedef struct defsim_world defsim_world;
 
 /// How implicit backends make element Hessians positive semi-definite before assembly: the
@@ -214,8 +216,8 @@ DEFSIM_API const char *defsim_world_last_error(const defsim_world *world);
 /// many colliders.
 /// Treat ids as opaque: do not make them up.
 typedef struct defsim_body_id {
-    uint32_t index;
-    uint32_t generation;
+    uint32_t index;        ///< The slot, with the world's tag.
+    uint32_t generation;   ///< The slot's generation; 0 only in the null id.
 } defsim_body_id;
 
 /// Creation parameters of a body. All arrays are copied by defsim_world_add_body.
@@ -224,9 +226,9 @@ typedef struct defsim_body_def {
     const double *rest_positions;       ///< 3 * vertex_count doubles, m. Required.
     int32_t vertex_count;               ///< >= 1.
     const int32_t *tets;                ///< 4 vertex indices per tet (0-based, body-local), or NULL.
-    int32_t tet_count;
+    int32_t tet_count;                  ///< >= 0; tets may be NULL only when it is 0.
     const int32_t *springs;             ///< 2 vertex indices per spring, or NULL.
-    int32_t spring_count;
+    int32_t spring_count;               ///< >= 0; springs may be NULL only when it is 0.
     const double *spring_stiffness;     ///< Optional: one k (N/m) per spring; NULL: material.stiffness.
     const double *vertex_mass;          ///< Optional: kg per vertex; NULL: lumped from density plus
                                         ///< material.vertex_mass. Every vertex needs a positive mass.
@@ -495,9 +497,9 @@ typedef enum defsim_option_type {
 typedef struct defsim_option_info {
     uint32_t size;              ///< Set by the caller to sizeof(defsim_option_info) before the call.
     const char *name;           ///< Full name: "core.simd", "sundials_ida.rtol". Borrowed.
-    defsim_option_type type;
+    defsim_option_type type;    ///< REAL, INT, BOOL or CHOICE.
     double value;               ///< Current value (CHOICE: index into choices).
-    double default_value;
+    double default_value;       ///< The value a new world has.
     double min_value;           ///< Inclusive range (REAL, INT); 0 and 1 for BOOL; 0 and the
     double max_value;           ///< number of choices - 1 for CHOICE.
     const char *choices;        ///< CHOICE: names separated by '|'; NULL otherwise. Borrowed.
@@ -571,13 +573,13 @@ DEFSIM_API defsim_status defsim_world_stat_info(const defsim_world *world, int32
 typedef struct defsim_mesh {
     uint32_t size;           ///< Set by the caller to sizeof(defsim_mesh) before the call.
     double *positions;       ///< 3 * vertex_count, m.
-    int32_t vertex_count;
+    int32_t vertex_count;    ///< Vertices.
     int32_t *tets;           ///< 4 per tet, positively oriented.
-    int32_t tet_count;
+    int32_t tet_count;       ///< Tets.
     int32_t *triangles;      ///< 3 per triangle: cloth faces, or the boundary of the tets.
-    int32_t triangle_count;
+    int32_t triangle_count;  ///< Triangles.
     int32_t *springs;        ///< 2 per spring (edges of cloth, rope links).
-    int32_t spring_count;
+    int32_t spring_count;    ///< Springs.
     /// One defsim_spring_kind per spring (cloth and rope meshes), or NULL: every spring is a
     /// stretch spring. Only written when `size` covers this field (older callers keep working).
     int32_t *spring_kinds;
@@ -727,8 +729,8 @@ DEFSIM_API defsim_status defsim_body_set_pin_targets(defsim_world *world, defsim
 /// reused). {0, 0} is the null id. Ids of removed attachments, and of another world's, are
 /// stale and rejected with DEFSIM_ERR_STALE_ID.
 typedef struct defsim_attachment_id {
-    uint32_t index;
-    uint32_t generation;
+    uint32_t index;        ///< The slot, with the world's tag.
+    uint32_t generation;   ///< The slot's generation; 0 only in the null id.
 } defsim_attachment_id;
 
 /// Creation parameters of an attachment: a zero-rest-length spring (energy k/2 |x_v - p|^2) with
@@ -851,8 +853,8 @@ typedef double (*defsim_sdf_fn)(void *user, const double p[3], double grad[3]);
 /// {0, 0} is the null id. Ids of removed colliders, and of another world's, are stale and
 /// rejected with DEFSIM_ERR_STALE_ID.
 typedef struct defsim_collider_id {
-    uint32_t index;
-    uint32_t generation;
+    uint32_t index;        ///< The slot, with the world's tag.
+    uint32_t generation;   ///< The slot's generation; 0 only in the null id.
 } defsim_collider_id;
 
 /// Creation parameters of a collider. Fill with defsim_collider_def_init, then change what the

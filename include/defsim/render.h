@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/*
+/** @file
  * libdefsim_render: the OSMesa renderer of defsim-render behind one call, for bindings (the
  * Python package's Jupyter display) and hosts. Optional: built only when OSMesa and libpng are
  * found; it needs no display (off-screen, llvmpipe or softpipe). Plain C11 that cffi can parse.
@@ -17,9 +17,9 @@ extern "C" {
 /// Borrowed for the call.
 typedef struct defsim_render_part {
     const int32_t *triangles;   ///< 3 per triangle (a cloth, or the boundary of tets), or NULL.
-    int32_t triangle_count;
+    int32_t triangle_count;     ///< Triangles (0 when `triangles` is NULL).
     const int32_t *lines;       ///< 2 per segment, drawn as tubes (ropes), or NULL.
-    int32_t line_count;
+    int32_t line_count;         ///< Segments (0 when `lines` is NULL).
     float color[3];             ///< RGB in [0, 1]; color[0] < 0: part i's colour in `defsim run`.
     int32_t smooth;             ///< 1: smooth normals, two-sided lighting (cloth); 0: flat (solids).
 } defsim_render_part;

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/*
+/** @file
  * libdefsim_scene: the scene files of `defsim run` and its VTK frames, for bindings and hosts.
  *
  * A second, optional library built from the tools' own code (tools/scene.c, tools/vtk.c), so
@@ -106,7 +106,7 @@ typedef struct defsim_scene_info {
     double duration;        ///< Simulated time of a run, s.
     int32_t frame_steps;    ///< Steps per output frame.
     int32_t frames;         ///< Frames after the initial state.
-    int32_t body_count;
+    int32_t body_count;     ///< Bodies (defsim_scene_get_body's range).
     int32_t vertex_count;   ///< Sum over bodies.
     double gravity[3];      ///< m/s^2.
 } defsim_scene_info;

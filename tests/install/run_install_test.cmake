@@ -1,6 +1,9 @@
 # SPDX-License-Identifier: MIT
-# Installs the build into WORK_DIR/prefix, then builds two consumers against it: one with
-# find_package(defsim) (CMake package) and one with pkg-config, and runs both. With no
+# Installs the build into WORK_DIR/prefix, then builds consumers against it with
+# find_package(defsim) (CMake package: defsim::defsim, defsim::defsim_static,
+# defsim::defsim_scene and defsim::defsim_render) and with pkg-config (defsim, defsim_scene,
+# defsim_render), and runs them. The static consumer finds every module backend through the
+# module directory the install recorded in libdefsim.a. With no
 # DEFSIM_BACKEND_PATH or LD_LIBRARY_PATH set, the first creates and steps a world with every
 # backend BACKENDS lists (built in or modules: libdefsim finds <libdir>/defsim by itself), the
 # installed `defsim run` runs a scene with a module backend, the installed programs carry a
@@ -23,6 +26,48 @@ message(STATUS "every backend from the installed tree:\n${out}")
 run(${WORK_DIR}/consumer/consumer --unknown newton_cholmd)
 if(newton_cholmod IN_LIST BACKENDS AND NOT out MATCHES "'newton_cholmod'")
   message(FATAL_ERROR "no suggestion for newton_cholmd: ${out}")
+endif()
+# The message says how to point the library at other modules.
+if(NOT out MATCHES "DEFSIM_BACKEND_PATH")
+  message(FATAL_ERROR "the unknown-backend message does not name DEFSIM_BACKEND_PATH: ${out}")
+endif()
+
+# Linked with the static library (issue 28, point 3): the executable is its own "library", so
+# the modules come from the module directory that the install recorded in libdefsim.a (the
+# prefix's <libdir>/defsim, though `cmake --install --prefix` chose the prefix after configure).
+run(${WORK_DIR}/consumer/consumer_static ${BACKENDS})
+message(STATUS "every backend from a static consumer:\n${out}")
+run(${WORK_DIR}/consumer/consumer_static --unknown no_such_backend)
+if(NOT out MATCHES "DEFSIM_BACKEND_PATH" OR NOT out MATCHES "${prefix}/lib[^ ]*/defsim")
+  message(FATAL_ERROR "static consumer: the message names neither DEFSIM_BACKEND_PATH nor the "
+                      "prefix's module directory: ${out}")
+endif()
+
+# libdefsim_scene and libdefsim_render (issue 28, point 8): versioned SONAMEs like libdefsim's,
+# targets of the package (scene_consumer above) and .pc files (below).
+get_filename_component(scenes ${SOURCE_DIR}/../scenes ABSOLUTE)
+set(extra_libs scene)
+if(EXISTS ${prefix}/include/defsim/render.h)
+  list(APPEND extra_libs render)
+endif()
+foreach(lib defsim ${extra_libs})
+  if(NOT lib STREQUAL "defsim")
+    set(lib defsim_${lib})
+  endif()
+  file(GLOB real ${prefix}/lib*/lib${lib}.so.*.*.*)
+  if(NOT real)
+    message(FATAL_ERROR "no versioned lib${lib}.so.X.Y.Z installed")
+  endif()
+  run(readelf -d ${real})
+  if(NOT out MATCHES "SONAME[^[]*\\[lib${lib}[.]so[.][0-9]+\\]")
+    message(FATAL_ERROR "${real}: no versioned SONAME lib${lib}.so.<major>:\n${out}")
+  endif()
+endforeach()
+set(png ${WORK_DIR}/scene_consumer.png)
+run(${WORK_DIR}/consumer/scene_consumer ${scenes}/rope.json ${png})
+message(STATUS "find_package scene consumer: ${out}")
+if("render" IN_LIST extra_libs AND NOT EXISTS ${png})
+  message(FATAL_ERROR "the scene consumer rendered no ${png}")
 endif()
 
 # RUNPATH of every installed ELF file: programs find libdefsim relative to themselves, and
@@ -49,7 +94,6 @@ set(backend symplectic_euler)
 if(newton_cholmod IN_LIST BACKENDS)
   set(backend newton_cholmod)
 endif()
-get_filename_component(scenes ${SOURCE_DIR}/../scenes ABSOLUTE)
 foreach(root ${prefix} ${WORK_DIR}/moved)
   if(root STREQUAL "${WORK_DIR}/moved")
     file(RENAME ${prefix} ${root})
@@ -74,3 +118,29 @@ string(REPLACE ";" ":" ldpath "${libdirs}")
 set(ENV{LD_LIBRARY_PATH} "${ldpath}")
 run(${WORK_DIR}/pc_consumer)
 message(STATUS "pkg-config consumer: ${out}")
+# The scene and render libraries through their .pc files (which require defsim's).
+set(pc_libs defsim_scene)
+set(pc_defs "")
+if("render" IN_LIST extra_libs)
+  list(APPEND pc_libs defsim_render)
+  set(pc_defs -DDEFSIM_HAVE_RENDER)
+endif()
+run(pkg-config --cflags --libs ${pc_libs})
+string(STRIP "${out}" flags)
+separate_arguments(flags UNIX_COMMAND "${flags}")
+run(cc -std=c11 ${pc_defs} ${SOURCE_DIR}/scene_consumer.c -o ${WORK_DIR}/pc_scene_consumer
+    ${flags} -lm)
+file(REMOVE ${png})
+run(${WORK_DIR}/pc_scene_consumer ${scenes}/rope.json ${png})
+message(STATUS "pkg-config scene consumer (${pc_libs}): ${out}")
+if("render" IN_LIST extra_libs AND NOT EXISTS ${png})
+  message(FATAL_ERROR "the pkg-config scene consumer rendered no ${png}")
+endif()
+# Every installed program answers --version with the library's version.
+file(GLOB programs ${prefix}/bin/*)
+foreach(p ${programs})
+  run(${p} --version)
+  if(NOT out MATCHES "[(]defsim [0-9]+[.][0-9]+[.][0-9]+[)]")
+    message(FATAL_ERROR "${p} --version: ${out}")
+  endif()
+endforeach()

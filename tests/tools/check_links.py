@@ -8,7 +8,7 @@ import re
 import sys
 
 root = pathlib.Path(sys.argv[1]).resolve()
-pages = [root / "README.md", root / "examples" / "README.md"]
+pages = [root / "README.md", root / "CHANGELOG.md", root / "examples" / "README.md"]
 for pattern in ("docs/*.md", "tools/README.md", "src/README.md", "backends/*/README.md",
                 "bindings/*/README.md", "tests/*/README.md"):
     pages += sorted(root.glob(pattern))

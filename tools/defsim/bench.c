@@ -15,6 +15,7 @@
  */
 #include "bench.h"
 
+#include "cli.h"
 #include "clock.h"
 #include "refsol.h"
 #include "scene.h"
@@ -23,6 +24,7 @@
 #include "fileio.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <spawn.h>
 #include <stdint.h>
@@ -93,7 +95,7 @@ typedef struct bench {
     double *x, *v;         /* scratch, 3 nv */
 } bench;
 
-static int usage(FILE *f)
+static void usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim bench SCENE.json [options]\n"
@@ -126,8 +128,8 @@ static int usage(FILE *f)
         "  --rows FILE         take the runs' rows from FILE (the --variant K outputs, in\n"
         "                      order) instead of running them; write the CSV, table and plot\n"
         "  -h, --help          this text\n"
+        "  --version           the library's version\n"
         "Exit status: 0 done (also when no plot could be made), 1 error, 2 usage error.\n");
-    return f == stderr ? 2 : 0;
 }
 
 /* Comma-separated positive numbers. Returns the count, or -1. */
@@ -658,82 +660,72 @@ int defsim_tool_bench(int argc, char **argv)
     bench b;
     memset(&b, 0, sizeof b);
     if (!python || !python[0]) python = "python3";
-    for (int i = 0; i < argc; ++i) {
-        const char *a = argv[i];
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
-        if (!strcmp(a, "--no-plot")) { no_plot = 1; continue; }
-        if (!strcmp(a, "--list-variants")) { list_variants = 1; continue; }
-        if (a[0] != '-') {
-            if (scene_path) return usage(stderr);
-            scene_path = a;
-            continue;
-        }
-        if (i + 1 >= argc) {
-            fprintf(stderr, "defsim bench: %s needs a value\n", a);
-            return 2;
-        }
-        const char *v = argv[++i];
-        char *end = NULL;
-        if (!strcmp(a, "--backends")) backend_list = v;
-        else if (!strcmp(a, "--h")) {
-            if ((nh = parse_list(v, hs, MAX_VALUES)) <= 0) {
-                fprintf(stderr, "defsim bench: --h: need up to %d positive numbers: %s\n",
-                        MAX_VALUES, v);
-                return 2;
-            }
-        } else if (!strcmp(a, "--tol")) {
-            if ((ntol = parse_list(v, tols, MAX_VALUES)) <= 0) {
-                fprintf(stderr, "defsim bench: --tol: need up to %d positive numbers: %s\n",
-                        MAX_VALUES, v);
-                return 2;
-            }
-        } else if (!strcmp(a, "--time")) {
-            T = strtod(v, &end);
-            if (end == v || *end || !(T > 0.0) || !isfinite(T)) {
-                fprintf(stderr, "defsim bench: --time: need a positive number: %s\n", v);
-                return 2;
-            }
-        } else if (!strcmp(a, "--repeats") || !strcmp(a, "--threads")) {
-            const long n = strtol(v, &end, 10);
-            const long lo = a[2] == 'r' ? 1 : 0, hi = a[2] == 'r' ? 64 : 1024;
-            if (end == v || *end || n < lo || n > hi) {
-                fprintf(stderr, "defsim bench: %s: need an integer in %ld..%ld: %s\n", a, lo, hi,
-                        v);
-                return 2;
-            }
-            if (a[2] == 'r') repeats = (int)n;
-            else threads = (int)n;
-        } else if (!strcmp(a, "--set")) {
-            if (b.nsets == MAX_SETS || !strchr(v, '=')) {
-                fprintf(stderr, "defsim bench: --set KEY=VALUE (at most %d): %s\n", MAX_SETS, v);
-                return 2;
-            }
+    enum { O_BACKENDS = CLI_OPT, O_H, O_TOL, O_TIME, O_REPEATS, O_THREADS, O_SET, O_OPTION,
+           O_OUT, O_REFERENCE, O_PYTHON, O_PLOT_SCRIPT, O_ROWS, O_VARIANT, O_NO_PLOT,
+           O_LIST_VARIANTS };
+    static const struct option options[] = {
+        {"backends", required_argument, NULL, O_BACKENDS}, {"h", required_argument, NULL, O_H},
+        {"tol", required_argument, NULL, O_TOL}, {"time", required_argument, NULL, O_TIME},
+        {"repeats", required_argument, NULL, O_REPEATS},
+        {"threads", required_argument, NULL, O_THREADS},
+        {"set", required_argument, NULL, O_SET}, {"option", required_argument, NULL, O_OPTION},
+        {"out", required_argument, NULL, O_OUT},
+        {"reference", required_argument, NULL, O_REFERENCE},
+        {"python", required_argument, NULL, O_PYTHON},
+        {"plot-script", required_argument, NULL, O_PLOT_SCRIPT},
+        {"rows", required_argument, NULL, O_ROWS}, {"variant", required_argument, NULL, O_VARIANT},
+        {"no-plot", no_argument, NULL, O_NO_PLOT},
+        {"list-variants", no_argument, NULL, O_LIST_VARIANTS}, {0}};
+    static const cli_tool tool = {"defsim bench", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;) {
+        const char *v = c.arg;
+        switch (o) {
+        case CLI_EXIT: return c.status;
+        case O_NO_PLOT: no_plot = 1; break;
+        case O_LIST_VARIANTS: list_variants = 1; break;
+        case O_BACKENDS: backend_list = v; break;
+        case O_H:
+            if ((nh = parse_list(v, hs, MAX_VALUES)) <= 0)
+                return cli_error(&c, "--h: need up to %d positive numbers: %s", MAX_VALUES, v);
+            break;
+        case O_TOL:
+            if ((ntol = parse_list(v, tols, MAX_VALUES)) <= 0)
+                return cli_error(&c, "--tol: need up to %d positive numbers: %s", MAX_VALUES, v);
+            break;
+        case O_TIME:
+            if (!cli_positive(&c, &T)) return c.status;
+            break;
+        case O_REPEATS:
+            if (!cli_int(&c, 1, 64, &repeats)) return c.status;
+            break;
+        case O_THREADS:
+            if (!cli_int(&c, 0, 1024, &threads)) return c.status;
+            break;
+        case O_SET:
+            if (b.nsets == MAX_SETS || !strchr(v, '='))
+                return cli_error(&c, "--set KEY=VALUE (at most %d): %s", MAX_SETS, v);
             b.sets[b.nsets++] = v;
-        } else if (!strcmp(a, "--option")) {
-            if (b.nopts == MAX_SETS || !strchr(v, '=') || strchr(v, '=') == v) {
-                fprintf(stderr, "defsim bench: --option NAME=VALUE (at most %d): %s\n", MAX_SETS,
-                        v);
-                return 2;
-            }
+            break;
+        case O_OPTION:
+            if (b.nopts == MAX_SETS || !strchr(v, '=') || strchr(v, '=') == v)
+                return cli_error(&c, "--option NAME=VALUE (at most %d): %s", MAX_SETS, v);
             b.opts[b.nopts++] = v;
-        } else if (!strcmp(a, "--out")) out_dir = v;
-        else if (!strcmp(a, "--reference")) ref_path = v;
-        else if (!strcmp(a, "--python")) python = v;
-        else if (!strcmp(a, "--plot-script")) script = v;
-        else if (!strcmp(a, "--rows")) rows_path = v;
-        else if (!strcmp(a, "--variant")) {
-            variant = strtol(v, &end, 10);
-            if (end == v || *end || variant < 0) {
-                fprintf(stderr, "defsim bench: --variant: need a run index >= 0: %s\n", v);
-                return 2;
-            }
-        }
-        else {
-            fprintf(stderr, "defsim bench: unknown option %s\n", a);
-            return usage(stderr);
+            break;
+        case O_OUT: out_dir = v; break;
+        case O_REFERENCE: ref_path = v; break;
+        case O_PYTHON: python = v; break;
+        case O_PLOT_SCRIPT: script = v; break;
+        case O_ROWS: rows_path = v; break;
+        case O_VARIANT:
+            if (!cli_long(&c, 0, LONG_MAX, &variant)) return c.status;
+            break;
         }
     }
-    if (!scene_path) return usage(stderr);
+    if (c.optind + 1 < argc) return cli_error(&c, "one scene file at a time");
+    if (c.optind < argc) scene_path = argv[c.optind];
+    if (!scene_path) return cli_error(&c, "no scene file");
 
     /* Backends: the list, in order, without duplicates. */
     const char *backends[MAX_BACKENDS];

@@ -1,13 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * defsim: the command-line tool. `defsim <command> [args]`; each command lives in its own file
- * and receives the arguments after its name.
+ * and receives the arguments from its name on (argv[0] = the name).
  */
 #include "bench.h"
+#include "cli.h"
 #include "run.h"
 #include "stress.h"
-
-#include <defsim/defsim.h>
 
 #include <stdio.h>
 #include <string.h>
@@ -40,28 +39,40 @@ static const command commands[] = {
      defsim_tool_view},
 };
 
-static int usage(FILE *f)
+static void usage(FILE *f)
 {
-    fprintf(f, "usage: defsim <command> [arguments]   (defsim <command> --help for more)\n\n"
+    fprintf(f, "usage: defsim <command> [arguments]   (defsim <command> --help for more)\n"
+               "       defsim -h | --help | --version\n\n"
                "commands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i)
         fprintf(f, "  %-8s %s\n", commands[i].name, commands[i].help);
     fprintf(f, "  %-8s %s\n", "version", "print the library version");
-    return f == stderr ? 2 : 0;
 }
 
 int main(int argc, char **argv)
 {
-    if (argc < 2) return usage(stderr);
-    if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help") || !strcmp(argv[1], "help"))
-        return usage(stdout);
-    if (!strcmp(argv[1], "version") || !strcmp(argv[1], "--version")) {
-        const int v = defsim_version_number();
-        printf("defsim %d.%d.%d\n", v / 10000, v / 100 % 100, v % 100);
+    /* '+': options up to the command's name are defsim's, the rest the command's. */
+    static const cli_tool tool = {"defsim", usage, NULL, "+"};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; (o = cli_next(&c)) != CLI_END;)
+        if (o == CLI_EXIT) return c.status;
+    if (c.optind >= argc) {
+        usage(stderr);
+        return 2;
+    }
+    const char *name = argv[c.optind];
+    if (!strcmp(name, "help")) {
+        usage(stdout);
         return 0;
     }
+    if (!strcmp(name, "version")) {
+        cli_print_version("defsim");
+        return 0;
+    }
+    /* The command parses its own arguments, its name in argv[0]. */
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i)
-        if (!strcmp(argv[1], commands[i].name)) return commands[i].main(argc - 2, argv + 2);
-    fprintf(stderr, "defsim: unknown command \"%s\"\n", argv[1]);
-    return usage(stderr);
+        if (!strcmp(name, commands[i].name))
+            return commands[i].main(argc - c.optind, argv + c.optind);
+    return cli_error(&c, "unknown command \"%s\"", name);
 }

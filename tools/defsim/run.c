@@ -12,6 +12,7 @@
  */
 #include "run.h"
 
+#include "cli.h"
 #include "clock.h"
 
 #include "fields.h"
@@ -46,7 +47,7 @@ static void on_sigint(int sig)
 /* ------------------------------------------------------------------------------------------ */
 /* Options */
 
-static int usage(FILE *f)
+static void usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim run SCENE.json [options]\n"
@@ -75,8 +76,8 @@ static int usage(FILE *f)
         "                     stable-step estimate) as JSON\n"
         "  --max-vertices N   refuse scenes of more vertices (default 2000000)\n"
         "  --max-steps N      refuse runs of more time steps (default 10000000)\n"
-        "  -h, --help         this text\n");
-    return f == stderr ? 2 : 0;
+        "  -h, --help         this text\n"
+        "  --version          the library's version\n");
 }
 
 enum { PROGRESS_NONE = 0, PROGRESS_LINES = 1, PROGRESS_BAR = 2 };
@@ -142,67 +143,81 @@ static int parse_args(int argc, char **argv, run_opts *o)
     o->limits.max_vertices = SCENE_MAX_VERTICES;
     o->limits.max_steps = SCENE_MAX_STEPS;
     o->sets = calloc((size_t)argc + 4, sizeof *o->sets);
-    o->list = calloc((size_t)argc + 1, sizeof *o->list);
+    /* --frames lists at most one number per two characters of the arguments. */
+    size_t chars = 0;
+    for (int i = 0; i < argc; ++i) chars += strlen(argv[i]) + 1;
+    o->list = calloc(chars / 2 + 1, sizeof *o->list);
     o->opts = calloc((size_t)argc + 1, sizeof *o->opts);
     if (!o->sets || !o->list || !o->opts) return 1;
     const char *progress = "auto";
-    for (int i = 0; i < argc; ++i) {
-        const char *a = argv[i];
-        const int has = i + 1 < argc;
-        if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
-        else if (!strcmp(a, "--out") && has) o->out_dir = argv[++i];
-        else if (!strcmp(a, "--render")) o->render = 1;
-        else if (!strcmp(a, "--no-vtk")) o->vtk = VTK_NONE;
-        else if (!strcmp(a, "--vtk") && has) {
-            const char *m = argv[++i];
-            o->vtk = !strcmp(m, "all") ? VTK_ALL : !strcmp(m, "final") ? VTK_FINAL
-                     : !strcmp(m, "none") ? VTK_NONE : -2;
-            if (o->vtk == -2) {
-                fprintf(stderr, "defsim run: --vtk must be all, final or none\n");
-                return 2;
-            }
-        }
-        else if (!strcmp(a, "--progress") && has) progress = argv[++i];
-        else if (!strcmp(a, "--set") && has) o->sets[o->nsets++] = argv[++i];
-        else if (!strcmp(a, "--option") && has) o->opts[o->nopts++] = argv[++i];
-        else if (!strcmp(a, "--summary-json") && has) o->summary_path = argv[++i];
-        else if (!strcmp(a, "--max-vertices") && has) {
-            if (!parse_limit(a, argv[++i], &o->limits.max_vertices)) return 2;
-        } else if (!strcmp(a, "--max-steps") && has) {
-            if (!parse_limit(a, argv[++i], &o->limits.max_steps)) return 2;
-        } else if (!strcmp(a, "--resume") && has) o->resume_dir = argv[++i];
-        else if (!strcmp(a, "--checkpoint-every") && has) {
-            char *end;
-            const long n = strtol(argv[++i], &end, 10);
-            if (*end || end == argv[i] || n < 1 || n > 1000000000) {
-                fprintf(stderr, "defsim run: --checkpoint-every: expected a number of frames "
-                                ">= 1\n");
-                return 2;
-            }
-            o->checkpoint_every = (int)n;
-        }
-        else if (!strcmp(a, "--backend") && has) {
-            snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", argv[++i]);
+    enum { O_OUT = CLI_OPT, O_RENDER, O_NO_VTK, O_VTK, O_PROGRESS, O_SET, O_OPTION, O_SUMMARY,
+           O_MAX_VERTICES, O_MAX_STEPS, O_RESUME, O_CHECKPOINT_EVERY, O_BACKEND, O_COLOR,
+           O_THREADS, O_FRAMES };
+    static const struct option options[] = {
+        {"out", required_argument, NULL, O_OUT}, {"render", no_argument, NULL, O_RENDER},
+        {"no-vtk", no_argument, NULL, O_NO_VTK}, {"vtk", required_argument, NULL, O_VTK},
+        {"progress", required_argument, NULL, O_PROGRESS},
+        {"set", required_argument, NULL, O_SET}, {"option", required_argument, NULL, O_OPTION},
+        {"summary-json", required_argument, NULL, O_SUMMARY},
+        {"max-vertices", required_argument, NULL, O_MAX_VERTICES},
+        {"max-steps", required_argument, NULL, O_MAX_STEPS},
+        {"resume", required_argument, NULL, O_RESUME},
+        {"checkpoint-every", required_argument, NULL, O_CHECKPOINT_EVERY},
+        {"backend", required_argument, NULL, O_BACKEND},
+        {"color", required_argument, NULL, O_COLOR},
+        {"threads", required_argument, NULL, O_THREADS},
+        {"frames", required_argument, NULL, O_FRAMES}, {0}};
+    const cli_tool tool = {strcmp(argv[0], "run") ? argv[0] : "defsim run", usage, options, ""};
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int opt; (opt = cli_next(&c)) != CLI_END;) {
+        const char *v = c.arg;
+        switch (opt) {
+        case CLI_EXIT: return c.status;
+        case O_OUT: o->out_dir = v; break;
+        case O_RENDER: o->render = 1; break;
+        case O_NO_VTK: o->vtk = VTK_NONE; break;
+        case O_VTK:
+            o->vtk = !strcmp(v, "all") ? VTK_ALL : !strcmp(v, "final") ? VTK_FINAL
+                     : !strcmp(v, "none") ? VTK_NONE : -2;
+            if (o->vtk == -2) return cli_error(&c, "--vtk must be all, final or none");
+            break;
+        case O_PROGRESS: progress = v; break;
+        case O_SET: o->sets[o->nsets++] = v; break;
+        case O_OPTION: o->opts[o->nopts++] = v; break;
+        case O_SUMMARY: o->summary_path = v; break;
+        case O_MAX_VERTICES:
+            if (!parse_limit(c.flag, v, &o->limits.max_vertices)) return 2;
+            break;
+        case O_MAX_STEPS:
+            if (!parse_limit(c.flag, v, &o->limits.max_steps)) return 2;
+            break;
+        case O_RESUME: o->resume_dir = v; break;
+        case O_CHECKPOINT_EVERY:
+            if (!cli_int(&c, 1, 1000000000, &o->checkpoint_every)) return c.status;
+            break;
+        case O_BACKEND:
+            snprintf(o->backend_set, sizeof o->backend_set, "world.backend=\"%s\"", v);
             o->sets[o->nsets++] = o->backend_set;
-        } else if (!strcmp(a, "--color") && has) {
-            snprintf(o->color_set, sizeof o->color_set, "output.color=\"%s\"", argv[++i]);
+            break;
+        case O_COLOR:
+            snprintf(o->color_set, sizeof o->color_set, "output.color=\"%s\"", v);
             o->sets[o->nsets++] = o->color_set;
-        } else if (!strcmp(a, "--threads") && has) {
-            snprintf(o->threads_set, sizeof o->threads_set, "world.threads=%s", argv[++i]);
+            break;
+        case O_THREADS:
+            snprintf(o->threads_set, sizeof o->threads_set, "world.threads=%s", v);
             o->sets[o->nsets++] = o->threads_set;
-        } else if (!strcmp(a, "--frames") && has) {
-            if (parse_frame_list(o, argv[++i])) return 2;
-        } else if (a[0] == '-') {
-            fprintf(stderr, "defsim run: unknown option %s\n", a);
-            return usage(stderr);
-        } else if (!o->scene_path) o->scene_path = a;
-        else {
-            fprintf(stderr, "defsim run: one scene file at a time (got %s and %s)\n",
-                    o->scene_path, a);
-            return 2;
+            break;
+        case O_FRAMES:
+            if (parse_frame_list(o, (char *)v)) return 2;
+            break;
         }
     }
-    if (!o->scene_path) return usage(stderr);
+    if (c.optind + 1 < argc)
+        return cli_error(&c, "one scene file at a time (got %s and %s)", argv[c.optind],
+                         argv[c.optind + 1]);
+    if (c.optind < argc) o->scene_path = argv[c.optind];
+    if (!o->scene_path) return cli_error(&c, "no scene file");
     if (o->resume_dir && o->out_dir && strcmp(o->resume_dir, o->out_dir) != 0) {
         fprintf(stderr, "defsim run: --resume writes into the folder it resumes; --out differs\n");
         return 2;
@@ -676,8 +691,17 @@ typedef struct progress {
     double t_start, last_bar;
 } progress;
 
-static void progress_frame(progress *pr, const scene *s, int f, int written, double t,
-                           int64_t steps, const defsim_energy *e, const double *x)
+/* Steps per second of simulation: the steps over the library's time in defsim_world_step (no
+ * output, no rendering, no frame bookkeeping). */
+static double sim_steps_per_s(defsim_world *w)
+{
+    defsim_stats st = {.size = sizeof st};
+    defsim_world_stats(w, &st);
+    return st.time_step > 0.0 ? (double)st.steps / st.time_step : 0.0;
+}
+
+static void progress_frame(progress *pr, const scene *s, defsim_world *w, int f, int written,
+                           double t, const defsim_energy *e, const double *x)
 {
     const double wall = tools_now() - pr->t_start;
     char probe[160] = "";
@@ -687,7 +711,7 @@ static void progress_frame(progress *pr, const scene *s, int f, int written, dou
             snprintf(probe, sizeof probe, "  probe (%.4f, %.4f, %.4f)", p[0], p[1], p[2]);
             break;
         }
-    const double sps = wall > 0.0 ? (double)steps / wall : 0.0;
+    const double sps = sim_steps_per_s(w);
     if (pr->mode == PROGRESS_LINES && written) {
         printf("frame %5d/%d  t %8.4f s  wall %7.2f s  %9.0f steps/s  E %12.6g J "
                "(kin %.4g, ela %.4g, grav %.4g)%s\n", f, (int)s->frames, t, wall, sps, e->total,
@@ -719,9 +743,12 @@ static void print_summary(const progress *pr, const scene *s, defsim_world *w,
     defsim_world_stats(w, &st);
     const double wall = tools_now() - pr->t_start;
     const defsim_energy *e = &r->e;
-    printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall (%.0f steps/s)\n",
+    /* Two rates: the simulation's (time in step only) and the run's (output, rendering). */
+    printf("%s %d frames, %lld steps (%lld failed) in %.3f s wall: %.0f steps/s simulating, "
+           "%.0f steps/s with output and rendering\n",
            interrupted ? "interrupted after" : r->rc ? "stopped after" : "done:", r->last_frame,
            (long long)st.steps, (long long)st.failed_steps, wall,
+           st.time_step > 0 ? (double)st.steps / st.time_step : 0.0,
            wall > 0 ? (double)st.steps / wall : 0.0);
     printf("  time: step %.3f s (forces %.3f, hessian %.3f), output %.3f s, render %.3f s\n",
            st.time_step, st.time_forces, st.time_hessian, r->t_out, r->t_render);
@@ -976,7 +1003,7 @@ int run_main(int argc, char **argv)
             r.t_render += tools_now() - t0;
         }
 #endif
-        progress_frame(&pr, &s, f, written, t, steps, &r.e, x);
+        progress_frame(&pr, &s, w, f, written, t, &r.e, x);
         /* After the frame's output, so that a resumed run starts with the next frame. */
         if (o.checkpoint_every > 0 && f > 0 &&
             (f % o.checkpoint_every == 0 || interrupted) &&

@@ -2,7 +2,8 @@
 #ifndef DEFSIM_TOOLS_RUN_H
 #define DEFSIM_TOOLS_RUN_H
 
-/* `defsim run`: argv holds the arguments after "run". Returns the process exit status:
+/* `defsim run`: argv[0] is the command's name ("run", in messages "defsim run"; or the tool's
+ * that runs it, "defsim-render"), the arguments follow. Returns the process exit status:
  * 0 done, 1 error, 2 usage error, 130 interrupted by SIGINT (output complete so far). */
 int run_main(int argc, char **argv);
 

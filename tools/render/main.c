@@ -13,6 +13,7 @@
 #include "image.h"
 #include "render.h"
 #include "../defsim/run.h"
+#include "../cli.h"
 #include "../fileio.h"
 #include "../scene.h"
 #include "../vtk.h"
@@ -29,12 +30,20 @@ static int ends_with(const char *s, const char *t)
     return n >= k && !strcmp(s + n - k, t);
 }
 
-static int usage(FILE *f)
+static void usage(FILE *f)
 {
     fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
-               "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR] "
-               "[--frames LIST] [--color body|stress|displacement|speed]\n");
-    return f == stderr ? 2 : 0;
+               "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR]\n"
+               "                     [--frames LIST] [--color body|stress|displacement|speed]\n"
+               "With a scene: runs it and renders while running (defsim run --render --no-vtk;\n"
+               "defsim-render SCENE.json --help lists those options). With frames written by\n"
+               "defsim run: renders them.\n"
+               "  --scene FILE   camera, size, colours and output.color from this scene\n"
+               "  --out DIR      where the PNGs go (default: next to the frames)\n"
+               "  --frames LIST  render only these frames (comma-separated indices)\n"
+               "  --color MODE   body, stress (von Mises), displacement or speed\n"
+               "  -h, --help     this text\n"
+               "  --version      the library's version\n");
 }
 
 /* Render parts for one frame's cells: tet boundaries, triangles, lines, per body; with
@@ -118,37 +127,45 @@ static void parts_free(rd_part *p, int n, int32_t **tri_cell)
 
 int main(int argc, char **argv)
 {
-    if (argc < 2) return usage(stderr);
-    if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) return usage(stdout);
-    if (ends_with(argv[1], ".json")) {
-        /* Render while running: defsim run with PNG output and no VTK. */
+    if (argc >= 2 && ends_with(argv[1], ".json")) {
+        /* Render while running: defsim run with PNG output and no VTK (the tool's own
+         * options first, so that an option of the user's that lacks its value is reported, not
+         * given one of ours). */
         char **args = calloc((size_t)argc + 3, sizeof *args);
         if (!args) return 1;
         int n = 0;
-        for (int i = 1; i < argc; ++i) args[n++] = argv[i];
+        args[n++] = "defsim-render";
         args[n++] = "--render";
         args[n++] = "--no-vtk";
+        for (int i = 1; i < argc; ++i) args[n++] = argv[i];
         int rc = run_main(n, args);
         free(args);
         return rc;
     }
     const char *scene_path = NULL, *out_dir = NULL, *color = NULL;
+    /* --frames lists at most one number per two characters of the arguments. */
+    size_t chars = 0;
+    for (int i = 0; i < argc; ++i) chars += strlen(argv[i]) + 1;
     char **inputs = calloc((size_t)argc, sizeof *inputs);
-    int ninputs = 0, *list = calloc((size_t)argc, sizeof *list), nlist = 0;
+    int ninputs = 0, *list = calloc(chars / 2 + 1, sizeof *list), nlist = 0;
     if (!inputs || !list) return 1;
-    for (int i = 1; i < argc; ++i) {
-        if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene_path = argv[++i];
-        else if (!strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
-        else if (!strcmp(argv[i], "--color") && i + 1 < argc) color = argv[++i];
-        else if (!strcmp(argv[i], "--frames") && i + 1 < argc) {
-            for (char *s = argv[++i], *end;; s = end + 1) {
-                list[nlist++] = (int)strtol(s, &end, 10);
-                if (end == s || (*end && *end != ',')) return usage(stderr);
-                if (!*end) break;
-            }
-        } else if (argv[i][0] == '-') return usage(stderr);
-        else inputs[ninputs++] = argv[i];
+    const char *frames_arg = NULL;
+    static const cli_tool tool = {"defsim-render", usage, NULL, ""};
+    const cli_opt opts[] = {{"scene", CLI_STRING, &scene_path, 0, 0}, {"out", CLI_STRING, &out_dir, 0, 0},
+                            {"color", CLI_STRING, &color, 0, 0}, {"frames", CLI_STRING, &frames_arg, 0, 0},
+                            {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    for (const char *s = frames_arg; s;) {
+        char *end;
+        const long v = strtol(s, &end, 10);
+        if (end == s || v < 0 || v > 1000000000 || (*end && *end != ','))
+            return cli_fail(&tool, "--frames: comma-separated frame numbers (got %s)", frames_arg);
+        list[nlist++] = (int)v;
+        s = *end ? end + 1 : NULL;
     }
+    for (int i = first; i < argc; ++i) inputs[ninputs++] = argv[i];
     /* The frame files and their times. */
     char **files = NULL;
     double *times = NULL;

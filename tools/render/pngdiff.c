@@ -9,16 +9,21 @@
  * 1 differ (or different sizes), 2 usage error or unreadable file.
  */
 #include "image.h"
+#include "../cli.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static int usage(void)
+static void usage(FILE *f)
 {
-    fprintf(stderr, "usage: pngdiff A.png B.png [--threshold T] [--max-fraction F] "
-                    "[--diff OUT.png]\n");
-    return 2;
+    fprintf(f, "usage: pngdiff A.png B.png [--threshold T] [--max-fraction F] "
+               "[--diff OUT.png]\n"
+               "Compares two PNGs: a pixel differs when a channel differs by more than T\n"
+               "(0..255, default 16); they match when at most the fraction F (default 0.002)\n"
+               "differs. Exit status: 0 match, 1 differ, 2 usage error or unreadable file.\n"
+               "  -h, --help   this text\n"
+               "  --version    the library's version\n");
 }
 
 int main(int argc, char **argv)
@@ -26,29 +31,16 @@ int main(int argc, char **argv)
     const char *a_path = NULL, *b_path = NULL, *diff_path = NULL;
     int threshold = 16;
     double max_fraction = 0.002;
-    for (int i = 1; i < argc; ++i) {
-        if (!strcmp(argv[i], "--threshold") && i + 1 < argc) {
-            char *end;
-            long t = strtol(argv[++i], &end, 10);
-            if (*end || t < 0 || t > 255) return usage();
-            threshold = (int)t;
-        } else if (!strcmp(argv[i], "--max-fraction") && i + 1 < argc) {
-            char *end;
-            max_fraction = strtod(argv[++i], &end);
-            if (*end || !(max_fraction >= 0.0 && max_fraction <= 1.0)) return usage();
-        } else if (!strcmp(argv[i], "--diff") && i + 1 < argc) {
-            diff_path = argv[++i];
-        } else if (argv[i][0] == '-') {
-            return usage();
-        } else if (!a_path) {
-            a_path = argv[i];
-        } else if (!b_path) {
-            b_path = argv[i];
-        } else {
-            return usage();
-        }
-    }
-    if (!a_path || !b_path) return usage();
+    static const cli_tool tool = {"pngdiff", usage, NULL, ""};
+    const cli_opt opts[] = {{"threshold", CLI_INT, &threshold, 0, 255},
+                            {"max-fraction", CLI_DOUBLE, &max_fraction, 0.0, 1.0},
+                            {"diff", CLI_STRING, &diff_path, 0, 0}, {0}};
+    int first;
+    const int parsed = cli_parse(&tool, opts, argc, argv, &first);
+    if (parsed >= 0) return parsed;
+    if (argc - first != 2) return cli_fail(&tool, "need two PNG files");
+    a_path = argv[first];
+    b_path = argv[first + 1];
     image a, b, d = {0, 0, NULL};
     char err[512];
     if (image_read_png(a_path, &a, err, sizeof err)) {

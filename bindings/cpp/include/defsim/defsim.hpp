@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
-//
-// defsim.hpp: a header-only C++17 wrapper over the C API in defsim/defsim.h.
+/// @file
+/// defsim.hpp: a header-only C++17 wrapper over the C API in defsim/defsim.h.
 //
 // It adds no ABI of its own: every call goes to a defsim_* function of libdefsim, so a host
 // links libdefsim exactly as a C host does. What it adds:
@@ -98,10 +98,10 @@ struct is_container_of<C, T,
 template <class T>
 class Span {
 public:
-    using element_type = T;
-    using value_type = std::remove_cv_t<T>;
-    using size_type = std::size_t;
-    using iterator = T *;
+    using element_type = T;                     ///< The element type, as viewed.
+    using value_type = std::remove_cv_t<T>;     ///< The element type without const.
+    using size_type = std::size_t;              ///< The type of sizes.
+    using iterator = T *;                       ///< A pointer into the view.
 
     /// An empty view.
     constexpr Span() noexcept = default;
@@ -124,11 +124,17 @@ public:
                                         !std::is_same<U, T>::value, int> = 0>
     constexpr Span(Span<U> other) noexcept : data_(other.data()), size_(other.size()) {}
 
+    /// The first element (nullptr for an empty view).
     constexpr T *data() const noexcept { return data_; }
+    /// The number of elements.
     constexpr std::size_t size() const noexcept { return size_; }
+    /// True when size() is 0.
     constexpr bool empty() const noexcept { return size_ == 0; }
+    /// Element i (unchecked: i < size()).
     constexpr T &operator[](std::size_t i) const noexcept { return data_[i]; }
+    /// Iteration from data()...
     constexpr T *begin() const noexcept { return data_; }
+    /// ... to data() + size().
     constexpr T *end() const noexcept { return data_ + size_; }
 
 private:
@@ -175,6 +181,7 @@ public:
     /// Wraps a C material (its size must be set, e.g. by defsim_material_init).
     explicit Material(const defsim_material &m) noexcept : m_(m) {}
 
+    /// The constitutive model (set at construction).
     Model model() const noexcept { return static_cast<Model>(m_.model); }
     /// Young's modulus E in Pa (tet models).
     Material &youngs_modulus(double E) noexcept { m_.youngs_modulus = E; return *this; }
@@ -191,13 +198,13 @@ public:
     /// Rayleigh beta in s (damping force -beta K(x) v).
     Material &stiffness_damping(double beta) noexcept { m_.stiffness_damping = beta; return *this; }
 
-    double youngs_modulus() const noexcept { return m_.youngs_modulus; }
-    double poisson_ratio() const noexcept { return m_.poisson_ratio; }
-    double density() const noexcept { return m_.density; }
-    double stiffness() const noexcept { return m_.stiffness; }
-    double vertex_mass() const noexcept { return m_.vertex_mass; }
-    double mass_damping() const noexcept { return m_.mass_damping; }
-    double stiffness_damping() const noexcept { return m_.stiffness_damping; }
+    double youngs_modulus() const noexcept { return m_.youngs_modulus; }   ///< E, Pa.
+    double poisson_ratio() const noexcept { return m_.poisson_ratio; }     ///< nu.
+    double density() const noexcept { return m_.density; }                 ///< kg/m^3.
+    double stiffness() const noexcept { return m_.stiffness; }             ///< k, N/m.
+    double vertex_mass() const noexcept { return m_.vertex_mass; }         ///< kg.
+    double mass_damping() const noexcept { return m_.mass_damping; }       ///< alpha, 1/s.
+    double stiffness_damping() const noexcept { return m_.stiffness_damping; }   ///< beta, s.
 
     /// The C struct.
     const defsim_material &c_struct() const noexcept { return m_; }
@@ -209,9 +216,9 @@ private:
 /// Result of material_eval: energy density (J/m^3), first Piola-Kirchhoff stress (row-major,
 /// Pa) and its derivative, dPdF[9 * (3 i + j) + (3 k + l)] = dP_ij / dF_kl.
 struct MaterialEval {
-    double psi = 0.0;
-    std::array<double, 9> P{};
-    std::array<double, 81> dPdF{};
+    double psi = 0.0;                  ///< Energy density, J/m^3.
+    std::array<double, 9> P{};         ///< First Piola-Kirchhoff stress, row-major, Pa.
+    std::array<double, 81> dPdF{};     ///< dP_ij / dF_kl at 9 * (3 i + j) + (3 k + l).
 };
 
 /// Evaluates a tet material at a deformation gradient F (row-major) with defsim_material_eval.
@@ -233,7 +240,9 @@ public:
     ~Mesh() { defsim_mesh_free(&m_); }
     Mesh(const Mesh &) = delete;
     Mesh &operator=(const Mesh &) = delete;
+    /// Takes other's arrays; other is left empty.
     Mesh(Mesh &&other) noexcept : m_(other.m_) { other.clear(); }
+    /// Frees this mesh's arrays and takes other's; other is left empty.
     Mesh &operator=(Mesh &&other) noexcept
     {
         if (this != &other) {
@@ -284,10 +293,10 @@ public:
         return r;
     }
 
-    int32_t vertex_count() const noexcept { return m_.vertex_count; }
-    int32_t tet_count() const noexcept { return m_.tet_count; }
-    int32_t triangle_count() const noexcept { return m_.triangle_count; }
-    int32_t spring_count() const noexcept { return m_.spring_count; }
+    int32_t vertex_count() const noexcept { return m_.vertex_count; }       ///< Vertices.
+    int32_t tet_count() const noexcept { return m_.tet_count; }             ///< Tets.
+    int32_t triangle_count() const noexcept { return m_.triangle_count; }   ///< Triangles.
+    int32_t spring_count() const noexcept { return m_.spring_count; }       ///< Springs.
     /// 3 * vertex_count() coordinates (m).
     Span<const double> positions() const noexcept
     {
@@ -334,15 +343,22 @@ template <class Id, class Self>
 class Handle {
 public:
     constexpr Handle() noexcept = default;
+    /// Wraps a C id.
     constexpr explicit Handle(Id id) noexcept : id_(id) {}
+    /// The C id.
     constexpr Id id() const noexcept { return id_; }
+    /// The id's slot (with its world's tag).
     constexpr uint32_t index() const noexcept { return id_.index; }
+    /// The id's generation.
     constexpr uint32_t generation() const noexcept { return id_.generation; }
+    /// True for the null id {0, 0}.
     constexpr bool is_null() const noexcept { return id_.index == 0 && id_.generation == 0; }
+    /// The same id.
     friend constexpr bool operator==(Self a, Self b) noexcept
     {
         return a.id_.index == b.id_.index && a.id_.generation == b.id_.generation;
     }
+    /// Different ids.
     friend constexpr bool operator!=(Self a, Self b) noexcept { return !(a == b); }
 
 private:
@@ -516,7 +532,9 @@ public:
         return *this;
     }
 
+    /// The backend name set by backend() (empty: the library's default).
     const std::string &backend() const noexcept { return backend_; }
+    /// The log function set by log() (empty: none).
     const LogFunction &log() const noexcept { return log_; }
     /// The options by name that World's constructor sets, in order.
     const std::vector<std::pair<std::string, std::string>> &options() const noexcept
@@ -569,6 +587,7 @@ enum class Shape : int {
 /// they must stay alive until World::add_collider returns. Setters return *this.
 class ColliderDef {
 public:
+    /// The library's defaults (defsim_collider_def_init) for a collider of this shape.
     explicit ColliderDef(Shape shape = Shape::plane) noexcept
     {
         defsim_collider_def_init(&d_, sizeof d_);
@@ -645,6 +664,7 @@ public:
         }
         return *this;
     }
+    /// The C struct.
     const defsim_attachment_def &c_struct() const noexcept { return d_; }
 
 private:
@@ -668,6 +688,8 @@ using ForceFunction =
 /// row-major blocks dF_i/dx_i (N/m).
 using ForceJacobianFunction = ForceFunction;
 
+/// A world (defsim_world) and what it owns: move-only, destroyed with the object. Calls that
+/// fail throw Error with the library's status and detail.
 class World {
 public:
     /// Creates a world (defsim_world_create). Throws Error: DEFSIM_ERR_BACKEND_UNAVAILABLE,
@@ -697,11 +719,13 @@ public:
     ~World() { defsim_world_destroy(w_); }
     World(const World &) = delete;
     World &operator=(const World &) = delete;
+    /// Takes other's world; other is left empty (operator bool false).
     World(World &&other) noexcept
         : w_(other.w_), log_(std::move(other.log_)), force_(std::move(other.force_))
     {
         other.w_ = nullptr;
     }
+    /// Destroys this world and takes other's; other is left empty.
     World &operator=(World &&other) noexcept
     {
         if (this != &other) {
@@ -730,6 +754,7 @@ public:
         force_.reset();
         return w;
     }
+    /// True while the object holds a world (not moved from, not released).
     explicit operator bool() const noexcept { return w_ != nullptr; }
 
     /// Adds a body (defsim_world_add_body); the arrays of `def` are copied. Throws Error:
@@ -906,6 +931,7 @@ public:
         check_size(out.size(), 3, "contact forces");
         check(defsim_world_get_contact_forces(w_, out.data(), vertex_count()));
     }
+    /// The same, as a new vector.
     std::vector<double> contact_forces() const
     {
         std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
@@ -919,6 +945,7 @@ public:
         check_size(out.size(), 3, "pin forces");
         check(defsim_world_get_pin_forces(w_, out.data(), vertex_count()));
     }
+    /// The same, as a new vector.
     std::vector<double> pin_forces()
     {
         std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
@@ -955,8 +982,11 @@ public:
         check_size(out.size(), 1, "masses");
         check(defsim_world_get_masses(w_, out.data(), vertex_count()));
     }
+    /// get_positions into a new vector.
     std::vector<double> positions() const { return fetch(3, &World::get_positions); }
+    /// get_velocities into a new vector.
     std::vector<double> velocities() const { return fetch(3, &World::get_velocities); }
+    /// get_masses into a new vector.
     std::vector<double> masses() const { return fetch(1, &World::get_masses); }
 
     /// Sets positions and velocities (3 * vertex_count() each; an empty span leaves that part
@@ -968,7 +998,9 @@ public:
         check(defsim_world_set_state(w_, x.empty() ? nullptr : x.data(),
                                      v.empty() ? nullptr : v.data()));
     }
+    /// set_state with positions only (velocities unchanged).
     void set_positions(Span<const double> x) { set_state(x, {}); }
+    /// set_state with velocities only (positions unchanged).
     void set_velocities(Span<const double> v) { set_state({}, v); }
 
     /// Energies of the current state (J).
@@ -991,6 +1023,7 @@ public:
         check_size(out.size(), 3, "forces");
         check(defsim_world_forces(w_, x.data(), out.data()));
     }
+    /// The elastic forces at the current positions, as a new vector.
     std::vector<double> forces()
     {
         std::vector<double> f(3 * static_cast<std::size_t>(vertex_count()));
@@ -1006,6 +1039,7 @@ public:
         check(defsim_world_stats(w_, &s));
         return s;
     }
+    /// Zeroes the statistics (defsim_world_reset_stats).
     void reset_stats() noexcept { defsim_world_reset_stats(w_); }
 
     /// Sets an option by name from text (defsim_world_set_option): "core.simd" = "generic",

@@ -1,0 +1,40 @@
+# SPDX-License-Identifier: MIT
+# Every example (examples/c/*.c, examples/python/*.py) is a test labelled "example", so that
+# `ctest -L example` (examples/README.md) runs them all (issue 28, point 9: it ran 3 of 6).
+# The Python ones exist only when the build has a Python test environment (DEFSIM_PYTHON): then
+# test_python exists too.   cmake -DSOURCE_DIR=... -DBUILD_DIR=... -DCTEST=...
+#                                 -P check_example_labels.cmake
+file(GLOB c_examples RELATIVE ${SOURCE_DIR}/examples/c ${SOURCE_DIR}/examples/c/*.c)
+file(GLOB py_examples RELATIVE ${SOURCE_DIR}/examples/python ${SOURCE_DIR}/examples/python/*.py)
+execute_process(COMMAND ${CTEST} --test-dir ${BUILD_DIR} -N OUTPUT_VARIABLE all RESULT_VARIABLE rc)
+set(PYTHON_TESTS OFF)
+if(all MATCHES "Test +#[0-9]+: test_python\n")
+  set(PYTHON_TESTS ON)
+endif()
+set(expected "")
+foreach(f ${c_examples})
+  string(REGEX REPLACE "[.]c$" "" n "${f}")
+  list(APPEND expected example_${n})
+endforeach()
+if(PYTHON_TESTS)
+  foreach(f ${py_examples})
+    string(REGEX REPLACE "[.]py$" "" n "${f}")
+    list(APPEND expected example_python_${n})
+  endforeach()
+endif()
+execute_process(COMMAND ${CTEST} --test-dir ${BUILD_DIR} -N -L "^example$"
+                OUTPUT_VARIABLE out RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "ctest -N -L example failed: ${out}")
+endif()
+set(missing "")
+foreach(t ${expected})
+  if(NOT out MATCHES "Test +#[0-9]+: ${t}\n")
+    list(APPEND missing ${t})
+  endif()
+endforeach()
+if(missing)
+  message(FATAL_ERROR "examples not labelled \"example\" (or not tests): ${missing}\n${out}")
+endif()
+list(LENGTH expected n)
+message(STATUS "ctest -L example runs all ${n} examples: ${expected}")

@@ -9,6 +9,7 @@
 
 #include "../defsim/run.h"
 
+#include "cli.h"
 #include "scene.h"
 
 #include <getopt.h>
@@ -18,7 +19,7 @@
 
 int defsim_tool_view(int argc, char **argv);
 
-static int usage(FILE *f)
+static void usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim view SCENE.json [options]\n"
@@ -34,10 +35,9 @@ static int usage(FILE *f)
         "  --option NAME=VALUE set a world option after the scene's (as defsim run --option)\n"
         "  --backend NAME      override world.backend\n"
         "  --threads N         override world.threads\n"
-        "  -h, --help          this text\n"
+        "  -h, --help          this text; --version: the library's version\n"
         "keys: space play/pause, n step, r reset, c colour (1-4 choose), t timing, q quit;\n"
         "mouse: left drag orbits, wheel zooms, right drag (or Ctrl + left) pulls a vertex\n");
-    return f == stderr ? 2 : 0;
 }
 
 typedef struct view_scene {
@@ -69,91 +69,73 @@ static defsim_status reset_scene(void *user, defsim_world **w)
 
 int defsim_tool_view(int argc, char **argv)
 {
+    enum { O_SCRIPT = CLI_OPT, O_PAUSED, O_COLOR, O_SIZE, O_SUPERSAMPLE, O_DRAG, O_NO_TIMING,
+           O_SET, O_OPTION, O_BACKEND, O_THREADS };
     static const struct option longs[] = {
-        {"script", required_argument, NULL, 's'}, {"paused", no_argument, NULL, 'p'},
-        {"color", required_argument, NULL, 'c'}, {"size", required_argument, NULL, 'z'},
-        {"supersample", required_argument, NULL, 'S'},
-        {"drag-stiffness", required_argument, NULL, 'k'},
-        {"no-timing", no_argument, NULL, 'T'}, {"set", required_argument, NULL, 'e'},
-        {"option", required_argument, NULL, 'o'}, {"backend", required_argument, NULL, 'b'},
-        {"threads", required_argument, NULL, 't'}, {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
-    /* getopt_long permutes argv[1..]: the command's arguments get a program name in front. */
-    char **args = calloc((size_t)argc + 2, sizeof *args);
+        {"script", required_argument, NULL, O_SCRIPT}, {"paused", no_argument, NULL, O_PAUSED},
+        {"color", required_argument, NULL, O_COLOR}, {"size", required_argument, NULL, O_SIZE},
+        {"supersample", required_argument, NULL, O_SUPERSAMPLE},
+        {"drag-stiffness", required_argument, NULL, O_DRAG},
+        {"no-timing", no_argument, NULL, O_NO_TIMING}, {"set", required_argument, NULL, O_SET},
+        {"option", required_argument, NULL, O_OPTION},
+        {"backend", required_argument, NULL, O_BACKEND},
+        {"threads", required_argument, NULL, O_THREADS}, {NULL, 0, NULL, 0}};
+    static const cli_tool tool = {"defsim view", usage, longs, ""};
     const char **sets = calloc((size_t)argc + 2, sizeof *sets);
     const char **opts = calloc((size_t)argc + 1, sizeof *opts);
     char (*made)[160] = calloc((size_t)argc + 1, sizeof *made);
-    if (!args || !sets || !opts || !made) {
-        free(args); free(sets); free(opts); free(made);
+    if (!sets || !opts || !made) {
+        free(sets); free(opts); free(made);
         fprintf(stderr, "defsim view: out of memory\n");
         return 1;
     }
-    args[0] = "defsim view";
-    for (int i = 0; i < argc; ++i) args[i + 1] = argv[i];
     int nsets = 0, nopts = 0, nmade = 0, paused = 0, timing = 1, width = 0, height = 0;
-    int supersample = 1, rc = -1;
-    const char *script = NULL, *color = NULL;
+    int supersample = 1, threads = 0, rc = -1;
+    const char *script = NULL, *color = NULL, *path = NULL;
     double k_drag = 0.0;
-    optind = 1;
-    opterr = 0;
-    for (int c; rc < 0 && (c = getopt_long(argc + 1, args, ":h", longs, NULL)) != -1;) {
-        char *end = NULL;
-        switch (c) {
-        case 's': script = optarg; break;
-        case 'p': paused = 1; break;
-        case 'c': color = optarg; break;
-        case 'T': timing = 0; break;
-        case 'e': sets[nsets++] = optarg; break;
-        case 'o': opts[nopts++] = optarg; break;
-        case 'z':
-            if (sscanf(optarg, "%dx%d", &width, &height) != 2 || width < 64 || height < 64 ||
-                width > 8192 || height > 8192) {
-                fprintf(stderr, "defsim view: --size: expected WxH, 64..8192 each\n");
-                rc = 2;
-            }
+    cli c;
+    cli_begin(&c, &tool, argc, argv);
+    for (int o; rc < 0 && (o = cli_next(&c)) != CLI_END;) {
+        switch (o) {
+        case CLI_EXIT: rc = c.status; break;
+        case O_SCRIPT: script = c.arg; break;
+        case O_PAUSED: paused = 1; break;
+        case O_COLOR: color = c.arg; break;
+        case O_NO_TIMING: timing = 0; break;
+        case O_SET: sets[nsets++] = c.arg; break;
+        case O_OPTION: opts[nopts++] = c.arg; break;
+        case O_SIZE:
+            if (sscanf(c.arg, "%dx%d", &width, &height) != 2 || width < 64 || height < 64 ||
+                width > 8192 || height > 8192)
+                rc = cli_error(&c, "--size: expected WxH, 64..8192 each");
             break;
-        case 'S':
-            supersample = (int)strtol(optarg, &end, 10);
-            if (*end || supersample < 1 || supersample > 4) {
-                fprintf(stderr, "defsim view: --supersample: expected 1..4\n");
-                rc = 2;
-            }
+        case O_SUPERSAMPLE:
+            if (!cli_int(&c, 1, 4, &supersample)) rc = c.status;
             break;
-        case 'k':
-            k_drag = strtod(optarg, &end);
-            if (*end || !(k_drag > 0.0)) {
-                fprintf(stderr, "defsim view: --drag-stiffness: expected N/m > 0\n");
-                rc = 2;
-            }
+        case O_DRAG:
+            if (!cli_positive(&c, &k_drag)) rc = c.status;
             break;
-        case 'b':
-            snprintf(made[nmade], sizeof made[nmade], "world.backend=\"%s\"", optarg);
+        case O_BACKEND:
+            snprintf(made[nmade], sizeof made[nmade], "world.backend=\"%s\"", c.arg);
             sets[nsets++] = made[nmade++];
             break;
-        case 't':
-            snprintf(made[nmade], sizeof made[nmade], "world.threads=%s", optarg);
+        case O_THREADS:
+            if (!cli_int(&c, 0, 4096, &threads)) {
+                rc = c.status;
+                break;
+            }
+            snprintf(made[nmade], sizeof made[nmade], "world.threads=%d", threads);
             sets[nsets++] = made[nmade++];
-            break;
-        case 'h': rc = usage(stdout); break;
-        case ':':
-            fprintf(stderr, "defsim view: option %s needs a value\n", args[optind - 1]);
-            rc = usage(stderr);
-            break;
-        default:
-            fprintf(stderr, "defsim view: unknown option %s\n", args[optind - 1]);
-            rc = usage(stderr);
             break;
         }
     }
-    if (rc < 0 && optind != argc) {
-        fprintf(stderr, optind > argc ? "defsim view: no scene file\n"
-                                      : "defsim view: one scene file at a time\n");
-        rc = usage(stderr);
-    }
+    if (rc < 0 && c.optind != argc - 1)
+        rc = cli_error(&c, c.optind >= argc ? "no scene file" : "one scene file at a time");
+    if (rc < 0) path = argv[c.optind];
     view_scene *vs = rc < 0 ? calloc(1, sizeof *vs) : NULL;
     defsim_world *w = NULL;
     if (rc < 0 && !vs) rc = 1;
-    if (rc < 0 && scene_load(&vs->s, args[argc], sets, nsets)) {
+    if (rc < 0 && scene_load(&vs->s, path, sets, nsets)) {
         fprintf(stderr, "defsim view: %s\n", vs->s.error);
         free(vs);
         vs = NULL;
@@ -220,7 +202,6 @@ int defsim_tool_view(int argc, char **argv)
     free(vs);
     free(bodies);
     free(pinned);
-    free(args);
     free(sets);
     free(opts);
     free(made);

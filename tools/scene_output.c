@@ -25,7 +25,7 @@ int scene_color_parse(const char *name)
 void scene_output_defaults(scene *s)
 {
     s->fields = SCENE_FIELD_STRESS | SCENE_FIELD_DISPLACEMENT | SCENE_FIELD_PIN_FORCES |
-                SCENE_FIELD_ATTACHMENT_FORCES;
+                SCENE_FIELD_ATTACHMENT_FORCES | SCENE_FIELD_CONTACT_FORCES;
     s->every = 1;
     s->write_vtk = 1;
     s->width = 640;
@@ -139,18 +139,19 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     const cJSON *fl = cJSON_GetObjectItemCaseSensitive(o, "fields");
     if (fl) {
         static const char *const names[] = {"stress", "displacement", "pin_forces",
-                                            "attachment_forces"};
+                                            "attachment_forces", "contact_forces"};
         if (!cJSON_IsArray(fl))
             return sj_fail(c, fl, "output.fields must be an array of \"stress\", \"displacement\", "
-                           "\"pin_forces\", \"attachment_forces\"");
+                           "\"pin_forces\", \"attachment_forces\", \"contact_forces\"");
         s->fields = 0;
         for (const cJSON *e = fl->child; e; e = e->next) {
             int found = -1;
-            for (int i = 0; i < 4; ++i)
+            for (int i = 0; i < 5; ++i)
                 if (cJSON_IsString(e) && !strcmp(e->valuestring, names[i])) found = i;
             if (found < 0)
                 return sj_fail(c, e, "output.fields: unknown field (known: \"stress\", "
-                               "\"displacement\", \"pin_forces\", \"attachment_forces\")");
+                               "\"displacement\", \"pin_forces\", \"attachment_forces\", "
+                               "\"contact_forces\")");
             s->fields |= 1u << found;
         }
     }

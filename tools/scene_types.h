@@ -42,7 +42,8 @@ enum {
     SCENE_FIELD_STRESS = 1,             /* cell data: cauchy_stress (9), von_mises, energy_density */
     SCENE_FIELD_DISPLACEMENT = 2,       /* point data: displacement */
     SCENE_FIELD_PIN_FORCES = 4,         /* point data: pin_force (reaction of each pin, N) */
-    SCENE_FIELD_ATTACHMENT_FORCES = 8   /* point data: attachment_force (N, on the vertex) */
+    SCENE_FIELD_ATTACHMENT_FORCES = 8,  /* point data: attachment_force (N, on the vertex) */
+    SCENE_FIELD_CONTACT_FORCES = 16     /* point data: contact_force (N, colliders and bodies) */
 };
 
 /* A keyframed rigid motion: keys (t, translation, rotation about an axis through a centre),

@@ -158,9 +158,10 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
                 array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
         fprintf(f, "      </PointData>\n");
     }
-    fprintf(f, "      <CellData Scalars=\"body\">\n"
-               "        <DataArray type=\"Int32\" Name=\"body\" format=\"appended\" "
-               "offset=\"%llu\"/>\n", (unsigned long long)o_body);
+    const char *tag = c->tag ? c->tag : "body";
+    fprintf(f, "      <CellData Scalars=\"%s\">\n"
+               "        <DataArray type=\"Int32\" Name=\"%s\" format=\"appended\" "
+               "offset=\"%llu\"/>\n", tag, tag, (unsigned long long)o_body);
     for (int k = 0; k < n_extra; ++k)
         if (extra[k].cell)
             array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
@@ -191,6 +192,22 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
          put_block(f, c->types, btyp);
     fputs("\n  </AppendedData>\n</VTKFile>\n", f);
     return tools_tmp_commit(f, tmp, path, ok, err, errsz);
+}
+
+int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
+                  char *err, size_t errsz)
+{
+    char tmp[2200];
+    FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
+    if (!f) return -1;
+    fprintf(f, "<?xml version=\"1.0\"?>\n"
+               "<VTKFile type=\"vtkMultiBlockDataSet\" version=\"1.0\" byte_order=\"%s\">\n"
+               "  <vtkMultiBlockDataSet>\n", little_endian() ? "LittleEndian" : "BigEndian");
+    for (int i = 0; i < n; ++i)
+        fprintf(f, "    <DataSet index=\"%d\" name=\"%s\" file=\"%s\"/>\n", i, names[i],
+                files[i]);
+    fputs("  </vtkMultiBlockDataSet>\n</VTKFile>\n", f);
+    return tools_tmp_commit(f, tmp, path, 1, err, errsz);
 }
 
 int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,

@@ -19,6 +19,7 @@ typedef struct vtk_cells {
     uint8_t *types;     /* VTK_* per cell */
     int32_t *body;      /* body index per cell */
     int64_t ncells, nconn;
+    const char *tag;    /* name of the cell data `body` holds: NULL for "body" */
 } vtk_cells;
 
 /* A frame read back: positions, cells and the arrays the renderer can colour by. */
@@ -52,6 +53,11 @@ void vtk_cells_free(vtk_cells *c);
  * n_extra point or cell data arrays. Returns 0, or -1 with a message in err. */
 int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
                   const vtk_cells *c, double time, const vtk_array *extra, int n_extra,
+                  char *err, size_t errsz);
+
+/* Writes a .vtm multiblock (atomically) of n blocks: each a name and a file (relative to the
+ * .vtm's folder). */
+int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
                   char *err, size_t errsz);
 
 /* Writes a .pvd collection of n datasets (atomically). */

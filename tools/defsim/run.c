@@ -15,6 +15,7 @@
 #include "clock.h"
 
 #include "fields.h"
+#include "frame.h"
 #include "scene.h"
 #include "vtk.h"
 #ifdef DEFSIM_HAVE_RENDER
@@ -234,17 +235,26 @@ static int wanted(int f, int frames, int every, const int *list, int nlist)
 /* ------------------------------------------------------------------------------------------ */
 /* Frame output: energy.csv every frame, VTK frames with their .pvd index, final.vtu */
 
-typedef struct frame_out {
-    char dir[2048], path[4200], pvd_path[4200], err[1024];
-    FILE *csv;
-    vtk_cells cells;
-    fields fl;      /* stress, displacement, pin and attachment forces: VTK data, colours */
-    char **files;   /* written .vtu frames and their times, for the .pvd */
+/* The files of a .pvd and their times. */
+typedef struct pvd_list {
+    char **files;
     double *times;
     int n, cap;
+} pvd_list;
+
+typedef struct frame_out {
+    char dir[2048], path[4200], pvd_path[4200], scene_pvd_path[4200], err[1024];
+    FILE *csv;
+    vtk_cells cells;
+    fields fl;      /* stress, displacement, pin, attachment and contact forces: VTK data, colours */
+    frame_plane plane;   /* where plane colliders are drawn (sized to the scene at the start) */
+    int colliders;  /* the scene has colliders: frames carry them, with a .vtm */
+    pvd_list bodies;     /* written .vtu frames, for <name>.pvd */
+    pvd_list scene;      /* written .vtm frames (bodies and colliders), for <name>_scene.pvd */
+    int n;          /* VTK frames written */
 } frame_out;
 
-static int pvd_add(frame_out *o, const char *file, double t)
+static int pvd_add(pvd_list *o, const char *file, double t)
 {
     if (o->n == o->cap) {
         int cap = o->cap ? 2 * o->cap : 64;
@@ -259,6 +269,14 @@ static int pvd_add(frame_out *o, const char *file, double t)
     o->files[o->n] = strdup(file);
     o->times[o->n++] = t;
     return 0;
+}
+
+static void pvd_free(pvd_list *o)
+{
+    for (int i = 0; i < o->n; ++i) free(o->files[i]);
+    free(o->files);
+    free(o->times);
+    memset(o, 0, sizeof *o);
 }
 
 /* Resuming after frame f0: keeps energy.csv's header and rows of frames 0 .. f0 (a run that
@@ -298,34 +316,44 @@ static int out_resume(frame_out *o, const scene *s, int f0, const run_opts *ro,
     double t = 0.0;
     for (int f = 0; f <= f0; ++f) {
         for (int32_t k = 0; f > 0 && k < s->frame_steps; ++k) t += s->h;
-        char name[64];
-        snprintf(name, sizeof name, "frame_%05d.vtu", f);
-        snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
-        if (s->write_vtk && wanted(f, s->frames, s->every, ro->list, ro->nlist) &&
-            access(o->path, R_OK) == 0 && pvd_add(o, name, t)) {
-            fprintf(stderr, "defsim run: out of memory\n");
-            return -1;
+        if (!s->write_vtk || !wanted(f, s->frames, s->every, ro->list, ro->nlist)) continue;
+        for (int kind = 0; kind < 2; ++kind) {
+            char name[64];
+            snprintf(name, sizeof name, kind ? "frame_%05d.vtm" : "frame_%05d.vtu", f);
+            snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
+            if (access(o->path, R_OK) == 0 && pvd_add(kind ? &o->scene : &o->bodies, name, t)) {
+                fprintf(stderr, "defsim run: out of memory\n");
+                return -1;
+            }
         }
     }
+    o->n = o->bodies.n;
     return 0;
 }
 
-/* 1 for the names defsim run writes: frame_<digits>.vtu / .png, *.pvd, final.vtu,
+/* 1 for the names defsim run writes: frame_<digits>.vtu / .vtm / .png,
+ * frame_<digits>_colliders.vtu, *.pvd, final.vtu / .vtm, final_colliders.vtu,
  * contact_sheet.png, and their ".tmp" files. */
 static int own_output(const char *name)
 {
     size_t n = strlen(name);
     if (n > 4 && !strcmp(name + n - 4, ".tmp")) n -= 4;
-    if ((n == 9 && !strncmp(name, "final.vtu", 9)) ||
-        (n == 17 && !strncmp(name, "contact_sheet.png", 17)) ||
-        (n > 4 && !strncmp(name + n - 4, ".pvd", 4)))
-        return 1;
+    static const char *const fixed[] = {"final.vtu", "final.vtm", "final_colliders.vtu",
+                                        "contact_sheet.png"};
+    for (int k = 0; k < 4; ++k)
+        if (n == strlen(fixed[k]) && !strncmp(name, fixed[k], n)) return 1;
+    if (n > 4 && !strncmp(name + n - 4, ".pvd", 4)) return 1;
     if (n < 11 || strncmp(name, "frame_", 6) ||
-        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".png", 4)))
+        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".vtm", 4) &&
+         strncmp(name + n - 4, ".png", 4)))
         return 0;
-    for (size_t i = 6; i < n - 4; ++i)
+    size_t end = n - 4;
+    if (end > 16 && !strncmp(name + end - 10, "_colliders", 10) &&
+        !strncmp(name + n - 4, ".vtu", 4))
+        end -= 10;
+    for (size_t i = 6; i < end; ++i)
         if (name[i] < '0' || name[i] > '9') return 0;
-    return 1;
+    return end > 6;
 }
 
 /* Removes what an earlier run wrote into dir, so that a reused --out holds only this run's
@@ -368,6 +396,8 @@ static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const
     if (stale > 0 && verbose)
         printf("%s/: removed %d files of an earlier run\n", o->dir, stale);
     snprintf(o->pvd_path, sizeof o->pvd_path, "%s/%s.pvd", o->dir, s->name);
+    snprintf(o->scene_pvd_path, sizeof o->scene_pvd_path, "%s/%s_scene.pvd", o->dir, s->name);
+    o->colliders = s->ncolliders > 0;
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         int bad = 0;
@@ -419,30 +449,39 @@ static void out_energy(frame_out *o, const scene *s, int f, double t, const defs
     fflush(o->csv);
 }
 
-/* frame_NNNNN.vtu and the .pvd index rewritten to include it. */
-static int out_vtk(frame_out *o, int f, double t, int32_t nv, const double *x, const double *v)
+/* frame_NNNNN.vtu (with the colliders: frame_NNNNN_colliders.vtu and frame_NNNNN.vtm) and the
+ * .pvd indexes rewritten to include it: <name>.pvd the bodies' frames, <name>_scene.pvd the
+ * .vtm frames. */
+static int out_vtk(frame_out *o, defsim_world *w, int f, double t, const double *x,
+                   const double *v)
 {
-    char name[64];
+    char name[64], vtm[64];
     snprintf(name, sizeof name, "frame_%05d.vtu", f);
+    snprintf(vtm, sizeof vtm, "frame_%05d.vtm", f);
     snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
-    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->fl.arrays, o->fl.narrays, o->err,
-                      sizeof o->err) ||
-        pvd_add(o, name, t) ||
-        vtk_write_pvd(o->pvd_path, o->n, o->times, (const char *const *)o->files, o->err,
-                      sizeof o->err)) {
+    int wrote_vtm = 0;
+    if (frame_write(o->path, w, x, v, &o->cells, &o->fl, t, o->colliders, &o->plane, &wrote_vtm,
+                    o->err, sizeof o->err) ||
+        pvd_add(&o->bodies, name, t) ||
+        vtk_write_pvd(o->pvd_path, o->bodies.n, o->bodies.times,
+                      (const char *const *)o->bodies.files, o->err, sizeof o->err) ||
+        (wrote_vtm && (pvd_add(&o->scene, vtm, t) ||
+                       vtk_write_pvd(o->scene_pvd_path, o->scene.n, o->scene.times,
+                                     (const char *const *)o->scene.files, o->err,
+                                     sizeof o->err)))) {
         fprintf(stderr, "defsim run: %s\n", o->err);
         return -1;
     }
+    ++o->n;
     return 0;
 }
 
-static int out_final(frame_out *o, const scene *s, defsim_world *w, int32_t nv, const double *x,
-                     const double *v)
+static int out_final(frame_out *o, defsim_world *w, const double *x, const double *v)
 {
     snprintf(o->path, sizeof o->path, "%s/final.vtu", o->dir);
-    if (fields_eval(&o->fl, s, w, o->err, sizeof o->err) ||
-        vtk_write_vtu(o->path, nv, x, v, &o->cells, defsim_world_time(w), o->fl.arrays,
-                      o->fl.narrays, o->err, sizeof o->err)) {
+    if (fields_eval(&o->fl, w, o->err, sizeof o->err) ||
+        frame_write(o->path, w, x, v, &o->cells, &o->fl, defsim_world_time(w), o->colliders,
+                    &o->plane, NULL, o->err, sizeof o->err)) {
         fprintf(stderr, "defsim run: %s\n", o->err);
         return -1;
     }
@@ -453,9 +492,8 @@ static void out_close(frame_out *o)
 {
     if (o->csv) fclose(o->csv);
     o->csv = NULL;
-    for (int i = 0; i < o->n; ++i) free(o->files[i]);
-    free(o->files);
-    free(o->times);
+    pvd_free(&o->bodies);
+    pvd_free(&o->scene);
     vtk_cells_free(&o->cells);
     fields_free(&o->fl);
 }
@@ -960,7 +998,7 @@ int run_main(int argc, char **argv)
         (s.write_vtk || write_final ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
         (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
-    if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
+    if (r.rc == 0 && fields_init(&out.fl, w, &out.cells, need, out.err, sizeof out.err)) {
         fprintf(stderr, "defsim run: %s\n", out.err);
         r.rc = 1;
     }
@@ -970,6 +1008,8 @@ int run_main(int argc, char **argv)
         memcpy(out.fl.x0 + 3 * (int64_t)b->offset, b->initial ? b->initial : b->mesh.positions,
                3 * (size_t)b->mesh.vertex_count * sizeof *out.fl.x0);
     }
+    /* Planes are drawn as squares sized to the scene at its start (also when resuming). */
+    if (r.rc == 0) frame_plane_extent(w, out.fl.x0, &out.plane);
 #ifdef DEFSIM_HAVE_RENDER
     if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl, out.dir, w)) r.rc = 1;
 #endif
@@ -1026,7 +1066,7 @@ int run_main(int argc, char **argv)
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
         const int colours = s.write_png && s.color != SCENE_COLOR_BODY;
         if ((written || colours) && (s.write_vtk || s.write_png) &&
-            fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
+            fields_eval(&out.fl, w, out.err, sizeof out.err)) {
             fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
             r.rc = 1;
             break;
@@ -1034,7 +1074,7 @@ int run_main(int argc, char **argv)
         if (written && s.write_vtk) {
             const double t0 = tools_now();
             defsim_world_get_velocities(w, v, nv);
-            if (out_vtk(&out, f, t, nv, x, v)) { r.rc = 1; break; }
+            if (out_vtk(&out, w, f, t, x, v)) { r.rc = 1; break; }
             r.t_out += tools_now() - t0;
         }
 #ifdef DEFSIM_HAVE_RENDER
@@ -1062,7 +1102,7 @@ int run_main(int argc, char **argv)
         /* The final state, whatever stopped the run. */
         defsim_world_get_positions(w, x, nv);
         defsim_world_get_velocities(w, v, nv);
-        if (write_final && out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        if (write_final && out_final(&out, w, x, v)) r.rc = 1;
         r.final_vtu = write_final && r.rc == 0;
     }
 #ifdef DEFSIM_HAVE_RENDER

@@ -127,10 +127,8 @@ def _write_world(world: World, path: PathLike, time: Optional[float], reference:
                                                                                "reference", n)
         ref = np.ascontiguousarray(ref, dtype=np.float64)
         d.reference = _arrays.dptr(ref) if ref.size else ffi.NULL
-    d.fields = (lib.DEFSIM_VTK_ALL if fields else 0) | (lib.DEFSIM_VTK_COLLIDERS if colliders
-                                                        else 0)
-    if not fields:
-        d.fields &= lib.DEFSIM_VTK_COLLIDERS
+    d.fields = ((lib.DEFSIM_VTK_ALL & ~lib.DEFSIM_VTK_COLLIDERS if fields else 0) |
+                (lib.DEFSIM_VTK_COLLIDERS if colliders else 0))
     if plane is not None:
         p = np.asarray(plane, dtype=np.float64).reshape(-1)
         if p.shape != (4,) or not np.all(np.isfinite(p)) or not p[3] > 0:

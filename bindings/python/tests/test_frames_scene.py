@@ -202,6 +202,28 @@ def test_python_world_frames(tmp_path):
     sphere = meshio.read(tmp_path / "a_colliders.vtu").points
     np.testing.assert_allclose(np.linalg.norm(sphere - (0.3, 0.3, 0.05), axis=1), 0.15,
                                rtol=0, atol=1e-12)
+    # A capsule turned about z (its axis along x) and a mesh pyramid turned about y, moved:
+    # the capsule's vertices within r of its axis segment, the mesh's at R p + c.
+    q = (np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4))
+    w.add_collider("capsule", position=(2.0, 0.3, 0.0), rotation=q, radius=0.1, half_height=0.25)
+    pyramid = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0, 0.2], [0, 0.2, 0]], float)
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    qy = (np.cos(0.3), 0.0, np.sin(0.3), 0.0)
+    w.add_collider("mesh", position=(-1.0, 0.2, 0.5), rotation=qy, vertices=pyramid,
+                   triangles=faces)
+    assert dio.write_vtu(w, tmp_path / "d.vtu") is True
+    col = meshio.read(tmp_path / "d_colliders.vtu")
+    tag = np.concatenate(col.cell_data["collider"]).reshape(-1)
+    tri = col.cells_dict["triangle"]
+    cap = col.points[np.unique(tri[tag == 1])]
+    s = np.clip(cap[:, 0] - 2.0, -0.25, 0.25)   # along the axis, clamped to the segment
+    dist = np.linalg.norm(cap - np.stack([2.0 + s, np.full_like(s, 0.3), 0 * s], 1), axis=1)
+    np.testing.assert_allclose(dist, 0.1, rtol=0, atol=1e-12)
+    assert np.ptp(cap[:, 0]) == pytest.approx(0.7, abs=1e-12)   # 2 (h + r) along x
+    ry = np.array([[np.cos(0.6), 0, np.sin(0.6)], [0, 1, 0], [-np.sin(0.6), 0, np.cos(0.6)]])
+    mesh_pts = col.points[np.unique(tri[tag == 2])]
+    np.testing.assert_allclose(mesh_pts, pyramid @ ry.T + (-1.0, 0.2, 0.5), rtol=0, atol=1e-12)
+    assert tri[tag == 2].shape == (4, 3)
     assert dio.write_vtu(w, tmp_path / "b.vtu", colliders=False) is False
     assert not (tmp_path / "b.vtm").exists() and not (tmp_path / "b_colliders.vtu").exists()
     with pytest.raises(defsim.InvalidArgumentError):

@@ -102,13 +102,15 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     scene *s = c->s;
     static const char *const keys[] = {"every", "formats", "width", "height", "supersample",
                                        "contact_sheet", "camera", "color", "color_range",
-                                       "fields", NULL};
+                                       "fields", "contact_arrows", "arrow_scale", NULL};
     if (sj_keys(c, o, "output", keys)) return -1;
     if (sj_int(c, o, "every", "output", 1, 1000000000, &s->every) ||
         sj_int(c, o, "width", "output", 16, 8192, &s->width) ||
         sj_int(c, o, "height", "output", 16, 8192, &s->height) ||
         sj_int(c, o, "supersample", "output", 1, 4, &s->supersample) ||
-        sj_bool(c, o, "contact_sheet", "output", &s->contact_sheet))
+        sj_bool(c, o, "contact_sheet", "output", &s->contact_sheet) ||
+        sj_bool(c, o, "contact_arrows", "output", &s->contact_arrows) ||
+        sj_number(c, o, "arrow_scale", "output", 0.0, 1e12, 1, &s->arrow_scale))
         return -1;
     const cJSON *f = cJSON_GetObjectItemCaseSensitive(o, "formats");
     if (f) {

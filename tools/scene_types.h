@@ -167,6 +167,8 @@ typedef struct scene {
     int has_color_range;
     double color_range[2];  /* fixed colour scale (Pa or m); else each frame 0 .. its maximum */
     unsigned fields;        /* SCENE_FIELD_* written into VTK frames */
+    int contact_arrows;     /* rendered frames draw the contact forces as arrows */
+    double arrow_scale;     /* m per N of those arrows; 0: the largest is 25 % of the scene */
     scene_collider *colliders;
     int32_t ncolliders;
     int32_t vertex_count;   /* sum over bodies */

@@ -375,16 +375,17 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     px = pconn = poff = ptyp = pbody = NULL;
     /* Optional arrays the renderer colours by or draws; a wrong size is an error, absence is
      * not. */
-    uint64_t bvm = 0, bdisp = 0, bvel = 0, bpin = 0;
+    uint64_t bvm = 0, bdisp = 0, bvel = 0, bpin = 0, bcf = 0;
     out->von_mises = (double *)block(buf, data, end, base64, "von_mises", &bvm, &bad);
     out->displacement = (double *)block(buf, data, end, base64, "displacement", &bdisp, &bad);
     out->velocity = (double *)block(buf, data, end, base64, "velocity", &bvel, &bad);
     out->pinned = block(buf, data, end, base64, "pinned", &bpin, &bad);
+    out->contact_force = (double *)block(buf, data, end, base64, "contact_force", &bcf, &bad);
     if (bad || (out->von_mises && bvm != (uint64_t)nc * 8) ||
         (out->displacement && bdisp != bx) || (out->velocity && bvel != bx) ||
-        (out->pinned && bpin != (uint64_t)nv)) {
-        set_err(err, errsz, "%s: von_mises, displacement, velocity or pinned is malformed or "
-                            "has the wrong size", path);
+        (out->pinned && bpin != (uint64_t)nv) || (out->contact_force && bcf != bx)) {
+        set_err(err, errsz, "%s: von_mises, displacement, velocity, pinned or contact_force is "
+                            "malformed or has the wrong size", path);
         goto done;
     }
     int64_t prev = 0;
@@ -420,6 +421,7 @@ void vtk_frame_free(vtk_frame *f)
     free(f->displacement);
     free(f->velocity);
     free(f->pinned);
+    free(f->contact_force);
     vtk_cells_free(&f->cells);
     memset(f, 0, sizeof *f);
 }

@@ -32,6 +32,7 @@ typedef struct vtk_frame {
     double *displacement;   /* NULL, or 3 nv (point data "displacement", m) */
     double *velocity;       /* NULL, or 3 nv (point data "velocity", m/s) */
     uint8_t *pinned;        /* NULL, or nv (point data "pinned": 1 pinned or driven, 0 free) */
+    double *contact_force;  /* NULL, or 3 nv (point data "contact_force", N) */
 } vtk_frame;
 
 /* An extra data array of a frame: per point (`cell` 0, nv tuples) or per cell; Float64 from

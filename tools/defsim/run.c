@@ -52,7 +52,7 @@ static int usage(FILE *f)
     fprintf(f,
         "usage: defsim run SCENE.json [options]\n"
         "  --out DIR          output folder (default: the scene's name); what an earlier run\n"
-        "                     left there (frame_*.vtu/png, *.pvd, final.vtu, contact_sheet.png)\n"
+        "                     left there (frame_*.vtu/vtm/png, *.pvd, final.*, contact_sheet.png)\n"
         "                     is removed first\n"
         "  --render           also write PNG frames and a contact sheet (needs OSMesa)\n"
         "  --vtk MODE         all: .vtu frames, .pvd and final.vtu (default when the scene's\n"
@@ -64,6 +64,8 @@ static int usage(FILE *f)
         "  --color MODE       colour rendered bodies by body (default), stress (von Mises),\n"
         "                     displacement or speed, with a colour bar on one scale for the\n"
         "                     whole run (= --set output.color=MODE)\n"
+        "  --contact-forces   draw the contact forces as arrows in rendered frames\n"
+        "                     (= --set output.contact_arrows=true)\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
@@ -153,6 +155,7 @@ static int parse_args(int argc, char **argv, run_opts *o)
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) return usage(stdout);
         else if (!strcmp(a, "--out") && has) o->out_dir = argv[++i];
         else if (!strcmp(a, "--render")) o->render = 1;
+        else if (!strcmp(a, "--contact-forces")) o->sets[o->nsets++] = "output.contact_arrows=true";
         else if (!strcmp(a, "--no-vtk")) o->vtk = VTK_NONE;
         else if (!strcmp(a, "--vtk") && has) {
             const char *m = argv[++i];
@@ -518,7 +521,9 @@ typedef struct png_out {
     FILE *spool;          /* unlinked scratch file in the output folder */
     int nspooled;
     double lo[3], hi[3], top;   /* bounds of the bodies and largest colour value over the run */
+    double fmax;                /* largest contact force over the run (N), for the arrows */
     double *x, *vec, *cell;     /* one spooled frame: positions, |vec| colours, cell colours */
+    double *force;              /* and its contact forces, with output.contact_arrows */
     double *poses;              /* 7 per collider: position, rotation */
     image frame;
     image thumbs[SHEET_MAX];
@@ -538,9 +543,10 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     p->x = malloc(3 * (size_t)fl->nv * sizeof *p->x + 1);
     p->vec = malloc(3 * (size_t)fl->nv * sizeof *p->vec + 1);
     p->cell = malloc((size_t)(fl->ncells + 1) * sizeof *p->cell);
+    p->force = malloc(3 * (size_t)fl->nv * sizeof *p->force + 1);
     p->poses = malloc(7 * (size_t)(defsim_world_collider_count(w) + 1) * sizeof *p->poses);
     p->nparts = p->parts && p->tri_cell && p->tri_rgb && p->vertex_rgb && p->x && p->vec &&
-                p->cell && p->poses ? s->nbodies : 0;
+                p->cell && p->force && p->poses ? s->nbodies : 0;
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
@@ -633,6 +639,8 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
         }
     p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->parts, p->nparts, p->tri_cell,
                                        fl->von_mises, vec, nv));
+    const double *force = s->contact_arrows ? fl->contact_force : NULL;
+    p->fmax = fmax(p->fmax, rd_force_max(force, nv));
     if (!keep) return 0;
     int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
              fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
@@ -643,6 +651,7 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
     if (ok && s->color == SCENE_COLOR_STRESS && fl->von_mises)
         ok = fwrite(fl->von_mises, sizeof(double), (size_t)fl->ncells, p->spool) ==
              (size_t)fl->ncells;
+    if (ok && force) ok = fwrite(force, sizeof *force, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
     if (!ok) {
         fprintf(stderr, "defsim run: render: cannot write the frame spool: %s\n", strerror(errno));
         return -1;
@@ -654,8 +663,8 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
 /* Renders one spooled frame into p->frame: bodies coloured on the run's scale, pinned
  * markers, colliders at the frame's poses, the colour bar and the time. */
 static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *w,
-                    const double *x, const double *vec, const double *cell, int32_t nc,
-                    const double *poses, double t)
+                    const double *x, const double *vec, const double *cell,
+                    const double *force, int32_t nc, const double *poses, double t)
 {
     double range[2];
     rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, cell, vec, fl->nv,
@@ -664,7 +673,10 @@ static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *
     int ground_plane = -1;
     static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
     if (rd_overlay_begin(&p->overlay, x, fl->nv) ||
-        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb))
+        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb) ||
+        (force && rd_overlay_arrows(&p->overlay, force,
+                                    rd_arrow_scale(s->arrow_scale, p->fmax, p->lo, p->hi),
+                                    p->fmax, 0.8 * view.line_radius)))
         goto oom;
     for (int32_t i = 0; i < nc && i < defsim_world_collider_count(w); ++i) {
         defsim_collider_def c = {.size = sizeof c};
@@ -721,6 +733,9 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
         if (ok && cell)
             ok = fread(p->cell, sizeof *p->cell, (size_t)fl->ncells, p->spool) ==
                  (size_t)fl->ncells;
+        const int force = s->contact_arrows && fl->contact_force;
+        if (ok && force)
+            ok = fread(p->force, sizeof *p->force, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
         char path[4200];
         snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
         if (!ok) {
@@ -729,7 +744,7 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
         } else if (png_draw(p, s, fl, w, p->x,
                             vec && (s->color == SCENE_COLOR_SPEED || fl->displacement) ? p->vec
                                                                                         : NULL,
-                            cell ? p->cell : NULL, nc, p->poses, t) ||
+                            cell ? p->cell : NULL, force ? p->force : NULL, nc, p->poses, t) ||
                    image_write_png(path, &p->frame, p->err, sizeof p->err)) {
             rc = -1;
         } else {
@@ -766,6 +781,7 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
     free(p->x);
     free(p->vec);
     free(p->cell);
+    free(p->force);
     free(p->poses);
     rd_overlay_free(&p->overlay);
     rd_destroy(p->rd);
@@ -997,7 +1013,8 @@ int run_main(int argc, char **argv)
     const unsigned need =
         (s.write_vtk || write_final ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
-        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
+        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u) |
+        (s.write_png && s.contact_arrows ? (unsigned)SCENE_FIELD_CONTACT_FORCES : 0u);
     if (r.rc == 0 && fields_init(&out.fl, w, &out.cells, need, out.err, sizeof out.err)) {
         fprintf(stderr, "defsim run: %s\n", out.err);
         r.rc = 1;
@@ -1064,7 +1081,7 @@ int run_main(int argc, char **argv)
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
-        const int colours = s.write_png && s.color != SCENE_COLOR_BODY;
+        const int colours = s.write_png && (s.color != SCENE_COLOR_BODY || s.contact_arrows);
         if ((written || colours) && (s.write_vtk || s.write_png) &&
             fields_eval(&out.fl, w, out.err, sizeof out.err)) {
             fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);

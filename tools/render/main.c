@@ -5,8 +5,9 @@
  *   defsim-render SCENE.json [defsim run options]
  *       runs the scene and renders while running (same as defsim run --render --no-vtk)
  *   defsim-render RUN.pvd | FRAME.vtu ... [--scene SCENE.json] [--out DIR] [--frames LIST]
- *                 [--color body|stress|displacement|speed]
- *       renders frames written by defsim run; size, colours and camera settings come from the
+ *                 [--color body|stress|displacement|speed] [--contact-forces]
+ *       renders frames written by defsim run (--contact-forces: their contact_force arrays as
+ *       arrows, as output.contact_arrows does); size, colours and camera settings come from the
  *       scene when given; the camera and ground are fitted to the bodies over all frames, and
  *       the colour scale to the largest value over all frames
  */
@@ -33,7 +34,7 @@ static int usage(FILE *f)
 {
     fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
                "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR] "
-               "[--frames LIST] [--color body|stress|displacement|speed]\n");
+               "[--frames LIST] [--color body|stress|displacement|speed] [--contact-forces]\n");
     return f == stderr ? 2 : 0;
 }
 
@@ -133,6 +134,7 @@ int main(int argc, char **argv)
         return rc;
     }
     const char *scene_path = NULL, *out_dir = NULL, *color = NULL;
+    int arrows = 0;
     char **inputs = calloc((size_t)argc, sizeof *inputs);
     int ninputs = 0, *list = calloc((size_t)argc, sizeof *list), nlist = 0;
     if (!inputs || !list) return 1;
@@ -140,6 +142,7 @@ int main(int argc, char **argv)
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene_path = argv[++i];
         else if (!strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
         else if (!strcmp(argv[i], "--color") && i + 1 < argc) color = argv[++i];
+        else if (!strcmp(argv[i], "--contact-forces")) arrows = 1;
         else if (!strcmp(argv[i], "--frames") && i + 1 < argc) {
             for (char *s = argv[++i], *end;; s = end + 1) {
                 list[nlist++] = (int)strtol(s, &end, 10);
@@ -204,6 +207,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "defsim-render: --color must be body, stress, displacement or speed\n");
         return 2;
     }
+    if (arrows) s.contact_arrows = 1;
     const char *od = out_dir ? out_dir : dir;
     if (tools_make_dirs(od)) {
         fprintf(stderr, "defsim-render: cannot create the output folder %s: %s\n", od,
@@ -217,7 +221,7 @@ int main(int argc, char **argv)
     int32_t **tri_cell = NULL;
     int np = 0, rc = 0;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    double top = 0.0;
+    double top = 0.0, force_max = 0.0;
     for (int i = 0; i < nfiles && rc == 0; ++i) {
         vtk_frame fr;
         if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
@@ -238,7 +242,13 @@ int main(int argc, char **argv)
                     : s.color == SCENE_COLOR_SPEED ? "velocity" : "displacement");
             rc = 1;
         }
+        if (rc == 0 && s.contact_arrows && !fr.contact_force) {
+            fprintf(stderr, "defsim-render: %s: no contact_force array to draw (written by "
+                    "defsim run for scenes with colliders or body contact)\n", files[i]);
+            rc = 1;
+        }
         if (rc == 0) {
+            force_max = fmax(force_max, rd_force_max(fr.contact_force, fr.nv));
             top = fmax(top, rd_color_top((scene_color)s.color, parts, np, tri_cell, fr.von_mises,
                                          vec, fr.nv));
             for (int32_t k = 0; k < fr.nv; ++k)
@@ -255,6 +265,7 @@ int main(int argc, char **argv)
     }
     rd_view view;
     rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
+    const double arrow_scale = rd_arrow_scale(s.arrow_scale, force_max, lo, hi);
     rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
     if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
     image img = {s.width, s.height, malloc((size_t)s.width * s.height * 3)};
@@ -301,7 +312,10 @@ int main(int argc, char **argv)
         rd_part *all = NULL;
         if (!bad)
             bad = rd_overlay_begin(&overlay, fr.x, fr.nv) ||
-                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb);
+                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb) ||
+                  (s.contact_arrows &&
+                   rd_overlay_arrows(&overlay, fr.contact_force, arrow_scale, force_max,
+                                     0.8 * view.line_radius));
         for (int32_t k = 0, ground = -1; have_scene && !bad && k < s.ncolliders; ++k) {
             defsim_collider_def c = s.colliders[k].def;
             if (s.colliders[k].nkeys > 0)

@@ -128,6 +128,89 @@ int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const fl
     return 0;
 }
 
+double rd_force_max(const double *f, int32_t n)
+{
+    double m = 0.0;
+    for (int32_t v = 0; f && v < n; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        m = fmax(m, sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]));
+    }
+    return m;
+}
+
+double rd_arrow_scale(double given, double fmax, const double lo[3], const double hi[3])
+{
+    if (given > 0.0) return given;
+    double diag = 0.0;
+    for (int c = 0; c < 3; ++c) diag += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+    return fmax > 0.0 && isfinite(diag) ? 0.25 * sqrt(diag) / fmax : 0.0;
+}
+
+int rd_overlay_arrows(rd_overlay *o, const double *f, double scale, double fmax, double r)
+{
+    enum { SIDES = 6 };
+    static const float rgb[3] = {0.95f, 0.62f, 0.08f};
+    const double min = 0.01 * fmax;
+    int32_t n = 0;
+    for (int32_t v = 0; f && v < o->nbody; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        n += sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) > min;
+    }
+    if (n == 0 || !(scale > 0.0)) return 0;
+    /* Per arrow: the shaft's sides, the ring under the head, the cone. */
+    rd_part *p = add_part(o, n * 5 * SIDES, 0, rgb, 0);
+    if (!p) return -1;
+    p->on_top = 1;
+    for (int32_t v = 0; v < o->nbody; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        const double fl = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        if (!(fl > min)) continue;
+        double base[3], u[3], a[3], b[3];
+        memcpy(base, o->x + 3 * (int64_t)v, sizeof base);
+        const double len = scale * fl;
+        for (int i = 0; i < 3; ++i) u[i] = g[i] / fl;
+        /* a, b: unit vectors across the axis. */
+        const double ref[3] = {fabs(u[0]) < 0.9 ? 1.0 : 0.0, fabs(u[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+        a[0] = u[1] * ref[2] - u[2] * ref[1];
+        a[1] = u[2] * ref[0] - u[0] * ref[2];
+        a[2] = u[0] * ref[1] - u[1] * ref[0];
+        const double al = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        for (int i = 0; i < 3; ++i) a[i] /= al;
+        b[0] = u[1] * a[2] - u[2] * a[1];
+        b[1] = u[2] * a[0] - u[0] * a[2];
+        b[2] = u[0] * a[1] - u[1] * a[0];
+        const double head = fmin(0.35 * len, 6.0 * r), neck = len - head;
+        double centre_shaft[3], neck_c[3], tip[3];
+        for (int i = 0; i < 3; ++i) {
+            centre_shaft[i] = base[i] + 0.5 * neck * u[i];
+            neck_c[i] = base[i] + neck * u[i];
+            tip[i] = base[i] + len * u[i];
+        }
+        int32_t ring[3][SIDES];
+        for (int k = 0; k < 3; ++k)
+            for (int j = 0; j < SIDES; ++j) {
+                const double th = 2.0 * 3.14159265358979323846 * j / SIDES;
+                const double rad = k < 2 ? r : 2.2 * r, along = k == 0 ? 0.0 : neck;
+                double q[3];
+                for (int i = 0; i < 3; ++i)
+                    q[i] = base[i] + along * u[i] + rad * (cos(th) * a[i] + sin(th) * b[i]);
+                if ((ring[k][j] = add_vertex(o, q)) < 0) return -1;
+            }
+        const int32_t t = add_vertex(o, tip);
+        if (t < 0) return -1;
+        for (int j = 0; j < SIDES; ++j) {
+            const int jn = (j + 1) % SIDES;
+            add_tri(o, p, ring[0][j], ring[0][jn], ring[1][jn], centre_shaft);
+            add_tri(o, p, ring[0][j], ring[1][jn], ring[1][j], centre_shaft);
+            /* The flat ring under the head faces back, away from the tip. */
+            add_tri(o, p, ring[1][j], ring[2][jn], ring[2][j], tip);
+            add_tri(o, p, ring[1][j], ring[1][jn], ring[2][jn], tip);
+            add_tri(o, p, ring[2][j], ring[2][jn], t, neck_c);
+        }
+    }
+    return 0;
+}
+
 /* A collider's geometry (scene_geometry_make: its surface, a plane's square patch, an SDF's
  * bounds box as tubes) as one part. */
 static int add_geometry(rd_overlay *o, const defsim_collider_def *c, const double centre[3],

@@ -41,6 +41,7 @@ typedef struct rd_part {
     const float *vertex_colors;   /* NULL, or RGB per vertex of x (indexed like tris and lines),
                                      interpolated over triangles: replaces color */
     const float *tri_colors;      /* NULL, or RGB per triangle (flat): replaces color */
+    int on_top;               /* drawn last, over everything else (arrows) */
 } rd_part;
 
 /* Geometry drawn besides the bodies (render/overlay.c): markers on pinned vertices and the
@@ -58,6 +59,17 @@ typedef struct rd_overlay {
 int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv);
 /* A small octahedron (half-diagonal `size`, m) on each body vertex whose flag is non-zero. */
 int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const float rgb[3]);
+/* An arrow (orange) for each body vertex whose force f (3 per body vertex, N) is longer than 1 %
+ * of `fmax` (the largest over the run, N): from the vertex along f, scale m per N long, a
+ * six-sided shaft of radius r (m) and a cone of radius 2.2 r at its tip. */
+int rd_overlay_arrows(rd_overlay *o, const double *f, double scale, double fmax, double r);
+/* The arrows' scale (m per N): `given` when > 0 (output.arrow_scale), else the largest force
+ * fmax 25 % of the diagonal of the bodies' bounds lo..hi over the run (0 without forces). */
+double rd_arrow_scale(double given, double fmax, const double lo[3], const double hi[3]);
+/* The arrows' part is drawn on top of everything (rd_part.on_top), so that forces on faces the
+ * body hides (a block's bottom on the ground) stay visible. */
+/* The largest |f| over n vertices (3 per vertex), 0 for NULL. */
+double rd_force_max(const double *f, int32_t n);
 /* A collider at its pose: spheres, capsules, boxes and mesh colliders by the scene code's
  * tessellation (scene_collider_surface), a plane as a square patch around the view's target (nothing
  * when `as_ground`: rd_view_ground_plane made it the ground), an SDF as the edges of its

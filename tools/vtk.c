@@ -52,6 +52,29 @@ int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t of
     return 0;
 }
 
+int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int64_t *offsets,
+                    const int64_t *conn, int64_t *nconn, char *err, size_t errsz)
+{
+    int64_t prev = 0;
+    for (int64_t c = 0; c < ncells; ++c) {
+        const int k = types[c] == VTK_LINE ? 2 : types[c] == VTK_TRIANGLE ? 3
+                      : types[c] == VTK_TETRA ? 4 : 0;
+        if (!k)
+            return set_err(err, errsz, "cell %lld: type %d is not a line (3), triangle (5) or "
+                           "tet (10)", (long long)c, (int)types[c]);
+        if (offsets[c] - prev != k)
+            return set_err(err, errsz, "cell %lld: offsets give %lld vertices, its type %d",
+                           (long long)c, (long long)(offsets[c] - prev), k);
+        for (int64_t j = prev; j < offsets[c]; ++j)
+            if (conn[j] < 0 || conn[j] >= nv)
+                return set_err(err, errsz, "cell %lld: vertex %lld out of range [0, %d)",
+                               (long long)c, (long long)conn[j], (int)nv);
+        prev = offsets[c];
+    }
+    *nconn = prev;
+    return 0;
+}
+
 void vtk_cells_free(vtk_cells *c)
 {
     free(c->conn); free(c->offsets); free(c->types); free(c->body);

@@ -45,6 +45,12 @@ typedef struct vtk_array {
     const uint8_t *u8;      /* NULL, or components * tuples bytes (flags) */
 } vtk_array;
 
+/* Checks cells given as VTK's arrays: each type a line, triangle or tet, offsets that give it
+ * its vertex count, vertex indices in [0, nv). *nconn receives the length of conn. Returns 0,
+ * or -1 with the first fault in err. */
+int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int64_t *offsets,
+                    const int64_t *conn, int64_t *nconn, char *err, size_t errsz);
+
 /* Appends cells of one type (k vertices each, body-local indices + offset) for a body. */
 int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t offset, uint8_t type,
                   int32_t body);

@@ -669,39 +669,25 @@ static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *
     double range[2];
     rd_color_parts((scene_color)s->color, s, p->parts, p->nparts, p->tri_cell, cell, vec, fl->nv,
                    p->top, p->vertex_rgb, p->tri_rgb, range);
-    rd_view view = p->view;
-    int ground_plane = -1;
-    static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
-    if (rd_overlay_begin(&p->overlay, x, fl->nv) ||
-        rd_overlay_markers(&p->overlay, fl->pinned, 2.5 * view.line_radius, marker_rgb) ||
-        (force && rd_overlay_arrows(&p->overlay, force,
-                                    rd_arrow_scale(s->arrow_scale, p->fmax, p->lo, p->hi),
-                                    p->fmax, 0.8 * view.line_radius)))
-        goto oom;
-    for (int32_t i = 0; i < nc && i < defsim_world_collider_count(w); ++i) {
-        defsim_collider_def c = {.size = sizeof c};
-        defsim_world_get_collider(w, i, NULL, &c);
-        memcpy(c.position, poses + 7 * i, 3 * sizeof(double));
-        memcpy(c.rotation, poses + 7 * i + 3, 4 * sizeof(double));
-        /* The first plane is the ground: the grid is drawn on it. */
-        if (ground_plane < 0 && rd_view_ground_plane(&view, &c)) ground_plane = i;
-        if (rd_overlay_collider(&p->overlay, &c, &view, ground_plane == i, collider_rgb)) goto oom;
+    const int32_t ncol = nc < defsim_world_collider_count(w) ? nc : defsim_world_collider_count(w);
+    defsim_collider_def *cols = malloc((size_t)(ncol + 1) * sizeof *cols);
+    if (!cols) {
+        snprintf(p->err, sizeof p->err, "out of memory");
+        return -1;
     }
-    const int n = p->nparts + p->overlay.nparts;
-    rd_part *all = malloc((size_t)n * sizeof *all);
-    if (!all) goto oom;
-    memcpy(all, p->parts, (size_t)p->nparts * sizeof *all);
-    memcpy(all + p->nparts, p->overlay.parts, (size_t)p->overlay.nparts * sizeof *all);
-    const int bad = rd_render(p->rd, &view, p->overlay.x, all, n, p->frame.rgb, p->err,
-                              sizeof p->err);
-    free(all);
-    if (bad) return -1;
-    rd_colorbar(p->frame.rgb, s->width, s->height, (scene_color)s->color, range[0], range[1]);
-    rd_timestamp(p->frame.rgb, s->width, s->height, t);
-    return 0;
-oom:
-    snprintf(p->err, sizeof p->err, "out of memory");
-    return -1;
+    for (int32_t i = 0; i < ncol; ++i) {
+        cols[i].size = sizeof cols[i];
+        defsim_world_get_collider(w, i, NULL, &cols[i]);
+        memcpy(cols[i].position, poses + 7 * i, 3 * sizeof(double));
+        memcpy(cols[i].rotation, poses + 7 * i + 3, 4 * sizeof(double));
+    }
+    const rd_frame frame = {x, fl->nv, fl->pinned, force,
+                            rd_arrow_scale(s->arrow_scale, p->fmax, p->lo, p->hi), p->fmax,
+                            cols, ncol, (scene_color)s->color, {range[0], range[1]}, t};
+    const int bad = rd_draw_frame(p->rd, &p->view, &p->overlay, p->parts, p->nparts, &frame,
+                                  p->frame.rgb, s->width, s->height, p->err, sizeof p->err);
+    free(cols);
+    return bad ? -1 : 0;
 }
 
 /* Renders the spooled frames (frame_NNNNN.png and the contact sheet) and frees everything.

@@ -145,28 +145,15 @@ static int good_name(const char *s)
     return 1;
 }
 
-/* Cells as defsim_vtk_write_vtu takes them; *nconn receives the length of conn. */
+/* Cells as defsim_vtk_write_vtu takes them (vtk_check_cells); *nconn receives the length of
+ * conn. */
 static defsim_status check_cells(int32_t nv, int64_t ncells, const uint8_t *types,
                                  const int64_t *offsets, const int64_t *conn, int64_t *nconn,
                                  char *err, size_t errsz)
 {
-    const defsim_status bad = DEFSIM_ERR_INVALID_ARGUMENT;
-    int64_t prev = 0;
-    for (int64_t c = 0; c < ncells; ++c) {
-        const int k = types[c] == DEFSIM_VTK_LINE ? 2 : types[c] == DEFSIM_VTK_TRIANGLE ? 3
-                      : types[c] == DEFSIM_VTK_TETRA ? 4 : 0;
-        if (!k) return api_fail(err, errsz, bad, "cell %lld: type %d is not a line (3), triangle (5) "
-                                             "or tet (10)", (long long)c, (int)types[c]);
-        if (offsets[c] - prev != k)
-            return api_fail(err, errsz, bad, "cell %lld: offsets give %lld vertices, its type %d",
-                        (long long)c, (long long)(offsets[c] - prev), k);
-        for (int64_t j = prev; j < offsets[c]; ++j)
-            if (conn[j] < 0 || conn[j] >= nv)
-                return api_fail(err, errsz, bad, "cell %lld: vertex %lld out of range [0, %d)",
-                            (long long)c, (long long)conn[j], (int)nv);
-        prev = offsets[c];
-    }
-    *nconn = prev;
+    char msg[256];
+    if (vtk_check_cells(nv, ncells, types, offsets, conn, nconn, msg, sizeof msg))
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", msg);
     return DEFSIM_OK;
 }
 

@@ -38,85 +38,6 @@ static int usage(FILE *f)
     return f == stderr ? 2 : 0;
 }
 
-/* Render parts for one frame's cells: tet boundaries, triangles, lines, per body; with
- * tri_cell, each part's triangles' cells (tet boundaries: the tet's cell) for stress colours. */
-static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout,
-                            int32_t ***tri_cell)
-{
-    int32_t nb = 0;
-    for (int64_t i = 0; i < c->ncells; ++i) if (c->body[i] + 1 > nb) nb = c->body[i] + 1;
-    rd_part *p = calloc((size_t)(nb > 0 ? nb : 1), sizeof *p);
-    int32_t **tc = calloc((size_t)(nb > 0 ? nb : 1), sizeof *tc);
-    if (!p || !tc) return -1;
-    *out = p;
-    *nout = nb;
-    *tri_cell = tc;
-    for (int32_t b = 0; b < nb; ++b) {
-        int64_t nt = 0, ntri = 0, nl = 0;
-        for (int64_t i = 0; i < c->ncells; ++i)
-            if (c->body[i] == b) {
-                nt += c->types[i] == VTK_TETRA;
-                ntri += c->types[i] == VTK_TRIANGLE;
-                nl += c->types[i] == VTK_LINE;
-            }
-        int64_t *tets = malloc((size_t)(nt + 1) * 4 * sizeof *tets);
-        int32_t *tris = malloc((size_t)(ntri + 1) * 3 * sizeof *tris);
-        int32_t *lines = malloc((size_t)(nl + 1) * 2 * sizeof *lines);
-        int32_t *cell = malloc((size_t)(nt + ntri + 1) * sizeof *cell);
-        if (!tets || !tris || !lines || !cell) return -1;
-        int64_t kt = 0, ktri = 0, kl = 0;
-        for (int64_t i = 0; i < c->ncells; ++i) {
-            if (c->body[i] != b) continue;
-            const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
-            if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
-            if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
-            if (c->types[i] == VTK_TETRA) cell[kt] = (int32_t)i;
-            if (c->types[i] == VTK_TRIANGLE) cell[ktri] = (int32_t)i;
-            if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
-            kt += c->types[i] == VTK_TETRA;
-            ktri += c->types[i] == VTK_TRIANGLE;
-            kl += c->types[i] == VTK_LINE;
-        }
-        if (nt > 0) {
-            free(tris);
-            int32_t n = 0;
-            tris = rd_tet_surface(tets, nt, &n);
-            if (!tris) return -1;
-            ntri = n;
-            /* The surface's triangles, mapped to their tets' cells. */
-            int32_t *t32 = malloc((size_t)(4 * nt + 1) * sizeof *t32), *of = malloc((size_t)(n + 1) * sizeof *of);
-            if (!t32 || !of) return -1;
-            for (int64_t k = 0; k < 4 * nt; ++k) t32[k] = (int32_t)tets[k];
-            if (rd_triangle_tets(t32, nt, tris, n, of)) return -1;
-            for (int32_t k = 0; k < n; ++k) of[k] = of[k] >= 0 ? cell[of[k]] : -1;
-            free(t32);
-            free(cell);
-            cell = of;
-        }
-        free(tets);
-        tc[b] = cell;
-        p[b].tris = tris;
-        p[b].ntris = (int32_t)ntri;
-        p[b].lines = lines;
-        p[b].nlines = (int32_t)nl;
-        p[b].smooth = nt == 0;
-        if (s && b < s->nbodies) memcpy(p[b].color, s->bodies[b].color, sizeof p[b].color);
-        else scene_palette(b, p[b].color);
-    }
-    return 0;
-}
-
-static void parts_free(rd_part *p, int n, int32_t **tri_cell)
-{
-    for (int i = 0; p && i < n; ++i) {
-        free((void *)p[i].tris);
-        free((void *)p[i].lines);
-        if (tri_cell) free(tri_cell[i]);
-    }
-    free(p);
-    free(tri_cell);
-}
-
 int main(int argc, char **argv)
 {
     if (argc < 2) return usage(stderr);
@@ -229,7 +150,7 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        if (!parts && parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
+        if (!parts && rd_parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
             fprintf(stderr, "defsim-render: out of memory\n");
             rc = 1;
         }
@@ -260,7 +181,7 @@ int main(int argc, char **argv)
         vtk_frame_free(&fr);
     }
     if (rc) {
-        parts_free(parts, np, tri_cell);
+        rd_parts_free(parts, np, tri_cell);
         return rc;
     }
     rd_view view;
@@ -303,39 +224,25 @@ int main(int argc, char **argv)
             rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
                            s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement, fr.nv,
                            top, vrgb, trgb, range);
-        /* Pinned vertices (the frames' "pinned" array) as markers, and with --scene the
-         * scene's colliders at their poses of the frame's time (the first plane carries the
-         * ground grid). */
-        static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f};
-        static const float collider_rgb[3] = {0.6f, 0.6f, 0.64f};
-        rd_view fview = view;
-        rd_part *all = NULL;
-        if (!bad)
-            bad = rd_overlay_begin(&overlay, fr.x, fr.nv) ||
-                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb) ||
-                  (s.contact_arrows &&
-                   rd_overlay_arrows(&overlay, fr.contact_force, arrow_scale, force_max,
-                                     0.8 * view.line_radius));
-        for (int32_t k = 0, ground = -1; have_scene && !bad && k < s.ncolliders; ++k) {
-            defsim_collider_def c = s.colliders[k].def;
+        /* Pinned vertices (the frames' "pinned" array) as markers, the contact arrows, and
+         * with --scene the scene's colliders at their poses of the frame's time. */
+        defsim_collider_def *cols = have_scene && s.ncolliders > 0
+                                        ? malloc((size_t)s.ncolliders * sizeof *cols) : NULL;
+        if (!bad && have_scene && s.ncolliders > 0 && !cols) bad = 1;
+        for (int32_t k = 0; cols && k < s.ncolliders; ++k) {
+            cols[k] = s.colliders[k].def;
             if (s.colliders[k].nkeys > 0)
-                scene_collider_pose(&s.colliders[k], fr.time, c.position, c.rotation);
-            if (ground < 0 && rd_view_ground_plane(&fview, &c)) ground = k;
-            bad = rd_overlay_collider(&overlay, &c, &fview, ground == k, collider_rgb);
+                scene_collider_pose(&s.colliders[k], fr.time, cols[k].position, cols[k].rotation);
         }
-        if (!bad) bad = !(all = malloc((size_t)(np + overlay.nparts + 1) * sizeof *all));
         if (bad) snprintf(err, sizeof err, "out of memory");
-        if (!bad) {
-            memcpy(all, parts, (size_t)np * sizeof *all);
-            memcpy(all + np, overlay.parts, (size_t)overlay.nparts * sizeof *all);
-            bad = rd_render(rd, &fview, overlay.x, all, np + overlay.nparts, img.rgb, err,
-                            sizeof err);
-        }
-        free(all);
-        if (!bad) {
-            rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
-            rd_timestamp(img.rgb, s.width, s.height, fr.time);
-        }
+        const rd_frame frame = {fr.x, fr.nv, fr.pinned,
+                                s.contact_arrows ? fr.contact_force : NULL, arrow_scale,
+                                force_max, cols, cols ? s.ncolliders : 0, (scene_color)s.color,
+                                {range[0], range[1]}, fr.time};
+        if (!bad)
+            bad = rd_draw_frame(rd, &view, &overlay, parts, np, &frame, img.rgb, s.width,
+                                s.height, err, sizeof err);
+        free(cols);
         if (bad || image_write_png(path, &img, err, sizeof err)) {
             fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
             rc = 1;
@@ -350,7 +257,7 @@ int main(int argc, char **argv)
     free(trgb);
     free(vrgb);
     rd_overlay_free(&overlay);
-    parts_free(parts, np, tri_cell);
+    rd_parts_free(parts, np, tri_cell);
     if (rc == 0 && nthumbs > 1) {
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", od);

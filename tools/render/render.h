@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "scene.h"
+#include "vtk.h"
 
 /* A fixed view: computed once per run so that every frame uses the same camera. */
 typedef struct rd_view {
@@ -83,6 +84,38 @@ void rd_overlay_free(rd_overlay *o);
 int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c);
 
 typedef struct rd_renderer rd_renderer;
+
+/* One frame to draw (render/draw.c): the bodies' positions, the pinned flags (NULL: no markers),
+ * the contact forces (NULL: no arrows; rd_overlay_arrows' scale and largest force), the
+ * colliders at the frame's poses (the first plane carries the ground grid), the colour scale of
+ * the bar (`color`, range; rd_color_parts coloured the parts) and the time stamped on it. */
+typedef struct rd_frame {
+    const double *x;
+    int32_t nv;
+    const uint8_t *pinned;
+    const double *force;
+    double arrow_scale, force_max;
+    const defsim_collider_def *colliders;
+    int32_t ncolliders;
+    scene_color color;
+    double range[2];
+    double time;
+} rd_frame;
+
+/* Draws frame f with the bodies' parts into rgb (width x height, as rd_render), the overlay o
+ * (kept between frames for its buffers) holding markers, arrows and colliders, then the colour
+ * bar and the time. Returns 0, or -1 with a message in err. */
+int rd_draw_frame(rd_renderer *r, const rd_view *view, rd_overlay *o, const rd_part *parts,
+                  int nparts, const rd_frame *f, uint8_t *rgb, int width, int height, char *err,
+                  size_t errsz);
+
+/* Render parts for a frame's cells, one per body (the cells' body tags): tet boundaries,
+ * triangles, lines; tri_cell receives each part's triangles' cells (a tet boundary's: its tet's)
+ * for stress colours. Colours from the scene's bodies (s may be NULL: the palette). Returns 0,
+ * or -1 when out of memory (what was made is the caller's to free with rd_parts_free). */
+int rd_parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout,
+                        int32_t ***tri_cell);
+void rd_parts_free(rd_part *p, int n, int32_t **tri_cell);
 
 /* Creates a context for width x height output images, rendered at supersample x that size.
  * Returns NULL with a message in err when OSMesa or GL 3.3 core is not available. */

@@ -436,6 +436,10 @@ class Scene:
         """The scene's world as a picture for Jupyter (``World._repr_png_``)."""
         return self.world._repr_png_()
 
+    def _repr_html_(self) -> Optional[str]:
+        """The scene's world as an HTML figure for Jupyter (``World._repr_html_``)."""
+        return self.world._repr_html_()
+
     def __repr__(self) -> str:
         return (f"<defsim.io.Scene {self.name!r}: {self._body_count} bodies, backend "
                 f"{self.backend}, h={self.step_size:g} s, duration={self.duration:g} s>")

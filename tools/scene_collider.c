@@ -349,6 +349,19 @@ void scene_collider_place(const scene_collider *col, double t, const double *loc
     }
 }
 
+void scene_across(const double n[3], double t1[3], double t2[3])
+{
+    const double ref[3] = {fabs(n[0]) < 0.9 ? 1.0 : 0.0, fabs(n[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = n[1] * ref[2] - n[2] * ref[1];
+    t1[1] = n[2] * ref[0] - n[0] * ref[2];
+    t1[2] = n[0] * ref[1] - n[1] * ref[0];
+    const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; ++i) t1[i] /= l1;
+    t2[0] = n[1] * t1[2] - n[2] * t1[1];
+    t2[1] = n[2] * t1[0] - n[0] * t1[2];
+    t2[2] = n[0] * t1[1] - n[1] * t1[0];
+}
+
 void scene_quat_rotate(const double q[4], const double v[3], double out[3])
 {
     /* v + 2 w (u x v) + 2 u x (u x v), u the vector part of the unit quaternion. */
@@ -377,15 +390,7 @@ static int plane_square(const defsim_collider_def *d, const double centre[3], do
     const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(len > 0.0)) return 0;
     for (int i = 0; i < 3; ++i) n[i] /= len;
-    const double ref[3] = {fabs(n[0]) < 0.9 ? 1.0 : 0.0, fabs(n[0]) < 0.9 ? 0.0 : 1.0, 0.0};
-    t1[0] = n[1] * ref[2] - n[2] * ref[1];
-    t1[1] = n[2] * ref[0] - n[0] * ref[2];
-    t1[2] = n[0] * ref[1] - n[1] * ref[0];
-    const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-    for (int i = 0; i < 3; ++i) t1[i] /= l1;
-    t2[0] = n[1] * t1[2] - n[2] * t1[1];
-    t2[1] = n[2] * t1[0] - n[0] * t1[2];
-    t2[2] = n[0] * t1[1] - n[1] * t1[0];
+    scene_across(n, t1, t2);
     double dist = 0.0;
     for (int i = 0; i < 3; ++i) dist += (centre[i] - d->position[i]) * n[i];
     for (int i = 0; i < 3; ++i) q[i] = centre[i] - dist * n[i];

@@ -47,6 +47,9 @@ int scene_geometry_make(const defsim_collider_def *d, const double centre[3], do
                         scene_geometry *g);
 void scene_geometry_free(scene_geometry *g);
 
+/* Unit vectors t1, t2 across the unit vector n, (t1, t2, n) right-handed. */
+void scene_across(const double n[3], double t1[3], double t2[3]);
+
 /* v rotated by the unit quaternion q (w, x, y, z). */
 void scene_quat_rotate(const double q[4], const double v[3], double out[3]);
 

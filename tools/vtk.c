@@ -217,36 +217,42 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
     return tools_tmp_commit(f, tmp, path, ok, err, errsz);
 }
 
-int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
-                  char *err, size_t errsz)
+/* An index of datasets (atomically): a .pvd collection (times: each entry's timestep) or a
+ * .vtm multiblock (names: each entry's block name). */
+static int write_index(const char *path, const char *type, const char *version, const char *tag,
+                       int n, const char *const *names, const double *times,
+                       const char *const *files, char *err, size_t errsz)
 {
     char tmp[2200];
     FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
     if (!f) return -1;
     fprintf(f, "<?xml version=\"1.0\"?>\n"
-               "<VTKFile type=\"vtkMultiBlockDataSet\" version=\"1.0\" byte_order=\"%s\">\n"
-               "  <vtkMultiBlockDataSet>\n", little_endian() ? "LittleEndian" : "BigEndian");
-    for (int i = 0; i < n; ++i)
-        fprintf(f, "    <DataSet index=\"%d\" name=\"%s\" file=\"%s\"/>\n", i, names[i],
-                files[i]);
-    fputs("  </vtkMultiBlockDataSet>\n</VTKFile>\n", f);
+               "<VTKFile type=\"%s\" version=\"%s\" byte_order=\"%s\">\n"
+               "  <%s>\n", type, version, little_endian() ? "LittleEndian" : "BigEndian", tag);
+    for (int i = 0; i < n; ++i) {
+        if (times)
+            fprintf(f, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n",
+                    times[i], files[i]);
+        else
+            fprintf(f, "    <DataSet index=\"%d\" name=\"%s\" file=\"%s\"/>\n", i, names[i],
+                    files[i]);
+    }
+    fprintf(f, "  </%s>\n</VTKFile>\n", tag);
     return tools_tmp_commit(f, tmp, path, 1, err, errsz);
+}
+
+int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
+                  char *err, size_t errsz)
+{
+    return write_index(path, "vtkMultiBlockDataSet", "1.0", "vtkMultiBlockDataSet", n, names,
+                       NULL, files, err, errsz);
 }
 
 int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
                   char *err, size_t errsz)
 {
-    char tmp[2200];
-    FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
-    if (!f) return -1;
-    fprintf(f, "<?xml version=\"1.0\"?>\n"
-               "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"%s\">\n"
-               "  <Collection>\n", little_endian() ? "LittleEndian" : "BigEndian");
-    for (int i = 0; i < n; ++i)
-        fprintf(f, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n",
-                times[i], files[i]);
-    fputs("  </Collection>\n</VTKFile>\n", f);
-    return tools_tmp_commit(f, tmp, path, 1, err, errsz);
+    return write_index(path, "Collection", "0.1", "Collection", n, NULL, times, files, err,
+                       errsz);
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -169,16 +169,7 @@ int rd_overlay_arrows(rd_overlay *o, const double *f, double scale, double fmax,
         memcpy(base, o->x + 3 * (int64_t)v, sizeof base);
         const double len = scale * fl;
         for (int i = 0; i < 3; ++i) u[i] = g[i] / fl;
-        /* a, b: unit vectors across the axis. */
-        const double ref[3] = {fabs(u[0]) < 0.9 ? 1.0 : 0.0, fabs(u[0]) < 0.9 ? 0.0 : 1.0, 0.0};
-        a[0] = u[1] * ref[2] - u[2] * ref[1];
-        a[1] = u[2] * ref[0] - u[0] * ref[2];
-        a[2] = u[0] * ref[1] - u[1] * ref[0];
-        const double al = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-        for (int i = 0; i < 3; ++i) a[i] /= al;
-        b[0] = u[1] * a[2] - u[2] * a[1];
-        b[1] = u[2] * a[0] - u[0] * a[2];
-        b[2] = u[0] * a[1] - u[1] * a[0];
+        scene_across(u, a, b);   /* unit vectors across the axis */
         const double head = fmin(0.35 * len, 6.0 * r), neck = len - head;
         double centre_shaft[3], neck_c[3], tip[3];
         for (int i = 0; i < 3; ++i) {

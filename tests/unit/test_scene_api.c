@@ -271,6 +271,66 @@ static void test_render(void **state)
     assert_memory_equal(head, "\x89PNG\r\n\x1a\n", 8);
     assert_int_equal((head[16] << 24) | (head[17] << 16) | (head[18] << 8) | head[19], 64);
     assert_int_equal((head[20] << 24) | (head[21] << 16) | (head[22] << 8) | head[23], 48);
+
+    /* defsim_render_world_png: a pinned tet above a plane, coloured by stress, with arrows;
+     * misuse refused before anything is drawn. */
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    defsim_world *w = NULL;
+    assert_int_equal(defsim_world_create(&wd, &w), DEFSIM_OK);
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    const int32_t tet[4] = {0, 1, 2, 3};
+    bd.rest_positions = x;
+    bd.vertex_count = 4;
+    bd.tets = tet;
+    bd.tet_count = 1;
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STVK);
+    defsim_body_id b;
+    assert_int_equal(defsim_world_add_body(w, &bd, &b), DEFSIM_OK);
+    const int32_t pin = 0;
+    assert_int_equal(defsim_body_pin(w, b, &pin, 1), DEFSIM_OK);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.position[1] = -0.5;
+    assert_int_equal(defsim_world_add_collider(w, &cd, NULL), DEFSIM_OK);
+    assert_int_equal(defsim_world_step(w, 1e-3), DEFSIM_OK);
+    const uint8_t types[1] = {DEFSIM_VTK_TETRA};
+    const int64_t offsets[1] = {4}, conn[4] = {0, 1, 2, 3};
+    const int32_t body[1] = {0};
+    defsim_render_world_def rd;
+    defsim_render_world_def_init(&rd, sizeof rd);
+    assert_true(rd.width == 640 && rd.pins == 1 && rd.colliders == 1 && rd.gravity[1] == -9.81);
+    rd.width = 64;
+    rd.height = 48;
+    rd.cell_count = 1;
+    rd.types = types;
+    rd.offsets = offsets;
+    rd.conn = conn;
+    rd.body = body;
+    rd.color = DEFSIM_RENDER_DISPLACEMENT;   /* without a reference */
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.color = 7;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.color = DEFSIM_RENDER_STRESS;
+    rd.size = 4;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.size = sizeof rd;
+    assert_int_equal(defsim_render_world_png(path, NULL, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    const int64_t bad_conn[4] = {0, 1, 2, 9};
+    rd.conn = bad_conn;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.conn = conn;
+    rd.contact_arrows = 1;
+    remove(path);
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_OK);
+    f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(head, 1, sizeof head, f), sizeof head);
+    fclose(f);
+    assert_memory_equal(head, "\x89PNG\r\n\x1a\n", 8);
+    assert_int_equal((head[16] << 24) | (head[17] << 16) | (head[18] << 8) | head[19], 64);
+    defsim_world_destroy(w);
 #else
     skip();
 #endif

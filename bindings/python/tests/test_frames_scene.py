@@ -189,11 +189,23 @@ def test_python_world_frames(tmp_path):
                                                   poisson_ratio=0.3, density=1000))
     w.pin(beam, m.positions[:, 0] == 0.0)
     w.add_collider("sphere", position=(0.3, 0.3, 0.05), radius=0.15)
+    # Two attachments on the free end's vertex 4 and one on vertex 9 (body-local).
+    tip = int(np.flatnonzero(m.positions[:, 0] == 0.4)[0])
+    other = int(np.flatnonzero(m.positions[:, 0] == 0.4)[1])
+    a1 = w.add_attachment(beam, tip, (0.5, 0.7, 0.0), stiffness=50.0)
+    a2 = w.add_attachment(beam, tip, (0.4, 0.3, 0.1), stiffness=20.0)
+    a3 = w.add_attachment(beam, other, (0.6, 0.6, 0.1), stiffness=30.0)
     w.step(1e-4, steps=20)
     assert dio.write_vtu(w, tmp_path / "a.vtu") is True
     got = meshio.read(tmp_path / "a.vtu")
-    for name in ("velocity", "displacement", "pin_force", "pinned", "contact_force"):
+    for name in ("velocity", "displacement", "pin_force", "pinned", "contact_force",
+                 "attachment_force"):
         assert name in got.point_data, name
+    want = np.zeros((w.vertex_count, 3))
+    want[beam.vertex_offset + tip] += a1.force + a2.force
+    want[beam.vertex_offset + other] += a3.force
+    np.testing.assert_array_equal(got.point_data["attachment_force"], want)
+    assert np.abs(want).max() > 0
     np.testing.assert_array_equal(got.point_data["pin_force"], w.pin_forces())
     np.testing.assert_array_equal(got.point_data["contact_force"], w.contact_forces())
     assert got.point_data["pinned"].reshape(-1).tolist() == (m.positions[:, 0] == 0.0).astype(int).tolist()

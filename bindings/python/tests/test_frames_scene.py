@@ -240,3 +240,32 @@ def test_python_world_frames(tmp_path):
     assert not (tmp_path / "b.vtm").exists() and not (tmp_path / "b_colliders.vtu").exists()
     with pytest.raises(defsim.InvalidArgumentError):
         dio.write_vtu(w, tmp_path / "c.vtk")
+
+
+def test_contact_force_holds_body_contact(tmp_path):
+    """contact_force carries body contact too: in tests/scenes/cube_stack.json at rest each
+    cube's contact forces sum to its weight (8 kg x 9.81), the middle and top cubes' from body
+    contact alone (only the bottom one touches the ground collider)."""
+    scenes = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "tests",
+                          "scenes")
+    exe = os.environ.get("DEFSIM_EXE")
+    if not exe:
+        pytest.skip("DEFSIM_EXE (the build's defsim) is not set")
+    subprocess.run([exe, "run", os.path.join(scenes, "cube_stack.json"), "--vtk", "final",
+                    "--progress", "none", "--out", str(tmp_path)], check=True,
+                   capture_output=True)
+    m = meshio.read(tmp_path / "final.vtu")
+    body = np.concatenate(m.cell_data["body"]).reshape(-1)
+    tets = m.cells_dict["tetra"]
+    cf = m.point_data["contact_force"]
+    weight = 0.2 ** 3 * 1000 * 9.81
+    for b in range(3):
+        verts = np.unique(tets[body == b])
+        assert verts.size == 64
+        np.testing.assert_allclose(cf[verts].sum(0), [0, weight, 0], rtol=0, atol=1e-3 * weight)
+    # The middle cube's bottom pushed up by the bottom cube, its top pushed down by the top one.
+    mid = np.unique(tets[body == 1])
+    y = m.points[mid, 1]
+    half = 0.5 * (y.min() + y.max())
+    np.testing.assert_allclose(cf[mid][y < half, 1].sum(), 2 * weight, rtol=1e-3)
+    np.testing.assert_allclose(cf[mid][y > half, 1].sum(), -weight, rtol=1e-3)

@@ -297,6 +297,22 @@ defsim_status defsim_attachment_set_target(defsim_world *w, defsim_attachment_id
 /* ------------------------------------------------------------------------------------------ */
 /* Read-back */
 
+defsim_status defsim_world_get_attachment(const defsim_world *w, defsim_attachment_id id,
+                                         defsim_attachment_def *out)
+{
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out || out->size < sizeof *out) {
+        defsim__error(w->msg, "get_attachment: out is NULL or its size is not "
+                              "sizeof(defsim_attachment_def)");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const defsim__attachment *a = attachment_or_error(w, id);
+    if (!a) return DEFSIM_ERR_STALE_ID;
+    *out = a->def;
+    out->size = (uint32_t)sizeof *out;
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_world_get_attachment_force(const defsim_world *w, defsim_attachment_id id,
                                                 double out[3])
 {

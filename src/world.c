@@ -607,6 +607,17 @@ defsim_status defsim_world_get_masses(const defsim_world *w, double *out, int32_
     return copy_out(w, 2, out, n);
 }
 
+defsim_status defsim_world_get_pinned(const defsim_world *w, uint8_t *out, int32_t n)
+{
+    if (!defsim__world_live(w)) return DEFSIM_ERR_INVALID_ARGUMENT;
+    if (!out || n != w->nv) {
+        defsim__error(w->msg, "get_pinned: %s", !out ? "out is NULL" : "n is not the vertex count");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (n > 0) memcpy(out, w->bodies.pinned, (size_t)n);
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_world_set_state(defsim_world *w, const double *x, const double *v)
 {
     const defsim_status entered = defsim__world_enter(w);

@@ -6,87 +6,99 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int64_t body_cells(const scene_body *b)
+static int fail(fields *f, char *err, size_t errsz, const char *msg)
 {
-    if (b->mesh.tet_count > 0) return b->mesh.tet_count;
-    if (b->mesh.triangle_count > 0) return b->mesh.triangle_count;
-    return b->line_count;
+    fields_free(f);
+    snprintf(err, errsz, "fields: %s", msg);
+    return -1;
 }
 
-int fields_init(fields *f, const scene *s, defsim_world *w, unsigned which, char *err, size_t errsz)
+int fields_init(fields *f, defsim_world *w, const vtk_cells *c, unsigned which, char *err,
+                size_t errsz)
 {
     memset(f, 0, sizeof *f);
     f->nv = defsim_world_vertex_count(w);
-    f->cell_offset = malloc((size_t)(s->nbodies + 1) * sizeof *f->cell_offset);
-    if (!f->cell_offset) goto oom;
-    int tets = 0, pins = 0;
-    for (int32_t i = 0; i < s->nbodies; ++i) {
-        f->cell_offset[i] = f->ncells;
-        f->ncells += body_cells(&s->bodies[i]);
-        tets |= s->bodies[i].mesh.tet_count > 0;
-        pins |= s->bodies[i].npins > 0 || s->bodies[i].ndrives > 0;
+    f->nbodies = defsim_world_body_count(w);
+    f->ncells = c->ncells;
+    f->cell_offset = malloc((size_t)(f->nbodies + 1) * sizeof *f->cell_offset);
+    f->tet_count = calloc((size_t)f->nbodies + 1, sizeof *f->tet_count);
+    if (!f->cell_offset || !f->tet_count) return fail(f, err, errsz, "out of memory");
+    /* Each body's cells in one run, in body order. */
+    int32_t next = 0;
+    for (int64_t k = 0; k < c->ncells; ++k) {
+        const int32_t b = c->body[k];
+        if (b < 0 || b >= f->nbodies || b < next - 1)
+            return fail(f, err, errsz, "the cells' body tags are not the world's bodies, each "
+                                       "body's cells in one run in body order");
+        while (next <= b) f->cell_offset[next++] = k;
+        if (c->types[k] == VTK_TETRA) ++f->tet_count[b];
     }
-    f->cell_offset[s->nbodies] = f->ncells;
+    while (next <= f->nbodies) f->cell_offset[next++] = c->ncells;
+    int tets = 0;
+    for (int32_t i = 0; i < f->nbodies; ++i) tets |= f->tet_count[i] > 0;
+    const size_t n3 = 3 * (size_t)f->nv, nc = (size_t)(f->ncells > 0 ? f->ncells : 1);
+    f->pinned = calloc((size_t)f->nv + 1, 1);
+    if (!f->pinned || defsim_world_get_pinned(w, f->pinned, f->nv) != DEFSIM_OK)
+        return fail(f, err, errsz, "out of memory");
+    int pins = 0;
+    for (int32_t k = 0; k < f->nv; ++k) pins |= f->pinned[k];
+    double body_contact = 0.0;
+    defsim_world_get_option(w, "core.body_contact", &body_contact);
     if (!tets) which &= ~(unsigned)SCENE_FIELD_STRESS;
     if (!pins) which &= ~(unsigned)SCENE_FIELD_PIN_FORCES;
-    if (s->nattachments == 0) which &= ~(unsigned)SCENE_FIELD_ATTACHMENT_FORCES;
+    if (defsim_world_attachment_count(w) == 0) which &= ~(unsigned)SCENE_FIELD_ATTACHMENT_FORCES;
+    if (defsim_world_collider_count(w) == 0 && body_contact == 0.0)
+        which &= ~(unsigned)SCENE_FIELD_CONTACT_FORCES;
     f->which = which;
-    const size_t n3 = 3 * (size_t)f->nv, nc = (size_t)(f->ncells > 0 ? f->ncells : 1);
     if (which & SCENE_FIELD_STRESS) {
         f->cauchy = calloc(9 * nc, sizeof *f->cauchy);
         f->von_mises = calloc(nc, sizeof *f->von_mises);
         f->energy_density = calloc(nc, sizeof *f->energy_density);
-        if (!f->cauchy || !f->von_mises || !f->energy_density) goto oom;
+        if (!f->cauchy || !f->von_mises || !f->energy_density)
+            return fail(f, err, errsz, "out of memory");
         f->arrays[f->narrays++] = (vtk_array){"cauchy_stress", 9, 1, f->cauchy, NULL};
         f->arrays[f->narrays++] = (vtk_array){"von_mises", 1, 1, f->von_mises, NULL};
         f->arrays[f->narrays++] = (vtk_array){"energy_density", 1, 1, f->energy_density, NULL};
     }
     f->x0 = malloc(n3 * sizeof *f->x0 + 1);
-    if (!f->x0 || defsim_world_get_positions(w, f->x0, f->nv) != DEFSIM_OK) goto oom;
-    if (which & SCENE_FIELD_DISPLACEMENT) {
-        if (!(f->displacement = calloc(n3 + 1, sizeof *f->displacement))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"displacement", 3, 0, f->displacement, NULL};
+    if (!f->x0 || defsim_world_get_positions(w, f->x0, f->nv) != DEFSIM_OK)
+        return fail(f, err, errsz, "out of memory");
+    static const struct { unsigned bit; const char *name; } point3[] = {
+        {SCENE_FIELD_DISPLACEMENT, "displacement"}, {SCENE_FIELD_PIN_FORCES, "pin_force"},
+        {SCENE_FIELD_ATTACHMENT_FORCES, "attachment_force"},
+        {SCENE_FIELD_CONTACT_FORCES, "contact_force"}};
+    double **slot[4] = {&f->displacement, &f->pin_force, &f->attachment_force, &f->contact_force};
+    for (int k = 0; k < 4; ++k) {
+        if (!(which & point3[k].bit)) continue;
+        if (!(*slot[k] = calloc(n3 + 1, sizeof **slot[k])))
+            return fail(f, err, errsz, "out of memory");
+        f->arrays[f->narrays++] = (vtk_array){point3[k].name, 3, 0, *slot[k], NULL};
     }
-    if (which & SCENE_FIELD_PIN_FORCES) {
-        if (!(f->pin_force = calloc(n3 + 1, sizeof *f->pin_force))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"pin_force", 3, 0, f->pin_force, NULL};
-    }
-    if (which & SCENE_FIELD_ATTACHMENT_FORCES) {
-        if (!(f->attachment_force = calloc(n3 + 1, sizeof *f->attachment_force))) goto oom;
-        f->arrays[f->narrays++] = (vtk_array){"attachment_force", 3, 0, f->attachment_force, NULL};
-    }
-    /* The pinned flag is part of the model, not of the state: set once, written with every
-     * frame of a scene that pins or drives anything. */
+    /* The pinned flag is part of the model, not of the state: read once, written with every
+     * frame of a world that pins or drives anything. */
     if (pins) {
-        if (!(f->pinned = calloc((size_t)f->nv + 1, 1))) goto oom;
-        for (int32_t i = 0; i < s->nbodies; ++i) {
-            const scene_body *b = &s->bodies[i];
-            for (int32_t k = 0; k < b->npins; ++k) f->pinned[b->offset + b->pins[k]] = 1;
-            for (int32_t d = 0; d < b->ndrives; ++d)
-                for (int32_t k = 0; k < b->drives[d].n; ++k)
-                    f->pinned[b->offset + b->drives[d].verts[k]] = 1;
-        }
         f->arrays[f->narrays++] = (vtk_array){"pinned", 1, 0, NULL, f->pinned};
+    } else {
+        free(f->pinned);
+        f->pinned = NULL;
     }
     return 0;
-oom:
-    fields_free(f);
-    snprintf(err, errsz, "fields: out of memory");
-    return -1;
 }
 
-int fields_eval(fields *f, const scene *s, defsim_world *w, char *err, size_t errsz)
+int fields_eval(fields *f, defsim_world *w, char *err, size_t errsz)
 {
     defsim_status st = DEFSIM_OK;
     const char *what = "";
     if (f->which & SCENE_FIELD_STRESS)
-        for (int32_t i = 0; i < s->nbodies && st == DEFSIM_OK; ++i) {
-            const scene_body *b = &s->bodies[i];
-            if (b->mesh.tet_count == 0) continue;
+        for (int32_t i = 0; i < f->nbodies && st == DEFSIM_OK; ++i) {
+            if (f->tet_count[i] == 0) continue;
+            defsim_body_id id;
             const int64_t o = f->cell_offset[i];
             what = "element stress";
-            st = defsim_body_element_stress(w, b->id, f->cauchy + 9 * o, f->von_mises + o,
-                                            f->energy_density + o, b->mesh.tet_count);
+            st = defsim_world_body_at(w, i, &id);
+            if (st == DEFSIM_OK)
+                st = defsim_body_element_stress(w, id, f->cauchy + 9 * o, f->von_mises + o,
+                                                f->energy_density + o, (int32_t)f->tet_count[i]);
         }
     if (st == DEFSIM_OK && f->displacement) {
         what = "positions";
@@ -97,14 +109,24 @@ int fields_eval(fields *f, const scene *s, defsim_world *w, char *err, size_t er
         what = "pin forces";
         st = defsim_world_get_pin_forces(w, f->pin_force, f->nv);
     }
+    if (st == DEFSIM_OK && f->contact_force) {
+        what = "contact forces";
+        st = defsim_world_get_contact_forces(w, f->contact_force, f->nv);
+    }
     if (st == DEFSIM_OK && f->attachment_force) {
         what = "attachment forces";
         memset(f->attachment_force, 0, 3 * (size_t)f->nv * sizeof *f->attachment_force);
-        for (int32_t i = 0; i < s->nattachments && st == DEFSIM_OK; ++i) {
-            const scene_attachment *a = &s->attachments[i];
+        const int32_t na = defsim_world_attachment_count(w);
+        for (int32_t i = 0; i < na && st == DEFSIM_OK; ++i) {
+            defsim_attachment_id id;
+            defsim_attachment_def d = {.size = sizeof d};
             double g[3];
-            st = defsim_world_get_attachment_force(w, a->id, g);
-            const int64_t v = (int64_t)s->bodies[a->body].offset + a->vertex;
+            st = defsim_world_attachment_at(w, i, &id);
+            if (st == DEFSIM_OK) st = defsim_world_get_attachment(w, id, &d);
+            if (st == DEFSIM_OK) st = defsim_world_get_attachment_force(w, id, g);
+            const int32_t off = st == DEFSIM_OK ? defsim_body_vertex_offset(w, d.body) : 0;
+            if (off < 0) st = (defsim_status)off;
+            const int64_t v = (int64_t)off + d.vertex;
             for (int c = 0; c < 3 && st == DEFSIM_OK; ++c) f->attachment_force[3 * v + c] += g[c];
         }
     }
@@ -117,8 +139,8 @@ int fields_eval(fields *f, const scene *s, defsim_world *w, char *err, size_t er
 
 void fields_free(fields *f)
 {
-    free(f->cell_offset); free(f->x0); free(f->cauchy); free(f->von_mises);
-    free(f->energy_density); free(f->displacement); free(f->pin_force); free(f->attachment_force);
-    free(f->pinned);
+    free(f->cell_offset); free(f->tet_count); free(f->x0); free(f->cauchy); free(f->von_mises);
+    free(f->energy_density); free(f->displacement); free(f->pin_force);
+    free(f->attachment_force); free(f->contact_force); free(f->pinned);
     memset(f, 0, sizeof *f);
 }

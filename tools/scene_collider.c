@@ -376,3 +376,121 @@ void scene_collider_place(const scene_collider *col, double t, const double *loc
             out[3 * (int64_t)v + r] = p[r] + R[3 * r] * l[0] + R[3 * r + 1] * l[1] + R[3 * r + 2] * l[2];
     }
 }
+
+void scene_across(const double n[3], double t1[3], double t2[3])
+{
+    const double ref[3] = {fabs(n[0]) < 0.9 ? 1.0 : 0.0, fabs(n[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = n[1] * ref[2] - n[2] * ref[1];
+    t1[1] = n[2] * ref[0] - n[0] * ref[2];
+    t1[2] = n[0] * ref[1] - n[1] * ref[0];
+    const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; ++i) t1[i] /= l1;
+    t2[0] = n[1] * t1[2] - n[2] * t1[1];
+    t2[1] = n[2] * t1[0] - n[0] * t1[2];
+    t2[2] = n[0] * t1[1] - n[1] * t1[0];
+}
+
+void scene_quat_rotate(const double q[4], const double v[3], double out[3])
+{
+    /* v + 2 w (u x v) + 2 u x (u x v), u the vector part of the unit quaternion. */
+    const double *u = q + 1, w = q[0];
+    const double t[3] = {2.0 * (u[1] * v[2] - u[2] * v[1]), 2.0 * (u[2] * v[0] - u[0] * v[2]),
+                         2.0 * (u[0] * v[1] - u[1] * v[0])};
+    out[0] = v[0] + w * t[0] + (u[1] * t[2] - u[2] * t[1]);
+    out[1] = v[1] + w * t[1] + (u[2] * t[0] - u[0] * t[2]);
+    out[2] = v[2] + w * t[2] + (u[0] * t[1] - u[1] * t[0]);
+}
+
+/* Local point p of the collider in world coordinates. */
+static void to_world(const defsim_collider_def *d, const double p[3], double out[3])
+{
+    scene_quat_rotate(d->rotation, p, out);
+    for (int i = 0; i < 3; ++i) out[i] += d->position[i];
+}
+
+/* The plane's square: corners q +- half t1 +- half t2 about q, the point of the plane nearest
+ * centre, with t1, t2 unit tangents. 0 points for a zero normal. */
+static int plane_square(const defsim_collider_def *d, const double centre[3], double half,
+                        scene_geometry *g)
+{
+    double n[3], t1[3], t2[3], q[3];
+    scene_quat_rotate(d->rotation, d->normal, n);
+    const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(len > 0.0)) return 0;
+    for (int i = 0; i < 3; ++i) n[i] /= len;
+    scene_across(n, t1, t2);
+    double dist = 0.0;
+    for (int i = 0; i < 3; ++i) dist += (centre[i] - d->position[i]) * n[i];
+    for (int i = 0; i < 3; ++i) q[i] = centre[i] - dist * n[i];
+    g->x = malloc(12 * sizeof *g->x);
+    g->tri = malloc(6 * sizeof *g->tri);
+    if (!g->x || !g->tri) return -1;
+    for (int a = 0; a < 4; ++a) {
+        const double s1 = a == 1 || a == 2 ? half : -half, s2 = a >= 2 ? half : -half;
+        for (int i = 0; i < 3; ++i) g->x[3 * a + i] = q[i] + s1 * t1[i] + s2 * t2[i];
+    }
+    /* (t1, t2, n) is right-handed: 0 1 2 and 0 2 3 face along n, out of the half-space. */
+    static const int32_t T[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(g->tri, T, sizeof T);
+    g->nv = 4;
+    g->nt = 2;
+    g->smooth = 1;
+    return 0;
+}
+
+/* The 12 edges of the SDF's bounds box (the distance field itself has no surface to sample
+ * without a mesher). */
+static int sdf_box(const defsim_collider_def *d, scene_geometry *g)
+{
+    const double *b = d->sdf_bounds;
+    if (!(b[3] > b[0] && b[4] > b[1] && b[5] > b[2])) return 0;
+    g->x = malloc(24 * sizeof *g->x);
+    g->lines = malloc(24 * sizeof *g->lines);
+    if (!g->x || !g->lines) return -1;
+    for (int k = 0; k < 8; ++k) {
+        const double local[3] = {b[k & 1 ? 3 : 0], b[k & 2 ? 4 : 1], b[k & 4 ? 5 : 2]};
+        to_world(d, local, g->x + 3 * k);
+    }
+    for (int k = 0; k < 8; ++k)
+        for (int axis = 0; axis < 3; ++axis)
+            if (!(k & (1 << axis))) {
+                g->lines[2 * g->nl] = k;
+                g->lines[2 * g->nl + 1] = k | (1 << axis);
+                ++g->nl;
+            }
+    g->nv = 8;
+    return 0;
+}
+
+int scene_geometry_make(const defsim_collider_def *d, const double centre[3], double half,
+                        scene_geometry *g)
+{
+    memset(g, 0, sizeof *g);
+    int rc = 0;
+    if (d->shape == DEFSIM_SHAPE_PLANE) {
+        rc = plane_square(d, centre, half, g);
+    } else if (d->shape == DEFSIM_SHAPE_SDF) {
+        rc = sdf_box(d, g);
+    } else {
+        scene_collider sc;
+        memset(&sc, 0, sizeof sc);
+        sc.def = *d;
+        double *local = NULL;
+        rc = scene_collider_surface(&sc, &local, &g->nv, &g->tri, &g->nt, &g->smooth);
+        g->x = rc ? NULL : malloc(3 * (size_t)(g->nv + 1) * sizeof *g->x);
+        if (!rc && !g->x) rc = -1;
+        for (int32_t k = 0; !rc && k < g->nv; ++k)
+            to_world(d, local + 3 * (int64_t)k, g->x + 3 * (int64_t)k);
+        free(local);
+    }
+    if (rc) scene_geometry_free(g);
+    return rc;
+}
+
+void scene_geometry_free(scene_geometry *g)
+{
+    free(g->x);
+    free(g->tri);
+    free(g->lines);
+    memset(g, 0, sizeof *g);
+}

@@ -28,6 +28,31 @@ void scene_collider_pose(const scene_collider *col, double t, double p[3], doubl
 int scene_collider_surface(const scene_collider *col, double **x, int32_t *nv, int32_t **tri,
                            int32_t *nt, int *smooth);
 
+/* A collider's geometry in world coordinates at the pose of its def, for drawing and for VTK
+ * frames: the tessellation of scene_collider_surface at the pose (sphere, capsule, box, mesh), a
+ * plane as the square of half side `half` (m) about the point of the plane nearest `centre`
+ * (two triangles), an SDF as the 12 edges of its sdf_bounds box (nothing when unbounded).
+ * Fill with scene_geometry_make, free with scene_geometry_free. */
+typedef struct scene_geometry {
+    double *x;              /* 3 nv */
+    int32_t nv;
+    int32_t *tri;           /* 3 nt, outward (counter-clockwise seen from outside) */
+    int32_t nt;
+    int32_t *lines;         /* 2 nl */
+    int32_t nl;
+    int smooth;             /* 1 for curved surfaces (sphere, capsule) and the plane */
+} scene_geometry;
+/* Returns 0, or -1 when out of memory (g then holds nothing). */
+int scene_geometry_make(const defsim_collider_def *d, const double centre[3], double half,
+                        scene_geometry *g);
+void scene_geometry_free(scene_geometry *g);
+
+/* Unit vectors t1, t2 across the unit vector n, (t1, t2, n) right-handed. */
+void scene_across(const double n[3], double t1[3], double t2[3]);
+
+/* v rotated by the unit quaternion q (w, x, y, z). */
+void scene_quat_rotate(const double q[4], const double v[3], double out[3]);
+
 /* The nv local points moved to the collider's pose at time t (its path's, else its own). */
 void scene_collider_place(const scene_collider *col, double t, const double *local, int32_t nv,
                           double *out);

@@ -25,7 +25,7 @@ int scene_color_parse(const char *name)
 void scene_output_defaults(scene *s)
 {
     s->fields = SCENE_FIELD_STRESS | SCENE_FIELD_DISPLACEMENT | SCENE_FIELD_PIN_FORCES |
-                SCENE_FIELD_ATTACHMENT_FORCES;
+                SCENE_FIELD_ATTACHMENT_FORCES | SCENE_FIELD_CONTACT_FORCES;
     s->every = 1;
     s->write_vtk = 1;
     s->width = 640;
@@ -102,13 +102,15 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     scene *s = c->s;
     static const char *const keys[] = {"every", "formats", "width", "height", "supersample",
                                        "contact_sheet", "camera", "color", "color_range",
-                                       "fields", NULL};
+                                       "fields", "contact_arrows", "arrow_scale", NULL};
     if (sj_keys(c, o, "output", keys)) return -1;
     if (sj_int(c, o, "every", "output", 1, 1000000000, &s->every) ||
         sj_int(c, o, "width", "output", 16, 8192, &s->width) ||
         sj_int(c, o, "height", "output", 16, 8192, &s->height) ||
         sj_int(c, o, "supersample", "output", 1, 4, &s->supersample) ||
-        sj_bool(c, o, "contact_sheet", "output", &s->contact_sheet))
+        sj_bool(c, o, "contact_sheet", "output", &s->contact_sheet) ||
+        sj_bool(c, o, "contact_arrows", "output", &s->contact_arrows) ||
+        sj_number(c, o, "arrow_scale", "output", 0.0, 1e12, 1, &s->arrow_scale))
         return -1;
     const cJSON *f = cJSON_GetObjectItemCaseSensitive(o, "formats");
     if (f) {
@@ -139,18 +141,19 @@ int scene_parse_output(sj_ctx *c, const cJSON *o)
     const cJSON *fl = cJSON_GetObjectItemCaseSensitive(o, "fields");
     if (fl) {
         static const char *const names[] = {"stress", "displacement", "pin_forces",
-                                            "attachment_forces"};
+                                            "attachment_forces", "contact_forces"};
         if (!cJSON_IsArray(fl))
             return sj_fail(c, fl, "output.fields must be an array of \"stress\", \"displacement\", "
-                           "\"pin_forces\", \"attachment_forces\"");
+                           "\"pin_forces\", \"attachment_forces\", \"contact_forces\"");
         s->fields = 0;
         for (const cJSON *e = fl->child; e; e = e->next) {
             int found = -1;
-            for (int i = 0; i < 4; ++i)
+            for (int i = 0; i < 5; ++i)
                 if (cJSON_IsString(e) && !strcmp(e->valuestring, names[i])) found = i;
             if (found < 0)
                 return sj_fail(c, e, "output.fields: unknown field (known: \"stress\", "
-                               "\"displacement\", \"pin_forces\", \"attachment_forces\")");
+                               "\"displacement\", \"pin_forces\", \"attachment_forces\", "
+                               "\"contact_forces\")");
             s->fields |= 1u << found;
         }
     }

@@ -42,7 +42,8 @@ enum {
     SCENE_FIELD_STRESS = 1,             /* cell data: cauchy_stress (9), von_mises, energy_density */
     SCENE_FIELD_DISPLACEMENT = 2,       /* point data: displacement */
     SCENE_FIELD_PIN_FORCES = 4,         /* point data: pin_force (reaction of each pin, N) */
-    SCENE_FIELD_ATTACHMENT_FORCES = 8   /* point data: attachment_force (N, on the vertex) */
+    SCENE_FIELD_ATTACHMENT_FORCES = 8,  /* point data: attachment_force (N, on the vertex) */
+    SCENE_FIELD_CONTACT_FORCES = 16     /* point data: contact_force (N, colliders and bodies) */
 };
 
 /* A keyframed rigid motion: keys (t, translation, rotation about an axis through a centre),
@@ -170,6 +171,8 @@ typedef struct scene {
     int has_color_range;
     double color_range[2];  /* fixed colour scale (Pa or m); else each frame 0 .. its maximum */
     unsigned fields;        /* SCENE_FIELD_* written into VTK frames */
+    int contact_arrows;     /* rendered frames draw the contact forces as arrows */
+    double arrow_scale;     /* m per N of those arrows; 0: the largest is 25 % of the scene */
     scene_collider *colliders;
     int32_t ncolliders;
     int32_t vertex_count;   /* sum over bodies */

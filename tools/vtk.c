@@ -52,6 +52,29 @@ int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t of
     return 0;
 }
 
+int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int64_t *offsets,
+                    const int64_t *conn, int64_t *nconn, char *err, size_t errsz)
+{
+    int64_t prev = 0;
+    for (int64_t c = 0; c < ncells; ++c) {
+        const int k = types[c] == VTK_LINE ? 2 : types[c] == VTK_TRIANGLE ? 3
+                      : types[c] == VTK_TETRA ? 4 : 0;
+        if (!k)
+            return set_err(err, errsz, "cell %lld: type %d is not a line (3), triangle (5) or "
+                           "tet (10)", (long long)c, (int)types[c]);
+        if (offsets[c] - prev != k)
+            return set_err(err, errsz, "cell %lld: offsets give %lld vertices, its type %d",
+                           (long long)c, (long long)(offsets[c] - prev), k);
+        for (int64_t j = prev; j < offsets[c]; ++j)
+            if (conn[j] < 0 || conn[j] >= nv)
+                return set_err(err, errsz, "cell %lld: vertex %lld out of range [0, %d)",
+                               (long long)c, (long long)conn[j], (int)nv);
+        prev = offsets[c];
+    }
+    *nconn = prev;
+    return 0;
+}
+
 void vtk_cells_free(vtk_cells *c)
 {
     free(c->conn); free(c->offsets); free(c->types); free(c->body);
@@ -158,9 +181,10 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
                 array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
         fprintf(f, "      </PointData>\n");
     }
-    fprintf(f, "      <CellData Scalars=\"body\">\n"
-               "        <DataArray type=\"Int32\" Name=\"body\" format=\"appended\" "
-               "offset=\"%llu\"/>\n", (unsigned long long)o_body);
+    const char *tag = c->tag ? c->tag : "body";
+    fprintf(f, "      <CellData Scalars=\"%s\">\n"
+               "        <DataArray type=\"Int32\" Name=\"%s\" format=\"appended\" "
+               "offset=\"%llu\"/>\n", tag, tag, (unsigned long long)o_body);
     for (int k = 0; k < n_extra; ++k)
         if (extra[k].cell)
             array_tag(f, array_type(&extra[k]), extra[k].name, extra[k].components, o_extra[k]);
@@ -193,20 +217,42 @@ int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v
     return tools_tmp_commit(f, tmp, path, ok, err, errsz);
 }
 
-int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
-                  char *err, size_t errsz)
+/* An index of datasets (atomically): a .pvd collection (times: each entry's timestep) or a
+ * .vtm multiblock (names: each entry's block name). */
+static int write_index(const char *path, const char *type, const char *version, const char *tag,
+                       int n, const char *const *names, const double *times,
+                       const char *const *files, char *err, size_t errsz)
 {
     char tmp[2200];
     FILE *f = tools_tmp_open(path, tmp, sizeof tmp, err, errsz);
     if (!f) return -1;
     fprintf(f, "<?xml version=\"1.0\"?>\n"
-               "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"%s\">\n"
-               "  <Collection>\n", little_endian() ? "LittleEndian" : "BigEndian");
-    for (int i = 0; i < n; ++i)
-        fprintf(f, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n",
-                times[i], files[i]);
-    fputs("  </Collection>\n</VTKFile>\n", f);
+               "<VTKFile type=\"%s\" version=\"%s\" byte_order=\"%s\">\n"
+               "  <%s>\n", type, version, little_endian() ? "LittleEndian" : "BigEndian", tag);
+    for (int i = 0; i < n; ++i) {
+        if (times)
+            fprintf(f, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n",
+                    times[i], files[i]);
+        else
+            fprintf(f, "    <DataSet index=\"%d\" name=\"%s\" file=\"%s\"/>\n", i, names[i],
+                    files[i]);
+    }
+    fprintf(f, "  </%s>\n</VTKFile>\n", tag);
     return tools_tmp_commit(f, tmp, path, 1, err, errsz);
+}
+
+int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
+                  char *err, size_t errsz)
+{
+    return write_index(path, "vtkMultiBlockDataSet", "1.0", "vtkMultiBlockDataSet", n, names,
+                       NULL, files, err, errsz);
+}
+
+int vtk_write_pvd(const char *path, int n, const double *times, const char *const *files,
+                  char *err, size_t errsz)
+{
+    return write_index(path, "Collection", "0.1", "Collection", n, NULL, times, files, err,
+                       errsz);
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -358,16 +404,17 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     px = pconn = poff = ptyp = pbody = NULL;
     /* Optional arrays the renderer colours by or draws; a wrong size is an error, absence is
      * not. */
-    uint64_t bvm = 0, bdisp = 0, bvel = 0, bpin = 0;
+    uint64_t bvm = 0, bdisp = 0, bvel = 0, bpin = 0, bcf = 0;
     out->von_mises = (double *)block(buf, data, end, base64, "von_mises", &bvm, &bad);
     out->displacement = (double *)block(buf, data, end, base64, "displacement", &bdisp, &bad);
     out->velocity = (double *)block(buf, data, end, base64, "velocity", &bvel, &bad);
     out->pinned = block(buf, data, end, base64, "pinned", &bpin, &bad);
+    out->contact_force = (double *)block(buf, data, end, base64, "contact_force", &bcf, &bad);
     if (bad || (out->von_mises && bvm != (uint64_t)nc * 8) ||
         (out->displacement && bdisp != bx) || (out->velocity && bvel != bx) ||
-        (out->pinned && bpin != (uint64_t)nv)) {
-        set_err(err, errsz, "%s: von_mises, displacement, velocity or pinned is malformed or "
-                            "has the wrong size", path);
+        (out->pinned && bpin != (uint64_t)nv) || (out->contact_force && bcf != bx)) {
+        set_err(err, errsz, "%s: von_mises, displacement, velocity, pinned or contact_force is "
+                            "malformed or has the wrong size", path);
         goto done;
     }
     int64_t prev = 0;
@@ -403,6 +450,7 @@ void vtk_frame_free(vtk_frame *f)
     free(f->displacement);
     free(f->velocity);
     free(f->pinned);
+    free(f->contact_force);
     vtk_cells_free(&f->cells);
     memset(f, 0, sizeof *f);
 }

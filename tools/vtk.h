@@ -19,6 +19,7 @@ typedef struct vtk_cells {
     uint8_t *types;     /* VTK_* per cell */
     int32_t *body;      /* body index per cell */
     int64_t ncells, nconn;
+    const char *tag;    /* name of the cell data `body` holds: NULL for "body" */
 } vtk_cells;
 
 /* A frame read back: positions, cells and the arrays the renderer can colour by. */
@@ -31,6 +32,7 @@ typedef struct vtk_frame {
     double *displacement;   /* NULL, or 3 nv (point data "displacement", m) */
     double *velocity;       /* NULL, or 3 nv (point data "velocity", m/s) */
     uint8_t *pinned;        /* NULL, or nv (point data "pinned": 1 pinned or driven, 0 free) */
+    double *contact_force;  /* NULL, or 3 nv (point data "contact_force", N) */
 } vtk_frame;
 
 /* An extra data array of a frame: per point (`cell` 0, nv tuples) or per cell; Float64 from
@@ -43,6 +45,12 @@ typedef struct vtk_array {
     const uint8_t *u8;      /* NULL, or components * tuples bytes (flags) */
 } vtk_array;
 
+/* Checks cells given as VTK's arrays: each type a line, triangle or tet, offsets that give it
+ * its vertex count, vertex indices in [0, nv). *nconn receives the length of conn. Returns 0,
+ * or -1 with the first fault in err. */
+int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int64_t *offsets,
+                    const int64_t *conn, int64_t *nconn, char *err, size_t errsz);
+
 /* Appends cells of one type (k vertices each, body-local indices + offset) for a body. */
 int vtk_cells_add(vtk_cells *c, const int32_t *idx, int64_t n, int k, int32_t offset, uint8_t type,
                   int32_t body);
@@ -52,6 +60,11 @@ void vtk_cells_free(vtk_cells *c);
  * n_extra point or cell data arrays. Returns 0, or -1 with a message in err. */
 int vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
                   const vtk_cells *c, double time, const vtk_array *extra, int n_extra,
+                  char *err, size_t errsz);
+
+/* Writes a .vtm multiblock (atomically) of n blocks: each a name and a file (relative to the
+ * .vtm's folder). */
+int vtk_write_vtm(const char *path, int n, const char *const *names, const char *const *files,
                   char *err, size_t errsz);
 
 /* Writes a .pvd collection of n datasets (atomically). */

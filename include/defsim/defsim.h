@@ -1082,6 +1082,23 @@ DEFSIM_API int32_t defsim_world_attachment_count(const defsim_world *world);
 DEFSIM_API defsim_status defsim_world_attachment_at(const defsim_world *world, int32_t i,
                                                     defsim_attachment_id *out);
 
+/* ------------------------------------------------------------------------------------------ */
+/* What a writer of frames reads back (issue 28): the pins and the attachments as the world   */
+/* holds them.                                                                                */
+
+/// The pinned flags, n bytes, n = the world's vertex count: 1 for a pinned (or driven) vertex,
+/// 0 for a free one. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, n mismatch).
+DEFSIM_API defsim_status defsim_world_get_pinned(const defsim_world *world, uint8_t *out,
+                                                 int32_t n);
+
+/// The def of a live attachment as the world holds it now (with defaults filled in, and the
+/// target that defsim_attachment_set_target last gave). out->size must be
+/// sizeof(defsim_attachment_def). Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, size),
+/// DEFSIM_ERR_STALE_ID.
+DEFSIM_API defsim_status defsim_world_get_attachment(const defsim_world *world,
+                                                     defsim_attachment_id attachment,
+                                                     defsim_attachment_def *out);
+
 #ifdef __cplusplus
 }
 #endif

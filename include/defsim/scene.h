@@ -173,6 +173,62 @@ DEFSIM_API defsim_status defsim_vtk_write_pvd(const char *path, int32_t count,
                                               const double *times, const char *const *files,
                                               char *err, size_t errsz);
 
+/* A world's frame, the whole scene (issue 28): what `defsim run` writes per frame. */
+
+/// What defsim_vtk_write_world writes beyond positions, velocities and body tags (bits).
+typedef enum defsim_vtk_field {
+    DEFSIM_VTK_STRESS = 1,            ///< Cell data cauchy_stress (9), von_mises, energy_density.
+    DEFSIM_VTK_DISPLACEMENT = 2,      ///< Point data displacement (m, from `reference`).
+    DEFSIM_VTK_PIN_FORCES = 4,        ///< Point data pin_force (N); with any pin also "pinned".
+    DEFSIM_VTK_ATTACHMENT_FORCES = 8, ///< Point data attachment_force (N).
+    DEFSIM_VTK_CONTACT_FORCES = 16,   ///< Point data contact_force (N, colliders + body contact).
+    DEFSIM_VTK_COLLIDERS = 32,        ///< The colliders' geometry and the .vtm (see below).
+    DEFSIM_VTK_ALL = 63
+} defsim_vtk_field;
+
+/// How defsim_vtk_write_world writes a frame. Fill with defsim_vtk_frame_def_init. Arrays are
+/// borrowed for the call.
+typedef struct defsim_vtk_frame_def {
+    uint32_t size;              ///< sizeof(defsim_vtk_frame_def), set by the init function.
+    int64_t cell_count;         ///< Cells of the bodies, as for defsim_vtk_write_vtu:
+    const uint8_t *types;       ///< defsim_vtk_cell per cell,
+    const int64_t *offsets;     ///< the end of each cell in conn,
+    const int64_t *conn;        ///< world vertex indices,
+    const int32_t *body;        ///< the body (index in vertex order) of each cell: each body's
+                                ///< cells in one run, in body order; its tets in its tets' order.
+    const double *reference;    ///< 3 nv positions that displacement is measured from; NULL:
+                                ///< no displacement array.
+    uint32_t fields;            ///< defsim_vtk_field bits. Default DEFSIM_VTK_ALL. A field the
+                                ///< world cannot have (stress without tets, pin forces without
+                                ///< pins, ...) is left out.
+    double plane_center[3];     ///< Planes are drawn as squares about the point of the plane
+    double plane_half;          ///< nearest plane_center, of half side plane_half (m); 0
+                                ///< (default): sized to the scene now (the bounds of the bodies
+                                ///< and of the other colliders, half side twice their largest side).
+} defsim_vtk_frame_def;
+
+/// Fills *def with defaults (no cells, no reference, all fields, planes sized to the scene).
+/// Does nothing if def is NULL.
+DEFSIM_API void defsim_vtk_frame_def_init(defsim_vtk_frame_def *def, size_t size);
+
+/// Writes the world's current state as `defsim run` writes a frame, with the same code: `path`
+/// (ending in ".vtu") the bodies (points, cells, velocity, the fields asked for at the current
+/// state), and with DEFSIM_VTK_COLLIDERS and a world that has colliders also
+/// `<path without .vtu>_colliders.vtu` (each collider's geometry at its current pose: spheres,
+/// capsules, boxes and meshes tessellated, planes as squares, an SDF as its bounds box's edges;
+/// cell data "collider" (its index, defsim_world_get_collider) and "shape") and the multiblock
+/// `<path without .vtu>.vtm` holding both (blocks "bodies" and "colliders"), all atomically.
+/// `time` is the frame's field data TimeValue (s). `plane_out` (4 doubles: centre, half side;
+/// may be NULL) receives the square used for planes, for the next frames of a series. `*vtm`
+/// (may be NULL) receives 1 when the .vtm was written. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL,
+/// a def of the wrong size, a path not ending in ".vtu", cells as defsim_vtk_write_vtu refuses
+/// them, body tags not the world's bodies in order, a body's tet count other than its cells');
+/// DEFSIM_ERR_IO; DEFSIM_ERR_OUT_OF_MEMORY; with the reason in `err` (may be NULL).
+DEFSIM_API defsim_status defsim_vtk_write_world(const char *path, defsim_world *world,
+                                                const defsim_vtk_frame_def *def, double time,
+                                                double *plane_out, int32_t *vtm, char *err,
+                                                size_t errsz);
+
 #ifdef __cplusplus
 }
 #endif

@@ -40,6 +40,23 @@ if(pvd MATCHES "frame_00002")
   message(FATAL_ERROR "the .pvd still lists frame 2")
 endif()
 
+# With a collider (issue 28): each frame's colliders .vtu and .vtm, the scene's .pvd of the
+# .vtm, the final state's three files; a reused folder is cleared of all of them (17 files),
+# and a user's file that only looks like one stays.
+set(ground "colliders=[{\"shape\": \"plane\", \"position\": [0, -5, 0]}]")
+run("${DEFSIM}" run "${SCENE}" --out "${OUT}/f" --progress none --set world.duration=0.09
+    --set "${ground}")
+expect_files("${OUT}/f" "frame_*.vtm" "frame_00000.vtm;frame_00001.vtm;frame_00002.vtm;frame_00003.vtm")
+expect_files("${OUT}/f" "*_colliders.vtu" "final_colliders.vtu;frame_00000_colliders.vtu;frame_00001_colliders.vtu;frame_00002_colliders.vtu;frame_00003_colliders.vtu")
+expect_files("${OUT}/f" "*.pvd" "rope.pvd;rope_scene.pvd")
+expect_files("${OUT}/f" "final.*" "final.vtm;final.vtu")
+file(WRITE "${OUT}/f/frame_1a_colliders.vtu" "the user's own file\n")
+run("${DEFSIM}" run "${SCENE}" --out "${OUT}/f" --progress lines --set world.duration=0.03
+    --set "${ground}")
+expect_output("removed 17 files of an earlier run")
+expect_files("${OUT}/f" "frame_*.vtm" "frame_00000.vtm;frame_00001.vtm")
+expect_files("${OUT}/f" "frame_1a_colliders.vtu" "frame_1a_colliders.vtu")
+
 # --no-vtk: no .vtu and no .pvd at all; --vtk final: only final.vtu.
 run("${DEFSIM}" run "${SCENE}" --out "${OUT}/b" --progress lines --set world.duration=0.06 --no-vtk)
 expect_files("${OUT}/b" "*.vtu" "")

@@ -58,7 +58,7 @@ typedef struct fx {
     int32_t spring01[2], spring05[2];
     double kneg[1];
     defsim_attachment_def adef, adef_foreign, adef_stale_target, adef_nan_k, adef_weights,
-        adef_size0, adef_badvertex;
+        adef_size0, adef_badvertex, adef_out;
     defsim_world_def wdef, wdef_size0, wdef_nan_g, wdef_backend, wdef_threads, wdef_nobackend;
     defsim_world *out_world;
     void *data;
@@ -446,7 +446,18 @@ static uint64_t alien_bytes[64];
     BADW(X, defsim_world_attachment_at, INVALID, 0, &f->att_out)                                \
     X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, -1, &f->att_out)) \
     X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, 1000, &f->att_out)) \
-    X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, 0, NULL))
+    X(CTX_DIRECT, 0, defsim_world_attachment_at, INVALID, defsim_world_attachment_at(f->w, 0, NULL)) \
+    /* what writers of frames read back (issue 28) */                                           \
+    BADW(X, defsim_world_get_pinned, INVALID, (uint8_t *)f->buf, f->nv)                         \
+    X(CTX_DIRECT, 0, defsim_world_get_pinned, INVALID, defsim_world_get_pinned(f->w, NULL, f->nv)) \
+    X(CTX_DIRECT, 0, defsim_world_get_pinned, INVALID, defsim_world_get_pinned(f->w, (uint8_t *)f->buf, f->nv + 1)) \
+    X(CTX_FORCE, 0, defsim_world_get_pinned, OK, defsim_world_get_pinned(f->w, (uint8_t *)f->buf, f->nv)) \
+    BADW(X, defsim_world_get_attachment, INVALID, f->att, &f->adef_out)                         \
+    X(CTX_DIRECT, 0, defsim_world_get_attachment, INVALID, defsim_world_get_attachment(f->w, f->att, NULL)) \
+    X(CTX_DIRECT, 0, defsim_world_get_attachment, INVALID, defsim_world_get_attachment(f->w, f->att, &f->adef_size0)) \
+    X(CTX_DIRECT, 0, defsim_world_get_attachment, STALE, defsim_world_get_attachment(f->w, f->att_null, &f->adef_out)) \
+    X(CTX_DIRECT, 0, defsim_world_get_attachment, STALE, defsim_world_get_attachment(f->w, f->att_foreign, &f->adef_out)) \
+    X(CTX_LOG, 0, defsim_world_get_attachment, OK, defsim_world_get_attachment(f->w, f->att, &f->adef_out))
 
 typedef struct row {
     int ctx, flags;
@@ -643,6 +654,7 @@ static int setup(void **state)
     f->adef_badvertex.vertex = 1000;
     f->adef_size0 = f->adef;
     f->adef_size0.size = 0;
+    defsim_attachment_def_init(&f->adef_out, sizeof f->adef_out);
 
     f->cdef_size0 = f->cdef;
     f->cdef_size0.size = 0;

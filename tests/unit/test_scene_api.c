@@ -209,6 +209,110 @@ static void test_vtk(void **state)
     free(names[0]); free(names); free(t);
 }
 
+/* defsim_vtk_write_world: a tet with a pinned vertex above a plane and a turned capsule; misuse
+ * answered before anything is written; the bodies' frame, the colliders' and the .vtm. */
+static void test_vtk_world(void **state)
+{
+    (void)state;
+    char path[1200], err[512];
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    defsim_world *w = NULL;
+    assert_int_equal(defsim_world_create(&wd, &w), DEFSIM_OK);
+    const double x[12] = {0, 1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 1};
+    const int32_t tet[4] = {0, 1, 2, 3};
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = x;
+    bd.vertex_count = 4;
+    bd.tets = tet;
+    bd.tet_count = 1;
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STVK);
+    defsim_body_id b;
+    assert_int_equal(defsim_world_add_body(w, &bd, &b), DEFSIM_OK);
+    const int32_t pin = 2;
+    assert_int_equal(defsim_body_pin(w, b, &pin, 1), DEFSIM_OK);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    assert_int_equal(defsim_world_add_collider(w, &cd, NULL), DEFSIM_OK);
+    cd.shape = DEFSIM_SHAPE_CAPSULE;
+    cd.position[0] = 3.0;
+    cd.rotation[0] = cd.rotation[3] = sqrt(0.5);   /* 90 degrees about z: the axis along x */
+    assert_int_equal(defsim_world_add_collider(w, &cd, NULL), DEFSIM_OK);
+    assert_int_equal(defsim_world_step(w, 1e-3), DEFSIM_OK);
+
+    const uint8_t types[1] = {DEFSIM_VTK_TETRA};
+    const int64_t offsets[1] = {4}, conn[4] = {0, 1, 2, 3};
+    int32_t body[1] = {0};
+    defsim_vtk_frame_def fd;
+    defsim_vtk_frame_def_init(&fd, sizeof fd);
+    assert_int_equal(fd.fields, DEFSIM_VTK_ALL);
+    fd.cell_count = 1;
+    fd.types = types;
+    fd.offsets = offsets;
+    fd.conn = conn;
+    fd.body = body;
+    fd.reference = x;
+    double plane[4] = {0};
+    int32_t vtm = -1;
+    snprintf(path, sizeof path, "%s/w.vtk", out_dir);
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.0, plane, &vtm, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(vtm, 0);
+    snprintf(path, sizeof path, "%s/w.vtu", out_dir);
+    remove(path);   /* of an earlier run */
+    assert_int_equal(defsim_vtk_write_world(NULL, w, &fd, 0.0, NULL, NULL, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_vtk_write_world(path, NULL, &fd, 0.0, NULL, NULL, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    body[0] = 1;   /* no such body */
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.0, NULL, NULL, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    body[0] = 0;
+    const int64_t out_of_range[4] = {0, 1, 2, 4};
+    fd.conn = out_of_range;
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.0, NULL, NULL, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    fd.conn = conn;
+    fd.size = 8;
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.0, NULL, NULL, err, sizeof err),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    fd.size = sizeof fd;
+    assert_true(access(path, F_OK) != 0);   /* nothing written so far */
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.5, plane, &vtm, err, sizeof err),
+                     DEFSIM_OK);
+    assert_int_equal(vtm, 1);
+    assert_true(plane[3] > 0.0);   /* sized to the scene: bodies and the capsule */
+    vtk_frame f;
+    assert_int_equal(vtk_read_vtu(path, &f, err, sizeof err), 0);
+    assert_int_equal(f.nv, 4);
+    assert_non_null(f.pinned);
+    assert_true(f.pinned[2] == 1 && f.pinned[0] == 0);
+    assert_non_null(f.displacement);
+    assert_true(f.time == 0.5);
+    vtk_frame_free(&f);
+    char vtm_path[1200], text[2048];
+    snprintf(vtm_path, sizeof vtm_path, "%s/w.vtm", out_dir);
+    FILE *in = fopen(vtm_path, "r");
+    assert_non_null(in);
+    const size_t n = fread(text, 1, sizeof text - 1, in);
+    fclose(in);
+    text[n] = '\0';
+    assert_non_null(strstr(text, "name=\"bodies\" file=\"w.vtu\""));
+    assert_non_null(strstr(text, "name=\"colliders\" file=\"w_colliders.vtu\""));
+    snprintf(path, sizeof path, "%s/w_colliders.vtu", out_dir);
+    assert_true(access(path, R_OK) == 0);
+    /* Without DEFSIM_VTK_COLLIDERS: the bodies alone. */
+    fd.fields = DEFSIM_VTK_STRESS;
+    snprintf(path, sizeof path, "%s/v.vtu", out_dir);
+    assert_int_equal(defsim_vtk_write_world(path, w, &fd, 0.5, NULL, &vtm, err, sizeof err),
+                     DEFSIM_OK);
+    assert_int_equal(vtm, 0);
+    snprintf(path, sizeof path, "%s/v.vtm", out_dir);
+    assert_true(access(path, F_OK) != 0);
+    defsim_world_destroy(w);
+}
+
 static void test_render(void **state)
 {
     (void)state;
@@ -237,6 +341,66 @@ static void test_render(void **state)
     assert_memory_equal(head, "\x89PNG\r\n\x1a\n", 8);
     assert_int_equal((head[16] << 24) | (head[17] << 16) | (head[18] << 8) | head[19], 64);
     assert_int_equal((head[20] << 24) | (head[21] << 16) | (head[22] << 8) | head[23], 48);
+
+    /* defsim_render_world_png: a pinned tet above a plane, coloured by stress, with arrows;
+     * misuse refused before anything is drawn. */
+    defsim_world_def wd;
+    defsim_world_def_init(&wd, sizeof wd);
+    defsim_world *w = NULL;
+    assert_int_equal(defsim_world_create(&wd, &w), DEFSIM_OK);
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    const int32_t tet[4] = {0, 1, 2, 3};
+    bd.rest_positions = x;
+    bd.vertex_count = 4;
+    bd.tets = tet;
+    bd.tet_count = 1;
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STVK);
+    defsim_body_id b;
+    assert_int_equal(defsim_world_add_body(w, &bd, &b), DEFSIM_OK);
+    const int32_t pin = 0;
+    assert_int_equal(defsim_body_pin(w, b, &pin, 1), DEFSIM_OK);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.position[1] = -0.5;
+    assert_int_equal(defsim_world_add_collider(w, &cd, NULL), DEFSIM_OK);
+    assert_int_equal(defsim_world_step(w, 1e-3), DEFSIM_OK);
+    const uint8_t types[1] = {DEFSIM_VTK_TETRA};
+    const int64_t offsets[1] = {4}, conn[4] = {0, 1, 2, 3};
+    const int32_t body[1] = {0};
+    defsim_render_world_def rd;
+    defsim_render_world_def_init(&rd, sizeof rd);
+    assert_true(rd.width == 640 && rd.pins == 1 && rd.colliders == 1 && rd.gravity[1] == -9.81);
+    rd.width = 64;
+    rd.height = 48;
+    rd.cell_count = 1;
+    rd.types = types;
+    rd.offsets = offsets;
+    rd.conn = conn;
+    rd.body = body;
+    rd.color = DEFSIM_RENDER_DISPLACEMENT;   /* without a reference */
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.color = 7;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.color = DEFSIM_RENDER_STRESS;
+    rd.size = 4;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.size = sizeof rd;
+    assert_int_equal(defsim_render_world_png(path, NULL, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    const int64_t bad_conn[4] = {0, 1, 2, 9};
+    rd.conn = bad_conn;
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_ERR_INVALID_ARGUMENT);
+    rd.conn = conn;
+    rd.contact_arrows = 1;
+    remove(path);
+    assert_int_equal(defsim_render_world_png(path, w, &rd, err, sizeof err), DEFSIM_OK);
+    f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(head, 1, sizeof head, f), sizeof head);
+    fclose(f);
+    assert_memory_equal(head, "\x89PNG\r\n\x1a\n", 8);
+    assert_int_equal((head[16] << 24) | (head[17] << 16) | (head[18] << 8) | head[19], 64);
+    defsim_world_destroy(w);
 #else
     skip();
 #endif
@@ -254,6 +418,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_scene_lifecycle),
         cmocka_unit_test(test_export_round_trip),
         cmocka_unit_test(test_vtk),
+        cmocka_unit_test(test_vtk_world),
         cmocka_unit_test(test_render),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -16,6 +16,7 @@
 #include "clock.h"
 
 #include "fields.h"
+#include "frame.h"
 #include "scene.h"
 #include "vtk.h"
 #ifdef DEFSIM_HAVE_RENDER
@@ -52,7 +53,7 @@ static void usage(FILE *f)
     fprintf(f,
         "usage: defsim run SCENE.json [options]\n"
         "  --out DIR          output folder (default: the scene's name); what an earlier run\n"
-        "                     left there (frame_*.vtu/png, *.pvd, final.vtu, contact_sheet.png)\n"
+        "                     left there (frame_*.vtu/vtm/png, *.pvd, final.*, contact_sheet.png)\n"
         "                     is removed first\n"
         "  --render           also write PNG frames and a contact sheet (needs OSMesa)\n"
         "  --vtk MODE         all: .vtu frames, .pvd and final.vtu (default when the scene's\n"
@@ -64,6 +65,8 @@ static void usage(FILE *f)
         "  --color MODE       colour rendered bodies by body (default), stress (von Mises),\n"
         "                     displacement or speed, with a colour bar on one scale for the\n"
         "                     whole run (= --set output.color=MODE)\n"
+        "  --contact-forces   draw the contact forces as arrows in rendered frames\n"
+        "                     (= --set output.contact_arrows=true)\n"
         "  --set KEY=VALUE    override any scene value (e.g. world.gravity=[0,9.81,0],\n"
         "                     bodies.0.material.youngs_modulus=1e4); repeatable\n"
         "  --option NAME=VALUE  set a world option after the scene's world.options\n"
@@ -152,7 +155,7 @@ static int parse_args(int argc, char **argv, run_opts *o)
     const char *progress = "auto";
     enum { O_OUT = CLI_OPT, O_RENDER, O_NO_VTK, O_VTK, O_PROGRESS, O_SET, O_OPTION, O_SUMMARY,
            O_MAX_VERTICES, O_MAX_STEPS, O_RESUME, O_CHECKPOINT_EVERY, O_BACKEND, O_COLOR,
-           O_THREADS, O_FRAMES };
+           O_THREADS, O_FRAMES, O_CONTACT_FORCES };
     static const struct option options[] = {
         {"out", required_argument, NULL, O_OUT}, {"render", no_argument, NULL, O_RENDER},
         {"no-vtk", no_argument, NULL, O_NO_VTK}, {"vtk", required_argument, NULL, O_VTK},
@@ -166,7 +169,8 @@ static int parse_args(int argc, char **argv, run_opts *o)
         {"backend", required_argument, NULL, O_BACKEND},
         {"color", required_argument, NULL, O_COLOR},
         {"threads", required_argument, NULL, O_THREADS},
-        {"frames", required_argument, NULL, O_FRAMES}, {0}};
+        {"frames", required_argument, NULL, O_FRAMES},
+        {"contact-forces", no_argument, NULL, O_CONTACT_FORCES}, {0}};
     const cli_tool tool = {strcmp(argv[0], "run") ? argv[0] : "defsim run", usage, options, ""};
     cli c;
     cli_begin(&c, &tool, argc, argv);
@@ -176,6 +180,7 @@ static int parse_args(int argc, char **argv, run_opts *o)
         case CLI_EXIT: return c.status;
         case O_OUT: o->out_dir = v; break;
         case O_RENDER: o->render = 1; break;
+        case O_CONTACT_FORCES: o->sets[o->nsets++] = "output.contact_arrows=true"; break;
         case O_NO_VTK: o->vtk = VTK_NONE; break;
         case O_VTK:
             o->vtk = !strcmp(v, "all") ? VTK_ALL : !strcmp(v, "final") ? VTK_FINAL
@@ -249,17 +254,26 @@ static int wanted(int f, int frames, int every, const int *list, int nlist)
 /* ------------------------------------------------------------------------------------------ */
 /* Frame output: energy.csv every frame, VTK frames with their .pvd index, final.vtu */
 
-typedef struct frame_out {
-    char dir[2048], path[4200], pvd_path[4200], err[1024];
-    FILE *csv;
-    vtk_cells cells;
-    fields fl;      /* stress, displacement, pin and attachment forces: VTK data, colours */
-    char **files;   /* written .vtu frames and their times, for the .pvd */
+/* The files of a .pvd and their times. */
+typedef struct pvd_list {
+    char **files;
     double *times;
     int n, cap;
+} pvd_list;
+
+typedef struct frame_out {
+    char dir[2048], path[4200], pvd_path[4200], scene_pvd_path[4200], err[1024];
+    FILE *csv;
+    vtk_cells cells;
+    fields fl;      /* stress, displacement, pin, attachment and contact forces: VTK data, colours */
+    frame_plane plane;   /* where plane colliders are drawn (sized to the scene at the start) */
+    int colliders;  /* the scene has colliders: frames carry them, with a .vtm */
+    pvd_list bodies;     /* written .vtu frames, for <name>.pvd */
+    pvd_list scene;      /* written .vtm frames (bodies and colliders), for <name>_scene.pvd */
+    int n;          /* VTK frames written */
 } frame_out;
 
-static int pvd_add(frame_out *o, const char *file, double t)
+static int pvd_add(pvd_list *o, const char *file, double t)
 {
     if (o->n == o->cap) {
         int cap = o->cap ? 2 * o->cap : 64;
@@ -274,6 +288,14 @@ static int pvd_add(frame_out *o, const char *file, double t)
     o->files[o->n] = strdup(file);
     o->times[o->n++] = t;
     return 0;
+}
+
+static void pvd_free(pvd_list *o)
+{
+    for (int i = 0; i < o->n; ++i) free(o->files[i]);
+    free(o->files);
+    free(o->times);
+    memset(o, 0, sizeof *o);
 }
 
 /* Resuming after frame f0: keeps energy.csv's header and rows of frames 0 .. f0 (a run that
@@ -313,34 +335,44 @@ static int out_resume(frame_out *o, const scene *s, int f0, const run_opts *ro,
     double t = 0.0;
     for (int f = 0; f <= f0; ++f) {
         for (int32_t k = 0; f > 0 && k < s->frame_steps; ++k) t += s->h;
-        char name[64];
-        snprintf(name, sizeof name, "frame_%05d.vtu", f);
-        snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
-        if (s->write_vtk && wanted(f, s->frames, s->every, ro->list, ro->nlist) &&
-            access(o->path, R_OK) == 0 && pvd_add(o, name, t)) {
-            fprintf(stderr, "defsim run: out of memory\n");
-            return -1;
+        if (!s->write_vtk || !wanted(f, s->frames, s->every, ro->list, ro->nlist)) continue;
+        for (int kind = 0; kind < 2; ++kind) {
+            char name[64];
+            snprintf(name, sizeof name, kind ? "frame_%05d.vtm" : "frame_%05d.vtu", f);
+            snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
+            if (access(o->path, R_OK) == 0 && pvd_add(kind ? &o->scene : &o->bodies, name, t)) {
+                fprintf(stderr, "defsim run: out of memory\n");
+                return -1;
+            }
         }
     }
+    o->n = o->bodies.n;
     return 0;
 }
 
-/* 1 for the names defsim run writes: frame_<digits>.vtu / .png, *.pvd, final.vtu,
+/* 1 for the names defsim run writes: frame_<digits>.vtu / .vtm / .png,
+ * frame_<digits>_colliders.vtu, *.pvd, final.vtu / .vtm, final_colliders.vtu,
  * contact_sheet.png, and their ".tmp" files. */
 static int own_output(const char *name)
 {
     size_t n = strlen(name);
     if (n > 4 && !strcmp(name + n - 4, ".tmp")) n -= 4;
-    if ((n == 9 && !strncmp(name, "final.vtu", 9)) ||
-        (n == 17 && !strncmp(name, "contact_sheet.png", 17)) ||
-        (n > 4 && !strncmp(name + n - 4, ".pvd", 4)))
-        return 1;
+    static const char *const fixed[] = {"final.vtu", "final.vtm", "final_colliders.vtu",
+                                        "contact_sheet.png"};
+    for (int k = 0; k < 4; ++k)
+        if (n == strlen(fixed[k]) && !strncmp(name, fixed[k], n)) return 1;
+    if (n > 4 && !strncmp(name + n - 4, ".pvd", 4)) return 1;
     if (n < 11 || strncmp(name, "frame_", 6) ||
-        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".png", 4)))
+        (strncmp(name + n - 4, ".vtu", 4) && strncmp(name + n - 4, ".vtm", 4) &&
+         strncmp(name + n - 4, ".png", 4)))
         return 0;
-    for (size_t i = 6; i < n - 4; ++i)
+    size_t end = n - 4;
+    if (end > 16 && !strncmp(name + end - 10, "_colliders", 10) &&
+        !strncmp(name + n - 4, ".vtu", 4))
+        end -= 10;
+    for (size_t i = 6; i < end; ++i)
         if (name[i] < '0' || name[i] > '9') return 0;
-    return 1;
+    return end > 6;
 }
 
 /* Removes what an earlier run wrote into dir, so that a reused --out holds only this run's
@@ -383,6 +415,8 @@ static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const
     if (stale > 0 && verbose)
         printf("%s/: removed %d files of an earlier run\n", o->dir, stale);
     snprintf(o->pvd_path, sizeof o->pvd_path, "%s/%s.pvd", o->dir, s->name);
+    snprintf(o->scene_pvd_path, sizeof o->scene_pvd_path, "%s/%s_scene.pvd", o->dir, s->name);
+    o->colliders = s->ncolliders > 0;
     for (int32_t i = 0; i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         int bad = 0;
@@ -434,30 +468,39 @@ static void out_energy(frame_out *o, const scene *s, int f, double t, const defs
     fflush(o->csv);
 }
 
-/* frame_NNNNN.vtu and the .pvd index rewritten to include it. */
-static int out_vtk(frame_out *o, int f, double t, int32_t nv, const double *x, const double *v)
+/* frame_NNNNN.vtu (with the colliders: frame_NNNNN_colliders.vtu and frame_NNNNN.vtm) and the
+ * .pvd indexes rewritten to include it: <name>.pvd the bodies' frames, <name>_scene.pvd the
+ * .vtm frames. */
+static int out_vtk(frame_out *o, defsim_world *w, int f, double t, const double *x,
+                   const double *v)
 {
-    char name[64];
+    char name[64], vtm[64];
     snprintf(name, sizeof name, "frame_%05d.vtu", f);
+    snprintf(vtm, sizeof vtm, "frame_%05d.vtm", f);
     snprintf(o->path, sizeof o->path, "%s/%s", o->dir, name);
-    if (vtk_write_vtu(o->path, nv, x, v, &o->cells, t, o->fl.arrays, o->fl.narrays, o->err,
-                      sizeof o->err) ||
-        pvd_add(o, name, t) ||
-        vtk_write_pvd(o->pvd_path, o->n, o->times, (const char *const *)o->files, o->err,
-                      sizeof o->err)) {
+    int wrote_vtm = 0;
+    if (frame_write(o->path, w, x, v, &o->cells, &o->fl, t, o->colliders, &o->plane, &wrote_vtm,
+                    o->err, sizeof o->err) ||
+        pvd_add(&o->bodies, name, t) ||
+        vtk_write_pvd(o->pvd_path, o->bodies.n, o->bodies.times,
+                      (const char *const *)o->bodies.files, o->err, sizeof o->err) ||
+        (wrote_vtm && (pvd_add(&o->scene, vtm, t) ||
+                       vtk_write_pvd(o->scene_pvd_path, o->scene.n, o->scene.times,
+                                     (const char *const *)o->scene.files, o->err,
+                                     sizeof o->err)))) {
         fprintf(stderr, "defsim run: %s\n", o->err);
         return -1;
     }
+    ++o->n;
     return 0;
 }
 
-static int out_final(frame_out *o, const scene *s, defsim_world *w, int32_t nv, const double *x,
-                     const double *v)
+static int out_final(frame_out *o, defsim_world *w, const double *x, const double *v)
 {
     snprintf(o->path, sizeof o->path, "%s/final.vtu", o->dir);
-    if (fields_eval(&o->fl, s, w, o->err, sizeof o->err) ||
-        vtk_write_vtu(o->path, nv, x, v, &o->cells, defsim_world_time(w), o->fl.arrays,
-                      o->fl.narrays, o->err, sizeof o->err)) {
+    if (fields_eval(&o->fl, w, o->err, sizeof o->err) ||
+        frame_write(o->path, w, x, v, &o->cells, &o->fl, defsim_world_time(w), o->colliders,
+                    &o->plane, NULL, o->err, sizeof o->err)) {
         fprintf(stderr, "defsim run: %s\n", o->err);
         return -1;
     }
@@ -468,9 +511,8 @@ static void out_close(frame_out *o)
 {
     if (o->csv) fclose(o->csv);
     o->csv = NULL;
-    for (int i = 0; i < o->n; ++i) free(o->files[i]);
-    free(o->files);
-    free(o->times);
+    pvd_free(&o->bodies);
+    pvd_free(&o->scene);
     vtk_cells_free(&o->cells);
     fields_free(&o->fl);
 }
@@ -488,11 +530,13 @@ typedef struct png_out {
     rd_renderer *rd;
     rd_view view;
     rd_bodies bodies;     /* one part per body, with their colour buffers */
-    rd_overlay overlay;   /* pinned markers and colliders */
+    rd_overlay overlay;   /* pinned markers, contact arrows and colliders */
     FILE *spool;          /* unlinked scratch file in the output folder */
     int nspooled;
     double lo[3], hi[3], top;   /* bounds of the bodies and largest colour value over the run */
+    double fmax;                /* largest contact force over the run (N), for the arrows */
     double *x, *vec, *cell;     /* one spooled frame: positions, |vec| colours, cell colours */
+    double *force;              /* and its contact forces, with output.contact_arrows */
     double *poses;              /* 7 per collider: position, rotation */
     image frame;
     image thumbs[SHEET_MAX];
@@ -508,12 +552,13 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     p->x = malloc(3 * (size_t)fl->nv * sizeof *p->x + 1);
     p->vec = malloc(3 * (size_t)fl->nv * sizeof *p->vec + 1);
     p->cell = malloc((size_t)(fl->ncells + 1) * sizeof *p->cell);
+    p->force = malloc(3 * (size_t)fl->nv * sizeof *p->force + 1);
     p->poses = malloc(7 * (size_t)(defsim_world_collider_count(w) + 1) * sizeof *p->poses);
     p->frame.width = s->width;
     p->frame.height = s->height;
     p->frame.rgb = malloc((size_t)s->width * s->height * 3);
     rd_body_src *src = calloc((size_t)s->nbodies + 1, sizeof *src);
-    int bad = !p->x || !p->vec || !p->cell || !p->poses || !p->frame.rgb || !src;
+    int bad = !p->x || !p->vec || !p->cell || !p->force || !p->poses || !p->frame.rgb || !src;
     for (int32_t i = 0; !bad && i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
         src[i] = (rd_body_src){b->offset, b->mesh.tets, b->mesh.tet_count, fl->cell_offset[i],
@@ -581,6 +626,8 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
         }
     p->top = fmax(p->top, rd_color_top((scene_color)s->color, p->bodies.parts, p->bodies.nparts,
                                        p->bodies.tri_cell, fl->von_mises, vec, nv));
+    const double *force = s->contact_arrows ? fl->contact_force : NULL;
+    p->fmax = fmax(p->fmax, rd_force_max(force, nv));
     if (!keep) return 0;
     int ok = fwrite(&f, sizeof f, 1, p->spool) == 1 && fwrite(&t, sizeof t, 1, p->spool) == 1 &&
              fwrite(&nc, sizeof nc, 1, p->spool) == 1 &&
@@ -591,6 +638,7 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
     if (ok && s->color == SCENE_COLOR_STRESS && fl->von_mises)
         ok = fwrite(fl->von_mises, sizeof(double), (size_t)fl->ncells, p->spool) ==
              (size_t)fl->ncells;
+    if (ok && force) ok = fwrite(force, sizeof *force, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
     if (!ok) {
         fprintf(stderr, "defsim run: render: cannot write the frame spool: %s\n", strerror(errno));
         return -1;
@@ -600,13 +648,16 @@ static int png_spool(png_out *p, const scene *s, const fields *fl, defsim_world 
 }
 
 /* Renders one spooled frame into p->frame: bodies coloured on the run's scale, pinned
- * markers, colliders at the frame's poses, the colour bar and the time. */
+ * markers, contact arrows, colliders at the frame's poses, the colour bar and the time. */
 static int png_draw(png_out *p, const scene *s, const fields *fl, defsim_world *w,
-                    const double *x, const double *vec, const double *cell, int32_t nc,
-                    const double *poses, double t)
+                    const double *x, const double *vec, const double *cell,
+                    const double *force, int32_t nc, const double *poses, double t)
 {
-    const rd_frame_data d = {(scene_color)s->color, s, p->top, vec, cell, fl->pinned, poses, nc, t,
-                             NULL};
+    const rd_frame_data d = {.mode = (scene_color)s->color, .s = s, .top = p->top, .vec = vec,
+                             .cell = cell, .pinned = fl->pinned, .poses = poses, .ncolliders = nc,
+                             .time = t, .force = force,
+                             .arrow_scale = rd_arrow_scale(s->arrow_scale, p->fmax, p->lo, p->hi),
+                             .force_max = p->fmax};
     return rd_draw_frame(p->rd, &p->bodies, &p->overlay, &p->view, w, x, &d, p->frame.rgb,
                          p->err, sizeof p->err);
 }
@@ -640,6 +691,9 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
         if (ok && cell)
             ok = fread(p->cell, sizeof *p->cell, (size_t)fl->ncells, p->spool) ==
                  (size_t)fl->ncells;
+        const int force = s->contact_arrows && fl->contact_force;
+        if (ok && force)
+            ok = fread(p->force, sizeof *p->force, 3 * (size_t)nv, p->spool) == 3 * (size_t)nv;
         char path[4200];
         snprintf(path, sizeof path, "%s/frame_%05d.png", dir, f);
         if (!ok) {
@@ -648,7 +702,7 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
         } else if (png_draw(p, s, fl, w, p->x,
                             vec && (s->color == SCENE_COLOR_SPEED || fl->displacement) ? p->vec
                                                                                         : NULL,
-                            cell ? p->cell : NULL, nc, p->poses, t) ||
+                            cell ? p->cell : NULL, force ? p->force : NULL, nc, p->poses, t) ||
                    image_write_png(path, &p->frame, p->err, sizeof p->err)) {
             rc = -1;
         } else {
@@ -676,6 +730,7 @@ static int png_close(png_out *p, const scene *s, const fields *fl, defsim_world 
     free(p->x);
     free(p->vec);
     free(p->cell);
+    free(p->force);
     free(p->poses);
     rd_overlay_free(&p->overlay);
     rd_destroy(p->rd);
@@ -918,8 +973,9 @@ int run_main(int argc, char **argv)
     const unsigned need =
         (s.write_vtk || write_final ? s.fields : 0u) |
         (s.write_png && s.color == SCENE_COLOR_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
-        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u);
-    if (r.rc == 0 && fields_init(&out.fl, &s, w, need, out.err, sizeof out.err)) {
+        (s.write_png && s.color == SCENE_COLOR_DISPLACEMENT ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u) |
+        (s.write_png && s.contact_arrows ? (unsigned)SCENE_FIELD_CONTACT_FORCES : 0u);
+    if (r.rc == 0 && fields_init(&out.fl, w, &out.cells, need, out.err, sizeof out.err)) {
         fprintf(stderr, "defsim run: %s\n", out.err);
         r.rc = 1;
     }
@@ -929,6 +985,8 @@ int run_main(int argc, char **argv)
         memcpy(out.fl.x0 + 3 * (int64_t)b->offset, b->initial ? b->initial : b->mesh.positions,
                3 * (size_t)b->mesh.vertex_count * sizeof *out.fl.x0);
     }
+    /* Planes are drawn as squares sized to the scene at its start (also when resuming). */
+    if (r.rc == 0) frame_plane_extent(w, out.fl.x0, &out.plane);
 #ifdef DEFSIM_HAVE_RENDER
     if (r.rc == 0 && s.write_png && png_open(&png, &s, &o, &out.fl, out.dir, w)) r.rc = 1;
 #endif
@@ -983,9 +1041,9 @@ int run_main(int argc, char **argv)
         out_energy(&out, &s, f, t, &r.e, x);
         r.last_frame = f;
         const int written = wanted(f, s.frames, s.every, o.list, o.nlist);
-        const int colours = s.write_png && s.color != SCENE_COLOR_BODY;
+        const int colours = s.write_png && (s.color != SCENE_COLOR_BODY || s.contact_arrows);
         if ((written || colours) && (s.write_vtk || s.write_png) &&
-            fields_eval(&out.fl, &s, w, out.err, sizeof out.err)) {
+            fields_eval(&out.fl, w, out.err, sizeof out.err)) {
             fprintf(stderr, "defsim run: frame %d: %s\n", f, out.err);
             r.rc = 1;
             break;
@@ -993,7 +1051,7 @@ int run_main(int argc, char **argv)
         if (written && s.write_vtk) {
             const double t0 = tools_now();
             defsim_world_get_velocities(w, v, nv);
-            if (out_vtk(&out, f, t, nv, x, v)) { r.rc = 1; break; }
+            if (out_vtk(&out, w, f, t, x, v)) { r.rc = 1; break; }
             r.t_out += tools_now() - t0;
         }
 #ifdef DEFSIM_HAVE_RENDER
@@ -1021,7 +1079,7 @@ int run_main(int argc, char **argv)
         /* The final state, whatever stopped the run. */
         defsim_world_get_positions(w, x, nv);
         defsim_world_get_velocities(w, v, nv);
-        if (write_final && out_final(&out, &s, w, nv, x, v)) r.rc = 1;
+        if (write_final && out_final(&out, w, x, v)) r.rc = 1;
         r.final_vtu = write_final && r.rc == 0;
     }
 #ifdef DEFSIM_HAVE_RENDER

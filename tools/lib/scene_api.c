@@ -4,9 +4,12 @@
 #include <defsim/scene.h>
 
 #include "api_error.h"
+#include "fields.h"
+#include "frame.h"
 #include "scene.h"
 #include "vtk.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -184,6 +187,18 @@ static int good_name(const char *s)
     return 1;
 }
 
+/* Cells as defsim_vtk_write_vtu takes them (vtk_check_cells); *nconn receives the length of
+ * conn. */
+static defsim_status check_cells(int32_t nv, int64_t ncells, const uint8_t *types,
+                                 const int64_t *offsets, const int64_t *conn, int64_t *nconn,
+                                 char *err, size_t errsz)
+{
+    char msg[256];
+    if (vtk_check_cells(nv, ncells, types, offsets, conn, nconn, msg, sizeof msg))
+        return api_fail(err, errsz, DEFSIM_ERR_INVALID_ARGUMENT, "%s", msg);
+    return DEFSIM_OK;
+}
+
 defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x, const double *v,
                                    int64_t ncells, const uint8_t *types, const int64_t *offsets,
                                    const int64_t *conn, const int32_t *body, double time,
@@ -199,20 +214,8 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
         return api_fail(err, errsz, bad, "defsim_vtk_write_vtu: NULL argument or negative count "
                                      "(at most %d arrays)", MAX_ARRAYS);
     int64_t prev = 0;
-    for (int64_t c = 0; c < ncells; ++c) {
-        const int k = types[c] == DEFSIM_VTK_LINE ? 2 : types[c] == DEFSIM_VTK_TRIANGLE ? 3
-                      : types[c] == DEFSIM_VTK_TETRA ? 4 : 0;
-        if (!k) return api_fail(err, errsz, bad, "cell %lld: type %d is not a line (3), triangle (5) "
-                                             "or tet (10)", (long long)c, (int)types[c]);
-        if (offsets[c] - prev != k)
-            return api_fail(err, errsz, bad, "cell %lld: offsets give %lld vertices, its type %d",
-                        (long long)c, (long long)(offsets[c] - prev), k);
-        for (int64_t j = prev; j < offsets[c]; ++j)
-            if (conn[j] < 0 || conn[j] >= nv)
-                return api_fail(err, errsz, bad, "cell %lld: vertex %lld out of range [0, %d)",
-                            (long long)c, (long long)conn[j], (int)nv);
-        prev = offsets[c];
-    }
+    const defsim_status cst = check_cells(nv, ncells, types, offsets, conn, &prev, err, errsz);
+    if (cst != DEFSIM_OK) return cst;
     vtk_array extra[MAX_ARRAYS];
     memset(extra, 0, sizeof extra);   /* fields the tools' struct may grow stay zero */
     for (int32_t k = 0; k < count; ++k) {
@@ -233,6 +236,7 @@ defsim_status defsim_vtk_write_vtu(const char *path, int32_t nv, const double *x
     }
     /* The writer only reads the cells; the casts drop const for its struct. */
     vtk_cells cells;
+    memset(&cells, 0, sizeof cells);
     cells.conn = (int64_t *)conn;
     cells.offsets = (int64_t *)offsets;
     cells.types = (uint8_t *)types;
@@ -262,4 +266,94 @@ defsim_status defsim_vtk_write_pvd(const char *path, int32_t count, const double
     if (vtk_write_pvd(path, count, times, files, msg, sizeof msg) != 0)
         return api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
     return DEFSIM_OK;
+}
+
+void defsim_vtk_frame_def_init(defsim_vtk_frame_def *def, size_t size)
+{
+    if (!def) return;
+    defsim_vtk_frame_def d;
+    memset(&d, 0, sizeof d);
+    d.size = (uint32_t)sizeof d;
+    d.fields = DEFSIM_VTK_ALL;
+    if (size > sizeof d) size = sizeof d;
+    memcpy(def, &d, size);
+    def->size = (uint32_t)size;
+}
+
+defsim_status defsim_vtk_write_world(const char *path, defsim_world *w,
+                                     const defsim_vtk_frame_def *def, double time,
+                                     double *plane_out, int32_t *vtm, char *err, size_t errsz)
+{
+    const defsim_status bad = DEFSIM_ERR_INVALID_ARGUMENT;
+    if (err && errsz > 0) err[0] = '\0';
+    if (vtm) *vtm = 0;
+    const size_t len = path ? strlen(path) : 0;
+    if (!path || !w || !def || def->size != sizeof *def || def->cell_count < 0 ||
+        (def->cell_count > 0 && (!def->types || !def->offsets || !def->conn || !def->body)))
+        return api_fail(err, errsz, bad, "defsim_vtk_write_world: NULL argument, a def of the "
+                                     "wrong size or a negative cell count");
+    if (len < 4 || strcmp(path + len - 4, ".vtu") != 0)
+        return api_fail(err, errsz, bad, "defsim_vtk_write_world: %s does not end in .vtu", path);
+    const int32_t nv = defsim_world_vertex_count(w);
+    int64_t nconn = 0;
+    defsim_status st = check_cells(nv, def->cell_count, def->types, def->offsets, def->conn,
+                                   &nconn, err, errsz);
+    if (st != DEFSIM_OK) return st;
+    vtk_cells cells;
+    memset(&cells, 0, sizeof cells);
+    cells.conn = (int64_t *)def->conn;
+    cells.offsets = (int64_t *)def->offsets;
+    cells.types = (uint8_t *)def->types;
+    cells.body = (int32_t *)def->body;
+    cells.ncells = def->cell_count;
+    cells.nconn = nconn;
+    /* The fields as defsim run evaluates them (fields.c), displacement from the reference. */
+    const unsigned which =
+        (def->fields & DEFSIM_VTK_STRESS ? (unsigned)SCENE_FIELD_STRESS : 0u) |
+        (def->fields & DEFSIM_VTK_DISPLACEMENT && def->reference ? (unsigned)SCENE_FIELD_DISPLACEMENT : 0u) |
+        (def->fields & DEFSIM_VTK_PIN_FORCES ? (unsigned)SCENE_FIELD_PIN_FORCES : 0u) |
+        (def->fields & DEFSIM_VTK_ATTACHMENT_FORCES ? (unsigned)SCENE_FIELD_ATTACHMENT_FORCES : 0u) |
+        (def->fields & DEFSIM_VTK_CONTACT_FORCES ? (unsigned)SCENE_FIELD_CONTACT_FORCES : 0u);
+    fields fl;
+    char msg[1024] = "";
+    double *x = malloc(3 * (size_t)nv * sizeof *x + 1), *v = malloc(3 * (size_t)nv * sizeof *v + 1);
+    if (!x || !v) {
+        free(x);
+        free(v);
+        return api_fail(err, errsz, DEFSIM_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    if (fields_init(&fl, w, &cells, which, msg, sizeof msg)) {
+        free(x);
+        free(v);
+        return api_fail(err, errsz, strstr(msg, "memory") ? DEFSIM_ERR_OUT_OF_MEMORY : bad, "%s",
+                        msg);
+    }
+    if (def->reference) memcpy(fl.x0, def->reference, 3 * (size_t)nv * sizeof *fl.x0);
+    frame_plane plane;
+    if (def->plane_half > 0.0 && isfinite(def->plane_half)) {
+        memcpy(plane.centre, def->plane_center, sizeof plane.centre);
+        plane.half = def->plane_half;
+    } else {
+        frame_plane_extent(w, NULL, &plane);
+    }
+    int wrote_vtm = 0;
+    st = DEFSIM_OK;
+    if (defsim_world_get_positions(w, x, nv) != DEFSIM_OK ||
+        defsim_world_get_velocities(w, v, nv) != DEFSIM_OK)
+        st = api_fail(err, errsz, bad, "%s", defsim_world_last_error(w));
+    else if (fields_eval(&fl, w, msg, sizeof msg))
+        st = api_fail(err, errsz, bad, "%s", msg);
+    else if (frame_write(path, w, x, v, &cells, &fl, time,
+                         (def->fields & DEFSIM_VTK_COLLIDERS) != 0, &plane, &wrote_vtm, msg,
+                         sizeof msg))
+        st = api_fail(err, errsz, DEFSIM_ERR_IO, "%s", msg);
+    fields_free(&fl);
+    free(x);
+    free(v);
+    if (st == DEFSIM_OK && plane_out) {
+        memcpy(plane_out, plane.centre, sizeof plane.centre);
+        plane_out[3] = plane.half;
+    }
+    if (st == DEFSIM_OK && vtm) *vtm = wrote_vtm;
+    return st;
 }

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
-/* The bodies of a world as the renderer's parts, and one frame of them with its colours,
- * markers, colliders, colour bar and time: defsim run's PNG frames and the viewer's window. */
+/* The bodies of a world (or of a frame's cells) as the renderer's parts, and one frame of them
+ * with its colours, markers, contact arrows, colliders, colour bar and time: defsim run's and
+ * defsim-render's PNG frames, defsim_render_world_png and the viewer's window. */
 #include "render.h"
 
 #include <stdio.h>
@@ -81,11 +82,19 @@ int rd_draw_frame(rd_renderer *r, rd_bodies *b, rd_overlay *overlay, const rd_vi
     int ground_plane = -1;
     static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f}, collider_rgb[3] = {0.6f, 0.6f, 0.64f};
     if (rd_overlay_begin(overlay, x, b->nv) ||
-        rd_overlay_markers(overlay, d->pinned, 2.5 * view.line_radius, marker_rgb))
+        rd_overlay_markers(overlay, d->pinned, 2.5 * view.line_radius, marker_rgb) ||
+        (d->force && rd_overlay_arrows(overlay, d->force, d->arrow_scale, d->force_max,
+                                       0.8 * view.line_radius)))
         goto oom;
-    for (int32_t i = 0; i < d->ncolliders && i < defsim_world_collider_count(w); ++i) {
+    int32_t ncol = d->ncolliders;
+    if (!d->colliders) {
+        const int32_t nw = w ? defsim_world_collider_count(w) : 0;
+        if (ncol > nw) ncol = nw;
+    }
+    for (int32_t i = 0; i < ncol; ++i) {
         defsim_collider_def c = {.size = sizeof c};
-        defsim_world_get_collider(w, i, NULL, &c);
+        if (d->colliders) c = d->colliders[i];
+        else defsim_world_get_collider(w, i, NULL, &c);
         if (d->poses) {
             memcpy(c.position, d->poses + 7 * i, 3 * sizeof(double));
             memcpy(c.rotation, d->poses + 7 * i + 3, 4 * sizeof(double));
@@ -109,5 +118,86 @@ int rd_draw_frame(rd_renderer *r, rd_bodies *b, rd_overlay *overlay, const rd_vi
     return 0;
 oom:
     snprintf(err, errsz, "out of memory");
+    return -1;
+}
+
+int rd_bodies_from_cells(rd_bodies *out, const vtk_cells *c, const scene *s, int32_t nv)
+{
+    memset(out, 0, sizeof *out);
+    int32_t nb = 0;
+    for (int64_t i = 0; i < c->ncells; ++i) if (c->body[i] + 1 > nb) nb = c->body[i] + 1;
+    rd_part *p = out->parts = calloc((size_t)nb + 1, sizeof *p);
+    int32_t **tc = out->tri_cell = calloc((size_t)nb + 1, sizeof *tc);
+    out->tri_rgb = calloc((size_t)nb + 1, sizeof *out->tri_rgb);
+    out->vertex_rgb = malloc(3 * (size_t)nv * sizeof *out->vertex_rgb + 1);
+    out->nparts = nb;
+    out->nv = nv;
+    if (!p || !tc || !out->tri_rgb || !out->vertex_rgb) goto fail;
+    for (int32_t b = 0; b < nb; ++b) {
+        int64_t nt = 0, ntri = 0, nl = 0;
+        for (int64_t i = 0; i < c->ncells; ++i)
+            if (c->body[i] == b) {
+                nt += c->types[i] == VTK_TETRA;
+                ntri += c->types[i] == VTK_TRIANGLE;
+                nl += c->types[i] == VTK_LINE;
+            }
+        int64_t *tets = malloc((size_t)(nt + 1) * 4 * sizeof *tets);
+        int32_t *tris = malloc((size_t)(ntri + 1) * 3 * sizeof *tris);
+        int32_t *lines = malloc((size_t)(nl + 1) * 2 * sizeof *lines);
+        int32_t *cell = malloc((size_t)(nt + ntri + 1) * sizeof *cell);
+        p[b].tris = tris;
+        p[b].lines = lines;
+        tc[b] = cell;
+        if (!tets || !tris || !lines || !cell) {
+            free(tets);
+            goto fail;
+        }
+        int64_t kt = 0, ktri = 0, kl = 0;
+        for (int64_t i = 0; i < c->ncells; ++i) {
+            if (c->body[i] != b) continue;
+            const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
+            if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
+            if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
+            if (c->types[i] == VTK_TETRA) cell[kt] = (int32_t)i;
+            if (c->types[i] == VTK_TRIANGLE) cell[ktri] = (int32_t)i;
+            if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
+            kt += c->types[i] == VTK_TETRA;
+            ktri += c->types[i] == VTK_TRIANGLE;
+            kl += c->types[i] == VTK_LINE;
+        }
+        if (nt > 0) {
+            free(tris);
+            int32_t n = 0;
+            p[b].tris = tris = rd_tet_surface(tets, nt, &n);
+            if (!tris) {
+                free(tets);
+                goto fail;
+            }
+            ntri = n;
+            /* The surface's triangles, mapped to their tets' cells. */
+            int32_t *t32 = malloc((size_t)(4 * nt + 1) * sizeof *t32), *of = malloc((size_t)(n + 1) * sizeof *of);
+            for (int64_t k = 0; t32 && k < 4 * nt; ++k) t32[k] = (int32_t)tets[k];
+            if (!t32 || !of || rd_triangle_tets(t32, nt, tris, n, of)) {
+                free(t32);
+                free(of);
+                free(tets);
+                goto fail;
+            }
+            for (int32_t k = 0; k < n; ++k) of[k] = of[k] >= 0 ? cell[of[k]] : -1;
+            free(t32);
+            free(cell);
+            tc[b] = cell = of;
+        }
+        free(tets);
+        p[b].ntris = (int32_t)ntri;
+        p[b].nlines = (int32_t)nl;
+        p[b].smooth = nt == 0;
+        if (s && b < s->nbodies) memcpy(p[b].color, s->bodies[b].color, sizeof p[b].color);
+        else scene_palette(b, p[b].color);
+        if (!(out->tri_rgb[b] = malloc(3 * (size_t)(ntri + 1) * sizeof **out->tri_rgb))) goto fail;
+    }
+    return 0;
+fail:
+    rd_bodies_free(out);
     return -1;
 }

@@ -5,8 +5,9 @@
  *   defsim-render SCENE.json [defsim run options]
  *       runs the scene and renders while running (same as defsim run --render --no-vtk)
  *   defsim-render RUN.pvd | FRAME.vtu ... [--scene SCENE.json] [--out DIR] [--frames LIST]
- *                 [--color body|stress|displacement|speed]
- *       renders frames written by defsim run; size, colours and camera settings come from the
+ *                 [--color body|stress|displacement|speed] [--contact-forces]
+ *       renders frames written by defsim run (--contact-forces: their contact_force arrays as
+ *       arrows, as output.contact_arrows does); size, colours and camera settings come from the
  *       scene when given; the camera and ground are fitted to the bodies over all frames, and
  *       the colour scale to the largest value over all frames
  */
@@ -35,6 +36,7 @@ static void usage(FILE *f)
     fprintf(f, "usage: defsim-render SCENE.json [defsim run options]\n"
                "       defsim-render RUN.pvd|FRAME.vtu... [--scene SCENE.json] [--out DIR]\n"
                "                     [--frames LIST] [--color body|stress|displacement|speed]\n"
+               "                     [--contact-forces]\n"
                "With a scene: runs it and renders while running (defsim run --render --no-vtk;\n"
                "defsim-render SCENE.json --help lists those options). With frames written by\n"
                "defsim run: renders them.\n"
@@ -42,87 +44,9 @@ static void usage(FILE *f)
                "  --out DIR      where the PNGs go (default: next to the frames)\n"
                "  --frames LIST  render only these frames (comma-separated indices)\n"
                "  --color MODE   body, stress (von Mises), displacement or speed\n"
+               "  --contact-forces  draw the frames' contact_force as arrows\n"
                "  -h, --help     this text\n"
                "  --version      the library's version\n");
-}
-
-/* Render parts for one frame's cells: tet boundaries, triangles, lines, per body; with
- * tri_cell, each part's triangles' cells (tet boundaries: the tet's cell) for stress colours. */
-static int parts_from_cells(const vtk_cells *c, const scene *s, rd_part **out, int *nout,
-                            int32_t ***tri_cell)
-{
-    int32_t nb = 0;
-    for (int64_t i = 0; i < c->ncells; ++i) if (c->body[i] + 1 > nb) nb = c->body[i] + 1;
-    rd_part *p = calloc((size_t)(nb > 0 ? nb : 1), sizeof *p);
-    int32_t **tc = calloc((size_t)(nb > 0 ? nb : 1), sizeof *tc);
-    if (!p || !tc) return -1;
-    *out = p;
-    *nout = nb;
-    *tri_cell = tc;
-    for (int32_t b = 0; b < nb; ++b) {
-        int64_t nt = 0, ntri = 0, nl = 0;
-        for (int64_t i = 0; i < c->ncells; ++i)
-            if (c->body[i] == b) {
-                nt += c->types[i] == VTK_TETRA;
-                ntri += c->types[i] == VTK_TRIANGLE;
-                nl += c->types[i] == VTK_LINE;
-            }
-        int64_t *tets = malloc((size_t)(nt + 1) * 4 * sizeof *tets);
-        int32_t *tris = malloc((size_t)(ntri + 1) * 3 * sizeof *tris);
-        int32_t *lines = malloc((size_t)(nl + 1) * 2 * sizeof *lines);
-        int32_t *cell = malloc((size_t)(nt + ntri + 1) * sizeof *cell);
-        if (!tets || !tris || !lines || !cell) return -1;
-        int64_t kt = 0, ktri = 0, kl = 0;
-        for (int64_t i = 0; i < c->ncells; ++i) {
-            if (c->body[i] != b) continue;
-            const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
-            if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
-            if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
-            if (c->types[i] == VTK_TETRA) cell[kt] = (int32_t)i;
-            if (c->types[i] == VTK_TRIANGLE) cell[ktri] = (int32_t)i;
-            if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
-            kt += c->types[i] == VTK_TETRA;
-            ktri += c->types[i] == VTK_TRIANGLE;
-            kl += c->types[i] == VTK_LINE;
-        }
-        if (nt > 0) {
-            free(tris);
-            int32_t n = 0;
-            tris = rd_tet_surface(tets, nt, &n);
-            if (!tris) return -1;
-            ntri = n;
-            /* The surface's triangles, mapped to their tets' cells. */
-            int32_t *t32 = malloc((size_t)(4 * nt + 1) * sizeof *t32), *of = malloc((size_t)(n + 1) * sizeof *of);
-            if (!t32 || !of) return -1;
-            for (int64_t k = 0; k < 4 * nt; ++k) t32[k] = (int32_t)tets[k];
-            if (rd_triangle_tets(t32, nt, tris, n, of)) return -1;
-            for (int32_t k = 0; k < n; ++k) of[k] = of[k] >= 0 ? cell[of[k]] : -1;
-            free(t32);
-            free(cell);
-            cell = of;
-        }
-        free(tets);
-        tc[b] = cell;
-        p[b].tris = tris;
-        p[b].ntris = (int32_t)ntri;
-        p[b].lines = lines;
-        p[b].nlines = (int32_t)nl;
-        p[b].smooth = nt == 0;
-        if (s && b < s->nbodies) memcpy(p[b].color, s->bodies[b].color, sizeof p[b].color);
-        else scene_palette(b, p[b].color);
-    }
-    return 0;
-}
-
-static void parts_free(rd_part *p, int n, int32_t **tri_cell)
-{
-    for (int i = 0; p && i < n; ++i) {
-        free((void *)p[i].tris);
-        free((void *)p[i].lines);
-        if (tri_cell) free(tri_cell[i]);
-    }
-    free(p);
-    free(tri_cell);
 }
 
 int main(int argc, char **argv)
@@ -146,6 +70,7 @@ int main(int argc, char **argv)
     /* --frames lists at most one number per two characters of the arguments. */
     size_t chars = 0;
     for (int i = 0; i < argc; ++i) chars += strlen(argv[i]) + 1;
+    int arrows = 0;
     char **inputs = calloc((size_t)argc, sizeof *inputs);
     int ninputs = 0, *list = calloc(chars / 2 + 1, sizeof *list), nlist = 0;
     if (!inputs || !list) return 1;
@@ -153,6 +78,7 @@ int main(int argc, char **argv)
     static const cli_tool tool = {"defsim-render", usage, NULL, ""};
     const cli_opt opts[] = {{"scene", CLI_STRING, &scene_path, 0, 0}, {"out", CLI_STRING, &out_dir, 0, 0},
                             {"color", CLI_STRING, &color, 0, 0}, {"frames", CLI_STRING, &frames_arg, 0, 0},
+                            {"contact-forces", CLI_FLAG, &arrows, 0, 0},
                             {0}};
     int first;
     const int parsed = cli_parse(&tool, opts, argc, argv, &first);
@@ -221,6 +147,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "defsim-render: --color must be body, stress, displacement or speed\n");
         return 2;
     }
+    if (arrows) s.contact_arrows = 1;
     const char *od = out_dir ? out_dir : dir;
     if (tools_make_dirs(od)) {
         fprintf(stderr, "defsim-render: cannot create the output folder %s: %s\n", od,
@@ -230,11 +157,11 @@ int main(int argc, char **argv)
     /* First pass: the bounds of the whole motion (camera and ground) and the largest value of
      * the colour field over every frame (one scale for all), with the parts of the first
      * frame (the cells do not change between frames). */
-    rd_part *parts = NULL;
-    int32_t **tri_cell = NULL;
-    int np = 0, rc = 0;
+    rd_bodies bodies;
+    memset(&bodies, 0, sizeof bodies);
+    int have_bodies = 0, rc = 0;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    double top = 0.0;
+    double top = 0.0, force_max = 0.0;
     for (int i = 0; i < nfiles && rc == 0; ++i) {
         vtk_frame fr;
         if (vtk_read_vtu(files[i], &fr, err, sizeof err)) {
@@ -242,8 +169,16 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        if (!parts && parts_from_cells(&fr.cells, have_scene ? &s : NULL, &parts, &np, &tri_cell)) {
-            fprintf(stderr, "defsim-render: out of memory\n");
+        if (!have_bodies) {
+            if (rd_bodies_from_cells(&bodies, &fr.cells, have_scene ? &s : NULL, fr.nv)) {
+                fprintf(stderr, "defsim-render: out of memory\n");
+                rc = 1;
+            }
+            have_bodies = 1;
+        }
+        if (rc == 0 && fr.nv != bodies.nv) {
+            fprintf(stderr, "defsim-render: %s: %d vertices, the first frame has %d\n", files[i],
+                    (int)fr.nv, (int)bodies.nv);
             rc = 1;
         }
         const double *vec = s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement;
@@ -255,9 +190,15 @@ int main(int argc, char **argv)
                     : s.color == SCENE_COLOR_SPEED ? "velocity" : "displacement");
             rc = 1;
         }
+        if (rc == 0 && s.contact_arrows && !fr.contact_force) {
+            fprintf(stderr, "defsim-render: %s: no contact_force array to draw (written by "
+                    "defsim run for scenes with colliders or body contact)\n", files[i]);
+            rc = 1;
+        }
         if (rc == 0) {
-            top = fmax(top, rd_color_top((scene_color)s.color, parts, np, tri_cell, fr.von_mises,
-                                         vec, fr.nv));
+            force_max = fmax(force_max, rd_force_max(fr.contact_force, fr.nv));
+            top = fmax(top, rd_color_top((scene_color)s.color, bodies.parts, bodies.nparts,
+                                         bodies.tri_cell, fr.von_mises, vec, fr.nv));
             for (int32_t k = 0; k < fr.nv; ++k)
                 for (int c = 0; c < 3; ++c) {
                     lo[c] = fmin(lo[c], fr.x[3 * k + c]);
@@ -267,24 +208,25 @@ int main(int argc, char **argv)
         vtk_frame_free(&fr);
     }
     if (rc) {
-        parts_free(parts, np, tri_cell);
+        rd_bodies_free(&bodies);
         return rc;
     }
     rd_view view;
     rd_view_make(&s.camera, lo, hi, s.def.gravity, (double)s.width / s.height, &view);
+    const double arrow_scale = rd_arrow_scale(s.arrow_scale, force_max, lo, hi);
     rd_renderer *rd = rd_create(s.width, s.height, s.supersample, err, sizeof err);
-    if (!rd) { fprintf(stderr, "defsim-render: %s\n", err); return 1; }
+    if (!rd) {
+        fprintf(stderr, "defsim-render: %s\n", err);
+        rd_bodies_free(&bodies);
+        return 1;
+    }
     image img = {s.width, s.height, malloc((size_t)s.width * s.height * 3)};
     image thumbs[12];
     double tt[12];
     int nthumbs = 0;
     rd_overlay overlay;
     memset(&overlay, 0, sizeof overlay);
-    float **trgb = calloc((size_t)np + 1, sizeof *trgb);
-    float *vrgb = NULL;
-    for (int k = 0; trgb && k < np; ++k)
-        if (!(trgb[k] = malloc(3 * (size_t)(parts[k].ntris + 1) * sizeof **trgb))) rc = 1;
-    if (!trgb || !img.rgb) rc = 1;
+    if (!img.rgb) rc = 1;
     for (int i = 0; i < nfiles && rc == 0; ++i) {
         const char *base = strrchr(files[i], '/');
         base = base ? base + 1 : files[i];
@@ -301,44 +243,32 @@ int main(int argc, char **argv)
         }
         char path[4200];
         snprintf(path, sizeof path, "%s/%.*s.png", od, (int)(strlen(base) - 4), base);
-        double range[2] = {0.0, 0.0};
-        float *nv_rgb = realloc(vrgb, 3 * (size_t)fr.nv * sizeof *vrgb + 1);
-        int bad = !nv_rgb;
-        if (nv_rgb) vrgb = nv_rgb;
-        if (!bad)
-            rd_color_parts((scene_color)s.color, &s, parts, np, tri_cell, fr.von_mises,
-                           s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement, fr.nv,
-                           top, vrgb, trgb, range);
-        /* Pinned vertices (the frames' "pinned" array) as markers, and with --scene the
-         * scene's colliders at their poses of the frame's time (the first plane carries the
-         * ground grid). */
-        static const float marker_rgb[3] = {0.8f, 0.12f, 0.08f};
-        static const float collider_rgb[3] = {0.6f, 0.6f, 0.64f};
-        rd_view fview = view;
-        rd_part *all = NULL;
-        if (!bad)
-            bad = rd_overlay_begin(&overlay, fr.x, fr.nv) ||
-                  rd_overlay_markers(&overlay, fr.pinned, 2.5 * view.line_radius, marker_rgb);
-        for (int32_t k = 0, ground = -1; have_scene && !bad && k < s.ncolliders; ++k) {
-            defsim_collider_def c = s.colliders[k].def;
+        int bad = fr.nv != bodies.nv;
+        if (bad) snprintf(err, sizeof err, "%d vertices, the first frame has %d", (int)fr.nv,
+                          (int)bodies.nv);
+        /* Pinned vertices (the frames' "pinned" array) as markers, the contact arrows, and
+         * with --scene the scene's colliders at their poses of the frame's time. */
+        defsim_collider_def *cols = have_scene && s.ncolliders > 0
+                                        ? malloc((size_t)s.ncolliders * sizeof *cols) : NULL;
+        if (!bad && have_scene && s.ncolliders > 0 && !cols) {
+            snprintf(err, sizeof err, "out of memory");
+            bad = 1;
+        }
+        for (int32_t k = 0; cols && k < s.ncolliders; ++k) {
+            cols[k] = s.colliders[k].def;
             if (s.colliders[k].nkeys > 0)
-                scene_collider_pose(&s.colliders[k], fr.time, c.position, c.rotation);
-            if (ground < 0 && rd_view_ground_plane(&fview, &c)) ground = k;
-            bad = rd_overlay_collider(&overlay, &c, &fview, ground == k, collider_rgb);
+                scene_collider_pose(&s.colliders[k], fr.time, cols[k].position, cols[k].rotation);
         }
-        if (!bad) bad = !(all = malloc((size_t)(np + overlay.nparts + 1) * sizeof *all));
-        if (bad) snprintf(err, sizeof err, "out of memory");
-        if (!bad) {
-            memcpy(all, parts, (size_t)np * sizeof *all);
-            memcpy(all + np, overlay.parts, (size_t)overlay.nparts * sizeof *all);
-            bad = rd_render(rd, &fview, overlay.x, all, np + overlay.nparts, img.rgb, err,
-                            sizeof err);
-        }
-        free(all);
-        if (!bad) {
-            rd_colorbar(img.rgb, s.width, s.height, (scene_color)s.color, range[0], range[1]);
-            rd_timestamp(img.rgb, s.width, s.height, fr.time);
-        }
+        const rd_frame_data d = {
+            .mode = (scene_color)s.color, .s = &s, .top = top,
+            .vec = s.color == SCENE_COLOR_SPEED ? fr.velocity : fr.displacement,
+            .cell = fr.von_mises, .pinned = fr.pinned, .ncolliders = cols ? s.ncolliders : 0,
+            .colliders = cols, .time = fr.time, .force = s.contact_arrows ? fr.contact_force : NULL,
+            .arrow_scale = arrow_scale, .force_max = force_max};
+        if (!bad)
+            bad = rd_draw_frame(rd, &bodies, &overlay, &view, NULL, fr.x, &d, img.rgb, err,
+                                sizeof err);
+        free(cols);
         if (bad || image_write_png(path, &img, err, sizeof err)) {
             fprintf(stderr, "defsim-render: %s: %s\n", files[i], err);
             rc = 1;
@@ -349,11 +279,8 @@ int main(int argc, char **argv)
         }
         vtk_frame_free(&fr);
     }
-    for (int k = 0; trgb && k < np; ++k) free(trgb[k]);
-    free(trgb);
-    free(vrgb);
     rd_overlay_free(&overlay);
-    parts_free(parts, np, tri_cell);
+    rd_bodies_free(&bodies);
     if (rc == 0 && nthumbs > 1) {
         char path[4200];
         snprintf(path, sizeof path, "%s/contact_sheet.png", od);

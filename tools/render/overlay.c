@@ -10,24 +10,6 @@
 #include <string.h>
 
 
-static void qrotate(const double q[4], const double v[3], double out[3])
-{
-    /* v + 2 w (u x v) + 2 u x (u x v), u the vector part of the unit quaternion. */
-    const double *u = q + 1, w = q[0];
-    const double t[3] = {2.0 * (u[1] * v[2] - u[2] * v[1]), 2.0 * (u[2] * v[0] - u[0] * v[2]),
-                         2.0 * (u[0] * v[1] - u[1] * v[0])};
-    out[0] = v[0] + w * t[0] + (u[1] * t[2] - u[2] * t[1]);
-    out[1] = v[1] + w * t[1] + (u[2] * t[0] - u[0] * t[2]);
-    out[2] = v[2] + w * t[2] + (u[0] * t[1] - u[1] * t[0]);
-}
-
-/* Local point p of collider c in world coordinates. */
-static void to_world(const defsim_collider_def *c, const double p[3], double out[3])
-{
-    qrotate(c->rotation, p, out);
-    for (int i = 0; i < 3; ++i) out[i] += c->position[i];
-}
-
 int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv)
 {
     for (int i = 0; i < o->nparts; ++i) {
@@ -146,98 +128,110 @@ int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const fl
     return 0;
 }
 
-/* A closed or open surface (sphere, capsule, box, mesh): the scene's tessellation of the
- * collider (scene_collider_surface, in its local frame) at the def's pose. */
-static int add_surface(rd_overlay *o, const defsim_collider_def *c, const float rgb[3])
+double rd_force_max(const double *f, int32_t n)
 {
-    scene_collider sc;
-    memset(&sc, 0, sizeof sc);
-    sc.def = *c;
-    double *lx = NULL;
-    int32_t nv = 0, nt = 0, *tri = NULL;
-    int smooth = 0, rc = scene_collider_surface(&sc, &lx, &nv, &tri, &nt, &smooth);
-    rd_part *p = rc || nt == 0 ? NULL : add_part(o, nt, 0, rgb, smooth);
-    if (!rc && nt > 0 && !p) rc = -1;
-    const int32_t first = o->nx;
-    for (int32_t k = 0; p && rc == 0 && k < nv; ++k) {
-        double w[3];
-        to_world(c, lx + 3 * (int64_t)k, w);
-        if (add_vertex(o, w) < 0) rc = -1;
+    double m = 0.0;
+    for (int32_t v = 0; f && v < n; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        m = fmax(m, sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]));
     }
-    for (int32_t t = 0; p && rc == 0 && t < nt; ++t)
-        add_tri(o, p, first + tri[3 * t], first + tri[3 * t + 1], first + tri[3 * t + 2], NULL);
-    free(lx);
-    free(tri);
-    return rc;
+    return m;
 }
 
-/* The 12 edges of the SDF's bounding box, drawn as tubes (the distance field itself is not
- * drawn: it has no surface to sample without a mesher). Unbounded SDFs draw nothing. */
-static int add_sdf_bounds(rd_overlay *o, const defsim_collider_def *c, const float rgb[3])
+double rd_arrow_scale(double given, double fmax, const double lo[3], const double hi[3])
 {
-    const double *b = c->sdf_bounds;
-    if (!(b[3] > b[0] && b[4] > b[1] && b[5] > b[2])) return 0;
-    rd_part *p = add_part(o, 0, 12, rgb, 0);
-    if (!p) return -1;
-    const int32_t first = o->nx;
-    for (int k = 0; k < 8; ++k) {
-        const double local[3] = {b[k & 1 ? 3 : 0], b[k & 2 ? 4 : 1], b[k & 4 ? 5 : 2]};
-        double w[3];
-        to_world(c, local, w);
-        if (add_vertex(o, w) < 0) return -1;
+    if (given > 0.0) return given;
+    double diag = 0.0;
+    for (int c = 0; c < 3; ++c) diag += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+    return fmax > 0.0 && isfinite(diag) ? 0.25 * sqrt(diag) / fmax : 0.0;
+}
+
+int rd_overlay_arrows(rd_overlay *o, const double *f, double scale, double fmax, double r)
+{
+    enum { SIDES = 6 };
+    static const float rgb[3] = {0.95f, 0.62f, 0.08f};
+    const double min = 0.01 * fmax;
+    int32_t n = 0;
+    for (int32_t v = 0; f && v < o->nbody; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        n += sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) > min;
     }
-    int32_t *l = (int32_t *)p->lines;
-    for (int k = 0; k < 8; ++k)
-        for (int axis = 0; axis < 3; ++axis)
-            if (!(k & (1 << axis))) {
-                l[2 * p->nlines] = first + k;
-                l[2 * p->nlines + 1] = first + (k | (1 << axis));
-                ++p->nlines;
+    if (n == 0 || !(scale > 0.0)) return 0;
+    /* Per arrow: the shaft's sides, the ring under the head, the cone. */
+    rd_part *p = add_part(o, n * 5 * SIDES, 0, rgb, 0);
+    if (!p) return -1;
+    p->on_top = 1;
+    for (int32_t v = 0; v < o->nbody; ++v) {
+        const double *g = f + 3 * (int64_t)v;
+        const double fl = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        if (!(fl > min)) continue;
+        double base[3], u[3], a[3], b[3];
+        memcpy(base, o->x + 3 * (int64_t)v, sizeof base);
+        const double len = scale * fl;
+        for (int i = 0; i < 3; ++i) u[i] = g[i] / fl;
+        scene_across(u, a, b);   /* unit vectors across the axis */
+        const double head = fmin(0.35 * len, 6.0 * r), neck = len - head;
+        double centre_shaft[3], neck_c[3], tip[3];
+        for (int i = 0; i < 3; ++i) {
+            centre_shaft[i] = base[i] + 0.5 * neck * u[i];
+            neck_c[i] = base[i] + neck * u[i];
+            tip[i] = base[i] + len * u[i];
+        }
+        int32_t ring[3][SIDES];
+        for (int k = 0; k < 3; ++k)
+            for (int j = 0; j < SIDES; ++j) {
+                const double th = 2.0 * 3.14159265358979323846 * j / SIDES;
+                const double rad = k < 2 ? r : 2.2 * r, along = k == 0 ? 0.0 : neck;
+                double q[3];
+                for (int i = 0; i < 3; ++i)
+                    q[i] = base[i] + along * u[i] + rad * (cos(th) * a[i] + sin(th) * b[i]);
+                if ((ring[k][j] = add_vertex(o, q)) < 0) return -1;
             }
+        const int32_t t = add_vertex(o, tip);
+        if (t < 0) return -1;
+        for (int j = 0; j < SIDES; ++j) {
+            const int jn = (j + 1) % SIDES;
+            add_tri(o, p, ring[0][j], ring[0][jn], ring[1][jn], centre_shaft);
+            add_tri(o, p, ring[0][j], ring[1][jn], ring[1][j], centre_shaft);
+            /* The flat ring under the head faces back, away from the tip. */
+            add_tri(o, p, ring[1][j], ring[2][jn], ring[2][j], tip);
+            add_tri(o, p, ring[1][j], ring[1][jn], ring[2][jn], tip);
+            add_tri(o, p, ring[2][j], ring[2][jn], t, neck_c);
+        }
+    }
     return 0;
 }
 
-/* A square patch of the plane around the point nearest the view's target. */
-static int add_plane(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
-                     const float rgb[3])
+/* A collider's geometry (scene_geometry_make: its surface, a plane's square patch, an SDF's
+ * bounds box as tubes) as one part. */
+static int add_geometry(rd_overlay *o, const defsim_collider_def *c, const double centre[3],
+                        double half, const float rgb[3])
 {
-    double n[3], t1[3], t2[3], q[3];
-    qrotate(c->rotation, c->normal, n);
-    const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (!(len > 0.0)) return 0;
-    for (int i = 0; i < 3; ++i) n[i] /= len;
-    const double ref[3] = {fabs(n[0]) < 0.9 ? 1.0 : 0.0, fabs(n[0]) < 0.9 ? 0.0 : 1.0, 0.0};
-    t1[0] = n[1] * ref[2] - n[2] * ref[1];
-    t1[1] = n[2] * ref[0] - n[0] * ref[2];
-    t1[2] = n[0] * ref[1] - n[1] * ref[0];
-    const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-    for (int i = 0; i < 3; ++i) t1[i] /= l1;
-    t2[0] = n[1] * t1[2] - n[2] * t1[1];
-    t2[1] = n[2] * t1[0] - n[0] * t1[2];
-    t2[2] = n[0] * t1[1] - n[1] * t1[0];
-    double d = 0.0;
-    for (int i = 0; i < 3; ++i) d += (v->target[i] - c->position[i]) * n[i];
-    for (int i = 0; i < 3; ++i) q[i] = v->target[i] - d * n[i];
-    const double e = 0.5 * v->ground_extent;
-    rd_part *p = add_part(o, 2, 0, rgb, 1);
-    if (!p) return -1;
-    int32_t k[4];
-    for (int a = 0; a < 4; ++a) {
-        const double s1 = a == 1 || a == 2 ? e : -e, s2 = a >= 2 ? e : -e;
-        double w[3];
-        for (int i = 0; i < 3; ++i) w[i] = q[i] + s1 * t1[i] + s2 * t2[i];
-        if ((k[a] = add_vertex(o, w)) < 0) return -1;
+    scene_geometry g;
+    if (scene_geometry_make(c, centre, half, &g)) return -1;
+    int rc = 0;
+    rd_part *p = g.nt == 0 && g.nl == 0 ? NULL : add_part(o, g.nt, g.nl, rgb, g.smooth);
+    if ((g.nt > 0 || g.nl > 0) && !p) rc = -1;
+    const int32_t first = o->nx;
+    for (int32_t k = 0; p && rc == 0 && k < g.nv; ++k)
+        if (add_vertex(o, g.x + 3 * (int64_t)k) < 0) rc = -1;
+    for (int32_t t = 0; p && rc == 0 && t < g.nt; ++t)
+        add_tri(o, p, first + g.tri[3 * t], first + g.tri[3 * t + 1], first + g.tri[3 * t + 2],
+                NULL);
+    for (int32_t l = 0; p && rc == 0 && l < g.nl; ++l) {
+        int32_t *e = (int32_t *)p->lines + 2 * (int64_t)p->nlines++;
+        e[0] = first + g.lines[2 * l];
+        e[1] = first + g.lines[2 * l + 1];
     }
-    add_tri(o, p, k[0], k[1], k[2], NULL);
-    add_tri(o, p, k[0], k[2], k[3], NULL);
-    return 0;
+    scene_geometry_free(&g);
+    return rc;
 }
 
 int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c)
 {
     if (c->shape != DEFSIM_SHAPE_PLANE) return 0;
     double n[3];
-    qrotate(c->rotation, c->normal, n);
+    scene_quat_rotate(c->rotation, c->normal, n);
     const double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(len > 0.0)) return 0;
     for (int i = 0; i < 3; ++i) {
@@ -251,15 +245,9 @@ int rd_view_ground_plane(rd_view *v, const defsim_collider_def *c)
 int rd_overlay_collider(rd_overlay *o, const defsim_collider_def *c, const rd_view *v,
                         int as_ground, const float rgb[3])
 {
-    switch (c->shape) {
-    case DEFSIM_SHAPE_PLANE: return as_ground ? 0 : add_plane(o, c, v, rgb);
-    case DEFSIM_SHAPE_SPHERE:
-    case DEFSIM_SHAPE_CAPSULE:
-    case DEFSIM_SHAPE_BOX:
-    case DEFSIM_SHAPE_MESH: return add_surface(o, c, rgb);
-    case DEFSIM_SHAPE_SDF: return add_sdf_bounds(o, c, rgb);
-    }
-    return 0;
+    /* A plane: a square patch around the point nearest the view's target. */
+    if (c->shape == DEFSIM_SHAPE_PLANE && as_ground) return 0;
+    return add_geometry(o, c, v->target, 0.5 * v->ground_extent, rgb);
 }
 
 int rd_overlay_segment(rd_overlay *o, const double a[3], const double b[3], const float rgb[3])

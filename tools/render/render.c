@@ -645,6 +645,23 @@ static int add_lines(rd_renderer *r, const double *x, const rd_part *p, double r
     return 1;
 }
 
+/* Draws the r->nverts vertices gathered with the shaded mesh program. */
+static void draw_mesh(rd_renderer *r, const float mvp[16], const rd_view *v, const double key[3])
+{
+    gl_api *gl = &r->gl;
+    gl->glUseProgram(r->prog_mesh);
+    gl->glUniformMatrix4fv(gl->glGetUniformLocation(r->prog_mesh, "mvp"), 1, GL_FALSE, mvp);
+    gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "eye"), (float)v->eye[0],
+                    (float)v->eye[1], (float)v->eye[2]);
+    gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "up"), (float)v->up[0],
+                    (float)v->up[1], (float)v->up[2]);
+    gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "key"), (float)key[0],
+                    (float)key[1], (float)key[2]);
+    gl->glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(r->nverts * 9 * sizeof(float)), r->verts,
+                     GL_STREAM_DRAW);
+    gl->glDrawArrays(GL_TRIANGLES, 0, (GLsizei)r->nverts);
+}
+
 int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *parts, int nparts,
               uint8_t *rgb, char *err, size_t errsz)
 {
@@ -675,10 +692,11 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
     gl->glDepthMask(GL_TRUE);
     gl->glEnable(GL_DEPTH_TEST);
 
-    /* Bodies. */
+    /* Bodies (the parts on top come last, below). */
     r->nverts = 0;
     for (int i = 0; i < nparts; ++i)
-        if (!add_triangles(r, x, &parts[i]) || !add_lines(r, x, &parts[i], v->line_radius)) {
+        if (!parts[i].on_top &&
+            (!add_triangles(r, x, &parts[i]) || !add_lines(r, x, &parts[i], v->line_radius))) {
             snprintf(err, errsz, "out of memory");
             return -1;
         }
@@ -693,19 +711,7 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
         for (int i = 0; i < 3; ++i) key[i] = 0.6 * v->up[i] - 0.6 * f[i] + 0.3 * s[i];
         normalize(key);
     }
-    if (r->nverts > 0) {
-        gl->glUseProgram(r->prog_mesh);
-        gl->glUniformMatrix4fv(gl->glGetUniformLocation(r->prog_mesh, "mvp"), 1, GL_FALSE, mvp);
-        gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "eye"), (float)v->eye[0],
-                        (float)v->eye[1], (float)v->eye[2]);
-        gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "up"), (float)v->up[0],
-                        (float)v->up[1], (float)v->up[2]);
-        gl->glUniform3f(gl->glGetUniformLocation(r->prog_mesh, "key"), (float)key[0],
-                        (float)key[1], (float)key[2]);
-        gl->glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(r->nverts * 9 * sizeof(float)), r->verts,
-                         GL_STREAM_DRAW);
-        gl->glDrawArrays(GL_TRIANGLES, 0, (GLsizei)r->nverts);
-    }
+    if (r->nverts > 0) draw_mesh(r, mvp, v, key);
 
     /* Ground grid: a square around the target's foot point, blended so that it fades out. */
     if (v->ground) {
@@ -747,6 +753,19 @@ int rd_render(rd_renderer *r, const rd_view *v, const double *x, const rd_part *
         gl->glDrawArrays(GL_TRIANGLES, 0, 6);
         gl->glDisable(GL_POLYGON_OFFSET_FILL);
         gl->glDisable(GL_BLEND);
+    }
+    /* Parts on top: over everything drawn so far, shaded, hiding each other as solids do. */
+    r->nverts = 0;
+    for (int i = 0; i < nparts; ++i)
+        if (parts[i].on_top &&
+            (!add_triangles(r, x, &parts[i]) || !add_lines(r, x, &parts[i], v->line_radius))) {
+            snprintf(err, errsz, "out of memory");
+            return -1;
+        }
+    if (r->nverts > 0) {
+        gl->glClear(GL_DEPTH_BUFFER_BIT);
+        gl->glBindBuffer(GL_ARRAY_BUFFER, r->vbo);
+        draw_mesh(r, mvp, v, key);
     }
     gl->glFinish();
     GLenum e = gl->glGetError();

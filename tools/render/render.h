@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "scene.h"
+#include "vtk.h"
 
 /* A fixed view: computed once per run so that every frame uses the same camera. */
 typedef struct rd_view {
@@ -42,6 +43,7 @@ typedef struct rd_part {
     const float *vertex_colors;   /* NULL, or RGB per vertex of x (indexed like tris and lines),
                                      interpolated over triangles: replaces color */
     const float *tri_colors;      /* NULL, or RGB per triangle (flat): replaces color */
+    int on_top;               /* drawn last, over everything else (arrows) */
 } rd_part;
 
 /* Geometry drawn besides the bodies (render/overlay.c): markers on pinned vertices and the
@@ -59,6 +61,17 @@ typedef struct rd_overlay {
 int rd_overlay_begin(rd_overlay *o, const double *x, int32_t nv);
 /* A small octahedron (half-diagonal `size`, m) on each body vertex whose flag is non-zero. */
 int rd_overlay_markers(rd_overlay *o, const uint8_t *flag, double size, const float rgb[3]);
+/* An arrow (orange) for each body vertex whose force f (3 per body vertex, N) is longer than 1 %
+ * of `fmax` (the largest over the run, N): from the vertex along f, scale m per N long, a
+ * six-sided shaft of radius r (m) and a cone of radius 2.2 r at its tip. */
+int rd_overlay_arrows(rd_overlay *o, const double *f, double scale, double fmax, double r);
+/* The arrows' scale (m per N): `given` when > 0 (output.arrow_scale), else the largest force
+ * fmax 25 % of the diagonal of the bodies' bounds lo..hi over the run (0 without forces). */
+double rd_arrow_scale(double given, double fmax, const double lo[3], const double hi[3]);
+/* The arrows' part is drawn on top of everything (rd_part.on_top), so that forces on faces the
+ * body hides (a block's bottom on the ground) stay visible. */
+/* The largest |f| over n vertices (3 per vertex), 0 for NULL. */
+double rd_force_max(const double *f, int32_t n);
 /* A collider at its pose: spheres, capsules, boxes and mesh colliders by the scene code's
  * tessellation (scene_collider_surface), a plane as a square patch around the view's target (nothing
  * when `as_ground`: rd_view_ground_plane made it the ground), an SDF as the edges of its
@@ -190,6 +203,12 @@ typedef struct rd_bodies {
 int rd_bodies_init(rd_bodies *b, const rd_body_src *src, int n, int32_t nv, int stress);
 void rd_bodies_free(rd_bodies *b);
 
+/* The bodies of a frame's cells (nv vertices), one part per body (the cells' body tags): tet
+ * boundaries, triangles, lines; each part's triangles carry their cells (a tet boundary's: its
+ * tet's) for stress colours. Colours from the scene's bodies (s may be NULL: the palette).
+ * Returns 0, or -1 when out of memory (b is then freed). */
+int rd_bodies_from_cells(rd_bodies *b, const vtk_cells *c, const scene *s, int32_t nv);
+
 /* What one frame shows besides the positions. */
 typedef struct rd_frame_data {
     scene_color mode;             /* colours: body, stress, displacement, speed */
@@ -203,11 +222,16 @@ typedef struct rd_frame_data {
     double time;                  /* stamped at the top left */
     const double *segment;        /* 6: two points joined by a tube (the viewer's pulling
                                      spring, vertex to target), or NULL */
+    const double *force;          /* 3 nv: contact forces drawn as arrows on top, or NULL */
+    double arrow_scale, force_max; /* rd_overlay_arrows' length per unit force, largest force */
+    const defsim_collider_def *colliders; /* ncolliders at the frame's poses, drawn instead of
+                                     the world's (then w may be NULL), or NULL */
 } rd_frame_data;
 
-/* Renders the bodies at x with the colliders of w into rgb (the renderer's size): colours,
- * pinned markers, colliders (overlay, reused between frames), colour bar and time stamp.
- * Returns 0, or -1 with err. */
+/* Renders the bodies at x with the colliders of w (or d->colliders) into rgb (the renderer's
+ * size): colours, pinned markers, contact arrows (on top), colliders (overlay, reused between
+ * frames), colour bar and time stamp. defsim run's PNG frames, defsim-render's, libdefsim_render's
+ * world picture and the viewer's window all draw through it. Returns 0, or -1 with err. */
 int rd_draw_frame(rd_renderer *r, rd_bodies *b, rd_overlay *overlay, const rd_view *view,
                   const defsim_world *w, const double *x, const rd_frame_data *d, uint8_t *rgb,
                   char *err, size_t errsz);

@@ -528,9 +528,11 @@ static int draw(viewer *v)
         memcpy(spring, v->x + 3 * (int64_t)v->drag_v, 3 * sizeof *spring);
         memcpy(spring + 3, v->res->drag_target, 3 * sizeof *spring);
     }
-    const rd_frame_data d = {v->color, v->def->s, v->top, vec, cell, v->def->pinned, NULL,
-                             defsim_world_collider_count(v->w), defsim_world_time(v->w),
-                             v->dragging ? spring : NULL};
+    const rd_frame_data d = {.mode = v->color, .s = v->def->s, .top = v->top, .vec = vec,
+                             .cell = cell, .pinned = v->def->pinned,
+                             .ncolliders = defsim_world_collider_count(v->w),
+                             .time = defsim_world_time(v->w),
+                             .segment = v->dragging ? spring : NULL};
     if (rd_draw_frame(v->rd, &v->bodies, &v->overlay, &v->view, v->w, v->x, &d, v->rgb, v->err,
                       sizeof v->err))
         return -1;

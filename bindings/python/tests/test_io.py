@@ -60,6 +60,12 @@ def test_write_vtu_read_back_with_meshio(tmp_path):
     np.testing.assert_array_equal(vm[:30], stress.von_mises)
     assert (vm[30:] == 0).all() and stress.von_mises.max() > 0
     assert float(m.field_data["TimeValue"][0]) == pytest.approx(w.time, abs=0)
+    # The fields `defsim run` writes (issue 28: Python's frames lacked these three).
+    cauchy = np.concatenate(m.cell_data["cauchy_stress"]).reshape(-1, 9)
+    np.testing.assert_array_equal(cauchy[:30], stress.cauchy.reshape(30, 9))
+    np.testing.assert_array_equal(m.point_data["pin_force"], w.pin_forces())
+    assert m.point_data["pinned"].reshape(-1).tolist() == (
+        [1 if p[0] == 0.0 else 0 for p in w.topology(beam).rest] + [0] * rope.vertex_count)
 
 
 def test_series_pvd_lists_frames_with_times(tmp_path):

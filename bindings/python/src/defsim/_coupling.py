@@ -257,6 +257,16 @@ class WorldCoupling:
             self._check(lib.defsim_world_get_pin_forces(w, _arrays.dptr(out), n))
         return out
 
+    def pinned(self) -> np.ndarray:
+        """The pinned flags, (n,) bool: True for pinned and driven vertices
+        (``defsim_world_get_pinned``)."""
+        w = self._live()
+        n = int(lib.defsim_world_vertex_count(w))
+        out = np.zeros(n, np.uint8)
+        if n > 0:
+            self._check(lib.defsim_world_get_pinned(w, ffi.from_buffer("uint8_t[]", out), n))
+        return out.astype(bool)
+
 
 class BodyCoupling:
     """Body methods for coupling (mixed into ``Body``)."""

@@ -587,10 +587,17 @@ class World(WorldCoupling, WorldColliders):
         return view(self, h, **settings)
 
     def _repr_png_(self) -> Optional[bytes]:
-        """A rendered PNG of the current state for Jupyter (``defsim.display.render_png``), or
-        None (Jupyter then shows the text repr) when libdefsim_render is not available."""
+        """A rendered PNG of the current state for Jupyter (``defsim.display.render_png``:
+        body colours, pins, colliders), or None (Jupyter then shows the text repr) when no
+        renderer (libdefsim_render or PyVista) is available."""
         from .display import png_or_none
         return png_or_none(self)
+
+    def _repr_html_(self) -> Optional[str]:
+        """The picture of ``_repr_png_`` inline in an HTML figure with a caption (time, bodies,
+        vertices, pins, colliders), or None as for ``_repr_png_``."""
+        from .display import html_or_none
+        return html_or_none(self)
 
     def get_positions(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Positions (n, 3) in m, written into `out` (a C-contiguous float64 array of n*3

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: MIT
 """Reading and writing: VTK frames and series of a world, meshes through meshio, scene files.
 
-* ``write_vtu(world, path)`` and ``Series(folder)`` write the .vtu / .pvd files of ``defsim
-  run`` with its own C writer (libdefsim_scene, ``defsim_vtk_write_vtu``): points, cells (each
-  body's tets, else its triangles, else its springs as lines), point data ``velocity`` and
-  ``displacement``, cell data ``body``, ``von_mises`` and ``energy_density``.
+* ``write_vtu(world, path)`` and ``Series(folder)`` write the frames of ``defsim run`` with
+  its own C writer (libdefsim_scene, ``defsim_vtk_write_world``): the bodies' .vtu (points,
+  cells, velocity and every field ``defsim run`` writes: stress, displacement, pin, attachment
+  and contact forces, pinned), and with colliders their geometry in a second .vtu and a .vtm
+  multiblock of both, with the .pvd series that list them.
 * ``read_mesh(path)`` reads any mesh file that meshio reads (.vtu, .vtk, .msh, .mesh, .inp,
   .med, .xdmf, ...) into a ``defsim.Mesh``: tets make a tet body, triangles a cloth, lines a
   rope. Needs the optional extra: ``pip install 'defsim-fem[io]'``.
@@ -74,9 +75,22 @@ def _rest_positions(world: World) -> np.ndarray:
 
 
 def write_vtu(world: World, path: PathLike, *, time: Optional[float] = None,
-              reference: Any = None, fields: bool = True) -> None:
-    """Writes the world's current state as one .vtu frame (written atomically) with the C
-    writer of ``defsim run``.
+              reference: Any = None, fields: bool = True, colliders: bool = True,
+              plane: Any = None) -> bool:
+    """Writes the world's current state as ``defsim run`` writes a frame, with its C writer
+    (``defsim_vtk_write_world``): the same arrays, evaluated by the same code.
+
+    `path` (a .vtu) holds the bodies: points, cells (each body's tets, else its triangles, else
+    its line springs), point data ``velocity``, cell data ``body``, and with `fields` the
+    arrays the world has: ``cauchy_stress`` (9), ``von_mises`` (Pa) and ``energy_density``
+    (J/m^3) per cell (zero for triangles and lines), point data ``displacement`` (m),
+    ``pin_force`` and ``pinned`` (with pins), ``attachment_force`` (with attachments) and
+    ``contact_force`` (N, colliders and body contact, of the last step; with colliders or body
+    contact). With `colliders` and a world that has colliders, also
+    ``<stem>_colliders.vtu`` (their geometry at the current poses: planes as squares sized to
+    the scene, or as `plane` = (centre x, y, z, half side) gives) and the multiblock
+    ``<stem>.vtm`` holding both, which ParaView opens as the whole scene. All written
+    atomically.
 
     Args:
         world: the World (bodies made by ``add_body`` or by a scene).
@@ -84,61 +98,73 @@ def write_vtu(world: World, path: PathLike, *, time: Optional[float] = None,
         time: the frame's time (field data ``TimeValue``), default ``world.time``.
         reference: (n, 3) positions that point data ``displacement`` is measured from; default
             the bodies' rest positions.
-        fields: False writes only positions, velocities and body ids; True (default) adds
-            ``displacement`` (point data, m), ``von_mises`` (Pa) and ``energy_density``
-            (J/m^3) per cell (zero for triangles and lines).
+        fields: False writes only positions, velocities and body ids.
+        colliders: False writes the bodies' .vtu alone.
+        plane: where planes are drawn (4 numbers), default sized to the scene now.
 
-    Raises FileError (cannot write), InvalidArgumentError (bad reference), and the errors of
-    ``defsim.Error`` when libdefsim_scene is missing (BACKEND_UNAVAILABLE).
+    Returns True when the .vtm (and the colliders' .vtu) were written.
+    Raises FileError (cannot write), InvalidArgumentError (bad reference, a path not ending in
+    .vtu), and the errors of ``defsim.Error`` when libdefsim_scene is missing
+    (BACKEND_UNAVAILABLE).
     """
+    return _write_world(world, path, time, reference, fields, colliders, plane)[0]
+
+
+def _write_world(world: World, path: PathLike, time: Optional[float], reference: Any,
+                 fields: bool, colliders: bool, plane: Any) -> Tuple[bool, Tuple[float, ...]]:
     lib = _scene_lib()
-    x = world.positions
-    v = world.velocities
-    n = x.shape[0]
+    n = world.vertex_count
     types, offsets, conn, body = frame_cells(world)
-    keep: List[Any] = []
-    arrays = ffi.new("defsim_vtk_array[]", 3)
-    count = 0
+    d = ffi.new("defsim_vtk_frame_def *")
+    lib.defsim_vtk_frame_def_init(d, ffi.sizeof("defsim_vtk_frame_def"))
+    d.cell_count = int(types.shape[0])
+    keep = [ffi.from_buffer("uint8_t[]", types), ffi.from_buffer("int64_t[]", offsets),
+            ffi.from_buffer("int64_t[]", conn), ffi.from_buffer("int32_t[]", body)]
+    d.types, d.offsets, d.conn, d.body = keep
+    ref = None
     if fields:
         ref = _rest_positions(world) if reference is None else _arrays.points(reference,
                                                                                "reference", n)
-        disp = np.ascontiguousarray(x - ref)
-        vm = np.zeros(types.shape[0])
-        psi = np.zeros(types.shape[0])
-        for i, b in enumerate(world.bodies):
-            if world.topology(b).tets.size:
-                stress = b.element_stress()
-                first = int(np.argmax(body == i))
-                vm[first:first + stress.von_mises.shape[0]] = stress.von_mises
-                psi[first:first + stress.von_mises.shape[0]] = stress.energy_density
-        for name, data, comps, cell in ((b"displacement", disp, 3, 0), (b"von_mises", vm, 1, 1),
-                                        (b"energy_density", psi, 1, 1)):
-            cname = ffi.new("char[]", name)
-            keep += [cname, data]
-            arrays[count].name = cname
-            arrays[count].components = comps
-            arrays[count].cell = cell
-            arrays[count].data = _arrays.dptr(data) if data.size else ffi.cast("double *", 0)
-            if data.size == 0:
-                continue
-            count += 1
+        ref = np.ascontiguousarray(ref, dtype=np.float64)
+        d.reference = _arrays.dptr(ref) if ref.size else ffi.NULL
+    d.fields = ((lib.DEFSIM_VTK_ALL & ~lib.DEFSIM_VTK_COLLIDERS if fields else 0) |
+                (lib.DEFSIM_VTK_COLLIDERS if colliders else 0))
+    if plane is not None:
+        p = np.asarray(plane, dtype=np.float64).reshape(-1)
+        if p.shape != (4,) or not np.all(np.isfinite(p)) or not p[3] > 0:
+            raise InvalidArgumentError("plane: (centre x, y, z, half side > 0), 4 finite numbers")
+        d.plane_center = list(p[:3])
+        d.plane_half = float(p[3])
     err = ffi.new("char[]", 1024)
+    out = ffi.new("double[4]")
+    vtm = ffi.new("int32_t *")
     t = world.time if time is None else _arrays.c_double(time, "time")
-    st = lib.defsim_vtk_write_vtu(
-        _arrays.path_bytes(path), n, _arrays.dptr(x), _arrays.dptr(v), int(types.shape[0]),
-        ffi.from_buffer("uint8_t[]", types), ffi.from_buffer("int64_t[]", offsets),
-        ffi.from_buffer("int64_t[]", conn), ffi.from_buffer("int32_t[]", body), t,
-        arrays, count, err, 1024)
+    st = lib.defsim_vtk_write_world(_arrays.path_bytes(path), world._live(), d, t, out, vtm,
+                                    err, 1024)
+    _raise(st, err)
+    del keep, ref
+    return bool(vtm[0]), tuple(out[i] for i in range(4))
+
+
+def _write_pvd(path: str, files: List[str], times: List[float]) -> None:
+    lib = _scene_lib()
+    names = [ffi.new("char[]", f.encode("utf-8")) for f in files]
+    err = ffi.new("char[]", 1024)
+    st = lib.defsim_vtk_write_pvd(path.encode("utf-8"), len(names), ffi.new("double[]", times),
+                                  ffi.new("char *[]", names), err, 1024)
     _raise(st, err)
 
 
 class Series:
-    """A time series of .vtu frames with the .pvd collection that lists them (ParaView opens
-    the .pvd). Each ``write(world)`` adds ``<folder>/<name>_<NNNNN>.vtu`` and rewrites
-    ``<folder>/<name>.pvd``, so the series is complete after every frame.
+    """A time series of frames with the .pvd collections that list them, as ``defsim run``
+    writes them. Each ``write(world)`` adds ``<folder>/<name>_<NNNNN>.vtu`` (the bodies) and
+    rewrites ``<folder>/<name>.pvd``; with colliders also ``<name>_<NNNNN>_colliders.vtu`` and
+    ``<name>_<NNNNN>.vtm``, listed by ``<folder>/<name>_scene.pvd`` (the whole scene: open this
+    one in ParaView). The series is complete after every frame.
 
     Displacement is measured from the first frame written (as ``defsim run`` measures it from
-    the initial state) unless `reference` is given.
+    the initial state) unless `reference` is given; planes are drawn as squares sized to the
+    scene of the first frame.
 
         with defsim.io.Series("out", name="beam") as series:
             for frame in range(50):
@@ -147,14 +173,18 @@ class Series:
     """
 
     def __init__(self, folder: PathLike, name: str = "frames", *, reference: Any = None,
-                 fields: bool = True) -> None:
+                 fields: bool = True, colliders: bool = True) -> None:
         if not name or any(c in name for c in '/\\"<>&'):
             raise InvalidArgumentError(f"name {name!r}: needs a plain file name")
         self.folder = os.fspath(folder)
         self.name = name
         self.fields = fields
+        self.colliders = colliders
         self.files: List[str] = []
         self.times: List[float] = []
+        self.scene_files: List[str] = []
+        self.scene_times: List[float] = []
+        self._plane: Optional[Tuple[float, ...]] = None
         self._reference = None if reference is None else np.array(reference, dtype=np.float64)
         os.makedirs(self.folder, exist_ok=True)
 
@@ -162,23 +192,29 @@ class Series:
     def pvd_path(self) -> str:
         return os.path.join(self.folder, f"{self.name}.pvd")
 
+    @property
+    def scene_pvd_path(self) -> str:
+        """The .pvd of the .vtm frames (bodies and colliders); written once a frame has
+        colliders."""
+        return os.path.join(self.folder, f"{self.name}_scene.pvd")
+
     def write(self, world: World, time: Optional[float] = None) -> str:
-        """Writes the next frame of `world` and updates the .pvd. Returns the .vtu's path."""
+        """Writes the next frame of `world` and updates the .pvd files. Returns the .vtu's
+        path."""
         if self._reference is None:
             self._reference = world.positions
-        file = f"{self.name}_{len(self.files):05d}.vtu"
-        path = os.path.join(self.folder, file)
+        stem = f"{self.name}_{len(self.files):05d}"
+        path = os.path.join(self.folder, stem + ".vtu")
         t = world.time if time is None else float(time)
-        write_vtu(world, path, time=t, reference=self._reference, fields=self.fields)
-        self.files.append(file)
+        vtm, self._plane = _write_world(world, path, t, self._reference, self.fields,
+                                        self.colliders, self._plane)
+        self.files.append(stem + ".vtu")
         self.times.append(t)
-        lib = _scene_lib()
-        names = [ffi.new("char[]", f.encode("utf-8")) for f in self.files]
-        err = ffi.new("char[]", 1024)
-        st = lib.defsim_vtk_write_pvd(self.pvd_path.encode("utf-8"), len(names),
-                                      ffi.new("double[]", self.times),
-                                      ffi.new("char *[]", names), err, 1024)
-        _raise(st, err)
+        _write_pvd(self.pvd_path, self.files, self.times)
+        if vtm:
+            self.scene_files.append(stem + ".vtm")
+            self.scene_times.append(t)
+            _write_pvd(self.scene_pvd_path, self.scene_files, self.scene_times)
         return path
 
     def __enter__(self) -> "Series":
@@ -410,6 +446,10 @@ class Scene:
     def _repr_png_(self) -> Optional[bytes]:
         """The scene's world as a picture for Jupyter (``World._repr_png_``)."""
         return self.world._repr_png_()
+
+    def _repr_html_(self) -> Optional[str]:
+        """The scene's world as an HTML figure for Jupyter (``World._repr_html_``)."""
+        return self.world._repr_html_()
 
     def __repr__(self) -> str:
         return (f"<defsim.io.Scene {self.name!r}: {self._body_count} bodies, backend "

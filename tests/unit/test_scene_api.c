@@ -209,17 +209,14 @@ static void test_vtk(void **state)
     free(names[0]); free(names); free(t);
 }
 
-/* defsim_vtk_write_world: a tet with a pinned vertex above a plane and a turned capsule; misuse
- * answered before anything is written; the bodies' frame, the colliders' and the .vtm. */
-static void test_vtk_world(void **state)
+/* A world holding one StVK tet at rest positions x (4 vertices) with vertex `pinned` pinned;
+ * its body's id in *b. The caller destroys the world. */
+static defsim_world *pinned_tet_world(const double x[12], int32_t pinned, defsim_body_id *b)
 {
-    (void)state;
-    char path[1200], err[512];
     defsim_world_def wd;
     defsim_world_def_init(&wd, sizeof wd);
     defsim_world *w = NULL;
     assert_int_equal(defsim_world_create(&wd, &w), DEFSIM_OK);
-    const double x[12] = {0, 1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 1};
     const int32_t tet[4] = {0, 1, 2, 3};
     defsim_body_def bd;
     defsim_body_def_init(&bd, sizeof bd);
@@ -228,10 +225,20 @@ static void test_vtk_world(void **state)
     bd.tets = tet;
     bd.tet_count = 1;
     defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STVK);
+    assert_int_equal(defsim_world_add_body(w, &bd, b), DEFSIM_OK);
+    assert_int_equal(defsim_body_pin(w, *b, &pinned, 1), DEFSIM_OK);
+    return w;
+}
+
+/* defsim_vtk_write_world: a tet with a pinned vertex above a plane and a turned capsule; misuse
+ * answered before anything is written; the bodies' frame, the colliders' and the .vtm. */
+static void test_vtk_world(void **state)
+{
+    (void)state;
+    char path[1200], err[512];
+    const double x[12] = {0, 1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 1};
     defsim_body_id b;
-    assert_int_equal(defsim_world_add_body(w, &bd, &b), DEFSIM_OK);
-    const int32_t pin = 2;
-    assert_int_equal(defsim_body_pin(w, b, &pin, 1), DEFSIM_OK);
+    defsim_world *w = pinned_tet_world(x, 2, &b);
     defsim_collider_def cd;
     defsim_collider_def_init(&cd, sizeof cd);
     assert_int_equal(defsim_world_add_collider(w, &cd, NULL), DEFSIM_OK);
@@ -344,22 +351,8 @@ static void test_render(void **state)
 
     /* defsim_render_world_png: a pinned tet above a plane, coloured by stress, with arrows;
      * misuse refused before anything is drawn. */
-    defsim_world_def wd;
-    defsim_world_def_init(&wd, sizeof wd);
-    defsim_world *w = NULL;
-    assert_int_equal(defsim_world_create(&wd, &w), DEFSIM_OK);
-    defsim_body_def bd;
-    defsim_body_def_init(&bd, sizeof bd);
-    const int32_t tet[4] = {0, 1, 2, 3};
-    bd.rest_positions = x;
-    bd.vertex_count = 4;
-    bd.tets = tet;
-    bd.tet_count = 1;
-    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_STVK);
     defsim_body_id b;
-    assert_int_equal(defsim_world_add_body(w, &bd, &b), DEFSIM_OK);
-    const int32_t pin = 0;
-    assert_int_equal(defsim_body_pin(w, b, &pin, 1), DEFSIM_OK);
+    defsim_world *w = pinned_tet_world(x, 0, &b);
     defsim_collider_def cd;
     defsim_collider_def_init(&cd, sizeof cd);
     cd.position[1] = -0.5;

@@ -52,7 +52,8 @@ typedef enum defsim_render_color {
 /// are borrowed for the call.
 typedef struct defsim_render_world_def {
     uint32_t size;              ///< sizeof(defsim_render_world_def), set by the init function.
-    int32_t width, height;      ///< Pixels, 16..8192. Default 640 x 400.
+    int32_t width;              ///< Pixels, 16..8192. Default 640.
+    int32_t height;             ///< Pixels, 16..8192. Default 400.
     int64_t cell_count;         ///< The bodies' cells as for defsim_vtk_frame_def (scene.h):
     const uint8_t *types;       ///< 3 line, 5 triangle, 10 tet per cell,
     const int64_t *offsets;     ///< the end of each cell in conn,

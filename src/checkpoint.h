@@ -18,6 +18,6 @@
  * version 6 the terms' state as each kind writes it (TERM chunks: the kind's name, then its
  * bytes; the collider term's holds what CNTC held and the safe box). The chunks' bytes and
  * CRC-32 are chunk.h's. */
-#define DEFSIM__CKPT_VERSION 6u
+#define DEFSIM__CKPT_VERSION 7u
 
 #endif /* DEFSIM_CHECKPOINT_H */

@@ -259,6 +259,17 @@ typedef struct defsim_body_def {
     /// Coulomb coefficient of body-body friction (>= 0, finite; default 0.5); a pair of bodies
     /// uses sqrt(mu_A mu_B). Larger than 10 is DEFSIM_ERR_INVALID_MATERIAL.
     double friction;
+    /* Volume averaging against volumetric locking (appended; see README.md, "Materials"). */
+    /// 1: the body's tets use the averaged-nodal-volume element (Bonet and Burton 1998, in energy
+    /// form): each tet keeps the isochoric part of its material's energy, and the volumetric part
+    /// U(J) is evaluated per vertex on the vertex's volume ratio, the sum of its tets' current
+    /// volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
+    /// bodies (poisson_ratio near 0.5) then bend as the continuum does instead of locking; the
+    /// matrices couple every vertex of a vertex's tets (a wider pattern). 0 (default): the
+    /// standard element. Only the neo-Hookean and stable neo-Hookean models have the split
+    /// (their lambda terms depend on J alone); with StVK or co-rotated, or a value other than 0
+    /// and 1: DEFSIM_ERR_INVALID_MATERIAL.
+    int32_t volume_averaging;
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.

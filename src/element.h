@@ -143,6 +143,22 @@ static inline void tet_stiffness(const double *dminv, double vol, const double D
         }
 }
 
+/* D := k proj(D) + kd beta clamp(D) (sk = k, sd = kd beta): an element's stiffness with its
+ * projection `proj` and its stiffness damping's, which is always clamped. */
+static inline void tet_damped_dpdf(double D[81], int proj, double sk, double sd)
+{
+    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        memcpy(Dd, D, sizeof Dd);
+        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+}
+
 /* The scalar force kernel of a tet model over its element group, the law PFUN(mu, lambda, F, P)
  * inlined: the reference the batched kernels are checked against (DEFSIM_SIMD=scalar). */
 #define DEFSIM__TET_FORCE_KERNEL(NAME, PFUN)                                                  \

@@ -100,16 +100,7 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
     double F[9], D[81], dF[9], dP[9], gr[4][3];
     tet_deformation(x, id, dm, F);
     g->law->dPdF(g->mu[e], g->lambda[e], F, D);
-    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
-        double Dd[81];
-        memcpy(Dd, D, sizeof Dd);
-        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
-    } else {
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
-    }
+    tet_damped_dpdf(D, proj, sk, sd);
     tet_gradients(dm, gr);
     memset(dF, 0, sizeof dF);
     for (int a = 0; a < 4; ++a) {

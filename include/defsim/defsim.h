@@ -261,9 +261,9 @@ typedef struct defsim_body_def {
     double friction;
     /* Volume averaging against volumetric locking (appended; see docs/materials.md). */
     /// 1: the body's tets use the averaged-nodal-volume element (Bonet and Burton 1998, in energy
-    /// form): each tet keeps the isochoric part of its material's energy, and the volumetric part
-    /// U(J) is evaluated per vertex on the vertex's volume ratio, the sum of its tets' current
-    /// volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
+    /// form): each tet keeps the part of its material's energy without lambda, and the part with
+    /// lambda, U(J), is evaluated per vertex on the vertex's volume ratio, the sum of its tets'
+    /// current volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
     /// bodies (poisson_ratio near 0.5) then bend as the continuum does instead of locking; the
     /// matrices couple every vertex of a vertex's tets (a wider pattern). 0 (default): the
     /// standard element. Only the neo-Hookean and stable neo-Hookean models have the split

@@ -6,7 +6,8 @@
  *    a value other than 0 and 1;
  *  - a homogeneous deformation (every J_n = J_e) has the standard element's energy, forces and
  *    stress read-back;
- *  - the explicit stable step sees the element; a checkpoint keeps it;
+ *  - the explicit stable step sees the element; a checkpoint keeps it; 1 and 2 threads give the
+ *    same bits;
  *  - the issue-29 cantilever (3 m x 1 m x 1 m, clamped at x = 0, its own weight, E = 1e8,
  *    density 1000, neo-Hookean: the linear range) at static equilibrium, on the shipped
  *    12 x 4 x 4 cells: with nu = 0.499 the standard tets lock (a sixth of the reference), the
@@ -245,6 +246,35 @@ static void test_checkpoint(void **state)
     defsim_world_destroy(w[0]);
     defsim_world_destroy(w[1]);
     defsim_world_destroy(back);
+    defsim_mesh_free(&m);
+}
+
+/* The same bits on 1 and 2 threads: an 8 x 4 x 4-cell averaged box (768 tets, past the term's
+ * threshold for parallel loops) with stiffness damping, 5 newton_cholmod steps. */
+static void test_threads(void **state)
+{
+    (void)state;
+    const double lo[3] = {0, 0, 0}, hi[3] = {0.8, 0.4, 0.4};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 8, 4, 4, &m));
+    double *x[2];
+    for (int k = 0; k < 2; ++k) {
+        defsim_world *w = tu_world("newton_cholmod", -9.81, k + 1);
+        defsim_body_def bd = body_def(&m, DEFSIM_MODEL_NEOHOOKEAN, 0.49, 1);
+        bd.material.youngs_modulus = 1e5;
+        bd.material.stiffness_damping = 0.01;
+        defsim_body_id id;
+        TU_OK(defsim_world_add_body(w, &bd, &id));
+        tu_pin_below(w, id, 0, 0.0);
+        for (int s = 0; s < 5; ++s) TU_OK(defsim_world_step(w, 0.01));
+        x[k] = tu_positions(w);
+        defsim_world_destroy(w);
+    }
+    assert_memory_equal(x[0], x[1], 3 * (size_t)m.vertex_count * sizeof *x[0]);
+    free(x[0]);
+    free(x[1]);
     defsim_mesh_free(&m);
 }
 
@@ -490,6 +520,7 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_refused),     cmocka_unit_test(test_homogeneous),
         cmocka_unit_test(test_stable_step), cmocka_unit_test(test_checkpoint),
+        cmocka_unit_test(test_threads),
         cmocka_unit_test(test_locking),     cmocka_unit_test(test_incompressible_limit),
         cmocka_unit_test(test_consistency),
     };

@@ -112,6 +112,20 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         defsim__error(msg, "add_body: friction %g must be in [0, 10]", d.friction);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
+    if (d.volume_averaging != 0 && d.volume_averaging != 1) {
+        defsim__error(msg, "add_body: volume_averaging %d must be 0 or 1",
+                      (int)d.volume_averaging);
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
+    if (d.volume_averaging && d.tet_count > 0) {
+        const defsim__model *law = defsim__model_find(d.material.model);
+        if (!law || !law->split) {
+            defsim__error(msg, "add_body: volume_averaging needs a model whose volumetric energy "
+                               "depends on J alone (neohookean, stable_neohookean); %s has no "
+                               "such split", law ? law->name : "this model");
+            return DEFSIM_ERR_INVALID_MATERIAL;
+        }
+    }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
     st = validate_array(msg, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
     if (st == DEFSIM_OK && d.initial_positions)
@@ -128,6 +142,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     b.group = d.collision_group;
     b.mask = d.collision_mask;
     b.friction = d.friction;
+    b.volume_averaging = d.volume_averaging;
     /* Contact edges of a rope: its stretch springs (all springs without kinds). */
     int32_t nedge = 0;
     if (nt == 0 && d.triangle_count == 0)
@@ -289,6 +304,8 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_u32(b, body->group);
     defsim__put_u32(b, body->mask);
     defsim__put_f64(b, body->friction);
+    /* version 7: volume averaging */
+    defsim__put_i32(b, body->volume_averaging);
     defsim__chunk_end(b, c);
 }
 
@@ -360,6 +377,8 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
         d->triangles = ntri > 0 ? out->tris : NULL;
         d->triangle_count = ntri;
     }
+    /* Volume averaging (version 7); older files: the standard element. */
+    if (version >= 7) d->volume_averaging = defsim__get_i32(r);
     for (int32_t e = 0; e < 2 * out->nedge && !r->bad; ++e)
         if (out->edges[e] < 0 || out->edges[e] >= nv) r->bad = 1;
     if (!defsim__read_whole(r)) {

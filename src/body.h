@@ -39,6 +39,7 @@ typedef struct defsim__body {
     int32_t self_contact;
     uint32_t group, mask;
     double friction;
+    int32_t volume_averaging; /* defsim_body_def.volume_averaging: 0 or 1 */
 } defsim__body;
 
 /* Validates the host's def (a world of world_nv vertices receives it) and builds *out from

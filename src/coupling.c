@@ -394,17 +394,47 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
     }
     const double *x = w->state.x + 3 * (int64_t)b->offset;
     const defsim__model *model = defsim__model_find(b->mat.model);
+    /* Volume-averaged tets: each vertex's volume ratio J_n (rest and current nodal volumes in
+     * jn[2 v], jn[2 v + 1]), for the tets' averaged pressures and volumetric energies. */
+    const defsim__model_split *split = b->volume_averaging && model ? model->split : NULL;
+    double *jn = split && b->nt > 0 ? calloc(2 * (size_t)b->nv, sizeof *jn) : NULL;
+    if (split && b->nt > 0 && !jn) {
+        defsim__error(w->msg, "element_stress: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int pass = jn ? 0 : 1; pass < 2; ++pass)
     for (int32_t t = 0; t < b->nt && model; ++t) {
         const int32_t *tt = b->tets + 4 * (int64_t)t;
         double dm[9], dminv[9], F[9], P[9];
         const double *p3 = b->rest + 3 * (int64_t)tt[3];
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i) dm[3 * i + a] = b->rest[3 * (int64_t)tt[a] + i] - p3[i];
-        (void)defsim__m3_inverse(dm, dminv);
+        const double vol = fabs(defsim__m3_inverse(dm, dminv)) / 6.0;
         tet_deformation(x, tt, dminv, F);
         const double J = defsim__m3_det(F);
+        if (pass == 0) {
+            for (int a = 0; a < 4; ++a) {
+                jn[2 * (int64_t)tt[a]] += 0.25 * vol;
+                jn[2 * (int64_t)tt[a] + 1] += 0.25 * vol * J;
+            }
+            continue;
+        }
         double psi = INFINITY;
-        if (!(model->needs_positive_det && !(J > 0.0))) {
+        if (split) {
+            /* the element's isochoric stress plus its averaged nodal pressure; its energy
+             * density the isochoric one plus the mean of its vertices' U(J_n) */
+            double pe = 0.0, ue = 0.0, C[9];
+            for (int a = 0; a < 4; ++a) {
+                double u[3];
+                split->U(b->mu, b->lambda, jn[2 * (int64_t)tt[a] + 1] / jn[2 * (int64_t)tt[a]], u);
+                pe += 0.25 * u[1];
+                ue += 0.25 * u[0];
+            }
+            psi = split->P(b->mu, b->lambda, F, P) + ue;
+            if (model->psi_rest) psi -= model->psi_rest(b->mu, b->lambda);
+            defsim__m3_cofactor(F, C);
+            for (int i = 0; i < 9; ++i) P[i] += pe * C[i];
+        } else if (!(model->needs_positive_det && !(J > 0.0))) {
             psi = model->P(b->mu, b->lambda, F, P);
             if (model->psi_rest) psi -= model->psi_rest(b->mu, b->lambda);
         }
@@ -429,5 +459,6 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         if (von_mises) von_mises[t] = vm;
         if (energy_density) energy_density[t] = psi;
     }
+    free(jn);
     return DEFSIM_OK;
 }

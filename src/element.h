@@ -85,6 +85,80 @@ static inline void apply_dpdf(const double D[81], const double dF[9], double dP[
     }
 }
 
+/* D += c d2(det F)/dF2, the Hessian of J = det F: D[(i j),(k l)] += c eps_ikn eps_jlm F_nm
+ * (nonzero only for i != k, j != l). */
+static inline void tet_add_det_hessian(const double F[9], double c, double D[81])
+{
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            if (i == k) continue;
+            int n = 3 - i - k;
+            double sik = ((k - i + 3) % 3 == 1) ? c : -c;
+            for (int j = 0; j < 3; ++j)
+                for (int l = 0; l < 3; ++l) {
+                    if (j == l) continue;
+                    int m = 3 - j - l;
+                    double sjl = ((l - j + 3) % 3 == 1) ? sik : -sik;
+                    D[9 * (3 * i + j) + 3 * k + l] += sjl * F[3 * n + m];
+                }
+        }
+}
+
+/* The element matrix K[(a c),(b d)] = vol sum_{j,l} g_a[j] D[(c j),(d l)] g_b[l] of a tet (12 x
+ * 12, row-major) from a symmetric dP/dF-like D. */
+static inline void tet_stiffness(const double *dminv, double vol, const double D[81], double *K)
+{
+    const int nd = 12;
+    double gr[4][3];
+    tet_gradients(dminv, gr);
+    /* D is symmetric, so K is; and g_3 = -(g_0 + g_1 + g_2) makes node 3's blocks minus sums of
+     * the others: only the six blocks a <= b < 3 need the products. */
+    for (int b = 0; b < 3; ++b) {
+        double Dg[9][3];   /* Dg[(i,j)][k] = sum_l D[(i,j),(k,l)] g_b[l] */
+        for (int r = 0; r < 9; ++r)
+            for (int k = 0; k < 3; ++k)
+                Dg[r][k] = D[9 * r + 3 * k] * gr[b][0] + D[9 * r + 3 * k + 1] * gr[b][1] +
+                           D[9 * r + 3 * k + 2] * gr[b][2];
+        for (int a = 0; a <= b; ++a)
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k) {
+                    const double v = vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
+                                            gr[a][2] * Dg[3 * i + 2][k]);
+                    K[(3 * a + i) * nd + 3 * b + k] = v;
+                    K[(3 * b + k) * nd + 3 * a + i] = v;
+                }
+    }
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const double *row = K + (3 * a + i) * nd;
+                const double v = -(row[k] + row[3 + k] + row[6 + k]);
+                K[(3 * a + i) * nd + 9 + k] = v;
+                K[(9 + k) * nd + 3 * a + i] = v;
+            }
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            const double *row = K + (9 + i) * nd;
+            K[(9 + i) * nd + 9 + k] = -(row[k] + row[3 + k] + row[6 + k]);
+        }
+}
+
+/* D := k proj(D) + kd beta clamp(D) (sk = k, sd = kd beta): an element's stiffness with its
+ * projection `proj` and its stiffness damping's, which is always clamped. */
+static inline void tet_damped_dpdf(double D[81], int proj, double sk, double sd)
+{
+    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        memcpy(Dd, D, sizeof Dd);
+        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__project_psd(9, D, proj);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+}
+
 /* The scalar force kernel of a tet model over its element group, the law PFUN(mu, lambda, F, P)
  * inlined: the reference the batched kernels are checked against (DEFSIM_SIMD=scalar). */
 #define DEFSIM__TET_FORCE_KERNEL(NAME, PFUN)                                                  \

@@ -20,6 +20,21 @@
  * lambda = E nu/((1+nu)(1-2nu)) of the user's (E, nu) and a deformation gradient F, row-major
  * (F[3*i+j] = F_ij). P(I) = 0 and dPdF(I) is the linear elasticity tensor for every model.
  */
+/*
+ * The split psi(F) = psi_iso(F) + U(det F) of a model whose lambda term depends on J = det F
+ * alone, which the volume-averaged tet (term_nodal_volume.c) evaluates per element (psi_iso, on
+ * F) and per vertex (U, on the nodal volume ratio). psi_iso carries no lambda: near
+ * incompressibility all the stiff part is in U. psi_iso(I) + U(1) = psi_rest.
+ */
+typedef struct defsim__model_split {
+    /* P_iso = dpsi_iso/dF; returns psi_iso (+INFINITY, P NAN where the model is undefined). */
+    double (*P)(double mu, double lambda, const double F[9], double P[9]);
+    /* dP_iso/dF, the 9 x 9 layout of dPdF below (NAN where undefined). */
+    void (*dPdF)(double mu, double lambda, const double F[9], double dPdF[81]);
+    /* u[0] = U(J), u[1] = U'(J), u[2] = U''(J) (NAN where undefined). */
+    void (*U)(double mu, double lambda, double J, double u[3]);
+} defsim__model_split;
+
 typedef struct defsim__model {
     const char *name;                 /* "stvk", as in material_list.h */
     defsim_model id;                  /* DEFSIM_MODEL_* */
@@ -45,6 +60,9 @@ typedef struct defsim__model {
     /* Adds the elastic forces of group g at x into f: the scalar reference kernel
      * (DEFSIM_SIMD=scalar). */
     void (*forces)(const defsim__group *g, const double *x, double *f, int nthreads);
+    /* Its isochoric / volumetric split, or NULL: StVK's lambda tr(E)^2 / 2 and co-rotated's
+     * lambda tr(S - I)^2 / 2 are not functions of J, so they have none. */
+    const defsim__model_split *split;
 } defsim__model;
 
 #define DEFSIM__DECLARE_MODEL(name) extern const defsim__model defsim__model_##name;

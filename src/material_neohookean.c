@@ -89,11 +89,41 @@ static void neohookean_sigma(double mu, double lambda, const double s[3], double
     }
 }
 
+/* The split (material.h): psi_iso = mu/2 (tr(F^T F) - 3) - mu log J is the law with lambda = 0,
+ * U(J) = lambda/2 (log J)^2, U' = lambda log J / J, U'' = lambda (1 - log J) / J^2. */
+static double iso_P(double mu, double lambda, const double F[9], double P[9])
+{
+    (void)lambda;
+    return neohookean_P(mu, 0.0, F, P);
+}
+
+static void iso_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
+{
+    (void)lambda;
+    neohookean_dPdF(mu, 0.0, F, dPdF);
+}
+
+static void volumetric(double mu, double lambda, double J, double u[3])
+{
+    (void)mu;
+    if (!(J > 0.0)) {
+        u[0] = J == J ? INFINITY : NAN;
+        u[1] = u[2] = NAN;
+        return;
+    }
+    const double lj = log(J);
+    u[0] = 0.5 * lambda * lj * lj;
+    u[1] = lambda * lj / J;
+    u[2] = lambda * (1.0 - lj) / (J * J);
+}
+
+static const defsim__model_split split = {.P = iso_P, .dPdF = iso_dPdF, .U = volumetric};
+
 const defsim__model defsim__model_neohookean = {
     .name = "neohookean", .id = DEFSIM_MODEL_NEOHOOKEAN, .pass = DEFSIM_PASS_NEOHOOKEAN,
     .needs_positive_det = 1, .params = defsim__lame_params, .psi = neohookean_psi,
     .P = neohookean_P, .dPdF = neohookean_dPdF, .sigma = neohookean_sigma,
-    .forces = forces_neohookean};
+    .forces = forces_neohookean, .split = &split};
 
 #else /* DEFSIM_ISA: the batched law */
 

@@ -79,19 +79,7 @@ static void snh_dPdF(double mu, double lambda, const double F[9], double dPdF[81
             if (r == c) h += c1;
             dPdF[9 * r + c] = dPdF[9 * c + r] = h;
         }
-    for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k) {
-            if (i == k) continue;
-            int n = 3 - i - k;
-            double sik = ((k - i + 3) % 3 == 1) ? c2 : -c2;
-            for (int j = 0; j < 3; ++j)
-                for (int l = 0; l < 3; ++l) {
-                    if (j == l) continue;
-                    int m = 3 - j - l;
-                    double sjl = ((l - j + 3) % 3 == 1) ? sik : -sik;
-                    dPdF[9 * (3 * i + j) + 3 * k + l] += sjl * F[3 * n + m];
-                }
-        }
+    tet_add_det_hessian(F, c2, dPdF);
 }
 
 static void snh_sigma(double mu, double lambda, const double s[3], double h[9],
@@ -122,11 +110,45 @@ static void params(double mu, double lambda, double p[3])
     snh_params(mu, lambda, &p[0], &p[1], &p[2]);
 }
 
+/* The split (material.h): psi_iso = mu'/2 (I_C - 3) - mu'/2 log(I_C + 1), with P_iso = c1 F and
+ * dP_iso/dF = c1 I + 2 mu'/(I_C + 1)^2 F (x) F; U(J) = lambda'/2 (J - alpha)^2. */
+static double iso_P(double mu, double lambda, const double F[9], double P[9])
+{
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    const double ic = defsim__m3_ddot(F, F);
+    const double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
+    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i];
+    return 0.5 * mp * (ic - 3.0) - 0.5 * mp * log(ic + 1.0);
+}
+
+static void iso_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
+{
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    const double ic = defsim__m3_ddot(F, F);
+    const double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
+    const double cF = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
+    for (int r = 0; r < 9; ++r)
+        for (int c = 0; c < 9; ++c) dPdF[9 * r + c] = cF * F[r] * F[c] + (r == c ? c1 : 0.0);
+}
+
+static void volumetric(double mu, double lambda, double J, double u[3])
+{
+    double mp, lp, alpha;
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    u[0] = 0.5 * lp * (J - alpha) * (J - alpha);
+    u[1] = lp * (J - alpha);
+    u[2] = lp;
+}
+
+static const defsim__model_split split = {.P = iso_P, .dPdF = iso_dPdF, .U = volumetric};
+
 const defsim__model defsim__model_stable_neohookean = {
     .name = "stable_neohookean", .id = DEFSIM_MODEL_STABLE_NEOHOOKEAN,
     .pass = DEFSIM_PASS_STABLE_NEOHOOKEAN, .params = params, .psi = snh_psi,
     .psi_rest = snh_psi_rest, .P = snh_P, .dPdF = snh_dPdF, .sigma = snh_sigma,
-    .forces = forces_snh};
+    .forces = forces_snh, .split = &split};
 
 #else /* DEFSIM_ISA: the batched law */
 

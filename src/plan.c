@@ -31,9 +31,20 @@ static void group_free(defsim__group *g)
     memset(g, 0, sizeof *g);
 }
 
+static void vgroup_free(defsim__vgroup *v)
+{
+    group_free(&v->g);
+    free(v->node); free(v->enode); free(v->vn); free(v->beta_n); free(v->ne_ptr); free(v->ne);
+    free(v->wne); free(v->patch_ptr); free(v->patch); free(v->ploc); free(v->prank_ptr);
+    free(v->prank); free(v->se); free(v->sn); free(v->lin_pe); free(v->lin_un);
+    free(v->gn);
+    memset(v, 0, sizeof *v);
+}
+
 void defsim__unplan(defsim__system *s, defsim__work *wk)
 {
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) group_free(&s->groups[m]);
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) vgroup_free(&s->vgroups[m]);
     defsim__attachments *at = &s->att;
     free(at->node); free(at->a); free(at->k); free(at->c); free(at->p); free(at->blk);
     defsim__pattern *p = &s->pattern;
@@ -97,44 +108,142 @@ static int group_of(int model)
     return m;
 }
 
+/* Room for count elements in g (tets of model m < DEFSIM__TET_MODELS, or springs), none
+ * filled yet. */
+static defsim_status group_alloc(defsim__group *g, int m, int32_t count)
+{
+    const size_t n = (size_t)(count > 0 ? count : 1);
+    g->n = 0;
+    g->nodes = m < DEFSIM__TET_MODELS ? 4 : 2;
+    g->law = m < DEFSIM__TET_MODELS ? defsim__tet_models[m] : NULL;
+    g->pass = m < DEFSIM__TET_MODELS ? defsim__tet_models[m]->pass : defsim__model_spring.pass;
+    g->idx = malloc(n * g->nodes * sizeof *g->idx);
+    g->beta = malloc(n * sizeof *g->beta);
+    if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
+    if (m < DEFSIM__TET_MODELS) {
+        g->dminv = malloc(9 * n * sizeof *g->dminv);
+        g->vol = malloc(n * sizeof *g->vol);
+        g->mu = malloc(n * sizeof *g->mu);
+        g->lambda = malloc(n * sizeof *g->lambda);
+        if (!g->dminv || !g->vol || !g->mu || !g->lambda) return DEFSIM_ERR_OUT_OF_MEMORY;
+    } else {
+        g->k = malloc(n * sizeof *g->k);
+        g->l0 = malloc(n * sizeof *g->l0);
+        if (!g->k || !g->l0) return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    return DEFSIM_OK;
+}
+
+static int cmp_i32(const void *a, const void *b)
+{
+    const int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The node data of a volume-averaged group whose elements are in place (coloured): nodes in
+ * the order their vertices first appear, their rest volumes, the elements at each node in
+ * element order, the patches (sorted vertices of a node's elements) and the scratch. */
+static defsim_status plan_nodes(defsim__vgroup *v, int32_t nv)
+{
+    const defsim__group *g = &v->g;
+    const size_t ne = (size_t)g->n * 4 + 1;
+    int32_t *map = malloc((size_t)(nv > 0 ? nv : 1) * sizeof *map);
+    v->enode = malloc(ne * sizeof *v->enode);
+    v->node = malloc(ne * sizeof *v->node);
+    if (!map || !v->enode || !v->node) { free(map); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    for (int32_t i = 0; i < nv; ++i) map[i] = -1;
+    v->nn = 0;
+    for (int64_t k = 0; k < 4 * (int64_t)g->n; ++k) {
+        const int32_t vx = g->idx[k];
+        if (map[vx] < 0) { map[vx] = v->nn; v->node[v->nn++] = vx; }
+        v->enode[k] = map[vx];
+    }
+    free(map);
+    const size_t nn = (size_t)v->nn + 1;
+    v->vn = calloc(nn, sizeof *v->vn);
+    v->beta_n = calloc(nn, sizeof *v->beta_n);
+    v->ne_ptr = calloc(nn, sizeof *v->ne_ptr);
+    v->ne = malloc(ne * sizeof *v->ne);
+    v->wne = malloc(ne * sizeof *v->wne);
+    v->patch_ptr = calloc(nn, sizeof *v->patch_ptr);
+    v->prank_ptr = calloc(nn, sizeof *v->prank_ptr);
+    v->ploc = malloc(4 * ne * sizeof *v->ploc);
+    int32_t *list = malloc(4 * ne * sizeof *list);   /* a node's patch before it is unique */
+    int64_t *fill = malloc(nn * sizeof *fill);
+    if (!v->vn || !v->beta_n || !v->ne_ptr || !v->ne || !v->wne || !v->patch_ptr ||
+        !v->prank_ptr || !v->ploc || !list || !fill) {
+        free(list); free(fill);
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int64_t k = 0; k < 4 * (int64_t)g->n; ++k) {
+        const int32_t n = v->enode[k];
+        v->vn[n] += 0.25 * g->vol[k / 4];
+        v->beta_n[n] = g->beta[k / 4];
+        v->ne_ptr[n + 1]++;
+    }
+    for (int32_t n = 0; n < v->nn; ++n) v->ne_ptr[n + 1] += v->ne_ptr[n];
+    memcpy(fill, v->ne_ptr, nn * sizeof *fill);
+    for (int64_t k = 0; k < 4 * (int64_t)g->n; ++k) {
+        const int32_t n = v->enode[k];
+        v->wne[fill[n]] = 0.25 * g->vol[k / 4] / v->vn[n];
+        v->ne[fill[n]++] = (int32_t)k;
+    }
+    /* patches: sorted and unique into list, compacted */
+    int64_t np = 0;
+    for (int32_t n = 0; n < v->nn; ++n) {
+        int32_t *l = list + np;
+        int64_t m = 0;
+        for (int64_t k = v->ne_ptr[n]; k < v->ne_ptr[n + 1]; ++k)
+            for (int a = 0; a < 4; ++a) l[m++] = g->idx[4 * (int64_t)(v->ne[k] / 4) + a];
+        qsort(l, (size_t)m, sizeof *l, cmp_i32);
+        int64_t u = 0;
+        for (int64_t k = 0; k < m; ++k)
+            if (k == 0 || l[k] != l[k - 1]) l[u++] = l[k];
+        for (int64_t k = v->ne_ptr[n]; k < v->ne_ptr[n + 1]; ++k)
+            for (int a = 0; a < 4; ++a)
+                v->ploc[4 * k + a] =
+                    defsim__lower_rank(l, u, g->idx[4 * (int64_t)(v->ne[k] / 4) + a]);
+        np += u;
+        v->patch_ptr[n + 1] = np;
+        v->prank_ptr[n + 1] = v->prank_ptr[n] + u * u;
+    }
+    free(fill);
+    v->patch = realloc(list, (size_t)(np > 0 ? np : 1) * sizeof *v->patch);
+    if (!v->patch) { free(list); return DEFSIM_ERR_OUT_OF_MEMORY; }
+    const size_t nr = (size_t)v->prank_ptr[v->nn] + 1, n1 = (size_t)g->n + 1;
+    v->prank = malloc(nr * sizeof *v->prank);
+    v->se = malloc(3 * n1 * sizeof *v->se);
+    v->lin_pe = malloc(n1 * sizeof *v->lin_pe);
+    v->sn = malloc(2 * nn * sizeof *v->sn);
+    v->lin_un = malloc(nn * sizeof *v->lin_un);
+    v->gn = malloc((3 * (size_t)np + 1) * sizeof *v->gn);
+    if (!v->prank || !v->se || !v->lin_pe || !v->sn || !v->lin_un || !v->gn)
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    return DEFSIM_OK;
+}
+
 static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in)
 {
-    int32_t count[DEFSIM__TET_MODELS + 1] = {0};
+    int32_t count[DEFSIM__TET_MODELS + 1] = {0}, vcount[DEFSIM__TET_MODELS] = {0};
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
-        if (bd->nt > 0) count[group_of(bd->mat.model)] += bd->nt;
+        if (bd->nt > 0) (bd->volume_averaging ? vcount : count)[group_of(bd->mat.model)] += bd->nt;
         count[DEFSIM__TET_MODELS] += bd->ns;
     }
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        defsim__group *g = &s->groups[m];
-        const size_t n = (size_t)(count[m] > 0 ? count[m] : 1);
-        g->n = count[m];
-        g->nodes = m < DEFSIM__TET_MODELS ? 4 : 2;
-        g->law = m < DEFSIM__TET_MODELS ? defsim__tet_models[m] : NULL;
-        g->pass = m < DEFSIM__TET_MODELS ? defsim__tet_models[m]->pass : defsim__model_spring.pass;
-        g->idx = malloc(n * g->nodes * sizeof *g->idx);
-        g->beta = malloc(n * sizeof *g->beta);
-        if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
-        if (m < DEFSIM__TET_MODELS) {
-            g->dminv = malloc(9 * n * sizeof *g->dminv);
-            g->vol = malloc(n * sizeof *g->vol);
-            g->mu = malloc(n * sizeof *g->mu);
-            g->lambda = malloc(n * sizeof *g->lambda);
-            if (!g->dminv || !g->vol || !g->mu || !g->lambda) return DEFSIM_ERR_OUT_OF_MEMORY;
-        } else {
-            g->k = malloc(n * sizeof *g->k);
-            g->l0 = malloc(n * sizeof *g->l0);
-            if (!g->k || !g->l0) return DEFSIM_ERR_OUT_OF_MEMORY;
-        }
-        g->n = 0;
-    }
+    defsim_status st = DEFSIM_OK;
+    for (int m = 0; m <= DEFSIM__TET_MODELS && st == DEFSIM_OK; ++m)
+        st = group_alloc(&s->groups[m], m, count[m]);
+    for (int m = 0; m < DEFSIM__TET_MODELS && st == DEFSIM_OK; ++m)
+        if (vcount[m] > 0) st = group_alloc(&s->vgroups[m].g, m, vcount[m]);
+    if (st != DEFSIM_OK) return st;
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
         const double beta = bd->mat.stiffness_damping;
         if (bd->nt > 0) {
-            defsim__group *g = &s->groups[group_of(bd->mat.model)];
+            const int m = group_of(bd->mat.model);
+            defsim__group *g = bd->volume_averaging ? &s->vgroups[m].g : &s->groups[m];
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;
                 const int32_t e = g->n++;
@@ -161,9 +270,17 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         }
     }
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        defsim_status st = defsim__colour_group(&s->groups[m], s->nv);
+        st = defsim__colour_group(&s->groups[m], s->nv);
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m]);
         if (st != DEFSIM_OK) return st;
+    }
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
+        defsim__vgroup *v = &s->vgroups[m];
+        if (v->g.n == 0) continue;
+        s->has_volume_averaging = 1;
+        if ((st = defsim__colour_group(&v->g, s->nv)) != DEFSIM_OK ||
+            (st = plan_nodes(v, s->nv)) != DEFSIM_OK)
+            return st;
     }
     s->tet_kernels = in->tet_kernels;
     return DEFSIM_OK;
@@ -231,6 +348,10 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
     int32_t maxn = 1;
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
         if (s->groups[m].n > maxn) maxn = s->groups[m].n;
+    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
+        if (s->vgroups[m].g.n > maxn) maxn = s->vgroups[m].g.n;
+        if (s->vgroups[m].nn > maxn) maxn = s->vgroups[m].nn;
+    }
     wk->npartial = (maxn + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
     wk->partial = malloc((size_t)wk->npartial * sizeof *wk->partial);
     wk->pz = malloc(nd * sizeof *wk->pz);

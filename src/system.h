@@ -47,6 +47,36 @@ typedef struct defsim__group {
     uint8_t *blanes;          /* nbatch */
 } defsim__group;
 
+/* The volume-averaged tets of one model (term_nodal_volume.c; bodies with
+ * defsim_body_def.volume_averaging): the energy sum_e V_e psi_iso(F_e) + sum_n V_n U(J_n), with
+ * the nodal volume ratio J_n = sum_{e at n} (V_e / 4) J_e / V_n of each node n (a vertex of its
+ * tets) and V_n = sum_{e at n} V_e / 4. Its tets are an element group of their own (coloured,
+ * ranked into the pattern like the others; law the model, its split in material.h); the node
+ * data below; the scratch its evaluations write. */
+typedef struct defsim__vgroup {
+    defsim__group g;          /* first: the element ops reach the rest from &g */
+    int32_t nn;               /* nodes */
+    int32_t *node;            /* nn: world vertex of each node */
+    int32_t *enode;           /* 4 g.n: node of each element vertex */
+    double *vn;               /* nn: V_n (m^3) */
+    double *beta_n;           /* nn: stiffness damping of the node's body (s) */
+    int64_t *ne_ptr;          /* nn + 1: node n's element vertices ne[ne_ptr[n] .. ne_ptr[n+1]) */
+    int32_t *ne;              /* 4 e + a: element e's vertex a is the node */
+    double *wne;              /* per ne entry: V_e / (4 V_n) */
+    int64_t *patch_ptr;       /* nn + 1: node n's patch (the vertices of its tets, sorted) */
+    int32_t *patch;           /* world vertices */
+    int32_t *ploc;            /* 4 per ne entry: the patch places of the element's vertices */
+    int64_t *prank_ptr;       /* nn + 1: offsets of the ranks (m^2 for a patch of m) */
+    int32_t *prank;           /* rank of patch vertex a in patch vertex b's pattern list at
+                                 prank_ptr[n] + a m + b (-1: pinned) */
+    /* scratch of one evaluation (forces, energy, products) and the linearisation at the
+     * kind's cache's x: */
+    double *se, *sn;          /* 3 g.n, 2 nn */
+    double *lin_pe;           /* g.n: the element pressures p_e = sum_{n of e} U'(J_n) / 4 */
+    double *lin_un;           /* nn: U''(J_n) */
+    double *gn;               /* 3 patch_ptr[nn]: dJ_n/dx over the patches (values) */
+} defsim__vgroup;
+
 /* The sparse pattern of matrices over free DOFs (assembly.c), built once per plan. Free DOFs
  * come in vertex triples, so the pattern is made of 3x3 blocks. */
 typedef struct defsim__pattern {
@@ -93,6 +123,9 @@ typedef struct defsim__system {
 
     /* element groups: tets per model, then springs */
     defsim__group groups[DEFSIM__TET_MODELS + 1];
+    /* the volume-averaged tets per model (empty unless a body asks for them) */
+    defsim__vgroup vgroups[DEFSIM__TET_MODELS];
+    int has_volume_averaging;
 
     /* the pass plan: what the scene uses */
     int has_gravity, has_mass_damping, has_stiffness_damping, has_pins;

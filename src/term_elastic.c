@@ -64,8 +64,7 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
                           int32_t e, double sk, double sd, double *K)
 {
     const int proj = s->projection;
-    const int nd = 12;
-    double F[9], D[81], gr[4][3];
+    double F[9], D[81];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
     if (proj == DEFSIM_PROJECTION_NONE) {
         g->law->dPdF(g->mu[e], g->lambda[e], F, D);
@@ -86,39 +85,7 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
         defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
         for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
     }
-    tet_gradients(g->dminv + 9 * (int64_t)e, gr);
-    const double vol = g->vol[e];
-    /* K[(a,i),(b,k)] = vol sum_{j,l} g_a[j] D[(i,j),(k,l)] g_b[l]. D is symmetric, so K is; and
-     * g_3 = -(g_0 + g_1 + g_2) makes node 3's blocks minus sums of the others: only the six
-     * blocks a <= b < 3 need the products. */
-    for (int b = 0; b < 3; ++b) {
-        double Dg[9][3];   /* Dg[(i,j)][k] = sum_l D[(i,j),(k,l)] g_b[l] */
-        for (int r = 0; r < 9; ++r)
-            for (int k = 0; k < 3; ++k)
-                Dg[r][k] = D[9 * r + 3 * k] * gr[b][0] + D[9 * r + 3 * k + 1] * gr[b][1] +
-                           D[9 * r + 3 * k + 2] * gr[b][2];
-        for (int a = 0; a <= b; ++a)
-            for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    const double v = vol * (gr[a][0] * Dg[3 * i][k] + gr[a][1] * Dg[3 * i + 1][k] +
-                                            gr[a][2] * Dg[3 * i + 2][k]);
-                    K[(3 * a + i) * nd + 3 * b + k] = v;
-                    K[(3 * b + k) * nd + 3 * a + i] = v;
-                }
-    }
-    for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) {
-                const double *row = K + (3 * a + i) * nd;
-                const double v = -(row[k] + row[3 + k] + row[6 + k]);
-                K[(3 * a + i) * nd + 9 + k] = v;
-                K[(9 + k) * nd + 3 * a + i] = v;
-            }
-    for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k) {
-            const double *row = K + (9 + i) * nd;
-            K[(9 + i) * nd + 9 + k] = -(row[k] + row[3 + k] + row[6 + k]);
-        }
+    tet_stiffness(g->dminv + 9 * (int64_t)e, g->vol[e], D, K);
     return 1;
 }
 
@@ -133,16 +100,7 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
     double F[9], D[81], dF[9], dP[9], gr[4][3];
     tet_deformation(x, id, dm, F);
     g->law->dPdF(g->mu[e], g->lambda[e], F, D);
-    if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
-        double Dd[81];
-        memcpy(Dd, D, sizeof Dd);
-        defsim__project_psd(9, Dd, DEFSIM_PROJECTION_CLAMP);
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
-    } else {
-        defsim__project_psd(9, D, proj);
-        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
-    }
+    tet_damped_dpdf(D, proj, sk, sd);
     tet_gradients(dm, gr);
     memset(dF, 0, sizeof dF);
     for (int a = 0; a < 4; ++a) {

@@ -78,6 +78,15 @@ static double det3(const double *x, const int32_t *id)
            a[2] * (b[0] * c[1] - b[1] * c[0]);
 }
 
+/* The element groups the checks walk: tets per model, springs, then the volume-averaged tets
+ * per model. */
+enum { NGROUPS = 2 * DEFSIM__TET_MODELS + 1 };
+
+static const defsim__group *group_at(const defsim__system *s, int m)
+{
+    return m <= DEFSIM__TET_MODELS ? &s->groups[m] : &s->vgroups[m - DEFSIM__TET_MODELS - 1].g;
+}
+
 /* Smallest volume ratio J = det Ds / det Dm of group g at x, and the count with J <= 0 (or not
  * a number). Rest tets are positively oriented, so det Dm = 6 vol. */
 static int64_t volume_ratios(const defsim__group *g, const double *x, int nthreads, double *jmin)
@@ -121,8 +130,8 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), the
      * rest length of a spring. */
     double size = s->length_scale;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        const defsim__group *gr = &s->groups[m];
+    for (int m = 0; m < NGROUPS; ++m) {
+        const defsim__group *gr = group_at(s, m);
         for (int32_t e = 0; e < gr->n; ++e) {
             const double l = gr->nodes == 4 ? cbrt(6.0 * gr->vol[e]) : gr->l0[e];
             if (l > 0.0 && l < size) size = l;
@@ -150,8 +159,8 @@ static int deformed(const defsim__watchdog *wd, const defsim__system *s, const d
                        (hi[2] - lo[2]) * (hi[2] - lo[2]);
     if (box <= wd->move2) return 0;
     double most = 0.0;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
-        const defsim__group *gr = &s->groups[m];
+    for (int m = 0; m < NGROUPS; ++m) {
+        const defsim__group *gr = group_at(s, m);
         const int32_t *id = gr->idx;
         if (gr->nodes == 4) {
 #pragma omp simd reduction(max : most)
@@ -270,7 +279,8 @@ static int list_pinned_elements(defsim__watchdog *wd, const defsim__system *s)
 defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__system *s,
                                           const double *x, const double *v, double *f)
 {
-    if (s->has_stiffness_damping || s->has_attachment_damping || s->body_contact)
+    if (s->has_stiffness_damping || s->has_attachment_damping || s->body_contact ||
+        s->has_volume_averaging)
         return defsim__forces(s, x, v, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_DAMPING |
                                            DEFSIM__FORCE_KEEP_PINNED, f, NULL);
     if (!wd->pin_el_ok && !list_pinned_elements(wd, s)) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -471,9 +481,9 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    for (int m = 0; m < DEFSIM__TET_MODELS && (full || wd->jmin < JMIN_WATCH); ++m) {
-        const defsim__group *gr = &s->groups[m];
-        if (gr->n == 0 || !gr->law->needs_positive_det) continue;
+    for (int m = 0; m < NGROUPS && (full || wd->jmin < JMIN_WATCH); ++m) {
+        const defsim__group *gr = group_at(s, m);
+        if (gr->n == 0 || gr->nodes != 4 || !gr->law->needs_positive_det) continue;
         double jmin;
         const int64_t bad = volume_ratios(gr, x, s->nthreads, &jmin);
         wd->jmin = jmin;
@@ -563,10 +573,11 @@ void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__syst
 {
     double jmin = INFINITY;
     int64_t bad = 0;
-    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
-        if (s->groups[m].n == 0) continue;
+    for (int m = 0; m < NGROUPS; ++m) {
+        const defsim__group *gr = group_at(s, m);
+        if (gr->n == 0 || gr->nodes != 4) continue;
         double j;
-        bad += volume_ratios(&s->groups[m], x, s->nthreads, &j);
+        bad += volume_ratios(gr, x, s->nthreads, &j);
         if (j < jmin) jmin = j;
     }
     out->min_volume_ratio = isinf(jmin) ? 1.0 : jmin;

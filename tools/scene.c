@@ -552,7 +552,8 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
                                        "initial_transform", "color", "probe", "forces", "drive",
                                        "self_contact", "collision_group", "collision_mask",
                                        "friction", "masses", "spring_stiffness",
-                                       "initial_positions", "initial_velocities", NULL};
+                                       "initial_positions", "initial_velocities",
+                                       "volume_averaging", NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
     b->probe = -1;
@@ -565,7 +566,8 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     if (sj_bool(c, j, "self_contact", w, &b->self_contact) ||
         sj_number(c, j, "collision_group", w, 0.0, 4294967295.0, 0, &group) ||
         sj_number(c, j, "collision_mask", w, 0.0, 4294967295.0, 0, &mask) ||
-        sj_number(c, j, "friction", w, 0.0, 10.0, 0, &b->friction))
+        sj_number(c, j, "friction", w, 0.0, 10.0, 0, &b->friction) ||
+        sj_bool(c, j, "volume_averaging", w, &b->volume_averaging))
         return -1;
     if (group != floor(group) || mask != floor(mask))
         return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, group != floor(group)
@@ -888,6 +890,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
         bd.collision_group = b->collision_group;
         bd.collision_mask = b->collision_mask;
         bd.friction = b->friction;
+        bd.volume_averaging = b->volume_averaging;
         bd.initial_positions = b->initial;
         bd.initial_velocities = b->velocity;
         bd.vertex_mass = b->masses;

@@ -109,7 +109,7 @@ static void irows(out *o, const int32_t *v, int64_t n, int width)
 
 typedef struct xbody {
     uint32_t saved, generation;
-    int32_t nv, nt, ns, ntri, nedge, self_contact, offset;
+    int32_t nv, nt, ns, ntri, nedge, self_contact, offset, volume_averaging;
     defsim_material mat;
     double *rest, *mass, *k;
     int32_t *tets, *springs, *tris, *edges;
@@ -180,14 +180,14 @@ static int32_t *i32s(defsim__br *r, int64_t n)
     return v;
 }
 
-/* The chunks of the checkpoint format version 6 that a scene needs. Returns 0, -1 (malformed:
+/* The chunks of the checkpoint format version 7 that a scene needs. Returns 0, -1 (malformed:
  * a format this code does not know) or -2 (out of memory). */
 static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
 {
     memset(k, 0, sizeof *k);
     if (size < 16 || memcmp(d, "DEFSIMCK", 8)) return -1;
     defsim__br h = {d + 8, 8, 0, 0};
-    if (defsim__get_u32(&h) != 6) return -1;
+    if (defsim__get_u32(&h) != 7) return -1;
     size_t at = 16;
     while (at + 12 <= size) {
         const unsigned char *tag = d + at;
@@ -233,6 +233,7 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             b->group = defsim__get_u32(&r);
             b->mask = defsim__get_u32(&r);
             b->friction = defsim__get_f64(&r);
+            b->volume_averaging = defsim__get_i32(&r);
             if (!b->rest || !b->mass || !b->tets || !b->springs || !b->k || !b->tris || !b->edges)
                 return -2;
         } else if (!memcmp(tag, "ATCH", 4)) {
@@ -504,6 +505,7 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         "\"friction\": ", b->self_contact ? "true" : "false", (unsigned)b->group,
         (unsigned)b->mask);
     num(o, b->friction);
+    if (b->volume_averaging) put(o, ", \"volume_averaging\": true");
     put(o, "}");
     return DEFSIM_OK;
 }

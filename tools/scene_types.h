@@ -125,6 +125,7 @@ typedef struct scene_body {
     int self_contact;
     uint32_t collision_group, collision_mask;
     double friction;
+    int volume_averaging;   /* "volume_averaging": defsim_body_def.volume_averaging */
 } scene_body;
 
 /* What a scene file may ask for at most, checked by scene_load before anything large is made

@@ -259,6 +259,17 @@ typedef struct defsim_body_def {
     /// Coulomb coefficient of body-body friction (>= 0, finite; default 0.5); a pair of bodies
     /// uses sqrt(mu_A mu_B). Larger than 10 is DEFSIM_ERR_INVALID_MATERIAL.
     double friction;
+    /* Volume averaging against volumetric locking (appended; see docs/materials.md). */
+    /// 1: the body's tets use the averaged-nodal-volume element (Bonet and Burton 1998, in energy
+    /// form): each tet keeps the part of its material's energy without lambda, and the part with
+    /// lambda, U(J), is evaluated per vertex on the vertex's volume ratio, the sum of its tets'
+    /// current volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
+    /// bodies (poisson_ratio near 0.5) then bend as the continuum does instead of locking; the
+    /// matrices couple every vertex of a vertex's tets (a wider pattern). 0 (default): the
+    /// standard element. Only the neo-Hookean and stable neo-Hookean models have the split
+    /// (their lambda terms depend on J alone); with StVK or co-rotated, or a value other than 0
+    /// and 1: DEFSIM_ERR_INVALID_MATERIAL.
+    int32_t volume_averaging;
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
@@ -814,7 +825,11 @@ DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double
 /// psi(F) relative to rest (J/m^3 of rest volume, 1 per tet). Any output may be NULL. All are
 /// zero at rest. A tet with det F = 0, or det F <= 0 under the neo-Hookean model (undefined
 /// there), gets NaN stresses; its energy density is that of the model (+inf for neo-Hookean).
-/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID.
+/// A body with volume_averaging reports its tets' isochoric stress plus their averaged nodal
+/// pressure p_e cof(F) (the stress its forces come from), and the isochoric energy density plus
+/// the mean of its vertices' volumetric U(J_n).
+/// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID,
+/// DEFSIM_ERR_OUT_OF_MEMORY (volume_averaging only).
 DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
                                                     defsim_body_id body, double *cauchy,
                                                     double *von_mises, double *energy_density,

@@ -732,11 +732,13 @@ static void test_version_4_file(void **state)
  * term's TERM chunk: the loaded world continues as the uninterrupted run does (the same bits
  * with this compiler; roundoff with another, which may contract differently), and saved again
  * it is a version 6 file with a TERM chunk and no CNTC, which continues bit for bit. */
-static void test_version_5_file(void **state)
+/* The sliding cube saved after 40 steps in `file`, loaded: it holds the uninterrupted run's
+ * state and, 20 steps on, is within 1e-9 of it (the same bits with this compiler; roundoff with
+ * another). Returns the loaded world. */
+static defsim_world *sliding_cube_file(const char *file, const char *what)
 {
-    (void)state;
     defsim_world *old = NULL;
-    TU_OK(defsim_world_load(DEFSIM_TEST_DATA "/v5_friction.dfck", NULL, NULL, &old));
+    TU_OK(defsim_world_load(file, NULL, NULL, &old));
     defsim_world *now = sliding_cube();
     for (int k = 0; k < 40; ++k) TU_OK(defsim_world_step(now, 5e-4));
     assert_true(defsim_world_time(old) == defsim_world_time(now));
@@ -750,8 +752,17 @@ static void test_version_5_file(void **state)
         TU_OK(defsim_world_step(now, 5e-4));
     }
     const double d = state_diff(old, now);
-    printf("  version 5 with friction: max |difference| 20 steps after the load = %.3g\n", d);
+    printf("  %s: max |difference| 20 steps after the load = %.3g\n", what, d);
     assert_true(d < 1e-9);   /* version 4's file, without CNTC, is 1e-6 .. 1e-3 off */
+    defsim_world_destroy(now);
+    return old;
+}
+
+static void test_version_5_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v5_friction.dfck",
+                                          "version 5 with friction");
     void *buf = NULL;
     size_t size = 0;
     TU_OK(defsim_world_save_buffer(old, &buf, &size));
@@ -776,8 +787,24 @@ static void test_version_5_file(void **state)
     }
     assert_true(same_bits(old, again));
     defsim_world_destroy(old);
-    defsim_world_destroy(now);
     defsim_world_destroy(again);
+}
+
+/* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
+ * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
+ * volume_averaging: the file's body loads with the standard element (0) and continues as the
+ * uninterrupted run does; saved again it is a version 7 file. */
+static void test_version_6_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(old, &buf, &size));
+    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 7);
+    defsim_buffer_free(buf);
+    defsim_world_destroy(old);
 }
 
 /* sundials_erk's history layout 1 (written by commit f44ad41, before the replay: the next step
@@ -919,7 +946,7 @@ int main(void)
         cmocka_unit_test(test_version_1_file),
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_version_4_file),
-        cmocka_unit_test(test_version_5_file),
+        cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

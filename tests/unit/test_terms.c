@@ -275,6 +275,90 @@ static void test_elastic(void **state)
     }
 }
 
+/* Whether the dense symmetric n x n matrix A (over the free DOFs of s) is positive
+ * semi-definite to tol * its largest entry: a Cholesky factorisation of A + tol max|A| I. */
+static int dense_psd(const defsim__system *sys, const double *A, int64_t n, double tol)
+{
+    int64_t m = 0;
+    double big = 0.0;
+    for (int64_t i = 0; i < n * n; ++i) big = fmax(big, fabs(A[i]));
+    int64_t *f = malloc((size_t)n * sizeof *f);
+    for (int64_t i = 0; i < n; ++i)
+        if (!sys->pinned[i / 3]) f[m++] = i;
+    double *L = calloc((size_t)(m * m), sizeof *L);
+    int ok = 1;
+    for (int64_t j = 0; j < m && ok; ++j) {
+        double d = A[f[j] * n + f[j]] + tol * big;
+        for (int64_t k = 0; k < j; ++k) d -= L[j * m + k] * L[j * m + k];
+        if (!(d > 0.0)) { ok = 0; break; }
+        L[j * m + j] = sqrt(d);
+        for (int64_t i = j + 1; i < m; ++i) {
+            double r = A[f[i] * n + f[j]];
+            for (int64_t k = 0; k < j; ++k) r -= L[i * m + k] * L[j * m + k];
+            L[i * m + j] = r / L[j * m + j];
+        }
+    }
+    free(L);
+    free(f);
+    return ok;
+}
+
+/* The volume-averaged tets (neo-Hookean and stable neo-Hookean, nu = 0.45, stiffness damping)
+ * on a 2 x 2 x 1-cell box distorted off rest: forces, the exact Hessian and the damping matrix
+ * against differences, products; under clamp projection the matrix is positive semi-definite at a
+ * state where the exact one is not. */
+static void test_nodal_volume(void **state)
+{
+    (void)state;
+    const defsim_model models[2] = {DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    for (int k = 0; k < 2; ++k) {
+        defsim_world *w = world(0.0);
+        const double lo[3] = {0, 0, 0}, hi[3] = {0.2, 0.2, 0.1};
+        defsim_mesh m;
+        memset(&m, 0, sizeof m);
+        m.size = sizeof m;
+        TU_OK(defsim_mesh_box(lo, hi, 2, 2, 1, &m));
+        defsim_body_def bd = test_mesh_body(&m, models[k]);
+        bd.material.youngs_modulus = 1e4;
+        bd.material.poisson_ratio = 0.45;
+        bd.material.density = 1000.0;
+        bd.material.stiffness_damping = 0.01;
+        bd.volume_averaging = 1;
+        defsim_body_id id;
+        TU_OK(defsim_world_add_body(w, &bd, &id));
+        tu_pin_below(w, id, 0, 0.0);
+        defsim_mesh_free(&m);
+        double *v, *x = perturbed(w, 0.01, &v);
+        assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
+        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_nodal_volume);
+        check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
+        check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
+        check_apply(w, t, x, K1);
+        check_values(w, t, t, x, v, DEFSIM_FORCE_DAMPING, 1, KD1, 1e-6, 1e-6);
+        check_apply(w, t, x, (defsim_matrix_coeffs){1.0, 0.5, 0.0, 0.0});
+        /* a strong twist-and-squash: the exact Hessian is indefinite, the clamped one is not */
+        const int64_t n = 3 * (int64_t)w->nv;
+        unsigned long long seed = 5;
+        for (int64_t i = 0; i < n; ++i)
+            if (!w->sys.pinned[i / 3]) x[i] += 0.04 * tu_rand(&seed);
+        double *D = term_dense(w, t, x, K1);
+        const int exact_psd = dense_psd(&w->sys, D, n, 1e-10);
+        free(D);
+        w->sys.projection = DEFSIM_PROJECTION_CLAMP;
+        D = term_dense(w, t, x, K1);
+        const int clamp_psd = dense_psd(&w->sys, D, n, 1e-10);
+        printf("  %-18s at a large distortion: exact Hessian PSD %d, clamped %d\n",
+               t->ops->name, exact_psd, clamp_psd);
+        assert_false(exact_psd);
+        assert_true(clamp_psd);
+        check_apply(w, t, x, K1);
+        free(D);
+        free(x);
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
 /* Springs (a rope) with stiffness damping, and mass damping with the inertia's diagonal. */
 static void test_spring_and_mass(void **state)
 {
@@ -682,7 +766,8 @@ static void test_all_kinds(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_spring_and_mass),
+        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_nodal_volume),
+        cmocka_unit_test(test_spring_and_mass),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),
         cmocka_unit_test(test_collider),       cmocka_unit_test(test_body_contact),
         cmocka_unit_test(test_body_contact_friction),

@@ -370,7 +370,8 @@ class World(WorldCoupling, WorldColliders):
                  vertex_mass: Any = None, initial_positions: Any = None,
                  initial_velocities: Any = None, triangles: Any = None,
                  self_contact: bool = True, collision_group: int = 1,
-                 collision_mask: int = 0xFFFFFFFF, friction: float = 0.5) -> Body:
+                 collision_mask: int = 0xFFFFFFFF, friction: float = 0.5,
+                 volume_averaging: bool = False) -> Body:
         """Adds a body; its vertices follow those of the bodies added before it. All arrays are
         copied.
 
@@ -398,6 +399,9 @@ class World(WorldCoupling, WorldColliders):
                 itself, its group bits, the groups it collides with (bodies A and B collide when
                 ``A.group & B.mask`` and ``B.group & A.mask``), its Coulomb coefficient (a pair
                 uses the geometric mean).
+            volume_averaging: the averaged-nodal-volume tet against volumetric locking of
+                nearly incompressible bodies (docs/materials.md); neo-Hookean and stable
+                neo-Hookean only (others raise MaterialError).
 
         Returns the new Body. Raises InvalidArgumentError (shapes, counts), InvalidMeshError
         (index out of range, degenerate tet, zero-length spring, non-finite coordinate, vertex
@@ -465,6 +469,7 @@ class World(WorldCoupling, WorldColliders):
         d.collision_group = _collision_bits(collision_group, "collision_group")
         d.collision_mask = _collision_bits(collision_mask, "collision_mask")
         d.friction = _arrays.c_double(friction, "friction")
+        d.volume_averaging = 1 if volume_averaging else 0
         d.vertex_count = _arrays.c_int(n, "vertex count")
         d.tet_count = _arrays.c_int(t.shape[0], "tet count")
         d.spring_count = _arrays.c_int(s.shape[0], "spring count")

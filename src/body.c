@@ -8,6 +8,7 @@
 #include "body.h"
 
 #include "material.h"
+#include "tet10.h"
 #include "tet_rest.h"
 
 #include <math.h>
@@ -27,6 +28,7 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.collision_group = 1u;
     d.collision_mask = 0xFFFFFFFFu;
     d.friction = 0.5;
+    d.tet_nodes = 4;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -85,7 +87,12 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                               "for non-zero tet_count / spring_count");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    if (d.vertex_count > (INT32_MAX - world_nv) / 3 || d.tet_count > INT32_MAX / 16 ||
+    if (d.tet_nodes != 4 && d.tet_nodes != 10) {
+        defsim__error(msg, "add_body: tet_nodes %d must be 4 (linear tets) or 10 (quadratic tets)",
+                      (int)d.tet_nodes);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (d.vertex_count > (INT32_MAX - world_nv) / 3 || d.tet_count > INT32_MAX / 40 ||
         d.spring_count > INT32_MAX / 4) {
         defsim__error(msg, "add_body: counts too large");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -122,7 +129,9 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
 
     defsim__body b;
     memset(&b, 0, sizeof b);
+    const int tn = d.tet_nodes;
     b.nv = nv; b.nt = nt; b.ns = ns;
+    b.tet_nodes = tn;
     b.mat = d.material;
     b.self_contact = d.self_contact;
     b.group = d.collision_group;
@@ -140,7 +149,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     b.rest = malloc(3 * (size_t)nv * sizeof *b.rest);
     b.mass = calloc((size_t)nv, sizeof *b.mass);
     b.pinned = calloc((size_t)nv, 1);
-    b.tets = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *b.tets);
+    b.tets = malloc((size_t)(nt > 0 ? nt : 1) * tn * sizeof *b.tets);
     b.springs = malloc((size_t)(ns > 0 ? ns : 1) * 2 * sizeof *b.springs);
     b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
     if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k ||
@@ -151,7 +160,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     }
     memcpy(b.rest, d.rest_positions, 3 * (size_t)nv * sizeof *b.rest);
     if (nt > 0) {
-        memcpy(b.tets, d.tets, 4 * (size_t)nt * sizeof *b.tets);
+        memcpy(b.tets, d.tets, (size_t)tn * nt * sizeof *b.tets);
         defsim__lame(b.mat.youngs_modulus, b.mat.poisson_ratio, &b.mu, &b.lambda);
     }
     if (ns > 0) memcpy(b.springs, d.springs, 2 * (size_t)ns * sizeof *b.springs);
@@ -166,8 +175,8 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     int32_t reordered = 0;
     st = DEFSIM_ERR_INVALID_MESH;
     for (int32_t t = 0; t < nt; ++t) {
-        int32_t *tt = b.tets + 4 * (int64_t)t;
-        for (int a = 0; a < 4; ++a) {
+        int32_t *tt = b.tets + tn * (int64_t)t;
+        for (int a = 0; a < tn; ++a) {
             if (tt[a] < 0 || tt[a] >= nv) {
                 defsim__error(msg, "add_body: tet %d vertex %d index %d out of range [0, %d)",
                                     (int)t, a, (int)tt[a], (int)nv);
@@ -187,8 +196,24 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         }
         const double det = rest.det;
         if (det < 0.0) {
-            int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
+            if (tn == 10) {
+                defsim__tet10_flip(tt);
+            } else {
+                int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
+            }
             ++reordered;
+        }
+        if (tn == 10) {
+            const double r = defsim__tet10_min_jacobian(b.rest, tt);
+            if (!(r > DEFSIM__TET10_MIN_JACOBIAN)) {
+                defsim__error(msg, "add_body: quadratic tet %d is degenerate or inverted by its "
+                                   "mid-edge nodes (Jacobian determinant down to %g of its "
+                                   "corners' tet; needs > %g everywhere)",
+                              (int)t, r, DEFSIM__TET10_MIN_JACOBIAN);
+                goto fail;
+            }
+            defsim__tet10_mass(b.rest, tt, b.mat.density, b.mass);
+            continue;
         }
         const double m4 = b.mat.density * fabs(det) / 24.0;
         for (int a = 0; a < 4; ++a) b.mass[tt[a]] += m4;

@@ -105,6 +105,7 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
     int32_t *segs = malloc((nseg ? nseg : 1) * 2 * sizeof *segs);
     defsim_mesh res;
     memset(&res, 0, sizeof res);
+    res.tet_nodes = 4;
     defsim_status st = DEFSIM_ERR_INVALID_MESH;
     if (!map || !remap || !tets || !tris || !segs) { st = defsim__mesh_oom(path); goto done; }
 

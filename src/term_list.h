@@ -11,6 +11,7 @@
 
 #define DEFSIM__TERM_LIST(X)    \
     X(elastic)                  \
+    X(elastic_quadratic)        \
     X(spring)                   \
     X(attach)                   \
     X(collider)                 \

@@ -56,6 +56,7 @@
 #include "forces.h"
 #include "material.h"
 #include "terms.h"
+#include "tet10.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -79,7 +80,8 @@ static double det3(const double *x, const int32_t *id)
 }
 
 /* Smallest volume ratio J = det Ds / det Dm of group g at x, and the count with J <= 0 (or not
- * a number). Rest tets are positively oriented, so det Dm = 6 vol. */
+ * a number). Rest tets are positively oriented, so det Dm = 6 vol. A quadratic tet's J is det F
+ * at its quadrature points (where its energy is evaluated). */
 static int64_t volume_ratios(const defsim__group *g, const double *x, int nthreads, double *jmin)
 {
     int64_t bad = 0;
@@ -87,7 +89,8 @@ static int64_t volume_ratios(const defsim__group *g, const double *x, int nthrea
 #pragma omp parallel for schedule(static) num_threads(nthreads) if (g->n > 20000) \
     reduction(+ : bad) reduction(min : lo)
     for (int32_t e = 0; e < g->n; ++e) {
-        const double J = det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
+        const double J = g->nodes == 10 ? defsim__tet10_min_det(g, x, e)
+                                        : det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
         bad += !(J > 0.0);
         if (J < lo) lo = J;
     }
@@ -118,13 +121,15 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     const double *g = s->gravity;
     const double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     wd->e_floor = mass * s->length_scale * (gn > 9.81 ? gn : 9.81);
-    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), the
-     * rest length of a spring. */
+    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), half
+     * that for a quadratic tet (its nodes' spacing), the rest length of a spring. */
     double size = s->length_scale;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         const defsim__group *gr = &s->groups[m];
         for (int32_t e = 0; e < gr->n; ++e) {
-            const double l = gr->nodes == 4 ? cbrt(6.0 * gr->vol[e]) : gr->l0[e];
+            const double l = gr->nodes == 4    ? cbrt(6.0 * gr->vol[e])
+                             : gr->nodes == 10 ? 0.5 * cbrt(6.0 * gr->vol[e])
+                                               : gr->l0[e];
             if (l > 0.0 && l < size) size = l;
         }
     }
@@ -150,10 +155,20 @@ static int deformed(const defsim__watchdog *wd, const defsim__system *s, const d
                        (hi[2] - lo[2]) * (hi[2] - lo[2]);
     if (box <= wd->move2) return 0;
     double most = 0.0;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         const defsim__group *gr = &s->groups[m];
         const int32_t *id = gr->idx;
-        if (gr->nodes == 4) {
+        if (gr->nodes == 10) {
+            for (int32_t e = 0; e < gr->n; ++e) {
+                const double *d3 = dx + 3 * (int64_t)id[10 * (int64_t)e + 3];
+                for (int a = 0; a < 10; ++a) {
+                    const double *da = dx + 3 * (int64_t)id[10 * (int64_t)e + a];
+                    const double c0 = da[0] - d3[0], c1 = da[1] - d3[1], c2 = da[2] - d3[2];
+                    const double q = c0 * c0 + c1 * c1 + c2 * c2;
+                    most = q > most ? q : most;
+                }
+            }
+        } else if (gr->nodes == 4) {
 #pragma omp simd reduction(max : most)
             for (int32_t e = 0; e < gr->n; ++e) {
                 const double *d3 = dx + 3 * (int64_t)id[4 * (int64_t)e + 3];
@@ -242,7 +257,7 @@ static int list_pinned_elements(defsim__watchdog *wd, const defsim__system *s)
     int64_t n = 0;
     for (int pass = 0; pass < 2; ++pass) {
         n = 0;
-        for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        for (int m = 0; m < DEFSIM__GROUPS; ++m) {
             const defsim__group *g = &s->groups[m];
             for (int32_t e = 0; e < g->n; ++e) {
                 int held = 0;
@@ -282,8 +297,10 @@ defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__sy
         const defsim__group *g = &s->groups[wd->pin_el[2 * k]];
         const int32_t e = wd->pin_el[2 * k + 1];
         const int32_t *id = g->idx + (int64_t)g->nodes * e;
-        double fl[12] = {0};
-        if (g->nodes == 4) {
+        double fl[30] = {0};
+        if (g->nodes == 10) {
+            defsim__tet10_element_forces(g, x, e, fl);
+        } else if (g->nodes == 4) {
             const int32_t loc[4] = {0, 1, 2, 3};
             const double *dm = g->dminv + 9 * (int64_t)e;
             double F[9], P[9], xl[12];
@@ -471,7 +488,8 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
             return DEFSIM_ERR_UNSTABLE;
         }
     }
-    for (int m = 0; m < DEFSIM__TET_MODELS && (full || wd->jmin < JMIN_WATCH); ++m) {
+    for (int m = 0; m < DEFSIM__GROUPS && (full || wd->jmin < JMIN_WATCH); ++m) {
+        if (m == DEFSIM__TET_MODELS) continue;   /* springs */
         const defsim__group *gr = &s->groups[m];
         if (gr->n == 0 || !gr->law->needs_positive_det) continue;
         double jmin;
@@ -563,8 +581,8 @@ void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__syst
 {
     double jmin = INFINITY;
     int64_t bad = 0;
-    for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
-        if (s->groups[m].n == 0) continue;
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) {
+        if (s->groups[m].n == 0 || m == DEFSIM__TET_MODELS) continue;
         double j;
         bad += volume_ratios(&s->groups[m], x, s->nthreads, &j);
         if (j < jmin) jmin = j;

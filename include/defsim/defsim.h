@@ -225,7 +225,7 @@ typedef struct defsim_body_def {
     uint32_t size;                      ///< sizeof(defsim_body_def), set by defsim_body_def_init.
     const double *rest_positions;       ///< 3 * vertex_count doubles, m. Required.
     int32_t vertex_count;               ///< >= 1.
-    const int32_t *tets;                ///< 4 vertex indices per tet (0-based, body-local), or NULL.
+    const int32_t *tets;                ///< tet_nodes vertex indices per tet (0-based, body-local), or NULL.
     int32_t tet_count;                  ///< >= 0; tets may be NULL only when it is 0.
     const int32_t *springs;             ///< 2 vertex indices per spring, or NULL.
     int32_t spring_count;               ///< >= 0; springs may be NULL only when it is 0.
@@ -259,6 +259,20 @@ typedef struct defsim_body_def {
     /// Coulomb coefficient of body-body friction (>= 0, finite; default 0.5); a pair of bodies
     /// uses sqrt(mu_A mu_B). Larger than 10 is DEFSIM_ERR_INVALID_MATERIAL.
     double friction;
+    /* Quadratic tets (appended; see docs/elements.md). */
+    /// Indices per tet in `tets`: 4 (default: linear tets) or 10 (quadratic tets: the 4 corners,
+    /// then the mid-edge nodes of edges 01, 12, 02, 03, 13, 23, VTK_QUADRATIC_TETRA's order; the
+    /// mid-edge nodes are vertices like the corners, so pins, attachments and collider contact
+    /// use them as any vertex). Elements are isoparametric: a mid-edge node off its edge's middle
+    /// curves the element. Energies, forces and Hessians integrate with the 4-point degree-2
+    /// rule, each point's dP/dF projected as for linear tets; masses are HRZ-lumped (positive;
+    /// vertex_mass overrides them as for linear tets); body contact uses each boundary face as 4
+    /// triangles through its mid-edge nodes. Another value is DEFSIM_ERR_INVALID_ARGUMENT; an
+    /// element whose Jacobian determinant falls to 1e-3 of its corners' straight tet or below
+    /// anywhere it is checked (corners, mid-edge nodes, centroid, quadrature points) is
+    /// DEFSIM_ERR_INVALID_MESH. Elements with negative corner orientation are reordered as
+    /// linear tets are (corners 0 and 1 swapped with their mid-edge nodes).
+    int32_t tet_nodes;
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
@@ -583,6 +597,10 @@ typedef struct defsim_mesh {
     /// One defsim_spring_kind per spring (cloth and rope meshes), or NULL: every spring is a
     /// stretch spring. Only written when `size` covers this field (older callers keep working).
     int32_t *spring_kinds;
+    /// Indices per tet in `tets`: 4 (linear) or 10 (quadratic, the order of
+    /// defsim_body_def.tet_nodes). Only written when `size` covers this field; a mesh with
+    /// quadratic tets is only made for a caller whose `size` covers it.
+    int32_t tet_nodes;
 } defsim_mesh;
 
 /// Makes a box of nx * ny * nz hexahedra on [lo, hi], each split into 6 positively oriented tets
@@ -592,6 +610,15 @@ typedef struct defsim_mesh {
 /// DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx,
                                          int32_t ny, int32_t nz, defsim_mesh *mesh);
+
+/// Turns a mesh of linear tets (tet_nodes 4, as defsim_mesh_box and defsim_mesh_load make them)
+/// into quadratic tets: one new vertex at the middle of each edge (appended after the mesh's
+/// vertices, in the order edges are first met), 10 indices per tet (defsim_body_def.tet_nodes),
+/// and the boundary triangles split into 4 each through the mid-edge vertices (outward, as
+/// before). The mesh's arrays are replaced (free with defsim_mesh_free); on failure it is
+/// unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, `size` that does not cover tet_nodes,
+/// a mesh without tets or whose tets are already quadratic), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_mesh_make_quadratic(defsim_mesh *mesh);
 
 /// Frees the arrays of a mesh made by the library and sets its pointers to NULL and counts to 0.
 /// NULL is ignored.

@@ -210,14 +210,15 @@ static defsim_world *world(double gy)
     return tu_world("explicit_euler", gy, 1);
 }
 
-static defsim_body_id add_box(defsim_world *w, defsim_model model, const double lo[3],
-                              double size, double alpha, double beta)
+static defsim_body_id add_box_of(defsim_world *w, defsim_model model, const double lo[3],
+                                 double size, double alpha, double beta, int quadratic)
 {
     const double hi[3] = {lo[0] + size, lo[1] + size, lo[2] + size};
     defsim_mesh m;
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &m));
+    if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
     defsim_body_def bd = test_mesh_body(&m, model);
     bd.material.youngs_modulus = 1e4;
     bd.material.poisson_ratio = 0.3;
@@ -229,6 +230,12 @@ static defsim_body_id add_box(defsim_world *w, defsim_model model, const double 
         fail_msg("add_body: %s", defsim_world_last_error(w));
     defsim_mesh_free(&m);
     return id;
+}
+
+static defsim_body_id add_box(defsim_world *w, defsim_model model, const double lo[3],
+                              double size, double alpha, double beta)
+{
+    return add_box_of(w, model, lo, size, alpha, beta, 0);
 }
 
 /* The state perturbed (seeded) off rest, with velocities; returns x (owned). */
@@ -264,6 +271,32 @@ static void test_elastic(void **state)
         add_box(w, models[m], lo, 0.1, 0.0, 0.01);
         double *v, *x = perturbed(w, 0.01, &v);
         const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_elastic);
+        check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
+        check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
+        check_apply(w, t, x, K1);
+        const defsim__term *d = term_of(w, DEFSIM__TERM_KIND_stiffness_damping);
+        check_values(w, d, t, x, v, DEFSIM_FORCE_DAMPING, 1, KD1, 1e-6, 1e-6);
+        free(x);
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
+/* The same for each model's quadratic-tet term (a box of 6 quadratic tets, 27 vertices, every
+ * node moved off rest, so the elements are distorted and curved at x). */
+static void test_elastic_quadratic(void **state)
+{
+    (void)state;
+    const defsim_model models[4] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED,
+                                    DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    for (int m = 0; m < 4; ++m) {
+        defsim_world *w = world(0.0);
+        const double lo[3] = {0, 0, 0};
+        add_box_of(w, models[m], lo, 0.1, 0.0, 0.01, 1);
+        assert_int_equal(w->nv, 27);
+        double *v, *x = perturbed(w, 0.005, &v);
+        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_elastic_quadratic);
+        assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
         check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
         check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
         check_apply(w, t, x, K1);
@@ -682,7 +715,8 @@ static void test_all_kinds(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_spring_and_mass),
+        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_elastic_quadratic),
+        cmocka_unit_test(test_spring_and_mass),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),
         cmocka_unit_test(test_collider),       cmocka_unit_test(test_body_contact),
         cmocka_unit_test(test_body_contact_friction),

@@ -71,7 +71,7 @@ static void test_mesh()
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 0, 1, 1); }));
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {0, 1, 1}, 1, 1, 1); }));
 
-    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
+    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 2, 3};
     CHECK(defsim_mesh_box(lo, hi, 1, 1, 1, &raw) == DEFSIM_OK);
     defsim::Mesh adopted = defsim::Mesh::adopt(raw);
@@ -112,7 +112,7 @@ static std::vector<double> beam_c(int steps)
     wd.num_threads = 2;
     defsim_world *w = nullptr;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return {};
-    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
+    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.8, 0.2, 0.2};
     defsim_mesh_box(lo, hi, 4, 1, 1, &m);
     defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);

@@ -294,6 +294,7 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_i32(b, body->nv);
     defsim__put_i32(b, body->nt);
     defsim__put_i32(b, body->ns);
+    defsim__put_i32(b, body->tet_nodes);   /* version 7: quadratic tets */
     const defsim_material *m = &body->mat;
     defsim__put_i32(b, (int32_t)m->model);
     const double mp[7] = {m->youngs_modulus, m->poisson_ratio, m->density, m->stiffness,
@@ -301,7 +302,7 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_f64s(b, mp, 7);
     defsim__put_f64s(b, body->rest, 3 * (int64_t)body->nv);
     defsim__put_f64s(b, body->mass, body->nv);
-    defsim__put_i32s(b, body->tets, 4 * (int64_t)body->nt);
+    defsim__put_i32s(b, body->tets, (int64_t)body->tet_nodes * body->nt);
     defsim__put_i32s(b, body->springs, 2 * (int64_t)body->ns);
     defsim__put_f64s(b, body->k, body->ns);
     defsim__put(b, body->pinned, (size_t)body->nv);
@@ -331,6 +332,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     out->id = defsim__get_u32(r);
     out->generation = defsim__get_u32(r);
     const int32_t nv = defsim__get_i32(r), nt = defsim__get_i32(r), ns = defsim__get_i32(r);
+    const int32_t tn = version >= 7 ? defsim__get_i32(r) : 4;   /* indices per tet */
     defsim_body_def *d = &out->def;
     defsim_body_def_init(d, sizeof *d);
     d->material.model = (defsim_model)defsim__get_i32(r);
@@ -343,15 +345,15 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     d->material.vertex_mass = mp[4];
     d->material.mass_damping = mp[5];
     d->material.stiffness_damping = mp[6];
-    /* Each vertex takes 4 doubles and a byte, each tet 16 bytes, each spring 16. */
-    if (nv < 1 || nt < 0 || ns < 0 || !defsim__fits(r, nv, 33) || !defsim__fits(r, nt, 16) ||
-        !defsim__fits(r, ns, 16)) {
+    /* Each vertex takes 4 doubles and a byte, each tet 4 tn bytes, each spring 16. */
+    if (nv < 1 || nt < 0 || ns < 0 || (tn != 4 && tn != 10) || !defsim__fits(r, nv, 33) ||
+        !defsim__fits(r, nt, 4 * (size_t)(tn == 10 ? 10 : 4)) || !defsim__fits(r, ns, 16)) {
         *why = "counts out of range";
         return DEFSIM_ERR_IO;
     }
     out->rest = malloc(3 * (size_t)nv * sizeof *out->rest);
     out->mass = malloc((size_t)nv * sizeof *out->mass);
-    out->tets = malloc((4 * (size_t)nt + 1) * sizeof *out->tets);
+    out->tets = malloc(((size_t)(tn == 10 ? 10 : 4) * nt + 1) * sizeof *out->tets);
     out->springs = malloc((2 * (size_t)ns + 1) * sizeof *out->springs);
     out->k = malloc(((size_t)ns + 1) * sizeof *out->k);
     out->pins = malloc((size_t)nv * sizeof *out->pins);
@@ -359,7 +361,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
         return DEFSIM_ERR_OUT_OF_MEMORY;
     defsim__get_f64s(r, out->rest, 3 * (int64_t)nv);
     defsim__get_f64s(r, out->mass, nv);
-    defsim__get_i32s(r, out->tets, 4 * (int64_t)nt);
+    defsim__get_i32s(r, out->tets, (int64_t)tn * nt);
     defsim__get_i32s(r, out->springs, 2 * (int64_t)ns);
     defsim__get_f64s(r, out->k, ns);
     const unsigned char *pinned = defsim__take(r, (size_t)nv);
@@ -395,6 +397,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     d->vertex_count = nv;
     d->tets = nt > 0 ? out->tets : NULL;
     d->tet_count = nt;
+    d->tet_nodes = tn;
     d->springs = ns > 0 ? out->springs : NULL;
     d->spring_count = ns;
     d->spring_stiffness = ns > 0 ? out->k : NULL;

@@ -82,12 +82,6 @@ static defsim_status save_bodies(defsim__bw *b, const defsim_world *w)
     for (int32_t i = 0; i < w->bodies.n; ++i) {
         const defsim__body *body = &w->bodies.b[i];
         if (!(body->generation & 1u)) continue;
-        if (body->tet_nodes != 4 && body->nt > 0) {
-            /* The BODY chunk's layout holds 4 indices per tet (docs/checkpoints.md). */
-            defsim__error(w->msg, "save: body %d has quadratic tets, which the checkpoint format "
-                                  "(version %u) cannot hold", (int)i, (unsigned)DEFSIM__CKPT_VERSION);
-            return DEFSIM_ERR_INVALID_ARGUMENT;
-        }
         uint32_t saved = 0;
         for (int32_t s = 0; s < w->bodies.ids.nslots && !saved; ++s)
             if ((w->bodies.ids.gen[s] & 1u) && w->bodies.ids.dense[s] == i) saved = (uint32_t)s + 1;

@@ -16,8 +16,9 @@
  * chunks, and CFRC for the contact forces of the last step), version 4 body contact (BODY's
  * surfaces and filters, PEXT), version 5 the contact state a continuation depends on (CNTC),
  * version 6 the terms' state as each kind writes it (TERM chunks: the kind's name, then its
- * bytes; the collider term's holds what CNTC held and the safe box). The chunks' bytes and
+ * bytes; the collider term's holds what CNTC held and the safe box), version 7 quadratic tets
+ * (BODY's indices per tet after its counts). The chunks' bytes and
  * CRC-32 are chunk.h's. */
-#define DEFSIM__CKPT_VERSION 6u
+#define DEFSIM__CKPT_VERSION 7u
 
 #endif /* DEFSIM_CHECKPOINT_H */

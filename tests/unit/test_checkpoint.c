@@ -780,6 +780,42 @@ static void test_version_5_file(void **state)
     defsim_world_destroy(again);
 }
 
+/* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit f21c7ac
+ * (before BODY held the indices per tet, issue 29): the sliding cube after 40 steps. It loads,
+ * continues with the bits of the uninterrupted run, and saved again is a file of today's
+ * version that continues bit for bit. */
+static void test_version_6_file(void **state)
+{
+    (void)state;
+    defsim_world *old = NULL;
+    TU_OK(defsim_world_load(DEFSIM_TEST_DATA "/v6_sliding.dfck", NULL, NULL, &old));
+    defsim_world *now = sliding_cube();
+    for (int k = 0; k < 40; ++k) TU_OK(defsim_world_step(now, 5e-4));
+    assert_true(defsim_world_time(old) == defsim_world_time(now));
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(now, 5e-4));
+    }
+    const double d = state_diff(old, now);
+    printf("  version 6: max |difference| 20 steps after the load = %.3g\n", d);
+    assert_true(d < 1e-12);
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(old, &buf, &size));
+    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
+    defsim_world *again = NULL;
+    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
+    defsim_buffer_free(buf);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(again, 5e-4));
+    }
+    assert_true(same_bits(old, again));
+    defsim_world_destroy(old);
+    defsim_world_destroy(now);
+    defsim_world_destroy(again);
+}
+
 /* sundials_erk's history layout 1 (written by commit f44ad41, before the replay: the next step
  * length only) still loads, and continues close to the saved run, not bit for bit (1.3e-6 m at
  * rtol 1e-2): the files are a cantilever at step 15 of 1/60 s and the same run at step 31. */
@@ -920,6 +956,7 @@ int main(void)
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file),
+        cmocka_unit_test(test_version_6_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

@@ -626,17 +626,21 @@ DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 
 /// Loads a mesh file, choosing the format by the file's extension:
 ///  - ".node" / ".ele" (TetGen; either file of the pair, or the base name "beam.1" when
-///    "beam.1.node" exists): linear tets, any first index; attributes and markers are ignored.
-///  - ".msh" (Gmsh 2.x and 4.0 / 4.1, ASCII): linear tetrahedra (type 4). Points, lines and
-///    surface elements are skipped; any other volume element (hexahedra, prisms, quadratic tets,
-///    ...) is an error.
+///    "beam.1.node" exists): linear tets, or quadratic ones (10 nodes per tet: `tetgen -o2`),
+///    any first index; attributes and markers are ignored.
+///  - ".msh" (Gmsh 2.x and 4.0 / 4.1, ASCII): linear tetrahedra (type 4) or quadratic ones (type
+///    11), not both. Points, lines and surface elements are skipped; any other volume element
+///    (hexahedra, prisms, ...) is an error.
 ///  - ".obj" (Wavefront): faces (polygons are fan-triangulated; "v/vt/vn" forms and negative,
 ///    relative indices are accepted) and polylines ("l"). The unique edges of the faces and the
 ///    polyline segments become springs, sorted by vertex pair (a cloth or a rope); no bending
 ///    springs are added. Texture coordinates, normals, groups and materials are ignored.
 /// Vertices that no element uses are dropped; the others keep their order in the file. Tets are
 /// reordered to positive orientation and `triangles` receives their outward boundary (for OBJ,
-/// the faces as given). mesh->size must be set; on success the arrays are allocated (free with
+/// the faces as given). Quadratic tets come with tet_nodes = 10: their mid-edge nodes are put in
+/// defsim_body_def.tet_nodes' order by position (each edge takes the node nearest its middle, so
+/// the file's order of them does not matter), and each boundary face gives 4 triangles; a
+/// mesh->size that does not cover tet_nodes is then DEFSIM_ERR_INVALID_ARGUMENT. mesh->size must be set; on success the arrays are allocated (free with
 /// defsim_mesh_free), on failure *mesh is unchanged. Only regular files are read (a FIFO,
 /// device or socket is refused without blocking), within the limits of defsim_set_limit (file
 /// size, vertex and element counts); coordinates must lie within +-1e100 m (so that lengths
@@ -644,7 +648,8 @@ DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, mesh->size, unknown extension), DEFSIM_ERR_IO
 /// (cannot read, not a regular file, larger than DEFSIM_LIMIT_FILE_BYTES, malformed or binary
 /// file), DEFSIM_ERR_INVALID_MESH (unsupported element, undefined or repeated vertex, degenerate
-/// tet, zero-length edge, no elements, a coordinate beyond +-1e100 m, more vertices or elements
+/// tet, a quadratic tet whose mid-edge nodes are not one near each edge's middle or that they
+/// invert, linear and quadratic tets mixed, zero-length edge, no elements, a coordinate beyond +-1e100 m, more vertices or elements
 /// than their limit), DEFSIM_ERR_OUT_OF_MEMORY; defsim_last_error() says "file:line: ...".
 /// Thread-safe.
 DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);

@@ -419,7 +419,8 @@ class World(WorldCoupling, WorldColliders):
             vertices = vertices.positions
         rest = _arrays.points(vertices, "vertices")
         n = rest.shape[0]
-        t = _arrays.indices(tets, "tets", 4)
+        quadratic = tets is not None and np.ndim(tets) == 2 and np.shape(tets)[1] == 10
+        t = _arrays.indices(tets, "tets", 10 if quadratic else 4)
         s = _arrays.indices(springs, "springs", 2)
         k = None if spring_stiffness is None else _arrays.vector(
             spring_stiffness, "spring_stiffness", s.shape[0])
@@ -448,6 +449,8 @@ class World(WorldCoupling, WorldColliders):
         keep = [_arrays.dptr(rest), _arrays.iptr(t), _arrays.iptr(s), _arrays.dptr(k),
                 _arrays.dptr(m), _arrays.dptr(x0), _arrays.dptr(v0), _arrays.iptr(kinds)]
         d.rest_positions, d.tets, d.springs = keep[0], keep[1], keep[2]
+        if quadratic:
+            d.tet_nodes = 10
         d.spring_stiffness, d.vertex_mass = keep[3], keep[4]
         d.initial_positions, d.initial_velocities = keep[5], keep[6]
         if kinds is not None:
@@ -482,7 +485,7 @@ class World(WorldCoupling, WorldColliders):
         else:
             lines = s[:0]
         self._topology[body.id] = Topology(rest, t, tri if tri.size or not t.size
-                                           else tet_boundary(rest, t), s, lines)
+                                           else tet_boundary(rest, t[:, :4]), s, lines)
         return body
 
     def _tet_count(self, body: Body) -> int:
@@ -490,7 +493,7 @@ class World(WorldCoupling, WorldColliders):
         return 0 if topo is None else int(topo.tets.shape[0])
 
     def topology(self, body: Body) -> "Topology":
-        """What `body` was made of: rest positions (n, 3), tets (m, 4), triangles (k, 3: the
+        """What `body` was made of: rest positions (n, 3), tets (m, 4; (m, 10) quadratic), triangles (k, 3: the
         given surface, or the tets' boundary) and springs (s, 2), body-local indices. Used by
         ``defsim.io`` and the display. Raises StaleIdError for a removed body."""
         self._own(body)

@@ -158,22 +158,14 @@ static int deformed(const defsim__watchdog *wd, const defsim__system *s, const d
     for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         const defsim__group *gr = &s->groups[m];
         const int32_t *id = gr->idx;
-        if (gr->nodes == 10) {
-            for (int32_t e = 0; e < gr->n; ++e) {
-                const double *d3 = dx + 3 * (int64_t)id[10 * (int64_t)e + 3];
-                for (int a = 0; a < 10; ++a) {
-                    const double *da = dx + 3 * (int64_t)id[10 * (int64_t)e + a];
-                    const double c0 = da[0] - d3[0], c1 = da[1] - d3[1], c2 = da[2] - d3[2];
-                    const double q = c0 * c0 + c1 * c1 + c2 * c2;
-                    most = q > most ? q : most;
-                }
-            }
-        } else if (gr->nodes == 4) {
+        if (gr->nodes >= 4) {
+            /* every node of a tet (quadratic: its mid-edge nodes too) against node 3 */
+            const int nn = gr->nodes;
 #pragma omp simd reduction(max : most)
             for (int32_t e = 0; e < gr->n; ++e) {
-                const double *d3 = dx + 3 * (int64_t)id[4 * (int64_t)e + 3];
-                for (int a = 0; a < 3; ++a) {
-                    const double *da = dx + 3 * (int64_t)id[4 * (int64_t)e + a];
+                const double *d3 = dx + 3 * (int64_t)id[nn * (int64_t)e + 3];
+                for (int a = 0; a < nn; ++a) {
+                    const double *da = dx + 3 * (int64_t)id[nn * (int64_t)e + a];
                     const double c0 = da[0] - d3[0], c1 = da[1] - d3[1], c2 = da[2] - d3[2];
                     const double q = c0 * c0 + c1 * c1 + c2 * c2;
                     most = q > most ? q : most;

@@ -682,6 +682,25 @@ static defsim_world *sliding_cube(void)
     return w;
 }
 
+/* A world loaded from an older file, saved again: a file of this version, whose world continues
+ * bit for bit with `old` over 20 steps. */
+static void check_saved_again(defsim_world *old)
+{
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(old, &buf, &size));
+    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
+    defsim_world *again = NULL;
+    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
+    defsim_buffer_free(buf);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(again, 5e-4));
+    }
+    assert_true(same_bits(old, again));
+    defsim_world_destroy(again);
+}
+
 static void test_version_4_file(void **state)
 {
     (void)state;
@@ -709,21 +728,9 @@ static void test_version_4_file(void **state)
     printf("  version 4 with a collider: max |difference| 20 steps after the load = %.3g\n", d);
     assert_true(d > 0.0 && d < 1e-3);
     /* Saved again, it is a file of this version, and continues bit for bit from there. */
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(old, &buf, &size));
-    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
-    defsim_world *again = NULL;
-    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
-    defsim_buffer_free(buf);
-    for (int k = 0; k < 20; ++k) {
-        TU_OK(defsim_world_step(old, 5e-4));
-        TU_OK(defsim_world_step(again, 5e-4));
-    }
-    assert_true(same_bits(old, again));
+    check_saved_again(old);
     defsim_world_destroy(old);
     defsim_world_destroy(now);
-    defsim_world_destroy(again);
 }
 
 /* Format version 5: tests/checkpoint/v5_friction.dfck, written by the library of commit 520ba06
@@ -799,21 +806,9 @@ static void test_version_6_file(void **state)
     const double d = state_diff(old, now);
     printf("  version 6: max |difference| 20 steps after the load = %.3g\n", d);
     assert_true(d < 1e-12);
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(old, &buf, &size));
-    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
-    defsim_world *again = NULL;
-    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
-    defsim_buffer_free(buf);
-    for (int k = 0; k < 20; ++k) {
-        TU_OK(defsim_world_step(old, 5e-4));
-        TU_OK(defsim_world_step(again, 5e-4));
-    }
-    assert_true(same_bits(old, again));
+    check_saved_again(old);
     defsim_world_destroy(old);
     defsim_world_destroy(now);
-    defsim_world_destroy(again);
 }
 
 /* sundials_erk's history layout 1 (written by commit f44ad41, before the replay: the next step

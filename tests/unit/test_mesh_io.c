@@ -326,6 +326,21 @@ static void quad_tet_tags(const defsim_mesh *b, int32_t t, const int order[6], l
     for (int k = 0; k < 6; ++k) out[4 + k] = q[4 + (t % 2 ? (order[k] + 1) % 6 : order[k])] + base;
 }
 
+/* Appends one line per tet of b at s + n: its number (from base), `after` (a Gmsh v2 element's
+ * type and tags), its 10 tags; returns the new length. */
+static size_t put_quad_tets(char *s, size_t cap, size_t n, const defsim_mesh *b, const int order[6],
+                            long long base, const char *after)
+{
+    for (int t = 0; t < b->tet_count; ++t) {
+        long long v[10];
+        quad_tet_tags(b, t, order, base, v);
+        n += (size_t)snprintf(s + n, cap - n, "%lld%s", t + base, after);
+        for (int a = 0; a < 10; ++a) n += (size_t)snprintf(s + n, cap - n, " %lld", v[a]);
+        n += (size_t)snprintf(s + n, cap - n, "\n");
+    }
+    return n;
+}
+
 static void test_quadratic_files(void **state)
 {
     (void)state;
@@ -342,13 +357,7 @@ static void test_quadratic_files(void **state)
         n += (size_t)snprintf(s + n, cap - n, "%d %.17g %.17g %.17g\n", i + 1, b.positions[3 * i],
                               b.positions[3 * i + 1], b.positions[3 * i + 2]);
     n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n%d\n", b.tet_count);
-    for (int t = 0; t < b.tet_count; ++t) {
-        long long v[10];
-        quad_tet_tags(&b, t, gmsh_order, 1, v);
-        n += (size_t)snprintf(s + n, cap - n, "%d 11 2 1 1", t + 1);
-        for (int a = 0; a < 10; ++a) n += (size_t)snprintf(s + n, cap - n, " %lld", v[a]);
-        n += (size_t)snprintf(s + n, cap - n, "\n");
-    }
+    n = put_quad_tets(s, cap, n, &b, gmsh_order, 1, " 11 2 1 1");
     snprintf(s + n, cap - n, "$EndElements\n");
     defsim_mesh m = empty_mesh();
     TU_OK(defsim_mesh_load(tu_write_file("q2.msh", s), &m));
@@ -363,13 +372,7 @@ static void test_quadratic_files(void **state)
                               b.positions[3 * i + 1], b.positions[3 * i + 2]);
     n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n1 %d 1 %d\n3 1 11 %d\n",
                           b.tet_count, b.tet_count, b.tet_count);
-    for (int t = 0; t < b.tet_count; ++t) {
-        long long v[10];
-        quad_tet_tags(&b, t, gmsh_order, 1, v);
-        n += (size_t)snprintf(s + n, cap - n, "%d", t + 1);
-        for (int a = 0; a < 10; ++a) n += (size_t)snprintf(s + n, cap - n, " %lld", v[a]);
-        n += (size_t)snprintf(s + n, cap - n, "\n");
-    }
+    n = put_quad_tets(s, cap, n, &b, gmsh_order, 1, "");
     snprintf(s + n, cap - n, "$EndElements\n");
     m = empty_mesh();
     TU_OK(defsim_mesh_load(tu_write_file("q4.msh", s), &m));
@@ -382,13 +385,7 @@ static void test_quadratic_files(void **state)
                               b.positions[3 * i + 1], b.positions[3 * i + 2]);
     tu_write_file("q.node", s);
     n = (size_t)snprintf(s, cap, "%d 10 0\n", b.tet_count);
-    for (int t = 0; t < b.tet_count; ++t) {
-        long long v[10];
-        quad_tet_tags(&b, t, scrambled, 0, v);
-        n += (size_t)snprintf(s + n, cap - n, "%d", t);
-        for (int a = 0; a < 10; ++a) n += (size_t)snprintf(s + n, cap - n, " %lld", v[a]);
-        n += (size_t)snprintf(s + n, cap - n, "\n");
-    }
+    n = put_quad_tets(s, cap, n, &b, scrambled, 0, "");
     m = empty_mesh();
     TU_OK(defsim_mesh_load(tu_write_file("q.ele", s), &m));
     check_quadratic(&m, &b);

@@ -259,18 +259,22 @@ static double *perturbed(defsim_world *w, double amp, double **v_out)
 static const defsim_matrix_coeffs K1 = {1.0, 0.0, 0.0, 0.0}, KD1 = {0.0, 1.0, 0.0, 0.0};
 static const defsim_matrix_coeffs MD1 = {0.0, 0.0, 0.0, 1.0};
 
-/* Each tet model's elastic term, and stiffness damping (its matrix is the elastic term's). */
-static void test_elastic(void **state)
+/* Each tet model's elastic term, and stiffness damping (its matrix is the elastic term's): a
+ * box of linear tets, or (quadratic) of 6 quadratic tets, 27 vertices, every node moved off rest
+ * so that the elements are distorted and curved at x. */
+static void check_elastic(int quadratic)
 {
-    (void)state;
     const defsim_model models[4] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED,
                                     DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    const int kind = quadratic ? DEFSIM__TERM_KIND_elastic_quadratic : DEFSIM__TERM_KIND_elastic;
     for (int m = 0; m < 4; ++m) {
         defsim_world *w = world(0.0);
         const double lo[3] = {0, 0, 0};
-        add_box(w, models[m], lo, 0.1, 0.0, 0.01);
-        double *v, *x = perturbed(w, 0.01, &v);
-        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_elastic);
+        add_box_of(w, models[m], lo, 0.1, 0.0, 0.01, quadratic);
+        if (quadratic) assert_int_equal(w->nv, 27);
+        double *v, *x = perturbed(w, quadratic ? 0.005 : 0.01, &v);
+        const defsim__term *t = term_of(w, kind);
+        if (quadratic) assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
         check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
         check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
         check_apply(w, t, x, K1);
@@ -282,30 +286,16 @@ static void test_elastic(void **state)
     }
 }
 
-/* The same for each model's quadratic-tet term (a box of 6 quadratic tets, 27 vertices, every
- * node moved off rest, so the elements are distorted and curved at x). */
+static void test_elastic(void **state)
+{
+    (void)state;
+    check_elastic(0);
+}
+
 static void test_elastic_quadratic(void **state)
 {
     (void)state;
-    const defsim_model models[4] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED,
-                                    DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
-    for (int m = 0; m < 4; ++m) {
-        defsim_world *w = world(0.0);
-        const double lo[3] = {0, 0, 0};
-        add_box_of(w, models[m], lo, 0.1, 0.0, 0.01, 1);
-        assert_int_equal(w->nv, 27);
-        double *v, *x = perturbed(w, 0.005, &v);
-        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_elastic_quadratic);
-        assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
-        check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
-        check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
-        check_apply(w, t, x, K1);
-        const defsim__term *d = term_of(w, DEFSIM__TERM_KIND_stiffness_damping);
-        check_values(w, d, t, x, v, DEFSIM_FORCE_DAMPING, 1, KD1, 1e-6, 1e-6);
-        free(x);
-        free(v);
-        defsim_world_destroy(w);
-    }
+    check_elastic(1);
 }
 
 /* Springs (a rope) with stiffness damping, and mass damping with the inertia's diagonal. */

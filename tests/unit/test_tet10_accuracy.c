@@ -105,6 +105,25 @@ static void pin_where_x0(defsim_world *w, defsim_body_id id, const defsim_mesh *
     free(pins);
 }
 
+/* Pins body id's x = 0 face, solves for the static equilibrium (static_solve with step h) and
+ * returns the result with the y coordinate of the vertex nearest `corner` in *y. */
+static beam_result pin_solve_probe(defsim_world *w, defsim_body_id id, const defsim_mesh *m,
+                                   const double corner[3], double h, double *y)
+{
+    pin_where_x0(w, id, m);
+    const int32_t probe = nearest(m, corner);
+    const double t0 = now_s();
+    static_solve(w, m->vertex_count, h);
+    beam_result r = {0};
+    r.seconds = now_s() - t0;
+    r.vertices = m->vertex_count;
+    double *x = malloc(3 * (size_t)m->vertex_count * sizeof *x);
+    TU_OK(defsim_world_get_positions(w, x, m->vertex_count));
+    *y = x[3 * (int64_t)probe + 1];
+    free(x);
+    return r;
+}
+
 /* The cantilever of n cells per metre (3n x n x n) under its own weight. */
 static beam_result cantilever(int n, int quadratic)
 {
@@ -122,18 +141,10 @@ static beam_result cantilever(int n, int quadratic)
     bd.material.density = 1000.0;
     defsim_body_id id;
     TU_OK(defsim_world_add_body(w, &bd, &id));
-    pin_where_x0(w, id, &m);
     const double corner[3] = {3, 1, 1};
-    const int32_t probe = nearest(&m, corner);
-    const double t0 = now_s();
-    static_solve(w, m.vertex_count, 10.0);
-    beam_result r = {0};
-    r.seconds = now_s() - t0;
-    double *x = malloc(3 * (size_t)m.vertex_count * sizeof *x);
-    TU_OK(defsim_world_get_positions(w, x, m.vertex_count));
-    r.deflection = 1.0 - x[3 * (int64_t)probe + 1];
-    r.vertices = m.vertex_count;
-    free(x);
+    double y;
+    beam_result r = pin_solve_probe(w, id, &m, corner, 10.0, &y);
+    r.deflection = 1.0 - y;
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
     return r;
@@ -216,19 +227,11 @@ static beam_result cook(int n, int quadratic)
     bd.material.density = 1.0;
     defsim_body_id id;
     TU_OK(defsim_world_add_body(w, &bd, &id));
-    pin_where_x0(w, id, &m);
     TU_OK(defsim_world_set_external_forces(w, f, m.vertex_count));
     const double corner[3] = {48, 60, 1};
-    const int32_t probe = nearest(&m, corner);
-    const double t0 = now_s();
-    static_solve(w, m.vertex_count, 1e4);
-    beam_result r = {0};
-    r.seconds = now_s() - t0;
-    double *x = malloc(3 * (size_t)m.vertex_count * sizeof *x);
-    TU_OK(defsim_world_get_positions(w, x, m.vertex_count));
-    r.deflection = (x[3 * (int64_t)probe + 1] - 60.0) / force;
-    r.vertices = m.vertex_count;
-    free(x);
+    double y;
+    beam_result r = pin_solve_probe(w, id, &m, corner, 1e4, &y);
+    r.deflection = (y - 60.0) / force;
     free(f);
     free(face);
     defsim_mesh_free(&m);

@@ -281,7 +281,7 @@ DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
 /// Adds a body; its vertices follow those of the bodies added before it. Rest tets with negative
 /// orientation are reordered (counted in defsim_stats.reordered_tets). On success *out (may be
 /// NULL) receives the id. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, not a live world, size,
-/// counts),
+/// counts, tet_nodes other than 4 or 10),
 /// DEFSIM_ERR_INVALID_MESH (index out of range, non-finite coordinate, degenerate tet or spring
 /// of zero rest length, repeated vertex, vertex without mass; the message names the element),
 /// DEFSIM_ERR_INVALID_MATERIAL (E <= 0, nu outside [0, 0.5), negative density, stiffness, mass or

@@ -4,7 +4,8 @@
  * (exact to their degree), shape functions, the patch test and rigid motions for every model,
  * a curved element's forces and Hessian against differences of its energy, HRZ masses, the
  * validation of add_body, defsim_mesh_make_quadratic and the boundary's sub-triangles, stress
- * read-back, the watchdog's inverted-element count, the stable step, and the cost of a force
+ * read-back, the watchdog's inverted-element count, the stable step, body contact on the
+ * boundary's sub-triangles, and the cost of a force
  * evaluation per element next to linear tets (printed).
  */
 #include "test_util.h"
@@ -527,6 +528,56 @@ static void test_stable_step(void **state)
     defsim_mesh_free(&m);
 }
 
+/* Body contact between quadratic bodies (its surface: each boundary face as 4 triangles through
+ * its mid-edge nodes): a quadratic box dropped at 1 m/s onto another, whose bottom is pinned,
+ * comes to rest on it (no vertex, mid-edge ones included, below the lower box's top by more
+ * than 2 cm, where it falls through without body contact). */
+static void test_body_contact(void **state)
+{
+    (void)state;
+    if (!tu_available("newton_cholmod")) return;   /* a build without CHOLMOD */
+    for (int on = 0; on < 2; ++on) {
+        defsim_world *w = tu_implicit_world("newton_cholmod", -9.81, 1, 1e-6, 200,
+                                            DEFSIM_PROJECTION_CLAMP);
+        TU_OK(defsim_world_set_option(w, "core.body_contact", on ? "true" : "false"));
+        defsim_body_id ids[2];
+        const double los[2][3] = {{0, 0, 0}, {0.25, 0.52, 0.25}};
+        const double his[2][3] = {{1, 0.5, 1}, {0.75, 0.82, 0.75}};
+        for (int k = 0; k < 2; ++k) {
+            defsim_mesh m;
+            memset(&m, 0, sizeof m);
+            m.size = sizeof m;
+            TU_OK(defsim_mesh_box(los[k], his[k], 2, 1, 2, &m));
+            TU_OK(defsim_mesh_make_quadratic(&m));
+            defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+            bd.material.youngs_modulus = 1e5;
+            bd.material.density = 500.0;
+            TU_OK(defsim_world_add_body(w, &bd, &ids[k]));
+            defsim_mesh_free(&m);
+        }
+        assert_true(tu_pin_below(w, ids[0], 1, 0.0) > 0);
+        const int32_t off = defsim_body_vertex_offset(w, ids[1]), nb = defsim_body_vertex_count(w, ids[1]);
+        const int32_t nv = defsim_world_vertex_count(w);
+        double *x = tu_positions(w), *v = calloc(3 * (size_t)nv, sizeof *v);
+        for (int32_t i = off; i < off + nb; ++i) v[3 * i + 1] = -1.0;
+        TU_OK(defsim_world_set_state(w, x, v));
+        for (int s = 0; s < 40; ++s) {
+            const defsim_status st = defsim_world_step(w, 0.01);
+            if (st != DEFSIM_OK) fail_msg("step %d: %s", s, defsim_world_last_error(w));
+        }
+        TU_OK(defsim_world_get_positions(w, x, nv));
+        double lowest = INFINITY;
+        for (int32_t i = off; i < off + nb; ++i) lowest = fmin(lowest, x[3 * i + 1]);
+        printf("  body contact %s: the upper box's lowest vertex at %.4g m after 0.4 s (the lower "
+               "box's top at 0.5 m)\n", on ? "on" : "off", lowest);
+        if (on) assert_true(lowest > 0.48);
+        else assert_true(lowest < 0.4);
+        free(x);
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
 static double now_s(void)
 {
     struct timespec ts;
@@ -569,7 +620,8 @@ int main(void)
         cmocka_unit_test(test_patch),           cmocka_unit_test(test_curved_element),
         cmocka_unit_test(test_mass),            cmocka_unit_test(test_validation),
         cmocka_unit_test(test_make_quadratic),  cmocka_unit_test(test_stress_and_inversion),
-        cmocka_unit_test(test_stable_step),     cmocka_unit_test(test_cost),
+        cmocka_unit_test(test_stable_step),     cmocka_unit_test(test_body_contact),
+        cmocka_unit_test(test_cost),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

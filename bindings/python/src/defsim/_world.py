@@ -485,7 +485,7 @@ class World(WorldCoupling, WorldColliders):
         else:
             lines = s[:0]
         self._topology[body.id] = Topology(rest, t, tri if tri.size or not t.size
-                                           else tet_boundary(rest, t[:, :4]), s, lines)
+                                           else tet_boundary(rest, t), s, lines)
         return body
 
     def _tet_count(self, body: Body) -> int:
@@ -847,9 +847,10 @@ class World(WorldCoupling, WorldColliders):
         self._ptr = ffi.gc(out[0], lib.defsim_world_destroy)
         # What the constructor knew: the backend, gravity and each body's topology, from the
         # file (the library checked it whole). WRLD comes first; a BODY chunk holds id,
-        # generation, nv, nt, ns, model, 7 material numbers, then rest positions, masses, tets,
-        # springs (docs/checkpoints.md).
+        # generation, nv, nt, ns, (format 7 on) the indices per tet, model, 7 material numbers,
+        # then rest positions, masses, tets, springs (docs/checkpoints.md).
         at = 16
+        version = struct.unpack_from("<I", data, 8)[0]
         topologies = []
         while at + 12 <= len(data):
             tag, length = data[at:at + 4], struct.unpack_from("<Q", data, at + 4)[0]
@@ -860,11 +861,13 @@ class World(WorldCoupling, WorldColliders):
                 self._gravity = struct.unpack_from("<3d", payload, 4 + n)
             elif tag == b"BODY":
                 nv, nt, ns = struct.unpack_from("<3i", payload, 8)
-                o = 24 + 7 * 8
+                # format 7 on: the indices per tet after the counts
+                tn = struct.unpack_from("<i", payload, 20)[0] if version >= 7 else 4
+                o = (28 if version >= 7 else 24) + 7 * 8
                 rest = np.frombuffer(payload, "<f8", 3 * nv, o).reshape(nv, 3).copy()
                 o += 8 * 3 * nv + 8 * nv
-                tets = np.frombuffer(payload, "<i4", 4 * nt, o).reshape(nt, 4).copy()
-                o += 4 * 4 * nt
+                tets = np.frombuffer(payload, "<i4", tn * nt, o).reshape(nt, tn).copy()
+                o += 4 * tn * nt
                 springs = np.frombuffer(payload, "<i4", 2 * ns, o).reshape(ns, 2).copy()
                 tri = tet_boundary(rest, tets) if nt else np.zeros((0, 3), np.int32)
                 lines = springs if not nt else springs[:0]
@@ -957,7 +960,22 @@ class Topology(NamedTuple):
 
 
 def tet_boundary(rest: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Faces used by exactly one tet, oriented outward (away from the tet's fourth vertex)."""
+    """Faces used by exactly one tet, oriented outward (away from the tet's fourth vertex); for
+    quadratic tets ((m, 10)) each face as 4 triangles through its mid-edge nodes, as the library
+    makes them (corner, corner, corner, then the middle one)."""
+    if tets.shape[1] == 10:
+        corners = tet_boundary(rest, tets[:, :4])
+        mid = {}
+        for k, (a, b) in enumerate([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]):
+            for u, w, m in zip(tets[:, a], tets[:, b], tets[:, 4 + k]):
+                mid[(min(u, w), max(u, w))] = m
+        out = []
+        for v0, v1, v2 in corners:
+            m01 = mid[(min(v0, v1), max(v0, v1))]
+            m12 = mid[(min(v1, v2), max(v1, v2))]
+            m20 = mid[(min(v2, v0), max(v2, v0))]
+            out += [(v0, m01, m20), (m01, v1, m12), (m20, m12, v2), (m01, m12, m20)]
+        return np.asarray(out, dtype=np.int32).reshape(-1, 3)
     faces = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]],
                             tets[:, [0, 1, 2]]])
     opposite = np.concatenate([tets[:, 0], tets[:, 1], tets[:, 2], tets[:, 3]])

@@ -68,6 +68,23 @@ static void test_mesh()
     CHECK(m.vertex_count() == 0 && m.positions().data() == nullptr);   // NOLINT(bugprone-use-after-move)
     m = std::move(moved);
     CHECK(m.vertex_count() == 12 && moved.vertex_count() == 0);
+    // Quadratic tets: a vertex at every edge's middle, 10 indices per tet, and a body of them
+    // whose lumped masses add up to rho V.
+    defsim::Mesh q = defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 2, 1, 1);
+    q.make_quadratic();
+    CHECK(q.tet_nodes() == 10 && q.tet_count() == 12 && q.tets().size() == 120);
+    CHECK(q.vertex_count() == 5 * 3 * 3);
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&q] { q.make_quadratic(); }));
+    {
+        defsim::World w(defsim::WorldDef().backend("symplectic_euler"));
+        w.add_body(defsim::BodyDef(q).material(defsim::Material(defsim::Model::corotated)
+                                                   .density(1000.0)));
+        std::vector<double> mass(static_cast<std::size_t>(w.vertex_count()));
+        w.get_masses(mass);
+        double total = 0.0;
+        for (double x : mass) total += x;
+        CHECK(std::fabs(total - 1000.0) < 1e-9);
+    }
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 0, 1, 1); }));
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {0, 1, 1}, 1, 1, 1); }));
 

@@ -394,7 +394,7 @@ void defsim__group_values(const defsim__system *s, const defsim__group *g,
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 64)
         for (int32_t e = e0; e < e1; ++e) {
             const double sk = c->k, sd = c->kd * g->beta[e];
-            double K[144];
+            double K[DEFSIM__ELEMENT_DOFS_MAX * DEFSIM__ELEMENT_DOFS_MAX];
             if ((sk == 0.0 && sd == 0.0) || !matrix(s, g, x, e, sk, sd, K)) continue;
             defsim__element_scatter(s, g->idx + nn * (int64_t)e, g->blk + nn * nn * (int64_t)e,
                                     nn, K, upper, cp, values);

@@ -76,6 +76,9 @@ void defsim__element_scatter(const defsim__system *s, const int32_t *id, const i
                              int nn, const double *K, int upper, const int64_t *cp,
                              double *values);
 
+/* The most DOFs of an element matrix (a quadratic tet's 30). */
+enum { DEFSIM__ELEMENT_DOFS_MAX = 30 };
+
 /* The element matrix k K + kd B of element e of group g at x into K (3 nn x 3 nn), with its
  * coefficients sk = k and sd = kd beta_e, not both zero (the group's loops skip those); returns
  * 0 when the element adds nothing. */
@@ -83,7 +86,7 @@ typedef int (*defsim__element_matrix_fn)(const defsim__system *s, const defsim__
                                          const double *x, int32_t e, double sk, double sd,
                                          double *K);
 
-/* Adds the element matrices of group g (at most 4 nodes per element) into the values, colour by
+/* Adds the element matrices of group g (at most 10 nodes per element) into the values, colour by
  * colour (elements of a colour share no vertex, so no two threads write one entry), and
  * DEFSIM_PASS_HESSIAN into *passes (may be NULL); nothing when k and kd are both zero. */
 void defsim__group_values(const defsim__system *s, const defsim__group *g,

@@ -8,6 +8,7 @@
 #include "body.h"
 
 #include "material.h"
+#include "tet10.h"
 #include "tet_rest.h"
 
 #include <math.h>
@@ -27,6 +28,7 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.collision_group = 1u;
     d.collision_mask = 0xFFFFFFFFu;
     d.friction = 0.5;
+    d.tet_nodes = 4;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -85,7 +87,12 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                               "for non-zero tet_count / spring_count");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
-    if (d.vertex_count > (INT32_MAX - world_nv) / 3 || d.tet_count > INT32_MAX / 16 ||
+    if (d.tet_nodes != 4 && d.tet_nodes != 10) {
+        defsim__error(msg, "add_body: tet_nodes %d must be 4 (linear tets) or 10 (quadratic tets)",
+                      (int)d.tet_nodes);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    if (d.vertex_count > (INT32_MAX - world_nv) / 3 || d.tet_count > INT32_MAX / 40 ||
         d.spring_count > INT32_MAX / 4) {
         defsim__error(msg, "add_body: counts too large");
         return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -117,6 +124,11 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                       (int)d.volume_averaging);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
+    if (d.volume_averaging && d.tet_nodes == 10) {
+        defsim__error(msg, "add_body: volume_averaging is for linear tets; quadratic tets "
+                           "(tet_nodes 10) do not lock and have no averaged element");
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
     if (d.volume_averaging && d.tet_count > 0) {
         const defsim__model *law = defsim__model_find(d.material.model);
         if (!law || !law->split) {
@@ -136,7 +148,9 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
 
     defsim__body b;
     memset(&b, 0, sizeof b);
+    const int tn = d.tet_nodes;
     b.nv = nv; b.nt = nt; b.ns = ns;
+    b.tet_nodes = tn;
     b.mat = d.material;
     b.self_contact = d.self_contact;
     b.group = d.collision_group;
@@ -155,7 +169,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     b.rest = malloc(3 * (size_t)nv * sizeof *b.rest);
     b.mass = calloc((size_t)nv, sizeof *b.mass);
     b.pinned = calloc((size_t)nv, 1);
-    b.tets = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *b.tets);
+    b.tets = malloc((size_t)(nt > 0 ? nt : 1) * tn * sizeof *b.tets);
     b.springs = malloc((size_t)(ns > 0 ? ns : 1) * 2 * sizeof *b.springs);
     b.k = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *b.k);
     if (!b.rest || !b.mass || !b.pinned || !b.tets || !b.springs || !b.k ||
@@ -166,7 +180,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     }
     memcpy(b.rest, d.rest_positions, 3 * (size_t)nv * sizeof *b.rest);
     if (nt > 0) {
-        memcpy(b.tets, d.tets, 4 * (size_t)nt * sizeof *b.tets);
+        memcpy(b.tets, d.tets, (size_t)tn * nt * sizeof *b.tets);
         defsim__lame(b.mat.youngs_modulus, b.mat.poisson_ratio, &b.mu, &b.lambda);
     }
     if (ns > 0) memcpy(b.springs, d.springs, 2 * (size_t)ns * sizeof *b.springs);
@@ -181,8 +195,8 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     int32_t reordered = 0;
     st = DEFSIM_ERR_INVALID_MESH;
     for (int32_t t = 0; t < nt; ++t) {
-        int32_t *tt = b.tets + 4 * (int64_t)t;
-        for (int a = 0; a < 4; ++a) {
+        int32_t *tt = b.tets + tn * (int64_t)t;
+        for (int a = 0; a < tn; ++a) {
             if (tt[a] < 0 || tt[a] >= nv) {
                 defsim__error(msg, "add_body: tet %d vertex %d index %d out of range [0, %d)",
                                     (int)t, a, (int)tt[a], (int)nv);
@@ -202,8 +216,24 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         }
         const double det = rest.det;
         if (det < 0.0) {
-            int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
+            if (tn == 10) {
+                defsim__tet10_flip(tt);
+            } else {
+                int32_t tmp = tt[0]; tt[0] = tt[1]; tt[1] = tmp;
+            }
             ++reordered;
+        }
+        if (tn == 10) {
+            const double r = defsim__tet10_min_jacobian(b.rest, tt);
+            if (!(r > DEFSIM__TET10_MIN_JACOBIAN)) {
+                defsim__error(msg, "add_body: quadratic tet %d is degenerate or inverted by its "
+                                   "mid-edge nodes (Jacobian determinant down to %g of its "
+                                   "corners' tet; needs > %g everywhere)",
+                              (int)t, r, DEFSIM__TET10_MIN_JACOBIAN);
+                goto fail;
+            }
+            defsim__tet10_mass(b.rest, tt, b.mat.density, b.mass);
+            continue;
         }
         const double m4 = b.mat.density * fabs(det) / 24.0;
         for (int a = 0; a < 4; ++a) b.mass[tt[a]] += m4;
@@ -284,6 +314,7 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_i32(b, body->nv);
     defsim__put_i32(b, body->nt);
     defsim__put_i32(b, body->ns);
+    defsim__put_i32(b, body->tet_nodes);   /* version 8: quadratic tets */
     const defsim_material *m = &body->mat;
     defsim__put_i32(b, (int32_t)m->model);
     const double mp[7] = {m->youngs_modulus, m->poisson_ratio, m->density, m->stiffness,
@@ -291,7 +322,7 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_f64s(b, mp, 7);
     defsim__put_f64s(b, body->rest, 3 * (int64_t)body->nv);
     defsim__put_f64s(b, body->mass, body->nv);
-    defsim__put_i32s(b, body->tets, 4 * (int64_t)body->nt);
+    defsim__put_i32s(b, body->tets, (int64_t)body->tet_nodes * body->nt);
     defsim__put_i32s(b, body->springs, 2 * (int64_t)body->ns);
     defsim__put_f64s(b, body->k, body->ns);
     defsim__put(b, body->pinned, (size_t)body->nv);
@@ -323,6 +354,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     out->id = defsim__get_u32(r);
     out->generation = defsim__get_u32(r);
     const int32_t nv = defsim__get_i32(r), nt = defsim__get_i32(r), ns = defsim__get_i32(r);
+    const int32_t tn = version >= 8 ? defsim__get_i32(r) : 4;   /* indices per tet */
     defsim_body_def *d = &out->def;
     defsim_body_def_init(d, sizeof *d);
     d->material.model = (defsim_model)defsim__get_i32(r);
@@ -335,15 +367,15 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     d->material.vertex_mass = mp[4];
     d->material.mass_damping = mp[5];
     d->material.stiffness_damping = mp[6];
-    /* Each vertex takes 4 doubles and a byte, each tet 16 bytes, each spring 16. */
-    if (nv < 1 || nt < 0 || ns < 0 || !defsim__fits(r, nv, 33) || !defsim__fits(r, nt, 16) ||
-        !defsim__fits(r, ns, 16)) {
+    /* Each vertex takes 4 doubles and a byte, each tet 4 tn bytes, each spring 16. */
+    if (nv < 1 || nt < 0 || ns < 0 || (tn != 4 && tn != 10) || !defsim__fits(r, nv, 33) ||
+        !defsim__fits(r, nt, 4 * (size_t)(tn == 10 ? 10 : 4)) || !defsim__fits(r, ns, 16)) {
         *why = "counts out of range";
         return DEFSIM_ERR_IO;
     }
     out->rest = malloc(3 * (size_t)nv * sizeof *out->rest);
     out->mass = malloc((size_t)nv * sizeof *out->mass);
-    out->tets = malloc((4 * (size_t)nt + 1) * sizeof *out->tets);
+    out->tets = malloc(((size_t)(tn == 10 ? 10 : 4) * nt + 1) * sizeof *out->tets);
     out->springs = malloc((2 * (size_t)ns + 1) * sizeof *out->springs);
     out->k = malloc(((size_t)ns + 1) * sizeof *out->k);
     out->pins = malloc((size_t)nv * sizeof *out->pins);
@@ -351,7 +383,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
         return DEFSIM_ERR_OUT_OF_MEMORY;
     defsim__get_f64s(r, out->rest, 3 * (int64_t)nv);
     defsim__get_f64s(r, out->mass, nv);
-    defsim__get_i32s(r, out->tets, 4 * (int64_t)nt);
+    defsim__get_i32s(r, out->tets, (int64_t)tn * nt);
     defsim__get_i32s(r, out->springs, 2 * (int64_t)ns);
     defsim__get_f64s(r, out->k, ns);
     const unsigned char *pinned = defsim__take(r, (size_t)nv);
@@ -389,6 +421,7 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     d->vertex_count = nv;
     d->tets = nt > 0 ? out->tets : NULL;
     d->tet_count = nt;
+    d->tet_nodes = tn;
     d->springs = ns > 0 ? out->springs : NULL;
     d->spring_count = ns;
     d->spring_stiffness = ns > 0 ? out->k : NULL;

@@ -23,7 +23,8 @@ typedef struct defsim__body {
     int32_t nv, nt, ns;
     double *rest;             /* 3 nv */
     double *mass;             /* nv */
-    int32_t *tets;            /* 4 nt, body-local */
+    int32_t tet_nodes;        /* indices per tet: 4, or 10 (quadratic, tet10.h) */
+    int32_t *tets;            /* tet_nodes nt, body-local */
     int32_t *springs;         /* 2 ns, body-local */
     double *k;                /* ns */
     uint8_t *pinned;          /* nv */

@@ -101,7 +101,7 @@ static defsim_status add_surface(defsim__body_contact *bc, const defsim__body *b
         memcpy(tris, b->tris, 3 * (size_t)b->ntri * sizeof *tris);
         nt = b->ntri;
     } else if (b->nt > 0) {
-        if ((st = defsim__tet_boundary(b->rest, b->tets, b->nt, &tris, &nt)) != DEFSIM_OK)
+        if ((st = defsim__tet_surface(b->rest, b->tets, b->tet_nodes, b->nt, &tris, &nt)) != DEFSIM_OK)
             return st;
     }
     int32_t *edges = NULL, ne = 0;

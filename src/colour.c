@@ -2,6 +2,8 @@
 /* Colouring of element groups, so that each colour scatters in parallel without atomics. */
 #include "colour.h"
 
+#include "tet10.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -59,6 +61,7 @@ defsim_status defsim__colour_group(defsim__group *g, int32_t nv)
     }
     PERMUTE(idx, nn, int32_t)
     PERMUTE(dminv, 9, double)
+    PERMUTE(qrest, DEFSIM__TET10_REST, double)
     PERMUTE(vol, 1, double)
     PERMUTE(mu, 1, double)
     PERMUTE(lambda, 1, double)

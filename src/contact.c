@@ -703,7 +703,7 @@ defsim_status defsim__contact_surfaces(defsim__contact *c, const defsim__body *b
             else memcpy(tris, bd->tris, 3 * (size_t)bd->ntri * sizeof *tris);
             nt = bd->ntri;
         } else if (bd->nt > 0) {
-            st = defsim__tet_boundary(bd->rest, bd->tets, bd->nt, &tris, &nt);
+            st = defsim__tet_surface(bd->rest, bd->tets, bd->tet_nodes, bd->nt, &tris, &nt);
         }
         if (st == DEFSIM_OK && nt > 0) st = defsim__triangle_edges(tris, nt, &edges, &ne);
         const int32_t *src = edges;

@@ -12,6 +12,7 @@
 #include "forces.h"
 #include "mat3.h"
 #include "material.h"
+#include "tet10.h"
 #include "terms.h"
 #include "world.h"
 
@@ -380,6 +381,27 @@ defsim_status defsim_world_get_pin_forces(defsim_world *w, double *out, int32_t 
     return st;
 }
 
+/* Tet t's stress sigma and energy density psi into the read-back's outputs (each may be NULL),
+ * with the von Mises value of sigma (NaN where sigma is). */
+static void stress_out(const double sigma[9], double psi, int32_t t, double *cauchy,
+                       double *von_mises, double *energy_density)
+{
+    double vm = NAN;
+    if (!isnan(sigma[0])) {
+        const double p = (sigma[0] + sigma[4] + sigma[8]) / 3.0;
+        double ss = 0.0;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                const double s = sigma[3 * i + j] - (i == j ? p : 0.0);
+                ss += s * s;
+            }
+        vm = sqrt(1.5 * ss);
+    }
+    if (cauchy) memcpy(cauchy + 9 * (int64_t)t, sigma, 9 * sizeof *sigma);
+    if (von_mises) von_mises[t] = vm;
+    if (energy_density) energy_density[t] = psi;
+}
+
 defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id id,
                                          double *cauchy, double *von_mises,
                                          double *energy_density, int32_t tet_count)
@@ -394,6 +416,13 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
     }
     const double *x = w->state.x + 3 * (int64_t)b->offset;
     const defsim__model *model = defsim__model_find(b->mat.model);
+    for (int32_t t = 0; t < b->nt && model && b->tet_nodes == 10; ++t) {
+        const int32_t *tt = b->tets + 10 * (int64_t)t;
+        double rest[DEFSIM__TET10_REST], sigma[9], psi;
+        (void)defsim__tet10_rest(b->rest, tt, rest);
+        defsim__tet10_stress(model, b->mu, b->lambda, x, tt, rest, sigma, &psi);
+        stress_out(sigma, psi, t, cauchy, von_mises, energy_density);
+    }
     /* Volume-averaged tets: each vertex's volume ratio J_n (rest and current nodal volumes in
      * jn[2 v], jn[2 v + 1]), for the tets' averaged pressures and volumetric energies. */
     const defsim__model_split *split = b->volume_averaging && model ? model->split : NULL;
@@ -403,7 +432,7 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     for (int pass = jn ? 0 : 1; pass < 2; ++pass)
-    for (int32_t t = 0; t < b->nt && model; ++t) {
+    for (int32_t t = 0; t < b->nt && model && b->tet_nodes == 4; ++t) {
         const int32_t *tt = b->tets + 4 * (int64_t)t;
         double dm[9], dminv[9], F[9], P[9];
         const double *p3 = b->rest + 3 * (int64_t)tt[3];
@@ -438,26 +467,14 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
             psi = model->P(b->mu, b->lambda, F, P);
             if (model->psi_rest) psi -= model->psi_rest(b->mu, b->lambda);
         }
-        double sigma[9], vm = NAN;
+        double sigma[9];
         const int defined = J != 0.0 && isfinite(psi);
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
                 sigma[3 * i + j] = defined ? (P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] +
                                               P[3 * i + 2] * F[3 * j + 2]) / J
                                            : NAN;
-        if (defined) {
-            const double p = (sigma[0] + sigma[4] + sigma[8]) / 3.0;
-            double ss = 0.0;
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) {
-                    const double s = sigma[3 * i + j] - (i == j ? p : 0.0);
-                    ss += s * s;
-                }
-            vm = sqrt(1.5 * ss);
-        }
-        if (cauchy) memcpy(cauchy + 9 * (int64_t)t, sigma, sizeof sigma);
-        if (von_mises) von_mises[t] = vm;
-        if (energy_density) energy_density[t] = psi;
+        stress_out(sigma, psi, t, cauchy, von_mises, energy_density);
     }
     free(jn);
     return DEFSIM_OK;

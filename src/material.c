@@ -74,6 +74,28 @@ void defsim__model_dpdf_projected(const defsim__model *m, double mu, double la,
     }
 }
 
+void defsim__model_dpdf_scaled(const defsim__model *law, double mu, double la, const double F[9],
+                               int proj, double sk, double sd, double D[81])
+{
+    if (proj == DEFSIM_PROJECTION_NONE) {
+        law->dPdF(mu, la, F, D);
+        if (sd != 0.0) {
+            double Dd[81];
+            defsim__model_dpdf_projected(law, mu, la, F, DEFSIM_PROJECTION_CLAMP, Dd, 0, NULL);
+            for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+        } else {
+            for (int i = 0; i < 81; ++i) D[i] *= sk;
+        }
+    } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
+        double Dd[81];
+        defsim__model_dpdf_projected(law, mu, la, F, proj, D, DEFSIM_PROJECTION_CLAMP, Dd);
+        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
+    } else {
+        defsim__model_dpdf_projected(law, mu, la, F, proj, D, 0, NULL);
+        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
+    }
+}
+
 /* Written as !(x >= 0) so that NaN fails too. */
 #define CHECK_NONNEG(field)                                                                     \
     do {                                                                                        \

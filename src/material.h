@@ -113,6 +113,11 @@ void defsim__model_dpdf_projected(const defsim__model *m, double mu, double lamb
                                   const double F[9], int mode, double D[81], int mode2,
                                   double *D2);
 
+/* The tangent of an element matrix k K + kd beta B at F: sk dPdF projected with proj (none,
+ * clamp or abs) plus sd dPdF clamped (stiffness damping's share, always clamped). */
+void defsim__model_dpdf_scaled(const defsim__model *law, double mu, double la, const double F[9],
+                               int proj, double sk, double sd, double D[81]);
+
 /* Validates a material for a body that has tets and/or springs. Returns DEFSIM_OK,
  * DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof(defsim_material)) or
  * DEFSIM_ERR_INVALID_MATERIAL (unknown model, tets with the spring model, or a field out of

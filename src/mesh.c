@@ -4,6 +4,7 @@
 
 #include "mat3.h"
 #include "status.h"
+#include "tet10.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -33,7 +34,7 @@ void defsim__mesh_deliver(defsim_mesh *dst, defsim_mesh *src)
     memcpy(dst, src, n);
 }
 
-typedef struct face { int32_t key[3]; int32_t v[3]; int32_t opposite; } face;
+typedef struct face { int32_t key[3]; int32_t v[3]; int32_t opposite; int32_t t; } face;
 
 static int cmp_face(const void *a, const void *b)
 {
@@ -43,8 +44,23 @@ static int cmp_face(const void *a, const void *b)
     return 0;
 }
 
-defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,
-                                   int32_t **tris_out, int32_t *ntris_out)
+/* The mid-edge node of tet t (10 indices) between its corners u and w. */
+static int32_t mid_node(const int32_t *tet, int32_t u, int32_t w)
+{
+    int cu = 0, cw = 0;
+    for (int a = 0; a < 4; ++a) {
+        if (tet[a] == u) cu = a;
+        if (tet[a] == w) cw = a;
+    }
+    for (int k = 0; k < 6; ++k)
+        if ((defsim__tet10_edge[k][0] == cu && defsim__tet10_edge[k][1] == cw) ||
+            (defsim__tet10_edge[k][0] == cw && defsim__tet10_edge[k][1] == cu))
+            return tet[4 + k];
+    return -1;   /* not reached: u != w are corners of the tet */
+}
+
+defsim_status defsim__tet_surface(const double *pos, const int32_t *tets, int nodes, int32_t nt,
+                                  int32_t **tris_out, int32_t *ntris_out)
 {
     static const int fv[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
     face *f = malloc((size_t)(nt > 0 ? nt : 1) * 4 * sizeof *f);
@@ -52,8 +68,9 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
     for (int64_t t = 0; t < nt; ++t)
         for (int k = 0; k < 4; ++k) {
             face *q = &f[4 * t + k];
-            for (int i = 0; i < 3; ++i) q->v[i] = q->key[i] = tets[4 * t + fv[k][i]];
-            q->opposite = tets[4 * t + k];
+            for (int i = 0; i < 3; ++i) q->v[i] = q->key[i] = tets[nodes * t + fv[k][i]];
+            q->opposite = tets[nodes * t + k];
+            q->t = (int32_t)t;
             /* sort the key */
             for (int i = 0; i < 3; ++i)
                 for (int j = i + 1; j < 3; ++j)
@@ -61,7 +78,8 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
         }
     const int64_t nf = 4 * (int64_t)nt;
     qsort(f, (size_t)nf, sizeof *f, cmp_face);
-    int32_t *tris = malloc((size_t)(nf > 0 ? nf : 1) * 3 * sizeof *tris);
+    const int split = nodes == 10 ? 4 : 1;
+    int32_t *tris = malloc((size_t)(nf > 0 ? nf : 1) * 3 * split * sizeof *tris);
     if (!tris) { free(f); return DEFSIM_ERR_OUT_OF_MEMORY; }
     int32_t n = 0;
     for (int64_t i = 0; i < nf;) {
@@ -76,10 +94,26 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
             double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                              e1[0] * e2[1] - e1[1] * e2[0]};
             double d = nrm[0] * (a[0] - o[0]) + nrm[1] * (a[1] - o[1]) + nrm[2] * (a[2] - o[2]);
-            int32_t *tr = tris + 3 * (int64_t)n++;
-            tr[0] = f[i].v[0];
-            tr[1] = d >= 0.0 ? f[i].v[1] : f[i].v[2];
-            tr[2] = d >= 0.0 ? f[i].v[2] : f[i].v[1];
+            const int32_t v0 = f[i].v[0], v1 = d >= 0.0 ? f[i].v[1] : f[i].v[2],
+                          v2 = d >= 0.0 ? f[i].v[2] : f[i].v[1];
+            if (split == 1) {
+                int32_t *tr = tris + 3 * (int64_t)n++;
+                tr[0] = v0;
+                tr[1] = v1;
+                tr[2] = v2;
+            } else {
+                /* The quadratic face as 4 triangles through its mid-edge nodes, oriented as
+                 * the face. */
+                const int32_t *tet = tets + 10 * (int64_t)f[i].t;
+                const int32_t m01 = mid_node(tet, v0, v1), m12 = mid_node(tet, v1, v2),
+                              m20 = mid_node(tet, v2, v0);
+                const int32_t sub[4][3] = {{v0, m01, m20}, {m01, v1, m12}, {m20, m12, v2},
+                                           {m01, m12, m20}};
+                for (int k = 0; k < 4; ++k) {
+                    int32_t *tr = tris + 3 * (int64_t)n++;
+                    for (int c3 = 0; c3 < 3; ++c3) tr[c3] = sub[k][c3];
+                }
+            }
         }
         i = j;
     }
@@ -87,6 +121,12 @@ defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32
     *tris_out = tris;
     *ntris_out = n;
     return DEFSIM_OK;
+}
+
+defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,
+                                   int32_t **tris_out, int32_t *ntris_out)
+{
+    return defsim__tet_surface(pos, tets, 4, nt, tris_out, ntris_out);
 }
 
 /* Finite and within +-DEFSIM__COORD_MAX (NaN fails). */
@@ -99,6 +139,7 @@ static defsim_status mesh_alloc(defsim_mesh *out, int64_t nv, int64_t nt, int64_
 {
     memset(out, 0, sizeof *out);
     out->size = sizeof *out;
+    out->tet_nodes = 4;
     if (kinds && ns > 0) out->spring_kinds = malloc((size_t)ns * sizeof *out->spring_kinds);
     out->positions = malloc((size_t)nv * 3 * sizeof *out->positions);
     if (nt > 0) out->tets = malloc((size_t)nt * 4 * sizeof *out->tets);
@@ -178,6 +219,92 @@ defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx
     }
     defsim__mesh_deliver(m, &out);
     return DEFSIM_OK;
+}
+
+/* Pairs of int64 in lexicographic order. */
+static int cmp_pair(const void *a, const void *b)
+{
+    const int64_t *x = a, *y = b;
+    if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+    return x[1] < y[1] ? -1 : x[1] > y[1];
+}
+
+defsim_status defsim_mesh_make_quadratic(defsim_mesh *m)
+{
+    if (!m || m->size < offsetof(defsim_mesh, tet_nodes) + sizeof m->tet_nodes ||
+        m->tet_count < 1 || !m->tets || m->tet_nodes != 4 || !m->positions) {
+        defsim__set_last_error("defsim_mesh_make_quadratic: NULL mesh, mesh->size that does not "
+                               "cover tet_nodes, no tets, or tets that are not linear");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const int64_t nt = m->tet_count, nv = m->vertex_count;
+    /* The edges, each as its key (lo << 32 | hi) and where it is first met (6 t + k): sorted by
+     * key with the place in the low bits, the first of each run is where it is first met. */
+    int64_t *occ = malloc((size_t)nt * 6 * 2 * sizeof *occ);
+    int32_t *edge_of = malloc((size_t)nt * 6 * sizeof *edge_of);
+    int64_t *first = malloc((size_t)nt * 6 * sizeof *first);
+    int32_t *tets = malloc((size_t)nt * 10 * sizeof *tets);
+    defsim_status st = DEFSIM_ERR_OUT_OF_MEMORY;
+    double *pos = NULL;
+    int32_t *tris = NULL, ntri = 0;
+    if (!occ || !edge_of || !first || !tets) goto done;
+    for (int64_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 6; ++k) {
+            int64_t a = m->tets[4 * t + defsim__tet10_edge[k][0]];
+            int64_t b = m->tets[4 * t + defsim__tet10_edge[k][1]];
+            if (a > b) { const int64_t c = a; a = b; b = c; }
+            occ[2 * (6 * t + k)] = a * nv + b;
+            occ[2 * (6 * t + k) + 1] = 6 * t + k;
+        }
+    qsort(occ, (size_t)(6 * nt), 2 * sizeof *occ, cmp_pair);   /* by key, then place */
+    int64_t ne = 0;
+    for (int64_t i = 0; i < 6 * nt; ++i) {
+        if (i == 0 || occ[2 * i] != occ[2 * (i - 1)]) first[ne++] = occ[2 * i + 1];
+        edge_of[occ[2 * i + 1]] = (int32_t)(ne - 1);
+    }
+    if (nv + ne > INT32_MAX / 3) {
+        defsim__set_last_error("defsim_mesh_make_quadratic: too many vertices");
+        st = DEFSIM_ERR_INVALID_ARGUMENT;
+        goto done;
+    }
+    /* New vertices in the order their edges are first met: rank the first places. */
+    int64_t *order = malloc((size_t)(ne > 0 ? ne : 1) * 2 * sizeof *order);
+    int32_t *rank = malloc((size_t)(ne > 0 ? ne : 1) * sizeof *rank);
+    pos = malloc((size_t)(nv + ne) * 3 * sizeof *pos);
+    if (!order || !rank || !pos) { free(order); free(rank); goto done; }
+    for (int64_t e = 0; e < ne; ++e) { order[2 * e] = first[e]; order[2 * e + 1] = e; }
+    qsort(order, (size_t)ne, 2 * sizeof *order, cmp_pair);
+    for (int64_t r = 0; r < ne; ++r) rank[order[2 * r + 1]] = (int32_t)r;
+    memcpy(pos, m->positions, (size_t)nv * 3 * sizeof *pos);
+    for (int64_t r = 0; r < ne; ++r) {
+        const int64_t place = order[2 * r], t = place / 6;
+        const int k = (int)(place % 6);
+        const double *pa = m->positions + 3 * (int64_t)m->tets[4 * t + defsim__tet10_edge[k][0]];
+        const double *pb = m->positions + 3 * (int64_t)m->tets[4 * t + defsim__tet10_edge[k][1]];
+        for (int c = 0; c < 3; ++c) pos[3 * (nv + r) + c] = 0.5 * (pa[c] + pb[c]);
+    }
+    for (int64_t t = 0; t < nt; ++t) {
+        for (int a = 0; a < 4; ++a) tets[10 * t + a] = m->tets[4 * t + a];
+        for (int k = 0; k < 6; ++k) tets[10 * t + 4 + k] = (int32_t)(nv + rank[edge_of[6 * t + k]]);
+    }
+    free(order);
+    free(rank);
+    if ((st = defsim__tet_surface(pos, tets, 10, (int32_t)nt, &tris, &ntri)) != DEFSIM_OK) goto done;
+    free(m->positions);
+    free(m->tets);
+    free(m->triangles);
+    m->positions = pos;
+    m->tets = tets;
+    m->triangles = tris;
+    m->vertex_count = (int32_t)(nv + ne);
+    m->triangle_count = ntri;
+    m->tet_nodes = 10;
+    pos = NULL;
+    tets = NULL;
+done:
+    if (st == DEFSIM_ERR_OUT_OF_MEMORY) defsim__set_last_error("out of memory");
+    free(occ); free(edge_of); free(first); free(tets); free(pos);
+    return st;
 }
 
 static int finite3(const double *p)

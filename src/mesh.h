@@ -21,5 +21,10 @@ void defsim__mesh_deliver(defsim_mesh *dst, defsim_mesh *src);
  * *tris_out is malloc'd (3 * *ntris_out indices). */
 defsim_status defsim__tet_boundary(const double *pos, const int32_t *tets, int32_t nt,
                                    int32_t **tris_out, int32_t *ntris_out);
+/* The same for tets of `nodes` indices each (4, or 10: quadratic, tet10.h): a quadratic
+ * boundary face becomes 4 triangles through its mid-edge nodes (corner, corner, corner, then
+ * the middle one), oriented as the face. */
+defsim_status defsim__tet_surface(const double *pos, const int32_t *tets, int nodes, int32_t nt,
+                                  int32_t **tris_out, int32_t *ntris_out);
 
 #endif

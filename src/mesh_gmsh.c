@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Gmsh .msh, ASCII formats 2.x, 4.0 and 4.1: linear tets; lower-dimensional elements skipped. */
+/* Gmsh .msh, ASCII formats 2.x, 4.0 and 4.1: linear tets (type 4) or quadratic ones (type 11);
+ * lower-dimensional elements skipped. */
 #include "mesh_gmsh.h"
 
 #include "mesh_raw.h"
@@ -89,26 +90,32 @@ static void gmsh_element(defsim__reader *r, defsim__raw_mesh *m, long long type,
     const char *name;
     gmsh_type(type, &tn, &dim, &name);
     if (dim < 0) dim = dim_hint;
-    if (type == 4) {
+    if (type == 4 || type == 11) {
         if (!defsim__raw_room(r, m, 0)) return;
+        if ((m->tet_nodes == 10) != (type == 11)) {
+            defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line, "the file mixes linear (type 4) "
+                            "and quadratic (type 11) tetrahedra");
+            return;
+        }
         if (!defsim__vec_push(&m->tets, nodes, 1) || !defsim__vec_push(&m->tet_line, &line, 1))
             r->st = defsim__mesh_oom(r->path);
     } else if (dim == 3) {
         defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line,
-                        "element type %lld (%s): only linear tetrahedra (type 4) are supported as "
-                        "volume elements%s", type, name,
-                        type == 11 ? "; mesh with Mesh.ElementOrder = 1" : "");
+                        "element type %lld (%s): only tetrahedra (types 4 and 11) are supported "
+                        "as volume elements", type, name);
     } else if (dim < 0) {
         defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line, "unknown element type %lld", type);
     }
     (void)nn;
 }
 
-/* The four node tags of tet element `tag`, which began on line `eline` and must end there. */
-static int gmsh_tet_nodes(defsim__reader *r, const char *what, long long tag, int eline,
-                          long long v[4])
+/* The k (4 or 10) node tags of tet element `tag`, which began on line `eline` and must end
+ * there; a quadratic one makes the raw mesh's tets quadratic first. */
+static int gmsh_tet_nodes(defsim__reader *r, defsim__raw_mesh *m, const char *what, long long tag,
+                          int eline, long long v[10], int k)
 {
-    for (int a = 0; a < 4; ++a)
+    if (k == 10 && !defsim__raw_quadratic(r, m, eline)) return 0;
+    for (int a = 0; a < k; ++a)
         if (!defsim__rd_i64(r, what, &v[a])) return 0;
     if (r->line != eline) {
         defsim__rd_fail(r, DEFSIM_ERR_IO, eline, "element %lld: line ends early", tag);
@@ -149,7 +156,7 @@ static void gmsh_elements_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
     long long ne;
     if (!defsim__rd_count(r, "number of elements", 0, INT32_MAX, &ne)) return;
     for (long long e = 0; e < ne; ++e) {
-        long long tag, type, ntags, skip, v[4];
+        long long tag, type, ntags, skip, v[10];
         defsim__rd_skip_ws(r);
         int eline = r->line;
         if (!defsim__rd_i64(r, "element number", &tag) ||
@@ -158,12 +165,12 @@ static void gmsh_elements_v2(defsim__reader *r, defsim__raw_mesh *m, int minor)
             return;
         for (long long k = 0; k < ntags; ++k)
             if (!defsim__rd_i64(r, "tag", &skip)) return;
-        if (type == 4) {
-            if (!gmsh_tet_nodes(r, "node number", tag, eline, v)) return;
+        if (type == 4 || type == 11) {
+            if (!gmsh_tet_nodes(r, m, "node number", tag, eline, v, type == 4 ? 4 : 10)) return;
         } else {
             defsim__rd_to_eol(r);
         }
-        gmsh_element(r, m, type, -1, eline, v, 4);
+        gmsh_element(r, m, type, -1, eline, v, type == 11 ? 10 : 4);
         if (r->st != DEFSIM_OK) return;
     }
 }
@@ -240,7 +247,7 @@ static void gmsh_elements_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
         if (!defsim__rd_i64(r, "element type", &type) ||
             !defsim__rd_count(r, "elements in block", 0, INT32_MAX, &cnt))
             return;
-        if (type != 4) {
+        if (type != 4 && type != 11) {
             /* Boundary elements are skipped line by line; other volumes are errors. */
             gmsh_element(r, m, type, (int)dim, bline, NULL, 0);
             if (r->st != DEFSIM_OK) return;
@@ -248,14 +255,15 @@ static void gmsh_elements_v4(defsim__reader *r, defsim__raw_mesh *m, int minor)
             for (long long e = 0; e < cnt; ++e) defsim__rd_skip_line(r);
             continue;
         }
+        const int k = type == 11 ? 10 : 4;
         for (long long e = 0; e < cnt; ++e) {
-            long long tag, v[4];
+            long long tag, v[10];
             defsim__rd_skip_ws(r);
             int eline = r->line;
             if (!defsim__rd_i64(r, "element tag", &tag) ||
-                !gmsh_tet_nodes(r, "node tag", tag, eline, v))
+                !gmsh_tet_nodes(r, m, "node tag", tag, eline, v, k))
                 return;
-            gmsh_element(r, m, 4, 3, eline, v, 4);
+            gmsh_element(r, m, type, 3, eline, v, k);
             if (r->st != DEFSIM_OK) return;
         }
     }
@@ -326,7 +334,7 @@ defsim_status defsim__load_gmsh(const char *path, defsim_mesh *out)
     else gmsh_sections(&r, &m, minor, gmsh_nodes_v4, gmsh_elements_v4);
     if (r.st == DEFSIM_OK && m.tets.n == 0)
         defsim__rd_fail(&r, DEFSIM_ERR_INVALID_MESH, 0,
-                        "no tetrahedra (element type 4) in the file");
+                        "no tetrahedra (element type 4 or 11) in the file");
 done:
     st = r.st;
     defsim__rd_close(&r);

@@ -3,9 +3,11 @@
 #include "mesh_raw.h"
 
 #include "mesh.h"
+#include "tet10.h"
 #include "tet_rest.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,6 +30,7 @@ void defsim__raw_init(defsim__raw_mesh *m)
     m->pos.elem = 3 * sizeof(double);
     m->tag.elem = sizeof(long long);
     m->tets.elem = 4 * sizeof(long long);
+    m->tet_nodes = 4;
     m->tris.elem = 3 * sizeof(long long);
     m->segs.elem = 2 * sizeof(long long);
     m->tet_line.elem = m->tri_line.elem = m->seg_line.elem = sizeof(int);
@@ -46,6 +49,44 @@ void defsim__raw_free(defsim__raw_mesh *m)
 {
     free(m->pos.p); free(m->tag.p); free(m->tets.p); free(m->tet_line.p);
     free(m->tris.p); free(m->tri_line.p); free(m->segs.p); free(m->seg_line.p);
+}
+
+int defsim__raw_quadratic(defsim__reader *r, defsim__raw_mesh *m, int line)
+{
+    if (m->tet_nodes == 10) return 1;
+    if (m->tets.n > 0) {
+        defsim__rd_fail(r, DEFSIM_ERR_INVALID_MESH, line, "the file mixes linear and quadratic "
+                        "(10-node) tetrahedra");
+        return 0;
+    }
+    m->tet_nodes = 10;
+    m->tets.elem = 10 * sizeof(long long);
+    return 1;
+}
+
+/* Puts the 6 mid-edge nodes of quadratic tet tt (indices into P) in VTK order: each edge takes
+ * the node nearest its middle. Returns 0 when that is not one node per edge. */
+static int order_mid_nodes(const double *P, int32_t tt[10])
+{
+    int32_t mid[6];
+    int used = 0;
+    for (int k = 0; k < 6; ++k) {
+        const double *a = P + 3 * (int64_t)tt[defsim__tet10_edge[k][0]];
+        const double *b = P + 3 * (int64_t)tt[defsim__tet10_edge[k][1]];
+        int best = -1;
+        double bd = INFINITY;
+        for (int j = 0; j < 6; ++j) {
+            const double *q = P + 3 * (int64_t)tt[4 + j];
+            double d = 0.0;
+            for (int i = 0; i < 3; ++i) d += (q[i] - 0.5 * (a[i] + b[i])) * (q[i] - 0.5 * (a[i] + b[i]));
+            if (d < bd) { bd = d; best = j; }
+        }
+        if (used & (1 << best)) return 0;
+        used |= 1 << best;
+        mid[k] = tt[4 + best];
+    }
+    memcpy(tt + 4, mid, sizeof mid);
+    return 1;
 }
 
 defsim_status defsim__mesh_oom(const char *path)
@@ -92,19 +133,21 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
                                   defsim_mesh *out)
 {
     const size_t nv = m->pos.n, nt = m->tets.n, ntri = m->tris.n, nseg = m->segs.n;
+    const int tn = m->tet_nodes;
     const long long *tags = m->tag.p;
-    if (nv > (size_t)INT32_MAX / 3 || nt > (size_t)INT32_MAX / 4 || ntri > (size_t)INT32_MAX / 6 ||
+    if (nv > (size_t)INT32_MAX / 3 || nt > (size_t)INT32_MAX / 10 || ntri > (size_t)INT32_MAX / 6 ||
         nseg > (size_t)INT32_MAX / 4) {
         defsim__set_last_error("%s: mesh too large for 32-bit indices", path);
         return DEFSIM_ERR_INVALID_MESH;
     }
     tagidx *map = malloc((nv ? nv : 1) * sizeof *map);
     int32_t *remap = malloc((nv ? nv : 1) * sizeof *remap);
-    int32_t *tets = malloc((nt ? nt : 1) * 4 * sizeof *tets);
+    int32_t *tets = malloc((nt ? nt : 1) * (size_t)tn * sizeof *tets);
     int32_t *tris = malloc((ntri ? ntri : 1) * 3 * sizeof *tris);
     int32_t *segs = malloc((nseg ? nseg : 1) * 2 * sizeof *segs);
     defsim_mesh res;
     memset(&res, 0, sizeof res);
+    res.tet_nodes = 4;
     defsim_status st = DEFSIM_ERR_INVALID_MESH;
     if (!map || !remap || !tets || !tris || !segs) { st = defsim__mesh_oom(path); goto done; }
 
@@ -128,7 +171,7 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
         int k;
         const char *what;
     } groups[3] = {
-        {&m->tets, &m->tet_line, tets, nt, 4, "tet"},
+        {&m->tets, &m->tet_line, tets, nt, tn, "tet"},
         {&m->tris, &m->tri_line, tris, ntri, 3, "face"},
         {&m->segs, &m->seg_line, segs, nseg, 2, "line"}};
     for (int g = 0; g < 3; ++g) {
@@ -162,7 +205,7 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
 
     /* Keep only the vertices that some element uses, in file order. */
     for (size_t i = 0; i < nv; ++i) remap[i] = -1;
-    for (size_t i = 0; i < 4 * nt; ++i) remap[tets[i]] = 0;
+    for (size_t i = 0; i < (size_t)tn * nt; ++i) remap[tets[i]] = 0;
     for (size_t i = 0; i < 3 * ntri; ++i) remap[tris[i]] = 0;
     for (size_t i = 0; i < 2 * nseg; ++i) remap[segs[i]] = 0;
     int32_t nkeep = 0;
@@ -178,7 +221,7 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
     for (size_t i = 0; i < nv; ++i)
         if (remap[i] >= 0)
             memcpy(res.positions + 3 * (size_t)remap[i], pos + 3 * i, 3 * sizeof *pos);
-    for (size_t i = 0; i < 4 * nt; ++i) tets[i] = remap[tets[i]];
+    for (size_t i = 0; i < (size_t)tn * nt; ++i) tets[i] = remap[tets[i]];
     for (size_t i = 0; i < 3 * ntri; ++i) tris[i] = remap[tris[i]];
     for (size_t i = 0; i < 2 * nseg; ++i) segs[i] = remap[segs[i]];
     res.vertex_count = nkeep;
@@ -186,14 +229,31 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
 
     /* Tets: positive orientation, not degenerate. */
     for (size_t t = 0; t < nt; ++t) {
-        int32_t *tt = tets + 4 * t;
+        int32_t *tt = tets + (size_t)tn * t;
+        const int line = ((const int *)m->tet_line.p)[t];
         defsim__tet_rest rest;
         if (defsim__tet_rest_eval(P, tt, &rest, NULL)) {
-            defsim__set_last_error("%s:%d: tet %zu is degenerate (volume %g)", path,
-                                   ((const int *)m->tet_line.p)[t], t, rest.det / 6.0);
+            defsim__set_last_error("%s:%d: tet %zu is degenerate (volume %g)", path, line, t,
+                                   rest.det / 6.0);
             goto done;
         }
-        if (rest.det < 0.0) { int32_t s = tt[0]; tt[0] = tt[1]; tt[1] = s; }
+        if (tn == 10) {
+            if (!order_mid_nodes(P, tt)) {
+                defsim__set_last_error("%s:%d: quadratic tet %zu: its mid-edge nodes are not one "
+                                       "near each edge's middle", path, line, t);
+                goto done;
+            }
+            if (rest.det < 0.0) defsim__tet10_flip(tt);
+            const double r = defsim__tet10_min_jacobian(P, tt);
+            if (!(r > DEFSIM__TET10_MIN_JACOBIAN)) {
+                defsim__set_last_error("%s:%d: quadratic tet %zu is degenerate or inverted by its "
+                                       "mid-edge nodes (Jacobian determinant down to %g of its "
+                                       "corners' tet)", path, line, t, r);
+                goto done;
+            }
+        } else if (rest.det < 0.0) {
+            int32_t s = tt[0]; tt[0] = tt[1]; tt[1] = s;
+        }
     }
     /* Edges and polylines must have length: they become springs. */
     for (size_t e = 0; e < ntri; ++e)
@@ -214,8 +274,9 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
     if (nt > 0) {
         res.tets = tets; tets = NULL;
         res.tet_count = (int32_t)nt;
-        st = defsim__tet_boundary(res.positions, res.tets, res.tet_count, &res.triangles,
-                                  &res.triangle_count);
+        res.tet_nodes = tn;
+        st = defsim__tet_surface(res.positions, res.tets, tn, res.tet_count, &res.triangles,
+                                 &res.triangle_count);
         if (st != DEFSIM_OK) { st = defsim__mesh_oom(path); goto done; }
     } else if (ntri > 0) {
         res.triangles = tris; tris = NULL;
@@ -250,6 +311,13 @@ defsim_status defsim__mesh_finish(const char *path, defsim__raw_mesh *m, int edg
         }
         res.spring_count = (int32_t)nu;
         free(E);
+    }
+    if (tn == 10 && out->size < offsetof(defsim_mesh, tet_nodes) + sizeof out->tet_nodes) {
+        /* the caller's struct cannot say that its tets hold 10 indices each */
+        defsim__set_last_error("%s: quadratic tets need a defsim_mesh whose size covers "
+                               "tet_nodes", path);
+        st = DEFSIM_ERR_INVALID_ARGUMENT;
+        goto done;
     }
     defsim__mesh_deliver(out, &res);
     memset(&res, 0, sizeof res);

@@ -61,17 +61,18 @@ defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out)
     defsim__rd_skip_ws(&r);
     int per_line = r.line;
     defsim__rd_i64(&r, "nodes per tetrahedron", &per);
-    if (r.st == DEFSIM_OK && per != 4)
+    if (r.st == DEFSIM_OK && per != 4 && per != 10)
         defsim__rd_fail(&r, DEFSIM_ERR_INVALID_MESH, per_line,
-                        "%lld nodes per tetrahedron: only linear (4-node) tets are supported "
-                        "(run tetgen without -o2)", per);
+                        "%lld nodes per tetrahedron: linear (4-node) and quadratic (10-node, "
+                        "tetgen -o2) tets are supported", per);
+    if (r.st == DEFSIM_OK && per == 10) defsim__raw_quadratic(&r, &m, per_line);
     defsim__rd_count(&r, "number of attributes", 0, 1000, &nattr);
     for (long long t = 0; t < nt && r.st == DEFSIM_OK; ++t) {
-        long long tag, v[4];
+        long long tag, v[10];
         defsim__rd_skip_ws(&r);
         int line = r.line;
         if (!defsim__rd_i64(&r, "tet number", &tag)) break;
-        for (int a = 0; a < 4; ++a)
+        for (int a = 0; a < (int)per; ++a)
             if (!defsim__rd_i64(&r, "vertex number", &v[a])) break;
         for (long long a = 0; a < nattr && r.st == DEFSIM_OK; ++a) {
             double skip;
@@ -79,7 +80,7 @@ defsim_status defsim__load_tetgen(const char *base, defsim_mesh *out)
         }
         if (r.st == DEFSIM_OK && r.line != line)
             defsim__rd_fail(&r, DEFSIM_ERR_IO, line, "tet %lld: expected %lld values on the line",
-                            tag, 5 + nattr);
+                            tag, 1 + per + nattr);
         if (defsim__raw_room(&r, &m, 0) &&
             (!defsim__vec_push(&m.tets, v, 1) || !defsim__vec_push(&m.tet_line, &line, 1)))
             st = defsim__mesh_oom(ele_path);

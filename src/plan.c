@@ -16,6 +16,7 @@
 #include "mat3.h"
 #include "material.h"
 #include "terms.h"
+#include "tet10.h"
 #include "tet_forces.h"
 #include "tet_rest.h"
 
@@ -25,7 +26,7 @@
 
 static void group_free(defsim__group *g)
 {
-    free(g->idx); free(g->dminv); free(g->vol); free(g->mu); free(g->lambda);
+    free(g->idx); free(g->dminv); free(g->qrest); free(g->vol); free(g->mu); free(g->lambda);
     free(g->k); free(g->l0); free(g->beta); free(g->color_ptr); free(g->blk);
     free(g->bcolor_ptr); free(g->bidx); free(g->bdata); free(g->blanes);
     memset(g, 0, sizeof *g);
@@ -43,7 +44,7 @@ static void vgroup_free(defsim__vgroup *v)
 
 void defsim__unplan(defsim__system *s, defsim__work *wk)
 {
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) group_free(&s->groups[m]);
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) group_free(&s->groups[m]);
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) vgroup_free(&s->vgroups[m]);
     defsim__attachments *at = &s->att;
     free(at->node); free(at->a); free(at->k); free(at->c); free(at->p); free(at->blk);
@@ -100,32 +101,38 @@ static defsim_status pack_batches(defsim__group *g)
     return DEFSIM_OK;
 }
 
-/* The element group of a tet model (material_list.h order); bodies are validated, so found. */
-static int group_of(int model)
+/* The element group of a body's tets: its model's (material_list.h order; bodies are
+ * validated, so found), among the quadratic groups for quadratic tets. */
+static int group_of(const defsim__body *bd)
 {
     int m = 0;
-    while (m < DEFSIM__TET_MODELS - 1 && (int)defsim__tet_models[m]->id != model) ++m;
-    return m;
+    while (m < DEFSIM__TET_MODELS - 1 && (int)defsim__tet_models[m]->id != (int)bd->mat.model) ++m;
+    return bd->tet_nodes == 10 ? DEFSIM__QUAD_GROUP + m : m;
 }
 
-/* Room for count elements in g (tets of model m < DEFSIM__TET_MODELS, or springs), none
- * filled yet. */
+/* Room for count elements in g, group m of DEFSIM__GROUPS (linear tets of model m, springs,
+ * or quadratic tets of model m - DEFSIM__QUAD_GROUP; a volume-averaged group is its model's
+ * linear one), none filled yet. */
 static defsim_status group_alloc(defsim__group *g, int m, int32_t count)
 {
     const size_t n = (size_t)(count > 0 ? count : 1);
+    const int quad = m >= DEFSIM__QUAD_GROUP, tets = m != DEFSIM__TET_MODELS;
+    const int model = quad ? m - DEFSIM__QUAD_GROUP : m;
     g->n = 0;
-    g->nodes = m < DEFSIM__TET_MODELS ? 4 : 2;
-    g->law = m < DEFSIM__TET_MODELS ? defsim__tet_models[m] : NULL;
-    g->pass = m < DEFSIM__TET_MODELS ? defsim__tet_models[m]->pass : defsim__model_spring.pass;
+    g->nodes = quad ? 10 : tets ? 4 : 2;
+    g->law = tets ? defsim__tet_models[model] : NULL;
+    g->pass = tets ? defsim__tet_models[model]->pass : defsim__model_spring.pass;
     g->idx = malloc(n * g->nodes * sizeof *g->idx);
     g->beta = malloc(n * sizeof *g->beta);
     if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
-    if (m < DEFSIM__TET_MODELS) {
-        g->dminv = malloc(9 * n * sizeof *g->dminv);
+    if (tets) {
+        if (quad) g->qrest = malloc(DEFSIM__TET10_REST * n * sizeof *g->qrest);
+        else g->dminv = malloc(9 * n * sizeof *g->dminv);
         g->vol = malloc(n * sizeof *g->vol);
         g->mu = malloc(n * sizeof *g->mu);
         g->lambda = malloc(n * sizeof *g->lambda);
-        if (!g->dminv || !g->vol || !g->mu || !g->lambda) return DEFSIM_ERR_OUT_OF_MEMORY;
+        if (!(g->dminv || g->qrest) || !g->vol || !g->mu || !g->lambda)
+            return DEFSIM_ERR_OUT_OF_MEMORY;
     } else {
         g->k = malloc(n * sizeof *g->k);
         g->l0 = malloc(n * sizeof *g->l0);
@@ -224,15 +231,15 @@ static defsim_status plan_nodes(defsim__vgroup *v, int32_t nv)
 
 static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in)
 {
-    int32_t count[DEFSIM__TET_MODELS + 1] = {0}, vcount[DEFSIM__TET_MODELS] = {0};
+    int32_t count[DEFSIM__GROUPS] = {0}, vcount[DEFSIM__TET_MODELS] = {0};
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
-        if (bd->nt > 0) (bd->volume_averaging ? vcount : count)[group_of(bd->mat.model)] += bd->nt;
+        if (bd->nt > 0) (bd->volume_averaging ? vcount : count)[group_of(bd)] += bd->nt;
         count[DEFSIM__TET_MODELS] += bd->ns;
     }
     defsim_status st = DEFSIM_OK;
-    for (int m = 0; m <= DEFSIM__TET_MODELS && st == DEFSIM_OK; ++m)
+    for (int m = 0; m < DEFSIM__GROUPS && st == DEFSIM_OK; ++m)
         st = group_alloc(&s->groups[m], m, count[m]);
     for (int m = 0; m < DEFSIM__TET_MODELS && st == DEFSIM_OK; ++m)
         if (vcount[m] > 0) st = group_alloc(&s->vgroups[m].g, m, vcount[m]);
@@ -241,8 +248,19 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
         const double beta = bd->mat.stiffness_damping;
-        if (bd->nt > 0) {
-            const int m = group_of(bd->mat.model);
+        if (bd->nt > 0 && bd->tet_nodes == 10) {
+            defsim__group *g = &s->groups[group_of(bd)];
+            for (int32_t t = 0; t < bd->nt; ++t) {
+                const int32_t *lt = bd->tets + 10 * (int64_t)t;
+                const int32_t e = g->n++;
+                g->vol[e] = defsim__tet10_rest(bd->rest, lt, g->qrest + DEFSIM__TET10_REST * (int64_t)e);
+                g->mu[e] = bd->mu;
+                g->lambda[e] = bd->lambda;
+                g->beta[e] = beta;
+                for (int a = 0; a < 10; ++a) g->idx[10 * (int64_t)e + a] = bd->offset + lt[a];
+            }
+        } else if (bd->nt > 0) {
+            const int m = group_of(bd);   /* volume averaging is refused for quadratic tets */
             defsim__group *g = bd->volume_averaging ? &s->vgroups[m].g : &s->groups[m];
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;
@@ -269,7 +287,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
             sg->beta[e] = beta;
         }
     }
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         st = defsim__colour_group(&s->groups[m], s->nv);
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m]);
         if (st != DEFSIM_OK) return st;
@@ -346,7 +364,7 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
     s->dof_to_free = malloc(nd * sizeof *s->dof_to_free);
     s->vfree = malloc(nv * sizeof *s->vfree);
     int32_t maxn = 1;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
+    for (int m = 0; m < DEFSIM__GROUPS; ++m)
         if (s->groups[m].n > maxn) maxn = s->groups[m].n;
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
         if (s->vgroups[m].g.n > maxn) maxn = s->vgroups[m].g.n;

@@ -22,14 +22,23 @@
 enum { DEFSIM__TET_MODELS = 0 DEFSIM__TET_MODEL_LIST(DEFSIM__COUNT_MODEL) };
 #undef DEFSIM__COUNT_MODEL
 
+/* The element groups of a system: linear tets per model (0 .. DEFSIM__TET_MODELS - 1), the
+ * springs (DEFSIM__TET_MODELS), quadratic tets per model (DEFSIM__QUAD_GROUP + model). */
+enum {
+    DEFSIM__QUAD_GROUP = DEFSIM__TET_MODELS + 1,
+    DEFSIM__GROUPS = 2 * DEFSIM__TET_MODELS + 1
+};
+
 /* One element group: all tets of one model, or all springs. Elements are sorted by colour so
  * that elements of one colour share no vertex and can scatter in parallel without atomics. */
 typedef struct defsim__group {
     int32_t n;                /* elements */
-    int32_t nodes;            /* 4 (tets) or 2 (springs) */
+    int32_t nodes;            /* 4 (tets), 10 (quadratic tets, tet10.h) or 2 (springs) */
     int32_t *idx;             /* nodes * n global vertex ids */
     double *dminv;            /* 9 n (tets) */
-    double *vol;              /* n (tets) */
+    double *qrest;            /* DEFSIM__TET10_REST n (quadratic tets: gradients and weights
+                                 per quadrature point, tet10.h) */
+    double *vol;              /* n (tets, quadratic tets) */
     double *mu, *lambda;      /* n (tets) */
     double *k, *l0;           /* n (springs) */
     double *beta;             /* n: stiffness damping (s) */
@@ -121,8 +130,8 @@ typedef struct defsim__system {
     double *mass3, *alpha3;   /* 3 nv: mass and mass-damping alpha per DOF */
     uint8_t *pinned;          /* nv */
 
-    /* element groups: tets per model, then springs */
-    defsim__group groups[DEFSIM__TET_MODELS + 1];
+    /* element groups: tets per model, springs, quadratic tets per model */
+    defsim__group groups[DEFSIM__GROUPS];
     /* the volume-averaged tets per model (empty unless a body asks for them) */
     defsim__vgroup vgroups[DEFSIM__TET_MODELS];
     int has_volume_averaging;

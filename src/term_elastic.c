@@ -66,25 +66,7 @@ static int element_matrix(const defsim__system *s, const defsim__group *g, const
     const int proj = s->projection;
     double F[9], D[81];
     tet_deformation(x, g->idx + 4 * (int64_t)e, g->dminv + 9 * (int64_t)e, F);
-    if (proj == DEFSIM_PROJECTION_NONE) {
-        g->law->dPdF(g->mu[e], g->lambda[e], F, D);
-        if (sd != 0.0) {
-            double Dd[81];
-            defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F,
-                                         DEFSIM_PROJECTION_CLAMP, Dd, 0, NULL);
-            for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
-        } else {
-            for (int i = 0; i < 81; ++i) D[i] *= sk;
-        }
-    } else if (sd != 0.0 && proj != DEFSIM_PROJECTION_CLAMP) {
-        double Dd[81];
-        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D,
-                                     DEFSIM_PROJECTION_CLAMP, Dd);
-        for (int i = 0; i < 81; ++i) D[i] = sk * D[i] + sd * Dd[i];
-    } else {
-        defsim__model_dpdf_projected(g->law, g->mu[e], g->lambda[e], F, proj, D, 0, NULL);
-        for (int i = 0; i < 81; ++i) D[i] *= sk + sd;
-    }
+    defsim__model_dpdf_scaled(g->law, g->mu[e], g->lambda[e], F, proj, sk, sd, D);
     tet_stiffness(g->dminv + 9 * (int64_t)e, g->vol[e], D, K);
     return 1;
 }

@@ -12,6 +12,7 @@
 #define DEFSIM__TERM_LIST(X)    \
     X(elastic)                  \
     X(nodal_volume)             \
+    X(elastic_quadratic)        \
     X(spring)                   \
     X(attach)                   \
     X(collider)                 \

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Stiffness damping, forces -beta K_e(x) v_e per element (tets of every group, then springs)
+ * Stiffness damping, forces -beta K_e(x) v_e per element (tets of every group, then springs, then quadratic tets)
  * with the element stiffness made positive semi-definite (analytic eigenvalue clamping of
  * dP/dF): linear in v, never injects energy. Its matrix B shares each element's matrix with the
  * elastic term (term_elastic.c, term_spring.c), so that an element is scattered once.
@@ -9,6 +9,7 @@
 #include "material.h"
 #include "system.h"
 #include "term_cache.h"
+#include "tet10.h"
 
 enum { PAR_MIN = 1024 };
 
@@ -73,6 +74,9 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
         if (s->groups[m].n > 0) damping_tets(&s->groups[m], ev->x, ev->v, f, s->nthreads);
     const defsim__group *sg = &s->groups[DEFSIM__TET_MODELS];
     if (sg->n > 0) damping_springs(sg, ev->x, ev->v, f, s->nthreads);
+    for (int m = DEFSIM__QUAD_GROUP; m < DEFSIM__GROUPS; ++m)
+        if (s->groups[m].n > 0)
+            defsim__tet10_damping_forces(&s->groups[m], ev->x, ev->v, f, s->nthreads);
     *used |= DEFSIM_PASS_STIFFNESS_DAMPING;
     return DEFSIM_OK;
 }
@@ -82,7 +86,7 @@ static void rates(const defsim__term *t, const defsim__system *s, const double *
 {
     (void)t;
     (void)x;
-    for (int m = 0; m <= DEFSIM__TET_MODELS; ++m)
+    for (int m = 0; m < DEFSIM__GROUPS; ++m)
         for (int32_t e = 0; e < s->groups[m].n; ++e)
             if (s->groups[m].beta[e] > r->beta) r->beta = s->groups[m].beta[e];
 }

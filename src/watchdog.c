@@ -56,6 +56,7 @@
 #include "forces.h"
 #include "material.h"
 #include "terms.h"
+#include "tet10.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -78,17 +79,18 @@ static double det3(const double *x, const int32_t *id)
            a[2] * (b[0] * c[1] - b[1] * c[0]);
 }
 
-/* The element groups the checks walk: tets per model, springs, then the volume-averaged tets
- * per model. */
-enum { NGROUPS = 2 * DEFSIM__TET_MODELS + 1 };
+/* The element groups the checks walk: the system's groups (tets per model, springs, quadratic
+ * tets per model), then the volume-averaged tets per model. */
+enum { NGROUPS = DEFSIM__GROUPS + DEFSIM__TET_MODELS };
 
 static const defsim__group *group_at(const defsim__system *s, int m)
 {
-    return m <= DEFSIM__TET_MODELS ? &s->groups[m] : &s->vgroups[m - DEFSIM__TET_MODELS - 1].g;
+    return m < DEFSIM__GROUPS ? &s->groups[m] : &s->vgroups[m - DEFSIM__GROUPS].g;
 }
 
 /* Smallest volume ratio J = det Ds / det Dm of group g at x, and the count with J <= 0 (or not
- * a number). Rest tets are positively oriented, so det Dm = 6 vol. */
+ * a number). Rest tets are positively oriented, so det Dm = 6 vol. A quadratic tet's J is det F
+ * at its quadrature points (where its energy is evaluated). */
 static int64_t volume_ratios(const defsim__group *g, const double *x, int nthreads, double *jmin)
 {
     int64_t bad = 0;
@@ -96,7 +98,8 @@ static int64_t volume_ratios(const defsim__group *g, const double *x, int nthrea
 #pragma omp parallel for schedule(static) num_threads(nthreads) if (g->n > 20000) \
     reduction(+ : bad) reduction(min : lo)
     for (int32_t e = 0; e < g->n; ++e) {
-        const double J = det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
+        const double J = g->nodes == 10 ? defsim__tet10_min_det(g, x, e)
+                                        : det3(x, g->idx + 4 * (int64_t)e) / (6.0 * g->vol[e]);
         bad += !(J > 0.0);
         if (J < lo) lo = J;
     }
@@ -127,13 +130,15 @@ static void take_rest(defsim__watchdog *wd, const defsim__watchdog_step *in)
     const double *g = s->gravity;
     const double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     wd->e_floor = mass * s->length_scale * (gn > 9.81 ? gn : 9.81);
-    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), the
-     * rest length of a spring. */
+    /* Smallest element size: (6 V)^(1/3) of a tet (its edge for a right-corner cube tet), half
+     * that for a quadratic tet (its nodes' spacing), the rest length of a spring. */
     double size = s->length_scale;
     for (int m = 0; m < NGROUPS; ++m) {
         const defsim__group *gr = group_at(s, m);
         for (int32_t e = 0; e < gr->n; ++e) {
-            const double l = gr->nodes == 4 ? cbrt(6.0 * gr->vol[e]) : gr->l0[e];
+            const double l = gr->nodes == 4    ? cbrt(6.0 * gr->vol[e])
+                             : gr->nodes == 10 ? 0.5 * cbrt(6.0 * gr->vol[e])
+                                               : gr->l0[e];
             if (l > 0.0 && l < size) size = l;
         }
     }
@@ -162,12 +167,14 @@ static int deformed(const defsim__watchdog *wd, const defsim__system *s, const d
     for (int m = 0; m < NGROUPS; ++m) {
         const defsim__group *gr = group_at(s, m);
         const int32_t *id = gr->idx;
-        if (gr->nodes == 4) {
+        if (gr->nodes >= 4) {
+            /* every node of a tet (quadratic: its mid-edge nodes too) against node 3 */
+            const int nn = gr->nodes;
 #pragma omp simd reduction(max : most)
             for (int32_t e = 0; e < gr->n; ++e) {
-                const double *d3 = dx + 3 * (int64_t)id[4 * (int64_t)e + 3];
-                for (int a = 0; a < 3; ++a) {
-                    const double *da = dx + 3 * (int64_t)id[4 * (int64_t)e + a];
+                const double *d3 = dx + 3 * (int64_t)id[nn * (int64_t)e + 3];
+                for (int a = 0; a < nn; ++a) {
+                    const double *da = dx + 3 * (int64_t)id[nn * (int64_t)e + a];
                     const double c0 = da[0] - d3[0], c1 = da[1] - d3[1], c2 = da[2] - d3[2];
                     const double q = c0 * c0 + c1 * c1 + c2 * c2;
                     most = q > most ? q : most;
@@ -251,7 +258,7 @@ static int list_pinned_elements(defsim__watchdog *wd, const defsim__system *s)
     int64_t n = 0;
     for (int pass = 0; pass < 2; ++pass) {
         n = 0;
-        for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
+        for (int m = 0; m < DEFSIM__GROUPS; ++m) {
             const defsim__group *g = &s->groups[m];
             for (int32_t e = 0; e < g->n; ++e) {
                 int held = 0;
@@ -292,8 +299,10 @@ defsim_status defsim__watchdog_pin_forces(defsim__watchdog *wd, const defsim__sy
         const defsim__group *g = &s->groups[wd->pin_el[2 * k]];
         const int32_t e = wd->pin_el[2 * k + 1];
         const int32_t *id = g->idx + (int64_t)g->nodes * e;
-        double fl[12] = {0};
-        if (g->nodes == 4) {
+        double fl[30] = {0};
+        if (g->nodes == 10) {
+            defsim__tet10_element_forces(g, x, e, fl);
+        } else if (g->nodes == 4) {
             const int32_t loc[4] = {0, 1, 2, 3};
             const double *dm = g->dminv + 9 * (int64_t)e;
             double F[9], P[9], xl[12];
@@ -483,7 +492,7 @@ defsim_status defsim__watchdog_check(defsim__watchdog *wd, const defsim__watchdo
     }
     for (int m = 0; m < NGROUPS && (full || wd->jmin < JMIN_WATCH); ++m) {
         const defsim__group *gr = group_at(s, m);
-        if (gr->n == 0 || gr->nodes != 4 || !gr->law->needs_positive_det) continue;
+        if (gr->n == 0 || gr->nodes == 2 || !gr->law->needs_positive_det) continue;
         double jmin;
         const int64_t bad = volume_ratios(gr, x, s->nthreads, &jmin);
         wd->jmin = jmin;
@@ -575,7 +584,7 @@ void defsim__watchdog_diagnostics(const defsim__watchdog *wd, const defsim__syst
     int64_t bad = 0;
     for (int m = 0; m < NGROUPS; ++m) {
         const defsim__group *gr = group_at(s, m);
-        if (gr->n == 0 || gr->nodes != 4) continue;
+        if (gr->n == 0 || gr->nodes == 2) continue;
         double j;
         bad += volume_ratios(gr, x, s->nthreads, &j);
         if (j < jmin) jmin = j;

@@ -31,7 +31,7 @@ int fields_init(fields *f, defsim_world *w, const vtk_cells *c, unsigned which, 
             return fail(f, err, errsz, "the cells' body tags are not the world's bodies, each "
                                        "body's cells in one run in body order");
         while (next <= b) f->cell_offset[next++] = k;
-        if (c->types[k] == VTK_TETRA) ++f->tet_count[b];
+        if (vtk_is_tet(c->types[k])) ++f->tet_count[b];
     }
     while (next <= f->nbodies) f->cell_offset[next++] = c->ncells;
     int tets = 0;

@@ -297,8 +297,12 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
         const char *ty = type->valuestring;
         defsim_status st = DEFSIM_OK;
         if (!strcmp(ty, "box")) {
-            static const char *const keys[] = {"type", "lo", "hi", "cells", NULL};
+            static const char *const keys[] = {"type", "lo", "hi", "cells", "quadratic", NULL};
             double lo[3], hi[3], cells[3];
+            const cJSON *qj = cJSON_GetObjectItemCaseSensitive(j, "quadratic");
+            if (qj && !cJSON_IsBool(qj))
+                return sj_fail(c, qj, "%s.quadratic must be true or false", w);
+            const int quad = qj && cJSON_IsTrue(qj);
             if (sj_keys(c, j, w, keys) || !sj_require(c, j, "lo", w) ||
                 !sj_require(c, j, "hi", w) || !sj_require(c, j, "cells", w) || sj_vec3(c, j, "lo", w, lo) ||
                 sj_vec3(c, j, "hi", w, hi) || sj_vec3(c, j, "cells", w, cells))
@@ -311,11 +315,13 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
                     return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "hi"),
                                    "%s: hi must be above lo on every axis", w);
             }
+            const int r = quad ? 2 : 1;   /* quadratic: a vertex at every edge's middle too */
             if (vertex_budget(c, cJSON_GetObjectItemCaseSensitive(j, "cells"), w,
-                              (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1)))
+                              (r * cells[0] + 1) * (r * cells[1] + 1) * (r * cells[2] + 1)))
                 return -1;
             *kind = MESH_BOX;
             st = defsim_mesh_box(lo, hi, (int32_t)cells[0], (int32_t)cells[1], (int32_t)cells[2], m);
+            if (st == DEFSIM_OK && quad) st = defsim_mesh_make_quadratic(m);
         } else if (!strcmp(ty, "cloth")) {
             static const char *const keys[] = {"type", "origin", "u", "v", "cells", NULL};
             double o[3], u[3], v[3], cells[2];
@@ -351,7 +357,7 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
         } else if (!strcmp(ty, "inline")) {
             /* The arrays themselves (what defsim_scene_export writes): rows or flat lists. */
             static const char *const keys[] = {"type", "positions", "tets", "triangles",
-                                               "springs", "spring_kinds", NULL};
+                                               "springs", "spring_kinds", "tet_nodes", NULL};
             const cJSON *pj = sj_require(c, j, "positions", w);
             if (sj_keys(c, j, w, keys) || !pj) return -1;
             char wa[240];
@@ -361,7 +367,16 @@ static int parse_mesh(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
             if (vertex_budget(c, pj, w, m->vertex_count)) return -1;
             const int32_t top = m->vertex_count - 1;
             static const char *const names[] = {"tets", "triangles", "springs"};
-            static const int widths[] = {4, 3, 2};
+            int widths[] = {4, 3, 2};
+            if (cJSON_GetObjectItemCaseSensitive(j, "tet_nodes")) {
+                int32_t tn = 4;
+                if (sj_int(c, j, "tet_nodes", w, 4, 10, &tn)) return -1;
+                if (tn != 4 && tn != 10)
+                    return sj_fail(c, cJSON_GetObjectItemCaseSensitive(j, "tet_nodes"),
+                                   "%s.tet_nodes must be 4 or 10", w);
+                widths[0] = tn;
+                m->tet_nodes = tn;
+            }
             int32_t **arrays[] = {&m->tets, &m->triangles, &m->springs};
             int32_t *counts[] = {&m->tet_count, &m->triangle_count, &m->spring_count};
             for (int a = 0; a < 3; ++a) {
@@ -601,10 +616,15 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
             return -1;
         if (det < 0.0) {
             /* A mirroring placement turns every tet and triangle inside out: flip them back. */
+            const int tn = b->mesh.tet_nodes == 10 ? 10 : 4;
             for (int32_t t = 0; t < b->mesh.tet_count; ++t) {
-                int32_t *q = b->mesh.tets + 4 * t, tmp = q[0];
+                int32_t *q = b->mesh.tets + tn * t, tmp = q[0];
                 q[0] = q[1];
                 q[1] = tmp;
+                if (tn == 10) {   /* the mid-edge nodes follow: 12 <-> 02, 03 <-> 13 */
+                    tmp = q[5]; q[5] = q[6]; q[6] = tmp;
+                    tmp = q[7]; q[7] = q[8]; q[8] = tmp;
+                }
             }
             for (int32_t t = 0; t < b->mesh.triangle_count; ++t) {
                 int32_t *q = b->mesh.triangles + 3 * t, tmp = q[1];
@@ -867,6 +887,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
         bd.vertex_count = b->mesh.vertex_count;
         bd.tets = b->mesh.tets;
         bd.tet_count = b->mesh.tet_count;
+        bd.tet_nodes = b->mesh.tet_nodes == 10 ? 10 : 4;
         /* Tet bodies are elastic solids: their boundary triangles and any springs of a mesh
          * file are not simulated; spring bodies use their springs. An inline mesh is taken as
          * given. */

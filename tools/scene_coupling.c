@@ -228,7 +228,8 @@ static void nearest_element(const scene_body *tb, const double p[3], scene_attac
     double best = -INFINITY;
     if (tb->mesh.tet_count > 0) {
         for (int32_t t = 0; t < tb->mesh.tet_count; ++t) {
-            const int32_t *q = tb->mesh.tets + 4 * t;
+            /* a quadratic tet by its corners (the first 4 of its 10) */
+            const int32_t *q = tb->mesh.tets + (tb->mesh.tet_nodes == 10 ? 10 : 4) * (int64_t)t;
             double e[3][3], d[3];
             for (int i = 0; i < 3; ++i) {
                 for (int k = 0; k < 3; ++k) e[i][k] = X[3 * q[i] + k] - X[3 * q[3] + k];

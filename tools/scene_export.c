@@ -109,7 +109,7 @@ static void irows(out *o, const int32_t *v, int64_t n, int width)
 
 typedef struct xbody {
     uint32_t saved, generation;
-    int32_t nv, nt, ns, ntri, nedge, self_contact, offset, volume_averaging;
+    int32_t nv, nt, ns, tn, ntri, nedge, self_contact, offset, volume_averaging;
     defsim_material mat;
     double *rest, *mass, *k;
     int32_t *tets, *springs, *tris, *edges;
@@ -180,14 +180,14 @@ static int32_t *i32s(defsim__br *r, int64_t n)
     return v;
 }
 
-/* The chunks of the checkpoint format version 7 that a scene needs. Returns 0, -1 (malformed:
+/* The chunks of the checkpoint format version 8 that a scene needs. Returns 0, -1 (malformed:
  * a format this code does not know) or -2 (out of memory). */
 static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
 {
     memset(k, 0, sizeof *k);
     if (size < 16 || memcmp(d, "DEFSIMCK", 8)) return -1;
     defsim__br h = {d + 8, 8, 0, 0};
-    if (defsim__get_u32(&h) != 7) return -1;
+    if (defsim__get_u32(&h) != 8) return -1;
     size_t at = 16;
     while (at + 12 <= size) {
         const unsigned char *tag = d + at;
@@ -207,8 +207,10 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             b->nv = defsim__get_i32(&r);
             b->nt = defsim__get_i32(&r);
             b->ns = defsim__get_i32(&r);
-            if (b->nv < 1 || b->nt < 0 || b->ns < 0 || !defsim__fits(&r, b->nv, 33) ||
-                !defsim__fits(&r, b->nt, 16) || !defsim__fits(&r, b->ns, 16))
+            b->tn = defsim__get_i32(&r);   /* the chunk's version is the library's own */
+            if (b->nv < 1 || b->nt < 0 || b->ns < 0 || (b->tn != 4 && b->tn != 10) ||
+                !defsim__fits(&r, b->nv, 33) || !defsim__fits(&r, b->nt, 4 * (size_t)b->tn) ||
+                !defsim__fits(&r, b->ns, 16))
                 return -1;
             defsim_material *m = &b->mat;
             defsim_material_init(m, sizeof *m, (defsim_model)defsim__get_i32(&r));
@@ -218,7 +220,7 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             for (int q = 0; q < 7; ++q) *mp[q] = defsim__get_f64(&r);
             b->rest = f64s(&r, 3 * (int64_t)b->nv);
             b->mass = f64s(&r, b->nv);
-            b->tets = i32s(&r, 4 * (int64_t)b->nt);
+            b->tets = i32s(&r, (int64_t)b->tn * b->nt);
             b->springs = i32s(&r, 2 * (int64_t)b->ns);
             b->k = f64s(&r, b->ns);
             b->pinned = defsim__take(&r, (size_t)b->nv);
@@ -426,7 +428,8 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
     }
     put(o, ",\n    \"mesh\": {\"type\": \"inline\",\n      \"positions\": ");
     rows(o, b->rest, nv, 3);
-    if (b->nt) { put(o, ",\n      \"tets\": "); irows(o, b->tets, b->nt, 4); }
+    if (b->nt) { put(o, ",\n      \"tets\": "); irows(o, b->tets, b->nt, b->tn); }
+    if (b->nt && b->tn != 4) put(o, ",\n      \"tet_nodes\": %d", (int)b->tn);
     if (b->ntri) { put(o, ",\n      \"triangles\": "); irows(o, b->tris, b->ntri, 3); }
     if (b->ns) { put(o, ",\n      \"springs\": "); irows(o, b->springs, b->ns, 2); }
     if (kinds) { put(o, ",\n      \"spring_kinds\": "); irows(o, kinds, b->ns, 1); }

@@ -57,11 +57,10 @@ int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int6
 {
     int64_t prev = 0;
     for (int64_t c = 0; c < ncells; ++c) {
-        const int k = types[c] == VTK_LINE ? 2 : types[c] == VTK_TRIANGLE ? 3
-                      : types[c] == VTK_TETRA ? 4 : 0;
+        const int k = vtk_cell_size(types[c]);
         if (!k)
-            return set_err(err, errsz, "cell %lld: type %d is not a line (3), triangle (5) or "
-                           "tet (10)", (long long)c, (int)types[c]);
+            return set_err(err, errsz, "cell %lld: type %d is not a line (3), triangle (5), "
+                           "tet (10) or quadratic tet (24)", (long long)c, (int)types[c]);
         if (offsets[c] - prev != k)
             return set_err(err, errsz, "cell %lld: offsets give %lld vertices, its type %d",
                            (long long)c, (long long)(offsets[c] - prev), k);
@@ -420,8 +419,7 @@ int vtk_read_vtu(const char *path, vtk_frame *out, char *err, size_t errsz)
     int64_t prev = 0;
     for (int64_t i = 0; i < nc; ++i) {
         const int64_t k = c->offsets[i] - prev;
-        const int want = c->types[i] == VTK_TETRA ? 4 : c->types[i] == VTK_TRIANGLE ? 3
-                         : c->types[i] == VTK_LINE ? 2 : -1;
+        const int want = vtk_cell_size(c->types[i]) ? vtk_cell_size(c->types[i]) : -1;
         if (k != want || c->offsets[i] > c->nconn) {
             set_err(err, errsz, "%s: cell %lld: unsupported type %d or bad offsets", path,
                     (long long)i, (int)c->types[i]);

@@ -10,9 +10,19 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { VTK_LINE = 3, VTK_TRIANGLE = 5, VTK_TETRA = 10 };
+enum { VTK_LINE = 3, VTK_TRIANGLE = 5, VTK_TETRA = 10, VTK_QUADRATIC_TETRA = 24 };
 
-/* Cells of a frame: tets, triangles and lines, each tagged with its body. */
+/* Vertices of a cell of VTK type t (its 4 corners first for a quadratic tet), 0 for others. */
+static inline int vtk_cell_size(int t)
+{
+    return t == VTK_LINE ? 2 : t == VTK_TRIANGLE ? 3 : t == VTK_TETRA ? 4
+           : t == VTK_QUADRATIC_TETRA ? 10 : 0;
+}
+
+/* A linear or quadratic tet. */
+static inline int vtk_is_tet(int t) { return t == VTK_TETRA || t == VTK_QUADRATIC_TETRA; }
+
+/* Cells of a frame: tets (linear or quadratic), triangles and lines, each tagged with its body. */
 typedef struct vtk_cells {
     int64_t *conn;      /* vertex indices of all cells */
     int64_t *offsets;   /* end of each cell in conn (VTK's convention) */
@@ -45,7 +55,7 @@ typedef struct vtk_array {
     const uint8_t *u8;      /* NULL, or components * tuples bytes (flags) */
 } vtk_array;
 
-/* Checks cells given as VTK's arrays: each type a line, triangle or tet, offsets that give it
+/* Checks cells given as VTK's arrays: each type a line, triangle or tet (linear or quadratic), offsets that give it
  * its vertex count, vertex indices in [0, nv). *nconn receives the length of conn. Returns 0,
  * or -1 with the first fault in err. */
 int vtk_check_cells(int32_t nv, int64_t ncells, const uint8_t *types, const int64_t *offsets,

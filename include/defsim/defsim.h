@@ -225,7 +225,7 @@ typedef struct defsim_body_def {
     uint32_t size;                      ///< sizeof(defsim_body_def), set by defsim_body_def_init.
     const double *rest_positions;       ///< 3 * vertex_count doubles, m. Required.
     int32_t vertex_count;               ///< >= 1.
-    const int32_t *tets;                ///< 4 vertex indices per tet (0-based, body-local), or NULL.
+    const int32_t *tets;                ///< tet_nodes vertex indices per tet (0-based, body-local), or NULL.
     int32_t tet_count;                  ///< >= 0; tets may be NULL only when it is 0.
     const int32_t *springs;             ///< 2 vertex indices per spring, or NULL.
     int32_t spring_count;               ///< >= 0; springs may be NULL only when it is 0.
@@ -270,6 +270,20 @@ typedef struct defsim_body_def {
     /// (their lambda terms depend on J alone); with StVK or co-rotated, or a value other than 0
     /// and 1: DEFSIM_ERR_INVALID_MATERIAL.
     int32_t volume_averaging;
+    /* Quadratic tets (appended; see docs/elements.md). */
+    /// Indices per tet in `tets`: 4 (default: linear tets) or 10 (quadratic tets: the 4 corners,
+    /// then the mid-edge nodes of edges 01, 12, 02, 03, 13, 23, VTK_QUADRATIC_TETRA's order; the
+    /// mid-edge nodes are vertices like the corners, so pins, attachments and collider contact
+    /// use them as any vertex). Elements are isoparametric: a mid-edge node off its edge's middle
+    /// curves the element. Energies, forces and Hessians integrate with the 4-point degree-2
+    /// rule, each point's dP/dF projected as for linear tets; masses are HRZ-lumped (positive;
+    /// vertex_mass overrides them as for linear tets); body contact uses each boundary face as 4
+    /// triangles through its mid-edge nodes. Another value is DEFSIM_ERR_INVALID_ARGUMENT; an
+    /// element whose Jacobian determinant falls to 1e-3 of its corners' straight tet or below
+    /// anywhere it is checked (corners, mid-edge nodes, centroid, quadrature points) is
+    /// DEFSIM_ERR_INVALID_MESH. Elements with negative corner orientation are reordered as
+    /// linear tets are (corners 0 and 1 swapped with their mid-edge nodes).
+    int32_t tet_nodes;
 } defsim_body_def;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
@@ -278,7 +292,7 @@ DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
 /// Adds a body; its vertices follow those of the bodies added before it. Rest tets with negative
 /// orientation are reordered (counted in defsim_stats.reordered_tets). On success *out (may be
 /// NULL) receives the id. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, not a live world, size,
-/// counts),
+/// counts, tet_nodes other than 4 or 10),
 /// DEFSIM_ERR_INVALID_MESH (index out of range, non-finite coordinate, degenerate tet or spring
 /// of zero rest length, repeated vertex, vertex without mass; the message names the element),
 /// DEFSIM_ERR_INVALID_MATERIAL (E <= 0, nu outside [0, 0.5), negative density, stiffness, mass or
@@ -594,6 +608,10 @@ typedef struct defsim_mesh {
     /// One defsim_spring_kind per spring (cloth and rope meshes), or NULL: every spring is a
     /// stretch spring. Only written when `size` covers this field (older callers keep working).
     int32_t *spring_kinds;
+    /// Indices per tet in `tets`: 4 (linear) or 10 (quadratic, the order of
+    /// defsim_body_def.tet_nodes). Only written when `size` covers this field; a mesh with
+    /// quadratic tets is only made for a caller whose `size` covers it.
+    int32_t tet_nodes;
 } defsim_mesh;
 
 /// Makes a box of nx * ny * nz hexahedra on [lo, hi], each split into 6 positively oriented tets
@@ -604,23 +622,36 @@ typedef struct defsim_mesh {
 DEFSIM_API defsim_status defsim_mesh_box(const double lo[3], const double hi[3], int32_t nx,
                                          int32_t ny, int32_t nz, defsim_mesh *mesh);
 
+/// Turns a mesh of linear tets (tet_nodes 4, as defsim_mesh_box and defsim_mesh_load make them)
+/// into quadratic tets: one new vertex at the middle of each edge (appended after the mesh's
+/// vertices, in the order edges are first met), 10 indices per tet (defsim_body_def.tet_nodes),
+/// and the boundary triangles split into 4 each through the mid-edge vertices (outward, as
+/// before). The mesh's arrays are replaced (free with defsim_mesh_free); on failure it is
+/// unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, `size` that does not cover tet_nodes,
+/// a mesh without tets or whose tets are already quadratic), DEFSIM_ERR_OUT_OF_MEMORY.
+DEFSIM_API defsim_status defsim_mesh_make_quadratic(defsim_mesh *mesh);
+
 /// Frees the arrays of a mesh made by the library and sets its pointers to NULL and counts to 0.
 /// NULL is ignored.
 DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 
 /// Loads a mesh file, choosing the format by the file's extension:
 ///  - ".node" / ".ele" (TetGen; either file of the pair, or the base name "beam.1" when
-///    "beam.1.node" exists): linear tets, any first index; attributes and markers are ignored.
-///  - ".msh" (Gmsh 2.x and 4.0 / 4.1, ASCII): linear tetrahedra (type 4). Points, lines and
-///    surface elements are skipped; any other volume element (hexahedra, prisms, quadratic tets,
-///    ...) is an error.
+///    "beam.1.node" exists): linear tets, or quadratic ones (10 nodes per tet: `tetgen -o2`),
+///    any first index; attributes and markers are ignored.
+///  - ".msh" (Gmsh 2.x and 4.0 / 4.1, ASCII): linear tetrahedra (type 4) or quadratic ones (type
+///    11), not both. Points, lines and surface elements are skipped; any other volume element
+///    (hexahedra, prisms, ...) is an error.
 ///  - ".obj" (Wavefront): faces (polygons are fan-triangulated; "v/vt/vn" forms and negative,
 ///    relative indices are accepted) and polylines ("l"). The unique edges of the faces and the
 ///    polyline segments become springs, sorted by vertex pair (a cloth or a rope); no bending
 ///    springs are added. Texture coordinates, normals, groups and materials are ignored.
 /// Vertices that no element uses are dropped; the others keep their order in the file. Tets are
 /// reordered to positive orientation and `triangles` receives their outward boundary (for OBJ,
-/// the faces as given). mesh->size must be set; on success the arrays are allocated (free with
+/// the faces as given). Quadratic tets come with tet_nodes = 10: their mid-edge nodes are put in
+/// defsim_body_def.tet_nodes' order by position (each edge takes the node nearest its middle, so
+/// the file's order of them does not matter), and each boundary face gives 4 triangles; a
+/// mesh->size that does not cover tet_nodes is then DEFSIM_ERR_INVALID_ARGUMENT. mesh->size must be set; on success the arrays are allocated (free with
 /// defsim_mesh_free), on failure *mesh is unchanged. Only regular files are read (a FIFO,
 /// device or socket is refused without blocking), within the limits of defsim_set_limit (file
 /// size, vertex and element counts); coordinates must lie within +-1e100 m (so that lengths
@@ -628,7 +659,8 @@ DEFSIM_API void defsim_mesh_free(defsim_mesh *mesh);
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, mesh->size, unknown extension), DEFSIM_ERR_IO
 /// (cannot read, not a regular file, larger than DEFSIM_LIMIT_FILE_BYTES, malformed or binary
 /// file), DEFSIM_ERR_INVALID_MESH (unsupported element, undefined or repeated vertex, degenerate
-/// tet, zero-length edge, no elements, a coordinate beyond +-1e100 m, more vertices or elements
+/// tet, a quadratic tet whose mid-edge nodes are not one near each edge's middle or that they
+/// invert, linear and quadratic tets mixed, zero-length edge, no elements, a coordinate beyond +-1e100 m, more vertices or elements
 /// than their limit), DEFSIM_ERR_OUT_OF_MEMORY; defsim_last_error() says "file:line: ...".
 /// Thread-safe.
 DEFSIM_API defsim_status defsim_mesh_load(const char *path, defsim_mesh *mesh);

@@ -137,7 +137,8 @@ DEFSIM_API defsim_status defsim_scene_get_body(const defsim_scene *scene, int32_
 typedef enum defsim_vtk_cell {
     DEFSIM_VTK_LINE = 3,
     DEFSIM_VTK_TRIANGLE = 5,
-    DEFSIM_VTK_TETRA = 10
+    DEFSIM_VTK_TETRA = 10,
+    DEFSIM_VTK_QUADRATIC_TETRA = 24   ///< 10 vertices: the order of defsim_body_def.tet_nodes.
 } defsim_vtk_cell;
 
 /// An extra Float64 array of a frame: point data (cell 0: one tuple per vertex) or cell data

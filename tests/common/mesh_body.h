@@ -22,6 +22,7 @@ static inline defsim_body_def test_mesh_body(const defsim_mesh *m, defsim_model 
     bd.tet_count = m->tet_count;
     bd.springs = m->springs;
     bd.spring_count = m->spring_count;
+    bd.tet_nodes = m->tet_nodes;
     defsim_material_init(&bd.material, sizeof bd.material, model);
     return bd;
 }

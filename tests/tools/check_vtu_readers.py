@@ -2,13 +2,15 @@
 """The .vtu frames of `defsim run` read back with meshio (and with VTK's own reader when the
 `vtk` module is importable): every array of every frame, for meshes small enough that every
 block length residue and a first or last byte that looks like whitespace occur (1 to 3 cells,
-ropes of 1 to 4 segments, a 1 x 1 cloth), compared with independent computations:
+ropes of 1 to 4 segments, a 1 x 1 cloth), quadratic boxes of 1 and 2 cells (VTK_QUADRATIC_TETRA cells, meshio's tetra10), compared with
+independent computations:
 - displacement = points - points of frame 0, to 1e-12 m;
 - pinned = exactly the vertices the scene pins;
 - von Mises from the 9-component Cauchy tensor, to 1e-9 relative;
 - sum over tets of energy_density x rest volume = the elastic energy of energy.csv, to 1e-9
   relative (tet bodies: the density is per rest volume, and the whole elastic energy is in the
-  tets);
+  tets; a quadratic tet's density is its energy over its volume, the volume of its corners' tet
+  for these straight elements);
 - velocity = the difference quotient of the positions is not asserted (a step is not a frame):
   only its shape and finiteness.
 usage: check_vtu_readers.py DEFSIM_EXE SCENES_DIR WORK_DIR
@@ -67,7 +69,7 @@ def vtk_arrays(path):
     return out, g.GetNumberOfCells()
 
 
-def check_run(name, scene, sets, pinned):
+def check_run(name, scene, sets, pinned, quadratic=False):
     out = run(name, scene, sets)
     energy = {int(r["frame"]): float(r["elastic"])
               for r in csv.DictReader(open(os.path.join(out, "energy.csv")))}
@@ -91,7 +93,11 @@ def check_run(name, scene, sets, pinned):
         check(np.array_equal(pd["pinned"].reshape(-1), want), f"{where}: pinned flags")
         ncells = sum(len(b.data) for b in m.cells)
         check(len(np.concatenate(cd["body"])) == ncells, f"{where}: body per cell")
-        tets = [b.data for b in m.cells if b.type == "tetra"]
+        tets = [b.data for b in m.cells if b.type in ("tetra", "tetra10")]
+        if quadratic:
+            check(all(b.type == "tetra10" and b.data.shape[1] == 10 for b in m.cells),
+                  f"{where}: cells {[(b.type, b.data.shape) for b in m.cells]}, not "
+                  "VTK_QUADRATIC_TETRA")
         if tets:
             sig = np.concatenate(cd["cauchy_stress"]).reshape(-1, 3, 3)
             vm = np.concatenate(cd["von_mises"]).reshape(-1)
@@ -126,6 +132,11 @@ for cells in ([1, 1, 1], [2, 1, 1], [3, 1, 1], [1, 2, 1]):
                        short + [f"bodies.0.mesh.cells={json.dumps(cells)}",
                                 "bodies.0.probe=0"],
                        lambda x: np.flatnonzero(x[:, 0] == 0.0))   # its pinned x = 0 face
+for cells in ([1, 1, 1], [2, 1, 1]):   # quadratic tets: VTK_QUADRATIC_TETRA (24), 10 per cell
+    count += check_run(f"quadratic{''.join(map(str, cells))}", "cantilever.json",
+                       short + [f"bodies.0.mesh.cells={json.dumps(cells)}",
+                                "bodies.0.mesh.quadratic=true", "bodies.0.probe=0"],
+                       lambda x: np.flatnonzero(x[:, 0] == 0.0), quadratic=True)
 for seg in (1, 2, 3, 4):
     count += check_run(f"rope{seg}", "rope.json",
                        ["world.duration=0.01", "world.frame_steps=10",

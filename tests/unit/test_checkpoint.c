@@ -682,6 +682,25 @@ static defsim_world *sliding_cube(void)
     return w;
 }
 
+/* A world loaded from an older file, saved again: a file of this version, whose world continues
+ * bit for bit with `old` over 20 steps. */
+static void check_saved_again(defsim_world *old)
+{
+    void *buf = NULL;
+    size_t size = 0;
+    TU_OK(defsim_world_save_buffer(old, &buf, &size));
+    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
+    defsim_world *again = NULL;
+    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
+    defsim_buffer_free(buf);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, 5e-4));
+        TU_OK(defsim_world_step(again, 5e-4));
+    }
+    assert_true(same_bits(old, again));
+    defsim_world_destroy(again);
+}
+
 static void test_version_4_file(void **state)
 {
     (void)state;
@@ -709,21 +728,9 @@ static void test_version_4_file(void **state)
     printf("  version 4 with a collider: max |difference| 20 steps after the load = %.3g\n", d);
     assert_true(d > 0.0 && d < 1e-3);
     /* Saved again, it is a file of this version, and continues bit for bit from there. */
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(old, &buf, &size));
-    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
-    defsim_world *again = NULL;
-    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &again));
-    defsim_buffer_free(buf);
-    for (int k = 0; k < 20; ++k) {
-        TU_OK(defsim_world_step(old, 5e-4));
-        TU_OK(defsim_world_step(again, 5e-4));
-    }
-    assert_true(same_bits(old, again));
+    check_saved_again(old);
     defsim_world_destroy(old);
     defsim_world_destroy(now);
-    defsim_world_destroy(again);
 }
 
 /* Format version 5: tests/checkpoint/v5_friction.dfck, written by the library of commit 520ba06
@@ -792,18 +799,27 @@ static void test_version_5_file(void **state)
 
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
- * volume_averaging: the file's body loads with the standard element (0) and continues as the
- * uninterrupted run does; saved again it is a version 7 file. */
+ * volume_averaging, version 8 its indices per tet (quadratic tets): the file's body loads with
+ * the standard linear element and continues as the uninterrupted run does; saved again it is a
+ * file of today's version that continues bit for bit. */
 static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(old, &buf, &size));
-    assert_int_equal(((const unsigned char *)buf)[8], DEFSIM__CKPT_VERSION);
-    assert_int_equal(DEFSIM__CKPT_VERSION, 7);
-    defsim_buffer_free(buf);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 8);
+    check_saved_again(old);
+    defsim_world_destroy(old);
+}
+
+/* Format version 7: tests/checkpoint/v7_sliding.dfck, written by the library of commit 8c08767
+ * (the last to write version 7, before BODY held the indices per tet) from the same cube and
+ * steps: it loads, continues as the uninterrupted run does, and saved again continues bit for
+ * bit. */
+static void test_version_7_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v7_sliding.dfck", "version 7");
+    check_saved_again(old);
     defsim_world_destroy(old);
 }
 
@@ -947,6 +963,7 @@ int main(void)
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
+        cmocka_unit_test(test_version_7_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

@@ -5,6 +5,8 @@
  * Contents: checks shared by the loaders' tests; TetGen; Gmsh; OBJ; generators. */
 #include "test_util.h"
 
+#include "tet10.h"
+
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -79,7 +81,7 @@ static void check_solid(const defsim_mesh *m, double volume)
 {
     double v = 0.0;
     for (int t = 0; t < m->tet_count; ++t) {
-        double vt = tet_volume(m->positions, m->tets + 4 * t);
+        double vt = tet_volume(m->positions, m->tets + (m->tet_nodes == 10 ? 10 : 4) * t);
         assert_true(vt > 0.0);
         v += vt;
     }
@@ -154,8 +156,8 @@ static void test_tetgen_errors(void **state)
     /* A tet refers to point 9 on line 3. */
     expect_error(tu_write_file("bad.ele", "2 4 1\n1 1 2 3 4 0\n2 1 2 3 9 0\n"),
                  DEFSIM_ERR_INVALID_MESH, 3);
-    /* Quadratic tets: the header on line 2 (after a comment). */
-    expect_error(tu_write_file("bad.ele", "# tets\n1 10 0\n1 1 2 3 4 5 6 1 2 3 4\n"),
+    /* 7 nodes per tet: the header on line 2 (after a comment). */
+    expect_error(tu_write_file("bad.ele", "# tets\n1 7 0\n1 1 2 3 4 5 6 1\n"),
                  DEFSIM_ERR_INVALID_MESH, 2);
     /* A missing value: the next line's tet number is read as a vertex. */
     expect_error(tu_write_file("bad.ele", "2 4 0\n1 1 2 3\n2 1 2 3 5\n"), DEFSIM_ERR_IO, 2);
@@ -288,6 +290,118 @@ static void test_gmsh_v2(void **state)
     /* An unterminated section. */
     expect_error(tu_write_file("open.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Comments\n"
                             "bla\n"), DEFSIM_ERR_IO, 4);
+    defsim_mesh_free(&b);
+}
+
+/* Quadratic tets from the files (issue 29): the reference is a 2x1x1-cell box made quadratic.
+ * Each format writes it with the mid-edge nodes in an order of its own (Gmsh's type 11 swaps
+ * VTK's last two; odd tets are written left-handed and with their mid-edge nodes rotated), and
+ * the loader matches them to their edges by position: every loaded tet's node 4 + k is the middle
+ * of its edge k in VTK's order, corners positively oriented, 4 boundary triangles per face. */
+static void check_quadratic(const defsim_mesh *m, const defsim_mesh *b)
+{
+    assert_int_equal(m->tet_nodes, 10);
+    assert_int_equal(m->vertex_count, b->vertex_count);
+    assert_int_equal(m->tet_count, b->tet_count);
+    assert_int_equal(m->triangle_count, b->triangle_count);
+    for (int32_t t = 0; t < m->tet_count; ++t)
+        for (int k = 0; k < 6; ++k) {
+            const int32_t *q = m->tets + 10 * t;
+            const double *a = m->positions + 3 * q[defsim__tet10_edge[k][0]];
+            const double *c = m->positions + 3 * q[defsim__tet10_edge[k][1]];
+            const double *mid = m->positions + 3 * q[4 + k];
+            for (int i = 0; i < 3; ++i) assert_near(mid[i], 0.5 * (a[i] + c[i]), 1e-15);
+        }
+    check_solid(m, 2.0 * 1.0 * 0.5);
+}
+
+/* Tet t of the quadratic box as a file writes it: 10 tags (1-based + base), corners swapped and
+ * mid-edge nodes rotated for odd t, else with the given order of the mid-edge nodes. */
+static void quad_tet_tags(const defsim_mesh *b, int32_t t, const int order[6], long long base,
+                          long long out[10])
+{
+    const int32_t *q = b->tets + 10 * t;
+    for (int a = 0; a < 4; ++a) out[a] = q[a] + base;
+    if (t % 2) { long long x = out[0]; out[0] = out[1]; out[1] = x; }
+    for (int k = 0; k < 6; ++k) out[4 + k] = q[4 + (t % 2 ? (order[k] + 1) % 6 : order[k])] + base;
+}
+
+/* Appends one line per tet of b at s + n: its number (from base), `after` (a Gmsh v2 element's
+ * type and tags), its 10 tags; returns the new length. */
+static size_t put_quad_tets(char *s, size_t cap, size_t n, const defsim_mesh *b, const int order[6],
+                            long long base, const char *after)
+{
+    for (int t = 0; t < b->tet_count; ++t) {
+        long long v[10];
+        quad_tet_tags(b, t, order, base, v);
+        n += (size_t)snprintf(s + n, cap - n, "%lld%s", t + base, after);
+        for (int a = 0; a < 10; ++a) n += (size_t)snprintf(s + n, cap - n, " %lld", v[a]);
+        n += (size_t)snprintf(s + n, cap - n, "\n");
+    }
+    return n;
+}
+
+static void test_quadratic_files(void **state)
+{
+    (void)state;
+    defsim_mesh b = ref_box();
+    TU_OK(defsim_mesh_make_quadratic(&b));
+    static const int gmsh_order[6] = {0, 1, 2, 3, 5, 4};   /* Gmsh: 01 12 02 03 23 13 */
+    static const int scrambled[6] = {3, 0, 5, 1, 4, 2};
+    size_t cap = 1 << 17;
+    char *s = malloc(cap);
+    /* Gmsh 2.2, type 11 */
+    size_t n = (size_t)snprintf(s, cap, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%d\n",
+                                b.vertex_count);
+    for (int i = 0; i < b.vertex_count; ++i)
+        n += (size_t)snprintf(s + n, cap - n, "%d %.17g %.17g %.17g\n", i + 1, b.positions[3 * i],
+                              b.positions[3 * i + 1], b.positions[3 * i + 2]);
+    n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n%d\n", b.tet_count);
+    n = put_quad_tets(s, cap, n, &b, gmsh_order, 1, " 11 2 1 1");
+    snprintf(s + n, cap - n, "$EndElements\n");
+    defsim_mesh m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("q2.msh", s), &m));
+    check_quadratic(&m, &b);
+    defsim_mesh_free(&m);
+    /* Gmsh 4.1: one node block, one type-11 block */
+    n = (size_t)snprintf(s, cap, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 %d 1 %d\n"
+                         "3 1 0 %d\n", b.vertex_count, b.vertex_count, b.vertex_count);
+    for (int i = 0; i < b.vertex_count; ++i) n += (size_t)snprintf(s + n, cap - n, "%d\n", i + 1);
+    for (int i = 0; i < b.vertex_count; ++i)
+        n += (size_t)snprintf(s + n, cap - n, "%.17g %.17g %.17g\n", b.positions[3 * i],
+                              b.positions[3 * i + 1], b.positions[3 * i + 2]);
+    n += (size_t)snprintf(s + n, cap - n, "$EndNodes\n$Elements\n1 %d 1 %d\n3 1 11 %d\n",
+                          b.tet_count, b.tet_count, b.tet_count);
+    n = put_quad_tets(s, cap, n, &b, gmsh_order, 1, "");
+    snprintf(s + n, cap - n, "$EndElements\n");
+    m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("q4.msh", s), &m));
+    check_quadratic(&m, &b);
+    defsim_mesh_free(&m);
+    /* TetGen -o2, 0-based, mid-edge nodes scrambled */
+    n = (size_t)snprintf(s, cap, "%d 3 0 0\n", b.vertex_count);
+    for (int i = 0; i < b.vertex_count; ++i)
+        n += (size_t)snprintf(s + n, cap - n, "%d %.17g %.17g %.17g\n", i, b.positions[3 * i],
+                              b.positions[3 * i + 1], b.positions[3 * i + 2]);
+    tu_write_file("q.node", s);
+    n = (size_t)snprintf(s, cap, "%d 10 0\n", b.tet_count);
+    n = put_quad_tets(s, cap, n, &b, scrambled, 0, "");
+    m = empty_mesh();
+    TU_OK(defsim_mesh_load(tu_write_file("q.ele", s), &m));
+    check_quadratic(&m, &b);
+    defsim_mesh_free(&m);
+    /* a mid-edge node that is no edge's middle (edge 23's, moved next to edge 01's): two edges
+     * pick one node (the tet on line 2) */
+    tu_write_file("off.node", "10 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n4 0.5 0 0\n"
+                              "5 0.5 0.5 0\n6 0 0.5 0\n7 0 0 0.5\n8 0.5 0 0.5\n9 0.5 0.02 0\n");
+    expect_error(tu_write_file("off.ele", "1 10 0\n0 1 0 2 3 4 5 6 7 8 9\n"),
+                 DEFSIM_ERR_INVALID_MESH, 2);
+    /* mixing linear and quadratic tets in one Gmsh file (line 14) */
+    expect_error(tu_write_file("mix.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n"
+                               "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n2\n"
+                               "1 4 2 0 1 1 2 3 4\n2 11 2 0 1 1 2 3 4 1 2 3 4 1 2\n"
+                               "$EndElements\n"), DEFSIM_ERR_INVALID_MESH, 14);
+    free(s);
     defsim_mesh_free(&b);
 }
 
@@ -838,6 +952,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_tetgen_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_gmsh_v2, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_gmsh_v4, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_quadratic_files, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_obj, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_obj_errors, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test(test_cloth),

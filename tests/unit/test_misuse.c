@@ -289,6 +289,9 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_mesh_box, INVALID, defsim_mesh_box(f->nan3, f->unit3, 1, 1, 1, &f->mesh)) \
     X(CTX_DIRECT, 0, defsim_mesh_box, INVALID, defsim_mesh_box(f->zero3, f->inf3, 1, 1, 1, &f->mesh)) \
     X(CTX_DIRECT, 0, defsim_mesh_box, INVALID, defsim_mesh_box(f->zero3, f->unit3, 1, 1, 1, &f->mesh0)) \
+    X(CTX_DIRECT, 0, defsim_mesh_make_quadratic, INVALID, defsim_mesh_make_quadratic(NULL))      \
+    X(CTX_DIRECT, 0, defsim_mesh_make_quadratic, INVALID, defsim_mesh_make_quadratic(&f->mesh0)) \
+    X(CTX_DIRECT, 0, defsim_mesh_make_quadratic, INVALID, defsim_mesh_make_quadratic(&f->mesh))  \
     X(CTX_DIRECT, F_VALUE, defsim_mesh_free, 0, (defsim_mesh_free(NULL), 0))                   \
     X(CTX_DIRECT, F_VALUE, defsim_mesh_free, 0, (defsim_mesh_free(&f->mesh0), f->mesh0.vertex_count)) \
     X(CTX_DIRECT, 0, defsim_mesh_load, INVALID, defsim_mesh_load(NULL, &f->mesh))              \

@@ -210,14 +210,15 @@ static defsim_world *world(double gy)
     return tu_world("explicit_euler", gy, 1);
 }
 
-static defsim_body_id add_box(defsim_world *w, defsim_model model, const double lo[3],
-                              double size, double alpha, double beta)
+static defsim_body_id add_box_of(defsim_world *w, defsim_model model, const double lo[3],
+                                 double size, double alpha, double beta, int quadratic)
 {
     const double hi[3] = {lo[0] + size, lo[1] + size, lo[2] + size};
     defsim_mesh m;
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &m));
+    if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
     defsim_body_def bd = test_mesh_body(&m, model);
     bd.material.youngs_modulus = 1e4;
     bd.material.poisson_ratio = 0.3;
@@ -229,6 +230,12 @@ static defsim_body_id add_box(defsim_world *w, defsim_model model, const double 
         fail_msg("add_body: %s", defsim_world_last_error(w));
     defsim_mesh_free(&m);
     return id;
+}
+
+static defsim_body_id add_box(defsim_world *w, defsim_model model, const double lo[3],
+                              double size, double alpha, double beta)
+{
+    return add_box_of(w, model, lo, size, alpha, beta, 0);
 }
 
 /* The state perturbed (seeded) off rest, with velocities; returns x (owned). */
@@ -252,18 +259,22 @@ static double *perturbed(defsim_world *w, double amp, double **v_out)
 static const defsim_matrix_coeffs K1 = {1.0, 0.0, 0.0, 0.0}, KD1 = {0.0, 1.0, 0.0, 0.0};
 static const defsim_matrix_coeffs MD1 = {0.0, 0.0, 0.0, 1.0};
 
-/* Each tet model's elastic term, and stiffness damping (its matrix is the elastic term's). */
-static void test_elastic(void **state)
+/* Each tet model's elastic term, and stiffness damping (its matrix is the elastic term's): a
+ * box of linear tets, or (quadratic) of 6 quadratic tets, 27 vertices, every node moved off rest
+ * so that the elements are distorted and curved at x. */
+static void check_elastic(int quadratic)
 {
-    (void)state;
     const defsim_model models[4] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED,
                                     DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    const int kind = quadratic ? DEFSIM__TERM_KIND_elastic_quadratic : DEFSIM__TERM_KIND_elastic;
     for (int m = 0; m < 4; ++m) {
         defsim_world *w = world(0.0);
         const double lo[3] = {0, 0, 0};
-        add_box(w, models[m], lo, 0.1, 0.0, 0.01);
-        double *v, *x = perturbed(w, 0.01, &v);
-        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_elastic);
+        add_box_of(w, models[m], lo, 0.1, 0.0, 0.01, quadratic);
+        if (quadratic) assert_int_equal(w->nv, 27);
+        double *v, *x = perturbed(w, quadratic ? 0.005 : 0.01, &v);
+        const defsim__term *t = term_of(w, kind);
+        if (quadratic) assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
         check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
         check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
         check_apply(w, t, x, K1);
@@ -357,6 +368,18 @@ static void test_nodal_volume(void **state)
         free(v);
         defsim_world_destroy(w);
     }
+}
+
+static void test_elastic(void **state)
+{
+    (void)state;
+    check_elastic(0);
+}
+
+static void test_elastic_quadratic(void **state)
+{
+    (void)state;
+    check_elastic(1);
 }
 
 /* Springs (a rope) with stiffness damping, and mass damping with the inertia's diagonal. */
@@ -766,7 +789,8 @@ static void test_all_kinds(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_nodal_volume),
+        cmocka_unit_test(test_elastic),        cmocka_unit_test(test_elastic_quadratic),
+        cmocka_unit_test(test_nodal_volume),
         cmocka_unit_test(test_spring_and_mass),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),
         cmocka_unit_test(test_collider),       cmocka_unit_test(test_body_contact),

@@ -421,8 +421,11 @@ static int out_open(frame_out *o, const scene *s, const char *dir, int f0, const
         const scene_body *b = &s->bodies[i];
         int bad = 0;
         if (b->mesh.tet_count > 0)
-            bad = vtk_cells_add(&o->cells, b->mesh.tets, b->mesh.tet_count, 4, b->offset,
-                                VTK_TETRA, i);
+            bad = b->mesh.tet_nodes == 10
+                      ? vtk_cells_add(&o->cells, b->mesh.tets, b->mesh.tet_count, 10, b->offset,
+                                      VTK_QUADRATIC_TETRA, i)
+                      : vtk_cells_add(&o->cells, b->mesh.tets, b->mesh.tet_count, 4, b->offset,
+                                      VTK_TETRA, i);
         else if (b->mesh.triangle_count > 0)
             bad = vtk_cells_add(&o->cells, b->mesh.triangles, b->mesh.triangle_count, 3,
                                 b->offset, VTK_TRIANGLE, i);
@@ -561,7 +564,11 @@ static int png_open(png_out *p, const scene *s, const run_opts *o, const fields 
     int bad = !p->x || !p->vec || !p->cell || !p->force || !p->poses || !p->frame.rgb || !src;
     for (int32_t i = 0; !bad && i < s->nbodies; ++i) {
         const scene_body *b = &s->bodies[i];
-        src[i] = (rd_body_src){b->offset, b->mesh.tets, b->mesh.tet_count, fl->cell_offset[i],
+        src[i] = (rd_body_src){b->offset,
+                               /* quadratic tets: drawn by their boundary's sub-triangles,
+                                  without stress colours */
+                               b->mesh.tet_nodes == 10 ? NULL : b->mesh.tets,
+                               b->mesh.tet_nodes == 10 ? 0 : b->mesh.tet_count, fl->cell_offset[i],
                                b->mesh.triangles, b->mesh.triangle_count, b->mesh.springs,
                                b->line_count, {b->color[0], b->color[1], b->color[2]}};
     }

@@ -137,7 +137,7 @@ int rd_bodies_from_cells(rd_bodies *out, const vtk_cells *c, const scene *s, int
         int64_t nt = 0, ntri = 0, nl = 0;
         for (int64_t i = 0; i < c->ncells; ++i)
             if (c->body[i] == b) {
-                nt += c->types[i] == VTK_TETRA;
+                nt += vtk_is_tet(c->types[i]);
                 ntri += c->types[i] == VTK_TRIANGLE;
                 nl += c->types[i] == VTK_LINE;
             }
@@ -156,12 +156,13 @@ int rd_bodies_from_cells(rd_bodies *out, const vtk_cells *c, const scene *s, int
         for (int64_t i = 0; i < c->ncells; ++i) {
             if (c->body[i] != b) continue;
             const int64_t *q = c->conn + (i ? c->offsets[i - 1] : 0);
-            if (c->types[i] == VTK_TETRA) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
+            /* a quadratic tet is drawn by its corners (its first 4 vertices) */
+            if (vtk_is_tet(c->types[i])) for (int a = 0; a < 4; ++a) tets[4 * kt + a] = q[a];
             if (c->types[i] == VTK_TRIANGLE) for (int a = 0; a < 3; ++a) tris[3 * ktri + a] = (int32_t)q[a];
-            if (c->types[i] == VTK_TETRA) cell[kt] = (int32_t)i;
+            if (vtk_is_tet(c->types[i])) cell[kt] = (int32_t)i;
             if (c->types[i] == VTK_TRIANGLE) cell[ktri] = (int32_t)i;
             if (c->types[i] == VTK_LINE) for (int a = 0; a < 2; ++a) lines[2 * kl + a] = (int32_t)q[a];
-            kt += c->types[i] == VTK_TETRA;
+            kt += vtk_is_tet(c->types[i]);
             ktri += c->types[i] == VTK_TRIANGLE;
             kl += c->types[i] == VTK_LINE;
         }

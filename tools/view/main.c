@@ -165,7 +165,11 @@ int defsim_tool_view(int argc, char **argv)
     if (rc < 0) {
         for (int32_t i = 0; i < s->nbodies; ++i) {
             const scene_body *b = &s->bodies[i];
-            bodies[i] = (rd_body_src){b->offset, b->mesh.tets, b->mesh.tet_count, 0,
+            bodies[i] = (rd_body_src){b->offset,
+                               /* quadratic tets: drawn by their boundary's sub-triangles,
+                                  without stress colours */
+                               b->mesh.tet_nodes == 10 ? NULL : b->mesh.tets,
+                               b->mesh.tet_nodes == 10 ? 0 : b->mesh.tet_count, 0,
                                       b->mesh.triangles, b->mesh.triangle_count, b->mesh.springs,
                                       b->line_count, {b->color[0], b->color[1], b->color[2]}};
             for (int32_t k = 0; k < b->npins; ++k) pinned[b->offset + b->pins[k]] = 1;

@@ -68,10 +68,27 @@ static void test_mesh()
     CHECK(m.vertex_count() == 0 && m.positions().data() == nullptr);   // NOLINT(bugprone-use-after-move)
     m = std::move(moved);
     CHECK(m.vertex_count() == 12 && moved.vertex_count() == 0);
+    // Quadratic tets: a vertex at every edge's middle, 10 indices per tet, and a body of them
+    // whose lumped masses add up to rho V.
+    defsim::Mesh q = defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 2, 1, 1);
+    q.make_quadratic();
+    CHECK(q.tet_nodes() == 10 && q.tet_count() == 12 && q.tets().size() == 120);
+    CHECK(q.vertex_count() == 5 * 3 * 3);
+    CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [&q] { q.make_quadratic(); }));
+    {
+        defsim::World w(defsim::WorldDef().backend("symplectic_euler"));
+        w.add_body(defsim::BodyDef(q).material(defsim::Material(defsim::Model::corotated)
+                                                   .density(1000.0)));
+        std::vector<double> mass(static_cast<std::size_t>(w.vertex_count()));
+        w.get_masses(mass);
+        double total = 0.0;
+        for (double x : mass) total += x;
+        CHECK(std::fabs(total - 1000.0) < 1e-9);
+    }
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {1, 1, 1}, 0, 1, 1); }));
     CHECK(throws_status(DEFSIM_ERR_INVALID_ARGUMENT, [] { defsim::Mesh::box({0, 0, 0}, {0, 1, 1}, 1, 1, 1); }));
 
-    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
+    defsim_mesh raw = {sizeof raw, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 2, 3};
     CHECK(defsim_mesh_box(lo, hi, 1, 1, 1, &raw) == DEFSIM_OK);
     defsim::Mesh adopted = defsim::Mesh::adopt(raw);
@@ -112,7 +129,7 @@ static std::vector<double> beam_c(int steps)
     wd.num_threads = 2;
     defsim_world *w = nullptr;
     if (defsim_world_create(&wd, &w) != DEFSIM_OK) return {};
-    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr};
+    defsim_mesh m = {sizeof m, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0, nullptr, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.8, 0.2, 0.2};
     defsim_mesh_box(lo, hi, 4, 1, 1, &m);
     defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);

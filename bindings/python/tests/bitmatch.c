@@ -41,7 +41,7 @@ int main(int argc, char **argv)
     if (st != DEFSIM_OK) return fail(NULL, st, "world_create");
 
     /* Body 1: a 3 x 1 x 1 cell co-rotated beam on [0, 0.6] x [0, 0.2] x [0, 0.2]. */
-    defsim_mesh m = {sizeof m, NULL, 0, NULL, 0, NULL, 0, NULL, 0, NULL};
+    defsim_mesh m = {sizeof m, NULL, 0, NULL, 0, NULL, 0, NULL, 0, NULL, 0};
     const double lo[3] = {0, 0, 0}, hi[3] = {0.6, 0.2, 0.2};
     if ((st = defsim_mesh_box(lo, hi, 3, 1, 1, &m)) != DEFSIM_OK) return fail(NULL, st, "mesh_box");
     defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_COROTATED);

@@ -295,6 +295,16 @@ public:
 
     int32_t vertex_count() const noexcept { return m_.vertex_count; }       ///< Vertices.
     int32_t tet_count() const noexcept { return m_.tet_count; }             ///< Tets.
+    /// Indices per tet: 4, or 10 for quadratic tets (defsim_body_def.tet_nodes).
+    int32_t tet_nodes() const noexcept { return m_.tet_nodes == 10 ? 10 : 4; }
+    /// Turns the linear tets quadratic (defsim_mesh_make_quadratic: a vertex at every edge's
+    /// middle, 10 indices per tet). Throws Error (DEFSIM_ERR_INVALID_ARGUMENT: no tets, or
+    /// quadratic already; DEFSIM_ERR_OUT_OF_MEMORY).
+    Mesh &make_quadratic()
+    {
+        detail::check(defsim_mesh_make_quadratic(&m_));
+        return *this;
+    }
     int32_t triangle_count() const noexcept { return m_.triangle_count; }   ///< Triangles.
     int32_t spring_count() const noexcept { return m_.spring_count; }       ///< Springs.
     /// 3 * vertex_count() coordinates (m).
@@ -302,10 +312,10 @@ public:
     {
         return {m_.positions, 3 * static_cast<std::size_t>(m_.vertex_count)};
     }
-    /// 4 vertex indices per tet.
+    /// tet_nodes() vertex indices per tet.
     Span<const int32_t> tets() const noexcept
     {
-        return {m_.tets, 4 * static_cast<std::size_t>(m_.tet_count)};
+        return {m_.tets, static_cast<std::size_t>(tet_nodes()) * static_cast<std::size_t>(m_.tet_count)};
     }
     /// 3 vertex indices per triangle (outward boundary of the tets, or cloth faces).
     Span<const int32_t> triangles() const noexcept
@@ -383,7 +393,7 @@ public:
     explicit BodyDef(const Mesh &mesh) : BodyDef()
     {
         rest_positions(mesh.positions());
-        tets(mesh.tets());
+        tets(mesh.tets(), mesh.tet_nodes());
         springs(mesh.springs());
         spring_kinds(mesh.spring_kinds());
     }
@@ -396,12 +406,16 @@ public:
         d_.vertex_count = detail::count(xyz.size() / 3, "rest_positions");
         return *this;
     }
-    /// Tets, 4 body-local vertex indices each.
-    BodyDef &tets(Span<const int32_t> idx)
+    /// Tets, `nodes` body-local vertex indices each: 4, or 10 for quadratic tets (the corners,
+    /// then the mid-edge nodes of edges 01, 12, 02, 03, 13, 23; defsim_body_def.tet_nodes).
+    BodyDef &tets(Span<const int32_t> idx, int32_t nodes = 4)
     {
-        if (idx.size() % 4 != 0) detail::invalid("tets: size is not a multiple of 4");
+        if (nodes != 4 && nodes != 10) detail::invalid("tets: nodes must be 4 or 10");
+        if (idx.size() % static_cast<std::size_t>(nodes) != 0)
+            detail::invalid("tets: size is not a multiple of the nodes per tet");
         d_.tets = idx.empty() ? nullptr : idx.data();
-        d_.tet_count = detail::count(idx.size() / 4, "tets");
+        d_.tet_count = detail::count(idx.size() / static_cast<std::size_t>(nodes), "tets");
+        d_.tet_nodes = nodes;
         return *this;
     }
     /// Springs, 2 body-local vertex indices each.

@@ -37,7 +37,8 @@ class Mesh:
 
     Attributes:
         positions: (n, 3) float64, m.
-        tets: (m, 4) int32, positively oriented.
+        tets: (m, 4) int32, positively oriented; or (m, 10) for quadratic tets (the corners,
+            then the mid-edge nodes of edges 01, 12, 02, 03, 13, 23: ``defsim_body_def.tet_nodes``).
         triangles: (k, 3) int32: cloth faces, or the outward boundary of the tets.
         springs: (s, 2) int32: cloth edges, rope links.
         spring_kinds: (s,) int32 SpringKind of each spring (cloth and rope meshes), or None:
@@ -75,10 +76,11 @@ class Mesh:
 
 
 def _from_c(m: Any) -> Mesh:
+    tn = 10 if m.tet_nodes == 10 else 4
     return Mesh(
         positions=_arrays.copy_array(m.positions, 3 * m.vertex_count, np.float64,
                                      (m.vertex_count, 3)),
-        tets=_arrays.copy_array(m.tets, 4 * m.tet_count, np.int32, (m.tet_count, 4)),
+        tets=_arrays.copy_array(m.tets, tn * m.tet_count, np.int32, (m.tet_count, tn)),
         triangles=_arrays.copy_array(m.triangles, 3 * m.triangle_count, np.int32,
                                      (m.triangle_count, 3)),
         springs=_arrays.copy_array(m.springs, 2 * m.spring_count, np.int32,
@@ -88,14 +90,18 @@ def _from_c(m: Any) -> Mesh:
                       if m.spring_kinds != ffi.NULL and m.spring_count > 0 else None))
 
 
-def _make(name: str, *args: Any) -> Mesh:
+def _make(name: str, *args: Any, quadratic: bool = False) -> Mesh:
     """Calls a defsim_mesh_* maker: looks the function up first (UnsupportedError if the library
-    lacks it), converts the result and frees the C arrays."""
+    lacks it), with `quadratic` turns its tets quadratic (``defsim_mesh_make_quadratic``),
+    converts the result and frees the C arrays."""
     fn = function(name)
+    elevate = function("defsim_mesh_make_quadratic") if quadratic else None
     m = ffi.new("defsim_mesh *")
     m.size = ffi.sizeof("defsim_mesh")
     check(fn(*args, m))
     try:
+        if elevate is not None:
+            check(elevate(m))
         return _from_c(m)
     finally:
         lib.defsim_mesh_free(m)
@@ -115,20 +121,23 @@ def _cells(cells: Union[int, Sequence[int]]) -> "tuple[int, int, int]":
 
 
 def mesh_box(lo: Any = (0.0, 0.0, 0.0), hi: Any = (1.0, 1.0, 1.0),
-             cells: Union[int, Sequence[int]] = 1) -> Mesh:
+             cells: Union[int, Sequence[int]] = 1, quadratic: bool = False) -> Mesh:
     """A box of nx * ny * nz hexahedral cells on [lo, hi], each split into 6 positively
     oriented tets (``defsim_mesh_box``); vertex index i + (nx+1)(j + (ny+1) k).
 
     Args:
         lo, hi: opposite corners (m), hi > lo on every axis.
         cells: (nx, ny, nz), or one integer for all three; each >= 1.
+        quadratic: quadratic tets (``defsim_mesh_make_quadratic``): a vertex at every edge's
+            middle too (after the lattice's), tets of shape (m, 10), 4 boundary triangles per
+            face.
 
     Returns a Mesh with positions, tets and the boundary triangles.
     Raises InvalidArgumentError (cells < 1, empty or non-finite box), OutOfMemoryError.
     """
     nx, ny, nz = _cells(cells)
     return _make("defsim_mesh_box", list(_arrays.triple(lo, "lo")),
-                 list(_arrays.triple(hi, "hi")), nx, ny, nz)
+                 list(_arrays.triple(hi, "hi")), nx, ny, nz, quadratic=bool(quadratic))
 
 
 def mesh_cloth(origin: Any, u: Any, v: Any, nu: int, nv: int) -> Mesh:

@@ -79,8 +79,10 @@ def view(world: Any, h: float, steps_per_frame: int = 1, width: int = 960, heigh
         parts[i].triangle_count = topo.triangles.shape[0]
         parts[i].lines = arr(topo.lines)
         parts[i].line_count = topo.lines.shape[0]
-        parts[i].tets = arr(topo.tets)
-        parts[i].tet_count = topo.tets.shape[0]
+        # quadratic tets: drawn by their boundary's sub-triangles, without stress colours
+        quadratic = topo.tets.shape[1] == 10
+        parts[i].tets = arr(topo.tets[:0, :4] if quadratic else topo.tets)
+        parts[i].tet_count = 0 if quadratic else topo.tets.shape[0]
         parts[i].color = [-1.0, 0.0, 0.0]
     d = ffi.new("defsim_view_def *")
     lib.defsim_view_def_init(d, ffi.sizeof("defsim_view_def"))

@@ -423,7 +423,8 @@ class World(WorldCoupling, WorldColliders):
             vertices = vertices.positions
         rest = _arrays.points(vertices, "vertices")
         n = rest.shape[0]
-        t = _arrays.indices(tets, "tets", 4)
+        quadratic = tets is not None and np.ndim(tets) == 2 and np.shape(tets)[1] == 10
+        t = _arrays.indices(tets, "tets", 10 if quadratic else 4)
         s = _arrays.indices(springs, "springs", 2)
         k = None if spring_stiffness is None else _arrays.vector(
             spring_stiffness, "spring_stiffness", s.shape[0])
@@ -452,6 +453,8 @@ class World(WorldCoupling, WorldColliders):
         keep = [_arrays.dptr(rest), _arrays.iptr(t), _arrays.iptr(s), _arrays.dptr(k),
                 _arrays.dptr(m), _arrays.dptr(x0), _arrays.dptr(v0), _arrays.iptr(kinds)]
         d.rest_positions, d.tets, d.springs = keep[0], keep[1], keep[2]
+        if quadratic:
+            d.tet_nodes = 10
         d.spring_stiffness, d.vertex_mass = keep[3], keep[4]
         d.initial_positions, d.initial_velocities = keep[5], keep[6]
         if kinds is not None:
@@ -495,7 +498,7 @@ class World(WorldCoupling, WorldColliders):
         return 0 if topo is None else int(topo.tets.shape[0])
 
     def topology(self, body: Body) -> "Topology":
-        """What `body` was made of: rest positions (n, 3), tets (m, 4), triangles (k, 3: the
+        """What `body` was made of: rest positions (n, 3), tets (m, 4; (m, 10) quadratic), triangles (k, 3: the
         given surface, or the tets' boundary) and springs (s, 2), body-local indices. Used by
         ``defsim.io`` and the display. Raises StaleIdError for a removed body."""
         self._own(body)
@@ -849,9 +852,10 @@ class World(WorldCoupling, WorldColliders):
         self._ptr = ffi.gc(out[0], lib.defsim_world_destroy)
         # What the constructor knew: the backend, gravity and each body's topology, from the
         # file (the library checked it whole). WRLD comes first; a BODY chunk holds id,
-        # generation, nv, nt, ns, model, 7 material numbers, then rest positions, masses, tets,
-        # springs (docs/checkpoints.md).
+        # generation, nv, nt, ns, (format 8 on) the indices per tet, model, 7 material numbers,
+        # then rest positions, masses, tets, springs (docs/checkpoints.md).
         at = 16
+        version = struct.unpack_from("<I", data, 8)[0]
         topologies = []
         while at + 12 <= len(data):
             tag, length = data[at:at + 4], struct.unpack_from("<Q", data, at + 4)[0]
@@ -862,11 +866,13 @@ class World(WorldCoupling, WorldColliders):
                 self._gravity = struct.unpack_from("<3d", payload, 4 + n)
             elif tag == b"BODY":
                 nv, nt, ns = struct.unpack_from("<3i", payload, 8)
-                o = 24 + 7 * 8
+                # format 8 on: the indices per tet after the counts
+                tn = struct.unpack_from("<i", payload, 20)[0] if version >= 8 else 4
+                o = (28 if version >= 8 else 24) + 7 * 8
                 rest = np.frombuffer(payload, "<f8", 3 * nv, o).reshape(nv, 3).copy()
                 o += 8 * 3 * nv + 8 * nv
-                tets = np.frombuffer(payload, "<i4", 4 * nt, o).reshape(nt, 4).copy()
-                o += 4 * 4 * nt
+                tets = np.frombuffer(payload, "<i4", tn * nt, o).reshape(nt, tn).copy()
+                o += 4 * tn * nt
                 springs = np.frombuffer(payload, "<i4", 2 * ns, o).reshape(ns, 2).copy()
                 tri = tet_boundary(rest, tets) if nt else np.zeros((0, 3), np.int32)
                 lines = springs if not nt else springs[:0]
@@ -959,7 +965,22 @@ class Topology(NamedTuple):
 
 
 def tet_boundary(rest: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Faces used by exactly one tet, oriented outward (away from the tet's fourth vertex)."""
+    """Faces used by exactly one tet, oriented outward (away from the tet's fourth vertex); for
+    quadratic tets ((m, 10)) each face as 4 triangles through its mid-edge nodes, as the library
+    makes them (corner, corner, corner, then the middle one)."""
+    if tets.shape[1] == 10:
+        corners = tet_boundary(rest, tets[:, :4])
+        mid = {}
+        for k, (a, b) in enumerate([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]):
+            for u, w, m in zip(tets[:, a], tets[:, b], tets[:, 4 + k]):
+                mid[(min(u, w), max(u, w))] = m
+        out = []
+        for v0, v1, v2 in corners:
+            m01 = mid[(min(v0, v1), max(v0, v1))]
+            m12 = mid[(min(v1, v2), max(v1, v2))]
+            m20 = mid[(min(v2, v0), max(v2, v0))]
+            out += [(v0, m01, m20), (m01, v1, m12), (m20, m12, v2), (m01, m12, m20)]
+        return np.asarray(out, dtype=np.int32).reshape(-1, 3)
     faces = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 2, 3]], tets[:, [0, 1, 3]],
                             tets[:, [0, 1, 2]]])
     opposite = np.concatenate([tets[:, 0], tets[:, 1], tets[:, 2], tets[:, 3]])

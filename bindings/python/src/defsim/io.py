@@ -30,7 +30,7 @@ __all__ = ["write_vtu", "Series", "read_mesh", "load_scene", "Scene", "frame_cel
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-_VTK_LINE, _VTK_TRIANGLE, _VTK_TETRA = 3, 5, 10
+_VTK_LINE, _VTK_TRIANGLE, _VTK_TETRA, _VTK_QUADRATIC_TETRA = 3, 5, 10, 24
 
 
 def _scene_lib() -> Any:
@@ -54,7 +54,8 @@ def frame_cells(world: World) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     for i, b in enumerate(world.bodies):
         topo = world.topology(b)
         off = b.vertex_offset
-        for cells, kind in ((topo.tets, _VTK_TETRA), (topo.triangles, _VTK_TRIANGLE),
+        tet_kind = _VTK_QUADRATIC_TETRA if topo.tets.shape[1] == 10 else _VTK_TETRA
+        for cells, kind in ((topo.tets, tet_kind), (topo.triangles, _VTK_TRIANGLE),
                             (topo.lines, _VTK_LINE)):
             if cells.size:
                 conn.append(cells.reshape(-1).astype(np.int64) + off)
@@ -65,7 +66,8 @@ def frame_cells(world: World) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
         return (np.zeros(0, np.uint8), np.zeros(0, np.int64), np.zeros(0, np.int64),
                 np.zeros(0, np.int32))
     t = np.concatenate(types)
-    sizes = np.select([t == _VTK_TETRA, t == _VTK_TRIANGLE], [4, 3], 2).astype(np.int64)
+    sizes = np.select([t == _VTK_QUADRATIC_TETRA, t == _VTK_TETRA, t == _VTK_TRIANGLE],
+                      [10, 4, 3], 2).astype(np.int64)
     return t, np.cumsum(sizes), np.concatenate(conn), np.concatenate(body)
 
 
@@ -263,8 +265,9 @@ def read_mesh(path: PathLike, file_format: Optional[str] = None) -> Mesh:
 
     Vertices no element uses are dropped; the others keep their order. 2D points get z = 0.
     Raises ImportError without meshio, FileError when meshio cannot read the file,
-    InvalidMeshError for a volume mesh of other elements (quadratic tets, hexahedra, prisms,
-    pyramids: convert them to linear tets first) or a file with no usable cells.
+    InvalidMeshError for a volume mesh of other elements (quadratic tets: ``defsim.mesh_load``
+    reads them from Gmsh and TetGen files; hexahedra, prisms, pyramids: convert them to linear
+    tets first) or a file with no usable cells.
     """
     meshio = _meshio()
     try:
@@ -391,7 +394,8 @@ class Scene:
                     return _arrays.copy_array(ptr, width * count, dtype, (count, width))
                 springs = arr(m.springs, m.spring_count, 2, np.int32)
                 topo = Topology(arr(m.positions, m.vertex_count, 3, np.float64),
-                                arr(m.tets, m.tet_count, 4, np.int32),
+                                arr(m.tets, m.tet_count, 10 if m.tet_nodes == 10 else 4,
+                                    np.int32),
                                 arr(m.triangles, m.triangle_count, 3, np.int32), springs,
                                 springs[:int(b.line_count)])
                 bodies.append(((int(b.id.index), int(b.id.generation)), topo))

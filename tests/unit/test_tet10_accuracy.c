@@ -1,0 +1,323 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Quadratic tets against the continuum (issue 29), by static equilibria. A static solve is
+ * two newton_cholmod steps of a long h from rest, each from zero velocity: a step's
+ * incremental potential is, up to a constant, the static potential E(x) - f_ext . x plus the
+ * mass term 1/(2 h^2) |x - x_n|_M^2, so it lands at x* + O((omega_1 h)^-2) (x_n - x*) with
+ * omega_1 the lowest eigenfrequency; two steps take that factor (1e-5 here) to its square.
+ * Newton stops at 1e-10 (cantilever) and 1e-8 (Cook's membrane, whose strains of 1e-4 leave
+ * the co-rotated energy fewer digits) of the body's size. (A longer h would do it in one step, but the
+ * constant h^2 |f_ext|^2_M^-1 / 2 in the potential then drowns the elastic energy in rounding
+ * and the line search stalls.)
+ *
+ *  - The shipped cantilever (3 m x 1 m x 1 m, 12 x 4 x 4 cells, clamped at x = 0, stable
+ *    neo-Hookean, E = 1e8 Pa, nu = 0.3, 1000 kg/m^3, its own weight under g = 9.81 m/s^2; the
+ *    linear range: the sag is 0.4 % of the length): the top far corner's deflection against the
+ *    converged 3D solution REF_CANTILEVER. Quadratic tets within 2 % of it at 12 x 4 x 4 cells,
+ *    linear tets about 20 % short.
+ *  - Cook's membrane, 3D thin-plate variant: the tapered panel (0,0), (48,44), (48,60), (0,44)
+ *    (Cook 1974) with thickness 1 and traction-free faces, clamped at x = 0 (every vertex
+ *    there pinned), a uniform vertical shear traction of total force F on the face x = 48,
+ *    E = 1, nu = 1/3, co-rotated; the vertical displacement of the top right corner C per unit
+ *    force. F = 1e-3 keeps the model in its linear range. The literature quotes u_C = 23.96
+ *    for the plane-stress membrane (Cook, Malkus and Plesha 1989; Belytschko et al. 2014), but
+ *    an independent 2D plane-stress P2 solve of that problem (tests/tools/cook_plane_stress.py,
+ *    numpy only: 24.318, 24.815, 25.024, 25.084 at 4, 8, 16, 24 elements per side,
+ *    extrapolated 25.17) and this 3D problem with linear and with quadratic tets all converge
+ *    to about 25.1-25.2, not to 23.96: the reference here is this problem's own converged
+ *    value REF_COOK (below), within 0.5 % of the 2D plane-stress one. Quadratic tets at 8 x 8
+ *    elements per side (one through the thickness) are 2.1 % below it (the issue asks 1 %: not
+ *    met; the 2D P2 triangles of the script are 1.4 % below at 8 per side, so the singular
+ *    corner at the clamp, not the third dimension, sets it), at 16 x 16 within 1 %; linear
+ *    tets at 8 x 8 are 35 % below.
+ *
+ * The converged reference of the cantilever comes from quadratic meshes refined independently
+ * of the tested one (n = 6, 8, 10: 18 x 6 x 6, 24 x 8 x 8, 30 x 10 x 10 cells) and Richardson
+ * extrapolation u(n) = u* + C n^-p with p fitted to the three: `test_tet10_accuracy --long`
+ * (ctest long_tet10_refinement, label long) computes it and fails unless it lands within
+ * 0.05 % of REF_CANTILEVER, the value the default test uses; it does the same for Cook's
+ * membrane (n = 16, 24, 32 per side) against REF_COOK, and checks that within 0.5 % of the 2D
+ * plane-stress value 25.17.
+ */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static int long_mode;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* From the --long run (its printout): the cantilever's converged top far corner deflection (m;
+ * 12.91581, 12.92728, 12.93361 mm at n = 6, 8, 10, order 1.33, extrapolated 12.952 mm) and
+ * Cook's membrane's u_C per unit force (25.0466 at 32 per side, order 1.25, 25.138). */
+static const double REF_CANTILEVER = 1.2952e-2;
+static const double REF_COOK = 25.138;
+static const double REF_COOK_PLANE_STRESS = 25.17;
+
+typedef struct beam_result {
+    double deflection;   /* m, downwards positive */
+    int vertices;
+    double seconds;
+} beam_result;
+
+static void static_solve(defsim_world *w, int32_t nv, double h)
+{
+    double *x = malloc(3 * (size_t)nv * sizeof *x), *v = calloc(3 * (size_t)nv, sizeof *v);
+    for (int k = 0; k < 2; ++k) {
+        const defsim_status st = defsim_world_step(w, h);
+        if (st != DEFSIM_OK) fail_msg("static step: %s", defsim_world_last_error(w));
+        TU_OK(defsim_world_get_positions(w, x, nv));
+        TU_OK(defsim_world_set_state(w, x, v));
+    }
+    free(x);
+    free(v);
+}
+
+/* The vertex of the mesh nearest p. */
+static int32_t nearest(const defsim_mesh *m, const double p[3])
+{
+    int32_t best = 0;
+    double bd = INFINITY;
+    for (int32_t i = 0; i < m->vertex_count; ++i) {
+        const double *q = m->positions + 3 * (int64_t)i;
+        const double d = (q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) +
+                         (q[2] - p[2]) * (q[2] - p[2]);
+        if (d < bd) { bd = d; best = i; }
+    }
+    return best;
+}
+
+static void pin_where_x0(defsim_world *w, defsim_body_id id, const defsim_mesh *m)
+{
+    int32_t *pins = malloc((size_t)m->vertex_count * sizeof *pins), np = 0;
+    for (int32_t i = 0; i < m->vertex_count; ++i)
+        if (fabs(m->positions[3 * (int64_t)i]) < 1e-12) pins[np++] = i;
+    TU_OK(defsim_body_pin(w, id, pins, np));
+    free(pins);
+}
+
+/* Pins body id's x = 0 face, solves for the static equilibrium (static_solve with step h) and
+ * returns the result with the y coordinate of the vertex nearest `corner` in *y. */
+static beam_result pin_solve_probe(defsim_world *w, defsim_body_id id, const defsim_mesh *m,
+                                   const double corner[3], double h, double *y)
+{
+    pin_where_x0(w, id, m);
+    const int32_t probe = nearest(m, corner);
+    const double t0 = now_s();
+    static_solve(w, m->vertex_count, h);
+    beam_result r = {0};
+    r.seconds = now_s() - t0;
+    r.vertices = m->vertex_count;
+    double *x = malloc(3 * (size_t)m->vertex_count * sizeof *x);
+    TU_OK(defsim_world_get_positions(w, x, m->vertex_count));
+    *y = x[3 * (int64_t)probe + 1];
+    free(x);
+    return r;
+}
+
+/* The cantilever of n cells per metre (3n x n x n) under its own weight. */
+static beam_result cantilever(int n, int quadratic)
+{
+    defsim_world *w = tu_implicit_world("newton_cholmod", -9.81, 1, 1e-10, 50,
+                                        DEFSIM_PROJECTION_CLAMP);
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 3 * n, n, n, &m));
+    if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
+    defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    bd.material.youngs_modulus = 1e8;
+    bd.material.poisson_ratio = 0.3;
+    bd.material.density = 1000.0;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    const double corner[3] = {3, 1, 1};
+    double y;
+    beam_result r = pin_solve_probe(w, id, &m, corner, 10.0, &y);
+    r.deflection = 1.0 - y;
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
+    return r;
+}
+
+/* Cook's membrane with n x n elements in the plane and one through the thickness: the top right
+ * corner's vertical displacement per unit force. */
+static beam_result cook(int n, int quadratic)
+{
+    defsim_world *w = tu_implicit_world("newton_cholmod", 0.0, 1, 1e-8, 50,
+                                        DEFSIM_PROJECTION_CLAMP);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, force = 1e-3;
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, n, n, 1, &m));
+    /* The unit square onto the panel: x = 48 u, y = 44 u + v (44 - 28 u) (straight edges, so the
+     * tets stay straight and positively oriented: the map's Jacobian is positive). */
+    for (int32_t i = 0; i < m.vertex_count; ++i) {
+        double *p = m.positions + 3 * (int64_t)i;
+        const double u = p[0], v = p[1];
+        p[0] = 48.0 * u;
+        p[1] = 44.0 * u + v * (44.0 - 28.0 * u);
+    }
+    /* The loaded face's triangles before the mesh turns quadratic: each carries F A / A_face,
+     * a third at each corner (linear) or at each mid-edge node (quadratic: the corners' shape
+     * functions integrate to zero over a triangle). */
+    const int32_t nlin = m.vertex_count;
+    int32_t *face = NULL, nface = 0;
+    face = malloc(3 * (size_t)m.triangle_count * sizeof *face);
+    for (int32_t t = 0; t < m.triangle_count; ++t) {
+        const int32_t *tr = m.triangles + 3 * (int64_t)t;
+        int on = 1;
+        for (int k = 0; k < 3; ++k) on &= fabs(m.positions[3 * (int64_t)tr[k]] - 48.0) < 1e-9;
+        if (on) memcpy(face + 3 * nface++, tr, 3 * sizeof *tr);
+    }
+    int32_t *corners = NULL;
+    if (quadratic) {
+        corners = malloc(4 * (size_t)m.tet_count * sizeof *corners);
+        memcpy(corners, m.tets, 4 * (size_t)m.tet_count * sizeof *corners);
+        TU_OK(defsim_mesh_make_quadratic(&m));
+    }
+    double *f = calloc(3 * (size_t)m.vertex_count, sizeof *f);
+    double area_total = 0.0;
+    for (int32_t t = 0; t < nface; ++t) {
+        const double *a = m.positions + 3 * (int64_t)face[3 * t], *b = m.positions + 3 * (int64_t)face[3 * t + 1];
+        const double *c = m.positions + 3 * (int64_t)face[3 * t + 2];
+        const double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                              e1[0] * e2[1] - e1[1] * e2[0]};
+        area_total += 0.5 * sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+    }
+    for (int32_t t = 0; t < nface; ++t) {
+        const double *a = m.positions + 3 * (int64_t)face[3 * t], *b = m.positions + 3 * (int64_t)face[3 * t + 1];
+        const double *c = m.positions + 3 * (int64_t)face[3 * t + 2];
+        const double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                              e1[0] * e2[1] - e1[1] * e2[0]};
+        const double share = force * 0.5 * sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]) /
+                             area_total / 3.0;
+        for (int k = 0; k < 3; ++k) {
+            int32_t node = face[3 * t + k];
+            if (quadratic) {
+                /* the mid-edge node of edge (k, k + 1): the vertex at its middle */
+                const double *p = m.positions + 3 * (int64_t)face[3 * t + k];
+                const double *q = m.positions + 3 * (int64_t)face[3 * t + (k + 1) % 3];
+                const double mid[3] = {0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])};
+                node = nearest(&m, mid);
+                assert_true(node >= nlin);
+            }
+            f[3 * (int64_t)node + 1] += share;
+        }
+    }
+    free(corners);
+    defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_COROTATED);
+    bd.material.youngs_modulus = 1.0;
+    bd.material.poisson_ratio = 1.0 / 3.0;
+    bd.material.density = 1.0;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    TU_OK(defsim_world_set_external_forces(w, f, m.vertex_count));
+    const double corner[3] = {48, 60, 1};
+    double y;
+    beam_result r = pin_solve_probe(w, id, &m, corner, 1e4, &y);
+    r.deflection = (y - 60.0) / force;
+    free(f);
+    free(face);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
+    return r;
+}
+
+/* Richardson extrapolation of u(n) = u* + C n^-p through three meshes n0 < n1 < n2: p by
+ * bisection on the ratio of the differences, then u*. */
+static double richardson(const int n[3], const double u[3], double *p_out)
+{
+    const double target = (u[1] - u[0]) / (u[2] - u[1]);
+    double lo = 0.1, hi = 8.0;
+    for (int it = 0; it < 200; ++it) {
+        const double p = 0.5 * (lo + hi);
+        const double r = (pow(n[1], -p) - pow(n[0], -p)) / (pow(n[2], -p) - pow(n[1], -p));
+        if (r < target) lo = p;
+        else hi = p;
+    }
+    const double p = 0.5 * (lo + hi);
+    const double C = (u[2] - u[1]) / (pow(n[2], -p) - pow(n[1], -p));
+    *p_out = p;
+    return u[2] - C * pow(n[2], -p);
+}
+
+static void test_cantilever(void **state)
+{
+    (void)state;
+    const beam_result q = cantilever(4, 1), l = cantilever(4, 0);
+    const double eq = q.deflection / REF_CANTILEVER - 1.0, el = l.deflection / REF_CANTILEVER - 1.0;
+    printf("  cantilever 12 x 4 x 4, reference %.5g mm: quadratic %.5g mm (%+.2f %%, %d vertices, "
+           "%.2f s), linear %.5g mm (%+.2f %%, %d vertices, %.2f s)\n", 1e3 * REF_CANTILEVER,
+           1e3 * q.deflection, 100.0 * eq, q.vertices, q.seconds, 1e3 * l.deflection, 100.0 * el,
+           l.vertices, l.seconds);
+    assert_true(fabs(eq) < 0.02);
+    assert_true(el < -0.15 && el > -0.25);
+    if (!long_mode) return;
+    const int n[3] = {6, 8, 10};
+    double u[3], p;
+    for (int k = 0; k < 3; ++k) {
+        const beam_result r = cantilever(n[k], 1);
+        u[k] = r.deflection;
+        printf("  cantilever %d x %d x %d quadratic: %.7g mm (%d vertices, %.2f s)\n", 3 * n[k],
+               n[k], n[k], 1e3 * u[k], r.vertices, r.seconds);
+    }
+    const double ref = richardson(n, u, &p);
+    printf("  cantilever extrapolated: %.7g mm (order %.2f); REF_CANTILEVER %.7g mm\n", 1e3 * ref,
+           p, 1e3 * REF_CANTILEVER);
+    assert_true(fabs(ref / REF_CANTILEVER - 1.0) < 5e-4);
+}
+
+static void test_cook(void **state)
+{
+    (void)state;
+    const beam_result q = cook(8, 1), l = cook(8, 0), q16 = cook(16, 1);
+    const double eq = q.deflection / REF_COOK - 1.0, el = l.deflection / REF_COOK - 1.0;
+    const double e16 = q16.deflection / REF_COOK - 1.0;
+    printf("  Cook's membrane, reference %.5g: 8 x 8 quadratic %.5g (%+.2f %%, %d vertices, "
+           "%.2f s), linear %.5g (%+.2f %%, %.2f s); 16 x 16 quadratic %.5g (%+.2f %%, %.2f s)\n",
+           REF_COOK, q.deflection, 100.0 * eq, q.vertices, q.seconds, l.deflection, 100.0 * el,
+           l.seconds, q16.deflection, 100.0 * e16, q16.seconds);
+    assert_true(eq < 0.0 && eq > -0.025);
+    assert_true(fabs(e16) < 0.01);
+    assert_true(el < -0.3);
+    if (!long_mode) return;
+    const int n[3] = {16, 24, 32};
+    double u[3], p;
+    for (int k = 0; k < 3; ++k) {
+        const beam_result r = cook(n[k], 1);
+        u[k] = r.deflection;
+        printf("  Cook's membrane %d x %d quadratic: %.7g (%d vertices, %.2f s)\n", n[k], n[k],
+               u[k], r.vertices, r.seconds);
+    }
+    const double ref = richardson(n, u, &p);
+    printf("  Cook's membrane extrapolated: %.7g (order %.2f); REF_COOK %.5g, plane stress "
+           "%.4g\n", ref, p, REF_COOK, REF_COOK_PLANE_STRESS);
+    assert_true(fabs(ref / REF_COOK - 1.0) < 5e-4);
+    assert_true(fabs(ref / REF_COOK_PLANE_STRESS - 1.0) < 5e-3);
+}
+
+int main(int argc, char **argv)
+{
+    long_mode = argc > 1 && strcmp(argv[1], "--long") == 0;
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cantilever),
+        cmocka_unit_test(test_cook),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -39,6 +39,7 @@ typedef struct defsim__body {
     int32_t self_contact;
     uint32_t group, mask;
     double friction;
+    int mass_given;           /* the host gave vertex_mass: the density does not set the masses */
 } defsim__body;
 
 /* Validates the host's def (a world of world_nv vertices receives it) and builds *out from

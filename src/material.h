@@ -45,6 +45,10 @@ typedef struct defsim__model {
     /* Adds the elastic forces of group g at x into f: the scalar reference kernel
      * (DEFSIM_SIMD=scalar). */
     void (*forces)(const defsim__group *g, const double *x, double *f, int nthreads);
+    /* dP/dmu and dP/dlambda at F (gradients, docs/gradients.md); NULL: P is linear in
+     * (mu, lambda), so that they are P(1, 0, F) and P(0, 1, F) (defsim__model_dP_dlame). */
+    void (*dP_dlame)(double mu, double lambda, const double F[9], double Pmu[9],
+                     double Plambda[9]);
 } defsim__model;
 
 #define DEFSIM__DECLARE_MODEL(name) extern const defsim__model defsim__model_##name;
@@ -94,6 +98,13 @@ static inline void defsim__lame_params(double mu, double lambda, double p[3])
 void defsim__model_dpdf_projected(const defsim__model *m, double mu, double lambda,
                                   const double F[9], int mode, double D[81], int mode2,
                                   double *D2);
+
+/* dP/dmu and dP/dlambda of model m at F (its dP_dlame, or P(1, 0, F) and P(0, 1, F)). */
+void defsim__model_dP_dlame(const defsim__model *m, double mu, double lambda, const double F[9],
+                            double Pmu[9], double Plambda[9]);
+
+/* The Lame parameters' derivatives: dmu/dE, dmu/dnu, dlambda/dE, dlambda/dnu into d[4]. */
+void defsim__lame_derivatives(double E, double nu, double d[4]);
 
 /* Validates a material for a body that has tets and/or springs. Returns DEFSIM_OK,
  * DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof(defsim_material)) or

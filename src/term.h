@@ -44,6 +44,7 @@ struct defsim__collider_set;
 struct defsim__contact;
 struct defsim__body_contact;
 struct defsim__messages;
+struct defsim__grad;
 
 /* Term kinds in list order (term_list.h). */
 #define DEFSIM__TERM_ENUM(name) DEFSIM__TERM_KIND_##name,
@@ -244,6 +245,14 @@ typedef struct defsim__term_ops {
      * bytes it needs; load reads what save wrote (DEFSIM_ERR_INVALID_ARGUMENT if it cannot). */
     size_t (*save)(const defsim__term *t, unsigned char *buf, size_t cap);
     defsim_status (*load)(const defsim__term *t, const unsigned char *buf, size_t n);
+
+    /* Reverse mode (adjoint.h, docs/gradients.md): gx += (df/dx)^T w, gv += (df/dv)^T w of its
+     * forces at ev (the parts ev->which; gx or gv NULL: not wanted), over every DOF, pinned ones
+     * included (w is zero there); when g is not NULL, also w^T df/dp into g's parameter
+     * gradients. A kind with forces and without vjp cannot be differentiated (a recording
+     * refuses its scenes, naming it). */
+    defsim_status (*vjp)(const defsim__term *t, defsim__csys *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, struct defsim__grad *g);
 } defsim__term_ops;
 
 /* An ops table's usual groups of ops, for kind files that name their static functions after the

@@ -46,6 +46,9 @@ typedef struct defsim__ic_scheme {
     /* The scheme's own counters, after the core's (DEFSIM__IC_COUNTERS of them). */
     const defsim_counter_spec *counters;
     int32_t counter_count;
+    /* The core's adjoint step serves the scheme (docs/gradients.md): c_m = c_d = 1, y = x0 +
+     * h v0, z = x0, no history (backward Euler). 0: the backend is not differentiable. */
+    int differentiable;
 } defsim__ic_scheme;
 
 /* The core's counters ("<backend>.<name>": shifted_factorisations, contact_stops,

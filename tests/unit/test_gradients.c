@@ -1,0 +1,681 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Gradients through a run (issue 25, docs/gradients.md): the tape's backward pass against the
+ * analytic derivatives of a free fall and against central finite differences of whole runs
+ * (the cantilever on a small mesh: E, nu, density, mass and stiffness damping, x0, v0; every
+ * tet model; springs), on every differentiable backend; checkpointing against storing every
+ * state; bad input (clear statuses, the world unchanged).
+ */
+#include "test_util.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *NC = "newton_cholmod";
+static const char *SE = "symplectic_euler";
+static const char *EE = "explicit_euler";
+
+/* A run: backend, material, mesh and steps. */
+typedef struct scene {
+    const char *backend;
+    defsim_model model;
+    double E, nu, rho, alpha, beta;
+    int nx, ny, nz;
+    double len;               /* along x (m); 1 x 1 m across */
+    double h;
+    int steps;
+    int pin;                  /* clamp the face x = 0 */
+    double gy;
+    double stretch;           /* the start's positions: rest scaled by this (0: 1) */
+} scene;
+
+/* The parameters the finite differences move. */
+enum { P_E, P_NU, P_RHO, P_ALPHA, P_BETA, P_X0, P_V0, P_COUNT };
+static const char *const pname[P_COUNT] = {"youngs_modulus", "poisson_ratio", "density",
+                                           "mass_damping", "stiffness_damping",
+                                           "initial_positions", "initial_velocities"};
+
+static defsim_world *make(const scene *sc, const double *dp, const double *dx0,
+                          const double *dv0, double eps)
+{
+    defsim_world *w = strcmp(sc->backend, NC) == 0
+                          ? tu_implicit_world(NC, sc->gy, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
+                          : tu_world(sc->backend, sc->gy, 1);
+    defsim_material m;
+    defsim_material_init(&m, sizeof m, sc->model);
+    m.youngs_modulus = sc->E * (1.0 + (dp ? dp[P_E] * eps : 0.0));
+    m.poisson_ratio = sc->nu + (dp ? dp[P_NU] * eps : 0.0);
+    m.density = sc->rho * (1.0 + (dp ? dp[P_RHO] * eps : 0.0));
+    m.mass_damping = sc->alpha + (dp ? dp[P_ALPHA] * eps : 0.0);
+    m.stiffness_damping = sc->beta + (dp ? dp[P_BETA] * eps : 0.0);
+    const double lo[3] = {0, 0, 0}, hi[3] = {sc->len, 1, 1};
+    defsim_body_id b = tu_add_box_material(w, sc->nx, sc->ny, sc->nz, lo, hi, &m);
+    if (sc->pin) tu_pin_below(w, b, 0, 0.0);
+    /* a start away from rest: a fixed twist of the velocities, and the direction's move */
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w), *v = calloc(3 * (size_t)n, sizeof *v);
+    uint8_t *pinned = malloc((size_t)n);
+    TU_OK(defsim_world_get_pinned(w, pinned, n));
+    const double stretch = sc->stretch > 0.0 ? sc->stretch : 1.0;
+    for (int i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) x[3 * i + c] *= stretch;
+        if (!pinned[i]) {
+            v[3 * i + 1] = 0.3 * x[3 * i] - 0.2 * x[3 * i + 2];
+            v[3 * i + 2] = 0.1 * x[3 * i + 1] * x[3 * i];
+        }
+        for (int c = 0; c < 3; ++c) {
+            if (dx0) x[3 * i + c] += eps * dx0[3 * i + c];
+            if (dv0 && !pinned[i]) v[3 * i + c] += eps * dv0[3 * i + c];
+        }
+    }
+    TU_OK(defsim_world_set_state(w, x, v));
+    free(x);
+    free(v);
+    free(pinned);
+    return w;
+}
+
+/* L = sum_s cx_s . x_s + cv_s . v_s over the run's states s = 0 .. N. */
+static double run_loss(const scene *sc, defsim_world *w, const double *cx, const double *cv)
+{
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n;
+    double L = 0.0;
+    double *x = malloc((size_t)n3 * sizeof *x), *v = malloc((size_t)n3 * sizeof *v);
+    for (int s = 0; s <= sc->steps; ++s) {
+        if (s > 0) {
+            const defsim_status st = defsim_world_step(w, sc->h);
+            if (st != DEFSIM_OK) fail_msg("step %d: %s", s, defsim_world_last_error(w));
+        }
+        TU_OK(defsim_world_get_positions(w, x, n));
+        TU_OK(defsim_world_get_velocities(w, v, n));
+        for (int i = 0; i < n3; ++i) L += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+    }
+    free(x);
+    free(v);
+    return L;
+}
+
+/* The loss's weights: at the middle and last states (positions), last (velocities). */
+static void weights(const scene *sc, int n, double **cx, double **cv)
+{
+    const size_t n3 = 3 * (size_t)n, all = n3 * (size_t)(sc->steps + 1);
+    *cx = calloc(all, sizeof **cx);
+    *cv = calloc(all, sizeof **cv);
+    unsigned long long seed = 7;
+    for (size_t i = 0; i < n3; ++i) {
+        (*cx)[n3 * (size_t)(sc->steps / 2) + i] = tu_rand(&seed);
+        (*cx)[n3 * (size_t)sc->steps + i] = tu_rand(&seed);
+        (*cv)[n3 * (size_t)sc->steps + i] = 0.1 * tu_rand(&seed);
+    }
+}
+
+typedef struct grads {
+    double body[5];           /* E, nu, rho, alpha, beta of the one body */
+    double *x0, *v0;
+    int n;
+} grads;
+
+/* Records the run of sc with the given interval and runs it backward for the loss's weights. */
+static void tape_grads(const scene *sc, int32_t interval, int64_t max_bytes, const double *cx,
+                       const double *cv, grads *g, defsim_tape_stats *ts)
+{
+    defsim_world *w = make(sc, NULL, NULL, NULL, 0.0);
+    const int n = defsim_world_vertex_count(w);
+    defsim_tape_def d;
+    defsim_tape_def_init(&d, sizeof d);
+    d.interval = interval;
+    if (max_bytes > 0) d.max_bytes = max_bytes;
+    defsim_tape *t = NULL;
+    defsim_status st = defsim_world_record(w, &d, &t);
+    if (st != DEFSIM_OK) fail_msg("record: %s", defsim_world_last_error(w));
+    for (int s = 0; s < sc->steps; ++s) TU_OK(defsim_world_step(w, sc->h));
+    g->n = n;
+    g->x0 = malloc(3 * (size_t)n * sizeof *g->x0);
+    g->v0 = malloc(3 * (size_t)n * sizeof *g->v0);
+    defsim_gradient out[P_COUNT];
+    for (int k = 0; k < 5; ++k) out[k] = (defsim_gradient){pname[k], &g->body[k], 1};
+    out[P_X0] = (defsim_gradient){pname[P_X0], g->x0, 3 * (int64_t)n};
+    out[P_V0] = (defsim_gradient){pname[P_V0], g->v0, 3 * (int64_t)n};
+    st = defsim_tape_backward(t, cx, cv, 3 * (int64_t)n * (sc->steps + 1), out, P_COUNT);
+    if (st != DEFSIM_OK) fail_msg("backward: %s", defsim_tape_last_error(t));
+    if (ts) {
+        ts->size = sizeof *ts;
+        TU_OK(defsim_tape_get_stats(t, ts));
+    }
+    defsim_tape_destroy(t);
+    defsim_world_destroy(w);
+}
+
+static void grads_free(grads *g)
+{
+    free(g->x0);
+    free(g->v0);
+}
+
+/* Central differences of the loss along parameter p (x0, v0: along dir), step eps. */
+static double fd(const scene *sc, int p, const double *dir, double eps, const double *cx,
+                 const double *cv)
+{
+    double L[2];
+    for (int k = 0; k < 2; ++k) {
+        const double e = k == 0 ? eps : -eps;
+        double dp[P_COUNT] = {0};
+        if (p < P_X0) dp[p] = 1.0;
+        defsim_world *w = make(sc, dp, p == P_X0 ? dir : NULL, p == P_V0 ? dir : NULL, e);
+        L[k] = run_loss(sc, w, cx, cv);
+        defsim_world_destroy(w);
+    }
+    return (L[0] - L[1]) / (2.0 * eps);
+}
+
+/* The tape's gradient along parameter p against central differences. */
+static void check_fd(const scene *sc, const grads *g, const double *cx, const double *cv,
+                     const int *which, int nwhich, double rtol, const char *what)
+{
+    const int n3 = 3 * g->n;
+    double *dir = malloc((size_t)n3 * sizeof *dir);
+    unsigned long long seed = 99;
+    for (int i = 0; i < n3; ++i) dir[i] = tu_rand(&seed);
+    for (int q = 0; q < nwhich; ++q) {
+        const int p = which[q];
+        /* relative steps for E and density (make scales them), absolute for the others */
+        const double eps = p == P_E || p == P_RHO ? 1e-5
+                           : p == P_NU            ? 1e-6
+                           : p == P_ALPHA         ? 1e-5
+                           : p == P_BETA          ? 1e-7
+                                                  : 1e-6;
+        double an;
+        if (p < P_X0) {
+            an = g->body[p] * (p == P_E ? sc->E : p == P_RHO ? sc->rho : 1.0);
+        } else {
+            const double *gg = p == P_X0 ? g->x0 : g->v0;
+            an = 0.0;
+            for (int i = 0; i < n3; ++i) an += gg[i] * dir[i];
+        }
+        const double num = fd(sc, p, dir, eps, cx, cv);
+        const double rel = fabs(an - num) / fmax(fabs(num), 1e-300);
+        printf("%s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n", what,
+               pname[p], an, num, rel);
+        if (!(rel <= rtol)) fail_msg("%s: d/d%s relative error %.3g > %.3g", what, pname[p], rel, rtol);
+    }
+    free(dir);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+
+/* A free fall (no pins, no deformation): L = sum_i m_i y_i / M at the last state (the centre of
+ * mass, which no internal force moves): dL/dx0_y = m_i/M, dL/dv0_y = m_i/M dx_N/dv0 and
+ * dL/dalpha = dx_N/dalpha of
+ * the scalar recurrence (symplectic Euler: v' = (1 - h a) v + h g, x' = x + h v'; backward
+ * Euler: v' = (v + h g)/(1 + h a), x' = x + h v'), differentiated exactly by forward mode
+ * here; dL/dE = dL/dnu = 0 (no strain) and dL/drho = 0 (the fall does not depend on mass). */
+static void free_fall(const char *backend)
+{
+    const double a = 0.5, gy = -9.81, h = 0.01, v0y = 0.0;
+    const int N = 25;
+    scene sc = {backend, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, a, 0.0, 1, 1, 1, 1.0, h, N, 0,
+                gy, 0.0};
+    defsim_world *w = tu_world(backend, gy, 1);
+    if (strcmp(backend, NC) == 0) tu_backend_option(w, backend, "tolerance", 1e-13);
+    defsim_material m;
+    defsim_material_init(&m, sizeof m, sc.model);
+    m.youngs_modulus = sc.E;
+    m.poisson_ratio = sc.nu;
+    m.density = sc.rho;
+    m.mass_damping = a;
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    tu_add_box_material(w, 1, 1, 1, lo, hi, &m);
+    const int n = defsim_world_vertex_count(w);
+    defsim_tape *t = NULL;
+    TU_OK(defsim_world_record(w, NULL, &t));
+    for (int s = 0; s < N; ++s) TU_OK(defsim_world_step(w, h));
+    /* L = sum_i m_i y_i / M (the weights are the host's constants) */
+    double *dl = calloc(3 * (size_t)n * (N + 1), sizeof *dl), *mass = malloc((size_t)n * sizeof *mass);
+    TU_OK(defsim_world_get_masses(w, mass, n));
+    double M = 0.0;
+    for (int i = 0; i < n; ++i) M += mass[i];
+    for (int i = 0; i < n; ++i) dl[3 * (size_t)n * N + 3 * i + 1] = mass[i] / M;
+    double *gx = malloc(3 * (size_t)n * sizeof *gx), *gv = malloc(3 * (size_t)n * sizeof *gv);
+    double gb[5];
+    defsim_gradient out[P_COUNT];
+    for (int k = 0; k < 5; ++k) out[k] = (defsim_gradient){pname[k], &gb[k], 1};
+    out[P_X0] = (defsim_gradient){pname[P_X0], gx, 3 * (int64_t)n};
+    out[P_V0] = (defsim_gradient){pname[P_V0], gv, 3 * (int64_t)n};
+    TU_OK(defsim_tape_backward(t, dl, NULL, 3 * (int64_t)n * (N + 1), out, P_COUNT));
+    /* the recurrence and its derivatives in v0 and alpha */
+    const int se = strcmp(backend, NC) != 0, ee = strcmp(backend, EE) == 0;
+    double v = v0y, dv_v0 = 1.0, dx_v0 = 0.0, dv_a = 0.0, dx_a = 0.0;
+    for (int s = 0; s < N; ++s) {
+        double vn, dvn_v0, dvn_a;
+        if (ee) {   /* x moves with the old v */
+            dx_v0 += h * dv_v0;
+            dx_a += h * dv_a;
+        }
+        if (se) {
+            vn = (1.0 - h * a) * v + h * gy;
+            dvn_v0 = (1.0 - h * a) * dv_v0;
+            dvn_a = (1.0 - h * a) * dv_a - h * v;
+        } else {
+            vn = (v + h * gy) / (1.0 + h * a);
+            dvn_v0 = dv_v0 / (1.0 + h * a);
+            dvn_a = dv_a / (1.0 + h * a) - h * vn / (1.0 + h * a);
+        }
+        v = vn;
+        dv_v0 = dvn_v0;
+        dv_a = dvn_a;
+        if (!ee) {
+            dx_v0 += h * dv_v0;
+            dx_a += h * dv_a;
+        }
+    }
+    double ex = 0.0, ev = 0.0, other = 0.0;
+    for (int i = 0; i < n; ++i) {
+        const double mi = mass[i] / M;
+        ex = fmax(ex, fabs(gx[3 * i + 1] - mi) / mi);
+        ev = fmax(ev, fabs(gv[3 * i + 1] - mi * dx_v0) / (mi * dx_v0));
+        for (int c = 0; c < 3; c += 2) other = fmax(other, fmax(fabs(gx[3 * i + c]), fabs(gv[3 * i + c])));
+    }
+    const double ea = fabs(gb[P_ALPHA] - dx_a) / fabs(dx_a);
+    printf("%s free fall: dL/dx0_y = m_i/M to %.2e, dL/dv0_y %.12f (analytic %.12f, rel %.2e), "
+           "dL/dalpha %.12f (analytic %.12f, rel %.2e), dL/dE %.2e, dL/dnu %.2e, dL/drho %.2e, "
+           "x and z parts %.2e\n",
+           backend, ex, gv[1] * M / mass[0], dx_v0, ev, gb[P_ALPHA], dx_a, ea, gb[P_E], gb[P_NU],
+           gb[P_RHO], other);
+    assert_true(ex < 1e-9);
+    assert_true(ev < 1e-9);
+    assert_true(ea < 1e-9);
+    assert_true(fabs(gb[P_E]) * sc.E < 1e-6 && fabs(gb[P_NU]) < 1e-6 && fabs(gb[P_RHO]) * sc.rho < 1e-6);
+    assert_true(other < 1e-9);
+    free(dl);
+    free(mass);
+    free(gx);
+    free(gv);
+    defsim_tape_destroy(t);
+    defsim_world_destroy(w);
+}
+
+static void test_free_fall_symplectic(void **st)
+{
+    (void)st;
+    free_fall(SE);
+}
+
+static void test_free_fall_explicit(void **st)
+{
+    (void)st;
+    free_fall(EE);
+}
+
+static void test_free_fall_newton(void **st)
+{
+    (void)st;
+    free_fall(NC);
+}
+
+/* The cantilever (tests/scenes/cantilever.json's beam and material, stable neo-Hookean, clamped
+ * at x = 0) on a 3 x 1 x 1-cell mesh, with stiffness damping added: every parameter against
+ * central differences. */
+static void cantilever(const char *backend, double h, int steps)
+{
+    scene sc = {backend, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 0.0,
+                3, 1, 1, 3.0, h, steps, 1, -9.81, 0.0};
+    defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+    const int n = defsim_world_vertex_count(w);
+    defsim_world_destroy(w);
+    double *cx, *cv;
+    weights(&sc, n, &cx, &cv);
+    grads g;
+    tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
+    const int all[] = {P_E, P_NU, P_RHO, P_ALPHA, P_X0, P_V0};
+    char what[64];
+    snprintf(what, sizeof what, "cantilever %s", backend);
+    check_fd(&sc, &g, cx, cv, all, P_COUNT - 1, 1e-5, what);
+    grads_free(&g);
+    /* stiffness damping's forces -beta K(x) v clamp each K_e to PSD: at rest K_e's rotation
+     * modes have eigenvalue 0, where the clamp has a kink, so the damping forces are smooth in
+     * x only away from rest. Started stretched by 2 %, every element is under tension (its
+     * eigenvalues away from 0) for the run: there every parameter, beta included, is smooth. */
+    sc.beta = 2e-3;
+    sc.stretch = 1.02;
+    weights(&sc, n, &cx, &cv);
+    tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
+    const int damped[] = {P_E, P_NU, P_RHO, P_ALPHA, P_BETA, P_X0, P_V0};
+    snprintf(what, sizeof what, "stretched cantilever with beta %s", backend);
+    check_fd(&sc, &g, cx, cv, damped, P_COUNT, 1e-5, what);
+    grads_free(&g);
+    free(cx);
+    free(cv);
+}
+
+static void test_cantilever_symplectic(void **st)
+{
+    (void)st;
+    cantilever(SE, 2e-3, 40);
+}
+
+static void test_cantilever_explicit(void **st)
+{
+    (void)st;
+    cantilever(EE, 1e-3, 30);
+}
+
+static void test_cantilever_newton(void **st)
+{
+    (void)st;
+    cantilever(NC, 1e-2, 12);
+}
+
+/* Every tet model: E, nu, x0 through a few steps of a bent cube with damping. */
+static void test_models(void **st)
+{
+    (void)st;
+    const defsim_model models[] = {DEFSIM_MODEL_STVK, DEFSIM_MODEL_COROTATED,
+                                   DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    const char *backends[] = {SE, NC};
+    for (int b = 0; b < 2; ++b)
+        for (int k = 0; k < 4; ++k) {
+            scene sc = {backends[b], models[k], 2e5, 0.35, 800, 0.5, 1e-3, 2, 1, 1, 2.0,
+                        b == 0 ? 2e-3 : 1e-2, b == 0 ? 20 : 6, 1, -9.81, 1.02};
+            defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+            const int n = defsim_world_vertex_count(w);
+            defsim_world_destroy(w);
+            double *cx, *cv;
+            weights(&sc, n, &cx, &cv);
+            grads g;
+            tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
+            const int which[] = {P_E, P_NU, P_BETA, P_X0};
+            char what[64];
+            snprintf(what, sizeof what, "model %d %s", (int)models[k], backends[b]);
+            check_fd(&sc, &g, cx, cv, which, 4, 1e-5, what);
+            grads_free(&g);
+            free(cx);
+            free(cv);
+        }
+}
+
+/* Checkpointing (every 4th state, and automatic with a budget that forces thinning) gives the
+ * gradients of storing every state, bit for bit, and recomputes what it should. */
+static void test_checkpoints(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, NC};
+    for (int b = 0; b < 2; ++b) {
+        scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
+                    3, 1, 1, 3.0, b == 0 ? 2e-3 : 1e-2, 21, 1, -9.81, 0.0};
+        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+        const int n = defsim_world_vertex_count(w);
+        defsim_world_destroy(w);
+        double *cx, *cv;
+        weights(&sc, n, &cx, &cv);
+        grads g1, g4, ga;
+        defsim_tape_stats s1, s4, sa;
+        tape_grads(&sc, 1, 0, cx, cv, &g1, &s1);
+        tape_grads(&sc, 4, 0, cx, cv, &g4, &s4);
+        /* room for 3 states: thinned to every 8th, then 16th */
+        tape_grads(&sc, 0, 3 * 6 * 8 * (int64_t)n, cx, cv, &ga, &sa);
+        printf("%s checkpoints: interval 1: %lld states, %lld bytes, %lld recomputed; "
+               "interval 4: %lld states, %lld bytes, %lld recomputed; automatic: interval %d, "
+               "%lld states, %lld recomputed\n",
+               backends[b], (long long)s1.stored_states, (long long)s1.bytes,
+               (long long)s1.recomputed_steps, (long long)s4.stored_states, (long long)s4.bytes,
+               (long long)s4.recomputed_steps, (int)sa.interval, (long long)sa.stored_states,
+               (long long)sa.recomputed_steps);
+        assert_int_equal(s1.recomputed_steps, 0);
+        assert_int_equal(s1.stored_states, 22 + 1);
+        assert_int_equal(s4.stored_states, 6 + 1);            /* 0, 4, ..., 20 and the last */
+        assert_int_equal(s4.recomputed_steps, 5 * 4);          /* the segments of 4 steps */
+        assert_true(sa.interval >= 8);
+        assert_true(sa.recomputed_steps > 0);
+        assert_memory_equal(g1.body, g4.body, sizeof g1.body);
+        assert_memory_equal(g1.body, ga.body, sizeof g1.body);
+        assert_memory_equal(g1.x0, g4.x0, 3 * (size_t)n * sizeof(double));
+        assert_memory_equal(g1.v0, ga.v0, 3 * (size_t)n * sizeof(double));
+        grads_free(&g1);
+        grads_free(&g4);
+        grads_free(&ga);
+        free(cx);
+        free(cv);
+    }
+}
+
+/* Springs (a pinned ladder swinging under gravity, with Rayleigh damping): x0, v0, alpha and
+ * beta against central differences. */
+static void test_springs(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, NC};
+    for (int b = 0; b < 2; ++b) {
+        double x[24];
+        int32_t springs[20];
+        tu_ladder(0.0, 0.25, 0.05, x, springs);
+        const int nstep = b == 0 ? 60 : 10;
+        const double h = b == 0 ? 1e-3 : 1e-2;
+        double L[2], an[3];
+        double cx[9 * 24] = {0}, cv[9 * 24] = {0};
+        unsigned long long seed = 3;
+        double dir[24];
+        for (int i = 0; i < 24; ++i) dir[i] = tu_rand(&seed);
+        (void)cx;
+        (void)cv;
+        double *wx = calloc(24 * (size_t)(nstep + 1), sizeof *wx);
+        double *wv = calloc(24 * (size_t)(nstep + 1), sizeof *wv);
+        for (int i = 0; i < 24; ++i) {
+            wx[24 * (size_t)nstep + i] = tu_rand(&seed);
+            wv[24 * (size_t)nstep + i] = 0.1 * tu_rand(&seed);
+        }
+        /* 0: tape; then central differences along x0, v0 (dir) and beta */
+        for (int pass = 0; pass < 7; ++pass) {
+            const int p = pass == 0 ? -1 : (pass - 1) / 2;   /* 0 x0, 1 v0, 2 beta */
+            const double eps = p == 2 ? 1e-7 : 1e-6, e = pass == 0 ? 0.0 : (pass % 2 ? eps : -eps);
+            defsim_world *w = b == 1 ? tu_implicit_world(NC, -9.81, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
+                                     : tu_world(SE, -9.81, 1);
+            defsim_body_def bd;
+            defsim_body_def_init(&bd, sizeof bd);
+            bd.rest_positions = x;
+            bd.vertex_count = 8;
+            bd.springs = springs;
+            bd.spring_count = 10;
+            defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+            bd.material.stiffness = 400.0;
+            bd.material.vertex_mass = 0.05;
+            bd.material.mass_damping = 0.3;
+            bd.material.stiffness_damping = 2e-3 + (p == 2 ? e : 0.0);
+            defsim_body_id id;
+            TU_OK(defsim_world_add_body(w, &bd, &id));
+            const int32_t pins[2] = {0, 1};
+            TU_OK(defsim_body_pin(w, id, pins, 2));
+            double x0[24], v0[24] = {0};
+            memcpy(x0, x, sizeof x0);
+            for (int i = 0; i < 8; ++i) {
+                x0[3 * i + 1] -= 0.05 * i * i * 0.25;   /* a bend: the springs start stretched */
+                if (i >= 2) v0[3 * i + 2] = 0.2 * i;
+            }
+            for (int i = 2 * 3; i < 24; ++i) {
+                if (p == 0) x0[i] += e * dir[i];
+                if (p == 1) v0[i] += e * dir[i];
+            }
+            TU_OK(defsim_world_set_state(w, x0, v0));
+            defsim_tape *t = NULL;
+            if (pass == 0) TU_OK(defsim_world_record(w, NULL, &t));
+            double Lp = 0.0, xs[24], vs[24];
+            for (int s = 0; s < nstep; ++s) TU_OK(defsim_world_step(w, h));
+            TU_OK(defsim_world_get_positions(w, xs, 8));
+            TU_OK(defsim_world_get_velocities(w, vs, 8));
+            for (int i = 0; i < 24; ++i) Lp += wx[24 * (size_t)nstep + i] * xs[i] + wv[24 * (size_t)nstep + i] * vs[i];
+            if (pass == 0) {
+                double gx[24], gv[24], gbeta;
+                defsim_gradient out[3] = {{"initial_positions", gx, 24},
+                                          {"initial_velocities", gv, 24},
+                                          {"stiffness_damping", &gbeta, 1}};
+                TU_OK(defsim_tape_backward(t, wx, wv, 24 * (int64_t)(nstep + 1), out, 3));
+                an[0] = an[1] = 0.0;
+                for (int i = 6; i < 24; ++i) {
+                    an[0] += gx[i] * dir[i];
+                    an[1] += gv[i] * dir[i];
+                }
+                an[2] = gbeta;
+                defsim_tape_destroy(t);
+            } else {
+                L[pass % 2 ? 0 : 1] = Lp;
+                if (pass % 2 == 0) {
+                    const double num = (L[0] - L[1]) / (2.0 * eps);
+                    const double rel = fabs(num - an[p]) / fabs(num);
+                    printf("springs %s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n",
+                           backends[b], p == 0 ? "x0" : p == 1 ? "v0" : "beta", an[p], num, rel);
+                    assert_true(rel < 1e-5);
+                }
+            }
+            defsim_world_destroy(w);
+        }
+        free(wx);
+        free(wv);
+    }
+}
+
+/* Bad input: clear statuses, the world unchanged (state, time, statistics), and the run after a
+ * successful backward pass the same, bit for bit, as without it. */
+static void test_bad_input(void **st)
+{
+    (void)st;
+    scene sc = {SE, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.2, 0.0, 2, 1, 1, 2.0, 2e-3, 10, 1,
+                -9.81, 0.0};
+    defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+    defsim_world *ref = make(&sc, NULL, NULL, NULL, 0.0);
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n;
+    defsim_tape *t = NULL;
+    assert_int_equal(defsim_tape_backward(NULL, NULL, NULL, 0, NULL, 0), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_world_record(w, NULL, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
+    TU_OK(defsim_world_record(w, NULL, &t));
+    defsim_tape *t2 = NULL;
+    assert_int_equal(defsim_world_record(w, NULL, &t2), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_null(t2);
+    for (int s = 0; s < sc.steps; ++s) {
+        TU_OK(defsim_world_step(w, sc.h));
+        TU_OK(defsim_world_step(ref, sc.h));
+    }
+    double *x = tu_positions(w), *dl = calloc((size_t)n3 * (sc.steps + 1), sizeof *dl);
+    defsim_stats s0 = {.size = sizeof s0}, s1 = {.size = sizeof s1};
+    TU_OK(defsim_world_stats(w, &s0));
+    const double t0 = defsim_world_time(w);
+    double gE = 0.0, gx[3 * 64];
+    assert_true(n <= 64);
+    defsim_gradient ok = {"youngs_modulus", &gE, 1};
+    /* wrong size */
+    assert_int_equal(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * sc.steps, &ok, 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    /* NaN in dL/dx */
+    dl[n3 * 3 + 5] = NAN;
+    assert_int_equal(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * (sc.steps + 1), &ok, 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    dl[n3 * 3 + 5] = 0.0;
+    /* unknown name, wrong count */
+    defsim_gradient bad = {"youngs", &gE, 1}, badn = {"initial_positions", gx, n3 - 1};
+    assert_int_equal(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * (sc.steps + 1), &bad, 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * (sc.steps + 1), &badn, 1),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    double *x1 = tu_positions(w);
+    assert_memory_equal(x, x1, (size_t)n3 * sizeof *x);
+    free(x1);
+    /* a successful pass (every 3rd state stored would recompute: this one stores all) leaves
+     * the world as it was, and the run goes on bit for bit */
+    for (int i = 0; i < n3; ++i) dl[(size_t)n3 * sc.steps + i] = 1.0;
+    TU_OK(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * (sc.steps + 1), &ok, 1));
+    assert_true(gE != 0.0);
+    TU_OK(defsim_world_stats(w, &s1));
+    assert_int_equal(s0.steps, s1.steps);
+    assert_true(defsim_world_time(w) == t0);
+    x1 = tu_positions(w);
+    assert_memory_equal(x, x1, (size_t)n3 * sizeof *x);
+    free(x1);
+    for (int s = 0; s < 5; ++s) {
+        TU_OK(defsim_world_step(w, sc.h));
+        TU_OK(defsim_world_step(ref, sc.h));
+    }
+    x1 = tu_positions(w);
+    double *xr = tu_positions(ref);
+    assert_memory_equal(xr, x1, (size_t)n3 * sizeof *x);
+    free(x1);
+    free(xr);
+    /* the state set between recorded steps: the recording cannot follow */
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    TU_OK(defsim_world_step(w, sc.h));
+    const int64_t cnt = (int64_t)n3 * (sc.steps + 5 + 2);
+    double *dl2 = calloc((size_t)cnt, sizeof *dl2);
+    assert_int_equal(defsim_tape_backward(t, dl2, NULL, cnt, &ok, 1), DEFSIM_ERR_INVALID_ARGUMENT);
+    printf("state set between steps: %s\n", defsim_tape_last_error(t));
+    free(dl2);
+    /* a world destroyed before its tape */
+    defsim_world_destroy(w);
+    assert_int_equal(defsim_tape_backward(t, NULL, NULL, 0, NULL, 0), DEFSIM_ERR_INVALID_ARGUMENT);
+    defsim_tape_stats ts = {.size = sizeof ts};
+    TU_OK(defsim_tape_get_stats(t, &ts));
+    assert_int_equal(ts.steps, sc.steps + 5);
+    defsim_tape_destroy(t);
+    defsim_world_destroy(ref);
+    free(x);
+    free(dl);
+}
+
+/* A backend without an adjoint, and terms not differentiated yet: DEFSIM_ERR_UNSUPPORTED when
+ * recording begins, the world unchanged. */
+static void test_unsupported(void **st)
+{
+    (void)st;
+    const char *nondiff[] = {"velocity_verlet", "newmark", "bdf2"};
+    for (int b = 0; b < 3; ++b) {
+        scene sc = {nondiff[b], DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.0, 0.0, 1, 1, 1, 1.0,
+                    1e-3, 1, 1, -9.81, 0.0};
+        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+        defsim_tape *t = NULL;
+        assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
+        assert_null(t);
+        assert_non_null(strstr(defsim_world_last_error(w), nondiff[b]));
+        TU_OK(defsim_world_step(w, 1e-3));
+        defsim_world_destroy(w);
+    }
+    /* collider contact, held forces */
+    scene sc = {SE, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.0, 0.0, 1, 1, 1, 1.0, 1e-3, 1, 0,
+                -9.81, 0.0};
+    defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    cd.shape = DEFSIM_SHAPE_PLANE;
+    cd.normal[0] = 0.0;
+    cd.normal[1] = 1.0;
+    cd.normal[2] = 0.0;
+    cd.position[1] = -1.0;
+    defsim_collider_id cid;
+    TU_OK(defsim_world_add_collider(w, &cd, &cid));
+    defsim_tape *t = NULL;
+    assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
+    assert_non_null(strstr(defsim_world_last_error(w), "collider"));
+    TU_OK(defsim_world_remove_collider(w, cid));
+    const int n = defsim_world_vertex_count(w);
+    double *f = calloc(3 * (size_t)n, sizeof *f);
+    f[0] = 1.0;
+    TU_OK(defsim_world_set_external_forces(w, f, n));
+    assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
+    assert_non_null(strstr(defsim_world_last_error(w), "held external forces"));
+    f[0] = 0.0;
+    TU_OK(defsim_world_set_external_forces(w, f, n));
+    TU_OK(defsim_world_record(w, NULL, &t));
+    defsim_tape_destroy(t);
+    free(f);
+    defsim_world_destroy(w);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_free_fall_symplectic), cmocka_unit_test(test_free_fall_explicit),
+        cmocka_unit_test(test_free_fall_newton),      cmocka_unit_test(test_cantilever_symplectic),
+        cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
+        cmocka_unit_test(test_models),                cmocka_unit_test(test_checkpoints),
+        cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_unsupported),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -6,6 +6,8 @@
  */
 #include "adjoint.h"
 
+#include "terms.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -23,6 +25,15 @@ defsim_status defsim__forces_vjp(const defsim__system *s, const double *x, const
         const defsim__term *tm = &s->terms[k];
         if (!tm->ops->vjp) continue;
         const defsim_status st = tm->ops->vjp(tm, s, &ev, wm, gx, gv, acc ? g : NULL);
+        if (st != DEFSIM_OK) return st;
+    }
+    /* a kind that is off because its parameters are zero still has their gradients */
+    for (int kind = 0; acc && kind < DEFSIM__TERM_KINDS; ++kind) {
+        const defsim__term tm = defsim__terms_detached(s, kind, NULL);
+        if (!(tm.ops->flags & DEFSIM__TERM_GRAD_OFF) || !tm.ops->vjp ||
+            defsim__terms_find(s, kind))
+            continue;
+        const defsim_status st = tm.ops->vjp(&tm, s, &ev, wm, NULL, NULL, g);
         if (st != DEFSIM_OK) return st;
     }
     int ok = 1;

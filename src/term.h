@@ -66,8 +66,11 @@ enum {
 /* Flags of a kind. */
 enum {
     DEFSIM__TERM_ELASTIC = 1u << 0,   /* its energy is elastic (defsim__elastic_energy) */
-    DEFSIM__TERM_BOUNDED = 1u << 1    /* the power iteration leaves it out: lambda_bound bounds
+    DEFSIM__TERM_BOUNDED = 1u << 1,   /* the power iteration leaves it out: lambda_bound bounds
                                          its share of the top eigenvalue */
+    DEFSIM__TERM_GRAD_OFF = 1u << 2   /* off (not in the list: its parameters are all zero), a
+                                         backward pass still calls its vjp, with gx and gv NULL,
+                                         for the gradients of those parameters (damping rates) */
 };
 
 /* A linearisation cache a kind may use (the system keeps one per kind, so its buffers outlive

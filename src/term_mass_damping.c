@@ -52,4 +52,5 @@ static defsim_status vjp(const defsim__term *t, const defsim__system *s, const d
 }
 
 const defsim__term_ops defsim__term_mass_damping = {
-    .name = "mass_damping", .compile = compile, .forces = forces, .rates = rates, .vjp = vjp};
+    .name = "mass_damping", .flags = DEFSIM__TERM_GRAD_OFF, .compile = compile,
+    .forces = forces, .rates = rates, .vjp = vjp};

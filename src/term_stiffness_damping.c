@@ -110,7 +110,7 @@ static void vjp_tets(const defsim__group *gr, int m, const defsim__eval *ev, con
 {
     for (int32_t e = 0; e < gr->n; ++e) {
         const double beta = gr->beta[e];
-        if (beta == 0.0) continue;
+        if (beta == 0.0 && !g) continue;
         const int32_t *id = gr->idx + 4 * (int64_t)e;
         const double *dm = gr->dminv + 9 * (int64_t)e;
         const double mu = gr->mu[e], la = gr->lambda[e], s = -beta * gr->vol[e];
@@ -118,6 +118,10 @@ static void vjp_tets(const defsim__group *gr, int m, const defsim__eval *ev, con
         tet_deformation(ev->x, id, dm, F);
         tet_deformation(w, id, dm, dFw);
         tet_deformation(ev->v, id, dm, dFv);
+        if (beta == 0.0) {   /* only d/dbeta: -vol phi */
+            g->beta[m][e] -= gr->vol[e] * tet_phi(gr->law, mu, la, F, dFw, dFv);
+            continue;
+        }
         if (gv) {
             double D[81], dP[9];
             defsim__model_dpdf_projected(gr->law, mu, la, F, DEFSIM_PROJECTION_CLAMP, D, 0, NULL);
@@ -171,7 +175,7 @@ static void vjp_springs(const defsim__group *gr, const defsim__eval *ev, const d
 {
     for (int32_t e = 0; e < gr->n; ++e) {
         const double beta = gr->beta[e];
-        if (beta == 0.0) continue;
+        if (beta == 0.0 && !g) continue;
         const int32_t a = gr->idx[2 * (int64_t)e], b = gr->idx[2 * (int64_t)e + 1];
         const double *xa = ev->x + 3 * (int64_t)a, *xb = ev->x + 3 * (int64_t)b;
         const double *va = ev->v + 3 * (int64_t)a, *vb = ev->v + 3 * (int64_t)b;
@@ -181,6 +185,10 @@ static void vjp_springs(const defsim__group *gr, const defsim__eval *ev, const d
             d[i] = xb[i] - xa[i];
             dw[i] = wa[i] - wb[i];
             dv[i] = vb[i] - va[i];
+        }
+        if (beta == 0.0) {
+            g->beta[DEFSIM__TET_MODELS][e] += spring_phi(gr, e, d, dw, dv);
+            continue;
         }
         if (gv) {
             double Kb[9];
@@ -223,5 +231,5 @@ static defsim_status vjp(const defsim__term *t, const defsim__system *s, const d
 }
 
 const defsim__term_ops defsim__term_stiffness_damping = {
-    .name = "stiffness_damping", .compile = compile, .forces = forces, .rates = rates,
-    .vjp = vjp};
+    .name = "stiffness_damping", .flags = DEFSIM__TERM_GRAD_OFF, .compile = compile,
+    .forces = forces, .rates = rates, .vjp = vjp};

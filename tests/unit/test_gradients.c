@@ -367,6 +367,45 @@ static void test_cantilever_newton(void **st)
     cantilever(NC, 1e-2, 12);
 }
 
+/* Damping rates at zero (their terms are off): dL/dalpha and dL/dbeta still come, against
+ * one-sided second-order differences (-3 L(0) + 4 L(e) - L(2e)) / 2e. */
+static void test_damping_at_zero(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, NC};
+    for (int b = 0; b < 2; ++b) {
+        scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 0.0, 0.0,
+                    3, 1, 1, 3.0, b == 0 ? 2e-3 : 1e-2, b == 0 ? 40 : 12, 1, -9.81, 1.02};
+        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+        const int n = defsim_world_vertex_count(w);
+        defsim_world_destroy(w);
+        double *cx, *cv;
+        weights(&sc, n, &cx, &cv);
+        grads g;
+        tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
+        for (int q = 0; q < 2; ++q) {
+            const int p = q == 0 ? P_ALPHA : P_BETA;
+            const double eps = p == P_ALPHA ? 1e-5 : 1e-7;
+            double L[3];
+            for (int k = 0; k < 3; ++k) {
+                double dp[P_COUNT] = {0};
+                dp[p] = 1.0;
+                defsim_world *wk = make(&sc, dp, NULL, NULL, k * eps);
+                L[k] = run_loss(&sc, wk, cx, cv);
+                defsim_world_destroy(wk);
+            }
+            const double num = (-3.0 * L[0] + 4.0 * L[1] - L[2]) / (2.0 * eps);
+            const double rel = fabs(g.body[p] - num) / fabs(num);
+            printf("%s at zero: d/d%s tape %.12e  one-sided differences %.12e  relative %.2e\n",
+                   backends[b], pname[p], g.body[p], num, rel);
+            assert_true(rel < 1e-5);
+        }
+        grads_free(&g);
+        free(cx);
+        free(cv);
+    }
+}
+
 /* Every tet model: E, nu, x0 through a few steps of a bent cube with damping. */
 static void test_models(void **st)
 {
@@ -673,7 +712,8 @@ int main(void)
         cmocka_unit_test(test_free_fall_symplectic), cmocka_unit_test(test_free_fall_explicit),
         cmocka_unit_test(test_free_fall_newton),      cmocka_unit_test(test_cantilever_symplectic),
         cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
-        cmocka_unit_test(test_models),                cmocka_unit_test(test_checkpoints),
+        cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_models),
+        cmocka_unit_test(test_checkpoints),
         cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_unsupported),
     };

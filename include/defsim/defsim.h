@@ -1154,8 +1154,9 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// world at a time. def may be NULL (the defaults). Plans the world if it is not planned
 /// (nothing else changes). *out receives the tape, which the host owns and frees with
 /// defsim_tape_destroy (before or after the world: a world destroyed first leaves the tape
-/// usable only for defsim_tape_stats and destroy). Errors (nothing recorded, *out untouched,
-/// the world unchanged): DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad def, a recording already
+/// usable only for defsim_tape_get_stats and destroy). On an error nothing is recorded, *out
+/// is untouched and the world unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad def, a
+/// recording already
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
 /// the message: collider or body contact, attachments, held external forces, the force

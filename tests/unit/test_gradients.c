@@ -111,6 +111,16 @@ static void weights(const scene *sc, int n, double **cx, double **cv)
     }
 }
 
+/* The vertex count of sc's world and its loss's weights (weights). */
+static int loss_weights(const scene *sc, double **cx, double **cv)
+{
+    defsim_world *w = make(sc, NULL, NULL, NULL, 0.0);
+    const int n = defsim_world_vertex_count(w);
+    defsim_world_destroy(w);
+    weights(sc, n, cx, cv);
+    return n;
+}
+
 typedef struct grads {
     double body[5];           /* E, nu, rho, alpha, beta of the one body */
     double *x0, *v0;
@@ -321,11 +331,8 @@ static void cantilever(const char *backend, double h, int steps)
 {
     scene sc = {backend, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 0.0,
                 3, 1, 1, 3.0, h, steps, 1, -9.81, 0.0};
-    defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
-    const int n = defsim_world_vertex_count(w);
-    defsim_world_destroy(w);
     double *cx, *cv;
-    weights(&sc, n, &cx, &cv);
+    const int n = loss_weights(&sc, &cx, &cv);
     grads g;
     tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
     const int all[] = {P_E, P_NU, P_RHO, P_ALPHA, P_X0, P_V0};
@@ -376,11 +383,8 @@ static void test_damping_at_zero(void **st)
     for (int b = 0; b < 2; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 0.0, 0.0,
                     3, 1, 1, 3.0, b == 0 ? 2e-3 : 1e-2, b == 0 ? 40 : 12, 1, -9.81, 1.02};
-        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
-        const int n = defsim_world_vertex_count(w);
-        defsim_world_destroy(w);
         double *cx, *cv;
-        weights(&sc, n, &cx, &cv);
+        loss_weights(&sc, &cx, &cv);
         grads g;
         tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
         for (int q = 0; q < 2; ++q) {
@@ -417,11 +421,8 @@ static void test_models(void **st)
         for (int k = 0; k < 4; ++k) {
             scene sc = {backends[b], models[k], 2e5, 0.35, 800, 0.5, 1e-3, 2, 1, 1, 2.0,
                         b == 0 ? 2e-3 : 1e-2, b == 0 ? 20 : 6, 1, -9.81, 1.02};
-            defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
-            const int n = defsim_world_vertex_count(w);
-            defsim_world_destroy(w);
             double *cx, *cv;
-            weights(&sc, n, &cx, &cv);
+            loss_weights(&sc, &cx, &cv);
             grads g;
             tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
             const int which[] = {P_E, P_NU, P_BETA, P_X0};
@@ -443,11 +444,8 @@ static void test_checkpoints(void **st)
     for (int b = 0; b < 2; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
                     3, 1, 1, 3.0, b == 0 ? 2e-3 : 1e-2, 21, 1, -9.81, 0.0};
-        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
-        const int n = defsim_world_vertex_count(w);
-        defsim_world_destroy(w);
         double *cx, *cv;
-        weights(&sc, n, &cx, &cv);
+        const int n = loss_weights(&sc, &cx, &cv);
         grads g1, g4, ga;
         defsim_tape_stats s1, s4, sa;
         tape_grads(&sc, 1, 0, cx, cv, &g1, &s1);
@@ -492,12 +490,9 @@ static void test_springs(void **st)
         const int nstep = b == 0 ? 60 : 10;
         const double h = b == 0 ? 1e-3 : 1e-2;
         double L[2], an[3];
-        double cx[9 * 24] = {0}, cv[9 * 24] = {0};
         unsigned long long seed = 3;
         double dir[24];
         for (int i = 0; i < 24; ++i) dir[i] = tu_rand(&seed);
-        (void)cx;
-        (void)cv;
         double *wx = calloc(24 * (size_t)(nstep + 1), sizeof *wx);
         double *wv = calloc(24 * (size_t)(nstep + 1), sizeof *wv);
         for (int i = 0; i < 24; ++i) {

@@ -172,7 +172,7 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     if (b->struct_size < offsetof(defsim_backend, adjoint_step) + sizeof b->adjoint_step ||
         !b->adjoint_step) {
         snprintf(buf, size, "record: backend %s is not differentiable (it has no adjoint step; "
-                            "differentiable: explicit_euler, symplectic_euler, newton_cholmod)",
+                            "differentiable: explicit_euler, symplectic_euler, newton_cholmod, newmark)",
                  b->name);
         return buf;
     }

@@ -1005,17 +1005,20 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
 }
 
 /* ------------------------------------------------------------------------------------------ */
-/* The adjoint step (docs/gradients.md). A converged step x1 of backward Euler solves
+/* The adjoint step (docs/gradients.md). A converged step x1 solves
  *
- *   r(x1) = M (x1 - y)/h^2 - f_EG(x1) - f_D(x0, v1) = 0,   y = x0 + h v0,  v1 = (x1 - x0)/h,
+ *   r(x1) = c_m M (x1 - y)/h^2 - f_EG(x1) - f_D(z, v1) = 0,   v1 = c_d (x1 - z)/h,
  *
- * on the free DOFs (f_EG: elastic and gravity; f_D = -(alpha M + B(x0)) v1: damping with B
- * frozen at x0, as g's damping term has it). By the implicit function theorem, with
- * J = dr/dx1 = M/h^2 + K(x1) + (alpha M + B(x0))/h (symmetric; K the exact Hessian, never the
- * projected one) and lambda = J^-1 (ax1 + av1/h), dL/dp = -lambda^T dr/dp, so that
- *   ax0 = M lambda/h^2 - (df_D/dv)^T lambda / h + (df_D/dx0)^T lambda - av1/h,
- *   av0 = M lambda/h,  dL/dm_i = -lambda_i (x1 - y)_i/h^2 (+ the forces' mass terms),
- * and the forces' parameter terms come through forces_vjp at (x1) and (x0, v1). J is factored
+ * on the free DOFs (f_EG: elastic and gravity; f_D = -(alpha M + B(z)) v: damping with B frozen
+ * at z, as g's damping term has it), with z = x0 + a_z h v0 and y = x0 + h v0 + a_a h^2 a0,
+ * M a0 = f_EG(x0) + f_D(z, v0) (the scheme's adjoint_z, adjoint_a: backward Euler 0, 0 with
+ * c_m = c_d = 1; Newmark 1/2, 1/4 with c_m = 4, c_d = 2). By the implicit function theorem, with
+ * J = dr/dx1 = c_m M/h^2 + K(x1) + c_d (alpha M + B(z))/h (symmetric; K the exact Hessian, never
+ * the projected one) and lambda = J^-1 (ax1 + c_d av1/h), dL/dp = -lambda^T dr/dp: the adjoints
+ * of y and z are ay = c_m M lambda/h^2 and az = (df_D/dx)^T lambda - c_d/h ((df_D/dv)^T lambda
+ * + av1), a0's (a_a h^2 ay) goes through the forces at x0 and (z, v0), and x0 and v0 collect
+ * them through y and z; the masses' through the inertia terms, -lambda_i c_m (x1 - y)_i/h^2
+ * and -a_a h^2 ay_i a0_i/m_i; the forces' parameter terms come through forces_vjp. J is factored
  * once per step with the Newton loop's symbolic analysis: exactly when it is positive definite
  * (the solve is then exact, refined once); where the exact K makes it indefinite, the clamped
  * matrix is factored instead and serves as the preconditioner of GMRES on the exact J. */
@@ -1137,13 +1140,14 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     const int m = IC_ADJ_RESTART;
     if (!s->adj || s->adj_nnz != s->pat.nnz) {
         host->release(s->adj);
-        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 5 * nd);
+        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 9 * nd);
         if (!s->adj) return fail(s, host, sys, DEFSIM_ERR_OUT_OF_MEMORY, "adjoint: out of memory");
         s->adj_nnz = s->pat.nnz;
     }
     double *aval = s->adj, *rhs = aval + s->pat.nnz, *lam = rhs + n, *r = lam + n, *tmp = r + n,
            *V = tmp + n, *Z = V + (int64_t)(m + 1) * n, *lf = Z + (int64_t)m * n, *gx1 = lf + nd,
-           *gxn = gx1 + nd, *gv = gxn + nd, *mw = gv + nd;
+           *gxn = gx1 + nd, *gv = gxn + nd, *mw = gv + nd, *gx0 = mw + nd, *gxz = gx0 + nd,
+           *gvz = gxz + nd, *u = gvz + nd;
     const size_t bytes = (size_t)nd * sizeof(double);
     memcpy(p->x0, a->x0, bytes);
     memcpy(p->v0, a->v0, bytes);
@@ -1178,7 +1182,7 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     if (st == DEFSIM_OK) {
         for (int64_t k = 0; k < n; ++k) {
             const int64_t i = p->fdof[k];
-            rhs[k] = a->ax1[i] + a->av1[i] / h;
+            rhs[k] = a->ax1[i] + stp.cd * a->av1[i] / h;
         }
         if (exact) {
             /* the solve and one step of iterative refinement */
@@ -1212,24 +1216,43 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     memset(gx1, 0, bytes);
     memset(gxn, 0, bytes);
     memset(gv, 0, bytes);
-    st = host->forces_vjp(sys, a->x1, NULL, DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY, lf, gx1,
-                          NULL, 1);
-    if (st == DEFSIM_OK)
-        st = host->forces_vjp(sys, a->x0, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
+    /* the residual's forces: f_EG at x1, the damping at (z, v1) */
+    const uint32_t EG = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
+    st = host->forces_vjp(sys, a->x1, NULL, EG, lf, gx1, NULL, 1);
+    if (st == DEFSIM_OK) st = host->forces_vjp(sys, stp.z, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
     if (st != DEFSIM_OK) return st;
-    const double ih2 = stp.cm / (h * h), ih = stp.cd / h;
+    const double ih2 = stp.cm / (h * h), ih = stp.cd / h, ca = p->scheme->adjoint_a * h * h,
+                 cz = p->scheme->adjoint_z * h;
+    /* a0's adjoint: u = a_a h^2 ay / m through the forces at x0 and (z, v0) */
+    memset(gx0, 0, bytes);
+    memset(gxz, 0, bytes);
+    memset(gvz, 0, bytes);
+    if (ca != 0.0) {
+        for (int64_t i = 0; i < nd; ++i) {
+            const int64_t k = s->dof_free[i];
+            u[i] = k >= 0 ? ca * ih2 * lam[k] : 0.0;   /* ca ay_i / m_i */
+        }
+        st = host->forces_vjp(sys, a->x0, NULL, EG, u, gx0, NULL, 1);
+        if (st == DEFSIM_OK) st = host->forces_vjp(sys, stp.z, a->v0, DEFSIM_FORCE_DAMPING, u, gxz, gvz, 1);
+        if (st != DEFSIM_OK) return st;
+    }
     for (int64_t i = 0; i < nd; ++i) {
         const int64_t k = s->dof_free[i];
         if (k < 0) {
-            a->ax0[i] = a->ax1[i] + gx1[i] + gxn[i];
+            a->ax0[i] = a->ax1[i] + gx1[i] + gxn[i] + gx0[i] + gxz[i];
             a->av0[i] = 0.0;
             mw[i] = 0.0;
             continue;
         }
-        const double l = lam[k];
-        a->ax0[i] = p->mass[i] * l * ih2 - gv[i] * ih + gxn[i] - a->av1[i] * ih;
-        a->av0[i] = p->mass[i] * l * h * ih2;
+        const double l = lam[k], ay = p->mass[i] * l * ih2;
+        const double az = gxn[i] - ih * (gv[i] + a->av1[i]) + gxz[i];
+        a->ax0[i] = ay + az + gx0[i];
+        a->av0[i] = h * ay + cz * az + gvz[i];
         mw[i] = -l * (a->x1[i] - stp.y[i]) * ih2;
+        if (ca != 0.0) {
+            const double a0 = (stp.y[i] - p->x0[i] - h * p->v0[i]) / ca;
+            mw[i] -= ca * ay * a0 / p->mass[i];
+        }
     }
     host->mass_vjp(sys, mw);
     return DEFSIM_OK;

@@ -1152,7 +1152,8 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// Begins recording the world's steps from its current state (state 0): every later
 /// successful defsim_world_step is recorded, until defsim_tape_destroy. One recording per
 /// world at a time. def may be NULL (the defaults). Plans the world if it is not planned
-/// (nothing else changes). *out receives the tape, which the host owns and frees with
+/// (nothing else changes). Differentiable backends: explicit_euler, symplectic_euler,
+/// newton_cholmod, newmark. *out receives the tape, which the host owns and frees with
 /// defsim_tape_destroy (before or after the world: a world destroyed first leaves the tape
 /// usable only for defsim_tape_get_stats and destroy). On an error nothing is recorded, *out
 /// is untouched and the world unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad def, a

@@ -16,6 +16,7 @@ typedef struct defsim__grad {
     double *beta[DEFSIM__TET_MODELS + 1];   /* per element (springs last) */
     double *alpha3;                         /* per DOF: mass damping */
     double *mass;                           /* per vertex: lumped mass */
+    double *fext;                           /* 3 nv: held external forces (of the step) */
     double *wmask;                          /* 3 nv scratch: w with pinned DOFs zeroed */
 } defsim__grad;
 

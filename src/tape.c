@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Recordings of a run and their backward pass (docs/gradients.md): a tape follows the world's
- * successful steps (the world calls it through its link, world.h), storing the step sizes, the
- * state of every k-th step (checkpoints) and the last state. The backward pass walks the
+ * successful steps (the world calls it through its link, world.h), storing the step sizes, each
+ * step's held external forces, the state of every k-th step (checkpoints) and the last state. The backward pass walks the
  * checkpoints from the last: it steps the world forward again from a checkpoint to the next
  * (bit for bit, checked against the stored state), then runs the backend's adjoint step over
  * each step of that segment in reverse, accumulating the loss's adjoints of the state and,
@@ -34,6 +34,9 @@ struct defsim_tape {
     int32_t k;                /* the interval in effect */
     int64_t nsteps, hcap;
     double *h;                /* nsteps step sizes */
+    int64_t *fi;              /* nsteps: the held forces of each step (index into f), -1: none */
+    int64_t nf, fcap;
+    double *f;                /* nf distinct held-force vectors (3 nv each), in order of use */
     int64_t ncp, cpcap;
     double *cp;               /* ncp states (6 nv: x then v) of steps 0, k, 2k, ... */
     double *cpt;              /* their times */
@@ -56,7 +59,8 @@ static size_t state_bytes(const defsim_tape *t) { return 6 * (size_t)t->nv * siz
 static int64_t tape_bytes(const defsim_tape *t)
 {
     return (int64_t)((size_t)t->cpcap * (state_bytes(t) + sizeof(double)) +
-                     (size_t)t->hcap * sizeof(double) + state_bytes(t) +
+                     (size_t)t->hcap * (sizeof(double) + sizeof(int64_t)) +
+                     (size_t)t->fcap * state_bytes(t) / 2 + state_bytes(t) +
                      (size_t)t->nopt * sizeof(double) + sizeof *t);
 }
 
@@ -113,6 +117,39 @@ static int push_checkpoint(defsim_tape *t, const defsim_world *w)
     return 1;
 }
 
+/* The held external forces of the step under way into fi[nsteps]: a new vector when they
+ * differ from the last one kept. Returns 0 when out of memory. */
+static int record_forces(defsim_tape *t, const defsim_world *w)
+{
+    const int64_t n3 = 3 * (int64_t)t->nv;
+    if (!w->coupling.fext_nonzero) {
+        t->fi[t->nsteps] = -1;
+        return 1;
+    }
+    if (t->nf > 0 && memcmp(t->f + n3 * (t->nf - 1), w->coupling.fext,
+                            (size_t)n3 * sizeof(double)) == 0) {
+        t->fi[t->nsteps] = t->nf - 1;
+        return 1;
+    }
+    if (t->nf == t->fcap) {
+        const int64_t cap = t->fcap ? 2 * t->fcap : 4;
+        double *f = realloc(t->f, (size_t)cap * (size_t)n3 * sizeof *f);
+        if (!f) return 0;
+        t->f = f;
+        t->fcap = cap;
+    }
+    memcpy(t->f + n3 * t->nf, w->coupling.fext, (size_t)n3 * sizeof(double));
+    t->fi[t->nsteps] = t->nf++;
+    return 1;
+}
+
+/* Holds the forces of recorded step j in the world (as defsim_world_set_external_forces). */
+static defsim_status hold_forces(const defsim_tape *t, defsim_world *w, int64_t j)
+{
+    return defsim_world_set_external_forces(
+        w, t->fi[j] >= 0 ? t->f + 3 * (int64_t)t->nv * t->fi[j] : NULL, t->nv);
+}
+
 /* What changed since the recording began, or NULL. */
 static const char *changed(const defsim_tape *t, const defsim_world *w)
 {
@@ -148,12 +185,18 @@ static void tape_step(defsim__tape_link *link, double h)
     if (t->nsteps == t->hcap) {
         const int64_t cap = t->hcap ? 2 * t->hcap : 64;
         double *hh = realloc(t->h, (size_t)cap * sizeof *hh);
-        if (!hh) {
+        int64_t *fi = hh ? realloc(t->fi, (size_t)cap * sizeof *fi) : NULL;
+        if (hh) t->h = hh;
+        if (!hh || !fi) {
             breaks(t, "out of memory while recording");
             return;
         }
-        t->h = hh;
+        t->fi = fi;
         t->hcap = cap;
+    }
+    if (!record_forces(t, w)) {
+        breaks(t, "out of memory while recording");
+        return;
     }
     t->h[t->nsteps++] = h;
     save_state(w, t->last);
@@ -180,7 +223,6 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     if (defsim__collider_set_live(&w->colliders) > 0) term = "collider contact";
     else if (w->set.body_contact) term = "body contact (core.body_contact)";
     else if (w->coupling.cpl.fn) term = "the force callback";
-    else if (w->coupling.fext_nonzero) term = "held external forces";
     else if (w->coupling.ntargeted > 0) term = "driven pins (pin targets)";
     for (int32_t i = 0; !term && i < w->coupling.natt; ++i)
         if (w->coupling.att[i].generation & 1u) term = "attachments";
@@ -211,6 +253,7 @@ typedef struct world_saved {
     int64_t lin[DEFSIM__TERM_KINDS];
     double h_stable;
     int32_t since_estimate;
+    double *fext;             /* the host's held forces (3 nv), or NULL: none */
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -229,6 +272,10 @@ static int world_save(const defsim_world *w, world_saved *s)
     for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) s->lin[k] = w->sys.cache[k].linearisations;
     s->h_stable = w->step.h_stable;
     s->since_estimate = w->step.since_estimate;
+    if (w->coupling.fext) {
+        if (!(s->fext = malloc(3 * (size_t)w->nv * sizeof(double)))) return 0;
+        memcpy(s->fext, w->coupling.fext, 3 * (size_t)w->nv * sizeof(double));
+    }
     return 1;
 }
 
@@ -258,9 +305,11 @@ static void world_restore(defsim_world *w, world_saved *s)
             for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) w->sys.cache[k].linearisations = s->lin[k];
         w->step.h_stable = s->h_stable;
         w->step.since_estimate = s->since_estimate;
+        (void)defsim_world_set_external_forces(w, s->fext, w->nv);   /* the host's again */
     }
     free(s->x);
     free(s->counters);
+    free(s->fext);
 }
 
 /* The parameter gradients' arrays, sized for the system. */
@@ -273,6 +322,7 @@ static void grad_free(defsim__grad *g)
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) free(g->beta[m]);
     free(g->alpha3);
     free(g->mass);
+    free(g->fext);
     free(g->wmask);
 }
 
@@ -295,17 +345,18 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
     ok &= (g->alpha3 = calloc(nd, sizeof(double))) != NULL;
     ok &= (g->mass = calloc(nd / 3, sizeof(double))) != NULL;
     ok &= (g->wmask = calloc(nd, sizeof(double))) != NULL;
-    total += 2 * nd + nd / 3;
+    ok &= (g->fext = calloc(nd, sizeof(double))) != NULL;
+    total += 3 * nd + nd / 3;
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
 }
 
 enum {
-    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_NAMES
+    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
-    "mass_damping", "stiffness_damping"};
+    "mass_damping", "stiffness_damping", "external_forces"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -334,9 +385,9 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
         for (int32_t i = 0; i < bd->nv; ++i) vbody[bd->offset + i] = nbody;
         bodies[nbody++] = bd;
     }
-    memset(out, 0, (size_t)(G_NAMES - G_E) * (size_t)nb * sizeof *out);
+    memset(out, 0, (size_t)(G_FEXT - G_E) * (size_t)nb * sizeof *out);
     double *gE = out, *gnu = out + nb, *grho = out + 2 * nb, *galpha = out + 3 * nb,
-           *gbeta = out + 4 * nb;
+           *gbeta = out + 4 * nb;   /* the body parameters, G_E .. G_BETA */
     for (int m = 0; m <= DEFSIM__TET_MODELS; ++m) {
         const defsim__group *gr = &s->groups[m];
         for (int32_t e = 0; e < gr->n; ++e) {
@@ -364,7 +415,8 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
 /* The backward pass proper, on a world saved by the caller. ax, av hold dL/dx_N, dL/dv_N on
  * entry and dL/dx_0, dL/dv_0 on return. */
 static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double *dl_dx,
-                                  const double *dl_dv, double *ax, double *av, int64_t *peak)
+                                  const double *dl_dv, double *ax, double *av, double *fext_out,
+                                  defsim__grad *g, int64_t *peak)
 {
     const int64_t n3 = 3 * (int64_t)t->nv, n6 = 2 * n3;
     const int32_t k = t->k;
@@ -391,7 +443,8 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             world_put(w, seg, t->cpt[c]);
             t->replaying = 1;
             for (int64_t j = s0; j < s1 && st == DEFSIM_OK; ++j) {
-                st = defsim_world_step(w, t->h[j]);
+                st = hold_forces(t, w, j);
+                if (st == DEFSIM_OK) st = defsim_world_step(w, t->h[j]);
                 if (st == DEFSIM_OK) save_state(w, seg + n6 * (j + 1 - s0));
             }
             t->replaying = 0;
@@ -417,7 +470,9 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             const defsim_adjoint_step a = {.x0 = S0, .v0 = S0 + n3, .x1 = S1, .v1 = S1 + n3,
                                            .ax1 = ax, .av1 = av, .ax0 = ax0, .av0 = av0};
             w->msg->error[0] = '\0';
-            st = b->adjoint_step(&defsim__host, &w->handle, w->backend.state, t->h[j], &a);
+            st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
+            if (st == DEFSIM_OK)
+                st = b->adjoint_step(&defsim__host, &w->handle, w->backend.state, t->h[j], &a);
             if (st != DEFSIM_OK) {
                 tape_error(t, "backward: the adjoint of step %lld failed: %s", (long long)j,
                            w->msg->error[0] ? w->msg->error : defsim_status_string(st));
@@ -427,6 +482,8 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                 ax[i] = ax0[i] + (dl_dx ? dl_dx[n3 * j + i] : 0.0);
                 av[i] = av0[i] + (dl_dv ? dl_dv[n3 * j + i] : 0.0);
             }
+            if (fext_out) memcpy(fext_out + n3 * j, g->fext, (size_t)n3 * sizeof(double));
+            memset(g->fext, 0, (size_t)n3 * sizeof(double));
         }
     }
     free(seg);
@@ -561,17 +618,20 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
         if (k < 0) {
             tape_error(t, "backward: grads[%d] names no gradient (\"%s\"); the names: "
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
-                          "density, mass_damping, stiffness_damping",
+                          "density, mass_damping, stiffness_damping, external_forces",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-        const int64_t c = k <= G_V0 ? 3 * (int64_t)t->nv : nb;
-        if (grads[i].count != c || !grads[i].out) {
+        const int64_t c = k <= G_V0   ? 3 * (int64_t)t->nv
+                          : k == G_FEXT ? 3 * (int64_t)t->nv * t->nsteps
+                                        : nb;
+        if (grads[i].count != c || (c > 0 && !grads[i].out)) {
             tape_error(t, "backward: grads[%d] (%s) has count %lld, out %s: it needs %lld "
                           "doubles (%s)",
                        (int)i, grad_names[k], (long long)grads[i].count,
                        grads[i].out ? "set" : "NULL", (long long)c,
-                       k <= G_V0 ? "3 * vertex count" : "one per body");
+                       k <= G_V0 ? "3 * vertex count" : k == G_FEXT ? "3 * vertex count per step"
+                                                                     : "one per body");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         which[i] = k;
@@ -613,7 +673,7 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
     memset(&g, 0, sizeof g);
     int64_t peak = 0;
     double *ax = malloc(2 * (size_t)n3 * sizeof *ax);
-    double *body = malloc((size_t)(G_NAMES - G_E) * (size_t)(nb > 0 ? nb : 1) * sizeof *body);
+    double *body = malloc((size_t)(G_FEXT - G_E) * (size_t)(nb > 0 ? nb : 1) * sizeof *body);
     const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, &peak) && ax && body;
     if (!ok) {
         tape_error(t, "backward: out of memory");
@@ -627,8 +687,11 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
             ax[i] = dl_dx ? dl_dx[n3 * t->nsteps + i] : 0.0;
             av[i] = dl_dv ? dl_dv[n3 * t->nsteps + i] : 0.0;
         }
+        double *fext_out = NULL;
+        for (int32_t i = 0; i < n; ++i)
+            if (which[i] == G_FEXT) fext_out = grads[i].out;
         w->handle.grad = &g;
-        st = run_backward(t, w, dl_dx, dl_dv, ax, av, &peak);
+        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, &g, &peak);
         w->handle.grad = NULL;
         if (st == DEFSIM_OK && !body_gradients(w, &g, body, nb)) {
             tape_error(t, "backward: out of memory");
@@ -637,6 +700,11 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
         if (st == DEFSIM_OK)
             for (int32_t i = 0; i < n; ++i) {
                 const int k = which[i];
+                if (k == G_FEXT) {
+                    if (grads[i].out != fext_out && grads[i].count > 0)   /* asked twice */
+                        memcpy(grads[i].out, fext_out, (size_t)grads[i].count * sizeof(double));
+                    continue;
+                }
                 const double *src = k == G_X0 ? ax : k == G_V0 ? av : body + (k - G_E) * nb;
                 memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
             }
@@ -680,6 +748,8 @@ void defsim_tape_destroy(defsim_tape *t)
     if (!t) return;
     if (t->link.world) t->link.world->tape = NULL;
     free(t->h);
+    free(t->fi);
+    free(t->f);
     free(t->cp);
     free(t->cpt);
     free(t->last);

@@ -419,6 +419,73 @@ static void test_damping_at_zero(void **st)
     }
 }
 
+/* Per-step held external forces as controls (defsim_world_set_external_forces before every
+ * step, zero at some): the gradient "external_forces" against central differences along a
+ * random direction of all the steps' forces, on every differentiable backend. */
+static void test_external_forces(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, EE, NC, NM};
+    for (int b = 0; b < 4; ++b) {
+        scene sc = {backends[b], DEFSIM_MODEL_COROTATED, 2e5, 0.3, 800, 0.5, 0.0, 2, 1, 1, 2.0,
+                    b < 2 ? 2e-3 : 1e-2, b < 2 ? 20 : 8, 1, -9.81, 0.0};
+        double *cx, *cv;
+        const int n = loss_weights(&sc, &cx, &cv), n3 = 3 * n, N = sc.steps;
+        double *F = malloc((size_t)N * n3 * sizeof *F), *D = malloc((size_t)N * n3 * sizeof *D);
+        double *G = malloc((size_t)N * n3 * sizeof *G), *G3 = malloc((size_t)N * n3 * sizeof *G3);
+        unsigned long long seed = 11;
+        for (int i = 0; i < N * n3; ++i) {
+            F[i] = (i / n3) % 3 == 1 ? 0.0 : 50.0 * tu_rand(&seed);   /* every third step none */
+            D[i] = 50.0 * tu_rand(&seed);
+        }
+        /* passes 0 and 3 record (every state; every 3rd: the recomputation holds the forces) */
+        double L[4], an = 0.0;
+        for (int pass = 0; pass < 4; ++pass) {
+            const double e = pass == 1 ? 1e-3 : pass == 2 ? -1e-3 : 0.0;
+            defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+            defsim_tape *t = NULL;
+            defsim_tape_def td;
+            defsim_tape_def_init(&td, sizeof td);
+            td.interval = pass == 3 ? 3 : 1;
+            if (pass == 0 || pass == 3) TU_OK(defsim_world_record(w, &td, &t));
+            double *fj = malloc((size_t)n3 * sizeof *fj), *x = malloc((size_t)n3 * sizeof *x),
+                   *v = malloc((size_t)n3 * sizeof *v);
+            L[pass] = 0.0;
+            for (int s = 0; s <= N; ++s) {
+                if (s > 0) TU_OK(defsim_world_step(w, sc.h));
+                TU_OK(defsim_world_get_positions(w, x, n));
+                TU_OK(defsim_world_get_velocities(w, v, n));
+                for (int i = 0; i < n3; ++i)
+                    L[pass] += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+                if (s == N) break;
+                for (int i = 0; i < n3; ++i) fj[i] = F[(size_t)s * n3 + i] + e * D[(size_t)s * n3 + i];
+                TU_OK(defsim_world_set_external_forces(w, fj, n));
+            }
+            if (t) {
+                defsim_gradient out = {"external_forces", pass == 0 ? G : G3, (int64_t)N * n3};
+                TU_OK(defsim_tape_backward(t, cx, cv, (int64_t)n3 * (N + 1), &out, 1));
+                for (int i = 0; pass == 0 && i < N * n3; ++i) an += G[i] * D[i];
+                defsim_tape_destroy(t);
+            }
+            free(fj);
+            free(x);
+            free(v);
+            defsim_world_destroy(w);
+        }
+        const double num = (L[1] - L[2]) / 2e-3, rel = fabs(an - num) / fabs(num);
+        printf("%s d/dexternal_forces: tape %.12e  central differences %.12e  relative %.2e\n",
+               backends[b], an, num, rel);
+        assert_true(rel < 1e-5);
+        assert_memory_equal(G, G3, (size_t)N * n3 * sizeof *G);
+        free(F);
+        free(D);
+        free(G);
+        free(G3);
+        free(cx);
+        free(cv);
+    }
+}
+
 /* Every tet model: E, nu, x0 through a few steps of a bent cube with damping. */
 static void test_models(void **st)
 {
@@ -679,7 +746,7 @@ static void test_unsupported(void **st)
         TU_OK(defsim_world_step(w, 1e-3));
         defsim_world_destroy(w);
     }
-    /* collider contact, held forces */
+    /* collider contact, attachments */
     scene sc = {SE, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.0, 0.0, 1, 1, 1, 1.0, 1e-3, 1, 0,
                 -9.81, 0.0};
     defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
@@ -696,17 +763,21 @@ static void test_unsupported(void **st)
     assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
     assert_non_null(strstr(defsim_world_last_error(w), "collider"));
     TU_OK(defsim_world_remove_collider(w, cid));
-    const int n = defsim_world_vertex_count(w);
-    double *f = calloc(3 * (size_t)n, sizeof *f);
-    f[0] = 1.0;
-    TU_OK(defsim_world_set_external_forces(w, f, n));
+    /* an attachment to a world point */
+    defsim_attachment_def ad;
+    defsim_attachment_def_init(&ad, sizeof ad);
+    defsim_body_id body;
+    TU_OK(defsim_world_body_at(w, 0, &body));
+    ad.body = body;
+    ad.vertex = 1;
+    ad.stiffness = 10.0;
+    defsim_attachment_id aid;
+    TU_OK(defsim_world_add_attachment(w, &ad, &aid));
     assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
-    assert_non_null(strstr(defsim_world_last_error(w), "held external forces"));
-    f[0] = 0.0;
-    TU_OK(defsim_world_set_external_forces(w, f, n));
+    assert_non_null(strstr(defsim_world_last_error(w), "attachments"));
+    TU_OK(defsim_world_remove_attachment(w, aid));
     TU_OK(defsim_world_record(w, NULL, &t));
     defsim_tape_destroy(t);
-    free(f);
     defsim_world_destroy(w);
 }
 
@@ -717,7 +788,8 @@ int main(void)
         cmocka_unit_test(test_free_fall_newton),      cmocka_unit_test(test_cantilever_symplectic),
         cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
         cmocka_unit_test(test_cantilever_newmark),
-        cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_models),
+        cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_external_forces),
+        cmocka_unit_test(test_models),
         cmocka_unit_test(test_checkpoints),
         cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_unsupported),

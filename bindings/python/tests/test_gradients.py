@@ -46,6 +46,7 @@ def test_gradients_match_central_differences(backend: str, h: float) -> None:
     dL_dx[-1] = c
     g = tape.backward(dL_dx=dL_dx)
     assert tape.stats()["steps"] == STEPS
+    assert g["external_forces"].shape == (STEPS,) + x0.shape
     assert g["initial_positions"].shape == x0.shape and g["youngs_modulus"].shape == (1,)
     d = np.random.default_rng(2).standard_normal(x0.shape)
     d[x0[:, 0] == 0.0] = 0.0
@@ -56,6 +57,16 @@ def test_gradients_match_central_differences(backend: str, h: float) -> None:
         "initial_positions": (lambda e: _world(backend, x0=x0 + e * d), 1.0, 1e-6),
         "initial_velocities": (lambda e: _world(backend, v0=v0 + e * d), 1.0, 1e-6),
     }
+    # a constant held force F: dL/dF is the sum of the steps' gradients
+    F = np.random.default_rng(3).standard_normal(x0.shape)
+
+    def with_force(e: float) -> defsim.World:
+        w = _world(backend)
+        w.set_external_forces(e * F)
+        return w
+    fd = (_loss(with_force(1e-3), h, c) - _loss(with_force(-1e-3), h, c)) / 2e-3
+    an = float(np.sum(g["external_forces"].sum(axis=0) * F))
+    assert abs(an - fd) <= 1e-5 * abs(fd), ("external_forces", an, fd)
     for name, (make, scale, eps) in cases.items():
         fd = (_loss(make(eps), h, c) - _loss(make(-eps), h, c)) / (2 * eps)
         an = float(np.sum(g[name] * d)) if name.startswith("initial") else float(g[name][0]) * scale

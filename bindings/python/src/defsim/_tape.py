@@ -14,6 +14,8 @@ from ._native import ffi, lib
 VERTEX_PARAMS = ("initial_positions", "initial_velocities")
 BODY_PARAMS = ("youngs_modulus", "poisson_ratio", "density", "mass_damping",
                "stiffness_damping")
+#: Per step (shape (N, n, 3)): the held external forces of each recorded step (the controls).
+STEP_PARAMS = ("external_forces",)
 
 
 class Tape:
@@ -74,7 +76,9 @@ class Tape:
         state s = 0 .. N as arrays of shape (N + 1, n, 3) (or (N + 1, 3 n); None: zero).
         Returns {name: gradient} for `params` (default: all): "initial_positions" and
         "initial_velocities" of shape (n, 3), and per body (in the world's order) of shape (b,):
-        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping".
+        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping";
+        and "external_forces" of shape (N, n, 3), dL/df_j of the forces held during step j
+        (``World.set_external_forces``; also where they were zero).
         The world is left as it was. Raises InvalidArgumentError (wrong shape, non-finite
         values, the world changed since recording began), UnsupportedError."""
         w = self._world
@@ -92,12 +96,14 @@ class Tape:
                     f"{name} has {a.size} values; the {N + 1} recorded states of {n} vertices "
                     f"need shape ({N + 1}, {n}, 3)")
             arrays.append(a.reshape(-1))
-        names = list(params) if params is not None else list(VERTEX_PARAMS + BODY_PARAMS)
+        names = (list(params) if params is not None
+                 else list(VERTEX_PARAMS + BODY_PARAMS + STEP_PARAMS))
         nb = len(w.bodies)
         outs, keep = {}, []
         g = ffi.new("defsim_gradient[]", max(len(names), 1))
         for i, name in enumerate(names):
-            out = np.zeros((n, 3) if name in VERTEX_PARAMS else (nb,))
+            out = np.zeros((n, 3) if name in VERTEX_PARAMS
+                           else (N, n, 3) if name in STEP_PARAMS else (nb,))
             c = ffi.new("char[]", str(name).encode())
             keep.append(c)
             g[i].name = c

@@ -17,6 +17,8 @@ typedef struct defsim__grad {
     double *alpha3;                         /* per DOF: mass damping */
     double *mass;                           /* per vertex: lumped mass */
     double *fext;                           /* 3 nv: held external forces (of the step) */
+    double *att_k, *att_c;                  /* per attachment: stiffness, damping */
+    double *att_p;                          /* 3 per attachment: world target (of the step) */
     double *wmask;                          /* 3 nv scratch: w with pinned DOFs zeroed */
 } defsim__grad;
 

@@ -37,6 +37,10 @@ struct defsim_tape {
     int64_t *fi;              /* nsteps: the held forces of each step (index into f), -1: none */
     int64_t nf, fcap;
     double *f;                /* nf distinct held-force vectors (3 nv each), in order of use */
+    int32_t natt;             /* attachments (the compiled ones, in the world's order) */
+    int64_t *pi;              /* nsteps: the attachments' targets of each step (index into p) */
+    int64_t np, pcap;
+    double *p;                /* np distinct target vectors (3 natt each) */
     int64_t ncp, cpcap;
     double *cp;               /* ncp states (6 nv: x then v) of steps 0, k, 2k, ... */
     double *cpt;              /* their times */
@@ -61,6 +65,8 @@ static int64_t tape_bytes(const defsim_tape *t)
     return (int64_t)((size_t)t->cpcap * (state_bytes(t) + sizeof(double)) +
                      (size_t)t->hcap * (sizeof(double) + sizeof(int64_t)) +
                      (size_t)t->fcap * state_bytes(t) / 2 + state_bytes(t) +
+                     (size_t)t->hcap * sizeof(int64_t) +
+                     (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
                      (size_t)t->nopt * sizeof(double) + sizeof *t);
 }
 
@@ -117,37 +123,65 @@ static int push_checkpoint(defsim_tape *t, const defsim_world *w)
     return 1;
 }
 
-/* The held external forces of the step under way into fi[nsteps]: a new vector when they
- * differ from the last one kept. Returns 0 when out of memory. */
-static int record_forces(defsim_tape *t, const defsim_world *w)
+/* Keeps vector v (len doubles; NULL: none, index -1) of the step under way in the list (*a,
+ * *n of them, room for *cap) and its index in *index: a new entry when it differs from the last
+ * one kept. Returns 0 when out of memory. */
+static int keep_vector(const double *v, int64_t len, double **a, int64_t *n, int64_t *cap,
+                       int64_t *index)
 {
-    const int64_t n3 = 3 * (int64_t)t->nv;
-    if (!w->coupling.fext_nonzero) {
-        t->fi[t->nsteps] = -1;
+    if (!v || len == 0) {
+        *index = -1;
         return 1;
     }
-    if (t->nf > 0 && memcmp(t->f + n3 * (t->nf - 1), w->coupling.fext,
-                            (size_t)n3 * sizeof(double)) == 0) {
-        t->fi[t->nsteps] = t->nf - 1;
+    if (*n > 0 && memcmp(*a + len * (*n - 1), v, (size_t)len * sizeof(double)) == 0) {
+        *index = *n - 1;
         return 1;
     }
-    if (t->nf == t->fcap) {
-        const int64_t cap = t->fcap ? 2 * t->fcap : 4;
-        double *f = realloc(t->f, (size_t)cap * (size_t)n3 * sizeof *f);
-        if (!f) return 0;
-        t->f = f;
-        t->fcap = cap;
+    if (*n == *cap) {
+        const int64_t c = *cap ? 2 * *cap : 4;
+        double *b = realloc(*a, (size_t)c * (size_t)len * sizeof *b);
+        if (!b) return 0;
+        *a = b;
+        *cap = c;
     }
-    memcpy(t->f + n3 * t->nf, w->coupling.fext, (size_t)n3 * sizeof(double));
-    t->fi[t->nsteps] = t->nf++;
+    memcpy(*a + len * *n, v, (size_t)len * sizeof(double));
+    *index = (*n)++;
     return 1;
 }
 
-/* Holds the forces of recorded step j in the world (as defsim_world_set_external_forces). */
+/* The held external forces and the attachments' targets of the step under way. */
+static int record_forces(defsim_tape *t, const defsim_world *w)
+{
+    return keep_vector(w->coupling.fext_nonzero ? w->coupling.fext : NULL, 3 * (int64_t)t->nv,
+                       &t->f, &t->nf, &t->fcap, &t->fi[t->nsteps]) &&
+           keep_vector(t->natt > 0 ? w->sys.att.p : NULL, 3 * (int64_t)t->natt, &t->p, &t->np,
+                       &t->pcap, &t->pi[t->nsteps]);
+}
+
+/* Sets the world-point targets of the attachments to p (3 natt; body targets left alone). */
+static defsim_status set_targets(const defsim_tape *t, defsim_world *w, const double *p)
+{
+    for (int32_t e = 0; e < t->natt; ++e) {
+        const int32_t *nd = w->sys.att.node + DEFSIM__ATTACH_NODES * (int64_t)e;
+        int point = 1;
+        for (int j = 1; j < DEFSIM__ATTACH_NODES; ++j) point &= nd[j] < 0;
+        if (!point) continue;
+        defsim_attachment_id id;
+        defsim_status st = defsim_world_attachment_at(w, e, &id);
+        if (st == DEFSIM_OK) st = defsim_attachment_set_target(w, id, p + 3 * (int64_t)e);
+        if (st != DEFSIM_OK) return st;
+    }
+    return DEFSIM_OK;
+}
+
+/* Holds the forces and attachment targets of recorded step j in the world. */
 static defsim_status hold_forces(const defsim_tape *t, defsim_world *w, int64_t j)
 {
-    return defsim_world_set_external_forces(
+    defsim_status st = defsim_world_set_external_forces(
         w, t->fi[j] >= 0 ? t->f + 3 * (int64_t)t->nv * t->fi[j] : NULL, t->nv);
+    if (st == DEFSIM_OK && t->pi[j] >= 0)
+        st = set_targets(t, w, t->p + 3 * (int64_t)t->natt * t->pi[j]);
+    return st;
 }
 
 /* What changed since the recording began, or NULL. */
@@ -187,11 +221,13 @@ static void tape_step(defsim__tape_link *link, double h)
         double *hh = realloc(t->h, (size_t)cap * sizeof *hh);
         int64_t *fi = hh ? realloc(t->fi, (size_t)cap * sizeof *fi) : NULL;
         if (hh) t->h = hh;
-        if (!hh || !fi) {
+        if (fi) t->fi = fi;
+        int64_t *pi = fi ? realloc(t->pi, (size_t)cap * sizeof *pi) : NULL;
+        if (!hh || !fi || !pi) {
             breaks(t, "out of memory while recording");
             return;
         }
-        t->fi = fi;
+        t->pi = pi;
         t->hcap = cap;
     }
     if (!record_forces(t, w)) {
@@ -224,8 +260,6 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     else if (w->set.body_contact) term = "body contact (core.body_contact)";
     else if (w->coupling.cpl.fn) term = "the force callback";
     else if (w->coupling.ntargeted > 0) term = "driven pins (pin targets)";
-    for (int32_t i = 0; !term && i < w->coupling.natt; ++i)
-        if (w->coupling.att[i].generation & 1u) term = "attachments";
     if (!term) term = defsim__forces_vjp_missing(&w->sys);
     if (term) {
         snprintf(buf, size, "record: the scene uses %s, which gradients do not differentiate "
@@ -254,6 +288,7 @@ typedef struct world_saved {
     double h_stable;
     int32_t since_estimate;
     double *fext;             /* the host's held forces (3 nv), or NULL: none */
+    double *att_p;            /* the attachments' targets (3 natt), or NULL: none */
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -276,6 +311,10 @@ static int world_save(const defsim_world *w, world_saved *s)
         if (!(s->fext = malloc(3 * (size_t)w->nv * sizeof(double)))) return 0;
         memcpy(s->fext, w->coupling.fext, 3 * (size_t)w->nv * sizeof(double));
     }
+    if (w->planned && w->sys.att.n > 0) {
+        if (!(s->att_p = malloc(3 * (size_t)w->sys.att.n * sizeof(double)))) return 0;
+        memcpy(s->att_p, w->sys.att.p, 3 * (size_t)w->sys.att.n * sizeof(double));
+    }
     return 1;
 }
 
@@ -293,7 +332,7 @@ static void world_put(defsim_world *w, const double *s, double t)
         defsim__world_backend_stop(w);
 }
 
-static void world_restore(defsim_world *w, world_saved *s)
+static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
 {
     if (s->x) {
         world_put(w, s->x, s->t);
@@ -306,10 +345,12 @@ static void world_restore(defsim_world *w, world_saved *s)
         w->step.h_stable = s->h_stable;
         w->step.since_estimate = s->since_estimate;
         (void)defsim_world_set_external_forces(w, s->fext, w->nv);   /* the host's again */
+        if (s->att_p) (void)set_targets(t, w, s->att_p);
     }
     free(s->x);
     free(s->counters);
     free(s->fext);
+    free(s->att_p);
 }
 
 /* The parameter gradients' arrays, sized for the system. */
@@ -323,6 +364,9 @@ static void grad_free(defsim__grad *g)
     free(g->alpha3);
     free(g->mass);
     free(g->fext);
+    free(g->att_k);
+    free(g->att_c);
+    free(g->att_p);
     free(g->wmask);
 }
 
@@ -346,17 +390,22 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
     ok &= (g->mass = calloc(nd / 3, sizeof(double))) != NULL;
     ok &= (g->wmask = calloc(nd, sizeof(double))) != NULL;
     ok &= (g->fext = calloc(nd, sizeof(double))) != NULL;
-    total += 3 * nd + nd / 3;
+    const size_t na = (size_t)(s->att.n > 0 ? s->att.n : 1);
+    ok &= (g->att_k = calloc(na, sizeof(double))) != NULL;
+    ok &= (g->att_c = calloc(na, sizeof(double))) != NULL;
+    ok &= (g->att_p = calloc(3 * na, sizeof(double))) != NULL;
+    total += 3 * nd + nd / 3 + 5 * na;
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
 }
 
 enum {
-    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_NAMES
+    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
-    "mass_damping", "stiffness_damping", "external_forces"};
+    "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
+    "attachment_damping", "attachment_targets"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -416,7 +465,7 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
  * entry and dL/dx_0, dL/dv_0 on return. */
 static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double *dl_dx,
                                   const double *dl_dv, double *ax, double *av, double *fext_out,
-                                  defsim__grad *g, int64_t *peak)
+                                  double *attp_out, defsim__grad *g, int64_t *peak)
 {
     const int64_t n3 = 3 * (int64_t)t->nv, n6 = 2 * n3;
     const int32_t k = t->k;
@@ -484,6 +533,9 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             }
             if (fext_out) memcpy(fext_out + n3 * j, g->fext, (size_t)n3 * sizeof(double));
             memset(g->fext, 0, (size_t)n3 * sizeof(double));
+            const int64_t na3 = 3 * (int64_t)t->natt;
+            if (attp_out && na3 > 0) memcpy(attp_out + na3 * j, g->att_p, (size_t)na3 * sizeof(double));
+            if (na3 > 0) memset(g->att_p, 0, (size_t)na3 * sizeof(double));
         }
     }
     free(seg);
@@ -539,6 +591,7 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     defsim_tape *t = calloc(1, sizeof *t);
     if (t) {
         t->nv = w->nv;
+        t->natt = w->sys.att.n;
         t->nopt = w->backend.table->option_count;
         t->last = malloc(state_bytes(t));
         t->opt = malloc((size_t)(t->nopt > 0 ? t->nopt : 1) * sizeof(double));
@@ -618,20 +671,26 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
         if (k < 0) {
             tape_error(t, "backward: grads[%d] names no gradient (\"%s\"); the names: "
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
-                          "density, mass_damping, stiffness_damping, external_forces",
+                          "density, mass_damping, stiffness_damping, external_forces, "
+                          "attachment_stiffness, attachment_damping, attachment_targets",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-        const int64_t c = k <= G_V0   ? 3 * (int64_t)t->nv
-                          : k == G_FEXT ? 3 * (int64_t)t->nv * t->nsteps
-                                        : nb;
+        const int64_t c = k <= G_V0    ? 3 * (int64_t)t->nv
+                          : k == G_FEXT  ? 3 * (int64_t)t->nv * t->nsteps
+                          : k == G_ATT_P ? 3 * (int64_t)t->natt * t->nsteps
+                          : k >= G_ATT_K ? t->natt
+                                         : nb;
         if (grads[i].count != c || (c > 0 && !grads[i].out)) {
             tape_error(t, "backward: grads[%d] (%s) has count %lld, out %s: it needs %lld "
                           "doubles (%s)",
                        (int)i, grad_names[k], (long long)grads[i].count,
                        grads[i].out ? "set" : "NULL", (long long)c,
-                       k <= G_V0 ? "3 * vertex count" : k == G_FEXT ? "3 * vertex count per step"
-                                                                     : "one per body");
+                       k <= G_V0      ? "3 * vertex count"
+                       : k == G_FEXT  ? "3 * vertex count per step"
+                       : k == G_ATT_P ? "3 per attachment and step"
+                       : k >= G_ATT_K ? "one per attachment"
+                                      : "one per body");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         which[i] = k;
@@ -687,11 +746,13 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
             ax[i] = dl_dx ? dl_dx[n3 * t->nsteps + i] : 0.0;
             av[i] = dl_dv ? dl_dv[n3 * t->nsteps + i] : 0.0;
         }
-        double *fext_out = NULL;
-        for (int32_t i = 0; i < n; ++i)
+        double *fext_out = NULL, *attp_out = NULL;
+        for (int32_t i = 0; i < n; ++i) {
             if (which[i] == G_FEXT) fext_out = grads[i].out;
+            if (which[i] == G_ATT_P) attp_out = grads[i].out;
+        }
         w->handle.grad = &g;
-        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, &g, &peak);
+        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, &g, &peak);
         w->handle.grad = NULL;
         if (st == DEFSIM_OK && !body_gradients(w, &g, body, nb)) {
             tape_error(t, "backward: out of memory");
@@ -700,18 +761,21 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
         if (st == DEFSIM_OK)
             for (int32_t i = 0; i < n; ++i) {
                 const int k = which[i];
-                if (k == G_FEXT) {
-                    if (grads[i].out != fext_out && grads[i].count > 0)   /* asked twice */
-                        memcpy(grads[i].out, fext_out, (size_t)grads[i].count * sizeof(double));
+                if (k == G_FEXT || k == G_ATT_P) {
+                    const double *src = k == G_FEXT ? fext_out : attp_out;
+                    if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
+                        memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
                     continue;
                 }
-                const double *src = k == G_X0 ? ax : k == G_V0 ? av : body + (k - G_E) * nb;
+                const double *src = k == G_X0 ? ax : k == G_V0 ? av : k == G_ATT_K ? g.att_k
+                                    : k == G_ATT_C                   ? g.att_c
+                                                                     : body + (k - G_E) * nb;
                 memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
             }
     }
     char err[sizeof t->err];
     memcpy(err, t->err, sizeof err);
-    world_restore(w, &saved);
+    world_restore(t, w, &saved);
     grad_free(&g);
     free(ax);
     free(body);
@@ -750,6 +814,8 @@ void defsim_tape_destroy(defsim_tape *t)
     free(t->h);
     free(t->fi);
     free(t->f);
+    free(t->pi);
+    free(t->p);
     free(t->cp);
     free(t->cpt);
     free(t->last);

@@ -1141,7 +1141,11 @@ typedef struct defsim_tape_stats {
 /// "stiffness_damping" (count = body count, bodies in vertex order: dL/d of that body's
 /// material field), "external_forces" (count = N * 3 * vertex count: for each recorded step
 /// j = 0 .. N - 1, dL/df_j of the held external forces of that step, defsim_world_set_external_forces,
-/// also where they were zero: the controls); out (count doubles, the host's) receives it.
+/// also where they were zero: the controls), "attachment_stiffness", "attachment_damping"
+/// (count = attachment count, in defsim_world_attachment_at's order), "attachment_targets"
+/// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
+/// defsim_attachment_set_target held during step j; 0 for body targets); out (count doubles,
+/// the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1162,7 +1166,7 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// recording already
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
-/// the message: collider or body contact, attachments, the force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// the message: collider or body contact, the force callback, driven pins; or core.auto_substep on a backend that substeps),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
 DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
                                              defsim_tape **out);

@@ -486,6 +486,96 @@ static void test_external_forces(void **st)
     }
 }
 
+/* An attachment of the beam's far end to a world point that moves every step (its targets the
+ * controls), with a damper: attachment_stiffness, attachment_damping, attachment_targets and x0
+ * against central differences, on every differentiable backend. */
+static double attached_run(const scene *sc, const double *cx, const double *cv, double k,
+                           double c, const double *P, const double *D, double e,
+                           const double *dx0, double ex, double *gk, double *gc, double *gp,
+                           double *gx0)
+{
+    defsim_world *w = make(sc, NULL, dx0, NULL, ex);
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n, N = sc->steps;
+    defsim_attachment_def ad;
+    defsim_attachment_def_init(&ad, sizeof ad);
+    TU_OK(defsim_world_body_at(w, 0, &ad.body));
+    ad.vertex = n - 1;
+    ad.stiffness = k;
+    ad.damping = c;
+    defsim_attachment_id id;
+    TU_OK(defsim_world_add_attachment(w, &ad, &id));
+    defsim_tape *t = NULL;
+    if (gk) TU_OK(defsim_world_record(w, NULL, &t));
+    double *x = malloc((size_t)n3 * sizeof *x), *v = malloc((size_t)n3 * sizeof *v), L = 0.0;
+    for (int s = 0; s <= N; ++s) {
+        if (s > 0) TU_OK(defsim_world_step(w, sc->h));
+        TU_OK(defsim_world_get_positions(w, x, n));
+        TU_OK(defsim_world_get_velocities(w, v, n));
+        for (int i = 0; i < n3; ++i) L += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+        if (s == N) break;
+        double p[3];
+        for (int i = 0; i < 3; ++i) p[i] = P[3 * s + i] + e * D[3 * s + i];
+        TU_OK(defsim_attachment_set_target(w, id, p));
+    }
+    if (t) {
+        defsim_gradient out[4] = {{"attachment_stiffness", gk, 1}, {"attachment_damping", gc, 1},
+                                  {"attachment_targets", gp, 3 * (int64_t)N},
+                                  {"initial_positions", gx0, n3}};
+        TU_OK(defsim_tape_backward(t, cx, cv, (int64_t)n3 * (N + 1), out, 4));
+        defsim_tape_destroy(t);
+    }
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+    return L;
+}
+
+static void test_attachments(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, EE, NC, NM};
+    for (int b = 0; b < 4; ++b) {
+        scene sc = {backends[b], DEFSIM_MODEL_COROTATED, 2e5, 0.3, 800, 0.5, 0.0, 2, 1, 1, 2.0,
+                    b < 2 ? 1e-3 : 1e-2, b < 2 ? 30 : 8, 1, -9.81, 0.0};
+        double *cx, *cv;
+        const int n = loss_weights(&sc, &cx, &cv), N = sc.steps;
+        double P[3 * 64], D[3 * 64], dx0[3 * 64];
+        assert_true(N <= 64 && n <= 64);
+        unsigned long long seed = 21;
+        for (int s = 0; s < N; ++s) {
+            P[3 * s] = 2.0 + 0.1 * s * sc.h;   /* the far corner (2, 1, 1), pulled out and up */
+            P[3 * s + 1] = 1.0 + 2.0 * s * sc.h;
+            P[3 * s + 2] = 1.0;
+            for (int i = 0; i < 3; ++i) D[3 * s + i] = tu_rand(&seed);
+        }
+        for (int i = 0; i < 3 * n; ++i) dx0[i] = tu_rand(&seed);
+        const double k = 500.0, c = 20.0;
+        double gk, gc, gp[3 * 64], gx0[3 * 64];
+        attached_run(&sc, cx, cv, k, c, P, D, 0.0, NULL, 0.0, &gk, &gc, gp, gx0);
+        double an[4] = {gk * k, gc * c, 0.0, 0.0};
+        for (int i = 0; i < 3 * N; ++i) an[2] += gp[i] * D[i];
+        for (int i = 0; i < 3 * n; ++i) an[3] += gx0[i] * dx0[i];
+        const char *what[4] = {"attachment_stiffness", "attachment_damping", "attachment_targets",
+                               "initial_positions"};
+        for (int q = 0; q < 4; ++q) {
+            const double e = q < 2 ? 1e-4 : 1e-6;
+            double L[2];
+            for (int sgn = 0; sgn < 2; ++sgn) {
+                const double s = sgn == 0 ? e : -e;
+                L[sgn] = attached_run(&sc, cx, cv, q == 0 ? k * (1 + s) : k, q == 1 ? c * (1 + s) : c,
+                                      P, D, q == 2 ? s : 0.0, q == 3 ? dx0 : NULL, q == 3 ? s : 0.0,
+                                      NULL, NULL, NULL, NULL);
+            }
+            const double num = (L[0] - L[1]) / (2.0 * e), rel = fabs(an[q] - num) / fabs(num);
+            printf("attached %s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n",
+                   backends[b], what[q], an[q], num, rel);
+            assert_true(rel < 1e-5);
+        }
+        free(cx);
+        free(cv);
+    }
+}
+
 /* Every tet model: E, nu, x0 through a few steps of a bent cube with damping. */
 static void test_models(void **st)
 {
@@ -729,6 +819,13 @@ static void test_bad_input(void **st)
     free(dl);
 }
 
+static int zero_force(void *user, const double *x, const double *v, double t, int32_t n,
+                      double *f)
+{
+    (void)user; (void)x; (void)v; (void)t; (void)n; (void)f;
+    return 0;
+}
+
 /* A backend without an adjoint, and terms not differentiated yet: DEFSIM_ERR_UNSUPPORTED when
  * recording begins, the world unchanged. */
 static void test_unsupported(void **st)
@@ -746,7 +843,7 @@ static void test_unsupported(void **st)
         TU_OK(defsim_world_step(w, 1e-3));
         defsim_world_destroy(w);
     }
-    /* collider contact, attachments */
+    /* collider contact, the force callback */
     scene sc = {SE, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.0, 0.0, 1, 1, 1, 1.0, 1e-3, 1, 0,
                 -9.81, 0.0};
     defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
@@ -763,19 +860,11 @@ static void test_unsupported(void **st)
     assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
     assert_non_null(strstr(defsim_world_last_error(w), "collider"));
     TU_OK(defsim_world_remove_collider(w, cid));
-    /* an attachment to a world point */
-    defsim_attachment_def ad;
-    defsim_attachment_def_init(&ad, sizeof ad);
-    defsim_body_id body;
-    TU_OK(defsim_world_body_at(w, 0, &body));
-    ad.body = body;
-    ad.vertex = 1;
-    ad.stiffness = 10.0;
-    defsim_attachment_id aid;
-    TU_OK(defsim_world_add_attachment(w, &ad, &aid));
+    /* the force callback */
+    TU_OK(defsim_world_set_force_callback(w, zero_force, NULL, NULL));
     assert_int_equal(defsim_world_record(w, NULL, &t), DEFSIM_ERR_UNSUPPORTED);
-    assert_non_null(strstr(defsim_world_last_error(w), "attachments"));
-    TU_OK(defsim_world_remove_attachment(w, aid));
+    assert_non_null(strstr(defsim_world_last_error(w), "callback"));
+    TU_OK(defsim_world_set_force_callback(w, NULL, NULL, NULL));
     TU_OK(defsim_world_record(w, NULL, &t));
     defsim_tape_destroy(t);
     defsim_world_destroy(w);
@@ -789,6 +878,7 @@ int main(void)
         cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
         cmocka_unit_test(test_cantilever_newmark),
         cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_external_forces),
+        cmocka_unit_test(test_attachments),
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_checkpoints),
         cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),

@@ -16,6 +16,9 @@ BODY_PARAMS = ("youngs_modulus", "poisson_ratio", "density", "mass_damping",
                "stiffness_damping")
 #: Per step (shape (N, n, 3)): the held external forces of each recorded step (the controls).
 STEP_PARAMS = ("external_forces",)
+#: Per attachment (shape (a,)) and per step and attachment (shape (N, a, 3)): world targets.
+ATTACHMENT_PARAMS = ("attachment_stiffness", "attachment_damping")
+ATTACHMENT_STEP_PARAMS = ("attachment_targets",)
 
 
 class Tape:
@@ -78,7 +81,9 @@ class Tape:
         "initial_velocities" of shape (n, 3), and per body (in the world's order) of shape (b,):
         "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping";
         and "external_forces" of shape (N, n, 3), dL/df_j of the forces held during step j
-        (``World.set_external_forces``; also where they were zero).
+        (``World.set_external_forces``; also where they were zero); with attachments,
+        "attachment_stiffness" and "attachment_damping" of shape (a,) and "attachment_targets"
+        of shape (N, a, 3) (world-point targets held during each step).
         The world is left as it was. Raises InvalidArgumentError (wrong shape, non-finite
         values, the world changed since recording began), UnsupportedError."""
         w = self._world
@@ -96,14 +101,18 @@ class Tape:
                     f"{name} has {a.size} values; the {N + 1} recorded states of {n} vertices "
                     f"need shape ({N + 1}, {n}, 3)")
             arrays.append(a.reshape(-1))
+        na = int(lib.defsim_world_attachment_count(w._live()))
         names = (list(params) if params is not None
-                 else list(VERTEX_PARAMS + BODY_PARAMS + STEP_PARAMS))
+                 else list(VERTEX_PARAMS + BODY_PARAMS + STEP_PARAMS +
+                           (ATTACHMENT_PARAMS + ATTACHMENT_STEP_PARAMS if na else ())))
         nb = len(w.bodies)
         outs, keep = {}, []
         g = ffi.new("defsim_gradient[]", max(len(names), 1))
         for i, name in enumerate(names):
             out = np.zeros((n, 3) if name in VERTEX_PARAMS
-                           else (N, n, 3) if name in STEP_PARAMS else (nb,))
+                           else (N, n, 3) if name in STEP_PARAMS
+                           else (na,) if name in ATTACHMENT_PARAMS
+                           else (N, na, 3) if name in ATTACHMENT_STEP_PARAMS else (nb,))
             c = ffi.new("char[]", str(name).encode())
             keep.append(c)
             g[i].name = c

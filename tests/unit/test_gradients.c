@@ -349,6 +349,8 @@ static void cantilever(const char *backend, double h, int steps)
      * eigenvalues away from 0) for the run: there every parameter, beta included, is smooth. */
     sc.beta = 2e-3;
     sc.stretch = 1.02;
+    free(cx);
+    free(cv);
     weights(&sc, n, &cx, &cv);
     tape_grads(&sc, 1, 0, cx, cv, &g, NULL);
     const int damped[] = {P_E, P_NU, P_RHO, P_ALPHA, P_BETA, P_X0, P_V0};

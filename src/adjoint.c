@@ -19,7 +19,7 @@ defsim_status defsim__forces_vjp(const defsim__system *s, const double *x, const
     double *wm = g->wmask;
     memcpy(wm, w, (size_t)ndof * sizeof *wm);
     for (int32_t i = 0; i < s->nv; ++i)
-        if (s->pinned[i]) wm[3 * (int64_t)i] = wm[3 * (int64_t)i + 1] = wm[3 * (int64_t)i + 2] = 0.0;
+        if (s->pinned[i]) memset(wm + 3 * (int64_t)i, 0, 3 * sizeof *wm);
     const defsim__eval ev = {x, v, 0.0, which};
     for (int32_t k = 0; k < s->nterms; ++k) {
         const defsim__term *tm = &s->terms[k];

@@ -2,7 +2,8 @@
 /*
  * Recordings of a run and their backward pass (docs/gradients.md): a tape follows the world's
  * successful steps (the world calls it through its link, world.h), storing the step sizes, each
- * step's held external forces, the state of every k-th step (checkpoints) and the last state. The backward pass walks the
+ * step's held external forces and attachment targets, the state of every k-th step
+ * (checkpoints) and the last state. The backward pass walks the
  * checkpoints from the last: it steps the world forward again from a checkpoint to the next
  * (bit for bit, checked against the stored state), then runs the backend's adjoint step over
  * each step of that segment in reverse, accumulating the loss's adjoints of the state and,
@@ -251,7 +252,8 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     if (b->struct_size < offsetof(defsim_backend, adjoint_step) + sizeof b->adjoint_step ||
         !b->adjoint_step) {
         snprintf(buf, size, "record: backend %s is not differentiable (it has no adjoint step; "
-                            "differentiable: explicit_euler, symplectic_euler, newton_cholmod, newmark)",
+                            "differentiable: explicit_euler, symplectic_euler, newton_cholmod, "
+                            "newmark)",
                  b->name);
         return buf;
     }
@@ -444,7 +446,8 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
             gbeta[b] += g->beta[m][e];
             if (m == DEFSIM__TET_MODELS) continue;
             double d[4];
-            defsim__lame_derivatives(bodies[b]->mat.youngs_modulus, bodies[b]->mat.poisson_ratio, d);
+            const defsim_material *mat = &bodies[b]->mat;
+            defsim__lame_derivatives(mat->youngs_modulus, mat->poisson_ratio, d);
             gE[b] += g->mu[m][e] * d[0] + g->lambda[m][e] * d[2];
             gnu[b] += g->mu[m][e] * d[1] + g->lambda[m][e] * d[3];
             for (int a = 0; a < 4; ++a) dmdrho[gr->idx[4 * (int64_t)e + a]] += gr->vol[e] / 4.0;
@@ -534,7 +537,8 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             if (fext_out) memcpy(fext_out + n3 * j, g->fext, (size_t)n3 * sizeof(double));
             memset(g->fext, 0, (size_t)n3 * sizeof(double));
             const int64_t na3 = 3 * (int64_t)t->natt;
-            if (attp_out && na3 > 0) memcpy(attp_out + na3 * j, g->att_p, (size_t)na3 * sizeof(double));
+            if (attp_out && na3 > 0)
+                memcpy(attp_out + na3 * j, g->att_p, (size_t)na3 * sizeof(double));
             if (na3 > 0) memset(g->att_p, 0, (size_t)na3 * sizeof(double));
         }
     }
@@ -656,7 +660,8 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
         if ((dl_dx && !isfinite(dl_dx[i])) || (dl_dv && !isfinite(dl_dv[i]))) {
             tape_error(t, "backward: dl_d%s[%lld] (state %lld, DOF %lld) is not finite",
                        dl_dx && !isfinite(dl_dx[i]) ? "x" : "v", (long long)i,
-                       (long long)(i / (3 * (int64_t)t->nv)), (long long)(i % (3 * (int64_t)t->nv)));
+                       (long long)(i / (3 * (int64_t)t->nv)),
+                       (long long)(i % (3 * (int64_t)t->nv)));
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
     if (n < 0 || (n > 0 && !grads)) {
@@ -790,7 +795,8 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
 defsim_status defsim_tape_get_stats(const defsim_tape *t, defsim_tape_stats *out)
 {
     if (!t || !out || out->size < sizeof(uint32_t)) {
-        defsim__set_last_error("tape stats: %s", !t ? "the tape is NULL" : "out is NULL or its size 0");
+        defsim__set_last_error("tape stats: %s",
+                               !t ? "the tape is NULL" : "out is NULL or its size 0");
         return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     defsim_tape_stats s = t->stats;

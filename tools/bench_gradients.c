@@ -109,7 +109,8 @@ int main(int argc, char **argv)
     const double forward = now() - t0;
 
     const size_t n3 = 3 * (size_t)nv, all = n3 * (size_t)(steps + 1);
-    double *dl = calloc(all, sizeof *dl), *gx = malloc(n3 * sizeof *gx), *gv = malloc(n3 * sizeof *gv);
+    double *dl = calloc(all, sizeof *dl), *gx = malloc(n3 * sizeof *gx);
+    double *gv = malloc(n3 * sizeof *gv);
     if (!dl || !gx || !gv) return fail(NULL, "out of memory");
     for (int s = 0; s <= steps; ++s) dl[n3 * (size_t)s + 3 * (size_t)tip + 1] = 1.0 / (steps + 1);
     double gb[5];

@@ -2,8 +2,8 @@
 /*
  * What the two built-in Euler schemes share (explicit_euler, symplectic_euler): their state (one
  * force buffer), its init and fini, and the step, which differs only in the order of its two
- * updates, its reverse mode (adjoint step), and the rows of their backend tables. Included by both backends' sources, each
- * compiled into libdefsim.
+ * updates, its reverse mode (adjoint step), and the rows of their backend tables. Included by
+ * both backends' sources, each compiled into libdefsim.
  */
 #ifndef DEFSIM_EULER_COMMON_H
 #define DEFSIM_EULER_COMMON_H

@@ -1219,7 +1219,8 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     /* the residual's forces: f_EG at x1, the damping at (z, v1) */
     const uint32_t EG = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
     st = host->forces_vjp(sys, a->x1, NULL, EG, lf, gx1, NULL, 1);
-    if (st == DEFSIM_OK) st = host->forces_vjp(sys, stp.z, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
+    if (st == DEFSIM_OK)
+        st = host->forces_vjp(sys, stp.z, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
     if (st != DEFSIM_OK) return st;
     const double ih2 = stp.cm / (h * h), ih = stp.cd / h, ca = p->scheme->adjoint_a * h * h,
                  cz = p->scheme->adjoint_z * h;
@@ -1233,7 +1234,8 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
             u[i] = k >= 0 ? ca * ih2 * lam[k] : 0.0;   /* ca ay_i / m_i */
         }
         st = host->forces_vjp(sys, a->x0, NULL, EG, u, gx0, NULL, 1);
-        if (st == DEFSIM_OK) st = host->forces_vjp(sys, stp.z, a->v0, DEFSIM_FORCE_DAMPING, u, gxz, gvz, 1);
+        if (st == DEFSIM_OK)
+            st = host->forces_vjp(sys, stp.z, a->v0, DEFSIM_FORCE_DAMPING, u, gxz, gvz, 1);
         if (st != DEFSIM_OK) return st;
     }
     for (int64_t i = 0; i < nd; ++i) {
@@ -1293,9 +1295,10 @@ __attribute__((visibility("default"))) defsim_status defsim_module_init(
         .option_count = OPT_COUNT,
         .counters = ic_counters,
         .counter_count = DEFSIM__IC_COUNTERS + scheme->counter_count,
-        .adjoint_step = scheme->differentiable &&
-                                host->size >= offsetof(defsim_host, mass_vjp) + sizeof host->mass_vjp
-                            ? ic_adjoint : NULL,
+        .adjoint_step = scheme->differentiable && host->size >= offsetof(defsim_host, mass_vjp) +
+                                                                    sizeof host->mass_vjp
+                            ? ic_adjoint
+                            : NULL,
     };
     *out = &ic_backend;
     return DEFSIM_OK;

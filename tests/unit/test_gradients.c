@@ -18,7 +18,10 @@ static const char *SE = "symplectic_euler";
 static const char *EE = "explicit_euler";
 static const char *NM = "newmark";
 
-static int implicit(const char *backend) { return strcmp(backend, NC) == 0 || strcmp(backend, NM) == 0; }
+static int implicit(const char *backend)
+{
+    return strcmp(backend, NC) == 0 || strcmp(backend, NM) == 0;
+}
 
 /* A run: backend, material, mesh and steps. */
 typedef struct scene {
@@ -44,7 +47,8 @@ static defsim_world *make(const scene *sc, const double *dp, const double *dx0,
                           const double *dv0, double eps)
 {
     defsim_world *w = implicit(sc->backend)
-                          ? tu_implicit_world(sc->backend, sc->gy, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
+                          ? tu_implicit_world(sc->backend, sc->gy, 1, 1e-13, 60,
+                                              DEFSIM_PROJECTION_CLAMP)
                           : tu_world(sc->backend, sc->gy, 1);
     defsim_material m;
     defsim_material_init(&m, sizeof m, sc->model);
@@ -80,23 +84,31 @@ static defsim_world *make(const scene *sc, const double *dp, const double *dx0,
     return w;
 }
 
+/* The loss's term of state s: cx_s . x_s + cv_s . v_s with the world's state now. */
+static double state_loss(const defsim_world *w, const double *cx, const double *cv, int s)
+{
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n;
+    double *x = malloc((size_t)n3 * sizeof *x), *v = malloc((size_t)n3 * sizeof *v), L = 0.0;
+    TU_OK(defsim_world_get_positions(w, x, n));
+    TU_OK(defsim_world_get_velocities(w, v, n));
+    const double *wx = cx + (size_t)s * n3, *wv = cv + (size_t)s * n3;
+    for (int i = 0; i < n3; ++i) L += wx[i] * x[i] + wv[i] * v[i];
+    free(x);
+    free(v);
+    return L;
+}
+
 /* L = sum_s cx_s . x_s + cv_s . v_s over the run's states s = 0 .. N. */
 static double run_loss(const scene *sc, defsim_world *w, const double *cx, const double *cv)
 {
-    const int n = defsim_world_vertex_count(w), n3 = 3 * n;
     double L = 0.0;
-    double *x = malloc((size_t)n3 * sizeof *x), *v = malloc((size_t)n3 * sizeof *v);
     for (int s = 0; s <= sc->steps; ++s) {
         if (s > 0) {
             const defsim_status st = defsim_world_step(w, sc->h);
             if (st != DEFSIM_OK) fail_msg("step %d: %s", s, defsim_world_last_error(w));
         }
-        TU_OK(defsim_world_get_positions(w, x, n));
-        TU_OK(defsim_world_get_velocities(w, v, n));
-        for (int i = 0; i < n3; ++i) L += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+        L += state_loss(w, cx, cv, s);
     }
-    free(x);
-    free(v);
     return L;
 }
 
@@ -211,7 +223,8 @@ static void check_fd(const scene *sc, const grads *g, const double *cx, const do
         const double rel = fabs(an - num) / fmax(fabs(num), 1e-300);
         printf("%s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n", what,
                pname[p], an, num, rel);
-        if (!(rel <= rtol)) fail_msg("%s: d/d%s relative error %.3g > %.3g", what, pname[p], rel, rtol);
+        if (!(rel <= rtol))
+            fail_msg("%s: d/d%s relative error %.3g > %.3g", what, pname[p], rel, rtol);
     }
     free(dir);
 }
@@ -245,7 +258,8 @@ static void free_fall(const char *backend)
     TU_OK(defsim_world_record(w, NULL, &t));
     for (int s = 0; s < N; ++s) TU_OK(defsim_world_step(w, h));
     /* L = sum_i m_i y_i / M (the weights are the host's constants) */
-    double *dl = calloc(3 * (size_t)n * (N + 1), sizeof *dl), *mass = malloc((size_t)n * sizeof *mass);
+    double *dl = calloc(3 * (size_t)n * (N + 1), sizeof *dl);
+    double *mass = malloc((size_t)n * sizeof *mass);
     TU_OK(defsim_world_get_masses(w, mass, n));
     double M = 0.0;
     for (int i = 0; i < n; ++i) M += mass[i];
@@ -288,7 +302,8 @@ static void free_fall(const char *backend)
         const double mi = mass[i] / M;
         ex = fmax(ex, fabs(gx[3 * i + 1] - mi) / mi);
         ev = fmax(ev, fabs(gv[3 * i + 1] - mi * dx_v0) / (mi * dx_v0));
-        for (int c = 0; c < 3; c += 2) other = fmax(other, fmax(fabs(gx[3 * i + c]), fabs(gv[3 * i + c])));
+        for (int c = 0; c < 3; c += 2)
+            other = fmax(other, fmax(fabs(gx[3 * i + c]), fabs(gv[3 * i + c])));
     }
     const double ea = fabs(gb[P_ALPHA] - dx_a) / fabs(dx_a);
     printf("%s free fall: dL/dx0_y = m_i/M to %.2e, dL/dv0_y %.12f (analytic %.12f, rel %.2e), "
@@ -299,7 +314,8 @@ static void free_fall(const char *backend)
     assert_true(ex < 1e-9);
     assert_true(ev < 1e-9);
     assert_true(ea < 1e-9);
-    assert_true(fabs(gb[P_E]) * sc.E < 1e-6 && fabs(gb[P_NU]) < 1e-6 && fabs(gb[P_RHO]) * sc.rho < 1e-6);
+    assert_true(fabs(gb[P_E]) * sc.E < 1e-6 && fabs(gb[P_NU]) < 1e-6);
+    assert_true(fabs(gb[P_RHO]) * sc.rho < 1e-6);
     assert_true(other < 1e-9);
     free(dl);
     free(mass);
@@ -450,17 +466,14 @@ static void test_external_forces(void **st)
             defsim_tape_def_init(&td, sizeof td);
             td.interval = pass == 3 ? 3 : 1;
             if (pass == 0 || pass == 3) TU_OK(defsim_world_record(w, &td, &t));
-            double *fj = malloc((size_t)n3 * sizeof *fj), *x = malloc((size_t)n3 * sizeof *x),
-                   *v = malloc((size_t)n3 * sizeof *v);
+            double *fj = malloc((size_t)n3 * sizeof *fj);
             L[pass] = 0.0;
             for (int s = 0; s <= N; ++s) {
                 if (s > 0) TU_OK(defsim_world_step(w, sc.h));
-                TU_OK(defsim_world_get_positions(w, x, n));
-                TU_OK(defsim_world_get_velocities(w, v, n));
-                for (int i = 0; i < n3; ++i)
-                    L[pass] += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+                L[pass] += state_loss(w, cx, cv, s);
                 if (s == N) break;
-                for (int i = 0; i < n3; ++i) fj[i] = F[(size_t)s * n3 + i] + e * D[(size_t)s * n3 + i];
+                const double *Fs = F + (size_t)s * n3, *Ds = D + (size_t)s * n3;
+                for (int i = 0; i < n3; ++i) fj[i] = Fs[i] + e * Ds[i];
                 TU_OK(defsim_world_set_external_forces(w, fj, n));
             }
             if (t) {
@@ -470,8 +483,6 @@ static void test_external_forces(void **st)
                 defsim_tape_destroy(t);
             }
             free(fj);
-            free(x);
-            free(v);
             defsim_world_destroy(w);
         }
         const double num = (L[1] - L[2]) / 2e-3, rel = fabs(an - num) / fabs(num);
@@ -508,12 +519,10 @@ static double attached_run(const scene *sc, const double *cx, const double *cv, 
     TU_OK(defsim_world_add_attachment(w, &ad, &id));
     defsim_tape *t = NULL;
     if (gk) TU_OK(defsim_world_record(w, NULL, &t));
-    double *x = malloc((size_t)n3 * sizeof *x), *v = malloc((size_t)n3 * sizeof *v), L = 0.0;
+    double L = 0.0;
     for (int s = 0; s <= N; ++s) {
         if (s > 0) TU_OK(defsim_world_step(w, sc->h));
-        TU_OK(defsim_world_get_positions(w, x, n));
-        TU_OK(defsim_world_get_velocities(w, v, n));
-        for (int i = 0; i < n3; ++i) L += cx[(size_t)s * n3 + i] * x[i] + cv[(size_t)s * n3 + i] * v[i];
+        L += state_loss(w, cx, cv, s);
         if (s == N) break;
         double p[3];
         for (int i = 0; i < 3; ++i) p[i] = P[3 * s + i] + e * D[3 * s + i];
@@ -526,8 +535,6 @@ static double attached_run(const scene *sc, const double *cx, const double *cv, 
         TU_OK(defsim_tape_backward(t, cx, cv, (int64_t)n3 * (N + 1), out, 4));
         defsim_tape_destroy(t);
     }
-    free(x);
-    free(v);
     defsim_world_destroy(w);
     return L;
 }
@@ -564,9 +571,10 @@ static void test_attachments(void **st)
             double L[2];
             for (int sgn = 0; sgn < 2; ++sgn) {
                 const double s = sgn == 0 ? e : -e;
-                L[sgn] = attached_run(&sc, cx, cv, q == 0 ? k * (1 + s) : k, q == 1 ? c * (1 + s) : c,
-                                      P, D, q == 2 ? s : 0.0, q == 3 ? dx0 : NULL, q == 3 ? s : 0.0,
-                                      NULL, NULL, NULL, NULL);
+                const double kq = q == 0 ? k * (1 + s) : k, cq = q == 1 ? c * (1 + s) : c;
+                L[sgn] = attached_run(&sc, cx, cv, kq, cq, P, D, q == 2 ? s : 0.0,
+                                      q == 3 ? dx0 : NULL, q == 3 ? s : 0.0, NULL, NULL, NULL,
+                                      NULL);
             }
             const double num = (L[0] - L[1]) / (2.0 * e), rel = fabs(an[q] - num) / fabs(num);
             printf("attached %s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n",
@@ -671,8 +679,9 @@ static void test_springs(void **st)
         for (int pass = 0; pass < 7; ++pass) {
             const int p = pass == 0 ? -1 : (pass - 1) / 2;   /* 0 x0, 1 v0, 2 beta */
             const double eps = p == 2 ? 1e-7 : 1e-6, e = pass == 0 ? 0.0 : (pass % 2 ? eps : -eps);
-            defsim_world *w = b == 1 ? tu_implicit_world(NC, -9.81, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
-                                     : tu_world(SE, -9.81, 1);
+            defsim_world *w =
+                b == 1 ? tu_implicit_world(NC, -9.81, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
+                       : tu_world(SE, -9.81, 1);
             defsim_body_def bd;
             defsim_body_def_init(&bd, sizeof bd);
             bd.rest_positions = x;
@@ -705,7 +714,8 @@ static void test_springs(void **st)
             for (int s = 0; s < nstep; ++s) TU_OK(defsim_world_step(w, h));
             TU_OK(defsim_world_get_positions(w, xs, 8));
             TU_OK(defsim_world_get_velocities(w, vs, 8));
-            for (int i = 0; i < 24; ++i) Lp += wx[24 * (size_t)nstep + i] * xs[i] + wv[24 * (size_t)nstep + i] * vs[i];
+            const double *ax = wx + 24 * (size_t)nstep, *av = wv + 24 * (size_t)nstep;
+            for (int i = 0; i < 24; ++i) Lp += ax[i] * xs[i] + av[i] * vs[i];
             if (pass == 0) {
                 double gx[24], gv[24], gbeta;
                 defsim_gradient out[3] = {{"initial_positions", gx, 24},
@@ -724,7 +734,8 @@ static void test_springs(void **st)
                 if (pass % 2 == 0) {
                     const double num = (L[0] - L[1]) / (2.0 * eps);
                     const double rel = fabs(num - an[p]) / fabs(num);
-                    printf("springs %s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n",
+                    printf("springs %s d/d%s: tape %.12e  central differences %.12e  "
+                           "relative %.2e\n",
                            backends[b], p == 0 ? "x0" : p == 1 ? "v0" : "beta", an[p], num, rel);
                     assert_true(rel < 1e-5);
                 }
@@ -747,7 +758,8 @@ static void test_bad_input(void **st)
     defsim_world *ref = make(&sc, NULL, NULL, NULL, 0.0);
     const int n = defsim_world_vertex_count(w), n3 = 3 * n;
     defsim_tape *t = NULL;
-    assert_int_equal(defsim_tape_backward(NULL, NULL, NULL, 0, NULL, 0), DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_int_equal(defsim_tape_backward(NULL, NULL, NULL, 0, NULL, 0),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
     assert_int_equal(defsim_world_record(w, NULL, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
     TU_OK(defsim_world_record(w, NULL, &t));
     defsim_tape *t2 = NULL;

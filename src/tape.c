@@ -185,6 +185,8 @@ static defsim_status hold_forces(const defsim_tape *t, defsim_world *w, int64_t 
     return st;
 }
 
+static const char *unsupported(const defsim_world *w, char *buf, size_t size);
+
 /* What changed since the recording began, or NULL. */
 static const char *changed(const defsim_tape *t, const defsim_world *w)
 {
@@ -206,6 +208,8 @@ static void tape_step(defsim__tape_link *link, double h)
     defsim_world *w = link->world;
     if (t->replaying || t->broken) return;
     const char *why = changed(t, w);
+    char buf[400];
+    if (!why) why = unsupported(w, buf, sizeof buf);   /* a collider, a callback came */
     if (why) {
         breaks(t, why);
         return;
@@ -648,6 +652,11 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
     if (why) {
         tape_error(t, "backward: since the recording began, %s", why);
         return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    char buf[400];
+    if (unsupported(w, buf, sizeof buf)) {
+        tape_error(t, "backward: since the last recorded step, %s", buf + strlen("record: "));
+        return DEFSIM_ERR_UNSUPPORTED;
     }
     const int64_t want = (t->nsteps + 1) * 3 * (int64_t)t->nv;
     if ((dl_dx || dl_dv) && count != want) {

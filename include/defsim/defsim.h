@@ -1182,7 +1182,9 @@ DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_t
 /// world is gone, count not (N + 1) * 3 * vertex count, a non-finite loss gradient, an
 /// unknown name or a wrong count in grads, or the world changed in a way the recording cannot
 /// follow: bodies, pins, options, or the state or time set between recorded steps: the
-/// message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording),
+/// message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
+/// or since the last recorded step the scene came to use what cannot be differentiated: a
+/// collider, the force callback, ...),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED, or the backend's error. On an error the grads'
 /// arrays hold nothing meaningful.
 DEFSIM_API defsim_status defsim_tape_backward(defsim_tape *tape, const double *dl_dx,

@@ -880,6 +880,17 @@ static void test_unsupported(void **st)
     assert_non_null(strstr(defsim_world_last_error(w), "callback"));
     TU_OK(defsim_world_set_force_callback(w, NULL, NULL, NULL));
     TU_OK(defsim_world_record(w, NULL, &t));
+    /* a collider added during the recording: the backward pass refuses, and a step taken with
+     * it stops the recording */
+    TU_OK(defsim_world_step(w, 1e-3));
+    TU_OK(defsim_world_add_collider(w, &cd, &cid));
+    const int64_t cnt = 2 * 3 * (int64_t)defsim_world_vertex_count(w);
+    assert_int_equal(defsim_tape_backward(t, NULL, NULL, cnt, NULL, 0), DEFSIM_ERR_UNSUPPORTED);
+    TU_OK(defsim_world_step(w, 1e-3));
+    TU_OK(defsim_world_remove_collider(w, cid));
+    assert_int_equal(defsim_tape_backward(t, NULL, NULL, cnt + cnt / 2, NULL, 0),
+                     DEFSIM_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(defsim_tape_last_error(t), "collider"));
     defsim_tape_destroy(t);
     defsim_world_destroy(w);
 }

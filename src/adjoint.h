@@ -20,7 +20,13 @@ typedef struct defsim__grad {
     double *att_k, *att_c;                  /* per attachment: stiffness, damping */
     double *att_p;                          /* 3 per attachment: world target (of the step) */
     double *wmask;                          /* 3 nv scratch: w with pinned DOFs zeroed */
+    uint32_t want;                          /* DEFSIM__WANT_*: the costly ones the host asked for */
 } defsim__grad;
+
+/* Parameter gradients that cost more than a product each (the rest are always accumulated):
+ * the Lame parameters (dP/dmu, dP/dlambda per element), and stiffness damping's beta (with its
+ * clamped dP/dF per element also where beta is 0). */
+enum { DEFSIM__WANT_LAME = 1u << 0, DEFSIM__WANT_BETA = 1u << 1 };
 
 /* gx += (df/dx)^T w, gv += (df/dv)^T w (gx, gv may be NULL) at (x, v), parts `which`, over all
  * DOFs, w read with its pinned DOFs zeroed (into g->wmask); with acc set, the parameter

@@ -765,6 +765,10 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
             if (which[i] == G_FEXT) fext_out = grads[i].out;
             if (which[i] == G_ATT_P) attp_out = grads[i].out;
         }
+        for (int32_t i = 0; i < n; ++i) {
+            if (which[i] == G_E || which[i] == G_NU) g.want |= DEFSIM__WANT_LAME;
+            if (which[i] == G_BETA) g.want |= DEFSIM__WANT_BETA;
+        }
         w->handle.grad = &g;
         st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, &g, &peak);
         w->handle.grad = NULL;

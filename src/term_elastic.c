@@ -186,7 +186,7 @@ static defsim_status vjp(const defsim__term *t, const defsim__system *s, const d
             apply_dpdf(D, dFw, dP);
             tet_scatter(gx, id, dm, dP, -gr->vol[e]);
         }
-        if (g) {
+        if (g && (g->want & DEFSIM__WANT_LAME)) {
             double Pmu[9], Pla[9];
             defsim__model_dP_dlame(gr->law, gr->mu[e], gr->lambda[e], F, Pmu, Pla);
             g->mu[t->index][e] -= gr->vol[e] * defsim__m3_ddot(Pmu, dFw);

@@ -110,7 +110,8 @@ static void vjp_tets(const defsim__group *gr, int m, const defsim__eval *ev, con
 {
     for (int32_t e = 0; e < gr->n; ++e) {
         const double beta = gr->beta[e];
-        if (beta == 0.0 && !g) continue;
+        const int want_beta = g && (g->want & DEFSIM__WANT_BETA);
+        if (beta == 0.0 && !want_beta) continue;
         const int32_t *id = gr->idx + 4 * (int64_t)e;
         const double *dm = gr->dminv + 9 * (int64_t)e;
         const double mu = gr->mu[e], la = gr->lambda[e], s = -beta * gr->vol[e];
@@ -142,7 +143,7 @@ static void vjp_tets(const defsim__group *gr, int m, const defsim__eval *ev, con
             }
             tet_scatter(gx, id, dm, G, s);
         }
-        if (g && m < DEFSIM__TET_MODELS) {
+        if (g && (g->want & DEFSIM__WANT_LAME)) {
             const double dmu = DEFSIM__VJP_FD_STEP * mu;
             const double dla = DEFSIM__VJP_FD_STEP * fmax(fabs(la), mu);
             if (dmu > 0.0)
@@ -151,8 +152,8 @@ static void vjp_tets(const defsim__group *gr, int m, const defsim__eval *ev, con
             if (dla > 0.0)
                 g->lambda[m][e] += s * (tet_phi(gr->law, mu, la + dla, F, dFw, dFv) -
                                         tet_phi(gr->law, mu, la - dla, F, dFw, dFv)) / (2.0 * dla);
-            g->beta[m][e] -= gr->vol[e] * tet_phi(gr->law, mu, la, F, dFw, dFv);
         }
+        if (want_beta) g->beta[m][e] -= gr->vol[e] * tet_phi(gr->law, mu, la, F, dFw, dFv);
     }
 }
 
@@ -175,7 +176,8 @@ static void vjp_springs(const defsim__group *gr, const defsim__eval *ev, const d
 {
     for (int32_t e = 0; e < gr->n; ++e) {
         const double beta = gr->beta[e];
-        if (beta == 0.0 && !g) continue;
+        const int want_beta = g && (g->want & DEFSIM__WANT_BETA);
+        if (beta == 0.0 && !want_beta) continue;
         const int32_t a = gr->idx[2 * (int64_t)e], b = gr->idx[2 * (int64_t)e + 1];
         const double *xa = ev->x + 3 * (int64_t)a, *xb = ev->x + 3 * (int64_t)b;
         const double *va = ev->v + 3 * (int64_t)a, *vb = ev->v + 3 * (int64_t)b;
@@ -214,7 +216,7 @@ static void vjp_springs(const defsim__group *gr, const defsim__eval *ev, const d
                 gx[3 * (int64_t)a + k] -= gk;
             }
         }
-        if (g) g->beta[DEFSIM__TET_MODELS][e] += spring_phi(gr, e, d, dw, dv);
+        if (want_beta) g->beta[DEFSIM__TET_MODELS][e] += spring_phi(gr, e, d, dw, dv);
     }
 }
 

@@ -586,6 +586,100 @@ static void test_attachments(void **st)
     }
 }
 
+/* A free cube hung from the clamped beam by an attachment to a point between two of the beam's
+ * vertices (a body-element target: both bodies feel it): x0, attachment stiffness and damping
+ * against central differences on symplectic Euler and newton_cholmod. */
+static double hung_run(const char *backend, double h, int N, const double *dir, double e, int p,
+                       const double *cx, double *g, int *nout)
+{
+    const int imp = implicit(backend);
+    defsim_world *w = imp ? tu_implicit_world(backend, -9.81, 1, 1e-13, 60,
+                                              DEFSIM_PROJECTION_CLAMP)
+                          : tu_world(backend, -9.81, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {2, 1, 1};
+    const double clo[3] = {1.2, -1.5, 0}, chi[3] = {2, -0.7, 0.8};
+    defsim_body_id beam = tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 2e5, 0.3, 800);
+    defsim_body_id cube = tu_add_box(w, DEFSIM_MODEL_COROTATED, 1, 1, 1, clo, chi, 1e5, 0.3, 500);
+    tu_pin_below(w, beam, 0, 0.0);
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n;
+    if (nout) *nout = n;
+    defsim_attachment_def ad;
+    defsim_attachment_def_init(&ad, sizeof ad);
+    ad.body = cube;
+    ad.vertex = defsim_body_vertex_count(w, cube) - 1;
+    ad.stiffness = 300.0 * (1.0 + (p == 1 ? e : 0.0));
+    ad.damping = 50.0 * (1.0 + (p == 2 ? e : 0.0));
+    ad.target_body = beam;
+    ad.target_vertex_count = 2;
+    ad.target_vertices[0] = defsim_body_vertex_count(w, beam) - 1;
+    ad.target_vertices[1] = defsim_body_vertex_count(w, beam) - 2;
+    ad.target_weights[0] = ad.target_weights[1] = 0.5;
+    TU_OK(defsim_world_add_attachment(w, &ad, NULL));
+    double *x = tu_positions(w);
+    for (int i = 0; p == 0 && dir && i < n3; ++i) x[i] += e * dir[i];
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    free(x);
+    if (!cx) {
+        defsim_world_destroy(w);
+        return 0.0;
+    }
+    double *cv = calloc((size_t)n3 * (N + 1), sizeof *cv);
+    defsim_tape *t = NULL;
+    if (g) TU_OK(defsim_world_record(w, NULL, &t));
+    double L = state_loss(w, cx, cv, 0);
+    for (int s = 1; s <= N; ++s) {
+        TU_OK(defsim_world_step(w, h));
+        L += state_loss(w, cx, cv, s);
+    }
+    if (t) {
+        defsim_gradient out[3] = {{"initial_positions", g, n3},
+                                  {"attachment_stiffness", g + n3, 1},
+                                  {"attachment_damping", g + n3 + 1, 1}};
+        TU_OK(defsim_tape_backward(t, cx, cv, (int64_t)n3 * (N + 1), out, 3));
+        defsim_tape_destroy(t);
+    }
+    free(cv);
+    defsim_world_destroy(w);
+    return L;
+}
+
+static void test_body_attachment(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, NC};
+    for (int b = 0; b < 2; ++b) {
+        const double h = b == 0 ? 1e-3 : 1e-2;
+        const int N = b == 0 ? 40 : 10;
+        int n;
+        hung_run(backends[b], h, N, NULL, 0.0, -1, NULL, NULL, &n);
+        const int n3 = 3 * n;
+        double *cx = calloc((size_t)n3 * (N + 1), sizeof *cx);
+        double *dir = malloc((size_t)n3 * sizeof *dir);
+        double *g = malloc((size_t)(n3 + 2) * sizeof *g);
+        unsigned long long seed = 5;
+        for (int i = 0; i < n3; ++i) {
+            cx[(size_t)n3 * N + i] = tu_rand(&seed);
+            dir[i] = tu_rand(&seed);
+        }
+        hung_run(backends[b], h, N, NULL, 0.0, -1, cx, g, NULL);
+        double an[3] = {0.0, g[n3] * 300.0, g[n3 + 1] * 50.0};
+        for (int i = 0; i < n3; ++i) an[0] += g[i] * dir[i];
+        const char *what[3] = {"initial_positions", "attachment_stiffness", "attachment_damping"};
+        for (int p = 0; p < 3; ++p) {
+            const double e = p == 0 ? 1e-6 : 1e-4;
+            const double num = (hung_run(backends[b], h, N, dir, e, p, cx, NULL, NULL) -
+                                hung_run(backends[b], h, N, dir, -e, p, cx, NULL, NULL)) / (2 * e);
+            const double rel = fabs(an[p] - num) / fabs(num);
+            printf("body attachment %s d/d%s: tape %.12e  central differences %.12e  "
+                   "relative %.2e\n", backends[b], what[p], an[p], num, rel);
+            assert_true(rel < 1e-5);
+        }
+        free(cx);
+        free(dir);
+        free(g);
+    }
+}
+
 /* Every tet model: E, nu, x0 through a few steps of a bent cube with damping. */
 static void test_models(void **st)
 {
@@ -903,7 +997,7 @@ int main(void)
         cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
         cmocka_unit_test(test_cantilever_newmark),
         cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_external_forces),
-        cmocka_unit_test(test_attachments),
+        cmocka_unit_test(test_attachments),           cmocka_unit_test(test_body_attachment),
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_checkpoints),
         cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),

@@ -934,6 +934,60 @@ static int zero_force(void *user, const double *x, const double *v, double t, in
     return 0;
 }
 
+/* On the implicit backends, with checkpoints (interval 3: steps recomputed), a backward pass
+ * leaves the state, time, statistics and backend counters as they were, and the run goes on
+ * bit for bit as a run without it. */
+static void test_backward_leaves_run(void **st)
+{
+    (void)st;
+    const char *backends[] = {NC, NM};
+    for (int b = 0; b < 2; ++b) {
+        scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
+                    3, 1, 1, 3.0, 1e-2, 9, 1, -9.81, 0.0};
+        defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
+        defsim_world *ref = make(&sc, NULL, NULL, NULL, 0.0);
+        const int n = defsim_world_vertex_count(w), n3 = 3 * n;
+        defsim_tape_def td;
+        defsim_tape_def_init(&td, sizeof td);
+        td.interval = 3;
+        defsim_tape *t = NULL;
+        TU_OK(defsim_world_record(w, &td, &t));
+        for (int s = 0; s < sc.steps; ++s) {
+            TU_OK(defsim_world_step(w, sc.h));
+            TU_OK(defsim_world_step(ref, sc.h));
+        }
+        const double it0 = tu_bstat(w, "newton_iterations");
+        defsim_stats s0 = {.size = sizeof s0}, s1 = {.size = sizeof s1};
+        TU_OK(defsim_world_stats(w, &s0));
+        double *dl = calloc((size_t)n3 * (sc.steps + 1), sizeof *dl), gE = 0.0;
+        for (int i = 0; i < n3; ++i) dl[(size_t)n3 * sc.steps + i] = 1.0;
+        defsim_gradient g = {"youngs_modulus", &gE, 1};
+        TU_OK(defsim_tape_backward(t, dl, NULL, (int64_t)n3 * (sc.steps + 1), &g, 1));
+        defsim_tape_stats ts = {.size = sizeof ts};
+        TU_OK(defsim_tape_get_stats(t, &ts));
+        assert_true(ts.recomputed_steps == 9 && gE != 0.0);
+        TU_OK(defsim_world_stats(w, &s1));
+        assert_int_equal(s0.steps, s1.steps);
+        assert_true(s0.time_step == s1.time_step && s0.force_evals == s1.force_evals);
+        assert_true(tu_bstat(w, "newton_iterations") == it0);
+        assert_true(defsim_world_time(w) == defsim_world_time(ref));
+        for (int s = 0; s < 5; ++s) {
+            TU_OK(defsim_world_step(w, sc.h));
+            TU_OK(defsim_world_step(ref, sc.h));
+        }
+        double *x = tu_positions(w), *xr = tu_positions(ref);
+        assert_memory_equal(x, xr, (size_t)n3 * sizeof *x);
+        printf("%s: after a backward pass (%lld steps recomputed) the run goes on bit for bit\n",
+               backends[b], (long long)ts.recomputed_steps);
+        free(x);
+        free(xr);
+        free(dl);
+        defsim_tape_destroy(t);
+        defsim_world_destroy(w);
+        defsim_world_destroy(ref);
+    }
+}
+
 /* A backend without an adjoint, and terms not differentiated yet: DEFSIM_ERR_UNSUPPORTED when
  * recording begins, the world unchanged. */
 static void test_unsupported(void **st)
@@ -992,15 +1046,22 @@ static void test_unsupported(void **st)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_free_fall_symplectic), cmocka_unit_test(test_free_fall_explicit),
-        cmocka_unit_test(test_free_fall_newton),      cmocka_unit_test(test_cantilever_symplectic),
-        cmocka_unit_test(test_cantilever_explicit),   cmocka_unit_test(test_cantilever_newton),
+        cmocka_unit_test(test_free_fall_symplectic),
+        cmocka_unit_test(test_free_fall_explicit),
+        cmocka_unit_test(test_free_fall_newton),
+        cmocka_unit_test(test_cantilever_symplectic),
+        cmocka_unit_test(test_cantilever_explicit),
+        cmocka_unit_test(test_cantilever_newton),
         cmocka_unit_test(test_cantilever_newmark),
-        cmocka_unit_test(test_damping_at_zero),       cmocka_unit_test(test_external_forces),
-        cmocka_unit_test(test_attachments),           cmocka_unit_test(test_body_attachment),
+        cmocka_unit_test(test_damping_at_zero),
+        cmocka_unit_test(test_external_forces),
+        cmocka_unit_test(test_attachments),
+        cmocka_unit_test(test_body_attachment),
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_checkpoints),
-        cmocka_unit_test(test_springs),               cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_springs),
+        cmocka_unit_test(test_backward_leaves_run),
+        cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_unsupported),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -23,6 +23,14 @@ static int implicit(const char *backend)
     return strcmp(backend, NC) == 0 || strcmp(backend, NM) == 0;
 }
 
+/* A world of the backend, gravity gy along y, one thread; implicit ones converged tightly (the
+ * implicit function theorem differentiates the exact solution of a step). */
+static defsim_world *world_for(const char *backend, double gy)
+{
+    return implicit(backend) ? tu_implicit_world(backend, gy, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
+                             : tu_world(backend, gy, 1);
+}
+
 /* A run: backend, material, mesh and steps. */
 typedef struct scene {
     const char *backend;
@@ -46,10 +54,7 @@ static const char *const pname[P_COUNT] = {"youngs_modulus", "poisson_ratio", "d
 static defsim_world *make(const scene *sc, const double *dp, const double *dx0,
                           const double *dv0, double eps)
 {
-    defsim_world *w = implicit(sc->backend)
-                          ? tu_implicit_world(sc->backend, sc->gy, 1, 1e-13, 60,
-                                              DEFSIM_PROJECTION_CLAMP)
-                          : tu_world(sc->backend, sc->gy, 1);
+    defsim_world *w = world_for(sc->backend, sc->gy);
     defsim_material m;
     defsim_material_init(&m, sizeof m, sc->model);
     m.youngs_modulus = sc->E * (1.0 + (dp ? dp[P_E] * eps : 0.0));
@@ -592,10 +597,7 @@ static void test_attachments(void **st)
 static double hung_run(const char *backend, double h, int N, const double *dir, double e, int p,
                        const double *cx, double *g, int *nout)
 {
-    const int imp = implicit(backend);
-    defsim_world *w = imp ? tu_implicit_world(backend, -9.81, 1, 1e-13, 60,
-                                              DEFSIM_PROJECTION_CLAMP)
-                          : tu_world(backend, -9.81, 1);
+    defsim_world *w = world_for(backend, -9.81);
     const double lo[3] = {0, 0, 0}, hi[3] = {2, 1, 1};
     const double clo[3] = {1.2, -1.5, 0}, chi[3] = {2, -0.7, 0.8};
     defsim_body_id beam = tu_add_box(w, DEFSIM_MODEL_COROTATED, 2, 1, 1, lo, hi, 2e5, 0.3, 800);
@@ -773,9 +775,7 @@ static void test_springs(void **st)
         for (int pass = 0; pass < 7; ++pass) {
             const int p = pass == 0 ? -1 : (pass - 1) / 2;   /* 0 x0, 1 v0, 2 beta */
             const double eps = p == 2 ? 1e-7 : 1e-6, e = pass == 0 ? 0.0 : (pass % 2 ? eps : -eps);
-            defsim_world *w =
-                b == 1 ? tu_implicit_world(NC, -9.81, 1, 1e-13, 60, DEFSIM_PROJECTION_CLAMP)
-                       : tu_world(SE, -9.81, 1);
+            defsim_world *w = world_for(backends[b], -9.81);
             defsim_body_def bd;
             defsim_body_def_init(&bd, sizeof bd);
             bd.rest_positions = x;

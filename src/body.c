@@ -295,6 +295,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         b.mass[i] = m;
     }
     *dout = d;
+    b.mass_given = d.vertex_mass != NULL;
     *out = b;
     *reordered_out = reordered;
     return DEFSIM_OK;

@@ -41,6 +41,7 @@ typedef struct defsim__body {
     uint32_t group, mask;
     double friction;
     int32_t volume_averaging; /* defsim_body_def.volume_averaging: 0 or 1 */
+    int mass_given;           /* the host gave vertex_mass: the density does not set the masses */
 } defsim__body;
 
 /* Validates the host's def (a world of world_nv vertices receives it) and builds *out from

@@ -4,6 +4,8 @@
  * term_callback.c, makes them) and driven pins, plus the counting and timing of statistics. */
 #include "host.h"
 
+#include "adjoint.h"
+
 #include "assembly.h"
 #include "body_contact.h"
 #include "clock.h"
@@ -264,6 +266,28 @@ static double contact_active_dhat(defsim_system *s)
     return isfinite(dhat) && dhat > 0.0 ? dhat : 0.0;
 }
 
+/* Reverse mode (tape.c sets s->grad for a backward pass). */
+static defsim_status forces_vjp(defsim_system *s, const double *x, const double *v,
+                                uint32_t which, const double *w, double *gx, double *gv,
+                                int32_t accumulate)
+{
+    if (!s->grad || !x || !w || ((which & DEFSIM_FORCE_DAMPING) && !v)) {
+        defsim__error(s->msg, "forces_vjp: %s", !s->grad ? "called outside a backward pass"
+                                                         : "x, w or v is NULL");
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
+    const defsim_status st = defsim__forces_vjp(s->sys, x, v, which, w, gx, gv, s->grad,
+                                                accumulate != 0);
+    if (st != DEFSIM_OK) defsim__error(s->msg, "forces_vjp: a result is not finite");
+    return st;
+}
+
+static void mass_vjp(defsim_system *s, const double *mw)
+{
+    if (!s->grad || !mw) return;
+    for (int64_t i = 0; i < 3 * (int64_t)s->sys->nv; ++i) s->grad->mass[i / 3] += mw[i];
+}
+
 static void *alloc(size_t bytes) { return malloc(bytes); }
 static void release(void *p) { free(p); }
 
@@ -307,4 +331,6 @@ const defsim_host defsim__host = {
     .option_is_set = option_is_set,
     .contact_active_dhat = contact_active_dhat,
     .matrix_values_projected = matrix_values_projected,
+    .forces_vjp = forces_vjp,
+    .mass_vjp = mass_vjp,
 };

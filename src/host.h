@@ -61,6 +61,8 @@ struct defsim_system {
     defsim__options *options; /* option values and counters by name */
     defsim__coupling *cpl;
     const double *x_start;    /* 3 nv: positions at the start of the world's step */
+    struct defsim__grad *grad;/* the parameter gradients of a backward pass under way (tape.c),
+                                 else NULL: the reverse-mode services refuse */
 };
 
 /* The host's force callback (defined in term_callback.c, with its term). Adds the callback's

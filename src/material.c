@@ -243,3 +243,25 @@ defsim_status defsim_material_eval(const defsim_material *material, const double
     }
     return DEFSIM_OK;
 }
+
+void defsim__model_dP_dlame(const defsim__model *m, double mu, double lambda, const double F[9],
+                            double Pmu[9], double Plambda[9])
+{
+    (void)mu;
+    (void)lambda;
+    if (m->dP_dlame) {
+        m->dP_dlame(mu, lambda, F, Pmu, Plambda);
+        return;
+    }
+    m->P(1.0, 0.0, F, Pmu);
+    m->P(0.0, 1.0, F, Plambda);
+}
+
+void defsim__lame_derivatives(double E, double nu, double d[4])
+{
+    const double q = (1.0 + nu) * (1.0 - 2.0 * nu);
+    d[0] = 1.0 / (2.0 * (1.0 + nu));
+    d[1] = -E / (2.0 * (1.0 + nu) * (1.0 + nu));
+    d[2] = nu / q;
+    d[3] = E * (1.0 + 2.0 * nu * nu) / (q * q);
+}

@@ -63,6 +63,10 @@ typedef struct defsim__model {
     /* Its isochoric / volumetric split, or NULL: StVK's lambda tr(E)^2 / 2 and co-rotated's
      * lambda tr(S - I)^2 / 2 are not functions of J, so they have none. */
     const defsim__model_split *split;
+    /* dP/dmu and dP/dlambda at F (gradients, docs/gradients.md); NULL: P is linear in
+     * (mu, lambda), so that they are P(1, 0, F) and P(0, 1, F) (defsim__model_dP_dlame). */
+    void (*dP_dlame)(double mu, double lambda, const double F[9], double Pmu[9],
+                     double Plambda[9]);
 } defsim__model;
 
 #define DEFSIM__DECLARE_MODEL(name) extern const defsim__model defsim__model_##name;
@@ -117,6 +121,12 @@ void defsim__model_dpdf_projected(const defsim__model *m, double mu, double lamb
  * clamp or abs) plus sd dPdF clamped (stiffness damping's share, always clamped). */
 void defsim__model_dpdf_scaled(const defsim__model *law, double mu, double la, const double F[9],
                                int proj, double sk, double sd, double D[81]);
+/* dP/dmu and dP/dlambda of model m at F (its dP_dlame, or P(1, 0, F) and P(0, 1, F)). */
+void defsim__model_dP_dlame(const defsim__model *m, double mu, double lambda, const double F[9],
+                            double Pmu[9], double Plambda[9]);
+
+/* The Lame parameters' derivatives: dmu/dE, dmu/dnu, dlambda/dE, dlambda/dnu into d[4]. */
+void defsim__lame_derivatives(double E, double nu, double d[4]);
 
 /* Validates a material for a body that has tets and/or springs. Returns DEFSIM_OK,
  * DEFSIM_ERR_INVALID_ARGUMENT (NULL, size smaller than sizeof(defsim_material)) or

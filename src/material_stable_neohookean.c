@@ -59,6 +59,27 @@ static double snh_P(double mu, double lambda, const double F[9], double P[9])
 
 DEFSIM__TET_FORCE_KERNEL(forces_snh, snh_P)
 
+/* dP/dmu and dP/dlambda through mu' = 4/3 mu, lambda' = lambda + 5/6 mu, alpha = 1 + mu/lambda':
+ * dalpha/dmu = 1/lambda' - 5/6 mu/lambda'^2, dalpha/dlambda = -mu/lambda'^2. */
+static void snh_dP_dlame(double mu, double lambda, const double F[9], double Pmu[9],
+                         double Plambda[9])
+{
+    double mp, lp, alpha, C[9];
+    snh_params(mu, lambda, &mp, &lp, &alpha);
+    defsim__m3_cofactor(F, C);
+    const double ic = defsim__m3_ddot(F, F);
+    const double d = DEFSIM__M3_DET_COF(F, C) - alpha;
+    const double c1 = 4.0 / 3.0 * (1.0 - 1.0 / (ic + 1.0));
+    const double da_mu = lp != 0.0 ? 1.0 / lp - 5.0 / 6.0 * mu / (lp * lp) : 0.0;
+    const double da_la = lp != 0.0 ? -mu / (lp * lp) : 0.0;
+    const double c2mu = 5.0 / 6.0 * d - lp * da_mu;
+    const double c2la = d - lp * da_la;
+    for (int i = 0; i < 9; ++i) {
+        Pmu[i] = c1 * F[i] + c2mu * C[i];
+        Plambda[i] = c2la * C[i];
+    }
+}
+
 /*
  * dP_ij/dF_kl = c1 d_ik d_jl + 2 mu'/(I_C+1)^2 F_ij F_kl + lambda' C_ij C_kl
  *             + lambda' (J - alpha) d2J/dF_ij dF_kl,
@@ -148,7 +169,7 @@ const defsim__model defsim__model_stable_neohookean = {
     .name = "stable_neohookean", .id = DEFSIM_MODEL_STABLE_NEOHOOKEAN,
     .pass = DEFSIM_PASS_STABLE_NEOHOOKEAN, .params = params, .psi = snh_psi,
     .psi_rest = snh_psi_rest, .P = snh_P, .dPdF = snh_dPdF, .sigma = snh_sigma,
-    .forces = forces_snh, .split = &split};
+    .forces = forces_snh, .split = &split, .dP_dlame = snh_dP_dlame};
 
 #else /* DEFSIM_ISA: the batched law */
 

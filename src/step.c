@@ -315,6 +315,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
     w->stats.steps++;
     w->stats.passes = w->step.passes;
     w->stats.time_step += defsim__now() - t0;
+    if (w->tape) w->tape->step(w->tape, h);   /* a recording (tape.c) takes the step */
     return DEFSIM_OK;
 }
 

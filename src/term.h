@@ -44,6 +44,7 @@ struct defsim__collider_set;
 struct defsim__contact;
 struct defsim__body_contact;
 struct defsim__messages;
+struct defsim__grad;
 
 /* Term kinds in list order (term_list.h). */
 #define DEFSIM__TERM_ENUM(name) DEFSIM__TERM_KIND_##name,
@@ -65,8 +66,11 @@ enum {
 /* Flags of a kind. */
 enum {
     DEFSIM__TERM_ELASTIC = 1u << 0,   /* its energy is elastic (defsim__elastic_energy) */
-    DEFSIM__TERM_BOUNDED = 1u << 1    /* the power iteration leaves it out: lambda_bound bounds
+    DEFSIM__TERM_BOUNDED = 1u << 1,   /* the power iteration leaves it out: lambda_bound bounds
                                          its share of the top eigenvalue */
+    DEFSIM__TERM_GRAD_OFF = 1u << 2   /* off (not in the list: its parameters are all zero), a
+                                         backward pass still calls its vjp, with gx and gv NULL,
+                                         for the gradients of those parameters (damping rates) */
 };
 
 /* A linearisation cache a kind may use (the system keeps one per kind, so its buffers outlive
@@ -244,6 +248,14 @@ typedef struct defsim__term_ops {
      * bytes it needs; load reads what save wrote (DEFSIM_ERR_INVALID_ARGUMENT if it cannot). */
     size_t (*save)(const defsim__term *t, unsigned char *buf, size_t cap);
     defsim_status (*load)(const defsim__term *t, const unsigned char *buf, size_t n);
+
+    /* Reverse mode (adjoint.h, docs/gradients.md): gx += (df/dx)^T w, gv += (df/dv)^T w of its
+     * forces at ev (the parts ev->which; gx or gv NULL: not wanted), over every DOF, pinned ones
+     * included (w is zero there); when g is not NULL, also w^T df/dp into g's parameter
+     * gradients. A kind with forces and without vjp cannot be differentiated (a recording
+     * refuses its scenes, naming it). */
+    defsim_status (*vjp)(const defsim__term *t, defsim__csys *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, struct defsim__grad *g);
 } defsim__term_ops;
 
 /* An ops table's usual groups of ops, for kind files that name their static functions after the

@@ -8,6 +8,7 @@
  * pins, the callback at an implicit step's start; coupling_set.h): the first of the coupling
  * set's kinds in the list, so its begin runs before contact's, which read the pins' velocities.
  */
+#include "adjoint.h"
 #include "assembly.h"
 #include "coupling_set.h"
 #include "element.h"
@@ -56,6 +57,48 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
                 for (int i = 0; i < 3; ++i) f[3 * (int64_t)nd[j] + i] -= a[j] * (k * d[i] + c * w[i]);
     }
     *used |= DEFSIM_PASS_ATTACHMENTS;
+    return DEFSIM_OK;
+}
+
+/* Reverse mode: with W = sum_j a_j w_j, w . f = -(k d + c u) . W (u = sum_l a_l v_l), so
+ * node l gets -k a_l W in x and -c a_l W in v; k gets -d . W, c -u . W, a world target p
+ * (every target node unused) k W. */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    const defsim__attachments *at = t->model;
+    const int elastic = (ev->which & DEFSIM_FORCE_ELASTIC) != 0;
+    const int damping = (ev->which & DEFSIM_FORCE_DAMPING) && ev->v;
+    if (!elastic && !damping) return DEFSIM_OK;
+    const int damped = damping && s->has_attachment_damping;
+    for (int32_t e = 0; e < at->n; ++e) {
+        const int32_t *nd = at->node + DEFSIM__ATTACH_NODES * (int64_t)e;
+        const double *a = at->a + DEFSIM__ATTACH_NODES * (int64_t)e;
+        double W[3];
+        attach_combine(at, e, w, 0, W);
+        int point = 1;
+        for (int j = 1; j < DEFSIM__ATTACH_NODES; ++j) point &= nd[j] < 0;
+        for (int j = 0; j < DEFSIM__ATTACH_NODES; ++j) {
+            if (nd[j] < 0) continue;
+            for (int i = 0; i < 3; ++i) {
+                if (elastic && gx) gx[3 * (int64_t)nd[j] + i] -= at->k[e] * a[j] * W[i];
+                if (damped && gv) gv[3 * (int64_t)nd[j] + i] -= at->c[e] * a[j] * W[i];
+            }
+        }
+        if (!g) continue;
+        if (elastic) {
+            double d[3];
+            attach_combine(at, e, ev->x, 1, d);
+            g->att_k[e] -= d[0] * W[0] + d[1] * W[1] + d[2] * W[2];
+            if (point)
+                for (int i = 0; i < 3; ++i) g->att_p[3 * (int64_t)e + i] += at->k[e] * W[i];
+        }
+        if (damping) {
+            double u[3];
+            attach_combine(at, e, ev->v, 0, u);
+            g->att_c[e] -= u[0] * W[0] + u[1] * W[1] + u[2] * W[2];
+        }
+    }
     return DEFSIM_OK;
 }
 
@@ -180,4 +223,5 @@ static defsim_status finish(defsim__system *s, const defsim__step_ctx *c, defsim
 const defsim__term_ops defsim__term_attach = {
     .name = "attach", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 2, .matrix_rank = 2,
     DEFSIM__TERM_FORCES, .pairs = pairs, .ranks = ranks, DEFSIM__TERM_MATRIX, .rates = rates,
-    .begin = begin, .restart = restart, .before = before, .after = after, .finish = finish};
+    .begin = begin, .restart = restart, .before = before, .after = after, .finish = finish,
+    .vjp = vjp};

@@ -8,6 +8,7 @@
  * colour, so each colour scatters in parallel without atomics, bit-identical for any thread
  * count.
  */
+#include "adjoint.h"
 #include "assembly.h"
 #include "element.h"
 #include "energy.h"
@@ -103,7 +104,39 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
 
 DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)
 
+/* Reverse mode: f_e = -vol P(F) Dm^-T scattered, so w . f_e = -vol P : dF(w) with
+ * dF(w) = sum_a w_a g_a^T; its x-derivative is -K w with the exact (unprojected) dP/dF, its
+ * (mu, lambda)-derivatives -vol dP/dmu : dF(w) and -vol dP/dlambda : dF(w). */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    (void)s;
+    (void)gv;
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    const defsim__group *gr = group(t);
+    for (int32_t e = 0; e < gr->n; ++e) {
+        const int32_t *id = gr->idx + 4 * (int64_t)e;
+        const double *dm = gr->dminv + 9 * (int64_t)e;
+        double F[9], dFw[9];
+        tet_deformation(ev->x, id, dm, F);
+        tet_deformation(w, id, dm, dFw);
+        if (gx) {
+            double D[81], dP[9];
+            gr->law->dPdF(gr->mu[e], gr->lambda[e], F, D);
+            apply_dpdf(D, dFw, dP);
+            tet_scatter(gx, id, dm, dP, -gr->vol[e]);
+        }
+        if (g && (g->want & DEFSIM__WANT_LAME)) {
+            double Pmu[9], Pla[9];
+            defsim__model_dP_dlame(gr->law, gr->mu[e], gr->lambda[e], F, Pmu, Pla);
+            g->mu[t->index][e] -= gr->vol[e] * defsim__m3_ddot(Pmu, dFw);
+            g->lambda[t->index][e] -= gr->vol[e] * defsim__m3_ddot(Pla, dFw);
+        }
+    }
+    return DEFSIM_OK;
+}
+
 const defsim__term_ops defsim__term_elastic = {
     .name = "elastic", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 0, .matrix_rank = 0,
     DEFSIM__TERM_FORCES, DEFSIM__TERM_MATRIX,
-    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks};
+    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks, .vjp = vjp};

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Gravity: forces m_i g, energy -sum m_i g . x_i. */
+#include "adjoint.h"
 #include "system.h"
 #include "term_cache.h"
 
@@ -36,5 +37,20 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
     return DEFSIM_OK;
 }
 
+/* Reverse mode: m_i g does not depend on x or v; its mass-derivative is g. */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    (void)t;
+    (void)gx;
+    (void)gv;
+    if (!(ev->which & DEFSIM_FORCE_GRAVITY) || !g) return DEFSIM_OK;
+    const double *gr = s->gravity;
+    for (int32_t i = 0; i < s->nv; ++i)
+        g->mass[i] += gr[0] * w[3 * (int64_t)i] + gr[1] * w[3 * (int64_t)i + 1] +
+                      gr[2] * w[3 * (int64_t)i + 2];
+    return DEFSIM_OK;
+}
+
 const defsim__term_ops defsim__term_gravity = {
-    .name = "gravity", .energy_rank = 3, DEFSIM__TERM_FORCES};
+    .name = "gravity", .energy_rank = 3, DEFSIM__TERM_FORCES, .vjp = vjp};

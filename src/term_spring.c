@@ -5,6 +5,7 @@
  * B (the springs' stiffness damping B shares the element matrix) and products element by
  * element. Springs are sorted by colour like tets (conflict-free parallel scatter).
  */
+#include "adjoint.h"
 #include "assembly.h"
 #include "energy.h"
 #include "material.h"
@@ -87,7 +88,34 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
 
 DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)
 
+/* Reverse mode: f_a = -f_b with d(f_a)/dx_a = -Kb (exact block, unprojected), so
+ * (df/dx)^T w adds -Kb (w_a - w_b) at a and the opposite at b. The springs' stiffness is no
+ * parameter of the gradients (yet): nothing goes into g. */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    (void)s;
+    (void)gv;
+    (void)g;
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC) || !gx) return DEFSIM_OK;
+    const defsim__group *gr = group(t);
+    for (int32_t e = 0; e < gr->n; ++e) {
+        const int32_t a = gr->idx[2 * (int64_t)e], b = gr->idx[2 * (int64_t)e + 1];
+        double Kb[9];
+        defsim__model_spring.block(ev->x + 3 * (int64_t)a, ev->x + 3 * (int64_t)b, gr->k[e],
+                                   gr->l0[e], DEFSIM_PROJECTION_NONE, Kb);
+        const double *wa = w + 3 * (int64_t)a, *wb = w + 3 * (int64_t)b;
+        const double dw[3] = {wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]};
+        for (int i = 0; i < 3; ++i) {
+            const double r = Kb[3 * i] * dw[0] + Kb[3 * i + 1] * dw[1] + Kb[3 * i + 2] * dw[2];
+            gx[3 * (int64_t)a + i] -= r;
+            gx[3 * (int64_t)b + i] += r;
+        }
+    }
+    return DEFSIM_OK;
+}
+
 const defsim__term_ops defsim__term_spring = {
     .name = "spring", .flags = DEFSIM__TERM_ELASTIC, .energy_rank = 1, .matrix_rank = 1,
     DEFSIM__TERM_FORCES, DEFSIM__TERM_MATRIX,
-    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks};
+    .pairs = defsim__group_pairs, .ranks = defsim__group_ranks, .vjp = vjp};

@@ -263,6 +263,7 @@ defsim_status defsim__world_plan(defsim_world *w)
     w->contact.omega_elastic = 0.0;
     w->contact.surf_planned = 0;
     w->planned = 1;
+    w->plan_serial++;
     return DEFSIM_OK;
 }
 
@@ -270,6 +271,7 @@ void defsim_world_destroy(defsim_world *w)
 {
     if (!w || !defsim__world_live(w)) return;
     if (defsim__world_check_unlocked(w) != DEFSIM_OK) return;   /* the caller is inside it */
+    if (w->tape) w->tape->world = NULL;
     backend_fini(w);
     defsim__world_unplan(w);
     defsim__watchdog_free(&w->wd);

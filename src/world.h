@@ -60,6 +60,14 @@ typedef struct defsim__step_state {
     int body_contact_last;    /* the last step had body contact on */
 } defsim__step_state;
 
+/* A recording of the world's steps (tape.c) as the world sees it: the tape begins with this,
+ * the world calls `step` after each successful step and clears `world` when it is destroyed
+ * (through the pointer, so that the world's files call nothing of the tape's). */
+typedef struct defsim__tape_link {
+    struct defsim_world *world;
+    void (*step)(struct defsim__tape_link *link, double h);
+} defsim__tape_link;
+
 struct defsim_world {
     uint32_t magic;           /* DEFSIM__WORLD_MAGIC while the world lives */
     defsim_world_def def;
@@ -85,6 +93,8 @@ struct defsim_world {
     defsim__watchdog wd;      /* the stability watchdog's reference (watchdog.c) */
     defsim__contact contact;  /* contact.h: pairs and parameters of the step under way */
     defsim__body_contact body_contact;  /* body_contact.h: surfaces (per plan) and pairs */
+    uint64_t plan_serial;     /* counts the plans (a recording follows one) */
+    defsim__tape_link *tape;  /* the recording under way, or NULL */
 };
 
 /* Plans the world if it is not planned (a cache of the bodies, not a change of state).

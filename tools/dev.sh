@@ -51,16 +51,17 @@ deps() {
 
 # A virtual environment with what the Python binding's tests need (numpy, cffi, pytest, and the
 # sweep extras of pyproject.toml: dask[distributed], pandas, pyarrow, matplotlib, tqdm), and
-# meshio for the io extra, the examples and test_vtu_readers (frames read by another reader).
+# meshio for the io extra, the examples and test_vtu_readers (frames read by another reader), and
+# scipy for the identification example (example_python_identify_cantilever, docs/gradients.md).
 # Without network access the Python tests are left out (CMake says so) and the rest runs.
 pyenv() {
     local venv=$build/pyenv
-    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm, meshio"
+    local imports="numpy, cffi, pytest, distributed, pandas, pyarrow, matplotlib, tqdm, meshio, scipy"
     if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import $imports" 2>/dev/null; then
         mkdir -p "$build"
         [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || true
         "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy cffi pytest \
-            "dask[distributed]" pandas pyarrow matplotlib tqdm meshio || echo "== pip failed"
+            "dask[distributed]" pandas pyarrow matplotlib tqdm meshio scipy || echo "== pip failed"
         # Without the sweep extras the binding's own tests still run (CMake says what it skipped).
         "$venv/bin/python" -c "import numpy, cffi, pytest" 2>/dev/null ||
             { echo "== no Python test environment"; return 0; }

@@ -163,6 +163,8 @@ typedef struct ic_solver {
     double *dpin, *fpd;        /* driven pins: x_p - z_p, and -B(x_b) (x_p - z_p) on free DOFs */
     int fpd_on;                /* this step's g has the pins' damping cross term */
     defsim__chol ch;           /* A wraps pat and hval */
+    double *adj;               /* the adjoint step's workspace (ic_adjoint), made on first use */
+    int64_t adj_nnz;           /* the pattern's nnz it was made for */
 } ic_solver;
 
 static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
@@ -173,7 +175,7 @@ static void ic_fini(const defsim_host *host, defsim_system *sys, void *state)
     defsim__chol_finish(&s->ch);
     defsim__ic_solver *p = &s->pub;
     double *owned[] = {s->hval, p->bval, p->x0, p->v0, p->y, p->z, s->x, s->xt, p->f,
-                       s->grad, s->dx, p->e, p->be, s->dpin, s->fpd, s->dxf};
+                       s->grad, s->dx, p->e, p->be, s->dpin, s->fpd, s->dxf, s->adj};
     for (size_t k = 0; k < sizeof owned / sizeof *owned; ++k) host->release(owned[k]);
     for (int k = 0; k < DEFSIM__IC_MAX_WORK; ++k) host->release(p->work[k]);
     host->release(s);
@@ -1002,6 +1004,262 @@ static defsim_status ic_step(const defsim_host *host, defsim_system *sys, void *
     return DEFSIM_OK;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* The adjoint step (docs/gradients.md). A converged step x1 solves
+ *
+ *   r(x1) = c_m M (x1 - y)/h^2 - f_EG(x1) - f_D(z, v1) = 0,   v1 = c_d (x1 - z)/h,
+ *
+ * on the free DOFs (f_EG: elastic and gravity; f_D = -(alpha M + B(z)) v: damping with B frozen
+ * at z, as g's damping term has it), with z = x0 + a_z h v0 and y = x0 + h v0 + a_a h^2 a0,
+ * M a0 = f_EG(x0) + f_D(z, v0) (the scheme's adjoint_z, adjoint_a: backward Euler 0, 0 with
+ * c_m = c_d = 1; Newmark 1/2, 1/4 with c_m = 4, c_d = 2). By the implicit function theorem, with
+ * J = dr/dx1 = c_m M/h^2 + K(x1) + c_d (alpha M + B(z))/h (symmetric; K the exact Hessian, never
+ * the projected one) and lambda = J^-1 (ax1 + c_d av1/h), dL/dp = -lambda^T dr/dp: the adjoints
+ * of y and z are ay = c_m M lambda/h^2 and az = (df_D/dx)^T lambda - c_d/h ((df_D/dv)^T lambda
+ * + av1), a0's (a_a h^2 ay) goes through the forces at x0 and (z, v0), and x0 and v0 collect
+ * them through y and z; the masses' through the inertia terms, -lambda_i c_m (x1 - y)_i/h^2
+ * and -a_a h^2 ay_i a0_i/m_i; the forces' parameter terms come through forces_vjp. J is factored
+ * once per step with the Newton loop's symbolic analysis: exactly when it is positive definite
+ * (the solve is then exact, refined once); where the exact K makes it indefinite, the clamped
+ * matrix is factored instead and serves as the preconditioner of GMRES on the exact J. */
+
+#define IC_ADJ_RESTART 20
+#define IC_ADJ_MAX_ITERATIONS 400
+#define IC_ADJ_TOL 1e-13
+
+/* out = P^-1 in with the factor in ch.L (free-DOF vectors). */
+static int adj_precond(ic_solver *s, const double *in, double *out)
+{
+    const int64_t n = s->pub.n;
+    memcpy(s->ch.rhs->x, in, (size_t)n * sizeof *in);
+    if (!cholmod_l_solve2(CHOLMOD_A, s->ch.L, s->ch.rhs, NULL, &s->ch.sol, NULL, &s->ch.ywork,
+                          &s->ch.ework, &s->ch.cc))
+        return 0;
+    memcpy(out, s->ch.sol->x, (size_t)n * sizeof *out);
+    return 1;
+}
+
+static double adj_dot(const double *a, const double *b, int64_t n)
+{
+    double d = 0.0;
+    for (int64_t i = 0; i < n; ++i) d += a[i] * b[i];
+    return d;
+}
+
+/* Right-preconditioned restarted GMRES on J x = b (J: the upper-stored aval; P: the factor),
+ * from x = 0. Returns the relative residual reached. */
+static double adj_gmres(ic_solver *s, const double *aval, const double *b, double *x, double *r,
+                        double *V, double *Z, int *ok)
+{
+    const int64_t n = s->pub.n;
+    const int m = IC_ADJ_RESTART;
+    double H[IC_ADJ_RESTART + 1][IC_ADJ_RESTART], cs[IC_ADJ_RESTART], sn[IC_ADJ_RESTART],
+        gg[IC_ADJ_RESTART + 1], y[IC_ADJ_RESTART];
+    memset(x, 0, (size_t)n * sizeof *x);
+    const double bn = sqrt(adj_dot(b, b, n));
+    *ok = 1;
+    if (bn == 0.0) return 0.0;
+    memcpy(r, b, (size_t)n * sizeof *r);
+    double rel = 1.0;
+    for (int it = 0; it < IC_ADJ_MAX_ITERATIONS && rel > IC_ADJ_TOL;) {
+        const double beta = sqrt(adj_dot(r, r, n));
+        for (int64_t i = 0; i < n; ++i) V[i] = r[i] / beta;
+        memset(gg, 0, sizeof gg);
+        gg[0] = beta;
+        int j = 0;
+        for (; j < m && it < IC_ADJ_MAX_ITERATIONS; ++j, ++it) {
+            double *z = Z + n * j, *wv = V + n * (j + 1);
+            if (!adj_precond(s, V + n * j, z)) {
+                *ok = 0;
+                return INFINITY;
+            }
+            sym_upper_product(s, aval, z, wv);
+            for (int i = 0; i <= j; ++i) {
+                H[i][j] = adj_dot(wv, V + n * i, n);
+                for (int64_t q = 0; q < n; ++q) wv[q] -= H[i][j] * V[n * i + q];
+            }
+            H[j + 1][j] = sqrt(adj_dot(wv, wv, n));
+            if (H[j + 1][j] > 0.0)
+                for (int64_t q = 0; q < n; ++q) wv[q] /= H[j + 1][j];
+            for (int i = 0; i < j; ++i) {
+                const double t = cs[i] * H[i][j] + sn[i] * H[i + 1][j];
+                H[i + 1][j] = -sn[i] * H[i][j] + cs[i] * H[i + 1][j];
+                H[i][j] = t;
+            }
+            const double d = hypot(H[j][j], H[j + 1][j]);
+            cs[j] = d > 0.0 ? H[j][j] / d : 1.0;
+            sn[j] = d > 0.0 ? H[j + 1][j] / d : 0.0;
+            H[j][j] = d;
+            H[j + 1][j] = 0.0;
+            gg[j + 1] = -sn[j] * gg[j];
+            gg[j] = cs[j] * gg[j];
+            if (fabs(gg[j + 1]) <= IC_ADJ_TOL * bn) {
+                ++j;
+                ++it;
+                break;
+            }
+        }
+        for (int i = j - 1; i >= 0; --i) {
+            double t = gg[i];
+            for (int q = i + 1; q < j; ++q) t -= H[i][q] * y[q];
+            y[i] = H[i][i] != 0.0 ? t / H[i][i] : 0.0;
+        }
+        for (int i = 0; i < j; ++i)
+            for (int64_t q = 0; q < n; ++q) x[q] += y[i] * Z[n * i + q];
+        sym_upper_product(s, aval, x, r);
+        for (int64_t q = 0; q < n; ++q) r[q] = b[q] - r[q];
+        rel = sqrt(adj_dot(r, r, n)) / bn;
+    }
+    return rel;
+}
+
+/* Numeric factorisation of hval into ch.L: 1 if it is positive definite. */
+static int adj_factor(ic_solver *s, const defsim_host *host, defsim_system *sys)
+{
+    (void)host;
+    (void)sys;
+    cholmod_l_factorize(&s->ch.A, s->ch.L, &s->ch.cc);
+    return s->ch.cc.status == CHOLMOD_OK && ldl_positive(s->ch.L);
+}
+
+static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, void *state,
+                                double h, const defsim_adjoint_step *a)
+{
+    ic_solver *s = *(ic_solver **)state;
+    defsim__ic_solver *p = &s->pub;
+    const int64_t nd = p->ndof, n = p->n;
+    if (n == 0) {
+        for (int64_t i = 0; i < nd; ++i) {
+            a->ax0[i] = a->ax1[i];
+            a->av0[i] = 0.0;
+        }
+        return DEFSIM_OK;
+    }
+    defsim_status st = sync_pattern(s, host, sys);
+    if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
+    const int m = IC_ADJ_RESTART;
+    if (!s->adj || s->adj_nnz != s->pat.nnz) {
+        host->release(s->adj);
+        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 9 * nd);
+        if (!s->adj) return fail(s, host, sys, DEFSIM_ERR_OUT_OF_MEMORY, "adjoint: out of memory");
+        s->adj_nnz = s->pat.nnz;
+    }
+    double *aval = s->adj, *rhs = aval + s->pat.nnz, *lam = rhs + n, *r = lam + n, *tmp = r + n,
+           *V = tmp + n, *Z = V + (int64_t)(m + 1) * n, *lf = Z + (int64_t)m * n, *gx1 = lf + nd,
+           *gxn = gx1 + nd, *gv = gxn + nd, *mw = gv + nd, *gx0 = mw + nd, *gxz = gx0 + nd,
+           *gvz = gxz + nd, *u = gvz + nd;
+    const size_t bytes = (size_t)nd * sizeof(double);
+    memcpy(p->x0, a->x0, bytes);
+    memcpy(p->v0, a->v0, bytes);
+    p->pin_vel = NULL;
+    defsim__ic_targets stp = {0};
+    st = p->scheme->prepare(p, host, sys, h, &stp);   /* y, z = x0, B(x0) */
+    if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: the damping matrix failed");
+    const defsim_matrix_coeffs c = {1.0, 0.0, stp.cm / (h * h), stp.cd / h};
+    st = host->matrix_values_projected(sys, a->x1, &c, DEFSIM_TRIANGLE_UPPER,
+                                       DEFSIM_PROJECTION_NONE, aval);
+    if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: Hessian assembly failed");
+    if (p->bval)
+        for (int64_t q = 0; q < s->pat.nnz; ++q) aval[q] += stp.cd * p->bval[q] / h;
+    memcpy(s->hval, aval, (size_t)s->pat.nnz * sizeof *aval);
+
+    int threads = host->num_threads(sys);
+#ifdef _OPENMP
+    if (omp_in_parallel()) threads = 1;
+#endif
+    blas_enter(s->ch.cc.fl < IC_BLAS_SERIAL_FLOPS ? 1 : threads);
+    const omp_saved omp = omp_limit(threads);
+    int exact = adj_factor(s, host, sys);
+    if (!exact && s->ch.cc.status >= CHOLMOD_OK) {
+        /* indefinite: the clamped matrix preconditions GMRES on the exact one */
+        st = hessian(s, &stp, host, sys, a->x1, h, 1);
+        if (st == DEFSIM_OK && !adj_factor(s, host, sys)) st = DEFSIM_ERR_NOT_CONVERGED;
+    } else if (!exact) {
+        st = DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    double rel = 0.0;
+    int ok = 1;
+    if (st == DEFSIM_OK) {
+        for (int64_t k = 0; k < n; ++k) {
+            const int64_t i = p->fdof[k];
+            rhs[k] = a->ax1[i] + stp.cd * a->av1[i] / h;
+        }
+        if (exact) {
+            /* the solve and one step of iterative refinement */
+            ok = adj_precond(s, rhs, lam);
+            if (ok) {
+                sym_upper_product(s, aval, lam, r);
+                for (int64_t k = 0; k < n; ++k) r[k] = rhs[k] - r[k];
+                ok = adj_precond(s, r, tmp);
+                for (int64_t k = 0; ok && k < n; ++k) lam[k] += tmp[k];
+            }
+        } else {
+            rel = adj_gmres(s, aval, rhs, lam, r, V, Z, &ok);
+        }
+    }
+    omp_restore(omp);
+    blas_leave();
+    if (st != DEFSIM_OK || !ok)
+        return fail(s, host, sys, st != DEFSIM_OK ? st : DEFSIM_ERR_OUT_OF_MEMORY,
+                    st == DEFSIM_ERR_NOT_CONVERGED ? "adjoint: the clamped matrix is not positive "
+                                                     "definite"
+                                                   : "adjoint: CHOLMOD failed (out of memory)");
+    if (!(rel <= 1e-8)) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "adjoint: GMRES on the exact Hessian reached only %.3g relative "
+                                  "residual", rel);
+        return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED, msg);
+    }
+
+    memset(lf, 0, bytes);
+    for (int64_t k = 0; k < n; ++k) lf[p->fdof[k]] = lam[k];
+    memset(gx1, 0, bytes);
+    memset(gxn, 0, bytes);
+    memset(gv, 0, bytes);
+    /* the residual's forces: f_EG at x1, the damping at (z, v1) */
+    const uint32_t EG = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
+    st = host->forces_vjp(sys, a->x1, NULL, EG, lf, gx1, NULL, 1);
+    if (st == DEFSIM_OK)
+        st = host->forces_vjp(sys, stp.z, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
+    if (st != DEFSIM_OK) return st;
+    const double ih2 = stp.cm / (h * h), ih = stp.cd / h, ca = p->scheme->adjoint_a * h * h,
+                 cz = p->scheme->adjoint_z * h;
+    /* a0's adjoint: u = a_a h^2 ay / m through the forces at x0 and (z, v0) */
+    memset(gx0, 0, bytes);
+    memset(gxz, 0, bytes);
+    memset(gvz, 0, bytes);
+    if (ca != 0.0) {
+        for (int64_t i = 0; i < nd; ++i) {
+            const int64_t k = s->dof_free[i];
+            u[i] = k >= 0 ? ca * ih2 * lam[k] : 0.0;   /* ca ay_i / m_i */
+        }
+        st = host->forces_vjp(sys, a->x0, NULL, EG, u, gx0, NULL, 1);
+        if (st == DEFSIM_OK)
+            st = host->forces_vjp(sys, stp.z, a->v0, DEFSIM_FORCE_DAMPING, u, gxz, gvz, 1);
+        if (st != DEFSIM_OK) return st;
+    }
+    for (int64_t i = 0; i < nd; ++i) {
+        const int64_t k = s->dof_free[i];
+        if (k < 0) {
+            a->ax0[i] = a->ax1[i] + gx1[i] + gxn[i] + gx0[i] + gxz[i];
+            a->av0[i] = 0.0;
+            mw[i] = 0.0;
+            continue;
+        }
+        const double l = lam[k], ay = p->mass[i] * l * ih2;
+        const double az = gxn[i] - ih * (gv[i] + a->av1[i]) + gxz[i];
+        a->ax0[i] = ay + az + gx0[i];
+        a->av0[i] = h * ay + cz * az + gvz[i];
+        mw[i] = -l * (a->x1[i] - stp.y[i]) * ih2;
+        if (ca != 0.0) {
+            const double a0 = (stp.y[i] - p->x0[i] - h * p->v0[i]) / ca;
+            mw[i] -= ca * ay * a0 / p->mass[i];
+        }
+    }
+    host->mass_vjp(sys, mw);
+    return DEFSIM_OK;
+}
+
 /* The module's table and counters, filled from its scheme by the entry point (once, under the
  * registry's lock; the registry copies the table). */
 static defsim_backend ic_backend;
@@ -1037,6 +1295,10 @@ __attribute__((visibility("default"))) defsim_status defsim_module_init(
         .option_count = OPT_COUNT,
         .counters = ic_counters,
         .counter_count = DEFSIM__IC_COUNTERS + scheme->counter_count,
+        .adjoint_step = scheme->differentiable && host->size >= offsetof(defsim_host, mass_vjp) +
+                                                                    sizeof host->mass_vjp
+                            ? ic_adjoint
+                            : NULL,
     };
     *out = &ic_backend;
     return DEFSIM_OK;

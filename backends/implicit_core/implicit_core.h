@@ -46,6 +46,12 @@ typedef struct defsim__ic_scheme {
     /* The scheme's own counters, after the core's (DEFSIM__IC_COUNTERS of them). */
     const defsim_counter_spec *counters;
     int32_t counter_count;
+    /* The core's adjoint step serves the scheme (docs/gradients.md) when it keeps no history
+     * and its targets are z = x0 + adjoint_z h v0 and y = x0 + h v0 + adjoint_a h^2 a0 with
+     * M a0 = f_EG(x0) + f_D(z, v0) on the free DOFs (backward Euler: 0, 0; Newmark: 1/2, 1/4),
+     * B frozen at z. 0: the backend is not differentiable. */
+    int differentiable;
+    double adjoint_z, adjoint_a;
 } defsim__ic_scheme;
 
 /* The core's counters ("<backend>.<name>": shifted_factorisations, contact_stops,

@@ -57,4 +57,5 @@ static defsim_status nm_prepare(defsim__ic_solver *s, const defsim_host *host,
 const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE | DEFSIM_BACKEND_CONTACT_CCD,
     .work_vectors = 2,
-    .prepare = nm_prepare};
+    .prepare = nm_prepare,
+    .differentiable = 1, .adjoint_z = 0.5, .adjoint_a = 0.25};

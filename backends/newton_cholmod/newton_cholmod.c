@@ -25,4 +25,5 @@ static defsim_status be_prepare(defsim__ic_solver *s, const defsim_host *host,
 const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "newton_cholmod", .flags = DEFSIM_BACKEND_DISSIPATIVE | DEFSIM_BACKEND_CONTACT_CCD,
     .work_vectors = 0,
-    .prepare = be_prepare};
+    .prepare = be_prepare,
+    .differentiable = 1};

@@ -12,6 +12,12 @@ static defsim_status se_step(const defsim_host *host, defsim_system *sys, void *
 /* For x'' = -omega^2 x - c x' the step matrix has determinant 1 - h c and trace
  * 2 - h c - h^2 omega^2; both roots lie in the unit disc iff h c <= 2 and
  * h^2 omega^2 + 2 h c <= 4. */
+static defsim_status se_adjoint_step(const defsim_host *host, defsim_system *sys, void *state,
+                                     double h, const defsim_adjoint_step *a)
+{
+    return euler_adjoint_step(host, sys, state, h, a, 1);
+}
+
 static double se_stable_step(double omega, double c)
 {
     if (!(omega > 0.0)) return c > 0.0 ? 2.0 / c : 1e300;
@@ -20,4 +26,5 @@ static double se_stable_step(double omega, double c)
 }
 
 const defsim_backend defsim__symplectic_euler_backend =
-    EULER_BACKEND("symplectic_euler", DEFSIM_BACKEND_CONSERVATIVE, se_step, se_stable_step);
+    EULER_BACKEND("symplectic_euler", DEFSIM_BACKEND_CONSERVATIVE, se_step, se_stable_step,
+                  se_adjoint_step);

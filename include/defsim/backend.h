@@ -299,7 +299,41 @@ typedef struct defsim_host {
                                              const defsim_matrix_coeffs *c,
                                              defsim_triangle triangle, int32_t projection,
                                              double *values);
+
+    /* Appended after ABI 8 (check host->size): reverse mode (gradients, docs/gradients.md) */
+
+    /// Vector-Jacobian products of the forces at (x, v), the parts `which` (DEFSIM_FORCE_*):
+    /// gx += (df/dx)^T w and gv += (df/dv)^T w (dof_count doubles each; either may be NULL when
+    /// not wanted; v may be NULL without DEFSIM_FORCE_DAMPING). w's entries at pinned DOFs are
+    /// ignored (their forces are zero); gx and gv receive entries at every DOF, pinned ones
+    /// included (a pinned vertex's position enters its neighbours' forces). With `accumulate`
+    /// set, w^T df/dp is also added into the gradients of the recording under way (materials,
+    /// masses, damping). Called only from a backend's adjoint_step: DEFSIM_ERR_INVALID_ARGUMENT
+    /// outside one. Returns DEFSIM_OK, DEFSIM_ERR_UNSTABLE (a non-finite value).
+    defsim_status (*forces_vjp)(defsim_system *sys, const double *x, const double *v,
+                                uint32_t which, const double *w, double *gx, double *gv,
+                                int32_t accumulate);
+    /// Adds sum_i mw_i dm_i/dp (m_i: the lumped mass of DOF i, dof_count doubles) into the
+    /// gradients of the recording under way: how a step's outcome depends on the masses
+    /// beyond the forces (inertia). No-op outside a backend's adjoint_step.
+    void (*mass_vjp)(defsim_system *sys, const double *mw);
 } defsim_host;
+
+/// One step's reverse mode (defsim_backend.adjoint_step): the step went from (x0, v0) to
+/// (x1, v1) with step h; given the adjoints ax1 = dL/dx1 and av1 = dL/dv1 of some loss L, the
+/// op writes ax0 = dL/dx0 and av0 = dL/dv0 through this step (all dof_count doubles, owned by
+/// the core, valid during the call) and adds what the step's parameters contribute through
+/// the host's forces_vjp and mass_vjp with `accumulate` set.
+typedef struct defsim_adjoint_step {
+    const double *x0;                  ///< Positions at the step's start.
+    const double *v0;                  ///< Velocities at the step's start.
+    const double *x1;                  ///< Positions at the step's end.
+    const double *v1;                  ///< Velocities at the step's end.
+    const double *ax1;                 ///< dL/dx1.
+    const double *av1;                 ///< dL/dv1.
+    double *ax0;                       ///< Out: dL/dx0.
+    double *av0;                       ///< Out: dL/dv0.
+} defsim_adjoint_step;
 
 /// Capability flags of a backend.
 enum {
@@ -404,6 +438,17 @@ typedef struct defsim_backend {
     /// calls fini and fails the load. Required when save_state is present.
     defsim_status (*load_state)(const defsim_host *host, defsim_system *sys, void *state,
                                 const defsim_state_reader *reader);
+
+    /* Appended after ABI 8 (a table with a smaller struct_size has none of these). */
+
+    /// Optional (NULL: the backend is not differentiable, and defsim_world_record refuses its
+    /// worlds with DEFSIM_ERR_UNSUPPORTED): the reverse mode of one step (defsim_adjoint_step),
+    /// called between steps, after a successful init, with the bodies, pins and options of
+    /// the recorded steps. Exact for a converged step (docs/gradients.md). Must not change the
+    /// world's state; may use the backend's workspaces. Returns DEFSIM_OK or an error status
+    /// with the world's error set.
+    defsim_status (*adjoint_step)(const defsim_host *host, defsim_system *sys, void *state,
+                                  double h, const defsim_adjoint_step *a);
 } defsim_backend;
 
 /// Registers a backend for all worlds created after the call. The table (and its options and

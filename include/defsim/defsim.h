@@ -1146,6 +1146,109 @@ DEFSIM_API defsim_status defsim_world_get_attachment(const defsim_world *world,
                                                      defsim_attachment_id attachment,
                                                      defsim_attachment_def *out);
 
+/* ------------------------------------------------------------------------------------------ */
+/* Gradients through a run (issue 25, docs/gradients.md): a recording (tape) of the steps a    */
+/* host takes, and one backward pass that turns the gradient of a loss with respect to the     */
+/* recorded states into gradients with respect to the initial state and the materials.         */
+
+/// A recording of a world's steps. Opaque; made by defsim_world_record, freed by
+/// defsim_tape_destroy.
+typedef struct defsim_tape defsim_tape;
+
+/// How a recording keeps its states (defsim_tape_def_init fills the defaults).
+typedef struct defsim_tape_def {
+    uint32_t size;                 ///< sizeof(defsim_tape_def).
+    /// Store the state of every interval-th step and recompute the ones between in the
+    /// backward pass (k >= 1; 1: store every state, nothing is recomputed). 0 (the default):
+    /// automatic, every state while the stored states fit in max_bytes, then every 2nd, 4th,
+    /// ... (the stored states thinned, so that memory stays within max_bytes).
+    int32_t interval;
+    /// The automatic interval's memory budget for stored states (bytes, > 0; default 256 MiB).
+    int64_t max_bytes;
+} defsim_tape_def;
+
+/// What a recording holds and what its last backward pass cost.
+typedef struct defsim_tape_stats {
+    uint32_t size;                 ///< sizeof(defsim_tape_stats).
+    int64_t steps;                 ///< Recorded steps N (states 0 .. N).
+    int64_t stored_states;         ///< States the tape stores (checkpoints, with the last).
+    int32_t interval;              ///< The interval k in effect.
+    int64_t bytes;                 ///< Memory the tape holds now (bytes).
+    int64_t backward_bytes;        ///< Peak memory of the last backward pass beyond that.
+    int64_t recomputed_steps;      ///< Steps the last backward pass ran again.
+    double time_forward;           ///< Wall time of the recorded steps (s).
+    double time_backward;          ///< Wall time of the last backward pass (s), recomputation
+                                   ///< included.
+    double time_recompute;         ///< Of which recomputation (s).
+} defsim_tape_stats;
+
+/// One gradient that defsim_tape_backward fills: `name` (static or the host's, read during the
+/// call) is one of "initial_positions", "initial_velocities" (count = 3 * vertex count, in the
+/// world's vertex order), "youngs_modulus", "poisson_ratio", "density", "mass_damping",
+/// "stiffness_damping" (count = body count, bodies in vertex order: dL/d of that body's
+/// material field), "external_forces" (count = N * 3 * vertex count: for each recorded step
+/// j = 0 .. N - 1, dL/df_j of the held external forces of that step, defsim_world_set_external_forces,
+/// also where they were zero: the controls), "attachment_stiffness", "attachment_damping"
+/// (count = attachment count, in defsim_world_attachment_at's order), "attachment_targets"
+/// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
+/// defsim_attachment_set_target held during step j; 0 for body targets); out (count doubles,
+/// the host's) receives it.
+typedef struct defsim_gradient {
+    const char *name;              ///< The parameter (above).
+    double *out;                   ///< Receives count doubles.
+    int64_t count;                 ///< 3 * vertex count, or the body count.
+} defsim_gradient;
+
+/// Fills def with the defaults; size must be sizeof(defsim_tape_def).
+DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
+
+/// Begins recording the world's steps from its current state (state 0): every later
+/// successful defsim_world_step is recorded, until defsim_tape_destroy. One recording per
+/// world at a time. def may be NULL (the defaults). Plans the world if it is not planned
+/// (nothing else changes). Differentiable backends: explicit_euler, symplectic_euler,
+/// newton_cholmod, newmark. *out receives the tape, which the host owns and frees with
+/// defsim_tape_destroy (before or after the world: a world destroyed first leaves the tape
+/// usable only for defsim_tape_get_stats and destroy). On an error nothing is recorded, *out
+/// is untouched and the world unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad def, a
+/// recording already
+/// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
+/// the message names it; or the scene uses a term that cannot be differentiated yet, named in
+/// the message: collider or body contact, the force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
+DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
+                                             defsim_tape **out);
+
+/// The backward pass: given the loss gradients dl_dx[s] = dL/dx_s and dl_dv[s] = dL/dv_s at
+/// every recorded state s = 0 .. N (N = recorded steps; `count` doubles each, count =
+/// (N + 1) * 3 * vertex count, state after state; either may be NULL: zero), fills the n
+/// gradients `grads` (defsim_gradient). Steps stored states forward again where the tape
+/// thinned them (recomputed bit for bit: a difference fails the call), then runs the
+/// backend's adjoint step by step from the last. The world's state, time and statistics are
+/// the same after the call as before it (restored), also on failure. The recording goes on
+/// and may be run backward again. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL tape, a tape whose
+/// world is gone, count not (N + 1) * 3 * vertex count, a non-finite loss gradient, an
+/// unknown name or a wrong count in grads, or the world changed in a way the recording cannot
+/// follow: bodies, pins, options, or the state or time set between recorded steps: the
+/// message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
+/// or since the last recorded step the scene came to use what cannot be differentiated: a
+/// collider, the force callback, ...),
+/// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED, or the backend's error. On an error the grads'
+/// arrays hold nothing meaningful.
+DEFSIM_API defsim_status defsim_tape_backward(defsim_tape *tape, const double *dl_dx,
+                                              const double *dl_dv, int64_t count,
+                                              const defsim_gradient *grads, int32_t n);
+
+/// The tape's statistics into *out (out->size must be set). Errors:
+/// DEFSIM_ERR_INVALID_ARGUMENT (NULL, size 0).
+DEFSIM_API defsim_status defsim_tape_get_stats(const defsim_tape *tape, defsim_tape_stats *out);
+
+/// The detail of the tape's last failed call (also in defsim_world_last_error while the world
+/// lives): static until the next call on the tape. "" for NULL.
+DEFSIM_API const char *defsim_tape_last_error(const defsim_tape *tape);
+
+/// Ends the recording and frees the tape (NULL is ignored). The world keeps stepping as before.
+DEFSIM_API void defsim_tape_destroy(defsim_tape *tape);
+
 #ifdef __cplusplus
 }
 #endif

@@ -77,6 +77,8 @@ typedef struct fx {
     int32_t pending;               /* row to run from inside a callback, or -1 */
     int64_t observed;
     int ran;
+    defsim_tape *tape_out;
+    defsim_tape_stats tape_stats;
 } fx;
 
 static fx *F;                      /* the fixture, for the callbacks */
@@ -460,7 +462,18 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_world_get_attachment, INVALID, defsim_world_get_attachment(f->w, f->att, &f->adef_size0)) \
     X(CTX_DIRECT, 0, defsim_world_get_attachment, STALE, defsim_world_get_attachment(f->w, f->att_null, &f->adef_out)) \
     X(CTX_DIRECT, 0, defsim_world_get_attachment, STALE, defsim_world_get_attachment(f->w, f->att_foreign, &f->adef_out)) \
-    X(CTX_LOG, 0, defsim_world_get_attachment, OK, defsim_world_get_attachment(f->w, f->att, &f->adef_out))
+    X(CTX_LOG, 0, defsim_world_get_attachment, OK, defsim_world_get_attachment(f->w, f->att, &f->adef_out)) \
+    /* gradients through a run (issue 25): the fixture's world has a callback and attachments */ \
+    X(CTX_DIRECT, F_VALUE, defsim_tape_def_init, 0, (defsim_tape_def_init(NULL, sizeof(defsim_tape_def)), 0)) \
+    BADW(X, defsim_world_record, INVALID, NULL, &f->tape_out)                                   \
+    X(CTX_DIRECT, 0, defsim_world_record, INVALID, defsim_world_record(f->w, NULL, NULL))       \
+    X(CTX_DIRECT, 0, defsim_world_record, INVALID, defsim_world_record(f->e, NULL, &f->tape_out)) \
+    X(CTX_DIRECT, 0, defsim_world_record, DEFSIM_ERR_UNSUPPORTED, defsim_world_record(f->w, NULL, &f->tape_out)) \
+    LOCKED(X, defsim_world_record, NULL, &f->tape_out)                                           \
+    X(CTX_DIRECT, 0, defsim_tape_backward, INVALID, defsim_tape_backward(NULL, f->buf, NULL, 3, NULL, 0)) \
+    X(CTX_DIRECT, 0, defsim_tape_get_stats, INVALID, defsim_tape_get_stats(NULL, &f->tape_stats)) \
+    X(CTX_DIRECT, F_VALUE, defsim_tape_last_error, 1, defsim_tape_last_error(NULL)[0] == '\0') \
+    X(CTX_DIRECT, F_VALUE, defsim_tape_destroy, 0, (defsim_tape_destroy(NULL), 0))
 
 typedef struct row {
     int ctx, flags;

@@ -37,6 +37,7 @@ from ._native import header_version_string as _header_version_string
 from ._native import lib as _lib
 from ._native import library_path as _library_path
 from ._state_view import StateView
+from ._tape import Tape
 from ._view import ViewResult, view, view_available
 from ._world import Body, Energy, LogCallback, Pass, Projection, Stats, Topology, World
 
@@ -68,5 +69,5 @@ __all__ = [
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
     "FileError", "StaleIdError", "StaleViewError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",
     "error_from_status", "library_version", "header_version", "library_path", "__version__",
-    "view", "ViewResult", "view_available",
+    "view", "ViewResult", "view_available", "Tape",
 ]

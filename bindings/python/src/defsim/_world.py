@@ -553,6 +553,17 @@ class World(WorldCoupling, WorldColliders):
 
     # -- simulation ------------------------------------------------------------------------
 
+    def record(self, interval: int = 0, max_bytes: Optional[int] = None) -> "Tape":
+        """Begins recording the steps that follow, for gradients (docs/gradients.md): returns a
+        Tape whose ``backward(dL_dx=..., dL_dv=...)`` gives the gradients of a loss of the
+        recorded states by name. interval: store every interval-th state and recompute the
+        others in the backward pass (0: every state while they fit in max_bytes, default
+        256 MiB, then thinned). Raises UnsupportedError (the backend or a term of the scene
+        cannot be differentiated: the message names it), InvalidArgumentError (a recording
+        is under way)."""
+        from ._tape import Tape
+        return Tape(self, interval, max_bytes)
+
     def step(self, h: float, steps: int = 1, *,
              progress: Union[None, bool, Callable[[int, int], Any], Any] = None) -> None:
         """Advances the world by `steps` steps of h seconds each with its backend.

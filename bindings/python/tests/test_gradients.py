@@ -1,0 +1,96 @@
+# SPDX-License-Identifier: MIT
+"""world.record() / tape.backward(): gradients of a loss of the recorded states against central
+finite differences of whole runs (Young's modulus, density, mass damping, the initial state), on
+symplectic Euler and newton_cholmod; bad input raises and leaves the world as it was."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import defsim
+
+STEPS = 10
+
+
+def _world(backend: str, E: float = 2e5, rho: float = 800.0, alpha: float = 0.5,
+           x0: np.ndarray = None, v0: np.ndarray = None) -> defsim.World:
+    opts = {"newton_cholmod.tolerance": 1e-13} if backend == "newton_cholmod" else None
+    w = defsim.World(backend, gravity=(0, -9.81, 0), options=opts)
+    mesh = defsim.mesh_box((0, 0, 0), (2, 1, 1), cells=(2, 1, 1))
+    b = w.add_body(mesh, material=defsim.Material("corotated", youngs_modulus=E,
+                                                  poisson_ratio=0.3, density=rho,
+                                                  mass_damping=alpha))
+    w.pin(b, np.flatnonzero(mesh.positions[:, 0] == 0.0))
+    x = w.positions.copy() if x0 is None else x0
+    r = mesh.positions
+    v = 0.3 * np.stack([np.zeros(len(r)), r[:, 0], -r[:, 0]], axis=1) if v0 is None else v0.copy()
+    v[mesh.positions[:, 0] == 0.0] = 0.0
+    w.set_state(x, v)
+    return w
+
+
+def _loss(w: defsim.World, h: float, c: np.ndarray) -> float:
+    for _ in range(STEPS):
+        w.step(h)
+    return float(np.sum(c * w.positions))
+
+
+@pytest.mark.parametrize("backend,h", [("symplectic_euler", 2e-3), ("newton_cholmod", 1e-2)])
+def test_gradients_match_central_differences(backend: str, h: float) -> None:
+    w = _world(backend)
+    x0, v0 = w.positions.copy(), w.velocities.copy()
+    c = np.random.default_rng(1).standard_normal(x0.shape)
+    tape = w.record()
+    w.step(h, STEPS)
+    dL_dx = np.zeros((STEPS + 1,) + x0.shape)
+    dL_dx[-1] = c
+    g = tape.backward(dL_dx=dL_dx)
+    assert tape.stats()["steps"] == STEPS
+    assert g["external_forces"].shape == (STEPS,) + x0.shape
+    assert g["initial_positions"].shape == x0.shape and g["youngs_modulus"].shape == (1,)
+    d = np.random.default_rng(2).standard_normal(x0.shape)
+    d[x0[:, 0] == 0.0] = 0.0
+    cases = {
+        "youngs_modulus": (lambda e: _world(backend, E=2e5 * (1 + e)), 2e5, 1e-6),
+        "density": (lambda e: _world(backend, rho=800 * (1 + e)), 800.0, 1e-6),
+        "mass_damping": (lambda e: _world(backend, alpha=0.5 + e), 1.0, 1e-6),
+        "initial_positions": (lambda e: _world(backend, x0=x0 + e * d), 1.0, 1e-6),
+        "initial_velocities": (lambda e: _world(backend, v0=v0 + e * d), 1.0, 1e-6),
+    }
+    # a constant held force F: dL/dF is the sum of the steps' gradients
+    F = np.random.default_rng(3).standard_normal(x0.shape)
+
+    def with_force(e: float) -> defsim.World:
+        w = _world(backend)
+        w.set_external_forces(e * F)
+        return w
+    fd = (_loss(with_force(1e-3), h, c) - _loss(with_force(-1e-3), h, c)) / 2e-3
+    an = float(np.sum(g["external_forces"].sum(axis=0) * F))
+    assert abs(an - fd) <= 1e-5 * abs(fd), ("external_forces", an, fd)
+    for name, (make, scale, eps) in cases.items():
+        fd = (_loss(make(eps), h, c) - _loss(make(-eps), h, c)) / (2 * eps)
+        an = float(np.sum(g[name] * d)) if name.startswith("initial") else float(g[name][0]) * scale
+        assert abs(an - fd) <= 1e-5 * abs(fd), (name, an, fd)
+
+
+def test_bad_input_leaves_the_world() -> None:
+    w = _world("symplectic_euler")
+    with pytest.raises(defsim.UnsupportedError, match="velocity_verlet"):
+        _world("velocity_verlet").record()
+    tape = w.record()
+    with pytest.raises(defsim.InvalidArgumentError):
+        w.record()
+    w.step(1e-3, 3)
+    x = w.positions.copy()
+    with pytest.raises(defsim.InvalidArgumentError):
+        tape.backward(dL_dx=np.zeros((3, w.vertex_count, 3)))
+    bad = np.zeros((4, w.vertex_count, 3))
+    bad[1, 2, 0] = np.nan
+    with pytest.raises(defsim.InvalidArgumentError):
+        tape.backward(dL_dx=bad)
+    with pytest.raises(defsim.InvalidArgumentError):
+        tape.backward(dL_dx=np.zeros((4, w.vertex_count, 3)), params=["youngs"])
+    assert np.array_equal(w.positions, x) and w.time == pytest.approx(3e-3)
+    tape.close()
+    with pytest.raises(defsim.InvalidArgumentError):
+        tape.backward()

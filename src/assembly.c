@@ -427,7 +427,8 @@ void defsim__group_pairs(const defsim__term *t, const defsim__system *s, int64_t
 
 defsim_status defsim__group_ranks(const defsim__term *t, defsim__system *s)
 {
-    defsim__group *g = &s->groups[t->index];
+    /* The term's model is one of s's groups (tets, springs, shells), which s owns mutable. */
+    defsim__group *g = (defsim__group *)t->model;
     free(g->blk);
     g->blk = defsim__element_ranks(s, g->idx, g->nodes, g->n);
     return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;

@@ -12,6 +12,8 @@
 #define DEFSIM__TERM_LIST(X)    \
     X(elastic)                  \
     X(spring)                   \
+    X(membrane)                 \
+    X(hinge)                    \
     X(attach)                   \
     X(collider)                 \
     X(body_contact)             \

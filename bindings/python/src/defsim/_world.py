@@ -56,6 +56,8 @@ class Pass(enum.IntFlag):
     FORCE_CALLBACK = 1 << 12
     ATTACHMENTS = 1 << 13
     DRIVEN_PINS = 1 << 14
+    MEMBRANE = 1 << 15
+    BENDING = 1 << 16
 
 
 class Energy(NamedTuple):

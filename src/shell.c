@@ -223,15 +223,21 @@ double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH
 /* ------------------------------------------------------------------------------------------ */
 /* The hinge */
 
-/* Derivatives over u = (e, a, b) in R^9 (e = x1 - x0, a = x2 - x0, b = x3 - x0). */
-double defsim__hinge_angle(const double X[12], double gout[12], double Hout[144])
+/* A hinge's edge e = x1 - x0 and wings a = x2 - x0, b = x3 - x0. */
+static void hinge_vectors(const double X[12], double e[3], double a[3], double b[3])
 {
-    double e[3], a[3], b[3], axb[3], bxe[3], exa[3];
     for (int i = 0; i < 3; ++i) {
         e[i] = X[3 + i] - X[i];
         a[i] = X[6 + i] - X[i];
         b[i] = X[9 + i] - X[i];
     }
+}
+
+/* Derivatives over u = (e, a, b) in R^9. */
+double defsim__hinge_angle(const double X[12], double gout[12], double Hout[144])
+{
+    double e[3], a[3], b[3], axb[3], bxe[3], exa[3];
+    hinge_vectors(X, e, a, b);
     cross3(a, b, axb);
     cross3(b, e, bxe);
     cross3(e, a, exa);
@@ -356,11 +362,7 @@ int defsim__hinge_rest(const double X[12], const double warp[3], double d_warp, 
                        double *w, double *theta0)
 {
     double e[3], a[3], b[3], n1[3], n2[3];
-    for (int i = 0; i < 3; ++i) {
-        e[i] = X[3 + i] - X[i];
-        a[i] = X[6 + i] - X[i];
-        b[i] = X[9 + i] - X[i];
-    }
+    hinge_vectors(X, e, a, b);
     cross3(e, a, n1);
     cross3(b, e, n2);
     const double A1 = 0.5 * sqrt(dot3(n1, n1)), A2 = 0.5 * sqrt(dot3(n2, n2)), s = dot3(e, e);

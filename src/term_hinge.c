@@ -14,8 +14,6 @@
 
 #include <string.h>
 
-enum { PAR_MIN = 512 };
-
 static int compile(defsim__system *s, defsim__term *out)
 {
     const defsim__group *g = &s->shells[DEFSIM__SHELL_HINGES];
@@ -38,25 +36,13 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
 
 DEFSIM__GROUP_ENERGY_OP(element_energy)
 
-static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
-                            double *f, uint32_t *used)
+static int element_gradient(const defsim__group *g, const double *x, int32_t e, double *grad)
 {
-    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
-    const defsim__group *g = t->model;
-    for (int32_t c = 0; c < g->ncolors; ++c) {
-        const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
-        for (int32_t e = e0; e < e1; ++e) {
-            double gr[12];
-            hinge(g, ev->x, e, gr, NULL, DEFSIM_PROJECTION_NONE);
-            const int32_t *id = g->idx + 4 * (int64_t)e;
-            for (int a = 0; a < 4; ++a)
-                for (int i = 0; i < 3; ++i) f[3 * (int64_t)id[a] + i] -= gr[3 * a + i];
-        }
-    }
-    *used |= g->pass;
-    return DEFSIM_OK;
+    hinge(g, x, e, grad, NULL, DEFSIM_PROJECTION_NONE);
+    return 1;
 }
+
+DEFSIM__GROUP_GRADIENT_FORCES_OP(element_gradient)
 
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)
@@ -72,19 +58,9 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
                           double *out)
 {
     (void)sd;
-    double H[144], u[12];
+    double H[144];
     hinge(g, x, e, NULL, H, proj);
-    const int32_t *id = g->idx + 4 * (int64_t)e;
-    for (int a = 0; a < 4; ++a)
-        for (int i = 0; i < 3; ++i) u[3 * a + i] = pinned[id[a]] ? 0.0 : dx[3 * (int64_t)id[a] + i];
-    for (int a = 0; a < 4; ++a) {
-        if (pinned[id[a]]) continue;
-        for (int i = 0; i < 3; ++i) {
-            double v = 0.0;
-            for (int j = 0; j < 12; ++j) v += H[12 * (3 * a + i) + j] * u[j];
-            out[3 * (int64_t)id[a] + i] += sk * v;
-        }
-    }
+    defsim__element_product(g->idx + 4 * (int64_t)e, 4, H, sk, pinned, dx, out);
 }
 
 DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)

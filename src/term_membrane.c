@@ -14,8 +14,6 @@
 #include <math.h>
 #include <string.h>
 
-enum { PAR_MIN = 512 };
-
 static int compile(defsim__system *s, defsim__term *out)
 {
     int n = 0;
@@ -50,25 +48,12 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
 
 DEFSIM__GROUP_ENERGY_OP(element_energy)
 
-static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
-                            double *f, uint32_t *used)
+static int element_gradient(const defsim__group *g, const double *x, int32_t e, double *grad)
 {
-    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
-    const defsim__group *g = t->model;
-    for (int32_t c = 0; c < g->ncolors; ++c) {
-        const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
-        for (int32_t e = e0; e < e1; ++e) {
-            double gr[9];
-            if (!(element(g, ev->x, e, gr, NULL, DEFSIM_PROJECTION_NONE) < INFINITY)) continue;
-            const int32_t *id = g->idx + 3 * (int64_t)e;
-            for (int a = 0; a < 3; ++a)
-                for (int i = 0; i < 3; ++i) f[3 * (int64_t)id[a] + i] -= gr[3 * a + i];
-        }
-    }
-    *used |= g->pass;
-    return DEFSIM_OK;
+    return element(g, x, e, grad, NULL, DEFSIM_PROJECTION_NONE) < INFINITY;
 }
+
+DEFSIM__GROUP_GRADIENT_FORCES_OP(element_gradient)
 
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)
@@ -84,19 +69,9 @@ static void element_apply(const defsim__group *g, const double *x, int32_t e, do
                           double *out)
 {
     (void)sd;
-    double H[81], u[9];
-    if (!(element(g, x, e, NULL, H, proj) < INFINITY)) return;
-    const int32_t *id = g->idx + 3 * (int64_t)e;
-    for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i) u[3 * a + i] = pinned[id[a]] ? 0.0 : dx[3 * (int64_t)id[a] + i];
-    for (int a = 0; a < 3; ++a) {
-        if (pinned[id[a]]) continue;
-        for (int i = 0; i < 3; ++i) {
-            double v = 0.0;
-            for (int j = 0; j < 9; ++j) v += H[9 * (3 * a + i) + j] * u[j];
-            out[3 * (int64_t)id[a] + i] += sk * v;
-        }
-    }
+    double H[81];
+    if (element(g, x, e, NULL, H, proj) < INFINITY)
+        defsim__element_product(g->idx + 3 * (int64_t)e, 3, H, sk, pinned, dx, out);
 }
 
 DEFSIM__GROUP_MATRIX_OPS(element_matrix, element_apply)

@@ -125,6 +125,9 @@ typedef struct scene_body {
     int self_contact;
     uint32_t collision_group, collision_mask;
     double friction;
+    /* "shell" (docs/shells.md): the body's shell_* fields (a def holding only them), or none */
+    int has_shell;
+    defsim_body_def shell;
 } scene_body;
 
 /* What a scene file may ask for at most, checked by scene_load before anything large is made

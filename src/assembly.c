@@ -427,8 +427,26 @@ void defsim__group_pairs(const defsim__term *t, const defsim__system *s, int64_t
 
 defsim_status defsim__group_ranks(const defsim__term *t, defsim__system *s)
 {
-    defsim__group *g = &s->groups[t->index];
+    /* The term's model is one of s's groups (tets, springs, shells), which s owns mutable. */
+    defsim__group *g = (defsim__group *)t->model;
     free(g->blk);
     g->blk = defsim__element_ranks(s, g->idx, g->nodes, g->n);
     return g->blk ? DEFSIM_OK : DEFSIM_ERR_OUT_OF_MEMORY;
+}
+
+void defsim__element_product(const int32_t *id, int nn, const double *H, double sk,
+                             const uint8_t *pinned, const double *dx, double *out)
+{
+    const int nd = 3 * nn;
+    double u[12];
+    for (int a = 0; a < nn; ++a)
+        for (int i = 0; i < 3; ++i) u[3 * a + i] = pinned[id[a]] ? 0.0 : dx[3 * (int64_t)id[a] + i];
+    for (int a = 0; a < nn; ++a) {
+        if (pinned[id[a]]) continue;
+        for (int i = 0; i < 3; ++i) {
+            double v = 0.0;
+            for (int j = 0; j < nd; ++j) v += H[nd * (3 * a + i) + j] * u[j];
+            out[3 * (int64_t)id[a] + i] += sk * v;
+        }
+    }
 }

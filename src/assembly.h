@@ -100,6 +100,11 @@ typedef void (*defsim__element_apply_fn)(const defsim__group *g, const double *x
                                          double sk, double sd, int proj, const uint8_t *pinned,
                                          const double *dx, double *out);
 
+/* out += sk H u for one element of nn nodes (ids id) with its dense matrix H (3 nn x 3 nn),
+ * u = dx on its free nodes (pinned rows and columns zero). */
+void defsim__element_product(const int32_t *id, int nn, const double *H, double sk,
+                             const uint8_t *pinned, const double *dx, double *out);
+
 /* The matrix-free product of group g's elements, colour by colour as defsim__group_values:
  * nothing when k and kd are both zero. */
 void defsim__group_apply(const defsim__system *s, const defsim__group *g,

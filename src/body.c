@@ -9,6 +9,7 @@
 
 #include "material.h"
 #include "tet10.h"
+#include "shell.h"
 #include "tet_rest.h"
 
 #include <math.h>
@@ -29,6 +30,15 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.collision_mask = 0xFFFFFFFFu;
     d.friction = 0.5;
     d.tet_nodes = 4;
+    d.shell_membrane = DEFSIM_SHELL_MEMBRANE_NONE;
+    d.shell_youngs_modulus = 1e6;
+    d.shell_poisson_ratio = 0.3;
+    d.shell_thickness = 1e-3;
+    d.shell_warp_modulus = d.shell_weft_modulus = d.shell_shear_modulus = 1e3;
+    d.shell_warp_poisson = 0.0;
+    d.shell_warp_direction[0] = 1.0;
+    d.shell_areal_density = 0.1;
+    d.shell_bending_rigidity = d.shell_bending_rigidity_weft = -1.0;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -38,6 +48,9 @@ void defsim__body_free(defsim__body *b)
 {
     free(b->rest); free(b->mass); free(b->tets); free(b->springs); free(b->k); free(b->pinned);
     free(b->tris); free(b->edges);
+    free(b->mrow); free(b->marea); free(b->hinges); free(b->hw); free(b->htheta0);
+    b->mrow = b->marea = b->hw = b->htheta0 = NULL;
+    b->hinges = NULL;
     b->rest = b->mass = b->k = NULL;
     b->tets = b->springs = b->tris = b->edges = NULL;
     b->pinned = NULL;
@@ -51,6 +64,167 @@ static defsim_status validate_array(defsim__messages *msg, const double *a, int6
                           (long long)(i / 3), (int)(i % 3));
             return DEFSIM_ERR_INVALID_MESH;
         }
+    return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Shells */
+
+static int finite_pos(double v) { return isfinite(v) && v > 0.0; }
+static int finite_nonneg(double v) { return isfinite(v) && v >= 0.0; }
+
+/* The bending rigidities of a shell def: warp and weft (N m), defaults resolved. */
+static void shell_rigidity(const defsim_body_def *d, double *dw, double *df)
+{
+    const int iso = d->shell_membrane == DEFSIM_SHELL_MEMBRANE_STVK ||
+                    d->shell_membrane == DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN;
+    const double E = d->shell_youngs_modulus, nu = d->shell_poisson_ratio, t = d->shell_thickness;
+    *dw = d->shell_bending_rigidity;
+    if (*dw < 0.0) *dw = iso ? E * t * t * t / (12.0 * (1.0 - nu * nu)) : 0.0;
+    *df = d->shell_bending_rigidity_weft < 0.0 ? *dw : d->shell_bending_rigidity_weft;
+}
+
+/* The shell fields of a def by the rules of defsim_body_def (the header's comment). */
+static defsim_status shell_check(defsim__messages *msg, const defsim_body_def *d)
+{
+    const int32_t m = d->shell_membrane;
+    if (m < DEFSIM_SHELL_MEMBRANE_NONE || m > DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK) {
+        defsim__error(msg, "add_body: shell_membrane %d is not a defsim_shell_membrane", (int)m);
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
+    const char *bad = NULL;
+    if (m == DEFSIM_SHELL_MEMBRANE_STVK || m == DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN) {
+        if (!finite_pos(d->shell_youngs_modulus)) bad = "shell_youngs_modulus must be finite and > 0";
+        else if (!(d->shell_poisson_ratio >= 0.0 && d->shell_poisson_ratio < 0.5))
+            bad = "shell_poisson_ratio must be in [0, 0.5)";
+        else if (!finite_pos(d->shell_thickness)) bad = "shell_thickness must be finite and > 0";
+    } else if (m == DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK) {
+        if (!finite_pos(d->shell_warp_modulus) || !finite_pos(d->shell_weft_modulus) ||
+            !finite_pos(d->shell_shear_modulus))
+            bad = "shell_warp_modulus, shell_weft_modulus and shell_shear_modulus must be finite "
+                  "and > 0";
+        else if (!finite_nonneg(d->shell_warp_poisson) ||
+                 !(d->shell_warp_poisson * d->shell_warp_poisson * d->shell_weft_modulus <
+                   d->shell_warp_modulus))
+            bad = "shell_warp_poisson must be >= 0 with nu12^2 weft / warp < 1";
+    }
+    const double *w = d->shell_warp_direction;
+    if (!bad && (!isfinite(w[0]) || !isfinite(w[1]) || !isfinite(w[2]) ||
+                 !(w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > 0.0)))
+        bad = "shell_warp_direction must be finite and not zero";
+    if (!bad && !finite_nonneg(d->shell_areal_density))
+        bad = "shell_areal_density must be finite and >= 0";
+    if (!bad && (!isfinite(d->shell_bending_rigidity) || !isfinite(d->shell_bending_rigidity_weft)))
+        bad = "shell_bending_rigidity and shell_bending_rigidity_weft must be finite";
+    if (bad) {
+        defsim__error(msg, "add_body: %s", bad);
+        return DEFSIM_ERR_INVALID_MATERIAL;
+    }
+    return DEFSIM_OK;
+}
+
+typedef struct edge_ref { uint64_t key; int32_t tri, opp; } edge_ref;
+
+static int edge_cmp(const void *pa, const void *pb)
+{
+    const edge_ref *a = pa, *b = pb;
+    if (a->key != b->key) return a->key < b->key ? -1 : 1;
+    return a->tri < b->tri ? -1 : a->tri > b->tri;
+}
+
+/* The shell of b (its triangles copied and checked): membrane rows, hinges, lumped masses. */
+static defsim_status shell_build(defsim__messages *msg, const defsim_body_def *d, defsim__body *b)
+{
+    const int32_t nt = b->ntri;
+    const int need_warp = d->shell_membrane == DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK;
+    double dw, df, prm[4];
+    shell_rigidity(d, &dw, &df);
+    b->membrane = defsim__membrane_params(d->shell_membrane, d->shell_youngs_modulus,
+                                          d->shell_poisson_ratio, d->shell_thickness,
+                                          d->shell_warp_modulus, d->shell_weft_modulus,
+                                          d->shell_shear_modulus, d->shell_warp_poisson, prm);
+    b->mrow = malloc((size_t)nt * DEFSIM__MEMBRANE_WIDTH * sizeof *b->mrow);
+    b->marea = malloc((size_t)nt * sizeof *b->marea);
+    edge_ref *ed = malloc(3 * (size_t)nt * sizeof *ed);
+    if (!b->mrow || !b->marea || !ed) {
+        free(ed);
+        defsim__error(msg, "out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    for (int32_t t = 0; t < nt; ++t) {
+        const int32_t *v = b->tris + 3 * (int64_t)t;
+        double *row = b->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t;
+        const int r = defsim__shell_frame(b->rest + 3 * (int64_t)v[0], b->rest + 3 * (int64_t)v[1],
+                                          b->rest + 3 * (int64_t)v[2], d->shell_warp_direction,
+                                          need_warp, row, &b->marea[t], NULL);
+        if (r != 0) {
+            free(ed);
+            defsim__error(msg, r == 1 ? "add_body: shell triangle %d has zero area (%g)"
+                                      : "add_body: shell triangle %d: the warp direction is "
+                                        "normal to it (area %g)", (int)t, b->marea[t]);
+            return DEFSIM_ERR_INVALID_MESH;
+        }
+        for (int i = 0; i < 4; ++i) row[4 + i] = prm[i];
+        for (int a = 0; a < 3; ++a) {
+            b->mass[v[a]] += d->shell_areal_density * b->marea[t] / 3.0;
+            const uint32_t p = (uint32_t)v[a], q = (uint32_t)v[(a + 1) % 3];
+            edge_ref *r3 = &ed[3 * (int64_t)t + a];
+            r3->key = p < q ? ((uint64_t)p << 32 | q) : ((uint64_t)q << 32 | p);
+            r3->tri = t;
+            r3->opp = v[(a + 2) % 3];
+        }
+    }
+    const int64_t ne = 3 * (int64_t)nt;
+    qsort(ed, (size_t)ne, sizeof *ed, edge_cmp);
+    int32_t nh = 0;
+    for (int64_t i = 0; i < ne;) {
+        int64_t j = i + 1;
+        while (j < ne && ed[j].key == ed[i].key) ++j;
+        if (j - i > 2) {
+            defsim__error(msg, "add_body: shell edge (%u %u) is shared by %d triangles (at most 2)",
+                          (unsigned)(ed[i].key >> 32), (unsigned)(ed[i].key & 0xFFFFFFFFu),
+                          (int)(j - i));
+            free(ed);
+            return DEFSIM_ERR_INVALID_MESH;
+        }
+        nh += (j - i == 2 && (dw > 0.0 || df > 0.0));
+        i = j;
+    }
+    b->nhinge = nh;
+    b->hinges = malloc(4 * (size_t)(nh > 0 ? nh : 1) * sizeof *b->hinges);
+    b->hw = malloc((size_t)(nh > 0 ? nh : 1) * sizeof *b->hw);
+    b->htheta0 = malloc((size_t)(nh > 0 ? nh : 1) * sizeof *b->htheta0);
+    if (!b->hinges || !b->hw || !b->htheta0) {
+        free(ed);
+        defsim__error(msg, "out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    int32_t h = 0;
+    for (int64_t i = 0; i < ne && nh > 0;) {
+        int64_t j = i + 1;
+        while (j < ne && ed[j].key == ed[i].key) ++j;
+        if (j - i == 2) {
+            int32_t *hv = b->hinges + 4 * (int64_t)h;
+            hv[0] = (int32_t)(ed[i].key >> 32);
+            hv[1] = (int32_t)(ed[i].key & 0xFFFFFFFFu);
+            hv[2] = ed[i].opp;
+            hv[3] = ed[i + 1].opp;
+            double X[12];
+            for (int a = 0; a < 4; ++a) memcpy(X + 3 * a, b->rest + 3 * (int64_t)hv[a], 3 * sizeof *X);
+            const int r = defsim__hinge_rest(X, d->shell_warp_direction, dw, df, &b->hw[h],
+                                             &b->htheta0[h]);
+            if (r != 0) {
+                defsim__error(msg, r == 1 ? "add_body: shell hinge on edge (%d %d) is degenerate"
+                                          : "add_body: shell hinge on edge (%d %d): the warp "
+                                            "direction is normal to it", (int)hv[0], (int)hv[1]);
+                free(ed);
+                return DEFSIM_ERR_INVALID_MESH;
+            }
+            ++h;
+        }
+        i = j;
+    }
+    free(ed);
     return DEFSIM_OK;
 }
 
@@ -137,6 +311,22 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                                "such split", law ? law->name : "this model");
             return DEFSIM_ERR_INVALID_MATERIAL;
         }
+    }
+    st = shell_check(msg, &d);
+    if (st != DEFSIM_OK) return st;
+    double shell_dw, shell_df;
+    shell_rigidity(&d, &shell_dw, &shell_df);
+    const int shell = d.shell_membrane != DEFSIM_SHELL_MEMBRANE_NONE || shell_dw > 0.0 ||
+                      shell_df > 0.0;
+    if (shell && (d.tet_count > 0 || d.triangle_count < 1)) {
+        defsim__error(msg, "add_body: a shell body needs triangles (%d given) and no tets (%d)",
+                      (int)d.triangle_count, (int)d.tet_count);
+        return DEFSIM_ERR_INVALID_MESH;
+    }
+    if (shell && d.material.stiffness_damping != 0.0) {
+        defsim__error(msg, "add_body: stiffness damping does not act on shells (material."
+                           "stiffness_damping %g must be 0)", d.material.stiffness_damping);
+        return DEFSIM_ERR_INVALID_MATERIAL;
     }
     const int32_t nv = d.vertex_count, nt = d.tet_count, ns = d.spring_count;
     st = validate_array(msg, d.rest_positions, 3 * (int64_t)nv, "rest_positions");
@@ -283,6 +473,9 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
             goto fail;
         }
     }
+    b.shell = shell;
+    b.membrane = -1;
+    if (shell && (st = shell_build(msg, &d, &b)) != DEFSIM_OK) goto fail;
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
         if (!isfinite(m) || !(m > 0.0)) {

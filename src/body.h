@@ -42,6 +42,16 @@ typedef struct defsim__body {
     double friction;
     int32_t volume_averaging; /* defsim_body_def.volume_averaging: 0 or 1 */
     int mass_given;           /* the host gave vertex_mass: the density does not set the masses */
+    /* Shells (shell.h; docs/shells.md), when `shell`: the membrane's group (DEFSIM__MEMBRANE_*,
+     * or -1 for none) with per triangle its row (DEFSIM__MEMBRANE_WIDTH doubles: Dm^-1 and the
+     * law's parameters) and rest area; the hinges (interior edges of the triangles: 4 body-local
+     * vertices each, the edge first), their weights (N m) and rest angles. */
+    int shell;
+    int32_t membrane;
+    double *mrow, *marea;     /* DEFSIM__MEMBRANE_WIDTH ntri, ntri */
+    int32_t nhinge;
+    int32_t *hinges;          /* 4 nhinge */
+    double *hw, *htheta0;     /* nhinge */
 } defsim__body;
 
 /* Validates the host's def (a world of world_nv vertices receives it) and builds *out from

@@ -68,6 +68,7 @@ defsim_status defsim__colour_group(defsim__group *g, int32_t nv)
     PERMUTE(k, 1, double)
     PERMUTE(l0, 1, double)
     PERMUTE(beta, 1, double)
+    PERMUTE(shell, g->shell_width, double)
 #undef PERMUTE
     free(perm);
     return DEFSIM_OK;

@@ -42,3 +42,22 @@ double defsim__group_energy(const defsim__system *s, defsim__work *wk, const def
     for (int32_t b = 0; b < nb; ++b) total += part[b];
     return total;
 }
+
+void defsim__group_gradient_forces(const defsim__system *s, const defsim__group *g,
+                                   defsim__element_gradient_fn gradient, const double *x,
+                                   double *f)
+{
+    const int nn = g->nodes;
+    (void)s;   /* its thread count, for OpenMP only */
+    for (int32_t c = 0; c < g->ncolors; ++c) {
+        const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 512)
+        for (int32_t e = e0; e < e1; ++e) {
+            double gr[12];
+            if (!gradient(g, x, e, gr)) continue;
+            const int32_t *id = g->idx + nn * (int64_t)e;
+            for (int a = 0; a < nn; ++a)
+                for (int i = 0; i < 3; ++i) f[3 * (int64_t)id[a] + i] -= gr[3 * a + i];
+        }
+    }
+}

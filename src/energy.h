@@ -26,6 +26,29 @@ double defsim__group_energy(const defsim__system *s, defsim__work *wk, const def
         return defsim__group_energy(s, wk, t->model, element_energy, x, total);                    \
     }
 
+/* An element's energy gradient dE/dX at x into grad (3 nodes values); returns 0 where it has
+ * none (an undefined energy). */
+typedef int (*defsim__element_gradient_fn)(const defsim__group *g, const double *x, int32_t e,
+                                           double *grad);
+
+/* f -= each element's gradient, colour by colour (elements of a colour share no vertex, so the
+ * scatter needs no atomics): the force loop of kinds with a scalar element kernel (shells). */
+void defsim__group_gradient_forces(const defsim__system *s, const defsim__group *g,
+                                   defsim__element_gradient_fn gradient, const double *x,
+                                   double *f);
+
+/* The forces op of such a kind (the term's model is its group): elastic forces only. */
+#define DEFSIM__GROUP_GRADIENT_FORCES_OP(element_gradient)                                       \
+    static defsim_status forces(const defsim__term *t, const defsim__system *s,                   \
+                                const defsim__eval *ev, double *f, uint32_t *used)                \
+    {                                                                                             \
+        if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;                                \
+        const defsim__group *g = t->model;                                                        \
+        defsim__group_gradient_forces(s, g, element_gradient, ev->x, f);                          \
+        *used |= g->pass;                                                                         \
+        return DEFSIM_OK;                                                                         \
+    }
+
 /* Elastic energy at x (J), relative to rest; +INFINITY where undefined (an inverted
  * neo-Hookean element). */
 double defsim__elastic_energy(const defsim__system *s, defsim__work *wk, const double *x);

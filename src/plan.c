@@ -27,7 +27,7 @@
 static void group_free(defsim__group *g)
 {
     free(g->idx); free(g->dminv); free(g->qrest); free(g->vol); free(g->mu); free(g->lambda);
-    free(g->k); free(g->l0); free(g->beta); free(g->color_ptr); free(g->blk);
+    free(g->k); free(g->l0); free(g->beta); free(g->shell); free(g->color_ptr); free(g->blk);
     free(g->bcolor_ptr); free(g->bidx); free(g->bdata); free(g->blanes);
     memset(g, 0, sizeof *g);
 }
@@ -46,6 +46,7 @@ void defsim__unplan(defsim__system *s, defsim__work *wk)
 {
     for (int m = 0; m < DEFSIM__GROUPS; ++m) group_free(&s->groups[m]);
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) vgroup_free(&s->vgroups[m]);
+    for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) group_free(&s->shells[m]);
     defsim__attachments *at = &s->att;
     free(at->node); free(at->a); free(at->k); free(at->c); free(at->p); free(at->blk);
     defsim__pattern *p = &s->pattern;
@@ -304,6 +305,69 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     return DEFSIM_OK;
 }
 
+/* The shells' groups (shell.h): each shell body's triangles into its membrane law's group
+ * (their rows and rest areas as body.c made them), its hinges into the hinge group. */
+static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in)
+{
+    int32_t count[DEFSIM__SHELL_GROUPS] = {0};
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u) || !bd->shell) continue;
+        if (bd->membrane >= 0) count[bd->membrane] += bd->ntri;
+        count[DEFSIM__SHELL_HINGES] += bd->nhinge;
+    }
+    for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) {
+        defsim__group *g = &s->shells[m];
+        const size_t n = (size_t)(count[m] > 0 ? count[m] : 1);
+        const int hinge = m == DEFSIM__SHELL_HINGES;
+        g->nodes = hinge ? 4 : 3;
+        g->pass = hinge ? DEFSIM_PASS_BENDING : DEFSIM_PASS_MEMBRANE;
+        g->idx = malloc(n * g->nodes * sizeof *g->idx);
+        g->beta = calloc(n, sizeof *g->beta);
+        if (!g->idx || !g->beta) return DEFSIM_ERR_OUT_OF_MEMORY;
+        if (hinge) {
+            g->k = malloc(n * sizeof *g->k);
+            g->l0 = malloc(n * sizeof *g->l0);
+            if (!g->k || !g->l0) return DEFSIM_ERR_OUT_OF_MEMORY;
+        } else {
+            g->shell_width = DEFSIM__MEMBRANE_WIDTH;
+            g->shell_law = m;
+            g->shell = malloc(n * DEFSIM__MEMBRANE_WIDTH * sizeof *g->shell);
+            g->vol = malloc(n * sizeof *g->vol);
+            if (!g->shell || !g->vol) return DEFSIM_ERR_OUT_OF_MEMORY;
+        }
+    }
+    for (int32_t b = 0; b < in->nbodies; ++b) {
+        const defsim__body *bd = &in->bodies[b];
+        if (!(bd->generation & 1u) || !bd->shell) continue;
+        if (bd->membrane >= 0) {
+            defsim__group *g = &s->shells[bd->membrane];
+            for (int32_t t = 0; t < bd->ntri; ++t) {
+                const int32_t e = g->n++;
+                for (int a = 0; a < 3; ++a)
+                    g->idx[3 * (int64_t)e + a] = bd->offset + bd->tris[3 * (int64_t)t + a];
+                memcpy(g->shell + DEFSIM__MEMBRANE_WIDTH * (int64_t)e,
+                       bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
+                       DEFSIM__MEMBRANE_WIDTH * sizeof *g->shell);
+                g->vol[e] = bd->marea[t];
+            }
+        }
+        defsim__group *g = &s->shells[DEFSIM__SHELL_HINGES];
+        for (int32_t h = 0; h < bd->nhinge; ++h) {
+            const int32_t e = g->n++;
+            for (int a = 0; a < 4; ++a)
+                g->idx[4 * (int64_t)e + a] = bd->offset + bd->hinges[4 * (int64_t)h + a];
+            g->k[e] = bd->hw[h];
+            g->l0[e] = bd->htheta0[h];
+        }
+    }
+    for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) {
+        const defsim_status st = defsim__colour_group(&s->shells[m], s->nv);
+        if (st != DEFSIM_OK) return st;
+    }
+    return DEFSIM_OK;
+}
+
 /* Attachments in world vertex ids: node 0 the attached vertex, then the target's vertices. */
 static defsim_status plan_attachments(defsim__system *s, const defsim__plan_input *in)
 {
@@ -353,6 +417,7 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
     const int64_t ndof = 3 * (int64_t)s->nv;
     const size_t nd = (size_t)(ndof > 0 ? ndof : 1), nv = (size_t)(s->nv > 0 ? s->nv : 1);
     defsim_status st = plan_groups(s, in);
+    if (st == DEFSIM_OK) st = plan_shells(s, in);
     if (st == DEFSIM_OK) st = plan_attachments(s, in);
     if (st != DEFSIM_OK) goto fail;
     st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -370,6 +435,8 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
         if (s->vgroups[m].g.n > maxn) maxn = s->vgroups[m].g.n;
         if (s->vgroups[m].nn > maxn) maxn = s->vgroups[m].nn;
     }
+    for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m)
+        if (s->shells[m].n > maxn) maxn = s->shells[m].n;
     wk->npartial = (maxn + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
     wk->partial = malloc((size_t)wk->npartial * sizeof *wk->partial);
     wk->pz = malloc(nd * sizeof *wk->pz);

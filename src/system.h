@@ -13,6 +13,7 @@
 
 #include "defsim/backend.h"
 #include "material_list.h"
+#include "shell.h"
 #include "term.h"
 
 #include <stdint.h>
@@ -42,6 +43,9 @@ typedef struct defsim__group {
     double *mu, *lambda;      /* n (tets) */
     double *k, *l0;           /* n (springs) */
     double *beta;             /* n: stiffness damping (s) */
+    double *shell;            /* shell_width n: a membrane's rows (shell.h), or NULL */
+    int32_t shell_width;
+    int32_t shell_law;        /* a membrane group's DEFSIM__MEMBRANE_* */
     int32_t ncolors;
     int32_t *color_ptr;       /* ncolors + 1 */
     int32_t *blk;             /* nodes^2 n: rank of row vertex in column vertex's list */
@@ -135,6 +139,9 @@ typedef struct defsim__system {
     /* the volume-averaged tets per model (empty unless a body asks for them) */
     defsim__vgroup vgroups[DEFSIM__TET_MODELS];
     int has_volume_averaging;
+    /* shells (shell.h): a group per membrane law (3 nodes; shell rows, vol the rest area),
+     * then the hinges (4 nodes, the edge first; k the weight, l0 the rest angle) */
+    defsim__group shells[DEFSIM__SHELL_GROUPS];
 
     /* the pass plan: what the scene uses */
     int has_gravity, has_mass_damping, has_stiffness_damping, has_pins;

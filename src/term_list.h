@@ -14,6 +14,8 @@
     X(nodal_volume)             \
     X(elastic_quadratic)        \
     X(spring)                   \
+    X(membrane)                 \
+    X(hinge)                    \
     X(attach)                   \
     X(collider)                 \
     X(body_contact)             \

@@ -559,6 +559,49 @@ static int parse_pins(sj_ctx *c, const cJSON *j, const char *what, scene_body *b
     return rc ? -1 : 0;
 }
 
+/* A body's "shell": the shell_* fields of defsim_body_def without the prefix (SI units), the
+ * membrane by name; ranges are the library's to check (add_body names the bad field). */
+static int parse_shell(sj_ctx *c, const cJSON *j, const char *w, scene_body *b)
+{
+    char ws[120];
+    snprintf(ws, sizeof ws, "%s.shell", w);
+    if (!cJSON_IsObject(j)) return sj_fail(c, j, "%s must be an object", ws);
+    static const char *const keys[] = {"membrane", "youngs_modulus", "poisson_ratio", "thickness",
+                                       "warp_modulus", "weft_modulus", "shear_modulus",
+                                       "warp_poisson", "warp_direction", "areal_density",
+                                       "bending_rigidity", "bending_rigidity_weft", NULL};
+    if (sj_keys(c, j, ws, keys)) return -1;
+    defsim_body_def *d = &b->shell;
+    defsim_body_def_init(d, sizeof *d);
+    const cJSON *m = cJSON_GetObjectItemCaseSensitive(j, "membrane");
+    if (m) {
+        static const char *const names[] = {"none", "stvk", "neohookean", "orthotropic_stvk"};
+        int found = -1;
+        for (int i = 0; i < 4 && cJSON_IsString(m); ++i)
+            if (strcmp(m->valuestring, names[i]) == 0) found = i;
+        if (found < 0)
+            return sj_fail(c, m, "%s.membrane must be \"none\", \"stvk\", \"neohookean\" or "
+                           "\"orthotropic_stvk\"", ws);
+        d->shell_membrane = found;
+    }
+    const double big = 1e300;
+    if (sj_number(c, j, "youngs_modulus", ws, -big, big, 0, &d->shell_youngs_modulus) ||
+        sj_number(c, j, "poisson_ratio", ws, -big, big, 0, &d->shell_poisson_ratio) ||
+        sj_number(c, j, "thickness", ws, -big, big, 0, &d->shell_thickness) ||
+        sj_number(c, j, "warp_modulus", ws, -big, big, 0, &d->shell_warp_modulus) ||
+        sj_number(c, j, "weft_modulus", ws, -big, big, 0, &d->shell_weft_modulus) ||
+        sj_number(c, j, "shear_modulus", ws, -big, big, 0, &d->shell_shear_modulus) ||
+        sj_number(c, j, "warp_poisson", ws, -big, big, 0, &d->shell_warp_poisson) ||
+        sj_number(c, j, "areal_density", ws, -big, big, 0, &d->shell_areal_density) ||
+        sj_number(c, j, "bending_rigidity", ws, -big, big, 0, &d->shell_bending_rigidity) ||
+        sj_number(c, j, "bending_rigidity_weft", ws, -big, big, 0,
+                  &d->shell_bending_rigidity_weft) ||
+        sj_vec3(c, j, "warp_direction", ws, d->shell_warp_direction))
+        return -1;
+    b->has_shell = 1;
+    return 0;
+}
+
 static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
 {
     char w[100];
@@ -568,9 +611,11 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
                                        "self_contact", "collision_group", "collision_mask",
                                        "friction", "masses", "spring_stiffness",
                                        "initial_positions", "initial_velocities",
-                                       "volume_averaging", NULL};
+                                       "volume_averaging", "shell", NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
+    const cJSON *shell = cJSON_GetObjectItemCaseSensitive(j, "shell");
+    if (shell && parse_shell(c, shell, w, b)) return -1;
     b->probe = -1;
     b->shear_k = b->bend_k = -1.0;
     b->self_contact = 1;
@@ -635,6 +680,11 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
     }
     const cJSON *mat = cJSON_GetObjectItemCaseSensitive(j, "material");
     if (parse_material(c, mat, w, b, kind, bending, shear_first, shear_count)) return -1;
+    /* A shell's masses come from its areal density: the spring model's default vertex mass is
+     * not added unless the material gives one. */
+    if (b->has_shell && !(mat && (cJSON_GetObjectItemCaseSensitive(mat, "vertex_mass") ||
+                                  cJSON_GetObjectItemCaseSensitive(mat, "total_mass"))))
+        b->material.vertex_mass = 0.0;
 
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int32_t i = 0; i < nv; ++i)
@@ -906,6 +956,29 @@ defsim_status scene_build(scene *s, defsim_world **out)
             }
             bd.triangles = b->mesh.triangles;
             bd.triangle_count = b->mesh.triangle_count;
+        }
+        /* A shell takes the triangles alone: a cloth mesh's springs are left out. */
+        if (b->has_shell) {
+            const defsim_body_def *sh = &b->shell;
+            bd.springs = NULL;
+            bd.spring_count = 0;
+            bd.spring_kinds = NULL;
+            bd.spring_stiffness = NULL;
+            bd.triangles = b->mesh.triangles;
+            bd.triangle_count = b->mesh.triangle_count;
+            bd.shell_membrane = sh->shell_membrane;
+            bd.shell_youngs_modulus = sh->shell_youngs_modulus;
+            bd.shell_poisson_ratio = sh->shell_poisson_ratio;
+            bd.shell_thickness = sh->shell_thickness;
+            bd.shell_warp_modulus = sh->shell_warp_modulus;
+            bd.shell_weft_modulus = sh->shell_weft_modulus;
+            bd.shell_shear_modulus = sh->shell_shear_modulus;
+            bd.shell_warp_poisson = sh->shell_warp_poisson;
+            memcpy(bd.shell_warp_direction, sh->shell_warp_direction,
+                   sizeof bd.shell_warp_direction);
+            bd.shell_areal_density = sh->shell_areal_density;
+            bd.shell_bending_rigidity = sh->shell_bending_rigidity;
+            bd.shell_bending_rigidity_weft = sh->shell_bending_rigidity_weft;
         }
         bd.self_contact = b->self_contact;
         bd.collision_group = b->collision_group;

@@ -126,6 +126,9 @@ typedef struct scene_body {
     uint32_t collision_group, collision_mask;
     double friction;
     int volume_averaging;   /* "volume_averaging": defsim_body_def.volume_averaging */
+    /* "shell" (docs/shells.md): the body's shell_* fields (a def holding only them), or none */
+    int has_shell;
+    defsim_body_def shell;
 } scene_body;
 
 /* What a scene file may ask for at most, checked by scene_load before anything large is made

@@ -284,7 +284,59 @@ typedef struct defsim_body_def {
     /// DEFSIM_ERR_INVALID_MESH. Elements with negative corner orientation are reordered as
     /// linear tets are (corners 0 and 1 swapped with their mid-edge nodes).
     int32_t tet_nodes;
+    /* Cloth and shells (appended; issue 26, docs/shells.md). A body is a shell when
+     * shell_membrane is not DEFSIM_SHELL_MEMBRANE_NONE or its bending rigidity is > 0: then
+     * `triangles` above (at least one, no tets) are its elements as well as its contact surface,
+     * each triangle a membrane element on the rest shape's own plane and each interior edge (shared
+     * by exactly two triangles; more is DEFSIM_ERR_INVALID_MESH) a bending hinge whose rest angle
+     * is the rest shape's. Masses: shell_areal_density A / 3 per vertex of each triangle, plus
+     * material.vertex_mass. Springs may be added; material.stiffness_damping must be 0 (stiffness
+     * damping does not act on shells: DEFSIM_ERR_INVALID_MATERIAL). Bad values below are
+     * DEFSIM_ERR_INVALID_MATERIAL, a zero-area triangle DEFSIM_ERR_INVALID_MESH. */
+    /// The membrane energy, a defsim_shell_membrane. Default DEFSIM_SHELL_MEMBRANE_NONE.
+    int32_t shell_membrane;
+    /// Isotropic membranes (STVK, NEOHOOKEAN): Young's modulus E in Pa (finite, > 0). Default 1e6.
+    double shell_youngs_modulus;
+    /// Isotropic membranes: Poisson ratio nu in [0, 0.5). Default 0.3.
+    double shell_poisson_ratio;
+    /// Isotropic membranes: thickness t in m (finite, > 0); the membrane's 2D Lame parameters
+    /// are mu = E t / (2 (1 + nu)) and lambda = E t nu / (1 - nu^2) (plane stress), in N/m.
+    /// Default 1e-3.
+    double shell_thickness;
+    /// ORTHOTROPIC_STVK: tensile moduli along the warp and the weft and the in-plane shear
+    /// modulus, in N/m (2D moduli, as textile data give them; E t of a plate); finite, > 0.
+    /// Defaults 1e3.
+    double shell_warp_modulus;
+    double shell_weft_modulus;   ///< ORTHOTROPIC_STVK: weft tensile modulus (N/m). Default 1e3.
+    double shell_shear_modulus;  ///< ORTHOTROPIC_STVK: in-plane shear modulus (N/m). Default 1e3.
+    /// ORTHOTROPIC_STVK: Poisson ratio nu_12 (weft contraction under warp tension), >= 0 with
+    /// nu_12^2 weft / warp < 1. Default 0.
+    double shell_warp_poisson;
+    /// The warp direction, a vector in the rest shape's coordinates (need not be unit): each
+    /// triangle's warp is its projection onto the triangle's rest plane (orthotropic membranes
+    /// and warp/weft bending need it not normal to any triangle: DEFSIM_ERR_INVALID_MESH).
+    /// Default (1, 0, 0).
+    double shell_warp_direction[3];
+    /// Mass per rest area in kg/m^2 (finite, >= 0). Default 0.1.
+    double shell_areal_density;
+    /// Bending rigidity D in N m of the discrete-shell hinges (for bending along the warp when
+    /// shell_bending_rigidity_weft differs); finite, >= 0; 0: no bending. < 0 (default): an
+    /// isotropic membrane's plate rigidity E t^3 / (12 (1 - nu^2)), none for the others.
+    double shell_bending_rigidity;
+    /// Bending rigidity along the weft (N m), finite, >= 0; < 0 (default): as the warp's.
+    double shell_bending_rigidity_weft;
 } defsim_body_def;
+
+/// The membrane energy of a shell body (defsim_body_def.shell_membrane; docs/shells.md), on
+/// the 3x2 deformation gradient F of each triangle over its rest plane, E = (F^T F - I) / 2.
+typedef enum defsim_shell_membrane {
+    DEFSIM_SHELL_MEMBRANE_NONE = 0,             ///< No membrane (bending, springs or both only).
+    DEFSIM_SHELL_MEMBRANE_STVK = 1,             ///< psi = mu |E|^2 + lambda/2 tr(E)^2 (J/m^2).
+    DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN = 2,       ///< psi = mu/2 (tr C - 2) - mu log J +
+                                                ///< lambda/2 (log J)^2, C = F^T F, J = sqrt(det C).
+    DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK = 3  ///< StVK with plane-stress orthotropic moduli in
+                                                ///< the warp/weft frame (docs/shells.md).
+} defsim_shell_membrane;
 
 /// Fills *def with defaults (no geometry, stable neo-Hookean material). `size` = sizeof *def.
 DEFSIM_API void defsim_body_def_init(defsim_body_def *def, size_t size);
@@ -455,7 +507,9 @@ enum {
     DEFSIM_PASS_EXTERNAL_FORCES = 1u << 11, ///< Held external forces (skipped when none are set).
     DEFSIM_PASS_FORCE_CALLBACK = 1u << 12,  ///< The host's force callback (skipped when none).
     DEFSIM_PASS_ATTACHMENTS = 1u << 13,     ///< Attachment springs (skipped without attachments).
-    DEFSIM_PASS_DRIVEN_PINS = 1u << 14      ///< Pinned vertices moved to targets in this step.
+    DEFSIM_PASS_DRIVEN_PINS = 1u << 14,     ///< Pinned vertices moved to targets in this step.
+    DEFSIM_PASS_MEMBRANE = 1u << 15,        ///< Shell membrane forces (docs/shells.md).
+    DEFSIM_PASS_BENDING = 1u << 16          ///< Shell hinge (bending) forces.
 };
 
 /// The core's counters and timings, cumulative since creation (or since
@@ -1070,7 +1124,8 @@ DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn
 /// directory, flushed to disk (fsync), then renamed over `path`; on failure `path` is as it was.
 /// The world is not changed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, empty path),
 /// DEFSIM_ERR_LOCKED (called from inside a host callback), DEFSIM_ERR_IO (the file could not be written: the
-/// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY.
+/// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_UNSUPPORTED (the
+/// world has a shell body: checkpoints do not hold shells yet).
 DEFSIM_API defsim_status defsim_world_save(const defsim_world *world, const char *path);
 
 /// Writes a checkpoint into a buffer that the library allocates: on success *data receives it

@@ -420,6 +420,50 @@ static void test_spring_and_mass(void **state)
     defsim_world_destroy(w);
 }
 
+/* Shells: each membrane law's term and the hinges, on a bent 4 x 3 sheet off its rest shape. */
+static void test_shells(void **state)
+{
+    (void)state;
+    const int32_t laws[3] = {DEFSIM_SHELL_MEMBRANE_STVK, DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN,
+                             DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK};
+    for (int k = 0; k < 3; ++k) {
+        defsim_world *w = world(-9.81);
+        const double o[3] = {0, 0, 0}, u[3] = {0.2, 0, 0}, vv[3] = {0, 0.15, 0};
+        defsim_mesh m;
+        memset(&m, 0, sizeof m);
+        m.size = sizeof m;
+        TU_OK(defsim_mesh_cloth(o, u, vv, 4, 3, &m));
+        for (int i = 0; i < m.vertex_count; ++i)   /* a pre-bent rest shape */
+            m.positions[3 * i + 2] = 0.5 * m.positions[3 * i] * m.positions[3 * i];
+        defsim_body_def d;
+        defsim_body_def_init(&d, sizeof d);
+        d.rest_positions = m.positions;
+        d.vertex_count = m.vertex_count;
+        d.triangles = m.triangles;
+        d.triangle_count = m.triangle_count;
+        d.shell_membrane = laws[k];
+        d.shell_youngs_modulus = 1e5;
+        d.shell_thickness = 1e-3;
+        d.shell_warp_direction[1] = 0.5;
+        d.shell_bending_rigidity = 1e-3;
+        d.shell_bending_rigidity_weft = 3e-4;
+        TU_OK(defsim_world_add_body(w, &d, NULL));
+        defsim_mesh_free(&m);
+        double *v, *x = perturbed(w, 0.01, &v);
+        const defsim__term *mt = term_of(w, DEFSIM__TERM_KIND_membrane);
+        check_gradient(w, mt, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-6);
+        check_values(w, mt, mt, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
+        check_apply(w, mt, x, K1);
+        const defsim__term *ht = term_of(w, DEFSIM__TERM_KIND_hinge);
+        check_gradient(w, ht, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-6);
+        check_values(w, ht, ht, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
+        check_apply(w, ht, x, K1);
+        free(x);
+        free(v);
+        defsim_world_destroy(w);
+    }
+}
+
 /* Attachments to a world point and to another body's tet, with dampers; held forces. */
 static void test_attach_and_held(void **state)
 {
@@ -792,6 +836,7 @@ int main(void)
         cmocka_unit_test(test_elastic),        cmocka_unit_test(test_elastic_quadratic),
         cmocka_unit_test(test_nodal_volume),
         cmocka_unit_test(test_spring_and_mass),
+        cmocka_unit_test(test_shells),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),
         cmocka_unit_test(test_collider),       cmocka_unit_test(test_body_contact),
         cmocka_unit_test(test_body_contact_friction),

@@ -18,6 +18,7 @@ from ._errors import (Error, InvalidArgumentError, StaleIdError, Status, Unsuppo
                       check, error_from_status)
 from ._material import Material
 from ._mesh import Mesh, SpringKind
+from ._shell import Shell
 from ._native import ffi, lib
 
 __all__ = ["World", "Body", "Energy", "Stats", "Pass", "Projection", "LogCallback"]
@@ -56,6 +57,8 @@ class Pass(enum.IntFlag):
     FORCE_CALLBACK = 1 << 12
     ATTACHMENTS = 1 << 13
     DRIVEN_PINS = 1 << 14
+    MEMBRANE = 1 << 15
+    BENDING = 1 << 16
 
 
 class Energy(NamedTuple):
@@ -371,7 +374,8 @@ class World(WorldCoupling, WorldColliders):
                  initial_velocities: Any = None, triangles: Any = None,
                  self_contact: bool = True, collision_group: int = 1,
                  collision_mask: int = 0xFFFFFFFF, friction: float = 0.5,
-                 volume_averaging: bool = False) -> Body:
+                 volume_averaging: bool = False,
+                 shell: Optional[Shell] = None) -> Body:
         """Adds a body; its vertices follow those of the bodies added before it. All arrays are
         copied.
 
@@ -402,6 +406,8 @@ class World(WorldCoupling, WorldColliders):
             volume_averaging: the averaged-nodal-volume tet against volumetric locking of
                 nearly incompressible bodies (docs/materials.md); neo-Hookean and stable
                 neo-Hookean only (others raise MaterialError).
+            shell: a Shell: the triangles (at least one; no tets) are then also membrane
+                elements and bending hinges (docs/shells.md).
 
         Returns the new Body. Raises InvalidArgumentError (shapes, counts), InvalidMeshError
         (index out of range, degenerate tet, zero-length spring, non-finite coordinate, vertex
@@ -464,10 +470,16 @@ class World(WorldCoupling, WorldColliders):
             if bend_stiffness is not None:
                 d.bend_stiffness = _arrays.c_double(bend_stiffness, "bend_stiffness")
         # A body without tets collides through its triangles (a tet body through its boundary).
-        keep.append(_arrays.iptr(tri) if tri.size and not t.size else ffi.NULL)
+        keep.append(_arrays.iptr(tri) if tri.size and (not t.size or shell is not None)
+                    else ffi.NULL)
         d.triangles = keep[8]
-        d.triangle_count = _arrays.c_int(tri.shape[0] if tri.size and not t.size else 0,
+        d.triangle_count = _arrays.c_int(tri.shape[0] if tri.size and (not t.size or
+                                                                       shell is not None) else 0,
                                          "triangle count")
+        if shell is not None:
+            if not isinstance(shell, Shell):
+                raise InvalidArgumentError("shell must be a defsim.Shell")
+            shell._fill(d)
         d.self_contact = 1 if self_contact else 0
         d.collision_group = _collision_bits(collision_group, "collision_group")
         d.collision_mask = _collision_bits(collision_mask, "collision_mask")

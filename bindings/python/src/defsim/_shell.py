@@ -1,0 +1,62 @@
+# SPDX-License-Identifier: MIT
+"""Cloth and shells (``defsim_body_def``'s shell fields; docs/shells.md)."""
+from __future__ import annotations
+
+import dataclasses
+import enum
+from typing import Any, Sequence
+
+from . import _arrays
+from ._errors import InvalidArgumentError
+
+
+class Membrane(enum.IntEnum):
+    """A shell's membrane energy (``defsim_shell_membrane``)."""
+
+    NONE = 0
+    STVK = 1
+    NEOHOOKEAN = 2
+    ORTHOTROPIC_STVK = 3
+
+
+@dataclasses.dataclass
+class Shell:
+    """The shell of a body of triangles (``World.add_body(..., shell=Shell(...))``), in SI
+    units: the body's triangles become membrane elements on their rest planes and its interior
+    edges bending hinges with the rest shape's angles (docs/shells.md). Defaults are the
+    library's; ``bending_rigidity`` None takes an isotropic membrane's plate rigidity
+    E t^3 / (12 (1 - nu^2)) (none for the others), ``bending_rigidity_weft`` None the warp's.
+    """
+
+    membrane: Membrane = Membrane.NONE
+    youngs_modulus: float = 1e6          # Pa (isotropic membranes)
+    poisson_ratio: float = 0.3
+    thickness: float = 1e-3              # m
+    warp_modulus: float = 1e3            # N/m (orthotropic)
+    weft_modulus: float = 1e3            # N/m
+    shear_modulus: float = 1e3           # N/m
+    warp_poisson: float = 0.0
+    warp_direction: Sequence[float] = (1.0, 0.0, 0.0)
+    areal_density: float = 0.1           # kg/m^2
+    bending_rigidity: Any = None         # N m
+    bending_rigidity_weft: Any = None    # N m
+
+    def _fill(self, d: Any) -> None:
+        try:
+            d.shell_membrane = int(Membrane(self.membrane))
+        except ValueError:
+            raise InvalidArgumentError(f"shell.membrane {self.membrane!r} is not a Membrane")
+        for name in ("youngs_modulus", "poisson_ratio", "thickness", "warp_modulus",
+                     "weft_modulus", "shear_modulus", "warp_poisson", "areal_density"):
+            setattr(d, "shell_" + name, _arrays.c_double(getattr(self, name), "shell." + name))
+        w = list(self.warp_direction)
+        if len(w) != 3:
+            raise InvalidArgumentError("shell.warp_direction needs 3 values")
+        for i in range(3):
+            d.shell_warp_direction[i] = _arrays.c_double(w[i], "shell.warp_direction")
+        d.shell_bending_rigidity = (-1.0 if self.bending_rigidity is None else
+                                    _arrays.c_double(self.bending_rigidity,
+                                                     "shell.bending_rigidity"))
+        d.shell_bending_rigidity_weft = (-1.0 if self.bending_rigidity_weft is None else
+                                         _arrays.c_double(self.bending_rigidity_weft,
+                                                          "shell.bending_rigidity_weft"))

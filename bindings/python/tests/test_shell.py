@@ -1,0 +1,65 @@
+# SPDX-License-Identifier: MIT
+"""Shells from Python (docs/shells.md): the Shell fields reach the library (a sheet's uniaxial
+stretch gives the analytic StVK force, a pre-bent strip is at rest, forces are minus the
+energy's gradient), and bad values raise."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import defsim
+
+
+def _sheet(shell: defsim.Shell) -> tuple:
+    mesh = defsim.mesh_cloth((0, 0, 0), (0.4, 0, 0), (0, 0.3, 0), 8, 6)
+    w = defsim.World(backend="symplectic_euler", gravity=(0, 0, 0))
+    w.add_body(mesh.positions, triangles=mesh.triangles, shell=shell)
+    return w, mesh
+
+
+def test_biaxial_stretch_force():
+    E, nu, t = 2e6, 0.3, 1e-3
+    w, mesh = _sheet(defsim.Shell(membrane=defsim.Membrane.STVK, youngs_modulus=E,
+                                  poisson_ratio=nu, thickness=t, bending_rigidity=0.0))
+    l1, l2 = 1.2, 1.1
+    x = mesh.positions * np.array([l1, l2, 1.0])
+    f = w.forces(x)
+    mu, lam = E * t / (2 * (1 + nu)), E * t * nu / (1 - nu * nu)
+    E1, E2 = 0.5 * (l1 * l1 - 1), 0.5 * (l2 * l2 - 1)
+    P11 = l1 * ((lam + 2 * mu) * E1 + lam * E2)
+    right = np.isclose(mesh.positions[:, 0], 0.4)
+    assert f[right, 0].sum() == pytest.approx(-P11 * 0.3, rel=1e-9)
+
+
+def test_prebent_rest_and_gradient():
+    mesh = defsim.mesh_cloth((0, 0, 0), (1, 0, 0), (0, 0, 0.05), 12, 2)
+    p = mesh.positions.copy()
+    s = p[:, 0] * np.pi / 2
+    p[:, 0], p[:, 1] = 0.2 * np.sin(s), 0.2 * (1 - np.cos(s))
+    w = defsim.World(backend="symplectic_euler", gravity=(0, 0, 0))
+    w.add_body(p, triangles=mesh.triangles,
+               shell=defsim.Shell(membrane=defsim.Membrane.NEOHOOKEAN, youngs_modulus=1e5,
+                                  bending_rigidity=1e-3, bending_rigidity_weft=5e-4))
+    assert np.abs(w.forces(p)).max() < 1e-12
+    rng = np.random.default_rng(1)
+    x = p + 0.002 * rng.standard_normal(p.shape)
+    f = w.forces(x).reshape(-1)
+    fd = np.empty(x.size)
+    for i in range(x.size):
+        xp, xm = x.copy().reshape(-1), x.copy().reshape(-1)
+        xp[i] += 1e-7
+        xm[i] -= 1e-7
+        w.set_state(xp.reshape(-1, 3))
+        ep = w.energy().elastic
+        w.set_state(xm.reshape(-1, 3))
+        fd[i] = -(ep - w.energy().elastic) / 2e-7
+    np.testing.assert_allclose(f, fd, rtol=0, atol=1e-5 * np.abs(f).max())
+
+
+def test_bad_values_raise():
+    with pytest.raises(defsim.InvalidMaterialError):
+        _sheet(defsim.Shell(membrane=defsim.Membrane.STVK, thickness=0.0))
+    with pytest.raises(defsim.InvalidArgumentError):
+        _sheet(defsim.Shell(membrane=7))
+    with pytest.raises(defsim.InvalidArgumentError):
+        _sheet(defsim.Shell(membrane=defsim.Membrane.STVK, warp_direction=(1, 0)))

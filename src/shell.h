@@ -1,0 +1,78 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Cloth and shells (shell.c; docs/shells.md): the element laws of the membrane and bending
+ * terms (term_membrane.c, term_hinge.c) and the rest-shape rules that body.c validates with and
+ * plan.c builds from. Membrane: a triangle's 3x2 deformation gradient F = Ds Dm^-1 over its rest
+ * plane (Dm: the rest edges in an orthonormal frame whose first axis is the warp), StVK (plane-
+ * stress orthotropic moduli c11 c12 c22 g, isotropic as the special case) and neo-Hookean laws.
+ * Bending: discrete shells' hinge, E = w/2 (theta - theta0)^2 with the signed dihedral angle
+ * theta = atan2(y, x) of y = -|e| e . (a x b), x = (e . a)(e . b) - |e|^2 (a . b) (e = x1 - x0,
+ * a = x2 - x0, b = x3 - x0), whose derivatives are polynomial: exact gradient and Hessian.
+ */
+#ifndef DEFSIM_SHELL_H
+#define DEFSIM_SHELL_H
+
+#include <stdint.h>
+
+/* The membrane laws (one element group each); the hinges are a third group. */
+enum {
+    DEFSIM__MEMBRANE_STVK = 0,        /* isotropic and orthotropic StVK */
+    DEFSIM__MEMBRANE_NEOHOOKEAN = 1,
+    DEFSIM__SHELL_HINGES = 2,
+    DEFSIM__SHELL_GROUPS = 3
+};
+
+/* Doubles per membrane element in its group's `shell` array: Dm^-1 (2x2 row-major), then the
+ * law's parameters (StVK: c11 c12 c22 g in N/m; neo-Hookean: mu lambda 0 0). */
+enum { DEFSIM__MEMBRANE_WIDTH = 8 };
+
+/* A rest triangle's frame: area A, Dm^-1 into dminv (Dm = [p1 - p0, p2 - p0] in the frame
+ * (t1, t2), t1 the warp projected onto the triangle's plane, t2 = n x t1). When the warp is
+ * within 1e-3 of the normal, t1 is the first edge's direction unless need_warp. Returns 0, 1
+ * for a degenerate triangle (area <= 1e-12 of its longest edge squared), 2 for a warp normal to
+ * it with need_warp. frame (may be NULL) receives t1, t2. */
+int defsim__shell_frame(const double *p0, const double *p1, const double *p2,
+                        const double warp[3], int need_warp, double dminv[4], double *area,
+                        double frame[6]);
+
+/* The law's four parameters (StVK c11 c12 c22 g, or neo-Hookean mu lambda 0 0), from the
+ * public membrane model and its moduli: isotropic from E (Pa), nu and t (m) by plane stress,
+ * orthotropic from the warp and weft moduli y1, y2, shear g (N/m) and nu12. Returns the group
+ * (DEFSIM__MEMBRANE_*) or -1 for DEFSIM_SHELL_MEMBRANE_NONE. */
+int defsim__membrane_params(int32_t model, double E, double nu, double t, double y1, double y2,
+                            double g, double nu12, double prm[4]);
+
+/* A law at F (3x2 row-major, F[2 i + j]): energy density (J/m^2), P = dpsi/dF (3x2, may be
+ * NULL) and dP/dF (6x6, D[6 (2 i + j) + 2 k + l], may be NULL). Neo-Hookean: +INFINITY (P and
+ * D untouched) where det C <= 0 (a collapsed triangle). */
+double defsim__membrane_law(int law, const double prm[4], const double F[6], double P[6],
+                            double D[36]);
+
+/* A membrane element (its `shell` row: dminv and prm, rest area `area`) at its vertices X (3x3:
+ * x0 x1 x2): energy (J), gradient dE/dX (9, may be NULL), Hessian (9x9 row-major, may be NULL)
+ * with dP/dF projected by proj (defsim_projection: NONE, CLAMP, ABS) before it is mapped. */
+double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH], double area,
+                                const double X[9], double grad[9], double H[81], int proj);
+
+/* The hinge's signed dihedral angle at X (x0 x1: the edge; x2, x3: the opposite vertices of its
+ * two triangles): 0 flat, +-pi folded; its gradient (12) and Hessian (12x12) where not NULL. */
+double defsim__hinge_angle(const double X[12], double g[12], double H[144]);
+
+/* theta - theta0 wrapped into (-pi, pi]. */
+double defsim__hinge_delta(double theta, double theta0);
+
+/* A hinge of weight w (N m) and rest angle theta0: E = w/2 delta^2 (J), its gradient and
+ * Hessian w (g g^T + delta H_theta), the latter projected by proj (a 12x12 eigen-clamp) where
+ * not NULL. */
+double defsim__hinge_element(double w, double theta0, const double X[12], double grad[12],
+                             double H[144], int proj);
+
+/* A hinge's weight w = D |e|^2 / (A1 + A2) (so that a shell bent to curvature kappa on a
+ * regular mesh stores D/2 kappa^2 per area) and rest angle, from its rest vertices; D from the
+ * warp and weft rigidities by the angle between the hinge's bending direction (in its rest
+ * plane, across the edge) and the warp: D = d_warp cos^2 + d_weft sin^2. Returns 0, 1 for a
+ * degenerate hinge, 2 for a warp normal to it when d_warp != d_weft. */
+int defsim__hinge_rest(const double X[12], const double warp[3], double d_warp, double d_weft,
+                       double *w, double *theta0);
+
+#endif /* DEFSIM_SHELL_H */

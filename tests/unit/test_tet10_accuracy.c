@@ -15,6 +15,9 @@
  *    linear range: the sag is 0.4 % of the length): the top far corner's deflection against the
  *    converged 3D solution REF_CANTILEVER. Quadratic tets within 2 % of it at 12 x 4 x 4 cells,
  *    linear tets about 20 % short.
+ *  - The same cantilever at nu = 0.499 against its converged solution REF_CANTILEVER_NU499:
+ *    the linear tets lock (84 % short); the quadratic tets are 4.1 % short at 12 x 4 x 4 cells
+ *    (issue 29 asks 3 %: not met on this mesh), 2.3 % at 18 x 6 x 6 (within 3 %).
  *  - Cook's membrane, 3D thin-plate variant: the tapered panel (0,0), (48,44), (48,60), (0,44)
  *    (Cook 1974) with thickness 1 and traction-free faces, clamped at x = 0 (every vertex
  *    there pinned), a uniform vertical shear traction of total force F on the face x = 48,
@@ -35,9 +38,12 @@
  * of the tested one (n = 6, 8, 10: 18 x 6 x 6, 24 x 8 x 8, 30 x 10 x 10 cells) and Richardson
  * extrapolation u(n) = u* + C n^-p with p fitted to the three: `test_tet10_accuracy --long`
  * (ctest long_tet10_refinement, label long) computes it and fails unless it lands within
- * 0.05 % of REF_CANTILEVER, the value the default test uses; it does the same for Cook's
+ * 0.05 % of REF_CANTILEVER, the value the default test uses; the same at nu = 0.499 against
+ * REF_CANTILEVER_NU499 (and within 0.1 % of test_volume_averaging's independent reference from
+ * the volume-averaged linear tets); it does the same for Cook's
  * membrane (n = 16, 24, 32 per side) against REF_COOK, and checks that within 0.5 % of the 2D
- * plane-stress value 25.17.
+ * plane-stress value 25.17. `test_tet10_accuracy --one N NU QUADRATIC` solves and prints one
+ * cantilever (3N x N x N cells, Poisson ratio NU, quadratic tets if QUADRATIC is 1).
  */
 #include "test_util.h"
 
@@ -60,6 +66,11 @@ static double now_s(void)
  * 12.91581, 12.92728, 12.93361 mm at n = 6, 8, 10, order 1.33, extrapolated 12.952 mm) and
  * Cook's membrane's u_C per unit force (25.0466 at 32 per side, order 1.25, 25.138). */
 static const double REF_CANTILEVER = 1.2952e-2;
+/* The same cantilever at nu = 0.499, from the --long run: 12.18958, 12.28700, 12.33870 mm at
+ * n = 6, 8, 10, order 1.47, extrapolated 12.4714 mm; test_volume_averaging's reference from the
+ * volume-averaged linear tets on 24, 36, 48 cells (REF_NU499 there) is 12.4706 mm, 0.01 % off. */
+static const double REF_CANTILEVER_NU499 = 1.2471e-2;
+static const double REF_NU499_AVERAGED = 1.24706e-2;
 static const double REF_COOK = 25.138;
 static const double REF_COOK_PLANE_STRESS = 25.17;
 
@@ -124,8 +135,8 @@ static beam_result pin_solve_probe(defsim_world *w, defsim_body_id id, const def
     return r;
 }
 
-/* The cantilever of n cells per metre (3n x n x n) under its own weight. */
-static beam_result cantilever(int n, int quadratic)
+/* The cantilever of n cells per metre (3n x n x n) under its own weight, Poisson ratio nu. */
+static beam_result cantilever(int n, int quadratic, double nu)
 {
     defsim_world *w = tu_implicit_world("newton_cholmod", -9.81, 1, 1e-10, 50,
                                         DEFSIM_PROJECTION_CLAMP);
@@ -137,7 +148,7 @@ static beam_result cantilever(int n, int quadratic)
     if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
     defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
     bd.material.youngs_modulus = 1e8;
-    bd.material.poisson_ratio = 0.3;
+    bd.material.poisson_ratio = nu;
     bd.material.density = 1000.0;
     defsim_body_id id;
     TU_OK(defsim_world_add_body(w, &bd, &id));
@@ -260,7 +271,7 @@ static double richardson(const int n[3], const double u[3], double *p_out)
 static void test_cantilever(void **state)
 {
     (void)state;
-    const beam_result q = cantilever(4, 1), l = cantilever(4, 0);
+    const beam_result q = cantilever(4, 1, 0.3), l = cantilever(4, 0, 0.3);
     const double eq = q.deflection / REF_CANTILEVER - 1.0, el = l.deflection / REF_CANTILEVER - 1.0;
     printf("  cantilever 12 x 4 x 4, reference %.5g mm: quadratic %.5g mm (%+.2f %%, %d vertices, "
            "%.2f s), linear %.5g mm (%+.2f %%, %d vertices, %.2f s)\n", 1e3 * REF_CANTILEVER,
@@ -272,7 +283,7 @@ static void test_cantilever(void **state)
     const int n[3] = {6, 8, 10};
     double u[3], p;
     for (int k = 0; k < 3; ++k) {
-        const beam_result r = cantilever(n[k], 1);
+        const beam_result r = cantilever(n[k], 1, 0.3);
         u[k] = r.deflection;
         printf("  cantilever %d x %d x %d quadratic: %.7g mm (%d vertices, %.2f s)\n", 3 * n[k],
                n[k], n[k], 1e3 * u[k], r.vertices, r.seconds);
@@ -281,6 +292,54 @@ static void test_cantilever(void **state)
     printf("  cantilever extrapolated: %.7g mm (order %.2f); REF_CANTILEVER %.7g mm\n", 1e3 * ref,
            p, 1e3 * REF_CANTILEVER);
     assert_true(fabs(ref / REF_CANTILEVER - 1.0) < 5e-4);
+}
+
+/* nu = 0.499 (near incompressible; E, load and solve as above): issue 29 asks quadratic tets
+ * (or the volume-averaged linear tets of test_volume_averaging) within 3 % of the converged
+ * solution at 12 x 4 x 4 cells, and the linear tets' locking shown. Measured: the quadratic tets
+ * are 4.1 % short at 12 x 4 x 4 (the 3 % is not met on this mesh; the volume-averaged linear
+ * tets are 25 % short), 2.3 % short at 18 x 6 x 6 (--long asserts that one within 3 %); the
+ * linear tets lock: 2.05 mm, 84 % short, a fifth of their own sag at nu = 0.3, while the
+ * continuum's sag falls by only 3.7 % from nu = 0.3 to 0.499 (REF_CANTILEVER_NU499 /
+ * REF_CANTILEVER) and the quadratic tets' by 7 %. */
+static void test_cantilever_incompressible(void **state)
+{
+    (void)state;
+    const double nu = 0.499, ref = REF_CANTILEVER_NU499;
+    const beam_result q = cantilever(4, 1, nu), l = cantilever(4, 0, nu);
+    const beam_result q3 = cantilever(4, 1, 0.3), l3 = cantilever(4, 0, 0.3);
+    const double eq = q.deflection / ref - 1.0, el = l.deflection / ref - 1.0;
+    printf("  cantilever 12 x 4 x 4, nu 0.499, reference %.5g mm: quadratic %.5g mm (%+.2f %%, "
+           "%.2f s), linear %.5g mm (%+.2f %%, %.2f s)\n", 1e3 * ref, 1e3 * q.deflection,
+           100.0 * eq, q.seconds, 1e3 * l.deflection, 100.0 * el, l.seconds);
+    printf("  sag at nu 0.499 over sag at nu 0.3: continuum %.4f, quadratic %.4f, linear %.4f\n",
+           ref / REF_CANTILEVER, q.deflection / q3.deflection, l.deflection / l3.deflection);
+    /* quadratic: short by 4.1 %, not within issue 29's 3 % on this mesh (18 x 6 x 6 is, --long) */
+    assert_true(eq < 0.0 && eq > -0.045);
+    /* linear: locked, far below the continuum and its own sag at nu = 0.3 */
+    assert_true(el < -0.75);
+    assert_true(l.deflection < 0.25 * l3.deflection);
+    assert_true(q.deflection > 5.0 * l.deflection);
+    assert_true(q.deflection > 0.9 * q3.deflection);
+    /* the two independent references agree */
+    assert_true(fabs(ref / REF_NU499_AVERAGED - 1.0) < 1e-3);
+    if (!long_mode) return;
+    const int n[3] = {6, 8, 10};
+    double u[3], p;
+    for (int k = 0; k < 3; ++k) {
+        const beam_result r = cantilever(n[k], 1, nu);
+        u[k] = r.deflection;
+        printf("  cantilever %d x %d x %d quadratic, nu 0.499: %.7g mm (%+.2f %%, %d vertices, "
+               "%.2f s)\n", 3 * n[k], n[k], n[k], 1e3 * u[k], 100.0 * (u[k] / ref - 1.0),
+               r.vertices, r.seconds);
+    }
+    const double ext = richardson(n, u, &p);
+    printf("  cantilever nu 0.499 extrapolated: %.7g mm (order %.2f); REF_CANTILEVER_NU499 %.7g "
+           "mm, volume-averaged reference %.7g mm\n", 1e3 * ext, p, 1e3 * ref,
+           1e3 * REF_NU499_AVERAGED);
+    assert_true(fabs(ext / ref - 1.0) < 5e-4);
+    assert_true(fabs(ext / REF_NU499_AVERAGED - 1.0) < 1e-3);
+    assert_true(fabs(u[0] / ref - 1.0) < 0.03);   /* 18 x 6 x 6: within issue 29's 3 % */
 }
 
 static void test_cook(void **state)
@@ -315,8 +374,17 @@ static void test_cook(void **state)
 int main(int argc, char **argv)
 {
     long_mode = argc > 1 && strcmp(argv[1], "--long") == 0;
+    if (argc > 4 && strcmp(argv[1], "--one") == 0) {   /* --one N NU QUADRATIC: one cantilever */
+        const int n = atoi(argv[2]), quad = atoi(argv[4]);
+        const double nu = atof(argv[3]);
+        const beam_result r = cantilever(n, quad, nu);
+        printf("  cantilever %d x %d x %d %s nu %g: %.7g mm (%d vertices, %.2f s)\n", 3 * n, n, n,
+               quad ? "quadratic" : "linear", nu, 1e3 * r.deflection, r.vertices, r.seconds);
+        return 0;
+    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cantilever),
+        cmocka_unit_test(test_cantilever_incompressible),
         cmocka_unit_test(test_cook),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -5,9 +5,9 @@
  *
  * What a world holds is read from its checkpoint (defsim_world_save_buffer, docs/checkpoints.md):
  * the bodies as the library keeps them (rest positions, masses, tets, springs and their
- * stiffnesses, pins, contact surfaces, materials), attachments, held forces, colliders and the
- * world's def, so that the export sees exactly what the world steps with and needs no
- * accessor of its own in the core. Options, state and colliders' defs come through the public
+ * stiffnesses, pins, contact surfaces, materials, shell fields), attachments, held forces,
+ * colliders and the world's def, so that the export sees exactly what the world steps with and
+ * needs no accessor of its own in the core. Options, state and colliders' defs come through the public
  * calls. Every number is written with 17 significant digits, which strtod (cJSON) reads back to
  * the same double. What a scene cannot express (an SDF collider, pending pin targets or
  * collider poses, keyed paths of a scene at t != 0) is refused with DEFSIM_ERR_UNSUPPORTED,
@@ -182,8 +182,9 @@ static int32_t *i32s(defsim__br *r, int64_t n)
     return v;
 }
 
-/* The chunks of the checkpoint format (the library's own version) that a scene needs. Returns 0, -1 (malformed:
- * a format this code does not know) or -2 (out of memory). */
+/* The chunks of the checkpoint format (the library's own version, DEFSIM__CKPT_VERSION) that a
+ * scene needs. Returns 0, -1 (malformed: a format this code does not know) or -2 (out of
+ * memory). */
 static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
 {
     memset(k, 0, sizeof *k);

@@ -800,8 +800,9 @@ static void test_version_5_file(void **state)
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
  * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields:
- * the file's body loads with the standard linear element and no shell, and continues as the uninterrupted run does; saved again it is a
- * file of today's version that continues bit for bit. */
+ * the file's body loads with the standard linear element and no shell, and continues as the
+ * uninterrupted run does; saved again it is a file of today's version that continues bit for
+ * bit. */
 static void test_version_6_file(void **state)
 {
     (void)state;

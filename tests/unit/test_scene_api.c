@@ -7,6 +7,7 @@
 #include <defsim/scene.h>
 
 #include "built_backends.h"
+#include "mesh_body.h"
 #include "vtk.h"
 
 #include <math.h>
@@ -227,12 +228,7 @@ static void test_shell_export(void **state)
         m.size = sizeof m;
         const double o[3] = {0, 0, 0}, u[3] = {0.2, 0, 0}, v[3] = {0, 0, 0.2};
         assert_int_equal(defsim_mesh_cloth(o, u, v, 4, 4, &m), DEFSIM_OK);
-        defsim_body_def d;
-        defsim_body_def_init(&d, sizeof d);
-        d.rest_positions = m.positions;
-        d.vertex_count = m.vertex_count;
-        d.triangles = m.triangles;
-        d.triangle_count = m.triangle_count;
+        defsim_body_def d = test_shell_body(&m);
         const int32_t diag[2] = {0, 24}, edge[5] = {0, 1, 2, 3, 4};
         d.springs = diag;
         d.spring_count = 1;

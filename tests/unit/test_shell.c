@@ -219,12 +219,7 @@ static defsim_world *sheet(int32_t membrane, const double warp[3], defsim_mesh *
     memset(m, 0, sizeof *m);
     m->size = sizeof *m;
     assert_int_equal(defsim_mesh_cloth(o, u, v, SX, SY, m), DEFSIM_OK);
-    defsim_body_def d;
-    defsim_body_def_init(&d, sizeof d);
-    d.rest_positions = m->positions;
-    d.vertex_count = m->vertex_count;
-    d.triangles = m->triangles;
-    d.triangle_count = m->triangle_count;
+    defsim_body_def d = test_shell_body(m);
     d.shell_membrane = membrane;
     d.shell_youngs_modulus = 2e6;
     d.shell_poisson_ratio = 0.3;
@@ -425,12 +420,7 @@ static void arc_strip(double R, int nx, defsim_mesh *m)
 
 static defsim_body_def strip_def(const defsim_mesh *m, double D)
 {
-    defsim_body_def d;
-    defsim_body_def_init(&d, sizeof d);
-    d.rest_positions = m->positions;
-    d.vertex_count = m->vertex_count;
-    d.triangles = m->triangles;
-    d.triangle_count = m->triangle_count;
+    defsim_body_def d = test_shell_body(m);
     d.shell_membrane = DEFSIM_SHELL_MEMBRANE_STVK;
     d.shell_youngs_modulus = 1e7;
     d.shell_thickness = 1e-3;
@@ -558,12 +548,7 @@ static double sheet_fall(const char *backend, int expl, double alpha)
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     assert_int_equal(defsim_mesh_cloth(o, u, v, 6, 6, &m), DEFSIM_OK);
-    defsim_body_def d;
-    defsim_body_def_init(&d, sizeof d);
-    d.rest_positions = m.positions;
-    d.vertex_count = m.vertex_count;
-    d.triangles = m.triangles;
-    d.triangle_count = m.triangle_count;
+    defsim_body_def d = test_shell_body(&m);
     d.shell_membrane = DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN;
     d.shell_youngs_modulus = 2e5;
     d.shell_thickness = 1e-3;
@@ -644,12 +629,8 @@ static defsim_world *pinned_sheets(const char *backend, defsim_mesh *m)
         double rest[3 * 49];
         memcpy(rest, m->positions, sizeof rest);
         for (int i = 0; i < 49; ++i) rest[3 * i + 1] -= 0.1 * b;
-        defsim_body_def d;
-        defsim_body_def_init(&d, sizeof d);
+        defsim_body_def d = test_shell_body(m);
         d.rest_positions = rest;
-        d.vertex_count = 49;
-        d.triangles = m->triangles;
-        d.triangle_count = m->triangle_count;
         d.shell_areal_density = 0.15;
         if (b == 0) {
             d.shell_membrane = DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK;

@@ -383,5 +383,5 @@ def test_shell_world_round_trip_is_bit_identical(backend: str, tmp_path) -> None
             world.step(h)
         for other in (w2, w3):
             assert _bits(other.positions) == _bits(w.positions), f"positions differ, step {i + 1}"
-            assert _bits(other.velocities) == _bits(w.velocities), f"velocities differ, step {i + 1}"
+            assert _bits(other.velocities) == _bits(w.velocities), f"velocities, step {i + 1}"
     assert np.abs(w.positions - x0).max() > 1e-5   # the sheets move

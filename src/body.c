@@ -475,6 +475,8 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     }
     b.shell = shell;
     b.membrane = -1;
+    b.shell_membrane = d.shell_membrane;
+    defsim__body_shell_fields(&d, b.shell_fields, 0);
     if (shell && (st = shell_build(msg, &d, &b)) != DEFSIM_OK) goto fail;
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
@@ -531,6 +533,9 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_f64(b, body->friction);
     /* version 7: volume averaging */
     defsim__put_i32(b, body->volume_averaging);
+    /* version 9: the shell fields as the def gave them */
+    defsim__put_i32(b, body->shell_membrane);
+    defsim__put_f64s(b, body->shell_fields, DEFSIM__SHELL_FIELDS);
     defsim__chunk_end(b, c);
 }
 
@@ -605,6 +610,13 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     }
     /* Volume averaging (version 7); older files: the standard element. */
     if (version >= 7) d->volume_averaging = defsim__get_i32(r);
+    /* The shell fields (version 9); older files: defsim_body_def_init's (no shell). */
+    if (version >= 9) {
+        d->shell_membrane = defsim__get_i32(r);
+        double p[DEFSIM__SHELL_FIELDS];
+        defsim__get_f64s(r, p, DEFSIM__SHELL_FIELDS);
+        defsim__body_shell_fields(d, p, 1);
+    }
     for (int32_t e = 0; e < 2 * out->nedge && !r->bad; ++e)
         if (out->edges[e] < 0 || out->edges[e] >= nv) r->bad = 1;
     if (!defsim__read_whole(r)) {

@@ -18,6 +18,8 @@
 #define DEFSIM__ID_TAGS ((1u << (32 - DEFSIM__ID_SLOT_BITS)) - 1u)
 #define DEFSIM__ID_SLOT(index) ((int64_t)((index) & DEFSIM__ID_SLOT_MASK) - 1)
 
+#define DEFSIM__SHELL_FIELDS 13   /* the shell_* doubles of defsim_body_def */
+
 typedef struct defsim__body {
     uint32_t generation;      /* odd while alive; bumped on removal */
     int32_t nv, nt, ns;
@@ -52,7 +54,30 @@ typedef struct defsim__body {
     int32_t nhinge;
     int32_t *hinges;          /* 4 nhinge */
     double *hw, *htheta0;     /* nhinge */
+    /* The def's shell_* fields as given (defaults unresolved), which checkpoints save (version
+     * 9): shell_membrane, then DEFSIM__SHELL_FIELDS doubles in defsim__body_shell_fields' order. */
+    int32_t shell_membrane;
+    double shell_fields[DEFSIM__SHELL_FIELDS];
 } defsim__body;
+
+/* A def's shell_* doubles into p (set: 0) or p into the def (set: 1), in the BODY chunk's order
+ * (inline: tools/scene_export.c reads the chunk too):
+ * youngs_modulus, poisson_ratio, thickness, warp_modulus, weft_modulus, shear_modulus,
+ * warp_poisson, warp_direction[3], areal_density, bending_rigidity, bending_rigidity_weft. */
+static inline void defsim__body_shell_fields(defsim_body_def *d, double p[DEFSIM__SHELL_FIELDS],
+                                             int set)
+{
+    double *const f[DEFSIM__SHELL_FIELDS] = {
+        &d->shell_youngs_modulus, &d->shell_poisson_ratio, &d->shell_thickness,
+        &d->shell_warp_modulus, &d->shell_weft_modulus, &d->shell_shear_modulus,
+        &d->shell_warp_poisson, &d->shell_warp_direction[0], &d->shell_warp_direction[1],
+        &d->shell_warp_direction[2], &d->shell_areal_density, &d->shell_bending_rigidity,
+        &d->shell_bending_rigidity_weft};
+    for (int i = 0; i < DEFSIM__SHELL_FIELDS; ++i) {
+        if (set) *f[i] = p[i];
+        else p[i] = *f[i];
+    }
+}
 
 /* Validates the host's def (a world of world_nv vertices receives it) and builds *out from
  * it; *d receives the def with defaults for the fields an older def lacks (its arrays are the

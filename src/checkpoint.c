@@ -221,12 +221,6 @@ static defsim_status save_checks(const defsim_world *w)
         defsim__error(w->msg, "save: called from inside a host callback");
         return DEFSIM_ERR_LOCKED;
     }
-    /* The BODY chunk has no place for a shell's parameters yet (docs/shells.md). */
-    for (int32_t i = 0; i < w->bodies.n; ++i)
-        if ((w->bodies.b[i].generation & 1u) && w->bodies.b[i].shell) {
-            defsim__error(w->msg, "save: checkpoints do not hold shell bodies yet");
-            return DEFSIM_ERR_UNSUPPORTED;
-        }
     w->msg->error[0] = '\0';
     return DEFSIM_OK;
 }

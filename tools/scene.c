@@ -957,13 +957,16 @@ defsim_status scene_build(scene *s, defsim_world **out)
             bd.triangles = b->mesh.triangles;
             bd.triangle_count = b->mesh.triangle_count;
         }
-        /* A shell takes the triangles alone: a cloth mesh's springs are left out. */
+        /* A shell takes the triangles alone: a cloth mesh's or mesh file's springs are left
+         * out; an inline mesh's are taken as given (defsim_scene_export writes a shell's). */
         if (b->has_shell) {
             const defsim_body_def *sh = &b->shell;
-            bd.springs = NULL;
-            bd.spring_count = 0;
-            bd.spring_kinds = NULL;
-            bd.spring_stiffness = NULL;
+            if (!b->inline_mesh) {
+                bd.springs = NULL;
+                bd.spring_count = 0;
+                bd.spring_kinds = NULL;
+                bd.spring_stiffness = NULL;
+            }
             bd.triangles = b->mesh.triangles;
             bd.triangle_count = b->mesh.triangle_count;
             bd.shell_membrane = sh->shell_membrane;

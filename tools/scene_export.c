@@ -5,9 +5,9 @@
  *
  * What a world holds is read from its checkpoint (defsim_world_save_buffer, docs/checkpoints.md):
  * the bodies as the library keeps them (rest positions, masses, tets, springs and their
- * stiffnesses, pins, contact surfaces, materials), attachments, held forces, colliders and the
- * world's def, so that the export sees exactly what the world steps with and needs no
- * accessor of its own in the core. Options, state and colliders' defs come through the public
+ * stiffnesses, pins, contact surfaces, materials, shell fields), attachments, held forces,
+ * colliders and the world's def, so that the export sees exactly what the world steps with and
+ * needs no accessor of its own in the core. Options, state and colliders' defs come through the public
  * calls. Every number is written with 17 significant digits, which strtod (cJSON) reads back to
  * the same double. What a scene cannot express (an SDF collider, pending pin targets or
  * collider poses, keyed paths of a scene at t != 0) is refused with DEFSIM_ERR_UNSUPPORTED,
@@ -15,7 +15,8 @@
  */
 #include "scene.h"
 
-#include "../src/chunk.h"
+#include "../src/body.h"
+#include "../src/checkpoint.h"
 #include "lib/api_error.h"
 
 #include <math.h>
@@ -116,6 +117,7 @@ typedef struct xbody {
     const unsigned char *pinned;
     uint32_t group, mask;
     double friction;
+    defsim_body_def shell;   /* its shell_* fields (format 9), as the def gave them */
 } xbody;
 
 typedef struct xatt {
@@ -180,14 +182,15 @@ static int32_t *i32s(defsim__br *r, int64_t n)
     return v;
 }
 
-/* The chunks of the checkpoint format version 8 that a scene needs. Returns 0, -1 (malformed:
- * a format this code does not know) or -2 (out of memory). */
+/* The chunks of the checkpoint format (the library's own version, DEFSIM__CKPT_VERSION) that a
+ * scene needs. Returns 0, -1 (malformed: a format this code does not know) or -2 (out of
+ * memory). */
 static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
 {
     memset(k, 0, sizeof *k);
     if (size < 16 || memcmp(d, "DEFSIMCK", 8)) return -1;
     defsim__br h = {d + 8, 8, 0, 0};
-    if (defsim__get_u32(&h) != 8) return -1;
+    if (defsim__get_u32(&h) != DEFSIM__CKPT_VERSION) return -1;
     size_t at = 16;
     while (at + 12 <= size) {
         const unsigned char *tag = d + at;
@@ -236,6 +239,11 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             b->mask = defsim__get_u32(&r);
             b->friction = defsim__get_f64(&r);
             b->volume_averaging = defsim__get_i32(&r);
+            defsim_body_def_init(&b->shell, sizeof b->shell);
+            b->shell.shell_membrane = defsim__get_i32(&r);
+            double sf[DEFSIM__SHELL_FIELDS];
+            defsim__get_f64s(&r, sf, DEFSIM__SHELL_FIELDS);
+            defsim__body_shell_fields(&b->shell, sf, 1);
             if (!b->rest || !b->mass || !b->tets || !b->springs || !b->k || !b->tris || !b->edges)
                 return -2;
         } else if (!memcmp(tag, "ATCH", 4)) {
@@ -509,6 +517,33 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         (unsigned)b->mask);
     num(o, b->friction);
     if (b->volume_averaging) put(o, ", \"volume_averaging\": true");
+    /* A shell (docs/shells.md: a membrane, or a bending rigidity > 0 whatever the membrane, as
+     * < 0 resolves to 0 without one): its fields as the def gave them. */
+    const defsim_body_def *sh = &b->shell;
+    if (sh->shell_membrane != DEFSIM_SHELL_MEMBRANE_NONE || sh->shell_bending_rigidity > 0.0 ||
+        sh->shell_bending_rigidity_weft > 0.0) {
+        static const char *const membranes[] = {"none", "stvk", "neohookean", "orthotropic_stvk"};
+        if (sh->shell_membrane < 0 || sh->shell_membrane > 3)
+            return api_fail(err, errsz, DEFSIM_ERR_UNSUPPORTED, "body %d: unknown membrane %d",
+                            (int)i, (int)sh->shell_membrane);
+        put(o, ",\n    \"shell\": {\"membrane\": \"%s\"", membranes[sh->shell_membrane]);
+        const char *const keys[] = {"youngs_modulus", "poisson_ratio", "thickness",
+                                    "warp_modulus", "weft_modulus", "shear_modulus",
+                                    "warp_poisson", "areal_density", "bending_rigidity",
+                                    "bending_rigidity_weft"};
+        const double vals[] = {sh->shell_youngs_modulus, sh->shell_poisson_ratio,
+                               sh->shell_thickness, sh->shell_warp_modulus,
+                               sh->shell_weft_modulus, sh->shell_shear_modulus,
+                               sh->shell_warp_poisson, sh->shell_areal_density,
+                               sh->shell_bending_rigidity, sh->shell_bending_rigidity_weft};
+        for (int q = 0; q < 10; ++q) {
+            put(o, ", \"%s\": ", keys[q]);
+            num(o, vals[q]);
+        }
+        put(o, ", \"warp_direction\": ");
+        vec(o, sh->shell_warp_direction, 3);
+        put(o, "}");
+    }
     put(o, "}");
     return DEFSIM_OK;
 }

@@ -1124,8 +1124,7 @@ DEFSIM_API defsim_status defsim_world_set_log(defsim_world *world, defsim_log_fn
 /// directory, flushed to disk (fsync), then renamed over `path`; on failure `path` is as it was.
 /// The world is not changed. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, empty path),
 /// DEFSIM_ERR_LOCKED (called from inside a host callback), DEFSIM_ERR_IO (the file could not be written: the
-/// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_UNSUPPORTED (the
-/// world has a shell body: checkpoints do not hold shells yet).
+/// message names the call and errno text), DEFSIM_ERR_OUT_OF_MEMORY.
 DEFSIM_API defsim_status defsim_world_save(const defsim_world *world, const char *path);
 
 /// Writes a checkpoint into a buffer that the library allocates: on success *data receives it

@@ -27,4 +27,17 @@ static inline defsim_body_def test_mesh_body(const defsim_mesh *m, defsim_model 
     return bd;
 }
 
+/* A shell body's def over a cloth mesh (docs/shells.md): its triangles, without its springs;
+ * the shell_* fields are the caller's to set. The arrays stay the mesh's. */
+static inline defsim_body_def test_shell_body(const defsim_mesh *m)
+{
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m->positions;
+    bd.vertex_count = m->vertex_count;
+    bd.triangles = m->triangles;
+    bd.triangle_count = m->triangle_count;
+    return bd;
+}
+
 #endif

@@ -799,14 +799,15 @@ static void test_version_5_file(void **state)
 
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
- * volume_averaging, version 8 its indices per tet (quadratic tets): the file's body loads with
- * the standard linear element and continues as the uninterrupted run does; saved again it is a
- * file of today's version that continues bit for bit. */
+ * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields:
+ * the file's body loads with the standard linear element and no shell, and continues as the
+ * uninterrupted run does; saved again it is a file of today's version that continues bit for
+ * bit. */
 static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    assert_int_equal(DEFSIM__CKPT_VERSION, 8);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 9);
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -819,6 +820,18 @@ static void test_version_7_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v7_sliding.dfck", "version 7");
+    check_saved_again(old);
+    defsim_world_destroy(old);
+}
+
+/* Format version 8: tests/checkpoint/v8_sliding.dfck, written by the library of commit ef40028
+ * (the last to write version 8, before BODY held the shell fields) from the same cube and steps:
+ * it loads (the body without a shell), continues as the uninterrupted run does, and saved again
+ * continues bit for bit. */
+static void test_version_8_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v8_sliding.dfck", "version 8");
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -963,7 +976,7 @@ int main(void)
         cmocka_unit_test(test_version_2_file),
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
-        cmocka_unit_test(test_version_7_file),
+        cmocka_unit_test(test_version_7_file), cmocka_unit_test(test_version_8_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

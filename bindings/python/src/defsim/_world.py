@@ -876,7 +876,8 @@ class World(WorldCoupling, WorldColliders):
         # What the constructor knew: the backend, gravity and each body's topology, from the
         # file (the library checked it whole). WRLD comes first; a BODY chunk holds id,
         # generation, nv, nt, ns, (format 8 on) the indices per tet, model, 7 material numbers,
-        # then rest positions, masses, tets, springs (docs/checkpoints.md).
+        # then rest positions, masses, tets, springs, stiffnesses, pin flags, (format 4 on) the
+        # triangles (docs/checkpoints.md).
         at = 16
         version = struct.unpack_from("<I", data, 8)[0]
         topologies = []
@@ -898,7 +899,14 @@ class World(WorldCoupling, WorldColliders):
                 o += 4 * tn * nt
                 springs = np.frombuffer(payload, "<i4", 2 * ns, o).reshape(ns, 2).copy()
                 tri = tet_boundary(rest, tets) if nt else np.zeros((0, 3), np.int32)
-                lines = springs if not nt else springs[:0]
+                if not nt and version >= 4:
+                    # format 4 on: after the spring stiffnesses and pin flags, the given
+                    # triangles' count, the contact edges' count, then the triangles (a
+                    # cloth's or a shell's surface)
+                    o += 8 * ns + 8 * ns + nv
+                    ntri = struct.unpack_from("<i", payload, o)[0]
+                    tri = np.frombuffer(payload, "<i4", 3 * ntri, o + 8).reshape(ntri, 3).copy()
+                lines = springs if not nt and not tri.size else springs[:0]
                 topologies.append(Topology(rest, tets, tri, springs, lines))
             at += 16 + length
         w = self._ptr

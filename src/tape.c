@@ -14,6 +14,7 @@
  * the public API.
  */
 #include "adjoint.h"
+#include "chunk.h"
 #include "clock.h"
 #include "material.h"
 #include "world.h"
@@ -45,6 +46,12 @@ struct defsim_tape {
     int64_t ncp, cpcap;
     double *cp;               /* ncp states (6 nv: x then v) of steps 0, k, 2k, ... */
     double *cpt;              /* their times */
+    int hist;                 /* the backend's adjoint reads the history (ADJOINT_HISTORY) */
+    int keep;                 /* hist, with steps to recompute (interval 0 or > 1): cprev, cpb */
+    double *cprev;            /* hist: ncp states (6 nv), each the one before its checkpoint's */
+    defsim__bw *cpb;          /* hist: ncp backend histories (save_state) at the checkpoints */
+    uint8_t *fresh;           /* nsteps: the step began without the backend's history */
+    int64_t failed;           /* the world's failed steps at the last recorded step */
     double *last;             /* 6 nv: the state after the last recorded step */
     double last_t;
     uint64_t plan_serial;     /* of the plan the recording follows */
@@ -61,6 +68,74 @@ struct defsim_tape {
 
 static size_t state_bytes(const defsim_tape *t) { return 6 * (size_t)t->nv * sizeof(double); }
 
+/* What the history of a backend with ADJOINT_HISTORY costs at the checkpoints. */
+static size_t history_bytes(const defsim_tape *t)
+{
+    if (!t->keep) return 0;
+    size_t b = (size_t)t->cpcap * (state_bytes(t) + sizeof(defsim__bw));
+    for (int64_t c = 0; c < t->ncp; ++c) b += t->cpb[c].cap;
+    return b;
+}
+
+/* The backend's writer and reader (defsim_state_writer, _reader) over memory. */
+static defsim_status mw_f64(void *ctx, const double *v, int64_t n)
+{
+    defsim__put_f64s(ctx, v, n);
+    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
+}
+
+static defsim_status mw_i64(void *ctx, const int64_t *v, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i) defsim__put_u64(ctx, (uint64_t)v[i]);
+    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
+}
+
+static defsim_status mr_f64(void *ctx, double *v, int64_t n)
+{
+    defsim__br *r = ctx;
+    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
+    defsim__get_f64s(r, v, n);
+    return DEFSIM_OK;
+}
+
+static defsim_status mr_i64(void *ctx, int64_t *v, int64_t n)
+{
+    defsim__br *r = ctx;
+    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
+    for (int64_t i = 0; i < n; ++i) v[i] = (int64_t)defsim__get_u64(r);
+    return DEFSIM_OK;
+}
+
+static int64_t mr_remaining(void *ctx)
+{
+    const defsim__br *r = ctx;
+    return r->bad ? 0 : (int64_t)((r->n - r->at) / 8);
+}
+
+/* The backend's history now into b (emptied first; nothing when it has none to give). Returns 0
+ * when out of memory or the backend fails. */
+static int history_save(defsim_world *w, defsim__bw *b)
+{
+    b->n = 0;
+    b->oom = 0;
+    const defsim_backend *be = w->backend.table;
+    if (!be->save_state || !w->backend.ready) return 1;
+    const defsim_state_writer wr = {b, mw_f64, mw_i64};
+    return be->save_state(&defsim__host, &w->handle, w->backend.state, &wr) == DEFSIM_OK &&
+           !b->oom;
+}
+
+/* Loads a history that history_save kept (none: the backend stays as reset). */
+static defsim_status history_load(defsim_world *w, const defsim__bw *b)
+{
+    const defsim_backend *be = w->backend.table;
+    if (b->n == 0 || !be->load_state || !w->backend.ready) return DEFSIM_OK;
+    defsim__br r = {b->p, b->n, 0, 0};
+    const defsim_state_reader rd = {&r, mr_f64, mr_i64, mr_remaining};
+    const defsim_status st = be->load_state(&defsim__host, &w->handle, w->backend.state, &rd);
+    return st == DEFSIM_OK && !defsim__read_whole(&r) ? DEFSIM_ERR_IO : st;
+}
+
 static int64_t tape_bytes(const defsim_tape *t)
 {
     return (int64_t)((size_t)t->cpcap * (state_bytes(t) + sizeof(double)) +
@@ -68,7 +143,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->fcap * state_bytes(t) / 2 + state_bytes(t) +
                      (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
-                     (size_t)t->nopt * sizeof(double) + sizeof *t);
+                     (size_t)t->nopt * sizeof(double) + sizeof *t +
+                     (size_t)t->hcap * sizeof(uint8_t) + history_bytes(t));
 }
 
 static void tape_error(defsim_tape *t, const char *fmt, ...)
@@ -104,6 +180,14 @@ static int push_checkpoint(defsim_tape *t, const defsim_world *w)
         for (int64_t i = 0; i < t->ncp; i += 2, ++n) {
             memmove(t->cp + 6 * (int64_t)t->nv * n, t->cp + 6 * (int64_t)t->nv * i, state_bytes(t));
             t->cpt[n] = t->cpt[i];
+            if (!t->keep) continue;
+            memmove(t->cprev + 6 * (int64_t)t->nv * n, t->cprev + 6 * (int64_t)t->nv * i,
+                    state_bytes(t));
+            if (n != i) {
+                defsim__bw b = t->cpb[n];
+                t->cpb[n] = t->cpb[i];
+                t->cpb[i] = b;
+            }
         }
         t->ncp = n;
         t->k *= 2;
@@ -117,7 +201,23 @@ static int push_checkpoint(defsim_tape *t, const defsim_world *w)
         double *ct = realloc(t->cpt, (size_t)cap * sizeof *ct);
         if (!ct) return 0;
         t->cpt = ct;
+        if (t->keep) {
+            double *pv = realloc(t->cprev, (size_t)cap * state_bytes(t));
+            if (!pv) return 0;
+            t->cprev = pv;
+            defsim__bw *bw = realloc(t->cpb, (size_t)cap * sizeof *bw);
+            if (!bw) return 0;
+            memset(bw + t->cpcap, 0, (size_t)(cap - t->cpcap) * sizeof *bw);
+            t->cpb = bw;
+        }
         t->cpcap = cap;
+    }
+    if (t->keep && t->ncp > 0) {
+        /* the state before the checkpoint's (the step's start) and the backend's history */
+        double *pv = t->cprev + 6 * (int64_t)t->nv * t->ncp;
+        memcpy(pv, w->step.x_save, state_bytes(t) / 2);
+        memcpy(pv + 3 * (int64_t)t->nv, w->step.v_save, state_bytes(t) / 2);
+        if (!history_save((defsim_world *)w, &t->cpb[t->ncp])) return 0;
     }
     save_state(w, t->cp + 6 * (int64_t)t->nv * t->ncp);
     t->cpt[t->ncp++] = w->state.t;
@@ -228,17 +328,22 @@ static void tape_step(defsim__tape_link *link, double h)
         if (hh) t->h = hh;
         if (fi) t->fi = fi;
         int64_t *pi = fi ? realloc(t->pi, (size_t)cap * sizeof *pi) : NULL;
-        if (!hh || !fi || !pi) {
+        if (pi) t->pi = pi;
+        uint8_t *fr = pi ? realloc(t->fresh, (size_t)cap * sizeof *fr) : NULL;
+        if (!hh || !fi || !pi || !fr) {
             breaks(t, "out of memory while recording");
             return;
         }
-        t->pi = pi;
+        t->fresh = fr;
         t->hcap = cap;
     }
     if (!record_forces(t, w)) {
         breaks(t, "out of memory while recording");
         return;
     }
+    /* a failed step between recorded ones dropped the backend's history (step.c resets it) */
+    t->fresh[t->nsteps] = t->nsteps == 0 || w->stats.failed_steps != t->failed;
+    t->failed = w->stats.failed_steps;
     t->h[t->nsteps++] = h;
     save_state(w, t->last);
     t->last_t = w->state.t;
@@ -256,8 +361,8 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     if (b->struct_size < offsetof(defsim_backend, adjoint_step) + sizeof b->adjoint_step ||
         !b->adjoint_step) {
         snprintf(buf, size, "record: backend %s is not differentiable (it has no adjoint step; "
-                            "differentiable: explicit_euler, symplectic_euler, newton_cholmod, "
-                            "newmark)",
+                            "differentiable: explicit_euler, symplectic_euler, velocity_verlet, "
+                            "newton_cholmod, newmark, bdf2)",
                  b->name);
         return buf;
     }
@@ -295,6 +400,7 @@ typedef struct world_saved {
     int32_t since_estimate;
     double *fext;             /* the host's held forces (3 nv), or NULL: none */
     double *att_p;            /* the attachments' targets (3 natt), or NULL: none */
+    defsim__bw history;       /* the backend's history (save_state), if it has one */
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -321,7 +427,7 @@ static int world_save(const defsim_world *w, world_saved *s)
         if (!(s->att_p = malloc(3 * (size_t)w->sys.att.n * sizeof(double)))) return 0;
         memcpy(s->att_p, w->sys.att.p, 3 * (size_t)w->sys.att.n * sizeof(double));
     }
-    return 1;
+    return history_save((defsim_world *)w, &s->history);
 }
 
 /* Puts state s (6 nv) at time t into the world as defsim_world_set_state does (the backend's
@@ -352,7 +458,10 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
         w->step.since_estimate = s->since_estimate;
         (void)defsim_world_set_external_forces(w, s->fext, w->nv);   /* the host's again */
         if (s->att_p) (void)set_targets(t, w, s->att_p);
+        /* the backend's history too, so that the run goes on bit for bit */
+        if (history_load(w, &s->history) != DEFSIM_OK) defsim__world_backend_stop(w);
     }
+    free(s->history.p);
     free(s->x);
     free(s->counters);
     free(s->fext);
@@ -497,9 +606,12 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             /* Recompute the segment's states from its checkpoint, as the recording stepped. */
             const double r0 = defsim__now();
             world_put(w, seg, t->cpt[c]);
+            if (t->keep && c > 0 && !t->fresh[s0]) st = history_load(w, &t->cpb[c]);
             t->replaying = 1;
             for (int64_t j = s0; j < s1 && st == DEFSIM_OK; ++j) {
-                st = hold_forces(t, w, j);
+                if (t->hist && j > s0 && t->fresh[j] && b->reset)
+                    st = b->reset(&defsim__host, &w->handle, w->backend.state);
+                if (st == DEFSIM_OK) st = hold_forces(t, w, j);
                 if (st == DEFSIM_OK) st = defsim_world_step(w, t->h[j]);
                 if (st == DEFSIM_OK) save_state(w, seg + n6 * (j + 1 - s0));
             }
@@ -523,8 +635,16 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
         }
         for (int64_t j = s1 - 1; j >= s0; --j) {
             const double *S0 = seg + n6 * (j - s0), *S1 = seg + n6 * (j + 1 - s0);
+            /* the history: the state before S0 (in the segment, or kept with its checkpoint) */
+            const double *P = !t->hist || t->fresh[j] ? NULL
+                              : j > s0               ? S0 - n6
+                              : t->keep              ? t->cprev + n6 * c
+                                                     : t->cp + n6 * (c - 1);   /* interval 1 */
             const defsim_adjoint_step a = {.x0 = S0, .v0 = S0 + n3, .x1 = S1, .v1 = S1 + n3,
-                                           .ax1 = ax, .av1 = av, .ax0 = ax0, .av0 = av0};
+                                           .ax1 = ax, .av1 = av, .ax0 = ax0, .av0 = av0,
+                                           .x_prev = P, .v_prev = P ? P + n3 : NULL,
+                                           .h_prev = P ? t->h[j - 1] : 0.0,
+                                           .first = j == t->nsteps - 1};
             w->msg->error[0] = '\0';
             st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
             if (st == DEFSIM_OK)
@@ -615,6 +735,14 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     }
     t->link.world = w;
     t->link.step = tape_step;
+    t->hist = (w->backend.table->flags & DEFSIM_BACKEND_ADJOINT_HISTORY) != 0;
+    t->keep = t->hist && d.interval != 1;
+    t->failed = w->stats.failed_steps;
+    /* The recorded run starts from its first state alone: the backend's history (a carried
+     * force, a previous state) is dropped as defsim_world_set_state drops it. */
+    if (w->backend.ready && w->backend.table->reset &&
+        w->backend.table->reset(&defsim__host, &w->handle, w->backend.state) != DEFSIM_OK)
+        defsim__world_backend_stop(w);
     t->automatic = d.interval == 0;
     t->k = d.interval == 0 ? 1 : d.interval;
     t->max_bytes = d.max_bytes;
@@ -626,9 +754,8 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     t->last_t = w->state.t;
     t->mark = w->stats.time_step;
     if (!push_checkpoint(t, w)) {
-        free(t->last);
-        free(t->opt);
-        free(t);
+        t->link.world = NULL;
+        defsim_tape_destroy(t);
         defsim__error(w->msg, "record: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
@@ -837,6 +964,10 @@ void defsim_tape_destroy(defsim_tape *t)
     free(t->p);
     free(t->cp);
     free(t->cpt);
+    free(t->cprev);
+    for (int64_t c = 0; t->cpb && c < t->cpcap; ++c) free(t->cpb[c].p);
+    free(t->cpb);
+    free(t->fresh);
     free(t->last);
     free(t->opt);
     free(t);

@@ -1152,8 +1152,18 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     memcpy(p->x0, a->x0, bytes);
     memcpy(p->v0, a->v0, bytes);
     p->pin_vel = NULL;
+    if (p->scheme->history_vectors >= 2) {
+        /* the step's history as the forward step had it (the tape restores the backend's own
+         * after the pass) */
+        p->history_valid = a->x_prev != NULL;
+        p->history_h = a->x_prev ? a->h_prev : 0.0;
+        if (a->x_prev) {
+            memcpy(p->work[0], a->x_prev, bytes);
+            memcpy(p->work[1], a->v_prev, bytes);
+        }
+    }
     defsim__ic_targets stp = {0};
-    st = p->scheme->prepare(p, host, sys, h, &stp);   /* y, z = x0, B(x0) */
+    st = p->scheme->prepare(p, host, sys, h, &stp);   /* y, z, B(x_b) */
     if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: the damping matrix failed");
     const defsim_matrix_coeffs c = {1.0, 0.0, stp.cm / (h * h), stp.cd / h};
     st = host->matrix_values_projected(sys, a->x1, &c, DEFSIM_TRIANGLE_UPPER,
@@ -1220,7 +1230,7 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     const uint32_t EG = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
     st = host->forces_vjp(sys, a->x1, NULL, EG, lf, gx1, NULL, 1);
     if (st == DEFSIM_OK)
-        st = host->forces_vjp(sys, stp.z, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
+        st = host->forces_vjp(sys, p->xb, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
     if (st != DEFSIM_OK) return st;
     const double ih2 = stp.cm / (h * h), ih = stp.cd / h, ca = p->scheme->adjoint_a * h * h,
                  cz = p->scheme->adjoint_z * h;
@@ -1255,6 +1265,15 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
             const double a0 = (stp.y[i] - p->x0[i] - h * p->v0[i]) / ca;
             mw[i] -= ca * ay * a0 / p->mass[i];
         }
+    }
+    if (p->scheme->adjoint_history) {
+        /* ay and az of the targets (free DOFs; mw unchanged: a_a is 0), axb = gxn */
+        for (int64_t i = 0; i < nd; ++i) {
+            const int64_t k = s->dof_free[i];
+            u[i] = k >= 0 ? p->mass[i] * lam[k] * ih2 : 0.0;
+            gx0[i] = k >= 0 ? -ih * (gv[i] + a->av1[i]) : 0.0;
+        }
+        p->scheme->adjoint_history(p, h, a, u, gx0, gxn);
     }
     host->mass_vjp(sys, mw);
     return DEFSIM_OK;

@@ -19,7 +19,7 @@
 #include "defsim/backend.h"
 
 /* Vectors over all DOFs that a scheme may keep between steps (history) or use in prepare. */
-#define DEFSIM__IC_MAX_WORK 4
+#define DEFSIM__IC_MAX_WORK 6
 
 typedef struct defsim__ic_solver defsim__ic_solver;
 
@@ -52,6 +52,17 @@ typedef struct defsim__ic_scheme {
      * B frozen at z. 0: the backend is not differentiable. */
     int differentiable;
     double adjoint_z, adjoint_a;
+    /* Optional, for a differentiable scheme with history (bdf2; adjoint_z and adjoint_a are then
+     * unused): maps the adjoints of the step's targets on the free DOFs, ay (of y), az (of z
+     * through v' = c_d (x' - z)/h and the damping's velocity) and axb (of the position x_b at
+     * which B was frozen, all DOFs), to ax0 and av0 on the free DOFs, adding the adjoints that
+     * the next recorded step's history carried to this step's start and keeping those of this
+     * step's history (the previous state) for the call that follows (a->first: none carried
+     * yet). Called by the adjoint step after prepare, which saw the history from a->x_prev,
+     * a->v_prev and a->h_prev in the first history_vectors work vectors (x then v) and
+     * history_h, history_valid. */
+    void (*adjoint_history)(defsim__ic_solver *s, double h, const defsim_adjoint_step *a,
+                            const double *ay, const double *az, const double *axb);
 } defsim__ic_scheme;
 
 /* The core's counters ("<backend>.<name>": shifted_factorisations, contact_stops,

@@ -333,6 +333,21 @@ typedef struct defsim_adjoint_step {
     const double *av1;                 ///< dL/dv1.
     double *ax0;                       ///< Out: dL/dx0.
     double *av0;                       ///< Out: dL/dv0.
+    /// For a backend with DEFSIM_BACKEND_ADJOINT_HISTORY (else NULL): the state at the start
+    /// of the previous recorded step (the history of a scheme that carries one: bdf2's previous
+    /// state, velocity_verlet's force), or NULL when this step started without history: the
+    /// first recorded step (a recording starts the backend's history anew), or the first after
+    /// a failed step.
+    const double *x_prev;
+    const double *v_prev;              ///< Velocities with x_prev (NULL with it).
+    double h_prev;                     ///< The previous step's size (0 without x_prev).
+    /// 1 on the first call of a backward pass (the last recorded step), else 0: a backend
+    /// that carries adjoints from one call to the next (those of its history) starts them at
+    /// zero. The calls of a pass go from the last recorded step to the first.
+    int32_t first;
+    /// 1 when the previous recorded step moved driven pins (velocity_verlet then evaluates
+    /// the forces at the start of this step anew, not carried), else 0.
+    int32_t prev_drove;
 } defsim_adjoint_step;
 
 /// Capability flags of a backend.
@@ -346,13 +361,18 @@ enum {
                                             ///< numerical dissipation (symplectic or
                                             ///< energy-conserving schemes; explicit ones inside
                                             ///< their stability limit).
-    DEFSIM_BACKEND_CONTACT_CCD = 1u << 5    ///< (ABI 5) Minimises the potential_energy with a line
+    DEFSIM_BACKEND_CONTACT_CCD = 1u << 5,   ///< (ABI 5) Minimises the potential_energy with a line
                                             ///< search that starts each step's Newton iterate with
                                             ///< contact_start and never goes beyond
                                             ///< contact_max_step: contact is then a log barrier
                                             ///< (+inf on contact) with lagged friction in the
                                             ///< potential. Without the flag it is a penalty with
                                             ///< friction among the damping forces.
+    /// Its adjoint_step reads defsim_adjoint_step.x_prev, v_prev and h_prev (a scheme that
+    /// carries history from one step to the next: velocity_verlet, bdf2); recordings then keep
+    /// the state before each checkpoint and the backend's saved history at each. Without the
+    /// flag those fields are NULL and 0.
+    DEFSIM_BACKEND_ADJOINT_HISTORY = 1u << 6,
 };
 
 /// Where a backend's save_state op writes its history (checkpoints, ABI version 5). The core

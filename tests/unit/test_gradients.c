@@ -8,6 +8,9 @@
  */
 #include "test_util.h"
 
+#include "defsim/backend.h"
+
+#include <complex.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,10 +20,12 @@ static const char *NC = "newton_cholmod";
 static const char *SE = "symplectic_euler";
 static const char *EE = "explicit_euler";
 static const char *NM = "newmark";
+static const char *VV = "velocity_verlet";
+static const char *BD = "bdf2";
 
 static int implicit(const char *backend)
 {
-    return strcmp(backend, NC) == 0 || strcmp(backend, NM) == 0;
+    return strcmp(backend, NC) == 0 || strcmp(backend, NM) == 0 || strcmp(backend, BD) == 0;
 }
 
 /* A world of the backend, gravity gy along y, one thread; implicit ones converged tightly (the
@@ -236,6 +241,39 @@ static void check_fd(const scene *sc, const grads *g, const double *cx, const do
 
 /* ------------------------------------------------------------------------------------------ */
 
+/* The height after N steps of the per-unit-mass free fall x'' = g - a x' from (0, v0) by velocity
+ * Verlet (the force carried, damping at the prediction w) or bdf2 (a backward-Euler step, then
+ * the equal-step formula: z = 4/3 x_n - 1/3 x_{n-1}, y - z = 2/3 h (4/3 v_n - 1/3 v_{n-1}),
+ * and x' - z solving (x' - y)/(b h)^2 = g - a (x' - z)/(b h)), in complex arithmetic: the
+ * complex step (v0 or a + 1e-30 i) gives the derivatives exactly. */
+static double complex fall_height(const char *backend, double complex v, double complex a,
+                                  double g, double h, int N)
+{
+    double complex x = 0.0, xp = 0.0, vp = 0.0;
+    if (strcmp(backend, VV) == 0) {
+        double complex A = g - a * v;
+        for (int s = 0; s < N; ++s) {
+            const double complex w = v + h * A, vh = v + 0.5 * h * A;
+            x += h * vh;
+            A = g - a * w;
+            v = vh + 0.5 * h * A;
+        }
+        return x;
+    }
+    for (int s = 0; s < N; ++s) {
+        const double a1 = s == 0 ? 1.0 : 4.0 / 3.0, a2 = s == 0 ? 0.0 : 1.0 / 3.0,
+                     b = s == 0 ? 1.0 : 2.0 / 3.0;
+        const double complex z = a1 * x - a2 * xp, yz = b * h * (a1 * v - a2 * vp);
+        /* (e - yz)/(b h)^2 = g - a e/(b h), e = x' - z */
+        const double complex e = (g + yz / (b * b * h * h)) / (1.0 / (b * b * h * h) + a / (b * h));
+        xp = x;
+        vp = v;
+        x = z + e;
+        v = e / (b * h);
+    }
+    return x;
+}
+
 /* A free fall (no pins, no deformation): L = sum_i m_i y_i / M at the last state (the centre of
  * mass, which no internal force moves): dL/dx0_y = m_i/M, dL/dv0_y = m_i/M dx_N/dv0 and
  * dL/dalpha = dx_N/dalpha of
@@ -249,7 +287,7 @@ static void free_fall(const char *backend)
     scene sc = {backend, DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, a, 0.0, 1, 1, 1, 1.0, h, N, 0,
                 gy, 0.0};
     defsim_world *w = tu_world(backend, gy, 1);
-    if (strcmp(backend, NC) == 0) tu_backend_option(w, backend, "tolerance", 1e-13);
+    if (implicit(backend)) tu_backend_option(w, backend, "tolerance", 1e-13);
     defsim_material m;
     defsim_material_init(&m, sizeof m, sc.model);
     m.youngs_modulus = sc.E;
@@ -302,6 +340,11 @@ static void free_fall(const char *backend)
             dx_a += h * dv_a;
         }
     }
+    if (strcmp(backend, VV) == 0 || strcmp(backend, BD) == 0) {
+        const double ic = 1e-30;
+        dx_v0 = cimag(fall_height(backend, v0y + ic * I, a, gy, h, N)) / ic;
+        dx_a = cimag(fall_height(backend, v0y, a + ic * I, gy, h, N)) / ic;
+    }
     double ex = 0.0, ev = 0.0, other = 0.0;
     for (int i = 0; i < n; ++i) {
         const double mi = mass[i] / M;
@@ -346,6 +389,18 @@ static void test_free_fall_newton(void **st)
 {
     (void)st;
     free_fall(NC);
+}
+
+static void test_free_fall_verlet(void **st)
+{
+    (void)st;
+    free_fall(VV);
+}
+
+static void test_free_fall_bdf2(void **st)
+{
+    (void)st;
+    free_fall(BD);
 }
 
 /* The cantilever (tests/scenes/cantilever.json's beam and material, stable neo-Hookean, clamped
@@ -406,6 +461,18 @@ static void test_cantilever_newton(void **st)
     cantilever(NC, 1e-2, 12);
 }
 
+static void test_cantilever_verlet(void **st)
+{
+    (void)st;
+    cantilever(VV, 2e-3, 40);
+}
+
+static void test_cantilever_bdf2(void **st)
+{
+    (void)st;
+    cantilever(BD, 1e-2, 12);
+}
+
 /* Damping rates at zero (their terms are off): dL/dalpha and dL/dbeta still come, against
  * one-sided second-order differences (-3 L(0) + 4 L(e) - L(2e)) / 2e. */
 static void test_damping_at_zero(void **st)
@@ -448,10 +515,11 @@ static void test_damping_at_zero(void **st)
 static void test_external_forces(void **st)
 {
     (void)st;
-    const char *backends[] = {SE, EE, NC, NM};
-    for (int b = 0; b < 4; ++b) {
+    const char *backends[] = {SE, EE, NC, NM, VV, BD};
+    for (int b = 0; b < 6; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_COROTATED, 2e5, 0.3, 800, 0.5, 0.0, 2, 1, 1, 2.0,
-                    b < 2 ? 2e-3 : 1e-2, b < 2 ? 20 : 8, 1, -9.81, 0.0};
+                    implicit(backends[b]) ? 1e-2 : 2e-3, implicit(backends[b]) ? 8 : 20, 1, -9.81,
+                    0.0};
         double *cx, *cv;
         const int n = loss_weights(&sc, &cx, &cv), n3 = 3 * n, N = sc.steps;
         double *F = malloc((size_t)N * n3 * sizeof *F), *D = malloc((size_t)N * n3 * sizeof *D);
@@ -547,10 +615,11 @@ static double attached_run(const scene *sc, const double *cx, const double *cv, 
 static void test_attachments(void **st)
 {
     (void)st;
-    const char *backends[] = {SE, EE, NC, NM};
-    for (int b = 0; b < 4; ++b) {
+    const char *backends[] = {SE, EE, NC, NM, VV, BD};
+    for (int b = 0; b < 6; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_COROTATED, 2e5, 0.3, 800, 0.5, 0.0, 2, 1, 1, 2.0,
-                    b < 2 ? 1e-3 : 1e-2, b < 2 ? 30 : 8, 1, -9.81, 0.0};
+                    implicit(backends[b]) ? 1e-2 : 1e-3, implicit(backends[b]) ? 8 : 30, 1, -9.81,
+                    0.0};
         double *cx, *cv;
         const int n = loss_weights(&sc, &cx, &cv), N = sc.steps;
         double P[3 * 64], D[3 * 64], dx0[3 * 64];
@@ -712,10 +781,10 @@ static void test_models(void **st)
 static void test_checkpoints(void **st)
 {
     (void)st;
-    const char *backends[] = {SE, NC, NM};
-    for (int b = 0; b < 3; ++b) {
+    const char *backends[] = {SE, VV, NC, NM, BD};
+    for (int b = 0; b < 5; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
-                    3, 1, 1, 3.0, b == 0 ? 2e-3 : 1e-2, 21, 1, -9.81, 0.0};
+                    3, 1, 1, 3.0, b <= 1 ? 2e-3 : 1e-2, 21, 1, -9.81, 0.0};
         double *cx, *cv;
         const int n = loss_weights(&sc, &cx, &cv);
         grads g1, g4, ga;
@@ -934,16 +1003,17 @@ static int zero_force(void *user, const double *x, const double *v, double t, in
     return 0;
 }
 
-/* On the implicit backends, with checkpoints (interval 3: steps recomputed), a backward pass
- * leaves the state, time, statistics and backend counters as they were, and the run goes on
- * bit for bit as a run without it. */
+/* On the implicit backends and velocity Verlet, with checkpoints (interval 3: steps
+ * recomputed; bdf2 and velocity Verlet carry history between steps, which the pass restores), a
+ * backward pass leaves the state, time, statistics and backend counters as they were, and the
+ * run goes on bit for bit as a run without it. */
 static void test_backward_leaves_run(void **st)
 {
     (void)st;
-    const char *backends[] = {NC, NM};
-    for (int b = 0; b < 2; ++b) {
+    const char *backends[] = {NC, NM, BD, VV};
+    for (int b = 0; b < 4; ++b) {
         scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
-                    3, 1, 1, 3.0, 1e-2, 9, 1, -9.81, 0.0};
+                    3, 1, 1, 3.0, b == 3 ? 2e-3 : 1e-2, 9, 1, -9.81, 0.0};
         defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
         defsim_world *ref = make(&sc, NULL, NULL, NULL, 0.0);
         const int n = defsim_world_vertex_count(w), n3 = 3 * n;
@@ -956,7 +1026,8 @@ static void test_backward_leaves_run(void **st)
             TU_OK(defsim_world_step(w, sc.h));
             TU_OK(defsim_world_step(ref, sc.h));
         }
-        const double it0 = tu_bstat(w, "newton_iterations");
+        const int vv = strcmp(backends[b], VV) == 0;
+        const double it0 = vv ? 0.0 : tu_bstat(w, "newton_iterations");
         defsim_stats s0 = {.size = sizeof s0}, s1 = {.size = sizeof s1};
         TU_OK(defsim_world_stats(w, &s0));
         double *dl = calloc((size_t)n3 * (sc.steps + 1), sizeof *dl), gE = 0.0;
@@ -969,7 +1040,7 @@ static void test_backward_leaves_run(void **st)
         TU_OK(defsim_world_stats(w, &s1));
         assert_int_equal(s0.steps, s1.steps);
         assert_true(s0.time_step == s1.time_step && s0.force_evals == s1.force_evals);
-        assert_true(tu_bstat(w, "newton_iterations") == it0);
+        if (!vv) assert_true(tu_bstat(w, "newton_iterations") == it0);
         assert_true(defsim_world_time(w) == defsim_world_time(ref));
         for (int s = 0; s < 5; ++s) {
             TU_OK(defsim_world_step(w, sc.h));
@@ -990,11 +1061,43 @@ static void test_backward_leaves_run(void **st)
 
 /* A backend without an adjoint, and terms not differentiated yet: DEFSIM_ERR_UNSUPPORTED when
  * recording begins, the world unchanged. */
+/* A host's backend without an adjoint step: its step leaves the state alone. */
+static defsim_status nd_init(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)host;
+    (void)sys;
+    (void)state;
+    return DEFSIM_OK;
+}
+
+static defsim_status nd_step(const defsim_host *host, defsim_system *sys, void *state, double h)
+{
+    (void)host;
+    (void)sys;
+    (void)state;
+    (void)h;
+    return DEFSIM_OK;
+}
+
+static void nd_fini(const defsim_host *host, defsim_system *sys, void *state)
+{
+    (void)host;
+    (void)sys;
+    (void)state;
+}
+
+static const defsim_backend nondiff_backend = {
+    .abi_version = DEFSIM_BACKEND_ABI_VERSION, .struct_size = sizeof(defsim_backend),
+    .name = "test_nondifferentiable", .state_size = 8, .init = nd_init, .step = nd_step,
+    .fini = nd_fini};
+
 static void test_unsupported(void **st)
 {
     (void)st;
-    const char *nondiff[] = {"velocity_verlet", "bdf2"};
-    for (int b = 0; b < 2; ++b) {
+    const defsim_status rs = defsim_register_backend(&nondiff_backend);
+    assert_true(rs == DEFSIM_OK || rs == DEFSIM_ERR_CONFLICT);
+    const char *nondiff[] = {"test_nondifferentiable"};
+    for (int b = 0; b < 1; ++b) {
         scene sc = {nondiff[b], DEFSIM_MODEL_COROTATED, 1e5, 0.3, 1000, 0.0, 0.0, 1, 1, 1, 1.0,
                     1e-3, 1, 1, -9.81, 0.0};
         defsim_world *w = make(&sc, NULL, NULL, NULL, 0.0);
@@ -1083,6 +1186,10 @@ int main(void)
         cmocka_unit_test(test_cantilever_explicit),
         cmocka_unit_test(test_cantilever_newton),
         cmocka_unit_test(test_cantilever_newmark),
+        cmocka_unit_test(test_free_fall_verlet),
+        cmocka_unit_test(test_free_fall_bdf2),
+        cmocka_unit_test(test_cantilever_verlet),
+        cmocka_unit_test(test_cantilever_bdf2),
         cmocka_unit_test(test_damping_at_zero),
         cmocka_unit_test(test_external_forces),
         cmocka_unit_test(test_attachments),

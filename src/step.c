@@ -281,6 +281,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         memcpy(w->state.v, w->step.v_save, bytes);
         st = defsim__terms_restart(&w->sys, &sc);
         if (st != DEFSIM_OK) break;
+        w->backend.drops++;
         if (w->backend.table->reset)
             w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
     }
@@ -294,6 +295,7 @@ defsim_status defsim_world_step(defsim_world *w, double h)
         if (!w->msg->error[0])
             defsim__error(w->msg, "step: backend %s failed: %s", w->backend.table->name,
                           defsim_status_string(st));
+        w->backend.drops++;
         if (w->backend.table->reset &&
             w->backend.table->reset(&defsim__host, &w->handle, w->backend.state) != DEFSIM_OK)
             defsim__world_backend_stop(w);

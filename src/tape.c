@@ -51,7 +51,7 @@ struct defsim_tape {
     double *cprev;            /* hist: ncp states (6 nv), each the one before its checkpoint's */
     defsim__bw *cpb;          /* hist: ncp backend histories (save_state) at the checkpoints */
     uint8_t *fresh;           /* nsteps: the step began without the backend's history */
-    int64_t failed;           /* the world's failed steps at the last recorded step */
+    uint64_t drops;           /* the backend's history drops (world.h) at the last record */
     double *last;             /* 6 nv: the state after the last recorded step */
     double last_t;
     uint64_t plan_serial;     /* of the plan the recording follows */
@@ -341,9 +341,10 @@ static void tape_step(defsim__tape_link *link, double h)
         breaks(t, "out of memory while recording");
         return;
     }
-    /* a failed step between recorded ones dropped the backend's history (step.c resets it) */
-    t->fresh[t->nsteps] = t->nsteps == 0 || w->stats.failed_steps != t->failed;
-    t->failed = w->stats.failed_steps;
+    /* a failed step (step.c resets the backend) or a re-initialisation (an option set and set
+     * back) between recorded steps dropped the backend's history */
+    t->fresh[t->nsteps] = t->nsteps == 0 || w->backend.drops != t->drops;
+    t->drops = w->backend.drops;
     t->h[t->nsteps++] = h;
     save_state(w, t->last);
     t->last_t = w->state.t;
@@ -737,7 +738,7 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     t->link.step = tape_step;
     t->hist = (w->backend.table->flags & DEFSIM_BACKEND_ADJOINT_HISTORY) != 0;
     t->keep = t->hist && d.interval != 1;
-    t->failed = w->stats.failed_steps;
+    t->drops = w->backend.drops;
     /* The recorded run starts from its first state alone: the backend's history (a carried
      * force, a previous state) is dropped as defsim_world_set_state drops it. */
     if (w->backend.ready && w->backend.table->reset &&

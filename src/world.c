@@ -167,6 +167,7 @@ defsim_status defsim__world_backend_start(defsim_world *w)
         return st;
     }
     w->backend.ready = 1;
+    w->backend.drops++;
     return DEFSIM_OK;
 }
 
@@ -644,6 +645,7 @@ defsim_status defsim_world_set_state(defsim_world *w, const double *x, const dou
     for (int32_t i = 0; i < w->nv; ++i)
         if (w->bodies.pinned[i]) w->state.v[3 * (int64_t)i] = w->state.v[3 * (int64_t)i + 1] = w->state.v[3 * (int64_t)i + 2] = 0.0;
     if (w->backend.ready && w->backend.table->reset) {
+        w->backend.drops++;
         defsim_status st = w->backend.table->reset(&defsim__host, &w->handle, w->backend.state);
         if (st != DEFSIM_OK) backend_fini(w);   /* re-initialised at the next step */
     }

@@ -37,6 +37,7 @@ typedef struct defsim__backend_slot {
     const defsim_backend *table;
     void *state;
     int ready;                /* init succeeded for the current plan */
+    uint64_t drops;           /* inits and resets: the backend's history dropped (tape.c) */
 } defsim__backend_slot;
 
 /* The bodies, a sub-object of the world: the bodies in vertex order with their ids, and their

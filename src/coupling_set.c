@@ -177,6 +177,7 @@ defsim_status defsim__coupling_step_end(defsim__coupling_set *cs, defsim__system
     }
     if (st == DEFSIM_OK) {
         cs->drove = c->ndrv > 0;
+        c->ndrv_done = c->ndrv;   /* what a recording keeps of the step (tape.c) */
         if (cs->ntargeted > 0) memset(cs->targeted, 0, (size_t)sys->nv);
         cs->ntargeted = 0;
     }

@@ -37,6 +37,7 @@ typedef struct defsim__coupling {
     /* the backend step under way covers [t0, t0 + h]; driven DOFs go from drv_x0 to drv_x1 */
     double t0, h;
     int64_t ndrv;
+    int64_t ndrv_done;        /* ndrv of the last successful step (drv, drv_target kept) */
     int64_t *drv;             /* DOFs */
     double *drv_start, *drv_target;   /* at the start and end of the world's step */
     double *drv_x0, *drv_x1;  /* at the start and end of the backend step */

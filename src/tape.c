@@ -43,6 +43,11 @@ struct defsim_tape {
     int64_t *pi;              /* nsteps: the attachments' targets of each step (index into p) */
     int64_t np, pcap;
     double *p;                /* np distinct target vectors (3 natt each) */
+    int64_t *gi;              /* nsteps: the driven pins' targets of each step (index into g) */
+    int64_t ng, gcap;
+    double *g;                /* ng distinct target vectors (3 nv; NaN: not driven that step) */
+    double *gbuf;             /* 3 nv: the step's, assembled */
+    int drove0;               /* the step before the recording drove pins (coupling_set.h) */
     int64_t ncp, cpcap;
     double *cp;               /* ncp states (6 nv: x then v) of steps 0, k, 2k, ... */
     double *cpt;              /* their times */
@@ -144,7 +149,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
                      (size_t)t->nopt * sizeof(double) + sizeof *t +
-                     (size_t)t->hcap * sizeof(uint8_t) + history_bytes(t));
+                     (size_t)t->hcap * sizeof(uint8_t) + history_bytes(t) +
+                     (size_t)t->hcap * sizeof(int64_t) + (size_t)(t->gcap + 1) * state_bytes(t) / 2);
 }
 
 static void tape_error(defsim_tape *t, const char *fmt, ...)
@@ -250,13 +256,45 @@ static int keep_vector(const double *v, int64_t len, double **a, int64_t *n, int
     return 1;
 }
 
-/* The held external forces and the attachments' targets of the step under way. */
+/* The held external forces, the attachments' targets and the driven pins' targets of the step
+ * that just ended. */
 static int record_forces(defsim_tape *t, const defsim_world *w)
 {
+    const defsim__coupling *c = &w->coupling.cpl;
+    if (c->ndrv_done > 0) {
+        for (int64_t i = 0; i < 3 * (int64_t)t->nv; ++i) t->gbuf[i] = NAN;
+        for (int64_t k = 0; k < c->ndrv_done; ++k) t->gbuf[c->drv[k]] = c->drv_target[k];
+    }
     return keep_vector(w->coupling.fext_nonzero ? w->coupling.fext : NULL, 3 * (int64_t)t->nv,
                        &t->f, &t->nf, &t->fcap, &t->fi[t->nsteps]) &&
            keep_vector(t->natt > 0 ? w->sys.att.p : NULL, 3 * (int64_t)t->natt, &t->p, &t->np,
-                       &t->pcap, &t->pi[t->nsteps]);
+                       &t->pcap, &t->pi[t->nsteps]) &&
+           keep_vector(c->ndrv_done > 0 ? t->gbuf : NULL, 3 * (int64_t)t->nv, &t->g, &t->ng,
+                       &t->gcap, &t->gi[t->nsteps]);
+}
+
+/* The driven pins' targets of recorded step j (3 nv, NaN where not driven), or NULL. */
+static const double *pin_targets(const defsim_tape *t, int64_t j)
+{
+    return j >= 0 && t->gi[j] >= 0 ? t->g + 3 * (int64_t)t->nv * t->gi[j] : NULL;
+}
+
+/* Sets the driven pins' targets of recorded step j in the world for its next step (as
+ * defsim_body_set_pin_targets does), and whether the step before it drove pins. */
+static void hold_pins(const defsim_tape *t, defsim_world *w, int64_t j)
+{
+    defsim__coupling_set *cs = &w->coupling;
+    cs->drove = j > 0 ? pin_targets(t, j - 1) != NULL : t->drove0;
+    const double *g = pin_targets(t, j);
+    if (!g) return;
+    for (int32_t v = 0; v < t->nv; ++v) {
+        if (isnan(g[3 * (int64_t)v])) continue;
+        if (!cs->targeted[v]) {
+            cs->targeted[v] = 1;
+            cs->ntargeted++;
+        }
+        memcpy(cs->pin_target + 3 * (int64_t)v, g + 3 * (int64_t)v, 3 * sizeof(double));
+    }
 }
 
 /* Sets the world-point targets of the attachments to p (3 natt; body targets left alone). */
@@ -315,9 +353,14 @@ static void tape_step(defsim__tape_link *link, double h)
         return;
     }
     const size_t b = 3 * (size_t)t->nv * sizeof(double);
-    if (memcmp(w->step.x_save, t->last, b) != 0 ||
-        memcmp(w->step.v_save, t->last + 3 * (int64_t)t->nv, b) != 0 ||
-        t->last_t + h != w->state.t) {
+    /* a pinned DOF's velocity does not enter a step (the step sets it: 0, or a driven pin's),
+     * and defsim_body_set_pin_targets zeroes it */
+    int same_v = 1;
+    const double *v0 = t->last + 3 * (int64_t)t->nv;
+    for (int32_t v = 0; v < t->nv && same_v; ++v)
+        same_v = w->sys.pinned[v] ||
+                 memcmp(w->step.v_save + 3 * (int64_t)v, v0 + 3 * (int64_t)v, 3 * sizeof *v0) == 0;
+    if (memcmp(w->step.x_save, t->last, b) != 0 || !same_v || t->last_t + h != w->state.t) {
         breaks(t, "the state or time was set between recorded steps");
         return;
     }
@@ -330,11 +373,13 @@ static void tape_step(defsim__tape_link *link, double h)
         int64_t *pi = fi ? realloc(t->pi, (size_t)cap * sizeof *pi) : NULL;
         if (pi) t->pi = pi;
         uint8_t *fr = pi ? realloc(t->fresh, (size_t)cap * sizeof *fr) : NULL;
-        if (!hh || !fi || !pi || !fr) {
+        if (fr) t->fresh = fr;
+        int64_t *gi = fr ? realloc(t->gi, (size_t)cap * sizeof *gi) : NULL;
+        if (!hh || !fi || !pi || !fr || !gi) {
             breaks(t, "out of memory while recording");
             return;
         }
-        t->fresh = fr;
+        t->gi = gi;
         t->hcap = cap;
     }
     if (!record_forces(t, w)) {
@@ -371,7 +416,6 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
     if (defsim__collider_set_live(&w->colliders) > 0) term = "collider contact";
     else if (w->set.body_contact) term = "body contact (core.body_contact)";
     else if (w->coupling.cpl.fn) term = "the force callback";
-    else if (w->coupling.ntargeted > 0) term = "driven pins (pin targets)";
     if (!term) term = defsim__forces_vjp_missing(&w->sys);
     if (term) {
         snprintf(buf, size, "record: the scene uses %s, which gradients do not differentiate "
@@ -402,6 +446,10 @@ typedef struct world_saved {
     double *fext;             /* the host's held forces (3 nv), or NULL: none */
     double *att_p;            /* the attachments' targets (3 natt), or NULL: none */
     defsim__bw history;       /* the backend's history (save_state), if it has one */
+    int drove;                /* the coupling's: the last step drove pins */
+    int32_t ntargeted;        /* the host's pending pin targets (copies, or NULL: none) */
+    uint8_t *targeted;
+    double *pin_target;
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -427,6 +475,15 @@ static int world_save(const defsim_world *w, world_saved *s)
     if (w->planned && w->sys.att.n > 0) {
         if (!(s->att_p = malloc(3 * (size_t)w->sys.att.n * sizeof(double)))) return 0;
         memcpy(s->att_p, w->sys.att.p, 3 * (size_t)w->sys.att.n * sizeof(double));
+    }
+    s->drove = w->coupling.drove;
+    s->ntargeted = w->coupling.ntargeted;
+    if (w->coupling.targeted) {
+        s->targeted = malloc((size_t)w->nv);
+        s->pin_target = malloc(3 * (size_t)w->nv * sizeof(double));
+        if (!s->targeted || !s->pin_target) return 0;
+        memcpy(s->targeted, w->coupling.targeted, (size_t)w->nv);
+        memcpy(s->pin_target, w->coupling.pin_target, 3 * (size_t)w->nv * sizeof(double));
     }
     return history_save((defsim_world *)w, &s->history);
 }
@@ -461,7 +518,15 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
         if (s->att_p) (void)set_targets(t, w, s->att_p);
         /* the backend's history too, so that the run goes on bit for bit */
         if (history_load(w, &s->history) != DEFSIM_OK) defsim__world_backend_stop(w);
+        w->coupling.drove = s->drove;
+        w->coupling.ntargeted = s->ntargeted;
+        if (s->targeted) {
+            memcpy(w->coupling.targeted, s->targeted, (size_t)w->nv);
+            memcpy(w->coupling.pin_target, s->pin_target, 3 * (size_t)w->nv * sizeof(double));
+        }
     }
+    free(s->targeted);
+    free(s->pin_target);
     free(s->history.p);
     free(s->x);
     free(s->counters);
@@ -516,12 +581,13 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
 }
 
 enum {
-    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_NAMES
+    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_PIN,
+    G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
     "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
-    "attachment_damping", "attachment_targets"};
+    "attachment_damping", "attachment_targets", "pin_targets"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -582,20 +648,22 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
  * entry and dL/dx_0, dL/dv_0 on return. */
 static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double *dl_dx,
                                   const double *dl_dv, double *ax, double *av, double *fext_out,
-                                  double *attp_out, defsim__grad *g, int64_t *peak)
+                                  double *attp_out, double *pin_out, defsim__grad *g,
+                                  int64_t *peak)
 {
     const int64_t n3 = 3 * (int64_t)t->nv, n6 = 2 * n3;
     const int32_t k = t->k;
     double *seg = malloc((size_t)(k + 1) * state_bytes(t));
-    double *ax0 = malloc(2 * (size_t)n3 * sizeof *ax0);
+    double *ax0 = malloc(4 * (size_t)n3 * sizeof *ax0);
     if (!seg || !ax0) {
         free(seg);
         free(ax0);
         tape_error(t, "backward: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
-    *peak += (int64_t)((size_t)(k + 1) * state_bytes(t) + 2 * (size_t)n3 * sizeof(double));
-    double *av0 = ax0 + n3;
+    *peak += (int64_t)((size_t)(k + 1) * state_bytes(t) + 4 * (size_t)n3 * sizeof(double));
+    double *av0 = ax0 + n3, *ap1 = av0 + n3, *v0 = ap1 + n3;
+    const uint8_t *pinned = w->sys.pinned;
     const defsim_backend *b = w->backend.table;
     defsim_status st = DEFSIM_OK;
     for (int64_t c = t->ncp - 1; c >= 0 && st == DEFSIM_OK; --c) {
@@ -613,6 +681,7 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                 if (t->hist && j > s0 && t->fresh[j] && b->reset)
                     st = b->reset(&defsim__host, &w->handle, w->backend.state);
                 if (st == DEFSIM_OK) st = hold_forces(t, w, j);
+                if (st == DEFSIM_OK) hold_pins(t, w, j);
                 if (st == DEFSIM_OK) st = defsim_world_step(w, t->h[j]);
                 if (st == DEFSIM_OK) save_state(w, seg + n6 * (j + 1 - s0));
             }
@@ -641,11 +710,23 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                               : j > s0               ? S0 - n6
                               : t->keep              ? t->cprev + n6 * c
                                                      : t->cp + n6 * (c - 1);   /* interval 1 */
-            const defsim_adjoint_step a = {.x0 = S0, .v0 = S0 + n3, .x1 = S1, .v1 = S1 + n3,
+            /* the pins' velocities over the step: (target - x0)/h where driven, else 0 */
+            const double *G = pin_targets(t, j);
+            memcpy(v0, S0 + n3, (size_t)n3 * sizeof *v0);
+            for (int32_t v = 0; v < t->nv; ++v)
+                for (int q = 0; pinned[v] && q < 3; ++q) {
+                    const int64_t i = 3 * (int64_t)v + q;
+                    v0[i] = G && !isnan(G[i]) ? (G[i] - S0[i]) / t->h[j] : 0.0;
+                }
+            memset(ap1, 0, (size_t)n3 * sizeof *ap1);
+            const defsim_adjoint_step a = {.x0 = S0, .v0 = v0, .x1 = S1, .v1 = S1 + n3,
                                            .ax1 = ax, .av1 = av, .ax0 = ax0, .av0 = av0,
                                            .x_prev = P, .v_prev = P ? P + n3 : NULL,
                                            .h_prev = P ? t->h[j - 1] : 0.0,
-                                           .first = j == t->nsteps - 1};
+                                           .first = j == t->nsteps - 1,
+                                           .prev_drove = j > 0 ? pin_targets(t, j - 1) != NULL
+                                                               : t->drove0,
+                                           .drives = G != NULL, .ap1 = ap1};
             w->msg->error[0] = '\0';
             st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
             if (st == DEFSIM_OK)
@@ -655,6 +736,23 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                            w->msg->error[0] ? w->msg->error : defsim_status_string(st));
                 break;
             }
+            /* Pinned DOFs: a driven one ends at its target p and moves with (p - x0)/h, which
+             * v1 holds too; a static one stays (x1 = x0) with no velocity. The recorded v0 of
+             * a pinned DOF does not enter the step. */
+            double *gp = pin_out ? pin_out + n3 * j : NULL;
+            if (gp) memset(gp, 0, (size_t)n3 * sizeof *gp);
+            for (int32_t v = 0; v < t->nv; ++v)
+                for (int q = 0; pinned[v] && q < 3; ++q) {
+                    const int64_t i = 3 * (int64_t)v + q;
+                    if (G && !isnan(G[i])) {
+                        const double du = av0[i] + av[i];
+                        if (gp) gp[i] = ap1[i] + du / t->h[j];
+                        ax0[i] -= du / t->h[j];
+                    } else {
+                        ax0[i] += ap1[i];
+                    }
+                    av0[i] = 0.0;
+                }
             for (int64_t i = 0; i < n3; ++i) {
                 ax[i] = ax0[i] + (dl_dx ? dl_dx[n3 * j + i] : 0.0);
                 av[i] = av0[i] + (dl_dv ? dl_dv[n3 * j + i] : 0.0);
@@ -737,6 +835,13 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     t->link.world = w;
     t->link.step = tape_step;
     t->hist = (w->backend.table->flags & DEFSIM_BACKEND_ADJOINT_HISTORY) != 0;
+    t->drove0 = w->coupling.drove;
+    if (!(t->gbuf = malloc(state_bytes(t) / 2))) {
+        t->link.world = NULL;
+        defsim_tape_destroy(t);
+        defsim__error(w->msg, "record: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     t->keep = t->hist && d.interval != 1;
     t->drops = w->backend.drops;
     /* The recorded run starts from its first state alone: the backend's history (a carried
@@ -814,12 +919,12 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
             tape_error(t, "backward: grads[%d] names no gradient (\"%s\"); the names: "
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
-                          "attachment_stiffness, attachment_damping, attachment_targets",
+                          "attachment_stiffness, attachment_damping, attachment_targets, pin_targets",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         const int64_t c = k <= G_V0    ? 3 * (int64_t)t->nv
-                          : k == G_FEXT  ? 3 * (int64_t)t->nv * t->nsteps
+                          : k == G_FEXT || k == G_PIN ? 3 * (int64_t)t->nv * t->nsteps
                           : k == G_ATT_P ? 3 * (int64_t)t->natt * t->nsteps
                           : k >= G_ATT_K ? t->natt
                                          : nb;
@@ -829,7 +934,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                        (int)i, grad_names[k], (long long)grads[i].count,
                        grads[i].out ? "set" : "NULL", (long long)c,
                        k <= G_V0      ? "3 * vertex count"
-                       : k == G_FEXT  ? "3 * vertex count per step"
+                       : k == G_FEXT || k == G_PIN ? "3 * vertex count per step"
                        : k == G_ATT_P ? "3 per attachment and step"
                        : k >= G_ATT_K ? "one per attachment"
                                       : "one per body");
@@ -888,17 +993,18 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
             ax[i] = dl_dx ? dl_dx[n3 * t->nsteps + i] : 0.0;
             av[i] = dl_dv ? dl_dv[n3 * t->nsteps + i] : 0.0;
         }
-        double *fext_out = NULL, *attp_out = NULL;
+        double *fext_out = NULL, *attp_out = NULL, *pin_out = NULL;
         for (int32_t i = 0; i < n; ++i) {
             if (which[i] == G_FEXT) fext_out = grads[i].out;
             if (which[i] == G_ATT_P) attp_out = grads[i].out;
+            if (which[i] == G_PIN) pin_out = grads[i].out;
         }
         for (int32_t i = 0; i < n; ++i) {
             if (which[i] == G_E || which[i] == G_NU) g.want |= DEFSIM__WANT_LAME;
             if (which[i] == G_BETA) g.want |= DEFSIM__WANT_BETA;
         }
         w->handle.grad = &g;
-        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, &g, &peak);
+        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, pin_out, &g, &peak);
         w->handle.grad = NULL;
         if (st == DEFSIM_OK && !body_gradients(w, &g, body, nb)) {
             tape_error(t, "backward: out of memory");
@@ -907,8 +1013,8 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
         if (st == DEFSIM_OK)
             for (int32_t i = 0; i < n; ++i) {
                 const int k = which[i];
-                if (k == G_FEXT || k == G_ATT_P) {
-                    const double *src = k == G_FEXT ? fext_out : attp_out;
+                if (k == G_FEXT || k == G_ATT_P || k == G_PIN) {
+                    const double *src = k == G_FEXT ? fext_out : k == G_PIN ? pin_out : attp_out;
                     if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
                         memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
                     continue;
@@ -969,6 +1075,9 @@ void defsim_tape_destroy(defsim_tape *t)
     for (int64_t c = 0; t->cpb && c < t->cpcap; ++c) free(t->cpb[c].p);
     free(t->cpb);
     free(t->fresh);
+    free(t->gi);
+    free(t->g);
+    free(t->gbuf);
     free(t->last);
     free(t->opt);
     free(t);

@@ -116,4 +116,4 @@ const defsim__ic_scheme defsim__ic_module_scheme = {
              DEFSIM_BACKEND_ADJOINT_HISTORY,
     .work_vectors = 6, .history_vectors = 2,
     .prepare = bdf2_prepare, .accept = bdf2_accept, .counters = bdf2_counters, .counter_count = 1,
-    .differentiable = 1, .adjoint_history = bdf2_adjoint};
+    .differentiable = 1, .adjoint_xb = 1.0, .adjoint_history = bdf2_adjoint};

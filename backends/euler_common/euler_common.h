@@ -54,9 +54,9 @@ static defsim_status euler_step(const defsim_host *host, defsim_system *sys, voi
 /* The reverse mode of euler_step (docs/gradients.md). With f = f(x0, v0) and a = av1 + h ax1
  * (symplectic: x1 = x0 + h v1) or a = av1 (explicit: x1 = x0 + h v0), v1 = v0 + h M^-1 f gives
  * the forces' adjoint w = h M^-1 a, and ax0 = ax1 + (df/dx)^T w, av0 = a + (df/dv)^T w (explicit:
- * + h ax1); the masses' through v1 - v0 = h M^-1 f: dL/dm_i = -a_i (v1 - v0)_i / m_i. Pinned DOFs
- * keep their position (ax0 = ax1 there, plus what their neighbours' forces carry) and have no
- * velocity (av0 = 0). */
+ * + h ax1); the masses' through v1 - v0 = h M^-1 f: dL/dm_i = -a_i (v1 - v0)_i / m_i. At pinned
+ * DOFs (defsim_adjoint_step) the forces see x0 and the pins' velocity v0: ax0 and av0 are what
+ * their neighbours' forces carry, and the end position passes ax1 on (ap1). */
 static defsim_status euler_adjoint_step(const defsim_host *host, defsim_system *sys, void *state,
                                         double h, const defsim_adjoint_step *ad, int symplectic)
 {
@@ -77,11 +77,13 @@ static defsim_status euler_adjoint_step(const defsim_host *host, defsim_system *
     if (st != DEFSIM_OK) return st;
     host->mass_vjp(sys, s->f);
     for (int64_t i = 0; i < n; ++i) {
-        ad->ax0[i] = ad->ax1[i] + gx[i];
         if (free[i] < 0) {
-            ad->av0[i] = 0.0;
+            ad->ax0[i] = gx[i];
+            ad->av0[i] = gv[i];
+            ad->ap1[i] = ad->ax1[i];
             continue;
         }
+        ad->ax0[i] = ad->ax1[i] + gx[i];
         const double a = ad->av1[i] + (symplectic ? h * ad->ax1[i] : 0.0);
         ad->av0[i] = a + gv[i] + (symplectic ? 0.0 : h * ad->ax1[i]);
     }

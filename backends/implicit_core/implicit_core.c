@@ -1140,18 +1140,21 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     const int m = IC_ADJ_RESTART;
     if (!s->adj || s->adj_nnz != s->pat.nnz) {
         host->release(s->adj);
-        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 9 * nd);
+        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 11 * nd);
         if (!s->adj) return fail(s, host, sys, DEFSIM_ERR_OUT_OF_MEMORY, "adjoint: out of memory");
         s->adj_nnz = s->pat.nnz;
     }
     double *aval = s->adj, *rhs = aval + s->pat.nnz, *lam = rhs + n, *r = lam + n, *tmp = r + n,
            *V = tmp + n, *Z = V + (int64_t)(m + 1) * n, *lf = Z + (int64_t)m * n, *gx1 = lf + nd,
            *gxn = gx1 + nd, *gv = gxn + nd, *mw = gv + nd, *gx0 = mw + nd, *gxz = gx0 + nd,
-           *gvz = gxz + nd, *u = gvz + nd;
+           *gvz = gxz + nd, *u = gvz + nd, *vd = u + nd, *pv = vd + nd;
     const size_t bytes = (size_t)nd * sizeof(double);
     memcpy(p->x0, a->x0, bytes);
     memcpy(p->v0, a->v0, bytes);
-    p->pin_vel = NULL;
+    /* driven pins: their velocities (v0 at the pinned DOFs) as the forward step had them */
+    if (a->drives)
+        for (int64_t i = 0; i < nd; ++i) pv[i] = s->dof_free[i] < 0 ? a->v0[i] : 0.0;
+    p->pin_vel = a->drives ? pv : NULL;
     if (p->scheme->history_vectors >= 2) {
         /* the step's history as the forward step had it (the tape restores the backend's own
          * after the pass) */
@@ -1228,9 +1231,12 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     memset(gv, 0, bytes);
     /* the residual's forces: f_EG at x1, the damping at (z, v1) */
     const uint32_t EG = DEFSIM_FORCE_ELASTIC | DEFSIM_FORCE_GRAVITY;
+    /* g's damping velocity c_d (x1 - z)/h: v1 on the free DOFs, the pins' own on the pinned */
+    for (int64_t i = 0; i < nd; ++i)
+        vd[i] = s->dof_free[i] >= 0 ? a->v1[i] : stp.cd * (a->x1[i] - stp.z[i]) / h;
     st = host->forces_vjp(sys, a->x1, NULL, EG, lf, gx1, NULL, 1);
     if (st == DEFSIM_OK)
-        st = host->forces_vjp(sys, p->xb, a->v1, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
+        st = host->forces_vjp(sys, p->xb, vd, DEFSIM_FORCE_DAMPING, lf, gxn, gv, 1);
     if (st != DEFSIM_OK) return st;
     const double ih2 = stp.cm / (h * h), ih = stp.cd / h, ca = p->scheme->adjoint_a * h * h,
                  cz = p->scheme->adjoint_z * h;
@@ -1251,8 +1257,12 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
     for (int64_t i = 0; i < nd; ++i) {
         const int64_t k = s->dof_free[i];
         if (k < 0) {
-            a->ax0[i] = a->ax1[i] + gx1[i] + gxn[i] + gx0[i] + gxz[i];
-            a->av0[i] = 0.0;
+            /* a pin: x1 enters f_EG and the damping velocity, z = x0 + a_z h v0 that velocity
+             * and a0's damping, x_b = x0 + x_b h v0 the matrix B (defsim_adjoint_step) */
+            const double az = gxz[i] - ih * gv[i];
+            a->ap1[i] = a->ax1[i] + gx1[i] + ih * gv[i];
+            a->ax0[i] = az + gxn[i] + gx0[i];
+            a->av0[i] = cz * az + p->scheme->adjoint_xb * h * gxn[i] + gvz[i];
             mw[i] = 0.0;
             continue;
         }

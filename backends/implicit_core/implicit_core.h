@@ -52,6 +52,9 @@ typedef struct defsim__ic_scheme {
      * B frozen at z. 0: the backend is not differentiable. */
     int differentiable;
     double adjoint_z, adjoint_a;
+    /* Where B is frozen at the pinned DOFs: x_b = x0 + adjoint_xb h v0 there (backward Euler 0,
+     * Newmark 1/2, bdf2 1); a pinned DOF's z is x0 + adjoint_z h v0 in every scheme. */
+    double adjoint_xb;
     /* Optional, for a differentiable scheme with history (bdf2; adjoint_z and adjoint_a are then
      * unused): maps the adjoints of the step's targets on the free DOFs, ay (of y), az (of z
      * through v' = c_d (x' - z)/h and the damping's velocity) and axb (of the position x_b at

@@ -58,4 +58,4 @@ const defsim__ic_scheme defsim__ic_module_scheme = {
     .name = "newmark", .flags = DEFSIM_BACKEND_CONSERVATIVE | DEFSIM_BACKEND_CONTACT_CCD,
     .work_vectors = 2,
     .prepare = nm_prepare,
-    .differentiable = 1, .adjoint_z = 0.5, .adjoint_a = 0.25};
+    .differentiable = 1, .adjoint_z = 0.5, .adjoint_a = 0.25, .adjoint_xb = 0.5};

@@ -130,7 +130,8 @@ static defsim_status vv_load(const defsim_host *host, defsim_system *sys, void *
  * F1), with a0 = F0/m, w = v0 + h a0, x1 = x0 + h (v0 + h/2 a0), F1 = f(x1, w) and
  * v1 = v0 + h/2 (a0 + F1/m); F0 = f(x0, v0) when the step started without a carried force (the
  * first recorded step, after a failed step, or when this or the previous step drove pins),
- * else the previous step's F1. a0, w and F1/m come back from the states: a0 = 2 (x1 - x0 - h v0)
+ * else the previous step's F1. Pinned DOFs: F1 sees their end positions (ap1) and w their
+ * velocity (av0), F0 at a restart their start (ax0) and velocity. a0, w and F1/m come back from the states: a0 = 2 (x1 - x0 - h v0)
  * / h^2, w = v0 + h a0, F1/m = 2 (v1 - v0)/h - a0 (free DOFs). With the adjoint aF1 of F1 that
  * the next step carried back (0 on the first call), g = aF1 + h/2 av1/m weighs the forces at
  * (x1, w): ax1' = ax1 + (df/dx)^T g, and then ax0 = ax1', av0 = av1 + h ax1' + (df/dv)^T g and
@@ -146,8 +147,7 @@ static defsim_status vv_adjoint_step(const defsim_host *host, defsim_system *sys
     double *carry = s->adj, *g = carry + n, *gx = g + n, *gw = gx + n, *w = gw + n, *mw = w + n;
     const double *m = host->mass(sys);
     const int64_t *free = host->dof_to_free(sys);
-    const double *pv = s->coupled ? host->pin_velocities(sys) : NULL;
-    const int restart = !ad->x_prev || pv || ad->prev_drove;
+    const int restart = !ad->x_prev || ad->drives || ad->prev_drove;
     if (ad->first) memset(carry, 0, (size_t)n * sizeof *carry);
     for (int64_t i = 0; i < n; ++i) {
         gx[i] = gw[i] = 0.0;
@@ -166,12 +166,15 @@ static defsim_status vv_adjoint_step(const defsim_host *host, defsim_system *sys
     if (st != DEFSIM_OK) return st;
     for (int64_t i = 0; i < n; ++i) {
         const double ax = ad->ax1[i] + gx[i];
-        ad->ax0[i] = ax;
         if (free[i] < 0) {
-            ad->av0[i] = 0.0;
+            /* a pin: the forces at x1 see its end position, w its velocity */
+            ad->ap1[i] = ax;
+            ad->ax0[i] = 0.0;
+            ad->av0[i] = gw[i];
             carry[i] = 0.0;
             continue;
         }
+        ad->ax0[i] = ax;
         const double avh = ad->av1[i] + h * ax;
         const double a0 = 2.0 * (ad->x1[i] - ad->x0[i] - h * ad->v0[i]) / (h * h);
         ad->av0[i] = avh + gw[i];
@@ -186,7 +189,7 @@ static defsim_status vv_adjoint_step(const defsim_host *host, defsim_system *sys
     if (st != DEFSIM_OK) return st;
     for (int64_t i = 0; i < n; ++i) {
         ad->ax0[i] += gx[i];
-        if (free[i] >= 0) ad->av0[i] += gw[i];
+        ad->av0[i] += gw[i];
         carry[i] = 0.0;
     }
     return DEFSIM_OK;

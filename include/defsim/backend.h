@@ -324,6 +324,13 @@ typedef struct defsim_host {
 /// op writes ax0 = dL/dx0 and av0 = dL/dv0 through this step (all dof_count doubles, owned by
 /// the core, valid during the call) and adds what the step's parameters contribute through
 /// the host's forces_vjp and mass_vjp with `accumulate` set.
+///
+/// Pinned DOFs are inputs of the step three times over: their start positions x0, their end
+/// positions x1 (x0 for a static pin, a driven pin's target) and their velocity over the step,
+/// which v0 holds there (0 for a static pin; as the step saw it, whatever the state held
+/// before). At a pinned DOF the op writes ax0 = dL/dx0 with x1 and the velocity held, av0 =
+/// dL/d(the velocity) through the step's forces, and ap1 = dL/dx1 with x0 held (ax1 included);
+/// the core composes them (static: dL/dx0 = ax0 + ap1).
 typedef struct defsim_adjoint_step {
     const double *x0;                  ///< Positions at the step's start.
     const double *v0;                  ///< Velocities at the step's start.
@@ -348,6 +355,10 @@ typedef struct defsim_adjoint_step {
     /// 1 when the previous recorded step moved driven pins (velocity_verlet then evaluates
     /// the forces at the start of this step anew, not carried), else 0.
     int32_t prev_drove;
+    /// 1 when this step moved driven pins (their velocities are the nonzero ones of v0 at
+    /// pinned DOFs; pin_velocities as the forward step had it), else 0.
+    int32_t drives;
+    double *ap1;                       ///< Out: at pinned DOFs, dL/dx1 (see above); else 0.
 } defsim_adjoint_step;
 
 /// Capability flags of a backend.

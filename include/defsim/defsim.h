@@ -1245,8 +1245,10 @@ typedef struct defsim_tape_stats {
 /// also where they were zero: the controls), "attachment_stiffness", "attachment_damping"
 /// (count = attachment count, in defsim_world_attachment_at's order), "attachment_targets"
 /// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
-/// defsim_attachment_set_target held during step j; 0 for body targets); out (count doubles,
-/// the host's) receives it.
+/// defsim_attachment_set_target held during step j; 0 for body targets), "pin_targets"
+/// (count = N * 3 * vertex count: per step j, dL/dp_j of the targets that
+/// defsim_body_set_pin_targets gave the driven pins for step j, at those vertices; 0 at every
+/// other vertex and step); out (count doubles, the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1259,15 +1261,18 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// Begins recording the world's steps from its current state (state 0): every later
 /// successful defsim_world_step is recorded, until defsim_tape_destroy. One recording per
 /// world at a time. def may be NULL (the defaults). Plans the world if it is not planned
-/// (nothing else changes). Differentiable backends: explicit_euler, symplectic_euler,
-/// newton_cholmod, newmark. *out receives the tape, which the host owns and frees with
+/// (nothing else changes); the backend's history (velocity_verlet's carried force, bdf2's
+/// previous state) is dropped, so that the recorded run starts from state 0 alone.
+/// Differentiable backends: explicit_euler, symplectic_euler, velocity_verlet,
+/// newton_cholmod, newmark, bdf2. *out receives the tape, which the host owns and frees with
 /// defsim_tape_destroy (before or after the world: a world destroyed first leaves the tape
 /// usable only for defsim_tape_get_stats and destroy). On an error nothing is recorded, *out
 /// is untouched and the world unchanged. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL, bad def, a
 /// recording already
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
-/// the message: collider or body contact, the force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// the message: collider or body contact, the force callback; or core.auto_substep on a
+/// backend that substeps),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
 DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
                                              defsim_tape **out);

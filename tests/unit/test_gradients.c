@@ -544,6 +544,132 @@ static void test_history_dropped(void **st)
     free(cv);
 }
 
+/* A run of sc whose pinned face is driven: before step s (on the steps with s % 3 != 2; the
+ * others hold the pins where they arrived) its vertices get the targets P[s] + e D[s] (N x 3 n,
+ * nonzero only at them). L = sum cx . x + cv . v over the weights' states. With gp set, records
+ * and fills dL/dP (pin_targets), dL/dx0 and dL/dE. */
+static double driven_run(const scene *sc, const double *P, const double *D, double e,
+                         const double *dx0, double ex, double *gp, double *gx0, double *gE,
+                         const double *cx, const double *cv, int32_t interval)
+{
+    defsim_world *w = make(sc, NULL, dx0, NULL, ex);
+    defsim_body_id b;
+    TU_OK(defsim_world_body_at(w, 0, &b));
+    const int n = defsim_world_vertex_count(w), n3 = 3 * n, N = sc->steps;
+    uint8_t *pinned = malloc((size_t)n);
+    TU_OK(defsim_world_get_pinned(w, pinned, n));
+    int32_t *verts = malloc((size_t)n * sizeof *verts);
+    double *pos = malloc((size_t)n3 * sizeof *pos);
+    defsim_tape *t = NULL;
+    defsim_tape_def td;
+    defsim_tape_def_init(&td, sizeof td);
+    td.interval = interval;
+    if (gp) TU_OK(defsim_world_record(w, &td, &t));
+    double L = state_loss(w, cx, cv, 0);
+    for (int s = 0; s < N; ++s) {
+        int k = 0;
+        for (int i = 0; i < n && s % 3 != 2; ++i) {
+            if (!pinned[i]) continue;
+            verts[k] = i;
+            for (int c = 0; c < 3; ++c)
+                pos[3 * k + c] = P[(size_t)n3 * s + 3 * i + c] + e * D[(size_t)n3 * s + 3 * i + c];
+            ++k;
+        }
+        if (k > 0) TU_OK(defsim_body_set_pin_targets(w, b, verts, k, pos));
+        const defsim_status st = defsim_world_step(w, sc->h);
+        if (st != DEFSIM_OK) fail_msg("step %d: %s", s, defsim_world_last_error(w));
+        L += state_loss(w, cx, cv, s + 1);
+    }
+    if (gp) {
+        defsim_gradient g[3] = {{"pin_targets", gp, (int64_t)N * n3},
+                                {"initial_positions", gx0, n3}, {"youngs_modulus", gE, 1}};
+        const defsim_status st = defsim_tape_backward(t, cx, cv, (int64_t)n3 * (N + 1), g, 3);
+        if (st != DEFSIM_OK) fail_msg("backward: %s", defsim_tape_last_error(t));
+        defsim_tape_destroy(t);
+    }
+    free(pinned);
+    free(verts);
+    free(pos);
+    defsim_world_destroy(w);
+    return L;
+}
+
+/* Driven pins' targets as controls (pin_targets, N x 3 n), and x0 and E with the pins driven:
+ * the stretched cantilever with mass and stiffness damping, its clamped face swept up and out
+ * over the steps (held still every third step), against central differences on every
+ * differentiable backend; with checkpoints every 4th state the same gradients bit for bit. */
+static void test_pin_targets(void **st)
+{
+    (void)st;
+    const char *backends[] = {SE, EE, VV, NC, NM, BD};
+    for (int b = 0; b < 6; ++b) {
+        const int imp = implicit(backends[b]);
+        scene sc = {backends[b], DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1e6, 0.3, 1000, 1.0, 2e-3,
+                    3, 1, 1, 3.0, imp ? 1e-2 : 1e-3, imp ? 9 : 30, 1, -9.81, 1.02};
+        double *cx, *cv;
+        const int n = loss_weights(&sc, &cx, &cv), n3 = 3 * n, N = sc.steps;
+        defsim_world *w0 = make(&sc, NULL, NULL, NULL, 0.0);
+        double *x0 = tu_positions(w0);
+        uint8_t *pinned = malloc((size_t)n);
+        TU_OK(defsim_world_get_pinned(w0, pinned, n));
+        defsim_world_destroy(w0);
+        double *P = calloc((size_t)N * n3, sizeof *P), *D = calloc((size_t)N * n3, sizeof *D);
+        double *gp = malloc((size_t)N * n3 * sizeof *gp), *gx0 = malloc((size_t)n3 * sizeof *gx0);
+        double *dir = malloc((size_t)n3 * sizeof *dir), gE = 0.0;
+        unsigned long long seed = 17;
+        for (int s = 0; s < N; ++s)
+            for (int i = 0; i < n; ++i)
+                for (int c = 0; c < 3; ++c) {
+                    const double tau = (s + 1) * sc.h;
+                    P[(size_t)n3 * s + 3 * i + c] =
+                        x0[3 * i + c] + (c == 1 ? 0.05 * tau : c == 0 ? -0.02 * tau : 0.0);
+                    D[(size_t)n3 * s + 3 * i + c] = pinned[i] && s % 3 != 2 ? tu_rand(&seed) : 0.0;
+                }
+        for (int i = 0; i < n3; ++i) dir[i] = tu_rand(&seed);
+        driven_run(&sc, P, D, 0.0, NULL, 0.0, gp, gx0, &gE, cx, cv, 1);
+        /* checkpoints every 4th state: the segments replayed with their targets, bit for bit */
+        double *gp4 = malloc((size_t)N * n3 * sizeof *gp4), *gx4 = malloc((size_t)n3 * sizeof *gx4);
+        double gE4 = 0.0;
+        driven_run(&sc, P, D, 0.0, NULL, 0.0, gp4, gx4, &gE4, cx, cv, 4);
+        assert_memory_equal(gp, gp4, (size_t)N * n3 * sizeof *gp);
+        assert_memory_equal(gx0, gx4, (size_t)n3 * sizeof *gx0);
+        assert_true(gE == gE4);
+        free(gp4);
+        free(gx4);
+        double an[3] = {0.0, 0.0, gE}, num[3];
+        for (size_t i = 0; i < (size_t)N * n3; ++i) an[0] += gp[i] * D[i];
+        for (int i = 0; i < n3; ++i) an[1] += gx0[i] * dir[i];
+        const double e = 1e-6;
+        num[0] = (driven_run(&sc, P, D, e, NULL, 0.0, NULL, NULL, NULL, cx, cv, 0) -
+                  driven_run(&sc, P, D, -e, NULL, 0.0, NULL, NULL, NULL, cx, cv, 0)) / (2 * e);
+        num[1] = (driven_run(&sc, P, D, 0.0, dir, e, NULL, NULL, NULL, cx, cv, 0) -
+                  driven_run(&sc, P, D, 0.0, dir, -e, NULL, NULL, NULL, cx, cv, 0)) / (2 * e);
+        scene se = sc;
+        se.E = sc.E * (1 + 1e-5);
+        num[2] = driven_run(&se, P, D, 0.0, NULL, 0.0, NULL, NULL, NULL, cx, cv, 0);
+        se.E = sc.E * (1 - 1e-5);
+        num[2] = (num[2] - driven_run(&se, P, D, 0.0, NULL, 0.0, NULL, NULL, NULL, cx, cv, 0)) /
+                 (2e-5 * sc.E);
+        const char *what[3] = {"pin_targets", "initial_positions", "youngs_modulus"};
+        for (int q = 0; q < 3; ++q) {
+            const double rel = fabs(an[q] - num[q]) / fabs(num[q]);
+            printf("driven pins %s d/d%s: tape %.12e  central differences %.12e  relative %.2e\n",
+                   backends[b], what[q], an[q], num[q], rel);
+            if (!(rel <= 1e-5))
+                fail_msg("driven pins %s: d/d%s relative error %.3g", backends[b], what[q], rel);
+        }
+        free(x0);
+        free(pinned);
+        free(P);
+        free(D);
+        free(gp);
+        free(gx0);
+        free(dir);
+        free(cx);
+        free(cv);
+    }
+}
+
 /* Damping rates at zero (their terms are off): dL/dalpha and dL/dbeta still come, against
  * one-sided second-order differences (-3 L(0) + 4 L(e) - L(2e)) / 2e. */
 static void test_damping_at_zero(void **st)
@@ -1262,6 +1388,7 @@ int main(void)
         cmocka_unit_test(test_cantilever_verlet),
         cmocka_unit_test(test_cantilever_bdf2),
         cmocka_unit_test(test_history_dropped),
+        cmocka_unit_test(test_pin_targets),
         cmocka_unit_test(test_damping_at_zero),
         cmocka_unit_test(test_external_forces),
         cmocka_unit_test(test_attachments),

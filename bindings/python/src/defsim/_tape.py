@@ -14,8 +14,9 @@ from ._native import ffi, lib
 VERTEX_PARAMS = ("initial_positions", "initial_velocities")
 BODY_PARAMS = ("youngs_modulus", "poisson_ratio", "density", "mass_damping",
                "stiffness_damping")
-#: Per step (shape (N, n, 3)): the held external forces of each recorded step (the controls).
-STEP_PARAMS = ("external_forces",)
+#: Per step (shape (N, n, 3)): the held external forces of each recorded step and the driven
+#: pins' targets given for it (the controls).
+STEP_PARAMS = ("external_forces", "pin_targets")
 #: Per attachment (shape (a,)) and per step and attachment (shape (N, a, 3)): world targets.
 ATTACHMENT_PARAMS = ("attachment_stiffness", "attachment_damping")
 ATTACHMENT_STEP_PARAMS = ("attachment_targets",)
@@ -81,7 +82,9 @@ class Tape:
         "initial_velocities" of shape (n, 3), and per body (in the world's order) of shape (b,):
         "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping";
         and "external_forces" of shape (N, n, 3), dL/df_j of the forces held during step j
-        (``World.set_external_forces``; also where they were zero); with attachments,
+        (``World.set_external_forces``; also where they were zero), and "pin_targets" of
+        shape (N, n, 3), dL/dp_j of the targets ``Body.set_pin_targets`` gave for step j (0 at
+        the vertices it did not drive then); with attachments,
         "attachment_stiffness" and "attachment_damping" of shape (a,) and "attachment_targets"
         of shape (N, a, 3) (world-point targets held during each step).
         The world is left as it was. Raises InvalidArgumentError (wrong shape, non-finite

@@ -39,19 +39,6 @@
 /* Save: one section per sub-object, in the order the loader needs (bodies before what names
  * them, the state after the bodies, the backend's history last). */
 
-/* The backend's writer (defsim_state_writer) over a byte writer. */
-static defsim_status sw_f64(void *ctx, const double *v, int64_t n)
-{
-    defsim__put_f64s(ctx, v, n);
-    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
-}
-
-static defsim_status sw_i64(void *ctx, const int64_t *v, int64_t n)
-{
-    for (int64_t i = 0; i < n; ++i) defsim__put_u64(ctx, (uint64_t)v[i]);
-    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
-}
-
 /* The world's creation parameters (WRLD) and its options by name (OPTS). */
 static defsim_status save_world(defsim__bw *b, const defsim_world *w)
 {
@@ -178,7 +165,7 @@ static defsim_status save_backend(defsim__bw *b, const defsim_world *w)
     if (!be->save_state || !w->backend.ready || !w->planned || w->options.reinit) return DEFSIM_OK;
     const size_t c = defsim__chunk_begin(b, "BKND");
     defsim__put_str(b, be->name);
-    const defsim_state_writer wr = {b, sw_f64, sw_i64};
+    const defsim_state_writer wr = defsim__state_writer(b);
     defsim_world *mw = (defsim_world *)w;   /* host services take a mutable system */
     const defsim_status st = be->save_state(&defsim__host, &mw->handle, w->backend.state, &wr);
     if (st != DEFSIM_OK) {
@@ -815,28 +802,6 @@ static defsim_status load_stats(defsim_world *w, const chunk *c)
     return DEFSIM_OK;
 }
 
-static defsim_status sr_f64(void *ctx, double *v, int64_t n)
-{
-    defsim__br *r = ctx;
-    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
-    defsim__get_f64s(r, v, n);
-    return DEFSIM_OK;
-}
-
-static defsim_status sr_i64(void *ctx, int64_t *v, int64_t n)
-{
-    defsim__br *r = ctx;
-    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
-    for (int64_t i = 0; i < n; ++i) v[i] = (int64_t)defsim__get_u64(r);
-    return DEFSIM_OK;
-}
-
-static int64_t sr_remaining(void *ctx)
-{
-    const defsim__br *r = ctx;
-    return r->bad ? 0 : (int64_t)((r->n - r->at) / 8);
-}
-
 static defsim_status load_backend(defsim_world *w, const chunk *c)
 {
     defsim__br r = chunk_reader(c);
@@ -852,7 +817,7 @@ static defsim_status load_backend(defsim_world *w, const chunk *c)
     (void)defsim__options_take_reinit(&w->options);   /* the options were set before init */
     if ((st = defsim__world_backend_start(w)) != DEFSIM_OK)
         return world_failed(w, st, "backend initialisation");
-    const defsim_state_reader rd = {&r, sr_f64, sr_i64, sr_remaining};
+    const defsim_state_reader rd = defsim__state_reader(&r);
     /* A backend that replays its last step (sundials_erk) sees the colliders as that step did. */
     st = defsim__world_replay_contact_begin(w);
     if (st != DEFSIM_OK) {

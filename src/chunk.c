@@ -163,3 +163,50 @@ int defsim__fits(const defsim__br *r, int64_t count, size_t unit)
 }
 
 int defsim__read_whole(const defsim__br *r) { return !r->bad && r->at == r->n; }
+
+/* ------------------------------------------------------------------------------------------ */
+/* A backend's history over the writer and the reader */
+
+static defsim_status sw_f64(void *ctx, const double *v, int64_t n)
+{
+    defsim__put_f64s(ctx, v, n);
+    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
+}
+
+static defsim_status sw_i64(void *ctx, const int64_t *v, int64_t n)
+{
+    for (int64_t i = 0; i < n; ++i) defsim__put_u64(ctx, (uint64_t)v[i]);
+    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
+}
+
+static defsim_status sr_f64(void *ctx, double *v, int64_t n)
+{
+    defsim__br *r = ctx;
+    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
+    defsim__get_f64s(r, v, n);
+    return DEFSIM_OK;
+}
+
+static defsim_status sr_i64(void *ctx, int64_t *v, int64_t n)
+{
+    defsim__br *r = ctx;
+    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
+    for (int64_t i = 0; i < n; ++i) v[i] = (int64_t)defsim__get_u64(r);
+    return DEFSIM_OK;
+}
+
+static int64_t sr_remaining(void *ctx)
+{
+    const defsim__br *r = ctx;
+    return r->bad ? 0 : (int64_t)((r->n - r->at) / 8);
+}
+
+defsim_state_writer defsim__state_writer(defsim__bw *b)
+{
+    return (defsim_state_writer){b, sw_f64, sw_i64};
+}
+
+defsim_state_reader defsim__state_reader(defsim__br *r)
+{
+    return (defsim_state_reader){r, sr_f64, sr_i64, sr_remaining};
+}

@@ -8,6 +8,8 @@
 #ifndef DEFSIM_CHUNK_H
 #define DEFSIM_CHUNK_H
 
+#include "defsim/backend.h"
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -58,5 +60,10 @@ void defsim__get_str(defsim__br *r, char *buf, size_t cap);
 int defsim__fits(const defsim__br *r, int64_t count, size_t unit);
 /* 1 if the payload was read to its end and nothing was missing. */
 int defsim__read_whole(const defsim__br *r);
+
+/* A backend's history (save_state, load_state) through b or r: the writer and the reader of
+ * backend.h over them (checkpoints' BKND chunk, recordings' checkpoints in tape.c). */
+defsim_state_writer defsim__state_writer(defsim__bw *b);
+defsim_state_reader defsim__state_reader(defsim__br *r);
 
 #endif /* DEFSIM_CHUNK_H */

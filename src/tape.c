@@ -82,41 +82,6 @@ static size_t history_bytes(const defsim_tape *t)
     return b;
 }
 
-/* The backend's writer and reader (defsim_state_writer, _reader) over memory. */
-static defsim_status mw_f64(void *ctx, const double *v, int64_t n)
-{
-    defsim__put_f64s(ctx, v, n);
-    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
-}
-
-static defsim_status mw_i64(void *ctx, const int64_t *v, int64_t n)
-{
-    for (int64_t i = 0; i < n; ++i) defsim__put_u64(ctx, (uint64_t)v[i]);
-    return ((defsim__bw *)ctx)->oom ? DEFSIM_ERR_OUT_OF_MEMORY : DEFSIM_OK;
-}
-
-static defsim_status mr_f64(void *ctx, double *v, int64_t n)
-{
-    defsim__br *r = ctx;
-    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
-    defsim__get_f64s(r, v, n);
-    return DEFSIM_OK;
-}
-
-static defsim_status mr_i64(void *ctx, int64_t *v, int64_t n)
-{
-    defsim__br *r = ctx;
-    if (!defsim__fits(r, n, 8)) return DEFSIM_ERR_IO;
-    for (int64_t i = 0; i < n; ++i) v[i] = (int64_t)defsim__get_u64(r);
-    return DEFSIM_OK;
-}
-
-static int64_t mr_remaining(void *ctx)
-{
-    const defsim__br *r = ctx;
-    return r->bad ? 0 : (int64_t)((r->n - r->at) / 8);
-}
-
 /* The backend's history now into b (emptied first; nothing when it has none to give). Returns 0
  * when out of memory or the backend fails. */
 static int history_save(defsim_world *w, defsim__bw *b)
@@ -125,7 +90,7 @@ static int history_save(defsim_world *w, defsim__bw *b)
     b->oom = 0;
     const defsim_backend *be = w->backend.table;
     if (!be->save_state || !w->backend.ready) return 1;
-    const defsim_state_writer wr = {b, mw_f64, mw_i64};
+    const defsim_state_writer wr = defsim__state_writer(b);
     return be->save_state(&defsim__host, &w->handle, w->backend.state, &wr) == DEFSIM_OK &&
            !b->oom;
 }
@@ -136,7 +101,7 @@ static defsim_status history_load(defsim_world *w, const defsim__bw *b)
     const defsim_backend *be = w->backend.table;
     if (b->n == 0 || !be->load_state || !w->backend.ready) return DEFSIM_OK;
     defsim__br r = {b->p, b->n, 0, 0};
-    const defsim_state_reader rd = {&r, mr_f64, mr_i64, mr_remaining};
+    const defsim_state_reader rd = defsim__state_reader(&r);
     const defsim_status st = be->load_state(&defsim__host, &w->handle, w->backend.state, &rd);
     return st == DEFSIM_OK && !defsim__read_whole(&r) ? DEFSIM_ERR_IO : st;
 }

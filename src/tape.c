@@ -114,8 +114,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
                      (size_t)t->nopt * sizeof(double) + sizeof *t +
-                     (size_t)t->hcap * sizeof(uint8_t) + history_bytes(t) +
-                     (size_t)t->hcap * sizeof(int64_t) + (size_t)(t->gcap + 1) * state_bytes(t) / 2);
+                     (size_t)t->hcap * (sizeof(uint8_t) + sizeof(int64_t)) + history_bytes(t) +
+                     (size_t)(t->gcap + 1) * state_bytes(t) / 2);
 }
 
 static void tape_error(defsim_tape *t, const char *fmt, ...)
@@ -884,7 +884,8 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
             tape_error(t, "backward: grads[%d] names no gradient (\"%s\"); the names: "
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
-                          "attachment_stiffness, attachment_damping, attachment_targets, pin_targets",
+                          "attachment_stiffness, attachment_damping, attachment_targets, "
+                          "pin_targets",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }

@@ -131,8 +131,9 @@ static defsim_status vv_load(const defsim_host *host, defsim_system *sys, void *
  * v1 = v0 + h/2 (a0 + F1/m); F0 = f(x0, v0) when the step started without a carried force (the
  * first recorded step, after a failed step, or when this or the previous step drove pins),
  * else the previous step's F1. Pinned DOFs: F1 sees their end positions (ap1) and w their
- * velocity (av0), F0 at a restart their start (ax0) and velocity. a0, w and F1/m come back from the states: a0 = 2 (x1 - x0 - h v0)
- * / h^2, w = v0 + h a0, F1/m = 2 (v1 - v0)/h - a0 (free DOFs). With the adjoint aF1 of F1 that
+ * velocity (av0), F0 at a restart their start (ax0) and velocity. a0, w and F1/m come back
+ * from the states: a0 = 2 (x1 - x0 - h v0) / h^2, w = v0 + h a0, F1/m = 2 (v1 - v0)/h - a0
+ * (free DOFs). With the adjoint aF1 of F1 that
  * the next step carried back (0 on the first call), g = aF1 + h/2 av1/m weighs the forces at
  * (x1, w): ax1' = ax1 + (df/dx)^T g, and then ax0 = ax1', av0 = av1 + h ax1' + (df/dv)^T g and
  * the adjoint of F0, (h/2 (av1 + h ax1') + h (df/dv)^T g)/m, which goes to the previous call or,

@@ -41,7 +41,8 @@ DROP = 50.0               # the loss must fall by this factor
 
 def make_world(cloth: defsim.Mesh) -> defsim.World:
     w = defsim.World("newton_cholmod", gravity=(0, -9.81, 0), num_threads=1,
-                     options={"newton_cholmod.tolerance": 1e-6, "newton_cholmod.max_iterations": 200,
+                     options={"newton_cholmod.tolerance": 1e-6,
+                              "newton_cholmod.max_iterations": 200,
                               "newton_cholmod.projection": "clamp"})
     w.add_body(cloth, material=defsim.Material(
         "spring", stiffness=200.0, vertex_mass=0.1 / cloth.vertex_count, mass_damping=0.1),

@@ -523,7 +523,8 @@ static void test_history_dropped(void **st)
     double *cx, *cv;
     const int n = loss_weights(&sc, &cx, &cv), n3 = 3 * n;
     const double *c = cx + (size_t)n3 * sc.steps;
-    double *gx0 = malloc((size_t)n3 * sizeof *gx0), gE = 0.0, *dir = malloc((size_t)n3 * sizeof *dir);
+    double *gx0 = malloc((size_t)n3 * sizeof *gx0), gE = 0.0;
+    double *dir = malloc((size_t)n3 * sizeof *dir);
     unsigned long long seed = 5;
     for (int i = 0; i < n3; ++i) dir[i] = tu_rand(&seed);
     restarted_run(&sc, 5, NULL, 0.0, 0.0, c, gx0, &gE);

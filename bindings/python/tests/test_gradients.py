@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
 """world.record() / tape.backward(): gradients of a loss of the recorded states against central
 finite differences of whole runs (Young's modulus, density, mass damping, the initial state), on
-symplectic Euler, velocity Verlet, newton_cholmod and bdf2; bad input raises and leaves the world as it was."""
+symplectic Euler, velocity Verlet, newton_cholmod and bdf2 (and the driven pins' targets); bad
+input raises and leaves the world as it was."""
 from __future__ import annotations
 
 import numpy as np

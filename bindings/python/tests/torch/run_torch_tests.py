@@ -7,7 +7,8 @@ import os
 import sys
 
 if __name__ == "__main__":
-    missing = [m for m in ("torch", "numpy", "cffi", "pytest") if importlib.util.find_spec(m) is None]
+    missing = [m for m in ("torch", "numpy", "cffi", "pytest")
+               if importlib.util.find_spec(m) is None]
     if missing:
         print(f"test_python_torch not run: {sys.executable} has no {', '.join(missing)} "
               "(set DEFSIM_TORCH_PYTHON to a Python with torch: pip install torch)")

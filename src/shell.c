@@ -315,21 +315,28 @@ double defsim__hinge_angle(const double X[12], double gout[12], double Hout[144]
             const double hji = -gth[j] * 2.0 * (x * gx[i] + y * gy[i]) / r2;
             Hth[9 * i + j] = h1 + 0.5 * (hij + hji);
         }
-    /* To X: H_X = J^T H_u J with J = [[-I, I, 0, 0], [-I, 0, I, 0], [-I, 0, 0, I]]. */
-    for (int A = 0; A < 4; ++A)
-        for (int B = 0; B < 4; ++B)
-            for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    double v = 0.0;
-                    for (int ua = 0; ua < 3; ++ua)
-                        for (int ub = 0; ub < 3; ++ub) {
-                            const double ca = A == 0 ? -1.0 : (A == ua + 1 ? 1.0 : 0.0);
-                            const double cb = B == 0 ? -1.0 : (B == ub + 1 ? 1.0 : 0.0);
-                            if (ca != 0.0 && cb != 0.0)
-                                v += ca * cb * Hth[9 * (3 * ua + i) + 3 * ub + k];
-                        }
-                    Hout[12 * (3 * A + i) + 3 * B + k] = v;
+    /* To X: H_X = J^T H_u J with J = [[-I, I, 0, 0], [-I, 0, I, 0], [-I, 0, 0, I]]: block (A, B)
+     * of H_X (A, B = 0..3, each 3 x 3) is Hth's block (A - 1, B - 1) for A, B >= 1, minus the sum
+     * of Hth's blocks over the index that is 0, and the sum of all nine blocks for A = B = 0
+     * (summed in the same order as the full product, so the figures are those of J^T H J). */
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            double v00 = 0.0;
+            for (int ua = 0; ua < 3; ++ua)
+                for (int ub = 0; ub < 3; ++ub) v00 += Hth[9 * (3 * ua + i) + 3 * ub + k];
+            Hout[12 * i + k] = v00;
+            for (int B = 1; B < 4; ++B) {
+                double row = 0.0, col = 0.0;
+                for (int u = 0; u < 3; ++u) {
+                    row += -Hth[9 * (3 * u + i) + 3 * (B - 1) + k];
+                    col += -Hth[9 * (3 * (B - 1) + i) + 3 * u + k];
                 }
+                Hout[12 * i + 3 * B + k] = row;
+                Hout[12 * (3 * B + i) + k] = col;
+                for (int A = 1; A < 4; ++A)
+                    Hout[12 * (3 * A + i) + 3 * B + k] = Hth[9 * (3 * (A - 1) + i) + 3 * (B - 1) + k];
+            }
+        }
     return theta;
 }
 

@@ -35,6 +35,12 @@
  *    REF_COOK_3D: the issue's 1 % is met against this problem's converged value and missed by
  *    0.01 points against the literature's rounded one; 16 x 16 is within 0.5 % of both;
  *    linear tets at 8 x 8 are 32 % below.
+ *  - Large deformation: the same cantilever with E = 1e6 Pa (100 times softer) sags 1.186 m, 39 %
+ *    of its length, and its far end turns by about 0.6 rad and moves 0.24 m inwards (stable
+ *    neo-Hookean, the static solve of three steps). The centre of the far end's sag and
+ *    shortening against the quadratic refinements' extrapolation (REF_LARGE_*): quadratic tets at
+ *    12 x 4 x 4 are -0.45 % / -0.75 %, linear tets on the same 2,025 vertices (24 x 8 x 8) -5.4 %
+ *    / -11.0 %, linear 12 x 4 x 4 -16.7 %.
  *
  * The converged reference of the cantilever comes from quadratic meshes refined independently
  * of the tested one (n = 6, 8, 10: 18 x 6 x 6, 24 x 8 x 8, 30 x 10 x 10 cells) and Richardson
@@ -42,9 +48,9 @@
  * (ctest long_tet10_refinement, label long) computes it and fails unless it lands within
  * 0.05 % of REF_CANTILEVER, the value the default test uses; the same at nu = 0.499 against
  * REF_CANTILEVER_NU499 (and within 0.1 % of test_volume_averaging's independent reference from
- * the volume-averaged linear tets); it does the same for Cook's
- * membrane (n = 16, 24, 32 per side) against REF_COOK_3D, and checks that within 0.1 % of the
- * literature's REF_COOK. `test_tet10_accuracy --one N NU QUADRATIC` solves and prints one
+ * the volume-averaged linear tets), and for the large deflection against REF_LARGE_*; it does
+ * the same for Cook's membrane (n = 16, 24, 32 per side) against REF_COOK_3D, and checks that
+ * within 0.1 % of the literature's REF_COOK. `test_tet10_accuracy --one N NU QUADRATIC` solves and prints one
  * cantilever (3N x N x N cells, Poisson ratio NU, quadratic tets if QUADRATIC is 1).
  */
 #include "test_util.h"
@@ -74,6 +80,12 @@ static const double REF_CANTILEVER = 1.2952e-2;
  * volume-averaged linear tets on 24, 36, 48 cells (REF_NU499 there) is 12.4706 mm, 0.01 % off. */
 static const double REF_CANTILEVER_NU499 = 1.2471e-2;
 static const double REF_NU499_AVERAGED = 1.24706e-2;
+/* The large deflection (cantilever_large), from the --long run: sag 1.18292, 1.183897,
+ * 1.184427 m (order 1.39, extrapolated 1.185885 m) and shortening 0.2386741, 0.2390004,
+ * 0.2391797 m (order 1.34, 0.239694 m) at n = 6, 8, 10 (30 x 10 x 10: 26,901 vertices, 14 min
+ * on a busy machine). */
+static const double REF_LARGE_SAG = 1.18589;
+static const double REF_LARGE_SHORTENING = 0.23969;
 static const double REF_COOK = 23.96;
 static const double REF_COOK_3D = 23.946;
 
@@ -84,10 +96,10 @@ typedef struct beam_result {
     double seconds;
 } beam_result;
 
-static void static_solve(defsim_world *w, int32_t nv, double h)
+static void static_solve_steps(defsim_world *w, int32_t nv, double h, int steps)
 {
     double *x = malloc(3 * (size_t)nv * sizeof *x), *v = calloc(3 * (size_t)nv, sizeof *v);
-    for (int k = 0; k < 2; ++k) {
+    for (int k = 0; k < steps; ++k) {
         const defsim_status st = defsim_world_step(w, h);
         if (st != DEFSIM_OK) fail_msg("static step: %s", defsim_world_last_error(w));
         TU_OK(defsim_world_get_positions(w, x, nv));
@@ -95,6 +107,11 @@ static void static_solve(defsim_world *w, int32_t nv, double h)
     }
     free(x);
     free(v);
+}
+
+static void static_solve(defsim_world *w, int32_t nv, double h)
+{
+    static_solve_steps(w, nv, h, 2);
 }
 
 /* The vertex of the mesh nearest p. */
@@ -160,6 +177,45 @@ static beam_result cantilever(int n, int quadratic, double nu)
     double y;
     beam_result r = pin_solve_probe(w, id, &m, corner, 10.0, &y);
     r.deflection = 1.0 - y;
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
+    return r;
+}
+
+/* The cantilever of cantilever() 100 times softer (E = 1e6 Pa): a large deflection (the sag is
+ * 39 % of the length, the end turns by about 0.6 rad). The centre of the far end's sag
+ * (deflection) and its shortening along the beam (corner), in m. Three steps of h = 10 s (the
+ * factor per step is 1e-3 here: omega_1 is 10 times lower; 3, 4 and 6 steps agree to 7 digits). */
+static beam_result cantilever_large(int n, int quadratic)
+{
+    defsim_world *w = tu_implicit_world("newton_cholmod", -9.81, 1, 1e-10, 200,
+                                        DEFSIM_PROJECTION_CLAMP);
+    const double lo[3] = {0, 0, 0}, hi[3] = {3, 1, 1};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, 3 * n, n, n, &m));
+    if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
+    defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+    bd.material.youngs_modulus = 1e6;
+    bd.material.poisson_ratio = 0.3;
+    bd.material.density = 1000.0;
+    defsim_body_id id;
+    TU_OK(defsim_world_add_body(w, &bd, &id));
+    pin_where_x0(w, id, &m);
+    const double far[3] = {3, 0.5, 0.5};
+    const int32_t probe = nearest(&m, far);
+    assert_true(fabs(m.positions[3 * (int64_t)probe + 1] - 0.5) < 1e-12);
+    const double t0 = now_s();
+    static_solve_steps(w, m.vertex_count, 10.0, 3);
+    beam_result r = {0};
+    r.seconds = now_s() - t0;
+    r.vertices = m.vertex_count;
+    double *x = malloc(3 * (size_t)m.vertex_count * sizeof *x);
+    TU_OK(defsim_world_get_positions(w, x, m.vertex_count));
+    r.deflection = 0.5 - x[3 * (int64_t)probe + 1];
+    r.corner = 3.0 - x[3 * (int64_t)probe];
+    free(x);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
     return r;
@@ -390,6 +446,49 @@ static void test_cook(void **state)
     assert_true(fabs(ref / REF_COOK - 1.0) < 1e-3);
 }
 
+/* The large deflection (cantilever_large): the far end's sag and shortening per element type
+ * and mesh against the quadratic refinements' extrapolation (REF_LARGE_*). */
+static void test_cantilever_large(void **state)
+{
+    (void)state;
+    const struct { int n, quadratic; } mesh[] = {{2, 1}, {4, 1}, {4, 0}, {8, 0}};
+    beam_result r[4];
+    for (int k = 0; k < 4; ++k) {
+        r[k] = cantilever_large(mesh[k].n, mesh[k].quadratic);
+        printf("  large deflection, %2d x %d x %d %-9s (%5d vertices): sag %.6f m (%+.2f %%), "
+               "shortening %.6f m (%+.2f %%), %.2f s\n", 3 * mesh[k].n, mesh[k].n, mesh[k].n,
+               mesh[k].quadratic ? "quadratic" : "linear", r[k].vertices, r[k].deflection,
+               100.0 * (r[k].deflection / REF_LARGE_SAG - 1.0), r[k].corner,
+               100.0 * (r[k].corner / REF_LARGE_SHORTENING - 1.0), r[k].seconds);
+    }
+    const double sag_q4 = r[1].deflection / REF_LARGE_SAG - 1.0;
+    const double short_q4 = r[1].corner / REF_LARGE_SHORTENING - 1.0;
+    const double sag_l8 = r[3].deflection / REF_LARGE_SAG - 1.0;
+    /* 12 x 4 x 4 quadratic and 24 x 8 x 8 linear have the same 2,025 vertices. */
+    assert_int_equal(r[1].vertices, r[3].vertices);
+    assert_true(fabs(sag_q4) < 0.005 && fabs(short_q4) < 0.01);
+    assert_true(sag_l8 < -0.03 && fabs(sag_l8) > 10.0 * fabs(sag_q4));
+    assert_true(r[2].deflection / REF_LARGE_SAG - 1.0 < -0.1);   /* 12 x 4 x 4 linear */
+    /* Large: the sag is 39 % of the length and the end moves 8 % of it inwards. */
+    assert_true(REF_LARGE_SAG > 0.35 * 3.0 && REF_LARGE_SHORTENING > 0.07 * 3.0);
+    if (!long_mode) return;
+    const int n[3] = {6, 8, 10};
+    double us[3], ux[3], ps, px;
+    for (int k = 0; k < 3; ++k) {
+        const beam_result q = cantilever_large(n[k], 1);
+        us[k] = q.deflection;
+        ux[k] = q.corner;
+        printf("  large deflection %d x %d x %d quadratic: sag %.7f m, shortening %.7f m (%d "
+               "vertices, %.2f s)\n", 3 * n[k], n[k], n[k], us[k], ux[k], q.vertices, q.seconds);
+    }
+    const double s_ext = richardson(n, us, &ps), x_ext = richardson(n, ux, &px);
+    printf("  large deflection extrapolated: sag %.7f m (order %.2f), shortening %.7f m (order "
+           "%.2f); REF_LARGE_SAG %.7f, REF_LARGE_SHORTENING %.7f\n", s_ext, ps, x_ext, px,
+           REF_LARGE_SAG, REF_LARGE_SHORTENING);
+    assert_true(fabs(s_ext / REF_LARGE_SAG - 1.0) < 2e-4);
+    assert_true(fabs(x_ext / REF_LARGE_SHORTENING - 1.0) < 5e-4);
+}
+
 int main(int argc, char **argv)
 {
     long_mode = argc > 1 && strcmp(argv[1], "--long") == 0;
@@ -401,10 +500,19 @@ int main(int argc, char **argv)
                quad ? "quadratic" : "linear", nu, 1e3 * r.deflection, r.vertices, r.seconds);
         return 0;
     }
+    if (argc > 3 && strcmp(argv[1], "--large") == 0) {   /* --large N QUADRATIC */
+        const int n = atoi(argv[2]), quad = atoi(argv[3]);
+        const beam_result r = cantilever_large(n, quad);
+        printf("  large cantilever %d x %d x %d %s: sag %.7g m, shortening %.7g m (%d vertices, "
+               "%.2f s)\n", 3 * n, n, n, quad ? "quadratic" : "linear", r.deflection, r.corner,
+               r.vertices, r.seconds);
+        return 0;
+    }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cantilever),
         cmocka_unit_test(test_cantilever_incompressible),
         cmocka_unit_test(test_cook),
+        cmocka_unit_test(test_cantilever_large),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

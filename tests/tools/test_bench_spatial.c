@@ -17,7 +17,13 @@
  *     (twice the step) is below 1e-5. A second run reuses the cached reference.
  *  3. Usage errors: a quadratic mesh as fine as the reference, cells that are not NXxNYxNZ.
  *
- *   test_bench_spatial DEFSIM_EXE CANTILEVER.json OUT_DIR
+ * With --converged (ctest -L long: about a minute of CPU) it computes the full benchmark's
+ * reference instead (quadratic tets on 30 x 10 x 10 cells) and checks that it is converged:
+ * the quadratic 24 x 8 x 8 box differs from it by less than 1e-4 of the body size (measured
+ * 3.9e-5; tip 1.6e-4 of its displacement, bound 1e-3), and twice its step changes less than 1e-5
+ * (measured 6.9e-7); linear 6 x 2 x 2 against it lies in the band of (2).
+ *
+ *   test_bench_spatial DEFSIM_EXE CANTILEVER.json OUT_DIR [--converged]
  */
 #include "tool_check.h"
 
@@ -100,8 +106,9 @@ static int reference_path(const char *dir, char *out, size_t n)
 
 int main(int argc, char **argv)
 {
-    if (argc != 4) {
-        fprintf(stderr, "usage: test_bench_spatial DEFSIM_EXE CANTILEVER.json OUT_DIR\n");
+    if (argc != 4 && !(argc == 5 && !strcmp(argv[4], "--converged"))) {
+        fprintf(stderr, "usage: test_bench_spatial DEFSIM_EXE CANTILEVER.json OUT_DIR "
+                        "[--converged]\n");
         return 2;
     }
     const char *exe = argv[1], *scene = argv[2], *out = argv[3];
@@ -109,6 +116,26 @@ int main(int argc, char **argv)
     row rows[32];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", out);
     run(cmd);
+    if (argc == 5) {
+        snprintf(cmd, sizeof cmd, "'%s' bench --spatial '%s' --cells 6x2x2 --linear 1 "
+                 "--quadratic none --reference-refine 5 --backends velocity_verlet --repeats 1 "
+                 "--no-plot --out '%s'", exe, scene, out);
+        CHECK(run(cmd) == 0, "run failed");
+        snprintf(csv, sizeof csv, "%s/cantilever_spatial.csv", out);
+        CHECK(read_csv(csv, rows, 32) == 1 && rows[0].rms > 0.014 && rows[0].rms < 0.023,
+              "linear 6x2x2 against the converged reference: not in 1.4e-2 .. 2.3e-2");
+        CHECK(reference_path(out, ref, sizeof ref) == 0, "no reference file in %s", out);
+        const double check = file_value(ref, "check_rms_err");
+        const double tip = file_value(ref, "check_tip_err");
+        const double tcheck = file_value(ref, "time_check_rms_err");
+        CHECK(file_value(ref, "check_refine") == 4, "the check is not the 24x8x8 box");
+        CHECK(check > 0 && check < 1e-4, "quadratic 24x8x8 against 30x10x10: %g", check);
+        CHECK(tip > 0 && tip < 1e-3, "quadratic 24x8x8 against 30x10x10, tip: %g", tip);
+        CHECK(tcheck > 0 && tcheck < 1e-5, "twice the reference's step: %g", tcheck);
+        if (failures) fprintf(stderr, "%d check(s) failed\n", failures);
+        else fprintf(stderr, "all checks passed\n");
+        return failures ? 1 : 0;
+    }
 
     /* 1. The linear range, at rest by T. */
     snprintf(dir, sizeof dir, "%s/static", out);

@@ -196,7 +196,7 @@ int main(int argc, char **argv)
         FILE *f = fopen(md, "r");
         int lin_owned = -1, quad_owned = -1;
         while (f && fgets(line, sizeof line, f))
-            if (sscanf(line, "Owned levels (at or above twice the reference check): linear %d, "
+            if (sscanf(line, "Owned levels (resolved by the reference): linear %d, "
                        "quadratic %d", &lin_owned, &quad_owned) == 2)
                 break;
         if (f) fclose(f);

@@ -15,7 +15,8 @@
  *     level of it; the reference's spatial check (the same quadratic 6 x 2 x 2 box at the
  *     reference's step) agrees with the swept quadratic point to 5 %, and its temporal check
  *     (twice the step) is below 1e-5. A second run reuses the cached reference.
- *  3. Usage errors: a quadratic mesh as fine as the reference, cells that are not NXxNYxNZ.
+ *  3. Usage errors: a quadratic mesh as fine as the reference, cells that are not NXxNYxNZ;
+ *     the rope (not a box) is refused with exit status 1.
  *
  * With --converged (ctest -L long: about a minute of CPU) it computes the full benchmark's
  * reference instead (quadratic tets on 30 x 10 x 10 cells) and checks that it is converged:
@@ -223,6 +224,14 @@ int main(int argc, char **argv)
     snprintf(cmd, sizeof cmd, "'%s' bench --spatial '%s' --cells 6x2 --out '%s/u'", exe, scene,
              out);
     CHECK(run(cmd) == 2, "--cells 6x2 accepted");
+    /* A scene that is not one body on a generated box: an error (exit 1), not a crash. */
+    char rope[1200];
+    snprintf(rope, sizeof rope, "%s", scene);
+    char *slash = strrchr(rope, '/');
+    snprintf(slash ? slash + 1 : rope, sizeof rope - (size_t)(slash ? slash + 1 - rope : 0),
+             "rope.json");
+    snprintf(cmd, sizeof cmd, "'%s' bench --spatial '%s' --no-plot --out '%s/u'", exe, rope, out);
+    CHECK(run(cmd) == 1, "the rope (no box) was not refused with exit status 1");
     if (failures) fprintf(stderr, "%d check(s) failed\n", failures);
     else fprintf(stderr, "all checks passed\n");
     return failures ? 1 : 0;

@@ -92,8 +92,8 @@ static void usage(FILE *f)
         "                      their stable step on each mesh and at the listed steps below it\n"
         "  --implicit-max-vertices N  implicit backends skip meshes of more vertices\n"
         "  --tol LIST          sundials_ida and sundials_erk tolerances (default 1e-3,1e-4,1e-5)\n"
-        "  --time T            end time, s (default: min(0.5, the scene's duration)), a whole\n"
-        "                      number of frames\n"
+        "  --time T            end time, s, a whole number of frames (default: the whole\n"
+        "                      frames within min(0.5, the scene's duration))\n"
         "  --repeats R         timed repeats per point, median reported (default 3)\n"
         "  --threads N         assembly threads (default 1)\n"
         "  --set KEY=VALUE     override a scene value, as in defsim run; repeatable\n"
@@ -140,7 +140,8 @@ static int load_mesh(spatial *sp, int order, const int cells[3], sp_mesh *m, cha
     sp->sets[sp->nsets] = c1;
     sp->sets[sp->nsets + 1] = c2;
     if (scene_load(&m->s, sp->scene_path, sp->sets, sp->nsets + 2) != 0) {
-        snprintf(err, errlen, "%s", m->s.error);
+        snprintf(err, errlen, "%s (--spatial sets bodies.0.mesh.cells and .quadratic: it needs a "
+                 "scene of one body on a generated box)", m->s.error);
         return -1;
     }
     m->order = order;
@@ -418,7 +419,7 @@ static int read_reference(const spatial *sp, const char *path, const char *key, 
 /* Integrates the reference and its checks. Returns 0 or -1 (message printed). */
 static int compute_reference(spatial *sp, sref *r, double h_req)
 {
-    char err[4200];
+    char err[4400];
     sp_mesh m;
     const int cells[3] = {r->refine * sp->coarse[0], r->refine * sp->coarse[1],
                           r->refine * sp->coarse[2]};
@@ -610,7 +611,7 @@ static void run_point(const spatial *sp, sp_mesh *m, const sref *r, double *traj
 {
     double cpus[64], walls[64];
     int nw = 0;
-    char err[4200];
+    char err[4400];
     snprintf(p->status, sizeof p->status, "ok");
     p->rms = p->max = p->energy = *tip = NAN;
     for (int k = 0; k < sp->repeats && k < 64; ++k) {
@@ -737,7 +738,7 @@ int defsim_tool_bench_spatial(int argc, char **argv)
                             ref_refine);
 
     int rc = 1;
-    char err[4200];
+    char err[4400];
     sp_mesh *meshes = NULL;
     point *pts = NULL;
     int *mesh_of = NULL;
@@ -755,7 +756,10 @@ int defsim_tool_bench_spatial(int argc, char **argv)
             return 1;
         }
         sp.frame_dt = s0.h * s0.frame_steps;
-        sp.T = T > 0.0 ? T : fmin(0.5, s0.duration);
+        /* Default: the whole frames within min(0.5 s, the duration), at least one. */
+        sp.T = T > 0.0 ? T
+                       : sp.frame_dt * fmax(1.0, floor(fmin(0.5, s0.duration) / sp.frame_dt +
+                                                       1e-9));
         scene_free(&s0);
     }
     sp.frames = (int)floor(sp.T / sp.frame_dt + 0.5);
@@ -773,6 +777,9 @@ int defsim_tool_bench_spatial(int argc, char **argv)
             return 1;
         }
         const int bad = s1.nbodies != 1 || box_cells(&s1.bodies[0].mesh, sp.coarse) != 0;
+        /* A quadratic box has a vertex at every edge's middle too. */
+        if (!bad && s1.bodies[0].mesh.tet_nodes == 10)
+            for (int c = 0; c < 3; ++c) sp.coarse[c] = sp.coarse[c] / 2 > 0 ? sp.coarse[c] / 2 : 1;
         scene_free(&s1);
         if (bad) {
             fprintf(stderr, "defsim bench: %s: --spatial needs a scene of one body on a "

@@ -111,13 +111,16 @@ def plot_spatial(plt, rows, out, title):
     ax.legend(fontsize=8)
     if title:
         fig.suptitle(title)
-    if bad:
-        text = "left out: " + "; ".join(f"{r['order']} {r['cells']} {r['backend']} "
-                                        f"h={float(r['value']):.2g} {r['status']}" for r in bad)
-        fig.text(0.01, 0.01, text, fontsize=7, wrap=True)
-        fig.tight_layout(rect=(0, 0.05, 1, 0.95))
-    else:
-        fig.tight_layout(rect=(0, 0, 1, 0.95))
+    text = "; ".join(f"{r['order']} {r['cells']} {r['backend']} h={float(r['value']):.2g} "
+                     f"{r['status']}" for r in bad)
+    return finish(fig, out, text, 0.95)
+
+
+def finish(fig, out, left_out, top):
+    """Lists the runs left out under the plot (if any), lays it out and saves it."""
+    if left_out:
+        fig.text(0.01, 0.01, "left out: " + left_out, fontsize=7, wrap=True)
+    fig.tight_layout(rect=(0, 0.05 if left_out else 0, 1, top))
     fig.savefig(out, dpi=110)
     print(out)
     return 0
@@ -184,19 +187,11 @@ def main():
     axes[1].set_title("energy error")
     if a.title:
         fig.suptitle(a.title)
-    if bad:
-        groups = {}
-        for r in bad:
-            groups.setdefault((r["backend"], r["status"]), []).append(label(r))
-        text = "left out: " + "; ".join(f"{b} {s} at {', '.join(v)}"
-                                        for (b, s), v in groups.items())
-        fig.text(0.01, 0.01, text, fontsize=7, wrap=True)
-        fig.tight_layout(rect=(0, 0.05, 1, 0.96))
-    else:
-        fig.tight_layout(rect=(0, 0, 1, 0.96))
-    fig.savefig(out, dpi=110)
-    print(out)
-    return 0
+    groups = {}
+    for r in bad:
+        groups.setdefault((r["backend"], r["status"]), []).append(label(r))
+    return finish(fig, out, "; ".join(f"{b} {s} at {', '.join(v)}"
+                                      for (b, s), v in groups.items()), 0.96)
 
 
 if __name__ == "__main__":

@@ -152,17 +152,23 @@ double bench_median(double *v, int n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+defsim_status bench_build(scene *s, const char *backend, int threads, double rtol, double size,
+                          defsim_world **w)
+{
+    s->def.backend = backend;
+    s->def.num_threads = threads;
+    if (rtol > 0.0) {
+        scene_setting(s, SCENE_RTOL, rtol);
+        scene_setting(s, SCENE_ATOL, rtol * size);
+        scene_setting(s, SCENE_MAX_INTERNAL_STEPS, 10000000);
+    }
+    snprintf(s->backend, sizeof s->backend, "%s", backend);
+    return scene_build(s, w);
+}
+
 static defsim_status build(bench *b, const char *backend, double rtol, defsim_world **w)
 {
-    b->s.def.backend = backend;
-    b->s.def.num_threads = b->threads;
-    if (rtol > 0.0) {
-        scene_setting(&b->s, SCENE_RTOL, rtol);
-        scene_setting(&b->s, SCENE_ATOL, rtol * b->size);
-        scene_setting(&b->s, SCENE_MAX_INTERNAL_STEPS, 10000000);
-    }
-    snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
-    return scene_build(&b->s, w);
+    return bench_build(&b->s, backend, b->threads, rtol, b->size, w);
 }
 
 /* Sets the --option values that name `backend` (or "core.") on w. */

@@ -11,6 +11,8 @@ int defsim_tool_bench(int argc, char **argv);
 int defsim_tool_bench_spatial(int argc, char **argv);
 
 /* Shared by both modes (tools/defsim/bench.c). */
+#include "scene.h"
+
 #include <stddef.h>
 
 typedef struct point {
@@ -24,6 +26,10 @@ typedef struct point {
     int pareto;            /* not dominated in (wall, rms) by another ok point */
 } point;
 
+/* Builds s's world with `backend` and `threads` assembly threads; rtol > 0 also sets rtol, atol =
+ * rtol x size and a high internal step limit (the adaptive backends). */
+defsim_status bench_build(scene *s, const char *backend, int threads, double rtol, double size,
+                          defsim_world **w);
 /* 1 for the backends swept by tolerance (sundials_ida, sundials_erk) rather than by step. */
 int bench_swept_by_tolerance(const char *backend);
 /* Comma-separated positive numbers into out (at most max). Returns the count, or -1. */

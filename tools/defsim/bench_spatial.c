@@ -201,15 +201,7 @@ static void free_mesh(sp_mesh *m)
 static defsim_status build(const spatial *sp, sp_mesh *m, const char *backend, double tol,
                            defsim_world **w)
 {
-    m->s.def.backend = backend;
-    m->s.def.num_threads = sp->threads;
-    if (tol > 0.0) {
-        scene_setting(&m->s, SCENE_RTOL, tol);
-        scene_setting(&m->s, SCENE_ATOL, tol * sp->size);
-        scene_setting(&m->s, SCENE_MAX_INTERNAL_STEPS, 10000000);
-    }
-    snprintf(m->s.backend, sizeof m->s.backend, "%s", backend);
-    return scene_build(&m->s, w);
+    return bench_build(&m->s, backend, sp->threads, tol, sp->size, w);
 }
 
 /* The largest step a backend takes stably on mesh m at rest (+INFINITY for implicit ones). */
@@ -524,8 +516,8 @@ static int write_front(const spatial *sp, const sref *r, const point *p, const d
                "(%.4g m). Time = median over repeats of the process CPU time of the stepping loop "
                "(one thread). Reference: quadratic tets on %dx%dx%d cells, %s at h = %.4g s; "
                "against quadratic %dx%dx%d: %.2e (tip %.2e); against itself at twice the step "
-               "(on %dx%dx%d): %.2e. The reference's own error, were the error to fall as the square of "
-               "the cell size: %.2e; levels below twice it (%.2e) are not resolved.\n\n",
+               "(on %dx%dx%d): %.2e. The reference's own error, were the error to fall as the square "
+               "of the cell size: %.2e; levels below twice it (%.2e) are not resolved.\n\n",
             sp->frames, sp->S, sp->coarse[0], sp->coarse[1], sp->coarse[2], sp->size,
             r->refine * sp->coarse[0], r->refine * sp->coarse[1], r->refine * sp->coarse[2],
             r->backend, r->h, r->check_refine * sp->coarse[0], r->check_refine * sp->coarse[1],

@@ -200,6 +200,13 @@ static const char *changed(const defsim_tape *t, const defsim_world *w)
     if (t->nopt > 0 &&
         memcmp(defsim__options_values(&w->options), t->opt, (size_t)t->nopt * sizeof(double)) != 0)
         return "a backend option changed";
+    return NULL;
+}
+
+/* Whether the colliders changed since the recording began (checked after what a recording
+ * cannot differentiate: a collider that came to a penalty backend is that). */
+static const char *colliders_changed(const defsim_tape *t, const defsim_world *w)
+{
     if (w->colliders.ncol != t->ncol ||
         (t->ncol > 0 &&
          memcmp(w->colliders.col, t->col, (size_t)t->ncol * sizeof *t->col) != 0))
@@ -219,6 +226,7 @@ static void tape_step(defsim__tape_link *link, double h)
     const char *why = changed(t, w);
     char buf[400];
     if (!why) why = unsupported(w, buf, sizeof buf);   /* a collider, a callback came */
+    if (!why) why = colliders_changed(t, w);
     if (why) {
         breaks(t, why);
         return;
@@ -692,6 +700,10 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
     if (unsupported(w, buf, sizeof buf)) {
         tape_error(t, "backward: since the last recorded step, %s", buf + strlen("record: "));
         return DEFSIM_ERR_UNSUPPORTED;
+    }
+    if ((why = colliders_changed(t, w))) {
+        tape_error(t, "backward: since the recording began, %s", why);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
     }
     const int64_t want = (t->nsteps + 1) * 3 * (int64_t)t->nv;
     if ((dl_dx || dl_dv) && count != want) {

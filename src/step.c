@@ -201,7 +201,8 @@ void defsim__world_replay_contact_end(defsim_world *w) { (void)defsim__terms_det
 defsim_status defsim__world_adjoint_begin(defsim_world *w, const double *x0, const double *v0,
                                           double h)
 {
-    if (w->nv == 0 || defsim__collider_set_live(&w->colliders) == 0) return DEFSIM_OK;
+    if (w->nv == 0 || (defsim__collider_set_live(&w->colliders) == 0 && !w->set.body_contact))
+        return DEFSIM_OK;
     const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
     memcpy(w->step.x_save, x0, bytes);   /* contact borrows the step's start from here */
     memcpy(w->step.v_save, v0, bytes);

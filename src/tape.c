@@ -286,8 +286,7 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
                  b->name);
         return buf;
     }
-    if (w->set.body_contact) term = "body contact (core.body_contact)";
-    else if (w->coupling.cpl.fn) term = "the force callback";
+    if (w->coupling.cpl.fn) term = "the force callback";
     else if (w->coupling.ntargeted > 0) term = "driven pins (pin targets)";
     if (!term) term = defsim__forces_vjp_missing(&w->sys);
     if (term) {
@@ -399,9 +398,11 @@ static void grad_free(defsim__grad *g)
     free(g->wmask);
     free(g->xn);
     free(g->mu_col);
+    free(g->mu_body);
 }
 
-static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, int64_t *bytes)
+static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, int32_t nslots,
+                      int64_t *bytes)
 {
     memset(g, 0, sizeof *g);
     int ok = 1;
@@ -427,19 +428,21 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, in
     ok &= (g->att_p = calloc(3 * na, sizeof(double))) != NULL;
     ok &= (g->xn = calloc(nd, sizeof(double))) != NULL;
     ok &= (g->mu_col = calloc((size_t)(ncol > 0 ? ncol : 1), sizeof(double))) != NULL;
-    total += 4 * nd + nd / 3 + 5 * na + (size_t)(ncol > 0 ? ncol : 1);
+    ok &= (g->mu_body = calloc((size_t)(nslots > 0 ? nslots : 1), sizeof(double))) != NULL;
+    total += 4 * nd + nd / 3 + 5 * na + (size_t)(ncol > 0 ? ncol : 1) +
+             (size_t)(nslots > 0 ? nslots : 1);
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
 }
 
 enum {
     G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_MU_COL,
-    G_NAMES
+    G_MU_BODY, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
     "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
-    "attachment_damping", "attachment_targets", "collider_friction"};
+    "attachment_damping", "attachment_targets", "collider_friction", "body_friction"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -734,7 +737,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
                           "attachment_stiffness, attachment_damping, attachment_targets, "
-                          "collider_friction",
+                          "collider_friction, body_friction",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
@@ -742,6 +745,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                           : k == G_FEXT    ? 3 * (int64_t)t->nv * t->nsteps
                           : k == G_ATT_P   ? 3 * (int64_t)t->natt * t->nsteps
                           : k == G_MU_COL  ? defsim__collider_set_live(&w->colliders)
+                          : k == G_MU_BODY ? nb
                           : k >= G_ATT_K   ? t->natt
                                            : nb;
         if (grads[i].count != c || (c > 0 && !grads[i].out)) {
@@ -753,6 +757,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                        : k == G_FEXT   ? "3 * vertex count per step"
                        : k == G_ATT_P  ? "3 per attachment and step"
                        : k == G_MU_COL ? "one per collider"
+                       : k == G_MU_BODY ? "one per body"
                        : k >= G_ATT_K  ? "one per attachment"
                                        : "one per body");
             return DEFSIM_ERR_INVALID_ARGUMENT;
@@ -797,7 +802,7 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
     int64_t peak = 0;
     double *ax = malloc(2 * (size_t)n3 * sizeof *ax);
     double *body = malloc((size_t)(G_FEXT - G_E) * (size_t)(nb > 0 ? nb : 1) * sizeof *body);
-    const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, w->colliders.ncol, &peak) &&
+    const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, w->colliders.ncol, w->bodies.n, &peak) &&
                    ax && body;
     if (!ok) {
         tape_error(t, "backward: out of memory");
@@ -834,6 +839,11 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
                     const double *src = k == G_FEXT ? fext_out : attp_out;
                     if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
                         memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
+                    continue;
+                }
+                if (k == G_MU_BODY) {   /* live bodies in slot order */
+                    for (int32_t b = 0, m = 0; b < w->bodies.n; ++b)
+                        if (w->bodies.b[b].generation & 1u) grads[i].out[m++] = g.mu_body[b];
                     continue;
                 }
                 if (k == G_MU_COL) {   /* live colliders in slot order (get_collider's) */

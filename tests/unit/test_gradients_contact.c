@@ -9,6 +9,7 @@
  * and mu); the penalty's backends refused, a moved collider stopping the recording, bad
  * arguments, and the run going on bit for bit after a backward pass with recomputation.
  */
+#include "mesh_body.h"
 #include "test_util.h"
 
 #include <math.h>
@@ -19,7 +20,7 @@
 static const char *NC = "newton_cholmod";
 static const char *NM = "newmark";
 
-enum { INCLINE, CLOTH };
+enum { INCLINE, CLOTH, CUBES };
 
 /* A run: the scene, its backend, the collider's friction, the start's speed, the steps. */
 typedef struct cscene {
@@ -32,10 +33,10 @@ typedef struct cscene {
 } cscene;
 
 /* What the finite differences move. */
-enum { Q_SPEED, Q_X0, Q_V0, Q_MU, Q_RHO, Q_E, Q_COUNT };
+enum { Q_SPEED, Q_X0, Q_V0, Q_MU, Q_RHO, Q_E, Q_BMU, Q_COUNT };
 static const char *const qname[Q_COUNT] = {"initial speed", "initial_positions",
                                            "initial_velocities", "collider_friction", "density",
-                                           "youngs_modulus"};
+                                           "youngs_modulus", "body_friction"};
 
 #define SLOPE 0.4363323129985824   /* 25 degrees */
 #define RHO 1000.0
@@ -63,6 +64,47 @@ static defsim_world *build(const cscene *sc, int q, double e, const double *dir)
     slope(t, nrm);
     double *x, *v;
     int n;
+    if (sc->kind == CUBES) {
+        /* a 6 cm cube 1e-4 m (half of dhat) above a 10 cm cube whose bottom is pinned, moving
+         * down and sideways: it lands and slides under body-body friction */
+        TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
+        for (int b = 0; b < 2; ++b) {
+            const double lo[3] = {b ? 0.017 : 0.0, b ? 0.1001 : 0.0, b ? 0.023 : 0.0};
+            const double hi[3] = {b ? 0.077 : 0.1, b ? 0.1601 : 0.1, b ? 0.083 : 0.1};
+            defsim_mesh m;
+            memset(&m, 0, sizeof m);
+            m.size = sizeof m;
+            TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &m));
+            defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
+            bd.material.youngs_modulus = YOUNG * (b && q == Q_E ? 1.0 + e : 1.0);
+            bd.material.poisson_ratio = 0.3;
+            bd.material.density = RHO * (b && q == Q_RHO ? 1.0 + e : 1.0);
+            bd.friction = sc->mu + (q == Q_BMU ? e : 0.0);   /* both bodies */
+            defsim_body_id id;
+            TU_OK(defsim_world_add_body(w, &bd, &id));
+            defsim_mesh_free(&m);
+            if (!b) tu_pin_below(w, id, 1, 0.0);
+        }
+        n = defsim_world_vertex_count(w);
+        x = tu_positions(w);
+        v = calloc(3 * (size_t)n, sizeof *v);
+        uint8_t *pinned = malloc((size_t)n);
+        TU_OK(defsim_world_get_pinned(w, pinned, n));
+        for (int i = 8; i < n; ++i) {
+            v[3 * i] = sc->speed;
+            v[3 * i + 1] = -0.2;
+            v[3 * i + 2] = 0.1;
+        }
+        for (int i = 0; dir && i < 3 * n; ++i) {
+            if (q == Q_X0) x[i] += e * dir[i];
+            if (q == Q_V0 && !pinned[i / 3]) v[i] += e * dir[i];
+        }
+        free(pinned);
+        TU_OK(defsim_world_set_state(w, x, v));
+        free(x);
+        free(v);
+        return w;
+    }
     if (sc->kind == INCLINE) {
         /* a 10 cm block, its bottom face on the slope at half the activation distance */
         cd.shape = DEFSIM_SHAPE_PLANE;
@@ -138,6 +180,8 @@ static void loss_weights(const cscene *sc, int n, double **cx, double **cv)
     for (size_t i = 0; i < n3; ++i) {
         if (sc->kind == INCLINE) {
             (*cx)[last + i] = -t[i % 3] / n;
+        } else if (sc->kind == CUBES) {   /* the top cube's mean height and x */
+            (*cx)[last + i] = i >= 24 && i % 3 < 2 ? 1.0 / 8.0 : 0.0;
         } else {
             (*cx)[last + i] = tu_rand(&seed);
             (*cv)[last + i] = 0.01 * tu_rand(&seed);
@@ -162,7 +206,7 @@ static double run_loss(const cscene *sc, defsim_world *w, const double *cx, cons
 
 typedef struct cgrads {
     double *x0, *v0;
-    double mu, rho, E;
+    double mu, rho, E, bmu[2];
     double ratio;             /* the backward pass's time over the forward run's */
 } cgrads;
 
@@ -183,10 +227,17 @@ static void tape_grads(const cscene *sc, const double *cx, const double *cv, int
                              {"collider_friction", &g->mu, 1},
                              {"density", &g->rho, 1},
                              {"youngs_modulus", &g->E, 1}};
-    const int32_t nout = sc->kind == INCLINE ? 5 : 3;
-    const defsim_status st =
-        defsim_tape_backward(t, cx, cv, 3 * (int64_t)n * (sc->steps + 1), out, nout);
+    double two[2][2];
+    defsim_gradient cube_out[] = {out[0], out[1], {"density", two[0], 2},
+                                  {"youngs_modulus", two[1], 2}, {"body_friction", g->bmu, 2}};
+    const int32_t nout = sc->kind == INCLINE ? 5 : sc->kind == CUBES ? 5 : 3;
+    const defsim_status st = defsim_tape_backward(t, cx, cv, 3 * (int64_t)n * (sc->steps + 1),
+                                                  sc->kind == CUBES ? cube_out : out, nout);
     if (st != DEFSIM_OK) fail_msg("backward: %s", defsim_tape_last_error(t));
+    if (sc->kind == CUBES) {   /* the top cube's */
+        g->rho = two[0][1];
+        g->E = two[1][1];
+    }
     defsim_tape_stats ts = {.size = sizeof ts};
     TU_OK(defsim_tape_get_stats(t, &ts));
     g->ratio = ts.time_backward / ts.time_forward;
@@ -207,7 +258,8 @@ static void check(const cscene *sc, const cgrads *g, int q, const double *dir, i
         slope(t, nrm);
         for (int i = 0; i < 3 * n; ++i) an += gg[i] * (q == Q_SPEED ? -t[i % 3] : dir[i]);
     } else {
-        an = q == Q_MU ? g->mu : q == Q_RHO ? g->rho * RHO : g->E * YOUNG;
+        an = q == Q_MU ? g->mu : q == Q_BMU ? g->bmu[0] + g->bmu[1]
+             : q == Q_RHO ? g->rho * RHO : g->E * YOUNG;
     }
     double L[4];
     for (int k = 0; k < 4; ++k) {
@@ -370,10 +422,8 @@ static void test_cloth_newmark(void **st)
 
 /* Recomputation of contact steps (interval 3) is bit for bit, and the run goes on after a
  * backward pass as if there had been none; bad arguments leave the world as it was. */
-static void test_contact_backward_leaves_run(void **st)
+static void leaves_run(const cscene sc)
 {
-    (void)st;
-    const cscene sc = {INCLINE, NC, 0.2, 0.5, 1e-2, 9};
     defsim_world *w = build(&sc, -1, 0.0, NULL), *ref = build(&sc, -1, 0.0, NULL);
     const int n = defsim_world_vertex_count(w), n3 = 3 * n;
     defsim_tape_def td;
@@ -390,9 +440,11 @@ static void test_contact_backward_leaves_run(void **st)
     const int64_t cnt = (int64_t)n3 * (sc.steps + 1);
     double mu[2] = {0.0, 0.0}, mu3 = 0.0;
     /* a friction gradient of the wrong size, a loss gradient of the wrong size, NaN */
-    defsim_gradient bad = {"collider_friction", mu, 2};
+    const char *mu_name = sc.kind == INCLINE ? "collider_friction" : "body_friction";
+    defsim_gradient bad = {mu_name, mu, sc.kind == INCLINE ? 2 : 3};
     assert_int_equal(defsim_tape_backward(t, cx, cv, cnt, &bad, 1), DEFSIM_ERR_INVALID_ARGUMENT);
-    defsim_gradient good = {"collider_friction", &mu3, 1};
+    double mu2[2] = {0.0, 0.0};
+    defsim_gradient good = {mu_name, sc.kind == INCLINE ? &mu3 : mu2, sc.kind == INCLINE ? 1 : 2};
     assert_int_equal(defsim_tape_backward(t, cx, cv, cnt - 1, &good, 1),
                      DEFSIM_ERR_INVALID_ARGUMENT);
     cx[5] = NAN;
@@ -401,7 +453,8 @@ static void test_contact_backward_leaves_run(void **st)
     TU_OK(defsim_tape_backward(t, cx, cv, cnt, &good, 1));
     defsim_tape_stats ts = {.size = sizeof ts};
     TU_OK(defsim_tape_get_stats(t, &ts));
-    assert_true(ts.recomputed_steps == 9 && mu3 < 0.0);   /* more friction, less travel */
+    if (sc.kind == CUBES) mu3 = mu2[1];
+    assert_true(ts.recomputed_steps == 9 && mu3 != 0.0);
     assert_true(defsim_world_time(w) == defsim_world_time(ref));
     for (int s = 0; s < 5; ++s) {
         TU_OK(defsim_world_step(w, sc.h));
@@ -409,8 +462,9 @@ static void test_contact_backward_leaves_run(void **st)
     }
     double *x = tu_positions(w), *xr = tu_positions(ref);
     assert_memory_equal(x, xr, (size_t)n3 * sizeof *x);
-    printf("incline %s: dL/dmu %.6e; after a backward pass (%lld steps recomputed) the run goes "
-           "on bit for bit\n", NC, mu3, (long long)ts.recomputed_steps);
+    printf("%s %s: dL/dmu %.6e; after a backward pass (%lld steps recomputed) the run goes on "
+           "bit for bit\n", sc.kind == INCLINE ? "incline" : "cubes", sc.backend, mu3,
+           (long long)ts.recomputed_steps);
     free(x);
     free(xr);
     free(cx);
@@ -418,6 +472,13 @@ static void test_contact_backward_leaves_run(void **st)
     defsim_tape_destroy(t);
     defsim_world_destroy(w);
     defsim_world_destroy(ref);
+}
+
+static void test_contact_backward_leaves_run(void **st)
+{
+    (void)st;
+    leaves_run((cscene){INCLINE, NC, 0.2, 0.5, 1e-2, 9});
+    leaves_run((cscene){CUBES, NC, 0.5, 0.1, 1e-2, 9});
 }
 
 /* The penalty's backends are refused; a collider moved during the recording stops it. */
@@ -455,6 +516,59 @@ static void test_contact_unsupported(void **st)
     defsim_world_destroy(e);
 }
 
+/* A cube landing on a cube (body contact: the barrier between the bodies' boundary triangles,
+ * point-triangle and edge-edge pairs, with friction mu 0.5 from both bodies). The loss is the
+ * top cube's mean height plus its mean x after the run; its gradient in the initial positions
+ * and velocities (random directions; steps 1e-8 m and 1e-6 m/s), the top cube's density and
+ * Young's modulus (1e-4 relative) and the friction of both bodies moved together (1e-6). */
+static void cubes(const char *backend)
+{
+    const cscene sc = {CUBES, backend, 0.5, 0.1, 1e-2, 10};
+    defsim_world *w = build(&sc, -1, 0.0, NULL);
+    const int n = defsim_world_vertex_count(w);
+    for (int s = 0; s < sc.steps; ++s) TU_OK(defsim_world_step(w, sc.h));
+    double *x = tu_positions(w), *v = tu_velocities(w), vx = 0.0;
+    for (int i = 8; i < n; ++i) vx += v[3 * i] / (n - 8);
+    const double dmin = tu_stat(w, "contact.body_min_distance");
+    printf("cubes %s: %.0f candidate pairs at the end, the closest %.3e m apart (dhat 2.1e-4); "
+           "the top cube moves sideways at %.4f m/s (from 0.1)\n", backend,
+           tu_stat(w, "contact.body_candidates"), dmin, vx);
+    assert_true(dmin > 0.0 && vx < 0.1);
+    free(x);
+    free(v);
+    defsim_world_destroy(w);
+    double *cx, *cv;
+    loss_weights(&sc, n, &cx, &cv);
+    cgrads g;
+    tape_grads(&sc, cx, cv, n, &g);
+    printf("cubes %s: backward / forward time %.2f\n", backend, g.ratio);
+    double *dir = calloc(3 * (size_t)n, sizeof *dir);
+    unsigned long long seed = 31;
+    for (int i = 0; i < 3 * n; ++i) dir[i] = tu_rand(&seed);
+    check(&sc, &g, Q_V0, dir, n, 1e-6, cx, cv, 1e-5, "cube on a cube");
+    check(&sc, &g, Q_X0, dir, n, 1e-8, cx, cv, 1e-5, "cube on a cube");
+    check(&sc, &g, Q_RHO, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
+    check(&sc, &g, Q_E, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
+    check(&sc, &g, Q_BMU, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
+    free(dir);
+    free(g.x0);
+    free(g.v0);
+    free(cx);
+    free(cv);
+}
+
+static void test_cubes_newton(void **st)
+{
+    (void)st;
+    cubes(NC);
+}
+
+static void test_cubes_newmark(void **st)
+{
+    (void)st;
+    cubes(NM);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -464,6 +578,8 @@ int main(void)
         cmocka_unit_test(test_incline_newmark),
         cmocka_unit_test(test_cloth_newton),
         cmocka_unit_test(test_cloth_newmark),
+        cmocka_unit_test(test_cubes_newton),
+        cmocka_unit_test(test_cubes_newmark),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

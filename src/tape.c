@@ -17,6 +17,7 @@
 #include "clock.h"
 #include "material.h"
 #include "step.h"
+#include "terms.h"
 #include "world.h"
 
 #include <math.h>
@@ -317,6 +318,9 @@ typedef struct world_saved {
     int32_t since_estimate;
     double *fext;             /* the host's held forces (3 nv), or NULL: none */
     double *att_p;            /* the attachments' targets (3 natt), or NULL: none */
+    double cstat[DEFSIM__CSTAT_COUNT];   /* the contact statistics */
+    unsigned char *carry;     /* what collider contact carries to the next step (its chunk) */
+    size_t ncarry;
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -342,6 +346,18 @@ static int world_save(const defsim_world *w, world_saved *s)
     if (w->planned && w->sys.att.n > 0) {
         if (!(s->att_p = malloc(3 * (size_t)w->sys.att.n * sizeof(double)))) return 0;
         memcpy(s->att_p, w->sys.att.p, 3 * (size_t)w->sys.att.n * sizeof(double));
+    }
+    /* The steps run again and the adjoints' contact begin change contact's statistics and what
+     * it carries between steps (the safe box): kept as a checkpoint keeps them. */
+    memcpy(s->cstat, w->contact.stat, sizeof s->cstat);
+    if (w->planned) {
+        const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                       (defsim__contact *)&w->contact);
+        s->ncarry = tc.ops->save(&tc, NULL, 0);
+        if (s->ncarry > 0) {
+            if (!(s->carry = malloc(s->ncarry))) return 0;
+            (void)tc.ops->save(&tc, s->carry, s->ncarry);
+        }
     }
     return 1;
 }
@@ -374,11 +390,18 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
         w->step.since_estimate = s->since_estimate;
         (void)defsim_world_set_external_forces(w, s->fext, w->nv);   /* the host's again */
         if (s->att_p) (void)set_targets(t, w, s->att_p);
+        memcpy(w->contact.stat, s->cstat, sizeof s->cstat);
+        if (w->planned) {
+            const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                           &w->contact);
+            (void)tc.ops->load(&tc, s->carry, s->ncarry);
+        }
     }
     free(s->x);
     free(s->counters);
     free(s->fext);
     free(s->att_p);
+    free(s->carry);
 }
 
 /* The parameter gradients' arrays, sized for the system. */

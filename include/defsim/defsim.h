@@ -1247,7 +1247,8 @@ typedef struct defsim_tape_stats {
 /// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
 /// defsim_attachment_set_target held during step j; 0 for body targets), "collider_friction"
 /// (count = collider count, in defsim_world_get_collider's order: dL/dmu of each collider's
-/// friction coefficient, also where it is 0); out (count doubles, the host's) receives it.
+/// friction coefficient, also where it is 0), "body_friction" (count = body count: dL/dmu of
+/// each body's body-contact friction); out (count doubles, the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1269,8 +1270,8 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
 /// the message: collider contact on a backend whose contact is the penalty (explicit_euler,
-/// symplectic_euler; newton_cholmod and newmark differentiate the barrier), body contact, the
-/// force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// symplectic_euler; newton_cholmod and newmark differentiate the barrier and body contact),
+/// the force callback, driven pins; or core.auto_substep on a backend that substeps),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
 DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
                                              defsim_tape **out);

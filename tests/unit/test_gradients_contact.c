@@ -438,6 +438,11 @@ static void leaves_run(const cscene sc)
     double *cx, *cv;
     loss_weights(&sc, n, &cx, &cv);
     const int64_t cnt = (int64_t)n3 * (sc.steps + 1);
+    static const char *const cstats[] = {"contact.pairs", "contact.active", "contact.min_distance",
+                                         "contact.body_candidates", "contact.body_active",
+                                         "contact.body_min_distance"};
+    double before[6];
+    for (int k = 0; k < 6; ++k) before[k] = tu_stat(w, cstats[k]);
     double mu[2] = {0.0, 0.0}, mu3 = 0.0;
     /* a friction gradient of the wrong size, a loss gradient of the wrong size, NaN */
     const char *mu_name = sc.kind == INCLINE ? "collider_friction" : "body_friction";
@@ -454,6 +459,9 @@ static void leaves_run(const cscene sc)
     defsim_tape_stats ts = {.size = sizeof ts};
     TU_OK(defsim_tape_get_stats(t, &ts));
     if (sc.kind == CUBES) mu3 = mu2[1];
+    for (int k = 0; k < 6; ++k)   /* contact's statistics as they were */
+        assert_true(tu_stat(w, cstats[k]) == before[k] ||
+                    (isnan(before[k]) && isnan(tu_stat(w, cstats[k]))));
     assert_true(ts.recomputed_steps == 9 && mu3 != 0.0);
     assert_true(defsim_world_time(w) == defsim_world_time(ref));
     for (int s = 0; s < 5; ++s) {

@@ -13,7 +13,7 @@ from ._native import ffi, lib
 #: The gradients a backward pass can fill: per vertex (shape (n, 3)) and per body (shape (b,)).
 VERTEX_PARAMS = ("initial_positions", "initial_velocities")
 BODY_PARAMS = ("youngs_modulus", "poisson_ratio", "density", "mass_damping",
-               "stiffness_damping")
+               "stiffness_damping", "body_friction")
 #: Per step (shape (N, n, 3)): the held external forces of each recorded step (the controls).
 STEP_PARAMS = ("external_forces",)
 #: Per attachment (shape (a,)) and per step and attachment (shape (N, a, 3)): world targets.
@@ -81,7 +81,8 @@ class Tape:
         state s = 0 .. N as arrays of shape (N + 1, n, 3) (or (N + 1, 3 n); None: zero).
         Returns {name: gradient} for `params` (default: all): "initial_positions" and
         "initial_velocities" of shape (n, 3), and per body (in the world's order) of shape (b,):
-        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping";
+        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping",
+        "body_friction" (body contact's mu);
         and "external_forces" of shape (N, n, 3), dL/df_j of the forces held during step j
         (``World.set_external_forces``; also where they were zero); with attachments,
         "attachment_stiffness" and "attachment_damping" of shape (a,) and "attachment_targets"

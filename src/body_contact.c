@@ -1231,6 +1231,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->sys = s;
     bc->failed = DEFSIM_OK;
     bc->active = 0;
+    bc->exact = 0;
     defsim_status st = DEFSIM_OK;
     if ((!bc->planned || bc->nv != s->nv || bc->nbody != nbodies) &&
         (st = plan(bc, bodies, nbodies, s->nv)) != DEFSIM_OK) {

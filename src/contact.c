@@ -375,6 +375,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
     }
     c->mode = p->mode;
     c->failed = DEFSIM_OK;
+    c->exact = 0;
     c->blocked = 0;
     c->col = col;
     c->ncol = ncol;

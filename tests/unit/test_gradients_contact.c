@@ -278,6 +278,32 @@ static void check(const cscene *sc, const cgrads *g, int q, const double *dir, i
                  rtol);
 }
 
+/* One gradient check: the parameter and the finite differences' step. */
+typedef struct qstep {
+    int q;
+    double eps;
+} qstep;
+
+/* Records sc's run of n vertices, runs it backward and checks the gradients qs against central
+ * differences (x0, v0 along a random direction from seed), relative 1e-5. */
+static void check_all(const cscene *sc, int n, unsigned long long seed, const qstep *qs, int nq,
+                      const char *what)
+{
+    double *cx, *cv;
+    loss_weights(sc, n, &cx, &cv);
+    cgrads g;
+    tape_grads(sc, cx, cv, n, &g);
+    printf("%s %s: backward / forward time %.2f\n", what, sc->backend, g.ratio);
+    double *dir = calloc(3 * (size_t)n, sizeof *dir);
+    for (int i = 0; i < 3 * n; ++i) dir[i] = tu_rand(&seed);
+    for (int k = 0; k < nq; ++k) check(sc, &g, qs[k].q, dir, n, qs[k].eps, cx, cv, 1e-5, what);
+    free(dir);
+    free(g.x0);
+    free(g.v0);
+    free(cx);
+    free(cv);
+}
+
 /* The block's centroid and lowest vertex's distance to the slope at the run's end. */
 static void incline_state(const cscene *sc, double *travel, double *speed, double *dmin)
 {
@@ -328,24 +354,9 @@ static void incline(const char *backend)
         defsim_world *w = build(&sc, -1, 0.0, NULL);
         const int n = defsim_world_vertex_count(w);
         defsim_world_destroy(w);
-        double *cx, *cv;
-        loss_weights(&sc, n, &cx, &cv);
-        cgrads g;
-        tape_grads(&sc, cx, cv, n, &g);
-        printf("%s %s: backward / forward time %.2f\n", what, backend, g.ratio);
-        double *dir = calloc(3 * (size_t)n, sizeof *dir);
-        unsigned long long seed = 17;
-        for (int i = 0; i < 3 * n; ++i) dir[i] = tu_rand(&seed);
-        check(&sc, &g, Q_SPEED, dir, n, 1e-6, cx, cv, 1e-5, what);
-        check(&sc, &g, Q_MU, dir, n, 1e-6, cx, cv, 1e-5, what);
-        check(&sc, &g, Q_RHO, dir, n, 1e-4, cx, cv, 1e-5, what);
-        check(&sc, &g, Q_E, dir, n, 1e-4, cx, cv, 1e-5, what);
-        check(&sc, &g, Q_X0, dir, n, 1e-7, cx, cv, 1e-5, what);
-        free(dir);
-        free(g.x0);
-        free(g.v0);
-        free(cx);
-        free(cv);
+        const qstep qs[] = {{Q_SPEED, 1e-6}, {Q_MU, 1e-6}, {Q_RHO, 1e-4}, {Q_E, 1e-4},
+                            {Q_X0, 1e-7}};
+        check_all(&sc, n, 17, qs, 5, what);
     }
 }
 
@@ -390,22 +401,8 @@ static void cloth(const char *backend)
     free(v);
     free(x1);
     defsim_world_destroy(w);
-    double *cx, *cv;
-    loss_weights(&sc, n, &cx, &cv);
-    cgrads g;
-    tape_grads(&sc, cx, cv, n, &g);
-    printf("cloth %s: backward / forward time %.2f\n", backend, g.ratio);
-    double *dir = calloc(3 * (size_t)n, sizeof *dir);
-    unsigned long long seed = 23;
-    for (int i = 0; i < 3 * n; ++i) dir[i] = tu_rand(&seed);
-    check(&sc, &g, Q_X0, dir, n, 1e-7, cx, cv, 1e-5, "cloth on a sphere");
-    check(&sc, &g, Q_V0, dir, n, 1e-4, cx, cv, 1e-5, "cloth on a sphere");
-    check(&sc, &g, Q_MU, dir, n, 1e-6, cx, cv, 1e-5, "cloth on a sphere");
-    free(dir);
-    free(g.x0);
-    free(g.v0);
-    free(cx);
-    free(cv);
+    const qstep qs[] = {{Q_X0, 1e-7}, {Q_V0, 1e-4}, {Q_MU, 1e-6}};
+    check_all(&sc, n, 23, qs, 3, "cloth on a sphere");
 }
 
 static void test_cloth_newton(void **st)
@@ -545,24 +542,8 @@ static void cubes(const char *backend)
     free(x);
     free(v);
     defsim_world_destroy(w);
-    double *cx, *cv;
-    loss_weights(&sc, n, &cx, &cv);
-    cgrads g;
-    tape_grads(&sc, cx, cv, n, &g);
-    printf("cubes %s: backward / forward time %.2f\n", backend, g.ratio);
-    double *dir = calloc(3 * (size_t)n, sizeof *dir);
-    unsigned long long seed = 31;
-    for (int i = 0; i < 3 * n; ++i) dir[i] = tu_rand(&seed);
-    check(&sc, &g, Q_V0, dir, n, 1e-6, cx, cv, 1e-5, "cube on a cube");
-    check(&sc, &g, Q_X0, dir, n, 1e-8, cx, cv, 1e-5, "cube on a cube");
-    check(&sc, &g, Q_RHO, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
-    check(&sc, &g, Q_E, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
-    check(&sc, &g, Q_BMU, dir, n, 1e-4, cx, cv, 1e-5, "cube on a cube");
-    free(dir);
-    free(g.x0);
-    free(g.v0);
-    free(cx);
-    free(cv);
+    const qstep qs[] = {{Q_V0, 1e-6}, {Q_X0, 1e-8}, {Q_RHO, 1e-4}, {Q_E, 1e-4}, {Q_BMU, 1e-4}};
+    check_all(&sc, n, 31, qs, 5, "cube on a cube");
 }
 
 static void test_cubes_newton(void **st)

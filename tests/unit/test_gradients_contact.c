@@ -1,13 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Gradients through runs with collider contact (issue 25, docs/gradients.md): the tape's
- * backward pass against central finite differences of whole runs on the barrier's
- * differentiable backends (newton_cholmod, newmark): a block sliding down an incline with
- * friction, sliding and sticking (the travel's gradient in the initial speed, the friction
- * coefficient, the density, Young's modulus and the initial positions), and a cloth dropped
- * onto a sphere fast enough that CCD cuts its landing step (the initial positions, velocities
- * and mu); the penalty's backends refused, a moved collider stopping the recording, bad
- * arguments, and the run going on bit for bit after a backward pass with recomputation.
+ * Gradients through runs with contact (issue 25, docs/gradients.md): the tape's backward pass
+ * against central finite differences of whole runs on the barrier's differentiable backends
+ * (newton_cholmod, newmark): a block sliding down an incline with friction, sliding and
+ * sticking (the travel's gradient in the initial speed, the friction coefficient, the density,
+ * Young's modulus and the initial positions), a cloth dropped onto a sphere fast enough that
+ * CCD cuts its landing step (the initial positions, velocities and mu), and a cube landing on a
+ * cube (body contact: the initial state, the top cube's density and E, the bodies' friction);
+ * the penalty's backends refused, a moved collider stopping the recording, bad arguments, and
+ * the run (and contact's statistics) going on bit for bit after a backward pass with
+ * recomputation.
  */
 #include "mesh_body.h"
 #include "test_util.h"

@@ -130,6 +130,8 @@ typedef struct defsim__system {
     int32_t nthreads;
     double gravity[3];        /* m/s^2 */
     int projection;           /* defsim_projection of element Hessians */
+    int exact_contact;        /* a backward pass assembles its matrix: contact terms' Hessians
+                                 unprojected too (host.c's matrix_values_projected) */
     double *mass;             /* nv */
     double *mass3, *alpha3;   /* 3 nv: mass and mass-damping alpha per DOF */
     uint8_t *pinned;          /* nv */

@@ -1245,8 +1245,10 @@ typedef struct defsim_tape_stats {
 /// also where they were zero: the controls), "attachment_stiffness", "attachment_damping"
 /// (count = attachment count, in defsim_world_attachment_at's order), "attachment_targets"
 /// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
-/// defsim_attachment_set_target held during step j; 0 for body targets); out (count doubles,
-/// the host's) receives it.
+/// defsim_attachment_set_target held during step j; 0 for body targets), "collider_friction"
+/// (count = collider count, in defsim_world_get_collider's order: dL/dmu of each collider's
+/// friction coefficient, also where it is 0), "body_friction" (count = body count: dL/dmu of
+/// each body's body-contact friction); out (count doubles, the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1267,7 +1269,9 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// recording already
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
-/// the message: collider or body contact, the force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// the message: collider contact on a backend whose contact is the penalty (explicit_euler,
+/// symplectic_euler; newton_cholmod and newmark differentiate the barrier and body contact),
+/// the force callback, driven pins; or core.auto_substep on a backend that substeps),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
 DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
                                              defsim_tape **out);
@@ -1282,8 +1286,8 @@ DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_t
 /// and may be run backward again. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL tape, a tape whose
 /// world is gone, count not (N + 1) * 3 * vertex count, a non-finite loss gradient, an
 /// unknown name or a wrong count in grads, or the world changed in a way the recording cannot
-/// follow: bodies, pins, options, or the state or time set between recorded steps: the
-/// message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
+/// follow: bodies, pins, options, colliders added, removed, moved (set_pose) or changed, or the
+/// state or time set between recorded steps: the message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
 /// or since the last recorded step the scene came to use what cannot be differentiated: a
 /// collider, the force callback, ...),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED, or the backend's error. On an error the grads'

@@ -306,7 +306,8 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
 }
 
 /* The shells' groups (shell.h): each shell body's triangles into its membrane law's group
- * (their rows and rest areas as body.c made them), its hinges into the hinge group. */
+ * (their rows and rest areas as body.c made them), its hinges into the hinge group, and the
+ * triangles of the bodies with a strain limit into the limit's group. */
 static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in)
 {
     int32_t count[DEFSIM__SHELL_GROUPS] = {0};
@@ -314,6 +315,7 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u) || !bd->shell) continue;
         if (bd->membrane >= 0) count[bd->membrane] += bd->ntri;
+        if (bd->strain_limit > 0.0) count[DEFSIM__SHELL_LIMITS] += bd->ntri;
         count[DEFSIM__SHELL_HINGES] += bd->nhinge;
     }
     for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) {
@@ -349,6 +351,18 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
                 memcpy(g->shell + DEFSIM__MEMBRANE_WIDTH * (int64_t)e,
                        bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
                        DEFSIM__MEMBRANE_WIDTH * sizeof *g->shell);
+                g->vol[e] = bd->marea[t];
+            }
+        }
+        if (bd->strain_limit > 0.0) {
+            defsim__group *g = &s->shells[DEFSIM__SHELL_LIMITS];
+            for (int32_t t = 0; t < bd->ntri; ++t) {
+                const int32_t e = g->n++;
+                for (int a = 0; a < 3; ++a)
+                    g->idx[3 * (int64_t)e + a] = bd->offset + bd->tris[3 * (int64_t)t + a];
+                defsim__strain_limit_row(bd->membrane, bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
+                                         bd->strain_limit,
+                                         g->shell + DEFSIM__MEMBRANE_WIDTH * (int64_t)e);
                 g->vol[e] = bd->marea[t];
             }
         }

@@ -799,7 +799,8 @@ static void test_version_5_file(void **state)
 
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
- * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields:
+ * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields,
+ * version 10 its strain limit:
  * the file's body loads with the standard linear element and no shell, and continues as the
  * uninterrupted run does; saved again it is a file of today's version that continues bit for
  * bit. */
@@ -807,7 +808,7 @@ static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    assert_int_equal(DEFSIM__CKPT_VERSION, 9);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 10);
     check_saved_again(old);
     defsim_world_destroy(old);
 }

@@ -19,6 +19,7 @@
 #include "test_util.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* ------------------------------------------------------------------------------------------ */
@@ -516,6 +517,18 @@ static void test_validation(void **state)
         assert_int_equal(defsim_world_add_body(w, &d, NULL), DEFSIM_ERR_INVALID_ARGUMENT);
         for (int i = 0; i < 25; ++i) x0[3 * i] = m.positions[3 * i] * 1.05;
         assert_int_equal(defsim_world_add_body(w, &d, NULL), DEFSIM_OK);
+    }
+    {   /* a state set over the cap: the step fails (its energy is +inf at the start) and the
+         * state stays */
+        const int32_t nv = defsim_world_vertex_count(w);
+        double *x = tu_positions(w), *x2 = malloc(3 * (size_t)nv * sizeof *x2);
+        for (int32_t i = nv - 25; i < nv; ++i) x[3 * i] *= 1.2 / 1.05;
+        assert_int_equal(defsim_world_set_state(w, x, NULL), DEFSIM_OK);
+        assert_int_equal(defsim_world_step(w, 0.01), DEFSIM_ERR_NOT_CONVERGED);
+        assert_int_equal(defsim_world_get_positions(w, x2, nv), DEFSIM_OK);
+        assert_memory_equal(x, x2, 3 * (size_t)nv * sizeof *x2);
+        free(x);
+        free(x2);
     }
     defsim_world_destroy(w);
     /* explicit backends refuse it; the same body without a cap is taken */

@@ -99,16 +99,13 @@ static void stvk_stress(const double prm[4], const double E[4], double S[4])
 /* C = F^T F (2x2 row-major) of a 3x2 F. */
 static void right_cauchy(const double F[6], double C[4])
 {
-    C[0] = F[0] * F[0] + F[2] * F[2] + F[4] * F[4];
-    C[1] = C[2] = F[0] * F[1] + F[2] * F[3] + F[4] * F[5];
-    C[3] = F[1] * F[1] + F[3] * F[3] + F[5] * F[5];
+    DEFSIM__TRI_CAUCHY(F, C);
 }
 
 /* out (3x2) = F (3x2) M (2x2). */
 static void f_times(const double F[6], const double M[4], double out[6])
 {
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 2; ++j) out[2 * i + j] = F[2 * i] * M[j] + F[2 * i + 1] * M[2 + j];
+    DEFSIM__TRI_FTIMES(F, M, out);
 }
 
 /* dP/dF (6x6) of P = F S(C): dP = dF S + F dS, dS = dSdC(dC) with dC = dF^T F + F^T dF, column
@@ -205,16 +202,10 @@ double defsim__membrane_law(int law, const double prm[4], const double F[6], dou
  * g_0 = -(g_1 + g_2)) and F (3x2) at its vertices X (3x3). */
 static void triangle_f(const double m[4], const double X[9], double g[3][2], double F[6])
 {
-    g[0][0] = -(m[0] + m[2]);
-    g[0][1] = -(m[1] + m[3]);
-    g[1][0] = m[0];
-    g[1][1] = m[1];
-    g[2][0] = m[2];
-    g[2][1] = m[3];
-    for (int i = 0; i < 6; ++i) F[i] = 0.0;
-    for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 2; ++j) F[2 * i + j] += X[3 * a + i] * g[a][j];
+    DEFSIM__TRI_SHAPE(m, g);
+#define XA(a, i) X[3 * (a) + (i)]
+    DEFSIM__TRI_F(XA, g, F);
+#undef XA
 }
 
 /* An element's gradient A P g_a and Hessian A g_a^T D g_b (D projected by proj first), where

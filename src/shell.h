@@ -14,6 +14,34 @@
 
 #include <stdint.h>
 
+/* A triangle's formulas over any element type (double in shell.c, SIMD lanes in shell_batch.c),
+ * as mat3.h's are: the shape gradients g[3][2] from Dm^-1 m[4] (g_1, g_2 its rows, g_0 =
+ * -(g_1 + g_2)); F (3x2) = sum_a x_a g_a^T with XA(a, i) coordinate i of vertex a; C = F^T F
+ * (2x2; C[1] = C[2]); out (3x2) = F M (M 2x2). */
+#define DEFSIM__TRI_SHAPE(m, g)                                                               \
+    do {                                                                                      \
+        (g)[0][0] = -((m)[0] + (m)[2]);                                                       \
+        (g)[0][1] = -((m)[1] + (m)[3]);                                                       \
+        (g)[1][0] = (m)[0];                                                                   \
+        (g)[1][1] = (m)[1];                                                                   \
+        (g)[2][0] = (m)[2];                                                                   \
+        (g)[2][1] = (m)[3];                                                                   \
+    } while (0)
+#define DEFSIM__TRI_F(XA, g, F)                                                               \
+    for (int i_ = 0; i_ < 3; ++i_)                                                            \
+        for (int j_ = 0; j_ < 2; ++j_)                                                        \
+    (F)[2 * i_ + j_] = XA(0, i_) * (g)[0][j_] + XA(1, i_) * (g)[1][j_] + XA(2, i_) * (g)[2][j_]
+#define DEFSIM__TRI_CAUCHY(F, C)                                                              \
+    do {                                                                                      \
+        (C)[0] = (F)[0] * (F)[0] + (F)[2] * (F)[2] + (F)[4] * (F)[4];                         \
+        (C)[1] = (C)[2] = (F)[0] * (F)[1] + (F)[2] * (F)[3] + (F)[4] * (F)[5];                \
+        (C)[3] = (F)[1] * (F)[1] + (F)[3] * (F)[3] + (F)[5] * (F)[5];                         \
+    } while (0)
+#define DEFSIM__TRI_FTIMES(F, M, out)                                                         \
+    for (int i_ = 0; i_ < 3; ++i_)                                                            \
+        for (int j_ = 0; j_ < 2; ++j_)                                                        \
+    (out)[2 * i_ + j_] = (F)[2 * i_] * (M)[j_] + (F)[2 * i_ + 1] * (M)[2 + j_]
+
 /* The membrane laws (one element group each); the hinges are a third group. */
 enum {
     DEFSIM__MEMBRANE_STVK = 0,        /* isotropic and orthotropic StVK */

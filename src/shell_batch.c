@@ -10,6 +10,7 @@
  * (tests/unit/test_tet_forces.c: within 1e-12 relative). Collapsed neo-Hookean triangles
  * (det C <= 0, energy +inf) add no force, as in the scalar path. The hinge's atan2 is per lane.
  */
+#include "shell.h"
 #include "tet_batch.h"
 
 #include <math.h>
@@ -20,17 +21,12 @@ DEFSIM_SIMD_INLINE void triangle_f(const double *x, const int32_t *id, const dou
 {
     vd m[4];
     for (int r = 0; r < 4; ++r) m[r] = v_load(ROW(d, DEFSIM__SROW_DMINV + r, s));
-    g[0][0] = -(m[0] + m[2]);
-    g[0][1] = -(m[1] + m[3]);
-    g[1][0] = m[0];
-    g[1][1] = m[1];
-    g[2][0] = m[2];
-    g[2][1] = m[3];
+    DEFSIM__TRI_SHAPE(m, g);
     vd p[3][3];
     for (int a = 0; a < 3; ++a) gather3(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, p[a]);
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 2; ++j)
-            F[2 * i + j] = p[0][i] * g[0][j] + p[1][i] * g[1][j] + p[2][i] * g[2][j];
+#define XA(a, i) p[a][i]
+    DEFSIM__TRI_F(XA, g, F);
+#undef XA
 }
 
 /* h_a = -A P g_a added to the first nl lanes' vertices. */
@@ -46,18 +42,14 @@ DEFSIM_SIMD_INLINE void triangle_scatter(double *f, const int32_t *id, const vd 
     }
 }
 
-/* out (3x2) = F (3x2) M (2x2). */
 DEFSIM_SIMD_INLINE void f_times(const vd F[6], const vd M[4], vd out[6])
 {
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 2; ++j) out[2 * i + j] = F[2 * i] * M[j] + F[2 * i + 1] * M[2 + j];
+    DEFSIM__TRI_FTIMES(F, M, out);
 }
 
 DEFSIM_SIMD_INLINE void right_cauchy(const vd F[6], vd C[4])
 {
-    C[0] = F[0] * F[0] + F[2] * F[2] + F[4] * F[4];
-    C[1] = C[2] = F[0] * F[1] + F[2] * F[3] + F[4] * F[5];
-    C[3] = F[1] * F[1] + F[3] * F[3] + F[5] * F[5];
+    DEFSIM__TRI_CAUCHY(F, C);
 }
 
 /* StVK (isotropic and orthotropic): P = F S, S = C : E. Every lane has a force. */
@@ -96,29 +88,20 @@ DEFSIM_SIMD_INLINE vl neohookean_p(const double *d, int s, const vd F[6], vd P[6
     return ok;
 }
 
-/* A membrane kernel over its group's batches, colour by colour. */
+/* A membrane kernel over its group's batches. */
 #define MEMBRANE_KERNEL(name, LAW)                                                            \
     void DEFSIM__CAT(defsim__batched_membrane_##name##_, DEFSIM_ISA)(                         \
         const defsim__group *g, const double *x, double *f, int nthreads)                     \
     {                                                                                         \
         (void)nthreads;                                                                       \
-        for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
-            const int32_t b0 = g->bcolor_ptr[c], b1 = g->bcolor_ptr[c + 1];                   \
-            _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(b1 - b0 > PAR_MIN_BATCHES)") \
-            for (int32_t b = b0; b < b1; ++b) {                                               \
-                const int32_t *id = g->bidx + 3 * DEFSIM__BATCH * (int64_t)b;                 \
-                const double *d = g->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b; \
-                for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {              \
-                    vd gs[3][2], F[6], P[6];                                                  \
-                    triangle_f(x, id, d, s, gs, F);                                           \
-                    const vl ok = LAW(d, s, F, P);                                            \
-                    for (int i = 0; i < 6; ++i) P[i] = v_select(ok, P[i], v_set1(0.0));      \
-                    triangle_scatter(f, id + s * DEFSIM_VW, P, gs,                            \
-                                     v_load(ROW(d, DEFSIM__SROW_NAREA, s)),                   \
-                                     g->blanes[b] - s * DEFSIM_VW);                           \
-                }                                                                             \
-            }                                                                                 \
-        }                                                                                     \
+        DEFSIM__BATCH_LOOP(g, {                                                               \
+            vd gs[3][2], F[6], P[6];                                                          \
+            triangle_f(x, id, d, s, gs, F);                                                   \
+            const vl ok = LAW(d, s, F, P);                                                    \
+            for (int i = 0; i < 6; ++i) P[i] = v_select(ok, P[i], v_set1(0.0));              \
+            triangle_scatter(f, id + s * DEFSIM_VW, P, gs,                                    \
+                             v_load(ROW(d, DEFSIM__SROW_NAREA, s)), nl);                      \
+        })                                                                                    \
     }
 
 MEMBRANE_KERNEL(stvk, stvk_p)
@@ -194,23 +177,14 @@ void DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)(const defsim__group *g, con
                                                     double *f, int nthreads)
 {
     (void)nthreads;
-    for (int32_t c = 0; c < g->ncolors; ++c) {
-        const int32_t b0 = g->bcolor_ptr[c], b1 = g->bcolor_ptr[c + 1];
-#pragma omp parallel for schedule(static) num_threads(nthreads) if (b1 - b0 > PAR_MIN_BATCHES)
-        for (int32_t b = b0; b < b1; ++b) {
-            const int32_t *id = g->bidx + 4 * DEFSIM__BATCH * (int64_t)b;
-            const double *d = g->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b;
-            for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {
-                vd h[4][3];
-                hinge_force(x, id, d, s, h);
-                const int32_t *ids = id + s * DEFSIM_VW;
-                for (int A = 0; A < 4; ++A) {
-                    double *rows[DEFSIM_VW];
-                    for (int l = 0; l < DEFSIM_VW; ++l)
-                        rows[l] = f + 3 * (int64_t)ids[A * DEFSIM__BATCH + l];
-                    v_scatter_add_rows3(rows, h[A], g->blanes[b] - s * DEFSIM_VW);
-                }
-            }
+    DEFSIM__BATCH_LOOP(g, {
+        vd h[4][3];
+        hinge_force(x, id, d, s, h);
+        const int32_t *ids = id + s * DEFSIM_VW;
+        for (int A = 0; A < 4; ++A) {
+            double *rows[DEFSIM_VW];
+            for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = f + 3 * (int64_t)ids[A * DEFSIM__BATCH + l];
+            v_scatter_add_rows3(rows, h[A], nl);
         }
-    }
+    })
 }

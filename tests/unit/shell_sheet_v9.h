@@ -1,12 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /* The shell world of tests/checkpoint/v9_shell.dfck (format 9, before BODY held the strain
  * limit): a 6 x 6 StVK sheet with hinges, pinned along one edge, falling on symplectic_euler;
- * the file holds it after SHELL_V9_STEPS steps of SHELL_V9_H. Only the public API, so that the
- * library that wrote the file compiles it too. */
+ * the file holds it after SHELL_V9_STEPS steps of SHELL_V9_H. Only the public API (and
+ * tests/common/mesh_body.h), so that the library that wrote the file compiles it too. */
 #ifndef SHELL_SHEET_V9_H
 #define SHELL_SHEET_V9_H
 
 #include "defsim/defsim.h"
+#include "mesh_body.h"
 
 #include <string.h>
 
@@ -27,12 +28,7 @@ static inline defsim_world *shell_sheet_v9(defsim_mesh *mesh)
     memset(mesh, 0, sizeof *mesh);
     mesh->size = sizeof *mesh;
     if (defsim_mesh_cloth(o, u, v, 6, 6, mesh) != DEFSIM_OK) return NULL;
-    defsim_body_def d;
-    defsim_body_def_init(&d, sizeof d);
-    d.rest_positions = mesh->positions;
-    d.vertex_count = mesh->vertex_count;
-    d.triangles = mesh->triangles;
-    d.triangle_count = mesh->triangle_count;
+    defsim_body_def d = test_shell_body(mesh);
     d.shell_membrane = DEFSIM_SHELL_MEMBRANE_STVK;
     d.shell_youngs_modulus = 3e5;
     d.shell_poisson_ratio = 0.35;

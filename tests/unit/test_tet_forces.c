@@ -5,6 +5,7 @@
 
 #include "forces.h"
 #include "isotropic.h"
+#include "mesh_body.h"
 #include "mat3.h"
 #include "material.h"
 #include "tet_forces.h"
@@ -95,12 +96,7 @@ static void test_shells_match_scalar(void **state)
         memset(&m, 0, sizeof m);
         m.size = sizeof m;
         TU_OK(defsim_mesh_cloth(o, u, v, 7, 5, &m));
-        defsim_body_def d;
-        defsim_body_def_init(&d, sizeof d);
-        d.rest_positions = m.positions;
-        d.vertex_count = m.vertex_count;
-        d.triangles = m.triangles;
-        d.triangle_count = m.triangle_count;
+        defsim_body_def d = test_shell_body(&m);
         d.shell_membrane = laws[k];
         d.shell_youngs_modulus = 2e5;
         d.shell_warp_direction[1] = 0.4;

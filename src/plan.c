@@ -387,7 +387,8 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
                 const int32_t e = g->n++;
                 for (int a = 0; a < 3; ++a)
                     g->idx[3 * (int64_t)e + a] = bd->offset + bd->tris[3 * (int64_t)t + a];
-                defsim__strain_limit_row(bd->membrane, bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
+                defsim__strain_limit_row(bd->membrane,
+                                         bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
                                          bd->strain_limit,
                                          g->shell + DEFSIM__MEMBRANE_WIDTH * (int64_t)e);
                 g->vol[e] = bd->marea[t];
@@ -406,7 +407,8 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
         defsim_status st = defsim__colour_group(&s->shells[m], s->nv);
         /* the batched force kernels' layout (tet_forces.h) for the membranes and hinges */
         if (st == DEFSIM_OK && m < DEFSIM__SHELL_LIMITS)
-            st = pack_batches(&s->shells[m], m == DEFSIM__SHELL_HINGES ? hinge_rows : membrane_rows);
+            st = pack_batches(&s->shells[m],
+                              m == DEFSIM__SHELL_HINGES ? hinge_rows : membrane_rows);
         if (st != DEFSIM_OK) return st;
     }
     return DEFSIM_OK;

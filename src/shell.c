@@ -120,7 +120,8 @@ static void tangent(const double F[6], const double S[4], dsdc_fn dsdc, const vo
             double dC[4], dS[4], FdS[6];
             for (int p = 0; p < 2; ++p)
                 for (int q = 0; q < 2; ++q)
-                    dC[2 * p + q] = (p == l ? F[2 * k + q] : 0.0) + (q == l ? F[2 * k + p] : 0.0);
+                    dC[2 * p + q] =
+                        (p == l ? F[2 * k + q] : 0.0) + (q == l ? F[2 * k + p] : 0.0);
             dsdc(ctx, dC, dS);
             f_times(F, dS, FdS);
             for (int i = 0; i < 3; ++i)

@@ -183,7 +183,8 @@ void DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)(const defsim__group *g, con
         const int32_t *ids = id + s * DEFSIM_VW;
         for (int A = 0; A < 4; ++A) {
             double *rows[DEFSIM_VW];
-            for (int l = 0; l < DEFSIM_VW; ++l) rows[l] = f + 3 * (int64_t)ids[A * DEFSIM__BATCH + l];
+            for (int l = 0; l < DEFSIM_VW; ++l)
+                rows[l] = f + 3 * (int64_t)ids[A * DEFSIM__BATCH + l];
             v_scatter_add_rows3(rows, h[A], nl);
         }
     })

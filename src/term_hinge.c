@@ -3,8 +3,9 @@
  * The bending energy of the shells (shell.h; docs/shells.md): discrete shells' hinges, one
  * term over the hinge group, E = w/2 (theta - theta0)^2 per hinge with w = D |e|^2 / (A1 + A2)
  * from the rest shape: forces by shell_batch.c's batched kernel when the plan chose a variant
- * (core.simd), else colour by colour with the scalar kernel, energy as deterministic blocked sums, 12x12
- * element matrices w (g g^T + delta H_theta) eigen-clamped per hinge when the backend projects,
+ * (core.simd), else colour by colour with the scalar kernel, energy as deterministic blocked
+ * sums, 12x12 element matrices w (g g^T + delta H_theta) eigen-clamped per hinge when the
+ * backend projects,
  * products element by element. Shells take no stiffness damping (body.c refuses it).
  */
 #include "assembly.h"

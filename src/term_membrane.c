@@ -3,8 +3,8 @@
  * The membrane energy of the shells (shell.h; docs/shells.md): one term per membrane law that
  * the scene uses (its element group of triangles), with the law's scalar element kernel:
  * forces by the batched kernels of shell_batch.c when the plan chose a variant (core.simd),
- * else colour by colour with the scalar kernel (conflict-free parallel scatter), energy as deterministic blocked sums,
- * 9x9 element matrices k K with dP/dF projected per element as the tets' are, products element
+ * else colour by colour with the scalar kernel (conflict-free parallel scatter), energy as
+ * deterministic blocked sums, 9x9 element matrices k K with dP/dF projected per element as the tets' are, products element
  * by element. Shells take no stiffness damping (body.c refuses it), so kd adds nothing.
  */
 #include "assembly.h"

@@ -73,9 +73,9 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
 
 /* The loop of a batched kernel over group g's batches (g->nodes ids per lane), colour by colour
  * (the lanes of a colour share no vertex, so their scatters need no atomics), the batches of a
- * colour in parallel: the body (the arguments after g) runs for each sub-batch s with real lanes, id (the batch's vertex
- * ids: id[a DEFSIM__BATCH + lane]), d (its data rows) and nl (the real lanes from s on) in
- * scope. Needs `nthreads` in scope. */
+ * colour in parallel: the body (the arguments after g) runs for each sub-batch s with real
+ * lanes, with id (the batch's vertex ids: id[a DEFSIM__BATCH + lane]), d (its data rows) and nl
+ * (the real lanes from s on) in scope. Needs `nthreads` in scope. */
 #define DEFSIM__BATCH_LOOP(g, ...)                                                            \
     for (int32_t c = 0; c < (g)->ncolors; ++c) {                                              \
         const int32_t b0 = (g)->bcolor_ptr[c], b1 = (g)->bcolor_ptr[c + 1];                   \

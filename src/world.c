@@ -383,8 +383,8 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     if (st != DEFSIM_OK) return st;
     if (b.strain_limit > 0.0 && !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
         defsim__error(w->msg, "add_body: shell_strain_limit needs a backend whose line search "
-                              "filters its steps (DEFSIM_BACKEND_CONTACT_CCD: newton_cholmod, bdf2, "
-                              "newmark); %s has none", w->backend.table->name);
+                              "filters its steps (DEFSIM_BACKEND_CONTACT_CCD: newton_cholmod, "
+                              "bdf2, newmark); %s has none", w->backend.table->name);
         defsim__body_free(&b);
         return DEFSIM_ERR_BACKEND_UNAVAILABLE;
     }

@@ -38,7 +38,8 @@ static inline defsim_world *shell_sheet_v9(defsim_mesh *mesh)
     d.material.mass_damping = 0.3;
     defsim_body_id id;
     const int32_t edge[7] = {0, 1, 2, 3, 4, 5, 6};
-    if (defsim_world_add_body(w, &d, &id) != DEFSIM_OK || defsim_body_pin(w, id, edge, 7) != DEFSIM_OK)
+    if (defsim_world_add_body(w, &d, &id) != DEFSIM_OK ||
+        defsim_body_pin(w, id, edge, 7) != DEFSIM_OK)
         return NULL;
     return w;
 }

@@ -16,6 +16,7 @@
     X(spring)                   \
     X(membrane)                 \
     X(hinge)                    \
+    X(strain_limit)             \
     X(attach)                   \
     X(collider)                 \
     X(body_contact)             \

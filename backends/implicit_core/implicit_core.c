@@ -860,7 +860,8 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         if (!isfinite(gx))
             return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED,
                         "the energy is undefined at the start of the step "
-                        "(an inverted neo-Hookean element?)");
+                        "(an inverted neo-Hookean element, or a shell triangle at its strain "
+                        "limit?)");
     }
     memcpy(s->xt, s->x, bytes);
 

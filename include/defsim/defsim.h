@@ -325,6 +325,17 @@ typedef struct defsim_body_def {
     double shell_bending_rigidity;
     /// Bending rigidity along the weft (N m), finite, >= 0; < 0 (default): as the warp's.
     double shell_bending_rigidity_weft;
+    /* Strain limiting (appended; issue 26, docs/shells.md). */
+    /// A cap on each membrane triangle's largest principal stretch (the largest singular value
+    /// of its F, over its rest shape): 0.1 keeps every triangle below 1.1 times its rest length
+    /// in every direction. 0 (default): none. Enforced as a barrier in the potential (active in
+    /// a band of a tenth of the cap below it, zero elsewhere, +inf at the cap) whose line search
+    /// never crosses the cap, so only backends with DEFSIM_BACKEND_CONTACT_CCD take it
+    /// (newton_cholmod, bdf2, newmark); on another backend defsim_world_add_body returns
+    /// DEFSIM_ERR_BACKEND_UNAVAILABLE. Finite, in (0, 1] for a shell body with a membrane;
+    /// otherwise (negative, a body without a membrane, tets) DEFSIM_ERR_INVALID_MATERIAL; initial
+    /// positions at or over the cap DEFSIM_ERR_INVALID_ARGUMENT.
+    double shell_strain_limit;
 } defsim_body_def;
 
 /// The membrane energy of a shell body (defsim_body_def.shell_membrane; docs/shells.md), on

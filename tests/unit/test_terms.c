@@ -462,6 +462,50 @@ static void test_shells(void **state)
         free(v);
         defsim_world_destroy(w);
     }
+    /* The strain limit (on a backend that takes it): the flat sheet stretched 1.28 times along x
+     * under a 30 % cap (its band 1.27 .. 1.3), perturbed by 1e-4 m; its filter along a pull of
+     * the right edge by 0.1 m cuts the step, and the path up to the cut stays below the cap. */
+    if (!tu_available("newton_cholmod")) return;
+    defsim_world *w = tu_world("newton_cholmod", 0.0, 1);
+    const double o[3] = {0, 0, 0}, u[3] = {0.2, 0, 0}, vv[3] = {0, 0.15, 0};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_cloth(o, u, vv, 4, 3, &m));
+    defsim_body_def d = test_shell_body(&m);
+    d.shell_membrane = DEFSIM_SHELL_MEMBRANE_STVK;
+    d.shell_youngs_modulus = 1e5;
+    d.shell_strain_limit = 0.3;
+    TU_OK(defsim_world_add_body(w, &d, NULL));
+    TU_OK(defsim__world_plan(w));
+    const int64_t n = 3 * (int64_t)w->nv;
+    double *x = tu_positions(w), *v = calloc((size_t)n, sizeof *v);
+    unsigned long long seed = 9;
+    for (int64_t i = 0; i < n; ++i) x[i] = (i % 3 == 0 ? 1.28 : 1.0) * x[i] + 1e-4 * tu_rand(&seed);
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim__world_plan(w));
+    w->sys.projection = DEFSIM_PROJECTION_NONE;
+    const defsim__term *lt = term_of(w, DEFSIM__TERM_KIND_strain_limit);
+    check_gradient(w, lt, x, DEFSIM_FORCE_ELASTIC, 1e-8, 1e-6);
+    check_values(w, lt, lt, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-8, 1e-5);
+    check_apply(w, lt, x, K1);
+    double *dx = calloc((size_t)n, sizeof *dx);
+    for (int32_t i = 0; i < w->nv; ++i)
+        if (m.positions[3 * i] > 0.19) dx[3 * i] = 0.1;
+    const double a = lt->ops->max_step(lt, x, dx);
+    printf("  %-18s max_step %.4g along a pull of 0.1 m\n", lt->ops->name, a);
+    assert_true(a > 0.0 && a < 1.0);
+    for (int k = 0; k <= 100; ++k) {
+        double *y = malloc((size_t)n * sizeof *y);
+        for (int64_t i = 0; i < n; ++i) y[i] = x[i] + a * k / 100.0 * dx[i];
+        assert_true(isfinite(lt->ops->energy(lt, &w->sys, &w->work, y, 0.0)));
+        free(y);
+    }
+    free(dx);
+    free(x);
+    free(v);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
 }
 
 /* Attachments to a world point and to another body's tet, with dampers; held forces. */

@@ -26,6 +26,8 @@ class Shell:
     edges bending hinges with the rest shape's angles (docs/shells.md). Defaults are the
     library's; ``bending_rigidity`` None takes an isotropic membrane's plate rigidity
     E t^3 / (12 (1 - nu^2)) (none for the others), ``bending_rigidity_weft`` None the warp's.
+    ``strain_limit`` caps each triangle's largest principal stretch at 1 + strain_limit (a
+    barrier; implicit backends with a filtered line search only: newton_cholmod, bdf2, newmark).
     """
 
     membrane: Membrane = Membrane.NONE
@@ -40,6 +42,7 @@ class Shell:
     areal_density: float = 0.1           # kg/m^2
     bending_rigidity: Any = None         # N m
     bending_rigidity_weft: Any = None    # N m
+    strain_limit: float = 0.0            # cap on the principal stretch (0.1: 10 %); 0: none
 
     def _fill(self, d: Any) -> None:
         try:
@@ -47,7 +50,8 @@ class Shell:
         except ValueError:
             raise InvalidArgumentError(f"shell.membrane {self.membrane!r} is not a Membrane")
         for name in ("youngs_modulus", "poisson_ratio", "thickness", "warp_modulus",
-                     "weft_modulus", "shear_modulus", "warp_poisson", "areal_density"):
+                     "weft_modulus", "shear_modulus", "warp_poisson", "areal_density",
+                     "strain_limit"):
             setattr(d, "shell_" + name, _arrays.c_double(getattr(self, name), "shell." + name))
         w = list(self.warp_direction)
         if len(w) != 3:

@@ -359,6 +359,7 @@ typedef struct beam {
     double sag;       /* the top far corner's deflection (m, positive down) */
     double seconds;   /* the static solve's wall time */
     int vertices;
+    double newton;    /* Newton iterations of the solve */
 } beam;
 
 /* test_tet10_accuracy's cantilever on n cells per metre (3n x n x n), quadratic tets (the
@@ -392,7 +393,7 @@ static beam cantilever(int n, double nu, int mixed)
         TU_OK(defsim_world_get_positions(w, x, nv));
         TU_OK(defsim_world_set_state(w, x, v));
     }
-    beam r = {1.0 - x[3 * probe + 1], now_s() - t0, nv};
+    beam r = {1.0 - x[3 * probe + 1], now_s() - t0, nv, tu_bstat(w, "newton_iterations")};
     free(x);
     free(v);
     defsim_world_destroy(w);
@@ -403,8 +404,8 @@ static beam cantilever(int n, double nu, int mixed)
 static void print_beam(const char *what, int n, double nu, beam b, double ref)
 {
     printf("  %-17s %2d x %2d x %2d, nu %.3f: %.5f mm (%+.2f %% of %.4f mm; %d vertices, "
-           "%.2f s)\n", what, 3 * n, n, n, nu, 1e3 * b.sag, 100.0 * (b.sag / ref - 1.0),
-           1e3 * ref, b.vertices, b.seconds);
+           "%.0f Newton iterations, %.2f s)\n", what, 3 * n, n, n, nu, 1e3 * b.sag,
+           100.0 * (b.sag / ref - 1.0), 1e3 * ref, b.vertices, b.newton, b.seconds);
 }
 
 /* nu = 0.499: the mean-dilatation element within issue 29's 3 % at 12 x 4 x 4 cells (the

@@ -33,6 +33,7 @@
 #include "energy.h"
 #include "material.h"
 #include "system.h"
+#include "term_cache.h"
 #include "tet10.h"
 
 #include <math.h>
@@ -44,15 +45,7 @@ static const defsim__group *group(const defsim__term *t) { return t->model; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    int n = 0;
-    for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
-        if (s->groups[DEFSIM__QMIX_GROUP + m].n > 0) {
-            memset(&out[n], 0, sizeof out[n]);
-            out[n].model = &s->groups[DEFSIM__QMIX_GROUP + m];
-            out[n].index = DEFSIM__QMIX_GROUP + m;
-            ++n;
-        }
-    return n;
+    return defsim__term_groups(s, DEFSIM__QMIX_GROUP, out);
 }
 
 static const double *rest_of(const defsim__group *g, int32_t e)
@@ -118,32 +111,9 @@ static void linearise_element(const defsim__group *g, const double *x, int32_t e
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)
 {
-    enum { nd = 30 };
-    const double *r = rest_of(g, e);
     mixed_lin L;
     linearise_element(g, x, e, sk, sd, s->projection, &L);
-    for (int i = 0; i < nd; ++i)
-        for (int j = 0; j < nd; ++j) K[i * nd + j] = L.c * L.b[i] * L.b[j];
-    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
-        const double *G = r + DEFSIM__TET10_QSTRIDE * q, *D = L.D[q];
-        const double w = G[30];
-        for (int b = 0; b < 10; ++b) {
-            const double *gb = G + 3 * b;
-            double Dg[9][3];   /* Dg[(i,j)][k] = w sum_l D[(i,j),(k,l)] g_b[l] */
-            for (int rr = 0; rr < 9; ++rr)
-                for (int k = 0; k < 3; ++k)
-                    Dg[rr][k] = w * (D[9 * rr + 3 * k] * gb[0] + D[9 * rr + 3 * k + 1] * gb[1] +
-                                     D[9 * rr + 3 * k + 2] * gb[2]);
-            for (int a = 0; a < 10; ++a) {
-                const double *ga = G + 3 * a;
-                for (int i = 0; i < 3; ++i)
-                    for (int k = 0; k < 3; ++k)
-                        K[(3 * a + i) * nd + 3 * b + k] += ga[0] * Dg[3 * i][k] +
-                                                           ga[1] * Dg[3 * i + 1][k] +
-                                                           ga[2] * Dg[3 * i + 2][k];
-            }
-        }
-    }
+    defsim__tet10_stiffness(rest_of(g, e), (const double (*)[81])L.D, L.c, L.b, K);
     return 1;
 }
 

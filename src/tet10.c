@@ -175,6 +175,40 @@ static const double *rest_of(const defsim__group *g, int32_t e)
     return g->qrest + DEFSIM__TET10_REST * (int64_t)e;
 }
 
+void defsim__tet10_stiffness(const double *rest, const double D[DEFSIM__TET10_QP][81], double c,
+                             const double *bv, double *K)
+{
+    enum { nd = 30 };
+    for (int i = 0; i < nd; ++i)
+        for (int j = 0; j < nd; ++j) K[i * nd + j] = bv ? c * bv[i] * bv[j] : 0.0;
+    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+        const double *G = rest + DEFSIM__TET10_QSTRIDE * q, *Dq = D[q];
+        const double w = G[30];
+        for (int b = 0; b < 10; ++b) {
+            const double *gb = G + 3 * b;
+            double Dg[9][3];   /* Dg[(i,j)][k] = w sum_l D[(i,j),(k,l)] g_b[l] */
+            for (int rr = 0; rr < 9; ++rr)
+                for (int k = 0; k < 3; ++k)
+                    Dg[rr][k] = w * (Dq[9 * rr + 3 * k] * gb[0] + Dq[9 * rr + 3 * k + 1] * gb[1] +
+                                     Dq[9 * rr + 3 * k + 2] * gb[2]);
+            for (int a = 0; a <= b; ++a) {
+                const double *ga = G + 3 * a;
+                for (int i = 0; i < 3; ++i)
+                    for (int k = 0; k < 3; ++k)
+                        K[(3 * a + i) * nd + 3 * b + k] += ga[0] * Dg[3 * i][k] +
+                                                           ga[1] * Dg[3 * i + 1][k] +
+                                                           ga[2] * Dg[3 * i + 2][k];
+            }
+        }
+    }
+    /* D symmetric: the lower blocks mirror the upper ones. */
+    for (int b = 0; b < 10; ++b)
+        for (int a = 0; a < b; ++a)
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k)
+                    K[(3 * b + k) * nd + 3 * a + i] = K[(3 * a + i) * nd + 3 * b + k];
+}
+
 void defsim__tet10_damping_forces(const defsim__group *g, const double *x, const double *v,
                                   double *f, int nthreads)
 {

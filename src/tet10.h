@@ -87,6 +87,12 @@ static inline void defsim__tet10_scatter(double *f, const int32_t *id, const dou
     }
 }
 
+/* The element matrix K (30 x 30, row-major) = sum_q w_q G_q^T D_q G_q + c b b^T over the
+ * points of rest data `rest` with their symmetric 9 x 9 tangents D (b: 30 doubles, or NULL for
+ * none): the upper blocks summed point by point, the lower ones mirrored. */
+void defsim__tet10_stiffness(const double *rest, const double D[DEFSIM__TET10_QP][81], double c,
+                             const double *b, double *K);
+
 struct defsim__group;
 
 /* Group-level kernels that other files than the elastic term need (a group of quadratic tets,

@@ -8,9 +8,10 @@
  *  - the patch test: x = F X on a distorted quadratic mesh (interior corners moved) gives the
  *    analytic energy V (psi(F) - psi(I)), no force on interior nodes, the standard element's
  *    energy and forces, and the analytic Cauchy stress from the read-back in every element;
- *  - a checkpoint keeps the element (bit-identical continuation); 1 and 2 threads give the same
- *    bits (explicit steps with stiffness damping, the matrix values and products, on boxes whose
- *    colours pass the term's parallel thresholds); the explicit stable step sees the element;
+ *  - 1 and 2 threads give the same bits (explicit steps with stiffness damping, the matrix values
+ *    and products, on boxes whose colours pass the term's parallel thresholds); the explicit
+ *    stable step sees the element (test_volume_averaging's test_checkpoint: a checkpoint keeps
+ *    it, bit-identical);
  *  - the issue-29 cantilever (test_tet10_accuracy's: 3 m x 1 m x 1 m clamped at x = 0, stable
  *    neo-Hookean, E = 1e8, density 1000, its own weight, static equilibrium by two newton_cholmod
  *    steps of 10 s) against the converged references of test_tet10_accuracy (REF_CANTILEVER at
@@ -205,54 +206,6 @@ static void test_patch(void **state)
         free(f[1]);
     }
     free(x);
-    defsim_mesh_free(&m);
-}
-
-/* A checkpoint keeps the element (BODY's volume_averaging and indices per tet): a clamped
- * mixed quadratic box at nu = 0.49 saved after 10 newton_cholmod steps and loaded continues
- * with the same bits as the run that saved it, and not as the standard quadratic box does. */
-static void test_checkpoint(void **state)
-{
-    (void)state;
-    const double lo[3] = {0, 0, 0}, hi[3] = {0.6, 0.2, 0.2};
-    defsim_mesh m;
-    box_mesh(lo, hi, 3, 1, 1, &m);
-    TU_OK(defsim_mesh_make_quadratic(&m));
-    defsim_world *w[2];
-    for (int mixed = 0; mixed < 2; ++mixed) {
-        w[mixed] = tu_world("newton_cholmod", -9.81, 1);
-        defsim_body_def bd = body_def(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0.49, mixed);
-        bd.material.stiffness_damping = 0.01;
-        defsim_body_id id;
-        TU_OK(defsim_world_add_body(w[mixed], &bd, &id));
-        tu_pin_below(w[mixed], id, 0, 0.0);
-        for (int k = 0; k < 10; ++k) TU_OK(defsim_world_step(w[mixed], 0.01));
-    }
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(w[1], &buf, &size));
-    defsim_world *back = NULL;
-    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &back));
-    defsim_buffer_free(buf);
-    TU_OK(defsim__world_plan(back));
-    assert_true(back->sys.groups[DEFSIM__QMIX_GROUP + 3].n == m.tet_count);
-    for (int k = 0; k < 10; ++k) {
-        TU_OK(defsim_world_step(w[0], 0.01));
-        TU_OK(defsim_world_step(w[1], 0.01));
-        TU_OK(defsim_world_step(back, 0.01));
-    }
-    double *a = tu_positions(w[1]), *b = tu_positions(back), *c = tu_positions(w[0]);
-    const int n = defsim_world_vertex_count(back);
-    double d = 0.0;
-    for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - c[i]));
-    printf("  loaded run: bit-identical %d; the standard quadratic box differs by %.3g m\n",
-           !memcmp(a, b, 3 * (size_t)n * sizeof *a), d);
-    assert_memory_equal(a, b, 3 * (size_t)n * sizeof *a);
-    assert_true(d > 1e-6);
-    free(a); free(b); free(c);
-    defsim_world_destroy(w[0]);
-    defsim_world_destroy(w[1]);
-    defsim_world_destroy(back);
     defsim_mesh_free(&m);
 }
 
@@ -452,7 +405,6 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_refused),
         cmocka_unit_test(test_patch),
-        cmocka_unit_test(test_checkpoint),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_cantilever_incompressible),
         cmocka_unit_test(test_cantilever_compressible),

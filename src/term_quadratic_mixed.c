@@ -20,7 +20,7 @@
  * own. Each point's 9 x 9 D_q = dP_iso/dF + p d2J/dF2 is indefinite through p d2J/dF2 and is
  * projected by eigen-decomposition under the system's projection (clamp or abs; as the linear
  * volume-averaged tets do, term_nodal_volume.c); the rank-one part is positive semi-definite where
- * U'' >= 0 (always for stable neo-Hookean, Jbar < e for neo-Hookean), U'' clamped (abs) under
+ * U'' >= 0 (stable neo-Hookean: wherever nu >= 0; neo-Hookean: Jbar < e), U'' clamped (abs) under
  * projection. Positive weights keep the sum positive semi-definite; with projection none it is the
  * exact Hessian. Stiffness damping -beta K(x) v uses the clamped K (in this term's forces, as the
  * volume-averaged tets do; the stiffness-damping term skips these groups).

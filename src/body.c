@@ -320,11 +320,6 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                       (int)d.volume_averaging);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
-    if (d.volume_averaging && d.tet_nodes == 10) {
-        defsim__error(msg, "add_body: volume_averaging is for linear tets; quadratic tets "
-                           "(tet_nodes 10) do not lock and have no averaged element");
-        return DEFSIM_ERR_INVALID_MATERIAL;
-    }
     if (d.volume_averaging && d.tet_count > 0) {
         const defsim__model *law = defsim__model_find(d.material.model);
         if (!law || !law->split) {

@@ -130,24 +130,27 @@ static defsim_status pack_batches(defsim__group *g, batch_rows_fn rows_of)
 }
 
 /* The element group of a body's tets: its model's (material_list.h order; bodies are
- * validated, so found), among the quadratic groups for quadratic tets. */
+ * validated, so found), among the quadratic groups for quadratic tets (the mean-dilatation ones
+ * with volume_averaging; linear volume-averaged tets: the model's index into s->vgroups). */
 static int group_of(const defsim__body *bd)
 {
     int m = 0;
     while (m < DEFSIM__TET_MODELS - 1 && (int)defsim__tet_models[m]->id != (int)bd->mat.model) ++m;
-    return bd->tet_nodes == 10 ? DEFSIM__QUAD_GROUP + m : m;
+    if (bd->tet_nodes != 10) return m;
+    return (bd->volume_averaging ? DEFSIM__QMIX_GROUP : DEFSIM__QUAD_GROUP) + m;
 }
 
 /* Room for count elements in g, group m of DEFSIM__GROUPS (linear tets of model m, springs,
- * or quadratic tets of model m - DEFSIM__QUAD_GROUP; a volume-averaged group is its model's
- * linear one), none filled yet. */
+ * quadratic tets of model m - DEFSIM__QUAD_GROUP, mean-dilatation ones of m -
+ * DEFSIM__QMIX_GROUP; a volume-averaged group is its model's linear one), none filled yet. */
 static defsim_status group_alloc(defsim__group *g, int m, int32_t count)
 {
     const size_t n = (size_t)(count > 0 ? count : 1);
     const int quad = m >= DEFSIM__QUAD_GROUP, tets = m != DEFSIM__TET_MODELS;
-    const int model = quad ? m - DEFSIM__QUAD_GROUP : m;
+    const int model = quad ? (m - DEFSIM__QUAD_GROUP) % DEFSIM__TET_MODELS : m;
     g->n = 0;
     g->nodes = quad ? 10 : tets ? 4 : 2;
+    g->mixed = m >= DEFSIM__QMIX_GROUP;
     g->law = tets ? defsim__tet_models[model] : NULL;
     g->pass = tets ? defsim__tet_models[model]->pass : defsim__model_spring.pass;
     g->idx = malloc(n * g->nodes * sizeof *g->idx);
@@ -263,7 +266,8 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
-        if (bd->nt > 0) (bd->volume_averaging ? vcount : count)[group_of(bd)] += bd->nt;
+        if (bd->nt > 0)
+            (bd->volume_averaging && bd->tet_nodes == 4 ? vcount : count)[group_of(bd)] += bd->nt;
         count[DEFSIM__TET_MODELS] += bd->ns;
     }
     defsim_status st = DEFSIM_OK;
@@ -288,7 +292,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
                 for (int a = 0; a < 10; ++a) g->idx[10 * (int64_t)e + a] = bd->offset + lt[a];
             }
         } else if (bd->nt > 0) {
-            const int m = group_of(bd);   /* volume averaging is refused for quadratic tets */
+            const int m = group_of(bd);
             defsim__group *g = bd->volume_averaging ? &s->vgroups[m].g : &s->groups[m];
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;

@@ -13,6 +13,7 @@
     X(elastic)                  \
     X(nodal_volume)             \
     X(elastic_quadratic)        \
+    X(quadratic_mixed)          \
     X(spring)                   \
     X(membrane)                 \
     X(hinge)                    \

@@ -265,8 +265,11 @@ typedef struct defsim_body_def {
     /// lambda, U(J), is evaluated per vertex on the vertex's volume ratio, the sum of its tets'
     /// current volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
     /// bodies (poisson_ratio near 0.5) then bend as the continuum does instead of locking; the
-    /// matrices couple every vertex of a vertex's tets (a wider pattern). 0 (default): the
-    /// standard element. Only the neo-Hookean and stable neo-Hookean models have the split
+    /// matrices couple every vertex of a vertex's tets (a wider pattern). With quadratic tets
+    /// (tet_nodes 10) it selects the mean-dilatation element instead (P2/P0; docs/elements.md):
+    /// the part without lambda at each quadrature point, U on the element's mean volume ratio
+    /// (its current over its rest volume), the pattern the quadratic tets' own. 0 (default):
+    /// the standard element. Only the neo-Hookean and stable neo-Hookean models have the split
     /// (their lambda terms depend on J alone); with StVK or co-rotated, or a value other than 0
     /// and 1: DEFSIM_ERR_INVALID_MATERIAL.
     int32_t volume_averaging;
@@ -924,7 +927,10 @@ DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double
 /// there), gets NaN stresses; its energy density is that of the model (+inf for neo-Hookean).
 /// A body with volume_averaging reports its tets' isochoric stress plus their averaged nodal
 /// pressure p_e cof(F) (the stress its forces come from), and the isochoric energy density plus
-/// the mean of its vertices' volumetric U(J_n).
+/// the mean of its vertices' volumetric U(J_n); with quadratic tets, the mean over the
+/// quadrature points of the isochoric stress plus the element's pressure U'(Jbar) cof(F), and
+/// the element's energy (isochoric at the points, U(Jbar) of its mean volume ratio) over its
+/// volume.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID,
 /// DEFSIM_ERR_OUT_OF_MEMORY (volume_averaging only).
 DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,

@@ -17,7 +17,9 @@
  *    linear tets about 20 % short.
  *  - The same cantilever at nu = 0.499 against its converged solution REF_CANTILEVER_NU499:
  *    the linear tets lock (84 % short); the quadratic tets are 4.1 % short at 12 x 4 x 4 cells
- *    (issue 29 asks 3 %: not met on this mesh), 2.3 % at 18 x 6 x 6 (within 3 %).
+ *    (issue 29 asks 3 %: not met on this mesh by this element), 2.3 % at 18 x 6 x 6 (within
+ *    3 %); the mean-dilatation quadratic tets (volume_averaging, test_quadratic_mixed) are
+ *    -0.04 % at 12 x 4 x 4.
  *  - Cook's membrane, 3D thin-plate variant: the tapered panel (0,0), (48,44), (48,60), (0,44)
  *    (Cook 1974) with thickness 1 and traction-free faces, clamped at x = 0 (every vertex
  *    there pinned), a uniform vertical shear traction of total force F on the face x = 48,

@@ -114,8 +114,8 @@ def main():
         }],
         "colliders": [{"shape": "box", "position": [0, -0.07, 0],
                        "half_extents": [0.02, 0.06, 0.02]}],
-        "output": {"camera": {"azimuth": 30, "elevation": 35, "zoom": 1.0,
-                              "fit": [[-0.16, -0.13, -0.16], [0.16, 0.02, 0.16]]}},
+        "output": {"camera": {"azimuth": 30, "elevation": 25, "zoom": 1.0,
+                              "fit": [[-0.16, -0.09, -0.16], [0.16, 0.01, 0.16]]}},
     }
     with open(os.path.join(HERE, "..", "scenes", "cusick_drape.json"), "w") as f:
         json.dump(scene, f, indent=2)

@@ -570,10 +570,18 @@ static int parse_shell(sj_ctx *c, const cJSON *j, const char *w, scene_body *b)
                                        "warp_modulus", "weft_modulus", "shear_modulus",
                                        "warp_poisson", "warp_direction", "areal_density",
                                        "bending_rigidity", "bending_rigidity_weft", "strain_limit",
+                                       "fabric",
                                        NULL};
     if (sj_keys(c, j, ws, keys)) return -1;
     defsim_body_def *d = &b->shell;
     defsim_body_def_init(d, sizeof *d);
+    /* A fabric by name first (defsim_body_def_set_fabric), so that the keys below override it. */
+    const cJSON *fab = cJSON_GetObjectItemCaseSensitive(j, "fabric");
+    if (fab) {
+        if (!cJSON_IsString(fab)) return sj_fail(c, fab, "%s.fabric must be a string", ws);
+        if (defsim_body_def_set_fabric(d, fab->valuestring) != DEFSIM_OK)
+            return sj_fail(c, fab, "%s.fabric: %s", ws, defsim_last_error());
+    }
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(j, "membrane");
     if (m) {
         static const char *const names[] = {"none", "stvk", "neohookean", "orthotropic_stvk"};

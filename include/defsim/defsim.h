@@ -1324,6 +1324,47 @@ DEFSIM_API const char *defsim_tape_last_error(const defsim_tape *tape);
 /// Ends the recording and frees the tape (NULL is ignored). The world keeps stepping as before.
 DEFSIM_API void defsim_tape_destroy(defsim_tape *tape);
 
+/* ------------------------------------------------------------------------------------------ */
+/* Measured fabrics (issue 26, docs/shells.md "Fabrics by name"): a small table of fabrics     */
+/* whose measured areal density, tensile and bending data fill a shell body's fields by name.  */
+
+/// One fabric of the library's table (docs/shells.md lists it with the sources of its numbers):
+/// the values that defsim_body_def_set_fabric puts into a body def's shell fields, in SI units.
+typedef struct defsim_fabric {
+    uint32_t size;                 ///< sizeof(defsim_fabric), set by the caller before the call.
+    const char *name;              ///< Its name ("denim", ...): static, owned by the library.
+    const char *description;       ///< What it is and the measurement it comes from (static).
+    double areal_density;          ///< kg/m^2 (shell_areal_density).
+    double warp_modulus;           ///< Small-strain tensile modulus along the warp, N/m.
+    double weft_modulus;           ///< Small-strain tensile modulus along the weft, N/m.
+    double shear_modulus;          ///< In-plane shear modulus, N/m.
+    double warp_poisson;           ///< nu_12 (shell_warp_poisson).
+    double bending_rigidity;       ///< Bending rigidity along the warp, N m.
+    double bending_rigidity_weft;  ///< Bending rigidity along the weft, N m.
+} defsim_fabric;
+
+/// The number of fabrics in the table (> 0). Thread-safe.
+DEFSIM_API int32_t defsim_fabric_count(void);
+
+/// The fabric at index (0 .. defsim_fabric_count() - 1) into *out (out->size must be set).
+/// Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL out, out->size too small, index out of
+/// range); defsim_last_error() says which.
+DEFSIM_API defsim_status defsim_fabric_get(int32_t index, defsim_fabric *out);
+
+/// The fabric of that name into *out (out->size must be set). Thread-safe. Errors:
+/// DEFSIM_ERR_INVALID_ARGUMENT (NULL out, out->size too small), DEFSIM_ERR_INVALID_MATERIAL (no
+/// fabric of that name, or NULL name: defsim_last_error() names the table's fabrics).
+DEFSIM_API defsim_status defsim_fabric_find(const char *name, defsim_fabric *out);
+
+/// Makes def a shell of the named fabric: shell_membrane DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK
+/// and shell_areal_density, shell_warp_modulus, shell_weft_modulus, shell_shear_modulus,
+/// shell_warp_poisson, shell_bending_rigidity and shell_bending_rigidity_weft from the table;
+/// the other fields (shell_warp_direction, the triangles, ...) are left as they are. On an error
+/// def is unchanged. Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL def, def->size not
+/// that of defsim_body_def_init), DEFSIM_ERR_INVALID_MATERIAL (no fabric of that name, or NULL
+/// name: defsim_last_error() names the table's fabrics).
+DEFSIM_API defsim_status defsim_body_def_set_fabric(defsim_body_def *def, const char *name);
+
 #ifdef __cplusplus
 }
 #endif

@@ -105,3 +105,27 @@ def test_strain_limit_bad_values_raise():
         _sheet(defsim.Shell(membrane=defsim.Membrane.STVK, strain_limit=-0.1))
     with pytest.raises(defsim.BackendUnavailableError):   # symplectic_euler: no filtered search
         _sheet(defsim.Shell(membrane=defsim.Membrane.STVK, strain_limit=0.1))
+def test_fabric_by_name():
+    """The table of measured fabrics (docs/shells.md): names, the denim's numbers, the same
+    body as the explicit Shell, an unknown name refused."""
+    names = defsim.fabrics()
+    assert names[0] == "denim" and "cotton_polyester" in names and len(names) == 6
+    s = defsim.Shell.from_fabric("denim", warp_direction=(0, 1, 0))
+    assert s.membrane == defsim.Membrane.ORTHOTROPIC_STVK
+    assert (s.areal_density, s.warp_modulus, s.weft_modulus, s.shear_modulus, s.warp_poisson,
+            s.bending_rigidity, s.bending_rigidity_weft) == (
+        0.324, 410.5, 2026.8, 53.387, 0.01009, 2.424e-5, 1.605e-5)
+    explicit = defsim.Shell(membrane=defsim.Membrane.ORTHOTROPIC_STVK, areal_density=0.324,
+                            warp_modulus=410.5, weft_modulus=2026.8, shear_modulus=53.387,
+                            warp_poisson=0.01009, bending_rigidity=2.424e-5,
+                            bending_rigidity_weft=1.605e-5, warp_direction=(0, 1, 0))
+    w1, mesh = _sheet(s)
+    w2, _ = _sheet(explicit)
+    x = mesh.positions * np.array([1.03, 1.0, 0.98])
+    x[:, 2] += 0.05 * mesh.positions[:, 0] ** 2
+    np.testing.assert_array_equal(w1.forces(x), w2.forces(x))
+    assert np.abs(w1.forces(x)).max() > 1e-3
+    with pytest.raises(defsim.InvalidMaterialError, match="unknown fabric"):
+        defsim.Shell.from_fabric("velvet")
+    with pytest.raises(defsim.InvalidArgumentError):
+        defsim.Shell.from_fabric(3)

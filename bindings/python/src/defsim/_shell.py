@@ -7,7 +7,8 @@ import enum
 from typing import Any, Sequence
 
 from . import _arrays
-from ._errors import InvalidArgumentError
+from ._errors import InvalidArgumentError, check, function
+from ._native import ffi
 
 
 class Membrane(enum.IntEnum):
@@ -44,6 +45,29 @@ class Shell:
     bending_rigidity_weft: Any = None    # N m
     strain_limit: float = 0.0            # cap on the principal stretch (0.1: 10 %); 0: none
 
+    @classmethod
+    def from_fabric(cls, name: str, **overrides: Any) -> "Shell":
+        """The shell of a fabric of the library's table of measured fabrics (docs/shells.md,
+        ``defsim_fabric_find``): the orthotropic StVK membrane with the fabric's areal density,
+        warp, weft and shear moduli, nu_12 and warp and weft bending rigidities; ``overrides``
+        set other fields (``warp_direction``, ...) or replace the table's.
+
+        Raises InvalidMaterialError for a name the table does not have (the message lists the
+        table's names), UnsupportedError if the loaded library has no fabric table.
+        """
+        if not isinstance(name, str) or "\0" in name:
+            raise InvalidArgumentError(f"fabric name must be a string, got {name!r}")
+        f = ffi.new("defsim_fabric *")
+        f.size = ffi.sizeof("defsim_fabric")
+        check(function("defsim_fabric_find")(name.encode("utf-8"), f))
+        values = dict(membrane=Membrane.ORTHOTROPIC_STVK, areal_density=f.areal_density,
+                      warp_modulus=f.warp_modulus, weft_modulus=f.weft_modulus,
+                      shear_modulus=f.shear_modulus, warp_poisson=f.warp_poisson,
+                      bending_rigidity=f.bending_rigidity,
+                      bending_rigidity_weft=f.bending_rigidity_weft)
+        values.update(overrides)
+        return cls(**values)
+
     def _fill(self, d: Any) -> None:
         try:
             d.shell_membrane = int(Membrane(self.membrane))
@@ -64,3 +88,16 @@ class Shell:
         d.shell_bending_rigidity_weft = (-1.0 if self.bending_rigidity_weft is None else
                                          _arrays.c_double(self.bending_rigidity_weft,
                                                           "shell.bending_rigidity_weft"))
+
+
+def fabrics() -> "list[str]":
+    """The names of the library's table of measured fabrics (``defsim_fabric_get``), in its
+    order; ``Shell.from_fabric(name)`` makes a shell of one."""
+    get = function("defsim_fabric_get")
+    out = []
+    f = ffi.new("defsim_fabric *")
+    f.size = ffi.sizeof("defsim_fabric")
+    for i in range(int(function("defsim_fabric_count")())):
+        check(get(i, f))
+        out.append(ffi.string(f.name).decode("utf-8"))
+    return out

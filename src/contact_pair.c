@@ -520,3 +520,29 @@ double defsim__contact_barrier(int type, const double *X, double dh, double kap,
     }
     return mo * e;
 }
+
+double defsim__contact_barrier_exact(int type, const double *X, double dh, double kap,
+                                     double eps_moll, double *g, double *H)
+{
+    const int nd = 3 * defsim__contact_nodes(type);
+    double gs[12], Hs[144], gd[12], gm[12] = {0}, Hm[144] = {0};
+    const double s = defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
+    if (!(s < dh * dh)) return 0.0;
+    if (!(s > 0.0)) return INFINITY;
+    const double d = sqrt(s), e = kap * barrier(d, dh);
+    const double b1 = kap * barrier_d1(d, dh), b2 = kap * barrier_d2(d, dh);
+    const double mo = type == DEFSIM__C_EE
+                          ? defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, H ? Hm : NULL)
+                          : 1.0;
+    for (int i = 0; i < nd; ++i) gd[i] = gs[i] / (2.0 * d);
+    if (g)
+        for (int i = 0; i < nd; ++i) g[i] = mo * (b1 * gd[i]) + e * gm[i];
+    if (H)
+        for (int i = 0; i < nd; ++i)
+            for (int j = 0; j < nd; ++j) {
+                const double hd = Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d;
+                H[i * nd + j] = mo * (b2 * gd[i] * gd[j] + b1 * hd) + b1 * gd[i] * gm[j] +
+                                gm[i] * b1 * gd[j] + e * Hm[i * nd + j];
+            }
+    return mo * e;
+}

@@ -34,4 +34,10 @@ double defsim__contact_dist2(int type, const double *X, double *g, double *H);
 double defsim__contact_barrier(int type, const double *X, double dhat, double kappa,
                                double eps_moll, double *g, double *H);
 
+/* The same barrier with its exact Hessian, not projected (a backward pass's matrix and the
+ * reverse mode, docs/gradients.md): from the distance's and the mollifier's derivatives for
+ * every type. Same arguments and returns as defsim__contact_barrier. */
+double defsim__contact_barrier_exact(int type, const double *X, double dhat, double kappa,
+                                     double eps_moll, double *g, double *H);
+
 #endif /* DEFSIM_CONTACT_PAIR_H */

@@ -17,6 +17,8 @@
 #include "chunk.h"
 #include "clock.h"
 #include "material.h"
+#include "step.h"
+#include "terms.h"
 #include "world.h"
 
 #include <math.h>
@@ -63,6 +65,8 @@ struct defsim_tape {
     defsim__settings set;     /* the core's settings then */
     double *opt;              /* the backend's option values then */
     int32_t nopt;
+    defsim__collider *col;    /* the colliders' slots then (their defs and poses) */
+    int32_t ncol;
     int broken;               /* the world changed in a way the recording cannot follow */
     char why[320];            /* what changed */
     int replaying;            /* the backward pass steps the world: not recorded */
@@ -113,7 +117,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->fcap * state_bytes(t) / 2 + state_bytes(t) +
                      (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
-                     (size_t)t->nopt * sizeof(double) + sizeof *t +
+                     (size_t)t->nopt * sizeof(double) + (size_t)t->ncol * sizeof *t->col +
+                     sizeof *t +
                      (size_t)t->hcap * (sizeof(uint8_t) + sizeof(int64_t)) + history_bytes(t) +
                      (size_t)(t->gcap + 1) * state_bytes(t) / 2);
 }
@@ -302,6 +307,18 @@ static const char *changed(const defsim_tape *t, const defsim_world *w)
     return NULL;
 }
 
+/* Whether the colliders changed since the recording began (checked after what a recording
+ * cannot differentiate: a collider that came to a penalty backend is that). */
+static const char *colliders_changed(const defsim_tape *t, const defsim_world *w)
+{
+    if (w->colliders.ncol != t->ncol ||
+        (t->ncol > 0 &&
+         memcmp(w->colliders.col, t->col, (size_t)t->ncol * sizeof *t->col) != 0))
+        return "a collider was added, removed, moved or changed (gradients hold the colliders "
+               "fixed: their poses over time are not differentiated)";
+    return NULL;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Recording: the world's step calls this after every successful step. */
 
@@ -313,6 +330,7 @@ static void tape_step(defsim__tape_link *link, double h)
     const char *why = changed(t, w);
     char buf[400];
     if (!why) why = unsupported(w, buf, sizeof buf);   /* a collider, a callback came */
+    if (!why) why = colliders_changed(t, w);
     if (why) {
         breaks(t, why);
         return;
@@ -378,9 +396,14 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
         return buf;
     }
     const char *term = NULL;
-    if (defsim__collider_set_live(&w->colliders) > 0) term = "collider contact";
-    else if (w->set.body_contact) term = "body contact (core.body_contact)";
-    else if (w->coupling.cpl.fn) term = "the force callback";
+    if (defsim__collider_set_live(&w->colliders) > 0 && !(b->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        snprintf(buf, size, "record: backend %s has collider contact as a penalty force, which "
+                            "gradients do not differentiate (the barrier's backends do: "
+                            "newton_cholmod, newmark, bdf2)",
+                 b->name);
+        return buf;
+    }
+    if (w->coupling.cpl.fn) term = "the force callback";
     if (!term) term = defsim__forces_vjp_missing(&w->sys);
     if (term) {
         snprintf(buf, size, "record: the scene uses %s, which gradients do not differentiate "
@@ -415,6 +438,9 @@ typedef struct world_saved {
     int32_t ntargeted;        /* the host's pending pin targets (copies, or NULL: none) */
     uint8_t *targeted;
     double *pin_target;
+    double cstat[DEFSIM__CSTAT_COUNT];   /* the contact statistics */
+    unsigned char *carry;     /* what collider contact carries to the next step (its chunk) */
+    size_t ncarry;
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -449,6 +475,18 @@ static int world_save(const defsim_world *w, world_saved *s)
         if (!s->targeted || !s->pin_target) return 0;
         memcpy(s->targeted, w->coupling.targeted, (size_t)w->nv);
         memcpy(s->pin_target, w->coupling.pin_target, 3 * (size_t)w->nv * sizeof(double));
+    }
+    /* The steps run again and the adjoints' contact begin change contact's statistics and what
+     * it carries between steps (the safe box): kept as a checkpoint keeps them. */
+    memcpy(s->cstat, w->contact.stat, sizeof s->cstat);
+    if (w->planned) {
+        const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                       (defsim__contact *)&w->contact);
+        s->ncarry = tc.ops->save(&tc, NULL, 0);
+        if (s->ncarry > 0) {
+            if (!(s->carry = malloc(s->ncarry))) return 0;
+            (void)tc.ops->save(&tc, s->carry, s->ncarry);
+        }
     }
     return history_save((defsim_world *)w, &s->history);
 }
@@ -489,6 +527,12 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
             memcpy(w->coupling.targeted, s->targeted, (size_t)w->nv);
             memcpy(w->coupling.pin_target, s->pin_target, 3 * (size_t)w->nv * sizeof(double));
         }
+        memcpy(w->contact.stat, s->cstat, sizeof s->cstat);
+        if (w->planned) {
+            const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                           &w->contact);
+            (void)tc.ops->load(&tc, s->carry, s->ncarry);
+        }
     }
     free(s->targeted);
     free(s->pin_target);
@@ -497,6 +541,7 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
     free(s->counters);
     free(s->fext);
     free(s->att_p);
+    free(s->carry);
 }
 
 /* The parameter gradients' arrays, sized for the system. */
@@ -514,9 +559,13 @@ static void grad_free(defsim__grad *g)
     free(g->att_c);
     free(g->att_p);
     free(g->wmask);
+    free(g->xn);
+    free(g->mu_col);
+    free(g->mu_body);
 }
 
-static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
+static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, int32_t nslots,
+                      int64_t *bytes)
 {
     memset(g, 0, sizeof *g);
     int ok = 1;
@@ -540,19 +589,24 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
     ok &= (g->att_k = calloc(na, sizeof(double))) != NULL;
     ok &= (g->att_c = calloc(na, sizeof(double))) != NULL;
     ok &= (g->att_p = calloc(3 * na, sizeof(double))) != NULL;
-    total += 3 * nd + nd / 3 + 5 * na;
+    ok &= (g->xn = calloc(nd, sizeof(double))) != NULL;
+    ok &= (g->mu_col = calloc((size_t)(ncol > 0 ? ncol : 1), sizeof(double))) != NULL;
+    ok &= (g->mu_body = calloc((size_t)(nslots > 0 ? nslots : 1), sizeof(double))) != NULL;
+    total += 4 * nd + nd / 3 + 5 * na + (size_t)(ncol > 0 ? ncol : 1) +
+             (size_t)(nslots > 0 ? nslots : 1);
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
 }
 
 enum {
     G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_PIN,
-    G_NAMES
+    G_MU_COL, G_MU_BODY, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
     "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
-    "attachment_damping", "attachment_targets", "pin_targets"};
+    "attachment_damping", "attachment_targets", "pin_targets", "collider_friction",
+    "body_friction"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -694,8 +748,13 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                                            .drives = G != NULL, .ap1 = ap1};
             w->msg->error[0] = '\0';
             st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
+            /* the step's contact: its pairs and what friction lags from its start */
+            if (st == DEFSIM_OK) st = defsim__world_adjoint_begin(w, S0, S0 + n3, t->h[j]);
             if (st == DEFSIM_OK)
                 st = b->adjoint_step(&defsim__host, &w->handle, w->backend.state, t->h[j], &a);
+            defsim__world_adjoint_end(w);
+            for (int64_t i = 0; i < n3; ++i) ax0[i] += g->xn[i];
+            memset(g->xn, 0, (size_t)n3 * sizeof(double));
             if (st != DEFSIM_OK) {
                 tape_error(t, "backward: the adjoint of step %lld failed: %s", (long long)j,
                            w->msg->error[0] ? w->msg->error : defsim_status_string(st));
@@ -819,6 +878,14 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     t->max_bytes = d.max_bytes;
     t->plan_serial = w->plan_serial;
     t->set = w->set;
+    t->ncol = w->colliders.ncol;
+    if (t->ncol > 0 && !(t->col = malloc((size_t)t->ncol * sizeof *t->col))) {
+        t->link.world = NULL;
+        defsim_tape_destroy(t);
+        defsim__error(w->msg, "record: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    if (t->ncol > 0) memcpy(t->col, w->colliders.col, (size_t)t->ncol * sizeof *t->col);
     if (t->nopt > 0)
         memcpy(t->opt, defsim__options_values(&w->options), (size_t)t->nopt * sizeof(double));
     save_state(w, t->last);
@@ -856,6 +923,10 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
         tape_error(t, "backward: since the last recorded step, %s", buf + strlen("record: "));
         return DEFSIM_ERR_UNSUPPORTED;
     }
+    if ((why = colliders_changed(t, w))) {
+        tape_error(t, "backward: since the recording began, %s", why);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     const int64_t want = (t->nsteps + 1) * 3 * (int64_t)t->nv;
     if ((dl_dx || dl_dv) && count != want) {
         tape_error(t, "backward: count = %lld, but the loss gradients of %lld recorded states "
@@ -885,25 +956,29 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
                           "attachment_stiffness, attachment_damping, attachment_targets, "
-                          "pin_targets",
+                          "pin_targets, collider_friction, body_friction",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-        const int64_t c = k <= G_V0    ? 3 * (int64_t)t->nv
+        const int64_t c = k <= G_V0                  ? 3 * (int64_t)t->nv
                           : k == G_FEXT || k == G_PIN ? 3 * (int64_t)t->nv * t->nsteps
-                          : k == G_ATT_P ? 3 * (int64_t)t->natt * t->nsteps
-                          : k >= G_ATT_K ? t->natt
-                                         : nb;
+                          : k == G_ATT_P             ? 3 * (int64_t)t->natt * t->nsteps
+                          : k == G_MU_COL ? defsim__collider_set_live(&w->colliders)
+                          : k == G_MU_BODY           ? nb
+                          : k >= G_ATT_K             ? t->natt
+                                                     : nb;
         if (grads[i].count != c || (c > 0 && !grads[i].out)) {
             tape_error(t, "backward: grads[%d] (%s) has count %lld, out %s: it needs %lld "
                           "doubles (%s)",
                        (int)i, grad_names[k], (long long)grads[i].count,
                        grads[i].out ? "set" : "NULL", (long long)c,
-                       k <= G_V0      ? "3 * vertex count"
+                       k <= G_V0                    ? "3 * vertex count"
                        : k == G_FEXT || k == G_PIN ? "3 * vertex count per step"
-                       : k == G_ATT_P ? "3 per attachment and step"
-                       : k >= G_ATT_K ? "one per attachment"
-                                      : "one per body");
+                       : k == G_ATT_P               ? "3 per attachment and step"
+                       : k == G_MU_COL              ? "one per collider"
+                       : k == G_MU_BODY             ? "one per body"
+                       : k >= G_ATT_K               ? "one per attachment"
+                                                    : "one per body");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         which[i] = k;
@@ -946,7 +1021,8 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
     int64_t peak = 0;
     double *ax = malloc(2 * (size_t)n3 * sizeof *ax);
     double *body = malloc((size_t)(G_FEXT - G_E) * (size_t)(nb > 0 ? nb : 1) * sizeof *body);
-    const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, &peak) && ax && body;
+    const int ok = world_save(w, &saved) &&
+                   grad_alloc(&g, &w->sys, w->colliders.ncol, w->bodies.n, &peak) && ax && body;
     if (!ok) {
         tape_error(t, "backward: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -983,6 +1059,16 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
                     const double *src = k == G_FEXT ? fext_out : k == G_PIN ? pin_out : attp_out;
                     if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
                         memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
+                    continue;
+                }
+                if (k == G_MU_BODY) {   /* live bodies in slot order */
+                    for (int32_t b = 0, m = 0; b < w->bodies.n; ++b)
+                        if (w->bodies.b[b].generation & 1u) grads[i].out[m++] = g.mu_body[b];
+                    continue;
+                }
+                if (k == G_MU_COL) {   /* live colliders in slot order (get_collider's) */
+                    for (int32_t j = 0, m = 0; j < w->colliders.ncol; ++j)
+                        if (w->colliders.col[j].generation & 1u) grads[i].out[m++] = g.mu_col[j];
                     continue;
                 }
                 const double *src = k == G_X0 ? ax : k == G_V0 ? av : k == G_ATT_K ? g.att_k
@@ -1046,5 +1132,6 @@ void defsim_tape_destroy(defsim_tape *t)
     free(t->gbuf);
     free(t->last);
     free(t->opt);
+    free(t->col);
     free(t);
 }

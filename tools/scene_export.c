@@ -244,6 +244,7 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             double sf[DEFSIM__SHELL_FIELDS];
             defsim__get_f64s(&r, sf, DEFSIM__SHELL_FIELDS);
             defsim__body_shell_fields(&b->shell, sf, 1);
+            b->shell.shell_strain_limit = defsim__get_f64(&r);   /* version 10 */
             if (!b->rest || !b->mass || !b->tets || !b->springs || !b->k || !b->tris || !b->edges)
                 return -2;
         } else if (!memcmp(tag, "ATCH", 4)) {
@@ -542,6 +543,10 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         }
         put(o, ", \"warp_direction\": ");
         vec(o, sh->shell_warp_direction, 3);
+        if (sh->shell_strain_limit != 0.0) {
+            put(o, ", \"strain_limit\": ");
+            num(o, sh->shell_strain_limit);
+        }
         put(o, "}");
     }
     put(o, "}");

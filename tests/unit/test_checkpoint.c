@@ -11,6 +11,7 @@
 #include <defsim/backend.h>
 
 #include "checkpoint.h"
+#include "shell_sheet_v9.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -799,7 +800,8 @@ static void test_version_5_file(void **state)
 
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
- * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields:
+ * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields,
+ * version 10 its strain limit:
  * the file's body loads with the standard linear element and no shell, and continues as the
  * uninterrupted run does; saved again it is a file of today's version that continues bit for
  * bit. */
@@ -807,7 +809,7 @@ static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    assert_int_equal(DEFSIM__CKPT_VERSION, 9);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 10);
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -834,6 +836,41 @@ static void test_version_8_file(void **state)
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v8_sliding.dfck", "version 8");
     check_saved_again(old);
     defsim_world_destroy(old);
+}
+
+/* Format version 9 with a shell: tests/checkpoint/v9_shell.dfck, written by the library of commit
+ * 7c07447 (format 9, before BODY held the strain limit) from shell_sheet_v9.h's sheet after its
+ * 40 steps: it loads (the shell without a strain limit), is where this library's run of the
+ * same sheet is, continues as that run does, and saved again (version 10) continues bit for bit.
+ * The file's bytes after BODY's shell fields would be read as a limit if the reader took version
+ * 9 for 10: the chunk's length check fails then. */
+static void test_version_9_shell_file(void **state)
+{
+    (void)state;
+    defsim_world *old = NULL;
+    TU_OK(defsim_world_load(DEFSIM_TEST_DATA "/v9_shell.dfck", NULL, NULL, &old));
+    defsim_mesh m;
+    defsim_world *now = shell_sheet_v9(&m);
+    assert_non_null(now);
+    for (int k = 0; k < SHELL_V9_STEPS; ++k) TU_OK(defsim_world_step(now, SHELL_V9_H));
+    assert_true(defsim_world_time(old) == defsim_world_time(now));
+    const double d0 = state_diff(old, now);
+    for (int k = 0; k < 20; ++k) {
+        TU_OK(defsim_world_step(old, SHELL_V9_H));
+        TU_OK(defsim_world_step(now, SHELL_V9_H));
+    }
+    const double d = state_diff(old, now);
+    const int32_t n = defsim_world_vertex_count(now);
+    double *x = tu_positions(old);
+    printf("  version 9 shell: max |difference| at the load %.3g, 20 steps after %.3g; the far "
+           "corner at y = %.4g m\n", d0, d, x[3 * (n - 1) + 1]);
+    assert_true(d0 < 1e-12 && d < 1e-9);
+    assert_true(x[3 * (n - 1) + 1] < -1e-4);   /* it fell: the shell acts */
+    free(x);
+    check_saved_again(old);
+    defsim_world_destroy(old);
+    defsim_world_destroy(now);
+    defsim_mesh_free(&m);
 }
 
 /* sundials_erk's history layout 1 (written by commit f44ad41, before the replay: the next step
@@ -977,6 +1014,7 @@ int main(void)
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
         cmocka_unit_test(test_version_7_file), cmocka_unit_test(test_version_8_file),
+        cmocka_unit_test(test_version_9_shell_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

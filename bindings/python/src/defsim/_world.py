@@ -404,8 +404,9 @@ class World(WorldCoupling, WorldColliders):
                 ``A.group & B.mask`` and ``B.group & A.mask``), its Coulomb coefficient (a pair
                 uses the geometric mean).
             volume_averaging: the averaged-nodal-volume tet against volumetric locking of
-                nearly incompressible bodies (docs/materials.md); neo-Hookean and stable
-                neo-Hookean only (others raise MaterialError).
+                nearly incompressible bodies (docs/materials.md), or for quadratic tets the
+                mean-dilatation element (docs/elements.md); neo-Hookean and stable neo-Hookean
+                only (others raise MaterialError).
             shell: a Shell: the triangles (at least one; no tets) are then also membrane
                 elements and bending hinges (docs/shells.md).
 

@@ -108,7 +108,7 @@ def simulate(make_world: Callable[[Dict[str, np.ndarray]], Any], h: float, steps
     respect to the tensors given:
 
     - params: per-body parameters by name (youngs_modulus, poisson_ratio, density,
-      mass_damping, stiffness_damping), tensors of shape (b,). make_world(values) builds the
+      mass_damping, stiffness_damping, body_friction), tensors of shape (b,). make_world(values) builds the
       world from their values ({name: float64 array (b,)}) each time the function runs.
     - x0, v0: the initial state (n, 3) (set with ``World.set_state``; None: the world's).
     - external_forces: (steps, n, 3), held during each step (``World.set_external_forces``).

@@ -455,23 +455,33 @@ static int closest(int type, const double *X, double *s, defsim__dtype *dt, int 
 double defsim__contact_barrier(int type, const double *X, double dh, double kap,
                                double eps_moll, double *g, double *H)
 {
+    return defsim__contact_barrier_offset(type, X, dh, 0.0, kap, eps_moll, g, H);
+}
+
+double defsim__contact_barrier_offset(int type, const double *X, double dh, double xi,
+                                      double kap, double eps_moll, double *g, double *H)
+{
     const int m = defsim__contact_nodes(type);
     const int nd = 3 * m;
-    /* the derivatives only for pairs within dhat (most candidates are not) */
+    /* the derivatives only for pairs within the band (most candidates are not) */
     defsim__dtype dt;
     int nodes[4];
     double s;
     closest(type, X, &s, &dt, nodes);
-    if (!(s < dh * dh)) return 0.0;
+    const double reach = xi + dh;   /* dh itself at xi = 0 */
+    if (!(s < reach * reach)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
     const double d = sqrt(s);
-    const double e = kap * barrier(d, dh);
+    if (!(d > xi)) return INFINITY;
+    /* the barrier on the distance beyond the offset; the geometry below keeps d itself */
+    const double z = d - xi;
+    const double e = kap * barrier(z, dh);
     if (!g && !H) {
         if (type == DEFSIM__C_EE)
             return e * defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL);
         return e;
     }
-    const double b1 = kap * barrier_d1(d, dh), b2 = kap * barrier_d2(d, dh);
+    const double b1 = kap * barrier_d1(z, dh), b2 = kap * barrier_d2(z, dh);
     const int moll = type == DEFSIM__C_EE &&
                      defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL) < 1.0;
     if (!moll && dt == DEFSIM__D_PP) {

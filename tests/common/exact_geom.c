@@ -237,3 +237,91 @@ int eg_point_in_tet(const double x[3], const double a[3], const double b[3], con
     return eg_orient3d(a, b, c, x) == s && eg_orient3d(a, b, x, d) == s &&
            eg_orient3d(a, x, c, d) == s && eg_orient3d(x, b, c, d) == s;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Distances (plain floating point) */
+
+static double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void sub(const double a[3], const double b[3], double r[3])
+{
+    r[0] = a[0] - b[0];
+    r[1] = a[1] - b[1];
+    r[2] = a[2] - b[2];
+}
+
+/* distance from x to the segment (a, b) */
+static double point_seg(const double x[3], const double a[3], const double b[3])
+{
+    double e[3], r[3];
+    sub(b, a, e);
+    sub(x, a, r);
+    const double l2 = dot(e, e);
+    double t = l2 > 0.0 ? dot(r, e) / l2 : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    const double y[3] = {r[0] - t * e[0], r[1] - t * e[1], r[2] - t * e[2]};
+    return sqrt(dot(y, y));
+}
+
+double eg_point_tri_distance(const double x[3], const double a[3], const double b[3],
+                             const double c[3])
+{
+    double e1[3], e2[3], r[3];
+    sub(b, a, e1);
+    sub(c, a, e2);
+    sub(x, a, r);
+    /* barycentric coordinates of the foot from the 2 x 2 normal equations */
+    const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
+    const double r1 = dot(r, e1), r2 = dot(r, e2), det = a11 * a22 - a12 * a12;
+    double best = fmin(point_seg(x, a, b), fmin(point_seg(x, b, c), point_seg(x, a, c)));
+    if (det > 0.0) {
+        const double u = (a22 * r1 - a12 * r2) / det, v = (a11 * r2 - a12 * r1) / det;
+        if (u >= 0.0 && v >= 0.0 && u + v <= 1.0) {
+            const double y[3] = {r[0] - u * e1[0] - v * e2[0], r[1] - u * e1[1] - v * e2[1],
+                                 r[2] - u * e1[2] - v * e2[2]};
+            best = fmin(best, sqrt(dot(y, y)));
+        }
+    }
+    return best;
+}
+
+/* distance between the segments (a0, a1) and (b0, b1) */
+static double seg_seg(const double a0[3], const double a1[3], const double b0[3],
+                      const double b1[3])
+{
+    double best = fmin(fmin(point_seg(a0, b0, b1), point_seg(a1, b0, b1)),
+                       fmin(point_seg(b0, a0, a1), point_seg(b1, a0, a1)));
+    double u[3], v[3], w[3];
+    sub(a1, a0, u);
+    sub(b1, b0, v);
+    sub(a0, b0, w);
+    const double uu = dot(u, u), uv = dot(u, v), vv = dot(v, v), uw = dot(u, w), vw = dot(v, w);
+    const double det = uu * vv - uv * uv;
+    if (det > 1e-14 * uu * vv) {
+        const double s = (uv * vw - vv * uw) / det, t = (uu * vw - uv * uw) / det;
+        if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
+            const double y[3] = {w[0] + s * u[0] - t * v[0], w[1] + s * u[1] - t * v[1],
+                                 w[2] + s * u[2] - t * v[2]};
+            best = fmin(best, sqrt(dot(y, y)));
+        }
+    }
+    return best;
+}
+
+double eg_tri_tri_distance(const double p0[3], const double p1[3], const double p2[3],
+                           const double q0[3], const double q1[3], const double q2[3])
+{
+    if (eg_tri_tri_intersect(p0, p1, p2, q0, q1, q2)) return 0.0;
+    const double *P[3] = {p0, p1, p2}, *Q[3] = {q0, q1, q2};
+    double best = INFINITY;
+    for (int i = 0; i < 3; ++i) {
+        best = fmin(best, eg_point_tri_distance(P[i], q0, q1, q2));
+        best = fmin(best, eg_point_tri_distance(Q[i], p0, p1, p2));
+        for (int j = 0; j < 3; ++j)
+            best = fmin(best, seg_seg(P[i], P[(i + 1) % 3], Q[j], Q[(j + 1) % 3]));
+    }
+    return best;
+}

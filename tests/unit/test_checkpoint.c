@@ -807,7 +807,7 @@ static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    assert_int_equal(DEFSIM__CKPT_VERSION, 9);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 10);
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -832,6 +832,18 @@ static void test_version_8_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v8_sliding.dfck", "version 8");
+    check_saved_again(old);
+    defsim_world_destroy(old);
+}
+
+/* Format version 9: tests/checkpoint/v9_sliding.dfck, written by the library of commit bd1fbe0
+ * (the last to write version 9, before BODY held the contact thickness) from the same cube and
+ * steps: it loads (the body with thickness 0), continues as the uninterrupted run does, and saved
+ * again continues bit for bit. */
+static void test_version_9_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v9_sliding.dfck", "version 9");
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -977,6 +989,7 @@ int main(void)
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
         cmocka_unit_test(test_version_7_file), cmocka_unit_test(test_version_8_file),
+        cmocka_unit_test(test_version_9_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),
         cmocka_unit_test(test_register_half_pair),

@@ -82,8 +82,18 @@ static defsim_body_id add_layer(layers *L, double y, double t, int shell, double
 
 /* Two layers at heights y0 < y1 above a ground plane (friction 0.3) at y = 0, both moving at vy;
  * def_size: the body defs' size (sizeof defsim_body_def, or an older one). */
+static void make_layers2(layers *L, double t0, double t1, int shell, double y0, double y1,
+                         double vy, size_t def_size);
+
 static void make_layers(layers *L, double t, int shell, double y0, double y1, double vy,
                         size_t def_size)
+{
+    make_layers2(L, t, t, shell, y0, y1, vy, def_size);
+}
+
+/* The same with thickness t0 for the lower layer and t1 for the upper. */
+static void make_layers2(layers *L, double t0, double t1, int shell, double y0, double y1,
+                         double vy, size_t def_size)
 {
     memset(L, 0, sizeof *L);
     L->w = tu_implicit_world("newton_cholmod", -G, 1, 1e-9, 200, DEFSIM_PROJECTION_CLAMP);
@@ -92,8 +102,8 @@ static void make_layers(layers *L, double t, int shell, double y0, double y1, do
     const double o[3] = {-0.25, 0.0, -0.25}, u[3] = {0.5, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.5};
     TU_OK(defsim_mesh_cloth(o, u, v, CELLS, CELLS, &L->m));
     assert_int_equal(L->m.vertex_count, NV);
-    L->id[0] = add_layer(L, y0, t, shell, vy, def_size);
-    L->id[1] = add_layer(L, y1, t, shell, vy, def_size);
+    L->id[0] = add_layer(L, y0, t0, shell, vy, def_size);
+    L->id[1] = add_layer(L, y1, t1, shell, vy, def_size);
     defsim_collider_def cd;
     defsim_collider_def_init(&cd, sizeof cd);
     cd.friction = 0.3;
@@ -185,8 +195,9 @@ static sep measure(const layers *L, const double *x)
     return s;
 }
 
-/* Steps n times, checking the separations after each step; returns the last measure. */
-static sep run_checked(layers *L, double t, int n, sep *worst)
+/* Steps n times, checking the separations after each step (between the layers xi, within a
+ * layer ts, to the plane tg); returns the last measure. */
+static sep run_checked3(layers *L, double xi, double ts, double tg, int n, sep *worst)
 {
     double *x = malloc(3 * 2 * NV * sizeof *x);
     sep s = {0};
@@ -195,15 +206,20 @@ static sep run_checked(layers *L, double t, int n, sep *worst)
         if (st != DEFSIM_OK) fail_msg("step %d: %s", k, defsim_world_last_error(L->w));
         TU_OK(defsim_world_get_positions(L->w, x, 2 * NV));
         s = measure(L, x);
-        if (!(s.between > t && s.self > t && s.ground > 0.5 * t))
-            fail_msg("step %d: between %.9g self %.9g ground %.9g, thickness %g", k, s.between,
-                     s.self, s.ground, t);
+        if (!(s.between > xi && s.self > ts && s.ground > tg))
+            fail_msg("step %d: between %.9g self %.9g ground %.9g, offsets %g %g %g", k,
+                     s.between, s.self, s.ground, xi, ts, tg);
         worst->between = fmin(worst->between, s.between);
         worst->self = fmin(worst->self, s.self);
         worst->ground = fmin(worst->ground, s.ground);
     }
     free(x);
     return s;
+}
+
+static sep run_checked(layers *L, double t, int n, sep *worst)
+{
+    return run_checked3(L, t, t, 0.5 * t, n, worst);
 }
 
 /* The contact forces' vertical sums on the lower and upper layer (N). */
@@ -217,28 +233,31 @@ static void contact_lift(const layers *L, double lift[2])
     free(f);
 }
 
-/* Two layers 1 cm apart (the lower 1 cm above the plane) fall and settle over 2 s. */
-static void stack_at_rest(int shell, double t)
+/* Two layers of thickness t0 (lower) and t1 1 cm apart (the lower 1 cm above the plane) fall and
+ * settle over 2 s: the layers keep t = (t0 + t1) / 2, the lower one t0 / 2 from the plane, each
+ * layer its own thickness from itself. */
+static void stack_at_rest(int shell, double t0, double t1)
 {
     layers L;
-    make_layers(&L, t, shell, 0.01 + t, 0.02 + 2.0 * t, 0.0, sizeof(defsim_body_def));
+    const double t = 0.5 * (t0 + t1);
+    make_layers2(&L, t0, t1, shell, 0.01 + t, 0.02 + 2.0 * t, 0.0, sizeof(defsim_body_def));
     sep worst = {INFINITY, INFINITY, INFINITY, 0, 0, 0, 0};
-    const sep s = run_checked(&L, t, 120, &worst);
+    const sep s = run_checked3(&L, t, fmin(t0, t1), 0.5 * t0, 120, &worst);
     double lift[2];
     contact_lift(&L, lift);
     const double w0 = L.mass[0] * G, w1 = L.mass[1] * G;
     const double e_up = fabs(lift[1] - w1) / w1, e_all = fabs(lift[0] + lift[1] - w0 - w1) / (w0 + w1);
-    print_message("%s, t = %g m, dhat %.3g m: over 120 steps least distance between the layers "
+    print_message("%s, t = %g m (lower %g, upper %g), dhat %.3g m: over 120 steps least distance between the layers "
                   "%.6g m, within a layer %.4g m, to the plane %.6g m; at rest the upper layer's "
                   "vertices lie %.6g to %.6g m from the lower layer (band [%g, %.6g]), the "
                   "lower's %.6g to %.6g m above the plane (band [%g, %.6g]); contact forces: "
                   "upper layer %.6g N for its weight %.6g N (%.2e), all %.6g N for %.6g N "
                   "(%.2e)\n",
-                  shell ? "shells" : "springs", t, L.dhat, worst.between, worst.self,
-                  worst.ground, s.up_lo, s.up_hi, t, t + L.dhat, s.lo_lo, s.lo_hi, 0.5 * t,
-                  0.5 * t + L.dhat, lift[1], w1, e_up, lift[0] + lift[1], w0 + w1, e_all);
+                  shell ? "shells" : "springs", t, t0, t1, L.dhat, worst.between, worst.self,
+                  worst.ground, s.up_lo, s.up_hi, t, t + L.dhat, s.lo_lo, s.lo_hi, 0.5 * t0,
+                  0.5 * t0 + L.dhat, lift[1], w1, e_up, lift[0] + lift[1], w0 + w1, e_all);
     assert_true(s.up_lo >= t && s.up_hi <= t + L.dhat);
-    assert_true(s.lo_lo >= 0.5 * t && s.lo_hi <= 0.5 * t + L.dhat);
+    assert_true(s.lo_lo >= 0.5 * t0 && s.lo_hi <= 0.5 * t0 + L.dhat);
     assert_true(e_up < 1e-3 && e_all < 1e-3);
     free_layers(&L);
 }
@@ -246,13 +265,21 @@ static void stack_at_rest(int shell, double t)
 static void test_stack_shells(void **state)
 {
     (void)state;
-    stack_at_rest(1, 5e-3);
+    stack_at_rest(1, 5e-3, 5e-3);
+}
+
+/* Layers of different thickness: 6 mm below, 2 mm above, so 4 mm between them and 3 mm to the
+ * plane (each body brings half its own). */
+static void test_stack_mixed(void **state)
+{
+    (void)state;
+    stack_at_rest(1, 6e-3, 2e-3);
 }
 
 static void test_stack_springs(void **state)
 {
     (void)state;
-    stack_at_rest(0, 5e-3);
+    stack_at_rest(0, 5e-3, 5e-3);
 }
 
 /* Both layers thrown at the plane at 5 m/s from 0.1 and 0.13 m (8.3 cm per step of 1/60 s):
@@ -271,6 +298,46 @@ static void test_fast_drop(void **state)
                       shell ? "shells" : "springs", t, worst.between, worst.self, worst.ground);
         free_layers(&L);
     }
+}
+
+/* Collider contact's penalty (explicit backends) takes the same offset: one mass-spring cloth of
+ * t = 5 mm on symplectic_euler at 0.9 of its stable step, placed 0.75 dhat beyond its offset
+ * t / 2 above the plane (3.03 mm, where no penalty would act without the offset), is pushed up by
+ * the penalty (above the band: the penalty is elastic, so it bounces) and over 2000 steps never
+ * comes within t / 2 of the plane. (Body contact is refused on explicit backends.) */
+static void test_penalty_offset(void **state)
+{
+    (void)state;
+    const double t = 5e-3, dhat = 1e-3 * sqrt(0.5);
+    layers L;
+    memset(&L, 0, sizeof L);
+    L.w = tu_world("symplectic_euler", -G, 1);
+    L.m.size = sizeof L.m;
+    const double o[3] = {-0.25, 0.0, -0.25}, u[3] = {0.5, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.5};
+    TU_OK(defsim_mesh_cloth(o, u, v, CELLS, CELLS, &L.m));
+    L.id[0] = add_layer(&L, 0.5 * t + 0.75 * dhat, t, 0, 0.0, sizeof(defsim_body_def));
+    defsim_collider_def cd;
+    defsim_collider_def_init(&cd, sizeof cd);
+    TU_OK(defsim_world_add_collider(L.w, &cd, NULL));
+    double h = 0.0;
+    TU_OK(defsim_world_stable_step(L.w, &h, NULL));
+    h *= 0.9;
+    double x[3 * NV], lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k < 2000; ++k) {
+        TU_OK(defsim_world_step(L.w, h));
+        TU_OK(defsim_world_get_positions(L.w, x, NV));
+        for (int i = 0; i < NV; ++i) {
+            lo = fmin(lo, x[3 * i + 1]);
+            hi = fmax(hi, x[3 * i + 1]);
+        }
+    }
+    print_message("penalty (symplectic_euler, 2000 steps of %.3g us, t = %g m, started at %.6g m): "
+                  "heights %.6g to %.6g m (the offset band [%g, %.6g])\n", 1e6 * h, t,
+                  0.5 * t + 0.75 * dhat, lo, hi, 0.5 * t, 0.5 * t + dhat);
+    assert_true(lo > 0.5 * t);
+    assert_true(hi > 0.5 * t + dhat);
+    defsim_world_destroy(L.w);
+    defsim_mesh_free(&L.m);
 }
 
 /* Thickness 0 is the contact without thickness: a def of the size before the field (its
@@ -363,6 +430,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stack_shells), cmocka_unit_test(test_stack_springs),
+        cmocka_unit_test(test_stack_mixed),  cmocka_unit_test(test_penalty_offset),
         cmocka_unit_test(test_fast_drop),    cmocka_unit_test(test_zero_is_default),
         cmocka_unit_test(test_checkpoint),   cmocka_unit_test(test_validation),
     };

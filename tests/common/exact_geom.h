@@ -25,18 +25,18 @@ int eg_tri_tri_intersect(const double p0[3], const double p1[3], const double p2
 int eg_point_in_tet(const double x[3], const double a[3], const double b[3], const double c[3],
                     const double d[3]);
 
-/* The distance between the closed triangles (p0, p1, p2) and (q0, q1, q2) (m), for tests that
- * check a minimum separation (the contact thickness) independently of the library's distance
- * code: 0 when eg_tri_tri_intersect says they meet, else the least of the six vertex-triangle
- * distances (the plane's distance where the foot lies inside the triangle, by barycentric
- * coordinates, else the point's distance to the triangle's edges) and the nine edge-edge
- * distances (the lines' closest points where both lie inside the segments, else the ends'
- * distances to the other segment), written here in plain floating point (not exact: rounding of
- * the order of 1e-16 of the coordinates). */
+/* Distances in plain floating point (closest points by region, not exact: rounding of the order
+ * of 1e-16 of the coordinates), for tests that check a minimum separation (the contact
+ * thickness) independently of the library's distance code.
+ * eg_tri_tri_gap: the distance between two triangles that do not intersect, the least of the
+ * six vertex-triangle distances (the plane's distance where the point projects inside, else the
+ * nearest edge) and the nine edge-edge distances (the interior critical point where it lies in
+ * both segments, else an end against the other segment). eg_tri_tri_distance: 0 when
+ * eg_tri_tri_intersect says they meet, else the gap. eg_point_tri_distance: x to the triangle. */
+double eg_tri_tri_gap(const double p0[3], const double p1[3], const double p2[3],
+                      const double q0[3], const double q1[3], const double q2[3]);
 double eg_tri_tri_distance(const double p0[3], const double p1[3], const double p2[3],
                            const double q0[3], const double q1[3], const double q2[3]);
-
-/* The distance from x to the closed triangle (a, b, c), as in eg_tri_tri_distance. */
 double eg_point_tri_distance(const double x[3], const double a[3], const double b[3],
                              const double c[3]);
 

@@ -371,6 +371,25 @@ static double reference_accd(pair_fn f, int first, const double *x0, const doubl
  * of [0, t] and the distance at every time in [0, t] where the four vertices are coplanar (the
  * only times a point-triangle or edge-edge pair can touch). Both must stay above
  * (1 - 0.9) s d0, the least the advances allow; and t at least ACCD's time on most pairs. */
+/* A random pair (point-triangle, or edge-edge when is_ee) and its motion: anywhere, moving by up
+ * to 3 per unit time, or (near) the pair in z = 0 and z = h (h from 1e-3 to 0.1), closing by up
+ * to 0.2 while sliding. */
+static void random_motion(unsigned long long *rng, int is_ee, int near, double y[12],
+                          double dy[12])
+{
+    random_points(rng, y, 12);
+    random_points(rng, dy, 12);
+    if (near) {
+        const double h = 1e-3 + 0.099 * (0.5 + 0.5 * tu_rand(rng));
+        for (int a = 0; a < 4; ++a) y[3 * a + 2] = (a < (is_ee ? 2 : 1)) ? h : 0.0;
+        for (int k = 0; k < 12; ++k) dy[k] *= 0.3;
+        const double down = 0.1 * (1.0 + tu_rand(rng));
+        for (int a = 0; a < (is_ee ? 2 : 1); ++a) dy[3 * a + 2] = -down;
+    } else {
+        for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
+    }
+}
+
 static void test_accd_conservative_and_tight(void **state)
 {
     (void)state;
@@ -381,19 +400,7 @@ static void test_accd_conservative_and_tight(void **state)
         const int is_ee = trial & 1, near = (trial >> 1) & 1;
         pair_fn f = is_ee ? ee : pt;
         double y[12], dy[12];
-        random_points(&rng, y, 12);
-        random_points(&rng, dy, 12);
-        if (near) {
-            /* the pair in z = 0 and z = h (h from 1e-3 to 0.1), closing by up to 0.2 while
-             * sliding */
-            const double h = 1e-3 + 0.099 * (0.5 + 0.5 * tu_rand(&rng));
-            for (int a = 0; a < 4; ++a) y[3 * a + 2] = (a < (is_ee ? 2 : 1)) ? h : 0.0;
-            for (int k = 0; k < 12; ++k) dy[k] *= 0.3;
-            const double down = 0.1 * (1.0 + tu_rand(&rng));
-            for (int a = 0; a < (is_ee ? 2 : 1); ++a) dy[3 * a + 2] = -down;
-        } else {
-            for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
-        }
+        random_motion(&rng, is_ee, near, y, dy);
         const double d0 = sqrt(f(y, NULL, NULL, NULL));
         const double s = 0.1;
         const double t = is_ee ? defsim__ee_accd(y, dy, s, 1.0, 1000000)
@@ -457,17 +464,7 @@ static void test_accd_offset(void **state)
         pair_fn f = is_ee ? ee : pt;
         const defsim__ccd_pair kind = is_ee ? DEFSIM__CCD_EE : DEFSIM__CCD_PT;
         double y[12], dy[12];
-        random_points(&rng, y, 12);
-        random_points(&rng, dy, 12);
-        if (near) {
-            const double h = 1e-3 + 0.099 * (0.5 + 0.5 * tu_rand(&rng));
-            for (int a = 0; a < 4; ++a) y[3 * a + 2] = (a < (is_ee ? 2 : 1)) ? h : 0.0;
-            for (int k = 0; k < 12; ++k) dy[k] *= 0.3;
-            const double down = 0.1 * (1.0 + tu_rand(&rng));
-            for (int a = 0; a < (is_ee ? 2 : 1); ++a) dy[3 * a + 2] = -down;
-        } else {
-            for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
-        }
+        random_motion(&rng, is_ee, near, y, dy);
         const double dist = sqrt(f(y, NULL, NULL, NULL));
         const double lp = defsim__ccd_speed(kind, dy);
         const double s = 0.1;

@@ -161,8 +161,7 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
         bc->scratch = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->scratch);
         if (!mark || !bc->face_body || !bc->edge_body || !bc->edge_len2 || !bc->rope ||
             !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->half || !bc->vlo ||
-            !bc->vhi ||
-            !bc->conx || !bc->scratch)
+            !bc->vhi || !bc->conx || !bc->scratch)
             st = DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (st == DEFSIM_OK) {

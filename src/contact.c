@@ -66,7 +66,8 @@ defsim_status defsim__contact_offsets(defsim__contact *c, const defsim__body *bo
     memset(c->xi, 0, (size_t)nv * sizeof *c->xi);
     for (int32_t b = 0; b < nbodies; ++b) {
         if (!(bodies[b].generation & 1u)) continue;
-        for (int32_t i = 0; i < bodies[b].nv; ++i) c->xi[bodies[b].offset + i] = 0.5 * bodies[b].thickness;
+        const double half = 0.5 * bodies[b].thickness;
+        for (int32_t i = 0; i < bodies[b].nv; ++i) c->xi[bodies[b].offset + i] = half;
     }
     return DEFSIM_OK;
 }

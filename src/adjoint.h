@@ -20,6 +20,10 @@ typedef struct defsim__grad {
     double *att_k, *att_c;                  /* per attachment: stiffness, damping */
     double *att_p;                          /* 3 per attachment: world target (of the step) */
     double *wmask;                          /* 3 nv scratch: w with pinned DOFs zeroed */
+    double *xn;                             /* 3 nv: the step's start positions' adjoint through
+                                               what contact lags from them (of the step) */
+    double *mu_col;                         /* per collider slot: friction coefficient */
+    double *mu_body;                        /* per body slot: body contact's friction */
     uint32_t want;                          /* DEFSIM__WANT_*: the costly ones the host asked for */
 } defsim__grad;
 

@@ -39,6 +39,7 @@ void defsim_body_def_init(defsim_body_def *def, size_t size)
     d.shell_warp_direction[0] = 1.0;
     d.shell_areal_density = 0.1;
     d.shell_bending_rigidity = d.shell_bending_rigidity_weft = -1.0;
+    d.shell_strain_limit = 0.0;
     if (size > sizeof d) size = sizeof d;
     memcpy(def, &d, size);
     def->size = (uint32_t)size;
@@ -119,6 +120,27 @@ static defsim_status shell_check(defsim__messages *msg, const defsim_body_def *d
     if (bad) {
         defsim__error(msg, "add_body: %s", bad);
         return DEFSIM_ERR_INVALID_MATERIAL;
+    }
+    return DEFSIM_OK;
+}
+
+/* The initial positions of a body with a strain limit: every triangle below its cap. */
+static defsim_status limit_check(defsim__messages *msg, const defsim_body_def *d,
+                                 const defsim__body *b)
+{
+    for (int32_t t = 0; t < b->ntri; ++t) {
+        const int32_t *v = b->tris + 3 * (int64_t)t;
+        double X[9], row[DEFSIM__MEMBRANE_WIDTH];
+        for (int a = 0; a < 3; ++a)
+            memcpy(X + 3 * a, d->initial_positions + 3 * (int64_t)v[a], 3 * sizeof *X);
+        defsim__strain_limit_row(b->membrane, b->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
+                                 b->strain_limit, row);
+        int active;
+        if (!isfinite(defsim__strain_limit_element(row, b->marea[t], X, NULL, NULL, 0, &active))) {
+            defsim__error(msg, "add_body: initial_positions stretch shell triangle %d to or over "
+                               "its strain limit %g", (int)t, b->strain_limit);
+            return DEFSIM_ERR_INVALID_ARGUMENT;
+        }
     }
     return DEFSIM_OK;
 }
@@ -304,11 +326,6 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
                       (int)d.volume_averaging);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
-    if (d.volume_averaging && d.tet_nodes == 10) {
-        defsim__error(msg, "add_body: volume_averaging is for linear tets; quadratic tets "
-                           "(tet_nodes 10) do not lock and have no averaged element");
-        return DEFSIM_ERR_INVALID_MATERIAL;
-    }
     if (d.volume_averaging && d.tet_count > 0) {
         const defsim__model *law = defsim__model_find(d.material.model);
         if (!law || !law->split) {
@@ -328,6 +345,15 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         defsim__error(msg, "add_body: a shell body needs triangles (%d given) and no tets (%d)",
                       (int)d.triangle_count, (int)d.tet_count);
         return DEFSIM_ERR_INVALID_MESH;
+    }
+    const double cap = d.shell_strain_limit;
+    if (!(cap >= 0.0 && cap <= 1.0) ||
+        (cap > 0.0 && (!shell || d.shell_membrane == DEFSIM_SHELL_MEMBRANE_NONE))) {
+        defsim__error(msg, "add_body: shell_strain_limit %g must be 0 (none) or in (0, 1] on a "
+                           "shell body with a membrane (this body: %s)", cap,
+                      !shell ? "no shell" : d.shell_membrane == DEFSIM_SHELL_MEMBRANE_NONE
+                                                ? "no membrane" : "a membrane");
+        return DEFSIM_ERR_INVALID_MATERIAL;
     }
     if (shell && d.material.stiffness_damping != 0.0) {
         defsim__error(msg, "add_body: stiffness damping does not act on shells (material."
@@ -485,6 +511,9 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     b.shell_membrane = d.shell_membrane;
     defsim__body_shell_fields(&d, b.shell_fields, 0);
     if (shell && (st = shell_build(msg, &d, &b)) != DEFSIM_OK) goto fail;
+    b.strain_limit = cap;
+    if (cap > 0.0 && d.initial_positions && (st = limit_check(msg, &d, &b)) != DEFSIM_OK)
+        goto fail;
     for (int32_t i = 0; i < nv; ++i) {
         double m = d.vertex_mass ? d.vertex_mass[i] : b.mass[i] + b.mat.vertex_mass;
         if (!isfinite(m) || !(m > 0.0)) {
@@ -543,7 +572,9 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     /* version 9: the shell fields as the def gave them */
     defsim__put_i32(b, body->shell_membrane);
     defsim__put_f64s(b, body->shell_fields, DEFSIM__SHELL_FIELDS);
-    /* version 10: the contact thickness */
+    /* version 10: the strain limit */
+    defsim__put_f64(b, body->strain_limit);
+    /* version 11: the contact thickness */
     defsim__put_f64(b, body->thickness);
     defsim__chunk_end(b, c);
 }
@@ -626,8 +657,10 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
         defsim__get_f64s(r, p, DEFSIM__SHELL_FIELDS);
         defsim__body_shell_fields(d, p, 1);
     }
-    /* The contact thickness (version 10); older files: 0. */
-    if (version >= 10) d->contact_thickness = defsim__get_f64(r);
+    /* The strain limit (version 10); older files: none. */
+    if (version >= 10) d->shell_strain_limit = defsim__get_f64(r);
+    /* The contact thickness (version 11); older files: 0. */
+    if (version >= 11) d->contact_thickness = defsim__get_f64(r);
     for (int32_t e = 0; e < 2 * out->nedge && !r->bad; ++e)
         if (out->edges[e] < 0 || out->edges[e] >= nv) r->bad = 1;
     if (!defsim__read_whole(r)) {

@@ -59,6 +59,7 @@ typedef struct defsim__body {
      * 9): shell_membrane, then DEFSIM__SHELL_FIELDS doubles in defsim__body_shell_fields' order. */
     int32_t shell_membrane;
     double shell_fields[DEFSIM__SHELL_FIELDS];
+    double strain_limit;      /* defsim_body_def.shell_strain_limit (version 10); 0: none */
 } defsim__body;
 
 /* A def's shell_* doubles into p (set: 0) or p into the def (set: 1), in the BODY chunk's order

@@ -805,7 +805,9 @@ static double contact_barrier(const defsim__body_contact *bc, const defsim__bc_c
 {
     double X[12];
     gather(x, c->v, defsim__contact_nodes(c->type), X);
-    return defsim__contact_barrier_offset(c->type, X, bc->dhat, c->xi, c->kappa, c->eps, g, H);
+    /* exact: a backward pass's matrix (docs/gradients.md) */
+    return defsim__contact_barrier_offset(c->type, X, bc->dhat, c->xi, c->kappa, c->eps,
+                                          bc->exact && H, g, H);
 }
 
 /* Friction pair r at x: energy, gradient (12) and Hessian (144, PSD) over its four nodes (an
@@ -1144,6 +1146,27 @@ static void closest_weights(int type, const double *X, double w[4])
     w[3] = -bary[2];
 }
 
+/* Lagged friction of contact c at its nodes' positions X (the step's start): the normal force
+ * lam for mu = 1 (N), the closest points' weights w and the normal; 0 when it has none. */
+static int lagged(const defsim__body_contact *bc, const defsim__bc_contact *c, const double *X,
+                  double *lam, double w[4], double nrm[3])
+{
+    const int n = defsim__contact_nodes(c->type);
+    /* the offset barrier's normal force (the distance beyond the thickness offset) */
+    const double d = sqrt(defsim__contact_dist2(c->type, X, NULL, NULL)) - c->xi;
+    double l = -c->kappa * barrier_d1(d, bc->dhat);
+    if (c->type == DEFSIM__C_EE) l *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, c->eps, NULL, NULL);
+    double dv[3] = {0.0, 0.0, 0.0};
+    closest_weights(c->type, X, w);
+    for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) dv[k] += w[i] * X[3 * i + k];
+    const double len = sqrt(dot3(dv, dv));
+    *lam = l;
+    if (!(len > 0.0)) return 0;
+    for (int k = 0; k < 3; ++k) nrm[k] = dv[k] / len;
+    return l > 0.0;
+}
+
 static int reserve_fric(defsim__body_contact *bc, int32_t n)
 {
     int64_t cap = bc->cap_fric;
@@ -1233,6 +1256,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     bc->sys = s;
     bc->failed = DEFSIM_OK;
     bc->active = 0;
+    bc->exact = 0;
     defsim_status st = DEFSIM_OK;
     if ((!bc->planned || bc->nv != s->nv || bc->nbody != nbodies) &&
         (st = plan(bc, bodies, nbodies, s->nv)) != DEFSIM_OK) {
@@ -1321,25 +1345,14 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
         return bc->failed;
     }
     pend_set(bc);
-    const double dh = bc->dhat;
     for (int32_t q = 0; q < bc->ncon; ++q) {
         const defsim__bc_contact *c = &bc->con[q];
         const int n = defsim__contact_nodes(c->type);
         const double mu = sqrt(bc->mu[c->body[0]] * bc->mu[c->body[1]]);
         if (!(mu > 0.0)) continue;
-        double X[12];
+        double X[12], lam, w[4], nrm[3];
         gather(x, c->v, n, X);
-        /* the offset barrier's normal force (the distance beyond the thickness offset) */
-        const double d = sqrt(defsim__contact_dist2(c->type, X, NULL, NULL)) - c->xi;
-        double lam = -c->kappa * barrier_d1(d, dh);
-        if (c->type == DEFSIM__C_EE)
-            lam *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, c->eps, NULL, NULL);
-        double w[4], dv[3] = {0.0, 0.0, 0.0};
-        closest_weights(c->type, X, w);
-        for (int i = 0; i < n; ++i)
-            for (int k = 0; k < 3; ++k) dv[k] += w[i] * X[3 * i + k];
-        const double len = sqrt(dot3(dv, dv));
-        if (!(lam > 0.0) || !(len > 0.0)) continue;
+        if (!lagged(bc, c, X, &lam, w, nrm)) continue;
         if (!reserve_fric(bc, bc->nfric + 1)) {
             defsim__error(msg, "out of memory for body contact friction");
             return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -1349,7 +1362,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
             fr->node[i] = i < n ? c->v[i] : -1;
             fr->w[i] = i < n ? w[i] : 0.0;
         }
-        for (int k = 0; k < 3; ++k) fr->nrm[k] = dv[k] / len;
+        memcpy(fr->nrm, nrm, sizeof nrm);
         fr->mul = mu * lam;
     }
     if (bc->failed) {
@@ -1358,6 +1371,160 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
     }
     bc->active = 1;
     return DEFSIM_OK;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The reverse mode (body_contact.h, docs/gradients.md) */
+
+/* The index of the contact with c's key in the constraint set (sorted, one per key), or -1. */
+static int32_t find_contact(const defsim__body_contact *bc, const defsim__bc_contact *c)
+{
+    int32_t lo = 0, hi = bc->ncon - 1;
+    while (lo <= hi) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        const int r = contact_key_cmp(&bc->con[mid], c);
+        if (r == 0) return mid;
+        if (r < 0) lo = mid + 1;
+        else hi = mid - 1;
+    }
+    return -1;
+}
+
+/* The masses' gradient through the contacts' kappa: each candidate within dhat at x adds
+ * khat times the mean mass of its primitives' vertices to its contact's kappa, so dL/dm_v
+ * gains dk[contact] khat / n for each of its n vertices. */
+static void kappa_masses(defsim__body_contact *bc, const double *x, const double *dk,
+                         double *gmass)
+{
+    for (int32_t k = 0; k < bc->nact; ++k) {
+        const int32_t q = bc->act[k];
+        defsim__bc_contact c;
+        candidate_contact(bc, q, x, &c);
+        const int32_t r = c.type >= 0 ? find_contact(bc, &c) : -1;
+        if (r < 0 || dk[r] == 0.0) continue;
+        int32_t idx[4];
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        for (int i = 0; i < n; ++i) gmass[idx[i]] += dk[r] * bc->khat / n;
+    }
+}
+
+/* Lagged friction's share (the constraint set at x_n, whose contacts made the pairs in order):
+ * for pair r with normal force mul = mu lam, weights w, normal n0 and u = sum w_i (x_i - x_n,i),
+ * the forces are -mul s(y) w_i ut, so with A = sum w_i a_i (a: the adjoint at the nodes) and
+ * F = s (A . ut), w^T f = -mul F: in x, -mul w_i B A (B: friction's exact block); in x_n,
+ * mul w_i B A and, through lam, w and n0 (functions of x_n, held within the step), their
+ * derivatives by central differences of `lagged` with a step of 1e-4 of the distance; mu's
+ * (sqrt(mu_a mu_b)) and kappa's (into dk) too. */
+static defsim_status friction_vjp(defsim__body_contact *bc, const double *x, const double *w,
+                                  double *gx, double *gxn, double *gmu, double *dk)
+{
+    const double *xn = bc->xn, eps = bc->eps_v * bc->h;
+    int32_t r = 0;
+    for (int32_t q = 0; q < bc->ncon; ++q) {
+        const defsim__bc_contact *c = &bc->con[q];
+        const int n = defsim__contact_nodes(c->type);
+        const double mua = bc->mu[c->body[0]], mub = bc->mu[c->body[1]], mu = sqrt(mua * mub);
+        if (!(mu > 0.0)) continue;
+        double X[12], lam, wt[4], nrm[3];
+        gather(xn, c->v, n, X);
+        if (!lagged(bc, c, X, &lam, wt, nrm)) continue;
+        if (r >= bc->nfric || memcmp(bc->fric[r].node, c->v, (size_t)n * sizeof *c->v) != 0)
+            return DEFSIM_ERR_UNSTABLE;   /* not the step's pairs: cannot happen */
+        ++r;
+        double A[3] = {0, 0, 0}, u[3] = {0, 0, 0}, ut[3], B[9] = {0}, BA[3];
+        for (int i = 0; i < n; ++i)
+            for (int k = 0; k < 3; ++k) {
+                const int64_t j = 3 * (int64_t)c->v[i] + k;
+                A[k] += wt[i] * w[j];
+                u[k] += wt[i] * (x[j] - xn[j]);
+            }
+        const double un = dot3(u, nrm);
+        for (int k = 0; k < 3; ++k) ut[k] = u[k] - un * nrm[k];
+        const double y = sqrt(dot3(ut, ut)), sy = friction_f1_over_y(y, eps);
+        friction_block(1.0, nrm, ut, y, eps, B);
+        for (int k = 0; k < 3; ++k) BA[k] = B[3 * k] * A[0] + B[3 * k + 1] * A[1] + B[3 * k + 2] * A[2];
+        const double F = sy * dot3(A, ut), mul = mu * lam;
+        for (int i = 0; i < n && gx; ++i)
+            for (int k = 0; k < 3; ++k) gx[3 * (int64_t)c->v[i] + k] -= mul * wt[i] * BA[k];
+        if (gmu) {
+            gmu[c->body[0]] -= F * lam * mub / (2.0 * mu);
+            gmu[c->body[1]] -= F * lam * mua / (2.0 * mu);
+        }
+        dk[q] = -F * mul / c->kappa;
+        if (!gxn) continue;
+        const double nA = dot3(nrm, A);
+        double dFdn[3], dFdw[4];
+        for (int k = 0; k < 3; ++k) dFdn[k] = -un * (BA[k] + sy * nA * nrm[k]) - sy * nA * u[k];
+        for (int i = 0; i < n; ++i) {
+            double du[3], a[3];
+            for (int k = 0; k < 3; ++k) {
+                const int64_t j = 3 * (int64_t)c->v[i] + k;
+                du[k] = x[j] - xn[j];
+                a[k] = w[j];
+            }
+            dFdw[i] = dot3(BA, du) + sy * dot3(a, ut);
+        }
+        /* a step of 1e-4 of the distance beyond the thickness offset */
+        const double hs = 1e-4 * (sqrt(defsim__contact_dist2(c->type, X, NULL, NULL)) - c->xi);
+        for (int p = 0; p < 3 * n; ++p) {
+            double Xp[12], lp[2], wp[2][4], np[2][3];
+            for (int side = 0; side < 2; ++side) {
+                memcpy(Xp, X, sizeof Xp);
+                Xp[p] += side ? -hs : hs;
+                (void)lagged(bc, c, Xp, &lp[side], wp[side], np[side]);
+            }
+            const double i2h = 1.0 / (2.0 * hs);
+            double dphi = -mu * F * (lp[0] - lp[1]) * i2h;
+            for (int i = 0; i < n; ++i) dphi -= mul * dFdw[i] * (wp[0][i] - wp[1][i]) * i2h;
+            for (int k = 0; k < 3; ++k) dphi -= mul * dFdn[k] * (np[0][k] - np[1][k]) * i2h;
+            gxn[3 * (int64_t)c->v[p / 3] + p % 3] += dphi + mul * wt[p / 3] * BA[p % 3];
+        }
+    }
+    return r == bc->nfric ? DEFSIM_OK : DEFSIM_ERR_UNSTABLE;
+}
+
+defsim_status defsim__body_contact_vjp(defsim__body_contact *bc, const double *x, const double *w,
+                                       double *gx, double *gxn, double *gmass, double *gmu)
+{
+    defsim_status st = DEFSIM_OK;
+    if (bc->nfric > 0) {
+        if ((st = constraints_at(bc, bc->xn)) != DEFSIM_OK) return st;
+        double *dk = calloc((size_t)(bc->ncon > 0 ? bc->ncon : 1), sizeof *dk);
+        if (!dk) return DEFSIM_ERR_OUT_OF_MEMORY;
+        st = friction_vjp(bc, x, w, gx, gxn, gmu, dk);
+        if (st == DEFSIM_OK && gmass) kappa_masses(bc, bc->xn, dk, gmass);
+        free(dk);
+        if (st != DEFSIM_OK) return st;
+    }
+    /* The barriers at x, candidate by candidate (each adds its own kappa times the unit barrier
+     * of its contact): gx -= kappa H w with the exact Hessian H, and kappa's mass share. */
+    if ((st = constraints_at(bc, x)) != DEFSIM_OK) return st;
+    for (int32_t k = 0; k < bc->nact; ++k) {
+        const int32_t q = bc->act[k];
+        defsim__bc_contact c;
+        candidate_contact(bc, q, x, &c);
+        if (c.type < 0) continue;
+        const int m = defsim__contact_nodes(c.type), nd = 3 * m;
+        double X[12], g[12], H[144], wl[12];
+        gather(x, c.v, m, X);
+        gather(w, c.v, m, wl);
+        const double e =
+            defsim__contact_barrier_offset(c.type, X, bc->dhat, c.xi, 1.0, c.eps, 1, g, H);
+        if (!isfinite(e)) return DEFSIM_ERR_UNSTABLE;
+        if (e == 0.0) continue;
+        for (int i = 0; i < nd && gx; ++i) {
+            double sum = 0.0;
+            for (int j = 0; j < nd; ++j) sum += H[i * nd + j] * wl[j];
+            gx[3 * (int64_t)c.v[i / 3] + i % 3] -= c.kappa * sum;
+        }
+        if (!gmass) continue;
+        double wg = 0.0;
+        for (int i = 0; i < nd; ++i) wg += wl[i] * g[i];
+        int32_t idx[4];
+        const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
+        for (int i = 0; i < n; ++i) gmass[idx[i]] -= wg * bc->khat / n;
+    }
+    return bc->failed;
 }
 
 /* defsim__body_contact_end's pattern retention (body_contact.h). */

@@ -124,6 +124,7 @@ typedef struct defsim__body_contact {
 
     double *stat;             /* the world's contact statistics (contact.h DEFSIM__CSTAT_*) */
     const defsim__system *sys;/* the system of the step under way */
+    int exact;                /* Hessians exact, unprojected (a backward pass's matrix) */
     int fresh;                /* check the start for intersecting surfaces (after a plan) */
 } defsim__body_contact;
 
@@ -170,6 +171,15 @@ void defsim__body_contact_hessians(defsim__body_contact *bc, const double *x,
 void defsim__body_contact_scatter(defsim__body_contact *bc, const defsim__system *s,
                                   const int32_t *idx, int n, const double *H, double k, int upper,
                                   const int64_t *cp, double *values);
+/* Reverse mode of the forces at x (docs/gradients.md): for the adjoint w (3 nv) of the forces,
+ * gx += (df/dx)^T w with the barriers' exact Hessians; gxn += (df/dx_n)^T w (3 nv) through the
+ * lagged friction (its normal force, closest points' weights and normal: functions of the
+ * step's start, held within the step); w^T df/dm into gmass (nv: the barrier stiffness is khat
+ * times the candidates' mean vertex mass) and w^T df/dmu into gmu (per body slot). Each output
+ * may be NULL but gx. Returns DEFSIM_ERR_UNSTABLE at an infeasible x, OUT_OF_MEMORY. */
+defsim_status defsim__body_contact_vjp(defsim__body_contact *bc, const double *x, const double *w,
+                                       double *gx, double *gxn, double *gmass, double *gmu);
+
 /* Largest alpha in (0, 1] such that no primitive pair comes closer than a gap along x + t dx,
  * t <= alpha: 0.1 times its distance d at x (IPC Toolkit's additive CCD), and 0.2 times d or
  * dhat, whichever is less, if that is more (pairs within 2 dhat, where the barrier acts) (additive CCD over the candidates of the swept boxes, which it

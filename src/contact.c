@@ -406,6 +406,7 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
     }
     c->mode = p->mode;
     c->failed = DEFSIM_OK;
+    c->exact = 0;
     c->blocked = 0;
     c->col = col;
     c->ncol = ncol;
@@ -671,7 +672,7 @@ static int contact_blocks(defsim__contact *c, const double *x, double k, double 
             if (d > 0.0 && d < dh) {
                 const double b1 = barrier_d1(d, dh), b2 = barrier_d2(d, dh), kap = kfac(c, i);
                 for (int r = 0; r < 9; ++r) B[r] = kap * (b2 * n[r / 3] * n[r % 3] + b1 * H[r]);
-                defsim__project_psd(3, B, DEFSIM_PROJECTION_CLAMP);
+                if (!c->exact) defsim__project_psd(3, B, DEFSIM_PROJECTION_CLAMP);
                 for (int r = 0; r < 9; ++r) B[r] *= k;
                 add = 1;
             }
@@ -701,6 +702,82 @@ static int contact_blocks(defsim__contact *c, const double *x, double k, double 
         any = 1;
     }
     return any;
+}
+
+/* The reverse mode (contact.h). Per pair, with k = khat m_i, the barrier's force is
+ * f = -k b'(d) n, so (df/dx)^T w = -k (b'' n (n . w) + b' H w). Friction's is f = -mu lam s(y) ut,
+ * ut = P u, P = I - n0 n0^T, u = x_i - x_n,i - uc, s = f1(y)/y, with B = s P + (s'/y) ut ut^T
+ * its exact Hessian in u (friction_block): (df/dx)^T w = -mu lam B w. The lagged quantities are
+ * functions of x_n (the collider at its start pose): lam = -k b'(d0), n0 = grad d0 (dn0/dx_n =
+ * H0), uc = C x_n - x_n + const with C = R1 R0^T; with F = s (w . ut), dF/du = B w and
+ * dF/dn0 = -(n0 . u)(B w + s (n0 . w) n0) - s (n0 . w) u, so w^T f = -mu lam F has
+ * d/dx_n = -F mu dlam/dx_n - mu lam (-B w - (C - I)^T B w + H0 dF/dn0). */
+defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const double *w,
+                                  double *gx, double *gxn, double *gmass, double *gmu)
+{
+    if (c->mode != DEFSIM__CONTACT_BARRIER) return DEFSIM_ERR_UNSUPPORTED;
+    if (c->blocked) return DEFSIM_ERR_UNSTABLE;
+    ensure(c, x);
+    const double dh = c->dhat, eps = c->eps_v * c->h;
+    for (int32_t q = 0; q < c->npair && !c->failed; ++q) {
+        if (c->off[q]) continue;
+        const int32_t i = c->pv[q], j = c->pc[q];
+        const double *xi = x + 3 * (int64_t)i, *wi = w + 3 * (int64_t)i;
+        double n[3], H[9];
+        const double d = distance(c, j, xi, n, H) - vxi(c, i);   /* beyond the offset */
+        if (isnan(d)) break;
+        if (d <= 0.0) return DEFSIM_ERR_UNSTABLE;
+        const double k = kfac(c, i);
+        if (d < dh) {
+            const double b1 = barrier_d1(d, dh), b2 = barrier_d2(d, dh), nw = defsim__v3_dot(n, wi);
+            for (int a = 0; a < 3 && gx; ++a)
+                gx[3 * (int64_t)i + a] -= k * (b2 * n[a] * nw + b1 * (H[3 * a] * wi[0] +
+                                               H[3 * a + 1] * wi[1] + H[3 * a + 2] * wi[2]));
+            if (gmass) gmass[i] -= c->khat * b1 * nw;
+        }
+        const double lam = c->lam[q], mu = c->col[j].def.friction;
+        if (!(lam > 0.0)) continue;
+        const double *n0 = c->nrm + 3 * (int64_t)q, *uc = c->uc + 3 * (int64_t)q,
+                     *xn = c->xn + 3 * (int64_t)i;
+        double u[3], ut[3], B[9] = {0}, Bw[3];
+        for (int a = 0; a < 3; ++a) u[a] = xi[a] - xn[a] - uc[a];
+        const double un = defsim__v3_dot(u, n0);
+        for (int a = 0; a < 3; ++a) ut[a] = u[a] - un * n0[a];
+        const double y = sqrt(defsim__v3_dot(ut, ut)), s = friction_f1_over_y(y, eps);
+        friction_block(1.0, n0, ut, y, eps, B);
+        for (int a = 0; a < 3; ++a) Bw[a] = B[3 * a] * wi[0] + B[3 * a + 1] * wi[1] + B[3 * a + 2] * wi[2];
+        const double F = s * defsim__v3_dot(wi, ut);
+        if (gmu) gmu[j] -= lam * F;
+        if (!(mu > 0.0)) continue;
+        const double mul = mu * lam;
+        for (int a = 0; a < 3 && gx; ++a) gx[3 * (int64_t)i + a] -= mul * Bw[a];
+        if (gmass) gmass[i] -= mul * F / c->mass[i];
+        if (!gxn) continue;
+        double d0, g0[3], H0[9];
+        if (defsim__collider_distance(&c->col[j], &c->pose0[j], xn, &d0, g0, H0) != DEFSIM_OK ||
+            !isfinite(d0)) {
+            geometry_failed(c, j);
+            break;
+        }
+        const double nw = defsim__v3_dot(n0, wi), dlam = -k * barrier_d2(d0 - vxi(c, i), dh);
+        double dFdn[3], dFdx[3];
+        for (int a = 0; a < 3; ++a) {
+            dFdn[a] = -un * (Bw[a] + s * nw * n0[a]) - s * nw * u[a];
+            dFdx[a] = -Bw[a];
+        }
+        for (int a = 0; a < 3; ++a)
+            dFdx[a] += H0[3 * a] * dFdn[0] + H0[3 * a + 1] * dFdn[1] + H0[3 * a + 2] * dFdn[2];
+        if (moves(c, j)) {   /* uc's derivative (C - I)^T B w, C = R1 R0^T */
+            const double *R0 = c->pose0[j].R, *R1 = c->pose1[j].R;
+            double r[3];
+            for (int a = 0; a < 3; ++a) r[a] = R1[a] * Bw[0] + R1[3 + a] * Bw[1] + R1[6 + a] * Bw[2];
+            for (int a = 0; a < 3; ++a)
+                dFdx[a] -= R0[3 * a] * r[0] + R0[3 * a + 1] * r[1] + R0[3 * a + 2] * r[2] - Bw[a];
+        }
+        for (int a = 0; a < 3; ++a)
+            gxn[3 * (int64_t)i + a] -= F * mu * dlam * g0[a] + mul * dFdx[a];
+    }
+    return c->failed;
 }
 
 /* ------------------------------------------------------------------------------------------ */

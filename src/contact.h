@@ -117,6 +117,8 @@ typedef struct defsim__contact {
     double *lam, *nrm, *uc;
     uint8_t *off;
 
+    int exact;                  /* BARRIER: the blocks are the exact Hessian, unprojected (a
+                                   backward pass's matrices; docs/gradients.md) */
     double stat[DEFSIM__CSTAT_COUNT];
 } defsim__contact;
 
@@ -185,6 +187,17 @@ defsim_status defsim__contact_forces(defsim__contact *c, const double *x, const 
  * block is not zero. */
 int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double kd,
                            double *blk);
+
+/* Reverse mode of the BARRIER forces at x (docs/gradients.md), with the lagged friction's
+ * normal force, normal and collider motion functions of the step's start x_n as begin made them
+ * (held within the step, differentiated in x_n): for the adjoint w (3 nv) of the forces,
+ * gx += (df/dx)^T w (may be NULL), gxn += (df/dx_n)^T w (3 nv, may be NULL), and the parameter
+ * gradients w^T df/dm_i into gmass (nv) and w^T df/dmu_j into gmu (per collider slot), each may
+ * be NULL. Pairs whose vertex starts inside its collider stay left out, as the forces leave
+ * them. Returns DEFSIM_ERR_UNSUPPORTED in PENALTY mode, DEFSIM_ERR_UNSTABLE at an infeasible x,
+ * the geometry's failures as defsim__contact_forces. */
+defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const double *w,
+                                  double *gx, double *gxn, double *gmass, double *gmu);
 
 /* Largest alpha in (0, 1] such that no vertex comes closer to a collider than `fraction` of
  * its distance at x along x + t dx, t <= alpha (all DOFs). 0 on a callback failure. */

@@ -420,12 +420,14 @@ defsim_status defsim_body_element_stress(const defsim_world *w, defsim_body_id i
         const int32_t *tt = b->tets + 10 * (int64_t)t;
         double rest[DEFSIM__TET10_REST], sigma[9], psi;
         (void)defsim__tet10_rest(b->rest, tt, rest);
-        defsim__tet10_stress(model, b->mu, b->lambda, x, tt, rest, sigma, &psi);
+        defsim__tet10_stress(model, b->mu, b->lambda, b->volume_averaging, x, tt, rest, sigma,
+                             &psi);
         stress_out(sigma, psi, t, cauchy, von_mises, energy_density);
     }
     /* Volume-averaged tets: each vertex's volume ratio J_n (rest and current nodal volumes in
      * jn[2 v], jn[2 v + 1]), for the tets' averaged pressures and volumetric energies. */
-    const defsim__model_split *split = b->volume_averaging && model ? model->split : NULL;
+    const defsim__model_split *split =
+        b->volume_averaging && b->tet_nodes == 4 && model ? model->split : NULL;
     double *jn = split && b->nt > 0 ? calloc(2 * (size_t)b->nv, sizeof *jn) : NULL;
     if (split && b->nt > 0 && !jn) {
         defsim__error(w->msg, "element_stress: out of memory");

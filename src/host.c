@@ -137,9 +137,15 @@ static defsim_status matrix_values_projected(defsim_system *s, const double *x,
     if (projection < DEFSIM_PROJECTION_NONE || projection > DEFSIM_PROJECTION_ABS)
         return DEFSIM_ERR_INVALID_ARGUMENT;
     const int world = s->sys->projection;
+    /* A backward pass's exact matrix (docs/gradients.md) holds contact's exact Hessians too;
+     * the contact caches then hold them, and are dropped after. */
+    const int exact = projection == DEFSIM_PROJECTION_NONE && s->grad;
     s->sys->projection = projection;
+    s->sys->exact_contact = exact;
     const defsim_status st = matrix_values(s, x, c, tri, values);
     s->sys->projection = world;
+    s->sys->exact_contact = 0;
+    for (int k = 0; exact && k < DEFSIM__TERM_KINDS; ++k) s->sys->cache[k].valid = 0;
     return st;
 }
 

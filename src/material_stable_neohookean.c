@@ -131,36 +131,49 @@ static void params(double mu, double lambda, double p[3])
     snh_params(mu, lambda, &p[0], &p[1], &p[2]);
 }
 
-/* The split (material.h): psi_iso = mu'/2 (I_C - 3) - mu'/2 log(I_C + 1), with P_iso = c1 F and
- * dP_iso/dF = c1 I + 2 mu'/(I_C + 1)^2 F (x) F; U(J) = lambda'/2 (J - alpha)^2. */
+/* The split (material.h): U(J) = lambda/2 (J - alpha)^2 with the user's lambda, and
+ * psi_iso = mu'/2 (I_C - 3) - mu'/2 log(I_C + 1) + (lambda' - lambda)/2 (J - alpha)^2, the rest
+ * of the law: lambda' - lambda = 5/6 mu stays with each element (or quadrature point), so that
+ * psi_iso linearises to mu |eps|^2 with no tr(eps)^2 term, as neo-Hookean's does. With all of
+ * lambda' in U, psi_iso's linearised bulk modulus would be 2/3 mu - 5/6 mu = -mu/6: what the
+ * averaging takes out of U then leaves a negative stiffness behind (the mean-dilatation
+ * quadratic tets sagged 1.5 % too much on the 12 x 4 x 4 cantilever at nu = 0.499 and 1.8 % at
+ * 0.3, each point's tangent was indefinite at rest and Newton took twice the iterations:
+ * docs/elements.md). P_iso = c1 F + (lambda' - lambda)(J - alpha) cof F,
+ * dP_iso/dF = c1 I + 2 mu'/(I_C + 1)^2 F (x) F + (lambda' - lambda)(cof F (x) cof F +
+ * (J - alpha) d2J/dF2). */
 static double iso_P(double mu, double lambda, const double F[9], double P[9])
 {
-    double mp, lp, alpha;
+    double mp, lp, alpha, C[9];
     snh_params(mu, lambda, &mp, &lp, &alpha);
-    const double ic = defsim__m3_ddot(F, F);
-    const double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
-    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i];
-    return 0.5 * mp * (ic - 3.0) - 0.5 * mp * log(ic + 1.0);
+    defsim__m3_cofactor(F, C);
+    const double ic = defsim__m3_ddot(F, F), d = DEFSIM__M3_DET_COF(F, C) - alpha;
+    const double c1 = mp * (1.0 - 1.0 / (ic + 1.0)), lb = lp - lambda;
+    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + lb * d * C[i];
+    return 0.5 * mp * (ic - 3.0) - 0.5 * mp * log(ic + 1.0) + 0.5 * lb * d * d;
 }
 
 static void iso_dPdF(double mu, double lambda, const double F[9], double dPdF[81])
 {
-    double mp, lp, alpha;
+    double mp, lp, alpha, C[9];
     snh_params(mu, lambda, &mp, &lp, &alpha);
-    const double ic = defsim__m3_ddot(F, F);
+    defsim__m3_cofactor(F, C);
+    const double ic = defsim__m3_ddot(F, F), lb = lp - lambda;
     const double c1 = mp * (1.0 - 1.0 / (ic + 1.0));
     const double cF = 2.0 * mp / ((ic + 1.0) * (ic + 1.0));
     for (int r = 0; r < 9; ++r)
-        for (int c = 0; c < 9; ++c) dPdF[9 * r + c] = cF * F[r] * F[c] + (r == c ? c1 : 0.0);
+        for (int c = 0; c < 9; ++c)
+            dPdF[9 * r + c] = cF * F[r] * F[c] + lb * C[r] * C[c] + (r == c ? c1 : 0.0);
+    tet_add_det_hessian(F, lb * (DEFSIM__M3_DET_COF(F, C) - alpha), dPdF);
 }
 
 static void volumetric(double mu, double lambda, double J, double u[3])
 {
     double mp, lp, alpha;
     snh_params(mu, lambda, &mp, &lp, &alpha);
-    u[0] = 0.5 * lp * (J - alpha) * (J - alpha);
-    u[1] = lp * (J - alpha);
-    u[2] = lp;
+    u[0] = 0.5 * lambda * (J - alpha) * (J - alpha);
+    u[1] = lambda * (J - alpha);
+    u[2] = lambda;
 }
 
 static const defsim__model_split split = {.P = iso_P, .dPdF = iso_dPdF, .U = volumetric};

@@ -29,8 +29,9 @@ enum { SIMD_AUTO = 0, SIMD_SCALAR = 1 };
 
 static const defsim_option_spec CORE_SPECS[DEFSIM__CORE_OWN] = {
     {"simd", DEFSIM_OPTION_CHOICE, 0.0, 0.0, 0.0, SIMD_CHOICES,
-     "tet force kernels: auto (the fastest this CPU runs), scalar (reference), or one batched "
-     "variant; the environment variable DEFSIM_SIMD gives the default, the option set wins"},
+     "tet and shell force kernels: auto (the fastest this CPU runs), scalar (reference), or one "
+     "batched variant; the environment variable DEFSIM_SIMD gives the default, the option set "
+     "wins"},
     {"auto_substep", DEFSIM_OPTION_BOOL, 0.0, 0.0, 1.0, NULL,
      "conditionally stable backends: split each step into substeps of at most substep_safety "
      "times the estimated stable step"},

@@ -61,12 +61,45 @@ void defsim__unplan(defsim__system *s, defsim__work *wk)
     memset(wk, 0, sizeof *wk);
 }
 
-/* Cuts each colour of a tet group into batches of DEFSIM__BATCH elements in the SIMD layout
- * (tet_forces.h). A colour's last batch is padded with copies of its first element: they are
- * computed with valid data but never scattered. */
-static defsim_status pack_batches(defsim__group *g)
+/* A batch lane's data rows (stride DEFSIM__BATCH from d) from element e of g. */
+typedef void (*batch_rows_fn)(const defsim__group *g, int64_t e, double *d);
+
+static void tet_rows(const defsim__group *g, int64_t e, double *d)
 {
-    const int B = DEFSIM__BATCH, rows = DEFSIM__BATCH_ROWS;
+    const int B = DEFSIM__BATCH;
+    for (int r = 0; r < 9; ++r) d[(DEFSIM__ROW_DMINV + r) * B] = g->dminv[9 * e + r];
+    d[DEFSIM__ROW_NVOL * B] = -g->vol[e];
+    double prm[3];
+    g->law->params(g->mu[e], g->lambda[e], prm);
+    d[DEFSIM__ROW_P0 * B] = prm[0];
+    d[DEFSIM__ROW_P1 * B] = prm[1];
+    d[DEFSIM__ROW_P2 * B] = prm[2];
+}
+
+/* A membrane triangle's rows (tet_forces.h): Dm^-1, -area, the law's parameters. */
+static void membrane_rows(const defsim__group *g, int64_t e, double *d)
+{
+    const int B = DEFSIM__BATCH;
+    const double *row = g->shell + DEFSIM__MEMBRANE_WIDTH * e;
+    for (int r = 0; r < 4; ++r) d[(DEFSIM__SROW_DMINV + r) * B] = row[r];
+    d[DEFSIM__SROW_NAREA * B] = -g->vol[e];
+    for (int r = 0; r < 4; ++r) d[(DEFSIM__SROW_P + r) * B] = row[4 + r];
+}
+
+/* A hinge's rows: its weight and rest angle. */
+static void hinge_rows(const defsim__group *g, int64_t e, double *d)
+{
+    d[DEFSIM__SROW_W * DEFSIM__BATCH] = g->k[e];
+    d[DEFSIM__SROW_THETA0 * DEFSIM__BATCH] = g->l0[e];
+}
+
+/* Cuts each colour of a group (tets, membrane triangles, hinges) into batches of DEFSIM__BATCH
+ * elements in the SIMD layout (tet_forces.h): g->nodes vertex ids per lane, the data rows that
+ * `rows` fills. A colour's last batch is padded with copies of its first element: they are
+ * computed with valid data but never scattered. */
+static defsim_status pack_batches(defsim__group *g, batch_rows_fn rows_of)
+{
+    const int B = DEFSIM__BATCH, rows = DEFSIM__BATCH_ROWS, nn = g->nodes;
     g->bcolor_ptr = malloc(((size_t)g->ncolors + 1) * sizeof *g->bcolor_ptr);
     if (!g->bcolor_ptr) return DEFSIM_ERR_OUT_OF_MEMORY;
     int32_t nb = 0;
@@ -77,7 +110,7 @@ static defsim_status pack_batches(defsim__group *g)
     g->bcolor_ptr[g->ncolors] = nb;
     g->nbatch = nb;
     const size_t nbs = (size_t)(nb > 0 ? nb : 1);
-    g->bidx = malloc(nbs * 4 * B * sizeof *g->bidx);
+    g->bidx = malloc(nbs * nn * B * sizeof *g->bidx);
     g->bdata = aligned_alloc(64, nbs * rows * B * sizeof *g->bdata);   /* rows * 64 bytes */
     g->blanes = malloc(nbs);
     if (!g->bidx || !g->bdata || !g->blanes) return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -88,39 +121,36 @@ static defsim_status pack_batches(defsim__group *g)
             g->blanes[b] = (uint8_t)(left < B ? left : B);
             for (int l = 0; l < B; ++l) {
                 const int64_t e = l < g->blanes[b] ? first + l : first;
-                double *d = g->bdata + (int64_t)rows * B * b + l;
-                for (int a = 0; a < 4; ++a) g->bidx[(4 * (int64_t)b + a) * B + l] = g->idx[4 * e + a];
-                for (int r = 0; r < 9; ++r) d[(DEFSIM__ROW_DMINV + r) * B] = g->dminv[9 * e + r];
-                d[DEFSIM__ROW_NVOL * B] = -g->vol[e];
-                double prm[3];
-                g->law->params(g->mu[e], g->lambda[e], prm);
-                d[DEFSIM__ROW_P0 * B] = prm[0];
-                d[DEFSIM__ROW_P1 * B] = prm[1];
-                d[DEFSIM__ROW_P2 * B] = prm[2];
+                for (int a = 0; a < nn; ++a)
+                    g->bidx[((int64_t)nn * b + a) * B + l] = g->idx[nn * e + a];
+                rows_of(g, e, g->bdata + (int64_t)rows * B * b + l);
             }
         }
     return DEFSIM_OK;
 }
 
 /* The element group of a body's tets: its model's (material_list.h order; bodies are
- * validated, so found), among the quadratic groups for quadratic tets. */
+ * validated, so found), among the quadratic groups for quadratic tets (the mean-dilatation ones
+ * with volume_averaging; linear volume-averaged tets: the model's index into s->vgroups). */
 static int group_of(const defsim__body *bd)
 {
     int m = 0;
     while (m < DEFSIM__TET_MODELS - 1 && (int)defsim__tet_models[m]->id != (int)bd->mat.model) ++m;
-    return bd->tet_nodes == 10 ? DEFSIM__QUAD_GROUP + m : m;
+    if (bd->tet_nodes != 10) return m;
+    return (bd->volume_averaging ? DEFSIM__QMIX_GROUP : DEFSIM__QUAD_GROUP) + m;
 }
 
 /* Room for count elements in g, group m of DEFSIM__GROUPS (linear tets of model m, springs,
- * or quadratic tets of model m - DEFSIM__QUAD_GROUP; a volume-averaged group is its model's
- * linear one), none filled yet. */
+ * quadratic tets of model m - DEFSIM__QUAD_GROUP, mean-dilatation ones of m -
+ * DEFSIM__QMIX_GROUP; a volume-averaged group is its model's linear one), none filled yet. */
 static defsim_status group_alloc(defsim__group *g, int m, int32_t count)
 {
     const size_t n = (size_t)(count > 0 ? count : 1);
     const int quad = m >= DEFSIM__QUAD_GROUP, tets = m != DEFSIM__TET_MODELS;
-    const int model = quad ? m - DEFSIM__QUAD_GROUP : m;
+    const int model = quad ? (m - DEFSIM__QUAD_GROUP) % DEFSIM__TET_MODELS : m;
     g->n = 0;
     g->nodes = quad ? 10 : tets ? 4 : 2;
+    g->mixed = m >= DEFSIM__QMIX_GROUP;
     g->law = tets ? defsim__tet_models[model] : NULL;
     g->pass = tets ? defsim__tet_models[model]->pass : defsim__model_spring.pass;
     g->idx = malloc(n * g->nodes * sizeof *g->idx);
@@ -236,7 +266,8 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     for (int32_t b = 0; b < in->nbodies; ++b) {
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u)) continue;
-        if (bd->nt > 0) (bd->volume_averaging ? vcount : count)[group_of(bd)] += bd->nt;
+        if (bd->nt > 0)
+            (bd->volume_averaging && bd->tet_nodes == 4 ? vcount : count)[group_of(bd)] += bd->nt;
         count[DEFSIM__TET_MODELS] += bd->ns;
     }
     defsim_status st = DEFSIM_OK;
@@ -261,7 +292,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
                 for (int a = 0; a < 10; ++a) g->idx[10 * (int64_t)e + a] = bd->offset + lt[a];
             }
         } else if (bd->nt > 0) {
-            const int m = group_of(bd);   /* volume averaging is refused for quadratic tets */
+            const int m = group_of(bd);
             defsim__group *g = bd->volume_averaging ? &s->vgroups[m].g : &s->groups[m];
             for (int32_t t = 0; t < bd->nt; ++t) {
                 const int32_t *lt = bd->tets + 4 * (int64_t)t;
@@ -290,7 +321,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     }
     for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         st = defsim__colour_group(&s->groups[m], s->nv);
-        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m]);
+        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m], tet_rows);
         if (st != DEFSIM_OK) return st;
     }
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
@@ -306,7 +337,8 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
 }
 
 /* The shells' groups (shell.h): each shell body's triangles into its membrane law's group
- * (their rows and rest areas as body.c made them), its hinges into the hinge group. */
+ * (their rows and rest areas as body.c made them), its hinges into the hinge group, and the
+ * triangles of the bodies with a strain limit into the limit's group. */
 static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in)
 {
     int32_t count[DEFSIM__SHELL_GROUPS] = {0};
@@ -314,6 +346,7 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
         const defsim__body *bd = &in->bodies[b];
         if (!(bd->generation & 1u) || !bd->shell) continue;
         if (bd->membrane >= 0) count[bd->membrane] += bd->ntri;
+        if (bd->strain_limit > 0.0) count[DEFSIM__SHELL_LIMITS] += bd->ntri;
         count[DEFSIM__SHELL_HINGES] += bd->nhinge;
     }
     for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) {
@@ -352,6 +385,19 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
                 g->vol[e] = bd->marea[t];
             }
         }
+        if (bd->strain_limit > 0.0) {
+            defsim__group *g = &s->shells[DEFSIM__SHELL_LIMITS];
+            for (int32_t t = 0; t < bd->ntri; ++t) {
+                const int32_t e = g->n++;
+                for (int a = 0; a < 3; ++a)
+                    g->idx[3 * (int64_t)e + a] = bd->offset + bd->tris[3 * (int64_t)t + a];
+                defsim__strain_limit_row(bd->membrane,
+                                         bd->mrow + DEFSIM__MEMBRANE_WIDTH * (int64_t)t,
+                                         bd->strain_limit,
+                                         g->shell + DEFSIM__MEMBRANE_WIDTH * (int64_t)e);
+                g->vol[e] = bd->marea[t];
+            }
+        }
         defsim__group *g = &s->shells[DEFSIM__SHELL_HINGES];
         for (int32_t h = 0; h < bd->nhinge; ++h) {
             const int32_t e = g->n++;
@@ -362,7 +408,11 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
         }
     }
     for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m) {
-        const defsim_status st = defsim__colour_group(&s->shells[m], s->nv);
+        defsim_status st = defsim__colour_group(&s->shells[m], s->nv);
+        /* the batched force kernels' layout (tet_forces.h) for the membranes and hinges */
+        if (st == DEFSIM_OK && m < DEFSIM__SHELL_LIMITS)
+            st = pack_batches(&s->shells[m],
+                              m == DEFSIM__SHELL_HINGES ? hinge_rows : membrane_rows);
         if (st != DEFSIM_OK) return st;
     }
     return DEFSIM_OK;

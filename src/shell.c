@@ -99,16 +99,42 @@ static void stvk_stress(const double prm[4], const double E[4], double S[4])
 /* C = F^T F (2x2 row-major) of a 3x2 F. */
 static void right_cauchy(const double F[6], double C[4])
 {
-    C[0] = F[0] * F[0] + F[2] * F[2] + F[4] * F[4];
-    C[1] = C[2] = F[0] * F[1] + F[2] * F[3] + F[4] * F[5];
-    C[3] = F[1] * F[1] + F[3] * F[3] + F[5] * F[5];
+    DEFSIM__TRI_CAUCHY(F, C);
 }
 
 /* out (3x2) = F (3x2) M (2x2). */
 static void f_times(const double F[6], const double M[4], double out[6])
 {
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 2; ++j) out[2 * i + j] = F[2 * i] * M[j] + F[2 * i + 1] * M[2 + j];
+    DEFSIM__TRI_FTIMES(F, M, out);
+}
+
+/* dP/dF (6x6) of P = F S(C): dP = dF S + F dS, dS = dSdC(dC) with dC = dF^T F + F^T dF, column
+ * by column of dF = e_k e_l^T (the StVK law and the strain limit's barrier). */
+typedef void (*dsdc_fn)(const void *ctx, const double dC[4], double dS[4]);
+
+static void tangent(const double F[6], const double S[4], dsdc_fn dsdc, const void *ctx,
+                    double D[36])
+{
+    for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 2; ++l) {
+            double dC[4], dS[4], FdS[6];
+            for (int p = 0; p < 2; ++p)
+                for (int q = 0; q < 2; ++q)
+                    dC[2 * p + q] =
+                        (p == l ? F[2 * k + q] : 0.0) + (q == l ? F[2 * k + p] : 0.0);
+            dsdc(ctx, dC, dS);
+            f_times(F, dS, FdS);
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 2; ++j)
+                    D[6 * (2 * i + j) + 2 * k + l] = (i == k ? S[2 * l + j] : 0.0) + FdS[2 * i + j];
+        }
+}
+
+/* StVK: dS = C : dE, dE = dC / 2. */
+static void stvk_dsdc(const void *prm, const double dC[4], double dS[4])
+{
+    const double dE[4] = {0.5 * dC[0], 0.5 * dC[1], 0.5 * dC[2], 0.5 * dC[3]};
+    stvk_stress(prm, dE, dS);
 }
 
 static double stvk_law(const double prm[4], const double F[6], double P[6], double D[36])
@@ -122,22 +148,7 @@ static double stvk_law(const double prm[4], const double F[6], double P[6], doub
     const double psi = 0.5 * (prm[0] * E[0] * E[0] + 2.0 * prm[1] * E[0] * E[3] +
                               prm[2] * E[3] * E[3]) + 2.0 * prm[3] * E[1] * E[1];
     if (P) f_times(F, S, P);
-    if (D)
-        /* dP = dF S + F (C : dE), dE = (dF^T F + F^T dF)/2, column by column of dF = e_k e_l^T. */
-        for (int k = 0; k < 3; ++k)
-            for (int l = 0; l < 2; ++l) {
-                double dE[4], dS[4], FdS[6];
-                for (int p = 0; p < 2; ++p)
-                    for (int q = 0; q < 2; ++q)
-                        dE[2 * p + q] = 0.5 * ((p == l ? F[2 * k + q] : 0.0) +
-                                               (q == l ? F[2 * k + p] : 0.0));
-                stvk_stress(prm, dE, dS);
-                f_times(F, dS, FdS);
-                for (int i = 0; i < 3; ++i)
-                    for (int j = 0; j < 2; ++j)
-                        D[6 * (2 * i + j) + 2 * k + l] =
-                            (i == k ? S[2 * l + j] : 0.0) + FdS[2 * i + j];
-            }
+    if (D) tangent(F, S, stvk_dsdc, prm, D);
     return psi;
 }
 
@@ -188,18 +199,21 @@ double defsim__membrane_law(int law, const double prm[4], const double F[6], dou
                                               : stvk_law(prm, F, P, D);
 }
 
-double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH], double area,
-                                const double X[9], double grad[9], double H[81], int proj)
+/* A triangle's shape gradients g (F = sum_a x_a g_a^T: g_1, g_2 the rows of Dm^-1,
+ * g_0 = -(g_1 + g_2)) and F (3x2) at its vertices X (3x3). */
+static void triangle_f(const double m[4], const double X[9], double g[3][2], double F[6])
 {
-    const double *m = row;   /* Dm^-1 */
-    /* Shape gradients: F = sum_a x_a g_a^T, g_1, g_2 the rows of Dm^-1, g_0 = -(g_1 + g_2). */
-    const double g[3][2] = {{-(m[0] + m[2]), -(m[1] + m[3])}, {m[0], m[1]}, {m[2], m[3]}};
-    double F[6] = {0, 0, 0, 0, 0, 0}, P[6], D[36];
-    for (int a = 0; a < 3; ++a)
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 2; ++j) F[2 * i + j] += X[3 * a + i] * g[a][j];
-    const double psi = defsim__membrane_law(law, row + 4, F, grad ? P : NULL, H ? D : NULL);
-    if (!isfinite(psi)) return INFINITY;
+    DEFSIM__TRI_SHAPE(m, g);
+#define XA(a, i) X[3 * (a) + (i)]
+    DEFSIM__TRI_F(XA, g, F);
+#undef XA
+}
+
+/* An element's gradient A P g_a and Hessian A g_a^T D g_b (D projected by proj first), where
+ * not NULL, from a law's P and dP/dF at its F. */
+static void triangle_map(const double g[3][2], double area, const double P[6], double D[36],
+                         double grad[9], double H[81], int proj)
+{
     if (grad)
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i)
@@ -217,7 +231,159 @@ double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH
                         H[9 * (3 * a + i) + 3 * b + k] = area * s;
                     }
     }
+}
+
+double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH], double area,
+                                const double X[9], double grad[9], double H[81], int proj)
+{
+    double g[3][2], F[6], P[6], D[36];
+    triangle_f(row, X, g, F);
+    const double psi = defsim__membrane_law(law, row + 4, F, grad ? P : NULL, H ? D : NULL);
+    if (!isfinite(psi)) return INFINITY;
+    triangle_map(g, area, P, D, grad, H, proj);
     return area * psi;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The strain limit */
+
+void defsim__strain_limit_row(int law, const double mrow[DEFSIM__MEMBRANE_WIDTH], double cap,
+                              double out[DEFSIM__MEMBRANE_WIDTH])
+{
+    const double *prm = mrow + 4;
+    memcpy(out, mrow, 4 * sizeof *out);
+    out[4] = 1.0 + cap;
+    out[5] = DEFSIM__STRAIN_LIMIT_BAND * cap;
+    out[6] = law == DEFSIM__MEMBRANE_NEOHOOKEAN ? 2.0 * prm[0] + prm[1] : fmax(prm[0], prm[2]);
+    out[7] = 0.0;
+}
+
+/* The eigenvalues l1 >= l2 of a 2x2 symmetric C and the unit eigenvector v1 of l1 (v2 is its
+ * perpendicular (-v1[1], v1[0])). */
+static void sym2_eigen(const double C[4], double *l1, double *l2, double v1[2])
+{
+    const double m = 0.5 * (C[0] + C[3]), h = 0.5 * (C[0] - C[3]);
+    const double r = sqrt(h * h + C[1] * C[1]);
+    *l1 = m + r;
+    *l2 = m - r;
+    /* the columns of C - l2 I are parallel to v1: the longer one */
+    double a[2] = {C[0] - *l2, C[1]}, b[2] = {C[1], C[3] - *l2};
+    const double na = a[0] * a[0] + a[1] * a[1], nb = b[0] * b[0] + b[1] * b[1];
+    const double *c = na >= nb ? a : b;
+    const double n = sqrt(na >= nb ? na : nb);
+    if (n > 0.0) v1[0] = c[0] / n, v1[1] = c[1] / n;
+    else v1[0] = 1.0, v1[1] = 0.0;
+}
+
+double defsim__membrane_stretch(const double F[6])
+{
+    double C[4], l1, l2, v[2];
+    right_cauchy(F, C);
+    sym2_eigen(C, &l1, &l2, v);
+    return sqrt(fmax(l1, 0.0));
+}
+
+/* One singular value's barrier g(lambda) = kappa b(c - sqrt(lambda)) (lambda = sigma^2) with
+ * b(d) = -(d - delta)^2 log(d / delta) on 0 < d < delta: g, g' and g'' in lambda. */
+static double limit_g(double c, double delta, double kappa, double lambda, double *g1, double *g2)
+{
+    const double s = sqrt(lambda), d = c - s, u = d - delta, lg = log(d / delta);
+    const double b = -u * u * lg;
+    const double b1 = -2.0 * u * lg - u * u / d;
+    const double b2 = -2.0 * lg - 4.0 * u / d + u * u / (d * d);
+    const double f1 = -kappa * b1, f2 = kappa * b2;   /* d/dsigma, d2/dsigma2 */
+    *g1 = f1 / (2.0 * s);
+    *g2 = (f2 * s - f1) / (4.0 * s * s * s);
+    return kappa * b;
+}
+
+/* The barrier's dS = 2 dPsi_C(dC) in C's eigenbasis. */
+typedef struct limit_tangent {
+    double v1[2], v2[2], h1, h2, dd;
+} limit_tangent;
+
+static void limit_dsdc(const void *ctx, const double dC[4], double dS[4])
+{
+    const limit_tangent *t = ctx;
+    const double *v1 = t->v1, *v2 = t->v2;
+    const double cv1[2] = {dC[0] * v1[0] + dC[1] * v1[1], dC[2] * v1[0] + dC[3] * v1[1]};
+    const double cv2[2] = {dC[0] * v2[0] + dC[1] * v2[1], dC[2] * v2[0] + dC[3] * v2[1]};
+    const double a = v1[0] * cv1[0] + v1[1] * cv1[1], b = v2[0] * cv2[0] + v2[1] * cv2[1];
+    const double c = v1[0] * cv2[0] + v1[1] * cv2[1];
+    for (int p = 0; p < 2; ++p)
+        for (int q = 0; q < 2; ++q)
+            dS[2 * p + q] = 2.0 * (t->h1 * a * v1[p] * v1[q] + t->h2 * b * v2[p] * v2[q] +
+                                   t->dd * c * (v1[p] * v2[q] + v2[p] * v1[q]));
+}
+
+double defsim__strain_limit_law(const double prm[3], const double F[6], double P[6],
+                                double D[36], int *active)
+{
+    const double c = prm[0], delta = prm[1], kappa = prm[2];
+    double C[4], l[2], v1[2];
+    right_cauchy(F, C);
+    sym2_eigen(C, &l[0], &l[1], v1);
+    *active = 0;
+    const double s1 = sqrt(fmax(l[0], 0.0));
+    if (!(s1 < c)) return INFINITY;
+    double psi = 0.0, g1[2] = {0.0, 0.0}, g2[2] = {0.0, 0.0};
+    for (int i = 0; i < 2; ++i)
+        if (c - sqrt(fmax(l[i], 0.0)) < delta) {
+            psi += limit_g(c, delta, kappa, l[i], &g1[i], &g2[i]);
+            *active = 1;
+        }
+    if (!*active) return 0.0;
+    limit_tangent t = {{v1[0], v1[1]}, {-v1[1], v1[0]}, g2[0], g2[1], 0.0};
+    /* Psi_C = g'_1 v1 v1^T + g'_2 v2 v2^T, S = 2 Psi_C, P = F S */
+    double S[4];
+    for (int p = 0; p < 2; ++p)
+        for (int q = 0; q < 2; ++q)
+            S[2 * p + q] = 2.0 * (g1[0] * t.v1[p] * t.v1[q] + g1[1] * t.v2[p] * t.v2[q]);
+    if (P) f_times(F, S, P);
+    if (D) {
+        /* the divided difference (g'_1 - g'_2) / (l1 - l2), g'' where they (nearly) meet */
+        const double dl = l[0] - l[1];
+        t.dd = dl > 1e-8 * l[0] ? (g1[0] - g1[1]) / dl : 0.5 * (g2[0] + g2[1]);
+        tangent(F, S, limit_dsdc, &t, D);
+    }
+    return psi;
+}
+
+double defsim__strain_limit_element(const double row[DEFSIM__MEMBRANE_WIDTH], double area,
+                                    const double X[9], double grad[9], double H[81], int proj,
+                                    int *active)
+{
+    double g[3][2], F[6], P[6], D[36];
+    triangle_f(row, X, g, F);
+    const double psi = defsim__strain_limit_law(row + 4, F, grad ? P : NULL, H ? D : NULL,
+                                                active);
+    if (!isfinite(psi)) return INFINITY;
+    if (*active) triangle_map(g, area, P, D, grad, H, proj);
+    return area * psi;
+}
+
+double defsim__strain_limit_step(const double row[DEFSIM__MEMBRANE_WIDTH], const double X[9],
+                                 const double dX[9])
+{
+    /* sigma_max(F0 + a dF) is a norm of an affine function of a, convex in a: below the cap at
+     * a = 0 and at a = 1 it is below it all the way; otherwise it crosses once, at r (found by
+     * bisection), and every a < r is below it. */
+    double g[3][2], F0[6], dF[6];
+    const double c = row[4];
+    triangle_f(row, X, g, F0);
+    triangle_f(row, dX, g, dF);
+    double F[6];
+    for (int i = 0; i < 6; ++i) F[i] = F0[i] + dF[i];
+    if (defsim__membrane_stretch(F) < c) return 1.0;
+    if (!(defsim__membrane_stretch(F0) < c)) return 0.0;
+    double lo = 0.0, hi = 1.0;
+    for (int it = 0; it < 60 && hi - lo > 1e-15; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        for (int i = 0; i < 6; ++i) F[i] = F0[i] + mid * dF[i];
+        if (defsim__membrane_stretch(F) < c) lo = mid;
+        else hi = mid;
+    }
+    return DEFSIM__STRAIN_LIMIT_STEP * lo;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -315,21 +481,28 @@ double defsim__hinge_angle(const double X[12], double gout[12], double Hout[144]
             const double hji = -gth[j] * 2.0 * (x * gx[i] + y * gy[i]) / r2;
             Hth[9 * i + j] = h1 + 0.5 * (hij + hji);
         }
-    /* To X: H_X = J^T H_u J with J = [[-I, I, 0, 0], [-I, 0, I, 0], [-I, 0, 0, I]]. */
-    for (int A = 0; A < 4; ++A)
-        for (int B = 0; B < 4; ++B)
-            for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    double v = 0.0;
-                    for (int ua = 0; ua < 3; ++ua)
-                        for (int ub = 0; ub < 3; ++ub) {
-                            const double ca = A == 0 ? -1.0 : (A == ua + 1 ? 1.0 : 0.0);
-                            const double cb = B == 0 ? -1.0 : (B == ub + 1 ? 1.0 : 0.0);
-                            if (ca != 0.0 && cb != 0.0)
-                                v += ca * cb * Hth[9 * (3 * ua + i) + 3 * ub + k];
-                        }
-                    Hout[12 * (3 * A + i) + 3 * B + k] = v;
+    /* To X: H_X = J^T H_u J with J = [[-I, I, 0, 0], [-I, 0, I, 0], [-I, 0, 0, I]]: block (A, B)
+     * of H_X (A, B = 0..3, each 3 x 3) is Hth's block (A - 1, B - 1) for A, B >= 1, minus the sum
+     * of Hth's blocks over the index that is 0, and the sum of all nine blocks for A = B = 0
+     * (summed in the same order as the full product, so the figures are those of J^T H J). */
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+            double v00 = 0.0;
+            for (int ua = 0; ua < 3; ++ua)
+                for (int ub = 0; ub < 3; ++ub) v00 += Hth[9 * (3 * ua + i) + 3 * ub + k];
+            Hout[12 * i + k] = v00;
+            for (int B = 1; B < 4; ++B) {
+                double row = 0.0, col = 0.0;
+                for (int u = 0; u < 3; ++u) {
+                    row += -Hth[9 * (3 * u + i) + 3 * (B - 1) + k];
+                    col += -Hth[9 * (3 * (B - 1) + i) + 3 * u + k];
                 }
+                Hout[12 * i + 3 * B + k] = row;
+                Hout[12 * (3 * B + i) + k] = col;
+                for (int A = 1; A < 4; ++A)
+                    Hout[12 * (3 * A + i) + 3 * B + k] = Hth[9 * (3 * (A - 1) + i) + 3 * (B - 1) + k];
+            }
+        }
     return theta;
 }
 

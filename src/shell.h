@@ -14,12 +14,41 @@
 
 #include <stdint.h>
 
+/* A triangle's formulas over any element type (double in shell.c, SIMD lanes in shell_batch.c),
+ * as mat3.h's are: the shape gradients g[3][2] from Dm^-1 m[4] (g_1, g_2 its rows, g_0 =
+ * -(g_1 + g_2)); F (3x2) = sum_a x_a g_a^T with XA(a, i) coordinate i of vertex a; C = F^T F
+ * (2x2; C[1] = C[2]); out (3x2) = F M (M 2x2). */
+#define DEFSIM__TRI_SHAPE(m, g)                                                               \
+    do {                                                                                      \
+        (g)[0][0] = -((m)[0] + (m)[2]);                                                       \
+        (g)[0][1] = -((m)[1] + (m)[3]);                                                       \
+        (g)[1][0] = (m)[0];                                                                   \
+        (g)[1][1] = (m)[1];                                                                   \
+        (g)[2][0] = (m)[2];                                                                   \
+        (g)[2][1] = (m)[3];                                                                   \
+    } while (0)
+#define DEFSIM__TRI_F(XA, g, F)                                                               \
+    for (int i_ = 0; i_ < 3; ++i_)                                                            \
+        for (int j_ = 0; j_ < 2; ++j_)                                                        \
+    (F)[2 * i_ + j_] = XA(0, i_) * (g)[0][j_] + XA(1, i_) * (g)[1][j_] + XA(2, i_) * (g)[2][j_]
+#define DEFSIM__TRI_CAUCHY(F, C)                                                              \
+    do {                                                                                      \
+        (C)[0] = (F)[0] * (F)[0] + (F)[2] * (F)[2] + (F)[4] * (F)[4];                         \
+        (C)[1] = (C)[2] = (F)[0] * (F)[1] + (F)[2] * (F)[3] + (F)[4] * (F)[5];                \
+        (C)[3] = (F)[1] * (F)[1] + (F)[3] * (F)[3] + (F)[5] * (F)[5];                         \
+    } while (0)
+#define DEFSIM__TRI_FTIMES(F, M, out)                                                         \
+    for (int i_ = 0; i_ < 3; ++i_)                                                            \
+        for (int j_ = 0; j_ < 2; ++j_)                                                        \
+    (out)[2 * i_ + j_] = (F)[2 * i_] * (M)[j_] + (F)[2 * i_ + 1] * (M)[2 + j_]
+
 /* The membrane laws (one element group each); the hinges are a third group. */
 enum {
     DEFSIM__MEMBRANE_STVK = 0,        /* isotropic and orthotropic StVK */
     DEFSIM__MEMBRANE_NEOHOOKEAN = 1,
     DEFSIM__SHELL_HINGES = 2,
-    DEFSIM__SHELL_GROUPS = 3
+    DEFSIM__SHELL_LIMITS = 3,         /* the strain limit's triangles (term_strain_limit.c) */
+    DEFSIM__SHELL_GROUPS = 4
 };
 
 /* Doubles per membrane element in its group's `shell` array: Dm^-1 (2x2 row-major), then the
@@ -53,6 +82,43 @@ double defsim__membrane_law(int law, const double prm[4], const double F[6], dou
  * with dP/dF projected by proj (defsim_projection: NONE, CLAMP, ABS) before it is mapped. */
 double defsim__membrane_element(int law, const double row[DEFSIM__MEMBRANE_WIDTH], double area,
                                 const double X[9], double grad[9], double H[81], int proj);
+
+/* The strain limit (docs/shells.md): a cap c = 1 + cap on the largest principal stretch
+ * sigma_1 of a triangle's F, enforced by a barrier on each singular value sigma_i,
+ * psi = kappa sum_i b(c - sigma_i), b(d) = -(d - delta)^2 log(d / delta) on 0 < d < delta and 0
+ * for d >= delta (C2 there: the energy is untouched outside the band), +inf at sigma_1 >= c.
+ * Summed over both singular values it is a symmetric function of them, smooth where they meet.
+ * The band delta is DEFSIM__STRAIN_LIMIT_BAND cap; kappa (N/m) the membrane's tensile modulus
+ * (max(c11, c22) of StVK, lambda + 2 mu of neo-Hookean). The line-search filter returns
+ * DEFSIM__STRAIN_LIMIT_STEP of the step to the cap. Its rows (DEFSIM__MEMBRANE_WIDTH doubles):
+ * Dm^-1, then c, delta, kappa, 0. */
+#define DEFSIM__STRAIN_LIMIT_BAND 0.1
+#define DEFSIM__STRAIN_LIMIT_STEP 0.8
+
+/* A triangle's strain-limit row from its membrane row (law DEFSIM__MEMBRANE_*) and the cap. */
+void defsim__strain_limit_row(int law, const double mrow[DEFSIM__MEMBRANE_WIDTH], double cap,
+                              double out[DEFSIM__MEMBRANE_WIDTH]);
+
+/* The largest singular value of a 3x2 F (the largest principal stretch). */
+double defsim__membrane_stretch(const double F[6]);
+
+/* The barrier's density at F (prm: c, delta, kappa): +INFINITY where sigma_1 >= c (P, D
+ * untouched); 0 with *active = 0 outside the band (P, D untouched); else *active = 1, P (may be
+ * NULL) and dP/dF (6x6 as the laws', may be NULL). */
+double defsim__strain_limit_law(const double prm[3], const double F[6], double P[6],
+                                double D[36], int *active);
+
+/* A triangle's barrier (its row, rest area) at X as defsim__membrane_element (grad, H written
+ * only when *active). */
+double defsim__strain_limit_element(const double row[DEFSIM__MEMBRANE_WIDTH], double area,
+                                    const double X[9], double grad[9], double H[81], int proj,
+                                    int *active);
+
+/* The line-search filter: the largest a in [0, 1] such that the triangle at X + a' dX stays
+ * below the cap for all a' <= a, 1 when X + dX is below it, else DEFSIM__STRAIN_LIMIT_STEP of
+ * the crossing (0 when X is not below it). */
+double defsim__strain_limit_step(const double row[DEFSIM__MEMBRANE_WIDTH], const double X[9],
+                                 const double dX[9]);
 
 /* The hinge's signed dihedral angle at X (x0 x1: the edge; x2, x3: the opposite vertices of its
  * two triangles): 0 flat, +-pi folded; its gradient (12) and Hessian (12x12) where not NULL. */

@@ -198,6 +198,25 @@ defsim_status defsim__world_replay_contact_begin(defsim_world *w)
 
 void defsim__world_replay_contact_end(defsim_world *w) { (void)defsim__terms_detach(&w->sys); }
 
+defsim_status defsim__world_adjoint_begin(defsim_world *w, const double *x0, const double *v0,
+                                          double h)
+{
+    if (w->nv == 0 || (defsim__collider_set_live(&w->colliders) == 0 && !w->set.body_contact))
+        return DEFSIM_OK;
+    const size_t bytes = 3 * (size_t)w->nv * sizeof(double);
+    memcpy(w->step.x_save, x0, bytes);   /* contact borrows the step's start from here */
+    memcpy(w->step.v_save, v0, bytes);
+    const defsim__step_ctx sc = hooks(w, h);
+    return defsim__terms_step_begin(&w->sys, &sc);
+}
+
+void defsim__world_adjoint_end(defsim_world *w)
+{
+    (void)defsim__terms_detach(&w->sys);
+    if (w->planned)
+        for (int k = 0; k < DEFSIM__TERM_KINDS; ++k) w->sys.cache[k].valid = 0;
+}
+
 void *defsim__world_term_state(defsim_world *w, int kind)
 {
     /* Body contact keeps candidates between steps only to skip a broad phase: a loaded world's

@@ -17,6 +17,15 @@
 defsim_status defsim__world_replay_contact_begin(defsim_world *w);
 void defsim__world_replay_contact_end(defsim_world *w);
 
+/* A backward pass (tape.c) over a recorded step of h from (x0, v0): the kinds' begins as the
+ * step had them (collider and body contact's pairs and lagged friction at x0; nothing without
+ * a live collider or body contact), so that the adjoint step evaluates the step's contact. End detaches it and drops
+ * the terms' linearisation caches. Begin returns what defsim__terms_step_begin returns (the
+ * world's error set). */
+defsim_status defsim__world_adjoint_begin(defsim_world *w, const double *x0, const double *v0,
+                                          double h);
+void defsim__world_adjoint_end(defsim_world *w);
+
 /* The state that a step attaches to the term of `kind` and that carries from one step to the
  * next, for checkpoints to save and load through the kind's ops; NULL for kinds that keep none
  * (term_list.h). */

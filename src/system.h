@@ -24,10 +24,13 @@ enum { DEFSIM__TET_MODELS = 0 DEFSIM__TET_MODEL_LIST(DEFSIM__COUNT_MODEL) };
 #undef DEFSIM__COUNT_MODEL
 
 /* The element groups of a system: linear tets per model (0 .. DEFSIM__TET_MODELS - 1), the
- * springs (DEFSIM__TET_MODELS), quadratic tets per model (DEFSIM__QUAD_GROUP + model). */
+ * springs (DEFSIM__TET_MODELS), quadratic tets per model (DEFSIM__QUAD_GROUP + model), the
+ * mean-dilatation quadratic tets per model (DEFSIM__QMIX_GROUP + model: quadratic bodies with
+ * volume_averaging, term_quadratic_mixed.c; only the models with a split, material.h). */
 enum {
     DEFSIM__QUAD_GROUP = DEFSIM__TET_MODELS + 1,
-    DEFSIM__GROUPS = 2 * DEFSIM__TET_MODELS + 1
+    DEFSIM__QMIX_GROUP = 2 * DEFSIM__TET_MODELS + 1,
+    DEFSIM__GROUPS = 3 * DEFSIM__TET_MODELS + 1
 };
 
 /* One element group: all tets of one model, or all springs. Elements are sorted by colour so
@@ -35,6 +38,8 @@ enum {
 typedef struct defsim__group {
     int32_t n;                /* elements */
     int32_t nodes;            /* 4 (tets), 10 (quadratic tets, tet10.h) or 2 (springs) */
+    int32_t mixed;            /* quadratic tets: 1 for the mean-dilatation element (the
+                                 DEFSIM__QMIX_GROUP groups, tet10.h), else 0 */
     int32_t *idx;             /* nodes * n global vertex ids */
     double *dminv;            /* 9 n (tets) */
     double *qrest;            /* DEFSIM__TET10_REST n (quadratic tets: gradients and weights
@@ -130,6 +135,8 @@ typedef struct defsim__system {
     int32_t nthreads;
     double gravity[3];        /* m/s^2 */
     int projection;           /* defsim_projection of element Hessians */
+    int exact_contact;        /* a backward pass assembles its matrix: contact terms' Hessians
+                                 unprojected too (host.c's matrix_values_projected) */
     double *mass;             /* nv */
     double *mass3, *alpha3;   /* 3 nv: mass and mass-damping alpha per DOF */
     uint8_t *pinned;          /* nv */

@@ -16,6 +16,8 @@
 #include "adjoint.h"
 #include "clock.h"
 #include "material.h"
+#include "step.h"
+#include "terms.h"
 #include "world.h"
 
 #include <math.h>
@@ -51,6 +53,8 @@ struct defsim_tape {
     defsim__settings set;     /* the core's settings then */
     double *opt;              /* the backend's option values then */
     int32_t nopt;
+    defsim__collider *col;    /* the colliders' slots then (their defs and poses) */
+    int32_t ncol;
     int broken;               /* the world changed in a way the recording cannot follow */
     char why[320];            /* what changed */
     int replaying;            /* the backward pass steps the world: not recorded */
@@ -68,7 +72,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->fcap * state_bytes(t) / 2 + state_bytes(t) +
                      (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)t->pcap * 3 * (size_t)t->natt * sizeof(double) +
-                     (size_t)t->nopt * sizeof(double) + sizeof *t);
+                     (size_t)t->nopt * sizeof(double) + (size_t)t->ncol * sizeof *t->col +
+                     sizeof *t);
 }
 
 static void tape_error(defsim_tape *t, const char *fmt, ...)
@@ -199,6 +204,18 @@ static const char *changed(const defsim_tape *t, const defsim_world *w)
     return NULL;
 }
 
+/* Whether the colliders changed since the recording began (checked after what a recording
+ * cannot differentiate: a collider that came to a penalty backend is that). */
+static const char *colliders_changed(const defsim_tape *t, const defsim_world *w)
+{
+    if (w->colliders.ncol != t->ncol ||
+        (t->ncol > 0 &&
+         memcmp(w->colliders.col, t->col, (size_t)t->ncol * sizeof *t->col) != 0))
+        return "a collider was added, removed, moved or changed (gradients hold the colliders "
+               "fixed: their poses over time are not differentiated)";
+    return NULL;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* Recording: the world's step calls this after every successful step. */
 
@@ -210,6 +227,7 @@ static void tape_step(defsim__tape_link *link, double h)
     const char *why = changed(t, w);
     char buf[400];
     if (!why) why = unsupported(w, buf, sizeof buf);   /* a collider, a callback came */
+    if (!why) why = colliders_changed(t, w);
     if (why) {
         breaks(t, why);
         return;
@@ -262,9 +280,14 @@ static const char *unsupported(const defsim_world *w, char *buf, size_t size)
         return buf;
     }
     const char *term = NULL;
-    if (defsim__collider_set_live(&w->colliders) > 0) term = "collider contact";
-    else if (w->set.body_contact) term = "body contact (core.body_contact)";
-    else if (w->coupling.cpl.fn) term = "the force callback";
+    if (defsim__collider_set_live(&w->colliders) > 0 && !(b->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        snprintf(buf, size, "record: backend %s has collider contact as a penalty force, which "
+                            "gradients do not differentiate (the barrier's backends do: "
+                            "newton_cholmod, newmark)",
+                 b->name);
+        return buf;
+    }
+    if (w->coupling.cpl.fn) term = "the force callback";
     else if (w->coupling.ntargeted > 0) term = "driven pins (pin targets)";
     if (!term) term = defsim__forces_vjp_missing(&w->sys);
     if (term) {
@@ -295,6 +318,9 @@ typedef struct world_saved {
     int32_t since_estimate;
     double *fext;             /* the host's held forces (3 nv), or NULL: none */
     double *att_p;            /* the attachments' targets (3 natt), or NULL: none */
+    double cstat[DEFSIM__CSTAT_COUNT];   /* the contact statistics */
+    unsigned char *carry;     /* what collider contact carries to the next step (its chunk) */
+    size_t ncarry;
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -320,6 +346,18 @@ static int world_save(const defsim_world *w, world_saved *s)
     if (w->planned && w->sys.att.n > 0) {
         if (!(s->att_p = malloc(3 * (size_t)w->sys.att.n * sizeof(double)))) return 0;
         memcpy(s->att_p, w->sys.att.p, 3 * (size_t)w->sys.att.n * sizeof(double));
+    }
+    /* The steps run again and the adjoints' contact begin change contact's statistics and what
+     * it carries between steps (the safe box): kept as a checkpoint keeps them. */
+    memcpy(s->cstat, w->contact.stat, sizeof s->cstat);
+    if (w->planned) {
+        const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                       (defsim__contact *)&w->contact);
+        s->ncarry = tc.ops->save(&tc, NULL, 0);
+        if (s->ncarry > 0) {
+            if (!(s->carry = malloc(s->ncarry))) return 0;
+            (void)tc.ops->save(&tc, s->carry, s->ncarry);
+        }
     }
     return 1;
 }
@@ -352,11 +390,18 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
         w->step.since_estimate = s->since_estimate;
         (void)defsim_world_set_external_forces(w, s->fext, w->nv);   /* the host's again */
         if (s->att_p) (void)set_targets(t, w, s->att_p);
+        memcpy(w->contact.stat, s->cstat, sizeof s->cstat);
+        if (w->planned) {
+            const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
+                                                           &w->contact);
+            (void)tc.ops->load(&tc, s->carry, s->ncarry);
+        }
     }
     free(s->x);
     free(s->counters);
     free(s->fext);
     free(s->att_p);
+    free(s->carry);
 }
 
 /* The parameter gradients' arrays, sized for the system. */
@@ -374,9 +419,13 @@ static void grad_free(defsim__grad *g)
     free(g->att_c);
     free(g->att_p);
     free(g->wmask);
+    free(g->xn);
+    free(g->mu_col);
+    free(g->mu_body);
 }
 
-static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
+static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, int32_t nslots,
+                      int64_t *bytes)
 {
     memset(g, 0, sizeof *g);
     int ok = 1;
@@ -400,18 +449,23 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int64_t *bytes)
     ok &= (g->att_k = calloc(na, sizeof(double))) != NULL;
     ok &= (g->att_c = calloc(na, sizeof(double))) != NULL;
     ok &= (g->att_p = calloc(3 * na, sizeof(double))) != NULL;
-    total += 3 * nd + nd / 3 + 5 * na;
+    ok &= (g->xn = calloc(nd, sizeof(double))) != NULL;
+    ok &= (g->mu_col = calloc((size_t)(ncol > 0 ? ncol : 1), sizeof(double))) != NULL;
+    ok &= (g->mu_body = calloc((size_t)(nslots > 0 ? nslots : 1), sizeof(double))) != NULL;
+    total += 4 * nd + nd / 3 + 5 * na + (size_t)(ncol > 0 ? ncol : 1) +
+             (size_t)(nslots > 0 ? nslots : 1);
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
 }
 
 enum {
-    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_NAMES
+    G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_MU_COL,
+    G_MU_BODY, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
     "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
-    "attachment_damping", "attachment_targets"};
+    "attachment_damping", "attachment_targets", "collider_friction", "body_friction"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -527,8 +581,13 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                                            .ax1 = ax, .av1 = av, .ax0 = ax0, .av0 = av0};
             w->msg->error[0] = '\0';
             st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
+            /* the step's contact: its pairs and what friction lags from its start */
+            if (st == DEFSIM_OK) st = defsim__world_adjoint_begin(w, S0, S0 + n3, t->h[j]);
             if (st == DEFSIM_OK)
                 st = b->adjoint_step(&defsim__host, &w->handle, w->backend.state, t->h[j], &a);
+            defsim__world_adjoint_end(w);
+            for (int64_t i = 0; i < n3; ++i) ax0[i] += g->xn[i];
+            memset(g->xn, 0, (size_t)n3 * sizeof(double));
             if (st != DEFSIM_OK) {
                 tape_error(t, "backward: the adjoint of step %lld failed: %s", (long long)j,
                            w->msg->error[0] ? w->msg->error : defsim_status_string(st));
@@ -620,6 +679,15 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     t->max_bytes = d.max_bytes;
     t->plan_serial = w->plan_serial;
     t->set = w->set;
+    t->ncol = w->colliders.ncol;
+    if (t->ncol > 0 && !(t->col = malloc((size_t)t->ncol * sizeof *t->col))) {
+        free(t->last);
+        free(t->opt);
+        free(t);
+        defsim__error(w->msg, "record: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    if (t->ncol > 0) memcpy(t->col, w->colliders.col, (size_t)t->ncol * sizeof *t->col);
     if (t->nopt > 0)
         memcpy(t->opt, defsim__options_values(&w->options), (size_t)t->nopt * sizeof(double));
     save_state(w, t->last);
@@ -628,6 +696,7 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
     if (!push_checkpoint(t, w)) {
         free(t->last);
         free(t->opt);
+        free(t->col);
         free(t);
         defsim__error(w->msg, "record: out of memory");
         return DEFSIM_ERR_OUT_OF_MEMORY;
@@ -658,6 +727,10 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
         tape_error(t, "backward: since the last recorded step, %s", buf + strlen("record: "));
         return DEFSIM_ERR_UNSUPPORTED;
     }
+    if ((why = colliders_changed(t, w))) {
+        tape_error(t, "backward: since the recording began, %s", why);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     const int64_t want = (t->nsteps + 1) * 3 * (int64_t)t->nv;
     if ((dl_dx || dl_dv) && count != want) {
         tape_error(t, "backward: count = %lld, but the loss gradients of %lld recorded states "
@@ -686,25 +759,30 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
             tape_error(t, "backward: grads[%d] names no gradient (\"%s\"); the names: "
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
-                          "attachment_stiffness, attachment_damping, attachment_targets",
+                          "attachment_stiffness, attachment_damping, attachment_targets, "
+                          "collider_friction, body_friction",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
-        const int64_t c = k <= G_V0    ? 3 * (int64_t)t->nv
-                          : k == G_FEXT  ? 3 * (int64_t)t->nv * t->nsteps
-                          : k == G_ATT_P ? 3 * (int64_t)t->natt * t->nsteps
-                          : k >= G_ATT_K ? t->natt
-                                         : nb;
+        const int64_t c = k <= G_V0      ? 3 * (int64_t)t->nv
+                          : k == G_FEXT    ? 3 * (int64_t)t->nv * t->nsteps
+                          : k == G_ATT_P   ? 3 * (int64_t)t->natt * t->nsteps
+                          : k == G_MU_COL  ? defsim__collider_set_live(&w->colliders)
+                          : k == G_MU_BODY ? nb
+                          : k >= G_ATT_K   ? t->natt
+                                           : nb;
         if (grads[i].count != c || (c > 0 && !grads[i].out)) {
             tape_error(t, "backward: grads[%d] (%s) has count %lld, out %s: it needs %lld "
                           "doubles (%s)",
                        (int)i, grad_names[k], (long long)grads[i].count,
                        grads[i].out ? "set" : "NULL", (long long)c,
-                       k <= G_V0      ? "3 * vertex count"
-                       : k == G_FEXT  ? "3 * vertex count per step"
-                       : k == G_ATT_P ? "3 per attachment and step"
-                       : k >= G_ATT_K ? "one per attachment"
-                                      : "one per body");
+                       k <= G_V0       ? "3 * vertex count"
+                       : k == G_FEXT   ? "3 * vertex count per step"
+                       : k == G_ATT_P  ? "3 per attachment and step"
+                       : k == G_MU_COL ? "one per collider"
+                       : k == G_MU_BODY ? "one per body"
+                       : k >= G_ATT_K  ? "one per attachment"
+                                       : "one per body");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
         which[i] = k;
@@ -747,7 +825,8 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
     int64_t peak = 0;
     double *ax = malloc(2 * (size_t)n3 * sizeof *ax);
     double *body = malloc((size_t)(G_FEXT - G_E) * (size_t)(nb > 0 ? nb : 1) * sizeof *body);
-    const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, &peak) && ax && body;
+    const int ok = world_save(w, &saved) && grad_alloc(&g, &w->sys, w->colliders.ncol, w->bodies.n, &peak) &&
+                   ax && body;
     if (!ok) {
         tape_error(t, "backward: out of memory");
         st = DEFSIM_ERR_OUT_OF_MEMORY;
@@ -783,6 +862,16 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
                     const double *src = k == G_FEXT ? fext_out : attp_out;
                     if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
                         memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
+                    continue;
+                }
+                if (k == G_MU_BODY) {   /* live bodies in slot order */
+                    for (int32_t b = 0, m = 0; b < w->bodies.n; ++b)
+                        if (w->bodies.b[b].generation & 1u) grads[i].out[m++] = g.mu_body[b];
+                    continue;
+                }
+                if (k == G_MU_COL) {   /* live colliders in slot order (get_collider's) */
+                    for (int32_t j = 0, m = 0; j < w->colliders.ncol; ++j)
+                        if (w->colliders.col[j].generation & 1u) grads[i].out[m++] = g.mu_col[j];
                     continue;
                 }
                 const double *src = k == G_X0 ? ax : k == G_V0 ? av : k == G_ATT_K ? g.att_k
@@ -839,5 +928,6 @@ void defsim_tape_destroy(defsim_tape *t)
     free(t->cpt);
     free(t->last);
     free(t->opt);
+    free(t->col);
     free(t);
 }

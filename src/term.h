@@ -51,8 +51,9 @@ struct defsim__grad;
 enum { DEFSIM__TERM_LIST(DEFSIM__TERM_ENUM) DEFSIM__TERM_KINDS };
 #undef DEFSIM__TERM_ENUM
 
-/* At most one term per kind, except one elastic term per tet model. */
-enum { DEFSIM__TERM_MAX = DEFSIM__TERM_KINDS + 8 };
+/* At most one term per kind, except one elastic term per tet model and element (linear,
+ * quadratic, mean-dilatation quadratic: 3 x 3 more for 4 models) and one membrane term per law. */
+enum { DEFSIM__TERM_MAX = DEFSIM__TERM_KINDS + 12 };
 
 /* Linearisation modes (above). */
 enum { DEFSIM__LIN_VALUES = 0, DEFSIM__LIN_PRODUCT = 1, DEFSIM__LIN_LAZY = 2 };

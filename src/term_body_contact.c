@@ -7,6 +7,7 @@
  * touches the surfaces nor regrows the candidates. The vertex pairs that contacts couple but the
  * pattern lacks are merged when the host asks (pattern_update).
  */
+#include "adjoint.h"
 #include "assembly.h"
 #include "body_contact.h"
 #include "collider.h"
@@ -83,6 +84,7 @@ static defsim_status linearise(const defsim__term *t, const defsim__system *s, c
     defsim__term_cache *ca = t->cache;
     if (mode != DEFSIM__LIN_VALUES && defsim__cache_hit(ca, s->nv, x, &unit)) return DEFSIM_OK;
     defsim__body_contact *bc = bcon(t);
+    bc->exact = s->exact_contact;
     ca->valid = 0;
     ca->count = 0;
     collect k = {ca, bc};
@@ -155,6 +157,17 @@ static int start(const defsim__term *t, double *x)
 }
 
 static void step_end(const defsim__term *t) { t->cache->valid = t->cache->any = 0; }
+
+/* Reverse mode (docs/gradients.md): the barriers and the lagged friction (body_contact.c). */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    (void)s;
+    (void)gv;
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    return defsim__body_contact_vjp(bcon(t), ev->x, w, gx, g ? g->xn : NULL, g ? g->mass : NULL,
+                                    g ? g->mu_body : NULL);
+}
 
 static const char *const COUNTERS[] = {"body_contact.linearisations", "body_contact.cached_pairs"};
 
@@ -341,6 +354,7 @@ const defsim__term_ops defsim__term_body_contact = {
     .detach = detach,
     .end = end,
     .readback = readback,
+    .vjp = vjp,
     .counters = COUNTERS,
     .counter_count = 2,
     .counter = counter,

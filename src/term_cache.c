@@ -4,6 +4,8 @@
  * buffers. Apart from terms.c, so that the term files do not call the list that names them. */
 #include "term_cache.h"
 
+#include "system.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -15,6 +17,14 @@ int defsim__term_one(int on, const void *model, void *data, int32_t index, defsi
     out->data = data;
     out->index = index;
     return 1;
+}
+
+int defsim__term_groups(defsim__system *s, int first, defsim__term *out)
+{
+    int n = 0;
+    for (int m = first; m < first + DEFSIM__TET_MODELS; ++m)
+        n += defsim__term_one(s->groups[m].n > 0, &s->groups[m], NULL, m, &out[n]);
+    return n;
 }
 
 int defsim__term_contact(const struct defsim__system *s, int32_t nv, void *data,

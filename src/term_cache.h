@@ -11,6 +11,11 @@
  * model, data and index into out and returns 1; else returns 0. */
 int defsim__term_one(int on, const void *model, void *data, int32_t index, defsim__term *out);
 
+/* The compile of a tet-model kind (elastic, elastic_quadratic, quadratic_mixed): one term per
+ * non-empty group among s->groups[first .. first + DEFSIM__TET_MODELS), model the group and
+ * index its place in s->groups; returns how many. */
+int defsim__term_groups(struct defsim__system *s, int first, defsim__term *out);
+
 /* The compile of a contact kind (collider, body contact): the one term over the system s
  * (nv vertices) with the contact state that a step's begin attached, `data`, and the kind's
  * cache c made room for `bytes` of blocks; 0 when nothing is attached, -1 when out of memory. */

@@ -6,6 +6,7 @@
  * friction velocities) into the kind's cache, which values and products read, so a product
  * never queries a collider.
  */
+#include "adjoint.h"
 #include "assembly.h"
 #include "chunk.h"
 #include "collider.h"
@@ -54,6 +55,7 @@ static defsim_status linearise(const defsim__term *t, const defsim__system *s, c
 {
     defsim__term_cache *ca = t->cache;
     if (mode != DEFSIM__LIN_VALUES && defsim__cache_hit(ca, s->nv, x, c)) return DEFSIM_OK;
+    contact(t)->exact = s->exact_contact;
     ca->any = (c->k != 0.0 || c->kd != 0.0) &&
               defsim__contact_blocks(contact(t), x, c->k, c->kd, ca->buf);
     defsim__cache_store(ca, s->nv, x, c);
@@ -271,6 +273,18 @@ static defsim_status end(defsim__system *s, const defsim__step_ctx *sc, void *wa
     return DEFSIM_OK;
 }
 
+/* Reverse mode (docs/gradients.md): the barrier and the lagged friction (contact.c), the
+ * friction's x_n-derivatives into g->xn, the masses' and the colliders' mu into g. */
+static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                         const double *w, double *gx, double *gv, defsim__grad *g)
+{
+    (void)s;
+    (void)gv;
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    return defsim__contact_vjp(contact(t), ev->x, w, gx, g ? g->xn : NULL, g ? g->mass : NULL,
+                               g ? g->mu_col : NULL);
+}
+
 static const char *const COUNTERS[] = {"collider.linearisations"};
 
 static double counter(const defsim__term *t, int32_t i)
@@ -373,4 +387,4 @@ const defsim__term_ops defsim__term_collider = {
     .begin = begin, .attached = attached, .detach = detach, .end = end,
     .counters = COUNTERS, .counter_count = 1, .counter = counter,
     .options = OPTIONS, .option_count = (int32_t)(sizeof OPTIONS / sizeof OPTIONS[0]),
-    .save = save, .load = load};
+    .save = save, .load = load, .vjp = vjp};

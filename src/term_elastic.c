@@ -15,6 +15,7 @@
 #include "mat3.h"
 #include "material.h"
 #include "system.h"
+#include "term_cache.h"
 #include "tet_forces.h"
 
 #include <math.h>
@@ -25,15 +26,7 @@ static const defsim__group *group(const defsim__term *t) { return t->model; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    int n = 0;
-    for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
-        if (s->groups[m].n > 0) {
-            memset(&out[n], 0, sizeof out[n]);
-            out[n].model = &s->groups[m];
-            out[n].index = m;
-            ++n;
-        }
-    return n;
+    return defsim__term_groups(s, 0, out);
 }
 
 static double element_energy(const defsim__group *g, const double *x, int32_t e)

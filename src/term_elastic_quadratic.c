@@ -12,6 +12,7 @@
 #include "energy.h"
 #include "material.h"
 #include "system.h"
+#include "term_cache.h"
 #include "tet10.h"
 
 #include <string.h>
@@ -20,15 +21,7 @@ static const defsim__group *group(const defsim__term *t) { return t->model; }
 
 static int compile(defsim__system *s, defsim__term *out)
 {
-    int n = 0;
-    for (int m = 0; m < DEFSIM__TET_MODELS; ++m)
-        if (s->groups[DEFSIM__QUAD_GROUP + m].n > 0) {
-            memset(&out[n], 0, sizeof out[n]);
-            out[n].model = &s->groups[DEFSIM__QUAD_GROUP + m];
-            out[n].index = DEFSIM__QUAD_GROUP + m;
-            ++n;
-        }
-    return n;
+    return defsim__term_groups(s, DEFSIM__QUAD_GROUP, out);
 }
 
 static const double *rest_of(const defsim__group *g, int32_t e)
@@ -84,38 +77,15 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)
 {
-    enum { nd = 30 };
     const int32_t *id = g->idx + 10 * (int64_t)e;
     const double *r = rest_of(g, e);
-    memset(K, 0, nd * nd * sizeof *K);
+    double D[DEFSIM__TET10_QP][81];
     for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
-        const double *G = r + DEFSIM__TET10_QSTRIDE * q;
-        const double w = G[30];
-        double F[9], D[81];
-        defsim__tet10_F(x, id, G, F);
-        defsim__model_dpdf_scaled(g->law, g->mu[e], g->lambda[e], F, s->projection, sk, sd, D);
-        for (int b = 0; b < 10; ++b) {
-            const double *gb = G + 3 * b;
-            double Dg[9][3];   /* Dg[(i,j)][k] = w sum_l D[(i,j),(k,l)] g_b[l] */
-            for (int rr = 0; rr < 9; ++rr)
-                for (int k = 0; k < 3; ++k)
-                    Dg[rr][k] = w * (D[9 * rr + 3 * k] * gb[0] + D[9 * rr + 3 * k + 1] * gb[1] +
-                                     D[9 * rr + 3 * k + 2] * gb[2]);
-            for (int a = 0; a <= b; ++a) {
-                const double *ga = G + 3 * a;
-                for (int i = 0; i < 3; ++i)
-                    for (int k = 0; k < 3; ++k)
-                        K[(3 * a + i) * nd + 3 * b + k] +=
-                            ga[0] * Dg[3 * i][k] + ga[1] * Dg[3 * i + 1][k] + ga[2] * Dg[3 * i + 2][k];
-            }
-        }
+        double F[9];
+        defsim__tet10_F(x, id, r + DEFSIM__TET10_QSTRIDE * q, F);
+        defsim__model_dpdf_scaled(g->law, g->mu[e], g->lambda[e], F, s->projection, sk, sd, D[q]);
     }
-    /* D symmetric: the lower blocks mirror the upper ones. */
-    for (int b = 0; b < 10; ++b)
-        for (int a = 0; a < b; ++a)
-            for (int i = 0; i < 3; ++i)
-                for (int k = 0; k < 3; ++k)
-                    K[(3 * b + k) * nd + 3 * a + i] = K[(3 * a + i) * nd + 3 * b + k];
+    defsim__tet10_stiffness(r, D, 0.0, NULL, K);
     return 1;
 }
 

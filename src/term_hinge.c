@@ -2,14 +2,17 @@
 /*
  * The bending energy of the shells (shell.h; docs/shells.md): discrete shells' hinges, one
  * term over the hinge group, E = w/2 (theta - theta0)^2 per hinge with w = D |e|^2 / (A1 + A2)
- * from the rest shape: forces colour by colour, energy as deterministic blocked sums, 12x12
- * element matrices w (g g^T + delta H_theta) eigen-clamped per hinge when the backend projects,
+ * from the rest shape: forces by shell_batch.c's batched kernel when the plan chose a variant
+ * (core.simd), else colour by colour with the scalar kernel, energy as deterministic blocked
+ * sums, 12x12 element matrices w (g g^T + delta H_theta) eigen-clamped per hinge when the
+ * backend projects,
  * products element by element. Shells take no stiffness damping (body.c refuses it).
  */
 #include "assembly.h"
 #include "energy.h"
 #include "shell.h"
 #include "system.h"
+#include "tet_forces.h"
 #include "term_cache.h"
 
 #include <string.h>
@@ -42,7 +45,17 @@ static int element_gradient(const defsim__group *g, const double *x, int32_t e, 
     return 1;
 }
 
-DEFSIM__GROUP_GRADIENT_FORCES_OP(element_gradient)
+/* The batched kernel of the variant the plan chose (tet_forces.h), else the scalar one. */
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    const defsim__group *g = t->model;
+    if (s->tet_kernels) s->tet_kernels->shells[DEFSIM__SHELL_HINGES](g, ev->x, f, s->nthreads);
+    else defsim__group_gradient_forces(s, g, element_gradient, ev->x, f);
+    *used |= g->pass;
+    return DEFSIM_OK;
+}
 
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)

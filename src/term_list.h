@@ -13,9 +13,11 @@
     X(elastic)                  \
     X(nodal_volume)             \
     X(elastic_quadratic)        \
+    X(quadratic_mixed)          \
     X(spring)                   \
     X(membrane)                 \
     X(hinge)                    \
+    X(strain_limit)             \
     X(attach)                   \
     X(collider)                 \
     X(body_contact)             \

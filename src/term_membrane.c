@@ -2,14 +2,16 @@
 /*
  * The membrane energy of the shells (shell.h; docs/shells.md): one term per membrane law that
  * the scene uses (its element group of triangles), with the law's scalar element kernel:
- * forces colour by colour (conflict-free parallel scatter), energy as deterministic blocked sums,
- * 9x9 element matrices k K with dP/dF projected per element as the tets' are, products element
+ * forces by the batched kernels of shell_batch.c when the plan chose a variant (core.simd),
+ * else colour by colour with the scalar kernel (conflict-free parallel scatter), energy as
+ * deterministic blocked sums, 9x9 element matrices k K with dP/dF projected per element as the tets' are, products element
  * by element. Shells take no stiffness damping (body.c refuses it), so kd adds nothing.
  */
 #include "assembly.h"
 #include "energy.h"
 #include "shell.h"
 #include "system.h"
+#include "tet_forces.h"
 
 #include <math.h>
 #include <string.h>
@@ -53,7 +55,17 @@ static int element_gradient(const defsim__group *g, const double *x, int32_t e, 
     return element(g, x, e, grad, NULL, DEFSIM_PROJECTION_NONE) < INFINITY;
 }
 
-DEFSIM__GROUP_GRADIENT_FORCES_OP(element_gradient)
+/* The batched kernel of the variant the plan chose (tet_forces.h), else the scalar one. */
+static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
+                            double *f, uint32_t *used)
+{
+    if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
+    const defsim__group *g = t->model;
+    if (s->tet_kernels) s->tet_kernels->shells[t->index](g, ev->x, f, s->nthreads);
+    else defsim__group_gradient_forces(s, g, element_gradient, ev->x, f);
+    *used |= g->pass;
+    return DEFSIM_OK;
+}
 
 static int element_matrix(const defsim__system *s, const defsim__group *g, const double *x,
                           int32_t e, double sk, double sd, double *K)

@@ -19,9 +19,9 @@
  * pattern grows to the patches). The element part is a tet's 12 x 12 matrix with
  * D = dP_iso/dF + p_e d2J/dF2, indefinite through p_e d2J/dF2; it is projected as a 9 x 9
  * (clamp or abs of its eigenvalues, the system's projection); the nodal part is rank one per node
- * and positive semi-definite where U'' >= 0 (always for stable neo-Hookean, J_n < e for
- * neo-Hookean), U'' clamped (abs) under projection. The sum is then positive semi-definite; with
- * projection none it is the exact Hessian. Products need no patch matrix: G_n . dx is the
+ * and positive semi-definite where U'' >= 0 (for stable neo-Hookean wherever nu >= 0, J_n < e
+ * for neo-Hookean), U'' clamped (abs) under projection. The sum is then positive semi-definite;
+ * with projection none it is the exact Hessian. Products need no patch matrix: G_n . dx is the
  * weighted sum of the elements' cof(F_e) : dF_e(dx), and the product's rows are element-local
  * scatters again.
  *

@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Stiffness damping, forces -beta K_e(x) v_e per element (tets of every group, then springs, then quadratic tets)
- * with the element stiffness made positive semi-definite (analytic eigenvalue clamping of
- * dP/dF): linear in v, never injects energy. Its matrix B shares each element's matrix with the
- * elastic term (term_elastic.c, term_spring.c), so that an element is scattered once.
+ * Stiffness damping, forces -beta K_e(x) v_e per element (tets of every group, then springs, then
+ * quadratic tets; the volume-averaged and the mean-dilatation quadratic tets damp in their own
+ * terms' forces, with their own stiffness) with the element stiffness made positive
+ * semi-definite (analytic eigenvalue clamping of dP/dF): linear in v, never injects energy. Its
+ * matrix B shares each element's matrix with the elastic term (term_elastic.c, term_spring.c),
+ * so that an element is scattered once.
  */
 #include "adjoint.h"
 #include "element.h"
@@ -78,7 +80,7 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
         if (s->groups[m].n > 0) damping_tets(&s->groups[m], ev->x, ev->v, f, s->nthreads);
     const defsim__group *sg = &s->groups[DEFSIM__TET_MODELS];
     if (sg->n > 0) damping_springs(sg, ev->x, ev->v, f, s->nthreads);
-    for (int m = DEFSIM__QUAD_GROUP; m < DEFSIM__GROUPS; ++m)
+    for (int m = DEFSIM__QUAD_GROUP; m < DEFSIM__QUAD_GROUP + DEFSIM__TET_MODELS; ++m)
         if (s->groups[m].n > 0)
             defsim__tet10_damping_forces(&s->groups[m], ev->x, ev->v, f, s->nthreads);
     *used |= DEFSIM_PASS_STIFFNESS_DAMPING;

@@ -175,6 +175,40 @@ static const double *rest_of(const defsim__group *g, int32_t e)
     return g->qrest + DEFSIM__TET10_REST * (int64_t)e;
 }
 
+void defsim__tet10_stiffness(const double *rest, const double D[DEFSIM__TET10_QP][81], double c,
+                             const double *bv, double *K)
+{
+    enum { nd = 30 };
+    for (int i = 0; i < nd; ++i)
+        for (int j = 0; j < nd; ++j) K[i * nd + j] = bv ? c * bv[i] * bv[j] : 0.0;
+    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+        const double *G = rest + DEFSIM__TET10_QSTRIDE * q, *Dq = D[q];
+        const double w = G[30];
+        for (int b = 0; b < 10; ++b) {
+            const double *gb = G + 3 * b;
+            double Dg[9][3];   /* Dg[(i,j)][k] = w sum_l D[(i,j),(k,l)] g_b[l] */
+            for (int rr = 0; rr < 9; ++rr)
+                for (int k = 0; k < 3; ++k)
+                    Dg[rr][k] = w * (Dq[9 * rr + 3 * k] * gb[0] + Dq[9 * rr + 3 * k + 1] * gb[1] +
+                                     Dq[9 * rr + 3 * k + 2] * gb[2]);
+            for (int a = 0; a <= b; ++a) {
+                const double *ga = G + 3 * a;
+                for (int i = 0; i < 3; ++i)
+                    for (int k = 0; k < 3; ++k)
+                        K[(3 * a + i) * nd + 3 * b + k] += ga[0] * Dg[3 * i][k] +
+                                                           ga[1] * Dg[3 * i + 1][k] +
+                                                           ga[2] * Dg[3 * i + 2][k];
+            }
+        }
+    }
+    /* D symmetric: the lower blocks mirror the upper ones. */
+    for (int b = 0; b < 10; ++b)
+        for (int a = 0; a < b; ++a)
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k)
+                    K[(3 * b + k) * nd + 3 * a + i] = K[(3 * a + i) * nd + 3 * b + k];
+}
+
 void defsim__tet10_damping_forces(const defsim__group *g, const double *x, const double *v,
                                   double *f, int nthreads)
 {
@@ -203,20 +237,48 @@ void defsim__tet10_damping_forces(const defsim__group *g, const double *x, const
     }
 }
 
+double defsim__tet10_mixed(const defsim__model *law, double mu, double la, const double *x,
+                           const int32_t *id, const double *rest,
+                           double F[DEFSIM__TET10_QP][9], double P[DEFSIM__TET10_QP][9],
+                           double u[3])
+{
+    const defsim__model_split *sp = law->split;
+    double V = 0.0, jv = 0.0, iso = 0.0;
+    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+        const double *G = rest + DEFSIM__TET10_QSTRIDE * q;
+        defsim__tet10_F(x, id, G, F[q]);
+        V += G[30];
+        jv += G[30] * defsim__m3_det(F[q]);
+        iso += G[30] * sp->P(mu, la, F[q], P[q]);
+    }
+    sp->U(mu, la, jv / V, u);
+    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+        double C[9];
+        defsim__m3_cofactor(F[q], C);
+        for (int i = 0; i < 9; ++i) P[q][i] += u[1] * C[i];
+    }
+    double e = iso + V * u[0];
+    if (law->psi_rest) e -= V * law->psi_rest(mu, la);
+    return e;
+}
+
 void defsim__tet10_element_forces(const defsim__group *g, const double *x, int32_t e,
                                   double fl[30])
 {
     static const int32_t loc[10] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9};
     const int32_t *id = g->idx + 10 * (int64_t)e;
-    double xl[30];
+    double xl[30], F[DEFSIM__TET10_QP][9], P[DEFSIM__TET10_QP][9], u[3];
     for (int a = 0; a < 10; ++a) memcpy(xl + 3 * a, x + 3 * (int64_t)id[a], 3 * sizeof *xl);
     memset(fl, 0, 30 * sizeof *fl);
+    if (g->mixed)
+        (void)defsim__tet10_mixed(g->law, g->mu[e], g->lambda[e], xl, loc, rest_of(g, e), F, P, u);
     for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
         const double *G = rest_of(g, e) + DEFSIM__TET10_QSTRIDE * q;
-        double F[9], P[9];
-        defsim__tet10_F(xl, loc, G, F);
-        (void)g->law->P(g->mu[e], g->lambda[e], F, P);
-        defsim__tet10_scatter(fl, loc, G, P, -G[30]);
+        if (!g->mixed) {
+            defsim__tet10_F(xl, loc, G, F[q]);
+            (void)g->law->P(g->mu[e], g->lambda[e], F[q], P[q]);
+        }
+        defsim__tet10_scatter(fl, loc, G, P[q], -G[30]);
     }
 }
 
@@ -233,28 +295,36 @@ double defsim__tet10_min_det(const defsim__group *g, const double *x, int32_t e)
     return lo;
 }
 
-void defsim__tet10_stress(const defsim__model *law, double mu, double la, const double *x,
-                          const int32_t *id, const double *rest, double sigma[9], double *psi)
+void defsim__tet10_stress(const defsim__model *law, double mu, double la, int mixed,
+                          const double *x, const int32_t *id, const double *rest, double sigma[9],
+                          double *psi)
 {
     const double r0 = law->psi_rest ? law->psi_rest(mu, la) : 0.0;
-    double wsum = 0.0, e_sum = 0.0;
+    double wsum = 0.0, e_sum = 0.0, F[DEFSIM__TET10_QP][9], P[DEFSIM__TET10_QP][9], u[3];
     memset(sigma, 0, 9 * sizeof *sigma);
+    const double e_mixed = mixed ? defsim__tet10_mixed(law, mu, la, x, id, rest, F, P, u) : 0.0;
     for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
         const double *G = rest + DEFSIM__TET10_QSTRIDE * q;
-        double F[9], P[9];
-        defsim__tet10_F(x, id, G, F);
-        const double J = defsim__m3_det(F);
-        double p = INFINITY;
-        if (!(law->needs_positive_det && !(J > 0.0))) p = law->P(mu, la, F, P) - r0;
+        double p = INFINITY, J;
+        if (mixed) {
+            J = defsim__m3_det(F[q]);
+            p = e_mixed;
+        } else {
+            defsim__tet10_F(x, id, G, F[q]);
+            J = defsim__m3_det(F[q]);
+            if (!(law->needs_positive_det && !(J > 0.0))) p = law->P(mu, la, F[q], P[q]) - r0;
+        }
         const int defined = J != 0.0 && isfinite(p);
+        const double *Pq = P[q], *Fq = F[q];
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
-                sigma[3 * i + j] += defined ? G[30] * (P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] +
-                                                       P[3 * i + 2] * F[3 * j + 2]) / J
-                                            : NAN;
+                sigma[3 * i + j] +=
+                    defined ? G[30] * (Pq[3 * i] * Fq[3 * j] + Pq[3 * i + 1] * Fq[3 * j + 1] +
+                                       Pq[3 * i + 2] * Fq[3 * j + 2]) / J
+                            : NAN;
         wsum += G[30];
-        e_sum += G[30] * p;
+        if (!mixed) e_sum += G[30] * p;
     }
     for (int i = 0; i < 9; ++i) sigma[i] /= wsum;
-    *psi = e_sum / wsum;
+    *psi = mixed ? e_mixed / wsum : e_sum / wsum;
 }

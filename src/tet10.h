@@ -87,6 +87,12 @@ static inline void defsim__tet10_scatter(double *f, const int32_t *id, const dou
     }
 }
 
+/* The element matrix K (30 x 30, row-major) = sum_q w_q G_q^T D_q G_q + c b b^T over the
+ * points of rest data `rest` with their symmetric 9 x 9 tangents D (b: 30 doubles, or NULL for
+ * none): the upper blocks summed point by point, the lower ones mirrored. */
+void defsim__tet10_stiffness(const double *rest, const double D[DEFSIM__TET10_QP][81], double c,
+                             const double *b, double *K);
+
 struct defsim__group;
 
 /* Group-level kernels that other files than the elastic term need (a group of quadratic tets,
@@ -94,17 +100,28 @@ struct defsim__group;
 /* Stiffness damping forces -beta K_e(x) v_e added into f (dP/dF clamped at each point). */
 void defsim__tet10_damping_forces(const struct defsim__group *g, const double *x, const double *v,
                                   double *f, int nthreads);
-/* The elastic forces of element e at x into fl (30 doubles, the element's node order). */
+/* The elastic forces of element e at x into fl (30 doubles, the element's node order; a mixed
+ * group's: the mean-dilatation element's). */
 void defsim__tet10_element_forces(const struct defsim__group *g, const double *x, int32_t e,
                                   double fl[30]);
 /* The smallest det F over element e's quadrature points at x (the volume ratio). */
 double defsim__tet10_min_det(const struct defsim__group *g, const double *x, int32_t e);
 struct defsim__model;
+/* The mean-dilatation element (docs/elements.md; a mixed group's, law with a split, material.h)
+ * at x (rest data `rest`, nodes id into x): its energy relative to rest
+ *     sum_q w_q psi_iso(F_q) + V U(Jbar) - V psi_rest,   Jbar = sum_q w_q J_q / V,  V = sum_q w_q,
+ * returned; F_q into F, the stress dE/dF_q / w_q = P_iso(F_q) + U'(Jbar) cof F_q into P, and
+ * U, U', U'' at Jbar into u. */
+double defsim__tet10_mixed(const struct defsim__model *law, double mu, double la, const double *x,
+                           const int32_t *id, const double *rest,
+                           double F[DEFSIM__TET10_QP][9], double P[DEFSIM__TET10_QP][9],
+                           double u[3]);
 /* An element's volume-weighted means over its quadrature points (rest data `rest`, nodes id
  * into x) of the Cauchy stress (9, row major; NaN where det F = 0 or a needs_positive_det model
  * meets det F <= 0) and of the energy density relative to rest (J/m^3: the element's energy over
- * its volume). */
-void defsim__tet10_stress(const struct defsim__model *law, double mu, double la, const double *x,
-                          const int32_t *id, const double *rest, double sigma[9], double *psi);
+ * its volume); mixed: the mean-dilatation element's (its stress P_q at each point). */
+void defsim__tet10_stress(const struct defsim__model *law, double mu, double la, int mixed,
+                          const double *x, const int32_t *id, const double *rest, double sigma[9],
+                          double *psi);
 
 #endif /* DEFSIM_TET10_H */

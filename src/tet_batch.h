@@ -71,6 +71,25 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
     }
 }
 
+/* The loop of a batched kernel over group g's batches (g->nodes ids per lane), colour by colour
+ * (the lanes of a colour share no vertex, so their scatters need no atomics), the batches of a
+ * colour in parallel: the body (the arguments after g) runs for each sub-batch s with real
+ * lanes, with id (the batch's vertex ids: id[a DEFSIM__BATCH + lane]), d (its data rows) and nl
+ * (the real lanes from s on) in scope. Needs `nthreads` in scope. */
+#define DEFSIM__BATCH_LOOP(g, ...)                                                            \
+    for (int32_t c = 0; c < (g)->ncolors; ++c) {                                              \
+        const int32_t b0 = (g)->bcolor_ptr[c], b1 = (g)->bcolor_ptr[c + 1];                   \
+        _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(b1 - b0 > PAR_MIN_BATCHES)") \
+        for (int32_t b = b0; b < b1; ++b) {                                                   \
+            const int32_t *id = (g)->bidx + (g)->nodes * DEFSIM__BATCH * (int64_t)b;          \
+            const double *d = (g)->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b;   \
+            for (int s = 0; s < NSUB && s * DEFSIM_VW < (g)->blanes[b]; ++s) {                \
+                const int nl = (g)->blanes[b] - s * DEFSIM_VW;                                \
+                __VA_ARGS__                                                                   \
+            }                                                                                 \
+        }                                                                                     \
+    }
+
 /* The batched kernel of model `name` for this instruction set, defsim__batched_<name>_<isa>
  * (listed in tet_forces.c's table): LAW(d, s, F, P) computes P for the lanes of sub-batch s. */
 #define DEFSIM__BATCHED_KERNEL(name, LAW)                                                     \
@@ -79,22 +98,13 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
                                                            int nthreads)                     \
     {                                                                                         \
         (void)nthreads;                                                                       \
-        for (int32_t c = 0; c < g->ncolors; ++c) {                                            \
-            const int32_t b0 = g->bcolor_ptr[c], b1 = g->bcolor_ptr[c + 1];                   \
-            _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(b1 - b0 > PAR_MIN_BATCHES)") \
-            for (int32_t b = b0; b < b1; ++b) {                                               \
-                const int32_t *id = g->bidx + 4 * DEFSIM__BATCH * (int64_t)b;                 \
-                const double *d = g->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b; \
-                for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {              \
-                    vd dm[9], F[9], P[9];                                                     \
-                    batch_deformation(x, id, d, s, dm, F);                                    \
-                    LAW(d, s, F, P);                                                          \
-                    batch_scatter(f, id + s * DEFSIM_VW, P, dm,                               \
-                                  v_load(ROW(d, DEFSIM__ROW_NVOL, s)),                        \
-                                  g->blanes[b] - s * DEFSIM_VW);                              \
-                }                                                                             \
-            }                                                                                 \
-        }                                                                                     \
+        DEFSIM__BATCH_LOOP(g, {                                                               \
+            vd dm[9], F[9], P[9];                                                             \
+            batch_deformation(x, id, d, s, dm, F);                                            \
+            LAW(d, s, F, P);                                                                  \
+            batch_scatter(f, id + s * DEFSIM_VW, P, dm, v_load(ROW(d, DEFSIM__ROW_NVOL, s)),  \
+                          nl);                                                                \
+        })                                                                                    \
     }
 
 /* ------------------------------------------------------------------------------------------ */

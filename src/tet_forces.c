@@ -16,6 +16,16 @@
 DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_BATCHED)
 #define DEFSIM__BATCHED(name) DEFSIM__CAT(defsim__batched_##name##_, DEFSIM_ISA),
 
+/* shell_batch.c: the membranes' and the hinges' kernels. */
+void DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA)(const defsim__group *g,
+                                                            const double *x, double *f,
+                                                            int nthreads);
+void DEFSIM__CAT(defsim__batched_membrane_neohookean_, DEFSIM_ISA)(const defsim__group *g,
+                                                                  const double *x, double *f,
+                                                                  int nthreads);
+void DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)(const defsim__group *g, const double *x,
+                                                    double *f, int nthreads);
+
 /* material_corotated.c: the co-rotated kernel's polar decomposition, exposed for tests. */
 void DEFSIM__CAT(defsim__rotations_, DEFSIM_ISA)(int32_t n, const double *F, double *R);
 
@@ -23,4 +33,7 @@ const defsim__tet_kernels DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA) = {
     .name = DEFSIM__STR(DEFSIM_ISA),
     .forces = {DEFSIM__TET_MODEL_LIST(DEFSIM__BATCHED)},
     .rotation = DEFSIM__CAT(defsim__rotations_, DEFSIM_ISA),
+    .shells = {DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA),
+               DEFSIM__CAT(defsim__batched_membrane_neohookean_, DEFSIM_ISA),
+               DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)},
 };

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Batched (SIMD) elastic force kernels, one per tet model (material_list.h), compiled once per
- * instruction set and chosen once at plan time (plan.c). The batch layout is shared by all
- * variants:
- * each colour of a tet group is cut into batches of DEFSIM__BATCH elements, the last one padded
- * with copies of its first element that are computed but never scattered.
+ * Batched (SIMD) elastic force kernels, one per tet model (material_list.h) and per shell group
+ * (the membrane laws and the hinges, shell_batch.c), compiled once per instruction set and
+ * chosen once at plan time (plan.c). The batch layout is shared by all variants: each colour of
+ * a group is cut into batches of DEFSIM__BATCH elements, the last one padded with copies of its
+ * first element that are computed but never scattered.
  */
 #ifndef DEFSIM_TET_FORCES_H
 #define DEFSIM_TET_FORCES_H
@@ -36,6 +36,16 @@ enum {
     DEFSIM__BATCH_ROWS = 13
 };
 
+/* The rows of the shells' batches: a membrane triangle's Dm^-1 (2x2 row-major), -area and its
+ * law's four parameters (shell.h); a hinge's weight and rest angle. */
+enum {
+    DEFSIM__SROW_DMINV = 0,
+    DEFSIM__SROW_NAREA = 4,
+    DEFSIM__SROW_P = 5,
+    DEFSIM__SROW_W = 0,
+    DEFSIM__SROW_THETA0 = 1
+};
+
 typedef void (*defsim__tet_force_fn)(const defsim__group *g, const double *x, double *f,
                                      int nthreads);
 
@@ -47,6 +57,9 @@ typedef struct defsim__tet_kernels {
     /* R[9 e ..] = the rotation of SO(3) closest to F[9 e ..] (maximising tr(R^T F)), for n
      * row-major matrices: the co-rotated kernel's polar decomposition, exposed for tests. */
     void (*rotation)(int32_t n, const double *F, double *R);
+    /* Adds the forces of a shell group (system.h's shells: DEFSIM__MEMBRANE_STVK,
+     * DEFSIM__MEMBRANE_NEOHOOKEAN, DEFSIM__SHELL_HINGES) at x into f (shell_batch.c). */
+    defsim__tet_force_fn shells[DEFSIM__SHELL_LIMITS];
 } defsim__tet_kernels;
 
 extern const defsim__tet_kernels defsim__tet_kernels_generic;

@@ -381,6 +381,13 @@ defsim_status defsim_world_add_body(defsim_world *w, const defsim_body_def *def,
     int32_t reordered = 0;
     st = defsim__body_build(w->msg, def, w->nv, &d, &b, &reordered);
     if (st != DEFSIM_OK) return st;
+    if (b.strain_limit > 0.0 && !(w->backend.table->flags & DEFSIM_BACKEND_CONTACT_CCD)) {
+        defsim__error(w->msg, "add_body: shell_strain_limit needs a backend whose line search "
+                              "filters its steps (DEFSIM_BACKEND_CONTACT_CCD: newton_cholmod, "
+                              "bdf2, newmark); %s has none", w->backend.table->name);
+        defsim__body_free(&b);
+        return DEFSIM_ERR_BACKEND_UNAVAILABLE;
+    }
 
     /* The id takes the first free slot (its generation makes the ids of its earlier bodies
      * stale); the vertices still follow those of the bodies added before. */

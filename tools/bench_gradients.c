@@ -11,7 +11,7 @@
  *
  *   defsim-bench-gradients [--backend newton_cholmod] [--n N] [--h SECONDS] [--steps S]
  *                          [--interval K] [--threads T] [--tolerance TOL] [--repeat R]
- *                          [--params all|state]
+ *                          [--params all|state] [--contact]
  *
  * --interval 1 stores every state (nothing recomputed); K > 1 every K-th; 0 (the default)
  * automatic (every state within 256 MiB). --repeat R runs the backward pass R times and reports
@@ -49,6 +49,8 @@ static void usage(FILE *f)
                "  --tolerance TOL      Newton tolerance (default 1e-10)\n"
                "  --repeat R           backward passes; the fastest is reported (default 3)\n"
                "  --params P           all (default) or state (x0 and v0 only)\n"
+               "  --contact            a ground plane (mu 0.3) 5 cm under the beam: its tip lands\n"
+               "                       and slides (collider contact's gradients)\n"
                "  -h, --help           this text\n"
                "  --version            the library's version\n");
 }
@@ -63,7 +65,7 @@ static int fail(defsim_world *w, const char *what)
 int main(int argc, char **argv)
 {
     const char *backend = "newton_cholmod", *params = "all";
-    int n = 4, steps = 60, interval = 0, threads = 1, repeat = 3;
+    int n = 4, steps = 60, interval = 0, threads = 1, repeat = 3, contact = 0;
     double h = 1.0 / 120.0, tol = 1e-10;
     static const cli_tool tool = {"defsim-bench-gradients", usage, NULL, ""};
     const cli_opt opts[] = {
@@ -71,7 +73,7 @@ int main(int argc, char **argv)
         {"h", CLI_POSITIVE, &h, 0, 0}, {"steps", CLI_INT, &steps, 1, 1e8},
         {"interval", CLI_INT, &interval, 0, 1e8}, {"threads", CLI_INT, &threads, 0, 4096},
         {"tolerance", CLI_POSITIVE, &tol, 0, 0}, {"repeat", CLI_INT, &repeat, 1, 1000},
-        {"params", CLI_STRING, &params, 0, 0}, {0}};
+        {"params", CLI_STRING, &params, 0, 0}, {"contact", CLI_FLAG, &contact, 0, 0}, {0}};
     int first;
     const int parsed = cli_parse(&tool, opts, argc, argv, &first);
     if (parsed >= 0) return parsed;
@@ -97,6 +99,13 @@ int main(int argc, char **argv)
     mat.mass_damping = 1.0;
     defsim_body_id b;
     if (bench_add_beam(w, &m, &mat, 1, &b) != DEFSIM_OK) return fail(w, "beam");
+    if (contact) {
+        defsim_collider_def cd;
+        defsim_collider_def_init(&cd, sizeof cd);
+        cd.position[1] = -0.05;
+        cd.friction = 0.3;
+        if (defsim_world_add_collider(w, &cd, NULL) != DEFSIM_OK) return fail(w, "collider");
+    }
     const int nv = m.vertex_count;
     int tip = 0;
     for (int i = 0; i < nv; ++i) {
@@ -141,9 +150,14 @@ int main(int argc, char **argv)
         }
     }
     printf("cantilever %dx%dx%d cells, %d tets, %d vertices, backend %s, h = %.6g s, %d steps, "
-           "%d thread(s), gradients: %s\n",
+           "%d thread(s), gradients: %s%s\n",
            3 * n, n, n, m.tet_count, nv, backend, h, steps, threads,
-           state_only ? "x0, v0" : "all");
+           state_only ? "x0, v0" : "all", contact ? ", on a ground plane (contact)" : "");
+    if (contact) {
+        double active = 0.0;
+        (void)defsim_world_stat(w, "contact.active", &active);
+        printf("contact: %.0f vertices within dhat of the plane at the end\n", active);
+    }
     printf("forward %.4f s, backward %.4f s (fastest of %d; recomputation %.4f s, %lld steps): "
            "ratio %.3f\n",
            forward, best, repeat, ts.time_recompute, (long long)ts.recomputed_steps,

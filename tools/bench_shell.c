@@ -1,20 +1,27 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * defsim-bench-shell: the cost per element of the shells' membrane and bending kernels next to
- * the tet kernels (docs/shells.md), one thread, CPU time, the median of ROUNDS passes:
+ * defsim-bench-shell: the cost per element of the shells' membrane, bending and strain-limit
+ * kernels next to the tet kernels (docs/shells.md), one thread, CPU time, the median of ROUNDS
+ * passes:
  *
  *   defsim-bench-shell [ROUNDS]   (default 11; DEFSIM_BACKEND_PATH must find newton_cholmod)
  *
- * Per element kind, the world's forces (defsim_world_forces: the kind's force kernel, batched
- * for tets where the CPU has a variant) and the stiffness matrix's values (the kind's element
- * matrices with the default clamp projection, scattered into the pattern), each divided by the
+ * Per element kind, its term alone (the kind's ops, as the backends reach them): the energy,
+ * the forces with the batched kernels of the variant core.simd picks (auto: the fastest this CPU
+ * runs) and with the scalar kernels, and the stiffness matrix's values (the kind's element
+ * matrices with the default clamp projection, scattered into the pattern; and without the
+ * projection), each divided by the
  * element count: tets of a 20 x 20 x 20 box (StVK, stable neo-Hookean), triangles of a 100 x 100
- * sheet (StVK and neo-Hookean membranes, no bending) and the hinges of the same sheet (bending
- * only). The state is the rest shape perturbed by 1 % of a cell, so that no kernel takes a
- * shortcut at rest.
+ * sheet (StVK and neo-Hookean membranes, no bending), the hinges of the same sheet (bending
+ * only), and its strain limit (10 %) with every triangle in the barrier's band (the sheet
+ * stretched 1.095 times both ways; the limit has no batched kernel: its two force columns are
+ * the scalar kernel). The state is perturbed by 1 % of a cell (the limit's: 0.01 %), so that no
+ * kernel takes a shortcut at rest.
  */
 #include "assembly.h"
 #include "clock.h"
+#include "terms.h"
+#include "tet_forces.h"
 #include "world.h"
 
 #include <math.h>
@@ -48,21 +55,30 @@ static defsim_world *make_world(void)
     return w;
 }
 
-/* Times forces and matrix values of w (elements: n), prints one row. */
-static void run(defsim_world *w, const char *what, int64_t n, double cell, int rounds)
+/* Times the term of `kind` in w (elements: n): energy, forces batched and scalar, matrix
+ * values; prints one row. The state: x scaled by `scale` about the origin, perturbed by `amp`
+ * cells. */
+static void run(defsim_world *w, int kind, const char *what, int64_t n, double cell,
+                double scale, double amp, int rounds)
 {
     if (defsim__world_plan(w) != DEFSIM_OK) {
         fprintf(stderr, "defsim-bench-shell: %s: plan failed\n", what);
         exit(1);
     }
+    const defsim__term *t = defsim__terms_find(&w->sys, kind);
+    if (!t) {
+        fprintf(stderr, "defsim-bench-shell: %s: no term\n", what);
+        exit(1);
+    }
     const int nv = defsim_world_vertex_count(w);
     double *x = malloc(3 * (size_t)nv * sizeof *x), *f = malloc(3 * (size_t)nv * sizeof *f);
-    double *tf = malloc((size_t)rounds * sizeof *tf), *tk = malloc((size_t)rounds * sizeof *tk);
+    double *tm[5];
+    for (int k = 0; k < 5; ++k) tm[k] = malloc((size_t)rounds * sizeof *tm[k]);
     defsim_world_get_positions(w, x, nv);
     unsigned long long s = 12345;
     for (int i = 0; i < 3 * nv; ++i) {
         s = s * 6364136223846793005ULL + 1442695040888963407ULL;
-        x[i] += 0.01 * cell * ((double)(s >> 11) / 9007199254740992.0 - 0.5);
+        x[i] = scale * x[i] + amp * cell * ((double)(s >> 11) / 9007199254740992.0 - 0.5);
     }
     defsim_csc csc;
     if (defsim__pattern_build(&w->sys) != DEFSIM_OK ||
@@ -72,17 +88,43 @@ static void run(defsim_world *w, const char *what, int64_t n, double cell, int r
     }
     double *val = malloc((size_t)csc.nnz * sizeof *val);
     const defsim_matrix_coeffs c = {1.0, 0.0, 0.0, 0.0};
+    const defsim__eval ev = {x, NULL, 0.0, DEFSIM_FORCE_ELASTIC};
+    const defsim__tet_kernels *batched = w->sys.tet_kernels;
+    double e = 0.0;
     for (int r = 0; r < rounds; ++r) {
+        uint32_t used = 0;
         double t0 = tools_cpu_now();
-        defsim_world_forces(w, x, f);
-        tf[r] = tools_cpu_now() - t0;
+        e += t->ops->energy(t, &w->sys, &w->work, x, 0.0);
+        tm[0][r] = tools_cpu_now() - t0;
+        for (int k = 0; k < 2; ++k) {
+            w->sys.tet_kernels = k == 0 ? batched : NULL;
+            memset(f, 0, 3 * (size_t)nv * sizeof *f);
+            t0 = tools_cpu_now();
+            t->ops->forces(t, &w->sys, &ev, f, &used);
+            tm[1 + k][r] = tools_cpu_now() - t0;
+        }
+        w->sys.tet_kernels = batched;
+        memset(val, 0, (size_t)csc.nnz * sizeof *val);
         t0 = tools_cpu_now();
-        defsim__matrix_values(&w->sys, x, &c, DEFSIM_TRIANGLE_UPPER, val, NULL);
-        tk[r] = tools_cpu_now() - t0;
+        t->ops->values(t, &w->sys, x, &c, 1, csc.col_ptr, val, NULL);
+        tm[3][r] = tools_cpu_now() - t0;
+        const int proj = w->sys.projection;
+        w->sys.projection = DEFSIM_PROJECTION_NONE;
+        t0 = tools_cpu_now();
+        t->ops->values(t, &w->sys, x, &c, 1, csc.col_ptr, val, NULL);
+        tm[4][r] = tools_cpu_now() - t0;
+        w->sys.projection = proj;
     }
-    printf("| %-26s | %9lld | %8.1f | %8.1f |\n", what, (long long)n,
-           1e9 * median(tf, rounds) / (double)n, 1e9 * median(tk, rounds) / (double)n);
-    free(x); free(f); free(tf); free(tk); free(val);
+    if (!(e > 0.0) || !(e < INFINITY)) {
+        fprintf(stderr, "defsim-bench-shell: %s: energy %g (not in the state meant)\n", what, e);
+        exit(1);
+    }
+    printf("| %-26s | %6lld | %7.1f | %7.1f | %7.1f | %8.1f | %8.1f |\n", what, (long long)n,
+           1e9 * median(tm[0], rounds) / (double)n, 1e9 * median(tm[1], rounds) / (double)n,
+           1e9 * median(tm[2], rounds) / (double)n, 1e9 * median(tm[3], rounds) / (double)n,
+           1e9 * median(tm[4], rounds) / (double)n);
+    free(x); free(f); free(val);
+    for (int k = 0; k < 5; ++k) free(tm[k]);
 }
 
 static void tets(defsim_model model, const char *what, int rounds)
@@ -102,12 +144,13 @@ static void tets(defsim_model model, const char *what, int rounds)
     d.tets = m.tets;
     d.tet_count = m.tet_count;
     defsim_world_add_body(w, &d, NULL);
-    run(w, what, m.tet_count, 1.0 / n, rounds);
+    run(w, DEFSIM__TERM_KIND_elastic, what, m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
 }
 
-static void sheet(int32_t membrane, double D, const char *what, int hinges, int rounds)
+static void sheet(int32_t membrane, double D, double cap, const char *what, int kind,
+                  int rounds)
 {
     defsim_world *w = make_world();
     const int n = 100;
@@ -124,12 +167,16 @@ static void sheet(int32_t membrane, double D, const char *what, int hinges, int 
     d.triangle_count = m.triangle_count;
     d.shell_membrane = membrane;
     d.shell_bending_rigidity = D;
+    d.shell_strain_limit = cap;
     if (defsim_world_add_body(w, &d, NULL) != DEFSIM_OK) {
         fprintf(stderr, "defsim-bench-shell: %s\n", defsim_world_last_error(w));
         exit(1);
     }
     /* Interior edges of the grid: 3 n^2 - 2 n. */
-    run(w, what, hinges ? 3 * (int64_t)n * n - 2 * n : m.triangle_count, 1.0 / n, rounds);
+    const int64_t count = kind == DEFSIM__TERM_KIND_hinge ? 3 * (int64_t)n * n - 2 * n
+                                                          : m.triangle_count;
+    if (cap > 0.0) run(w, kind, what, count, 1.0 / n, 1.0 + 0.95 * cap, 1e-4, rounds);
+    else run(w, kind, what, count, 1.0 / n, 1.0, 0.01, rounds);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
 }
@@ -141,12 +188,20 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: defsim-bench-shell [ROUNDS]\n");
         return 2;
     }
-    printf("| elements                   |     count | forces ns/el | matrix ns/el |\n");
-    printf("|---|---|---|---|\n");
+    const defsim__tet_kernels *k = defsim__tet_kernels_best();
+    printf("batched variant: %s (core.simd auto)\n\n", k ? k->name : "none");
+    printf("| elements                   |  count | energy ns/el | forces ns/el, batched | "
+           "forces ns/el, scalar | matrix ns/el | matrix ns/el, unprojected |\n");
+    printf("|---|---|---|---|---|---|---|\n");
     tets(DEFSIM_MODEL_STVK, "tets, StVK", rounds);
     tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, "tets, stable neo-Hookean", rounds);
-    sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, "triangles, StVK membrane", 0, rounds);
-    sheet(DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN, 0.0, "triangles, neo-Hookean", 0, rounds);
-    sheet(DEFSIM_SHELL_MEMBRANE_NONE, 1e-3, "hinges (bending)", 1, rounds);
+    sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, 0.0, "triangles, StVK membrane",
+          DEFSIM__TERM_KIND_membrane, rounds);
+    sheet(DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN, 0.0, 0.0, "triangles, neo-Hookean",
+          DEFSIM__TERM_KIND_membrane, rounds);
+    sheet(DEFSIM_SHELL_MEMBRANE_NONE, 1e-3, 0.0, "hinges (bending)", DEFSIM__TERM_KIND_hinge,
+          rounds);
+    sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, 0.1, "triangles, strain limit",
+          DEFSIM__TERM_KIND_strain_limit, rounds);
     return 0;
 }

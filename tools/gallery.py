@@ -30,7 +30,7 @@ WIDTH, HEIGHT = 320, 200
 # Simulated time of the picture where the default (1 s) does not show the scene best.
 SHOW = {"cloth_fold": 0.6, "cube_pile": 0.8, "cube_stack": 1.5, "steps": 2.0,
         "ground_box_sphere": 1.5, "pushed_beam": 2.0, "cloth_sphere": 1.5, "cloth": 2.0,
-        "squash": 0.8}
+        "squash": 0.8, "cusick_drape": 1.4}
 # Scene settings changed for the picture: the pile's walls are planes, which hide a camera
 # outside them, so it looks from above.
 EXTRA = {"cube_pile": ["output.camera.elevation=86"]}

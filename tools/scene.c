@@ -569,10 +569,19 @@ static int parse_shell(sj_ctx *c, const cJSON *j, const char *w, scene_body *b)
     static const char *const keys[] = {"membrane", "youngs_modulus", "poisson_ratio", "thickness",
                                        "warp_modulus", "weft_modulus", "shear_modulus",
                                        "warp_poisson", "warp_direction", "areal_density",
-                                       "bending_rigidity", "bending_rigidity_weft", NULL};
+                                       "bending_rigidity", "bending_rigidity_weft", "strain_limit",
+                                       "fabric",
+                                       NULL};
     if (sj_keys(c, j, ws, keys)) return -1;
     defsim_body_def *d = &b->shell;
     defsim_body_def_init(d, sizeof *d);
+    /* A fabric by name first (defsim_body_def_set_fabric), so that the keys below override it. */
+    const cJSON *fab = cJSON_GetObjectItemCaseSensitive(j, "fabric");
+    if (fab) {
+        if (!cJSON_IsString(fab)) return sj_fail(c, fab, "%s.fabric must be a string", ws);
+        if (defsim_body_def_set_fabric(d, fab->valuestring) != DEFSIM_OK)
+            return sj_fail(c, fab, "%s.fabric: %s", ws, defsim_last_error());
+    }
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(j, "membrane");
     if (m) {
         static const char *const names[] = {"none", "stvk", "neohookean", "orthotropic_stvk"};
@@ -596,6 +605,7 @@ static int parse_shell(sj_ctx *c, const cJSON *j, const char *w, scene_body *b)
         sj_number(c, j, "bending_rigidity", ws, -big, big, 0, &d->shell_bending_rigidity) ||
         sj_number(c, j, "bending_rigidity_weft", ws, -big, big, 0,
                   &d->shell_bending_rigidity_weft) ||
+        sj_number(c, j, "strain_limit", ws, -big, big, 0, &d->shell_strain_limit) ||
         sj_vec3(c, j, "warp_direction", ws, d->shell_warp_direction))
         return -1;
     b->has_shell = 1;
@@ -984,6 +994,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
             bd.shell_areal_density = sh->shell_areal_density;
             bd.shell_bending_rigidity = sh->shell_bending_rigidity;
             bd.shell_bending_rigidity_weft = sh->shell_bending_rigidity_weft;
+            bd.shell_strain_limit = sh->shell_strain_limit;
         }
         bd.self_contact = b->self_contact;
         bd.collision_group = b->collision_group;

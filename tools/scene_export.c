@@ -116,7 +116,7 @@ typedef struct xbody {
     int32_t *tets, *springs, *tris, *edges;
     const unsigned char *pinned;
     uint32_t group, mask;
-    double friction, thickness;   /* thickness: format 10's contact thickness (m) */
+    double friction, thickness;   /* thickness: format 11's contact thickness (m) */
     defsim_body_def shell;   /* its shell_* fields (format 9), as the def gave them */
 } xbody;
 
@@ -244,7 +244,8 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             double sf[DEFSIM__SHELL_FIELDS];
             defsim__get_f64s(&r, sf, DEFSIM__SHELL_FIELDS);
             defsim__body_shell_fields(&b->shell, sf, 1);
-            b->thickness = defsim__get_f64(&r);
+            b->shell.shell_strain_limit = defsim__get_f64(&r);   /* version 10 */
+            b->thickness = defsim__get_f64(&r);   /* version 11 */
             if (!b->rest || !b->mass || !b->tets || !b->springs || !b->k || !b->tris || !b->edges)
                 return -2;
         } else if (!memcmp(tag, "ATCH", 4)) {
@@ -547,6 +548,10 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         }
         put(o, ", \"warp_direction\": ");
         vec(o, sh->shell_warp_direction, 3);
+        if (sh->shell_strain_limit != 0.0) {
+            put(o, ", \"strain_limit\": ");
+            num(o, sh->shell_strain_limit);
+        }
         put(o, "}");
     }
     put(o, "}");

@@ -860,7 +860,8 @@ static defsim_status minimise(ic_solver *s, const defsim__ic_targets *stp, const
         if (!isfinite(gx))
             return fail(s, host, sys, DEFSIM_ERR_NOT_CONVERGED,
                         "the energy is undefined at the start of the step "
-                        "(an inverted neo-Hookean element?)");
+                        "(an inverted neo-Hookean element, or a shell triangle at its strain "
+                        "limit?)");
     }
     memcpy(s->xt, s->x, bytes);
 
@@ -1135,30 +1136,37 @@ static defsim_status ic_adjoint(const defsim_host *host, defsim_system *sys, voi
         }
         return DEFSIM_OK;
     }
-    defsim_status st = sync_pattern(s, host, sys);
-    if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
     const int m = IC_ADJ_RESTART;
-    if (!s->adj || s->adj_nnz != s->pat.nnz) {
-        host->release(s->adj);
-        s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 9 * nd);
-        if (!s->adj) return fail(s, host, sys, DEFSIM_ERR_OUT_OF_MEMORY, "adjoint: out of memory");
-        s->adj_nnz = s->pat.nnz;
+    const size_t bytes = (size_t)nd * sizeof(double);
+    defsim__ic_targets stp = {0};
+    defsim_status st = DEFSIM_OK;
+    /* Contact at x1 may couple vertices that the pattern lacks (body contact queues them as it
+     * assembles): the pattern then grows and the matrix is assembled once more. */
+    for (int pass = 0; pass < 2; ++pass) {
+        st = sync_pattern(s, host, sys);
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "growing the matrix pattern failed");
+        if (!s->adj || s->adj_nnz != s->pat.nnz) {
+            host->release(s->adj);
+            s->adj = alloc_doubles(host, s->pat.nnz + (int64_t)(4 + 2 * m + 1) * n + 9 * nd);
+            if (!s->adj)
+                return fail(s, host, sys, DEFSIM_ERR_OUT_OF_MEMORY, "adjoint: out of memory");
+            s->adj_nnz = s->pat.nnz;
+        }
+        memcpy(p->x0, a->x0, bytes);
+        memcpy(p->v0, a->v0, bytes);
+        p->pin_vel = NULL;
+        st = p->scheme->prepare(p, host, sys, h, &stp);   /* y, z = x0, B(x0) */
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: the damping matrix failed");
+        const defsim_matrix_coeffs c = {1.0, 0.0, stp.cm / (h * h), stp.cd / h};
+        st = host->matrix_values_projected(sys, a->x1, &c, DEFSIM_TRIANGLE_UPPER,
+                                           DEFSIM_PROJECTION_NONE, s->adj);
+        if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: Hessian assembly failed");
+        if (!s->versioned || host->matrix_pattern_version(sys) == s->pattern_version) break;
     }
     double *aval = s->adj, *rhs = aval + s->pat.nnz, *lam = rhs + n, *r = lam + n, *tmp = r + n,
            *V = tmp + n, *Z = V + (int64_t)(m + 1) * n, *lf = Z + (int64_t)m * n, *gx1 = lf + nd,
            *gxn = gx1 + nd, *gv = gxn + nd, *mw = gv + nd, *gx0 = mw + nd, *gxz = gx0 + nd,
            *gvz = gxz + nd, *u = gvz + nd;
-    const size_t bytes = (size_t)nd * sizeof(double);
-    memcpy(p->x0, a->x0, bytes);
-    memcpy(p->v0, a->v0, bytes);
-    p->pin_vel = NULL;
-    defsim__ic_targets stp = {0};
-    st = p->scheme->prepare(p, host, sys, h, &stp);   /* y, z = x0, B(x0) */
-    if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: the damping matrix failed");
-    const defsim_matrix_coeffs c = {1.0, 0.0, stp.cm / (h * h), stp.cd / h};
-    st = host->matrix_values_projected(sys, a->x1, &c, DEFSIM_TRIANGLE_UPPER,
-                                       DEFSIM_PROJECTION_NONE, aval);
-    if (st != DEFSIM_OK) return fail(s, host, sys, st, "adjoint: Hessian assembly failed");
     if (p->bval)
         for (int64_t q = 0; q < s->pat.nnz; ++q) aval[q] += stp.cd * p->bval[q] / h;
     memcpy(s->hval, aval, (size_t)s->pat.nnz * sizeof *aval);

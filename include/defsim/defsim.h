@@ -265,8 +265,11 @@ typedef struct defsim_body_def {
     /// lambda, U(J), is evaluated per vertex on the vertex's volume ratio, the sum of its tets'
     /// current volumes over the sum of their rest volumes (a quarter of each). Nearly incompressible
     /// bodies (poisson_ratio near 0.5) then bend as the continuum does instead of locking; the
-    /// matrices couple every vertex of a vertex's tets (a wider pattern). 0 (default): the
-    /// standard element. Only the neo-Hookean and stable neo-Hookean models have the split
+    /// matrices couple every vertex of a vertex's tets (a wider pattern). With quadratic tets
+    /// (tet_nodes 10) it selects the mean-dilatation element instead (P2/P0; docs/elements.md):
+    /// the part without lambda at each quadrature point, U on the element's mean volume ratio
+    /// (its current over its rest volume), the pattern the quadratic tets' own. 0 (default):
+    /// the standard element. Only the neo-Hookean and stable neo-Hookean models have the split
     /// (their lambda terms depend on J alone); with StVK or co-rotated, or a value other than 0
     /// and 1: DEFSIM_ERR_INVALID_MATERIAL.
     int32_t volume_averaging;
@@ -325,6 +328,17 @@ typedef struct defsim_body_def {
     double shell_bending_rigidity;
     /// Bending rigidity along the weft (N m), finite, >= 0; < 0 (default): as the warp's.
     double shell_bending_rigidity_weft;
+    /* Strain limiting (appended; issue 26, docs/shells.md). */
+    /// A cap on each membrane triangle's largest principal stretch (the largest singular value
+    /// of its F, over its rest shape): 0.1 keeps every triangle below 1.1 times its rest length
+    /// in every direction. 0 (default): none. Enforced as a barrier in the potential (active in
+    /// a band of a tenth of the cap below it, zero elsewhere, +inf at the cap) whose line search
+    /// never crosses the cap, so only backends with DEFSIM_BACKEND_CONTACT_CCD take it
+    /// (newton_cholmod, bdf2, newmark); on another backend defsim_world_add_body returns
+    /// DEFSIM_ERR_BACKEND_UNAVAILABLE. Finite, in (0, 1] for a shell body with a membrane;
+    /// otherwise (negative, a body without a membrane, tets) DEFSIM_ERR_INVALID_MATERIAL; initial
+    /// positions at or over the cap DEFSIM_ERR_INVALID_ARGUMENT.
+    double shell_strain_limit;
     /* Contact thickness (appended; issue 26, docs/body-contact.md "Thickness"). */
     /// The body's contact thickness t in m (finite, >= 0, at most 1e3; default 0): contact keeps
     /// the body's surface t / 2 away from everything it touches, so two bodies keep the sum of
@@ -924,7 +938,10 @@ DEFSIM_API defsim_status defsim_world_get_pin_forces(defsim_world *world, double
 /// there), gets NaN stresses; its energy density is that of the model (+inf for neo-Hookean).
 /// A body with volume_averaging reports its tets' isochoric stress plus their averaged nodal
 /// pressure p_e cof(F) (the stress its forces come from), and the isochoric energy density plus
-/// the mean of its vertices' volumetric U(J_n).
+/// the mean of its vertices' volumetric U(J_n); with quadratic tets, the mean over the
+/// quadrature points of the isochoric stress plus the element's pressure U'(Jbar) cof(F), and
+/// the element's energy (isochoric at the points, U(Jbar) of its mean volume ratio) over its
+/// volume.
 /// Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL world, tet_count mismatch), DEFSIM_ERR_STALE_ID,
 /// DEFSIM_ERR_OUT_OF_MEMORY (volume_averaging only).
 DEFSIM_API defsim_status defsim_body_element_stress(const defsim_world *world,
@@ -1256,8 +1273,10 @@ typedef struct defsim_tape_stats {
 /// also where they were zero: the controls), "attachment_stiffness", "attachment_damping"
 /// (count = attachment count, in defsim_world_attachment_at's order), "attachment_targets"
 /// (count = N * 3 * attachment count: per step j, dL/dp_j of each world-point target that
-/// defsim_attachment_set_target held during step j; 0 for body targets); out (count doubles,
-/// the host's) receives it.
+/// defsim_attachment_set_target held during step j; 0 for body targets), "collider_friction"
+/// (count = collider count, in defsim_world_get_collider's order: dL/dmu of each collider's
+/// friction coefficient, also where it is 0), "body_friction" (count = body count: dL/dmu of
+/// each body's body-contact friction); out (count doubles, the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1278,7 +1297,9 @@ DEFSIM_API void defsim_tape_def_init(defsim_tape_def *def, size_t size);
 /// recording already
 /// under way, a world without vertices), DEFSIM_ERR_UNSUPPORTED (the backend has no adjoint:
 /// the message names it; or the scene uses a term that cannot be differentiated yet, named in
-/// the message: collider or body contact, the force callback, driven pins; or core.auto_substep on a backend that substeps),
+/// the message: collider contact on a backend whose contact is the penalty (explicit_euler,
+/// symplectic_euler; newton_cholmod and newmark differentiate the barrier and body contact),
+/// the force callback, driven pins; or core.auto_substep on a backend that substeps),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED (inside a host callback).
 DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_tape_def *def,
                                              defsim_tape **out);
@@ -1293,8 +1314,8 @@ DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_t
 /// and may be run backward again. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL tape, a tape whose
 /// world is gone, count not (N + 1) * 3 * vertex count, a non-finite loss gradient, an
 /// unknown name or a wrong count in grads, or the world changed in a way the recording cannot
-/// follow: bodies, pins, options, or the state or time set between recorded steps: the
-/// message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
+/// follow: bodies, pins, options, colliders added, removed, moved (set_pose) or changed, or the
+/// state or time set between recorded steps: the message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
 /// or since the last recorded step the scene came to use what cannot be differentiated: a
 /// collider, the force callback, ...),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED, or the backend's error. On an error the grads'
@@ -1313,6 +1334,47 @@ DEFSIM_API const char *defsim_tape_last_error(const defsim_tape *tape);
 
 /// Ends the recording and frees the tape (NULL is ignored). The world keeps stepping as before.
 DEFSIM_API void defsim_tape_destroy(defsim_tape *tape);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Measured fabrics (issue 26, docs/shells.md "Fabrics by name"): a small table of fabrics     */
+/* whose measured areal density, tensile and bending data fill a shell body's fields by name.  */
+
+/// One fabric of the library's table (docs/shells.md lists it with the sources of its numbers):
+/// the values that defsim_body_def_set_fabric puts into a body def's shell fields, in SI units.
+typedef struct defsim_fabric {
+    uint32_t size;                 ///< sizeof(defsim_fabric), set by the caller before the call.
+    const char *name;              ///< Its name ("denim", ...): static, owned by the library.
+    const char *description;       ///< What it is and the measurement it comes from (static).
+    double areal_density;          ///< kg/m^2 (shell_areal_density).
+    double warp_modulus;           ///< Small-strain tensile modulus along the warp, N/m.
+    double weft_modulus;           ///< Small-strain tensile modulus along the weft, N/m.
+    double shear_modulus;          ///< In-plane shear modulus, N/m.
+    double warp_poisson;           ///< nu_12 (shell_warp_poisson).
+    double bending_rigidity;       ///< Bending rigidity along the warp, N m.
+    double bending_rigidity_weft;  ///< Bending rigidity along the weft, N m.
+} defsim_fabric;
+
+/// The number of fabrics in the table (> 0). Thread-safe.
+DEFSIM_API int32_t defsim_fabric_count(void);
+
+/// The fabric at index (0 .. defsim_fabric_count() - 1) into *out (out->size must be set).
+/// Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL out, out->size too small, index out of
+/// range); defsim_last_error() says which.
+DEFSIM_API defsim_status defsim_fabric_get(int32_t index, defsim_fabric *out);
+
+/// The fabric of that name into *out (out->size must be set). Thread-safe. Errors:
+/// DEFSIM_ERR_INVALID_ARGUMENT (NULL out, out->size too small), DEFSIM_ERR_INVALID_MATERIAL (no
+/// fabric of that name, or NULL name: defsim_last_error() names the table's fabrics).
+DEFSIM_API defsim_status defsim_fabric_find(const char *name, defsim_fabric *out);
+
+/// Makes def a shell of the named fabric: shell_membrane DEFSIM_SHELL_MEMBRANE_ORTHOTROPIC_STVK
+/// and shell_areal_density, shell_warp_modulus, shell_weft_modulus, shell_shear_modulus,
+/// shell_warp_poisson, shell_bending_rigidity and shell_bending_rigidity_weft from the table;
+/// the other fields (shell_warp_direction, the triangles, ...) are left as they are. On an error
+/// def is unchanged. Thread-safe. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL def, def->size not
+/// that of defsim_body_def_init), DEFSIM_ERR_INVALID_MATERIAL (no fabric of that name, or NULL
+/// name: defsim_last_error() names the table's fabrics).
+DEFSIM_API defsim_status defsim_body_def_set_fabric(defsim_body_def *def, const char *name);
 
 #ifdef __cplusplus
 }

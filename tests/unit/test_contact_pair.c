@@ -88,9 +88,9 @@ static int check_one(int type, const double *X0, double dh, double xi, double ep
             if (region(type, Y, nodes) != r0) return 0;
         }
     const double kap = 3.0;
-    const double e = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, g, H);
+    const double e = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, g, H);
     assert_true(e > 0.0 && isfinite(e));
-    assert_true(defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, NULL, NULL) == e);
+    assert_true(defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, NULL, NULL) == e);
     if (xi == 0.0) {
         /* the offset 0 is the plain barrier, bit for bit */
         double g0[12], H0[144];
@@ -109,9 +109,9 @@ static int check_one(int type, const double *X0, double dh, double xi, double ep
     double eg = 0.0;
     for (int i = 0; i < nd; ++i) {
         X[i] = X0[i] + h;
-        const double ep = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, gp, NULL);
+        const double ep = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, gp, NULL);
         X[i] = X0[i] - h;
-        const double em = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, gm, NULL);
+        const double em = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, gm, NULL);
         X[i] = X0[i];
         eg = fmax(eg, fabs((ep - em) / (2 * h) - g[i]));
         for (int j = 0; j < nd; ++j) Hfd[j * nd + i] = (gp[j] - gm[j]) / (2 * h);
@@ -229,11 +229,11 @@ static void test_offset_band(void **state)
     (void)state;
     const double X[6] = {0, 0, 0.3, 0, 0, 0};
     double g[6], H[36];
-    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.15, 0.1, 1.0, 0.0, g, H) == 0.0);
-    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.21, 0.1, 1.0, 0.0, g, H) > 0.0);
-    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.3, 1.0, 0.0, g, H)));
-    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.35, 1.0, 0.0, g, H)));
-    const double e = defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.5, 0.1, 2.0, 0.0, g, H);
+    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.15, 0.1, 1.0, 0.0, 0, g, H) == 0.0);
+    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.21, 0.1, 1.0, 0.0, 0, g, H) > 0.0);
+    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.3, 1.0, 0.0, 0, g, H)));
+    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.35, 1.0, 0.0, 0, g, H)));
+    const double e = defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.5, 0.1, 2.0, 0.0, 0, g, H);
     assert_true(fabs(e - 2.0 * barrier(0.2, 0.5)) < 1e-15);
     const double b2 = 2.0 * barrier_d2(0.2, 0.5);
     for (int i = 0; i < 6; ++i)

@@ -367,7 +367,7 @@ static void test_zero_is_default(void **state)
     free_layers(&b);
 }
 
-/* A checkpoint holds the thickness (format 10): the stack saved after 30 steps, loaded, steps 20
+/* A checkpoint holds the thickness (format 11): the stack saved after 30 steps, loaded, steps 20
  * more with the bits of the uninterrupted run, its lower layer resting t / 2 above the plane. */
 static void test_checkpoint(void **state)
 {
@@ -378,7 +378,7 @@ static void test_checkpoint(void **state)
     void *buf = NULL;
     size_t n = 0;
     TU_OK(defsim_world_save_buffer(L.w, &buf, &n));
-    assert_int_equal(((const unsigned char *)buf)[8], 10);   /* the format's version */
+    assert_int_equal(((const unsigned char *)buf)[8], 11);   /* the format's version */
     defsim_world *w2 = NULL;
     TU_OK(defsim_world_load_buffer(buf, n, NULL, NULL, &w2));
     defsim_buffer_free(buf);

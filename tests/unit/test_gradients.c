@@ -1043,23 +1043,24 @@ static void test_unsupported(void **st)
     defsim_world_destroy(w);
 }
 
-/* Element kinds without a vector-Jacobian product (quadratic tets, volume-averaged tets): the
- * recording is refused naming the term, and the world steps on. */
+/* Element kinds without a vector-Jacobian product (quadratic tets, volume-averaged tets, the
+ * mean-dilatation quadratic tets): the recording is refused naming the term, and the world
+ * steps on. */
 static void test_unsupported_elements(void **st)
 {
     (void)st;
-    const char *term[2] = {"elastic_quadratic", "nodal_volume"};
-    for (int k = 0; k < 2; ++k) {
+    const char *term[3] = {"elastic_quadratic", "nodal_volume", "quadratic_mixed"};
+    for (int k = 0; k < 3; ++k) {
         defsim_world *w = tu_world(SE, -9.81, 1);
         const double lo[3] = {0, 0, 0}, hi[3] = {0.2, 0.1, 0.1};
         defsim_mesh m;
         memset(&m, 0, sizeof m);
         m.size = sizeof m;
         TU_OK(defsim_mesh_box(lo, hi, 2, 1, 1, &m));
-        if (k == 0) TU_OK(defsim_mesh_make_quadratic(&m));
+        if (k != 1) TU_OK(defsim_mesh_make_quadratic(&m));
         defsim_body_def bd = test_mesh_body(&m, DEFSIM_MODEL_NEOHOOKEAN);
         bd.material.youngs_modulus = 1e5;
-        bd.volume_averaging = k;
+        bd.volume_averaging = k > 0;
         TU_OK(defsim_world_add_body(w, &bd, NULL));
         defsim_mesh_free(&m);
         defsim_tape *t = NULL;

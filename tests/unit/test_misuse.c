@@ -473,7 +473,12 @@ static uint64_t alien_bytes[64];
     X(CTX_DIRECT, 0, defsim_tape_backward, INVALID, defsim_tape_backward(NULL, f->buf, NULL, 3, NULL, 0)) \
     X(CTX_DIRECT, 0, defsim_tape_get_stats, INVALID, defsim_tape_get_stats(NULL, &f->tape_stats)) \
     X(CTX_DIRECT, F_VALUE, defsim_tape_last_error, 1, defsim_tape_last_error(NULL)[0] == '\0') \
-    X(CTX_DIRECT, F_VALUE, defsim_tape_destroy, 0, (defsim_tape_destroy(NULL), 0))
+    X(CTX_DIRECT, F_VALUE, defsim_tape_destroy, 0, (defsim_tape_destroy(NULL), 0))            \
+    /* measured fabrics */                                                                      \
+    X(CTX_DIRECT, F_VALUE, defsim_fabric_count, 1, defsim_fabric_count() > 0)                   \
+    X(CTX_DIRECT, 0, defsim_fabric_get, INVALID, defsim_fabric_get(0, NULL))                    \
+    X(CTX_DIRECT, 0, defsim_fabric_find, INVALID, defsim_fabric_find("denim", NULL))            \
+    X(CTX_DIRECT, 0, defsim_body_def_set_fabric, INVALID, defsim_body_def_set_fabric(NULL, "denim"))
 
 typedef struct row {
     int ctx, flags;

@@ -379,6 +379,83 @@ static void test_mesh_file_and_transform(void **state)
 /* A body's "shell" builds the body that the C API's shell fields do (same forces at a bent
  * state, bit for bit, and the same energies), leaves out the cloth's springs, and a bad
  * membrane name or key is refused at its line. */
+/* "fabric": a name from the table of measured fabrics (defsim_body_def_set_fabric) under a
+ * shell: the same forces and masses as the C API's body with that fabric, a key beside it
+ * overriding the table's value; an unknown name fails at its line. */
+static void test_fabric_key(void **state)
+{
+    (void)state;
+    const char *text =
+        "{\"world\": {\"backend\": \"symplectic_euler\", \"h\": 1e-3, \"duration\": 1e-3},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"cloth\", \"origin\": [0, 0, 0], \"u\": [0.3, 0, 0],\n"
+        "   \"v\": [0, 0, 0.2], \"cells\": [6, 4]},\n"
+        "   \"shell\": {\"fabric\": \"denim\", \"warp_direction\": [1, 0, 1],\n"
+        "             \"bending_rigidity_weft\": 1e-5}}]}\n";
+    scene s;
+    load_ok("fabric.json", text, &s);
+    defsim_world *w = NULL;
+    if (scene_build(&s, &w) != DEFSIM_OK) fail_msg("%s", s.error);
+    defsim_world *v = tu_world("symplectic_euler", -9.81, 1);
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    const double o[3] = {0, 0, 0}, u[3] = {0.3, 0, 0}, vv[3] = {0, 0, 0.2};
+    TU_OK(defsim_mesh_cloth(o, u, vv, 6, 4, &m));
+    defsim_body_def d;
+    defsim_body_def_init(&d, sizeof d);
+    d.rest_positions = m.positions;
+    d.vertex_count = m.vertex_count;
+    d.triangles = m.triangles;
+    d.triangle_count = m.triangle_count;
+    TU_OK(defsim_body_def_set_fabric(&d, "denim"));
+    d.shell_warp_direction[2] = 1;
+    d.shell_bending_rigidity_weft = 1e-5;
+    TU_OK(defsim_world_add_body(v, &d, NULL));
+    const int n = m.vertex_count;
+    assert_int_equal(defsim_world_vertex_count(w), n);
+    double *x = malloc(3 * (size_t)n * sizeof *x), *f1 = malloc(3 * (size_t)n * sizeof *f1),
+           *f2 = malloc(3 * (size_t)n * sizeof *f2);
+    for (int i = 0; i < n; ++i) {
+        x[3 * i] = 1.05 * m.positions[3 * i];
+        x[3 * i + 1] = 0.3 * m.positions[3 * i] * m.positions[3 * i];
+        x[3 * i + 2] = 0.97 * m.positions[3 * i + 2];
+    }
+    TU_OK(defsim_world_forces(w, x, f1));
+    TU_OK(defsim_world_forces(v, x, f2));
+    double fmax = 0.0;
+    for (int i = 0; i < 3 * n; ++i) {
+        assert_true(f1[i] == f2[i]);
+        fmax = fmax > fabs(f1[i]) ? fmax : fabs(f1[i]);
+    }
+    assert_true(fmax > 1e-3);
+    for (int i = 0; i < 3 * n; ++i) f2[i] = 0.1 * (i % 7);
+    TU_OK(defsim_world_set_state(w, x, f2));
+    TU_OK(defsim_world_set_state(v, x, f2));
+    defsim_energy e1, e2;
+    TU_OK(defsim_world_energy(w, &e1));
+    TU_OK(defsim_world_energy(v, &e2));
+    assert_true(e1.elastic == e2.elastic && e1.kinetic == e2.kinetic);
+    free(x);
+    free(f1);
+    free(f2);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(v);
+    defsim_world_destroy(w);
+    scene_free(&s);
+    const char *bad =
+        "{\"world\": {\"backend\": \"symplectic_euler\", \"h\": 1e-3, \"duration\": 1e-3},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"cloth\", \"origin\": [0, 0, 0], \"u\": [1, 0, 0],\n"
+        "   \"v\": [0, 0, 1], \"cells\": [2, 2]},\n"
+        "   \"shell\": {\"fabric\": \"velvet\"}}]}\n";
+    expect_line(bad, 4);
+    const char *notstr =
+        "{\"world\": {\"backend\": \"symplectic_euler\", \"h\": 1e-3, \"duration\": 1e-3},\n"
+        " \"bodies\": [{\"mesh\": {\"type\": \"cloth\", \"origin\": [0, 0, 0], \"u\": [1, 0, 0],\n"
+        "   \"v\": [0, 0, 1], \"cells\": [2, 2]},\n"
+        "   \"shell\": {\"fabric\": 3}}]}\n";
+    expect_line(notstr, 4);
+}
+
 static void test_shell_key(void **state)
 {
     (void)state;
@@ -843,6 +920,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_mesh_file_and_transform, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_options, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_shell_key, tu_tmpdir_setup, tu_tmpdir_teardown),
+        cmocka_unit_test_setup_teardown(test_fabric_key, tu_tmpdir_setup, tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_world_setting_keys, tu_tmpdir_setup,
                                         tu_tmpdir_teardown),
         cmocka_unit_test_setup_teardown(test_coupling, tu_tmpdir_setup, tu_tmpdir_teardown),

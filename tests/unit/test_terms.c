@@ -314,21 +314,31 @@ static int dense_psd(const defsim__system *sys, const double *A, int64_t n, doub
     return ok;
 }
 
-/* The volume-averaged tets (neo-Hookean and stable neo-Hookean, nu = 0.45, stiffness damping)
- * on a 2 x 2 x 1-cell box distorted off rest: forces, the exact Hessian and the damping matrix
- * against differences, products; under clamp projection the matrix is positive semi-definite at a
- * state where the exact one is not. */
-static void test_nodal_volume(void **state)
+/* The terms of the models with an isochoric / volumetric split (neo-Hookean and stable
+ * neo-Hookean, nu = 0.45, stiffness damping, volume_averaging): the volume-averaged linear tets
+ * on a 2 x 2 x 1-cell box, or (quadratic) the mean-dilatation quadratic tets on a 2 x 1 x 1-cell
+ * box whose rest is curved (every mid-edge node moved off its edge's middle), each distorted off
+ * rest: forces, the exact Hessian and the damping matrix against differences, products; under
+ * clamp (and abs) projection the matrix is positive semi-definite at a state where the exact one
+ * is not. */
+static void check_split_term(int quadratic)
 {
-    (void)state;
     const defsim_model models[2] = {DEFSIM_MODEL_NEOHOOKEAN, DEFSIM_MODEL_STABLE_NEOHOOKEAN};
+    const int kind = quadratic ? DEFSIM__TERM_KIND_quadratic_mixed : DEFSIM__TERM_KIND_nodal_volume;
     for (int k = 0; k < 2; ++k) {
         defsim_world *w = world(0.0);
-        const double lo[3] = {0, 0, 0}, hi[3] = {0.2, 0.2, 0.1};
+        const double lo[3] = {0, 0, 0}, hi[3] = {0.2, quadratic ? 0.1 : 0.2, 0.1};
         defsim_mesh m;
         memset(&m, 0, sizeof m);
         m.size = sizeof m;
-        TU_OK(defsim_mesh_box(lo, hi, 2, 2, 1, &m));
+        TU_OK(defsim_mesh_box(lo, hi, 2, quadratic ? 1 : 2, 1, &m));
+        const int32_t corners = m.vertex_count;
+        unsigned long long seed = 23;
+        if (quadratic) {
+            TU_OK(defsim_mesh_make_quadratic(&m));
+            for (int32_t i = 3 * corners; i < 3 * m.vertex_count; ++i)
+                m.positions[i] += 0.008 * tu_rand(&seed);
+        }
         defsim_body_def bd = test_mesh_body(&m, models[k]);
         bd.material.youngs_modulus = 1e4;
         bd.material.poisson_ratio = 0.45;
@@ -339,9 +349,10 @@ static void test_nodal_volume(void **state)
         TU_OK(defsim_world_add_body(w, &bd, &id));
         tu_pin_below(w, id, 0, 0.0);
         defsim_mesh_free(&m);
-        double *v, *x = perturbed(w, 0.01, &v);
+        double *v, *x = perturbed(w, quadratic ? 0.005 : 0.01, &v);
         assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic));
-        const defsim__term *t = term_of(w, DEFSIM__TERM_KIND_nodal_volume);
+        assert_null(defsim__terms_find(&w->sys, DEFSIM__TERM_KIND_elastic_quadratic));
+        const defsim__term *t = term_of(w, kind);
         check_gradient(w, t, x, DEFSIM_FORCE_ELASTIC, 1e-7, 1e-5);
         check_values(w, t, t, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-7, 1e-5);
         check_apply(w, t, x, K1);
@@ -349,25 +360,41 @@ static void test_nodal_volume(void **state)
         check_apply(w, t, x, (defsim_matrix_coeffs){1.0, 0.5, 0.0, 0.0});
         /* a strong twist-and-squash: the exact Hessian is indefinite, the clamped one is not */
         const int64_t n = 3 * (int64_t)w->nv;
-        unsigned long long seed = 5;
+        seed = 5;
         for (int64_t i = 0; i < n; ++i)
-            if (!w->sys.pinned[i / 3]) x[i] += 0.04 * tu_rand(&seed);
+            if (!w->sys.pinned[i / 3]) x[i] += (quadratic ? 0.01 : 0.04) * tu_rand(&seed);
         double *D = term_dense(w, t, x, K1);
         const int exact_psd = dense_psd(&w->sys, D, n, 1e-10);
+        for (int64_t i = 0; i < n * n; ++i) assert_true(isfinite(D[i]));   /* none inverted */
         free(D);
-        w->sys.projection = DEFSIM_PROJECTION_CLAMP;
-        D = term_dense(w, t, x, K1);
-        const int clamp_psd = dense_psd(&w->sys, D, n, 1e-10);
-        printf("  %-18s at a large distortion: exact Hessian PSD %d, clamped %d\n",
-               t->ops->name, exact_psd, clamp_psd);
-        assert_false(exact_psd);
-        assert_true(clamp_psd);
-        check_apply(w, t, x, K1);
-        free(D);
+        const int proj[2] = {DEFSIM_PROJECTION_CLAMP, DEFSIM_PROJECTION_ABS};
+        for (int p = 0; p < 2; ++p) {
+            w->sys.projection = proj[p];
+            D = term_dense(w, t, x, K1);
+            const int psd = dense_psd(&w->sys, D, n, 1e-10);
+            printf("  %-18s at a large distortion: exact Hessian PSD %d, %s %d\n", t->ops->name,
+                   exact_psd, p ? "abs" : "clamped", psd);
+            assert_false(exact_psd);
+            assert_true(psd);
+            check_apply(w, t, x, K1);
+            free(D);
+        }
         free(x);
         free(v);
         defsim_world_destroy(w);
     }
+}
+
+static void test_nodal_volume(void **state)
+{
+    (void)state;
+    check_split_term(0);
+}
+
+static void test_quadratic_mixed(void **state)
+{
+    (void)state;
+    check_split_term(1);
 }
 
 static void test_elastic(void **state)
@@ -462,6 +489,50 @@ static void test_shells(void **state)
         free(v);
         defsim_world_destroy(w);
     }
+    /* The strain limit (on a backend that takes it): the flat sheet stretched 1.28 times along x
+     * under a 30 % cap (its band 1.27 .. 1.3), perturbed by 1e-4 m; its filter along a pull of
+     * the right edge by 0.1 m cuts the step, and the path up to the cut stays below the cap. */
+    if (!tu_available("newton_cholmod")) return;
+    defsim_world *w = tu_world("newton_cholmod", 0.0, 1);
+    const double o[3] = {0, 0, 0}, u[3] = {0.2, 0, 0}, vv[3] = {0, 0.15, 0};
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_cloth(o, u, vv, 4, 3, &m));
+    defsim_body_def d = test_shell_body(&m);
+    d.shell_membrane = DEFSIM_SHELL_MEMBRANE_STVK;
+    d.shell_youngs_modulus = 1e5;
+    d.shell_strain_limit = 0.3;
+    TU_OK(defsim_world_add_body(w, &d, NULL));
+    TU_OK(defsim__world_plan(w));
+    const int64_t n = 3 * (int64_t)w->nv;
+    double *x = tu_positions(w), *v = calloc((size_t)n, sizeof *v);
+    unsigned long long seed = 9;
+    for (int64_t i = 0; i < n; ++i) x[i] = (i % 3 == 0 ? 1.28 : 1.0) * x[i] + 1e-4 * tu_rand(&seed);
+    TU_OK(defsim_world_set_state(w, x, v));
+    TU_OK(defsim__world_plan(w));
+    w->sys.projection = DEFSIM_PROJECTION_NONE;
+    const defsim__term *lt = term_of(w, DEFSIM__TERM_KIND_strain_limit);
+    check_gradient(w, lt, x, DEFSIM_FORCE_ELASTIC, 1e-8, 1e-6);
+    check_values(w, lt, lt, x, v, DEFSIM_FORCE_ELASTIC, 0, K1, 1e-8, 1e-5);
+    check_apply(w, lt, x, K1);
+    double *dx = calloc((size_t)n, sizeof *dx);
+    for (int32_t i = 0; i < w->nv; ++i)
+        if (m.positions[3 * i] > 0.19) dx[3 * i] = 0.1;
+    const double a = lt->ops->max_step(lt, x, dx);
+    printf("  %-18s max_step %.4g along a pull of 0.1 m\n", lt->ops->name, a);
+    assert_true(a > 0.0 && a < 1.0);
+    for (int k = 0; k <= 100; ++k) {
+        double *y = malloc((size_t)n * sizeof *y);
+        for (int64_t i = 0; i < n; ++i) y[i] = x[i] + a * k / 100.0 * dx[i];
+        assert_true(isfinite(lt->ops->energy(lt, &w->sys, &w->work, y, 0.0)));
+        free(y);
+    }
+    free(dx);
+    free(x);
+    free(v);
+    defsim_mesh_free(&m);
+    defsim_world_destroy(w);
 }
 
 /* Attachments to a world point and to another body's tet, with dampers; held forces. */
@@ -834,7 +905,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_elastic),        cmocka_unit_test(test_elastic_quadratic),
-        cmocka_unit_test(test_nodal_volume),
+        cmocka_unit_test(test_nodal_volume),    cmocka_unit_test(test_quadratic_mixed),
         cmocka_unit_test(test_spring_and_mass),
         cmocka_unit_test(test_shells),
         cmocka_unit_test(test_attach_and_held), cmocka_unit_test(test_callback),

@@ -6,8 +6,8 @@
  *    a value other than 0 and 1;
  *  - a homogeneous deformation (every J_n = J_e) has the standard element's energy, forces and
  *    stress read-back;
- *  - the explicit stable step sees the element; a checkpoint keeps it; 1 and 2 threads give the
- *    same bits;
+ *  - the explicit stable step sees the element; a checkpoint keeps it (and the mean-dilatation
+ *    element of quadratic bodies with the flag); 1 and 2 threads give the same bits;
  *  - the issue-29 cantilever (3 m x 1 m x 1 m, clamped at x = 0, its own weight, E = 1e8,
  *    density 1000, neo-Hookean: the linear range) at static equilibrium, on the shipped
  *    12 x 4 x 4 cells: with nu = 0.499 the standard tets lock (a sixth of the reference), the
@@ -85,13 +85,14 @@ static void test_refused(void **state)
     bd.material.model = DEFSIM_MODEL_STABLE_NEOHOOKEAN;
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     assert_int_equal(defsim_world_vertex_count(w), 16);
-    /* quadratic tets have no averaged element: refused, the world unchanged */
+    /* quadratic tets take the flag too (their mean-dilatation element: test_quadratic_mixed),
+     * with the same models refused */
     TU_OK(defsim_mesh_make_quadratic(&m));
-    bd = body_def(&m, DEFSIM_MODEL_NEOHOOKEAN, 0.3, 1);
+    bd = body_def(&m, DEFSIM_MODEL_STVK, 0.3, 1);
     bd.tet_nodes = 10;
     assert_int_equal(defsim_world_add_body(w, &bd, NULL), DEFSIM_ERR_INVALID_MATERIAL);
-    assert_non_null(strstr(defsim_world_last_error(w), "quadratic"));
-    bd.volume_averaging = 0;
+    assert_non_null(strstr(defsim_world_last_error(w), "volume_averaging"));
+    bd.material.model = DEFSIM_MODEL_NEOHOOKEAN;
     TU_OK(defsim_world_add_body(w, &bd, NULL));
     assert_int_equal(defsim_world_vertex_count(w), 16 + m.vertex_count);
     defsim_world_destroy(w);
@@ -211,51 +212,56 @@ static void test_stable_step(void **state)
     defsim_mesh_free(&m);
 }
 
-/* A checkpoint keeps volume_averaging (BODY, version 7): a clamped averaged box at nu = 0.49,
- * saved after 10 newton_cholmod steps and loaded, continues with the same bits as the run that
- * saved it, and not as the same box with standard tets does. */
+/* A checkpoint keeps volume_averaging (BODY, version 7; with quadratic tets, BODY's indices per
+ * tet, version 8: the mean-dilatation element, test_quadratic_mixed): a clamped averaged box at
+ * nu = 0.49, saved after 10 newton_cholmod steps and loaded, continues with the same bits as the
+ * run that saved it, and not as the same box with standard tets does. Linear and quadratic
+ * tets. */
 static void test_checkpoint(void **state)
 {
     (void)state;
     const double lo[3] = {0, 0, 0}, hi[3] = {0.6, 0.2, 0.2};
-    defsim_mesh m;
-    memset(&m, 0, sizeof m);
-    m.size = sizeof m;
-    TU_OK(defsim_mesh_box(lo, hi, 6, 2, 2, &m));
-    defsim_world *w[2];
-    for (int avg = 0; avg < 2; ++avg) {
-        w[avg] = tu_world("newton_cholmod", -9.81, 1);
-        defsim_body_def bd = body_def(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0.49, avg);
-        bd.material.youngs_modulus = 1e5;
-        defsim_body_id id;
-        TU_OK(defsim_world_add_body(w[avg], &bd, &id));
-        tu_pin_below(w[avg], id, 0, 0.0);
-        for (int k = 0; k < 10; ++k) TU_OK(defsim_world_step(w[avg], 0.01));
+    for (int quadratic = 0; quadratic < 2; ++quadratic) {
+        defsim_mesh m;
+        memset(&m, 0, sizeof m);
+        m.size = sizeof m;
+        TU_OK(defsim_mesh_box(lo, hi, 6, 2, 2, &m));
+        if (quadratic) TU_OK(defsim_mesh_make_quadratic(&m));
+        defsim_world *w[2];
+        for (int avg = 0; avg < 2; ++avg) {
+            w[avg] = tu_world("newton_cholmod", -9.81, 1);
+            defsim_body_def bd = body_def(&m, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0.49, avg);
+            bd.material.youngs_modulus = 1e5;
+            defsim_body_id id;
+            TU_OK(defsim_world_add_body(w[avg], &bd, &id));
+            tu_pin_below(w[avg], id, 0, 0.0);
+            for (int k = 0; k < 10; ++k) TU_OK(defsim_world_step(w[avg], 0.01));
+        }
+        void *buf = NULL;
+        size_t size = 0;
+        TU_OK(defsim_world_save_buffer(w[1], &buf, &size));
+        defsim_world *back = NULL;
+        TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &back));
+        defsim_buffer_free(buf);
+        for (int k = 0; k < 10; ++k) {
+            TU_OK(defsim_world_step(w[0], 0.01));
+            TU_OK(defsim_world_step(w[1], 0.01));
+            TU_OK(defsim_world_step(back, 0.01));
+        }
+        double *a = tu_positions(w[1]), *b = tu_positions(back), *c = tu_positions(w[0]);
+        const int n = defsim_world_vertex_count(back);
+        double d = 0.0;
+        for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - c[i]));
+        printf("  %s tets, loaded run: bit-identical %d; the standard box differs by %.3g m\n",
+               quadratic ? "quadratic" : "linear", !memcmp(a, b, 3 * (size_t)n * sizeof *a), d);
+        assert_memory_equal(a, b, 3 * (size_t)n * sizeof *a);
+        assert_true(d > 1e-4);
+        free(a); free(b); free(c);
+        defsim_world_destroy(w[0]);
+        defsim_world_destroy(w[1]);
+        defsim_world_destroy(back);
+        defsim_mesh_free(&m);
     }
-    void *buf = NULL;
-    size_t size = 0;
-    TU_OK(defsim_world_save_buffer(w[1], &buf, &size));
-    defsim_world *back = NULL;
-    TU_OK(defsim_world_load_buffer(buf, size, NULL, NULL, &back));
-    defsim_buffer_free(buf);
-    for (int k = 0; k < 10; ++k) {
-        TU_OK(defsim_world_step(w[0], 0.01));
-        TU_OK(defsim_world_step(w[1], 0.01));
-        TU_OK(defsim_world_step(back, 0.01));
-    }
-    double *a = tu_positions(w[1]), *b = tu_positions(back), *c = tu_positions(w[0]);
-    const int n = defsim_world_vertex_count(back);
-    double d = 0.0;
-    for (int i = 0; i < 3 * n; ++i) d = fmax(d, fabs(a[i] - c[i]));
-    printf("  loaded run: bit-identical %d; the standard box differs by %.3g m\n",
-           !memcmp(a, b, 3 * (size_t)n * sizeof *a), d);
-    assert_memory_equal(a, b, 3 * (size_t)n * sizeof *a);
-    assert_true(d > 1e-4);
-    free(a); free(b); free(c);
-    defsim_world_destroy(w[0]);
-    defsim_world_destroy(w[1]);
-    defsim_world_destroy(back);
-    defsim_mesh_free(&m);
 }
 
 /* The same bits on 1 and 2 threads: an 8 x 4 x 4-cell averaged box (768 tets, past the term's

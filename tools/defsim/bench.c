@@ -62,21 +62,11 @@ static const char *all_backends[] = {"explicit_euler", "symplectic_euler", "velo
                                      "sundials_ida", "sundials_erk"};
 
 /* Backends swept by tolerance (adaptive) rather than by step size. */
-static int swept_by_tolerance(const char *backend)
+int bench_swept_by_tolerance(const char *backend)
 {
     return !strcmp(backend, "sundials_ida") || !strcmp(backend, "sundials_erk");
 }
 
-typedef struct point {
-    const char *backend;
-    int is_tol;            /* 0: value is h (s); 1: value is the tolerance */
-    double value;
-    double wall;           /* median over repeats of the stepping loop, s */
-    double rms, max, energy;
-    char status[32];       /* ok, unstable, diverged, not_converged, or the status name */
-    long long steps, newton, internal;
-    int pareto;            /* not dominated in (wall, rms) by another ok point */
-} point;
 
 typedef struct bench {
     scene s;
@@ -99,6 +89,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
         "usage: defsim bench SCENE.json [options]\n"
+        "       defsim bench --spatial SCENE.json [options]  (error against the continuum over\n"
+        "                      meshes and element orders: defsim bench --spatial --help)\n"
         "  --backends A,B,...  backends to compare (default: all nine; unavailable ones are\n"
         "                      skipped with a note)\n"
         "  --h LIST            step sizes for fixed-step backends, s (default: the scene's h\n"
@@ -133,7 +125,7 @@ static void usage(FILE *f)
 }
 
 /* Comma-separated positive numbers. Returns the count, or -1. */
-static int parse_list(const char *s, double *out, int max)
+int bench_parse_list(const char *s, double *out, int max)
 {
     int n = 0;
     while (*s) {
@@ -154,17 +146,29 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+double bench_median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+defsim_status bench_build(scene *s, const char *backend, int threads, double rtol, double size,
+                          defsim_world **w)
+{
+    s->def.backend = backend;
+    s->def.num_threads = threads;
+    if (rtol > 0.0) {
+        scene_setting(s, SCENE_RTOL, rtol);
+        scene_setting(s, SCENE_ATOL, rtol * size);
+        scene_setting(s, SCENE_MAX_INTERNAL_STEPS, 10000000);
+    }
+    snprintf(s->backend, sizeof s->backend, "%s", backend);
+    return scene_build(s, w);
+}
+
 static defsim_status build(bench *b, const char *backend, double rtol, defsim_world **w)
 {
-    b->s.def.backend = backend;
-    b->s.def.num_threads = b->threads;
-    if (rtol > 0.0) {
-        scene_setting(&b->s, SCENE_RTOL, rtol);
-        scene_setting(&b->s, SCENE_ATOL, rtol * b->size);
-        scene_setting(&b->s, SCENE_MAX_INTERNAL_STEPS, 10000000);
-    }
-    snprintf(b->s.backend, sizeof b->s.backend, "%s", backend);
-    return scene_build(&b->s, w);
+    return bench_build(&b->s, backend, b->threads, rtol, b->size, w);
 }
 
 /* Sets the --option values that name `backend` (or "core.") on w. */
@@ -277,8 +281,7 @@ static void run_point(bench *b, const refsol *ref, point *p)
         }
         defsim_world_destroy(w);
     }
-    qsort(walls, (size_t)nw, sizeof *walls, cmp_double);
-    p->wall = nw % 2 ? walls[nw / 2] : 0.5 * (walls[nw / 2 - 1] + walls[nw / 2]);
+    p->wall = bench_median(walls, nw);
 }
 
 /* The reference cache key, as 16 hex digits. */
@@ -404,7 +407,7 @@ static int get_reference(bench *b, const char *path, const char *key, refsol *re
     return 0;
 }
 
-static void mark_pareto(point *p, int n)
+void bench_mark_pareto(point *p, int n)
 {
     for (int i = 0; i < n; ++i) {
         p[i].pareto = 0;
@@ -418,7 +421,7 @@ static void mark_pareto(point *p, int n)
     }
 }
 
-static void setting(const point *p, char *buf, size_t n)
+void bench_setting(const point *p, char *buf, size_t n)
 {
     snprintf(buf, n, "%s = %.3g%s", p->is_tol ? "tol" : "h", p->value, p->is_tol ? "" : " s");
 }
@@ -464,10 +467,10 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
             continue;
         }
         t_level[k] = p[best].wall;
-        setting(&p[best], s1, sizeof s1);
+        bench_setting(&p[best], s1, sizeof s1);
         if (other >= 0) {
             char so[64];
-            setting(&p[other], so, sizeof so);
+            bench_setting(&p[other], so, sizeof so);
             snprintf(s2, sizeof s2, "%s (%s): %.3g s, %.1fx slower", p[other].backend, so,
                      p[other].wall, p[other].wall / p[best].wall);
             fprintf(f, "| 1e-%d | %s | %s | %.4g | %.2e | %s (%s) | %.4g |\n", k, p[best].backend,
@@ -491,7 +494,7 @@ static int write_pareto(const bench *b, const point *p, int n, const char *path)
     for (int i = 0; i < n; ++i)
         if (p[i].pareto) {
             char s1[64];
-            setting(&p[i], s1, sizeof s1);
+            bench_setting(&p[i], s1, sizeof s1);
             fprintf(f, "- %s, %s: %.4g s, RMS %.2e\n", p[i].backend, s1, p[i].wall, p[i].rms);
         }
     return fclose(f) == 0 ? 0 : -1;
@@ -623,8 +626,8 @@ static int read_row(FILE *f, point *p)
 }
 
 /* Runs the plotting script. Never fails the bench: says how to make the plot by hand. */
-static void plot(const char *python, const char *script, const char *csv, const char *png,
-                 const char *title)
+void bench_plot(const char *python, const char *script, const char *csv, const char *png,
+                const char *title)
 {
     if (!script[0] || access(script, R_OK) != 0) {
         printf("plot: no plotting script found (pass --plot-script tools/plot_wp.py); make the "
@@ -650,6 +653,9 @@ static void plot(const char *python, const char *script, const char *csv, const 
 
 int defsim_tool_bench(int argc, char **argv)
 {
+    for (int i = 1; i < argc; ++i)
+        if (!strcmp(argv[i], "--spatial")) return defsim_tool_bench_spatial(argc, argv);
+        else if (!strcmp(argv[i], "--")) break;
     const char *scene_path = NULL, *out_dir = NULL, *ref_path = NULL, *rows_path = NULL;
     int list_variants = 0;
     long variant = -1;   /* >= 0: run only this one (defsim-sweep --tool bench) */
@@ -687,11 +693,11 @@ int defsim_tool_bench(int argc, char **argv)
         case O_LIST_VARIANTS: list_variants = 1; break;
         case O_BACKENDS: backend_list = v; break;
         case O_H:
-            if ((nh = parse_list(v, hs, MAX_VALUES)) <= 0)
+            if ((nh = bench_parse_list(v, hs, MAX_VALUES)) <= 0)
                 return cli_error(&c, "--h: need up to %d positive numbers: %s", MAX_VALUES, v);
             break;
         case O_TOL:
-            if ((ntol = parse_list(v, tols, MAX_VALUES)) <= 0)
+            if ((ntol = bench_parse_list(v, tols, MAX_VALUES)) <= 0)
                 return cli_error(&c, "--tol: need up to %d positive numbers: %s", MAX_VALUES, v);
             break;
         case O_TIME:
@@ -911,7 +917,7 @@ int defsim_tool_bench(int argc, char **argv)
         printf("\n%-17s %-5s %10s %10s %10s %10s %10s  %s\n", "backend", "kind", "value",
                "wall_s", "rms_err", "max_err", "energy_err", "status");
     for (int k = 0; k < nuse; ++k) {
-        const int is_tol = swept_by_tolerance(use[k]);
+        const int is_tol = bench_swept_by_tolerance(use[k]);
         const int nval = is_tol ? ntol : nh;
         for (int j = 0; j < nval; ++j) {
             ++index;
@@ -949,7 +955,7 @@ int defsim_tool_bench(int argc, char **argv)
         rc = 0;
         goto done;
     }
-    mark_pareto(pts, npts);
+    bench_mark_pareto(pts, npts);
     char csv[1500], png[1500], md[1500], title[512];
     snprintf(csv, sizeof csv, "%s/%s.csv", dir, b.s.name);
     snprintf(png, sizeof png, "%s/%s.png", dir, b.s.name);
@@ -961,7 +967,7 @@ int defsim_tool_bench(int argc, char **argv)
     write_orders(&b, pts, npts, ref_err, md);
     printf("\nwrote %s, %s\n", csv, md);
     snprintf(title, sizeof title, "%s: %d vertices, T = %g s", b.s.name, (int)b.nv, b.T);
-    if (!no_plot) plot(python, script, csv, png, title);
+    if (!no_plot) bench_plot(python, script, csv, png, title);
     rc = 0;
 done:
     free(pts);

@@ -317,13 +317,15 @@ def test_new_scene_keys_are_checked() -> None:
                                          "normalized": True}])).world
 
 
-def test_volume_averaging_key_round_trip() -> None:
+@pytest.mark.parametrize("quadratic", [False, True])
+def test_volume_averaging_key_round_trip(quadratic: bool) -> None:
     """The scene key "volume_averaging" reaches the library (the body steps differently from the
     same body without it) and comes back from World.to_scene; the export loads and steps to the
-    same bits."""
+    same bits. Linear tets (the averaged nodal volume) and quadratic ones (the mean dilatation)."""
     def scene(avg: bool) -> dict:
         body = {"name": "block",
-                "mesh": {"type": "box", "lo": [0, 0, 0], "hi": [0.4, 0.1, 0.1], "cells": [4, 1, 1]},
+                "mesh": {"type": "box", "lo": [0, 0, 0], "hi": [0.4, 0.1, 0.1], "cells": [4, 1, 1],
+                         "quadratic": quadratic},
                 "material": {"model": "neohookean", "youngs_modulus": 1e5, "poisson_ratio": 0.49,
                              "density": 500},
                 "pin": {"box": {"lo": [0, 0, 0], "hi": [0, 0.1, 0.1]}}}

@@ -203,10 +203,14 @@ def test_stable_step_and_auto_substep():
                 world.step(10 * h, steps=200)
 
 
-def test_volume_averaging(box: defsim.Mesh) -> None:
-    """The averaged-nodal-volume tet through the binding: refused for StVK, the standard
-    element's energy under a homogeneous stretch, softer than the locking standard element under
-    a non-homogeneous one at nu = 0.499."""
+@pytest.mark.parametrize("quadratic", [False, True])
+def test_volume_averaging(box: defsim.Mesh, quadratic: bool) -> None:
+    """The averaged-nodal-volume tet (linear tets) and the mean-dilatation element (quadratic
+    tets) through the binding: refused for StVK, the standard element's energy under a
+    homogeneous stretch, softer than the locking standard element under a non-homogeneous one
+    at nu = 0.499."""
+    if quadratic:
+        box = defsim.mesh_box((0, 0, 0), (0.4, 0.2, 0.2), cells=(2, 1, 1), quadratic=True)
     with defsim.World() as w:
         with pytest.raises(defsim.InvalidMaterialError, match="volume_averaging"):
             w.add_body(box, material=defsim.Material("stvk"), volume_averaging=True)

@@ -36,7 +36,7 @@ from ._native import header_version_number as _header_version
 from ._native import header_version_string as _header_version_string
 from ._native import lib as _lib
 from ._native import library_path as _library_path
-from ._shell import Membrane, Shell
+from ._shell import Membrane, Shell, fabrics
 from ._state_view import StateView
 from ._tape import Tape
 from ._view import ViewResult, view, view_available
@@ -65,7 +65,7 @@ def header_version() -> Tuple[int, int, int]:
 __all__ = [
     "World", "Body", "StateView", "Attachment", "Collider", "Shape", "Pose", "ElementStress", "StepError", "Energy", "Stats", "Pass", "Projection", "LogCallback",
     "Material", "Model", "MaterialEval", "material_eval",
-    "Mesh", "SpringKind", "Topology", "Shell", "Membrane", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
+    "Mesh", "SpringKind", "Topology", "Shell", "Membrane", "fabrics", "mesh_box", "mesh_cloth", "mesh_rope", "mesh_load",
     "Status", "Error", "InvalidArgumentError", "InvalidMeshError", "InvalidMaterialError",
     "BackendUnavailableError", "NotConvergedError", "UnstableError", "OutOfMemoryError",
     "FileError", "StaleIdError", "StaleViewError", "LockedError", "ConflictError", "CallbackError", "UnsupportedError",

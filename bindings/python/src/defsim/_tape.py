@@ -13,12 +13,14 @@ from ._native import ffi, lib
 #: The gradients a backward pass can fill: per vertex (shape (n, 3)) and per body (shape (b,)).
 VERTEX_PARAMS = ("initial_positions", "initial_velocities")
 BODY_PARAMS = ("youngs_modulus", "poisson_ratio", "density", "mass_damping",
-               "stiffness_damping")
+               "stiffness_damping", "body_friction")
 #: Per step (shape (N, n, 3)): the held external forces of each recorded step (the controls).
 STEP_PARAMS = ("external_forces",)
 #: Per attachment (shape (a,)) and per step and attachment (shape (N, a, 3)): world targets.
 ATTACHMENT_PARAMS = ("attachment_stiffness", "attachment_damping")
 ATTACHMENT_STEP_PARAMS = ("attachment_targets",)
+#: Per collider (shape (c,), in ``World.colliders``' order): the friction coefficient mu.
+COLLIDER_PARAMS = ("collider_friction",)
 
 
 class Tape:
@@ -79,11 +81,13 @@ class Tape:
         state s = 0 .. N as arrays of shape (N + 1, n, 3) (or (N + 1, 3 n); None: zero).
         Returns {name: gradient} for `params` (default: all): "initial_positions" and
         "initial_velocities" of shape (n, 3), and per body (in the world's order) of shape (b,):
-        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping";
+        "youngs_modulus", "poisson_ratio", "density", "mass_damping", "stiffness_damping",
+        "body_friction" (body contact's mu);
         and "external_forces" of shape (N, n, 3), dL/df_j of the forces held during step j
         (``World.set_external_forces``; also where they were zero); with attachments,
         "attachment_stiffness" and "attachment_damping" of shape (a,) and "attachment_targets"
-        of shape (N, a, 3) (world-point targets held during each step).
+        of shape (N, a, 3) (world-point targets held during each step); with colliders,
+        "collider_friction" of shape (c,) (dL/dmu of each collider).
         The world is left as it was. Raises InvalidArgumentError (wrong shape, non-finite
         values, the world changed since recording began), UnsupportedError."""
         w = self._world
@@ -102,9 +106,11 @@ class Tape:
                     f"need shape ({N + 1}, {n}, 3)")
             arrays.append(a.reshape(-1))
         na = int(lib.defsim_world_attachment_count(w._live()))
+        nc = int(lib.defsim_world_collider_count(w._live()))
         names = (list(params) if params is not None
                  else list(VERTEX_PARAMS + BODY_PARAMS + STEP_PARAMS +
-                           (ATTACHMENT_PARAMS + ATTACHMENT_STEP_PARAMS if na else ())))
+                           (ATTACHMENT_PARAMS + ATTACHMENT_STEP_PARAMS if na else ()) +
+                           (COLLIDER_PARAMS if nc else ())))
         nb = len(w.bodies)
         outs, keep = {}, []
         g = ffi.new("defsim_gradient[]", max(len(names), 1))
@@ -112,6 +118,7 @@ class Tape:
             out = np.zeros((n, 3) if name in VERTEX_PARAMS
                            else (N, n, 3) if name in STEP_PARAMS
                            else (na,) if name in ATTACHMENT_PARAMS
+                           else (nc,) if name in COLLIDER_PARAMS
                            else (N, na, 3) if name in ATTACHMENT_STEP_PARAMS else (nb,))
             c = ffi.new("char[]", str(name).encode())
             keep.append(c)

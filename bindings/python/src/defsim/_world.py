@@ -409,8 +409,9 @@ class World(WorldCoupling, WorldColliders):
                 contact keeps its surface t / 2 from other bodies (whose half-thickness adds)
                 and from colliders, so stacked cloth layers rest t apart.
             volume_averaging: the averaged-nodal-volume tet against volumetric locking of
-                nearly incompressible bodies (docs/materials.md); neo-Hookean and stable
-                neo-Hookean only (others raise MaterialError).
+                nearly incompressible bodies (docs/materials.md), or for quadratic tets the
+                mean-dilatation element (docs/elements.md); neo-Hookean and stable neo-Hookean
+                only (others raise MaterialError).
             shell: a Shell: the triangles (at least one; no tets) are then also membrane
                 elements and bending hinges (docs/shells.md).
 

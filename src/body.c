@@ -315,6 +315,12 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
         defsim__error(msg, "add_body: friction %g must be in [0, 10]", d.friction);
         return DEFSIM_ERR_INVALID_MATERIAL;
     }
+    if (!isfinite(d.contact_thickness) || d.contact_thickness < 0.0 ||
+        d.contact_thickness > 1e3) {
+        defsim__error(msg, "add_body: contact_thickness %g must be finite, >= 0 and at most "
+                           "1e3 m", d.contact_thickness);
+        return DEFSIM_ERR_INVALID_ARGUMENT;
+    }
     if (d.volume_averaging != 0 && d.volume_averaging != 1) {
         defsim__error(msg, "add_body: volume_averaging %d must be 0 or 1",
                       (int)d.volume_averaging);
@@ -372,6 +378,7 @@ defsim_status defsim__body_build(defsim__messages *msg, const defsim_body_def *d
     b.group = d.collision_group;
     b.mask = d.collision_mask;
     b.friction = d.friction;
+    b.thickness = d.contact_thickness;
     b.volume_averaging = d.volume_averaging;
     /* Contact edges of a rope: its stretch springs (all springs without kinds). */
     int32_t nedge = 0;
@@ -567,6 +574,8 @@ void defsim__body_save(defsim__bw *b, const defsim__body *body, uint32_t saved)
     defsim__put_f64s(b, body->shell_fields, DEFSIM__SHELL_FIELDS);
     /* version 10: the strain limit */
     defsim__put_f64(b, body->strain_limit);
+    /* version 11: the contact thickness */
+    defsim__put_f64(b, body->thickness);
     defsim__chunk_end(b, c);
 }
 
@@ -650,6 +659,8 @@ defsim_status defsim__body_read(defsim__br *r, uint32_t version, defsim__body_sa
     }
     /* The strain limit (version 10); older files: none. */
     if (version >= 10) d->shell_strain_limit = defsim__get_f64(r);
+    /* The contact thickness (version 11); older files: 0. */
+    if (version >= 11) d->contact_thickness = defsim__get_f64(r);
     for (int32_t e = 0; e < 2 * out->nedge && !r->bad; ++e)
         if (out->edges[e] < 0 || out->edges[e] >= nv) r->bad = 1;
     if (!defsim__read_whole(r)) {

@@ -42,6 +42,7 @@ typedef struct defsim__body {
     int32_t self_contact;
     uint32_t group, mask;
     double friction;
+    double thickness;         /* defsim_body_def.contact_thickness (m) */
     int32_t volume_averaging; /* defsim_body_def.volume_averaging: 0 or 1 */
     int mass_given;           /* the host gave vertex_mass: the density does not set the masses */
     /* Shells (shell.h; docs/shells.md), when `shell`: the membrane's group (DEFSIM__MEMBRANE_*,

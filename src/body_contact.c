@@ -57,7 +57,7 @@ void defsim__body_contact_unplan(defsim__body_contact *bc)
 {
     free(bc->face); free(bc->edge); free(bc->vert); free(bc->rope);
     free(bc->face_body); free(bc->edge_body); free(bc->vert_body); free(bc->edge_len2);
-    free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu);
+    free(bc->self_contact); free(bc->group); free(bc->mask); free(bc->mu); free(bc->half);
     free(bc->vlo); free(bc->vhi); free(bc->lo); free(bc->hi); free(bc->scratch); free(bc->conx);
     bc->vlo = bc->vhi = bc->conx = NULL;
     bc->have_pairs = 0;
@@ -69,7 +69,7 @@ void defsim__body_contact_unplan(defsim__body_contact *bc)
     bc->bactive = NULL;
     bc->face = bc->edge = bc->vert = bc->rope = NULL;
     bc->face_body = bc->edge_body = bc->vert_body = bc->self_contact = NULL;
-    bc->edge_len2 = bc->mu = bc->lo = bc->hi = bc->scratch = NULL;
+    bc->edge_len2 = bc->mu = bc->half = bc->lo = bc->hi = bc->scratch = NULL;
     bc->group = bc->mask = NULL;
     bc->nface = bc->nedge = bc->nvert = bc->nrope = bc->nbody = 0;
     bc->npair = bc->nfric = 0;
@@ -154,13 +154,14 @@ static defsim_status plan(defsim__body_contact *bc, const defsim__body *bodies, 
         bc->group = malloc(nb * sizeof *bc->group);
         bc->mask = malloc(nb * sizeof *bc->mask);
         bc->mu = malloc(nb * sizeof *bc->mu);
+        bc->half = malloc(nb * sizeof *bc->half);
         bc->vlo = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->vlo);
         bc->vhi = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->vhi);
         bc->conx = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->conx);
         bc->scratch = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof *bc->scratch);
         if (!mark || !bc->face_body || !bc->edge_body || !bc->edge_len2 || !bc->rope ||
-            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->vlo || !bc->vhi ||
-            !bc->conx || !bc->scratch)
+            !bc->self_contact || !bc->group || !bc->mask || !bc->mu || !bc->half || !bc->vlo ||
+            !bc->vhi || !bc->conx || !bc->scratch)
             st = DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (st == DEFSIM_OK) {
@@ -259,6 +260,23 @@ static int filtered(const defsim__body_contact *bc, int32_t ba, int32_t bb)
 
 static double dist2(uint8_t kind, const double *X, double *g, double *H);
 
+/* The dense indices of the two bodies of candidate (kind, a, b). */
+static void pair_bodies(const defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b,
+                        int32_t *ba, int32_t *bb)
+{
+    if (kind == DEFSIM__BC_PT) *ba = bc->vert_body[a], *bb = bc->face_body[b];
+    else if (kind == DEFSIM__BC_EE) *ba = bc->edge_body[a], *bb = bc->edge_body[b];
+    else *ba = bc->vert_body[a], *bb = bc->edge_body[b];
+}
+
+/* The thickness offset of candidate q: its bodies' half-thicknesses summed (m). */
+static double pair_xi(const defsim__body_contact *bc, int32_t q)
+{
+    int32_t ba, bb;
+    pair_bodies(bc, bc->kind[q], bc->pa[q], bc->pb[q], &ba, &bb);
+    return bc->half[ba] + bc->half[bb];
+}
+
 /* Appends candidate (kind, a, b) unless the filter excludes it, its primitives share a vertex
  * (adjacent), all its vertices are pinned or it cannot come within dhat inside the boxes. */
 static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t b)
@@ -270,9 +288,7 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
         for (int j = 0; j < i; ++j)
             if (idx[i] == idx[j]) return;   /* adjacent primitives share a vertex */
     int32_t ba, bb;
-    if (kind == DEFSIM__BC_PT) ba = bc->vert_body[a], bb = bc->face_body[b];
-    else if (kind == DEFSIM__BC_EE) ba = bc->edge_body[a], bb = bc->edge_body[b];
-    else ba = bc->vert_body[a], bb = bc->edge_body[b];
+    pair_bodies(bc, kind, a, b, &ba, &bb);
     if (filtered(bc, ba, bb)) return;
     int free_node = 0;
     for (int i = 0; i < n; ++i) free_node |= !bc->pinned[idx[i]];
@@ -296,7 +312,8 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
         ra += sqrt(la2);
         rb += sqrt(lb2);
     }
-    const double reach = (ra + rb + bc->dhat) * (1.0 + 1e-9);   /* room for rounding */
+    /* within dhat beyond the thickness offset */
+    const double reach = (ra + rb + bc->dhat + (bc->half[ba] + bc->half[bb])) * (1.0 + 1e-9);
     /* Lower bounds of the distance before the closest features: first the distance of the lines
      * (edge-edge) or of the point to the triangle's plane (no square root) */
     if (kind != DEFSIM__BC_PE) {
@@ -346,12 +363,13 @@ static void add_pair(defsim__body_contact *bc, uint8_t kind, int32_t a, int32_t 
     bc->pb[bc->npair++] = b;
 }
 
-/* Box of a set of vertices' boxes (vlo, vhi), grown by dhat / 2: two primitives within dhat of
- * each other anywhere in their vertices' boxes have overlapping boxes. */
-static void prim_box(const defsim__body_contact *bc, const int32_t *v, int n, double *lo,
-                     double *hi)
+/* Box of a set of vertices' boxes (vlo, vhi), grown by dhat / 2 and the half-thickness `half` of
+ * the primitive's body: two primitives within dhat of each other beyond their offset (the sum of
+ * their half-thicknesses) anywhere in their vertices' boxes have overlapping boxes. */
+static void prim_box(const defsim__body_contact *bc, const int32_t *v, int n, double half,
+                     double *lo, double *hi)
 {
-    const double r = 0.5 * bc->dhat;
+    const double r = 0.5 * bc->dhat + half;
     for (int k = 0; k < 3; ++k) {
         lo[k] = bc->vlo[3 * (int64_t)v[0] + k];
         hi[k] = bc->vhi[3 * (int64_t)v[0] + k];
@@ -406,9 +424,12 @@ static void broad(defsim__body_contact *bc)
     double *vlo = bc->lo, *vhi = bc->hi;
     double *flo = vlo + 3 * nvb, *fhi = vhi + 3 * nvb;
     double *elo = flo + 3 * nfb, *ehi = fhi + 3 * nfb;
-    for (int64_t i = 0; i < nvb; ++i) prim_box(bc, bc->vert + i, 1, vlo + 3 * i, vhi + 3 * i);
-    for (int64_t f = 0; f < nfb; ++f) prim_box(bc, bc->face + 3 * f, 3, flo + 3 * f, fhi + 3 * f);
-    for (int64_t e = 0; e < neb; ++e) prim_box(bc, bc->edge + 2 * e, 2, elo + 3 * e, ehi + 3 * e);
+    for (int64_t i = 0; i < nvb; ++i)
+        prim_box(bc, bc->vert + i, 1, bc->half[bc->vert_body[i]], vlo + 3 * i, vhi + 3 * i);
+    for (int64_t f = 0; f < nfb; ++f)
+        prim_box(bc, bc->face + 3 * f, 3, bc->half[bc->face_body[f]], flo + 3 * f, fhi + 3 * f);
+    for (int64_t e = 0; e < neb; ++e)
+        prim_box(bc, bc->edge + 2 * e, 2, bc->half[bc->edge_body[e]], elo + 3 * e, ehi + 3 * e);
     /* bodies' boxes (of their surface vertices' boxes) and which of them take part */
     const int32_t nb = bc->nbody;
     for (int32_t b = 0; b < nb; ++b)
@@ -673,14 +694,14 @@ static void candidate_contact(const defsim__body_contact *bc, int32_t q, const d
     int free_node = 0;
     for (int i = 0; i < m; ++i) free_node |= !bc->pinned[v[i]];
     gather(x, v, m, X);
-    if (!free_node || !(defsim__contact_dist2(out->type, X, NULL, NULL) < bc->dhat * bc->dhat)) {
+    pair_bodies(bc, kind, bc->pa[q], bc->pb[q], &out->body[0], &out->body[1]);
+    out->xi = bc->half[out->body[0]] + bc->half[out->body[1]];
+    const double reach = bc->dhat + out->xi;   /* dhat itself without thickness */
+    if (!free_node || !(defsim__contact_dist2(out->type, X, NULL, NULL) < reach * reach)) {
         out->type = -1;
         return;
     }
     out->kappa = pair_kappa(bc, idx, n);
-    if (kind == DEFSIM__BC_PT) out->body[0] = bc->vert_body[bc->pa[q]], out->body[1] = bc->face_body[bc->pb[q]];
-    else if (kind == DEFSIM__BC_EE) out->body[0] = bc->edge_body[bc->pa[q]], out->body[1] = bc->edge_body[bc->pb[q]];
-    else out->body[0] = bc->vert_body[bc->pa[q]], out->body[1] = bc->edge_body[bc->pb[q]];
 }
 
 /* The contacts' order: type, then vertices (the key), then stiffness (so that duplicates are
@@ -784,9 +805,9 @@ static double contact_barrier(const defsim__body_contact *bc, const defsim__bc_c
 {
     double X[12];
     gather(x, c->v, defsim__contact_nodes(c->type), X);
-    if (bc->exact && H)   /* a backward pass's matrix (docs/gradients.md) */
-        return defsim__contact_barrier_exact(c->type, X, bc->dhat, c->kappa, c->eps, g, H);
-    return defsim__contact_barrier(c->type, X, bc->dhat, c->kappa, c->eps, g, H);
+    /* exact: a backward pass's matrix (docs/gradients.md) */
+    return defsim__contact_barrier_offset(c->type, X, bc->dhat, c->xi, c->kappa, c->eps,
+                                          bc->exact && H, g, H);
 }
 
 /* Friction pair r at x: energy, gradient (12) and Hessian (144, PSD) over its four nodes (an
@@ -987,7 +1008,8 @@ static double ccd_fraction(const defsim__body_contact *bc, double d)
 }
 
 /* Largest t in [0, tmax] along x + t dx that keeps candidate q at least ccd_fraction of its
- * distance at x; 0 if it starts at distance 0. */
+ * distance at x beyond its thickness offset xi (d - xi >= s (d0 - xi) at t, d > xi on the way);
+ * 0 if it starts at distance xi or less. */
 static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *x,
                        const double *dx, double tmax)
 {
@@ -1004,14 +1026,16 @@ static double pair_toi(const defsim__body_contact *bc, int32_t q, const double *
     /* A bound on the relative motion (the distance is Lipschitz in t with it) */
     const double lp = defsim__ccd_speed(pair, D);
     if (!(lp > 0.0)) return tmax;
-    const double d = sqrt(dist2(kind, X, NULL, NULL));
+    /* the distance beyond the offset (the distance itself without thickness) */
+    const double xi = pair_xi(bc, q);
+    const double d = sqrt(dist2(kind, X, NULL, NULL)) - xi;
     if (!(d > 0.0)) return 0.0;
     const double s = ccd_fraction(bc, d);
     if (lp * tmax <= (1.0 - s) * d) return tmax;
     /* A pair that cannot come within dhat on the segment cannot cross, and limiting the step
      * for it would make the result depend on which far pairs the broad phase kept. */
     if (d - lp * tmax >= bc->dhat) return tmax;
-    return defsim__accd(pair, X, D, d, lp, s, tmax, BC_CCD_ITERATIONS);
+    return defsim__accd_offset(pair, X, D, d, xi, lp, s, tmax, BC_CCD_ITERATIONS);
 }
 
 /* The largest step along dx from x over the candidates of the swept boxes (built unless the
@@ -1128,7 +1152,8 @@ static int lagged(const defsim__body_contact *bc, const defsim__bc_contact *c, c
                   double *lam, double w[4], double nrm[3])
 {
     const int n = defsim__contact_nodes(c->type);
-    const double d = sqrt(defsim__contact_dist2(c->type, X, NULL, NULL));
+    /* the offset barrier's normal force (the distance beyond the thickness offset) */
+    const double d = sqrt(defsim__contact_dist2(c->type, X, NULL, NULL)) - c->xi;
     double l = -c->kappa * barrier_d1(d, bc->dhat);
     if (c->type == DEFSIM__C_EE) l *= defsim__ee_mollifier(X, X + 3, X + 6, X + 9, c->eps, NULL, NULL);
     double dv[3] = {0.0, 0.0, 0.0};
@@ -1243,6 +1268,7 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
         bc->group[b] = bodies[b].group;
         bc->mask[b] = bodies[b].mask;
         bc->mu[b] = bodies[b].friction;
+        bc->half[b] = 0.5 * bodies[b].thickness;
     }
     bc->mass = s->mass;
     bc->pinned = s->pinned;
@@ -1290,17 +1316,25 @@ defsim_status defsim__body_contact_begin(defsim__body_contact *bc, const defsim_
         const int n = nodes(bc, kind, bc->pa[q], bc->pb[q], idx);
         double X[12];
         gather(x, idx, n, X);
-        if (!(dist2(kind, X, NULL, NULL) > 0.0)) {
+        const double d2 = dist2(kind, X, NULL, NULL), xi = pair_xi(bc, q);
+        if (!(d2 > 0.0) || (xi > 0.0 && !(sqrt(d2) > xi))) {
             static const char *const what[3] = {"vertex-triangle", "edge-edge", "vertex-edge"};
             int32_t ba, bb;
-            if (kind == DEFSIM__BC_PT) ba = bc->vert_body[bc->pa[q]], bb = bc->face_body[bc->pb[q]];
-            else if (kind == DEFSIM__BC_EE) ba = bc->edge_body[bc->pa[q]], bb = bc->edge_body[bc->pb[q]];
-            else ba = bc->vert_body[bc->pa[q]], bb = bc->edge_body[bc->pb[q]];
-            defsim__error(msg, "body contact: at the start of the step the %s pair of world "
-                          "vertices (%d, %d, %d, %d) touches (distance 0) between bodies %d and "
-                          "%d (bodies in vertex order): surfaces must start apart",
-                          what[kind], (int)idx[0], (int)idx[1], (int)idx[2], (int)idx[3],
-                          (int)ba, (int)bb);
+            pair_bodies(bc, kind, bc->pa[q], bc->pb[q], &ba, &bb);
+            if (xi > 0.0)
+                defsim__error(msg, "body contact: at the start of the step the %s pair of world "
+                              "vertices (%d, %d, %d, %d) between bodies %d and %d (bodies in "
+                              "vertex order) is %g m apart, not more than its contact thickness "
+                              "offset %g m (the bodies' half contact_thickness summed): surfaces "
+                              "must start farther apart, or self-contact needs a thickness below "
+                              "the mesh's spacing", what[kind], (int)idx[0], (int)idx[1],
+                              (int)idx[2], (int)idx[3], (int)ba, (int)bb, sqrt(d2), xi);
+            else
+                defsim__error(msg, "body contact: at the start of the step the %s pair of world "
+                              "vertices (%d, %d, %d, %d) touches (distance 0) between bodies %d "
+                              "and %d (bodies in vertex order): surfaces must start apart",
+                              what[kind], (int)idx[0], (int)idx[1], (int)idx[2], (int)idx[3],
+                              (int)ba, (int)bb);
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
     }
@@ -1430,7 +1464,8 @@ static defsim_status friction_vjp(defsim__body_contact *bc, const double *x, con
             }
             dFdw[i] = dot3(BA, du) + sy * dot3(a, ut);
         }
-        const double hs = 1e-4 * sqrt(defsim__contact_dist2(c->type, X, NULL, NULL));
+        /* a step of 1e-4 of the distance beyond the thickness offset */
+        const double hs = 1e-4 * (sqrt(defsim__contact_dist2(c->type, X, NULL, NULL)) - c->xi);
         for (int p = 0; p < 3 * n; ++p) {
             double Xp[12], lp[2], wp[2][4], np[2][3];
             for (int side = 0; side < 2; ++side) {
@@ -1473,7 +1508,8 @@ defsim_status defsim__body_contact_vjp(defsim__body_contact *bc, const double *x
         double X[12], g[12], H[144], wl[12];
         gather(x, c.v, m, X);
         gather(w, c.v, m, wl);
-        const double e = defsim__contact_barrier_exact(c.type, X, bc->dhat, 1.0, c.eps, g, H);
+        const double e =
+            defsim__contact_barrier_offset(c.type, X, bc->dhat, c.xi, 1.0, c.eps, 1, g, H);
         if (!isfinite(e)) return DEFSIM_ERR_UNSTABLE;
         if (e == 0.0) continue;
         for (int i = 0; i < nd && gx; ++i) {
@@ -1531,7 +1567,8 @@ double defsim__body_contact_end(defsim__body_contact *bc, defsim__system *s, con
     for (int32_t q = 0; q < bc->npair; ++q) {
         const int n = nodes(bc, bc->kind[q], bc->pa[q], bc->pb[q], idx);
         gather(x, idx, n, X);
-        const double d = sqrt(dist2(bc->kind[q], X, NULL, NULL));
+        /* the distance beyond the pair's thickness offset */
+        const double d = sqrt(dist2(bc->kind[q], X, NULL, NULL)) - pair_xi(bc, q);
         if (d < dmin) dmin = d;
     }
 

@@ -46,6 +46,7 @@ typedef struct defsim__bc_contact {
     int32_t type;
     int32_t body[2];
     double kappa, eps;
+    double xi;                /* the thickness offset: the bodies' half-thicknesses summed (m) */
 } defsim__bc_contact;
 
 typedef struct defsim__body_contact {
@@ -63,6 +64,8 @@ typedef struct defsim__body_contact {
     int32_t *self_contact;    /* per body, read at each step's start */
     uint32_t *group, *mask;
     double *mu;
+    double *half;             /* per body: half its contact thickness (m), read at each step's
+                                 start; a pair's offset xi is the sum of its bodies' */
 
     /* The step under way. */
     int active;               /* set by begin, cleared by the world at the step's end */

@@ -18,8 +18,8 @@
  * version 6 the terms' state as each kind writes it (TERM chunks: the kind's name, then its
  * bytes; the collider term's holds what CNTC held and the safe box), version 7 BODY's
  * volume_averaging, version 8 quadratic tets (BODY's indices per tet after its counts), version 9
- * shells (BODY's shell_* fields at its end), version 10 BODY's shell_strain_limit after them.
- * The chunks' bytes and CRC-32 are chunk.h's. */
-#define DEFSIM__CKPT_VERSION 10u
+ * shells (BODY's shell_* fields at its end), version 10 BODY's shell_strain_limit after them,
+ * version 11 BODY's contact thickness after that. The chunks' bytes and CRC-32 are chunk.h's. */
+#define DEFSIM__CKPT_VERSION 11u
 
 #endif /* DEFSIM_CHECKPOINT_H */

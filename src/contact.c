@@ -41,6 +41,37 @@ static int live(const defsim__contact *c, int32_t j) { return (c->col[j].generat
 
 static double kfac(const defsim__contact *c, int32_t i) { return c->khat * c->mass[i]; }
 
+/* Vertex i's thickness offset (m): half its body's contact thickness. */
+static double vxi(const defsim__contact *c, int32_t i) { return c->xi ? c->xi[i] : 0.0; }
+
+defsim_status defsim__contact_offsets(defsim__contact *c, const defsim__body *bodies,
+                                      int32_t nbodies, int32_t nv)
+{
+    c->xi_max = 0.0;
+    for (int32_t b = 0; b < nbodies; ++b)
+        if ((bodies[b].generation & 1u) && 0.5 * bodies[b].thickness > c->xi_max)
+            c->xi_max = 0.5 * bodies[b].thickness;
+    if (!(c->xi_max > 0.0)) {
+        free(c->xi);
+        c->xi = NULL;
+        c->cap_xi = 0;
+        return DEFSIM_OK;
+    }
+    if (nv > c->cap_xi) {
+        free(c->xi);
+        c->xi = malloc((size_t)nv * sizeof *c->xi);
+        c->cap_xi = c->xi ? nv : 0;
+        if (!c->xi) return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
+    memset(c->xi, 0, (size_t)nv * sizeof *c->xi);
+    for (int32_t b = 0; b < nbodies; ++b) {
+        if (!(bodies[b].generation & 1u)) continue;
+        const double half = 0.5 * bodies[b].thickness;
+        for (int32_t i = 0; i < bodies[b].nv; ++i) c->xi[bodies[b].offset + i] = half;
+    }
+    return DEFSIM_OK;
+}
+
 /* Records a distance to collider slot j that failed: an SDF's callback (CALLBACK) or, for the
  * other shapes, a distance that overflowed (UNSTABLE: a vertex far beyond the coordinate bound;
  * colliders are held within it). The first failure of a step is kept. */
@@ -126,7 +157,7 @@ static void pair_vertex(defsim__contact *c, int32_t i, int grown)
             const double u[3] = {moved[0] - x[0], moved[1] - x[1], moved[2] - x[2]};
             d = fmin(d, d0) - sqrt(defsim__v3_dot(u, u));
         }
-        if (!(d <= r + c->dhat)) continue;
+        if (!(d <= r + c->dhat + vxi(c, i))) continue;
         if (skip_existing) {
             int found = 0;
             for (int32_t p = 0; p < c->npair && !found; ++p) found = c->pv[p] == i && c->pc[p] == j;
@@ -175,7 +206,7 @@ static double box_clearance(defsim__contact *c, int32_t j, const double lo[3], c
         const double u[3] = {moved[0] - m[0], moved[1] - m[1], moved[2] - m[2]};
         d = fmin(d, d0) - sqrt(defsim__v3_dot(u, u));
     }
-    return (d - sqrt(half) - c->dhat) / sqrt(3.0);
+    return (d - sqrt(half) - c->dhat - c->xi_max) / sqrt(3.0);
 }
 
 /* Whether collider j can come within dhat of a point of the box [lo, hi] in this step. */
@@ -304,7 +335,7 @@ void defsim__contact_free(defsim__contact *c)
     free(c->pose0); free(c->pose1); free(c->lo); free(c->hi); free(c->near);
     free(c->radius); free(c->vel); free(c->blk);
     free(c->base); free(c->dstart); free(c->carrier); free(c->cpos); free(c->hit);
-    free(c->face); free(c->edge);
+    free(c->face); free(c->edge); free(c->xi);
     free(c->pv); free(c->pc); free(c->lam); free(c->nrm); free(c->uc); free(c->off);
     memset(c, 0, sizeof *c);
     c->omega_elastic = om;
@@ -394,8 +425,8 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
         defsim__collider_pose_at(&col[j], 1.0, &c->pose1[j]);
         /* over the step: the union of the bounds at both ends (exact for translations) */
         double *lo = c->lo + 3 * (int64_t)j, *hi = c->hi + 3 * (int64_t)j, l0[3], h0[3];
-        defsim__collider_bounds(&col[j], &c->pose1[j], c->dhat, lo, hi);
-        defsim__collider_bounds(&col[j], &c->pose0[j], c->dhat, l0, h0);
+        defsim__collider_bounds(&col[j], &c->pose1[j], c->dhat + c->xi_max, lo, hi);
+        defsim__collider_bounds(&col[j], &c->pose0[j], c->dhat + c->xi_max, l0, h0);
         for (int k = 0; k < 3; ++k) {
             lo[k] = fmin(lo[k], l0[k]);
             hi[k] = fmax(hi[k], h0[k]);
@@ -435,7 +466,8 @@ defsim_status defsim__contact_begin(defsim__contact *c, const defsim__system *s,
             geometry_failed(c, j);
             break;
         }
-        d1 = distance(c, j, xi, g1, NULL);
+        d1 = distance(c, j, xi, g1, NULL) - vxi(c, i);
+        d0 -= vxi(c, i);   /* beyond the thickness offset, as everywhere below */
         c->off[q] = d0 <= 0.0 && d1 <= 0.0;
         carry(&c->pose0[j], &c->pose1[j], xi, moved);
         for (int k = 0; k < 3; ++k) {
@@ -503,7 +535,7 @@ static double contact_energy(defsim__contact *c, const double *x)
     for (int32_t q = 0; q < c->npair; ++q) {
         if (c->off[q]) continue;
         const int32_t i = c->pv[q];
-        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, NULL, NULL);
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, NULL, NULL) - vxi(c, i);
         if (isnan(d)) return INFINITY;
         if (c->mode == DEFSIM__CONTACT_BARRIER) {
             if (d <= 0.0) return INFINITY;
@@ -577,7 +609,7 @@ static defsim_status contact_forces(defsim__contact *c, const double *x, const d
         if (c->off[q]) continue;
         const int32_t i = c->pv[q];
         double *fi = f + 3 * (int64_t)i, n[3];
-        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, NULL);
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, NULL) - vxi(c, i);
         if (isnan(d)) return c->failed;
         if (c->mode == DEFSIM__CONTACT_BARRIER) {
             if (!elastic) continue;
@@ -632,7 +664,7 @@ static int contact_blocks(defsim__contact *c, const double *x, double k, double 
         if (c->off[q]) continue;
         const int32_t i = c->pv[q];
         double n[3], H[9], B[9] = {0};
-        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, H);
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, n, H) - vxi(c, i);
         if (isnan(d)) return any;
         int add = 0;
         if (c->mode == DEFSIM__CONTACT_BARRIER) {
@@ -692,7 +724,7 @@ defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const dou
         const int32_t i = c->pv[q], j = c->pc[q];
         const double *xi = x + 3 * (int64_t)i, *wi = w + 3 * (int64_t)i;
         double n[3], H[9];
-        const double d = distance(c, j, xi, n, H);
+        const double d = distance(c, j, xi, n, H) - vxi(c, i);   /* beyond the offset */
         if (isnan(d)) break;
         if (d <= 0.0) return DEFSIM_ERR_UNSTABLE;
         const double k = kfac(c, i);
@@ -727,7 +759,7 @@ defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const dou
             geometry_failed(c, j);
             break;
         }
-        const double nw = defsim__v3_dot(n0, wi), dlam = -k * barrier_d2(d0, dh);
+        const double nw = defsim__v3_dot(n0, wi), dlam = -k * barrier_d2(d0 - vxi(c, i), dh);
         double dFdn[3], dFdx[3];
         for (int a = 0; a < 3; ++a) {
             dFdn[a] = -un * (Bw[a] + s * nw * n0[a]) - s * nw * u[a];
@@ -1071,7 +1103,9 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
         const double *a = x + 3 * (int64_t)i, *u = dx + 3 * (int64_t)i;
         const double len = sqrt(defsim__v3_dot(u, u));
         if (len == 0.0) continue;
-        const double d = distance(c, j, a, NULL, NULL);
+        /* beyond the thickness offset: no vertex comes closer than xi + fraction (d - xi) */
+        const double xo = vxi(c, i);
+        const double d = distance(c, j, a, NULL, NULL) - xo;
         if (isnan(d) || d <= 0.0) {
             alpha = 0.0;
             break;
@@ -1079,7 +1113,8 @@ double defsim__contact_max_step(defsim__contact *c, const double *x, const doubl
         if (len <= (1.0 - fraction) * d) continue;   /* cannot come closer than fraction d */
         const double b[3] = {a[0] + u[0], a[1] + u[1], a[2] + u[2]};
         double t = 1.0;
-        if (defsim__collider_toi(&c->col[j], &c->pose1[j], a, b, fraction * d, &t) != DEFSIM_OK) {
+        if (defsim__collider_toi(&c->col[j], &c->pose1[j], a, b, fraction * d + xo, &t) !=
+            DEFSIM_OK) {
             geometry_failed(c, j);
             alpha = 0.0;
             break;
@@ -1116,7 +1151,7 @@ static double start_in_frame(defsim__contact *c, int32_t i, int32_t j, double a[
     const double *xi = c->xn + 3 * (int64_t)i;
     if (moves(c, j)) carry(&c->pose0[j], &c->pose1[j], xi, a);
     else memcpy(a, xi, 3 * sizeof *a);
-    return distance(c, j, a, NULL, NULL);
+    return distance(c, j, a, NULL, NULL) - vxi(c, i);
 }
 
 /* The guess must not start Newton past a collider: the barrier is finite on the far side of a
@@ -1146,7 +1181,8 @@ int defsim__contact_start(defsim__contact *c, double *x)
         double a[3];
         const double d0 = start_in_frame(c, i, j, a);
         if (!(d0 > 0.0)) continue;   /* NaN (recorded) or inside at the start: no promise */
-        if (clear_path(c, j, a, c->xn + 3 * (int64_t)i, fr * fmin(d0, c->dhat))) continue;
+        if (clear_path(c, j, a, c->xn + 3 * (int64_t)i, fr * fmin(d0, c->dhat) + vxi(c, i)))
+            continue;
         if (c->failed) return 0;
         c->carrier[i] = j;
         memcpy(base + 3 * (int64_t)i, a, sizeof a);
@@ -1194,7 +1230,8 @@ int defsim__contact_start(defsim__contact *c, double *x)
         double a[3];
         const double d0 = start_in_frame(c, i, j, a);
         if (!(d0 > 0.0)) continue;
-        if (!clear_path(c, j, a, base + 3 * (int64_t)i, fr * fmin(d0, c->dhat)) && !c->failed)
+        if (!clear_path(c, j, a, base + 3 * (int64_t)i, fr * fmin(d0, c->dhat) + vxi(c, i)) &&
+            !c->failed)
             defsim__contact_block(c, i);
     }
     if (c->failed || c->blocked) return 0;
@@ -1241,7 +1278,8 @@ void defsim__contact_end(defsim__contact *c, const double *x, const double *v, d
     int32_t active = 0;
     for (int32_t q = 0; q < c->npair; ++q) {
         if (c->off[q]) continue;
-        const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
+        const int32_t i = c->pv[q];
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, NULL, NULL) - vxi(c, i);
         if (d < dmin) dmin = d;
         active += d < c->dhat;
     }
@@ -1263,6 +1301,7 @@ static double pair_term(defsim__contact *c, int32_t q, const defsim__pose *pose,
     if (defsim__collider_distance(&c->col[c->pc[q]], pose, x + 3 * (int64_t)i, &d, n, NULL) !=
             DEFSIM_OK || !isfinite(d))
         return NAN;
+    d -= vxi(c, i);
     const double dh = c->dhat, k = kfac(c, i);
     if (!(d < dh)) return 0.0;
     if (c->mode == DEFSIM__CONTACT_BARRIER) {
@@ -1342,7 +1381,8 @@ double defsim__contact_damping_rate(defsim__contact *c, const double *x, const d
      * overlap, d = 0, so the rate is taken at that depth, dhat, at least. */
     double depth = fmax(sqrt(defsim__v3_dot(gravity, gravity)) / c->khat, c->dhat);
     for (int32_t q = 0; q < c->npair; ++q) {
-        const double d = distance(c, c->pc[q], x + 3 * (int64_t)c->pv[q], NULL, NULL);
+        const int32_t i = c->pv[q];
+        const double d = distance(c, c->pc[q], x + 3 * (int64_t)i, NULL, NULL) - vxi(c, i);
         if (d < c->dhat && c->col[c->pc[q]].def.friction > 0.0) depth = fmax(depth, c->dhat - d);
     }
     return 2.0 * c->mu_max * c->khat * depth / c->eps_v;

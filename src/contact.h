@@ -70,6 +70,12 @@ typedef struct defsim__contact {
     int readback_set;           /* the world's contact-force read-back may hold non-zeros */
 
     int32_t nv;
+    /* The contact thickness (docs/body-contact.md "Thickness"): per vertex half its body's
+     * contact_thickness (m), the offset that the barrier, the penalty and CCD take off every
+     * vertex-collider distance; NULL when every body has thickness 0 (no offset at all). */
+    double *xi;                 /* nv, or NULL */
+    double xi_max;              /* the largest offset (m), 0 without */
+    int32_t cap_xi;
     const double *mass;         /* nv (the system's) */
     const uint8_t *pinned;      /* nv */
     const double *xn;           /* 3 nv: positions at the start of the step (the caller's, held
@@ -140,6 +146,12 @@ void defsim__contact_free(defsim__contact *c);
  * rope's edges), once per plan (surf_planned). Returns DEFSIM_OK or OUT_OF_MEMORY. */
 defsim_status defsim__contact_surfaces(defsim__contact *c, const defsim__body *bodies,
                                        int32_t nbodies);
+
+/* The vertices' thickness offsets (half their body's contact_thickness) from the bodies of a
+ * world of nv vertices, before defsim__contact_begin: c->xi stays NULL (and costs nothing) while
+ * every body has thickness 0. Returns DEFSIM_OK or DEFSIM_ERR_OUT_OF_MEMORY. */
+defsim_status defsim__contact_offsets(defsim__contact *c, const defsim__body *bodies,
+                                      int32_t nbodies, int32_t nv);
 
 /* Begins a step of size h from positions x and velocities v: poses, parameters, the broad phase
  * and (BARRIER) the lagged friction. col/ncol are the world's slots. x and v are borrowed until

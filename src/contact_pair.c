@@ -455,94 +455,90 @@ static int closest(int type, const double *X, double *s, defsim__dtype *dt, int 
 double defsim__contact_barrier(int type, const double *X, double dh, double kap,
                                double eps_moll, double *g, double *H)
 {
+    return defsim__contact_barrier_offset(type, X, dh, 0.0, kap, eps_moll, 0, g, H);
+}
+
+double defsim__contact_barrier_offset(int type, const double *X, double dh, double xi,
+                                      double kap, double eps_moll, int exact, double *g,
+                                      double *H)
+{
     const int m = defsim__contact_nodes(type);
     const int nd = 3 * m;
-    /* the derivatives only for pairs within dhat (most candidates are not) */
-    defsim__dtype dt;
+    /* the derivatives only for pairs within the band (most candidates are not); the exact
+     * Hessian takes the distance's derivatives for every type, the projected one the closest
+     * features' closed forms */
+    defsim__dtype dt = DEFSIM__D_PP;
     int nodes[4];
-    double s;
-    closest(type, X, &s, &dt, nodes);
-    if (!(s < dh * dh)) return 0.0;
+    double s, gs[12], Hs[144];
+    if (exact)
+        s = defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
+    else
+        closest(type, X, &s, &dt, nodes);
+    const double reach = xi + dh;   /* dh itself at xi = 0 */
+    if (!(s < reach * reach)) return 0.0;
     if (!(s > 0.0)) return INFINITY;
     const double d = sqrt(s);
-    const double e = kap * barrier(d, dh);
+    if (!(d > xi)) return INFINITY;
+    /* the barrier on the distance beyond the offset; the geometry below keeps d itself */
+    const double z = d - xi;
+    const double e = kap * barrier(z, dh);
     if (!g && !H) {
         if (type == DEFSIM__C_EE)
             return e * defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL);
         return e;
     }
-    const double b1 = kap * barrier_d1(d, dh), b2 = kap * barrier_d2(d, dh);
-    const int moll = type == DEFSIM__C_EE &&
-                     defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL) < 1.0;
-    if (!moll && dt == DEFSIM__D_PP) {
-        vv_closed(X, nd, nodes[0], nodes[1], d, b1, b2, g, H);
-        return e;
-    }
-    if (!moll && (dt == DEFSIM__D_PT || dt == DEFSIM__D_EE)) {
-        const int ee = dt == DEFSIM__D_EE;
-        const double(*map)[4] = PLANE_MAP[ee];
-        double r[3], c1[3], c2[3], n[3], nh[3];
-        for (int k = 0; k < 3; ++k) {
-            double v[3] = {0, 0, 0};
-            for (int i = 0; i < 4; ++i)
-                for (int q = 0; q < 3; ++q) v[q] += map[k][i] * X[3 * i + q];
-            memcpy(k == 0 ? r : k == 1 ? c1 : c2, v, sizeof v);
+    const double b1 = kap * barrier_d1(z, dh), b2 = kap * barrier_d2(z, dh);
+    if (!exact) {
+        const int moll = type == DEFSIM__C_EE &&
+                         defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, NULL, NULL) < 1.0;
+        if (!moll && dt == DEFSIM__D_PP) {
+            vv_closed(X, nd, nodes[0], nodes[1], d, b1, b2, g, H);
+            return e;
         }
-        defsim__v3_cross(c1, c2, n);
-        const double nu = sqrt(defsim__v3_dot(n, n));
-        for (int k = 0; k < 3; ++k) nh[k] = n[k] / nu;
-        const double sig = defsim__v3_dot(r, nh);
-        plane_closed(ee, sig, nu, nh, r, c1, c2, b1, b2, g, H);
-        return e;
-    }
-    if (!moll && dt == DEFSIM__D_PE) {
-        pl_closed(X, nd, nodes, d, b1, b2, g, H);
-        return e;
-    }
-    /* The mollified edge-edge barrier m kappa b(d): its Hessian from the distance's and the
-     * mollifier's derivatives, clamped in the 9-dimensional translation-free subspace. */
-    double gs[12], Hs[144], gd[12], gm[12], Hm[144];
-    defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
-    const double mo = defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, H ? Hm : NULL);
-    for (int i = 0; i < 12; ++i) gd[i] = gs[i] / (2.0 * d);
-    if (g)
-        for (int i = 0; i < 12; ++i) g[i] = mo * (b1 * gd[i]) + e * gm[i];
-    if (H) {
-        /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
-        for (int i = 0; i < 12; ++i)
-            for (int j = 0; j < 12; ++j) {
-                const double hd = Hs[i * 12 + j] / (2.0 * d) - gd[i] * gd[j] / d;
-                H[i * 12 + j] = mo * (b2 * gd[i] * gd[j] + b1 * hd) + b1 * gd[i] * gm[j] +
-                                gm[i] * b1 * gd[j] + e * Hm[i * 12 + j];
+        if (!moll && (dt == DEFSIM__D_PT || dt == DEFSIM__D_EE)) {
+            const int ee = dt == DEFSIM__D_EE;
+            const double(*map)[4] = PLANE_MAP[ee];
+            double r[3], c1[3], c2[3], n[3], nh[3];
+            for (int k = 0; k < 3; ++k) {
+                double v[3] = {0, 0, 0};
+                for (int i = 0; i < 4; ++i)
+                    for (int q = 0; q < 3; ++q) v[q] += map[k][i] * X[3 * i + q];
+                memcpy(k == 0 ? r : k == 1 ? c1 : c2, v, sizeof v);
             }
-        static const int all[4] = {0, 1, 2, 3};
-        project_nodes(12, H, 4, all);
+            defsim__v3_cross(c1, c2, n);
+            const double nu = sqrt(defsim__v3_dot(n, n));
+            for (int k = 0; k < 3; ++k) nh[k] = n[k] / nu;
+            const double sig = defsim__v3_dot(r, nh);
+            plane_closed(ee, sig, nu, nh, r, c1, c2, b1, b2, g, H);
+            return e;
+        }
+        if (!moll && dt == DEFSIM__D_PE) {
+            pl_closed(X, nd, nodes, d, b1, b2, g, H);
+            return e;
+        }
+        /* the mollified edge-edge barrier: the chain rule below, then clamped */
+        defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
     }
-    return mo * e;
-}
-
-double defsim__contact_barrier_exact(int type, const double *X, double dh, double kap,
-                                     double eps_moll, double *g, double *H)
-{
-    const int nd = 3 * defsim__contact_nodes(type);
-    double gs[12], Hs[144], gd[12], gm[12] = {0}, Hm[144] = {0};
-    const double s = defsim__contact_dist2(type, X, gs, H ? Hs : NULL);
-    if (!(s < dh * dh)) return 0.0;
-    if (!(s > 0.0)) return INFINITY;
-    const double d = sqrt(s), e = kap * barrier(d, dh);
-    const double b1 = kap * barrier_d1(d, dh), b2 = kap * barrier_d2(d, dh);
+    /* m kappa b(d - xi) (m = 1 but for edge-edge): its Hessian from the distance's and the
+     * mollifier's derivatives; projected, clamped in the 9-dimensional translation-free
+     * subspace (only the mollified edge-edge barrier comes here). */
+    double gd[12], gm[12] = {0}, Hm[144] = {0};
     const double mo = type == DEFSIM__C_EE
                           ? defsim__ee_mollifier(X, X + 3, X + 6, X + 9, eps_moll, gm, H ? Hm : NULL)
                           : 1.0;
     for (int i = 0; i < nd; ++i) gd[i] = gs[i] / (2.0 * d);
     if (g)
         for (int i = 0; i < nd; ++i) g[i] = mo * (b1 * gd[i]) + e * gm[i];
-    if (H)
+    if (H) {
+        /* d = sqrt(s): Hd = Hs / (2d) - gs gs^T / (4 d^3) */
         for (int i = 0; i < nd; ++i)
             for (int j = 0; j < nd; ++j) {
                 const double hd = Hs[i * nd + j] / (2.0 * d) - gd[i] * gd[j] / d;
                 H[i * nd + j] = mo * (b2 * gd[i] * gd[j] + b1 * hd) + b1 * gd[i] * gm[j] +
                                 gm[i] * b1 * gd[j] + e * Hm[i * nd + j];
             }
+        static const int all[4] = {0, 1, 2, 3};
+        if (!exact) project_nodes(12, H, 4, all);
+    }
     return mo * e;
 }

@@ -33,11 +33,15 @@ double defsim__contact_dist2(int type, const double *X, double *g, double *H);
  * call from any number of threads. */
 double defsim__contact_barrier(int type, const double *X, double dhat, double kappa,
                                double eps_moll, double *g, double *H);
-
-/* The same barrier with its exact Hessian, not projected (a backward pass's matrix and the
- * reverse mode, docs/gradients.md): from the distance's and the mollifier's derivatives for
- * every type. Same arguments and returns as defsim__contact_barrier. */
-double defsim__contact_barrier_exact(int type, const double *X, double dhat, double kappa,
-                                     double eps_moll, double *g, double *H);
+/* The same with a thickness offset xi >= 0 (m): kappa b(d - xi) inside xi < d < xi + dhat
+ * (the contact thickness, docs/body-contact.md "Thickness"), +inf at d <= xi; xi = 0 is
+ * defsim__contact_barrier, bit for bit. The closed-form projections hold unchanged: they take
+ * f'(d) and f''(d) of any f of the distance, here f(d) = kappa b(d - xi). exact != 0: H is the
+ * exact Hessian, not projected (a backward pass's matrix and the reverse mode,
+ * docs/gradients.md), from the distance's and the mollifier's derivatives for every type; the
+ * energy and the gradient are the same either way. */
+double defsim__contact_barrier_offset(int type, const double *X, double dhat, double xi,
+                                      double kappa, double eps_moll, int exact, double *g,
+                                      double *H);
 
 #endif /* DEFSIM_CONTACT_PAIR_H */

@@ -533,6 +533,13 @@ enum { REFINE = 12 };
 double defsim__accd(defsim__ccd_pair pair, const double x0[12], const double dx[12], double d0,
                     double lp, double s, double tmax, int max_iterations)
 {
+    return defsim__accd_offset(pair, x0, dx, d0, 0.0, lp, s, tmax, max_iterations);
+}
+
+double defsim__accd_offset(defsim__ccd_pair pair, const double x0[12], const double dx[12],
+                           double d0, double xi, double lp, double s, double tmax,
+                           int max_iterations)
+{
     if (!(lp > 0.0)) return tmax;
     if (!(d0 > 0.0)) return 0.0;
     double x[12];
@@ -543,14 +550,14 @@ double defsim__accd(defsim__ccd_pair pair, const double x0[12], const double dx[
         const double tl = ETA * d / lp;
         if (t + tl >= tmax) return tmax;
         for (int k = 0; k < 12; ++k) x[k] = x0[k] + (t + tl) * dx[k];
-        const double dn = sqrt(ccd_dist2(pair, x));
+        const double dn = sqrt(ccd_dist2(pair, x)) - xi;
         if (dn < gap) {
             /* d(t) >= gap > d(t + tl): bisect, keeping lo at or above the gap */
             double lo = t, hi = t + tl;
             for (int r = 0; r < REFINE; ++r) {
                 const double mid = 0.5 * (lo + hi);
                 for (int k = 0; k < 12; ++k) x[k] = x0[k] + mid * dx[k];
-                if (sqrt(ccd_dist2(pair, x)) >= gap) lo = mid;
+                if (sqrt(ccd_dist2(pair, x)) - xi >= gap) lo = mid;
                 else hi = mid;
             }
             return lo;

@@ -96,6 +96,13 @@ typedef enum defsim__ccd_pair {
 } defsim__ccd_pair;
 double defsim__accd(defsim__ccd_pair pair, const double x[12], const double dx[12], double d0,
                     double lp, double s, double tmax, int max_iterations);
+/* The same with a minimum separation xi >= 0 (m, the contact thickness): the advancement works
+ * on the distance less xi (Lipschitz with the same lp), d0 is that offset distance at t = 0
+ * (> 0), and the result keeps the distance at least xi + s d0 for every point up to it; xi = 0
+ * is defsim__accd, bit for bit. */
+double defsim__accd_offset(defsim__ccd_pair pair, const double x[12], const double dx[12],
+                           double d0, double xi, double lp, double s, double tmax,
+                           int max_iterations);
 /* A bound on how fast the pair's distance changes along dx (per unit t): the largest difference
  * between a displacement of the first primitive's vertices and one of the second's. */
 double defsim__ccd_speed(defsim__ccd_pair pair, const double dx[12]);

@@ -191,6 +191,10 @@ static defsim_status begin(defsim__system *s, const defsim__step_ctx *sc)
         defsim__error(sc->msg, "contact: out of memory for the bodies' surfaces");
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
+    if (defsim__contact_offsets(c, sc->bodies, sc->nbodies, s->nv) != DEFSIM_OK) {
+        defsim__error(sc->msg, "contact: out of memory for the thickness offsets");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     /* A step's start: the world's copies, which nothing changes until the step ends. */
     defsim_status st = defsim__contact_begin(c, s, cs->col, cs->ncol, &p,
                                              h > 0.0 ? sc->x0 : sc->state->x,

@@ -621,7 +621,8 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
                                        "self_contact", "collision_group", "collision_mask",
                                        "friction", "masses", "spring_stiffness",
                                        "initial_positions", "initial_velocities",
-                                       "volume_averaging", "shell", NULL};
+                                       "volume_averaging", "shell", "contact_thickness",
+                                       NULL};
     if (sj_keys(c, j, w, keys)) return -1;
     b->line = sj_node_line(c, j);
     const cJSON *shell = cJSON_GetObjectItemCaseSensitive(j, "shell");
@@ -637,6 +638,7 @@ static int parse_body(sj_ctx *c, const cJSON *j, int index, scene_body *b)
         sj_number(c, j, "collision_group", w, 0.0, 4294967295.0, 0, &group) ||
         sj_number(c, j, "collision_mask", w, 0.0, 4294967295.0, 0, &mask) ||
         sj_number(c, j, "friction", w, 0.0, 10.0, 0, &b->friction) ||
+        sj_number(c, j, "contact_thickness", w, 0.0, 1e3, 0, &b->contact_thickness) ||
         sj_bool(c, j, "volume_averaging", w, &b->volume_averaging))
         return -1;
     if (group != floor(group) || mask != floor(mask))
@@ -998,6 +1000,7 @@ defsim_status scene_build(scene *s, defsim_world **out)
         bd.collision_group = b->collision_group;
         bd.collision_mask = b->collision_mask;
         bd.friction = b->friction;
+        bd.contact_thickness = b->contact_thickness;
         bd.volume_averaging = b->volume_averaging;
         bd.initial_positions = b->initial;
         bd.initial_velocities = b->velocity;

@@ -116,7 +116,7 @@ typedef struct xbody {
     int32_t *tets, *springs, *tris, *edges;
     const unsigned char *pinned;
     uint32_t group, mask;
-    double friction;
+    double friction, thickness;   /* thickness: format 11's contact thickness (m) */
     defsim_body_def shell;   /* its shell_* fields (format 9), as the def gave them */
 } xbody;
 
@@ -245,6 +245,7 @@ static int ckpt_read(const unsigned char *d, size_t size, ckpt *k)
             defsim__get_f64s(&r, sf, DEFSIM__SHELL_FIELDS);
             defsim__body_shell_fields(&b->shell, sf, 1);
             b->shell.shell_strain_limit = defsim__get_f64(&r);   /* version 10 */
+            b->thickness = defsim__get_f64(&r);   /* version 11 */
             if (!b->rest || !b->mass || !b->tets || !b->springs || !b->k || !b->tris || !b->edges)
                 return -2;
         } else if (!memcmp(tag, "ATCH", 4)) {
@@ -517,6 +518,10 @@ static defsim_status write_body(out *o, const ckpt *k, int32_t i, const scene_bo
         "\"friction\": ", b->self_contact ? "true" : "false", (unsigned)b->group,
         (unsigned)b->mask);
     num(o, b->friction);
+    if (b->thickness != 0.0) {
+        put(o, ", \"contact_thickness\": ");
+        num(o, b->thickness);
+    }
     if (b->volume_averaging) put(o, ", \"volume_averaging\": true");
     /* A shell (docs/shells.md: a membrane, or a bending rigidity > 0 whatever the membrane, as
      * < 0 resolves to 0 without one): its fields as the def gave them. */

@@ -125,6 +125,7 @@ typedef struct scene_body {
     int self_contact;
     uint32_t collision_group, collision_mask;
     double friction;
+    double contact_thickness;   /* "contact_thickness": defsim_body_def.contact_thickness (m) */
     int volume_averaging;   /* "volume_averaging": defsim_body_def.volume_averaging */
     /* "shell" (docs/shells.md): the body's shell_* fields (a def holding only them), or none */
     int has_shell;

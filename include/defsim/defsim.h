@@ -339,6 +339,17 @@ typedef struct defsim_body_def {
     /// otherwise (negative, a body without a membrane, tets) DEFSIM_ERR_INVALID_MATERIAL; initial
     /// positions at or over the cap DEFSIM_ERR_INVALID_ARGUMENT.
     double shell_strain_limit;
+    /* Contact thickness (appended; issue 26, docs/body-contact.md "Thickness"). */
+    /// The body's contact thickness t in m (finite, >= 0, at most 1e3; default 0): contact keeps
+    /// the body's surface t / 2 away from everything it touches, so two bodies keep the sum of
+    /// their half-thicknesses, (t_A + t_B) / 2, between their surfaces (two layers of cloth of
+    /// thickness t rest t apart), one body against itself t, and a body t / 2 from a collider.
+    /// The barrier acts on the distance less that offset, inside the band [offset, offset +
+    /// dhat]; CCD keeps every pair beyond the offset. 0: contact at the surfaces, as without
+    /// it. Self-contact with t > 0 needs t below the distance between non-adjacent primitives
+    /// of the rest mesh (about the edge length): else the first step fails as a start closer
+    /// than the thickness. Another value is DEFSIM_ERR_INVALID_ARGUMENT.
+    double contact_thickness;
 } defsim_body_def;
 
 /// The membrane energy of a shell body (defsim_body_def.shell_membrane; docs/shells.md), on

@@ -237,3 +237,117 @@ int eg_point_in_tet(const double x[3], const double a[3], const double b[3], con
     return eg_orient3d(a, b, c, x) == s && eg_orient3d(a, b, x, d) == s &&
            eg_orient3d(a, x, c, d) == s && eg_orient3d(x, b, c, d) == s;
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* Distances (closest points in plain double arithmetic, independent of the library's; moved here
+ * from test_body_contact.c so that the thickness tests share them) */
+
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void sub3(const double *a, const double *b, double *o)
+{
+    o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2];
+}
+
+static void cross3(const double *a, const double *b, double *o)
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Squared distance from p to the segment [a, b]. */
+static double point_seg_d2(const double *p, const double *a, const double *b)
+{
+    double ab[3], ap[3];
+    sub3(b, a, ab);
+    sub3(p, a, ap);
+    const double l2 = dot3(ab, ab);
+    double t = l2 > 0.0 ? dot3(ap, ab) / l2 : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    const double d[3] = {ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]};
+    return dot3(d, d);
+}
+
+/* Squared distance from p to the triangle (a, b, c): the plane's distance when p projects inside
+ * (all three edge normals agree), otherwise the nearest edge. */
+static double point_tri_d2(const double *p, const double *a, const double *b, const double *c)
+{
+    double e0[3], e1[3], n[3];
+    sub3(b, a, e0);
+    sub3(c, a, e1);
+    cross3(e0, e1, n);
+    const double n2 = dot3(n, n);
+    if (n2 > 0.0) {
+        const double *v[3] = {a, b, c};
+        int inside = 1;
+        for (int k = 0; k < 3 && inside; ++k) {
+            double e[3], q[3], s[3];
+            sub3(v[(k + 1) % 3], v[k], e);
+            sub3(p, v[k], q);
+            cross3(e, q, s);
+            inside = dot3(s, n) >= 0.0;
+        }
+        if (inside) {
+            double ap[3];
+            sub3(p, a, ap);
+            const double h = dot3(ap, n);
+            return h * h / n2;
+        }
+    }
+    return fmin(point_seg_d2(p, a, b), fmin(point_seg_d2(p, b, c), point_seg_d2(p, c, a)));
+}
+
+/* Squared distance between the segments [p0, p1] and [q0, q1]: the minimum lies either at the
+ * interior critical point of |p(s) - q(t)|^2 (when it exists within both segments) or on the
+ * boundary, where one end point meets the other segment. */
+static double seg_seg_d2(const double *p0, const double *p1, const double *q0, const double *q1)
+{
+    double best = fmin(fmin(point_seg_d2(p0, q0, q1), point_seg_d2(p1, q0, q1)),
+                       fmin(point_seg_d2(q0, p0, p1), point_seg_d2(q1, p0, p1)));
+    double d1[3], d2[3], r[3];
+    sub3(p1, p0, d1);
+    sub3(q1, q0, d2);
+    sub3(p0, q0, r);
+    const double a = dot3(d1, d1), b = dot3(d1, d2), c = dot3(d2, d2);
+    const double d = dot3(d1, r), e = dot3(d2, r), den = a * c - b * b;
+    if (den > 1e-12 * a * c) {
+        const double s = (b * e - c * d) / den, t = (a * e - b * d) / den;
+        if (s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0) {
+            double g[3];
+            for (int k = 0; k < 3; ++k) g[k] = r[k] + s * d1[k] - t * d2[k];
+            best = fmin(best, dot3(g, g));
+        }
+    }
+    return best;
+}
+
+double eg_point_tri_distance(const double x[3], const double a[3], const double b[3],
+                             const double c[3])
+{
+    return sqrt(point_tri_d2(x, a, b, c));
+}
+
+double eg_tri_tri_gap(const double p0[3], const double p1[3], const double p2[3],
+                      const double q0[3], const double q1[3], const double q2[3])
+{
+    const double *P[3] = {p0, p1, p2}, *Q[3] = {q0, q1, q2};
+    double d2 = INFINITY;
+    for (int i = 0; i < 3; ++i) {
+        d2 = fmin(d2, point_tri_d2(P[i], q0, q1, q2));
+        d2 = fmin(d2, point_tri_d2(Q[i], p0, p1, p2));
+        for (int j = 0; j < 3; ++j)
+            d2 = fmin(d2, seg_seg_d2(P[i], P[(i + 1) % 3], Q[j], Q[(j + 1) % 3]));
+    }
+    return sqrt(d2);
+}
+
+double eg_tri_tri_distance(const double p0[3], const double p1[3], const double p2[3],
+                           const double q0[3], const double q1[3], const double q2[3])
+{
+    if (eg_tri_tri_intersect(p0, p1, p2, q0, q1, q2)) return 0.0;
+    return eg_tri_tri_gap(p0, p1, p2, q0, q1, q2);
+}

@@ -25,4 +25,19 @@ int eg_tri_tri_intersect(const double p0[3], const double p1[3], const double p2
 int eg_point_in_tet(const double x[3], const double a[3], const double b[3], const double c[3],
                     const double d[3]);
 
+/* Distances in plain floating point (closest points by region, not exact: rounding of the order
+ * of 1e-16 of the coordinates), for tests that check a minimum separation (the contact
+ * thickness) independently of the library's distance code.
+ * eg_tri_tri_gap: the distance between two triangles that do not intersect, the least of the
+ * six vertex-triangle distances (the plane's distance where the point projects inside, else the
+ * nearest edge) and the nine edge-edge distances (the interior critical point where it lies in
+ * both segments, else an end against the other segment). eg_tri_tri_distance: 0 when
+ * eg_tri_tri_intersect says they meet, else the gap. eg_point_tri_distance: x to the triangle. */
+double eg_tri_tri_gap(const double p0[3], const double p1[3], const double p2[3],
+                      const double q0[3], const double q1[3], const double q2[3]);
+double eg_tri_tri_distance(const double p0[3], const double p1[3], const double p2[3],
+                           const double q0[3], const double q1[3], const double q2[3]);
+double eg_point_tri_distance(const double x[3], const double a[3], const double b[3],
+                             const double c[3]);
+
 #endif /* DEFSIM_EXACT_GEOM_H */

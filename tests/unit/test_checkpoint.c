@@ -801,15 +801,15 @@ static void test_version_5_file(void **state)
 /* Format version 6: tests/checkpoint/v6_sliding.dfck, written by the library of commit 12b74cf
  * (the last to write version 6) from the sliding cube above after 40 steps. Version 7 adds BODY's
  * volume_averaging, version 8 its indices per tet (quadratic tets), version 9 its shell fields,
- * version 10 its strain limit:
- * the file's body loads with the standard linear element and no shell, and continues as the
+ * version 10 its strain limit, version 11 its contact thickness:
+ * the file's body loads with the standard linear element, no shell and thickness 0, and continues as the
  * uninterrupted run does; saved again it is a file of today's version that continues bit for
  * bit. */
 static void test_version_6_file(void **state)
 {
     (void)state;
     defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v6_sliding.dfck", "version 6");
-    assert_int_equal(DEFSIM__CKPT_VERSION, 10);
+    assert_int_equal(DEFSIM__CKPT_VERSION, 11);
     check_saved_again(old);
     defsim_world_destroy(old);
 }
@@ -838,10 +838,35 @@ static void test_version_8_file(void **state)
     defsim_world_destroy(old);
 }
 
+/* Format version 9: tests/checkpoint/v9_sliding.dfck, written by the library of commit bd1fbe0
+ * (the last to write version 9, before BODY held the contact thickness) from the same cube and
+ * steps: it loads (the body with thickness 0), continues as the uninterrupted run does, and saved
+ * again continues bit for bit. */
+static void test_version_9_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v9_sliding.dfck", "version 9");
+    check_saved_again(old);
+    defsim_world_destroy(old);
+}
+
+/* Format version 10: tests/checkpoint/v10_sliding.dfck, written by the library of commit 9f677ab
+ * (the last to write version 10: BODY ends with the strain limit, before it held the contact
+ * thickness) from the same cube and steps: it loads (the body with thickness 0), continues as the
+ * uninterrupted run does, and saved again continues bit for bit. Read as version 11, the chunk
+ * would lack the thickness's 8 bytes and fail its length check. */
+static void test_version_10_file(void **state)
+{
+    (void)state;
+    defsim_world *old = sliding_cube_file(DEFSIM_TEST_DATA "/v10_sliding.dfck", "version 10");
+    check_saved_again(old);
+    defsim_world_destroy(old);
+}
+
 /* Format version 9 with a shell: tests/checkpoint/v9_shell.dfck, written by the library of commit
  * 7c07447 (format 9, before BODY held the strain limit) from shell_sheet_v9.h's sheet after its
  * 40 steps: it loads (the shell without a strain limit), is where this library's run of the
- * same sheet is, continues as that run does, and saved again (version 10) continues bit for bit.
+ * same sheet is, continues as that run does, and saved again (today's version) continues bit for bit.
  * The file's bytes after BODY's shell fields would be read as a limit if the reader took version
  * 9 for 10: the chunk's length check fails then. */
 static void test_version_9_shell_file(void **state)
@@ -1014,6 +1039,7 @@ int main(void)
         cmocka_unit_test(test_version_4_file),
         cmocka_unit_test(test_version_5_file), cmocka_unit_test(test_version_6_file),
         cmocka_unit_test(test_version_7_file), cmocka_unit_test(test_version_8_file),
+        cmocka_unit_test(test_version_9_file), cmocka_unit_test(test_version_10_file),
         cmocka_unit_test(test_version_9_shell_file),
         cmocka_unit_test(test_erk_layout_1),
         cmocka_unit_test(test_colliders),

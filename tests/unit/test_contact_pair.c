@@ -9,7 +9,9 @@
  *     the full matrix; agreement to 1e-10 of its norm;
  *   - the same reference Hessian against central differences of the kernel's gradient before
  *     the clamp (the clamp of the differences agrees with the kernel's to 1e-5);
- *   - positive semi-definiteness and the translations in the null space.
+ *   - positive semi-definiteness and the translations in the null space;
+ * and all of it again for the barrier with a thickness offset, kappa b(d - xi)
+ * (defsim__contact_barrier_offset), whose reference is the same chain rule on d - xi.
  */
 #include "contact_barrier.h"
 #include "contact_pair.h"
@@ -33,15 +35,15 @@ static int region(int type, const double *X, int nodes[4])
 }
 
 /* The barrier's Hessian before projection, written independently of the kernel: the chain rule
- * of kappa b(sqrt(s)) (times the mollifier for edge-edge) on the distance's derivatives. */
-static void reference_hessian(int type, const double *X, double dh, double kap, double eps,
-                              double *H)
+ * of kappa b(sqrt(s) - xi) (times the mollifier for edge-edge) on the distance's derivatives. */
+static void reference_hessian(int type, const double *X, double dh, double xi, double kap,
+                              double eps, double *H)
 {
     const int nd = 3 * defsim__contact_nodes(type);
     double gs[12], Hs[144];
     const double s = defsim__contact_dist2(type, X, gs, Hs), d = sqrt(s);
-    const double b0 = kap * barrier(d, dh), b1 = kap * barrier_d1(d, dh),
-                 b2 = kap * barrier_d2(d, dh);
+    const double b0 = kap * barrier(d - xi, dh), b1 = kap * barrier_d1(d - xi, dh),
+                 b2 = kap * barrier_d2(d - xi, dh);
     double gd[12];
     for (int i = 0; i < nd; ++i) gd[i] = gs[i] / (2.0 * d);
     for (int i = 0; i < nd; ++i)
@@ -70,7 +72,7 @@ typedef struct worst {
 } worst;
 
 /* All checks on one constraint; returns 0 when it was skipped (too near a region boundary). */
-static int check_one(int type, const double *X0, double dh, double eps, worst *w)
+static int check_one(int type, const double *X0, double dh, double xi, double eps, worst *w)
 {
     const int n = defsim__contact_nodes(type), nd = 3 * n;
     double X[12], g[12], H[144];
@@ -86,20 +88,30 @@ static int check_one(int type, const double *X0, double dh, double eps, worst *w
             if (region(type, Y, nodes) != r0) return 0;
         }
     const double kap = 3.0;
-    const double e = defsim__contact_barrier(type, X, dh, kap, eps, g, H);
+    const double e = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, g, H);
     assert_true(e > 0.0 && isfinite(e));
-    assert_true(defsim__contact_barrier(type, X, dh, kap, eps, NULL, NULL) == e);
+    assert_true(defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, NULL, NULL) == e);
+    if (xi == 0.0) {
+        /* the offset 0 is the plain barrier, bit for bit */
+        double g0[12], H0[144];
+        assert_true(defsim__contact_barrier(type, X, dh, kap, eps, g0, H0) == e);
+        assert_memory_equal(g0, g, (size_t)nd * sizeof *g);
+        assert_memory_equal(H0, H, (size_t)(nd * nd) * sizeof *H);
+    }
 
     /* gradient against central differences of the energy; the Hessian before the clamp
      * against central differences of the gradient */
-    const double h = 1e-6;
+    /* (with an offset, the barrier's argument d - xi is smaller than d: the step shrinks with
+     * it, so that the truncation error h^2 / (3 (d - xi)^2) stays as small as without) */
+    const double z = sqrt(defsim__contact_dist2(type, X, NULL, NULL)) - xi;
+    const double h = xi > 0.0 ? 1e-6 * fmin(1.0, 2.0 * z) : 1e-6;
     double Hfd[144], gp[12], gm[12];
     double eg = 0.0;
     for (int i = 0; i < nd; ++i) {
         X[i] = X0[i] + h;
-        const double ep = defsim__contact_barrier(type, X, dh, kap, eps, gp, NULL);
+        const double ep = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, gp, NULL);
         X[i] = X0[i] - h;
-        const double em = defsim__contact_barrier(type, X, dh, kap, eps, gm, NULL);
+        const double em = defsim__contact_barrier_offset(type, X, dh, xi, kap, eps, 0, gm, NULL);
         X[i] = X0[i];
         eg = fmax(eg, fabs((ep - em) / (2 * h) - g[i]));
         for (int j = 0; j < nd; ++j) Hfd[j * nd + i] = (gp[j] - gm[j]) / (2 * h);
@@ -107,7 +119,7 @@ static int check_one(int type, const double *X0, double dh, double eps, worst *w
     w->grad = fmax(w->grad, eg / max_abs(g, nd));
 
     double Href[144];
-    reference_hessian(type, X, dh, kap, eps, Href);
+    reference_hessian(type, X, dh, xi, kap, eps, Href);
     for (int i = 0; i < nd; ++i)
         for (int j = 0; j < i; ++j)
             Hfd[i * nd + j] = Hfd[j * nd + i] = 0.5 * (Hfd[i * nd + j] + Hfd[j * nd + i]);
@@ -140,12 +152,11 @@ static int check_one(int type, const double *X0, double dh, double eps, worst *w
     return 1;
 }
 
-/* Random constraints of each type, scaled so that the distance is 0.05 to 0.95 of dhat (and on a
- * quarter of them 1e-6, 1e-3 or 0.999 of it), until each region of the type has been checked
- * 40 times. */
-static void test_every_type_and_region(void **state)
+/* Random constraints of each type, scaled so that the distance (beyond the offset xi, a random
+ * 0.2 to 0.9 of the distance when `offset`) is 0.05 to 0.95 of dhat (and on a quarter of them
+ * 1e-6, 1e-3 or 0.999 of it), until each region of the type has been checked 40 times. */
+static void every_type_and_region(int offset)
 {
-    (void)state;
     static const char *names[4] = {"VV", "EV", "FV", "EE"};
     static const int regions[4] = {1 << DEFSIM__D_PP, 1 << DEFSIM__D_PP | 1 << DEFSIM__D_PE,
                                    1 << DEFSIM__D_PP | 1 << DEFSIM__D_PE | 1 << DEFSIM__D_PT,
@@ -157,7 +168,9 @@ static void test_every_type_and_region(void **state)
         for (int trial = 0; trial < 200000; ++trial) {
             double X[12];
             for (int i = 0; i < nd; ++i) X[i] = tu_rand(&rng);
-            const double d = sqrt(defsim__contact_dist2(type, X, NULL, NULL));
+            const double dist = sqrt(defsim__contact_dist2(type, X, NULL, NULL));
+            const double xi = offset ? (0.2 + 0.7 * tu_rand(&rng)) * dist : 0.0;
+            const double d = dist - xi;   /* the barrier's argument */
             /* mostly 0.05 to 0.95 of dhat; one in four at 1e-6, 1e-3 or 0.999 of it */
             static const double extreme[4] = {1e-6, 1e-3, 0.999, 0.5};
             const double dh = (trial & 6) ? d / (0.5 + 0.45 * tu_rand(&rng))
@@ -176,12 +189,12 @@ static void test_every_type_and_region(void **state)
                 const double cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
                 eps = (trial & 1) ? 2.0 * cc : 0.5 * cc;
             }
-            check_one(type, X, dh, eps, &w);
+            check_one(type, X, dh, xi, eps, &w);
         }
-        print_message("%s: regions seen %d %d %d %d; worst relative gradient error %.2e, "
+        print_message("%s%s: regions seen %d %d %d %d; worst relative gradient error %.2e, "
                       "reference Hessian vs differences %.2e, against the exact clamp %.2e, "
                       "smallest eigenvalue %.2e\n",
-                      names[type], w.seen[0], w.seen[1], w.seen[2], w.seen[3], w.grad, w.fd,
+                      offset ? "offset " : "", names[type], w.seen[0], w.seen[1], w.seen[2], w.seen[3], w.grad, w.fd,
                       w.exact, w.psd);
         for (int t = 0; t < 4; ++t)
             if (regions[type] & (1 << t)) assert_int_equal(w.seen[t], 40);
@@ -192,6 +205,43 @@ static void test_every_type_and_region(void **state)
         assert_true(w.exact < 1e-10);
         assert_true(w.psd > -1e-12);
     }
+}
+
+static void test_every_type_and_region(void **state)
+{
+    (void)state;
+    every_type_and_region(0);
+}
+
+/* The barrier with a thickness offset: the same checks, with xi a random 0.2 to 0.9 of the
+ * distance. */
+static void test_offset_every_type_and_region(void **state)
+{
+    (void)state;
+    every_type_and_region(1);
+}
+
+/* The offset's band: nothing at d >= xi + dhat (0.3 with xi 0.1, dhat 0.15), +inf at d <= xi (and at 0), and at
+ * xi < d < xi + dhat the plain barrier of d - xi: a point-point pair at 0.3 with xi 0.1 and
+ * dhat 0.5 has kappa b(0.2), gradient kappa b'(0.2) n and H = kappa b''(0.2) on n. */
+static void test_offset_band(void **state)
+{
+    (void)state;
+    const double X[6] = {0, 0, 0.3, 0, 0, 0};
+    double g[6], H[36];
+    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.15, 0.1, 1.0, 0.0, 0, g, H) == 0.0);
+    assert_true(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.21, 0.1, 1.0, 0.0, 0, g, H) > 0.0);
+    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.3, 1.0, 0.0, 0, g, H)));
+    assert_true(isinf(defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.2, 0.35, 1.0, 0.0, 0, g, H)));
+    const double e = defsim__contact_barrier_offset(DEFSIM__C_VV, X, 0.5, 0.1, 2.0, 0.0, 0, g, H);
+    assert_true(fabs(e - 2.0 * barrier(0.2, 0.5)) < 1e-15);
+    const double b2 = 2.0 * barrier_d2(0.2, 0.5);
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+            const double want = (i % 3 == 2 && j % 3 == 2) ? ((i < 3) == (j < 3) ? b2 : -b2) : 0.0;
+            assert_true(fabs(H[i * 6 + j] - want) <= 1e-14 * b2);
+        }
+    assert_true(fabs(g[2] - 2.0 * barrier_d1(0.2, 0.5)) < 1e-14 * fabs(g[2]));
 }
 
 /* Outside dhat nothing; at distance zero +inf; point-point in closed form against its
@@ -220,6 +270,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_type_and_region),
+        cmocka_unit_test(test_offset_every_type_and_region),
+        cmocka_unit_test(test_offset_band),
         cmocka_unit_test(test_limits_and_vv),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -371,6 +371,25 @@ static double reference_accd(pair_fn f, int first, const double *x0, const doubl
  * of [0, t] and the distance at every time in [0, t] where the four vertices are coplanar (the
  * only times a point-triangle or edge-edge pair can touch). Both must stay above
  * (1 - 0.9) s d0, the least the advances allow; and t at least ACCD's time on most pairs. */
+/* A random pair (point-triangle, or edge-edge when is_ee) and its motion: anywhere, moving by up
+ * to 3 per unit time, or (near) the pair in z = 0 and z = h (h from 1e-3 to 0.1), closing by up
+ * to 0.2 while sliding. */
+static void random_motion(unsigned long long *rng, int is_ee, int near, double y[12],
+                          double dy[12])
+{
+    random_points(rng, y, 12);
+    random_points(rng, dy, 12);
+    if (near) {
+        const double h = 1e-3 + 0.099 * (0.5 + 0.5 * tu_rand(rng));
+        for (int a = 0; a < 4; ++a) y[3 * a + 2] = (a < (is_ee ? 2 : 1)) ? h : 0.0;
+        for (int k = 0; k < 12; ++k) dy[k] *= 0.3;
+        const double down = 0.1 * (1.0 + tu_rand(rng));
+        for (int a = 0; a < (is_ee ? 2 : 1); ++a) dy[3 * a + 2] = -down;
+    } else {
+        for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
+    }
+}
+
 static void test_accd_conservative_and_tight(void **state)
 {
     (void)state;
@@ -381,19 +400,7 @@ static void test_accd_conservative_and_tight(void **state)
         const int is_ee = trial & 1, near = (trial >> 1) & 1;
         pair_fn f = is_ee ? ee : pt;
         double y[12], dy[12];
-        random_points(&rng, y, 12);
-        random_points(&rng, dy, 12);
-        if (near) {
-            /* the pair in z = 0 and z = h (h from 1e-3 to 0.1), closing by up to 0.2 while
-             * sliding */
-            const double h = 1e-3 + 0.099 * (0.5 + 0.5 * tu_rand(&rng));
-            for (int a = 0; a < 4; ++a) y[3 * a + 2] = (a < (is_ee ? 2 : 1)) ? h : 0.0;
-            for (int k = 0; k < 12; ++k) dy[k] *= 0.3;
-            const double down = 0.1 * (1.0 + tu_rand(&rng));
-            for (int a = 0; a < (is_ee ? 2 : 1); ++a) dy[3 * a + 2] = -down;
-        } else {
-            for (int k = 0; k < 12; ++k) dy[k] *= 3.0;
-        }
+        random_motion(&rng, is_ee, near, y, dy);
         const double d0 = sqrt(f(y, NULL, NULL, NULL));
         const double s = 0.1;
         const double t = is_ee ? defsim__ee_accd(y, dy, s, 1.0, 1000000)
@@ -433,6 +440,57 @@ static void test_accd_conservative_and_tight(void **state)
     assert_true(ratio_sum_log > 0.0);
 }
 
+/* CCD with a minimum separation (the contact thickness, defsim__accd_offset): a point falling
+ * at 4 m per unit time from 1 m onto a triangle with xi = 0.5 reaches the offset surface at
+ * t = 0.125 and stops before it, at least s (d0 - xi) beyond it; on 3000 random and closing
+ * motions with xi a random 0.2 to 0.9 of the start distance, the distance sampled finely over
+ * [0, t] (independently of the CCD's iterates) stays above xi, and where it stops it is at
+ * least xi + s (d0 - xi); with xi = 0 the result is defsim__accd's, bit for bit. */
+static void test_accd_offset(void **state)
+{
+    (void)state;
+    const double x[12] = {0.2, 0.2, 1.0, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const double dx[12] = {0, 0, -4.0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const double lp0 = defsim__ccd_speed(DEFSIM__CCD_PT, dx);
+    const double t0 = defsim__accd_offset(DEFSIM__CCD_PT, x, dx, 0.5, 0.5, lp0, 0.1, 1.0, 1000);
+    print_message("point onto triangle with xi 0.5: reaches the offset at 0.125, CCD %.4f\n", t0);
+    assert_true(t0 < 0.125 && t0 >= 0.8 * 0.125 * 0.9);
+    assert_true(1.0 - 4.0 * t0 >= 0.5 + 0.1 * 0.5 * (1 - 1e-12));
+    unsigned long long rng = 23;
+    int stopped = 0;
+    double worst = INFINITY;
+    for (int trial = 0; trial < 3000; ++trial) {
+        const int is_ee = trial & 1, near = (trial >> 1) & 1;
+        pair_fn f = is_ee ? ee : pt;
+        const defsim__ccd_pair kind = is_ee ? DEFSIM__CCD_EE : DEFSIM__CCD_PT;
+        double y[12], dy[12];
+        random_motion(&rng, is_ee, near, y, dy);
+        const double dist = sqrt(f(y, NULL, NULL, NULL));
+        const double lp = defsim__ccd_speed(kind, dy);
+        const double s = 0.1;
+        if (trial < 200) {
+            const double a = defsim__accd(kind, y, dy, dist, lp, s, 1.0, 100000);
+            const double b = defsim__accd_offset(kind, y, dy, dist, 0.0, lp, s, 1.0, 100000);
+            assert_memory_equal(&a, &b, sizeof a);
+        }
+        const double xi = (0.2 + 0.7 * tu_rand(&rng)) * dist, d0 = dist - xi;
+        const double t = defsim__accd_offset(kind, y, dy, d0, xi, lp, s, 1.0, 1000000);
+        assert_true(t >= 0.0 && t <= 1.0);
+        const double dmin = min_along(f, y, dy, t) - xi;
+        worst = fmin(worst, dmin / d0);
+        assert_true(dmin > 0.0);
+        if (t < 1.0) {
+            double z[12];
+            for (int k = 0; k < 12; ++k) z[k] = y[k] + t * dy[k];
+            assert_true(sqrt(f(z, NULL, NULL, NULL)) - xi >= s * d0 * (1.0 - 1e-9));
+            ++stopped;
+        }
+    }
+    print_message("3000 motions with an offset: %d stopped before t = 1; smallest distance "
+                  "beyond the offset over [0, t] %.3f of the start's\n", stopped, worst);
+    assert_true(stopped > 300);
+}
+
 /* Point-edge CCD (ropes): a point swept through a segment's interior stops short of it; the
  * distance over [0, t] stays above (1 - 0.9) s d0 on random motions (fine sampling). */
 static void test_pe_accd(void **state)
@@ -470,6 +528,7 @@ int main(void)
         cmocka_unit_test(test_mollifier),
         cmocka_unit_test(test_accd),
         cmocka_unit_test(test_accd_conservative_and_tight),
+        cmocka_unit_test(test_accd_offset),
         cmocka_unit_test(test_pe_accd),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

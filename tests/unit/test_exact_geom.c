@@ -116,12 +116,33 @@ static void test_point_in_tet(void **state)
     assert_true(eg_point_in_tet(just_in, a, b, c, d));
 }
 
+/* The distances: a triangle 0.3 above a parallel one, over its interior (vertex-face); two
+ * triangles whose edges cross at right angles 0.25 apart (edge-edge); a point beyond a corner
+ * (vertex-vertex); intersecting triangles (0). */
+static void test_distances(void **state)
+{
+    (void)state;
+    const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0};
+    const double p[3] = {0.2, 0.2, 0.3}, q[3] = {0.5, 0.2, 0.3}, r[3] = {0.2, 0.5, 0.3};
+    assert_true(fabs(eg_tri_tri_distance(a, b, c, p, q, r) - 0.3) < 1e-15);
+    assert_true(fabs(eg_tri_tri_gap(p, q, r, a, b, c) - 0.3) < 1e-15);
+    /* edge (0.5, -1, 0.25)-(0.5, 1, 0.25) above the edge a-b (y = 0), its triangle rising */
+    const double e0[3] = {0.5, -1, 0.25}, e1[3] = {0.5, 1, 0.25}, e2[3] = {0.5, 0, 2};
+    const double f0[3] = {0, 0, 0}, f1[3] = {1, 0, 0}, f2[3] = {0.5, 0, -2};
+    assert_true(fabs(eg_tri_tri_distance(e0, e1, e2, f0, f1, f2) - 0.25) < 1e-15);
+    const double x[3] = {-0.3, -0.4, 0};
+    assert_true(fabs(eg_point_tri_distance(x, a, b, c) - 0.5) < 1e-15);
+    const double s0[3] = {0.2, 0.2, -1}, s1[3] = {0.2, 0.2, 1}, s2[3] = {0.3, 0.3, 0};
+    assert_true(eg_tri_tri_distance(a, b, c, s0, s1, s2) == 0.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_orient3d),
         cmocka_unit_test(test_tri_tri),
         cmocka_unit_test(test_point_in_tet),
+        cmocka_unit_test(test_distances),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

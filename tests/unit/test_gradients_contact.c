@@ -33,6 +33,7 @@ typedef struct cscene {
     double speed;             /* INCLINE: down the slope; CLOTH: downwards (m/s) */
     double h;
     int steps;
+    double thick;             /* INCLINE, CUBES: the bodies' contact_thickness (m; 0: none) */
 } cscene;
 
 /* What the finite differences move. */
@@ -72,8 +73,10 @@ static defsim_world *build(const cscene *sc, int q, double e, const double *dir)
          * down and sideways: it lands and slides under body-body friction */
         TU_OK(defsim_world_set_option(w, "core.body_contact", "true"));
         for (int b = 0; b < 2; ++b) {
-            const double lo[3] = {b ? 0.017 : 0.0, b ? 0.1001 : 0.0, b ? 0.023 : 0.0};
-            const double hi[3] = {b ? 0.077 : 0.1, b ? 0.1601 : 0.1, b ? 0.083 : 0.1};
+            /* with a thickness t, the top cube starts t (two half-thicknesses) higher */
+            const double up = b ? sc->thick : 0.0;
+            const double lo[3] = {b ? 0.017 : 0.0, b ? 0.1001 + up : 0.0, b ? 0.023 : 0.0};
+            const double hi[3] = {b ? 0.077 : 0.1, b ? 0.1601 + up : 0.1, b ? 0.083 : 0.1};
             defsim_mesh m;
             memset(&m, 0, sizeof m);
             m.size = sizeof m;
@@ -83,6 +86,7 @@ static defsim_world *build(const cscene *sc, int q, double e, const double *dir)
             bd.material.poisson_ratio = 0.3;
             bd.material.density = RHO * (b && q == Q_RHO ? 1.0 + e : 1.0);
             bd.friction = sc->mu + (q == Q_BMU ? e : 0.0);   /* both bodies */
+            bd.contact_thickness = sc->thick;
             defsim_body_id id;
             TU_OK(defsim_world_add_body(w, &bd, &id));
             defsim_mesh_free(&m);
@@ -118,11 +122,20 @@ static defsim_world *build(const cscene *sc, int q, double e, const double *dir)
         m.poisson_ratio = 0.3;
         m.density = RHO * (1.0 + (q == Q_RHO ? e : 0.0));
         const double lo[3] = {0, 0, 0}, hi[3] = {0.1, 0.1, 0.1};
-        tu_add_box_material(w, 1, 1, 1, lo, hi, &m);
+        defsim_mesh bm;
+        memset(&bm, 0, sizeof bm);
+        bm.size = sizeof bm;
+        TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &bm));
+        defsim_body_def bd = test_mesh_body(&bm, m.model);
+        bd.material = m;
+        bd.contact_thickness = sc->thick;
+        TU_OK(defsim_world_add_body(w, &bd, NULL));
+        defsim_mesh_free(&bm);
         n = defsim_world_vertex_count(w);
         x = tu_positions(w);
         v = calloc(3 * (size_t)n, sizeof *v);
-        const double d0 = 0.5e-3 * sqrt(3.0) * 0.1;   /* dhat / 2 (dhat: 1e-3 of the diagonal) */
+        /* dhat / 2 (dhat: 1e-3 of the diagonal) beyond the offset t / 2 */
+        const double d0 = 0.5e-3 * sqrt(3.0) * 0.1 + 0.5 * sc->thick;
         for (int i = 0; i < n; ++i) {
             const double X = x[3 * i], Y = x[3 * i + 1];
             x[3 * i] = cos(SLOPE) * X - sin(SLOPE) * Y + d0 * nrm[0];
@@ -339,21 +352,25 @@ static void incline_state(const cscene *sc, double *travel, double *speed, doubl
  * 1/1700 of dhat): the bottom vertices stay within dhat of the slope and the top ones far from
  * it over the whole run, and friction stays in its regime, so that nothing switches within
  * the step; the barrier is twice differentiable at dhat anyway. */
-static void incline(const char *backend)
+static void incline(const char *backend, double thick)
 {
     const double mus[2] = {0.2, 0.8};
     for (int r = 0; r < 2; ++r) {
-        const cscene sc = {INCLINE, backend, mus[r], r == 0 ? 0.5 : 0.1, 1e-2, r == 0 ? 12 : 30};
+        const cscene sc = {INCLINE, backend, mus[r], r == 0 ? 0.5 : 0.1, 1e-2, r == 0 ? 12 : 30,
+                           thick};
         double travel, speed, dmin;
         incline_state(&sc, &travel, &speed, &dmin);
-        const char *what = r == 0 ? "incline (sliding)" : "incline (sticking)";
+        const char *what = thick > 0.0 ? (r == 0 ? "incline 2 mm thick (sliding)"
+                                                 : "incline 2 mm thick (sticking)")
+                           : r == 0 ? "incline (sliding)" : "incline (sticking)";
         printf("%s %s: travel %.6f m, final speed %.3e m/s, lowest vertex %.3e m above the "
                "slope\n", what, backend, travel, speed, dmin);
         /* sliding speeds up from 0.5 m/s; with mu 0.8 backward Euler stops the block (Newmark,
          * which does not dissipate, leaves it moving: the finite differences still hold) */
         if (r == 0) assert_true(speed > 0.6);
         else if (strcmp(backend, NC) == 0) assert_true(fabs(speed) < 1e-3 && travel > 0.0);
-        assert_true(dmin > 0.0);
+        /* the block keeps its half-thickness off the slope, within dhat beyond it */
+        assert_true(dmin > 0.5 * thick && dmin < 0.5 * thick + 1e-3 * sqrt(3.0) * 0.1);
         defsim_world *w = build(&sc, -1, 0.0, NULL);
         const int n = defsim_world_vertex_count(w);
         defsim_world_destroy(w);
@@ -366,13 +383,23 @@ static void incline(const char *backend)
 static void test_incline_newton(void **st)
 {
     (void)st;
-    incline(NC);
+    incline(NC, 0.0);
 }
 
 static void test_incline_newmark(void **st)
 {
     (void)st;
-    incline(NM);
+    incline(NM, 0.0);
+}
+
+/* The same block with a contact thickness of 2 mm (docs/body-contact.md "Thickness"): the
+ * barrier, its friction's normal force and their derivatives act on the distance less 1 mm;
+ * started dhat / 2 beyond that offset, it slides and sticks as the thin one does, and the same
+ * gradients match central differences. */
+static void test_incline_thick_newton(void **st)
+{
+    (void)st;
+    incline(NC, 2e-3);
 }
 
 /* The cloth falls at 3 m/s, 2 cm above the sphere: its first step's inertial predictor
@@ -382,7 +409,7 @@ static void test_incline_newmark(void **st)
  * m and 1e-7 m/s along random directions, 1e-6 in mu). */
 static void cloth(const char *backend)
 {
-    const cscene sc = {CLOTH, backend, 0.3, 3.0, 1e-2, 8};
+    const cscene sc = {CLOTH, backend, 0.3, 3.0, 1e-2, 8, 0.0};
     defsim_world *w = build(&sc, -1, 0.0, NULL);
     const int n = defsim_world_vertex_count(w);
     double *x = tu_positions(w), *v = tu_velocities(w);
@@ -485,15 +512,15 @@ static void leaves_run(const cscene sc)
 static void test_contact_backward_leaves_run(void **st)
 {
     (void)st;
-    leaves_run((cscene){INCLINE, NC, 0.2, 0.5, 1e-2, 9});
-    leaves_run((cscene){CUBES, NC, 0.5, 0.1, 1e-2, 9});
+    leaves_run((cscene){INCLINE, NC, 0.2, 0.5, 1e-2, 9, 0.0});
+    leaves_run((cscene){CUBES, NC, 0.5, 0.1, 1e-2, 9, 0.0});
 }
 
 /* The penalty's backends are refused; a collider moved during the recording stops it. */
 static void test_contact_unsupported(void **st)
 {
     (void)st;
-    cscene sc = {INCLINE, NC, 0.2, 0.5, 1e-2, 2};
+    cscene sc = {INCLINE, NC, 0.2, 0.5, 1e-2, 2, 0.0};
     defsim_world *w = build(&sc, -1, 0.0, NULL);
     defsim_tape *t = NULL;
     TU_OK(defsim_world_record(w, NULL, &t));
@@ -533,9 +560,9 @@ static void test_contact_unsupported(void **st)
  * top cube's mean height plus its mean x after the run; its gradient in the initial positions
  * and velocities (random directions; steps 1e-8 m and 1e-6 m/s), the top cube's density and
  * Young's modulus (1e-4 relative) and the friction of both bodies moved together (1e-6). */
-static void cubes(const char *backend)
+static void cubes(const char *backend, double thick)
 {
-    const cscene sc = {CUBES, backend, 0.5, 0.1, 1e-2, 10};
+    const cscene sc = {CUBES, backend, 0.5, 0.1, 1e-2, 10, thick};
     defsim_world *w = build(&sc, -1, 0.0, NULL);
     const int n = defsim_world_vertex_count(w);
     for (int s = 0; s < sc.steps; ++s) TU_OK(defsim_world_step(w, sc.h));
@@ -545,24 +572,33 @@ static void cubes(const char *backend)
     printf("cubes %s: %.0f candidate pairs at the end, the closest %.3e m apart (dhat 2.1e-4); "
            "the top cube moves sideways at %.4f m/s (from 0.1)\n", backend,
            tu_stat(w, "contact.body_candidates"), dmin, vx);
-    assert_true(dmin > 0.0 && vx < 0.1);
+    assert_true(dmin > 0.0 && vx < 0.1);   /* dmin: beyond the offset t */
     free(x);
     free(v);
     defsim_world_destroy(w);
     const qstep qs[] = {{Q_V0, 1e-6}, {Q_X0, 1e-8}, {Q_RHO, 1e-4}, {Q_E, 1e-4}, {Q_BMU, 1e-4}};
-    check_all(&sc, n, 31, qs, 5, "cube on a cube");
+    check_all(&sc, n, 31, qs, 5,
+              thick > 0.0 ? "cube on a cube, 1 mm thick" : "cube on a cube");
 }
 
 static void test_cubes_newton(void **st)
 {
     (void)st;
-    cubes(NC);
+    cubes(NC, 0.0);
+}
+
+/* The cubes with a contact thickness of 1 mm each (the pair's offset 1 mm: the top cube starts
+ * 1 mm higher): body contact's barrier and lagged friction on d - xi, the same gradients. */
+static void test_cubes_thick_newton(void **st)
+{
+    (void)st;
+    cubes(NC, 1e-3);
 }
 
 static void test_cubes_newmark(void **st)
 {
     (void)st;
-    cubes(NM);
+    cubes(NM, 0.0);
 }
 
 /* BDF2 (its barrier and lagged friction through ic_adjoint, its history through bdf2_adjoint):
@@ -581,11 +617,13 @@ int main(void)
         cmocka_unit_test(test_contact_backward_leaves_run),
         cmocka_unit_test(test_incline_newton),
         cmocka_unit_test(test_incline_newmark),
+        cmocka_unit_test(test_incline_thick_newton),
         cmocka_unit_test(test_cloth_newton),
         cmocka_unit_test(test_cloth_newmark),
         cmocka_unit_test(test_cubes_newton),
         cmocka_unit_test(test_cubes_newmark),
         cmocka_unit_test(test_contact_bdf2),
+        cmocka_unit_test(test_cubes_thick_newton),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

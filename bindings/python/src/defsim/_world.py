@@ -375,7 +375,8 @@ class World(WorldCoupling, WorldColliders):
                  self_contact: bool = True, collision_group: int = 1,
                  collision_mask: int = 0xFFFFFFFF, friction: float = 0.5,
                  volume_averaging: bool = False,
-                 shell: Optional[Shell] = None) -> Body:
+                 shell: Optional[Shell] = None,
+                 contact_thickness: float = 0.0) -> Body:
         """Adds a body; its vertices follow those of the bodies added before it. All arrays are
         copied.
 
@@ -403,6 +404,10 @@ class World(WorldCoupling, WorldColliders):
                 itself, its group bits, the groups it collides with (bodies A and B collide when
                 ``A.group & B.mask`` and ``B.group & A.mask``), its Coulomb coefficient (a pair
                 uses the geometric mean).
+            contact_thickness: the body's contact thickness t in m (>= 0, default 0;
+                ``defsim_body_def.contact_thickness``, docs/body-contact.md "Thickness"):
+                contact keeps its surface t / 2 from other bodies (whose half-thickness adds)
+                and from colliders, so stacked cloth layers rest t apart.
             volume_averaging: the averaged-nodal-volume tet against volumetric locking of
                 nearly incompressible bodies (docs/materials.md), or for quadratic tets the
                 mean-dilatation element (docs/elements.md); neo-Hookean and stable neo-Hookean
@@ -485,6 +490,7 @@ class World(WorldCoupling, WorldColliders):
         d.collision_group = _collision_bits(collision_group, "collision_group")
         d.collision_mask = _collision_bits(collision_mask, "collision_mask")
         d.friction = _arrays.c_double(friction, "friction")
+        d.contact_thickness = _arrays.c_double(contact_thickness, "contact_thickness")
         d.volume_averaging = 1 if volume_averaging else 0
         d.vertex_count = _arrays.c_int(n, "vertex count")
         d.tet_count = _arrays.c_int(t.shape[0], "tet count")

@@ -606,8 +606,8 @@ static void test_cubes_newmark(void **st)
 static void test_contact_bdf2(void **st)
 {
     (void)st;
-    incline(BD);
-    cubes(BD);
+    incline(BD, 0.0);
+    cubes(BD, 0.0);
 }
 
 int main(void)

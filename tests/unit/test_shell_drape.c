@@ -40,7 +40,10 @@ static double now(void)
 static const double R_SPECIMEN = 0.15, R_DISC = 0.09, G = 9.81, CELL = 2.5e-4;
 /* The release: implicit Euler steps of H, mass damping (1/s), at most MAX_STEPS. */
 static const double H = 0.01, DAMPING = 10.0, VSTOP = 1e-4;
-/* The 30 cm specimen's class: fabrics whose DC on it lies in (0.30, 0.85) (docs/shells.md). */
+/* The 30 cm specimen's class: fabrics whose DC on it lies in (0.30, 0.85), the rule for choosing
+ * the 30 cm template as recalled from Cusick 1968 / BS 5058, not a measured band for this fabric's
+ * stiffness (bending length 2.44 cm, c / R = 0.163): none could be read yet (docs/shells.md,
+ * "Cusick drape", which lists what was searched). */
 static const double DC_LO = 0.30, DC_HI = 0.85;
 enum { MAX_STEPS = 1000 };
 

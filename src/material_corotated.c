@@ -187,6 +187,7 @@ DEFSIM_SIMD_INLINE void law_corotated(const double *d, int s, const vd F[9], vd 
 }
 
 DEFSIM__BATCHED_KERNEL(corotated, law_corotated)
+DEFSIM__BATCHED_QKERNEL(corotated, law_corotated)
 
 /* Rotations of n row-major matrices, VW at a time (the tail padded with F = I). */
 void DEFSIM__CAT(defsim__rotations_, DEFSIM_ISA)(int32_t n, const double *F, double *R)

@@ -144,5 +144,6 @@ DEFSIM_SIMD_INLINE void law_neohookean(const double *d, int s, const vd F[9], vd
 }
 
 DEFSIM__BATCHED_KERNEL(neohookean, law_neohookean)
+DEFSIM__BATCHED_QKERNEL(neohookean, law_neohookean)
 
 #endif

@@ -204,5 +204,6 @@ DEFSIM_SIMD_INLINE void law_snh(const double *d, int s, const vd F[9], vd P[9])
 
 
 DEFSIM__BATCHED_KERNEL(stable_neohookean, law_snh)
+DEFSIM__BATCHED_QKERNEL(stable_neohookean, law_snh)
 
 #endif

@@ -112,5 +112,6 @@ DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
 }
 
 DEFSIM__BATCHED_KERNEL(stvk, law_stvk)
+DEFSIM__BATCHED_QKERNEL(stvk, law_stvk)
 
 #endif

@@ -76,6 +76,25 @@ static void tet_rows(const defsim__group *g, int64_t e, double *d)
     d[DEFSIM__ROW_P2 * B] = prm[2];
 }
 
+/* A quadratic tet's rows (DEFSIM__QBATCH_ROWS, tet_forces.h): -w_q, the law's parameters, the
+ * gradients of its rest data (tet10.h) point by point. */
+static void quad_rows(const defsim__group *g, int64_t e, double *d)
+{
+    const int B = DEFSIM__BATCH;
+    const double *rest = g->qrest + DEFSIM__TET10_REST * e;
+    for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+        const double *G = rest + DEFSIM__TET10_QSTRIDE * q;
+        d[(DEFSIM__QROW_NW + q) * B] = -G[30];
+        for (int r = 0; r < 30; ++r) d[(DEFSIM__QROW_G + 30 * q + r) * B] = G[r];
+    }
+    for (int r = DEFSIM__QROW_NW + DEFSIM__TET10_QP; r < DEFSIM__ROW_P0; ++r) d[r * B] = 0.0;
+    double prm[3];
+    g->law->params(g->mu[e], g->lambda[e], prm);
+    d[DEFSIM__ROW_P0 * B] = prm[0];
+    d[DEFSIM__ROW_P1 * B] = prm[1];
+    d[DEFSIM__ROW_P2 * B] = prm[2];
+}
+
 /* A membrane triangle's rows (tet_forces.h): Dm^-1, -area, the law's parameters. */
 static void membrane_rows(const defsim__group *g, int64_t e, double *d)
 {
@@ -93,13 +112,13 @@ static void hinge_rows(const defsim__group *g, int64_t e, double *d)
     d[DEFSIM__SROW_THETA0 * DEFSIM__BATCH] = g->l0[e];
 }
 
-/* Cuts each colour of a group (tets, membrane triangles, hinges) into batches of DEFSIM__BATCH
- * elements in the SIMD layout (tet_forces.h): g->nodes vertex ids per lane, the data rows that
- * `rows` fills. A colour's last batch is padded with copies of its first element: they are
- * computed with valid data but never scattered. */
-static defsim_status pack_batches(defsim__group *g, batch_rows_fn rows_of)
+/* Cuts each colour of a group (tets, quadratic tets, membrane triangles, hinges) into batches
+ * of DEFSIM__BATCH elements in the SIMD layout (tet_forces.h): g->nodes vertex ids per lane,
+ * the `rows` data rows that `rows_of` fills. A colour's last batch is padded with copies of its
+ * first element: they are computed with valid data but never scattered. */
+static defsim_status pack_batches(defsim__group *g, batch_rows_fn rows_of, int rows)
 {
-    const int B = DEFSIM__BATCH, rows = DEFSIM__BATCH_ROWS, nn = g->nodes;
+    const int B = DEFSIM__BATCH, nn = g->nodes;
     g->bcolor_ptr = malloc(((size_t)g->ncolors + 1) * sizeof *g->bcolor_ptr);
     if (!g->bcolor_ptr) return DEFSIM_ERR_OUT_OF_MEMORY;
     int32_t nb = 0;
@@ -321,7 +340,11 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
     }
     for (int m = 0; m < DEFSIM__GROUPS; ++m) {
         st = defsim__colour_group(&s->groups[m], s->nv);
-        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS) st = pack_batches(&s->groups[m], tet_rows);
+        if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS)
+            st = pack_batches(&s->groups[m], tet_rows, DEFSIM__BATCH_ROWS);
+        else if (st == DEFSIM_OK && m >= DEFSIM__QUAD_GROUP && m < DEFSIM__QMIX_GROUP &&
+                 s->groups[m].n > 0)
+            st = pack_batches(&s->groups[m], quad_rows, DEFSIM__QBATCH_ROWS);
         if (st != DEFSIM_OK) return st;
     }
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
@@ -412,7 +435,8 @@ static defsim_status plan_shells(defsim__system *s, const defsim__plan_input *in
         /* the batched force kernels' layout (tet_forces.h) for the membranes and hinges */
         if (st == DEFSIM_OK && m < DEFSIM__SHELL_LIMITS)
             st = pack_batches(&s->shells[m],
-                              m == DEFSIM__SHELL_HINGES ? hinge_rows : membrane_rows);
+                              m == DEFSIM__SHELL_HINGES ? hinge_rows : membrane_rows,
+                              DEFSIM__BATCH_ROWS);
         if (st != DEFSIM_OK) return st;
     }
     return DEFSIM_OK;

@@ -60,8 +60,10 @@ typedef struct defsim__group {
      * bcolor_ptr[c + 1] - 1; blanes[b] of a batch's lanes are real elements. */
     int32_t nbatch;
     int32_t *bcolor_ptr;      /* ncolors + 1 */
-    int32_t *bidx;            /* 4 DEFSIM__BATCH per batch: bidx[(4 b + a) BATCH + lane] */
-    double *bdata;            /* DEFSIM__BATCH_ROWS DEFSIM__BATCH per batch, 64-byte aligned */
+    int32_t *bidx;            /* nodes DEFSIM__BATCH per batch: bidx[(nodes b + a) BATCH + lane] */
+    double *bdata;            /* DEFSIM__BATCH_ROWS DEFSIM__BATCH per batch (quadratic tets:
+                                 DEFSIM__QBATCH_ROWS; mean-dilatation ones: none), 64-byte
+                                 aligned */
     uint8_t *blanes;          /* nbatch */
 } defsim__group;
 

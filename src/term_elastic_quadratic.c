@@ -3,10 +3,12 @@
  * The elastic energy of one quadratic-tet element group (one term per material model whose
  * bodies have 10-node tets; tet10.h): per element the sum over the 4 quadrature points of
  * weight times the model's law at F_q, so every model of material_list.h works unchanged.
- * Forces by a scalar kernel colour by colour (conflict-free parallel scatter, bit-identical for
- * any thread count), energy as deterministic blocked sums, element matrices k K + kd beta B
- * (30 x 30) with each point's dP/dF projected as the linear tets' (positive weights keep the sum
- * positive semi-definite), products element by element without forming the matrix.
+ * Forces by the batched SIMD kernels of tet_forces.c when chosen (the model's lane-wise law at
+ * each point, tet_batch.h), else by a scalar kernel, colour by colour either way (conflict-free
+ * parallel scatter, bit-identical for any thread count), energy as deterministic blocked sums,
+ * element matrices k K + kd beta B (30 x 30) with each point's dP/dF projected as the linear
+ * tets' (positive weights keep the sum positive semi-definite), products element by element
+ * without forming the matrix.
  */
 #include "assembly.h"
 #include "energy.h"
@@ -14,6 +16,7 @@
 #include "system.h"
 #include "term_cache.h"
 #include "tet10.h"
+#include "tet_forces.h"
 
 #include <string.h>
 
@@ -53,6 +56,11 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
     if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
     const defsim__group *g = group(t);
     const double *x = ev->x;
+    if (s->tet_kernels) {
+        s->tet_kernels->qforces[t->index - DEFSIM__QUAD_GROUP](g, x, f, s->nthreads);
+        *used |= g->pass;
+        return DEFSIM_OK;
+    }
     for (int32_t c = 0; c < g->ncolors; ++c) {
         const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > 256)

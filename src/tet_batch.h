@@ -76,13 +76,16 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
  * colour in parallel: the body (the arguments after g) runs for each sub-batch s with real
  * lanes, with id (the batch's vertex ids: id[a DEFSIM__BATCH + lane]), d (its data rows) and nl
  * (the real lanes from s on) in scope. Needs `nthreads` in scope. */
-#define DEFSIM__BATCH_LOOP(g, ...)                                                            \
+#define DEFSIM__BATCH_LOOP(g, ...) DEFSIM__BATCH_LOOP_ROWS(g, DEFSIM__BATCH_ROWS, __VA_ARGS__)
+
+/* The same loop over batches of `rows` data rows (a quadratic group's: DEFSIM__QBATCH_ROWS). */
+#define DEFSIM__BATCH_LOOP_ROWS(g, rows, ...)                                                 \
     for (int32_t c = 0; c < (g)->ncolors; ++c) {                                              \
         const int32_t b0 = (g)->bcolor_ptr[c], b1 = (g)->bcolor_ptr[c + 1];                   \
         _Pragma("omp parallel for schedule(static) num_threads(nthreads) if(b1 - b0 > PAR_MIN_BATCHES)") \
         for (int32_t b = b0; b < b1; ++b) {                                                   \
             const int32_t *id = (g)->bidx + (g)->nodes * DEFSIM__BATCH * (int64_t)b;          \
-            const double *d = (g)->bdata + DEFSIM__BATCH_ROWS * DEFSIM__BATCH * (int64_t)b;   \
+            const double *d = (g)->bdata + (rows) * DEFSIM__BATCH * (int64_t)b;             \
             for (int s = 0; s < NSUB && s * DEFSIM_VW < (g)->blanes[b]; ++s) {                \
                 const int nl = (g)->blanes[b] - s * DEFSIM_VW;                                \
                 __VA_ARGS__                                                                   \
@@ -104,6 +107,63 @@ DEFSIM_SIMD_INLINE void batch_scatter(double *f, const int32_t *id, const vd P[9
             LAW(d, s, F, P);                                                                  \
             batch_scatter(f, id + s * DEFSIM_VW, P, dm, v_load(ROW(d, DEFSIM__ROW_NVOL, s)),  \
                           nl);                                                                \
+        })                                                                                    \
+    }
+
+/* Node a's gradients dN_a/dX_j at one quadrature point of a quadratic batch (G: its first
+ * gradient row, lanes of the sub-batch). */
+DEFSIM_SIMD_INLINE void qgrad(const double *G, int a, vd g[3])
+{
+    for (int j = 0; j < 3; ++j) g[j] = v_load(G + (3 * a + j) * DEFSIM__BATCH);
+}
+
+/* The batched kernel of model `name` for quadratic tets (tet10.h), defsim__batched_q<name>_<isa>,
+ * over the DEFSIM__QBATCH_ROWS layout with the linear kernel's LAW: per lane the ten nodes
+ * gathered once, at each of the 4 quadrature points F = sum_a x_a G_a^T (the order of
+ * defsim__tet10_F) and P = LAW(F), the nodal forces -w_q P G_a summed over the points, then
+ * scattered once (the scalar kernel scatters point by point: the same sums to rounding). */
+#define DEFSIM__BATCHED_QKERNEL(name, LAW)                                                    \
+    void DEFSIM__CAT(defsim__batched_q##name##_, DEFSIM_ISA)(const defsim__group *g,         \
+                                                            const double *x, double *f,      \
+                                                            int nthreads)                    \
+    {                                                                                         \
+        (void)nthreads;                                                                       \
+        DEFSIM__BATCH_LOOP_ROWS(g, DEFSIM__QBATCH_ROWS, {                                     \
+            vd p[10][3], h[10][3];                                                            \
+            for (int a = 0; a < 10; ++a) {                                                    \
+                gather3(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, p[a]);                     \
+                h[a][0] = h[a][1] = h[a][2] = v_set1(0.0);                                    \
+            }                                                                                 \
+            for (int q = 0; q < 4; ++q) {                                                     \
+                const double *G = ROW(d, DEFSIM__QROW_G + 30 * q, s);                         \
+                vd F[9], P[9];                                                                \
+                for (int r = 0; r < 9; ++r) F[r] = v_set1(0.0);                               \
+                for (int a = 0; a < 10; ++a) {                                                \
+                    vd gr[3];                                                                 \
+                    qgrad(G, a, gr);                                                          \
+                    for (int i = 0; i < 3; ++i) {                                             \
+                        F[3 * i] += p[a][i] * gr[0];                                          \
+                        F[3 * i + 1] += p[a][i] * gr[1];                                      \
+                        F[3 * i + 2] += p[a][i] * gr[2];                                      \
+                    }                                                                         \
+                }                                                                             \
+                LAW(d, s, F, P);                                                              \
+                const vd nw = v_load(ROW(d, DEFSIM__QROW_NW + q, s));                         \
+                for (int i = 0; i < 9; ++i) P[i] *= nw;                                       \
+                for (int a = 0; a < 10; ++a) {                                                \
+                    vd gr[3];                                                                 \
+                    qgrad(G, a, gr);                                                          \
+                    for (int i = 0; i < 3; ++i)                                               \
+                        h[a][i] += P[3 * i] * gr[0] + P[3 * i + 1] * gr[1] +                  \
+                                   P[3 * i + 2] * gr[2];                                      \
+                }                                                                             \
+            }                                                                                 \
+            for (int a = 0; a < 10; ++a) {                                                    \
+                double *rows[DEFSIM_VW];                                                      \
+                for (int l = 0; l < DEFSIM_VW; ++l)                                           \
+                    rows[l] = f + 3 * (int64_t)id[a * DEFSIM__BATCH + s * DEFSIM_VW + l];     \
+                v_scatter_add_rows3(rows, h[a], nl);                                          \
+            }                                                                                 \
         })                                                                                    \
     }
 

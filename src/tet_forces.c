@@ -15,6 +15,10 @@
                                                            int nthreads);
 DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_BATCHED)
 #define DEFSIM__BATCHED(name) DEFSIM__CAT(defsim__batched_##name##_, DEFSIM_ISA),
+/* The same models' kernels for quadratic tets (tet_batch.h's DEFSIM__BATCHED_QKERNEL). */
+#define DEFSIM__DECLARE_QBATCHED(name) DEFSIM__DECLARE_BATCHED(q##name)
+DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_QBATCHED)
+#define DEFSIM__QBATCHED(name) DEFSIM__BATCHED(q##name)
 
 /* shell_batch.c: the membranes' and the hinges' kernels. */
 void DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA)(const defsim__group *g,
@@ -36,4 +40,5 @@ const defsim__tet_kernels DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA) = {
     .shells = {DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA),
                DEFSIM__CAT(defsim__batched_membrane_neohookean_, DEFSIM_ISA),
                DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)},
+    .qforces = {DEFSIM__TET_MODEL_LIST(DEFSIM__QBATCHED)},
 };

@@ -36,6 +36,16 @@ enum {
     DEFSIM__BATCH_ROWS = 13
 };
 
+/* Rows of a quadratic (10-node, tet10.h) tet's batch: -w_q (the weight times det dX/dxi) of the
+ * 4 quadrature points, 6 unused rows, the model's parameters at the linear layout's rows (so
+ * that the lane-wise laws read them unchanged), then the gradients dN_a/dX_j of point q at row
+ * DEFSIM__QROW_G + 30 q + 3 a + j. */
+enum {
+    DEFSIM__QROW_NW = 0,
+    DEFSIM__QROW_G = 13,
+    DEFSIM__QBATCH_ROWS = 13 + 4 * 30
+};
+
 /* The rows of the shells' batches: a membrane triangle's Dm^-1 (2x2 row-major), -area and its
  * law's four parameters (shell.h); a hinge's weight and rest angle. */
 enum {
@@ -60,6 +70,9 @@ typedef struct defsim__tet_kernels {
     /* Adds the forces of a shell group (system.h's shells: DEFSIM__MEMBRANE_STVK,
      * DEFSIM__MEMBRANE_NEOHOOKEAN, DEFSIM__SHELL_HINGES) at x into f (shell_batch.c). */
     defsim__tet_force_fn shells[DEFSIM__SHELL_LIMITS];
+    /* Adds the elastic forces of a group of quadratic tets (not mean-dilatation ones) at x into
+     * f, by model as forces[] (the DEFSIM__QBATCH_ROWS layout). */
+    defsim__tet_force_fn qforces[DEFSIM__TET_MODELS];
 } defsim__tet_kernels;
 
 extern const defsim__tet_kernels defsim__tet_kernels_generic;

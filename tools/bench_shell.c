@@ -11,12 +11,13 @@
  * runs) and with the scalar kernels, and the stiffness matrix's values (the kind's element
  * matrices with the default clamp projection, scattered into the pattern; and without the
  * projection), each divided by the
- * element count: tets of a 20 x 20 x 20 box (StVK, stable neo-Hookean), triangles of a 100 x 100
- * sheet (StVK and neo-Hookean membranes, no bending), the hinges of the same sheet (bending
- * only), and its strain limit (10 %) with every triangle in the barrier's band (the sheet
- * stretched 1.095 times both ways; the limit has no batched kernel: its two force columns are
- * the scalar kernel). The state is perturbed by 1 % of a cell (the limit's: 0.01 %), so that no
- * kernel takes a shortcut at rest.
+ * element count: tets of a 20 x 20 x 20 box (StVK, stable neo-Hookean), quadratic (10-node) tets
+ * of a 12 x 12 x 12 box (each model; batched: tet_batch.h's quadratic kernels), triangles of a
+ * 100 x 100 sheet (StVK and neo-Hookean membranes, no bending), the hinges of the same sheet
+ * (bending only), and its strain limit (10 %) with every triangle in the barrier's band (the
+ * sheet stretched 1.095 times both ways; the limit has no batched kernel: its two force columns
+ * are the scalar kernel). The state is perturbed by 1 % of a cell (the limit's: 0.01 %), so that
+ * no kernel takes a shortcut at rest.
  */
 #include "assembly.h"
 #include "clock.h"
@@ -127,15 +128,16 @@ static void run(defsim_world *w, int kind, const char *what, int64_t n, double c
     for (int k = 0; k < 5; ++k) free(tm[k]);
 }
 
-static void tets(defsim_model model, const char *what, int rounds)
+/* Tets of an n^3 box (quad: 10-node ones, defsim_mesh_make_quadratic). */
+static void tets(defsim_model model, int quad, int n, const char *what, int rounds)
 {
     defsim_world *w = make_world();
-    const int n = 20;
     const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
     defsim_mesh m;
     memset(&m, 0, sizeof m);
     m.size = sizeof m;
     defsim_mesh_box(lo, hi, n, n, n, &m);
+    if (quad) defsim_mesh_make_quadratic(&m);
     defsim_body_def d;
     defsim_body_def_init(&d, sizeof d);
     defsim_material_init(&d.material, sizeof d.material, model);
@@ -143,8 +145,10 @@ static void tets(defsim_model model, const char *what, int rounds)
     d.vertex_count = m.vertex_count;
     d.tets = m.tets;
     d.tet_count = m.tet_count;
+    d.tet_nodes = m.tet_nodes;
     defsim_world_add_body(w, &d, NULL);
-    run(w, DEFSIM__TERM_KIND_elastic, what, m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
+    run(w, quad ? DEFSIM__TERM_KIND_elastic_quadratic : DEFSIM__TERM_KIND_elastic, what,
+        m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
 }
@@ -193,8 +197,12 @@ int main(int argc, char **argv)
     printf("| elements                   |  count | energy ns/el | forces ns/el, batched | "
            "forces ns/el, scalar | matrix ns/el | matrix ns/el, unprojected |\n");
     printf("|---|---|---|---|---|---|---|\n");
-    tets(DEFSIM_MODEL_STVK, "tets, StVK", rounds);
-    tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, "tets, stable neo-Hookean", rounds);
+    tets(DEFSIM_MODEL_STVK, 0, 20, "tets, StVK", rounds);
+    tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0, 20, "tets, stable neo-Hookean", rounds);
+    tets(DEFSIM_MODEL_STVK, 1, 12, "10-node tets, StVK", rounds);
+    tets(DEFSIM_MODEL_COROTATED, 1, 12, "10-node tets, co-rotated", rounds);
+    tets(DEFSIM_MODEL_NEOHOOKEAN, 1, 12, "10-node tets, neo-Hookean", rounds);
+    tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1, 12, "10-node tets, stable NH", rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, 0.0, "triangles, StVK membrane",
           DEFSIM__TERM_KIND_membrane, rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN, 0.0, 0.0, "triangles, neo-Hookean",

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* The batched SIMD force kernels (src/tet_forces.c): every variant this CPU runs against the
- * scalar reference kernels, and the co-rotated kernel's quaternion rotation against the SVD. */
+ * scalar reference kernels (linear and quadratic tets, shells), and the co-rotated kernel's
+ * quaternion rotation against the SVD. */
 #include "test_util.h"
 
 #include "forces.h"
@@ -37,44 +38,91 @@ static void forces_with(defsim_world *w, const defsim__tet_kernels *k, double *f
     free(x);
 }
 
-/* A box whose colours do not fill whole batches (5x3x3 cells, 270 tets), deformed by random
- * displacements of 6% of a cell and a shear, with Lame parameters varying per body. Every
- * variant agrees with the scalar kernels to rounding, tails and padding lanes included. */
+/* Adds an nx ny nz-cell box of quadratic (10-node) tets on [lo, hi] of the given model. */
+static void add_quad_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
+                         const double lo[3], const double hi[3], double E, double nu)
+{
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_box(lo, hi, nx, ny, nz, &m));
+    TU_OK(defsim_mesh_make_quadratic(&m));
+    defsim_body_def bd = test_mesh_body(&m, model);
+    bd.material.youngs_modulus = E;
+    bd.material.poisson_ratio = nu;
+    bd.material.density = 1000.0;
+    if (defsim_world_add_body(w, &bd, NULL) != DEFSIM_OK)
+        fail_msg("add_body: %s", defsim_world_last_error(w));
+    defsim_mesh_free(&m);
+}
+
+/* Two boxes of model MODELS[mi] (quad: 10-node tets) whose colours do not fill whole batches
+ * (5x3x3 cells, 270 elements, and 2x2x3, 72), of different Lame parameters, deformed by a shear
+ * and random displacements of 6 % of a cell: every variant this CPU runs against the scalar
+ * kernels, within 1e-12 relative, tails and padding lanes included. Returns the variants
+ * tested. */
+static int variants_vs_scalar(int mi, int quad)
+{
+    defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {2.5, 1.5, 1.5}, lo2[3] = {3, 0, 0},
+                 hi2[3] = {4, 1, 1};
+    if (quad) {
+        add_quad_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35);
+        add_quad_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45);
+    } else {
+        tu_add_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35, 1000.0);
+        tu_add_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45, 1000.0);
+    }
+    int n = defsim_world_vertex_count(w), tested = 0;
+    double *x = tu_positions(w);
+    unsigned long long seed = (quad ? 77 : 42) + (unsigned long long)mi;
+    for (int i = 0; i < n; ++i) {
+        x[3 * i] += 0.2 * x[3 * i + 1];
+        for (int c = 0; c < 3; ++c) x[3 * i + c] += 0.03 * tu_rand(&seed);
+    }
+    TU_OK(defsim_world_set_state(w, x, NULL));
+    double *ref = malloc(3 * (size_t)n * sizeof *ref), *f = malloc(3 * (size_t)n * sizeof *f);
+    forces_with(w, NULL, ref);
+    assert_true(fro(ref, 3 * n) > 1.0);
+    const defsim__group *g = &w->sys.groups[(quad ? DEFSIM__QUAD_GROUP : 0) + mi];
+    assert_int_equal(g->n, 270 + 72);   /* the group whose kernels are meant */
+    assert_non_null(g->bdata);
+    for (int v = 0; v < 3; ++v) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
+        if (!k) continue;
+        forces_with(w, k, f);
+        double d = tu_rel_diff(f, ref, 3 * n, 0.0);
+        if (quad) printf("  quadratic, model %d, %s: rel diff %.3g\n", (int)MODELS[mi], k->name, d);
+        if (!(d < 1e-12))
+            fail_msg("%s model %d, %s: rel diff %g", quad ? "quadratic" : "linear", MODELS[mi],
+                     k->name, d);
+        ++tested;
+    }
+    free(x); free(ref); free(f);
+    defsim_world_destroy(w);
+    return tested;
+}
+
+/* Linear tets: every model, every variant. */
 static void test_variants_match_scalar(void **state)
 {
     (void)state;
     int tested = 0;
-    for (int mi = 0; mi < 4; ++mi) {
-        defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
-        const double lo[3] = {0, 0, 0}, hi[3] = {2.5, 1.5, 1.5}, lo2[3] = {3, 0, 0},
-                     hi2[3] = {4, 1, 1};
-        tu_add_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35, 1000.0);
-        tu_add_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45, 1000.0);
-        int n = defsim_world_vertex_count(w);
-        double *x = tu_positions(w);
-        unsigned long long seed = 42 + (unsigned long long)mi;
-        for (int i = 0; i < n; ++i) {
-            x[3 * i] += 0.2 * x[3 * i + 1];
-            for (int c = 0; c < 3; ++c) x[3 * i + c] += 0.03 * tu_rand(&seed);
-        }
-        TU_OK(defsim_world_set_state(w, x, NULL));
-        double *ref = malloc(3 * (size_t)n * sizeof *ref), *f = malloc(3 * (size_t)n * sizeof *f);
-        forces_with(w, NULL, ref);
-        assert_true(fro(ref, 3 * n) > 1.0);
-        for (int v = 0; v < 3; ++v) {
-            const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
-            if (!k) continue;
-            forces_with(w, k, f);
-            double d = tu_rel_diff(f, ref, 3 * n, 0.0);
-            if (!(d < 1e-12)) fail_msg("model %d, %s: rel diff %g", MODELS[mi], k->name, d);
-            ++tested;
-        }
-        free(x); free(ref); free(f);
-        defsim_world_destroy(w);
-    }
+    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, 0);
     assert_true(tested >= 4);   /* the generic variant always exists */
     assert_non_null(defsim__tet_kernels_best());
     assert_null(defsim__tet_kernels_find("sse9"));
+}
+
+/* The quadratic tets' batched kernels (tet_batch.h's DEFSIM__BATCHED_QKERNEL) against the scalar
+ * kernel of term_elastic_quadratic.c, every model (the batched kernel sums the points' nodal
+ * forces before scattering, the scalar one scatters point by point). */
+static void test_quadratic_match_scalar(void **state)
+{
+    (void)state;
+    int tested = 0;
+    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, 1);
+    assert_true(tested >= 4);
 }
 
 /* The shells' batched kernels (shell_batch.c): a bent and perturbed 7 x 5 sheet (70 triangles,
@@ -276,6 +324,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_variants_match_scalar),
+        cmocka_unit_test(test_quadratic_match_scalar),
         cmocka_unit_test(test_shells_match_scalar),
         cmocka_unit_test(test_neohookean_inverted_is_unstable),
         cmocka_unit_test(test_rotation_matches_svd),

@@ -7,9 +7,9 @@
  * friction coefficient, the density, Young's modulus and the initial positions), a cloth dropped onto a sphere fast enough that
  * CCD cuts its landing step (the initial positions, velocities and mu), and a cube landing on a
  * cube (body contact: the initial state, the top cube's density and E, the bodies' friction);
- * the penalty's backends refused, a moved collider stopping the recording, bad arguments, and
- * the run (and contact's statistics) going on bit for bit after a backward pass with
- * recomputation.
+ * the penalty's backends refused, a moved collider recorded (its poses: test_gradients_poses),
+ * bad arguments, and the run (and contact's statistics) going on bit for bit after a backward
+ * pass with recomputation.
  */
 #include "mesh_body.h"
 #include "test_util.h"

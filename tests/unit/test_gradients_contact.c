@@ -147,22 +147,8 @@ static defsim_world *build(const cscene *sc, int q, double e, const double *dir)
          * the top and the symmetry make a tie that finite differences see as a kink), falling */
         cd.shape = DEFSIM_SHAPE_SPHERE;
         cd.radius = SPHERE_R;
-        defsim_mesh m;
-        memset(&m, 0, sizeof m);
-        m.size = sizeof m;
         const double o[3] = {-0.13, SPHERE_R + 0.02, -0.17}, u[3] = {0.4, 0, 0}, vv[3] = {0, 0, 0.4};
-        TU_OK(defsim_mesh_cloth(o, u, vv, 4, 4, &m));
-        defsim_body_def bd;
-        defsim_body_def_init(&bd, sizeof bd);
-        bd.rest_positions = m.positions;
-        bd.vertex_count = m.vertex_count;
-        bd.springs = m.springs;
-        bd.spring_count = m.spring_count;
-        defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-        bd.material.stiffness = 200.0;
-        bd.material.vertex_mass = 0.01;
-        TU_OK(defsim_world_add_body(w, &bd, NULL));
-        defsim_mesh_free(&m);
+        tu_add_spring_cloth(w, o, u, vv, 4, 4, 200.0, 0.01);
         n = defsim_world_vertex_count(w);
         x = tu_positions(w);
         v = calloc(3 * (size_t)n, sizeof *v);

@@ -10,7 +10,6 @@
  * second collider); checkpoints give the same gradients bit for bit; a collider replaced during
  * the recording still refuses the backward pass, and a wrong count is refused.
  */
-#include "mesh_body.h"
 #include "test_util.h"
 
 #include <math.h>
@@ -18,7 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const BACKENDS[3] = {"newton_cholmod", "newmark", "bdf2"};
+static const char NC[] = "newton_cholmod", NM[] = "newmark", BD[] = "bdf2";
+static const char *const BACKENDS[3] = {NC, NM, BD};
 
 enum { BLOCK, CLOTH };
 
@@ -106,39 +106,16 @@ static defsim_world *build(const pscene *sc, double e, const double *dir)
     if (sc->kind == BLOCK) {
         /* a 10 cm block, its bottom face dhat / 2 above the plane */
         const double lo[3] = {0, 0, 0}, hi[3] = {BLOCK_CELL, BLOCK_CELL, BLOCK_CELL};
-        defsim_mesh bm;
-        memset(&bm, 0, sizeof bm);
-        bm.size = sizeof bm;
-        TU_OK(defsim_mesh_box(lo, hi, 1, 1, 1, &bm));
-        defsim_body_def bd = test_mesh_body(&bm, DEFSIM_MODEL_STABLE_NEOHOOKEAN);
-        bd.material.youngs_modulus = 1e5;
-        bd.material.poisson_ratio = 0.3;
-        bd.material.density = 1000.0;
-        TU_OK(defsim_world_add_body(w, &bd, NULL));
-        defsim_mesh_free(&bm);
+        tu_add_box(w, DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1, 1, 1, lo, hi, 1e5, 0.3, 1000.0);
         n = defsim_world_vertex_count(w);
         x = tu_positions(w);
         v = calloc(3 * (size_t)n, sizeof *v);
         for (int i = 0; i < n; ++i) x[3 * i + 1] += 0.5e-3 * sqrt(3.0) * BLOCK_CELL;
     } else {
         /* the spring cloth 2 cm above the sphere's top, off centre, falling at 3 m/s */
-        defsim_mesh m;
-        memset(&m, 0, sizeof m);
-        m.size = sizeof m;
         const double o[3] = {-0.13, SPHERE_R + 0.02, -0.17}, u[3] = {0.4, 0, 0},
                      vv[3] = {0, 0, 0.4};
-        TU_OK(defsim_mesh_cloth(o, u, vv, 4, 4, &m));
-        defsim_body_def bd;
-        defsim_body_def_init(&bd, sizeof bd);
-        bd.rest_positions = m.positions;
-        bd.vertex_count = m.vertex_count;
-        bd.springs = m.springs;
-        bd.spring_count = m.spring_count;
-        defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
-        bd.material.stiffness = 200.0;
-        bd.material.vertex_mass = 0.01;
-        TU_OK(defsim_world_add_body(w, &bd, NULL));
-        defsim_mesh_free(&m);
+        tu_add_spring_cloth(w, o, u, vv, 4, 4, 200.0, 0.01);
         n = defsim_world_vertex_count(w);
         x = tu_positions(w);
         v = calloc(3 * (size_t)n, sizeof *v);
@@ -308,41 +285,10 @@ static void cloth(const char *backend)
     check_scene(&sc, 1e-7, 3e-7, "cloth on a moving sphere");
 }
 
-static void test_block_newton(void **st)
-{
-    (void)st;
-    block(BACKENDS[0]);
-}
+/* The cases' state: the backend's name. */
+static void test_block(void **st) { block((const char *)*st); }
 
-static void test_block_newmark(void **st)
-{
-    (void)st;
-    block(BACKENDS[1]);
-}
-
-static void test_block_bdf2(void **st)
-{
-    (void)st;
-    block(BACKENDS[2]);
-}
-
-static void test_cloth_newton(void **st)
-{
-    (void)st;
-    cloth(BACKENDS[0]);
-}
-
-static void test_cloth_newmark(void **st)
-{
-    (void)st;
-    cloth(BACKENDS[1]);
-}
-
-static void test_cloth_bdf2(void **st)
-{
-    (void)st;
-    cloth(BACKENDS[2]);
-}
+static void test_cloth(void **st) { cloth((const char *)*st); }
 
 /* Checkpoints every 3rd state (and the automatic interval, which stores all here) give the
  * gradients of storing every state bit for bit: the recomputed steps hold the recorded poses
@@ -424,12 +370,12 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_refused),
-        cmocka_unit_test(test_block_newton),
-        cmocka_unit_test(test_block_newmark),
-        cmocka_unit_test(test_block_bdf2),
-        cmocka_unit_test(test_cloth_newton),
-        cmocka_unit_test(test_cloth_newmark),
-        cmocka_unit_test(test_cloth_bdf2),
+        {.name = "test_block_newton", .test_func = test_block, .initial_state = (void *)NC},
+        {.name = "test_block_newmark", .test_func = test_block, .initial_state = (void *)NM},
+        {.name = "test_block_bdf2", .test_func = test_block, .initial_state = (void *)BD},
+        {.name = "test_cloth_newton", .test_func = test_cloth, .initial_state = (void *)NC},
+        {.name = "test_cloth_newmark", .test_func = test_cloth, .initial_state = (void *)NM},
+        {.name = "test_cloth_bdf2", .test_func = test_cloth, .initial_state = (void *)BD},
         cmocka_unit_test(test_checkpoints),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -7,8 +7,9 @@
  * rotations separately: a block carried and tilted by a ground plane that moves every step
  * (barrier and friction at both ends of each step), and a cloth falling onto a sphere that
  * rises, drifts and spins under it (friction dragged by the spin, with a still ground plane as a
- * second collider); checkpoints give the same gradients bit for bit; a collider replaced during
- * the recording still refuses the backward pass, and a wrong count is refused.
+ * second collider); checkpoints give the same gradients bit for bit and the run goes on after a
+ * backward pass as without it; a collider replaced during the recording still refuses the
+ * backward pass, and a wrong count is refused.
  */
 #include "test_util.h"
 
@@ -136,12 +137,10 @@ static defsim_world *build(const pscene *sc, double e, const double *dir)
     return w;
 }
 
-/* Steps the run, moving the colliders to state s + 1's poses before step s; with cx, cv, the
- * loss cx . x_N + cv . v_N. */
-static double run(const pscene *sc, defsim_world *w, double e, const double *dir,
-                  const double *cx, const double *cv)
+/* Steps s0 .. s1 - 1 of the run, moving the colliders to state s + 1's poses before step s. */
+static void steps(const pscene *sc, defsim_world *w, int s0, int s1, double e, const double *dir)
 {
-    for (int s = 0; s < sc->steps; ++s) {
+    for (int s = s0; s < s1; ++s) {
         for (int c = 0; c < ncolliders(sc); ++c) {
             defsim_collider_id id;
             double p[3], q[4];
@@ -152,6 +151,13 @@ static double run(const pscene *sc, defsim_world *w, double e, const double *dir
         const defsim_status st = defsim_world_step(w, sc->h);
         if (st != DEFSIM_OK) fail_msg("step %d: %s", s, defsim_world_last_error(w));
     }
+}
+
+/* The run; with cx, cv, its loss cx . x_N + cv . v_N. */
+static double run(const pscene *sc, defsim_world *w, double e, const double *dir,
+                  const double *cx, const double *cv)
+{
+    steps(sc, w, 0, sc->steps, e, dir);
     if (!cx) return 0.0;
     const int n3 = 3 * defsim_world_vertex_count(w);
     double *x = tu_positions(w), *v = tu_velocities(w), L = 0.0;
@@ -324,6 +330,49 @@ static void test_checkpoints(void **st)
     }
 }
 
+/* After a backward pass that recomputed steps (interval 3), the world's colliders are where the
+ * run left them and the run goes on bit for bit, the colliders moving on, as in a world that
+ * had no backward pass. */
+static void test_backward_leaves_run(void **st)
+{
+    (void)st;
+    const pscene sc = {CLOTH, BD, 7, 1e-2};
+    defsim_world *w = build(&sc, 0.0, NULL), *ref = build(&sc, 0.0, NULL);
+    const int n3 = 3 * defsim_world_vertex_count(w);
+    defsim_tape_def td;
+    defsim_tape_def_init(&td, sizeof td);
+    td.interval = 3;
+    defsim_tape *t = NULL;
+    TU_OK(defsim_world_record(w, &td, &t));
+    run(&sc, w, 0.0, NULL, NULL, NULL);
+    run(&sc, ref, 0.0, NULL, NULL, NULL);
+    double *dx = calloc((size_t)n3 * 8, sizeof *dx), g[8 * 2 * 6];
+    for (int i = 0; i < n3; ++i) dx[7 * n3 + i] = 1.0;
+    const defsim_gradient gr = {"collider_poses", g, 8 * 2 * 6};
+    TU_OK(defsim_tape_backward(t, dx, NULL, (int64_t)n3 * 8, &gr, 1));
+    defsim_tape_stats ts = {.size = sizeof ts};
+    TU_OK(defsim_tape_get_stats(t, &ts));
+    assert_true(ts.recomputed_steps == 6);
+    defsim_collider_def a, b;
+    a.size = b.size = sizeof a;
+    TU_OK(defsim_world_get_collider(w, 0, NULL, &a));
+    TU_OK(defsim_world_get_collider(ref, 0, NULL, &b));
+    assert_memory_equal(a.position, b.position, sizeof a.position);
+    assert_memory_equal(a.rotation, b.rotation, sizeof a.rotation);
+    steps(&sc, w, sc.steps, sc.steps + 4, 0.0, NULL);
+    steps(&sc, ref, sc.steps, sc.steps + 4, 0.0, NULL);
+    double *x = tu_positions(w), *xr = tu_positions(ref);
+    assert_memory_equal(x, xr, (size_t)n3 * sizeof *x);
+    printf("cloth on a moving sphere bdf2: after a backward pass (%lld steps recomputed) the run "
+           "goes on bit for bit\n", (long long)ts.recomputed_steps);
+    free(x);
+    free(xr);
+    free(dx);
+    defsim_tape_destroy(t);
+    defsim_world_destroy(w);
+    defsim_world_destroy(ref);
+}
+
 /* Poses are followed, the colliders themselves are not: a collider replaced during the
  * recording by one of another friction (its slot reused) stops it, and the backward pass says
  * so; a wrong count of collider_poses is refused; the world is left as it was. */
@@ -377,6 +426,7 @@ int main(void)
         {.name = "test_cloth_newmark", .test_func = test_cloth, .initial_state = (void *)NM},
         {.name = "test_cloth_bdf2", .test_func = test_cloth, .initial_state = (void *)BD},
         cmocka_unit_test(test_checkpoints),
+        cmocka_unit_test(test_backward_leaves_run),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -2,8 +2,8 @@
 /*
  * Recordings of a run and their backward pass (docs/gradients.md): a tape follows the world's
  * successful steps (the world calls it through its link, world.h), storing the step sizes, each
- * step's held external forces, attachment targets and colliders' poses, the state of every k-th step
- * (checkpoints) and the last state. The backward pass walks the
+ * step's held external forces, attachment targets and colliders' poses, the state of every k-th
+ * step (checkpoints) and the last state. The backward pass walks the
  * checkpoints from the last: it steps the world forward again from a checkpoint to the next
  * (bit for bit, checked against the stored state), then runs the backend's adjoint step over
  * each step of that segment in reverse, accumulating the loss's adjoints of the state and,
@@ -1081,7 +1081,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                        : k == G_FEXT || k == G_PIN ? "3 * vertex count per step"
                        : k == G_ATT_P               ? "3 per attachment and step"
                        : k == G_MU_COL              ? "one per collider"
-                       : k == G_POSE ? "6 per collider and recorded state, (N + 1) * 6 * collider count"
+                       : k == G_POSE ? "6 per collider and state: (N + 1) * 6 * collider count"
                        : k == G_MU_BODY             ? "one per body"
                        : k >= G_ATT_K               ? "one per attachment"
                                                     : "one per body");

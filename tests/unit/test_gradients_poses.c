@@ -5,11 +5,12 @@
  * differences of whole runs (Richardson-extrapolated) on the barrier's differentiable backends
  * (newton_cholmod, newmark, bdf2), along random directions of the translations and of the
  * rotations separately: a block carried and tilted by a ground plane that moves every step
- * (barrier and friction at both ends of each step), and a cloth falling onto a sphere that
- * rises, drifts and spins under it (friction dragged by the spin, with a still ground plane as a
- * second collider); checkpoints give the same gradients bit for bit and the run goes on after a
- * backward pass as without it; a collider replaced during the recording still refuses the
- * backward pass, and a wrong count is refused.
+ * (barrier and friction at both ends of each step), a cloth falling onto a sphere that sinks,
+ * drifts and spins under it (friction dragged by the spin, with a still ground plane as a
+ * second collider), and a block resting on a still plane (its poses are parameters too);
+ * checkpoints give the same gradients bit for bit and the run goes on after a backward pass as
+ * without it; a collider replaced during the recording still refuses the backward pass, and a
+ * wrong count is refused.
  */
 #include "test_util.h"
 
@@ -28,6 +29,7 @@ typedef struct pscene {
     const char *backend;
     int steps;
     double h;
+    int still;                /* BLOCK: the plane stays (set_pose never moves it) */
 } pscene;
 
 #define SPHERE_R 0.3
@@ -69,9 +71,10 @@ static void pose_at(const pscene *sc, int c, int s, double e, const double *dir,
     double th[3] = {0, 0, 0};
     p[0] = p[1] = p[2] = 0.0;
     if (sc->kind == BLOCK) {
-        const double a = 5e-4 * s, ax[3] = {0.3, 0.0, 1.0}, na = sqrt(1.09);
-        p[0] = 0.05 + 0.003 * s;
-        p[1] = -2e-5 * s;
+        const int m = sc->still ? 0 : s;
+        const double a = 5e-4 * m, ax[3] = {0.3, 0.0, 1.0}, na = sqrt(1.09);
+        p[0] = 0.05 + 0.003 * m;
+        p[1] = -2e-5 * m;
         p[2] = 0.05;
         for (int k = 0; k < 3; ++k) th[k] = a * ax[k] / na;
     } else if (c == 0) {
@@ -268,7 +271,7 @@ static void check_scene(const pscene *sc, double eps_p, double eps_r, const char
  * friction's stick regime: 0.37 m/s). */
 static void block(const char *backend)
 {
-    const pscene sc = {BLOCK, backend, 12, 1e-2};
+    const pscene sc = {BLOCK, backend, 12, 1e-2, 0};
     defsim_world *w = build(&sc, 0.0, NULL);
     const int n = defsim_world_vertex_count(w);
     run(&sc, w, 0.0, NULL, NULL, NULL);
@@ -287,8 +290,17 @@ static void block(const char *backend)
  * steps 1e-7 m and 3e-7 rad (1e-7 m at the sphere's surface). */
 static void cloth(const char *backend)
 {
-    const pscene sc = {CLOTH, backend, 8, 1e-2};
+    const pscene sc = {CLOTH, backend, 8, 1e-2, 0};
     check_scene(&sc, 1e-7, 3e-7, "cloth on a moving sphere");
+}
+
+/* A still plane is a parameter too (the gradient of moving it from rest): the block resting on
+ * it for 10 steps; the perturbed runs move the plane a little in every step. */
+static void test_still_plane(void **st)
+{
+    (void)st;
+    const pscene sc = {BLOCK, NC, 10, 1e-2, 1};
+    check_scene(&sc, 1e-8, 1e-7, "block on a still plane");
 }
 
 /* The cases' state: the backend's name. */
@@ -303,7 +315,7 @@ static void test_checkpoints(void **st)
 {
     (void)st;
     for (int b = 0; b < 3; ++b) {
-        const pscene sc = {BLOCK, BACKENDS[b], 10, 1e-2};
+        const pscene sc = {BLOCK, BACKENDS[b], 10, 1e-2, 0};
         defsim_world *w = build(&sc, 0.0, NULL);
         const int n3 = 3 * defsim_world_vertex_count(w);
         defsim_world_destroy(w);
@@ -336,7 +348,7 @@ static void test_checkpoints(void **st)
 static void test_backward_leaves_run(void **st)
 {
     (void)st;
-    const pscene sc = {CLOTH, BD, 7, 1e-2};
+    const pscene sc = {CLOTH, BD, 7, 1e-2, 0};
     defsim_world *w = build(&sc, 0.0, NULL), *ref = build(&sc, 0.0, NULL);
     const int n3 = 3 * defsim_world_vertex_count(w);
     defsim_tape_def td;
@@ -379,7 +391,7 @@ static void test_backward_leaves_run(void **st)
 static void test_refused(void **st)
 {
     (void)st;
-    const pscene sc = {BLOCK, BACKENDS[0], 3, 1e-2};
+    const pscene sc = {BLOCK, BACKENDS[0], 3, 1e-2, 0};
     defsim_world *w = build(&sc, 0.0, NULL);
     const int n3 = 3 * defsim_world_vertex_count(w);
     defsim_tape *t = NULL;
@@ -425,6 +437,7 @@ int main(void)
         {.name = "test_cloth_newton", .test_func = test_cloth, .initial_state = (void *)NC},
         {.name = "test_cloth_newmark", .test_func = test_cloth, .initial_state = (void *)NM},
         {.name = "test_cloth_bdf2", .test_func = test_cloth, .initial_state = (void *)BD},
+        cmocka_unit_test(test_still_plane),
         cmocka_unit_test(test_checkpoints),
         cmocka_unit_test(test_backward_leaves_run),
     };

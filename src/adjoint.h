@@ -23,6 +23,8 @@ typedef struct defsim__grad {
     double *xn;                             /* 3 nv: the step's start positions' adjoint through
                                                what contact lags from them (of the step) */
     double *mu_col;                         /* per collider slot: friction coefficient */
+    double *pose_col;                       /* 12 per collider slot: its start and end poses
+                                               (dp, dtheta each) of the step (contact.h) */
     double *mu_body;                        /* per body slot: body contact's friction */
     uint32_t want;                          /* DEFSIM__WANT_*: the costly ones the host asked for */
 } defsim__grad;

@@ -711,9 +711,33 @@ static int contact_blocks(defsim__contact *c, const double *x, double k, double 
  * functions of x_n (the collider at its start pose): lam = -k b'(d0), n0 = grad d0 (dn0/dx_n =
  * H0), uc = C x_n - x_n + const with C = R1 R0^T; with F = s (w . ut), dF/du = B w and
  * dF/dn0 = -(n0 . u)(B w + s (n0 . w) n0) - s (n0 . w) u, so w^T f = -mu lam F has
- * d/dx_n = -F mu dlam/dx_n - mu lam (-B w - (C - I)^T B w + H0 dF/dn0). */
+ * d/dx_n = -F mu dlam/dx_n - mu lam (-B w - (C - I)^T B w + H0 dF/dn0).
+ *
+ * The poses (gpose): a collider moved by a small rigid motion g (dp, then dtheta about its
+ * origin p: R' = (I + [dtheta]) R) has the distance d'(x) = d(g^-1 x), g^-1 x = x - dp -
+ * dtheta x (x - p), and the gradient grad d'(x) = (I + [dtheta]) grad d(g^-1 x). The barrier's
+ * force at the end pose thus changes by dtheta x f - J (dp + dtheta x (x - p)), J = df/dx:
+ * w^T df/dp1 = -J^T w, w^T df/dtheta1 = f x w - (x - p1) x J^T w. Friction sees the end pose
+ * only through the carried point c = x_n + uc = p1 + R1 R0^T (x_n - p0), u = x - c: with
+ * gf = (df/du)^T w = -mu lam B w, dc = dp1 + dtheta1 x (c - p1) gives -gf and -(c - p1) x gf.
+ * The start pose moves lam, n0 and c as x_n moved by dx = -dp0 - dtheta0 x (x_n - p0) would,
+ * and turns n0 by dtheta0 x n0: with G0 = w^T df/dx_n of the pair (above), -G0 and
+ * -(x_n - p0) x G0 - mu lam n0 x dF/dn0. */
+static void add_pose_gradient(double *g, const double a[3], const double r[3])
+{
+    /* a point x of the pair that moves by dx = -dp - dtheta x r, with a = the pair's w^T df/dx
+     * there: g[0..2] (dp) -= a, g[3..5] (dtheta) += a x r */
+    double ar[3];
+    defsim__v3_cross(a, r, ar);
+    for (int k = 0; k < 3; ++k) {
+        g[k] -= a[k];
+        g[3 + k] += ar[k];
+    }
+}
+
 defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const double *w,
-                                  double *gx, double *gxn, double *gmass, double *gmu)
+                                  double *gx, double *gxn, double *gmass, double *gmu,
+                                  double *gpose)
 {
     if (c->mode != DEFSIM__CONTACT_BARRIER) return DEFSIM_ERR_UNSUPPORTED;
     if (c->blocked) return DEFSIM_ERR_UNSTABLE;
@@ -728,12 +752,23 @@ defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const dou
         if (isnan(d)) break;
         if (d <= 0.0) return DEFSIM_ERR_UNSTABLE;
         const double k = kfac(c, i);
+        double *gp0 = gpose ? gpose + 12 * (int64_t)j : NULL, *gp1 = gp0 ? gp0 + 6 : NULL;
         if (d < dh) {
             const double b1 = barrier_d1(d, dh), b2 = barrier_d2(d, dh), nw = defsim__v3_dot(n, wi);
-            for (int a = 0; a < 3 && gx; ++a)
-                gx[3 * (int64_t)i + a] -= k * (b2 * n[a] * nw + b1 * (H[3 * a] * wi[0] +
-                                               H[3 * a + 1] * wi[1] + H[3 * a + 2] * wi[2]));
+            double Jw[3];
+            for (int a = 0; a < 3; ++a)
+                Jw[a] = -k * (b2 * n[a] * nw + b1 * (H[3 * a] * wi[0] + H[3 * a + 1] * wi[1] +
+                                                     H[3 * a + 2] * wi[2]));
+            for (int a = 0; a < 3 && gx; ++a) gx[3 * (int64_t)i + a] += Jw[a];
             if (gmass) gmass[i] -= c->khat * b1 * nw;
+            if (gp1) {   /* -J^T w; f x w - (x - p1) x J^T w, f = -k b' n */
+                double r[3], fw[3], f[3];
+                for (int a = 0; a < 3; ++a) f[a] = -k * b1 * n[a];
+                defsim__v3_sub(xi, c->pose1[j].p, r);
+                defsim__v3_cross(f, wi, fw);
+                add_pose_gradient(gp1, Jw, r);
+                for (int a = 0; a < 3; ++a) gp1[3 + a] += fw[a];
+            }
         }
         const double lam = c->lam[q], mu = c->col[j].def.friction;
         if (!(lam > 0.0)) continue;
@@ -752,7 +787,15 @@ defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const dou
         const double mul = mu * lam;
         for (int a = 0; a < 3 && gx; ++a) gx[3 * (int64_t)i + a] -= mul * Bw[a];
         if (gmass) gmass[i] -= mul * F / c->mass[i];
-        if (!gxn) continue;
+        if (gp1) {   /* the carried point c = x_i - u: -gf and -(c - p1) x gf, gf = -mu lam B w */
+            double gf[3], r[3];
+            for (int a = 0; a < 3; ++a) {
+                gf[a] = -mul * Bw[a];
+                r[a] = xi[a] - u[a] - c->pose1[j].p[a];
+            }
+            add_pose_gradient(gp1, gf, r);
+        }
+        if (!gxn && !gp0) continue;
         double d0, g0[3], H0[9];
         if (defsim__collider_distance(&c->col[j], &c->pose0[j], xn, &d0, g0, H0) != DEFSIM_OK ||
             !isfinite(d0)) {
@@ -774,8 +817,16 @@ defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const dou
             for (int a = 0; a < 3; ++a)
                 dFdx[a] -= R0[3 * a] * r[0] + R0[3 * a + 1] * r[1] + R0[3 * a + 2] * r[2] - Bw[a];
         }
-        for (int a = 0; a < 3; ++a)
-            gxn[3 * (int64_t)i + a] -= F * mu * dlam * g0[a] + mul * dFdx[a];
+        double G0[3];
+        for (int a = 0; a < 3; ++a) G0[a] = -(F * mu * dlam * g0[a] + mul * dFdx[a]);
+        for (int a = 0; a < 3 && gxn; ++a) gxn[3 * (int64_t)i + a] += G0[a];
+        if (gp0) {   /* -G0; -(x_n - p0) x G0 - mu lam n0 x dF/dn0 */
+            double r[3], nf[3];
+            defsim__v3_sub(xn, c->pose0[j].p, r);
+            defsim__v3_cross(n0, dFdn, nf);
+            add_pose_gradient(gp0, G0, r);
+            for (int a = 0; a < 3; ++a) gp0[3 + a] -= mul * nf[a];
+        }
     }
     return c->failed;
 }

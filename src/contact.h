@@ -192,12 +192,15 @@ int defsim__contact_blocks(defsim__contact *c, const double *x, double k, double
  * normal force, normal and collider motion functions of the step's start x_n as begin made them
  * (held within the step, differentiated in x_n): for the adjoint w (3 nv) of the forces,
  * gx += (df/dx)^T w (may be NULL), gxn += (df/dx_n)^T w (3 nv, may be NULL), and the parameter
- * gradients w^T df/dm_i into gmass (nv) and w^T df/dmu_j into gmu (per collider slot), each may
- * be NULL. Pairs whose vertex starts inside its collider stay left out, as the forces leave
- * them. Returns DEFSIM_ERR_UNSUPPORTED in PENALTY mode, DEFSIM_ERR_UNSTABLE at an infeasible x,
- * the geometry's failures as defsim__contact_forces. */
+ * gradients w^T df/dm_i into gmass (nv) and w^T df/dmu_j into gmu (per collider slot), and into
+ * gpose (12 per collider slot: the step's start pose, then its end pose, each as dp (3) and
+ * dtheta (3), the small rotation (I + [dtheta]) R about the collider's origin, world frame),
+ * each may be NULL. Pairs whose vertex starts inside its collider stay left out, as the forces
+ * leave them. Returns DEFSIM_ERR_UNSUPPORTED in PENALTY mode, DEFSIM_ERR_UNSTABLE at an
+ * infeasible x, the geometry's failures as defsim__contact_forces. */
 defsim_status defsim__contact_vjp(defsim__contact *c, const double *x, const double *w,
-                                  double *gx, double *gxn, double *gmass, double *gmu);
+                                  double *gx, double *gxn, double *gmass, double *gmu,
+                                  double *gpose);
 
 /* Largest alpha in (0, 1] such that no vertex comes closer to a collider than `fraction` of
  * its distance at x along x + t dx, t <= alpha (all DOFs). 0 on a callback failure. */

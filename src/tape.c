@@ -2,8 +2,8 @@
 /*
  * Recordings of a run and their backward pass (docs/gradients.md): a tape follows the world's
  * successful steps (the world calls it through its link, world.h), storing the step sizes, each
- * step's held external forces and attachment targets, the state of every k-th step
- * (checkpoints) and the last state. The backward pass walks the
+ * step's held external forces, attachment targets and colliders' poses, the state of every k-th
+ * step (checkpoints) and the last state. The backward pass walks the
  * checkpoints from the last: it steps the world forward again from a checkpoint to the next
  * (bit for bit, checked against the stored state), then runs the backend's adjoint step over
  * each step of that segment in reverse, accumulating the loss's adjoints of the state and,
@@ -65,8 +65,13 @@ struct defsim_tape {
     defsim__settings set;     /* the core's settings then */
     double *opt;              /* the backend's option values then */
     int32_t nopt;
-    defsim__collider *col;    /* the colliders' slots then (their defs and poses) */
+    defsim__collider *col;    /* the colliders' slots then (their defs; poses may change) */
     int32_t ncol;
+    int64_t q0;               /* the colliders' poses at state 0 (index into q) */
+    int64_t *qi;              /* nsteps: their poses at the end of each step (index into q) */
+    int64_t nq, qcap;
+    double *q;                /* nq distinct pose sets (7 ncol: position, quaternion per slot) */
+    double *qbuf;             /* 7 ncol: the poses now, assembled */
     int broken;               /* the world changed in a way the recording cannot follow */
     char why[320];            /* what changed */
     int replaying;            /* the backward pass steps the world: not recorded */
@@ -120,6 +125,8 @@ static int64_t tape_bytes(const defsim_tape *t)
                      (size_t)t->nopt * sizeof(double) + (size_t)t->ncol * sizeof *t->col +
                      sizeof *t +
                      (size_t)t->hcap * (sizeof(uint8_t) + sizeof(int64_t)) + history_bytes(t) +
+                     (size_t)(t->qcap + 1) * 7 * (size_t)t->ncol * sizeof(double) +
+                     (size_t)t->hcap * sizeof(int64_t) +
                      (size_t)(t->gcap + 1) * state_bytes(t) / 2);
 }
 
@@ -243,6 +250,38 @@ static int record_forces(defsim_tape *t, const defsim_world *w)
                        &t->gcap, &t->gi[t->nsteps]);
 }
 
+/* Keeps the colliders' poses now (each slot's position and quaternion; the end of the step that
+ * just ended, or state 0) and their index in *index. Returns 0 when out of memory. */
+static int record_poses(defsim_tape *t, const defsim_world *w, int64_t *index)
+{
+    for (int32_t j = 0; j < t->ncol; ++j) {
+        memcpy(t->qbuf + 7 * (int64_t)j, w->colliders.col[j].pos, 3 * sizeof(double));
+        memcpy(t->qbuf + 7 * (int64_t)j + 3, w->colliders.col[j].rot, 4 * sizeof(double));
+    }
+    return keep_vector(t->qbuf, 7 * (int64_t)t->ncol, &t->q, &t->nq, &t->qcap, index);
+}
+
+/* The colliders' poses at recorded state s (7 per slot), or NULL without colliders. */
+static const double *poses_at(const defsim_tape *t, int64_t s)
+{
+    const int64_t i = s == 0 ? t->q0 : t->qi[s - 1];
+    return i >= 0 ? t->q + 7 * (int64_t)t->ncol * i : NULL;
+}
+
+/* Puts the colliders where recorded step j had them: at state j's poses, moving to state
+ * j + 1's over the step (as defsim_collider_set_pose left them for it). */
+static void hold_poses(const defsim_tape *t, defsim_world *w, int64_t j)
+{
+    const double *a = poses_at(t, j), *b = poses_at(t, j + 1);
+    for (int32_t k = 0; a && k < t->ncol; ++k) {
+        defsim__collider *c = &w->colliders.col[k];
+        memcpy(c->pos, a + 7 * (int64_t)k, sizeof c->pos);
+        memcpy(c->rot, a + 7 * (int64_t)k + 3, sizeof c->rot);
+        memcpy(c->pos1, b + 7 * (int64_t)k, sizeof c->pos1);
+        memcpy(c->rot1, b + 7 * (int64_t)k + 3, sizeof c->rot1);
+    }
+}
+
 /* The driven pins' targets of recorded step j (3 nv, NaN where not driven), or NULL. */
 static const double *pin_targets(const defsim_tape *t, int64_t j)
 {
@@ -307,15 +346,24 @@ static const char *changed(const defsim_tape *t, const defsim_world *w)
     return NULL;
 }
 
-/* Whether the colliders changed since the recording began (checked after what a recording
- * cannot differentiate: a collider that came to a penalty backend is that). */
+/* Whether the colliders changed since the recording began, other than in their poses, which
+ * the tape records (checked after what a recording cannot differentiate: a collider that came
+ * to a penalty backend is that). */
 static const char *colliders_changed(const defsim_tape *t, const defsim_world *w)
 {
-    if (w->colliders.ncol != t->ncol ||
-        (t->ncol > 0 &&
-         memcmp(w->colliders.col, t->col, (size_t)t->ncol * sizeof *t->col) != 0))
-        return "a collider was added, removed, moved or changed (gradients hold the colliders "
-               "fixed: their poses over time are not differentiated)";
+    int same = w->colliders.ncol == t->ncol;
+    for (int32_t j = 0; j < t->ncol && same; ++j) {
+        defsim__collider c;   /* slot j now, with the poses it had then */
+        memcpy(&c, &w->colliders.col[j], sizeof c);
+        memcpy(c.pos, t->col[j].pos, sizeof c.pos);
+        memcpy(c.rot, t->col[j].rot, sizeof c.rot);
+        memcpy(c.pos1, t->col[j].pos1, sizeof c.pos1);
+        memcpy(c.rot1, t->col[j].rot1, sizeof c.rot1);
+        same = memcmp(&c, &t->col[j], sizeof c) == 0;
+    }
+    if (!same)
+        return "a collider was added, removed or replaced (gradients follow the colliders' poses, "
+               "collider_poses, but not a change of their shape, friction or number)";
     return NULL;
 }
 
@@ -358,14 +406,16 @@ static void tape_step(defsim__tape_link *link, double h)
         uint8_t *fr = pi ? realloc(t->fresh, (size_t)cap * sizeof *fr) : NULL;
         if (fr) t->fresh = fr;
         int64_t *gi = fr ? realloc(t->gi, (size_t)cap * sizeof *gi) : NULL;
-        if (!hh || !fi || !pi || !fr || !gi) {
+        if (gi) t->gi = gi;
+        int64_t *qi = gi ? realloc(t->qi, (size_t)cap * sizeof *qi) : NULL;
+        if (!hh || !fi || !pi || !fr || !gi || !qi) {
             breaks(t, "out of memory while recording");
             return;
         }
-        t->gi = gi;
+        t->qi = qi;
         t->hcap = cap;
     }
-    if (!record_forces(t, w)) {
+    if (!record_forces(t, w) || !record_poses(t, w, &t->qi[t->nsteps])) {
         breaks(t, "out of memory while recording");
         return;
     }
@@ -441,6 +491,7 @@ typedef struct world_saved {
     double cstat[DEFSIM__CSTAT_COUNT];   /* the contact statistics */
     unsigned char *carry;     /* what collider contact carries to the next step (its chunk) */
     size_t ncarry;
+    double *poses;            /* the colliders' poses now and at the next step's end (14 each) */
 } world_saved;
 
 static int world_save(const defsim_world *w, world_saved *s)
@@ -479,6 +530,16 @@ static int world_save(const defsim_world *w, world_saved *s)
     /* The steps run again and the adjoints' contact begin change contact's statistics and what
      * it carries between steps (the safe box): kept as a checkpoint keeps them. */
     memcpy(s->cstat, w->contact.stat, sizeof s->cstat);
+    const int32_t ncol = w->colliders.ncol;
+    if (!(s->poses = malloc(14 * (size_t)(ncol > 0 ? ncol : 1) * sizeof(double)))) return 0;
+    for (int32_t j = 0; j < ncol; ++j) {
+        const defsim__collider *c = &w->colliders.col[j];
+        double *p = s->poses + 14 * (int64_t)j;
+        memcpy(p, c->pos, sizeof c->pos);
+        memcpy(p + 3, c->rot, sizeof c->rot);
+        memcpy(p + 7, c->pos1, sizeof c->pos1);
+        memcpy(p + 10, c->rot1, sizeof c->rot1);
+    }
     if (w->planned) {
         const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
                                                        (defsim__contact *)&w->contact);
@@ -528,6 +589,14 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
             memcpy(w->coupling.pin_target, s->pin_target, 3 * (size_t)w->nv * sizeof(double));
         }
         memcpy(w->contact.stat, s->cstat, sizeof s->cstat);
+        for (int32_t j = 0; s->poses && j < w->colliders.ncol; ++j) {
+            defsim__collider *c = &w->colliders.col[j];
+            const double *p = s->poses + 14 * (int64_t)j;
+            memcpy(c->pos, p, sizeof c->pos);
+            memcpy(c->rot, p + 3, sizeof c->rot);
+            memcpy(c->pos1, p + 7, sizeof c->pos1);
+            memcpy(c->rot1, p + 10, sizeof c->rot1);
+        }
         if (w->planned) {
             const defsim__term tc = defsim__terms_detached(&w->sys, DEFSIM__TERM_KIND_collider,
                                                            &w->contact);
@@ -542,6 +611,7 @@ static void world_restore(const defsim_tape *t, defsim_world *w, world_saved *s)
     free(s->fext);
     free(s->att_p);
     free(s->carry);
+    free(s->poses);
 }
 
 /* The parameter gradients' arrays, sized for the system. */
@@ -561,6 +631,7 @@ static void grad_free(defsim__grad *g)
     free(g->wmask);
     free(g->xn);
     free(g->mu_col);
+    free(g->pose_col);
     free(g->mu_body);
 }
 
@@ -591,8 +662,9 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, in
     ok &= (g->att_p = calloc(3 * na, sizeof(double))) != NULL;
     ok &= (g->xn = calloc(nd, sizeof(double))) != NULL;
     ok &= (g->mu_col = calloc((size_t)(ncol > 0 ? ncol : 1), sizeof(double))) != NULL;
+    ok &= (g->pose_col = calloc(12 * (size_t)(ncol > 0 ? ncol : 1), sizeof(double))) != NULL;
     ok &= (g->mu_body = calloc((size_t)(nslots > 0 ? nslots : 1), sizeof(double))) != NULL;
-    total += 4 * nd + nd / 3 + 5 * na + (size_t)(ncol > 0 ? ncol : 1) +
+    total += 4 * nd + nd / 3 + 5 * na + 13 * (size_t)(ncol > 0 ? ncol : 1) +
              (size_t)(nslots > 0 ? nslots : 1);
     *bytes += (int64_t)(total * sizeof(double));
     return ok;
@@ -600,13 +672,13 @@ static int grad_alloc(defsim__grad *g, const defsim__system *s, int32_t ncol, in
 
 enum {
     G_X0, G_V0, G_E, G_NU, G_RHO, G_ALPHA, G_BETA, G_FEXT, G_ATT_K, G_ATT_C, G_ATT_P, G_PIN,
-    G_MU_COL, G_MU_BODY, G_NAMES
+    G_MU_COL, G_MU_BODY, G_POSE, G_NAMES
 };
 static const char *const grad_names[G_NAMES] = {
     "initial_positions", "initial_velocities", "youngs_modulus", "poisson_ratio", "density",
     "mass_damping", "stiffness_damping", "external_forces", "attachment_stiffness",
     "attachment_damping", "attachment_targets", "pin_targets", "collider_friction",
-    "body_friction"};
+    "body_friction", "collider_poses"};
 
 static int32_t live_bodies(const defsim_world *w)
 {
@@ -663,12 +735,30 @@ static int body_gradients(const defsim_world *w, const defsim__grad *g, double *
     return 1;
 }
 
+/* Step j's pose gradients (its start and end pose, per slot) added to collider_poses' states j
+ * and j + 1 in out (6 per live collider in get_collider's order, or NULL), then zeroed. */
+static void pose_gradients(const defsim_tape *t, const defsim_world *w, defsim__grad *g,
+                           int64_t j, double *out)
+{
+    const int64_t nl = defsim__collider_set_live(&w->colliders);
+    for (int32_t k = 0, m = 0; out && k < t->ncol; ++k) {
+        if (!(w->colliders.col[k].generation & 1u)) continue;
+        const double *gp = g->pose_col + 12 * (int64_t)k;
+        for (int a = 0; a < 6; ++a) {
+            out[6 * (nl * j + m) + a] += gp[a];
+            out[6 * (nl * (j + 1) + m) + a] += gp[6 + a];
+        }
+        ++m;
+    }
+    if (t->ncol > 0) memset(g->pose_col, 0, 12 * (size_t)t->ncol * sizeof(double));
+}
+
 /* The backward pass proper, on a world saved by the caller. ax, av hold dL/dx_N, dL/dv_N on
  * entry and dL/dx_0, dL/dv_0 on return. */
 static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double *dl_dx,
                                   const double *dl_dv, double *ax, double *av, double *fext_out,
-                                  double *attp_out, double *pin_out, defsim__grad *g,
-                                  int64_t *peak)
+                                  double *attp_out, double *pin_out, double *pose_out,
+                                  defsim__grad *g, int64_t *peak)
 {
     const int64_t n3 = 3 * (int64_t)t->nv, n6 = 2 * n3;
     const int32_t k = t->k;
@@ -700,8 +790,11 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                 if (t->hist && j > s0 && t->fresh[j] && b->reset)
                     st = b->reset(&defsim__host, &w->handle, w->backend.state);
                 if (st == DEFSIM_OK) st = hold_forces(t, w, j);
-                if (st == DEFSIM_OK) hold_pins(t, w, j);
-                if (st == DEFSIM_OK) st = defsim_world_step(w, t->h[j]);
+                if (st == DEFSIM_OK) {
+                    hold_pins(t, w, j);
+                    hold_poses(t, w, j);
+                    st = defsim_world_step(w, t->h[j]);
+                }
                 if (st == DEFSIM_OK) save_state(w, seg + n6 * (j + 1 - s0));
             }
             t->replaying = 0;
@@ -748,6 +841,7 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
                                            .drives = G != NULL, .ap1 = ap1};
             w->msg->error[0] = '\0';
             st = hold_forces(t, w, j);   /* the forces the step held, for its evaluations */
+            hold_poses(t, w, j);         /* and the colliders' poses */
             /* the step's contact: its pairs and what friction lags from its start */
             if (st == DEFSIM_OK) st = defsim__world_adjoint_begin(w, S0, S0 + n3, t->h[j]);
             if (st == DEFSIM_OK)
@@ -755,6 +849,7 @@ static defsim_status run_backward(defsim_tape *t, defsim_world *w, const double 
             defsim__world_adjoint_end(w);
             for (int64_t i = 0; i < n3; ++i) ax0[i] += g->xn[i];
             memset(g->xn, 0, (size_t)n3 * sizeof(double));
+            pose_gradients(t, w, g, j, pose_out);
             if (st != DEFSIM_OK) {
                 tape_error(t, "backward: the adjoint of step %lld failed: %s", (long long)j,
                            w->msg->error[0] ? w->msg->error : defsim_status_string(st));
@@ -886,6 +981,14 @@ defsim_status defsim_world_record(defsim_world *w, const defsim_tape_def *def, d
         return DEFSIM_ERR_OUT_OF_MEMORY;
     }
     if (t->ncol > 0) memcpy(t->col, w->colliders.col, (size_t)t->ncol * sizeof *t->col);
+    t->q0 = -1;
+    if (t->ncol > 0 && (!(t->qbuf = malloc(7 * (size_t)t->ncol * sizeof(double))) ||
+                        !record_poses(t, w, &t->q0))) {
+        t->link.world = NULL;
+        defsim_tape_destroy(t);
+        defsim__error(w->msg, "record: out of memory");
+        return DEFSIM_ERR_OUT_OF_MEMORY;
+    }
     if (t->nopt > 0)
         memcpy(t->opt, defsim__options_values(&w->options), (size_t)t->nopt * sizeof(double));
     save_state(w, t->last);
@@ -956,7 +1059,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                           "initial_positions, initial_velocities, youngs_modulus, poisson_ratio, "
                           "density, mass_damping, stiffness_damping, external_forces, "
                           "attachment_stiffness, attachment_damping, attachment_targets, "
-                          "pin_targets, collider_friction, body_friction",
+                          "pin_targets, collider_friction, body_friction, collider_poses",
                        (int)i, grads[i].name ? grads[i].name : "(null)");
             return DEFSIM_ERR_INVALID_ARGUMENT;
         }
@@ -964,6 +1067,8 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                           : k == G_FEXT || k == G_PIN ? 3 * (int64_t)t->nv * t->nsteps
                           : k == G_ATT_P             ? 3 * (int64_t)t->natt * t->nsteps
                           : k == G_MU_COL ? defsim__collider_set_live(&w->colliders)
+                          : k == G_POSE ? 6 * (int64_t)defsim__collider_set_live(&w->colliders) *
+                                              (t->nsteps + 1)
                           : k == G_MU_BODY           ? nb
                           : k >= G_ATT_K             ? t->natt
                                                      : nb;
@@ -976,6 +1081,7 @@ static defsim_status check_backward(defsim_tape *t, const double *dl_dx, const d
                        : k == G_FEXT || k == G_PIN ? "3 * vertex count per step"
                        : k == G_ATT_P               ? "3 per attachment and step"
                        : k == G_MU_COL              ? "one per collider"
+                       : k == G_POSE ? "6 per collider and state: (N + 1) * 6 * collider count"
                        : k == G_MU_BODY             ? "one per body"
                        : k >= G_ATT_K               ? "one per attachment"
                                                     : "one per body");
@@ -1035,18 +1141,25 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
             ax[i] = dl_dx ? dl_dx[n3 * t->nsteps + i] : 0.0;
             av[i] = dl_dv ? dl_dv[n3 * t->nsteps + i] : 0.0;
         }
-        double *fext_out = NULL, *attp_out = NULL, *pin_out = NULL;
+        double *fext_out = NULL, *attp_out = NULL, *pin_out = NULL, *pose_out = NULL;
         for (int32_t i = 0; i < n; ++i) {
             if (which[i] == G_FEXT) fext_out = grads[i].out;
             if (which[i] == G_ATT_P) attp_out = grads[i].out;
             if (which[i] == G_PIN) pin_out = grads[i].out;
+            if (which[i] == G_POSE && grads[i].count > 0) pose_out = grads[i].out;
+        }
+        if (pose_out) {   /* summed over the steps that start and end at each state */
+            const int64_t c = 6 * (int64_t)defsim__collider_set_live(&w->colliders) *
+                              (t->nsteps + 1);
+            memset(pose_out, 0, (size_t)c * sizeof *pose_out);
         }
         for (int32_t i = 0; i < n; ++i) {
             if (which[i] == G_E || which[i] == G_NU) g.want |= DEFSIM__WANT_LAME;
             if (which[i] == G_BETA) g.want |= DEFSIM__WANT_BETA;
         }
         w->handle.grad = &g;
-        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, pin_out, &g, &peak);
+        st = run_backward(t, w, dl_dx, dl_dv, ax, av, fext_out, attp_out, pin_out, pose_out, &g,
+                          &peak);
         w->handle.grad = NULL;
         if (st == DEFSIM_OK && !body_gradients(w, &g, body, nb)) {
             tape_error(t, "backward: out of memory");
@@ -1055,8 +1168,10 @@ defsim_status defsim_tape_backward(defsim_tape *t, const double *dl_dx, const do
         if (st == DEFSIM_OK)
             for (int32_t i = 0; i < n; ++i) {
                 const int k = which[i];
-                if (k == G_FEXT || k == G_ATT_P || k == G_PIN) {
-                    const double *src = k == G_FEXT ? fext_out : k == G_PIN ? pin_out : attp_out;
+                if (k == G_FEXT || k == G_ATT_P || k == G_PIN || k == G_POSE) {
+                    const double *src = k == G_FEXT ? fext_out : k == G_PIN ? pin_out
+                                        : k == G_POSE                      ? pose_out
+                                                                           : attp_out;
                     if (grads[i].out != src && grads[i].count > 0)   /* asked twice */
                         memcpy(grads[i].out, src, (size_t)grads[i].count * sizeof(double));
                     continue;
@@ -1133,5 +1248,8 @@ void defsim_tape_destroy(defsim_tape *t)
     free(t->last);
     free(t->opt);
     free(t->col);
+    free(t->qi);
+    free(t->q);
+    free(t->qbuf);
     free(t);
 }

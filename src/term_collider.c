@@ -274,7 +274,7 @@ static defsim_status end(defsim__system *s, const defsim__step_ctx *sc, void *wa
 }
 
 /* Reverse mode (docs/gradients.md): the barrier and the lagged friction (contact.c), the
- * friction's x_n-derivatives into g->xn, the masses' and the colliders' mu into g. */
+ * friction's x_n-derivatives into g->xn, the masses', the colliders' mu and poses into g. */
 static defsim_status vjp(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
                          const double *w, double *gx, double *gv, defsim__grad *g)
 {
@@ -282,7 +282,7 @@ static defsim_status vjp(const defsim__term *t, const defsim__system *s, const d
     (void)gv;
     if (!(ev->which & DEFSIM_FORCE_ELASTIC)) return DEFSIM_OK;
     return defsim__contact_vjp(contact(t), ev->x, w, gx, g ? g->xn : NULL, g ? g->mass : NULL,
-                               g ? g->mu_col : NULL);
+                               g ? g->mu_col : NULL, g ? g->pose_col : NULL);
 }
 
 static const char *const COUNTERS[] = {"collider.linearisations"};

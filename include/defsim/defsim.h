@@ -1279,7 +1279,12 @@ typedef struct defsim_tape_stats {
 /// other vertex and step), "collider_friction" (count = collider count, in
 /// defsim_world_get_collider's order: dL/dmu of each collider's friction coefficient, also
 /// where it is 0), "body_friction" (count = body count: dL/dmu of each body's body-contact
-/// friction); out (count doubles, the host's) receives it.
+/// friction), "collider_poses" (count = (N + 1) * collider count * 6: for each recorded state
+/// s = 0 .. N and each collider in defsim_world_get_collider's order, dL/d of its pose at state
+/// s, which defsim_collider_set_pose gave for step s - 1 (s = 0: its pose when the recording
+/// began), as 3 translation components dp (m) then 3 of a small rotation dtheta (rad, world
+/// frame, about the collider's origin): the pose moved to (p + dp, (I + [dtheta]) R));
+/// out (count doubles, the host's) receives it.
 typedef struct defsim_gradient {
     const char *name;              ///< The parameter (above).
     double *out;                   ///< Receives count doubles.
@@ -1320,8 +1325,9 @@ DEFSIM_API defsim_status defsim_world_record(defsim_world *world, const defsim_t
 /// and may be run backward again. Errors: DEFSIM_ERR_INVALID_ARGUMENT (NULL tape, a tape whose
 /// world is gone, count not (N + 1) * 3 * vertex count, a non-finite loss gradient, an
 /// unknown name or a wrong count in grads, or the world changed in a way the recording cannot
-/// follow: bodies, pins, options, colliders added, removed, moved (set_pose) or changed, or the
-/// state or time set between recorded steps: the message says which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
+/// follow: bodies, pins, options, colliders added, removed or replaced (their poses may change:
+/// set_pose is recorded), or the state or time set between recorded steps: the message says
+/// which), DEFSIM_ERR_UNSUPPORTED (a recomputed step differs from the recording,
 /// or since the last recorded step the scene came to use what cannot be differentiated: a
 /// collider, the force callback, ...),
 /// DEFSIM_ERR_OUT_OF_MEMORY, DEFSIM_ERR_LOCKED, or the backend's error. On an error the grads'

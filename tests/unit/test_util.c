@@ -225,6 +225,30 @@ defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, i
     return tu_add_box_material(w, nx, ny, nz, lo, hi, &mat);
 }
 
+defsim_body_id tu_add_spring_cloth(defsim_world *w, const double o[3], const double u[3],
+                                   const double v[3], int nu, int nv, double k,
+                                   double vertex_mass)
+{
+    defsim_mesh m;
+    memset(&m, 0, sizeof m);
+    m.size = sizeof m;
+    TU_OK(defsim_mesh_cloth(o, u, v, nu, nv, &m));
+    defsim_body_def bd;
+    defsim_body_def_init(&bd, sizeof bd);
+    bd.rest_positions = m.positions;
+    bd.vertex_count = m.vertex_count;
+    bd.springs = m.springs;
+    bd.spring_count = m.spring_count;
+    defsim_material_init(&bd.material, sizeof bd.material, DEFSIM_MODEL_SPRING);
+    bd.material.stiffness = k;
+    bd.material.vertex_mass = vertex_mass;
+    defsim_body_id id = {0, 0};
+    const defsim_status st = defsim_world_add_body(w, &bd, &id);
+    if (st != DEFSIM_OK) fail_msg("add_body: %s", defsim_world_last_error(w));
+    defsim_mesh_free(&m);
+    return id;
+}
+
 int tu_pin_below(defsim_world *w, defsim_body_id b, int axis, double value)
 {
     int nv = defsim_body_vertex_count(w, b), off = defsim_body_vertex_offset(w, b);

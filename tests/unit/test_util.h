@@ -52,6 +52,12 @@ defsim_body_id tu_add_box_material(defsim_world *w, int nx, int ny, int nz, cons
 defsim_body_id tu_add_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
                           const double lo[3], const double hi[3], double E, double nu, double rho);
 
+/* Adds a spring cloth (defsim_mesh_cloth: corner o, edges u and v, nu x nv cells) of spring
+ * stiffness k (N/m) and vertex_mass (kg per vertex); returns its id. */
+defsim_body_id tu_add_spring_cloth(defsim_world *w, const double o[3], const double u[3],
+                                   const double v[3], int nu, int nv, double k,
+                                   double vertex_mass);
+
 /* Two vertices joined by one spring (the oscillators and pendulums of the integrator tests):
  * vertex 0 of mass m0 at `anchor`, vertex 1 of mass m1 at rest at anchor + (l0, 0, 0), starting
  * at x1 (absolute) with velocity v1, vertex 0 at rest; material stiffness k and Rayleigh alpha,

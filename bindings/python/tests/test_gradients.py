@@ -165,3 +165,44 @@ def test_collider_friction_gradient() -> None:
     fd = (travel(0.2 + 1e-6) - travel(0.2 - 1e-6)) / 2e-6
     an = float(g["collider_friction"][0])
     assert fd < 0.0 and abs(an - fd) <= 1e-5 * abs(fd), (an, fd)
+
+
+def test_collider_poses_gradient() -> None:
+    """The block on a plane that slides along x under it (1 mm per step) and lifts 10 um per
+    step: dL/d of the plane's x position at state 5 and of its rotation about z there (the
+    pose moved to (I + [dtheta]) R), against central differences with steps e and 2 e,
+    extrapolated (docs/gradients.md, "Collider poses")."""
+    h = 1e-2
+
+    def run(w: defsim.World, ds: int = -1, dp: float = 0.0, dth: float = 0.0) -> None:
+        c = w.colliders[0]
+        for s in range(STEPS):
+            p = np.array([1e-3 * (s + 1), 1e-5 * (s + 1), 0.0])
+            q = np.array([1.0, 0.0, 0.0, 0.0])
+            if s + 1 == ds:
+                p[0] += dp
+                q = np.array([np.cos(dth / 2), 0.0, 0.0, np.sin(dth / 2)])
+            c.set_pose(p, q)
+            w.step(h)
+
+    w = _block_on_plane(0.4)
+    n = w.vertex_count
+    tape = w.record()
+    run(w)
+    dL_dx = np.zeros((STEPS + 1, n, 3))
+    dL_dx[-1, :, 0] = 1.0 / n
+    dL_dx[-1, :, 1] = 1.0 / n
+    g = tape.backward(dL_dx=dL_dx, params=["collider_poses"])["collider_poses"]
+    assert g.shape == (STEPS + 1, 1, 6)
+
+    def loss(dp: float, dth: float) -> float:
+        b = _block_on_plane(0.4)
+        run(b, 5, dp, dth)
+        return float(b.positions[:, 0].mean() + b.positions[:, 1].mean())
+    for k, e in ((0, 1e-7), (5, 1e-6)):
+        def d(m: float) -> float:   # central differences with step m e
+            dp, dth = (m * e, 0.0) if k == 0 else (0.0, m * e)
+            return (loss(dp, dth) - loss(-dp, -dth)) / (2 * m * e)
+        fd = (4.0 * d(1.0) - d(2.0)) / 3.0   # Richardson
+        an = float(g[5, 0, k])
+        assert abs(fd) > 1e-3 and abs(an - fd) <= 1e-5 * abs(fd), (k, an, fd)

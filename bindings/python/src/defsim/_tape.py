@@ -22,6 +22,9 @@ ATTACHMENT_PARAMS = ("attachment_stiffness", "attachment_damping")
 ATTACHMENT_STEP_PARAMS = ("attachment_targets",)
 #: Per collider (shape (c,), in ``World.colliders``' order): the friction coefficient mu.
 COLLIDER_PARAMS = ("collider_friction",)
+#: Per state and collider (shape (N + 1, c, 6)): the colliders' poses over time, each as the
+#: translation dp and the small rotation dtheta (world frame, about the collider's origin).
+COLLIDER_STATE_PARAMS = ("collider_poses",)
 
 
 class Tape:
@@ -90,7 +93,10 @@ class Tape:
         the vertices it did not drive then); with attachments,
         "attachment_stiffness" and "attachment_damping" of shape (a,) and "attachment_targets"
         of shape (N, a, 3) (world-point targets held during each step); with colliders,
-        "collider_friction" of shape (c,) (dL/dmu of each collider).
+        "collider_friction" of shape (c,) (dL/dmu of each collider) and "collider_poses" of
+        shape (N + 1, c, 6): dL/d of each collider's pose at state s (where
+        ``Collider.set_pose`` put it for step s - 1, the pose at the recording's start for
+        s = 0), as (dp, dtheta), the pose moved to (p + dp, (I + [dtheta]) R).
         The world is left as it was. Raises InvalidArgumentError (wrong shape, non-finite
         values, the world changed since recording began), UnsupportedError."""
         w = self._world
@@ -113,7 +119,7 @@ class Tape:
         names = (list(params) if params is not None
                  else list(VERTEX_PARAMS + BODY_PARAMS + STEP_PARAMS +
                            (ATTACHMENT_PARAMS + ATTACHMENT_STEP_PARAMS if na else ()) +
-                           (COLLIDER_PARAMS if nc else ())))
+                           (COLLIDER_PARAMS + COLLIDER_STATE_PARAMS if nc else ())))
         nb = len(w.bodies)
         outs, keep = {}, []
         g = ffi.new("defsim_gradient[]", max(len(names), 1))
@@ -122,6 +128,7 @@ class Tape:
                            else (N, n, 3) if name in STEP_PARAMS
                            else (na,) if name in ATTACHMENT_PARAMS
                            else (nc,) if name in COLLIDER_PARAMS
+                           else (N + 1, nc, 6) if name in COLLIDER_STATE_PARAMS
                            else (N, na, 3) if name in ATTACHMENT_STEP_PARAMS else (nb,))
             c = ffi.new("char[]", str(name).encode())
             keep.append(c)

@@ -143,7 +143,24 @@ DEFSIM_SIMD_INLINE void law_neohookean(const double *d, int s, const vd F[9], vd
         for (int i = 0; i < 9; ++i) P[i] = v_select(bad, v_set1(NAN), P[i]);
 }
 
+/* psi = mu/2 (tr(F^T F) - 3) - mu log J + lambda/2 (log J)^2; +INFINITY where J <= 0 (as the
+ * scalar law). */
+DEFSIM_SIMD_INLINE vd psi_neohookean(const double *d, int s, const vd F[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd C[9];
+    cofactor(F, C);
+    const vd J = DEFSIM__M3_DET_COF(F, C);
+    vd ff = F[0] * F[0];
+    for (int i = 1; i < 9; ++i) ff += F[i] * F[i];
+    const vl bad = ~(J > 0.0);
+    const vd lj = v_log(v_select(bad, v_set1(1.0), J));
+    const vd psi = 0.5 * mu * (ff - 3.0) - mu * lj + 0.5 * la * lj * lj;
+    return v_select(bad, v_set1(INFINITY), psi);
+}
+
 DEFSIM__BATCHED_KERNEL(neohookean, law_neohookean)
 DEFSIM__BATCHED_QKERNEL(neohookean, law_neohookean)
+DEFSIM__BATCHED_QENERGY(neohookean, psi_neohookean)
 
 #endif

@@ -203,7 +203,21 @@ DEFSIM_SIMD_INLINE void law_snh(const double *d, int s, const vd F[9], vd P[9])
 }
 
 
+/* psi = mu'/2 (I_C - 3) + lambda'/2 (J - alpha)^2 - mu'/2 log(I_C + 1). */
+DEFSIM_SIMD_INLINE vd psi_snh(const double *d, int s, const vd F[9])
+{
+    const vd mp = v_load(ROW(d, DEFSIM__ROW_P0, s)), lp = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    const vd alpha = v_load(ROW(d, DEFSIM__ROW_P2, s));
+    vd C[9];
+    cofactor(F, C);
+    vd ic = F[0] * F[0];
+    for (int i = 1; i < 9; ++i) ic += F[i] * F[i];
+    const vd dj = DEFSIM__M3_DET_COF(F, C) - alpha;
+    return 0.5 * mp * (ic - 3.0) + 0.5 * lp * dj * dj - 0.5 * mp * v_log(ic + 1.0);
+}
+
 DEFSIM__BATCHED_KERNEL(stable_neohookean, law_snh)
 DEFSIM__BATCHED_QKERNEL(stable_neohookean, law_snh)
+DEFSIM__BATCHED_QENERGY(stable_neohookean, psi_snh)
 
 #endif

@@ -111,7 +111,25 @@ DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
             P[3 * i + j] = DEFSIM__M3_MUL(F, S, i, j);
 }
 
+/* psi = mu E:E + lambda/2 tr(E)^2. */
+DEFSIM_SIMD_INLINE vd psi_stvk(const double *d, int s, const vd F[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd E[9];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            E[3 * i + j] = 0.5 * DEFSIM__M3_MUL_TN(F, F, i, j);
+    E[0] -= 0.5;
+    E[4] -= 0.5;
+    E[8] -= 0.5;
+    const vd tr = E[0] + E[4] + E[8];
+    vd ee = E[0] * E[0];
+    for (int i = 1; i < 9; ++i) ee += E[i] * E[i];
+    return mu * ee + 0.5 * la * tr * tr;
+}
+
 DEFSIM__BATCHED_KERNEL(stvk, law_stvk)
 DEFSIM__BATCHED_QKERNEL(stvk, law_stvk)
+DEFSIM__BATCHED_QENERGY(stvk, psi_stvk)
 
 #endif

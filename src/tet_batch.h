@@ -117,6 +117,21 @@ DEFSIM_SIMD_INLINE void qgrad(const double *G, int a, vd g[3])
     for (int j = 0; j < 3; ++j) g[j] = v_load(G + (3 * a + j) * DEFSIM__BATCH);
 }
 
+/* F = sum_a x_a G_a^T at one quadrature point (G as qgrad's) from the lanes' ten nodes p. */
+DEFSIM_SIMD_INLINE void qdeformation(const vd p[10][3], const double *G, vd F[9])
+{
+    for (int r = 0; r < 9; ++r) F[r] = v_set1(0.0);
+    for (int a = 0; a < 10; ++a) {
+        vd gr[3];
+        qgrad(G, a, gr);
+        for (int i = 0; i < 3; ++i) {
+            F[3 * i] += p[a][i] * gr[0];
+            F[3 * i + 1] += p[a][i] * gr[1];
+            F[3 * i + 2] += p[a][i] * gr[2];
+        }
+    }
+}
+
 /* The batched kernel of model `name` for quadratic tets (tet10.h), defsim__batched_q<name>_<isa>,
  * over the DEFSIM__QBATCH_ROWS layout with the linear kernel's LAW: per lane the ten nodes
  * gathered once, at each of the 4 quadrature points F = sum_a x_a G_a^T (the order of
@@ -137,16 +152,7 @@ DEFSIM_SIMD_INLINE void qgrad(const double *G, int a, vd g[3])
             for (int q = 0; q < 4; ++q) {                                                     \
                 const double *G = ROW(d, DEFSIM__QROW_G + 30 * q, s);                         \
                 vd F[9], P[9];                                                                \
-                for (int r = 0; r < 9; ++r) F[r] = v_set1(0.0);                               \
-                for (int a = 0; a < 10; ++a) {                                                \
-                    vd gr[3];                                                                 \
-                    qgrad(G, a, gr);                                                          \
-                    for (int i = 0; i < 3; ++i) {                                             \
-                        F[3 * i] += p[a][i] * gr[0];                                          \
-                        F[3 * i + 1] += p[a][i] * gr[1];                                      \
-                        F[3 * i + 2] += p[a][i] * gr[2];                                      \
-                    }                                                                         \
-                }                                                                             \
+                qdeformation((const vd(*)[3])p, G, F);                                        \
                 LAW(d, s, F, P);                                                              \
                 const vd nw = v_load(ROW(d, DEFSIM__QROW_NW + q, s));                         \
                 for (int i = 0; i < 9; ++i) P[i] *= nw;                                       \
@@ -165,6 +171,37 @@ DEFSIM_SIMD_INLINE void qgrad(const double *G, int a, vd g[3])
                 v_scatter_add_rows3(rows, h[a], nl);                                          \
             }                                                                                 \
         })                                                                                    \
+    }
+
+/* The batched energy of model `name` for quadratic tets, defsim__batched_qenergy_<name>_<isa>
+ * (tet_forces.h's qenergy): the sum over batches [b0, b1) of group g, in batch order, each
+ * batch's real lanes in lane order, of sum_q w_q (PSI(d, s, F_q) - psi_rest) (the scalar
+ * element energy of term_elastic_quadratic.c: its points in the same order, to rounding). A
+ * padding lane is never added. */
+#define DEFSIM__BATCHED_QENERGY(name, PSI)                                                    \
+    double DEFSIM__CAT(defsim__batched_qenergy_##name##_, DEFSIM_ISA)(                        \
+        const defsim__group *g, const double *x, int32_t b0, int32_t b1)                      \
+    {                                                                                         \
+        double sum = 0.0;                                                                     \
+        for (int32_t b = b0; b < b1; ++b) {                                                   \
+            const int32_t *id = g->bidx + 10 * DEFSIM__BATCH * (int64_t)b;                    \
+            const double *d = g->bdata + DEFSIM__QBATCH_ROWS * DEFSIM__BATCH * (int64_t)b;    \
+            for (int s = 0; s < NSUB && s * DEFSIM_VW < g->blanes[b]; ++s) {                  \
+                const int nl = g->blanes[b] - s * DEFSIM_VW;                                  \
+                vd p[10][3];                                                                  \
+                for (int a = 0; a < 10; ++a)                                                  \
+                    gather3(x, id + a * DEFSIM__BATCH + s * DEFSIM_VW, p[a]);                 \
+                const vd rest = v_load(ROW(d, DEFSIM__QROW_REST, s));                         \
+                vd e = v_set1(0.0);                                                           \
+                for (int q = 0; q < 4; ++q) {                                                 \
+                    vd F[9];                                                                  \
+                    qdeformation((const vd(*)[3])p, ROW(d, DEFSIM__QROW_G + 30 * q, s), F);   \
+                    e -= v_load(ROW(d, DEFSIM__QROW_NW + q, s)) * (PSI(d, s, F) - rest);      \
+                }                                                                             \
+                for (int l = 0; l < DEFSIM_VW && l < nl; ++l) sum += e[l];                    \
+            }                                                                                 \
+        }                                                                                     \
+        return sum;                                                                           \
     }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -19,6 +19,12 @@ DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_BATCHED)
 #define DEFSIM__DECLARE_QBATCHED(name) DEFSIM__DECLARE_BATCHED(q##name)
 DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_QBATCHED)
 #define DEFSIM__QBATCHED(name) DEFSIM__BATCHED(q##name)
+/* Their energies (tet_batch.h's DEFSIM__BATCHED_QENERGY). */
+#define DEFSIM__DECLARE_QENERGY(name)                                                         \
+    double DEFSIM__CAT(defsim__batched_qenergy_##name##_, DEFSIM_ISA)(                        \
+        const defsim__group *g, const double *x, int32_t b0, int32_t b1);
+DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_QENERGY)
+#define DEFSIM__QENERGY(name) DEFSIM__CAT(defsim__batched_qenergy_##name##_, DEFSIM_ISA),
 
 /* shell_batch.c: the membranes' and the hinges' kernels. */
 void DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA)(const defsim__group *g,
@@ -41,4 +47,5 @@ const defsim__tet_kernels DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA) = {
                DEFSIM__CAT(defsim__batched_membrane_neohookean_, DEFSIM_ISA),
                DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)},
     .qforces = {DEFSIM__TET_MODEL_LIST(DEFSIM__QBATCHED)},
+    .qenergy = {DEFSIM__TET_MODEL_LIST(DEFSIM__QENERGY)},
 };

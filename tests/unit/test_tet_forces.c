@@ -4,11 +4,13 @@
  * quaternion rotation against the SVD. */
 #include "test_util.h"
 
+#include "energy.h"
 #include "forces.h"
 #include "isotropic.h"
 #include "mesh_body.h"
 #include "mat3.h"
 #include "material.h"
+#include "tet10.h"
 #include "tet_forces.h"
 #include "world.h"
 
@@ -58,10 +60,8 @@ static void add_quad_box(defsim_world *w, defsim_model model, int nx, int ny, in
 
 /* Two boxes of model MODELS[mi] (quad: 10-node tets) whose colours do not fill whole batches
  * (5x3x3 cells, 270 elements, and 2x2x3, 72), of different Lame parameters, deformed by a shear
- * and random displacements of 6 % of a cell: every variant this CPU runs against the scalar
- * kernels, within 1e-12 relative, tails and padding lanes included. Returns the variants
- * tested. */
-static int variants_vs_scalar(int mi, int quad)
+ * and random displacements of 6 % of a cell (set as the world's state, also returned in *xo). */
+static defsim_world *deformed_boxes(int mi, int quad, double **xo)
 {
     defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
     const double lo[3] = {0, 0, 0}, hi[3] = {2.5, 1.5, 1.5}, lo2[3] = {3, 0, 0},
@@ -73,7 +73,7 @@ static int variants_vs_scalar(int mi, int quad)
         tu_add_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35, 1000.0);
         tu_add_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45, 1000.0);
     }
-    int n = defsim_world_vertex_count(w), tested = 0;
+    const int n = defsim_world_vertex_count(w);
     double *x = tu_positions(w);
     unsigned long long seed = (quad ? 77 : 42) + (unsigned long long)mi;
     for (int i = 0; i < n; ++i) {
@@ -81,6 +81,18 @@ static int variants_vs_scalar(int mi, int quad)
         for (int c = 0; c < 3; ++c) x[3 * i + c] += 0.03 * tu_rand(&seed);
     }
     TU_OK(defsim_world_set_state(w, x, NULL));
+    *xo = x;
+    return w;
+}
+
+/* deformed_boxes' forces in every variant this CPU runs against the scalar kernels, within
+ * 1e-12 relative, tails and padding lanes included. Returns the variants tested. */
+static int variants_vs_scalar(int mi, int quad)
+{
+    double *x;
+    defsim_world *w = deformed_boxes(mi, quad, &x);
+    const int n = defsim_world_vertex_count(w);
+    int tested = 0;
     double *ref = malloc(3 * (size_t)n * sizeof *ref), *f = malloc(3 * (size_t)n * sizeof *f);
     forces_with(w, NULL, ref);
     assert_true(fro(ref, 3 * n) > 1.0);
@@ -123,6 +135,75 @@ static void test_quadratic_match_scalar(void **state)
     int tested = 0;
     for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, 1);
     assert_true(tested >= 4);
+}
+
+/* Elastic energy of the world at x with the given kernels (NULL: scalar). */
+static double energy_with(defsim_world *w, const defsim__tet_kernels *k, const double *x)
+{
+    TU_OK(defsim__world_plan(w));
+    w->sys.tet_kernels = k;
+    return defsim__elastic_energy(&w->sys, &w->work, x);
+}
+
+/* The quadratic tets' batched energies (tet_batch.h's DEFSIM__BATCHED_QENERGY) on
+ * deformed_boxes, every model, every variant, against the scalar element energies of
+ * term_elastic_quadratic.c: within 1e-12 relative (the stable neo-Hookean's subtracted rest
+ * energy included). Sensitivity: the smallest single quadrature-point term w_q (psi(F_q) -
+ * psi_rest) over all elements and points is asserted above 1e-9 of the total, so a kernel that
+ * dropped (or doubled) any one point of any element, or any lane, would miss the tolerance by
+ * more than 1000 times. A mirrored neo-Hookean box (every J < 0) has energy +inf in all. */
+static void test_quadratic_energy_match_scalar(void **state)
+{
+    (void)state;
+    int tested = 0;
+    for (int mi = 0; mi < 4; ++mi) {
+        double *x;
+        defsim_world *w = deformed_boxes(mi, 1, &x);
+        const double ref = energy_with(w, NULL, x);
+        assert_true(isfinite(ref) && ref > 1.0);
+        const defsim__group *g = &w->sys.groups[DEFSIM__QUAD_GROUP + mi];
+        assert_int_equal(g->n, 270 + 72);
+        double smallest = INFINITY;
+        for (int32_t e = 0; e < g->n; ++e) {
+            const double *r = g->qrest + DEFSIM__TET10_REST * (int64_t)e;
+            const double rest = g->law->psi_rest ? g->law->psi_rest(g->mu[e], g->lambda[e]) : 0.0;
+            for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+                const double *G = r + DEFSIM__TET10_QSTRIDE * q;
+                double F[9];
+                defsim__tet10_F(x, g->idx + 10 * (int64_t)e, G, F);
+                const double term = fabs(G[30] * (g->law->psi(g->mu[e], g->lambda[e], F) - rest));
+                if (term < smallest) smallest = term;
+            }
+        }
+        printf("  quadratic energy, model %d: E %.6g J, smallest point term / E %.3g\n",
+               (int)MODELS[mi], ref, smallest / ref);
+        assert_true(smallest / ref > 1e-9);
+        for (int v = 0; v < 3; ++v) {
+            const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
+            if (!k) continue;
+            const double e = energy_with(w, k, x), d = fabs(e - ref) / ref;
+            printf("  quadratic energy, model %d, %s: rel diff %.3g\n", (int)MODELS[mi], k->name, d);
+            if (!(d < 1e-12))
+                fail_msg("quadratic energy, model %d, %s: rel diff %g", MODELS[mi], k->name, d);
+            ++tested;
+        }
+        free(x);
+        defsim_world_destroy(w);
+    }
+    assert_true(tested >= 4);
+    defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    add_quad_box(w, DEFSIM_MODEL_NEOHOOKEAN, 2, 1, 1, lo, hi, 1e5, 0.3);
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w);
+    for (int i = 0; i < n; ++i) x[3 * i + 2] = -x[3 * i + 2];
+    assert_true(energy_with(w, NULL, x) == INFINITY);
+    for (int v = 0; v < 3; ++v) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
+        if (k) assert_true(energy_with(w, k, x) == INFINITY);
+    }
+    free(x);
+    defsim_world_destroy(w);
 }
 
 /* The shells' batched kernels (shell_batch.c): a bent and perturbed 7 x 5 sheet (70 triangles,
@@ -325,6 +406,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_variants_match_scalar),
         cmocka_unit_test(test_quadratic_match_scalar),
+        cmocka_unit_test(test_quadratic_energy_match_scalar),
         cmocka_unit_test(test_shells_match_scalar),
         cmocka_unit_test(test_neohookean_inverted_is_unstable),
         cmocka_unit_test(test_rotation_matches_svd),

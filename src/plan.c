@@ -76,8 +76,8 @@ static void tet_rows(const defsim__group *g, int64_t e, double *d)
     d[DEFSIM__ROW_P2 * B] = prm[2];
 }
 
-/* A quadratic tet's rows (DEFSIM__QBATCH_ROWS, tet_forces.h): -w_q, psi_rest, the law's
- * parameters, the gradients of its rest data (tet10.h) point by point. */
+/* A quadratic tet's rows (DEFSIM__QBATCH_ROWS, tet_forces.h): -w_q, psi_rest, lambda, the
+ * law's parameters, the gradients of its rest data (tet10.h) point by point. */
 static void quad_rows(const defsim__group *g, int64_t e, double *d)
 {
     const int B = DEFSIM__BATCH;
@@ -87,8 +87,9 @@ static void quad_rows(const defsim__group *g, int64_t e, double *d)
         d[(DEFSIM__QROW_NW + q) * B] = -G[30];
         for (int r = 0; r < 30; ++r) d[(DEFSIM__QROW_G + 30 * q + r) * B] = G[r];
     }
-    for (int r = DEFSIM__QROW_REST + 1; r < DEFSIM__ROW_P0; ++r) d[r * B] = 0.0;
+    for (int r = DEFSIM__QROW_LAMBDA + 1; r < DEFSIM__ROW_P0; ++r) d[r * B] = 0.0;
     d[DEFSIM__QROW_REST * B] = g->law->psi_rest ? g->law->psi_rest(g->mu[e], g->lambda[e]) : 0.0;
+    d[DEFSIM__QROW_LAMBDA * B] = g->lambda[e];
     double prm[3];
     g->law->params(g->mu[e], g->lambda[e], prm);
     d[DEFSIM__ROW_P0 * B] = prm[0];
@@ -343,8 +344,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         st = defsim__colour_group(&s->groups[m], s->nv);
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS)
             st = pack_batches(&s->groups[m], tet_rows, DEFSIM__BATCH_ROWS);
-        else if (st == DEFSIM_OK && m >= DEFSIM__QUAD_GROUP && m < DEFSIM__QMIX_GROUP &&
-                 s->groups[m].n > 0)
+        else if (st == DEFSIM_OK && m >= DEFSIM__QUAD_GROUP && s->groups[m].n > 0)   /* QMIX too */
             st = pack_batches(&s->groups[m], quad_rows, DEFSIM__QBATCH_ROWS);
         if (st != DEFSIM_OK) return st;
     }

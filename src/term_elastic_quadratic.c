@@ -49,23 +49,14 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
     return sum;
 }
 
-/* The energy: by the batched kernel when chosen, as deterministic blocked sums of
- * DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH batches (the planner sizes wk->partial for them), else
- * element by element (energy.c). */
+/* The energy: by the batched kernel when chosen, else element by element (energy.c). */
 static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
                      const double *x, double total)
 {
     const defsim__group *g = group(t);
     if (!s->tet_kernels) return defsim__group_energy(s, wk, g, element_energy, x, total);
-    const defsim__tet_energy_fn fn = s->tet_kernels->qenergy[t->index - DEFSIM__QUAD_GROUP];
-    const int32_t per = DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH;
-    const int32_t nb = (g->nbatch + per - 1) / per;
-    double *part = wk->partial;
-#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
-    for (int32_t b = 0; b < nb; ++b)
-        part[b] = fn(g, x, b * per, (b + 1) * per < g->nbatch ? (b + 1) * per : g->nbatch);
-    for (int32_t b = 0; b < nb; ++b) total += part[b];
-    return total;
+    return defsim__group_batched_energy(
+        s, wk, g, s->tet_kernels->qenergy[t->index - DEFSIM__QUAD_GROUP], x, total);
 }
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,

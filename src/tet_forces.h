@@ -38,12 +38,13 @@ enum {
 
 /* Rows of a quadratic (10-node, tet10.h) tet's batch: -w_q (the weight times det dX/dxi) of the
  * 4 quadrature points, psi_rest (the law's energy density at F = I, subtracted from the
- * energy), 5 unused rows, the model's parameters at the linear layout's rows (so
+ * energy), the user's lambda (the split laws' U, material.h), 4 unused rows, the model's parameters at the linear layout's rows (so
  * that the lane-wise laws read them unchanged), then the gradients dN_a/dX_j of point q at row
  * DEFSIM__QROW_G + 30 q + 3 a + j. */
 enum {
     DEFSIM__QROW_NW = 0,
     DEFSIM__QROW_REST = 4,
+    DEFSIM__QROW_LAMBDA = 5,
     DEFSIM__QROW_G = 13,
     DEFSIM__QBATCH_ROWS = 13 + 4 * 30
 };
@@ -82,6 +83,11 @@ typedef struct defsim__tet_kernels {
     /* The energy of a group of quadratic tets (not mean-dilatation ones), by model as forces[]:
      * summed batch by batch in batch order, its +INFINITY where the scalar law's is. */
     defsim__tet_energy_fn qenergy[DEFSIM__TET_MODELS];
+    /* The forces and the energy of a group of mean-dilatation quadratic tets
+     * (term_quadratic_mixed.c), by model as forces[]; NULL for a model without a split
+     * (material.h: StVK, co-rotated), whose bodies cannot have volume_averaging. */
+    defsim__tet_force_fn qmforces[DEFSIM__TET_MODELS];
+    defsim__tet_energy_fn qmenergy[DEFSIM__TET_MODELS];
 } defsim__tet_kernels;
 
 extern const defsim__tet_kernels defsim__tet_kernels_generic;

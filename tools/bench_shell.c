@@ -9,12 +9,13 @@
  * Per element kind, its term alone (the kind's ops, as the backends reach them): the energy and
  * the forces, each with the batched kernels of the variant core.simd picks (auto: the fastest
  * this CPU runs) and with the scalar kernels (only the quadratic tets have a batched energy:
- * tet_batch.h's DEFSIM__BATCHED_QENERGY; the other kinds' two energy columns time the same
- * scalar loop), and the stiffness matrix's values (the kind's element
+ * tet_batch.h's DEFSIM__BATCHED_QENERGY and DEFSIM__BATCHED_QMIXED; the other kinds' two energy
+ * columns time the same scalar loop), and the stiffness matrix's values (the kind's element
  * matrices with the default clamp projection, scattered into the pattern; and without the
  * projection), each divided by the
  * element count: tets of a 20 x 20 x 20 box (StVK, stable neo-Hookean), quadratic (10-node) tets
- * of a 12 x 12 x 12 box (each model; batched: tet_batch.h's quadratic kernels), triangles of a
+ * of a 12 x 12 x 12 box (each model; batched: tet_batch.h's quadratic kernels), the same box's
+ * mean-dilatation tets (volume_averaging: neo-Hookean, stable neo-Hookean), triangles of a
  * 100 x 100 sheet (StVK and neo-Hookean membranes, no bending), the hinges of the same sheet
  * (bending only), and its strain limit (10 %) with every triangle in the barrier's band (the
  * sheet stretched 1.095 times both ways; the limit has no batched kernel: its two force columns
@@ -136,7 +137,8 @@ static void run(defsim_world *w, int kind, const char *what, int64_t n, double c
     for (int k = 0; k < 6; ++k) free(tm[k]);
 }
 
-/* Tets of an n^3 box (quad: 10-node ones, defsim_mesh_make_quadratic). */
+/* Tets of an n^3 box (quad: 10-node ones, defsim_mesh_make_quadratic; 2: mean-dilatation ones,
+ * volume_averaging). */
 static void tets(defsim_model model, int quad, int n, const char *what, int rounds)
 {
     defsim_world *w = make_world();
@@ -154,9 +156,12 @@ static void tets(defsim_model model, int quad, int n, const char *what, int roun
     d.tets = m.tets;
     d.tet_count = m.tet_count;
     d.tet_nodes = m.tet_nodes;
+    d.volume_averaging = quad == 2;
     defsim_world_add_body(w, &d, NULL);
-    run(w, quad ? DEFSIM__TERM_KIND_elastic_quadratic : DEFSIM__TERM_KIND_elastic, what,
-        m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
+    run(w, quad == 2 ? DEFSIM__TERM_KIND_quadratic_mixed
+           : quad    ? DEFSIM__TERM_KIND_elastic_quadratic
+                     : DEFSIM__TERM_KIND_elastic,
+        what, m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
 }
@@ -212,6 +217,8 @@ int main(int argc, char **argv)
     tets(DEFSIM_MODEL_COROTATED, 1, 12, "10-node tets, co-rotated", rounds);
     tets(DEFSIM_MODEL_NEOHOOKEAN, 1, 12, "10-node tets, neo-Hookean", rounds);
     tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1, 12, "10-node tets, stable NH", rounds);
+    tets(DEFSIM_MODEL_NEOHOOKEAN, 2, 12, "mean-dilatation, NH", rounds);
+    tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 2, 12, "mean-dilatation, stable NH", rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, 0.0, "triangles, StVK membrane",
           DEFSIM__TERM_KIND_membrane, rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN, 0.0, 0.0, "triangles, neo-Hookean",

@@ -43,6 +43,21 @@ double defsim__group_energy(const defsim__system *s, defsim__work *wk, const def
     return total;
 }
 
+double defsim__group_batched_energy(const defsim__system *s, defsim__work *wk,
+                                    const defsim__group *g, defsim__tet_energy_fn energy,
+                                    const double *x, double total)
+{
+    const int32_t per = DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH;
+    const int32_t nb = (g->nbatch + per - 1) / per;
+    double *part = wk->partial;
+    (void)s;   /* its thread count, for OpenMP only */
+#pragma omp parallel for schedule(static) num_threads(s->nthreads) if (nb > 1)
+    for (int32_t b = 0; b < nb; ++b)
+        part[b] = energy(g, x, b * per, (b + 1) * per < g->nbatch ? (b + 1) * per : g->nbatch);
+    for (int32_t b = 0; b < nb; ++b) total += part[b];
+    return total;
+}
+
 void defsim__group_gradient_forces(const defsim__system *s, const defsim__group *g,
                                    defsim__element_gradient_fn gradient, const double *x,
                                    double *f)

@@ -4,6 +4,7 @@
 #define DEFSIM_ENERGY_H
 
 #include "system.h"
+#include "tet_forces.h"
 
 /* Deterministic reductions sum fixed blocks of elements, then the blocks in order; the planner
  * sizes defsim__work.partial for the largest group. */
@@ -16,6 +17,13 @@ typedef double (*defsim__element_energy_fn)(const defsim__group *g, const double
  * blocks' sums). */
 double defsim__group_energy(const defsim__system *s, defsim__work *wk, const defsim__group *g,
                             defsim__element_energy_fn energy, const double *x, double total);
+
+/* total plus group g's energy at x by a batched kernel (tet_forces.h), as deterministic blocked
+ * sums of DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH batches each, then the blocks in order (the
+ * planner sizes wk->partial for them, padding lanes counted). */
+double defsim__group_batched_energy(const defsim__system *s, defsim__work *wk,
+                                    const defsim__group *g, defsim__tet_energy_fn energy,
+                                    const double *x, double total);
 
 /* The energy op of an element group's kind (the term's model is its group), over the kind's
  * element energy: what the elastic and spring terms share. */

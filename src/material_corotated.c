@@ -186,8 +186,25 @@ DEFSIM_SIMD_INLINE void law_corotated(const double *d, int s, const vd F[9], vd 
     for (int i = 0; i < 9; ++i) P[i] = mu2 * (F[i] - R[i]) + lt * R[i];
 }
 
+/* psi = mu |S - I|^2 + lambda/2 tr(S - I)^2 with S = R^T F: |S - I|^2 = |F - R|^2 (R is a
+ * rotation), tr S = tr(R^T F). */
+DEFSIM_SIMD_INLINE vd psi_corotated(const double *d, int s, const vd F[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd R[9];
+    batch_rotation(F, R);
+    vd tr = R[0] * F[0], dd = (F[0] - R[0]) * (F[0] - R[0]);
+    for (int i = 1; i < 9; ++i) {
+        tr += R[i] * F[i];
+        dd += (F[i] - R[i]) * (F[i] - R[i]);
+    }
+    const vd t = tr - 3.0;
+    return mu * dd + 0.5 * la * t * t;
+}
+
 DEFSIM__BATCHED_KERNEL(corotated, law_corotated)
 DEFSIM__BATCHED_QKERNEL(corotated, law_corotated)
+DEFSIM__BATCHED_QENERGY(corotated, psi_corotated)
 
 /* Rotations of n row-major matrices, VW at a time (the tail padded with F = I). */
 void DEFSIM__CAT(defsim__rotations_, DEFSIM_ISA)(int32_t n, const double *F, double *R)

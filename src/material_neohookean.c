@@ -143,7 +143,49 @@ DEFSIM_SIMD_INLINE void law_neohookean(const double *d, int s, const vd F[9], vd
         for (int i = 0; i < 9; ++i) P[i] = v_select(bad, v_set1(NAN), P[i]);
 }
 
+/* psi = mu/2 (tr(F^T F) - 3) - mu log J + lambda/2 (log J)^2; +INFINITY where J <= 0 (as the
+ * scalar law). */
+DEFSIM_SIMD_INLINE vd psi_neohookean(const double *d, int s, const vd F[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd C[9];
+    cofactor(F, C);
+    const vd J = DEFSIM__M3_DET_COF(F, C);
+    const vl bad = ~(J > 0.0);
+    const vd lj = v_log(v_select(bad, v_set1(1.0), J));
+    const vd psi = 0.5 * mu * (frob2(F) - 3.0) - mu * lj + 0.5 * la * lj * lj;
+    return v_select(bad, v_set1(INFINITY), psi);
+}
+
 DEFSIM__BATCHED_KERNEL(neohookean, law_neohookean)
 DEFSIM__BATCHED_QKERNEL(neohookean, law_neohookean)
+DEFSIM__BATCHED_QENERGY(neohookean, psi_neohookean)
+
+/* The split, lane-wise (the scalar iso_P and volumetric above): psi_iso = mu/2 (tr(F^T F) - 3)
+ * - mu log J, P_iso = mu F - mu/J cof F (+INFINITY, NaN where J <= 0); U = lambda/2 (log J)^2,
+ * U' = lambda log J / J (U = J + INFINITY: +inf, or NaN for a NaN J; U' NaN where J <= 0). */
+DEFSIM_SIMD_INLINE vd iso_neohookean(const double *d, int s, const vd F[9], const vd C[9], vd J,
+                                     vd P[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s));
+    const vl bad = ~(J > 0.0);
+    const vd c = -mu / J;
+    for (int i = 0; i < 9; ++i) P[i] = mu * F[i] + c * C[i];
+    const vd psi = 0.5 * mu * (frob2(F) - 3.0) - mu * v_log(v_select(bad, v_set1(1.0), J));
+    if (v_any(bad))
+        for (int i = 0; i < 9; ++i) P[i] = v_select(bad, v_set1(NAN), P[i]);
+    return v_select(bad, v_set1(INFINITY), psi);
+}
+
+DEFSIM_SIMD_INLINE void vol_neohookean(const double *d, int s, vd J, vd u[2])
+{
+    const vd la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    const vl bad = ~(J > 0.0);
+    const vd lj = v_log(v_select(bad, v_set1(1.0), J));
+    u[0] = v_select(bad, J + INFINITY, 0.5 * la * lj * lj);
+    u[1] = v_select(bad, v_set1(NAN), la * lj / J);
+}
+
+DEFSIM__BATCHED_QMIXED(neohookean, iso_neohookean, vol_neohookean)
 
 #endif

@@ -188,22 +188,62 @@ const defsim__model defsim__model_stable_neohookean = {
 
 #include "tet_batch.h"
 
+/* What the lane-wise laws share: C = cof F, I_C = |F|^2, J - alpha. */
+DEFSIM_SIMD_INLINE void snh_invariants(const double *d, int s, const vd F[9], vd C[9], vd *ic,
+                                       vd *dj)
+{
+    cofactor(F, C);
+    *ic = frob2(F);
+    *dj = DEFSIM__M3_DET_COF(F, C) - v_load(ROW(d, DEFSIM__ROW_P2, s));
+}
+
 /* Stable neo-Hookean: P = mu' (1 - 1/(I_C + 1)) F + lambda' (J - alpha) cof F. */
 DEFSIM_SIMD_INLINE void law_snh(const double *d, int s, const vd F[9], vd P[9])
 {
     const vd mp = v_load(ROW(d, DEFSIM__ROW_P0, s)), lp = v_load(ROW(d, DEFSIM__ROW_P1, s));
-    const vd alpha = v_load(ROW(d, DEFSIM__ROW_P2, s));
-    vd C[9];
-    cofactor(F, C);
-    vd ic = F[0] * F[0];
-    for (int i = 1; i < 9; ++i) ic += F[i] * F[i];
+    vd C[9], ic, dj;
+    snh_invariants(d, s, F, C, &ic, &dj);
     const vd c1 = mp * (1.0 - 1.0 / (ic + 1.0));
-    const vd c2 = lp * (DEFSIM__M3_DET_COF(F, C) - alpha);
+    const vd c2 = lp * dj;
     for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
 }
 
+/* psi = mu'/2 (I_C - 3) + lambda'/2 (J - alpha)^2 - mu'/2 log(I_C + 1). */
+DEFSIM_SIMD_INLINE vd psi_snh(const double *d, int s, const vd F[9])
+{
+    const vd mp = v_load(ROW(d, DEFSIM__ROW_P0, s)), lp = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd C[9], ic, dj;
+    snh_invariants(d, s, F, C, &ic, &dj);
+    return 0.5 * mp * (ic - 3.0) + 0.5 * lp * dj * dj - 0.5 * mp * v_log(ic + 1.0);
+}
 
 DEFSIM__BATCHED_KERNEL(stable_neohookean, law_snh)
 DEFSIM__BATCHED_QKERNEL(stable_neohookean, law_snh)
+DEFSIM__BATCHED_QENERGY(stable_neohookean, psi_snh)
+
+/* The split, lane-wise (the scalar iso_P and volumetric above; lambda, the user's, from the
+ * batch's DEFSIM__QROW_LAMBDA row): psi_iso = mu'/2 (I_C - 3) - mu'/2 log(I_C + 1) +
+ * (lambda' - lambda)/2 (J - alpha)^2, P_iso = mu' (1 - 1/(I_C + 1)) F + (lambda' - lambda)
+ * (J - alpha) cof F; U = lambda/2 (J - alpha)^2, U' = lambda (J - alpha). */
+DEFSIM_SIMD_INLINE vd iso_snh(const double *d, int s, const vd F[9], const vd C[9], vd J,
+                              vd P[9])
+{
+    const vd mp = v_load(ROW(d, DEFSIM__ROW_P0, s)), lp = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    const vd alpha = v_load(ROW(d, DEFSIM__ROW_P2, s));
+    const vd lb = lp - v_load(ROW(d, DEFSIM__QROW_LAMBDA, s)), ic = frob2(F);
+    const vd dj = J - alpha, c1 = mp * (1.0 - 1.0 / (ic + 1.0)), c2 = lb * dj;
+    for (int i = 0; i < 9; ++i) P[i] = c1 * F[i] + c2 * C[i];
+    return 0.5 * mp * (ic - 3.0) - 0.5 * mp * v_log(ic + 1.0) + 0.5 * lb * dj * dj;
+}
+
+DEFSIM_SIMD_INLINE void vol_snh(const double *d, int s, vd J, vd u[2])
+{
+    const vd la = v_load(ROW(d, DEFSIM__QROW_LAMBDA, s));
+    const vd dj = J - v_load(ROW(d, DEFSIM__ROW_P2, s));
+    u[0] = 0.5 * la * dj * dj;
+    u[1] = la * dj;
+}
+
+DEFSIM__BATCHED_QMIXED(stable_neohookean, iso_snh, vol_snh)
 
 #endif

@@ -90,17 +90,23 @@ const defsim__model defsim__model_stvk = {
 
 #include "tet_batch.h"
 
-/* StVK: E = (F^T F - I)/2, S = 2 mu E + lambda tr(E) I, P = F S. */
-DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
+/* E = (F^T F - I)/2. */
+DEFSIM_SIMD_INLINE void green_strain(const vd F[9], vd E[9])
 {
-    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
-    vd E[9], S[9];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
             E[3 * i + j] = 0.5 * DEFSIM__M3_MUL_TN(F, F, i, j);
     E[0] -= 0.5;
     E[4] -= 0.5;
     E[8] -= 0.5;
+}
+
+/* StVK: E = (F^T F - I)/2, S = 2 mu E + lambda tr(E) I, P = F S. */
+DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd E[9], S[9];
+    green_strain(F, E);
     const vd tr = E[0] + E[4] + E[8], mu2 = 2.0 * mu;
     for (int i = 0; i < 9; ++i) S[i] = mu2 * E[i];
     S[0] += la * tr;
@@ -111,7 +117,18 @@ DEFSIM_SIMD_INLINE void law_stvk(const double *d, int s, const vd F[9], vd P[9])
             P[3 * i + j] = DEFSIM__M3_MUL(F, S, i, j);
 }
 
+/* psi = mu E:E + lambda/2 tr(E)^2. */
+DEFSIM_SIMD_INLINE vd psi_stvk(const double *d, int s, const vd F[9])
+{
+    const vd mu = v_load(ROW(d, DEFSIM__ROW_P0, s)), la = v_load(ROW(d, DEFSIM__ROW_P1, s));
+    vd E[9];
+    green_strain(F, E);
+    const vd tr = E[0] + E[4] + E[8];
+    return mu * frob2(E) + 0.5 * la * tr * tr;
+}
+
 DEFSIM__BATCHED_KERNEL(stvk, law_stvk)
 DEFSIM__BATCHED_QKERNEL(stvk, law_stvk)
+DEFSIM__BATCHED_QENERGY(stvk, psi_stvk)
 
 #endif

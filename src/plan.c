@@ -76,8 +76,8 @@ static void tet_rows(const defsim__group *g, int64_t e, double *d)
     d[DEFSIM__ROW_P2 * B] = prm[2];
 }
 
-/* A quadratic tet's rows (DEFSIM__QBATCH_ROWS, tet_forces.h): -w_q, the law's parameters, the
- * gradients of its rest data (tet10.h) point by point. */
+/* A quadratic tet's rows (DEFSIM__QBATCH_ROWS, tet_forces.h): -w_q, psi_rest, lambda, the
+ * law's parameters, the gradients of its rest data (tet10.h) point by point. */
 static void quad_rows(const defsim__group *g, int64_t e, double *d)
 {
     const int B = DEFSIM__BATCH;
@@ -87,7 +87,9 @@ static void quad_rows(const defsim__group *g, int64_t e, double *d)
         d[(DEFSIM__QROW_NW + q) * B] = -G[30];
         for (int r = 0; r < 30; ++r) d[(DEFSIM__QROW_G + 30 * q + r) * B] = G[r];
     }
-    for (int r = DEFSIM__QROW_NW + DEFSIM__TET10_QP; r < DEFSIM__ROW_P0; ++r) d[r * B] = 0.0;
+    for (int r = DEFSIM__QROW_LAMBDA + 1; r < DEFSIM__ROW_P0; ++r) d[r * B] = 0.0;
+    d[DEFSIM__QROW_REST * B] = g->law->psi_rest ? g->law->psi_rest(g->mu[e], g->lambda[e]) : 0.0;
+    d[DEFSIM__QROW_LAMBDA * B] = g->lambda[e];
     double prm[3];
     g->law->params(g->mu[e], g->lambda[e], prm);
     d[DEFSIM__ROW_P0 * B] = prm[0];
@@ -342,8 +344,7 @@ static defsim_status plan_groups(defsim__system *s, const defsim__plan_input *in
         st = defsim__colour_group(&s->groups[m], s->nv);
         if (st == DEFSIM_OK && m < DEFSIM__TET_MODELS)
             st = pack_batches(&s->groups[m], tet_rows, DEFSIM__BATCH_ROWS);
-        else if (st == DEFSIM_OK && m >= DEFSIM__QUAD_GROUP && m < DEFSIM__QMIX_GROUP &&
-                 s->groups[m].n > 0)
+        else if (st == DEFSIM_OK && m >= DEFSIM__QUAD_GROUP && s->groups[m].n > 0)   /* QMIX too */
             st = pack_batches(&s->groups[m], quad_rows, DEFSIM__QBATCH_ROWS);
         if (st != DEFSIM_OK) return st;
     }
@@ -502,16 +503,21 @@ defsim_status defsim__plan(defsim__system *s, defsim__work *wk, const defsim__pl
     s->free_dofs = malloc(nd * sizeof *s->free_dofs);
     s->dof_to_free = malloc(nd * sizeof *s->dof_to_free);
     s->vfree = malloc(nv * sizeof *s->vfree);
-    int32_t maxn = 1;
-    for (int m = 0; m < DEFSIM__GROUPS; ++m)
+    /* A batched energy sums blocks of DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH batches, padding
+     * lanes counted (term_elastic_quadratic.c). */
+    int64_t maxn = 1;
+    for (int m = 0; m < DEFSIM__GROUPS; ++m) {
+        const int64_t lanes = (int64_t)s->groups[m].nbatch * DEFSIM__BATCH;
         if (s->groups[m].n > maxn) maxn = s->groups[m].n;
+        if (lanes > maxn) maxn = lanes;
+    }
     for (int m = 0; m < DEFSIM__TET_MODELS; ++m) {
         if (s->vgroups[m].g.n > maxn) maxn = s->vgroups[m].g.n;
         if (s->vgroups[m].nn > maxn) maxn = s->vgroups[m].nn;
     }
     for (int m = 0; m < DEFSIM__SHELL_GROUPS; ++m)
         if (s->shells[m].n > maxn) maxn = s->shells[m].n;
-    wk->npartial = (maxn + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK;
+    wk->npartial = (int32_t)((maxn + DEFSIM__REDUCE_BLOCK - 1) / DEFSIM__REDUCE_BLOCK);
     wk->partial = malloc((size_t)wk->npartial * sizeof *wk->partial);
     wk->pz = malloc(nd * sizeof *wk->pz);
     wk->py = malloc(nd * sizeof *wk->py);

@@ -5,7 +5,8 @@
  * weight times the model's law at F_q, so every model of material_list.h works unchanged.
  * Forces by the batched SIMD kernels of tet_forces.c when chosen (the model's lane-wise law at
  * each point, tet_batch.h), else by a scalar kernel, colour by colour either way (conflict-free
- * parallel scatter, bit-identical for any thread count), energy as deterministic blocked sums,
+ * parallel scatter, bit-identical for any thread count), energy as deterministic blocked sums
+ * (of batches by the batched kernels' lane-wise psi, else of elements by the scalar law),
  * element matrices k K + kd beta B (30 x 30) with each point's dP/dF projected as the linear
  * tets' (positive weights keep the sum positive semi-definite), products element by element
  * without forming the matrix.
@@ -48,7 +49,15 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
     return sum;
 }
 
-DEFSIM__GROUP_ENERGY_OP(element_energy)
+/* The energy: by the batched kernel when chosen, else element by element (energy.c). */
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double total)
+{
+    const defsim__group *g = group(t);
+    if (!s->tet_kernels) return defsim__group_energy(s, wk, g, element_energy, x, total);
+    return defsim__group_batched_energy(
+        s, wk, g, s->tet_kernels->qenergy[t->index - DEFSIM__QUAD_GROUP], x, total);
+}
 
 static defsim_status forces(const defsim__term *t, const defsim__system *s, const defsim__eval *ev,
                             double *f, uint32_t *used)

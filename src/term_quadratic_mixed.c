@@ -25,8 +25,10 @@
  * exact Hessian. Stiffness damping -beta K(x) v uses the clamped K (in this term's forces, as the
  * volume-averaged tets do; the stiffness-damping term skips these groups).
  *
- * Elements are coloured (scatters without atomics), so every sum is the same for any thread
- * count.
+ * Forces and energy by the batched SIMD kernels of tet_forces.c when chosen (core.simd; the
+ * models' lane-wise split laws, tet_batch.h's DEFSIM__BATCHED_QMIXED), else by the scalar
+ * element kernel; damping and matrices stay scalar. Elements are coloured (scatters without
+ * atomics) and energies are blocked sums, so every sum is the same for any thread count.
  */
 #include "assembly.h"
 #include "element.h"
@@ -35,6 +37,7 @@
 #include "system.h"
 #include "term_cache.h"
 #include "tet10.h"
+#include "tet_forces.h"
 
 #include <math.h>
 #include <string.h>
@@ -60,7 +63,24 @@ static double element_energy(const defsim__group *g, const double *x, int32_t e)
                                rest_of(g, e), F, P, u);
 }
 
-DEFSIM__GROUP_ENERGY_OP(element_energy)
+/* The batched kernels of this group's model (tet_forces.h's qmforces, qmenergy), or NULL: the
+ * scalar ones (core.simd scalar). */
+static const defsim__tet_kernels *batched(const defsim__term *t, const defsim__system *s)
+{
+    const int m = t->index - DEFSIM__QMIX_GROUP;
+    return s->tet_kernels && s->tet_kernels->qmforces[m] && s->tet_kernels->qmenergy[m]
+               ? s->tet_kernels
+               : NULL;
+}
+
+static double energy(const defsim__term *t, const defsim__system *s, defsim__work *wk,
+                     const double *x, double total)
+{
+    const defsim__tet_kernels *k = batched(t, s);
+    if (!k) return defsim__group_energy(s, wk, group(t), element_energy, x, total);
+    return defsim__group_batched_energy(s, wk, group(t),
+                                        k->qmenergy[t->index - DEFSIM__QMIX_GROUP], x, total);
+}
 
 /* The coefficient k U'' + kd beta max(U'', 0) of the rank-one part, k's U'' projected by proj
  * (sk = k, sd = kd beta). */
@@ -162,13 +182,18 @@ static defsim_status forces(const defsim__term *t, const defsim__system *s, cons
     if (!(ev->which & DEFSIM_FORCE_ELASTIC) && !damp) return DEFSIM_OK;
     const defsim__group *g = group(t);
     const double *x = ev->x;
-    for (int32_t c = 0; c < g->ncolors; ++c) {
+    /* The batched elastic forces first, then (if asked) the damping element by element. */
+    const defsim__tet_kernels *k = batched(t, s);
+    const int elastic = (ev->which & DEFSIM_FORCE_ELASTIC) && !k;
+    if (k && (ev->which & DEFSIM_FORCE_ELASTIC))
+        k->qmforces[t->index - DEFSIM__QMIX_GROUP](g, x, f, s->nthreads);
+    for (int32_t c = 0; c < g->ncolors && (elastic || damp); ++c) {
         const int32_t e0 = g->color_ptr[c], e1 = g->color_ptr[c + 1];
 #pragma omp parallel for schedule(static) num_threads(s->nthreads) if (e1 - e0 > PAR_MIN)
         for (int32_t e = e0; e < e1; ++e) {
             const int32_t *id = g->idx + 10 * (int64_t)e;
             const double *r = rest_of(g, e);
-            if (ev->which & DEFSIM_FORCE_ELASTIC) {
+            if (elastic) {
                 double F[DEFSIM__TET10_QP][9], P[DEFSIM__TET10_QP][9], u[3];
                 (void)defsim__tet10_mixed(g->law, g->mu[e], g->lambda[e], x, id, r, F, P, u);
                 for (int q = 0; q < DEFSIM__TET10_QP; ++q) {

@@ -19,6 +19,34 @@ DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_BATCHED)
 #define DEFSIM__DECLARE_QBATCHED(name) DEFSIM__DECLARE_BATCHED(q##name)
 DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_QBATCHED)
 #define DEFSIM__QBATCHED(name) DEFSIM__BATCHED(q##name)
+/* Their energies (tet_batch.h's DEFSIM__BATCHED_QENERGY). */
+#define DEFSIM__DECLARE_QENERGY(name)                                                         \
+    double DEFSIM__CAT(defsim__batched_qenergy_##name##_, DEFSIM_ISA)(                        \
+        const defsim__group *g, const double *x, int32_t b0, int32_t b1);
+DEFSIM__TET_MODEL_LIST(DEFSIM__DECLARE_QENERGY)
+#define DEFSIM__QENERGY(name) DEFSIM__CAT(defsim__batched_qenergy_##name##_, DEFSIM_ISA),
+/* The mean-dilatation kernels of the models with a split (DEFSIM__BATCHED_QMIXED); a model
+ * added to material_list.h needs its line here (NULL without a split). */
+#define DEFSIM__QMIXED_DECLARE(name)                                                          \
+    void DEFSIM__CAT(defsim__batched_qmixed_##name##_, DEFSIM_ISA)(                           \
+        const defsim__group *g, const double *x, double *f, int nthreads);                    \
+    double DEFSIM__CAT(defsim__batched_qmixed_energy_##name##_, DEFSIM_ISA)(                  \
+        const defsim__group *g, const double *x, int32_t b0, int32_t b1);
+DEFSIM__QMIXED_DECLARE(neohookean)
+DEFSIM__QMIXED_DECLARE(stable_neohookean)
+#define DEFSIM__QMIXED_F_stvk NULL
+#define DEFSIM__QMIXED_F_corotated NULL
+#define DEFSIM__QMIXED_F_neohookean DEFSIM__CAT(defsim__batched_qmixed_neohookean_, DEFSIM_ISA)
+#define DEFSIM__QMIXED_F_stable_neohookean                                                    \
+    DEFSIM__CAT(defsim__batched_qmixed_stable_neohookean_, DEFSIM_ISA)
+#define DEFSIM__QMIXED_E_stvk NULL
+#define DEFSIM__QMIXED_E_corotated NULL
+#define DEFSIM__QMIXED_E_neohookean                                                           \
+    DEFSIM__CAT(defsim__batched_qmixed_energy_neohookean_, DEFSIM_ISA)
+#define DEFSIM__QMIXED_E_stable_neohookean                                                    \
+    DEFSIM__CAT(defsim__batched_qmixed_energy_stable_neohookean_, DEFSIM_ISA)
+#define DEFSIM__QMIXED_F(name) DEFSIM__QMIXED_F_##name,
+#define DEFSIM__QMIXED_E(name) DEFSIM__QMIXED_E_##name,
 
 /* shell_batch.c: the membranes' and the hinges' kernels. */
 void DEFSIM__CAT(defsim__batched_membrane_stvk_, DEFSIM_ISA)(const defsim__group *g,
@@ -41,4 +69,7 @@ const defsim__tet_kernels DEFSIM__CAT(defsim__tet_kernels_, DEFSIM_ISA) = {
                DEFSIM__CAT(defsim__batched_membrane_neohookean_, DEFSIM_ISA),
                DEFSIM__CAT(defsim__batched_hinge_, DEFSIM_ISA)},
     .qforces = {DEFSIM__TET_MODEL_LIST(DEFSIM__QBATCHED)},
+    .qenergy = {DEFSIM__TET_MODEL_LIST(DEFSIM__QENERGY)},
+    .qmforces = {DEFSIM__TET_MODEL_LIST(DEFSIM__QMIXED_F)},
+    .qmenergy = {DEFSIM__TET_MODEL_LIST(DEFSIM__QMIXED_E)},
 };

@@ -37,11 +37,14 @@ enum {
 };
 
 /* Rows of a quadratic (10-node, tet10.h) tet's batch: -w_q (the weight times det dX/dxi) of the
- * 4 quadrature points, 6 unused rows, the model's parameters at the linear layout's rows (so
+ * 4 quadrature points, psi_rest (the law's energy density at F = I, subtracted from the
+ * energy), the user's lambda (the split laws' U, material.h), 4 unused rows, the model's parameters at the linear layout's rows (so
  * that the lane-wise laws read them unchanged), then the gradients dN_a/dX_j of point q at row
  * DEFSIM__QROW_G + 30 q + 3 a + j. */
 enum {
     DEFSIM__QROW_NW = 0,
+    DEFSIM__QROW_REST = 4,
+    DEFSIM__QROW_LAMBDA = 5,
     DEFSIM__QROW_G = 13,
     DEFSIM__QBATCH_ROWS = 13 + 4 * 30
 };
@@ -59,6 +62,10 @@ enum {
 typedef void (*defsim__tet_force_fn)(const defsim__group *g, const double *x, double *f,
                                      int nthreads);
 
+/* The elastic energy of batches [b0, b1) of a group at x (J), relative to rest. */
+typedef double (*defsim__tet_energy_fn)(const defsim__group *g, const double *x, int32_t b0,
+                                        int32_t b1);
+
 typedef struct defsim__tet_kernels {
     const char *name;       /* "generic", "avx2", "avx512" */
     /* Adds the elastic forces of group g at positions x into f, by model (STVK, COROTATED,
@@ -73,6 +80,14 @@ typedef struct defsim__tet_kernels {
     /* Adds the elastic forces of a group of quadratic tets (not mean-dilatation ones) at x into
      * f, by model as forces[] (the DEFSIM__QBATCH_ROWS layout). */
     defsim__tet_force_fn qforces[DEFSIM__TET_MODELS];
+    /* The energy of a group of quadratic tets (not mean-dilatation ones), by model as forces[]:
+     * summed batch by batch in batch order, its +INFINITY where the scalar law's is. */
+    defsim__tet_energy_fn qenergy[DEFSIM__TET_MODELS];
+    /* The forces and the energy of a group of mean-dilatation quadratic tets
+     * (term_quadratic_mixed.c), by model as forces[]; NULL for a model without a split
+     * (material.h: StVK, co-rotated), whose bodies cannot have volume_averaging. */
+    defsim__tet_force_fn qmforces[DEFSIM__TET_MODELS];
+    defsim__tet_energy_fn qmenergy[DEFSIM__TET_MODELS];
 } defsim__tet_kernels;
 
 extern const defsim__tet_kernels defsim__tet_kernels_generic;

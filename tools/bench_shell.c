@@ -6,13 +6,16 @@
  *
  *   defsim-bench-shell [ROUNDS]   (default 11; DEFSIM_BACKEND_PATH must find newton_cholmod)
  *
- * Per element kind, its term alone (the kind's ops, as the backends reach them): the energy,
- * the forces with the batched kernels of the variant core.simd picks (auto: the fastest this CPU
- * runs) and with the scalar kernels, and the stiffness matrix's values (the kind's element
+ * Per element kind, its term alone (the kind's ops, as the backends reach them): the energy and
+ * the forces, each with the batched kernels of the variant core.simd picks (auto: the fastest
+ * this CPU runs) and with the scalar kernels (only the quadratic tets have a batched energy:
+ * tet_batch.h's DEFSIM__BATCHED_QENERGY and DEFSIM__BATCHED_QMIXED; the other kinds' two energy
+ * columns time the same scalar loop), and the stiffness matrix's values (the kind's element
  * matrices with the default clamp projection, scattered into the pattern; and without the
  * projection), each divided by the
  * element count: tets of a 20 x 20 x 20 box (StVK, stable neo-Hookean), quadratic (10-node) tets
- * of a 12 x 12 x 12 box (each model; batched: tet_batch.h's quadratic kernels), triangles of a
+ * of a 12 x 12 x 12 box (each model; batched: tet_batch.h's quadratic kernels), the same box's
+ * mean-dilatation tets (volume_averaging: neo-Hookean, stable neo-Hookean), triangles of a
  * 100 x 100 sheet (StVK and neo-Hookean membranes, no bending), the hinges of the same sheet
  * (bending only), and its strain limit (10 %) with every triangle in the barrier's band (the
  * sheet stretched 1.095 times both ways; the limit has no batched kernel: its two force columns
@@ -73,8 +76,8 @@ static void run(defsim_world *w, int kind, const char *what, int64_t n, double c
     }
     const int nv = defsim_world_vertex_count(w);
     double *x = malloc(3 * (size_t)nv * sizeof *x), *f = malloc(3 * (size_t)nv * sizeof *f);
-    double *tm[5];
-    for (int k = 0; k < 5; ++k) tm[k] = malloc((size_t)rounds * sizeof *tm[k]);
+    double *tm[6];
+    for (int k = 0; k < 6; ++k) tm[k] = malloc((size_t)rounds * sizeof *tm[k]);
     defsim_world_get_positions(w, x, nv);
     unsigned long long s = 12345;
     for (int i = 0; i < 3 * nv; ++i) {
@@ -91,44 +94,51 @@ static void run(defsim_world *w, int kind, const char *what, int64_t n, double c
     const defsim_matrix_coeffs c = {1.0, 0.0, 0.0, 0.0};
     const defsim__eval ev = {x, NULL, 0.0, DEFSIM_FORCE_ELASTIC};
     const defsim__tet_kernels *batched = w->sys.tet_kernels;
-    double e = 0.0;
+    double e[2] = {0.0, 0.0};
     for (int r = 0; r < rounds; ++r) {
         uint32_t used = 0;
-        double t0 = tools_cpu_now();
-        e += t->ops->energy(t, &w->sys, &w->work, x, 0.0);
-        tm[0][r] = tools_cpu_now() - t0;
+        double t0;
+        for (int k = 0; k < 2; ++k) {
+            w->sys.tet_kernels = k == 0 ? batched : NULL;
+            t0 = tools_cpu_now();
+            e[k] += t->ops->energy(t, &w->sys, &w->work, x, 0.0);
+            tm[k][r] = tools_cpu_now() - t0;
+        }
         for (int k = 0; k < 2; ++k) {
             w->sys.tet_kernels = k == 0 ? batched : NULL;
             memset(f, 0, 3 * (size_t)nv * sizeof *f);
             t0 = tools_cpu_now();
             t->ops->forces(t, &w->sys, &ev, f, &used);
-            tm[1 + k][r] = tools_cpu_now() - t0;
+            tm[2 + k][r] = tools_cpu_now() - t0;
         }
         w->sys.tet_kernels = batched;
         memset(val, 0, (size_t)csc.nnz * sizeof *val);
         t0 = tools_cpu_now();
         t->ops->values(t, &w->sys, x, &c, 1, csc.col_ptr, val, NULL);
-        tm[3][r] = tools_cpu_now() - t0;
+        tm[4][r] = tools_cpu_now() - t0;
         const int proj = w->sys.projection;
         w->sys.projection = DEFSIM_PROJECTION_NONE;
         t0 = tools_cpu_now();
         t->ops->values(t, &w->sys, x, &c, 1, csc.col_ptr, val, NULL);
-        tm[4][r] = tools_cpu_now() - t0;
+        tm[5][r] = tools_cpu_now() - t0;
         w->sys.projection = proj;
     }
-    if (!(e > 0.0) || !(e < INFINITY)) {
-        fprintf(stderr, "defsim-bench-shell: %s: energy %g (not in the state meant)\n", what, e);
+    if (!(e[1] > 0.0) || !(e[1] < INFINITY) || !(fabs(e[0] - e[1]) <= 1e-10 * e[1])) {
+        fprintf(stderr, "defsim-bench-shell: %s: energy %g, batched %g (not in the state meant)\n",
+                what, e[1], e[0]);
         exit(1);
     }
-    printf("| %-26s | %6lld | %7.1f | %7.1f | %7.1f | %8.1f | %8.1f |\n", what, (long long)n,
-           1e9 * median(tm[0], rounds) / (double)n, 1e9 * median(tm[1], rounds) / (double)n,
-           1e9 * median(tm[2], rounds) / (double)n, 1e9 * median(tm[3], rounds) / (double)n,
-           1e9 * median(tm[4], rounds) / (double)n);
+    printf("| %-26s | %6lld | %7.1f | %7.1f | %7.1f | %7.1f | %8.1f | %8.1f |\n", what,
+           (long long)n, 1e9 * median(tm[0], rounds) / (double)n,
+           1e9 * median(tm[1], rounds) / (double)n, 1e9 * median(tm[2], rounds) / (double)n,
+           1e9 * median(tm[3], rounds) / (double)n, 1e9 * median(tm[4], rounds) / (double)n,
+           1e9 * median(tm[5], rounds) / (double)n);
     free(x); free(f); free(val);
-    for (int k = 0; k < 5; ++k) free(tm[k]);
+    for (int k = 0; k < 6; ++k) free(tm[k]);
 }
 
-/* Tets of an n^3 box (quad: 10-node ones, defsim_mesh_make_quadratic). */
+/* Tets of an n^3 box (quad: 10-node ones, defsim_mesh_make_quadratic; 2: mean-dilatation ones,
+ * volume_averaging). */
 static void tets(defsim_model model, int quad, int n, const char *what, int rounds)
 {
     defsim_world *w = make_world();
@@ -146,9 +156,12 @@ static void tets(defsim_model model, int quad, int n, const char *what, int roun
     d.tets = m.tets;
     d.tet_count = m.tet_count;
     d.tet_nodes = m.tet_nodes;
+    d.volume_averaging = quad == 2;
     defsim_world_add_body(w, &d, NULL);
-    run(w, quad ? DEFSIM__TERM_KIND_elastic_quadratic : DEFSIM__TERM_KIND_elastic, what,
-        m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
+    run(w, quad == 2 ? DEFSIM__TERM_KIND_quadratic_mixed
+           : quad    ? DEFSIM__TERM_KIND_elastic_quadratic
+                     : DEFSIM__TERM_KIND_elastic,
+        what, m.tet_count, 1.0 / n, 1.0, 0.01, rounds);
     defsim_mesh_free(&m);
     defsim_world_destroy(w);
 }
@@ -194,15 +207,18 @@ int main(int argc, char **argv)
     }
     const defsim__tet_kernels *k = defsim__tet_kernels_best();
     printf("batched variant: %s (core.simd auto)\n\n", k ? k->name : "none");
-    printf("| elements                   |  count | energy ns/el | forces ns/el, batched | "
-           "forces ns/el, scalar | matrix ns/el | matrix ns/el, unprojected |\n");
-    printf("|---|---|---|---|---|---|---|\n");
+    printf("| elements                   |  count | energy ns/el, batched | energy ns/el, scalar | "
+           "forces ns/el, batched | forces ns/el, scalar | matrix ns/el | "
+           "matrix ns/el, unprojected |\n");
+    printf("|---|---|---|---|---|---|---|---|\n");
     tets(DEFSIM_MODEL_STVK, 0, 20, "tets, StVK", rounds);
     tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 0, 20, "tets, stable neo-Hookean", rounds);
     tets(DEFSIM_MODEL_STVK, 1, 12, "10-node tets, StVK", rounds);
     tets(DEFSIM_MODEL_COROTATED, 1, 12, "10-node tets, co-rotated", rounds);
     tets(DEFSIM_MODEL_NEOHOOKEAN, 1, 12, "10-node tets, neo-Hookean", rounds);
     tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 1, 12, "10-node tets, stable NH", rounds);
+    tets(DEFSIM_MODEL_NEOHOOKEAN, 2, 12, "mean-dilatation, NH", rounds);
+    tets(DEFSIM_MODEL_STABLE_NEOHOOKEAN, 2, 12, "mean-dilatation, stable NH", rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_STVK, 0.0, 0.0, "triangles, StVK membrane",
           DEFSIM__TERM_KIND_membrane, rounds);
     sheet(DEFSIM_SHELL_MEMBRANE_NEOHOOKEAN, 0.0, 0.0, "triangles, neo-Hookean",

@@ -1,14 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 /* The batched SIMD force kernels (src/tet_forces.c): every variant this CPU runs against the
- * scalar reference kernels (linear and quadratic tets, shells), and the co-rotated kernel's
- * quaternion rotation against the SVD. */
+ * scalar reference kernels (linear and quadratic tets, mean-dilatation ones, shells; the
+ * quadratic tets' energies too), and the co-rotated kernel's quaternion rotation against the
+ * SVD. */
 #include "test_util.h"
 
+#include "energy.h"
 #include "forces.h"
 #include "isotropic.h"
 #include "mesh_body.h"
 #include "mat3.h"
 #include "material.h"
+#include "tet10.h"
 #include "tet_forces.h"
 #include "world.h"
 
@@ -38,8 +41,9 @@ static void forces_with(defsim_world *w, const defsim__tet_kernels *k, double *f
     free(x);
 }
 
-/* Adds an nx ny nz-cell box of quadratic (10-node) tets on [lo, hi] of the given model. */
-static void add_quad_box(defsim_world *w, defsim_model model, int nx, int ny, int nz,
+/* Adds an nx ny nz-cell box of quadratic (10-node) tets on [lo, hi] of the given model
+ * (mixed: the mean-dilatation element, volume_averaging). */
+static void add_quad_box(defsim_world *w, defsim_model model, int mixed, int nx, int ny, int nz,
                          const double lo[3], const double hi[3], double E, double nu)
 {
     defsim_mesh m;
@@ -51,40 +55,58 @@ static void add_quad_box(defsim_world *w, defsim_model model, int nx, int ny, in
     bd.material.youngs_modulus = E;
     bd.material.poisson_ratio = nu;
     bd.material.density = 1000.0;
+    bd.volume_averaging = mixed;
     if (defsim_world_add_body(w, &bd, NULL) != DEFSIM_OK)
         fail_msg("add_body: %s", defsim_world_last_error(w));
     defsim_mesh_free(&m);
 }
 
-/* Two boxes of model MODELS[mi] (quad: 10-node tets) whose colours do not fill whole batches
+/* The element kinds of these tests: linear tets, quadratic ones, mean-dilatation quadratic ones
+ * (their group: the model's index plus kind_group[kind]). */
+enum { LINEAR = 0, QUAD = 1, QMIX = 2 };
+static const int kind_group[3] = {0, DEFSIM__QUAD_GROUP, DEFSIM__QMIX_GROUP};
+static const char *const kind_name[3] = {"linear", "quadratic", "mean-dilatation"};
+
+/* Two boxes of model MODELS[mi] (quad: an element kind above) whose colours do not fill whole batches
  * (5x3x3 cells, 270 elements, and 2x2x3, 72), of different Lame parameters, deformed by a shear
- * and random displacements of 6 % of a cell: every variant this CPU runs against the scalar
- * kernels, within 1e-12 relative, tails and padding lanes included. Returns the variants
- * tested. */
-static int variants_vs_scalar(int mi, int quad)
+ * and random displacements of 6 % of a cell (set as the world's state, also returned in *xo). */
+static defsim_world *deformed_boxes(int mi, int quad, double **xo)
 {
     defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
     const double lo[3] = {0, 0, 0}, hi[3] = {2.5, 1.5, 1.5}, lo2[3] = {3, 0, 0},
                  hi2[3] = {4, 1, 1};
     if (quad) {
-        add_quad_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35);
-        add_quad_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45);
+        add_quad_box(w, MODELS[mi], quad == QMIX, 5, 3, 3, lo, hi, 1e5, 0.35);
+        add_quad_box(w, MODELS[mi], quad == QMIX, 2, 2, 3, lo2, hi2, 3e6, 0.45);
     } else {
         tu_add_box(w, MODELS[mi], 5, 3, 3, lo, hi, 1e5, 0.35, 1000.0);
         tu_add_box(w, MODELS[mi], 2, 2, 3, lo2, hi2, 3e6, 0.45, 1000.0);
     }
-    int n = defsim_world_vertex_count(w), tested = 0;
+    const int n = defsim_world_vertex_count(w);
     double *x = tu_positions(w);
     unsigned long long seed = (quad ? 77 : 42) + (unsigned long long)mi;
+    if (quad == QMIX) seed += 100;
     for (int i = 0; i < n; ++i) {
         x[3 * i] += 0.2 * x[3 * i + 1];
         for (int c = 0; c < 3; ++c) x[3 * i + c] += 0.03 * tu_rand(&seed);
     }
     TU_OK(defsim_world_set_state(w, x, NULL));
+    *xo = x;
+    return w;
+}
+
+/* deformed_boxes' forces in every variant this CPU runs against the scalar kernels, within
+ * 1e-12 relative, tails and padding lanes included. Returns the variants tested. */
+static int variants_vs_scalar(int mi, int quad)
+{
+    double *x;
+    defsim_world *w = deformed_boxes(mi, quad, &x);
+    const int n = defsim_world_vertex_count(w);
+    int tested = 0;
     double *ref = malloc(3 * (size_t)n * sizeof *ref), *f = malloc(3 * (size_t)n * sizeof *f);
     forces_with(w, NULL, ref);
     assert_true(fro(ref, 3 * n) > 1.0);
-    const defsim__group *g = &w->sys.groups[(quad ? DEFSIM__QUAD_GROUP : 0) + mi];
+    const defsim__group *g = &w->sys.groups[kind_group[quad] + mi];
     assert_int_equal(g->n, 270 + 72);   /* the group whose kernels are meant */
     assert_non_null(g->bdata);
     for (int v = 0; v < 3; ++v) {
@@ -92,10 +114,11 @@ static int variants_vs_scalar(int mi, int quad)
         if (!k) continue;
         forces_with(w, k, f);
         double d = tu_rel_diff(f, ref, 3 * n, 0.0);
-        if (quad) printf("  quadratic, model %d, %s: rel diff %.3g\n", (int)MODELS[mi], k->name, d);
+        if (quad)
+            printf("  %s, model %d, %s: rel diff %.3g\n", kind_name[quad], (int)MODELS[mi],
+                   k->name, d);
         if (!(d < 1e-12))
-            fail_msg("%s model %d, %s: rel diff %g", quad ? "quadratic" : "linear", MODELS[mi],
-                     k->name, d);
+            fail_msg("%s model %d, %s: rel diff %g", kind_name[quad], MODELS[mi], k->name, d);
         ++tested;
     }
     free(x); free(ref); free(f);
@@ -108,7 +131,7 @@ static void test_variants_match_scalar(void **state)
 {
     (void)state;
     int tested = 0;
-    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, 0);
+    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, LINEAR);
     assert_true(tested >= 4);   /* the generic variant always exists */
     assert_non_null(defsim__tet_kernels_best());
     assert_null(defsim__tet_kernels_find("sse9"));
@@ -121,8 +144,147 @@ static void test_quadratic_match_scalar(void **state)
 {
     (void)state;
     int tested = 0;
-    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, 1);
+    for (int mi = 0; mi < 4; ++mi) tested += variants_vs_scalar(mi, QUAD);
     assert_true(tested >= 4);
+}
+
+/* The mean-dilatation quadratic tets' batched forces (tet_batch.h's DEFSIM__BATCHED_QMIXED)
+ * against the scalar kernel of term_quadratic_mixed.c, each model with a split (neo-Hookean,
+ * stable neo-Hookean), every variant; the table has none for StVK and co-rotated. */
+static void test_quadratic_mixed_match_scalar(void **state)
+{
+    (void)state;
+    int tested = 0;
+    for (int mi = 2; mi < 4; ++mi) tested += variants_vs_scalar(mi, QMIX);
+    assert_true(tested >= 2);
+    const defsim__tet_kernels *k = defsim__tet_kernels_find("generic");
+    assert_null(k->qmforces[0]);
+    assert_null(k->qmenergy[1]);
+}
+
+/* Elastic energy of the world at x with the given kernels (NULL: scalar). */
+static double energy_with(defsim_world *w, const defsim__tet_kernels *k, const double *x)
+{
+    TU_OK(defsim__world_plan(w));
+    w->sys.tet_kernels = k;
+    return defsim__elastic_energy(&w->sys, &w->work, x);
+}
+
+/* The batched energies of quadratic tets (kind QUAD: tet_batch.h's DEFSIM__BATCHED_QENERGY;
+ * QMIX, mean-dilatation: DEFSIM__BATCHED_QMIXED) on deformed_boxes against the scalar element
+ * energies (term_elastic_quadratic.c, term_quadratic_mixed.c), every model (QMIX: those with a
+ * split), every variant: within 1e-12 relative (the subtracted rest energy included).
+ * Sensitivity: the smallest single quadrature point's term over all elements and points, w_q
+ * (psi(F_q) - psi(I)) (QMIX: of psi_iso), is asserted above 1e-9 of the total, so a kernel that
+ * dropped (or doubled) any one point of any element, or any lane, would miss the tolerance by
+ * more than 1000 times. Returns the variants tested. */
+static int energy_vs_scalar(int mi, int kind)
+{
+    double *x;
+    defsim_world *w = deformed_boxes(mi, kind, &x);
+    const double ref = energy_with(w, NULL, x);
+    assert_true(isfinite(ref) && ref > 1.0);
+    const defsim__group *g = &w->sys.groups[kind_group[kind] + mi];
+    assert_int_equal(g->n, 270 + 72);
+    double smallest = INFINITY;
+    for (int32_t e = 0; e < g->n; ++e) {
+        const double *r = g->qrest + DEFSIM__TET10_REST * (int64_t)e;
+        const double mu = g->mu[e], la = g->lambda[e], I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        double P[9];
+        for (int q = 0; q < DEFSIM__TET10_QP; ++q) {
+            const double *G = r + DEFSIM__TET10_QSTRIDE * q;
+            double F[9];
+            defsim__tet10_F(x, g->idx + 10 * (int64_t)e, G, F);
+            const double term = kind == QMIX ? g->law->split->P(mu, la, F, P) -
+                                                   g->law->split->P(mu, la, I, P)
+                                             : g->law->psi(mu, la, F) - g->law->psi(mu, la, I);
+            if (fabs(G[30] * term) < smallest) smallest = fabs(G[30] * term);
+        }
+    }
+    printf("  %s energy, model %d: E %.6g J, smallest point term / E %.3g\n", kind_name[kind],
+           (int)MODELS[mi], ref, smallest / ref);
+    assert_true(smallest / ref > 1e-9);
+    int tested = 0;
+    for (int v = 0; v < 3; ++v) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
+        if (!k) continue;
+        const double e = energy_with(w, k, x), d = fabs(e - ref) / ref;
+        printf("  %s energy, model %d, %s: rel diff %.3g\n", kind_name[kind], (int)MODELS[mi],
+               k->name, d);
+        if (!(d < 1e-12))
+            fail_msg("%s energy, model %d, %s: rel diff %g", kind_name[kind], MODELS[mi], k->name,
+                     d);
+        ++tested;
+    }
+    free(x);
+    defsim_world_destroy(w);
+    return tested;
+}
+
+/* A mirrored neo-Hookean quadratic box (every J < 0, mixed: the mean-dilatation element) has
+ * energy +inf with the scalar and every batched kernel. */
+static void inverted_energy_is_infinite(int mixed)
+{
+    defsim_world *w = tu_world("symplectic_euler", 0.0, 1);
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    add_quad_box(w, DEFSIM_MODEL_NEOHOOKEAN, mixed, 2, 1, 1, lo, hi, 1e5, 0.3);
+    const int n = defsim_world_vertex_count(w);
+    double *x = tu_positions(w);
+    for (int i = 0; i < n; ++i) x[3 * i + 2] = -x[3 * i + 2];
+    assert_true(energy_with(w, NULL, x) == INFINITY);
+    for (int v = 0; v < 3; ++v) {
+        const defsim__tet_kernels *k = defsim__tet_kernels_find(VARIANTS[v]);
+        if (k) assert_true(energy_with(w, k, x) == INFINITY);
+    }
+    free(x);
+    defsim_world_destroy(w);
+}
+
+static void test_quadratic_energy_match_scalar(void **state)
+{
+    (void)state;
+    int tested = 0;
+    for (int mi = 0; mi < 4; ++mi) tested += energy_vs_scalar(mi, QUAD);
+    assert_true(tested >= 4);
+    inverted_energy_is_infinite(0);
+}
+
+static void test_quadratic_mixed_energy_match_scalar(void **state)
+{
+    (void)state;
+    int tested = 0;
+    for (int mi = 2; mi < 4; ++mi) tested += energy_vs_scalar(mi, QMIX);
+    assert_true(tested >= 2);
+    inverted_energy_is_infinite(1);
+}
+
+/* The batched energies over more than one block of batches (10 x 10 x 6 cells: 3,600 elements
+ * in about 460 batches, 2 blocks of 256) on 1 and 3 threads: bit-identical, for both quadratic
+ * elements (neo-Hookean), and equal to the scalar energy within 1e-12. */
+static void test_quadratic_energy_threads(void **state)
+{
+    (void)state;
+    for (int mixed = 0; mixed < 2; ++mixed) {
+        double e[2];
+        for (int k = 0; k < 2; ++k) {
+            defsim_world *w = tu_world("symplectic_euler", 0.0, k == 0 ? 1 : 3);
+            const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 0.6};
+            add_quad_box(w, DEFSIM_MODEL_NEOHOOKEAN, mixed, 10, 10, 6, lo, hi, 1e5, 0.45);
+            const int n = defsim_world_vertex_count(w);
+            double *x = tu_positions(w);
+            unsigned long long seed = 5;
+            for (int i = 0; i < 3 * n; ++i) x[i] += 0.005 * tu_rand(&seed);
+            e[k] = energy_with(w, defsim__tet_kernels_best(), x);
+            const defsim__group *g =
+                &w->sys.groups[(mixed ? DEFSIM__QMIX_GROUP : DEFSIM__QUAD_GROUP) + 2];
+            assert_true(g->nbatch > DEFSIM__REDUCE_BLOCK / DEFSIM__BATCH);
+            const double ref = energy_with(w, NULL, x);
+            assert_true(ref > 0.0 && fabs(e[k] - ref) < 1e-12 * ref);
+            free(x);
+            defsim_world_destroy(w);
+        }
+        assert_memory_equal(&e[0], &e[1], sizeof e[0]);
+    }
 }
 
 /* The shells' batched kernels (shell_batch.c): a bent and perturbed 7 x 5 sheet (70 triangles,
@@ -325,6 +487,10 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_variants_match_scalar),
         cmocka_unit_test(test_quadratic_match_scalar),
+        cmocka_unit_test(test_quadratic_energy_match_scalar),
+        cmocka_unit_test(test_quadratic_mixed_match_scalar),
+        cmocka_unit_test(test_quadratic_mixed_energy_match_scalar),
+        cmocka_unit_test(test_quadratic_energy_threads),
         cmocka_unit_test(test_shells_match_scalar),
         cmocka_unit_test(test_neohookean_inverted_is_unstable),
         cmocka_unit_test(test_rotation_matches_svd),

@@ -392,7 +392,9 @@ static void test_incline_thick_newton(void **st)
  * x0 + h v0 puts the middle vertices 1 cm inside the sphere, so Newton's updates towards it
  * are cut by CCD (and the start is cut back to x0), yet the converged step keeps them outside;
  * the adjoint ignores the cut and the gradients still match central differences (steps 1e-7
- * m and 1e-7 m/s along random directions, 1e-6 in mu). */
+ * m and 1e-4 m/s along random directions, 1e-5 in mu: at 1e-6 the loss differs by about 1e-7,
+ * within reach of the forward runs' Newton tolerance, and newmark's estimate moved by 1.4e-5
+ * when an experiment changed only the rounding of the PSD projections). */
 static void cloth(const char *backend)
 {
     const cscene sc = {CLOTH, backend, 0.3, 3.0, 1e-2, 8, 0.0};
@@ -417,7 +419,7 @@ static void cloth(const char *backend)
     free(v);
     free(x1);
     defsim_world_destroy(w);
-    const qstep qs[] = {{Q_X0, 1e-7}, {Q_V0, 1e-4}, {Q_MU, 1e-6}};
+    const qstep qs[] = {{Q_X0, 1e-7}, {Q_V0, 1e-4}, {Q_MU, 1e-5}};
     check_all(&sc, n, 23, qs, 3, "cloth on a sphere");
 }
 

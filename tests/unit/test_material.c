@@ -948,10 +948,76 @@ static void test_sym_eig(void **state)
             for (int k = 0; k < n; ++k) assert_close(lam[k], want[k], 1e-13 * na);
         }
     }
+    /* Entries near the ends of the double range: the same eigenvalues, scaled. */
+    static const double scales[2] = {1e-150, 1e150};
+    for (int si = 0; si < 2; ++si) {
+        const int n = 12;
+        double A[144], lam[12], V[144], Q[144], want[12];
+        random_orthogonal(n, Q);
+        for (int k = 0; k < n; ++k) want[k] = scales[si] * rng_uniform(-3.0, 3.0);
+        compose_sym(n, Q, want, A);
+        defsim__sym_eig(n, A, lam, V);
+        for (int a = 0; a < n; ++a)
+            for (int b = a + 1; b < n; ++b) {
+                if (lam[b] < lam[a]) { double x = lam[a]; lam[a] = lam[b]; lam[b] = x; }
+                if (want[b] < want[a]) { double x = want[a]; want[a] = want[b]; want[b] = x; }
+            }
+        for (int k = 0; k < n; ++k) assert_below(fabs(lam[k] - want[k]), 1e-13 * 3.0 * scales[si]);
+    }
     /* The zero matrix. */
     double Z[9] = {0}, lz[3], Vz[9];
     defsim__sym_eig(3, Z, lz, Vz);
     assert_true(lz[0] == 0.0 && lz[1] == 0.0 && lz[2] == 0.0);
+}
+
+/* defsim__project_psd_nodes against the whole matrix's projection: random translation-invariant
+ * Hessians of m = 2, 3, 4 vertices placed on some of 4 blocks (both modes), and a PSD one left
+ * bit for bit. */
+static void test_project_psd_nodes(void **state)
+{
+    (void)state;
+    rng_seed(43);
+    static const int picks[3][4] = {{3, 1}, {0, 2, 3}, {2, 0, 3, 1}};
+    for (int m = 2; m <= 4; ++m)
+        for (int t = 0; t < 40; ++t) {
+            const int nd = 12, r = 3 * (m - 1);
+            const int *nodes = picks[m - 2];
+            /* H = P B P^T, B a random symmetric (indefinite, or PSD when t % 4 == 3) r x r */
+            double Q[81], lam[9], B[81], H[144] = {0}, W[144];
+            random_orthogonal(r, Q);
+            for (int k = 0; k < r; ++k) lam[k] = rng_uniform(t % 4 == 3 ? 0.1 : -2.0, 3.0);
+            if (t % 4 != 3) lam[0] = rng_uniform(-2.0, -0.1);
+            compose_sym(r, Q, lam, B);
+            const double(*h)[4] = defsim__node_basis[m];
+            for (int i = 0; i < m; ++i)
+                for (int j = 0; j < m; ++j)
+                    for (int a = 0; a < 3; ++a)
+                        for (int b = 0; b < 3; ++b) {
+                            double sum = 0.0;
+                            for (int k = 0; k < m - 1; ++k)
+                                for (int l = 0; l < m - 1; ++l)
+                                    sum += h[k][i] * h[l][j] * B[(3 * k + a) * r + 3 * l + b];
+                            H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = sum;
+                        }
+            for (int mode = 1; mode <= 2; ++mode) {
+                memcpy(W, H, sizeof W);
+                double R[144];
+                memcpy(R, H, sizeof R);
+                const int changed = defsim__project_psd_nodes(nd, W, m, nodes, mode);
+                const int want = defsim__project_psd(nd, R, mode);
+                assert_int_equal(changed, t % 4 == 3 ? 0 : 1);
+                if (!changed) assert_memory_equal(W, H, sizeof W);
+                /* the whole matrix's projection sees the same negative eigenvalues (its null
+                 * space's rounding-level ones may count too) */
+                assert_true(want >= changed);
+                double err = 0.0, scale = 0.0;
+                for (int i = 0; i < nd * nd; ++i) {
+                    err = fmax(err, fabs(W[i] - R[i]));
+                    scale = fmax(scale, fabs(H[i]));
+                }
+                assert_below(err, 1e-13 * scale);
+            }
+        }
 }
 
 static void test_project_psd(void **state)
@@ -1097,6 +1163,7 @@ int main(void)
         cmocka_unit_test(test_svd3_exact),
         cmocka_unit_test(test_sym_eig),
         cmocka_unit_test(test_project_psd),
+        cmocka_unit_test(test_project_psd_nodes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

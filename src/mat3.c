@@ -153,17 +153,25 @@ static void householder_qr(int n, double *A, double *lam, double *V)
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) V[i * n + j] = i == j;
     for (int k = 0; k + 2 < n; ++k) {
-        /* The reflection I - beta v v^T that maps A[k+1.., k] onto a multiple of e_{k+1}. */
-        double tail = 0.0;
-        for (int i = k + 2; i < n; ++i) tail += A[i * n + k] * A[i * n + k];
+        /* The reflection I - beta v v^T that maps A[k+1.., k] onto a multiple of e_{k+1},
+         * computed from the column divided by its largest entry (so that no square under- or
+         * overflows: a hinge at rest has entries from 1 down to 1e-322); v is scale-free. */
         const double x0 = A[(k + 1) * n + k];
-        if (tail == 0.0) {
+        double big = 0.0;
+        for (int i = k + 2; i < n; ++i) big = fmax(big, fabs(A[i * n + k]));
+        if (big == 0.0) {
             e[k] = x0;
             continue;
         }
-        const double norm = sqrt(x0 * x0 + tail), alpha = x0 > 0.0 ? -norm : norm;
-        v[k + 1] = x0 - alpha;
-        for (int i = k + 2; i < n; ++i) v[i] = A[i * n + k];
+        big = fmax(big, fabs(x0));
+        double tail = 0.0;
+        for (int i = k + 2; i < n; ++i) {
+            v[i] = A[i * n + k] / big;
+            tail += v[i] * v[i];
+        }
+        const double u0 = x0 / big, norm = sqrt(u0 * u0 + tail);
+        const double alpha = u0 > 0.0 ? -norm : norm;
+        v[k + 1] = u0 - alpha;
         const double beta = 2.0 / (v[k + 1] * v[k + 1] + tail);
         /* A22 <- P A22 P: p = beta A22 v, w = p - (beta p.v / 2) v, A22 -= v w^T + w v^T. */
         double pv = 0.0;
@@ -177,7 +185,7 @@ static void householder_qr(int n, double *A, double *lam, double *V)
         for (int i = k + 1; i < n; ++i) p[i] -= kk * v[i];
         for (int i = k + 1; i < n; ++i)
             for (int j = k + 1; j < n; ++j) A[i * n + j] -= v[i] * p[j] + p[i] * v[j];
-        e[k] = alpha;
+        e[k] = alpha * big;
         /* V <- V P */
         for (int i = 0; i < n; ++i) {
             double s = 0.0;
@@ -201,12 +209,15 @@ static void householder_qr(int n, double *A, double *lam, double *V)
         while (lo > 0 && e[lo - 1] != 0.0) --lo;
         /* Wilkinson shift from the trailing 2 x 2 block. */
         const double dd = 0.5 * (lam[hi - 1] - lam[hi]), eh = e[hi - 1];
-        const double mu = lam[hi] - eh * eh / (dd + copysign(sqrt(dd * dd + eh * eh), dd));
+        const double mu = lam[hi] - eh * eh / (dd + copysign(hypot(dd, eh), dd));
         double x = lam[lo] - mu, z = e[lo];
         for (int k = lo; k < hi; ++k) {
             /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
              * zeroes z against x: at k = lo the shifted first column, later the bulge. */
-            const double ir = 1.0 / sqrt(x * x + z * z), c = x * ir, s = -z * ir;
+            /* hypot: x and z may be so small that their squares underflow (entries 1e-160
+             * beside 1 come from a hinge at rest); x = z = 0: no rotation */
+            const double rr = hypot(x, z);
+            const double c = rr > 0.0 ? x / rr : 1.0, s = rr > 0.0 ? -z / rr : 0.0;
             if (k > lo) e[k - 1] = c * x - s * z;
             const double a = lam[k], b = e[k], d = lam[k + 1];
             lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;

@@ -26,6 +26,8 @@
  */
 #include "contact_pair.h"
 
+#include "defsim/defsim.h"
+
 #include "contact_barrier.h"
 #include "contact_prim.h"
 #include "mat3.h"
@@ -64,89 +66,6 @@ double defsim__contact_dist2(int type, const double *X, double *g, double *H)
 /* ------------------------------------------------------------------------------------------ */
 /* Small symmetric eigenproblems */
 
-/* Eigenvalues lam and eigenvectors (the columns of V, n x n row-major) of the symmetric n x n
- * matrix A (n <= EIG_N; A is destroyed). Householder reduction to tridiagonal form with the
- * reflections accumulated in V, then implicit symmetric QR steps with Wilkinson shifts on the
- * unreduced blocks, the Givens rotations accumulated in V. */
-static void sym_eig(int n, double *A, double *lam, double *V)
-{
-    double e[EIG_N], v[EIG_N], p[EIG_N];
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) V[i * n + j] = i == j;
-    for (int k = 0; k + 2 < n; ++k) {
-        /* The reflection I - beta v v^T that maps A[k+1.., k] onto a multiple of e_{k+1}. */
-        double tail = 0.0;
-        for (int i = k + 2; i < n; ++i) tail += A[i * n + k] * A[i * n + k];
-        const double x0 = A[(k + 1) * n + k];
-        if (tail == 0.0) {
-            e[k] = x0;
-            continue;
-        }
-        const double norm = sqrt(x0 * x0 + tail), alpha = x0 > 0.0 ? -norm : norm;
-        v[k + 1] = x0 - alpha;
-        for (int i = k + 2; i < n; ++i) v[i] = A[i * n + k];
-        const double beta = 2.0 / (v[k + 1] * v[k + 1] + tail);
-        /* A22 <- P A22 P: p = beta A22 v, w = p - (beta p.v / 2) v, A22 -= v w^T + w v^T. */
-        double pv = 0.0;
-        for (int i = k + 1; i < n; ++i) {
-            double s = 0.0;
-            for (int j = k + 1; j < n; ++j) s += A[i * n + j] * v[j];
-            p[i] = beta * s;
-            pv += p[i] * v[i];
-        }
-        const double kk = 0.5 * beta * pv;
-        for (int i = k + 1; i < n; ++i) p[i] -= kk * v[i];
-        for (int i = k + 1; i < n; ++i)
-            for (int j = k + 1; j < n; ++j) A[i * n + j] -= v[i] * p[j] + p[i] * v[j];
-        e[k] = alpha;
-        /* V <- V P */
-        for (int i = 0; i < n; ++i) {
-            double s = 0.0;
-            for (int j = k + 1; j < n; ++j) s += V[i * n + j] * v[j];
-            s *= beta;
-            for (int j = k + 1; j < n; ++j) V[i * n + j] -= s * v[j];
-        }
-    }
-    for (int i = 0; i < n; ++i) lam[i] = A[i * n + i];
-    if (n >= 2) e[n - 2] = A[(n - 1) * n + n - 2];
-    /* Implicit QR on the tridiagonal (lam, e). */
-    for (int iter = 0; iter < 60 * n; ++iter) {
-        for (int i = 0; i + 1 < n; ++i)
-            if (fabs(e[i]) <= DBL_EPSILON * (fabs(lam[i]) + fabs(lam[i + 1])) ||
-                fabs(e[i]) < DBL_MIN)
-                e[i] = 0.0;
-        int hi = n - 1;
-        while (hi > 0 && e[hi - 1] == 0.0) --hi;
-        if (hi == 0) break;
-        int lo = hi - 1;
-        while (lo > 0 && e[lo - 1] != 0.0) --lo;
-        /* Wilkinson shift from the trailing 2 x 2 block. */
-        const double dd = 0.5 * (lam[hi - 1] - lam[hi]), eh = e[hi - 1];
-        const double mu = lam[hi] - eh * eh / (dd + copysign(sqrt(dd * dd + eh * eh), dd));
-        double x = lam[lo] - mu, z = e[lo];
-        for (int k = lo; k < hi; ++k) {
-            /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
-             * zeroes z against x: at k = lo the shifted first column, later the bulge. */
-            const double ir = 1.0 / sqrt(x * x + z * z), c = x * ir, s = -z * ir;
-            if (k > lo) e[k - 1] = c * x - s * z;
-            const double a = lam[k], b = e[k], d = lam[k + 1];
-            lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;
-            lam[k + 1] = s * s * a + 2.0 * c * s * b + c * c * d;
-            e[k] = c * s * (a - d) + (c * c - s * s) * b;
-            if (k + 1 < hi) {
-                z = -s * e[k + 1];
-                e[k + 1] *= c;
-                x = e[k];
-            }
-            for (int i = 0; i < n; ++i) {
-                const double q0 = V[i * n + k], q1 = V[i * n + k + 1];
-                V[i * n + k] = c * q0 - s * q1;
-                V[i * n + k + 1] = s * q0 + c * q1;
-            }
-        }
-    }
-}
-
 /* Replaces the symmetric n x n matrix A by its projection on the positive semi-definite cone
  * (eigenvalues clamped at 0): A = sum over positive lam of lam v v^T. */
 static void clamp_psd(int n, double *A)
@@ -158,7 +77,7 @@ static void clamp_psd(int n, double *A)
     for (int i = 0; i < n * n; ++i) m = fabs(A[i]) > m ? fabs(A[i]) : m;
     if (!(m > 0.0) || !isfinite(m)) return;
     for (int i = 0; i < n * n; ++i) W[i] = A[i] / m;
-    sym_eig(n, W, lam, V);
+    defsim__sym_eig(n, W, lam, V);
     for (int k = 0; k < n; ++k) lam[k] *= m;
     int neg = 0;
     for (int k = 0; k < n; ++k) neg += lam[k] < 0.0;
@@ -170,59 +89,6 @@ static void clamp_psd(int n, double *A)
                 if (lam[k] > 0.0) s += V[i * n + k] * lam[k] * V[j * n + k];
             A[i * n + j] = A[j * n + i] = s;
         }
-}
-
-/* Node weights of an orthonormal basis of the vectors over m nodes orthogonal to (1, ..., 1):
- * basis vector k is NODE_BASIS[m][k][0 .. m - 1]. */
-static const double NODE_BASIS[5][3][4] = {
-    {{0}},
-    {{0}},
-    {{0.70710678118654752, -0.70710678118654752}},
-    {{0.70710678118654752, -0.70710678118654752, 0.0},
-     {0.40824829046386302, 0.40824829046386302, -0.81649658092772603}},
-    {{0.5, 0.5, -0.5, -0.5}, {0.5, -0.5, 0.5, -0.5}, {0.5, -0.5, -0.5, 0.5}},
-};
-
-/* Projects the Hessian H (nd x nd, nd = 3n) whose nonzero blocks are those of the m vertices
- * `nodes`, and which translations of those vertices leave unchanged: the exact clamp, computed
- * in the (3m - 3)-dimensional translation-free subspace. */
-static void project_nodes(int nd, double *H, int m, const int *nodes)
-{
-    const int r = 3 * (m - 1);
-    const double(*h)[4] = NODE_BASIS[m];
-    /* B = P^T H P with P = [h_k (x) I3] placed on `nodes` */
-    double C[12][EIG_N], B[EIG_N * EIG_N];
-    for (int row = 0; row < nd; ++row)
-        for (int k = 0; k < m - 1; ++k)
-            for (int b = 0; b < 3; ++b) {
-                double s = 0.0;
-                for (int j = 0; j < m; ++j) s += H[row * nd + 3 * nodes[j] + b] * h[k][j];
-                C[row][3 * k + b] = s;
-            }
-    for (int k = 0; k < m - 1; ++k)
-        for (int a = 0; a < 3; ++a)
-            for (int col = 0; col < r; ++col) {
-                double s = 0.0;
-                for (int i = 0; i < m; ++i) s += h[k][i] * C[3 * nodes[i] + a][col];
-                B[(3 * k + a) * r + col] = s;
-            }
-    for (int i = 0; i < r; ++i)
-        for (int j = 0; j < i; ++j)
-            B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
-    clamp_psd(r, B);
-    /* H = P B P^T on the vertices' blocks */
-    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
-    for (int i = 0; i < m; ++i)
-        for (int j = i; j < m; ++j)
-            for (int a = 0; a < 3; ++a)
-                for (int b = i == j ? a : 0; b < 3; ++b) {
-                    double s = 0.0;
-                    for (int k = 0; k < m - 1; ++k)
-                        for (int l = 0; l < m - 1; ++l)
-                            s += h[k][i] * h[l][j] * B[(3 * k + a) * r + 3 * l + b];
-                    H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = s;
-                    H[(3 * nodes[j] + b) * nd + 3 * nodes[i] + a] = s;
-                }
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -281,7 +147,7 @@ static void pl_closed(const double *X, int nd, const int *nodes, double d, doubl
             for (int q = 0; q < 3; ++q) g[3 * nodes[i] + q] = f1 * c[i] * nh[q];
     }
     if (!H) return;
-    const double(*h)[4] = NODE_BASIS[3];
+    const double(*h)[4] = defsim__node_basis[3];
     const double cn = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
     double Cn[3] = {0, 0, 0}, Kn[3] = {0, 0, 0};
     for (int i = 0; i < 3; ++i) {
@@ -370,7 +236,8 @@ static void plane_closed(int ee, double sig, double nu, const double nh[3],
     const double l1 = sqrt(defsim__v3_dot(c1, c1));
     for (int k = 0; k < 3; ++k) ta[k] = c1[k] / l1;
     defsim__v3_cross(nh, ta, tb);
-    const double *h[3] = {NODE_BASIS[4][0], NODE_BASIS[4][1], NODE_BASIS[4][2]};
+    const double *h[3] = {defsim__node_basis[4][0], defsim__node_basis[4][1],
+                          defsim__node_basis[4][2]};
     double v[3][3], rv[3], G[3];
     for (int k = 0; k < 3; ++k) {
         const double m1 = wdot4(map[1], h[k]), m2 = wdot4(map[2], h[k]);
@@ -538,7 +405,7 @@ double defsim__contact_barrier_offset(int type, const double *X, double dh, doub
                                 gm[i] * b1 * gd[j] + e * Hm[i * nd + j];
             }
         static const int all[4] = {0, 1, 2, 3};
-        if (!exact) project_nodes(12, H, 4, all);
+        if (!exact) defsim__project_psd_nodes(12, H, 4, all, DEFSIM_PROJECTION_CLAMP);
     }
     return mo * e;
 }

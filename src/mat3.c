@@ -141,55 +141,122 @@ void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9])
         }
 }
 
-/* Cyclic Jacobi: rotations A <- J^T A J zero one off-diagonal pair at a time. */
-void defsim__sym_eig(int n, double *A, double *evals, double *evecs)
+/* Eigenvalues lam and eigenvectors (the columns of V, n x n row-major) of the symmetric n x n
+ * matrix A (full, symmetric; destroyed). Householder reduction to tridiagonal form with the
+ * reflections accumulated in V, then implicit symmetric QR steps with Wilkinson shifts on the
+ * unreduced blocks, the Givens rotations accumulated in V (Golub and Van Loan, Matrix
+ * Computations, 4th ed., 8.3.1 and 8.3.3). About 9 n^3 flops: for n = 12 some ten times fewer
+ * than the cyclic Jacobi sweeps this replaced. */
+static void householder_qr(int n, double *A, double *lam, double *V)
 {
-    for (int i = 0; i < n; ++i) {
-        for (int j = 0; j < n; ++j) evecs[i * n + j] = (i == j) ? 1.0 : 0.0;
-        /* Work on a symmetric copy of the upper triangle. */
-        for (int j = 0; j < i; ++j) A[i * n + j] = A[j * n + i];
+    double e[DEFSIM__EIG_MAX_N], v[DEFSIM__EIG_MAX_N], p[DEFSIM__EIG_MAX_N];
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) V[i * n + j] = i == j;
+    for (int k = 0; k + 2 < n; ++k) {
+        /* The reflection I - beta v v^T that maps A[k+1.., k] onto a multiple of e_{k+1},
+         * computed from the column divided by its largest entry (so that no square under- or
+         * overflows: a hinge at rest has entries from 1 down to 1e-322); v is scale-free. */
+        const double x0 = A[(k + 1) * n + k];
+        double big = 0.0;
+        for (int i = k + 2; i < n; ++i) big = fmax(big, fabs(A[i * n + k]));
+        if (big == 0.0) {
+            e[k] = x0;
+            continue;
+        }
+        big = fmax(big, fabs(x0));
+        double tail = 0.0;
+        for (int i = k + 2; i < n; ++i) {
+            v[i] = A[i * n + k] / big;
+            tail += v[i] * v[i];
+        }
+        const double u0 = x0 / big, norm = sqrt(u0 * u0 + tail);
+        const double alpha = u0 > 0.0 ? -norm : norm;
+        v[k + 1] = u0 - alpha;
+        const double beta = 2.0 / (v[k + 1] * v[k + 1] + tail);
+        /* A22 <- P A22 P: p = beta A22 v, w = p - (beta p.v / 2) v, A22 -= v w^T + w v^T. */
+        double pv = 0.0;
+        for (int i = k + 1; i < n; ++i) {
+            double s = 0.0;
+            for (int j = k + 1; j < n; ++j) s += A[i * n + j] * v[j];
+            p[i] = beta * s;
+            pv += p[i] * v[i];
+        }
+        const double kk = 0.5 * beta * pv;
+        for (int i = k + 1; i < n; ++i) p[i] -= kk * v[i];
+        for (int i = k + 1; i < n; ++i)
+            for (int j = k + 1; j < n; ++j) A[i * n + j] -= v[i] * p[j] + p[i] * v[j];
+        e[k] = alpha * big;
+        /* V <- V P */
+        for (int i = 0; i < n; ++i) {
+            double s = 0.0;
+            for (int j = k + 1; j < n; ++j) s += V[i * n + j] * v[j];
+            s *= beta;
+            for (int j = k + 1; j < n; ++j) V[i * n + j] -= s * v[j];
+        }
     }
-
-    double total = 0.0;
-    for (int i = 0; i < n * n; ++i) total += A[i] * A[i];
-
-    for (int sweep = 0; sweep < 60 && total > 0.0; ++sweep) {
-        double off = 0.0;
-        for (int p = 0; p < n; ++p)
-            for (int q = p + 1; q < n; ++q) off += A[p * n + q] * A[p * n + q];
-        /* Off-diagonal part below 1e-17 of the norm: eigenvalues are as exact as doubles allow. */
-        if (off <= 1e-34 * total) break;
-
-        for (int p = 0; p < n; ++p) {
-            for (int q = p + 1; q < n; ++q) {
-                double apq = A[p * n + q];
-                if (apq == 0.0) continue;
-                double theta = (A[q * n + q] - A[p * n + p]) / (2.0 * apq);
-                double at = fabs(theta);
-                double t = (at < 1e150) ? 1.0 / (at + sqrt(1.0 + at * at)) : 0.5 / at;
-                if (theta < 0.0) t = -t;
-                double c = 1.0 / sqrt(1.0 + t * t);
-                double s = c * t;
-                for (int k = 0; k < n; ++k) {
-                    double akp = A[k * n + p], akq = A[k * n + q];
-                    A[k * n + p] = c * akp - s * akq;
-                    A[k * n + q] = s * akp + c * akq;
-                }
-                for (int k = 0; k < n; ++k) {
-                    double apk = A[p * n + k], aqk = A[q * n + k];
-                    A[p * n + k] = c * apk - s * aqk;
-                    A[q * n + k] = s * apk + c * aqk;
-                }
-                A[p * n + q] = A[q * n + p] = 0.0;
-                for (int k = 0; k < n; ++k) {
-                    double vkp = evecs[k * n + p], vkq = evecs[k * n + q];
-                    evecs[k * n + p] = c * vkp - s * vkq;
-                    evecs[k * n + q] = s * vkp + c * vkq;
-                }
+    for (int i = 0; i < n; ++i) lam[i] = A[i * n + i];
+    if (n >= 2) e[n - 2] = A[(n - 1) * n + n - 2];
+    /* Implicit QR on the tridiagonal (lam, e). */
+    for (int iter = 0; iter < 60 * n; ++iter) {
+        for (int i = 0; i + 1 < n; ++i)
+            if (fabs(e[i]) <= DBL_EPSILON * (fabs(lam[i]) + fabs(lam[i + 1])) ||
+                fabs(e[i]) < DBL_MIN)
+                e[i] = 0.0;
+        int hi = n - 1;
+        while (hi > 0 && e[hi - 1] == 0.0) --hi;
+        if (hi == 0) break;
+        int lo = hi - 1;
+        while (lo > 0 && e[lo - 1] != 0.0) --lo;
+        /* Wilkinson shift from the trailing 2 x 2 block. */
+        const double dd = 0.5 * (lam[hi - 1] - lam[hi]), eh = e[hi - 1];
+        const double mu = lam[hi] - eh * eh / (dd + copysign(hypot(dd, eh), dd));
+        double x = lam[lo] - mu, z = e[lo];
+        for (int k = lo; k < hi; ++k) {
+            /* The rotation J (J[k][k] = J[k+1][k+1] = c, J[k][k+1] = s = -J[k+1][k]) that
+             * zeroes z against x: at k = lo the shifted first column, later the bulge. */
+            /* hypot: x and z may be so small that their squares underflow (entries 1e-160
+             * beside 1 come from a hinge at rest); x = z = 0: no rotation */
+            const double rr = hypot(x, z);
+            const double c = rr > 0.0 ? x / rr : 1.0, s = rr > 0.0 ? -z / rr : 0.0;
+            if (k > lo) e[k - 1] = c * x - s * z;
+            const double a = lam[k], b = e[k], d = lam[k + 1];
+            lam[k] = c * c * a - 2.0 * c * s * b + s * s * d;
+            lam[k + 1] = s * s * a + 2.0 * c * s * b + c * c * d;
+            e[k] = c * s * (a - d) + (c * c - s * s) * b;
+            if (k + 1 < hi) {
+                z = -s * e[k + 1];
+                e[k + 1] *= c;
+                x = e[k];
+            }
+            for (int i = 0; i < n; ++i) {
+                const double q0 = V[i * n + k], q1 = V[i * n + k + 1];
+                V[i * n + k] = c * q0 - s * q1;
+                V[i * n + k + 1] = s * q0 + c * q1;
             }
         }
     }
-    for (int i = 0; i < n; ++i) evals[i] = A[i * n + i];
+}
+
+
+void defsim__sym_eig(int n, double *A, double *evals, double *evecs)
+{
+    /* The upper triangle, mirrored; scaled by the power of two nearest its largest entry (exact,
+     * so eigenvalues and vectors are those of A) so that no square under- or overflows. */
+    double m = 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = i; j < n; ++j) {
+            A[j * n + i] = A[i * n + j];
+            m = fmax(m, fabs(A[i * n + j]));
+        }
+    int e2 = 0;
+    const int scaled = m > 0.0 && isfinite(m);
+    if (scaled) {
+        e2 = ilogb(m);
+        for (int i = 0; i < n * n; ++i) A[i] = scalbn(A[i], -e2);
+    }
+    householder_qr(n, A, evals, evecs);
+    if (scaled)
+        for (int k = 0; k < n; ++k) evals[k] = scalbn(evals[k], e2);
 }
 
 int defsim__project_psd(int n, double *A, int mode)
@@ -219,5 +286,57 @@ int defsim__project_psd(int n, double *A, int mode)
             A[i * n + j] = A[j * n + i] = s;
         }
     }
+    return 1;
+}
+
+/* Node weights of an orthonormal basis of the vectors over m nodes orthogonal to (1, ..., 1):
+ * basis vector k is defsim__node_basis[m][k][0 .. m - 1]. */
+const double defsim__node_basis[5][3][4] = {
+    {{0}},
+    {{0}},
+    {{0.70710678118654752, -0.70710678118654752}},
+    {{0.70710678118654752, -0.70710678118654752, 0.0},
+     {0.40824829046386302, 0.40824829046386302, -0.81649658092772603}},
+    {{0.5, 0.5, -0.5, -0.5}, {0.5, -0.5, 0.5, -0.5}, {0.5, -0.5, -0.5, 0.5}},
+};
+
+int defsim__project_psd_nodes(int nd, double *H, int m, const int *nodes, int mode)
+{
+    if ((mode != 1 && mode != 2) || m < 2 || m > 4) return 0;
+    const int r = 3 * (m - 1);
+    const double(*h)[4] = defsim__node_basis[m];
+    /* B = P^T H P with P = [h_k (x) I3] placed on `nodes` */
+    double C[DEFSIM__EIG_MAX_N][9], B[81];
+    for (int row = 0; row < nd; ++row)
+        for (int k = 0; k < m - 1; ++k)
+            for (int b = 0; b < 3; ++b) {
+                double s = 0.0;
+                for (int j = 0; j < m; ++j) s += H[row * nd + 3 * nodes[j] + b] * h[k][j];
+                C[row][3 * k + b] = s;
+            }
+    for (int k = 0; k < m - 1; ++k)
+        for (int a = 0; a < 3; ++a)
+            for (int col = 0; col < r; ++col) {
+                double s = 0.0;
+                for (int i = 0; i < m; ++i) s += h[k][i] * C[3 * nodes[i] + a][col];
+                B[(3 * k + a) * r + col] = s;
+            }
+    for (int i = 0; i < r; ++i)
+        for (int j = 0; j < i; ++j)
+            B[i * r + j] = B[j * r + i] = 0.5 * (B[i * r + j] + B[j * r + i]);
+    if (!defsim__project_psd(r, B, mode)) return 0;
+    /* H = P B P^T on the vertices' blocks */
+    memset(H, 0, (size_t)(nd * nd) * sizeof *H);
+    for (int i = 0; i < m; ++i)
+        for (int j = i; j < m; ++j)
+            for (int a = 0; a < 3; ++a)
+                for (int b = i == j ? a : 0; b < 3; ++b) {
+                    double s = 0.0;
+                    for (int k = 0; k < m - 1; ++k)
+                        for (int l = 0; l < m - 1; ++l)
+                            s += h[k][i] * h[l][j] * B[(3 * k + a) * r + 3 * l + b];
+                    H[(3 * nodes[i] + a) * nd + 3 * nodes[j] + b] = s;
+                    H[(3 * nodes[j] + b) * nd + 3 * nodes[i] + a] = s;
+                }
     return 1;
 }

@@ -142,9 +142,10 @@ DEFSIM__M3_PRODUCT_FN(defsim__m3_mul_nt, DEFSIM__M3_MUL_NT)   /* C = A B^T */
 void defsim__svd3(const double F[9], double U[9], double sigma[3], double V[9]);
 
 /*
- * Jacobi eigen-decomposition of the symmetric n x n row-major matrix A (1 <= n <= 12; only the
- * upper triangle is read). A is destroyed. evals[k] is the k-th eigenvalue (in no particular
- * order) and column k of evecs (evecs[i*n+k]) its unit eigenvector.
+ * Eigen-decomposition of the symmetric n x n row-major matrix A (1 <= n <= 12; only the upper
+ * triangle is read): Householder tridiagonalisation and implicit QR. A is destroyed. evals[k]
+ * is the k-th eigenvalue (in no particular order) and column k of evecs (evecs[i*n+k]) its unit
+ * eigenvector.
  */
 void defsim__sym_eig(int n, double *A, double *evals, double *evecs);
 
@@ -155,5 +156,19 @@ void defsim__sym_eig(int n, double *A, double *evals, double *evecs);
  * else 0, in which case A is left bit-for-bit as it was.
  */
 int defsim__project_psd(int n, double *A, int mode);
+
+/*
+ * defsim__project_psd for the Hessian H (nd x nd, row-major) of an energy of m (2 <= m <= 4)
+ * vertices that translations leave unchanged (a contact pair, a hinge), whose nonzero 3 x 3
+ * blocks are those of the vertices `nodes` (indices of 3 x 3 blocks): the same projection,
+ * computed in the (3m - 3)-dimensional translation-free subspace, where the eigenproblem is
+ * (m - 1)^3 / m^3 as costly. Returns 1 if H was changed (the projected matrix then has exactly
+ * zero translation components), else 0 and H is left as it was.
+ */
+int defsim__project_psd_nodes(int nd, double *H, int m, const int *nodes, int mode);
+
+/* Node weights of an orthonormal basis of the vectors over m (2 <= m <= 4) nodes orthogonal to
+ * (1, ..., 1): basis vector k (k < m - 1) is defsim__node_basis[m][k][0 .. m - 1]. */
+extern const double defsim__node_basis[5][3][4];
 
 #endif /* DEFSIM_MAT3_H */

@@ -526,7 +526,9 @@ double defsim__hinge_element(double w, double theta0, const double X[12], double
     if (H) {
         for (int i = 0; i < 12; ++i)
             for (int j = 0; j < 12; ++j) H[12 * i + j] = w * (g[i] * g[j] + d * H[12 * i + j]);
-        defsim__project_psd(12, H, proj);
+        /* the angle does not change when the four vertices translate */
+        static const int all[4] = {0, 1, 2, 3};
+        defsim__project_psd_nodes(12, H, 4, all, proj);
     }
     return 0.5 * w * d * d;
 }

@@ -34,10 +34,10 @@
  *    23.946 at (48, 52) (mean of its two faces; --long, 16, 24, 32 per side), 0.06 % from
  *    REF_COOK. The mesh: 8 x 8 cells of one hexahedron through the thickness, each split into
  *    6 tets (Kuhn) whose diagonals are the shorter diagonal of each tapered cell (cook()).
- *    Quadratic tets at 8 x 8 elements per side are 0.64 % below REF_COOK and 0.59 % below REF_COOK_3D: within the issue's
- *    1 % of both (with the longer diagonals they were 1.01 % below REF_COOK, outside it); 16 x 16
- *    is within 0.5 % of both; linear tets at 8 x 8 are 10 % below (32 % on the longer
- *    diagonals).
+ *    Quadratic tets at 8 x 8 elements per side are 0.64 % below REF_COOK and 0.59 % below
+ *    REF_COOK_3D: within the issue's 1 % of both (with the longer diagonals they were 1.01 %
+ *    below REF_COOK, outside it); 16 x 16 is within 0.5 % of both; linear tets at 8 x 8 are 10 %
+ *    below (32 % on the longer diagonals).
  *  - Large deformation: the same cantilever with E = 1e6 Pa (100 times softer) sags 1.186 m, 39 %
  *    of its length, and its far end turns by about 0.6 rad and moves 0.24 m inwards (stable
  *    neo-Hookean, the static solve of three steps). The centre of the far end's sag and
@@ -240,7 +240,7 @@ static beam_result cook(int n, int quadratic)
     /* The unit square onto the panel, u reversed: x = 48 (1 - u), y = 44 (1 - u) + v (44 - 28
      * (1 - u)) (straight edges, so the tets stay straight). The Kuhn split's diagonals run from
      * (u, v) to (u + 1/n, v + 1/n); reversed, they are the shorter diagonal of each tapered cell
-     * (6.0 against 12.1 at the clamped edge for n = 8): -0.65 % at 8 per side instead of -1.01 %
+     * (6.0 against 12.1 at the clamped edge for n = 8): -0.64 % at 8 per side instead of -1.01 %
      * along the longer one. The map's Jacobian is negative, so each tet and boundary triangle
      * swaps two nodes to keep its orientation. */
     for (int32_t i = 0; i < m.vertex_count; ++i) {
